@@ -1,0 +1,87 @@
+"""Composite: a state that owns sub-machines (regions) and finishes when they reach final states."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, ClassVar
+
+from .state import State
+
+if TYPE_CHECKING:
+    from .context import Context
+    from .params import StateParams
+
+
+class Composite(State):
+    """Base of ``FSMState`` (one region), ``Parallel`` (several) and the sequencer's states.
+
+    Ticking a composite steps each region in declaration order, then applies the join rule: with one
+    region, the composite finishes with the outcome of the ``Final`` state its region reached; with
+    several, ``join = "all"`` finishes when every region is final (outcome ``succeeded``, or the first
+    other outcome in region order), ``join = "any"`` when the first region is final (its outcome).
+    """
+
+    __slots__ = ("join", "final_outcomes")
+
+    can_finish = True
+    outcomes = None
+    #: Sub-machines of this type are its regions: the loader asks ``submachines`` for their documents.
+    is_composite: ClassVar[bool] = True
+
+    def __init__(self, id: str, params: StateParams | None = None) -> None:
+        super().__init__(id, params)
+        self.join = getattr(self.params, "join", "all")
+        self.final_outcomes: frozenset[str] = frozenset()
+
+    @classmethod
+    def submachines(cls, params: StateParams) -> list[tuple[str | None, Any, str]]:
+        """The sub-machine documents of an element: ``(region name or None, document or include, pointer)``.
+
+        The pointer is relative to the element (``"/machine"``, ``"/regions/1"``). ``None`` as name
+        means the region's states sit directly under the composite in paths (``FSMState``).
+        """
+        raise NotImplementedError
+
+    @classmethod
+    def composite_outcomes(cls, params: StateParams, regions: list[set[str] | None]) -> set[str] | None:
+        """Outcomes this composite can finish with, from the outcomes each region's machine can reach."""
+        if any(r is None for r in regions):
+            return None  # a region failed to load: do not guess
+        sets = [r for r in regions if r is not None]
+        if not sets:
+            return set()
+        if len(sets) == 1:
+            return set(sets[0])
+        if getattr(params, "join", "all") == "any":
+            return set().union(*sets)
+        if any(not s for s in sets):
+            return set()  # some region never finishes, so "all" never joins
+        return set().union(*sets)
+
+    def tick(self, ctx: Context) -> None:
+        for region in self.regions:
+            region.step(ctx)
+        if not self.finished:
+            self._join()
+
+    def _join(self) -> None:
+        regions = self.regions
+        if len(regions) == 1:
+            active = regions[0].active
+            if active.is_final:
+                self.finish(active.outcome or "succeeded")
+            return
+        if self.join == "any":
+            for region in regions:
+                active = region.active
+                if active.is_final:
+                    self.finish(active.outcome or "succeeded")
+                    return
+            return
+        outcome = None
+        for region in regions:
+            active = region.active
+            if not active.is_final:
+                return
+            if outcome is None and active.outcome != "succeeded":
+                outcome = active.outcome
+        self.finish(outcome or "succeeded")

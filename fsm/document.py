@@ -1,0 +1,357 @@
+"""The machine document: its pydantic models, shape validation with located problems, and the JSON Schema.
+
+Shape validation checks each element against its type's ``Params`` model, the same models the JSON
+Schema is generated from, so an editor using ``$schema`` and ``fsmctl validate`` agree.
+"""
+
+from __future__ import annotations
+
+import difflib
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Annotated, Any
+
+from pydantic import Field, ValidationError, WithJsonSchema
+
+from .errors import Problem
+from .jsonpos import escape, pointer
+from .params import ID_PATTERN, ParamsBase, StateParams, TransitionParams
+
+if TYPE_CHECKING:
+    from .registry import Registry
+    from .state import State
+    from .transition import Transition
+
+#: A parameter that holds a machine: an inline document or ``{"file": ...}``.
+MachineSpecField = Annotated[dict[str, Any], WithJsonSchema({"type": "object", "x-machine": True})]
+#: What a ``MachineSpecField`` becomes in the generated schema (pydantic cannot reference our own defs).
+_MACHINE_REF = {"anyOf": [{"$ref": "#/$defs/Machine"}, {"$ref": "#/$defs/Include"}]}
+
+
+def _link_machines(node: Any) -> Any:
+    """Replace the ``x-machine`` placeholders with references to the Machine and Include definitions."""
+    if isinstance(node, dict):
+        if node.get("x-machine") is True:
+            rest = {k: v for k, v in node.items() if k not in ("x-machine", "type")}
+            return {**rest, **_MACHINE_REF}
+        return {k: _link_machines(v) for k, v in node.items()}
+    if isinstance(node, list):
+        return [_link_machines(v) for v in node]
+    return node
+
+
+class Include(ParamsBase):
+    """A machine kept in another file, relative to the including file."""
+
+    file: str = Field(min_length=1, description="Path of the machine file, relative to this file.")
+
+
+class MachineEnvelope(ParamsBase):
+    """The top level of a machine document (elements are checked one by one against their types)."""
+
+    schema_: str | None = Field(default=None, alias="$schema", description="JSON Schema for editors.")
+    name: str | None = Field(default=None, description="Name of the machine.")
+    description: str | None = Field(default=None, description="Free text for people.")
+    initial: str = Field(min_length=1, pattern=ID_PATTERN, description="Id of the initial state.")
+    states: list[dict[str, Any]] = Field(min_length=1, description="The states of this level.")
+    transitions: list[dict[str, Any]] = Field(default_factory=list, description="The transitions of this level.")
+    vars: dict[str, Any] = Field(default_factory=dict, description="Initial blackboard variables (top level only).")
+    layout: dict[str, Any] | None = Field(default=None, description="Diagram layout; ignored at run time.")
+
+
+# -- the parsed form ------------------------------------------------------------------------------
+@dataclass
+class Source:
+    """A document's origin: display name, directory for includes, and a locator for line:column."""
+
+    name: str | None
+    directory: Any = None
+    text: str | None = None
+    locator: Any = None  # callable(set[str]) -> dict[pointer, (line, column)]
+
+
+@dataclass
+class StateSpec:
+    id: str
+    cls: type[State]
+    params: StateParams
+    pointer: str
+    source: Source
+    subs: list[tuple[str | None, MachineSpec | None, str]] = field(default_factory=list)
+
+
+@dataclass
+class TransitionSpec:
+    cls: type[Transition]
+    params: TransitionParams
+    pointer: str
+    source: Source
+
+    @property
+    def label(self) -> str:
+        return f"transition {self.params.from_} -> {self.params.to} ({self.cls.type_name})"
+
+
+@dataclass
+class MachineSpec:
+    source: Source
+    pointer: str
+    name: str | None
+    initial: str
+    initial_pointer: str
+    states: list[StateSpec]
+    transitions: list[TransitionSpec]
+    vars: dict[str, Any]
+
+
+# -- shape validation -------------------------------------------------------------------------------
+def normalize_legacy(data: dict[str, Any]) -> tuple[dict[str, Any], bool]:
+    """TRAL's form (``"root": 0``, integer ids) -> the current form. Returns the document and whether it was legacy."""
+    if "root" not in data or "initial" in data:
+        return data, False
+    out = dict(data)
+    out["initial"] = _legacy_id(out.pop("root"))
+    if isinstance(out.get("states"), list):
+        out["states"] = [
+            {**s, "id": _legacy_id(s["id"])} if isinstance(s, dict) and "id" in s else s for s in out["states"]
+        ]
+    if isinstance(out.get("transitions"), list):
+        trs = []
+        for t in out["transitions"]:
+            if isinstance(t, dict):
+                t = dict(t)
+                for key in ("from", "to"):
+                    if key in t:
+                        t[key] = _legacy_id(t[key])
+            trs.append(t)
+        out["transitions"] = trs
+    return out, True
+
+
+def _legacy_id(value: Any) -> Any:
+    if isinstance(value, int) and not isinstance(value, bool):
+        return str(value)
+    return value
+
+
+def problems_from_validation(
+    err: ValidationError,
+    *,
+    source: Source,
+    base: str,
+    element: str | None,
+    model: type[ParamsBase],
+    kind: str,
+    rename: dict[str, str] | None = None,
+) -> list[Problem]:
+    """Turn pydantic's errors into problems with JSON pointers, friendly wording and "did you mean" hints."""
+    problems = []
+    fields = {f.alias or name for name, f in model.model_fields.items()}
+    own = sorted(fields - _COMMON_FIELDS)
+    for e in err.errors(include_url=False):
+        loc = list(e["loc"])
+        if rename and loc and loc[0] in rename:
+            loc[0] = rename[loc[0]]
+        typ = e["type"]
+        hint = None
+        if typ == "missing":
+            ptr = base + pointer(*loc[:-1])
+            message = f"missing required {kind} '{loc[-1]}'"
+            hint = _field_hint(model, str(loc[-1]))
+        elif typ == "extra_forbidden" and len(loc) == 1:
+            ptr = base + pointer(*loc)
+            name = str(loc[-1])
+            message = f"unknown {kind} '{name}'"
+            close = difflib.get_close_matches(name, sorted(fields), n=2)
+            if close:
+                hint = "did you mean " + " or ".join(f"'{c}'" for c in close) + "?"
+            else:
+                hint = "known: " + ", ".join(own) if own else f"this type takes no {kind}s of its own"
+        else:
+            ptr = base + pointer(*loc)
+            where = "/".join(str(x) for x in loc)
+            got = _short(e.get("input"))
+            if typ == "string_pattern_mismatch" and loc and loc[-1] in ("id", "initial"):
+                message = f"'{where}' may not contain '/' (it separates the steps of a state path), got {got}"
+            else:
+                message = f"'{where}': {e['msg']}, got {got}"
+        problems.append(Problem(message, file=source.name, pointer=ptr, element=element, hint=hint))
+    return problems
+
+
+_COMMON_FIELDS = {"id", "type", "description", "layout", "from", "to", "priority", "preempt"}
+
+
+def _field_hint(model: type[ParamsBase], name: str) -> str | None:
+    f = model.model_fields.get(name) or next(
+        (f for f in model.model_fields.values() if f.alias == name), None
+    )
+    if f is not None and f.description:
+        return f.description
+    return None
+
+
+def _short(value: Any, limit: int = 60) -> str:
+    text = repr(value)
+    if isinstance(value, (dict, list)):
+        text = type(value).__name__
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def element_label(kind: str, data: Any) -> str | None:
+    """How messages name an element: ``state 'follow'`` or ``transition follow -> turn``."""
+    if not isinstance(data, dict):
+        return None
+    if kind == "state":
+        return f"state '{data['id']}'" if isinstance(data.get("id"), (str, int)) else "state"
+    src, dst = data.get("from"), data.get("to")
+    if isinstance(src, (str, int)) and isinstance(dst, (str, int)):
+        return f"transition {src} -> {dst}"
+    return "transition"
+
+
+def check_type(
+    kind: str, data: dict[str, Any], registry: Registry, source: Source, base: str
+) -> tuple[type | None, list[Problem]]:
+    """The registered class an element names by ``type``, or a problem that suggests close names."""
+    label = element_label(kind, data)
+    name = data.get("type")
+    if name is None:
+        return None, [Problem(f"missing required parameter 'type'", source.name, base, element=label,
+                              hint=f"one of the registered {kind} types, see `fsmctl types`")]
+    if not isinstance(name, str):
+        return None, [Problem(f"'type' must be a string, got {_short(name)}", source.name,
+                              base + "/type", element=label)]
+    table = registry.states if kind == "state" else registry.transitions
+    cls = table.get(name)
+    if cls is None:
+        close = registry.suggest(name, kind)
+        hint = ("did you mean " + " or ".join(close) + "?") if close else f"see `fsmctl types` for the {kind} types"
+        return None, [Problem(f"unknown {kind} type '{name}'", source.name, base + "/type", element=label,
+                              hint=hint)]
+    return cls, []
+
+
+# -- JSON Schema ------------------------------------------------------------------------------------
+SCHEMA_DIALECT = "https://json-schema.org/draft/2020-12/schema"
+
+
+def json_schema(registry: Registry) -> dict[str, Any]:
+    """The JSON Schema of machine documents for the registered types (discriminated on ``type``)."""
+    defs: dict[str, Any] = {}
+
+    def model_schema(model: type[Any]) -> dict[str, Any]:
+        schema = model.model_json_schema(ref_template="#/$defs/{model}")
+        for name, sub in schema.pop("$defs", {}).items():
+            if name in defs and defs[name] != sub:
+                raise ValueError(f"two parameter models are both called {name}; rename one")
+            defs[name] = sub
+        return schema
+
+    def dispatch(kind: str, table: dict[str, type]) -> dict[str, Any]:
+        names = sorted(table)
+        branches = []
+        for name in names:
+            cls = table[name]
+            schema = model_schema(cls.Params)
+            schema["title"] = name
+            doc = (cls.__doc__ or "").strip().splitlines()
+            if doc:
+                schema["description"] = doc[0]
+            schema["properties"]["type"] = {"const": name, "description": schema["properties"]["type"].get("description", "")}
+            defs[f"{kind}.{name}"] = schema
+            branches.append(
+                {"if": {"properties": {"type": {"const": name}}, "required": ["type"]},
+                 "then": {"$ref": f"#/$defs/{kind}.{name}"}}
+            )
+        return {
+            "type": "object",
+            "required": ["type"],
+            "properties": {"type": {"enum": names}},
+            "allOf": branches,
+        }
+
+    machine = model_schema(MachineEnvelope)
+    machine["title"] = "Machine"
+    machine["properties"]["states"]["items"] = {"$ref": "#/$defs/State"}
+    machine["properties"]["transitions"]["items"] = {"$ref": "#/$defs/Transition"}
+    defs["State"] = dispatch("state", registry.states)
+    defs["Transition"] = dispatch("transition", registry.transitions)
+    defs["Include"] = model_schema(Include)
+    defs["Machine"] = machine
+    return {
+        "$schema": SCHEMA_DIALECT,
+        "$id": "https://tral-fsm.invalid/machine.schema.json",
+        "title": "tral-fsm machine document",
+        "description": "A state machine for tral-fsm; generated from the registered types by `fsmctl schema`.",
+        "$ref": "#/$defs/Machine",
+        "$defs": _link_machines(dict(sorted(defs.items()))),
+    }
+
+
+__all__ = [
+    "Include",
+    "MachineEnvelope",
+    "MachineSpec",
+    "MachineSpecField",
+    "Source",
+    "StateSpec",
+    "TransitionSpec",
+    "check_type",
+    "element_label",
+    "escape",
+    "json_schema",
+    "normalize_legacy",
+    "problems_from_validation",
+]
+
+
+# -- introspection --------------------------------------------------------------------------------
+def param_info(model: type[ParamsBase], own_only: bool = True) -> list[dict[str, Any]]:
+    """Each parameter of a Params model: name, type (readable), required, default, description.
+
+    Used by ``fsmctl types`` and the UMLet palette, so both always show what the models accept.
+    """
+    schema = model.model_json_schema(ref_template="#/$defs/{model}")
+    props = schema.get("properties", {})
+    required = set(schema.get("required", []))
+    out = []
+    for name, prop in props.items():
+        if own_only and name in _COMMON_FIELDS:
+            continue
+        info: dict[str, Any] = {
+            "name": name,
+            "type": _type_text(prop),
+            "required": name in required,
+            "description": prop.get("description", ""),
+        }
+        if "default" in prop:
+            info["default"] = prop["default"]
+        out.append(info)
+    return out
+
+
+def _type_text(prop: dict[str, Any]) -> str:
+    if prop.get("x-machine"):
+        return 'machine document or {"file": ...}'
+    if "const" in prop:
+        return repr(prop["const"])
+    if "enum" in prop:
+        return "|".join(str(v) for v in prop["enum"])
+    if "anyOf" in prop:
+        parts = [_type_text(p) for p in prop["anyOf"]]
+        parts = [p for p in parts if p != "null"] or ["null"]
+        return " or ".join(dict.fromkeys(parts))
+    if "$ref" in prop:
+        return prop["$ref"].rsplit("/", 1)[-1].lower()
+    typ = prop.get("type", "any")
+    text = {"number": "number", "integer": "integer", "string": "text", "boolean": "true|false",
+            "object": "object", "array": "list", "null": "null"}.get(typ, str(typ))
+    if typ == "array" and "items" in prop:
+        text = f"list of {_type_text(prop['items'])}"
+    bounds = []
+    for key, sym in (("exclusiveMinimum", ">"), ("minimum", ">="), ("exclusiveMaximum", "<"), ("maximum", "<=")):
+        if key in prop:
+            bounds.append(f"{sym} {prop[key]}")
+    if bounds:
+        text += " " + ", ".join(bounds)
+    return text

@@ -1,0 +1,104 @@
+"""Errors a user can cause, each with a location, and the error of a state that fails at run time."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+@dataclass
+class Problem:
+    """One finding in a document: where it is, which element it concerns, what is wrong and how to fix it.
+
+    ``pointer`` is a JSON pointer into ``file`` (``""`` is the whole document); ``line`` and ``column``
+    are 1-based and filled in from the file's text when it is known.
+    """
+
+    message: str
+    file: str | None = None
+    pointer: str = ""
+    line: int | None = None
+    column: int | None = None
+    element: str | None = None
+    hint: str | None = None
+    severity: str = "error"
+
+    @property
+    def location(self) -> str:
+        """``file:line:column`` (or as much of it as is known) followed by the JSON pointer."""
+        parts = [self.file or "<document>"]
+        if self.line is not None:
+            parts.append(str(self.line))
+            if self.column is not None:
+                parts.append(str(self.column))
+        loc = ":".join(parts)
+        if self.pointer:
+            loc += f" at {self.pointer}"
+        return loc
+
+    def __str__(self) -> str:
+        text = f"{self.location}: {self.severity}: "
+        if self.element:
+            text += f"{self.element}: "
+        text += self.message
+        if self.hint:
+            text += f" ({self.hint})"
+        return text
+
+    def to_dict(self) -> dict[str, object]:
+        return {
+            "severity": self.severity,
+            "file": self.file,
+            "line": self.line,
+            "column": self.column,
+            "pointer": self.pointer,
+            "element": self.element,
+            "message": self.message,
+            "hint": self.hint,
+        }
+
+
+class FsmError(Exception):
+    """Base class of every error tral-fsm raises on purpose."""
+
+
+@dataclass
+class DiagramError(FsmError):
+    """A document (JSON or diagram) that cannot become a machine; carries every problem found, not only the first."""
+
+    problems: list[Problem] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        super().__init__(self.__str__())
+
+    @property
+    def errors(self) -> list[Problem]:
+        return [p for p in self.problems if p.severity == "error"]
+
+    def __str__(self) -> str:
+        return "\n".join(str(p) for p in self.problems)
+
+
+class RegistrationError(FsmError):
+    """A state or transition class that cannot be registered (duplicate name, missing Params, ...)."""
+
+
+class StateRuntimeError(FsmError):
+    """An exception raised by user code inside a state or transition while the machine ran.
+
+    Names the state path, the phase (``on_enter``, ``tick``, ``on_exit``, ``check``, ``action``) and the tick.
+    """
+
+    def __init__(self, path: str, phase: str, tick: int, time: float, cause: BaseException) -> None:
+        self.path = path
+        self.phase = phase
+        self.tick = tick
+        self.time = time
+        self.cause = cause
+        super().__init__(
+            f"state '{path}' raised {type(cause).__name__} in {phase} at tick {tick} "
+            f"(t={time:.4f} s): {cause}"
+        )
+
+
+class UsageError(FsmError):
+    """A command-line usage error (exit status 2)."""

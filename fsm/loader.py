@@ -1,0 +1,530 @@
+"""Loader: document -> Machine. Reads files, resolves includes, checks shape and semantics, builds the objects.
+
+Every problem of a document is collected (all at once, not only the first) with its file, JSON pointer,
+line:column and element; only a document without errors is built.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections import deque
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+
+from .context import Context
+from .document import (
+    Include,
+    MachineEnvelope,
+    MachineSpec,
+    Source,
+    StateSpec,
+    TransitionSpec,
+    check_type,
+    element_label,
+    normalize_legacy,
+    problems_from_validation,
+)
+from .errors import DiagramError, Problem
+from .jsonpos import depth_exceeded_at, locate, pointer
+from .machine import Machine
+from .paths import resolve_path
+from .region import Region
+from .registry import Registry, default_registry
+from .state import State
+
+#: Machines nested deeper than this are refused (a recursion guard, far beyond any real diagram).
+MAX_MACHINE_DEPTH = 48
+#: JSON nested deeper than this is refused before Python's parser recursion limit is reached.
+MAX_JSON_DEPTH = 400
+
+Reader = Callable[[Path], tuple[Any, Source]]
+_READERS: dict[str, Reader] = {}
+
+
+def register_reader(suffix: str, reader: Reader) -> None:
+    """Let ``load`` read files ending in ``suffix`` (``".uxf"``) with ``reader(path) -> (document, Source)``.
+
+    The reader raises :class:`DiagramError` for a file it cannot read. This keeps the core free of
+    UMLet: ``fsm.tools`` registers its reader.
+    """
+    _READERS[suffix.lower()] = reader
+
+
+def reader_for(path: Path) -> Reader:
+    reader = _READERS.get(path.suffix.lower())
+    if reader is None and path.suffix.lower() == ".uxf":
+        import importlib
+
+        importlib.import_module("fsm.tools.uxf")  # registers the UMLet reader
+        reader = _READERS.get(".uxf")
+    return reader or read_json
+
+
+def read_json(path: Path) -> tuple[Any, Source]:
+    """Read a JSON file strictly: UTF-8, one JSON value, limited nesting; problems carry line:column."""
+    name = str(path)
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise DiagramError([Problem("file not found", name, hint="check the path")]) from None
+    except IsADirectoryError:
+        raise DiagramError([Problem("is a directory, not a machine file", name)]) from None
+    except OSError as exc:
+        raise DiagramError([Problem(f"cannot read: {exc.strerror or exc}", name)]) from None
+    return parse_json_bytes(raw, name, path.parent)
+
+
+def parse_json_bytes(raw: bytes, name: str | None, directory: Any = None) -> tuple[Any, Source]:
+    if raw.startswith(b"\xef\xbb\xbf"):
+        raw = raw[3:]
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        col = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
+        raise DiagramError([Problem(
+            f"not UTF-8: byte 0x{raw[exc.start]:02x} at offset {exc.start} cannot be decoded",
+            name, line=line, column=col, hint="save the file as UTF-8")]) from None
+    if not text.strip():
+        raise DiagramError([Problem("file is empty; a machine document is a JSON object", name, line=1, column=1,
+                                    hint='start from {"initial": ..., "states": [...], "transitions": [...]}')])
+    deep = depth_exceeded_at(text, MAX_JSON_DEPTH) if text.count("[") + text.count("{") > MAX_JSON_DEPTH else None
+    if deep is not None:
+        raise DiagramError([Problem(f"JSON nested more than {MAX_JSON_DEPTH} levels deep", name,
+                                    line=deep[0], column=deep[1])])
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise DiagramError([Problem(f"invalid JSON: {exc.msg}", name, line=exc.lineno, column=exc.colno)]) from None
+    except RecursionError:
+        raise DiagramError([Problem("JSON nested too deeply", name)]) from None
+    source = Source(name=name, directory=directory, text=text, locator=lambda ptrs: locate(text, ptrs))
+    return data, source
+
+
+class Loader:
+    """One load: the registry, the problems found so far, and the include bookkeeping."""
+
+    def __init__(self, registry: Registry, base_dir: str | os.PathLike[str] | None = None) -> None:
+        self.registry = registry
+        self.base_dir = Path(base_dir) if base_dir is not None else None
+        self.problems: list[Problem] = []
+        self._cache: dict[Path, MachineSpec | None] = {}
+        self._stack: list[Path] = []
+        self._source_of: dict[int, Source] = {}
+
+    # -- entry points ---------------------------------------------------------------------------
+    def load(self, src: Any) -> MachineSpec | None:
+        """Parse and check ``src`` (a path or a document dict); problems go to ``self.problems``."""
+        try:
+            if isinstance(src, (str, os.PathLike)):
+                path = Path(src)
+                try:
+                    data, source = reader_for(path)(path)
+                except DiagramError as exc:
+                    self.problems.extend(exc.problems)
+                    return None
+                self._stack.append(path.resolve())
+                spec = self.parse_machine(data, source, "", depth=0)
+                self._stack.pop()
+            else:
+                source = Source(name=None, directory=self.base_dir or Path.cwd())
+                spec = self.parse_machine(src, source, "", depth=0)
+            if spec is not None:
+                self.check_paths(spec)
+        except RecursionError:
+            name = str(src) if isinstance(src, (str, os.PathLike)) else None
+            self.problems.append(Problem("document nested too deeply to check", name))
+            return None
+        self._fill_positions()
+        return spec
+
+    # -- shape ----------------------------------------------------------------------------------
+    def parse_machine(self, data: Any, source: Source, base: str, depth: int) -> MachineSpec | None:
+        """Check one machine level and its sub-machines; returns ``None`` when its envelope is unusable."""
+        if depth > MAX_MACHINE_DEPTH:
+            self._add("machines nested more than %d levels deep" % MAX_MACHINE_DEPTH, source, base)
+            return None
+        if not isinstance(data, dict):
+            kind = "array" if isinstance(data, list) else type(data).__name__
+            self._add(f"a machine must be a JSON object with 'initial' and 'states', got {kind}", source, base,
+                      hint='{"initial": "a", "states": [{"id": "a", "type": "Idle"}]}')
+            return None
+        data, legacy = normalize_legacy(data)
+        rename = {"initial": "root"} if legacy else None
+        envelope: MachineEnvelope | None
+        try:
+            envelope = MachineEnvelope.model_validate(data)
+        except ValidationError as err:
+            self._extend(problems_from_validation(
+                err, source=source, base=base, element=None, model=MachineEnvelope, kind="key", rename=rename), source)
+            envelope = None
+        states_raw = data.get("states") if isinstance(data.get("states"), list) else []
+        trans_raw = data.get("transitions") if isinstance(data.get("transitions"), list) else []
+        states: list[StateSpec] = []
+        for i, raw in enumerate(states_raw):
+            spec = self._parse_state(raw, source, f"{base}/states/{i}", depth)
+            if spec is not None:
+                states.append(spec)
+        transitions: list[TransitionSpec] = []
+        for i, raw in enumerate(trans_raw):
+            tspec = self._parse_transition(raw, source, f"{base}/transitions/{i}")
+            if tspec is not None:
+                transitions.append(tspec)
+        initial = data.get("initial") if isinstance(data.get("initial"), str) else ""
+        spec = MachineSpec(
+            source=source,
+            pointer=base,
+            name=envelope.name if envelope else (data.get("name") if isinstance(data.get("name"), str) else None),
+            initial=initial,
+            initial_pointer=base + ("/root" if legacy else "/initial"),
+            states=states,
+            transitions=transitions,
+            vars=dict(envelope.vars) if envelope else {},
+        )
+        self.check_level(spec, envelope is not None, states_raw, trans_raw)
+        return spec
+
+    def _parse_state(self, raw: Any, source: Source, ptr: str, depth: int) -> StateSpec | None:
+        if not isinstance(raw, dict):
+            return None  # the envelope reported it
+        cls, problems = check_type("state", raw, self.registry, source, ptr)
+        if cls is None:
+            self._extend(problems, source)
+            return None
+        try:
+            params = cls.Params.model_validate(raw)
+        except ValidationError as err:
+            self._extend(problems_from_validation(
+                err, source=source, base=ptr, element=element_label("state", raw), model=cls.Params,
+                kind="parameter"), source)
+            return None
+        spec = StateSpec(params.id, cls, params, ptr, source)
+        if cls.is_composite:
+            for default_name, sub, rel in cls.submachines(params):  # type: ignore[attr-defined]
+                sub_spec = self.parse_sub(sub, source, ptr + rel, depth + 1)
+                name = default_name
+                if default_name is not None and sub_spec is not None and sub_spec.name:
+                    name = sub_spec.name
+                spec.subs.append((name, sub_spec, ptr + rel))
+        return spec
+
+    def _parse_transition(self, raw: Any, source: Source, ptr: str) -> TransitionSpec | None:
+        if not isinstance(raw, dict):
+            return None
+        cls, problems = check_type("transition", raw, self.registry, source, ptr)
+        if cls is None:
+            self._extend(problems, source)
+            return None
+        try:
+            params = cls.Params.model_validate(raw)
+        except ValidationError as err:
+            self._extend(problems_from_validation(
+                err, source=source, base=ptr, element=element_label("transition", raw), model=cls.Params,
+                kind="parameter"), source)
+            return None
+        return TransitionSpec(cls, params, ptr, source)
+
+    def parse_sub(self, data: Any, source: Source, ptr: str, depth: int) -> MachineSpec | None:
+        """A sub-machine: inline, or ``{"file": ...}`` relative to the including file."""
+        if isinstance(data, dict) and "file" in data:
+            try:
+                inc = Include.model_validate(data)
+            except ValidationError as err:
+                self._extend(problems_from_validation(
+                    err, source=source, base=ptr, element="include", model=Include, kind="key"), source)
+                return None
+            return self.include(inc.file, source, ptr, depth)
+        return self.parse_machine(data, source, ptr, depth)
+
+    def include(self, file: str, source: Source, ptr: str, depth: int) -> MachineSpec | None:
+        directory = Path(source.directory) if source.directory is not None else (self.base_dir or Path.cwd())
+        path = (directory / file).resolve()
+        if path in self._stack:
+            cycle = self._stack[self._stack.index(path):] + [path]
+            self._add("include cycle: " + " -> ".join(p.name for p in cycle), source, ptr + "/file",
+                      element="include", hint="a machine may not include itself, directly or through others")
+            return None
+        if path in self._cache:
+            return self._cache[path]
+        if not path.is_file():
+            self._add(f"include file '{file}' not found (looked for {path})", source, ptr + "/file",
+                      element="include", hint="include paths are relative to the including file")
+            return None
+        try:
+            data, inc_source = reader_for(path)(path)
+        except DiagramError as exc:
+            self.problems.extend(exc.problems)
+            self._cache[path] = None
+            return None
+        self._stack.append(path)
+        try:
+            spec = self.parse_machine(data, inc_source, "", depth)
+        finally:
+            self._stack.pop()
+        self._cache[path] = spec
+        return spec
+
+    # -- semantics ------------------------------------------------------------------------------
+    def check_level(self, spec: MachineSpec, envelope_ok: bool,
+                    states_raw: list[Any], trans_raw: list[Any]) -> None:
+        """Ids, initial state, endpoints, finishing, transitions out of final states, reachability.
+
+        Ids and endpoints are checked on the raw elements too, so an element with a bad parameter
+        still gets its other errors reported in the same run.
+        """
+        src = spec.source
+        base = spec.pointer
+        first_at: dict[str, str] = {}
+        for i, raw in enumerate(states_raw):
+            sid = raw.get("id") if isinstance(raw, dict) else None
+            if not isinstance(sid, str):
+                continue
+            ptr = f"{base}/states/{i}"
+            if sid in first_at:
+                self._add(f"duplicate id '{sid}' (first used at {first_at[sid]})", src, ptr + "/id",
+                          element=f"state '{sid}'", hint="ids must be unique within one machine level")
+            else:
+                first_at[sid] = ptr
+        by_id: dict[str, StateSpec] = {}
+        for st in spec.states:
+            by_id.setdefault(st.id, st)
+        known = set(first_at)
+        if envelope_ok and spec.initial not in known:
+            self._add(f"initial state '{spec.initial}' is not a state of this machine", src, spec.initial_pointer,
+                      hint=_choices(spec.initial, first_at))
+        for i, raw in enumerate(trans_raw):
+            if not isinstance(raw, dict):
+                continue
+            label = element_label("transition", raw)
+            for key in ("from", "to"):
+                ref = raw.get(key)
+                if isinstance(ref, str) and ref not in known:
+                    self._add(f"'{key}' names unknown state '{ref}'", src, f"{base}/transitions/{i}/{key}",
+                              element=label, hint=_choices(ref, first_at))
+        for tr in spec.transitions:
+            p = tr.params
+            source = by_id.get(p.from_)
+            if source is None:
+                continue
+            if source.cls.is_final:
+                self._add(f"transition out of final state '{source.id}'", src, tr.pointer, element=tr.label,
+                          hint="a final state ends its machine; remove the transition or the final state")
+                continue
+            if tr.cls.needs_finishing_source:
+                outcomes = self.outcomes(source)
+                if outcomes is not None and not outcomes:
+                    self._add(f"'{source.id}' ({source.cls.type_name}) can never finish, so this "
+                              f"{tr.cls.type_name} transition can never fire", src, tr.pointer, element=tr.label,
+                              hint=_never_finishes_hint(source))
+                    continue
+                wanted = getattr(p, "outcome", None)
+                if wanted is not None and outcomes is not None and wanted not in outcomes:
+                    self._add(f"'{source.id}' never finishes with outcome '{wanted}'", src, tr.pointer + "/outcome",
+                              element=tr.label, hint="its outcomes: " + ", ".join(sorted(outcomes)))
+        if spec.initial in by_id:
+            reached = _reachable(spec, by_id)
+            for st in spec.states:
+                if st.id not in reached and by_id.get(st.id) is st:
+                    self._add(f"state '{st.id}' is unreachable from the initial state '{spec.initial}'", src,
+                              st.pointer, element=f"state '{st.id}'", severity="warning",
+                              hint="add a transition into it or remove it")
+
+    def outcomes(self, st: StateSpec) -> set[str] | None:
+        """The outcomes a state can finish with (empty: never finishes; ``None``: any)."""
+        cls = st.cls
+        if cls.is_composite:
+            region_outcomes = [None if sub is None else machine_outcomes(sub) for _, sub, _ in st.subs]
+            return cls.composite_outcomes(st.params, region_outcomes)  # type: ignore[attr-defined]
+        return cls.possible_outcomes(st.params)
+
+    def check_paths(self, root: MachineSpec) -> None:
+        """Transitions whose parameters name state paths (``InState``) must name existing states."""
+        paths: set[str] = set()
+        refs: list[tuple[TransitionSpec, str]] = []
+
+        def walk(spec: MachineSpec, prefix: str) -> None:
+            for st in spec.states:
+                path = f"{prefix}/{st.id}" if prefix else st.id
+                paths.add(path)
+                for name, sub, _ in st.subs:
+                    if sub is not None:
+                        walk(sub, f"{path}/{name}" if name else path)
+            for tr in spec.transitions:
+                if tr.cls.state_refs:
+                    refs.append((tr, prefix))
+
+        walk(root, "")
+        seen: set[tuple[int, str]] = set()
+        for tr, scope in refs:
+            for key in tr.cls.state_refs:
+                value = getattr(tr.params, key)
+                if resolve_path(value, scope, paths) is None and (id(tr), key) not in seen:
+                    seen.add((id(tr), key))
+                    self._add(f"'{key}' names no state: '{value}'", tr.source, f"{tr.pointer}/{key}",
+                              element=tr.label,
+                              hint="a path of ids joined by '/', relative to this machine or an enclosing one, "
+                                   "or absolute with a leading '/'")
+
+    # -- bookkeeping ----------------------------------------------------------------------------
+    def _add(self, message: str, source: Source, ptr: str, element: str | None = None, hint: str | None = None,
+             severity: str = "error") -> None:
+        self._extend([Problem(message, source.name, ptr, element=element, hint=hint, severity=severity)], source)
+
+    def _extend(self, problems: list[Problem], source: Source) -> None:
+        for p in problems:
+            self._source_of[id(p)] = source
+            self.problems.append(p)
+
+    def _fill_positions(self) -> None:
+        """Line and column for every problem whose file text is known (one scan per file)."""
+        by_source: dict[int, tuple[Source, list[Problem]]] = {}
+        for p in self.problems:
+            src = self._source_of.get(id(p))
+            if src is None or src.locator is None or p.line is not None:
+                continue
+            by_source.setdefault(id(src), (src, []))[1].append(p)
+        for src, problems in by_source.values():
+            wanted: set[str] = set()
+            for p in problems:
+                parts = p.pointer.split("/")
+                wanted.update("/".join(parts[:k]) for k in range(1, len(parts) + 1))
+            found = src.locator(wanted)
+            for p in problems:
+                parts = p.pointer.split("/")
+                for k in range(len(parts), 0, -1):
+                    pos = found.get("/".join(parts[:k]))
+                    if pos is not None:
+                        p.line, p.column = pos
+                        break
+
+
+def _choices(name: str, by_id: dict[str, Any]) -> str:
+    import difflib
+
+    close = difflib.get_close_matches(name, list(by_id), n=3)
+    if close:
+        return "did you mean " + " or ".join(f"'{c}'" for c in close) + "?"
+    ids = list(by_id)
+    shown = ", ".join(ids[:10]) + (", ..." if len(ids) > 10 else "")
+    return f"states here: {shown}" if ids else "this machine has no valid states"
+
+
+def _never_finishes_hint(st: StateSpec) -> str:
+    if st.cls.is_composite:
+        return "its sub-machine reaches no Final state; add one, or use another transition type"
+    return f"{st.cls.type_name} states never finish; use another transition type (Timeout, Signal, ...)"
+
+
+def _reachable(spec: MachineSpec, by_id: dict[str, StateSpec]) -> set[str]:
+    edges: dict[str, list[str]] = {}
+    for tr in spec.transitions:
+        edges.setdefault(tr.params.from_, []).append(tr.params.to)
+    seen = {spec.initial}
+    todo = deque([spec.initial])
+    while todo:
+        for nxt in edges.get(todo.popleft(), ()):
+            if nxt not in seen:
+                seen.add(nxt)
+                todo.append(nxt)
+    return seen
+
+
+def machine_outcomes(spec: MachineSpec) -> set[str]:
+    """Outcomes of the ``Final`` states reachable in one machine level."""
+    by_id = {st.id: st for st in spec.states}
+    if spec.initial not in by_id:
+        return set()
+    out: set[str] = set()
+    for sid in _reachable(spec, by_id):
+        st = by_id.get(sid)
+        if st is not None and st.cls.is_final:
+            out.update(st.cls.possible_outcomes(st.params) or ())
+    return out
+
+
+# -- building ---------------------------------------------------------------------------------------
+def build(spec: MachineSpec, *, clock: Any = None, car: Any = None, context: Context | None = None) -> Machine:
+    """Objects from a checked spec: states, regions, transitions with precomputed lists, the Machine."""
+    by_path: dict[str, State] = {}
+    regions: list[Region] = []
+    variables: dict[str, Any] = {}
+    root = _build_region(spec, spec.name or "", "", None, by_path, regions, variables)
+    ctx = context if context is not None else Context(car=car)
+    for key, value in variables.items():
+        ctx.vars.setdefault(key, value)
+    machine = Machine(root, name=spec.name or "", clock=clock, context=ctx, all_regions=regions,
+                      states_by_path=by_path)
+    for region in regions:
+        for state in region.states.values():
+            for tr in state.transitions:
+                tr.bind(machine)
+    return machine
+
+
+def _build_region(spec: MachineSpec, name: str, prefix: str, owner: State | None, by_path: dict[str, State],
+                  regions: list[Region], variables: dict[str, Any]) -> Region:
+    states: dict[str, State] = {}
+    for key, value in spec.vars.items():
+        variables.setdefault(key, value)
+    for st in spec.states:
+        obj = st.cls(st.id, st.params)
+        obj.path = f"{prefix}/{st.id}" if prefix else st.id
+        by_path[obj.path] = obj
+        if st.subs:
+            subs = []
+            for rname, sub, _ in st.subs:
+                assert sub is not None
+                sub_prefix = f"{obj.path}/{rname}" if rname else obj.path
+                subs.append(_build_region(sub, rname or st.id, sub_prefix, obj, by_path, regions, variables))
+            obj.regions = tuple(subs)
+        states[st.id] = obj
+    region = Region(name, prefix, states, states[spec.initial])
+    region.owner = owner
+    regions.append(region)
+    for obj in states.values():
+        obj.region = region
+    for index, tr in enumerate(spec.transitions):
+        p = tr.params
+        t = tr.cls(p, states[p.from_], states[p.to], index)
+        states[p.from_].transitions.append(t)
+    for obj in states.values():
+        ordered = sorted(obj.transitions, key=lambda t: -t.params.priority)
+        obj.preempt = tuple(t for t in ordered if t.params.preempt)
+        obj.regular = tuple(t for t in ordered if not t.params.preempt)
+        obj._prepare()
+    return region
+
+
+# -- public API -------------------------------------------------------------------------------------
+def check(src: Any, *, registry: Registry | None = None, plugins: tuple[str, ...] = (),
+          base_dir: str | os.PathLike[str] | None = None) -> tuple[MachineSpec | None, list[Problem]]:
+    """Validate ``src`` without building: the checked spec (``None`` if unusable) and every problem found."""
+    loader = Loader(registry or default_registry(plugins), base_dir)
+    spec = loader.load(src)
+    problems = sorted(loader.problems, key=lambda p: (p.file or "", p.line or 0, p.column or 0))
+    return spec, problems
+
+
+def load(src: Any, *, registry: Registry | None = None, plugins: tuple[str, ...] = (), clock: Any = None,
+         car: Any = None, context: Context | None = None, dt: float | None = None,
+         base_dir: str | os.PathLike[str] | None = None) -> Machine:
+    """Load a machine from a file path (``.json``, or ``.uxf`` with the UMLet reader) or a document dict.
+
+    Raises :class:`DiagramError` with every error found; warnings (unreachable states) do not stop the load.
+    """
+    spec, problems = check(src, registry=registry, plugins=plugins, base_dir=base_dir)
+    if spec is None or any(p.severity == "error" for p in problems):
+        raise DiagramError([p for p in problems if p.severity == "error"] or problems)
+    if clock is None and dt is not None:
+        from .clock import SimulatedClock
+
+        clock = SimulatedClock(dt)
+    return build(spec, clock=clock, car=car, context=context)
+
+
+__all__ = ["Loader", "build", "check", "load", "machine_outcomes", "read_json", "register_reader", "pointer"]

@@ -1,0 +1,49 @@
+"""The pydantic base models of state and transition parameters: strict, no unknown keys, no NaN."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field
+
+#: An element id: any non-empty text without "/" (the path separator); UMLet names may contain spaces.
+ID_PATTERN = r"^[^/]+$"
+
+
+class ParamsBase(BaseModel):
+    """Common configuration: unknown keys are errors, strings are not numbers, NaN and infinity are refused."""
+
+    model_config = ConfigDict(
+        extra="forbid",
+        strict=True,
+        allow_inf_nan=False,
+        populate_by_name=True,
+        frozen=True,
+        validate_default=False,
+    )
+
+
+class StateParams(ParamsBase):
+    """Fields every state element has; a state type's own ``Params`` subclasses this."""
+
+    id: str = Field(min_length=1, pattern=ID_PATTERN, description="Unique name of the state in its machine.")
+    type: str = Field(description="Registered state type.")
+    description: str | None = Field(default=None, description="Free text for people.")
+    layout: dict[str, Any] | None = Field(default=None, description="Diagram layout (x, y, w, h); ignored at run time.")
+
+
+class TransitionParams(ParamsBase):
+    """Fields every transition element has; a transition type's own ``Params`` subclasses this."""
+
+    type: str = Field(description="Registered transition type.")
+    from_: str = Field(alias="from", min_length=1, description="Id of the source state.")
+    to: str = Field(min_length=1, description="Id of the target state.")
+    priority: int = Field(
+        default=0, description="Higher is checked first; equal priorities keep declaration order."
+    )
+    preempt: bool = Field(
+        default=False,
+        description="Checked before the source state is ticked (a monitor); outermost level first.",
+    )
+    description: str | None = Field(default=None, description="Free text for people.")
+    layout: dict[str, Any] | None = Field(default=None, description="Diagram layout (points); ignored at run time.")

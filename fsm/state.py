@@ -1,0 +1,159 @@
+"""State: the base class of every state type, its lifecycle hooks and finishing with an outcome."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, ClassVar
+
+from .params import StateParams
+
+if TYPE_CHECKING:
+    from .context import Context
+    from .region import Region
+    from .transition import Transition
+
+
+class State:
+    """A state of a machine. Subclass it, declare ``Params``, override the hooks you need, and register it.
+
+    The runtime calls ``on_enter`` when the state becomes active (take resources), ``tick`` once per
+    machine tick while it is active (compute outputs), and ``on_exit`` when it is left (release them).
+    A state that can finish (``can_finish = True``) calls ``finish(outcome)``; ``Finished``
+    transitions then route on that outcome.
+    """
+
+    __slots__ = (
+        "id",
+        "params",
+        "path",
+        "region",
+        "regions",
+        "finished",
+        "outcome",
+        "entered_at",
+        "paused",
+        "paused_since",
+        "preempt",
+        "regular",
+        "transitions",
+        "_tick",
+        "_enter",
+        "_exit",
+        "_source_hooks",
+    )
+
+    Params: ClassVar[type[StateParams]] = StateParams
+    #: Registered type name; set by the registry.
+    type_name: ClassVar[str] = ""
+    #: Whether instances can finish; the loader refuses a ``Finished`` transition out of a type that cannot.
+    can_finish: ClassVar[bool] = False
+    #: The outcomes instances can finish with (checked against ``Finished`` transitions that name one).
+    #: ``None`` means any string.
+    outcomes: ClassVar[tuple[str, ...] | None] = ("succeeded",)
+    #: A final state ends its machine level.
+    is_final: ClassVar[bool] = False
+    #: Composite states own sub-machines (see :class:`fsm.composite.Composite`).
+    is_composite: ClassVar[bool] = False
+
+    def __init__(self, id: str, params: StateParams | None = None) -> None:
+        self.id = id
+        self.params = params if params is not None else self.Params(id=id, type=self.type_name or type(self).__name__)
+        self.path = id
+        self.region: Region | None = None
+        self.regions: tuple[Region, ...] = ()
+        self.finished = False
+        self.outcome: str | None = None
+        self.entered_at = 0.0
+        self.paused = False
+        self.paused_since = 0.0
+        self.preempt: tuple[Transition, ...] = ()
+        self.regular: tuple[Transition, ...] = ()
+        self.transitions: list[Transition] = []
+        self._tick: Any = None
+        self._enter: Any = None
+        self._exit: Any = None
+        self._source_hooks: tuple[Any, ...] = ()
+
+    @classmethod
+    def possible_outcomes(cls, params: StateParams) -> set[str] | None:
+        """The outcomes an element with ``params`` can finish with: empty if it never finishes, ``None`` if any."""
+        if not cls.can_finish:
+            return set()
+        return None if cls.outcomes is None else set(cls.outcomes)
+
+    # -- hooks for subclasses -------------------------------------------------------------------
+    def on_enter(self, ctx: Context) -> None:
+        """Called when the state becomes active, before any tick."""
+
+    def tick(self, ctx: Context) -> None:
+        """Called once per machine tick while the state is active (and not paused)."""
+
+    def on_exit(self, ctx: Context) -> None:
+        """Called when the state is left (innermost first)."""
+
+    # -- API for subclasses ---------------------------------------------------------------------
+    def finish(self, outcome: str = "succeeded") -> None:
+        """Mark the state finished with ``outcome``; ``Finished`` transitions out of it can now fire."""
+        self.finished = True
+        self.outcome = outcome
+
+    def time_in_state(self, ctx: Context) -> float:
+        """Seconds on the machine's clock since the state was entered, paused time excluded."""
+        return (self.paused_since if self.paused else ctx.now) - self.entered_at
+
+    @property
+    def active(self) -> bool:
+        """True while this state and all its ancestors are active."""
+        state: State | None = self
+        while state is not None:
+            region = state.region
+            if region is None:
+                return True
+            if region.active is not state or not region.started:
+                return False
+            state = region.owner
+        return True
+
+    # -- runtime internals ----------------------------------------------------------------------
+    def _prepare(self) -> None:
+        """Precompute the hot-path hooks: ``None`` where the class keeps the base no-op."""
+        cls = type(self)
+        self._tick = self.tick if cls.tick is not State.tick else None
+        has_enter = cls.on_enter is not State.on_enter
+        has_exit = cls.on_exit is not State.on_exit
+        self._source_hooks = tuple(
+            t.on_source_enter for t in self.transitions if t._has_source_hook
+        )
+        plain_enter = not (has_enter or self.regions or self._source_hooks or self.can_finish)
+        self._enter = None if plain_enter else self._enter_full
+        self._exit = self._exit_full if (has_exit or self.regions or self.paused) else None
+
+    def _enter_full(self, ctx: Context) -> None:
+        """Enter: reset finishing, arm the outgoing transitions, ``on_enter``, then the sub-machines."""
+        self.finished = False
+        self.outcome = None
+        self.paused = False
+        for hook in self._source_hooks:
+            hook(ctx)
+        phase_state = self
+        try:
+            self.on_enter(ctx)
+        except Exception as exc:
+            raise ctx.machine._runtime_error(phase_state, "on_enter", exc) from exc
+        for region in self.regions:
+            region.start(ctx)
+
+    def _exit_full(self, ctx: Context) -> None:
+        """Exit: sub-machines first (innermost first), then ``on_exit``."""
+        for region in self.regions:
+            region.stop(ctx)
+        try:
+            self.on_exit(ctx)
+        except Exception as exc:
+            raise ctx.machine._runtime_error(self, "on_exit", exc) from exc
+        if self.paused:
+            # A paused state left by an outer transition is no longer paused; restore the plain hooks.
+            self.paused = False
+            self._prepare()
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} {self.path!r}>"

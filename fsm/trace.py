@@ -1,0 +1,76 @@
+"""Trace and summary: listeners that record what a machine did (JSONL trace, visited states, counts)."""
+
+from __future__ import annotations
+
+import json
+from typing import IO, TYPE_CHECKING, Any
+
+from .machine import Listener
+
+if TYPE_CHECKING:
+    from .context import Context
+    from .machine import Machine
+    from .state import State
+    from .transition import Transition
+
+
+class Recorder(Listener):
+    """Collects the transitions of the current tick; writes one JSONL line per tick that had any.
+
+    A line: ``{"tick", "time", "active", "transitions": [{"tick", "time", "from", "to", "type"}]}``;
+    the initial entry is a transition from ``null`` of type ``"initial"``. ``extra`` (a callable
+    returning a dict) adds fields to every line, e.g. sensors and commands of a car.
+    """
+
+    def __init__(self, out: IO[str] | None = None, extra: Any = None) -> None:
+        self.out = out
+        self.extra = extra
+        self.visited: list[str] = []
+        self._seen: set[str] = set()
+        self.transitions = 0
+        self._pending: list[dict[str, Any]] = []
+
+    def on_transition(self, ctx: Context, source: State | None, target: State, transition: Transition | None) -> None:
+        if target.path not in self._seen:
+            self._seen.add(target.path)
+            self.visited.append(target.path)
+        if transition is not None:
+            self.transitions += 1
+        self._pending.append({
+            "tick": ctx.tick,
+            "time": round(ctx.now, 9),
+            "from": source.path if source is not None else None,
+            "to": target.path,
+            "type": transition.type_name if transition is not None else "initial",
+        })
+
+    def on_tick(self, machine: Machine) -> None:
+        self.flush(machine)
+
+    def flush(self, machine: Machine) -> None:
+        """Write the pending line (also used after ``start`` for the initial entries)."""
+        if not self._pending:
+            return
+        if self.out is not None:
+            line: dict[str, Any] = {
+                "tick": machine.ctx.tick,
+                "time": round(machine.ctx.now, 9),
+                "active": machine.active_path,
+                "transitions": self._pending,
+            }
+            if self.extra is not None:
+                line.update(self.extra())
+            self.out.write(json.dumps(line, separators=(",", ":")) + "\n")
+        self._pending = []
+
+
+def summary(machine: Machine, recorder: Recorder) -> dict[str, Any]:
+    """The run summary: outcome, finished, ticks, sim_time, transitions, visited."""
+    return {
+        "outcome": machine.outcome,
+        "finished": machine.finished,
+        "ticks": machine.ticks,
+        "sim_time": round(machine.now, 9),
+        "transitions": machine.transition_count,
+        "visited": list(recorder.visited),
+    }

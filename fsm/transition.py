@@ -1,0 +1,63 @@
+"""Transition: the base class of every transition type: a condition checked on its source state each tick."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, ClassVar
+
+from .params import TransitionParams
+
+if TYPE_CHECKING:
+    from .context import Context
+    from .state import State
+
+
+class Transition:
+    """A transition from ``source`` to ``target``. Subclass it, declare ``Params``, override ``check``.
+
+    ``check(ctx)`` is called each tick while the source is active (after the source's tick, or before
+    it for ``preempt: true``); the first transition whose check is true fires. ``on_source_enter`` is
+    called whenever the source is entered (to take a reference value, e.g. the travelled distance).
+    ``action`` runs while firing, between the source's exit and the target's entry.
+    """
+
+    __slots__ = ("params", "source", "target", "index", "always", "_action", "_has_source_hook")
+
+    Params: ClassVar[type[TransitionParams]] = TransitionParams
+    #: Registered type name; set by the registry.
+    type_name: ClassVar[str] = ""
+    #: True for transitions that fire whenever checked (``Always``); the runtime then skips ``check``.
+    unconditional: ClassVar[bool] = False
+    #: True when the transition fires only on a finished source (the loader checks that it can finish).
+    needs_finishing_source: ClassVar[bool] = False
+    #: Names of parameters that hold state paths; the loader checks that they name existing states.
+    state_refs: ClassVar[tuple[str, ...]] = ()
+
+    def __init__(self, params: TransitionParams, source: State, target: State, index: int = 0) -> None:
+        self.params = params
+        self.source = source
+        self.target = target
+        self.index = index
+        self.always = self.unconditional
+        cls = type(self)
+        self._action: Any = self.action if cls.action is not Transition.action else None
+        self._has_source_hook = cls.on_source_enter is not Transition.on_source_enter
+
+    def check(self, ctx: Context) -> bool:
+        """True when the transition should fire now."""
+        return False
+
+    def on_source_enter(self, ctx: Context) -> None:
+        """Called each time the source state is entered."""
+
+    def action(self, ctx: Context) -> None:
+        """Called while firing, after the source's exit and before the target's entry."""
+
+    def bind(self, machine: Any) -> None:
+        """Called once when the machine is built, to resolve references to other states (``InState``)."""
+
+    def describe(self) -> str:
+        """One line for traces and messages."""
+        return f"{self.type_name} {self.source.id} -> {self.target.id}"
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} {self.source.path!r} -> {self.target.path!r}>"

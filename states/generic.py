@@ -1,0 +1,41 @@
+"""Generic leaf states: ``Idle`` (does nothing, never finishes) and ``Final`` (ends its machine with an outcome)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from pydantic import Field
+
+from fsm.params import StateParams
+from fsm.registry import register_state
+from fsm.state import State
+
+if TYPE_CHECKING:
+    from fsm.context import Context
+
+
+@register_state
+class Idle(State):
+    """Does nothing and never finishes; leave it by a Timeout, Signal, Var or InState transition."""
+
+    __slots__ = ()
+
+
+@register_state
+class Final(State):
+    """Ends its machine level; the enclosing composite (or the machine) finishes with this outcome."""
+
+    __slots__ = ()
+    can_finish = True
+    is_final = True
+
+    class Params(StateParams):
+        outcome: str = Field(default="succeeded", min_length=1,
+                             description="Outcome the machine finishes with (succeeded, aborted, ...).")
+
+    @classmethod
+    def possible_outcomes(cls, params: StateParams) -> set[str]:
+        return {params.outcome}  # type: ignore[attr-defined]
+
+    def on_enter(self, ctx: Context) -> None:
+        self.finish(self.params.outcome)  # type: ignore[attr-defined]

@@ -38,7 +38,7 @@ from .state import State
 
 #: Machines nested deeper than this are refused (a recursion guard, far beyond any real diagram).
 MAX_MACHINE_DEPTH = 48
-#: JSON nested deeper than this is refused before Python's parser recursion limit is reached.
+#: Where a too-deep JSON text is reported (Python's parser gives up somewhat deeper than this).
 MAX_JSON_DEPTH = 400
 
 Reader = Callable[[Path], tuple[Any, Source]]
@@ -92,16 +92,15 @@ def parse_json_bytes(raw: bytes, name: str | None, directory: Any = None) -> tup
     if not text.strip():
         raise DiagramError([Problem("file is empty; a machine document is a JSON object", name, line=1, column=1,
                                     hint='start from {"initial": ..., "states": [...], "transitions": [...]}')])
-    deep = depth_exceeded_at(text, MAX_JSON_DEPTH) if text.count("[") + text.count("{") > MAX_JSON_DEPTH else None
-    if deep is not None:
-        raise DiagramError([Problem(f"JSON nested more than {MAX_JSON_DEPTH} levels deep", name,
-                                    line=deep[0], column=deep[1])])
     try:
         data = json.loads(text)
     except json.JSONDecodeError as exc:
         raise DiagramError([Problem(f"invalid JSON: {exc.msg}", name, line=exc.lineno, column=exc.colno)]) from None
     except RecursionError:
-        raise DiagramError([Problem("JSON nested too deeply", name)]) from None
+        deep = depth_exceeded_at(text, MAX_JSON_DEPTH)
+        line, column = deep if deep is not None else (None, None)
+        raise DiagramError([Problem(f"JSON nested more than {MAX_JSON_DEPTH} levels deep", name,
+                                    line=line, column=column, hint="no machine document needs this depth")]) from None
     source = Source(name=name, directory=directory, text=text, locator=lambda ptrs: locate(text, ptrs))
     return data, source
 
@@ -330,7 +329,7 @@ class Loader:
             reached = _reachable(spec, by_id)
             for st in spec.states:
                 if st.id not in reached and by_id.get(st.id) is st:
-                    self._add(f"state '{st.id}' is unreachable from the initial state '{spec.initial}'", src,
+                    self._add(f"unreachable from the initial state '{spec.initial}'", src,
                               st.pointer, element=f"state '{st.id}'", severity="warning",
                               hint="add a transition into it or remove it")
 

@@ -98,7 +98,13 @@ class State:
 
     def time_in_state(self, ctx: Context) -> float:
         """Seconds on the machine's clock since the state was entered, paused time excluded."""
-        return (self.paused_since if self.paused else ctx.now) - self.entered_at
+        now = ctx.now
+        state: State | None = self
+        while state is not None:  # a paused ancestor freezes the whole subtree's clocks
+            if state.paused:
+                now = state.paused_since
+            state = state.region.owner if state.region is not None else None
+        return now - self.entered_at
 
     @property
     def active(self) -> bool:

@@ -10,7 +10,9 @@ import difflib
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Annotated, Any
 
-from pydantic import Field, ValidationError, WithJsonSchema
+import math
+
+from pydantic import Field, ValidationError, WithJsonSchema, field_validator
 
 from .errors import Problem
 from .jsonpos import escape, pointer
@@ -57,6 +59,14 @@ class MachineEnvelope(ParamsBase):
     vars: dict[str, Any] = Field(default_factory=dict, description="Initial blackboard variables (top level only).")
     layout: dict[str, Any] | None = Field(default=None, description="Diagram layout; ignored at run time.")
 
+    @field_validator("vars")
+    @classmethod
+    def _finite(cls, value: dict[str, Any]) -> dict[str, Any]:
+        for key, item in value.items():
+            if isinstance(item, float) and not math.isfinite(item):
+                raise ValueError(f"variable '{key}' must be a finite number, not {item}")
+        return value
+
 
 # -- the parsed form ------------------------------------------------------------------------------
 @dataclass
@@ -101,6 +111,10 @@ class MachineSpec:
     states: list[StateSpec]
     transitions: list[TransitionSpec]
     vars: dict[str, Any]
+    #: (from, to) of every transition drawn, valid or not: reachability follows what the author drew.
+    edges: list[tuple[str, str]] = field(default_factory=list)
+    #: False when an element of this level failed to parse (then outcomes are not guessed).
+    complete: bool = True
 
 
 # -- shape validation -------------------------------------------------------------------------------
@@ -142,16 +156,24 @@ def problems_from_validation(
     model: type[ParamsBase],
     kind: str,
     rename: dict[str, str] | None = None,
+    data: Any = None,
 ) -> list[Problem]:
-    """Turn pydantic's errors into problems with JSON pointers, friendly wording and "did you mean" hints."""
-    problems = []
+    """Turn pydantic's errors into problems with JSON pointers, friendly wording and "did you mean" hints.
+
+    ``data`` is the validated input: error locations are cut where they leave it (pydantic appends the
+    names of union branches), and the several complaints of one union about one value become one problem.
+    """
+    problems: list[Problem] = []
+    at_pointer: dict[str, Problem] = {}
     fields = {f.alias or name for name, f in model.model_fields.items()}
     own = sorted(fields - _COMMON_FIELDS)
     for e in err.errors(include_url=False):
         loc = list(e["loc"])
+        typ = e["type"]
+        if data is not None and typ != "missing":
+            loc = _existing_prefix(data, loc)
         if rename and loc and loc[0] in rename:
             loc[0] = rename[loc[0]]
-        typ = e["type"]
         hint = None
         if typ == "missing":
             ptr = base + pointer(*loc[:-1])
@@ -174,8 +196,31 @@ def problems_from_validation(
                 message = f"'{where}' may not contain '/' (it separates the steps of a state path), got {got}"
             else:
                 message = f"'{where}': {e['msg']}, got {got}"
-        problems.append(Problem(message, file=source.name, pointer=ptr, element=element, hint=hint))
+            earlier = at_pointer.get(ptr)
+            if earlier is not None:  # another branch of the same union: one problem, all the wishes
+                wish = e["msg"].removeprefix("Input should be ")
+                head, _, tail = earlier.message.rpartition(", got ")
+                earlier.message = f"{head} or {wish}, got {tail}"
+                continue
+        problem = Problem(message, file=source.name, pointer=ptr, element=element, hint=hint)
+        at_pointer.setdefault(ptr, problem)
+        problems.append(problem)
     return problems
+
+
+def _existing_prefix(data: Any, loc: list[Any]) -> list[Any]:
+    """The longest prefix of ``loc`` that is a real path into ``data``."""
+    out: list[Any] = []
+    node = data
+    for part in loc:
+        if isinstance(node, dict) and part in node:
+            node = node[part]
+        elif isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node):
+            node = node[part]
+        else:
+            break
+        out.append(part)
+    return out
 
 
 _COMMON_FIELDS = {"id", "type", "description", "layout", "from", "to", "priority", "preempt"}
@@ -213,22 +258,21 @@ def check_type(
     kind: str, data: dict[str, Any], registry: Registry, source: Source, base: str
 ) -> tuple[type | None, list[Problem]]:
     """The registered class an element names by ``type``, or a problem that suggests close names."""
-    label = element_label(kind, data)
     name = data.get("type")
+    table = registry.states if kind == "state" else registry.transitions
+    cls = table.get(name) if isinstance(name, str) else None
+    if cls is not None:
+        return cls, []
+    label = element_label(kind, data)
     if name is None:
-        return None, [Problem(f"missing required parameter 'type'", source.name, base, element=label,
+        return None, [Problem("missing required parameter 'type'", source.name, base, element=label,
                               hint=f"one of the registered {kind} types, see `fsmctl types`")]
     if not isinstance(name, str):
         return None, [Problem(f"'type' must be a string, got {_short(name)}", source.name,
                               base + "/type", element=label)]
-    table = registry.states if kind == "state" else registry.transitions
-    cls = table.get(name)
-    if cls is None:
-        close = registry.suggest(name, kind)
-        hint = ("did you mean " + " or ".join(close) + "?") if close else f"see `fsmctl types` for the {kind} types"
-        return None, [Problem(f"unknown {kind} type '{name}'", source.name, base + "/type", element=label,
-                              hint=hint)]
-    return cls, []
+    close = registry.suggest(name, kind)
+    hint = ("did you mean " + " or ".join(close) + "?") if close else f"see `fsmctl types` for the {kind} types"
+    return None, [Problem(f"unknown {kind} type '{name}'", source.name, base + "/type", element=label, hint=hint)]
 
 
 # -- JSON Schema ------------------------------------------------------------------------------------

@@ -67,6 +67,8 @@ def reader_for(path: Path) -> Reader:
 def read_json(path: Path) -> tuple[Any, Source]:
     """Read a JSON file strictly: UTF-8, one JSON value, limited nesting; problems carry line:column."""
     name = str(path)
+    if not name or name == ".":
+        raise DiagramError([Problem("no file name given", None, hint="name a machine file (.json or .uxf)")])
     try:
         raw = path.read_bytes()
     except FileNotFoundError:
@@ -75,6 +77,8 @@ def read_json(path: Path) -> tuple[Any, Source]:
         raise DiagramError([Problem("is a directory, not a machine file", name)]) from None
     except OSError as exc:
         raise DiagramError([Problem(f"cannot read: {exc.strerror or exc}", name)]) from None
+    except ValueError as exc:  # e.g. a NUL byte in the path
+        raise DiagramError([Problem(f"not a usable file name: {exc}", repr(name))]) from None
     return parse_json_bytes(raw, name, path.parent)
 
 
@@ -134,7 +138,7 @@ class Loader:
                 source = Source(name=None, directory=self.base_dir or Path.cwd())
                 spec = self.parse_machine(src, source, "", depth=0)
             if spec is not None:
-                self.check_paths(spec)
+                self.check_tree(spec)
         except RecursionError:
             name = str(src) if isinstance(src, (str, os.PathLike)) else None
             self.problems.append(Problem("document nested too deeply to check", name))
@@ -160,7 +164,8 @@ class Loader:
             envelope = MachineEnvelope.model_validate(data)
         except ValidationError as err:
             self._extend(problems_from_validation(
-                err, source=source, base=base, element=None, model=MachineEnvelope, kind="key", rename=rename), source)
+                err, source=source, base=base, element=None, model=MachineEnvelope, kind="key", rename=rename,
+                data=data), source)
             envelope = None
         states_raw = data.get("states") if isinstance(data.get("states"), list) else []
         trans_raw = data.get("transitions") if isinstance(data.get("transitions"), list) else []
@@ -175,6 +180,9 @@ class Loader:
             if tspec is not None:
                 transitions.append(tspec)
         initial = data.get("initial") if isinstance(data.get("initial"), str) else ""
+        edges = [(t["from"], t["to"]) for t in trans_raw
+                 if isinstance(t, dict) and isinstance(t.get("from"), str) and isinstance(t.get("to"), str)]
+        complete = envelope is not None and len(states) == len(states_raw) and len(transitions) == len(trans_raw)
         spec = MachineSpec(
             source=source,
             pointer=base,
@@ -184,49 +192,50 @@ class Loader:
             states=states,
             transitions=transitions,
             vars=dict(envelope.vars) if envelope else {},
+            edges=edges,
+            complete=complete,
         )
         self.check_level(spec, envelope is not None, states_raw, trans_raw)
         return spec
 
-    def _parse_state(self, raw: Any, source: Source, ptr: str, depth: int) -> StateSpec | None:
+    def _parse_element(self, kind: str, raw: Any, source: Source, ptr: str) -> tuple[type, Any] | None:
+        """The class an element's ``type`` names and its validated parameters, or ``None`` (problems added)."""
         if not isinstance(raw, dict):
             return None  # the envelope reported it
-        cls, problems = check_type("state", raw, self.registry, source, ptr)
+        cls, problems = check_type(kind, raw, self.registry, source, ptr)
         if cls is None:
             self._extend(problems, source)
             return None
         try:
-            params = cls.Params.model_validate(raw)
+            return cls, cls.Params.model_validate(raw)
         except ValidationError as err:
             self._extend(problems_from_validation(
-                err, source=source, base=ptr, element=element_label("state", raw), model=cls.Params,
-                kind="parameter"), source)
+                err, source=source, base=ptr, element=element_label(kind, raw), model=cls.Params,
+                kind="parameter", data=raw), source)
             return None
+
+    def _parse_state(self, raw: Any, source: Source, ptr: str, depth: int) -> StateSpec | None:
+        parsed = self._parse_element("state", raw, source, ptr)
+        if parsed is None:
+            return None
+        cls, params = parsed
         spec = StateSpec(params.id, cls, params, ptr, source)
         if cls.is_composite:
-            for default_name, sub, rel in cls.submachines(params):  # type: ignore[attr-defined]
+            for default_name, sub, rel in cls.submachines(params):
                 sub_spec = self.parse_sub(sub, source, ptr + rel, depth + 1)
                 name = default_name
                 if default_name is not None and sub_spec is not None and sub_spec.name:
                     name = sub_spec.name
+                    if "/" in name or any(name == other for other, _, _ in spec.subs):
+                        self._add(f"region name '{name}' is not usable as a path step (it contains '/' or "
+                                  f"is used twice in '{spec.id}')", sub_spec.source, sub_spec.pointer + "/name",
+                                  element=f"state '{spec.id}'", hint="give each region a unique name")
                 spec.subs.append((name, sub_spec, ptr + rel))
         return spec
 
     def _parse_transition(self, raw: Any, source: Source, ptr: str) -> TransitionSpec | None:
-        if not isinstance(raw, dict):
-            return None
-        cls, problems = check_type("transition", raw, self.registry, source, ptr)
-        if cls is None:
-            self._extend(problems, source)
-            return None
-        try:
-            params = cls.Params.model_validate(raw)
-        except ValidationError as err:
-            self._extend(problems_from_validation(
-                err, source=source, base=ptr, element=element_label("transition", raw), model=cls.Params,
-                kind="parameter"), source)
-            return None
-        return TransitionSpec(cls, params, ptr, source)
+        parsed = self._parse_element("transition", raw, source, ptr)
+        return None if parsed is None else TransitionSpec(parsed[0], parsed[1], ptr, source)
 
     def parse_sub(self, data: Any, source: Source, ptr: str, depth: int) -> MachineSpec | None:
         """A sub-machine: inline, or ``{"file": ...}`` relative to the including file."""
@@ -235,7 +244,7 @@ class Loader:
                 inc = Include.model_validate(data)
             except ValidationError as err:
                 self._extend(problems_from_validation(
-                    err, source=source, base=ptr, element="include", model=Include, kind="key"), source)
+                    err, source=source, base=ptr, element="include", model=Include, kind="key", data=data), source)
                 return None
             return self.include(inc.file, source, ptr, depth)
         return self.parse_machine(data, source, ptr, depth)
@@ -299,12 +308,11 @@ class Loader:
         for i, raw in enumerate(trans_raw):
             if not isinstance(raw, dict):
                 continue
-            label = element_label("transition", raw)
             for key in ("from", "to"):
                 ref = raw.get(key)
-                if isinstance(ref, str) and ref not in known:
+                if isinstance(ref, str) and ref and ref not in known:
                     self._add(f"'{key}' names unknown state '{ref}'", src, f"{base}/transitions/{i}/{key}",
-                              element=label, hint=_choices(ref, first_at))
+                              element=element_label("transition", raw), hint=_choices(ref, first_at))
         for tr in spec.transitions:
             p = tr.params
             source = by_id.get(p.from_)
@@ -341,10 +349,13 @@ class Loader:
             return cls.composite_outcomes(st.params, region_outcomes)  # type: ignore[attr-defined]
         return cls.possible_outcomes(st.params)
 
-    def check_paths(self, root: MachineSpec) -> None:
-        """Transitions whose parameters name state paths (``InState``) must name existing states."""
+    def check_tree(self, root: MachineSpec) -> None:
+        """Checks that need the whole tree: state paths named by transitions (``InState``) exist, and
+        transitions agree with the initial blackboard variables (``Var``)."""
         paths: set[str] = set()
         refs: list[tuple[TransitionSpec, str]] = []
+        every: list[TransitionSpec] = []
+        variables: dict[str, Any] = {}
 
         def walk(spec: MachineSpec, prefix: str) -> None:
             for st in spec.states:
@@ -353,11 +364,19 @@ class Loader:
                 for name, sub, _ in st.subs:
                     if sub is not None:
                         walk(sub, f"{path}/{name}" if name else path)
+            for key, value in spec.vars.items():
+                variables.setdefault(key, value)
+            every.extend(spec.transitions)
             for tr in spec.transitions:
                 if tr.cls.state_refs:
                     refs.append((tr, prefix))
 
         walk(root, "")
+        for tr in every:
+            found = tr.cls.check_document(tr.params, variables)
+            if found is not None:
+                self._add(found[1], tr.source, tr.pointer + found[0], element=tr.label,
+                          hint="change the value or the variable's initial value in 'vars'")
         seen: set[tuple[int, str]] = set()
         for tr, scope in refs:
             for key in tr.cls.state_refs:
@@ -421,8 +440,8 @@ def _never_finishes_hint(st: StateSpec) -> str:
 
 def _reachable(spec: MachineSpec, by_id: dict[str, StateSpec]) -> set[str]:
     edges: dict[str, list[str]] = {}
-    for tr in spec.transitions:
-        edges.setdefault(tr.params.from_, []).append(tr.params.to)
+    for src, dst in spec.edges:
+        edges.setdefault(src, []).append(dst)
     seen = {spec.initial}
     todo = deque([spec.initial])
     while todo:
@@ -433,8 +452,10 @@ def _reachable(spec: MachineSpec, by_id: dict[str, StateSpec]) -> set[str]:
     return seen
 
 
-def machine_outcomes(spec: MachineSpec) -> set[str]:
-    """Outcomes of the ``Final`` states reachable in one machine level."""
+def machine_outcomes(spec: MachineSpec) -> set[str] | None:
+    """Outcomes of the ``Final`` states reachable in one machine level (``None``: unknown, the level is broken)."""
+    if not spec.complete:
+        return None
     by_id = {st.id: st for st in spec.states}
     if spec.initial not in by_id:
         return set()

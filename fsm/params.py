@@ -2,12 +2,23 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
 
 #: An element id: any non-empty text without "/" (the path separator); UMLet names may contain spaces.
 ID_PATTERN = r"^[^/]+$"
+
+
+def _integral(value: Any) -> Any:
+    """JSON has one number type: ``2.0`` is the integer 2 (as JSON Schema's "integer" says), ``2.5`` is not."""
+    if isinstance(value, float) and value.is_integer():
+        return int(value)
+    return value
+
+
+#: An integer parameter that accepts ``2.0`` like JSON Schema does; use it for ``int`` fields of Params.
+Int = Annotated[int, BeforeValidator(_integral)]
 
 
 class ParamsBase(BaseModel):
@@ -38,7 +49,7 @@ class TransitionParams(ParamsBase):
     type: str = Field(description="Registered transition type.")
     from_: str = Field(alias="from", min_length=1, description="Id of the source state.")
     to: str = Field(min_length=1, description="Id of the target state.")
-    priority: int = Field(
+    priority: Int = Field(
         default=0, description="Higher is checked first; equal priorities keep declaration order."
     )
     preempt: bool = Field(

@@ -42,6 +42,11 @@ class Transition:
         self._action: Any = self.action if cls.action is not Transition.action else None
         self._has_source_hook = cls.on_source_enter is not Transition.on_source_enter
 
+    @classmethod
+    def check_document(cls, params: TransitionParams, variables: dict[str, Any]) -> tuple[str, str] | None:
+        """A load-time check against the document's initial ``vars``: ``(pointer suffix, message)`` or ``None``."""
+        return None
+
     def check(self, ctx: Context) -> bool:
         """True when the transition should fire now."""
         return False

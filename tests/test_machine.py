@@ -348,8 +348,9 @@ def test_var_transition_and_document_vars(registry):
 
 
 def test_var_with_incomparable_value_is_a_runtime_error(registry):
-    m = fsm.load(doc("a", [probe("a"), probe("b")], [tr("Var", "a", "b", var="n", op="<", value=3)],
-                     vars={"n": "text"}), registry=registry)
+    m = fsm.load(doc("a", [probe("a"), probe("b")], [tr("Var", "a", "b", var="n", op="<", value=3)]),
+                 registry=registry)
+    m.ctx.vars["n"] = "text"  # set at run time: the loader could not see it
     with pytest.raises(StateRuntimeError, match="cannot compare variable 'n'"):
         m.tick()
 

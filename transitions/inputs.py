@@ -71,6 +71,18 @@ class Var(Transition):
         self.op = _OPS[params.op]  # type: ignore[attr-defined]
         self.value = params.value  # type: ignore[attr-defined]
 
+    @classmethod
+    def check_document(cls, params: TransitionParams, variables: dict[str, Any]) -> tuple[str, str] | None:
+        name, value = params.var, params.value  # type: ignore[attr-defined]
+        if name not in variables:
+            return None
+        try:
+            _OPS[params.op](variables[name], value)  # type: ignore[attr-defined]
+        except TypeError:
+            return "/value", (f"cannot compare variable '{name}' (initially {variables[name]!r}) "
+                              f"{params.op} {value!r}")  # type: ignore[attr-defined]
+        return None
+
     def check(self, ctx: Context) -> bool:
         current = ctx.vars.get(self.var, _UNSET)
         if current is _UNSET:

@@ -1,0 +1,115 @@
+"""Layering (DESIGN.md): the ``fsm`` core (everything under ``fsm/`` but ``fsm/sim/``) imports none of cv2,
+pymunk, lxml, ``fsm.sim`` or ``fsm.tools``. Each core module is imported in a fresh interpreter and its
+``sys.modules`` inspected, so one module's imports cannot hide another's."""
+
+from __future__ import annotations
+
+import json
+import os
+import pkgutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+import fsm
+
+FORBIDDEN = ("cv2", "pymunk", "lxml", "fsm.sim", "fsm.tools")
+CORE_DIR = Path(fsm.__file__).resolve().parent
+
+PROBE = textwrap.dedent('''
+    import importlib, json, sys
+    forbidden = {forbidden!r}
+    importlib.import_module(sys.argv[1])
+    bad = sorted(m for m in sys.modules if any(m == f or m.startswith(f + ".") for f in forbidden))
+    print(json.dumps(bad))
+''').format(forbidden=FORBIDDEN)
+
+
+def core_modules() -> list[str]:
+    """Every module and package under fsm/ (found on disk, so new modules are covered), except fsm/sim/."""
+    names = ["fsm"]
+    for info in pkgutil.walk_packages([str(CORE_DIR)], prefix="fsm.", onerror=lambda name: None):
+        if info.name == "fsm.sim" or info.name.startswith("fsm.sim."):
+            continue
+        names.append(info.name)
+    return sorted(names)
+
+
+def probe(modules: list[str]) -> dict[str, list[str] | str]:
+    """Import each module in its own interpreter (all at once, in parallel): forbidden modules it pulled in."""
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    procs = {m: subprocess.Popen([sys.executable, "-c", PROBE, m], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                 text=True, env=env) for m in modules}
+    result: dict[str, list[str] | str] = {}
+    for module, proc in procs.items():
+        out, err = proc.communicate(timeout=120)
+        if proc.returncode != 0:
+            result[module] = f"import failed: {err.strip().splitlines()[-1] if err.strip() else proc.returncode}"
+        else:
+            result[module] = json.loads(out.strip().splitlines()[-1])
+    return result
+
+
+def test_core_modules_are_found() -> None:
+    modules = core_modules()
+    for name in ("fsm", "fsm.loader", "fsm.machine", "fsm.document", "fsm.registry", "fsm.jsonpos", "fsm.errors",
+                 "fsm.schema"):
+        assert name in modules
+    assert not any(m.startswith("fsm.sim") for m in modules)
+
+
+def test_no_core_module_imports_the_car_umlet_or_tools() -> None:
+    results = probe(core_modules())
+    offenders = {m: r for m, r in results.items() if r}
+    assert not offenders, "core modules importing what they must not (or failing to import):\n" + "\n".join(
+        f"  {m}: {r}" for m, r in sorted(offenders.items()))
+
+
+def test_the_probe_detects_a_forbidden_import() -> None:
+    """The check itself works: fsm.tools.cli is (by definition) in fsm.tools."""
+    assert "fsm.tools" in probe(["fsm.tools.cli"])["fsm.tools.cli"]
+
+
+LOAD_AND_RUN = textwrap.dedent('''
+    import json, sys
+    import fsm
+    machine = fsm.load({"initial": "a", "states": [{"id": "a", "type": "Idle"}, {"id": "b", "type": "Final"}],
+                        "transitions": [{"type": "Timeout", "from": "a", "to": "b", "seconds": 0.1}]})
+    outcome = machine.run(max_ticks=100)
+    spec, problems = fsm.check({"initial": "a", "states": [{"id": "a", "type": "Nope"}]})
+    heavy = sorted(m for m in sys.modules if m.split(".")[0] in ("cv2", "pymunk", "lxml")
+                   or m == "fsm.sim" or m.startswith("fsm.sim.") or m == "fsm.tools" or m.startswith("fsm.tools."))
+    print(json.dumps({"outcome": outcome, "problems": len(problems), "heavy": heavy}))
+''')
+
+
+def test_load_and_run_import_no_heavy_module() -> None:
+    proc = subprocess.run([sys.executable, "-c", LOAD_AND_RUN], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    result = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert result["outcome"] == "succeeded" and result["problems"] == 1
+    assert result["heavy"] == [], f"import fsm; fsm.load(...) imported {result['heavy']}"
+
+
+@pytest.mark.parametrize("command", [["validate"], ["types"]])
+def test_fsmctl_validate_and_types_do_not_import_cv2_or_pymunk(tmp_path: Path, command: list[str]) -> None:
+    """`fsmctl validate` starts fast (DESIGN.md): the heavy modules stay unimported for JSON documents."""
+    doc = tmp_path / "m.json"
+    doc.write_text(json.dumps({"initial": "a", "states": [{"id": "a", "type": "Idle"}]}))
+    argv = [*command, str(doc)] if command == ["validate"] else command
+    script = textwrap.dedent(f'''
+        import json, sys
+        from fsm.tools.cli import main
+        code = main({argv!r})
+        heavy = sorted(m for m in sys.modules if m.split(".")[0] in ("cv2", "pymunk"))
+        print(json.dumps({{"code": code, "heavy": heavy}}))
+    ''')
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    result = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert result["code"] == 0
+    assert result["heavy"] == [], f"fsmctl {command[0]} imported {result['heavy']}"

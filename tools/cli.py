@@ -19,7 +19,7 @@ from fsm.errors import DiagramError, FsmError, RegistrationError, UsageError
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
 
 #: The command modules, in the order ``fsmctl --help`` lists them.
-COMMANDS = ("cmd_validate", "cmd_run", "cmd_types", "cmd_schema")
+COMMANDS = ("cmd_validate", "cmd_run", "cmd_types", "cmd_schema", "cmd_convert", "cmd_export", "cmd_palette", "cmd_graph")
 
 
 class _Parser(argparse.ArgumentParser):

@@ -1,0 +1,41 @@
+"""The committed UMLet palette is what the registry generates now, and every template reads back."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from fsm.registry import default_registry
+from fsm.tools.uxf_source import parse_raw
+from fsm.tools.uxf_text import parse_label, parse_relation, parse_state
+from fsm.tools.uxf_writer import palette
+
+PALETTE = Path(__file__).resolve().parents[1] / "diagrams" / "TRAL_State-Machine.uxf"
+
+
+def test_committed_palette_is_not_stale():
+    assert PALETTE.read_text(encoding="utf-8") == palette(default_registry()), \
+        "regenerate it: fsmctl palette -o diagrams/TRAL_State-Machine.uxf"
+
+
+def test_every_type_has_a_template_with_every_parameter():
+    reg = default_registry()
+    raw = parse_raw(palette(reg).encode(), "palette.uxf")
+    states, transitions = {}, {}
+    for e in raw.elements:
+        if e.kind == "UMLState":
+            st = parse_state(e.text)
+            states[st.params["type"]] = st.params
+        elif e.kind == "Relation":
+            label = parse_label(parse_relation(e.text).label_lines)
+            if label.params:
+                transitions[label.params["type"]] = label.params
+    assert set(states) == set(reg.states) and set(transitions) == set(reg.transitions)
+    from fsm.document import param_info
+
+    for name, cls in reg.states.items():
+        assert {p["name"] for p in param_info(cls.Params)} <= set(states[name])
+    for name, cls in reg.transitions.items():
+        for p in param_info(cls.Params):
+            assert p["name"] in transitions[name]
+            if "default" in p and p["default"] is not None and not isinstance(p["default"], str):
+                assert transitions[name][p["name"]] == p["default"]

@@ -1,0 +1,338 @@
+"""The UMLet reader: the twelve real corpus files, both label syntaxes, attachment, nesting, bad input."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from fsm.errors import DiagramError
+from fsm.loader import check
+from fsm.tools.uxf import convert_bytes, convert_file
+from fsm.tools.uxf_writer import diagram, element, relation
+
+CORPUS = Path(__file__).resolve().parents[2] / "shared" / "corpus" / "uxf"
+if not CORPUS.is_dir():  # the repository checked out elsewhere
+    CORPUS = Path("/work/shared/corpus/uxf")
+FILES = sorted(CORPUS.glob("*.uxf")) if CORPUS.is_dir() else []
+
+
+def convert(*elements: str, zoom: int = 10):
+    return convert_bytes(diagram(list(elements), zoom).encode(), "t.uxf")
+
+
+def one(*elements: str, zoom: int = 10) -> dict:
+    conv = convert(*elements, zoom=zoom)
+    assert len(conv.machines) == 1
+    return conv.machines[0]
+
+
+def errors(*elements: str, zoom: int = 10, raw: bytes | None = None) -> list:
+    with pytest.raises(DiagramError) as exc:
+        convert_bytes(raw if raw is not None else diagram(list(elements), zoom).encode(), "t.uxf")
+    return exc.value.problems
+
+
+INIT = element("UMLSpecialState", 100, 20, 20, 20, "type=initial")
+A = element("UMLState", 60, 80, 100, 40, "A")
+B = element("UMLState", 60, 200, 100, 40, "B")
+START = relation([[110, 40], [110, 80]], "lt=->")
+
+
+def strip(d):
+    if isinstance(d, dict):
+        return {k: strip(v) for k, v in d.items() if k != "layout"}
+    if isinstance(d, list):
+        return [strip(x) for x in d]
+    return d
+
+
+# -- the corpus -----------------------------------------------------------------------------------------------
+EXPECTED = {  # file prefix: (states incl. pseudostates, relations, nested boxes) or the errors' fragments
+    "Belinus": (10, 15, 0),
+    "ForceGitE": (8, 8, 4),
+    "KIT-MAMID": (5, 10, 0),
+    "ikageso1": (7, 14, 0),
+    "nastygorodi": (8, 7, 0),
+    "73jn": ["duplicate state name 'WIFI CONNECT'"],
+    "Bleksak": ["has no initial state", "duplicate state name 'TAKE'"],
+    "CitrusToffee": ["may not end at an initial pseudostate", "initial pseudostate has no transition"],
+    "Itaxo01": ["duplicate state name 'Associa primeiro'"] * 2,
+    "cphjs": ["has no initial state", "source end at x=390, y=430 is attached to nothing"],
+    "easoncxz": ["has no initial state", "source end at x=90, y=80 is attached to nothing"],
+    "umlet__umlet": ["'termination' pseudostates are not supported", "'flow_final'", "'decision'",
+                     "'history_shallow'", "'history_deep'", "attached to nothing", "attached to nothing",
+                     "initial pseudostate has no transition", "has no initial state",
+                     "duplicate state name 'state'"],
+}
+
+
+def _count(doc: dict) -> tuple[int, int, int]:
+    """States (+1 per initial marker), transitions (+1 per initial arrow), boxes nested in another."""
+    states = trans = nested = 0
+
+    def walk(m: dict, depth: int) -> None:
+        nonlocal states, trans, nested
+        states += len(m["states"]) + 1
+        trans += len(m["transitions"]) + 1
+        if depth:
+            nested += len(m["states"]) + 1
+        for st in m["states"]:
+            if isinstance(st.get("machine"), dict) and "states" in st["machine"]:
+                walk(st["machine"], depth + 1)
+
+    walk(doc, 0)
+    return states, trans, nested
+
+
+def test_corpus_is_there():
+    assert len(FILES) == 12
+
+
+@pytest.mark.parametrize("path", FILES, ids=lambda p: p.name.split("__")[0])
+def test_corpus_file_converts_or_fails_located(path: Path):
+    key = next(k for k in EXPECTED if path.name.startswith(k))
+    want = EXPECTED[key]
+    if isinstance(want, tuple):
+        conv = convert_file(path)
+        assert len(conv.machines) == 1
+        assert _count(conv.machines[0]) == want
+        _spec, problems = check(str(path))
+        assert not [p for p in problems if p.severity == "error"], problems
+        return
+    with pytest.raises(DiagramError) as exc:
+        convert_file(path)
+    problems = exc.value.problems
+    assert len(problems) == len(want)
+    for p in problems:  # located: file, line, column, element with diagram coordinates
+        assert p.file == str(path) and p.line and p.column and " at x=" in (p.element or "")
+    messages = "\n".join(p.message for p in problems)
+    for fragment in want:
+        assert fragment in messages
+
+
+def _itaxo_renamed() -> bytes:
+    raw = (CORPUS / "Itaxo01__Projeto-Engenharia-de-Software__Statechart.uxf").read_bytes()
+    n = iter(range(1, 10))
+    return re.sub(rb"<panel_attributes>Associa primeiro</panel_attributes>",
+                  lambda m: f"<panel_attributes>Associa {next(n)}</panel_attributes>".encode(), raw)
+
+
+def test_several_machines_nested_two_levels_and_exits():
+    conv = convert_bytes(_itaxo_renamed(), "itaxo.uxf")
+    assert conv.names == ["Aguardando três avaliadores", "Neutro", "Neutro (2)", "Desligado"]
+    ligado = conv.machines[3]["states"][0]
+    gravacao = ligado["machine"]["states"][1]
+    assert gravacao["id"] == "Modo Gravação" and gravacao["machine"]["initial"] == "Waiting"
+    assert [s["id"] for s in gravacao["machine"]["states"]] == ["Gravando", "Finaliza a Gravação", "Waiting",
+                                                                "Gravação Pausada"]
+    first = conv.machines[0]
+    exit_final = first["states"][1]["machine"]["states"][-1]
+    assert exit_final == {"id": "exit to Aguarda revisões", "type": "Final", "outcome": "exit to Aguarda revisões"}
+    assert strip(first["transitions"][0]) == {"type": "Finished", "from": "Aguardando três avaliadores",
+                                              "to": "Aguarda revisões", "outcome": "exit to Aguarda revisões"}
+    with pytest.raises(DiagramError) as exc:  # the loader hook wants one machine
+        from fsm.tools.uxf import read_uxf
+        path = Path("/nonexistent")
+        del path
+        raise DiagramError([__import__("fsm.tools.uxf", fromlist=["x"]).several_machines_problem(conv)])
+    assert "4 separate machines" in str(exc.value) and "--machine" in str(exc.value)
+
+
+def test_zoom_15_points_stored_at_zoom_10():
+    doc_text = (CORPUS / "73jn__aws-pycom__statemachine.uxf").read_bytes()
+    doc_text = doc_text.replace(b"WIFI\r\nCONNECT\r\n", b"WIFI\r\nCONNECT2\r\n", 1)
+    conv = convert_bytes(doc_text, "73jn.uxf")
+    doc = conv.machines[0]
+    assert doc["initial"] == "INIT"
+    assert len(doc["states"]) == 7 and len(doc["transitions"]) == 6
+    assert ["lw=3" not in json.dumps(t) for t in doc["transitions"]]
+
+
+def test_old_elements_and_lt_reversed(tmp_path):
+    raw = (CORPUS / "easoncxz__two-button-tv-control__states.uxf").read_text()
+    # give the entry arrow (which starts in empty space) an initial pseudostate at its start
+    raw = raw.replace("</diagram>", "<element><type>com.umlet.element.custom.InitialState</type><coordinates>"
+                                    "<x>80</x><y>70</y><w>20</w><h>20</h></coordinates><panel_attributes/>"
+                                    "<additional_attributes/></element></diagram>")
+    doc = convert_bytes(raw.encode(), "tv.uxf").machines[0]
+    assert doc["initial"] == "off"
+    assert len(doc["transitions"]) == 10
+    assert all(t["type"] == "Signal" for t in doc["transitions"])
+
+
+# -- syntax -------------------------------------------------------------------------------------------------
+def test_key_value_and_json_fragment_states_and_labels():
+    doc = one(INIT, START,
+              element("UMLState", 60, 80, 160, 80, "follow\n--\ntype=Timeout\n--\nentry / go"),
+              element("UMLState", 60, 240, 160, 80, 'B\n--\n"type": "Final", "outcome": "done"\n--\nbg=red'),
+              relation([[110, 160], [110, 240]], 'lt=->\n"type": "Timeout", "seconds": 2'),
+              )
+    assert doc["states"][0]["type"] == "Timeout"  # a transition type used as a state: the loader says so
+    assert doc["states"][0]["description"] == "entry / go"
+    assert strip(doc["states"][1]) == {"id": "B", "type": "Final", "outcome": "done"}
+    assert strip(doc["transitions"][0]) == {"type": "Timeout", "from": "follow", "to": "B", "seconds": 2}
+
+
+def test_key_values_keep_text_where_the_parameter_is_text():
+    doc = one(INIT, START, A, B, relation([[110, 120], [110, 200]], "lt=->\ntype=Signal\nsignal=1\nedge=high"))
+    assert strip(doc["transitions"][0]) == {"type": "Signal", "from": "A", "to": "B", "signal": "1", "edge": "high"}
+
+
+def test_uml_label_becomes_signal_and_no_label_always():
+    doc = one(INIT, START, A, B, relation([[110, 120], [110, 200]], "lt=->\nbutton\npressed [armed] / beep"),
+              relation([[140, 200], [140, 120]], "lt=->\nlw=2"))
+    assert strip(doc["transitions"]) == [
+        {"type": "Signal", "from": "A", "to": "B", "signal": "button pressed", "label": "button pressed [armed] / beep"},
+        {"type": "Always", "from": "B", "to": "A"}]
+
+
+def test_direction_from_arrowhead_and_note_anchors_ignored():
+    doc = one(INIT, START, A, B, relation([[110, 200], [110, 120]], "lt=<<<-\ngo"),
+              relation([[150, 120], [150, 200]], "lt=."), relation([[130, 120], [130, 200]], "lt=-"))
+    assert [(t["from"], t["to"]) for t in doc["transitions"]] == [("A", "B")]
+
+
+def test_multiline_names_styles_and_self_loop_with_bends():
+    doc = one(INIT, START, element("UMLState", 60, 80, 100, 60, "AWS\nMQTT\nbg=pink\nlw=3\nfontsize=18"),
+              relation([[160, 100], [200, 100], [200, 130], [160, 130]], "lt=->\nagain"))
+    assert doc["initial"] == "AWS MQTT"
+    assert doc["transitions"][0]["from"] == doc["transitions"][0]["to"] == "AWS MQTT"
+
+
+def test_umlet_rule_9px_and_lenient_rule():
+    # 8 px from the border: UMLet's rule; 10 px: only the lenient rule; 12 px: nothing
+    d8 = one(INIT, START, A, B, relation([[110, 128], [110, 200]], "lt=->"))
+    assert d8["transitions"][0]["from"] == "A"
+    d10 = one(INIT, START, A, B, relation([[110, 130], [110, 200]], "lt=->"))
+    assert d10["transitions"][0]["from"] == "A"
+    probs = errors(INIT, START, A, B, relation([[110, 132], [110, 200]], "lt=->"))
+    assert "source end at x=110, y=132 is attached to nothing" in probs[0].message
+    assert "nearest is 'A', 12 px away" in probs[0].hint
+
+
+def test_zoom_scales_boxes_but_not_new_relation_points():
+    # zoom 20: boxes stored at twice their size; relation points stay at zoom 10, relative to the origin
+    doc = one(element("UMLSpecialState", 200, 40, 40, 40, "type=initial"),
+              element("Relation", 200, 60, 60, 140, "lt=->", "10.0;10.0;10.0;50.0"),
+              element("UMLState", 120, 160, 200, 80, "A"), zoom=20)
+    assert doc["initial"] == "A"
+
+
+def test_ambiguous_endpoint_and_duplicate_names():
+    probs = errors(INIT, START, A, element("UMLState", 170, 80, 100, 40, "A"),
+                   relation([[165, 100], [165, 300]], "lt=->"))
+    text = "\n".join(p.message for p in probs)
+    assert "duplicate state name 'A'" in text
+    assert "ambiguous" in text
+
+
+def test_tral_from_to_must_agree_with_geometry():
+    probs = errors(INIT, START, A, B, relation([[110, 120], [110, 200]], 'lt=->\n"type": "Always", "from": "B", "to": "B"'))
+    assert "'from' in the label names 'B' but the arrow's source end is attached to 'A'" in probs[0].message
+    # no geometry at one end: the label names it
+    doc = one(INIT, START, A, B, relation([[110, 120], [400, 400]], 'lt=->\n"type": "Always", "to": "B"'))
+    assert (doc["transitions"][0]["from"], doc["transitions"][0]["to"]) == ("A", "B")
+
+
+def test_nesting_to_any_depth_in_a_frame_and_crlf():
+    els = [element("UMLFrame", 0, 0, 700, 600, "outer"),
+           element("UMLSpecialState", 40, 40, 20, 20, "type=initial"),
+           relation([[50, 60], [50, 100]], "lt=->")]
+    # five levels of composites, each with an initial marker and one inner state
+    x, y, w, h = 20, 100, 640, 480
+    for depth in range(5):
+        els.append(element("UMLState", x, y, w, h, f"level{depth}\r\nvalign=top"))
+        els.append(element("UMLSpecialState", x + 20, y + 30, 20, 20, "type=initial"))
+        els.append(relation([[x + 30, y + 50], [x + 30, y + 80]], "lt=->"))
+        x, y, w, h = x + 10, y + 80, w - 20, h - 90
+    els.append(element("UMLState", x, y, 100, 40, "leaf"))
+    doc = convert_bytes(diagram(els).encode().replace(b"\n", b"\r\n"), "t.uxf").machines[0]
+    assert doc["name"] == "outer"
+    m, depth = doc, 0
+    while m["states"][0]["type"] == "FSMState":
+        m = m["states"][0]["machine"]
+        depth += 1
+    assert depth == 5 and m["states"][0]["id"] == "leaf"
+
+
+def test_transition_into_a_composite_that_is_not_its_initial_state():
+    probs = errors(INIT, START, A,
+                   element("UMLState", 40, 200, 300, 200, "C\nvalign=top"),
+                   element("UMLSpecialState", 60, 240, 20, 20, "type=initial"),
+                   relation([[70, 260], [70, 290]], "lt=->"),
+                   element("UMLState", 60, 290, 80, 40, "x"), element("UMLState", 200, 290, 80, 40, "y"),
+                   relation([[150, 120], [240, 290]], "lt=->"))
+    assert "enters 'y' inside composite 'C'" in probs[0].message
+
+
+# -- bad input -------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("raw, fragment", [
+    (b"not xml at all", "not well-formed XML"),
+    (b"<diagram><zoom_level>10</zoom_level></diagram>", "has no elements"),
+    (b"<other/>", "not a UMLet diagram"),
+    (b"", "file is empty"),
+    (b'<?xml version="1.0"?>\n<!DOCTYPE lolz [<!ENTITY lol "lol"><!ENTITY lol2 "&lol;&lol;&lol;">]>\n'
+     b"<diagram><element><id>UMLState</id><coordinates><x>0</x><y>0</y><w>10</w><h>10</h></coordinates>"
+     b"<panel_attributes>&lol2;</panel_attributes></element></diagram>", "DOCTYPE declarations are not allowed"),
+    (b'<?xml version="1.0"?>\n<!DOCTYPE d [<!ENTITY x SYSTEM "file:///etc/passwd">]><diagram>&x;</diagram>',
+     "DOCTYPE"),
+    (b"<diagram><element><id>UMLState</id><coordinates><x>ten</x><y>0</y><w>10</w><h>10</h></coordinates>"
+     b"<panel_attributes>A</panel_attributes></element></diagram>", "coordinate <x> is not a number: 'ten'"),
+    (b"<diagram><element><id>Relation</id><coordinates><x>0</x><y>0</y><w>10</w><h>10</h></coordinates>"
+     b"<panel_attributes>lt=-&gt;</panel_attributes><additional_attributes>10;10</additional_attributes>"
+     b"</element></diagram>", "needs at least two points, this one has 1"),
+    (b"<diagram><zoom_level>abc</zoom_level><element/></diagram>", "element without <id>"),
+])
+def test_bad_input_is_one_located_message(raw, fragment):
+    probs = errors(raw=raw)
+    assert any(fragment in p.message for p in probs), [str(p) for p in probs]
+    assert all(p.line is not None for p in probs)
+
+
+def test_external_entity_file_is_never_read(tmp_path, monkeypatch):
+    secret = tmp_path / "secret.txt"
+    secret.write_text("TOPSECRET")
+    raw = (f'<?xml version="1.0"?><!DOCTYPE d [<!ENTITY x SYSTEM "{secret.as_uri()}">]>'
+           "<diagram><element><id>UMLState</id><coordinates><x>0</x><y>0</y><w>10</w><h>10</h></coordinates>"
+           "<panel_attributes>&x;</panel_attributes></element></diagram>").encode()
+    import builtins
+
+    opened = []
+    real_open = builtins.open
+    monkeypatch.setattr(builtins, "open", lambda f, *a, **k: (opened.append(str(f)), real_open(f, *a, **k))[1])
+    probs = errors(raw=raw)
+    assert "TOPSECRET" not in str(probs) and str(secret) not in opened
+
+
+def test_xml2json_legacy_form(tmp_path):
+    legacy = {"diagram": {"@program": "umlet", "zoom_level": "10", "element": [
+        {"id": "UMLSpecialState", "coordinates": {"x": "100", "y": "20", "w": "20", "h": "20"},
+         "panel_attributes": "type=initial", "additional_attributes": None},
+        {"id": "Relation", "coordinates": {"x": "100", "y": "30", "w": "30", "h": "70"},
+         "panel_attributes": "lt=->", "additional_attributes": "10;10;10;50"},
+        {"id": "UMLState", "coordinates": {"x": "60", "y": "80", "w": "100", "h": "40"},
+         "panel_attributes": 'follow\n--\n"id": 0, "type": "Idle"\n--', "additional_attributes": None}]}}
+    doc = convert_bytes(json.dumps(legacy).encode(), "legacy.json").machines[0]
+    assert strip(doc) == {"name": "legacy", "initial": "follow", "states": [{"id": "follow", "type": "Idle"}],
+                          "transitions": []}
+    single = {"diagram": {"element": legacy["diagram"]["element"][2]}}  # one element: an object, not an array
+    assert convert_bytes(json.dumps(single).encode(), "x.json").machines[0]["initial"] == "follow"
+    bad = {"diagram": {"element": [{"id": "UMLState", "coordinates": {"x": "a", "y": "0", "w": "1", "h": "1"}}]}}
+    probs = errors(raw=json.dumps(bad, indent=1).encode())
+    assert probs[0].pointer == "/diagram/element/0" and probs[0].line == 4
+
+
+def test_huge_file_is_linear(tmp_path):
+    import time
+
+    one_state = element("UMLState", 0, 0, 100, 40, "S")
+    raw = diagram([one_state.replace("<x>0</x>", f"<x>{i * 200}</x>").replace(">S<", f">S{i}<")
+                   for i in range(70_000)]).encode()
+    assert len(raw) > 15_000_000
+    start = time.perf_counter()
+    probs = errors(raw=raw)  # no initial pseudostate: one located error
+    assert time.perf_counter() - start < 20
+    assert len(probs) == 1 and "has no initial state" in probs[0].message

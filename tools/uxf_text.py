@@ -1,0 +1,235 @@
+"""What the texts of UMLet elements say: names, separators, style facets, arrowheads, parameters, UML labels.
+
+Parameters come in two syntaxes: ``key=value`` lines (``type=FollowWall``, ``distance=0.4``) or TRAL's JSON
+fragment (``"type": "FollowWall", "p": 12``). A text without a type is free text: a state's compartments,
+or a transition's UML label ``event [guard] / action``.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import dataclass, field
+from typing import Any
+
+#: Facets UMLet consumes on every element (style, layout, comments); never names or parameters.
+_STYLE_KEYS = {"bg", "fg", "lw", "valign", "halign", "fontsize", "layer", "transparency", "group", "style",
+               "symbol", "customelement", "elementstyle", "autoresize"}
+#: Relation facets: line type, end texts and their positions.
+_RELATION_KEYS = {"lt", "m1", "m2", "r1", "r2", "m1pos", "m2pos", "r1pos", "r2pos", "cpos", "mpos", "qualifier"}
+#: ``type=`` values that are UMLet's own shape facets of a UMLState, not state types.
+_UMLET_STATE_SHAPES = {"state", "sender", "receiver"}
+SEPARATOR = re.compile(r"^\s*(?:--?|-\.\.?)\s*$")
+_KEY_VALUE = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*=(.*)$")
+_JSON_TYPE = re.compile(r'"type"\s*:')
+
+
+class TextError(ValueError):
+    """A text that cannot be read; the message says why (the caller adds where)."""
+
+
+def is_style(line: str, keys: set[str] = _STYLE_KEYS) -> bool:
+    stripped = line.strip()
+    if stripped.startswith("//"):
+        return True
+    m = _KEY_VALUE.match(stripped)
+    return bool(m and m.group(1) in keys)
+
+
+@dataclass
+class StateText:
+    """A state box's text: its name, its parameters (if any) and its free text compartments."""
+
+    name: str
+    params: dict[str, Any] | None  # None: no type given
+    description: str | None
+    syntax: str | None = None  # "kv" or "json"
+
+
+def split_state(text: str) -> tuple[list[str], list[list[str]]]:
+    """Name lines and compartments (lists of lines) of a UMLState text, style facets removed."""
+    lines = [ln for ln in text.split("\n") if not is_style(ln)]
+    name_lines: list[str] = []
+    compartments: list[list[str]] = []
+    current = name_lines
+    for ln in lines:
+        if SEPARATOR.match(ln):
+            current = []
+            compartments.append(current)
+            continue
+        m = _KEY_VALUE.match(ln)
+        if m and m.group(1) == "type" and m.group(2).strip() in _UMLET_STATE_SHAPES:
+            continue
+        current.append(ln)
+    return name_lines, compartments
+
+
+def parse_state(text: str) -> StateText:
+    """Name (first lines up to the first separator), type and parameters, and the other compartments."""
+    name_lines, compartments = split_state(text)
+    name = " ".join(ln.strip() for ln in name_lines if ln.strip())
+    params: dict[str, Any] | None = None
+    syntax = None
+    free: list[str] = []
+    # A box holding only a fragment (no separator): its "name" is the fragment.
+    if not compartments and (_has_kv_type(name_lines) or _JSON_TYPE.search(name)):
+        compartments = [name_lines]
+        name = ""
+    for comp in compartments:
+        if params is None and _has_kv_type(comp):
+            params, syntax = parse_key_values(comp), "kv"
+        elif params is None and _JSON_TYPE.search("\n".join(comp)):
+            params, syntax = parse_fragment("\n".join(comp)), "json"
+        else:
+            block = "\n".join(ln.rstrip() for ln in comp).strip("\n")
+            if block.strip():
+                free.append(block)
+    description = "\n".join(free) if free else None
+    return StateText(name, params, description, syntax)
+
+
+def _has_kv_type(lines: list[str]) -> bool:
+    for ln in lines:
+        m = _KEY_VALUE.match(ln)
+        if m and m.group(1) == "type":
+            return True
+    return False
+
+
+def parse_key_values(lines: list[str]) -> dict[str, Any]:
+    """``key=value`` lines; values are JSON when they parse as JSON (numbers, true, lists, objects), else text."""
+    out: dict[str, Any] = {}
+    for n, ln in enumerate(lines, 1):
+        if not ln.strip():
+            continue
+        m = _KEY_VALUE.match(ln)
+        if not m:
+            raise TextError(f"line {ln.strip()[:40]!r} is not key=value (a text with type=... holds only "
+                            "key=value lines)")
+        key, value = m.group(1), m.group(2).strip()
+        if key in out:
+            raise TextError(f"parameter '{key}' is given twice")
+        out[key] = parse_value(value)
+    return out
+
+
+def parse_value(value: str) -> Any:
+    if value == "":
+        return ""
+    if value[0] in '[{"-0123456789' or value in ("true", "false", "null"):
+        try:
+            return json.loads(value)
+        except ValueError:
+            return value
+    return value
+
+
+def parse_fragment(text: str) -> dict[str, Any]:
+    """TRAL's fragment ``"type": "FollowWall", "p": 12`` (with or without braces, a trailing comma allowed)."""
+    body = text.strip()
+    if not body.startswith("{"):
+        body = "{" + body.rstrip().rstrip(",") + "}"
+    try:
+        data = json.loads(body)
+    except json.JSONDecodeError as exc:
+        raise TextError(f"JSON parameters do not parse: {exc.msg} (column {exc.colno} of {body[:60]!r})") from None
+    except RecursionError:
+        raise TextError("JSON parameters nested too deeply") from None
+    if not isinstance(data, dict):
+        raise TextError("JSON parameters must be an object")
+    return data
+
+
+# -- special states -----------------------------------------------------------------------------------------
+def special_kind(text: str) -> tuple[str, str]:
+    """``(kind, label)`` of a UMLSpecialState: kind from ``type=`` (default decision, as UMLet draws it)."""
+    kind = "decision"
+    label: list[str] = []
+    for ln in text.split("\n"):
+        if is_style(ln):
+            continue
+        m = _KEY_VALUE.match(ln)
+        if m and m.group(1) == "type":
+            kind = m.group(2).strip()
+            continue
+        if ln.strip():
+            label.append(ln.strip())
+    return kind, " ".join(label)
+
+
+# -- relations ------------------------------------------------------------------------------------------------
+_LT = re.compile(r"^((?:[<>xo|()+*#^]|\[[^\]]*\])*?)(-|\.\.|\.)((?:[<>xo|()+*#^]|\[[^\]]*\])*)$")
+
+
+@dataclass
+class RelationText:
+    """A relation's line type (arrowheads) and its middle label lines."""
+
+    lt: str
+    start_head: bool
+    end_head: bool
+    dashed: bool
+    label_lines: list[str] = field(default_factory=list)
+
+
+def parse_relation(text: str) -> RelationText:
+    lt = "-"
+    label: list[str] = []
+    for ln in text.split("\n"):
+        if is_style(ln) or is_style(ln, _RELATION_KEYS - {"lt"}):
+            continue
+        m = _KEY_VALUE.match(ln)
+        if m and m.group(1) == "lt":
+            lt = m.group(2).strip()
+            continue
+        label.append(ln)
+    while label and not label[-1].strip():
+        label.pop()
+    while label and not label[0].strip():
+        label.pop(0)
+    start, end, dashed = arrowheads(lt)
+    return RelationText(lt, start, end, dashed, label)
+
+
+def arrowheads(lt: str) -> tuple[bool, bool, bool]:
+    """Whether ``lt`` draws an arrowhead at the start, at the end, and whether its line is dashed/dotted."""
+    m = _LT.match(lt.strip())
+    if not m:
+        return False, False, False
+    start, line, end = m.groups()
+    start_head = bool(re.fullmatch(r"<{1,3}", start))
+    end_head = bool(re.fullmatch(r">{1,3}", end))
+    return start_head, end_head, line != "-"
+
+
+@dataclass
+class Label:
+    """A transition label: explicit type and parameters, or a UML ``event [guard] / action`` text."""
+
+    params: dict[str, Any] | None
+    text: str  # the label as one line (UML form), "" if none
+    syntax: str | None = None
+
+
+def parse_label(lines: list[str]) -> Label:
+    if _has_kv_type(lines):
+        return Label(parse_key_values(lines), "", "kv")
+    joined = "\n".join(lines)
+    if _JSON_TYPE.search(joined):
+        return Label(parse_fragment(joined), "", "json")
+    text = " ".join(" ".join(ln.split()) for ln in lines if ln.strip())
+    return Label(None, text)
+
+
+_UML_LABEL = re.compile(r"^(?P<event>[^\[/]*)(?:\[(?P<guard>[^\]]*)\])?\s*(?:/(?P<action>.*))?$", re.S)
+
+
+def event_name(label: str) -> str:
+    """The event of a UML label ``event [guard] / action``; the guard or action when there is no event."""
+    m = _UML_LABEL.match(label)
+    if m:
+        for part in ("event", "guard", "action"):
+            value = (m.group(part) or "").strip()
+            if value:
+                return value
+    return label.strip()

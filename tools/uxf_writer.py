@@ -1,0 +1,254 @@
+"""Writing UMLet diagrams: a machine document as a laid-out ``.uxf`` that converts back to the same document,
+and the palette of every registered type.
+
+Texts are written in the syntax the reader (:mod:`fsm.tools.uxf`) reads back exactly: a plain name for an
+``Idle`` state, ``key=value`` lines under ``--`` for typed states, UML labels for ``Signal`` transitions
+that came from one, and JSON fragments only where ``key=value`` would be ambiguous.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+from xml.sax.saxutils import escape
+
+from . import uxf_text as T
+from .layout import MARKER, LevelLayout, inline_machine, lay_out
+
+HEADER = '<?xml version="1.0" encoding="UTF-8" standalone="no"?>\n<diagram program="umlet" version="15.1">\n'
+
+
+def element(kind: str, x: float, y: float, w: float, h: float, text: str, extra: str = "") -> str:
+    return (f"  <element>\n    <id>{kind}</id>\n    <coordinates>\n      <x>{_i(x)}</x>\n      <y>{_i(y)}</y>\n"
+            f"      <w>{_i(w)}</w>\n      <h>{_i(h)}</h>\n    </coordinates>\n"
+            f"    <panel_attributes>{escape(text)}</panel_attributes>\n"
+            + (f"    <additional_attributes>{extra}</additional_attributes>\n" if extra
+               else "    <additional_attributes/>\n")
+            + "  </element>\n")
+
+
+def _i(v: float) -> str:
+    return str(int(round(v)))
+
+
+def diagram(elements: list[str], zoom: int = 10) -> str:
+    return HEADER + f"  <zoom_level>{zoom}</zoom_level>\n" + "".join(elements) + "</diagram>\n"
+
+
+def relation(points: list[list[float]], text: str) -> str:
+    """A new-style relation: points relative to its origin, at zoom 10, with UMLet's 10 px margin."""
+    xs = [p[0] for p in points]
+    ys = [p[1] for p in points]
+    x0, y0 = int(min(xs)) - 10, int(min(ys)) - 10
+    w = int(max(xs) - x0) + 20
+    h = int(max(ys) - y0) + 20
+    extra = ";".join(f"{_f(p[0] - x0)};{_f(p[1] - y0)}" for p in points)
+    return element("Relation", x0, y0, w, h, text, extra)
+
+
+def _f(v: float) -> str:
+    return f"{float(v):.1f}" if float(v).is_integer() else repr(float(v))
+
+
+# -- texts -----------------------------------------------------------------------------------------------------
+_COMMON_STATE = {"id", "type", "layout"}
+_COMMON_TRANSITION = {"type", "from", "to", "layout"}
+_FACETS = T._STYLE_KEYS | T._RELATION_KEYS
+
+
+def _value_text(v: Any) -> str:
+    if isinstance(v, str):
+        if v and v == v.strip() and "\n" not in v and T.parse_value(v) == v:
+            return v
+        return json.dumps(v, ensure_ascii=False)
+    return json.dumps(v, ensure_ascii=False, separators=(", ", ": "))
+
+
+def param_lines(typ: str, params: dict[str, Any]) -> list[str]:
+    """``type=...`` and ``key=value`` lines; a JSON fragment when a key would read as a UMLet facet."""
+    if any(k in _FACETS or not k.isidentifier() for k in params):
+        return [json.dumps({"type": typ, **params}, ensure_ascii=False)[1:-1]]
+    return [f"type={typ}"] + [f"{k}={_value_text(v)}" for k, v in params.items()]
+
+
+def _safe_name(name: str) -> bool:
+    if not name or name != name.strip() or "\n" in name or "  " in name:
+        return False
+    if T.is_style(name) or T.SEPARATOR.match(name) or T._JSON_TYPE.search(name):
+        return False
+    m = T._KEY_VALUE.match(name)
+    return not (m and m.group(1) == "type")
+
+
+def _safe_free_text(text: str) -> bool:
+    lines = text.split("\n")
+    return (text == text.strip("\n") and all(ln == ln.rstrip() for ln in lines) and bool(text.strip())
+            and not any(T.is_style(ln) or T.SEPARATOR.match(ln) or not ln.strip() for ln in lines)
+            and not T._has_kv_type(lines) and not T._JSON_TYPE.search(text))
+
+
+def state_text(st: dict[str, Any], composite: bool) -> str:
+    sid = str(st.get("id", ""))
+    typ = str(st.get("type", "Idle"))
+    params = {k: v for k, v in st.items() if k not in _COMMON_STATE and not (composite and k == "machine")}
+    desc = params.get("description")
+    free = None
+    if isinstance(desc, str) and _safe_free_text(desc):
+        free = params.pop("description")
+    if not _safe_name(sid):
+        frag = json.dumps({"id": sid, "type": typ, **params}, ensure_ascii=False)[1:-1]
+        lines = [frag] + (["--", free] if free else [])
+        return "\n".join(lines) + ("\nvalign=top" if composite else "")
+    lines = [sid]
+    implied = "FSMState" if composite else "Idle"
+    if params or typ != implied:
+        lines += ["--"] + param_lines(typ, params)
+    if free:
+        lines += ["--", free]
+    if composite:
+        lines.append("valign=top")
+    return "\n".join(lines)
+
+
+def _can_finish(st: dict[str, Any], registry: Any) -> bool:
+    sub = inline_machine(st)
+    if sub is not None:
+        return any(isinstance(s, dict) and s.get("type") == "Final" for s in sub.get("states", []))
+    cls = registry.states.get(str(st.get("type") or "Idle")) if registry is not None else None
+    return bool(cls is not None and cls.can_finish)
+
+
+def transition_text(tr: dict[str, Any], source: dict[str, Any] | None, registry: Any) -> str:
+    typ = str(tr.get("type"))
+    params = {k: v for k, v in tr.items() if k not in _COMMON_TRANSITION}
+    if typ == "Signal" and set(params) == {"signal", "label"} and isinstance(params["label"], str):
+        label = params["label"]
+        try:
+            parsed = T.parse_label(label.split("\n"))
+        except T.TextError:
+            parsed = None
+        if parsed is not None and parsed.params is None and parsed.text == label \
+                and T.event_name(label) == params["signal"]:
+            return "lt=->\n" + label
+    if not params and source is not None:
+        can = _can_finish(source, registry)
+        if (typ == "Finished" and can) or (typ == "Always" and not can):
+            return "lt=->"
+    return "\n".join(["lt=->"] + param_lines(typ, params))
+
+
+def final_special(st: dict[str, Any], level_names: set[str], used: set[str]) -> str | None:
+    """The text of a ``type=final`` pseudostate that reads back as this Final state, or None."""
+    keys = set(st) - {"layout"}
+    outcome = st.get("outcome")
+    if keys - {"id", "type", "outcome"}:
+        return None
+    base = outcome if isinstance(outcome, str) else "final"
+    if outcome is not None and (not _safe_name(outcome) or outcome == "final" and False):
+        return None
+    if st.get("id") != base or base in level_names or base in used:
+        return None
+    if outcome is None:
+        return "type=final"
+    return f"type=final\n{outcome}"
+
+
+# -- export ---------------------------------------------------------------------------------------------------
+def export(doc: dict[str, Any], registry: Any = None) -> str:
+    """A ``.uxf`` diagram of ``doc`` (stored layout where present) that converts back to ``doc``."""
+
+    def lines_of(st: dict[str, Any]) -> list[str]:
+        return state_text(st, inline_machine(st) is not None).split("\n")
+
+    level = lay_out(doc, lines_of)
+    x0, y0, _, _ = _bbox_all(level)
+    stored = any(isinstance(st, dict) and isinstance(st.get("layout"), dict) for st in doc.get("states", []))
+    dx, dy = (0.0, 0.0) if stored else (max(0.0, 20 - x0), max(0.0, 20 - y0))
+    if dx or dy:
+        level.shift(dx, dy)
+    out: list[str] = []
+    frame = (doc.get("layout") or {}).get("frame") if isinstance(doc.get("layout"), dict) else None
+    if isinstance(frame, dict) and all(isinstance(frame.get(k), (int, float)) for k in "xywh") and not (dx or dy):
+        out.append(element("UMLFrame", frame["x"], frame["y"], frame["w"], frame["h"], str(frame.get("title", ""))))
+    _emit(level, out, registry)
+    return diagram(out)
+
+
+def _bbox_all(level: LevelLayout) -> tuple[float, float, float, float]:
+    return level.bbox()
+
+
+def _emit(level: LevelLayout, out: list[str], registry: Any) -> None:
+    names = {str(n.doc.get("id")) for n in level.nodes if n.doc.get("type") != "Final"}
+    used: set[str] = set()
+    if level.marker is not None and level.initial is not None:
+        mx, my = level.marker
+        out.append(element("UMLSpecialState", mx, my, *level.marker_size, "type=initial"))
+        out.append(relation(level.marker_points, "lt=->"))
+    for n in level.nodes:
+        st = n.doc
+        text = None
+        kind = "UMLState"
+        if st.get("type") == "Final":
+            text = final_special(st, names, used)
+            if text is not None:
+                kind = "UMLSpecialState"
+                used.add(str(st.get("id")))
+        if text is None:
+            text = state_text(st, n.sub is not None)
+            shape = (st.get("layout") or {}).get("shape") if isinstance(st.get("layout"), dict) else None
+            if shape == "frame" and n.sub is not None and text == f"{st.get('id')}\nvalign=top":
+                kind, text = "UMLFrame", str(st.get("id"))
+        out.append(element(kind, n.x, n.y, n.w, n.h, text))
+        if n.sub is not None:
+            _emit(n.sub, out, registry)
+    for e in level.edges:
+        out.append(relation(e.points, transition_text(e.doc, e.src.doc, registry)))
+
+
+# -- palette --------------------------------------------------------------------------------------------------
+def palette(registry: Any) -> str:
+    """The UMLet palette: one template per registered state and transition type, every parameter with its
+    default (required ones empty), each explained in a ``//`` comment line UMLet does not draw."""
+    from fsm.document import param_info
+
+    out: list[str] = []
+    y = 20
+    out.append(element("UMLSpecialState", 20, y, 20, 20, "type=initial"))
+    out.append(element("UMLSpecialState", 60, y, 20, 20, "type=final"))
+    out.append(element("Text", 100, y, 300, 30, "initial marker / final state (outcome = its label)\nfontsize=10"))
+    y += 50
+    x_state, x_trans = 20, 360
+    ys, yt = y, y
+    for kind, name, cls in registry:
+        infos = param_info(cls.Params)
+        lines: list[str] = []
+        comments: list[str] = []
+        doc = (cls.__doc__ or "").strip().split("\n")[0]
+        if doc:
+            comments.append(f"// {doc}")
+        for info in infos:
+            if "default" in info:
+                value = _value_text(info["default"]) if info["default"] is not None else "null"
+                lines.append(f"{info['name']}={value}")
+            else:
+                lines.append(f"{info['name']}=")
+            req = "required" if info["required"] else "optional"
+            desc = f": {info['description']}" if info.get("description") else ""
+            comments.append(f"// {info['name']} ({info['type']}, {req}){desc}")
+        if kind == "state":
+            composite = bool(getattr(cls, "is_composite", False))
+            text = "\n".join([name, "--", f"type={name}"] + lines + comments + (["valign=top"] if composite else []))
+            h = 40 + 20 * len(lines) + (80 if composite else 0)
+            w = 300 if composite else 220
+            out.append(element("UMLState", x_state, ys, w, h, text))
+            ys += h + 20
+        else:
+            text = "\n".join(["lt=->", f"type={name}"] + lines + comments)
+            h = 40 + 20 * len(lines)
+            out.append(relation([[x_trans + 10, yt + 10], [x_trans + 10, yt + h]], text))
+            yt += h + 30
+    y = max(ys, yt) + 10
+    out.append(relation([[x_trans + 10, y + 10], [x_trans + 10, y + 60]],
+                        "lt=->\nevent [guard] / action\n// a UML label: a Signal transition on 'event'"))
+    return diagram(out)

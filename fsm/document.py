@@ -76,7 +76,8 @@ class Source:
     name: str | None
     directory: Any = None
     text: str | None = None
-    locator: Any = None  # callable(set[str]) -> dict[pointer, (line, column)]
+    #: callable(set[str]) -> dict[pointer, (line, column)] or (line, column, where-in-the-drawing)
+    locator: Any = None
 
 
 @dataclass

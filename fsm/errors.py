@@ -21,6 +21,8 @@ class Problem:
     element: str | None = None
     hint: str | None = None
     severity: str = "error"
+    #: Where in a drawing, for documents converted from diagrams (``"x=480, y=460"``).
+    where: str | None = None
 
     @property
     def location(self) -> str:
@@ -31,6 +33,8 @@ class Problem:
             if self.column is not None:
                 parts.append(str(self.column))
         loc = ":".join(parts)
+        if self.where:
+            loc += f" ({self.where})"
         if self.pointer:
             loc += f" at {self.pointer}"
         return loc
@@ -51,6 +55,7 @@ class Problem:
             "line": self.line,
             "column": self.column,
             "pointer": self.pointer,
+            "where": self.where,
             "element": self.element,
             "message": self.message,
             "hint": self.hint,

@@ -417,7 +417,9 @@ class Loader:
                 for k in range(len(parts), 0, -1):
                     pos = found.get("/".join(parts[:k]))
                     if pos is not None:
-                        p.line, p.column = pos
+                        p.line, p.column = pos[0], pos[1]
+                        if len(pos) > 2 and p.where is None:
+                            p.where = pos[2]
                         break
 
 

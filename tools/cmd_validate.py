@@ -71,7 +71,9 @@ def github_annotation(p: Problem) -> str:
             props.append(f"col={p.column}")
     props.append("title=" + prop("fsmctl validate"))
     message = (f"{p.element}: " if p.element else "") + p.message
-    if p.pointer:
+    if p.where:
+        message += f" (diagram {p.where})"
+    elif p.pointer:
         message += f" (at {p.pointer})"
     if p.hint:
         message += f"; {p.hint}"

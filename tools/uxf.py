@@ -46,12 +46,12 @@ class Converted:
     def locator(self, machine: int) -> Any:
         origins = self.origins[machine]
 
-        def locate(pointers: set[str]) -> dict[str, tuple[int, int]]:
-            out: dict[str, tuple[int, int]] = {}
+        def locate(pointers: set[str]) -> dict[str, tuple[int, int, str]]:
+            out: dict[str, tuple[int, int, str]] = {}
             for ptr in pointers:
                 elem = origins.get(ptr)
                 if elem is not None and elem.line is not None:
-                    out[ptr] = (elem.line, elem.column or 1)
+                    out[ptr] = (elem.line, elem.column or 1, where(elem))
             return out
 
         return locate

@@ -479,6 +479,13 @@ def build(spec: MachineSpec, *, clock: Any = None, car: Any = None, context: Con
     ctx = context if context is not None else Context(car=car)
     for key, value in variables.items():
         ctx.vars.setdefault(key, value)
+    if ctx.car is None:
+        needy = [s for s in by_path.values() if s.needs_car]
+        if needy:
+            names = ", ".join(f"'{s.path}' ({s.type_name})" for s in needy[:5]) + (" ..." if len(needy) > 5 else "")
+            raise DiagramError([Problem(f"this machine drives a car ({names}) but no car was given",
+                                        spec.source.name, hint="run it with `fsmctl run FILE --world WORLD`, "
+                                        "or pass car= to fsm.load")])
     machine = Machine(root, name=spec.name or "", clock=clock, context=ctx, all_regions=regions,
                       states_by_path=by_path)
     for region in regions:

@@ -53,6 +53,8 @@ class State:
     is_final: ClassVar[bool] = False
     #: Composite states own sub-machines (see :class:`fsm.composite.Composite`).
     is_composite: ClassVar[bool] = False
+    #: States that drive the plant (``ctx.car``); a machine with one cannot be built without a car.
+    needs_car: ClassVar[bool] = False
 
     def __init__(self, id: str, params: StateParams | None = None) -> None:
         self.id = id

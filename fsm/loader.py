@@ -480,9 +480,11 @@ def build(spec: MachineSpec, *, clock: Any = None, car: Any = None, context: Con
     for key, value in variables.items():
         ctx.vars.setdefault(key, value)
     if ctx.car is None:
-        needy = [s for s in by_path.values() if s.needs_car]
+        needy = [f"'{s.path}' ({s.type_name})" for s in by_path.values() if s.needs_car]
+        needy += [f"{t.source.path} -> {t.target.path} ({t.type_name})" for s in by_path.values()
+                  for t in s.transitions if t.needs_car]
         if needy:
-            names = ", ".join(f"'{s.path}' ({s.type_name})" for s in needy[:5]) + (" ..." if len(needy) > 5 else "")
+            names = ", ".join(needy[:5]) + (" ..." if len(needy) > 5 else "")
             raise DiagramError([Problem(f"this machine drives a car ({names}) but no car was given",
                                         spec.source.name, hint="run it with `fsmctl run FILE --world WORLD`, "
                                         "or pass car= to fsm.load")])

@@ -29,6 +29,8 @@ class Transition:
     unconditional: ClassVar[bool] = False
     #: True when the transition fires only on a finished source (the loader checks that it can finish).
     needs_finishing_source: ClassVar[bool] = False
+    #: Transitions that read the plant (``ctx.car``); a machine with one cannot be built without a car.
+    needs_car: ClassVar[bool] = False
     #: Names of parameters that hold state paths; the loader checks that they name existing states.
     state_refs: ClassVar[tuple[str, ...]] = ()
 

@@ -3,6 +3,18 @@
 from __future__ import annotations
 
 from .composites import FSMState, Parallel
+from .driving import ApproachPoint, BasicFollowWall, FollowWall, FollowWallRamp, Motor, Stop
 from .generic import Final, Idle
 
-__all__ = ["FSMState", "Final", "Idle", "Parallel"]
+__all__ = [
+    "ApproachPoint",
+    "BasicFollowWall",
+    "FSMState",
+    "Final",
+    "FollowWall",
+    "FollowWallRamp",
+    "Idle",
+    "Motor",
+    "Parallel",
+    "Stop",
+]

@@ -138,7 +138,7 @@ def _exercise(src: Any) -> None:
             "load refused a document that check found no error in")
         return
     assert not any(p.severity == "error" for p in problems), "load accepted a document check found errors in"
-    if any(getattr(type(state), "uses_car", False) for state in machine.states_by_path.values()):
+    if any(type(state).needs_car for state in machine.states_by_path.values()):
         return  # states that drive the car need ``car=``; ticking them without one is not this test's subject
     try:
         for _ in range(TICKS):

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
+from .car import Distance, SensorLevel
 from .generic import Always, Finished, Timeout
 from .inputs import InState, Signal, Var
 
-__all__ = ["Always", "Finished", "InState", "Signal", "Timeout", "Var"]
+__all__ = ["Always", "Distance", "Finished", "InState", "SensorLevel", "Signal", "Timeout", "Var"]

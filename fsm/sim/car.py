@@ -1,0 +1,339 @@
+"""The simulated TRAL car: a pymunk world, a bicycle model on a dynamic body, ultrasonic and hall sensors.
+
+Model (DESIGN.md, "The simulated TRAL car"; docs/notes/sim-vision.md section 2, model A): each physics
+step (0.01 s) the steering servo moves towards its command with a rate limit, the speed towards its
+command with acceleration limits; the bicycle model at the centre of gravity (mid-wheelbase) gives
+the body's velocity and yaw rate, which are set on a *dynamic* pymunk body, so walls push back through
+real contacts and every new contact counts as a collision. The ultrasonic sensors cast a cone of
+rays each at their own rate, take the nearest echo (echoes hitting a surface too obliquely are lost),
+add seeded Gaussian noise and round to the sensor's resolution. The hall sensor counts wheel travel.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+from typing import Any
+
+import pymunk
+
+from .world import World
+
+try:  # pymunk's own cffi binding: the same C calls as Space.*_query_*, without building result objects
+    from pymunk._chipmunk import ffi as _ffi
+    from pymunk._chipmunk import lib as _lib
+except ImportError:  # pragma: no cover - other pymunk builds: the public API (about half as fast)
+    _ffi = _lib = None
+
+#: Physics step, seconds (fixed; DESIGN.md).
+PHYSICS_DT = 0.01
+WALL, CAR = 1, 2
+#: Tyre grip: the largest force (as a multiple of the car's weight) that drives the body after the model.
+GRIP = 2.0
+_CAR_GROUP = 1
+
+
+def build_space(world: World, doors: bool = True) -> pymunk.Space:
+    """A pymunk space with the world's walls and obstacles as static shapes (collision type ``WALL``)."""
+    space = pymunk.Space()
+    space.gravity = (0.0, 0.0)
+    static = space.static_body
+    shapes: list[pymunk.Shape] = []
+    for a, b in world.segments(doors=doors):
+        seg = pymunk.Segment(static, a, b, 0.005)
+        shapes.append(seg)
+    for ob in world.obstacles:
+        if ob.type == "circle":
+            assert ob.center is not None and ob.radius is not None
+            shapes.append(pymunk.Circle(static, ob.radius, ob.center))
+    for s in shapes:
+        s.collision_type = WALL
+        s.friction = 0.6
+        s.elasticity = 0.0
+    space.add(*shapes)
+    return space
+
+
+class _Sensor:
+    """One ultrasonic sensor: its mount and its rays in the car frame."""
+
+    __slots__ = ("name", "mx", "my", "rays")
+
+    def __init__(self, name: str, mx: float, my: float, angle: float, cone: float, n: int) -> None:
+        self.name = name
+        self.mx, self.my = mx, my
+        if n == 1:
+            offsets = [0.0]
+        else:
+            offsets = [-cone / 2 + cone * k / (n - 1) for k in range(n)]
+        # The centre ray first: ties go to it.
+        offsets.sort(key=abs)
+        self.rays = tuple((math.cos(angle + o), math.sin(angle + o)) for o in offsets)
+
+
+class SimCar:
+    """The car in a pymunk world; implements :class:`fsm.sim.io.CarIO`.
+
+    ``noise=False`` turns off ultrasonic noise and outliers (the geometry stays). The noise is drawn
+    from ``random.Random(seed)``, so a seed gives the same run, bit for bit.
+    """
+
+    def __init__(self, world: World, *, seed: int = 0, noise: bool = True) -> None:
+        p = world.car
+        us = p.ultrasonic
+        self.world = world
+        self.params = p
+        self.space = build_space(world)
+        self._nominal: pymunk.Space | None = None
+        self.rng = random.Random(seed)
+        self.noise = noise
+        # geometry
+        self.wheelbase = p.wheelbase
+        self.max_steering_angle = math.radians(p.max_steering_angle)
+        self.length, self.width = p.length, p.width
+        # body
+        moment = pymunk.moment_for_box(p.mass, (p.length, p.width))
+        self.body = pymunk.Body(p.mass, moment)
+        self.body.position = (world.start.x, world.start.y)
+        self.body.angle = math.radians(world.start.heading)
+        self.shape = pymunk.Poly.create_box(self.body, (p.length, p.width), 0.0)
+        self.shape.collision_type = CAR
+        self.shape.friction = 0.6
+        self.shape.filter = pymunk.ShapeFilter(group=_CAR_GROUP)
+        # The bicycle model drives a kinematic control body; a pivot and a gear joint with finite forces drag
+        # the car after it (pymunk's tank demo). Contacts are hard constraints, so walls stop the car and
+        # turn it, where setting the car's velocity directly each step would push it through them.
+        self.control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+        self.control.position = self.body.position
+        self.control.angle = self.body.angle
+        pivot = pymunk.PivotJoint(self.control, self.body, (0, 0), (0, 0))
+        pivot.max_bias = 0.0
+        pivot.max_force = GRIP * p.mass * 9.81
+        gear = pymunk.GearJoint(self.control, self.body, 0.0, 1.0)
+        gear.max_bias = 0.0
+        gear.max_force = GRIP * p.mass * 9.81 * p.wheelbase / 2
+        self.space.add(self.body, self.shape, self.control, pivot, gear)
+        self._query = pymunk.ShapeFilter(group=_CAR_GROUP)
+        self.collisions = 0
+        self.contact_steps = 0
+        self._touching = 0
+        self.space.on_collision(CAR, WALL, begin=self._begin, separate=self._separate)
+        # actuators
+        self._cmd_steer = 0.0
+        self._cmd_speed = 0.0
+        self._servo = 0.0
+        self._v = 0.0
+        self._offset = p.steering_offset
+        self._rate_dt = p.steering_rate * PHYSICS_DT
+        self._acc_dt = p.acceleration * PHYSICS_DT
+        self._dec_dt = p.deceleration * PHYSICS_DT
+        self._max_speed = p.max_speed
+        self._delta = None
+        self._k_beta = 0.0
+        self._k_w = 0.0
+        self._units = p.hall_units_per_m
+        self._travel = 0.0
+        # sensors
+        self.sensors = [
+            _Sensor(name, m.x, m.y, math.radians(m.angle), math.radians(us.cone), us.rays)
+            for name, m in sorted(us.mounts.items(), key=lambda kv: ("left", "right", "front").index(kv[0]))
+        ]
+        self._min_r, self._max_r = us.min_range, us.max_range
+        self._cos_inc = math.cos(math.radians(us.max_incidence))
+        self._sd0 = us.noise if noise else 0.0
+        self._sd1 = us.noise_rel if noise else 0.0
+        self._outliers = us.outliers if noise else 0.0
+        self._res = us.resolution
+        self.sensor_every = max(1, round(1.0 / (us.rate * PHYSICS_DT)))
+        # public state (CarIO)
+        self.left = self.right = self.front = us.max_range
+        self.sample = 0
+        self.distance = 0.0
+        self.hall = 0
+        self.speed = 0.0
+        self.steering = 0.0
+        self.steps = 0
+        self.time = 0.0
+        self.min_clearance = math.inf
+        self._by_name = {sensor.name: sensor for sensor in self.sensors}
+        self._outline = self._outline_points()
+        self._half_diagonal = math.hypot(p.length, p.width) / 2
+        self.min_clearance = 1.0
+        self._make_queries()
+        self.sense()
+
+    # -- CarIO ----------------------------------------------------------------------------------------
+    def pose(self) -> tuple[float, float, float]:
+        x, y = self.body.position
+        return x, y, self.body.angle
+
+    def set_steering(self, value: float) -> None:
+        value = float(value)
+        if not value == value:  # NaN: a controller bug must not steer the car somewhere random
+            raise ValueError("steering command is NaN")
+        self.steering = self._cmd_steer = -1.0 if value < -1.0 else 1.0 if value > 1.0 else value
+
+    def set_speed(self, value: float) -> None:
+        value = float(value)
+        if not value == value:
+            raise ValueError("speed command is NaN")
+        m = self._max_speed
+        self._cmd_speed = -m if value < -m else m if value > m else value
+
+    def emergency_stop(self) -> None:
+        self._cmd_speed = 0.0
+        self._v = 0.0
+        self.speed = 0.0
+        self.control.velocity = (0.0, 0.0)
+        self.control.angular_velocity = 0.0
+        self.body.velocity = (0.0, 0.0)
+        self.body.angular_velocity = 0.0
+
+    def camera(self) -> Any | None:
+        """No camera yet (the camera/ArUco issue adds it): always ``None``."""
+        return None
+
+    # -- physics ------------------------------------------------------------------------------------
+    def step(self) -> None:
+        """One physics step of 0.01 s: servo, speed controller, bicycle model, pymunk, hall, sensors."""
+        s = self._servo
+        d = self._cmd_steer - s
+        lim = self._rate_dt
+        s = s + lim if d > lim else s - lim if d < -lim else self._cmd_steer
+        self._servo = s
+        v = self._v
+        d = self._cmd_speed - v
+        lim = self._acc_dt if (v >= 0.0 and d > 0.0) or (v <= 0.0 and d < 0.0) else self._dec_dt
+        v = v + lim if d > lim else v - lim if d < -lim else self._cmd_speed
+        self._v = v
+        delta = (s + self._offset) * self.max_steering_angle
+        if delta != self._delta:
+            self._delta = delta
+            t = math.tan(delta)
+            beta = math.atan(0.5 * t)
+            self._k_beta = beta
+            self._k_w = math.cos(beta) * t / self.wheelbase
+        control = self.control
+        th = self.body.angle + self._k_beta
+        control.velocity = (v * math.cos(th), v * math.sin(th))
+        control.angular_velocity = v * self._k_w
+        self.space.step(PHYSICS_DT)
+        if self._touching:
+            self.contact_steps += 1
+        self.steps += 1
+        self.time = self.steps * PHYSICS_DT
+        self._travel += abs(v) * PHYSICS_DT
+        self.hall = h = int(self._travel * self._units)
+        self.distance = h / self._units
+        self.speed = v
+        if self.steps % self.sensor_every == 0:
+            self.sense()
+
+    def _begin(self, arbiter: Any, space: Any, data: Any) -> None:
+        if self._touching == 0:
+            self.collisions += 1
+        self._touching += 1
+
+    def _separate(self, arbiter: Any, space: Any, data: Any) -> None:
+        self._touching = max(0, self._touching - 1)
+
+    # -- sensors ------------------------------------------------------------------------------------
+    def sense(self) -> None:
+        """Take one ultrasonic sample of all three sensors (and the clearance to the walls)."""
+        x, y = self.body.position
+        th = self.body.angle
+        c, s = math.cos(th), math.sin(th)
+        ray = self._ray
+        max_r = self._max_r
+        cos_inc = self._cos_inc
+        rng = self.rng
+        for sensor in self.sensors:
+            ox = x + c * sensor.mx - s * sensor.my
+            oy = y + s * sensor.mx + c * sensor.my
+            best = max_r
+            for lx, ly in sensor.rays:
+                dx = c * lx - s * ly
+                dy = s * lx + c * ly
+                hit = ray(ox, oy, ox + dx * max_r, oy + dy * max_r)
+                if hit is None:
+                    continue
+                alpha, nx, ny = hit
+                if -(nx * dx + ny * dy) < cos_inc:
+                    continue  # too oblique: the echo is reflected away
+                r = alpha * max_r
+                if r < best:
+                    best = r
+            if best < max_r:
+                if self._sd0 or self._sd1:
+                    best += rng.gauss(0.0, self._sd0 + self._sd1 * best)
+                if self._outliers and rng.random() < self._outliers:
+                    best = rng.uniform(self._min_r, max_r)
+                if best < self._min_r:
+                    best = self._min_r
+                elif best > max_r:
+                    best = max_r
+                if self._res:
+                    best = round(best / self._res) * self._res
+            setattr(self, sensor.name, best)
+        self.sample += 1
+        nearest = self._nearest
+        clear = self.min_clearance
+        # The body can only be nearer than the clearance so far if its centre is within that plus its half diagonal.
+        if nearest(self.space, x, y, clear + self._half_diagonal) < clear + self._half_diagonal:
+            for px, py in self._outline:
+                d = nearest(self.space, x + c * px - s * py, y + s * px + c * py, 1.0)
+                if d < clear:
+                    clear = d
+            self.min_clearance = clear
+
+    def _make_queries(self) -> None:
+        """Ray and nearest-point queries on this car's space (fast path through pymunk's cffi binding)."""
+        space = self.space
+        flt = self._query
+        if _lib is not None:
+            seg_info = _ffi.new("cpSegmentQueryInfo *")
+            pt_info = _ffi.new("cpPointQueryInfo *")
+            null = _ffi.NULL
+            seg_first = _lib.cpSpaceSegmentQueryFirst
+            pt_nearest = _lib.cpSpacePointQueryNearest
+            cflt = _ffi.new("cpShapeFilter *", tuple(flt))[0]
+
+            def ray(ax: float, ay: float, bx: float, by: float, _sp: Any = space._space) -> Any:
+                if seg_first(_sp, (ax, ay), (bx, by), 0.0, cflt, seg_info) == null:
+                    return None
+                n = seg_info.normal
+                return seg_info.alpha, n.x, n.y
+
+            def nearest(sp: pymunk.Space, px: float, py: float, max_d: float) -> float:
+                if pt_nearest(sp._space, (px, py), max_d, cflt, pt_info) == null:
+                    return math.inf
+                return pt_info.distance
+        else:
+            def ray(ax: float, ay: float, bx: float, by: float) -> Any:
+                hit = space.segment_query_first((ax, ay), (bx, by), 0.0, flt)
+                if hit is None:
+                    return None
+                return hit.alpha, hit.normal.x, hit.normal.y
+
+            def nearest(sp: pymunk.Space, px: float, py: float, max_d: float) -> float:
+                info = sp.point_query_nearest((px, py), max_d, flt)
+                return math.inf if info is None else info.distance
+
+        self._ray = ray
+        self._nearest = nearest
+
+    def _outline_points(self) -> list[tuple[float, float]]:
+        hl, hw = self.length / 2, self.width / 2
+        return [(-hl, -hw), (hl, -hw), (hl, hw), (-hl, hw), (0.0, hw), (0.0, -hw)]
+
+    # -- ground truth for metrics -----------------------------------------------------------------------
+    def true_distance(self, side: str) -> float:
+        """Ground truth: distance from sensor ``side`` to the nearest nominal wall (door recesses left out)."""
+        if self._nominal is None:
+            has_doors = any(w.doors for w in self.world.walls)
+            self._nominal = build_space(self.world, doors=False) if has_doors else self.space
+        sensor = self._by_name[side]
+        x, y = self.body.position
+        th = self.body.angle
+        c, s = math.cos(th), math.sin(th)
+        return self._nearest(self._nominal, x + c * sensor.mx - s * sensor.my, y + s * sensor.mx + c * sensor.my, 5.0)

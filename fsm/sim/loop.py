@@ -1,0 +1,185 @@
+"""The closed loop: physics at 100 Hz, ultrasonic at 20 Hz (inside the car), the machine at its tick (80 Hz).
+
+Before machine tick ``k`` (at ``k * dt``) the physics is stepped up to that time, so the machine
+always sees sensors as they were at its tick and its commands act from then on. Everything runs on
+simulated time: the same world, machine and seed give a bit-identical run.
+
+The loop also measures what the summary reports: travelled distance, collisions, the clearance
+between body and walls, and the wall-distance error on straights (ground truth against the
+nominal walls, door recesses left out, sampled at the sensor rate while a wall-following state
+with a fixed distance (BasicFollowWall, FollowWall; not FollowWallRamp) has been active for
+``settle`` metres, 2 m by default, so the transients after corners and lane changes are not "straights").
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+from fsm.machine import Listener
+
+from .car import PHYSICS_DT, SimCar
+
+if TYPE_CHECKING:
+    from fsm.context import Context
+    from fsm.machine import Machine
+    from fsm.state import State
+    from fsm.transition import Transition
+
+
+class _Watch(Listener):
+    """Notices transitions, so the loop recomputes the active leaf and path only when they change."""
+
+    def __init__(self) -> None:
+        self.changed = True
+
+    def on_transition(self, ctx: Context, source: State | None, target: State, transition: Transition | None) -> None:
+        self.changed = True
+
+
+class Simulation:
+    """A machine driving a :class:`SimCar`; ``run`` advances both and collects metrics and a trajectory.
+
+    ``observers`` are called as ``observer(sim)`` every ``frame_period`` seconds of simulated time
+    (the video recorder); ``track_every`` machine ticks a trajectory point is recorded (the plot).
+    """
+
+    def __init__(self, machine: Machine, car: SimCar, *, settle: float = 2.0, track_every: int = 4) -> None:
+        self.machine = machine
+        self.car = car
+        self.settle = settle
+        self.track_every = track_every
+        self.observers: list[tuple[float, Callable[[Simulation], None]]] = []
+        self._next_frame: list[float] = []
+        self._watch = _Watch()
+        machine.add_listener(self._watch)
+        self.active_path = ""
+        self.leaf: State | None = None
+        self.states_seen: list[str] = []
+        #: Trajectory: (time, x, y, index into states_seen).
+        self.track: list[tuple[float, float, float, int]] = []
+        self._path_index = 0
+        self.wall_errors: list[float] = []
+        self._err_sample = -1
+        self._leaf_d0 = 0.0
+        self.wall_time = 0.0
+
+    def add_observer(self, period: float, observer: Callable[[Simulation], None]) -> None:
+        self.observers.append((period, observer))
+        self._next_frame.append(0.0)
+
+    @property
+    def now(self) -> float:
+        return self.machine.ctx.now
+
+    def _update_active(self) -> None:
+        m = self.machine
+        self.active_path = m.active_path
+        state = m.root.active
+        while state.regions:
+            state = state.regions[0].active
+        if state is not self.leaf:
+            self.leaf = state
+            self._leaf_d0 = self.car.distance
+        try:
+            self._path_index = self.states_seen.index(self.active_path)
+        except ValueError:
+            self._path_index = len(self.states_seen)
+            self.states_seen.append(self.active_path)
+        self._watch.changed = False
+
+    def run(self, duration: float | None = None, max_ticks: int | None = None,
+            progress: Callable[[Simulation], None] | None = None, progress_every: float = 0.5) -> str | None:
+        """Run until the machine finishes or a limit; returns the outcome (``None`` if unfinished).
+
+        Exceptions (a state that fails, Ctrl-C) propagate after the wall time is booked, so the
+        caller can still write what happened.
+        """
+        m = self.machine
+        car = self.car
+        ctx = m.ctx
+        t0 = time.perf_counter()
+        try:
+            if not m.started:
+                m.start()
+                self._update_active()
+                self._observe()
+            dt = m._dt
+            end = None
+            if duration is not None:
+                end = ctx.tick + int(round(duration / dt))
+            if max_ticks is not None:
+                end = ctx.tick + max_ticks if end is None else min(end, ctx.tick + max_ticks)
+            step = car.step
+            watch = self._watch
+            track = self.track
+            track_every = self.track_every
+            observers = bool(self.observers)
+            next_progress = progress_every
+            eps = 1e-9
+            while not m.finished and (end is None or ctx.tick < end):
+                target = (ctx.tick + 1) * dt - eps
+                while car.steps * PHYSICS_DT < target:
+                    step()
+                m.tick()
+                if watch.changed:
+                    self._update_active()
+                if car.sample != self._err_sample:
+                    self._err_sample = car.sample
+                    self._measure()
+                if ctx.tick % track_every == 0:
+                    x, y = car.body.position
+                    track.append((ctx.now, x, y, self._path_index))
+                if observers:
+                    self._observe()
+                if progress is not None and ctx.now >= next_progress:
+                    next_progress += progress_every
+                    progress(self)
+            if watch.changed:
+                self._update_active()
+        finally:
+            self.wall_time += time.perf_counter() - t0
+        return m.outcome
+
+    def _observe(self) -> None:
+        now = self.machine.ctx.now
+        for k, (period, observer) in enumerate(self.observers):
+            if now + 1e-9 >= self._next_frame[k]:
+                self._next_frame[k] += period
+                observer(self)
+
+    def _measure(self) -> None:
+        leaf = self.leaf
+        target = getattr(leaf, "wall_target", None)
+        if target is None or not getattr(leaf, "straight_metric", False):
+            return
+        if self.car.distance - self._leaf_d0 < self.settle:
+            return
+        true = self.car.true_distance(leaf.wall_side)  # type: ignore[union-attr]
+        if true > target + 0.5:
+            return  # no wall there (an opening): nothing to follow
+        self.wall_errors.append(true - target)
+
+    # -- results ----------------------------------------------------------------------------------------
+    def metrics(self) -> dict[str, Any]:
+        """What the summary adds for a car run."""
+        car = self.car
+        errs = self.wall_errors
+        rms = math.sqrt(sum(e * e for e in errs) / len(errs)) if errs else None
+        sim_time = self.machine.ctx.now
+        clearance = car.min_clearance if car.min_clearance != math.inf else None
+        return {
+            "distance_m": round(car.distance, 4),
+            "hall_units": car.hall,
+            "collisions": car.collisions,
+            "contact_time_s": round(car.contact_steps * PHYSICS_DT, 3),
+            "min_wall_distance_m": None if clearance is None else round(clearance, 4),
+            "wall_error_rms_m": None if rms is None else round(rms, 5),
+            "wall_error_max_m": round(max(abs(e) for e in errs), 5) if errs else None,
+            "wall_error_samples": len(errs),
+            "sim_time": round(sim_time, 6),
+            "wall_time": round(self.wall_time, 4),
+            "realtime_factor": round(sim_time / self.wall_time, 1) if self.wall_time > 0 else None,
+        }

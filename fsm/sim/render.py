@@ -1,0 +1,247 @@
+"""Top-down pictures of a run with OpenCV: the video (walls, car, ultrasonic cones, path, active state) and the plot.
+
+The frame has a slot for the camera view (top right): when ``car.camera()`` returns an image
+(the camera/ArUco issue), it is drawn there; today it returns ``None`` and the slot stays empty.
+Videos are written with OpenCV's ``VideoWriter`` (``mp4v`` for .mp4, ``MJPG`` for .avi) to a temporary
+file that replaces the target only when the video is complete.
+"""
+
+from __future__ import annotations
+
+import colorsys
+import math
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import cv2
+import numpy as np
+
+from fsm.errors import FsmError
+
+from .world import World, car_footprint, wall_segments
+
+if TYPE_CHECKING:
+    from .loop import Simulation
+
+FLOOR = (245, 245, 245)
+WALL = (60, 60, 60)
+OBSTACLE = (70, 90, 160)
+CAR = (200, 110, 30)
+CAR_EDGE = (120, 50, 0)
+RAY = (40, 170, 40)
+RAY_FAR = (170, 200, 170)
+TEXT = (20, 20, 20)
+PANEL = 56  # px of text under the map
+FONT = cv2.FONT_HERSHEY_SIMPLEX
+
+
+def palette(n: int) -> list[tuple[int, int, int]]:
+    """``n`` distinct, saturated BGR colours (golden-ratio hues)."""
+    out = []
+    for k in range(n):
+        h = (0.02 + k / max(n, 1) * 0.9 + (0.5 / max(n, 1) if k % 2 else 0.0)) % 1.0
+        r, g, b = colorsys.hsv_to_rgb(h, 0.9, 0.85 if k % 2 else 0.6)
+        out.append((int(b * 255), int(g * 255), int(r * 255)))
+    return out
+
+
+class TopDown:
+    """Maps world metres to image pixels and draws the static world once."""
+
+    def __init__(self, world: World, width: int = 1280, margin: float = 0.6) -> None:
+        self.world = world
+        x0, y0, x1, y1 = world.bounds()
+        self.x0, self.y0 = x0 - margin, y0 - margin
+        span_x, span_y = (x1 - x0) + 2 * margin, (y1 - y0) + 2 * margin
+        self.scale = (width - 1) / span_x
+        map_h = int(math.ceil(span_y * self.scale))
+        # Codecs want even sizes (mp4v: multiples of 2; keep to 16 for the widest compatibility).
+        self.width = width - width % 16
+        self.map_h = map_h
+        self.height = map_h + PANEL
+        self.height += (-self.height) % 16
+        self.background = self._draw_world()
+
+    def px(self, x: float, y: float) -> tuple[int, int]:
+        return int(round((x - self.x0) * self.scale)), int(round(self.map_h - (y - self.y0) * self.scale))
+
+    def _draw_world(self) -> np.ndarray:
+        img = np.full((self.height, self.width, 3), FLOOR, np.uint8)
+        img[self.map_h:] = (255, 255, 255)
+        thick = max(2, int(round(0.03 * self.scale)))
+        for ob in self.world.obstacles:
+            poly = ob.polygon()
+            if poly is not None:
+                cv2.fillPoly(img, [np.array([self.px(*p) for p in poly], np.int32)], OBSTACLE, cv2.LINE_AA)
+            elif ob.center is not None and ob.radius is not None:
+                cv2.circle(img, self.px(*ob.center), int(ob.radius * self.scale), OBSTACLE, -1, cv2.LINE_AA)
+        for wall in self.world.walls:
+            for a, b in wall_segments(wall):
+                cv2.line(img, self.px(*a), self.px(*b), WALL, thick, cv2.LINE_AA)
+        for gate in self.world.gates:
+            h = math.radians(gate.heading)
+            nx, ny = -math.sin(h), math.cos(h)
+            for side in (-1, 1):
+                cx = gate.center[0] + side * nx * gate.width / 2
+                cy = gate.center[1] + side * ny * gate.width / 2
+                cv2.circle(img, self.px(cx, cy), max(3, int(0.08 * self.scale)), (0, 0, 0), -1)
+        # scale bar: 1 m
+        x, y = 10, self.map_h - 10
+        cv2.line(img, (x, y), (x + int(self.scale), y), TEXT, 2)
+        cv2.putText(img, "1 m", (x, y - 6), FONT, 0.45, TEXT, 1, cv2.LINE_AA)
+        return img
+
+    def car_polygon(self, x: float, y: float, th: float) -> np.ndarray:
+        return np.array([self.px(*p) for p in car_footprint(self.world.car, x, y, th)], np.int32)
+
+
+class VideoRecorder:
+    """Renders a frame every ``period`` seconds of simulated time and writes the video (``close`` to finish)."""
+
+    def __init__(self, sim: Simulation, path: str | os.PathLike[str], *, speed: float = 4.0, fps: float = 25.0,
+                 width: int = 1280) -> None:
+        self.sim = sim
+        self.path = Path(path)
+        self.view = TopDown(sim.car.world, width)
+        self.trail = self.view.background.copy()
+        self.colors = palette(24)
+        self._last_px: tuple[int, int] | None = None
+        self.frames = 0
+        self.period = speed / fps
+        suffix = self.path.suffix.lower()
+        fourcc = {".avi": "MJPG", ".mp4": "mp4v", ".m4v": "mp4v", ".mov": "mp4v"}.get(suffix)
+        if fourcc is None:
+            raise FsmError(f"--video {self.path}: unsupported format '{suffix}'; use .mp4 or .avi")
+        directory = self.path.parent if str(self.path.parent) else Path(".")
+        self._tmp = directory / f".{self.path.stem}.part{suffix}"
+        self.writer = cv2.VideoWriter(str(self._tmp), cv2.VideoWriter_fourcc(*fourcc), fps,
+                                      (self.view.width, self.view.height))
+        if not self.writer.isOpened():
+            raise FsmError(f"--video {self.path}: OpenCV cannot write {fourcc} video here")
+        sim.add_observer(self.period, self)
+
+    def __call__(self, sim: Simulation) -> None:
+        self.writer.write(self.render(sim))
+        self.frames += 1
+
+    def render(self, sim: Simulation) -> np.ndarray:
+        view = self.view
+        car = sim.car
+        x, y, th = car.pose()
+        p = view.px(x, y)
+        color = self.colors[sim._path_index % len(self.colors)]
+        if self._last_px is not None:
+            cv2.line(self.trail, self._last_px, p, color, 2, cv2.LINE_AA)
+        self._last_px = p
+        img = self.trail.copy()
+        c, s = math.cos(th), math.sin(th)
+        us = car.params.ultrasonic
+        half = math.radians(us.cone) / 2
+        for sensor in car.sensors:
+            reading = getattr(car, sensor.name)
+            ox, oy = x + c * sensor.mx - s * sensor.my, y + s * sensor.mx + c * sensor.my
+            look = th + math.atan2(sensor.rays[0][1], sensor.rays[0][0])
+            far = reading >= us.max_range - 1e-9
+            pts = [view.px(ox, oy)]
+            for k in range(7):
+                a = look - half + 2 * half * k / 6
+                pts.append(view.px(ox + reading * math.cos(a), oy + reading * math.sin(a)))
+            overlay_color = RAY_FAR if far else RAY
+            cv2.polylines(img, [np.array(pts, np.int32)], True, overlay_color, 1, cv2.LINE_AA)
+            if not far:
+                cv2.line(img, pts[0], pts[4], overlay_color, 1, cv2.LINE_AA)
+        poly = view.car_polygon(x, y, th)
+        cv2.fillPoly(img, [poly], CAR, cv2.LINE_AA)
+        cv2.polylines(img, [poly], True, CAR_EDGE, 1, cv2.LINE_AA)
+        nose = view.px(x + c * car.length / 2, y + s * car.length / 2)
+        cv2.circle(img, nose, 3, (0, 0, 200), -1, cv2.LINE_AA)
+        self._camera_inset(img, car)
+        self._panel(img, sim)
+        return img
+
+    def _camera_inset(self, img: np.ndarray, car: Any) -> None:
+        """The camera view, top right, when the car has a camera (an image from ``car.camera()``)."""
+        frame = car.camera()
+        if not isinstance(frame, np.ndarray):
+            return
+        h = max(60, self.view.map_h // 3)
+        w = int(frame.shape[1] * h / frame.shape[0])
+        inset = cv2.resize(frame, (w, h))
+        if inset.ndim == 2:
+            inset = cv2.cvtColor(inset, cv2.COLOR_GRAY2BGR)
+        img[8:8 + h, self.view.width - w - 8:self.view.width - 8] = inset
+
+    def _panel(self, img: np.ndarray, sim: Simulation) -> None:
+        car = sim.car
+        y0 = self.view.map_h
+        line1 = f"t = {sim.now:7.2f} s   state: {sim.active_path}"
+        line2 = (f"speed {car.speed:4.2f} m/s   steering {car.steering:+.2f}   distance {car.distance:7.2f} m   "
+                 f"L {car.left:4.2f}  F {car.front:4.2f}  R {car.right:4.2f} m   collisions {car.collisions}")
+        cv2.putText(img, line1, (10, y0 + 22), FONT, 0.6, TEXT, 1, cv2.LINE_AA)
+        cv2.putText(img, line2, (10, y0 + 46), FONT, 0.5, TEXT, 1, cv2.LINE_AA)
+
+    def close(self) -> None:
+        """Finish the file: render the last state, release the writer, move the file into place."""
+        if self.writer is None:
+            return
+        self.writer.write(self.render(self.sim))
+        self.frames += 1
+        self.writer.release()
+        self.writer = None
+        os.replace(self._tmp, self.path)
+
+    def discard(self) -> None:
+        if self.writer is not None:
+            self.writer.release()
+            self.writer = None
+        if self._tmp.exists():
+            self._tmp.unlink()
+
+
+def plot(sim: Simulation, path: str | os.PathLike[str], width: int = 1600) -> None:
+    """A PNG of the trajectory coloured by the active state (leaf id), with a legend."""
+    view = TopDown(sim.car.world, width)
+    img = view.background.copy()
+    leaf_names: list[str] = []
+    index_of: dict[int, int] = {}
+    for k, path_k in enumerate(sim.states_seen):
+        leaf = path_k.rsplit("/", 1)[-1]
+        if leaf not in leaf_names:
+            leaf_names.append(leaf)
+        index_of[k] = leaf_names.index(leaf)
+    colors = palette(max(1, len(leaf_names)))
+    prev = None
+    for _, x, y, k in sim.track:
+        p = view.px(x, y)
+        if prev is not None:
+            cv2.line(img, prev, p, colors[index_of.get(k, 0)], 3, cv2.LINE_AA)
+        prev = p
+    s = sim.car.world.start
+    cv2.polylines(img, [view.car_polygon(s.x, s.y, math.radians(s.heading))], True, CAR_EDGE, 1, cv2.LINE_AA)
+    x, y, th = sim.car.pose()
+    cv2.fillPoly(img, [view.car_polygon(x, y, th)], CAR, cv2.LINE_AA)
+    # legend under the map, in as many rows as needed
+    box_w = 34 + max((cv2.getTextSize(n, FONT, 0.5, 1)[0][0] for n in leaf_names), default=40)
+    per_row = max(1, (view.width - 20) // box_w)
+    rows = (len(leaf_names) + per_row - 1) // per_row
+    legend_h = 20 * rows + 12
+    img = np.vstack([img[:view.map_h], np.full((legend_h, view.width, 3), 255, np.uint8), img[view.map_h:]])
+    for i, name in enumerate(leaf_names):
+        row, col = divmod(i, per_row)
+        px, py = 10 + col * box_w, view.map_h + 18 + row * 20
+        cv2.rectangle(img, (px, py - 10), (px + 14, py + 2), colors[i], -1)
+        cv2.putText(img, name, (px + 20, py), FONT, 0.5, TEXT, 1, cv2.LINE_AA)
+    m = sim.metrics()
+    text = (f"{sim.machine.name or 'machine'}: outcome {sim.machine.outcome}, {m['distance_m']:.1f} m in "
+            f"{m['sim_time']:.1f} s, collisions {m['collisions']}")
+    if m["wall_error_rms_m"] is not None:
+        text += f", wall error on straights {m['wall_error_rms_m'] * 100:.1f} cm RMS"
+    cv2.putText(img, text, (10, view.map_h + legend_h + 26), FONT, 0.6, TEXT, 1, cv2.LINE_AA)
+    ok, data = cv2.imencode(".png", img)
+    if not ok:  # pragma: no cover
+        raise FsmError(f"cannot encode {path}")
+    target = Path(path)
+    tmp = target.with_name(f".{target.name}.part")
+    tmp.write_bytes(data.tobytes())
+    os.replace(tmp, target)

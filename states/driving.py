@@ -1,0 +1,338 @@
+"""The TRAL driving states: wall following (PD(I), door-frame filter, ramp), ApproachPoint, Motor, Stop.
+
+They see the car only through :class:`fsm.sim.io.CarIO` (``ctx.car``), so they run on the simulator
+and on any bridge to a real car. Steering is normalised to [-1, 1], positive = left; speeds in m/s;
+distances in metres (the hall sensor's 1500 units per 1.60 m are converted by the car).
+
+Default gains (p=2, i=0.2, d=1.5; error in metres, derivative per second) are tuned for the simulated
+TRAL car at 0.4-0.9 m from the wall and 0.5-1.2 m/s: with the car's lateral dynamics
+(e'' = -(v^2 * max_angle / wheelbase) * (p*e + d*e')) they give a damping ratio of about 0.7 independent
+of speed; larger d amplifies the ultrasonic noise (the law differentiates 20 Hz samples), smaller d
+lets the car swing after door frames and corners. The small i removes the steady offset the steering
+servo's straight-ahead error would leave (offset / p, 1.5 cm). The report's gains (p=12, d=30) were in
+the real car's units and are not comparable.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, ClassVar, Literal
+
+from pydantic import Field, model_validator
+
+from fsm.params import StateParams
+from fsm.registry import register_state
+from fsm.state import State
+
+if TYPE_CHECKING:
+    from fsm.context import Context
+
+
+#: Slack for comparing travelled distances (sums of floats), metres.
+EPS = 1e-9
+
+
+def _clamp(x: float, lo: float = -1.0, hi: float = 1.0) -> float:
+    return lo if x < lo else hi if x > hi else x
+
+
+class CarState(State):
+    """Base of the states that drive the car: they need ``ctx.car`` (``fsmctl run`` creates one)."""
+
+    __slots__ = ()
+    needs_car = True
+
+
+# -- wall following -------------------------------------------------------------------------------------
+class WallParams(StateParams):
+    side: Literal["left", "right"] = Field(default="right", description="Which wall to follow.")
+    distance: float = Field(default=0.4, gt=0, le=3.0,
+                            description="Wall distance to keep, m (the side ultrasonic sensor's reading).")
+    speed: float = Field(default=0.8, ge=-3.0, le=3.0, description="Speed, m/s.")
+    p: float = Field(default=2.0, ge=0, le=1000, description="Proportional gain, steering per metre of error.")
+    i: float = Field(default=0.2, ge=0, le=1000, description="Integral gain, steering per metre-second.")
+    d: float = Field(default=1.5, ge=0, le=1000, description="Derivative gain, steering per metre/second.")
+
+
+@register_state
+class BasicFollowWall(CarState):
+    """Keeps `distance` to the `side` wall with the report's PD(I) law y = p*e + esum*i*dt + d*(e - eold)/dt.
+
+    ``e`` is the side sensor's reading minus the distance to keep. The law is evaluated whenever a
+    new ultrasonic sample arrives (``dt`` = time since the previous one) and its output is held in
+    between, so the derivative sees real changes, not the sensor's sample-and-hold steps.
+    """
+
+    __slots__ = ("target", "wall_target", "wall_side", "_sign", "_esum", "_eold", "_sample", "_t", "_y",
+                 "_p", "_i", "_d", "_speed", "_sensor")
+    Params = WallParams
+    #: Samples of this state count towards the wall-distance error on straights (the sim's metric).
+    straight_metric: ClassVar[bool] = True
+
+    def __init__(self, id: str, params: StateParams | None = None) -> None:
+        super().__init__(id, params)
+        p = self.params
+        self.target: float = p.distance  # type: ignore[attr-defined]
+        self.wall_target: float | None = None
+        self.wall_side: str = p.side  # type: ignore[attr-defined]
+        self._sign = -1.0 if p.side == "right" else 1.0  # type: ignore[attr-defined]
+        self._sensor = p.side  # type: ignore[attr-defined]
+        self._p, self._i, self._d = p.p, p.i, p.d  # type: ignore[attr-defined]
+        self._speed = p.speed  # type: ignore[attr-defined]
+        self._esum = 0.0
+        self._eold = 0.0
+        self._sample = -1
+        self._t = 0.0
+        self._y = 0.0
+
+    def on_enter(self, ctx: Context) -> None:
+        car = ctx.car
+        self._esum = 0.0
+        self._eold = self.measure(ctx, getattr(car, self._sensor)) - self.target
+        self._sample = car.sample
+        self._t = ctx.now
+        self._y = 0.0
+        self.wall_target = self.target
+        car.set_speed(self._speed)
+
+    def measure(self, ctx: Context, reading: float) -> float:
+        """The wall distance the controller uses for a new reading (``FollowWall`` filters door frames)."""
+        return reading
+
+    def tick(self, ctx: Context) -> None:
+        car = ctx.car
+        if car.sample != self._sample:
+            self._sample = car.sample
+            dt = ctx.now - self._t
+            self._t = ctx.now
+            e = self.measure(ctx, getattr(car, self._sensor)) - self.target
+            if dt > 0:
+                self._esum += e
+                self._y = self._p * e + self._esum * self._i * dt + self._d * (e - self._eold) / dt
+            self._eold = e
+            car.set_steering(_clamp(self._sign * self._y))
+        car.set_speed(self._speed)
+
+    def on_exit(self, ctx: Context) -> None:
+        self.wall_target = None
+
+
+#: A jump larger than this is no door frame: FollowWall takes it at once, m.
+MAX_OFFSET = 0.3
+
+
+class FollowWallParams(WallParams):
+    jump: float = Field(default=0.02, gt=0, le=1.0,
+                        description="Ignore readings that jump more than this from the last one used, m "
+                                    "(door frames).")
+    hold: float = Field(default=1.5, gt=0, le=20.0,
+                        description="Accept a jump after ignoring it for this travelled distance, m "
+                                    "(so a real change of the wall is followed).")
+
+
+@register_state
+class FollowWall(BasicFollowWall):
+    """BasicFollowWall that ignores ultrasonic jumps larger than `jump` (2 cm), so door frames do not make it swing.
+
+    A jump between two samples is taken out of the signal (remembered as an offset) instead of
+    freezing it, so the controller keeps following the wall's small changes while it passes a door
+    frame; the jump back at the frame's end cancels the offset. After `hold` metres with an offset
+    the new level is accepted (the wall really moved).
+    """
+
+    __slots__ = ("_last", "_offset", "_ignored_at", "_jump", "_hold")
+    Params = FollowWallParams
+
+    def __init__(self, id: str, params: StateParams | None = None) -> None:
+        super().__init__(id, params)
+        self._jump = self.params.jump  # type: ignore[attr-defined]
+        self._hold = self.params.hold  # type: ignore[attr-defined]
+        self._last = 0.0
+        self._offset = 0.0
+        self._ignored_at = 0.0
+
+    def on_enter(self, ctx: Context) -> None:
+        self._last = getattr(ctx.car, self._sensor)
+        self._offset = 0.0
+        super().on_enter(ctx)
+
+    def measure(self, ctx: Context, reading: float) -> float:
+        value = reading - self._offset
+        step = value - self._last
+        if step > self._jump or step < -self._jump:
+            if self._offset == 0.0:
+                self._ignored_at = ctx.car.distance
+            self._offset += step
+            if -self._jump < self._offset < self._jump or not -MAX_OFFSET < self._offset < MAX_OFFSET:
+                # The jump back: the door frame (or an outlier) is over; or too big for a door: take it.
+                self._offset = 0.0
+            value = reading - self._offset
+        elif self._offset != 0.0 and ctx.car.distance - self._ignored_at >= self._hold - EPS:
+            self._offset = 0.0  # held long enough: the wall really moved
+            value = reading
+        self._last = value
+        return value
+
+
+class RampParams(WallParams):
+    distance: float = Field(gt=0, le=3.0, description="Wall distance at the end of the ramp, m.")
+    length: float = Field(gt=0, le=100.0, description="Travelled distance over which the wall distance changes, m.")
+    start: float | None = Field(default=None, gt=0, le=3.0,
+                                description="Wall distance at the start, m (default: the reading on entry).")
+
+
+@register_state
+class FollowWallRamp(BasicFollowWall):
+    """Follows the wall at a distance changing linearly from the current one to `distance` over `length` metres travelled; finishes at the end of the ramp (and keeps following at `distance`)."""
+
+    __slots__ = ("_from", "_d0", "_length", "_end")
+    Params = RampParams
+    can_finish = True
+    straight_metric = False
+
+    def __init__(self, id: str, params: StateParams | None = None) -> None:
+        super().__init__(id, params)
+        self._end = self.params.distance  # type: ignore[attr-defined]
+        self._length = self.params.length  # type: ignore[attr-defined]
+        self._from = self._end
+        self._d0 = 0.0
+
+    def on_enter(self, ctx: Context) -> None:
+        car = ctx.car
+        start = self.params.start  # type: ignore[attr-defined]
+        self._from = start if start is not None else min(getattr(car, self._sensor), 3.0)
+        self._d0 = car.distance
+        self.target = self._from
+        super().on_enter(ctx)
+
+    def tick(self, ctx: Context) -> None:
+        progress = (ctx.car.distance - self._d0) / self._length
+        if progress >= 1.0 - EPS:
+            progress = 1.0
+            if not self.finished:
+                self.finish()
+        self.target = self._from + (self._end - self._from) * progress
+        self.wall_target = self.target
+        super().tick(ctx)
+
+
+# -- driving to a point, fixed commands, stopping ------------------------------------------------------------
+class ApproachParams(StateParams):
+    x: float = Field(ge=-20, le=20, description="Target ahead of the car (at entry), m.")
+    y: float = Field(default=0.0, ge=-20, le=20, description="Target to the left of the car (at entry), m.")
+    speed: float = Field(default=0.5, gt=0, le=3.0, description="Speed, m/s.")
+    tolerance: float = Field(default=0.1, gt=0, le=5.0, description="Arrived when this close, m.")
+
+    @model_validator(mode="after")
+    def _not_here(self) -> ApproachParams:
+        if math.hypot(self.x, self.y) <= self.tolerance:
+            raise ValueError(f"the point ({self.x}, {self.y}) is within the tolerance {self.tolerance} m of the "
+                             "car: the state would finish at once")
+        return self
+
+
+@register_state
+class ApproachPoint(CarState):
+    """Drives to a point given relative to the car when the state is entered (pure pursuit on odometry); finishes on arrival, or with outcome `missed` when the point falls behind within reach of a turn."""
+
+    __slots__ = ("_tx", "_ty")
+    Params = ApproachParams
+    can_finish = True
+    outcomes = ("succeeded", "missed")
+
+    def __init__(self, id: str, params: StateParams | None = None) -> None:
+        super().__init__(id, params)
+        self._tx = self._ty = 0.0
+
+    def on_enter(self, ctx: Context) -> None:
+        x, y, th = ctx.car.pose()
+        p = self.params
+        c, s = math.cos(th), math.sin(th)
+        self._tx = x + c * p.x - s * p.y  # type: ignore[attr-defined]
+        self._ty = y + s * p.x + c * p.y  # type: ignore[attr-defined]
+
+    def tick(self, ctx: Context) -> None:
+        car = ctx.car
+        p = self.params
+        x, y, th = car.pose()
+        dx, dy = self._tx - x, self._ty - y
+        dist = math.hypot(dx, dy)
+        if dist <= p.tolerance:  # type: ignore[attr-defined]
+            car.set_speed(0.0)
+            self.finish()
+            return
+        c, s = math.cos(th), math.sin(th)
+        fx, fy = c * dx + s * dy, -s * dx + c * dy  # the point in the car frame
+        turn_radius = car.wheelbase / math.tan(car.max_steering_angle)
+        if fx < 0 and dist < 2 * turn_radius:
+            car.set_speed(0.0)
+            self.finish("missed")
+            return
+        alpha = math.atan2(fy, fx)
+        delta = math.atan2(2.0 * car.wheelbase * math.sin(alpha), dist)  # pure pursuit, look-ahead = dist
+        car.set_steering(_clamp(delta / car.max_steering_angle))
+        car.set_speed(p.speed)  # type: ignore[attr-defined]
+
+
+class MotorParams(StateParams):
+    speed: float = Field(ge=-3.0, le=3.0, description="Speed, m/s (negative: backwards); not 0.")
+    steering: float = Field(default=0.0, ge=-1.0, le=1.0, description="Steering, -1 (right) to 1 (left).")
+    distance: float = Field(gt=0, le=1000.0, description="Travelled distance after which the state finishes, m.")
+
+    @model_validator(mode="after")
+    def _moves(self) -> MotorParams:
+        if self.speed == 0:
+            raise ValueError("speed 0 would never cover the distance; use Stop to stand still")
+        return self
+
+
+@register_state
+class Motor(CarState):
+    """Drives with a fixed speed and steering; finishes after `distance` metres (hall sensor)."""
+
+    __slots__ = ("_d0",)
+    Params = MotorParams
+    can_finish = True
+
+    def __init__(self, id: str, params: StateParams | None = None) -> None:
+        super().__init__(id, params)
+        self._d0 = 0.0
+
+    def on_enter(self, ctx: Context) -> None:
+        car = ctx.car
+        self._d0 = car.distance
+        car.set_steering(self.params.steering)  # type: ignore[attr-defined]
+        car.set_speed(self.params.speed)  # type: ignore[attr-defined]
+
+    def tick(self, ctx: Context) -> None:
+        car = ctx.car
+        if not self.finished and car.distance - self._d0 >= self.params.distance - EPS:  # type: ignore[attr-defined]
+            self.finish()
+        car.set_steering(self.params.steering)  # type: ignore[attr-defined]
+        car.set_speed(self.params.speed)  # type: ignore[attr-defined]
+
+
+class StopParams(StateParams):
+    steering: float | None = Field(default=None, ge=-1.0, le=1.0,
+                                   description="Steering while stopping (default: keep the last command).")
+    still: float = Field(default=0.01, gt=0, le=1.0, description="Below this speed the car stands still, m/s.")
+
+
+@register_state
+class Stop(CarState):
+    """Commands speed 0; finishes when the car stands still."""
+
+    __slots__ = ()
+    Params = StopParams
+    can_finish = True
+
+    def on_enter(self, ctx: Context) -> None:
+        ctx.car.set_speed(0.0)
+        if self.params.steering is not None:  # type: ignore[attr-defined]
+            ctx.car.set_steering(self.params.steering)  # type: ignore[attr-defined]
+
+    def tick(self, ctx: Context) -> None:
+        car = ctx.car
+        car.set_speed(0.0)
+        if not self.finished and abs(car.speed) < self.params.still:  # type: ignore[attr-defined]
+            self.finish()

@@ -1,0 +1,80 @@
+"""Transitions on the car's sensors: ``Distance`` (hall sensor) and ``SensorLevel`` (ultrasonic thresholds)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Literal
+
+from pydantic import Field, model_validator
+
+from fsm.params import TransitionParams
+from fsm.registry import register_transition
+from fsm.transition import Transition
+
+if TYPE_CHECKING:
+    from fsm.context import Context
+
+
+@register_transition
+class Distance(Transition):
+    """Fires when the car has travelled `distance` metres (hall sensor) since the source state was entered."""
+
+    __slots__ = ("distance", "_d0")
+    needs_car = True
+
+    class Params(TransitionParams):
+        distance: float = Field(gt=0, le=10000, description="Travelled distance since the source was entered, m.")
+
+    def __init__(self, params: TransitionParams, source, target, index: int = 0) -> None:  # type: ignore[no-untyped-def]
+        super().__init__(params, source, target, index)
+        self.distance = params.distance - 1e-9  # type: ignore[attr-defined]  # slack for sums of floats
+        self._d0 = 0.0
+
+    def on_source_enter(self, ctx: Context) -> None:
+        self._d0 = ctx.car.distance
+
+    def check(self, ctx: Context) -> bool:
+        return ctx.car.distance - self._d0 >= self.distance
+
+
+@register_transition
+class SensorLevel(Transition):
+    """Fires when ultrasonic sensor `sensor` (left, right, front) reads `below` or `above` a threshold, for `samples` samples in a row."""
+
+    __slots__ = ("sensor", "below", "above", "samples", "_count", "_seen")
+    needs_car = True
+
+    class Params(TransitionParams):
+        sensor: Literal["left", "right", "front"] = Field(description="The ultrasonic sensor.")
+        below: float | None = Field(default=None, gt=0, le=10, description="Fire when the reading is below this, m.")
+        above: float | None = Field(default=None, gt=0, le=10, description="Fire when the reading is above this, m.")
+        samples: int = Field(default=1, ge=1, le=100,
+                             description="Consecutive samples the condition must hold (filters outliers).")
+
+        @model_validator(mode="after")
+        def _one_threshold(self) -> "SensorLevel.Params":
+            if (self.below is None) == (self.above is None):
+                raise ValueError("give exactly one of 'below' and 'above'")
+            return self
+
+    def __init__(self, params: TransitionParams, source, target, index: int = 0) -> None:  # type: ignore[no-untyped-def]
+        super().__init__(params, source, target, index)
+        self.sensor = params.sensor  # type: ignore[attr-defined]
+        self.below = params.below  # type: ignore[attr-defined]
+        self.above = params.above  # type: ignore[attr-defined]
+        self.samples = params.samples  # type: ignore[attr-defined]
+        self._count = 0
+        self._seen = -1
+
+    def on_source_enter(self, ctx: Context) -> None:
+        self._count = 0
+        self._seen = -1
+
+    def check(self, ctx: Context) -> bool:
+        car = ctx.car
+        sample = car.sample
+        if sample != self._seen:
+            self._seen = sample
+            value = getattr(car, self.sensor)
+            hit = value < self.below if self.below is not None else value > self.above  # type: ignore[operator]
+            self._count = self._count + 1 if hit else 0
+        return self._count >= self.samples

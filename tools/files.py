@@ -14,6 +14,12 @@ def write_atomic(path: str | os.PathLike[str], data: str | bytes) -> None:
         fh.write(data)
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 class AtomicFile:
     """``with AtomicFile(path) as fh:`` writes to a temporary file; it replaces ``path`` only on success."""
 
@@ -26,6 +32,7 @@ class AtomicFile:
     def __enter__(self) -> IO[Any]:
         directory = self.path.parent if str(self.path.parent) else Path(".")
         fd, self._tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".tmp", dir=directory)
+        os.chmod(self._tmp, 0o666 & ~_umask())  # mkstemp makes 0600; a written file should look like any other
         kwargs = {} if "b" in self.mode else {"encoding": "utf-8", "newline": "\n"}
         self._fh = os.fdopen(fd, self.mode, **kwargs)
         return self._fh

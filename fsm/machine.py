@@ -203,9 +203,14 @@ class Machine:
         return self.states_by_path[full]
 
     # -- pause / resume -------------------------------------------------------------------------
-    def pause(self, path: str) -> None:
-        """Suspend the active state at ``path`` and its subtree: not ticked, clocks frozen, no exit/enter."""
-        state = self.state(path)
+    def pause(self, path: str | None = None) -> None:
+        """Suspend the active state at ``path`` and its subtree: not ticked, clocks frozen, no exit/enter.
+
+        Without a path the whole machine pauses (its top-level active state); the clock goes on.
+        """
+        if not self.started:
+            self.start()
+        state = self.root.active if not path else self.state(path)
         if not state.active:
             raise ValueError(f"cannot pause '{path}': it is not active")
         if state.paused:
@@ -214,9 +219,9 @@ class Machine:
         state.paused_since = self.ctx.now
         state._prepare()
 
-    def resume(self, path: str) -> None:
-        """Continue a paused state exactly where it was; its time in state excludes the pause."""
-        state = self.state(path)
+    def resume(self, path: str | None = None) -> None:
+        """Continue a paused state (the whole machine without a path) exactly where it was."""
+        state = self.root.active if not path else self.state(path)
         if not state.paused:
             return
         pause = self.ctx.now - state.paused_since

@@ -299,6 +299,17 @@ def test_paused_state_left_by_outer_transition_is_not_paused_on_reentry(registry
     assert "tick a/x" in LOG
 
 
+def test_pause_without_path_pauses_the_whole_machine(registry):
+    m = fsm.load(doc("a", [probe("a"), probe("b")], [tr("Timeout", "a", "b", seconds=0.1)]), registry=registry)
+    m.run(max_ticks=4)
+    m.pause()
+    m.run(max_ticks=50)
+    assert m.active_path == "a" and m.state("a").time_in_state(m.ctx) == pytest.approx(0.05)
+    m.resume()
+    m.run(max_ticks=4)
+    assert m.active_path == "b"
+
+
 def test_pause_of_inactive_state_is_refused(registry):
     m = fsm.load(doc("a", [probe("a"), probe("b")], [tr("Always", "a", "b")]), registry=registry)
     m.start()

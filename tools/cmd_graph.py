@@ -38,7 +38,10 @@ def cmd_graph(args: argparse.Namespace) -> int:
         if errors:
             raise DiagramError(errors)
         doc, _source = reader_for(src)(src)
-    text = {"mermaid": graph.mermaid, "dot": graph.dot, "svg": graph.svg}[args.format](doc)
+    if args.format == "svg":
+        text = graph.svg(doc, base=src)  # includes are drawn, read relative to the file
+    else:
+        text = {"mermaid": graph.mermaid, "dot": graph.dot}[args.format](doc)
     if args.output == "-":
         sys.stdout.write(text)
     else:

@@ -2,12 +2,19 @@
 
 Used by ``fsmctl export`` (UMLet) and ``fsmctl graph --format svg``. Coordinates are UMLet pixels at zoom 10.
 Boxes of one level never come closer than ``GAP`` so that arrow ends attach to exactly one box again.
+
+A composite box holds *parts*: the one sub-machine of an ``FSMState``, or one compartment per region of a
+``Parallel`` state. By default only inline ``FSMState`` machines are expanded (what ``export`` writes); the
+drawing passes an ``expand`` hook that also opens includes and regions (see :class:`Expansion`), and
+``drawing=True``, which makes room for such content in a stored layout by moving what lies right of and below
+the grown box (the diagram's arrangement is kept), and bends parallel arrows apart.
 """
 
 from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -15,6 +22,40 @@ GRID = 10
 GAP_X, GAP_Y = 80, 80
 PAD, PAD_TOP = 30, 50
 MARKER = 20
+#: Height of a composite's title band; with a note line (an include's file name) it is ``HEAD_NOTE``.
+HEAD, HEAD_NOTE = 26, 40
+#: Height of a region's name band at the top of its compartment.
+REGION_HEAD = 24
+
+
+@dataclass(eq=False)
+class Part:
+    """One compartment of a composite box: its content ``level`` and (for a region) its ``name``."""
+    level: LevelLayout
+    name: str | None = None
+    #: The least width the compartment needs (for its name).
+    min_w: float = 0
+    x: float = 0
+    y: float = 0
+    w: float = 0
+    h: float = 0
+
+
+@dataclass
+class Expansion:
+    """What a composite state shows inside its box.
+
+    ``parts``: ``(region name or None, machine document, expand hook for that machine's states or None for the
+    same hook)``; ``note``: a line under the title (an include's file name, or why it could not be read);
+    ``foreign``: the parts' coordinates are not this diagram's (an included file, a region), so they are
+    moved into the box rather than kept where they are; ``error``: the note says what is wrong;
+    ``min_widths``: the least width of each part's compartment (for its name).
+    """
+    parts: list[tuple[str | None, dict[str, Any], Callable[..., Expansion | None] | None]]
+    note: str | None = None
+    foreign: bool = False
+    error: bool = False
+    min_widths: list[float] = field(default_factory=list)
 
 
 @dataclass(eq=False)
@@ -24,12 +65,44 @@ class Node:
     y: float = 0
     w: float = 120
     h: float = 40
-    sub: LevelLayout | None = None
+    parts: list[Part] = field(default_factory=list)
+    note: str | None = None
+    note_error: bool = False
+    foreign: bool = False
     placed: bool = False
+    #: The stored box, before room was made for grown composites (where stored arrow ends are attached).
+    stored: tuple[float, float, float, float] | None = None
 
     @property
     def id(self) -> str:
         return str(self.doc.get("id", ""))
+
+    @property
+    def sub(self) -> LevelLayout | None:
+        """The content of a plain composite (one unnamed part), else None."""
+        if len(self.parts) == 1 and self.parts[0].name is None:
+            return self.parts[0].level
+        return None
+
+    @property
+    def composite(self) -> bool:
+        return bool(self.parts) or self.note is not None
+
+    @property
+    def regions(self) -> bool:
+        return any(p.name is not None for p in self.parts)
+
+    @property
+    def head(self) -> float:
+        return HEAD_NOTE if self.note is not None else HEAD
+
+    def move(self, dx: float, dy: float) -> None:
+        self.x += dx
+        self.y += dy
+        for p in self.parts:
+            p.x += dx
+            p.y += dy
+            p.level.shift(dx, dy)
 
 
 @dataclass(eq=False)
@@ -49,8 +122,12 @@ class LevelLayout:
     marker_points: list[list[float]] = field(default_factory=list)
     initial: Node | None = None
     marker_size: tuple[float, float] = (MARKER, MARKER)
+    #: Space inserted for grown composites (drawing only): ``(x line, dx, y line, dy)``, in order.
+    inserted: list[tuple[float, float, float, float]] = field(default_factory=list)
+    #: Room kept for arrow labels (drawing only): ``[x, y, w, h]`` beside each arrow's middle.
+    label_room: list[list[float]] = field(default_factory=list)
 
-    def bbox(self) -> tuple[float, float, float, float]:
+    def bbox(self, labels: bool = True) -> tuple[float, float, float, float]:
         xs0 = [n.x for n in self.nodes] + ([self.marker[0]] if self.marker else [])
         ys0 = [n.y for n in self.nodes] + ([self.marker[1]] if self.marker else [])
         xs1 = [n.x + n.w for n in self.nodes] + ([self.marker[0] + MARKER] if self.marker else [])
@@ -61,21 +138,24 @@ class LevelLayout:
                 xs1.append(px + 10)
                 ys0.append(py)
                 ys1.append(py)
+        for x, y, w, h in self.label_room if labels else []:
+            xs0.append(x)
+            xs1.append(x + w)
+            ys0.append(y)
+            ys1.append(y + h)
         if not xs0:
             return 0, 0, 0, 0
         return min(xs0), min(ys0), max(xs1), max(ys1)
 
     def shift(self, dx: float, dy: float) -> None:
         for n in self.nodes:
-            n.x += dx
-            n.y += dy
-            if n.sub is not None:
-                n.sub.shift(dx, dy)
+            n.move(dx, dy)
         for e in self.edges:
             e.points = [[px + dx, py + dy] for px, py in e.points]
         if self.marker:
             self.marker = (self.marker[0] + dx, self.marker[1] + dy)
         self.marker_points = [[px + dx, py + dy] for px, py in self.marker_points]
+        self.label_room = [[x + dx, y + dy, w, h] for x, y, w, h in self.label_room]
 
 
 def _snap(v: float) -> float:
@@ -94,58 +174,143 @@ def inline_machine(state: dict[str, Any]) -> dict[str, Any] | None:
     return None
 
 
-def lay_out(machine: dict[str, Any], label_lines: Any) -> LevelLayout:
-    """Positions for every state, initial marker and transition of ``machine`` and its inline sub-machines.
+def inline_only(state: dict[str, Any]) -> Expansion | None:
+    """The default expansion: an inline ``FSMState`` machine, in this diagram's coordinates."""
+    m = inline_machine(state)
+    return Expansion([(None, m, None)]) if m is not None else None
 
-    ``label_lines(state)`` gives the text lines a state box shows (for its size).
+
+def lay_out(machine: dict[str, Any], label_lines: Any, *, expand: Callable[..., Expansion | None] | None = None,
+            size: Callable[[Node], tuple[float, float]] | None = None,
+            label_width: Callable[[dict[str, Any]], float] | None = None, drawing: bool = False) -> LevelLayout:
+    """Positions for every state, initial marker and transition of ``machine`` and its sub-machines.
+
+    ``label_lines(state)`` gives the text lines a state box shows (for its size) unless ``size(node)`` is given;
+    ``expand(state)`` says what a composite shows (default: inline ``FSMState`` machines only);
+    ``label_width(transition)``, how wide an arrow's label is drawn: the layered layout leaves room for it.
     """
+    expand = expand or inline_only
     nodes = []
     by_id: dict[str, Node] = {}
-    for st in machine.get("states", []):
+    for st in _items(machine, "states"):
         if not isinstance(st, dict):
             continue
         node = Node(st)
-        sub = inline_machine(st)
-        if sub is not None:
-            node.sub = lay_out(sub, label_lines)
+        exp = expand(st)
+        if exp is not None:
+            node.note, node.note_error, node.foreign = exp.note, exp.error, exp.foreign
+            for i, (name, sub, hook) in enumerate(exp.parts):
+                node.parts.append(Part(lay_out(sub, label_lines, expand=hook or expand, size=size,
+                                               label_width=label_width, drawing=drawing), name,
+                                       exp.min_widths[i] if i < len(exp.min_widths) else 0))
         lay = st.get("layout") if isinstance(st.get("layout"), dict) else {}
-        if all(isinstance(lay.get(k), (int, float)) for k in "xywh"):
+        if all(_num(lay.get(k)) for k in "xywh"):
             node.x, node.y, node.w, node.h = float(lay["x"]), float(lay["y"]), float(lay["w"]), float(lay["h"])
             node.placed = True
+            node.stored = (node.x, node.y, node.w, node.h)
         else:
-            node.w, node.h = text_size(label_lines(st))
+            node.w, node.h = size(node) if size is not None else text_size(label_lines(st))
         by_id.setdefault(node.id, node)
         nodes.append(node)
     level = LevelLayout(machine, nodes, [])
     level.initial = by_id.get(str(machine.get("initial")))
-    _place(level, by_id)
-    _fit_composites(level)
-    for tr in machine.get("transitions", []):
+    _place(level, by_id, label_width)
+    marker = level.marker
+    _fit_composites(level, drawing)
+    if level.inserted and level.marker_points and marker is not None and level.marker is not None \
+            and level.initial is not None:
+        pts = level.marker_points
+        first = [pts[0][0] + level.marker[0] - marker[0], pts[0][1] + level.marker[1] - marker[1]]
+        last = _attach(pts[-1], level.initial) if level.initial.stored is not None else pts[-1]
+        level.marker_points = [first] + [_spread(p, level.inserted) for p in pts[1:-1]] + [last]
+    for tr in _items(machine, "transitions"):
         if not isinstance(tr, dict):
             continue
         src, dst = by_id.get(str(tr.get("from"))), by_id.get(str(tr.get("to")))
         if src is None or dst is None:
             continue
         level.edges.append(Edge(tr, src, dst))
-    _route(level)
+    _route(level, drawing)
+    if label_width is not None:
+        for e in level.edges:
+            if len(e.points) >= 2:
+                i = (len(e.points) - 1) // 2
+                (ax, ay), (bx, by) = e.points[i], e.points[i + 1]
+                level.label_room.append([(ax + bx) / 2 + 4, (ay + by) / 2 - 8, label_width(e.doc), 16])
     return level
 
 
-def _place(level: LevelLayout, by_id: dict[str, Node]) -> None:
-    """Layered placement (breadth-first from the initial state) of the nodes without a stored layout."""
+# -- composites ------------------------------------------------------------------------------------------------
+def _content_top(n: Node) -> float:
+    """Offset from a composite's top to its content (room for the title band and the initial marker)."""
+    return PAD_TOP + (n.head - HEAD)
+
+
+def _part_sizes(n: Node) -> list[tuple[float, float]]:
+    """The natural (width, height) of each part's compartment."""
+    out = []
+    for p in n.parts:
+        x0, y0, x1, y1 = p.level.bbox()
+        if not p.level.nodes:
+            x0 = y0 = x1 = y1 = 0
+        if p.name is None:
+            out.append((_snap(max(x1 - x0 + 2 * PAD, p.min_w)), _snap(y1 - y0 + PAD + _content_top(n))))
+        else:
+            out.append((_snap(max(x1 - x0 + 2 * PAD, p.min_w)), _snap(y1 - y0 + REGION_HEAD + 16 + PAD)))
+    return out
+
+
+def _natural_size(n: Node) -> tuple[float, float]:
+    sizes = _part_sizes(n)
+    if not sizes:
+        return 0, 0
+    if not n.regions:
+        return sizes[0]
+    return sum(w for w, _ in sizes), n.head + max(h for _, h in sizes)
+
+
+def _arrange(n: Node) -> None:
+    """Put the parts into the box of ``n`` (whose size already holds them): regions side by side."""
+    sizes = _part_sizes(n)
+    if not sizes:
+        return
+    if not n.regions:
+        p = n.parts[0]
+        p.x, p.y, p.w, p.h = n.x, n.y, n.w, n.h
+        if p.level.nodes:
+            x0, y0, _, _ = p.level.bbox()
+            p.level.shift(n.x + PAD - x0, n.y + _content_top(n) - y0)
+        return
+    extra = max(0.0, n.w - sum(w for w, _ in sizes)) / len(sizes)
+    x = n.x
+    for i, (p, (w, _)) in enumerate(zip(n.parts, sizes)):
+        p.x, p.y = x, n.y + n.head
+        p.w = n.x + n.w - x if i == len(sizes) - 1 else math.floor(w + extra)
+        p.h = n.y + n.h - p.y
+        if p.level.nodes:
+            x0, y0, x1, _ = p.level.bbox()
+            p.level.shift(p.x + (p.w - (x1 - x0)) / 2 - x0, p.y + REGION_HEAD + 16 - y0)
+        x += p.w
+
+
+def _place(level: LevelLayout, by_id: dict[str, Node], label_width: Callable[[dict[str, Any]], float] | None = None,
+           ) -> None:
+    """Layered placement (breadth-first from the initial state) of the nodes without a stored layout.
+
+    With ``label_width``, the boxes of a row stand as far apart as the widest label of an arrow into the row,
+    and a row is lowered a little for every further labelled arrow coming into it (room to stagger the labels).
+    """
     todo = [n for n in level.nodes if not n.placed]
     for n in todo:  # composites without a layout: size from their content
-        if n.sub is not None:
-            x0, y0, x1, y1 = n.sub.bbox()
-            n.w = max(n.w, _snap(x1 - x0 + 2 * PAD))
-            n.h = max(n.h, _snap(y1 - y0 + PAD + PAD_TOP))
+        w, h = _natural_size(n)
+        n.w, n.h = max(n.w, w), max(n.h, h)
     if todo:
         depth: dict[str, int] = {}
         if level.initial is not None:
             depth[level.initial.id] = 0
             queue = deque([level.initial.id])
             edges: dict[str, list[str]] = {}
-            for tr in level.machine.get("transitions", []):
+            for tr in _items(level.machine, "transitions"):
                 if isinstance(tr, dict):
                     edges.setdefault(str(tr.get("from")), []).append(str(tr.get("to")))
             while queue:
@@ -163,23 +328,29 @@ def _place(level: LevelLayout, by_id: dict[str, Node]) -> None:
             rows.setdefault(depth.get(n.id, last), []).append(n)
         y = top
         left = min((n.x for n in placed), default=0.0)
-        for r in sorted(rows):
+        for i, r in enumerate(sorted(rows)):
+            gap_x = GAP_X
+            if label_width is not None:
+                into = [tr for tr in _items(level.machine, "transitions") if isinstance(tr, dict)
+                        and any(str(tr.get("to")) == n.id for n in rows[r]) and str(tr.get("from")) in by_id]
+                widths = [label_width(tr) for tr in into]
+                gap_x = max(GAP_X, _snap(max(widths, default=0) + 20))
+                if i:
+                    y += max(0, len(widths) - 1) * 16
             x = left
             for n in rows[r]:
                 n.x, n.y = x, y
-                if n.sub is not None:
-                    x0, y0, _, _ = n.sub.bbox()
-                    n.sub.shift(n.x + PAD - x0, n.y + PAD_TOP - y0)
+                _arrange(n)
                 n.placed = True
-                x += n.w + GAP_X
+                x += n.w + gap_x
             y += max(n.h for n in rows[r]) + GAP_Y
     lay = level.machine.get("layout") if isinstance(level.machine.get("layout"), dict) else {}
     ini = lay.get("initial") if isinstance(lay.get("initial"), dict) else {}
     if level.initial is not None:
-        if isinstance(ini.get("x"), (int, float)) and isinstance(ini.get("y"), (int, float)) and level.initial.placed \
+        if _num(ini.get("x")) and _num(ini.get("y")) and level.initial.placed \
                 and all(n.placed for n in level.nodes) and not todo:
             level.marker = (float(ini["x"]), float(ini["y"]))
-            if isinstance(ini.get("w"), (int, float)) and isinstance(ini.get("h"), (int, float)):
+            if _num(ini.get("w")) and _num(ini.get("h")):
                 level.marker_size = (float(ini["w"]), float(ini["h"]))
             pts = ini.get("points")
             if isinstance(pts, list) and len(pts) >= 2 and all(_is_point(p) for p in pts):
@@ -193,19 +364,74 @@ def _place(level: LevelLayout, by_id: dict[str, Node]) -> None:
                                                                          level.initial.w, level.initial.h), 0)
 
 
-def _fit_composites(level: LevelLayout) -> None:
-    """A composite box must hold its content with a margin; grow it when it does not (never shrink it)."""
+def _fit_composites(level: LevelLayout, drawing: bool) -> None:
+    """A composite box must hold its content with a margin; grow it when it does not (never shrink it).
+
+    Content in foreign coordinates (an include, regions) is moved into the box. When ``drawing``, a box that
+    grows pushes what lies right of and below it away by as much (see :func:`_insert_space`).
+    """
     for n in level.nodes:
-        if n.sub is None or not n.sub.nodes:
+        if not n.parts:
             continue
-        x0, y0, x1, y1 = _node_bbox(n.sub)
+        if n.foreign or n.regions:
+            w, h = _natural_size(n)
+            if w > n.w or h > n.h:
+                _grow(level, n, max(n.w, w), max(n.h, h), drawing)
+            _arrange(n)
+            continue
+        sub, p = n.parts[0].level, n.parts[0]
+        p.x, p.y, p.w, p.h = n.x, n.y, n.w, n.h
+        if not sub.nodes:
+            continue
+        x0, y0, x1, y1 = _node_bbox(sub)
         if x0 < n.x or y0 < n.y:
-            n.sub.shift(max(0, n.x + PAD - x0), max(0, n.y + PAD_TOP - y0))
-            x0, y0, x1, y1 = _node_bbox(n.sub)
-        if x1 > n.x + n.w:
-            n.w = _snap(x1 - n.x + PAD)
-        if y1 > n.y + n.h:
-            n.h = _snap(y1 - n.y + PAD)
+            sub.shift(max(0, n.x + PAD - x0), max(0, n.y + PAD_TOP - y0))
+            x0, y0, x1, y1 = _node_bbox(sub)
+        w = _snap(x1 - n.x + PAD) if x1 > n.x + n.w else n.w
+        h = _snap(y1 - n.y + PAD) if y1 > n.y + n.h else n.h
+        if w != n.w or h != n.h:
+            _grow(level, n, w, h, drawing)
+        p.x, p.y, p.w, p.h = n.x, n.y, n.w, n.h
+
+
+def _grow(level: LevelLayout, n: Node, w: float, h: float, drawing: bool) -> None:
+    if drawing:
+        _insert_space(level, n, w - n.w, h - n.h)
+    n.w, n.h = w, h
+
+
+def _insert_space(level: LevelLayout, n: Node, dw: float, dh: float) -> None:
+    """Move every node of ``level`` that lies right of ``n`` by ``dw`` and below it by ``dh`` (so ``n`` can grow
+    without covering them), and remember it for the stored arrow points (:func:`_route`)."""
+    right, bottom = n.x + n.w, n.y + n.h
+    for m in level.nodes:
+        if m is not n:
+            m.move(dw if m.x >= right - 0.5 else 0, dh if m.y >= bottom - 0.5 else 0)
+    op = (right, dw, bottom, dh)
+    level.inserted.append(op)
+    if level.marker is not None:
+        mx, my = _spread(list(level.marker), [op])
+        level.marker = (mx, my)
+
+
+def _spread(p: list[float], ops: list[tuple[float, float, float, float]]) -> list[float]:
+    x, y = p
+    for right, dw, bottom, dh in ops:
+        x += dw if x >= right - 0.5 else 0
+        y += dh if y >= bottom - 0.5 else 0
+    return [x, y]
+
+
+def _attach(p: list[float], n: Node) -> list[float]:
+    """Where a stored arrow end ``p`` on the border of ``n`` is once ``n`` has moved and grown: it keeps its
+    distance from the box's left (top) side, or from its right (bottom) side when it was on that one."""
+    assert n.stored is not None
+    ox, oy, ow, oh = n.stored
+
+    def axis(v: float, o: float, size: float, new_o: float, new_size: float) -> float:
+        return v - (o + size) + new_o + new_size if v >= o + size - 0.5 else v - o + new_o
+
+    return [axis(p[0], ox, ow, n.x, n.w), axis(p[1], oy, oh, n.y, n.h)]
 
 
 def _node_bbox(level: LevelLayout) -> tuple[float, float, float, float]:
@@ -216,18 +442,36 @@ def _node_bbox(level: LevelLayout) -> tuple[float, float, float, float]:
     return min(xs), min(ys), max(xe), max(ye)
 
 
+def _num(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _items(machine: dict[str, Any], key: str) -> list[Any]:
+    items = machine.get(key)
+    return items if isinstance(items, list) else []
+
+
 def _is_point(p: Any) -> bool:
-    return isinstance(p, list) and len(p) == 2 and all(isinstance(v, (int, float)) for v in p)
+    return isinstance(p, list) and len(p) == 2 and all(_num(v) for v in p)
 
 
-def _route(level: LevelLayout) -> None:
+# -- arrows ----------------------------------------------------------------------------------------------------
+def _route(level: LevelLayout, drawing: bool = False) -> None:
     pair_count: dict[tuple[int, int], int] = {}
+    pair_total: dict[tuple[int, int], int] = {}
+    index = {id(n): i for i, n in enumerate(level.nodes)}
+    for e in level.edges:
+        key = (min(id(e.src), id(e.dst)), max(id(e.src), id(e.dst)))
+        pair_total[key] = pair_total.get(key, 0) + 1
     for e in level.edges:
         lay = e.doc.get("layout") if isinstance(e.doc.get("layout"), dict) else {}
         pts = lay.get("points")
         if e.src.placed and e.dst.placed and isinstance(pts, list) and len(pts) >= 2 and all(_is_point(p) for p in pts) \
                 and _stored(e.src) and _stored(e.dst):
             e.points = [[float(p[0]), float(p[1])] for p in pts]
+            if level.inserted:  # room was made for grown composites: the ends stay on their boxes
+                e.points = [_attach(e.points[0], e.src)] + [_spread(p, level.inserted) for p in e.points[1:-1]] \
+                    + [_attach(e.points[-1], e.dst)]
             continue
         key = (min(id(e.src), id(e.dst)), max(id(e.src), id(e.dst)))
         k = pair_count.get(key, 0)
@@ -239,13 +483,66 @@ def _route(level: LevelLayout) -> None:
             cy = y + h / 2
             e.points = [[x + w, cy - 8 - off / 2], [x + w + 40 + off, cy - 8 - off / 2],
                         [x + w + 40 + off, cy + 8 + off / 2], [x + w, cy + 8 + off / 2]]
+        elif drawing and pair_total[key] > 1:
+            e.points = _bowed(a, (e.dst.x, e.dst.y, e.dst.w, e.dst.h), k, pair_total[key],
+                             index[id(e.src)] < index[id(e.dst)])
         else:
             e.points = _connect(a, (e.dst.x, e.dst.y, e.dst.w, e.dst.h), k)
+    if drawing:
+        _separate_duplicates(level)
+
+
+def _separate_duplicates(level: LevelLayout) -> None:
+    """Stored arrows that lie exactly on top of one another get a bend each, so every one can be seen."""
+    groups: dict[tuple[tuple[int, int], ...], int] = {}
+    for e in level.edges:
+        if e.src is e.dst or len(e.points) < 2:
+            continue
+        key = tuple((round(p[0]), round(p[1])) for p in e.points)
+        canon = min(key, key[::-1])
+        k = groups.get(canon, 0)
+        groups[canon] = k + 1
+        if k == 0:
+            continue
+        (ax, ay), (bx, by) = canon[0], canon[-1]
+        length = math.hypot(bx - ax, by - ay) or 1.0
+        nx, ny = -(by - ay) / length, (bx - ax) / length
+        off = 18 * ((k + 1) // 2) * (1 if k % 2 else -1)
+        i = (len(e.points) - 1) // 2
+        p, q = e.points[i], e.points[i + 1]
+        bend = [round((p[0] + q[0]) / 2 + nx * off), round((p[1] + q[1]) / 2 + ny * off)]
+        e.points = e.points[:i + 1] + [bend] + e.points[i + 1:]
 
 
 def _stored(n: Node) -> bool:
     lay = n.doc.get("layout")
-    return isinstance(lay, dict) and all(isinstance(lay.get(k), (int, float)) for k in "xywh")
+    return isinstance(lay, dict) and all(_num(lay.get(k)) for k in "xywh")
+
+
+def _bowed(a: tuple[float, float, float, float], b: tuple[float, float, float, float], k: int, total: int,
+           forward: bool) -> list[list[float]]:
+    """The ``k``-th of ``total`` arrows between the same two boxes: its ends spread along the borders and its
+    middle bent away from the others, so none is drawn over another."""
+    ax, ay = a[0] + a[2] / 2, a[1] + a[3] / 2
+    bx, by = b[0] + b[2] / 2, b[1] + b[3] / 2
+    dx, dy = bx - ax, by - ay
+    length = math.hypot(dx, dy) or 1.0
+    nx, ny = -dy / length, dx / length
+    if not forward:  # the same side for both directions: offsets measured from one of the two boxes
+        nx, ny = -nx, -ny
+    slot = k - (total - 1) / 2
+    end_off = slot * 16
+    lim = min(a[2], a[3], b[2], b[3]) / 2 - 6
+    end_off = max(-lim, min(lim, end_off))
+    sx, sy = ax + nx * end_off, ay + ny * end_off
+    tx, ty = bx + nx * end_off, by + ny * end_off
+    p = _exit_point(a, sx, sy, tx, ty)
+    q = _exit_point(b, tx, ty, sx, sy)
+    mid_off = slot * 36
+    mx, my = (p[0] + q[0]) / 2 + nx * (mid_off - end_off), (p[1] + q[1]) / 2 + ny * (mid_off - end_off)
+    if abs(slot) < 1e-9:
+        return [[round(p[0]), round(p[1])], [round(q[0]), round(q[1])]]
+    return [[round(p[0]), round(p[1])], [round(mx), round(my)], [round(q[0]), round(q[1])]]
 
 
 def _connect(a: tuple[float, float, float, float], b: tuple[float, float, float, float],

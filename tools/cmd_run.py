@@ -181,7 +181,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         result["interrupted"] = True
     if video is not None:
         video.close()
-        result["video"] = {"file": args.video, "frames": video.frames}
+        result["video"] = {"file": args.video, "frames": video.frames, "codec": video.codec}
     if args.plot and sim is not None:
         from fsm.sim.render import plot
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 import colorsys
 import math
 import os
+import subprocess
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -115,8 +116,11 @@ class VideoRecorder:
             raise FsmError(f"--video {self.path}: unsupported format '{suffix}'; use .mp4 or .avi")
         directory = self.path.parent if str(self.path.parent) else Path(".")
         self._tmp = directory / f".{self.path.stem}.part{suffix}"
-        self.writer = cv2.VideoWriter(str(self._tmp), cv2.VideoWriter_fourcc(*fourcc), fps,
-                                      (self.view.width, self.view.height))
+        size = (self.view.width, self.view.height)
+        self.writer: Any = H264Writer.open(self._tmp, fps, size) if fourcc == "mp4v" else None
+        self.codec = "h264" if self.writer is not None else fourcc
+        if self.writer is None:
+            self.writer = cv2.VideoWriter(str(self._tmp), cv2.VideoWriter_fourcc(*fourcc), fps, size)
         if not self.writer.isOpened():
             raise FsmError(f"--video {self.path}: OpenCV cannot write {fourcc} video here")
         sim.add_observer(self.period, self)
@@ -197,6 +201,57 @@ class VideoRecorder:
             self.writer = None
         if self._tmp.exists():
             self._tmp.unlink()
+
+
+class H264Writer:
+    """H.264 MP4 (plays in browsers, unlike OpenCV's mp4v) through the ffmpeg that imageio-ffmpeg ships.
+
+    Frames go to ffmpeg's standard input as raw BGR; ``open`` returns ``None`` when no such ffmpeg is
+    installed, and the recorder falls back to OpenCV's MPEG-4 Part 2.
+    """
+
+    def __init__(self, proc: subprocess.Popen[bytes]) -> None:
+        self.proc = proc
+
+    @classmethod
+    def open(cls, path: Path, fps: float, size: tuple[int, int]) -> H264Writer | None:
+        try:
+            import imageio_ffmpeg
+
+            exe = imageio_ffmpeg.get_ffmpeg_exe()
+        except (ImportError, RuntimeError):
+            return None
+        w, h = size
+        cmd = [exe, "-hide_banner", "-loglevel", "error", "-y", "-f", "rawvideo", "-pix_fmt", "bgr24",
+               "-s", f"{w}x{h}", "-r", f"{fps:g}", "-i", "-", "-an", "-c:v", "libx264", "-preset", "veryfast",
+               "-crf", "23", "-pix_fmt", "yuv420p", "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+               "-movflags", "+faststart", "-f", "mp4", str(path)]
+        try:
+            proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        except OSError:
+            return None
+        return cls(proc)
+
+    def isOpened(self) -> bool:  # noqa: N802 - the cv2.VideoWriter interface
+        return self.proc.poll() is None
+
+    def write(self, frame: np.ndarray) -> None:
+        assert self.proc.stdin is not None
+        try:
+            self.proc.stdin.write(np.ascontiguousarray(frame).tobytes())
+        except BrokenPipeError:
+            self.release()
+
+    def release(self) -> None:
+        if self.proc.stdin is not None and not self.proc.stdin.closed:
+            try:
+                self.proc.stdin.close()
+            except BrokenPipeError:
+                pass
+        code = self.proc.wait()
+        if code != 0:
+            err = self.proc.stderr.read().decode(errors="replace").strip() if self.proc.stderr else ""
+            raise FsmError(f"video encoding failed (ffmpeg exit {code}): {err[-300:]}")
 
 
 def plot(sim: Simulation, path: str | os.PathLike[str], width: int = 1600) -> None:

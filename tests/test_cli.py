@@ -686,3 +686,17 @@ def test_a_document_can_use_a_type_of_its_own_registry() -> None:
     assert machine.active_path == "l"
     with pytest.raises(fsm.DiagramError, match="unknown state type 'Lamp'"):
         fsm.load({"initial": "l", "states": [{"id": "l", "type": "Lamp"}]})  # not in the default registry
+
+
+def test_validate_checks_world_files_as_worlds(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A world file is validated as a world (not reported as a machine missing 'states')."""
+    from fsm.tools.cli import main
+
+    repo = Path(__file__).resolve().parents[1]
+    assert main(["validate", str(repo / "diagrams" / "worlds" / "hallway.json")]) == 0
+    bad = tmp_path / "world.json"
+    bad.write_text('{"walls": [{"points": [[0, 0], [4, 0]]}],\n "start": {"x": 1, "y": NaN, "heading": 0}}\n')
+    capsys.readouterr()
+    assert main(["validate", str(bad)]) == 1
+    err = capsys.readouterr().err
+    assert f"{bad}:2:" in err and "/start/y" in err and "states" not in err

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 
 from fsm.errors import Problem
 
@@ -12,7 +13,7 @@ from .cli import EXIT_FAIL, EXIT_OK, registry_from
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("validate", help="check machine documents (exit 1 if any is invalid)")
+    p = sub.add_parser("validate", help="check machine documents and world files (exit 1 if any is invalid)")
     p.add_argument("files", nargs="+", metavar="FILE")
     p.add_argument("--format", choices=("text", "json", "github"), default="text",
                    help="text (default), json, or github (GitHub Actions ::error annotations)")
@@ -27,7 +28,10 @@ def cmd_validate(args: argparse.Namespace) -> int:
     registry = registry_from(args)
     results = []
     for file in args.files:
-        _spec, problems = check(file, registry=registry)
+        if is_world_file(file):
+            problems = check_world(file)
+        else:
+            _spec, problems = check(file, registry=registry)
         if args.strict:
             for p in problems:
                 p.severity = "error"
@@ -53,6 +57,32 @@ def cmd_validate(args: argparse.Namespace) -> int:
                     state += f", {warnings} warning{'s' * (warnings != 1)}"
                 print(f"{file}: {state}")
     return EXIT_FAIL if invalid else EXIT_OK
+
+
+def is_world_file(file: str) -> bool:
+    """A JSON object with walls (or a world ``$schema``) and no states is a world for the simulated car."""
+    path = Path(file)
+    if path.suffix.lower() != ".json":
+        return False
+    try:
+        data = json.loads(path.read_bytes())
+    except (OSError, ValueError, RecursionError):
+        return False  # the machine check reports it
+    if not isinstance(data, dict) or {"states", "initial", "root"} & data.keys():
+        return False
+    schema = data.get("$schema")
+    return "walls" in data or (isinstance(schema, str) and schema.endswith("world.schema.json"))
+
+
+def check_world(file: str) -> list[Problem]:
+    from fsm.errors import DiagramError
+    from fsm.sim.world import load_world
+
+    try:
+        load_world(file)
+    except DiagramError as exc:
+        return exc.problems
+    return []
 
 
 def github_annotation(p: Problem) -> str:

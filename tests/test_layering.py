@@ -9,6 +9,7 @@ import os
 import pkgutil
 import subprocess
 import sys
+import tempfile
 import textwrap
 from pathlib import Path
 
@@ -113,3 +114,18 @@ def test_fsmctl_validate_and_types_do_not_import_cv2_or_pymunk(tmp_path: Path, c
     result = json.loads(proc.stdout.strip().splitlines()[-1])
     assert result["code"] == 0
     assert result["heavy"] == [], f"fsmctl {command[0]} imported {result['heavy']}"
+
+
+def test_state_and_transition_libraries_use_the_car_only_through_its_interface() -> None:
+    """fsm.states / fsm.transitions may know the car Protocol, never pymunk, OpenCV, UMLet or the tools."""
+    code = textwrap.dedent('''
+        import json, sys
+        import fsm.states, fsm.transitions
+        bad = sorted(m for m in sys.modules if m.split(".")[0] in ("pymunk", "cv2", "lxml")
+                     or m.startswith("fsm.tools") or m in ("fsm.sim.car", "fsm.sim.loop", "fsm.sim.render"))
+        print(json.dumps(bad))
+    ''')
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                          cwd=tempfile.gettempdir())
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads(proc.stdout.strip().splitlines()[-1]) == []

@@ -129,5 +129,28 @@ def check_writable(path: str) -> None:
         raise UsageError(f"cannot write {path}: folder {directory} does not exist")
 
 
+def emit_generated(text: str, *, output: str | None, check: str | None, command: str) -> int:
+    """Write generated ``text`` to ``output`` (standard output for ``None`` or ``-``), or with ``check``
+    compare it with that file and exit 1 when the file is stale, naming ``command`` to regenerate it."""
+    if check:
+        try:
+            current = Path(check).read_text(encoding="utf-8")
+        except OSError as exc:
+            print(f"{check}: error: cannot read: {exc.strerror or exc}", file=sys.stderr)
+            return EXIT_FAIL
+        if current != text:
+            print(f"{check}: error: stale; regenerate it with `{command} -o {check}`", file=sys.stderr)
+            return EXIT_FAIL
+        return EXIT_OK
+    if not output or output == "-":
+        sys.stdout.write(text)
+        return EXIT_OK
+    from .files import write_atomic
+
+    check_writable(output)
+    write_atomic(output, text)
+    return EXIT_OK
+
+
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(main())

@@ -3,10 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import sys
-from pathlib import Path
 
-from .cli import EXIT_FAIL, EXIT_OK, check_writable, registry_from
+from .cli import emit_generated, registry_from
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -21,22 +19,5 @@ def cmd_palette(args: argparse.Namespace) -> int:
     from .uxf_writer import palette
 
     text = palette(registry_from(args))
-    if args.check:
-        try:
-            current = Path(args.output).read_text(encoding="utf-8")
-        except OSError as exc:
-            print(f"{args.output}: error: cannot read: {exc.strerror or exc}", file=sys.stderr)
-            return EXIT_FAIL
-        if current != text:
-            print(f"{args.output}: error: the palette is stale (run: fsmctl palette -o {args.output})",
-                  file=sys.stderr)
-            return EXIT_FAIL
-        return EXIT_OK
-    if args.output == "-":
-        sys.stdout.write(text)
-        return EXIT_OK
-    check_writable(args.output)
-    from .files import write_atomic
-
-    write_atomic(args.output, text)
-    return EXIT_OK
+    return emit_generated(text, output=args.output, check=args.output if args.check else None,
+                          command="fsmctl palette")

@@ -4,11 +4,9 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
-from pathlib import Path
 from typing import Any
 
-from .cli import EXIT_FAIL, EXIT_OK, check_writable, registry_from
+from .cli import emit_generated, registry_from
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -26,21 +24,4 @@ def schema_text(registry: Any) -> str:
 
 def cmd_schema(args: argparse.Namespace) -> int:
     text = schema_text(registry_from(args))
-    if args.check:
-        try:
-            current = Path(args.check).read_text(encoding="utf-8")
-        except OSError as exc:
-            print(f"fsmctl: {args.check}: cannot read: {exc.strerror}", file=sys.stderr)
-            return EXIT_FAIL
-        if current != text:
-            print(f"{args.check}: stale; regenerate it with `fsmctl schema -o {args.check}`", file=sys.stderr)
-            return EXIT_FAIL
-        return EXIT_OK
-    if args.output:
-        from .files import write_atomic
-
-        check_writable(args.output)
-        write_atomic(args.output, text)
-    else:
-        sys.stdout.write(text)
-    return EXIT_OK
+    return emit_generated(text, output=args.output, check=args.check, command="fsmctl schema")

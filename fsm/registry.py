@@ -33,23 +33,20 @@ class Registry:
 
     # -- registration ---------------------------------------------------------------------------
     def add_state(self, cls: type[State], name: str | None = None) -> type[State]:
-        name = name or cls.__name__
-        if not (isinstance(cls, type) and issubclass(cls, State)):
-            raise RegistrationError(f"{cls!r} is not a subclass of fsm.State")
-        self._check_params(cls, name, StateParams)
-        self._check_free(self.states, name, cls, "state")
-        cls.type_name = name
-        self.states[name] = cls
-        return cls
+        return self._add(self.states, State, StateParams, cls, name, "state")
 
     def add_transition(self, cls: type[Transition], name: str | None = None) -> type[Transition]:
+        return self._add(self.transitions, Transition, TransitionParams, cls, name, "transition")
+
+    def _add(self, table: dict[str, Any], base: type, params_base: type, cls: Any, name: str | None,
+             kind: str) -> Any:
         name = name or cls.__name__
-        if not (isinstance(cls, type) and issubclass(cls, Transition)):
-            raise RegistrationError(f"{cls!r} is not a subclass of fsm.Transition")
-        self._check_params(cls, name, TransitionParams)
-        self._check_free(self.transitions, name, cls, "transition")
+        if not (isinstance(cls, type) and issubclass(cls, base)):
+            raise RegistrationError(f"{cls!r} is not a subclass of fsm.{base.__name__}")
+        self._check_params(cls, name, params_base)
+        self._check_free(table, name, cls, kind)
         cls.type_name = name
-        self.transitions[name] = cls
+        table[name] = cls
         return cls
 
     @staticmethod

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from fsm.registry import default_registry
 from fsm.tools.uxf_source import parse_raw
-from fsm.tools.uxf_text import parse_label, parse_relation, parse_state
+from fsm.tools.uxf_text import parse_label, parse_machine_note, parse_relation, parse_state
 from fsm.tools.uxf_writer import palette
 
 PALETTE = Path(__file__).resolve().parents[1] / "diagrams" / "TRAL_State-Machine.uxf"
@@ -33,9 +33,22 @@ def test_every_type_has_a_template_with_every_parameter():
     from fsm.document import param_info
 
     for name, cls in reg.states.items():
-        assert {p["name"] for p in param_info(cls.Params)} <= set(states[name])
+        drawn = {"regions"} if name == "Parallel" else set()  # drawn as frames inside the box
+        assert {p["name"] for p in param_info(cls.Params)} - drawn <= set(states[name])
     for name, cls in reg.transitions.items():
         for p in param_info(cls.Params):
             assert p["name"] in transitions[name]
             if "default" in p and p["default"] is not None and not isinstance(p["default"], str):
                 assert transitions[name][p["name"]] == p["default"]
+
+
+def test_parallel_template_holds_region_frames_and_the_machine_note_reads():
+    raw = parse_raw(palette(default_registry()).encode(), "palette.uxf")
+    box = next(e for e in raw.elements if e.kind == "UMLState" and parse_state(e.text).params["type"] == "Parallel")
+    frames = [e for e in raw.elements if e.kind == "UMLFrame"]
+    assert [f.text for f in frames] == ["region1", "region2"]
+    assert all(box.x < f.x and f.x + f.w < box.x + box.w and box.y < f.y and f.y + f.h < box.y + box.h
+               for f in frames)
+    assert "regions" not in parse_state(box.text).params
+    note = next(e for e in raw.elements if e.kind == "UMLNote")
+    assert parse_machine_note(note.text).values == {"name": "", "description": ""}

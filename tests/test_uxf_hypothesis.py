@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 from hypothesis import HealthCheck, given, settings
@@ -9,16 +10,20 @@ from hypothesis import strategies as st
 
 from fsm.errors import DiagramError
 from fsm.tools.uxf import convert_bytes
+from fsm.tools.uxf_writer import export
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "diagrams" / "examples"
 SEEDS = [p.read_bytes() for p in sorted(EXAMPLES.glob("*.uxf"))]
+# a Parallel state drawn as region frames, and machine notes
+SEEDS.append(export(json.loads((EXAMPLES / "mission.json").read_text())).encode())
 CORPUS = Path("/work/shared/corpus/uxf")
 if CORPUS.is_dir():
     SEEDS += [p.read_bytes() for p in sorted(CORPUS.glob("*.uxf"))]
 
 TOKENS = [b"<", b">", b"&", b"-", b";", b"10.0", b"-5", b"nan", b"1e999", b"type=initial", b"type=final",
           b"lt=->", b"lt=<-", b"--", b"\n", b"\r\n", b'"type": ', b"type=Timeout", b"</element>", b"<element>",
-          b"<x>", b"</x>", b"", b"\x00", b"\xff", b"{", b"}", b"valign=top", b"<!DOCTYPE x>"]
+          b"<x>", b"</x>", b"", b"\x00", b"\xff", b"{", b"}", b"valign=top", b"<!DOCTYPE x>", b"machine",
+          b"type=Parallel", b"file=", b"vars=", b"name=", b"UMLFrame", b"UMLNote"]
 
 
 @st.composite

@@ -336,3 +336,169 @@ def test_huge_file_is_linear(tmp_path):
     probs = errors(raw=raw)  # no initial pseudostate: one located error
     assert time.perf_counter() - start < 20
     assert len(probs) == 1 and "has no initial state" in probs[0].message
+
+
+# -- Parallel states and machine notes, drawn by hand ----------------------------------------------------------
+def _uxf(*elements: tuple) -> str:
+    """A diagram as UMLet writes it: elements as (id, x, y, w, h, text[, relation points])."""
+    out = ['<?xml version="1.0" encoding="UTF-8" standalone="no"?>\n<diagram program="umlet" version="15.1">\n'
+           "  <zoom_level>10</zoom_level>\n"]
+    for kind, x, y, w, h, text, *points in elements:
+        extra = f"<additional_attributes>{points[0]}</additional_attributes>" if points else "<additional_attributes/>"
+        text = text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+        out.append(f"  <element>\n    <id>{kind}</id>\n    <coordinates>\n      <x>{x}</x>\n      <y>{y}</y>\n"
+                   f"      <w>{w}</w>\n      <h>{h}</h>\n    </coordinates>\n    <panel_attributes>{text}"
+                   f"</panel_attributes>\n    {extra}\n  </element>\n")
+    return "".join(out) + "</diagram>\n"
+
+
+HAND_PARALLEL = [
+    ("UMLSpecialState", 100, 20, 20, 20, "type=initial"),
+    ("Relation", 100, 30, 30, 70, "lt=->", "10.0;10.0;10.0;50.0"),
+    ("UMLState", 40, 80, 140, 40, "wait"),
+    ("Relation", 100, 110, 30, 90, "lt=->\nstart", "10.0;10.0;10.0;70.0"),
+    ("UMLState", 20, 180, 800, 300, "run\n--\ntype=Parallel\njoin=any\nvalign=top"),
+    # frames drawn right to left in the file: the regions are ordered by their left edges
+    ("UMLFrame", 580, 260, 200, 60, "file=grip.json"),
+    ("UMLFrame", 310, 260, 250, 200, "monitor\nbg=yellow"),
+    ("UMLSpecialState", 330, 290, 20, 20, "type=initial"),
+    ("Relation", 330, 300, 30, 60, "lt=->", "10.0;10.0;10.0;40.0"),
+    ("UMLState", 330, 340, 100, 40, "watch"),
+    ("UMLSpecialState", 500, 350, 20, 20, "type=final\nemergency"),
+    ("Relation", 420, 350, 100, 30, "lt=->\nestop", "10.0;10.0;80.0;10.0"),
+    ("UMLFrame", 40, 260, 250, 200, "work"),
+    ("UMLSpecialState", 60, 290, 20, 20, "type=initial"),
+    ("Relation", 60, 300, 30, 60, "lt=->", "10.0;10.0;10.0;40.0"),
+    ("UMLState", 60, 340, 120, 40, "step"),
+    ("UMLSpecialState", 240, 350, 20, 20, "type=final\nok"),
+    ("Relation", 170, 350, 90, 30, "lt=->\ntype=Timeout\nseconds=1", "10.0;10.0;70.0;10.0"),
+    ("UMLNote", 60, 400, 200, 50, "machine\n--\ndescription=does the work"),
+    ("Relation", 290, 470, 30, 90, "lt=->\ntype=Finished\noutcome=emergency", "10.0;10.0;10.0;70.0"),
+    ("UMLSpecialState", 290, 540, 20, 20, "type=final\nstopped"),
+    ("Relation", 100, 470, 30, 90, "lt=->", "10.0;10.0;10.0;70.0"),
+    ("UMLSpecialState", 100, 540, 20, 20, "type=final\nok"),
+    ("UMLNote", 860, 20, 300, 100, "machine\n--\nname=hand\nvars={\"n\": 0}\n--\nA parallel state\ndrawn by hand.\n"
+                                   "style=wordwrap"),
+    ("UMLNote", 860, 200, 300, 60, "just a comment, not a machine note"),
+]
+
+
+def test_a_hand_drawn_parallel_state_with_region_frames(tmp_path):
+    src = tmp_path / "hand.uxf"
+    src.write_text(_uxf(*HAND_PARALLEL))
+    doc = convert_file(src).machines[0]
+    assert strip(doc) == {
+        "name": "hand", "description": "A parallel state\ndrawn by hand.", "vars": {"n": 0}, "initial": "wait",
+        "states": [
+            {"id": "wait", "type": "Idle"},
+            {"id": "run", "type": "Parallel", "join": "any", "regions": [
+                {"name": "work", "description": "does the work", "initial": "step",
+                 "states": [{"id": "step", "type": "Idle"}, {"id": "ok", "type": "Final", "outcome": "ok"}],
+                 "transitions": [{"type": "Timeout", "from": "step", "to": "ok", "seconds": 1}]},
+                {"name": "monitor", "initial": "watch",
+                 "states": [{"id": "watch", "type": "Idle"},
+                            {"id": "emergency", "type": "Final", "outcome": "emergency"}],
+                 "transitions": [{"type": "Signal", "from": "watch", "to": "emergency", "signal": "estop",
+                                  "label": "estop"}]},
+                {"file": "grip.json"}]},
+            {"id": "stopped", "type": "Final", "outcome": "stopped"},
+            {"id": "ok", "type": "Final", "outcome": "ok"}],
+        "transitions": [
+            {"type": "Signal", "from": "wait", "to": "run", "signal": "start", "label": "start"},
+            {"type": "Finished", "from": "run", "to": "stopped", "outcome": "emergency"},
+            {"type": "Finished", "from": "run", "to": "ok"}]}  # no label: a Parallel state finishes
+    frames = doc["states"][1]["layout"]["frames"]  # the regions' frames, kept in the Parallel state's layout
+    assert frames[0] == {"x": 40, "y": 260, "w": 250, "h": 200} and frames[2]["x"] == 580
+    # it is a valid machine (the included region next to it), and export draws it back the same way
+    (tmp_path / "grip.json").write_text((Path(__file__).resolve().parents[1] / "diagrams" / "examples"
+                                         / "grip.json").read_text())
+    _spec, problems = check(str(src))
+    assert not [p for p in problems if p.severity == "error"], problems
+    from fsm.tools.uxf_writer import export
+
+    again = convert_bytes(export(doc).encode(), "again.uxf").machines[0]
+    assert strip(again) == strip(doc)
+    assert again["states"][1]["layout"] == doc["states"][1]["layout"]  # drawn where it was
+
+
+def _replace(elements: list, index: int, new: tuple | None) -> list:
+    out = list(elements)
+    if new is None:
+        del out[index]
+    else:
+        out[index] = new
+    return out
+
+
+def _hand_errors(elements: list) -> list[str]:
+    with pytest.raises(DiagramError) as exc:
+        convert_bytes(_uxf(*elements).encode(), "hand.uxf")
+    for p in exc.value.problems:
+        assert p.line and " at x=" in (p.element or ""), p
+    return [p.message for p in exc.value.problems]
+
+
+@pytest.mark.parametrize("change, fragment", [
+    # a state inside the Parallel box but in no frame
+    (lambda els: els + [("UMLState", 600, 400, 100, 40, "stray")],
+     "'stray' is drawn inside Parallel 'run' but in none of its region frames"),
+    # an arrow from a region's state to a state outside the Parallel box
+    (lambda els: els + [("Relation", 100, 370, 30, 190, "lt=->", "10.0;10.0;10.0;170.0")],
+     "the arrow leaves region frame 'work' of Parallel 'run'"),
+    # an arrow ending at a region's frame
+    (lambda els: els + [("Relation", 160, 110, 30, 160, "lt=->", "10.0;10.0;10.0;150.0")],
+     "ends at region frame 'work' of Parallel 'run': a region is not a state"),
+    # a frame with nothing in it that includes nothing
+    (lambda els: _replace(els, 5, ("UMLFrame", 580, 260, 200, 60, "spare")),
+     "region frame 'spare' of Parallel 'run' is empty"),
+    # an include frame with a state in it
+    (lambda els: els + [("UMLState", 600, 280, 60, 30, "x")],
+     "includes a machine from a file, so it may hold nothing else"),
+    # frames and regions= at once
+    (lambda els: _replace(els, 4, ("UMLState", 20, 180, 800, 300, 'run\n--\ntype=Parallel\nregions=[]')),
+     "both holds region frames and gives 'regions'"),
+    # the region's note names it differently from its frame
+    (lambda els: _replace(els, 18, ("UMLNote", 60, 400, 200, 50, "machine\n--\nname=other")),
+     "names the region 'other' but its frame is titled 'work'"),
+    # machine notes: unknown key, a key twice, vars not an object, two notes, a note in a simple state
+    (lambda els: _replace(els, 23, ("UMLNote", 860, 20, 300, 100, "machine\n--\nname=hand\nnmae=x")),
+     "line 'nmae=x' is not one of the machine's key=value lines"),
+    (lambda els: _replace(els, 23, ("UMLNote", 860, 20, 300, 100, "machine\n--\nname=a\nname=b")),
+     "'name' is given twice"),
+    (lambda els: _replace(els, 23, ("UMLNote", 860, 20, 300, 100, "machine\n--\nvars=[1]")),
+     "'vars' must be a JSON object"),
+    (lambda els: _replace(els, 23, ("UMLNote", 860, 20, 300, 100, "machine\n--\ndescription=a\n--\nb")),
+     "the description is given twice"),
+    (lambda els: els + [("UMLNote", 860, 300, 300, 60, "machine\n--\nname=again")],
+     "a second machine note for one machine"),
+    (lambda els: els + [("UMLNote", 45, 85, 40, 30, "machine")],
+     "machine note inside 'wait', which holds no machine"),
+    (lambda els: els + [("UMLNote", 600, 400, 100, 40, "machine")],
+     "machine note inside Parallel 'run' but in none of its region frames"),
+])
+def test_hand_drawn_parallel_and_note_mistakes_are_located(change, fragment):
+    messages = _hand_errors(change(HAND_PARALLEL))
+    assert any(fragment in m for m in messages), messages
+
+
+def test_machine_note_outside_frames_with_several_machines():
+    one_machine = [e for e in HAND_PARALLEL if e[0] != "UMLNote"][:4]
+    other = [(k, x + 2000, y, w, h, t.replace("wait", "other"), *p) for k, x, y, w, h, t, *p in one_machine]
+    elements = one_machine + other + [("UMLNote", 600, 20, 200, 60, "machine\n--\nname=both")]
+    messages = _hand_errors([e if e[0] != "Relation" or "start" not in e[5] else (*e[:5], "lt=->") for e in elements])
+    assert any("machine note outside every machine frame, but the diagram holds 2 machines" in m for m in messages)
+
+
+def test_machine_note_names_a_framed_machine_and_a_nested_one():
+    doc = one(element("UMLFrame", 0, 0, 600, 500, "framed"),
+              element("UMLNote", 300, 20, 200, 80, "machine\n--\n$schema=../s.json\ndescription=outer"),
+              INIT, START,
+              element("UMLState", 40, 80, 240, 200, "C\nvalign=top"),
+              element("UMLSpecialState", 60, 110, 20, 20, "type=initial"),
+              relation([[70, 130], [70, 160]], "lt=->"),
+              element("UMLState", 60, 160, 80, 40, "x"),
+              element("UMLNote", 160, 200, 100, 60, "machine\n--\nname=inner\n--\nthe\ninner one"))
+    assert doc["name"] == "framed" and doc["$schema"] == "../s.json" and doc["description"] == "outer"
+    assert list(doc)[:3] == ["$schema", "name", "description"]
+    assert strip(doc["states"][0]["machine"]) == {"name": "inner", "description": "the\ninner one", "initial": "x",
+                                                  "states": [{"id": "x", "type": "Idle"}], "transitions": []}

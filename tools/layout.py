@@ -4,10 +4,13 @@ Used by ``fsmctl export`` (UMLet) and ``fsmctl graph --format svg``. Coordinates
 Boxes of one level never come closer than ``GAP`` so that arrow ends attach to exactly one box again.
 
 A composite box holds *parts*: the one sub-machine of an ``FSMState``, or one compartment per region of a
-``Parallel`` state. By default only inline ``FSMState`` machines are expanded (what ``export`` writes); the
-drawing passes an ``expand`` hook that also opens includes and regions (see :class:`Expansion`), and
-``drawing=True``, which makes room for such content in a stored layout by moving what lies right of and below
-the grown box (the diagram's arrangement is kept), and bends parallel arrows apart.
+``Parallel`` state. By default only inline ``FSMState`` machines are expanded; ``export`` also opens the
+regions of a ``Parallel`` state, as frames set in from the box's border (``Expansion.inset``) that keep where
+the diagram had them (the state's ``layout.frames``). The drawing passes an ``expand`` hook that also
+opens includes (see :class:`Expansion`), and ``drawing=True``, which makes room for such content in a stored
+layout by moving what lies right of and below the grown box (the diagram's arrangement is kept), and bends
+parallel arrows apart. With a ``note_size`` hook, a machine level gets a note box (its machine's own keys)
+right of its content, or where its ``layout.note`` puts it.
 """
 
 from __future__ import annotations
@@ -26,6 +29,11 @@ MARKER = 20
 HEAD, HEAD_NOTE = 26, 40
 #: Height of a region's name band at the top of its compartment.
 REGION_HEAD = 24
+#: Inset regions (export): the space between a Parallel box's border and its frames, and between frames. More
+#: than the attachment distance, so an arrow ending at the Parallel box's border is not taken for the frame's.
+REGION_GAP = 20
+#: Space between a level's content and its note box.
+NOTE_GAP = 40
 
 
 @dataclass(eq=False)
@@ -49,13 +57,17 @@ class Expansion:
     same hook)``; ``note``: a line under the title (an include's file name, or why it could not be read);
     ``foreign``: the parts' coordinates are not this diagram's (an included file, a region), so they are
     moved into the box rather than kept where they are; ``error``: the note says what is wrong;
-    ``min_widths``: the least width of each part's compartment (for its name).
+    ``min_widths``: the least width of each part's compartment (for its name); ``head``: the height of the
+    box's own text above its content (default: the title band); ``inset``: regions are frames set in from the
+    box's border by ``REGION_GAP`` and kept where the state's ``layout.frames`` puts them.
     """
     parts: list[tuple[str | None, dict[str, Any], Callable[..., Expansion | None] | None]]
     note: str | None = None
     foreign: bool = False
     error: bool = False
     min_widths: list[float] = field(default_factory=list)
+    head: float | None = None
+    inset: bool = False
 
 
 @dataclass(eq=False)
@@ -69,6 +81,8 @@ class Node:
     note: str | None = None
     note_error: bool = False
     foreign: bool = False
+    inset: bool = False
+    head_override: float | None = None
     placed: bool = False
     #: The stored box, before room was made for grown composites (where stored arrow ends are attached).
     stored: tuple[float, float, float, float] | None = None
@@ -94,6 +108,8 @@ class Node:
 
     @property
     def head(self) -> float:
+        if self.head_override is not None:
+            return self.head_override
         return HEAD_NOTE if self.note is not None else HEAD
 
     def move(self, dx: float, dy: float) -> None:
@@ -126,12 +142,11 @@ class LevelLayout:
     inserted: list[tuple[float, float, float, float]] = field(default_factory=list)
     #: Room kept for arrow labels (drawing only): ``[x, y, w, h]`` beside each arrow's middle.
     label_room: list[list[float]] = field(default_factory=list)
+    #: The box of the level's note (``note_size`` hook): ``[x, y, w, h]``.
+    note: list[float] | None = None
 
     def bbox(self, labels: bool = True) -> tuple[float, float, float, float]:
-        xs0 = [n.x for n in self.nodes] + ([self.marker[0]] if self.marker else [])
-        ys0 = [n.y for n in self.nodes] + ([self.marker[1]] if self.marker else [])
-        xs1 = [n.x + n.w for n in self.nodes] + ([self.marker[0] + MARKER] if self.marker else [])
-        ys1 = [n.y + n.h for n in self.nodes] + ([self.marker[1] + MARKER] if self.marker else [])
+        xs0, ys0, xs1, ys1 = _box_edges(self)
         for e in self.edges:
             for px, py in e.points:
                 xs0.append(px - 10)
@@ -156,6 +171,19 @@ class LevelLayout:
             self.marker = (self.marker[0] + dx, self.marker[1] + dy)
         self.marker_points = [[px + dx, py + dy] for px, py in self.marker_points]
         self.label_room = [[x + dx, y + dy, w, h] for x, y, w, h in self.label_room]
+        if self.note is not None:
+            self.note = [self.note[0] + dx, self.note[1] + dy, self.note[2], self.note[3]]
+
+
+def _box_edges(level: LevelLayout) -> tuple[list[float], list[float], list[float], list[float]]:
+    """Left, top, right and bottom edges of the level's boxes: states, initial marker, note."""
+    boxes = [(n.x, n.y, n.w, n.h) for n in level.nodes]
+    if level.marker:
+        boxes.append((level.marker[0], level.marker[1], MARKER, MARKER))
+    if level.note is not None:
+        boxes.append((level.note[0], level.note[1], level.note[2], level.note[3]))
+    return ([b[0] for b in boxes], [b[1] for b in boxes], [b[0] + b[2] for b in boxes],
+            [b[1] + b[3] for b in boxes])
 
 
 def _snap(v: float) -> float:
@@ -182,12 +210,14 @@ def inline_only(state: dict[str, Any]) -> Expansion | None:
 
 def lay_out(machine: dict[str, Any], label_lines: Any, *, expand: Callable[..., Expansion | None] | None = None,
             size: Callable[[Node], tuple[float, float]] | None = None,
-            label_width: Callable[[dict[str, Any]], float] | None = None, drawing: bool = False) -> LevelLayout:
+            label_width: Callable[[dict[str, Any]], float] | None = None, drawing: bool = False,
+            note_size: Callable[[dict[str, Any]], tuple[float, float] | None] | None = None) -> LevelLayout:
     """Positions for every state, initial marker and transition of ``machine`` and its sub-machines.
 
     ``label_lines(state)`` gives the text lines a state box shows (for its size) unless ``size(node)`` is given;
     ``expand(state)`` says what a composite shows (default: inline ``FSMState`` machines only);
-    ``label_width(transition)``, how wide an arrow's label is drawn: the layered layout leaves room for it.
+    ``label_width(transition)``, how wide an arrow's label is drawn: the layered layout leaves room for it;
+    ``note_size(machine)``, the size of the note box a machine level gets (None: no note).
     """
     expand = expand or inline_only
     nodes = []
@@ -199,9 +229,10 @@ def lay_out(machine: dict[str, Any], label_lines: Any, *, expand: Callable[..., 
         exp = expand(st)
         if exp is not None:
             node.note, node.note_error, node.foreign = exp.note, exp.error, exp.foreign
+            node.inset, node.head_override = exp.inset, exp.head
             for i, (name, sub, hook) in enumerate(exp.parts):
                 node.parts.append(Part(lay_out(sub, label_lines, expand=hook or expand, size=size,
-                                               label_width=label_width, drawing=drawing), name,
+                                               label_width=label_width, drawing=drawing, note_size=note_size), name,
                                        exp.min_widths[i] if i < len(exp.min_widths) else 0))
         lay = st.get("layout") if isinstance(st.get("layout"), dict) else {}
         if all(_num(lay.get(k)) for k in "xywh"):
@@ -231,6 +262,8 @@ def lay_out(machine: dict[str, Any], label_lines: Any, *, expand: Callable[..., 
             continue
         level.edges.append(Edge(tr, src, dst))
     _route(level, drawing)
+    if note_size is not None:
+        _place_note(level, note_size(machine))
     if label_width is not None:
         for e in level.edges:
             if len(e.points) >= 2:
@@ -238,6 +271,25 @@ def lay_out(machine: dict[str, Any], label_lines: Any, *, expand: Callable[..., 
                 (ax, ay), (bx, by) = e.points[i], e.points[i + 1]
                 level.label_room.append([(ax + bx) / 2 + 4, (ay + by) / 2 - 8, label_width(e.doc), 16])
     return level
+
+
+def _place_note(level: LevelLayout, size: tuple[float, float] | None) -> None:
+    """The note box: where ``layout.note`` puts it (with its size) when every box of the level kept its stored
+    place, else right of the level's content, level with its top."""
+    if size is None:
+        return
+    w, h = size
+    lay = level.machine.get("layout") if isinstance(level.machine.get("layout"), dict) else {}
+    note = lay.get("note") if isinstance(lay.get("note"), dict) else {}
+    if all(_num(note.get(k)) for k in "xywh") and all(n.stored is not None for n in level.nodes) \
+            and not level.inserted:
+        level.note = [float(note["x"]), float(note["y"]), float(note["w"]), float(note["h"])]
+        return
+    if not level.nodes:
+        level.note = [0.0, 0.0, w, h]
+        return
+    x0, y0, x1, _ = level.bbox(labels=False)
+    level.note = [_snap(x1 + NOTE_GAP), y0, w, h]
 
 
 # -- composites ------------------------------------------------------------------------------------------------
@@ -266,7 +318,8 @@ def _natural_size(n: Node) -> tuple[float, float]:
         return 0, 0
     if not n.regions:
         return sizes[0]
-    return sum(w for w, _ in sizes), n.head + max(h for _, h in sizes)
+    gap = REGION_GAP if n.inset else 0
+    return sum(w for w, _ in sizes) + gap * (len(sizes) + 1), n.head + max(h for _, h in sizes) + gap
 
 
 def _arrange(n: Node) -> None:
@@ -281,16 +334,39 @@ def _arrange(n: Node) -> None:
             x0, y0, _, _ = p.level.bbox()
             p.level.shift(n.x + PAD - x0, n.y + _content_top(n) - y0)
         return
-    extra = max(0.0, n.w - sum(w for w, _ in sizes)) / len(sizes)
-    x = n.x
+    gap = REGION_GAP if n.inset else 0
+    extra = max(0.0, n.w - sum(w for w, _ in sizes) - gap * (len(sizes) + 1)) / len(sizes)
+    x = n.x + gap
     for i, (p, (w, _)) in enumerate(zip(n.parts, sizes)):
         p.x, p.y = x, n.y + n.head
-        p.w = n.x + n.w - x if i == len(sizes) - 1 else math.floor(w + extra)
-        p.h = n.y + n.h - p.y
+        p.w = n.x + n.w - gap - x if i == len(sizes) - 1 else math.floor(w + extra)
+        p.h = n.y + n.h - gap - p.y
         if p.level.nodes:
             x0, y0, x1, _ = p.level.bbox()
             p.level.shift(p.x + (p.w - (x1 - x0)) / 2 - x0, p.y + REGION_HEAD + 16 - y0)
-        x += p.w
+        x += p.w + gap
+
+
+def _stored_frames(n: Node) -> list[tuple[float, float, float, float]] | None:
+    """The frames an inset composite's regions keep (``layout.frames`` of the state, one per region), when the
+    box kept its stored place and every frame lies inside it and holds its region's content; else None."""
+    lay = n.doc.get("layout") if isinstance(n.doc.get("layout"), dict) else {}
+    stored = lay.get("frames")
+    if not n.inset or n.stored is None or not isinstance(stored, list) or len(stored) != len(n.parts):
+        return None
+    frames = []
+    for p, fr in zip(n.parts, stored):
+        if not isinstance(fr, dict) or not all(_num(fr.get(k)) for k in "xywh"):
+            return None
+        x, y, w, h = (float(fr[k]) for k in "xywh")
+        if x < n.x or y < n.y or x + w > n.x + n.w or y + h > n.y + n.h:
+            return None
+        if p.level.nodes or p.level.note is not None:
+            x0, y0, x1, y1 = _node_bbox(p.level)
+            if x0 < x or y0 < y or x1 > x + w or y1 > y + h:
+                return None
+        frames.append((x, y, w, h))
+    return frames
 
 
 def _place(level: LevelLayout, by_id: dict[str, Node], label_width: Callable[[dict[str, Any]], float] | None = None,
@@ -373,6 +449,11 @@ def _fit_composites(level: LevelLayout, drawing: bool) -> None:
     for n in level.nodes:
         if not n.parts:
             continue
+        frames = _stored_frames(n) if n.regions else None
+        if frames is not None:
+            for p, (x, y, w, h) in zip(n.parts, frames):
+                p.x, p.y, p.w, p.h = x, y, w, h
+            continue
         if n.foreign or n.regions:
             w, h = _natural_size(n)
             if w > n.w or h > n.h:
@@ -435,10 +516,7 @@ def _attach(p: list[float], n: Node) -> list[float]:
 
 
 def _node_bbox(level: LevelLayout) -> tuple[float, float, float, float]:
-    xs = [n.x for n in level.nodes] + ([level.marker[0]] if level.marker else [])
-    ys = [n.y for n in level.nodes] + ([level.marker[1]] if level.marker else [])
-    xe = [n.x + n.w for n in level.nodes] + ([level.marker[0] + MARKER] if level.marker else [])
-    ye = [n.y + n.h for n in level.nodes] + ([level.marker[1] + MARKER] if level.marker else [])
+    xs, ys, xe, ye = _box_edges(level)
     return min(xs), min(ys), max(xe), max(ye)
 
 

@@ -233,3 +233,75 @@ def event_name(label: str) -> str:
             if value:
                 return value
     return label.strip()
+
+
+# -- machine notes and region frames --------------------------------------------------------------------------
+#: The first line of a ``UMLNote`` that carries a machine's own keys.
+MACHINE_NOTE_TITLE = "machine"
+#: The keys a machine note may give, in the order the writer puts them.
+MACHINE_KEYS = ("name", "$schema", "description", "vars")
+_NOTE_KEY_VALUE = re.compile(r"^\s*(\$?[A-Za-z_][A-Za-z0-9_]*)\s*=(.*)$")
+_INCLUDE = re.compile(r"^\s*file\s*=(.*)$")
+
+
+def is_machine_note(text: str) -> bool:
+    """Whether a note's first line (style lines aside) is ``machine``."""
+    for ln in text.split("\n"):
+        if is_style(ln) or not ln.strip():
+            continue
+        return ln.strip() == MACHINE_NOTE_TITLE
+    return False
+
+
+@dataclass
+class MachineNote:
+    """A machine note: its ``key=value`` texts (unparsed) and its free text (the description), if any."""
+
+    values: dict[str, str]
+    description: str | None
+
+
+def parse_machine_note(text: str) -> MachineNote:
+    """The compartments after the ``machine`` line: one starting with a machine key holds only ``key=value``
+    lines (keys from :data:`MACHINE_KEYS`); any other is free text, the machine's description."""
+    name_lines, compartments = split_state(text)
+    rest = list(name_lines)
+    while rest and not rest[0].strip():
+        rest.pop(0)
+    rest = rest[1:]  # the "machine" line
+    values: dict[str, str] = {}
+    free: list[str] = []
+    for comp in [rest] + compartments:
+        lines = [ln for ln in comp if ln.strip()]
+        if not lines:
+            continue
+        m = _NOTE_KEY_VALUE.match(lines[0])
+        if m and m.group(1) in MACHINE_KEYS:
+            for ln in lines:
+                m = _NOTE_KEY_VALUE.match(ln)
+                if not m or m.group(1) not in MACHINE_KEYS:
+                    raise TextError(f"line {ln.strip()[:40]!r} is not one of the machine's key=value lines "
+                                    f"({', '.join(MACHINE_KEYS)}); free text goes after another -- line")
+                if m.group(1) in values:
+                    raise TextError(f"'{m.group(1)}' is given twice")
+                values[m.group(1)] = m.group(2).strip()
+        else:
+            free.append("\n".join(ln.rstrip() for ln in comp).strip("\n"))
+    if free and "description" in values:
+        raise TextError("the description is given twice: as description= and as free text")
+    return MachineNote(values, "\n".join(free) if free else None)
+
+
+def note_key_line(line: str) -> bool:
+    """Whether ``line`` would be read as one of a machine note's ``key=value`` lines."""
+    m = _NOTE_KEY_VALUE.match(line)
+    return bool(m and m.group(1) in MACHINE_KEYS)
+
+
+def include_title(title: str) -> str | None:
+    """The file of a region frame titled ``file=PATH`` (an included region), else None."""
+    m = _INCLUDE.match(title)
+    if not m:
+        return None
+    value = parse_value(m.group(1).strip())
+    return value if isinstance(value, str) else m.group(1).strip()

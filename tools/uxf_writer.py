@@ -3,17 +3,20 @@ and the palette of every registered type.
 
 Texts are written in the syntax the reader (:mod:`fsm.tools.uxf`) reads back exactly: a plain name for an
 ``Idle`` state, ``key=value`` lines under ``--`` for typed states, UML labels for ``Signal`` transitions
-that came from one, and JSON fragments only where ``key=value`` would be ambiguous.
+that came from one, and JSON fragments only where ``key=value`` would be ambiguous. A ``Parallel`` state is a
+box holding one ``UMLFrame`` per region (title: the region's name, or ``file=PATH`` for an included region);
+each machine's own keys (name, ``$schema``, description, vars) are in a ``machine`` note drawn in it.
 """
 
 from __future__ import annotations
 
 import json
+import textwrap
 from typing import Any
 from xml.sax.saxutils import escape
 
 from . import uxf_text as T
-from .layout import MARKER, LevelLayout, inline_machine, lay_out
+from .layout import HEAD, Expansion, LevelLayout, inline_machine, lay_out
 
 HEADER = '<?xml version="1.0" encoding="UTF-8" standalone="no"?>\n<diagram program="umlet" version="15.1">\n'
 
@@ -88,9 +91,11 @@ def _safe_free_text(text: str) -> bool:
 
 
 def state_text(st: dict[str, Any], composite: bool) -> str:
+    """The text of a state box; a composite's (``composite``) leaves out what is drawn inside it."""
     sid = str(st.get("id", ""))
     typ = str(st.get("type", "Idle"))
-    params = {k: v for k, v in st.items() if k not in _COMMON_STATE and not (composite and k == "machine")}
+    inside = ("machine", "regions") if composite else ()
+    params = {k: v for k, v in st.items() if k not in _COMMON_STATE and k not in inside}
     desc = params.get("description")
     free = None
     if isinstance(desc, str) and _safe_free_text(desc):
@@ -108,6 +113,79 @@ def state_text(st: dict[str, Any], composite: bool) -> str:
     if composite:
         lines.append("valign=top")
     return "\n".join(lines)
+
+
+def drawn_regions(st: dict[str, Any]) -> list[dict[str, Any]] | None:
+    """The regions of a Parallel state when each can be drawn as a frame (an inline machine or an include)."""
+    regions = st.get("regions")
+    if st.get("type") != "Parallel" or not isinstance(regions, list) or not regions:
+        return None
+    for r in regions:
+        if not isinstance(r, dict):
+            return None
+        if not (isinstance(r.get("states"), list) or (set(r) == {"file"} and isinstance(r["file"], str))):
+            return None
+    return regions
+
+
+def region_title(region: dict[str, Any]) -> str:
+    """A region frame's title: ``file=PATH`` for an include, else the region's name when a title can carry it."""
+    if "states" not in region:
+        return "file=" + _value_text(region["file"])
+    name = region.get("name")
+    return name if isinstance(name, str) and _safe_title(name) else ""
+
+
+def _safe_title(name: str) -> bool:
+    return _safe_name(name) and T.include_title(name) is None and not T._KEY_VALUE.match(name)
+
+
+def note_text(machine: dict[str, Any], role: str) -> str | None:
+    """The machine note of ``machine`` (``role``: top, region or sub), or None when it needs none.
+
+    The diagram's own machine always has one (without it, the reader names the machine after the file).
+    """
+    kv: list[str] = []
+    free = None
+    for key in T.MACHINE_KEYS:
+        if key not in machine:
+            continue
+        value = machine[key]
+        if key == "name" and role == "region" and region_title(machine):
+            continue  # the frame's title
+        if key == "description" and isinstance(value, str) and _safe_note_text(value):
+            free = value
+            continue
+        kv.append(f"{key}={json.dumps(value, ensure_ascii=False) if key == 'vars' else _value_text(value)}")
+    if not kv and free is None and role != "top":
+        return None
+    lines = [T.MACHINE_NOTE_TITLE]
+    if kv:
+        lines += ["--"] + kv
+    if free is not None:
+        lines += ["--", free]
+    return "\n".join(lines + ["style=wordwrap"])
+
+
+def _safe_note_text(text: str) -> bool:
+    return _safe_free_text(text) and not T.note_key_line(text.split("\n")[0])
+
+
+#: A note's width; its text wraps (``style=wordwrap``), so its height comes from an estimate of the lines.
+NOTE_W, NOTE_CHAR_W, NOTE_LINE_H = 360, 7.5, 18
+
+
+def note_size(text: str) -> tuple[float, float]:
+    per_line = int((NOTE_W - 20) / NOTE_CHAR_W)
+    shown = [ln for ln in text.split("\n") if not T.is_style(ln)]
+    lines = sum(max(1, len(textwrap.wrap(ln, per_line))) for ln in shown)
+    return float(NOTE_W), float(-(-(lines * NOTE_LINE_H + 20) // 10) * 10)
+
+
+def _head(text: str) -> float:
+    """The height of a composite box's own text above its content."""
+    shown = [ln for ln in text.split("\n") if not T.is_style(ln)]
+    return HEAD + 18 * max(0, len(shown) - 1)
 
 
 def _can_finish(st: dict[str, Any], registry: Any) -> bool:
@@ -156,12 +234,42 @@ def final_special(st: dict[str, Any], level_names: set[str], used: set[str]) -> 
 # -- export ---------------------------------------------------------------------------------------------------
 def export(doc: dict[str, Any], registry: Any = None) -> str:
     """A ``.uxf`` diagram of ``doc`` (stored layout where present) that converts back to ``doc``."""
+    roles: dict[int, str] = {id(doc): "top"}
+
+    def composite(st: dict[str, Any]) -> bool:
+        return inline_machine(st) is not None or drawn_regions(st) is not None
 
     def lines_of(st: dict[str, Any]) -> list[str]:
-        return state_text(st, inline_machine(st) is not None).split("\n")
+        return state_text(st, composite(st)).split("\n")
 
-    level = lay_out(doc, lines_of)
-    x0, y0, _, _ = _bbox_all(level)
+    def expand(st: dict[str, Any]) -> Expansion | None:
+        head = _head(state_text(st, True))
+        sub = inline_machine(st)
+        if sub is not None:
+            return Expansion([(None, sub, None)], head=head)
+        regions = drawn_regions(st)
+        if regions is None:
+            return None
+        parts: list[tuple[str | None, dict[str, Any], Any]] = []
+        for r in regions:
+            machine = r if "states" in r else {"states": []}
+            roles[id(machine)] = "region"
+            parts.append((region_title(r), machine, None))
+        widths = [len(title) * 8 + 60 for title, _, _ in parts]
+        return Expansion(parts, head=head, inset=True, min_widths=widths)
+
+    def note_of(machine: dict[str, Any]) -> str | None:
+        role = roles.get(id(machine), "sub")
+        if role != "top" and not machine.get("states"):
+            return None  # an included region's empty frame
+        return note_text(machine, role)
+
+    def size_of_note(machine: dict[str, Any]) -> tuple[float, float] | None:
+        text = note_of(machine)
+        return note_size(text) if text is not None else None
+
+    level = lay_out(doc, lines_of, expand=expand, note_size=size_of_note)
+    x0, y0, x1, y1 = level.bbox(labels=False)
     stored = any(isinstance(st, dict) and isinstance(st.get("layout"), dict) for st in doc.get("states", []))
     dx, dy = (0.0, 0.0) if stored else (max(0.0, 20 - x0), max(0.0, 20 - y0))
     if dx or dy:
@@ -169,16 +277,16 @@ def export(doc: dict[str, Any], registry: Any = None) -> str:
     out: list[str] = []
     frame = (doc.get("layout") or {}).get("frame") if isinstance(doc.get("layout"), dict) else None
     if isinstance(frame, dict) and all(isinstance(frame.get(k), (int, float)) for k in "xywh") and not (dx or dy):
-        out.append(element("UMLFrame", frame["x"], frame["y"], frame["w"], frame["h"], str(frame.get("title", ""))))
-    _emit(level, out, registry)
+        fx, fy = min(frame["x"], x0 - 10), min(frame["y"], y0 - 10)  # the frame holds everything, the note too
+        fw, fh = max(frame["x"] + frame["w"], x1 + 10) - fx, max(frame["y"] + frame["h"], y1 + 10) - fy
+        title = frame.get("title")
+        title = title if isinstance(title, str) else ""
+        out.append(element("UMLFrame", fx, fy, fw, fh, title))
+    _emit(level, out, registry, note_of)
     return diagram(out)
 
 
-def _bbox_all(level: LevelLayout) -> tuple[float, float, float, float]:
-    return level.bbox()
-
-
-def _emit(level: LevelLayout, out: list[str], registry: Any) -> None:
+def _emit(level: LevelLayout, out: list[str], registry: Any, note_of: Any) -> None:
     names = {str(n.doc.get("id")) for n in level.nodes if n.doc.get("type") != "Final"}
     used: set[str] = set()
     if level.marker is not None and level.initial is not None:
@@ -195,21 +303,39 @@ def _emit(level: LevelLayout, out: list[str], registry: Any) -> None:
                 kind = "UMLSpecialState"
                 used.add(str(st.get("id")))
         if text is None:
-            text = state_text(st, n.sub is not None)
+            text = state_text(st, n.sub is not None or n.regions)
             shape = (st.get("layout") or {}).get("shape") if isinstance(st.get("layout"), dict) else None
             if shape == "frame" and n.sub is not None and text == f"{st.get('id')}\nvalign=top":
                 kind, text = "UMLFrame", str(st.get("id"))
         out.append(element(kind, n.x, n.y, n.w, n.h, text))
         if n.sub is not None:
-            _emit(n.sub, out, registry)
+            _emit(n.sub, out, registry, note_of)
+        elif n.regions:
+            for p in n.parts:
+                out.append(element("UMLFrame", p.x, p.y, p.w, p.h, p.name or ""))
+                _emit(p.level, out, registry, note_of)
     for e in level.edges:
         out.append(relation(e.points, transition_text(e.doc, e.src.doc, registry)))
+    if level.note is not None:
+        text = note_of(level.machine)
+        if text is not None:
+            out.append(element("UMLNote", *level.note, text))
 
 
 # -- palette --------------------------------------------------------------------------------------------------
+#: The palette's machine note: the keys, and where the note goes.
+_NOTE_TEMPLATE = "\n".join([
+    T.MACHINE_NOTE_TITLE, "--", "name=", "description=",
+    "// the keys of the machine this note is drawn in: outside every box, the diagram's machine; in a composite "
+    "state or a region frame, that machine",
+    "// name, $schema, description: texts; vars: a JSON object, e.g. vars={\"count\": 0}",
+    "// free text after another -- line is the description", "style=wordwrap"])
+
+
 def palette(registry: Any) -> str:
     """The UMLet palette: one template per registered state and transition type, every parameter with its
-    default (required ones empty), each explained in a ``//`` comment line UMLet does not draw."""
+    default (required ones empty), each explained in a ``//`` comment line UMLet does not draw; a machine note;
+    a ``Parallel`` state holds two region frames instead of a ``regions`` parameter."""
     from fsm.document import param_info
 
     out: list[str] = []
@@ -218,6 +344,8 @@ def palette(registry: Any) -> str:
     out.append(element("UMLSpecialState", 60, y, 20, 20, "type=final"))
     out.append(element("Text", 100, y, 300, 30, "initial marker / final state (outcome = its label)\nfontsize=10"))
     y += 50
+    out.append(element("UMLNote", 20, y, 300, 90, _NOTE_TEMPLATE))
+    y += 110
     x_state, x_trans = 20, 360
     ys, yt = y, y
     for kind, name, cls in registry:
@@ -227,7 +355,13 @@ def palette(registry: Any) -> str:
         doc = (cls.__doc__ or "").strip().split("\n")[0]
         if doc:
             comments.append(f"// {doc}")
+        composite = kind == "state" and bool(getattr(cls, "is_composite", False))
+        drawn = composite and any(info["name"] == "regions" for info in infos)
         for info in infos:
+            if drawn and info["name"] == "regions":
+                comments.append("// regions: one UMLFrame per region inside this box, titled with the region's name "
+                                "(or file=PATH to include the region), holding its initial marker, states and arrows")
+                continue
             if "default" in info:
                 value = _value_text(info["default"]) if info["default"] is not None else "null"
                 lines.append(f"{info['name']}={value}")
@@ -237,11 +371,16 @@ def palette(registry: Any) -> str:
             desc = f": {info['description']}" if info.get("description") else ""
             comments.append(f"// {info['name']} ({info['type']}, {req}){desc}")
         if kind == "state":
-            composite = bool(getattr(cls, "is_composite", False))
             text = "\n".join([name, "--", f"type={name}"] + lines + comments + (["valign=top"] if composite else []))
             h = 40 + 20 * len(lines) + (80 if composite else 0)
             w = 300 if composite else 220
+            frames: list[str] = []
+            if drawn:
+                top = ys + _head(text)
+                h = int(top - ys) + 70 + 20
+                frames = [element("UMLFrame", x_state + 20 + 140 * i, top, 120, 70, f"region{i + 1}") for i in range(2)]
             out.append(element("UMLState", x_state, ys, w, h, text))
+            out.extend(frames)
             ys += h + 20
         else:
             text = "\n".join(["lt=->", f"type={name}"] + lines + comments)

@@ -1,0 +1,324 @@
+"""The machine documents a resolved :class:`fsm.tools.uxf_scene.Scene` stands for.
+
+The top level holds one machine, or several: each top-level ``UMLFrame`` no arrow touches holds one, and
+without frames each connected part with its own initial pseudostate is one. A state box with boxes inside is
+an ``FSMState`` whose machine is what it holds; a ``type=Parallel`` box holds one ``UMLFrame`` per region
+(frame title = region name; a frame titled ``file=PATH`` is an included region). A ``UMLNote`` whose first line
+is ``machine`` gives the keys of the machine it is drawn in (see :mod:`fsm.tools.uxf`). Every document keeps
+the positions of its boxes under ``layout`` and, per JSON pointer, the element it came from (for messages).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from . import uxf_text as T
+from .uxf_geometry import Box
+from .uxf_scene import Level, Scene, StateBox, num, where
+from .uxf_source import RawElement
+
+#: The order of a machine's own keys in a document.
+_MACHINE_ORDER = ("$schema", "name", "description", "vars", "initial", "states", "transitions", "layout")
+
+
+class Documents:
+    """Emits one document per machine of ``scene`` (its relations already resolved)."""
+
+    def __init__(self, scene: Scene) -> None:
+        self.scene = scene
+        self.problem = scene.problem
+        self.docs: list[dict[str, Any]] = []
+        self.names: list[str] = []
+        self.origins: list[dict[str, RawElement]] = []
+
+    def run(self) -> None:
+        scene = self.scene
+        top = scene.levels[0]
+        machines = self.split_top(top)
+        if top.notes and len(machines) > 1:
+            for note in top.notes:
+                self.problem(note.elem, f"machine note outside every machine frame, but the diagram holds "
+                                        f"{len(machines)} machines",
+                             hint="put the note inside the UMLFrame of the machine it describes")
+        stem = Path(scene.name).stem
+        for fallback, states, initials, frame in machines:
+            origins: dict[str, RawElement] = {}
+            notes = list(top.notes) if len(machines) == 1 else []
+            title = None
+            if frame is not None:
+                notes += scene.levels[id(frame)].notes
+                title = scene.state_of[id(frame)].id or None
+            meta = self.metadata(notes)
+            if meta is None:  # no note: the frame's title, the file's name or the first state's
+                name: Any = title or fallback
+            else:  # the note's name=, else the frame's title, else none
+                name = meta.pop("name", title)
+            level = scene.levels[id(frame)] if frame is not None else top
+            doc = self.machine_doc(level, states, initials, "", origins, meta=meta or {}, name=name,
+                                   note=notes[0] if notes else None, frame=frame, what="the diagram")
+            label = name if isinstance(name, str) and name else stem
+            base_label, n = label, 2
+            while label in self.names:
+                label = f"{base_label} ({n})"
+                n += 1
+            if label != base_label and doc.get("name") == base_label:
+                doc["name"] = label
+            self.docs.append(doc)
+            self.names.append(label)
+            self.origins.append(origins)
+
+    def split_top(self, top: Level) -> list[tuple[str, list[StateBox], list[Box], Box | None]]:
+        """Top-level machines: a frame that nothing attaches to holds one; else connected parts with an initial."""
+        scene = self.scene
+        stem = Path(scene.name).stem
+        frames = [st for st in top.states if id(st.box) in scene.machine_frames]
+        plain = [st for st in top.states if id(st.box) not in scene.machine_frames]
+        out: list[tuple[str, list[StateBox], list[Box], Box | None]] = []
+        for fr in frames:
+            lvl = scene.levels.get(id(fr.box))
+            if lvl is None:
+                continue
+            out.append((fr.id or stem, lvl.states, lvl.initials, fr.box))
+        if not plain and not top.initials:
+            return out
+        if len(top.initials) <= 1:
+            out.insert(0, (stem, plain, top.initials, None))
+            return out
+        # several initial markers at the top: connected components
+        parent: dict[int, int] = {}
+
+        def find(k: int) -> int:
+            while parent.setdefault(k, k) != k:
+                parent[k] = parent[parent[k]]
+                k = parent[k]
+            return k
+
+        for tr in top.transitions:
+            a, b = find(id(tr["_from"])), find(id(tr["_to"]))
+            if a != b:
+                parent[a] = b
+        comps: dict[int, list[StateBox]] = {}
+        for st in plain:
+            comps.setdefault(find(id(st)), []).append(st)
+        marker_of: dict[int, list[Box]] = {}
+        for m in top.initials:
+            marker = scene.markers.get(id(m))
+            if marker is not None:
+                marker_of.setdefault(find(id(marker.target)), []).append(m)
+        for root, states in comps.items():
+            markers = marker_of.get(root, [])
+            if not markers:
+                names = ", ".join(f"'{st.id}'" for st in states[:5]) + (", ..." if len(states) > 5 else "")
+                self.problem(states[0].box.elem, f"states {names} belong to none of the diagram's machines "
+                                                 "(no initial pseudostate leads to them)",
+                             hint="connect them, or draw them in another file")
+                continue
+            first = scene.markers[id(markers[0])].target
+            out.append((first.id, states, markers, None))
+        return out
+
+    # -- machine keys ---------------------------------------------------------------------------------------
+    def metadata(self, notes: list[Box]) -> dict[str, Any] | None:
+        """The keys the machine note among ``notes`` gives (a copy), or None without a note."""
+        if not notes:
+            return None
+        if len(notes) > 1:
+            for extra in notes[1:]:
+                self.problem(extra.elem, f"a second machine note for one machine (the first is at "
+                                         f"{where(notes[0].elem)})",
+                             hint="keep one machine note per machine: merge them")
+        return dict(self.scene.note_of[id(notes[0])])
+
+    # -- machines -------------------------------------------------------------------------------------------
+    def machine_doc(self, level: Level, states: list[StateBox], initials: list[Box], base: str,
+                    origins: dict[str, RawElement], *, meta: dict[str, Any], name: Any = None,
+                    note: Box | None = None, frame: Box | None = None, what: str) -> dict[str, Any]:
+        """The document of one machine level: ``meta`` holds the keys of its machine ``note``; ``name`` is
+        the name it has unless the note gives one (None: no name)."""
+        scene = self.scene
+        targets = [(m, scene.markers.get(id(m))) for m in initials]
+        markers = [(m, mk) for m, mk in targets if mk is not None and mk.target in states]
+        initial_id: str | None = None
+        layout: dict[str, Any] = {}
+        if len(markers) > 1:
+            listing = ", ".join(f"at {where(m.elem)}" for m, _ in markers)
+            self.problem(markers[1][0].elem, f"{len(markers)} initial pseudostates in one machine ({listing})",
+                         hint="keep one initial pseudostate per machine level")
+        elif markers:
+            box, mk = markers[0]
+            initial_id = mk.target.id
+            layout["initial"] = {**box_layout(box), "points": mk.points}
+            origins[base + "/initial"] = mk.relation
+        elif len(states) == 1:
+            initial_id = states[0].id
+        else:
+            elem = frame.elem if frame is not None else (level.owner.elem if level.owner is not None else None)
+            elem = elem or (states[0].box.elem if states else None)
+            self.problem(elem, f"{what} has no initial state: no initial pseudostate with an arrow to a state",
+                         hint="draw a UMLSpecialState with type=initial and an arrow to the first state")
+        if frame is not None:
+            layout["frame"] = {**box_layout(frame), "title": scene.state_of[id(frame)].id}
+        if note is not None:
+            layout["note"] = box_layout(note)
+        # states
+        seen: dict[str, StateBox] = {}
+        out_states: list[dict[str, Any]] = []
+        finals = list(level.finals_by_outcome.values())
+        for st in states + finals:
+            if not st.id:
+                self.problem(st.box.elem, "state box has no name",
+                             hint="write the state's name on the first line of the box")
+                continue
+            if st.id in seen:
+                first = seen[st.id]
+                self.problem(st.box.elem, f"duplicate state name '{st.id}' in one machine (also at "
+                                          f"{where(first.box.elem)})",
+                             hint="names are ids: rename one of the boxes")
+                continue
+            if "/" in st.id:
+                self.problem(st.box.elem, f"state name '{st.id}' contains '/', which separates state paths",
+                             hint="rename the box")
+                continue
+            seen[st.id] = st
+            ptr = f"{base}/states/{len(out_states)}"
+            if st not in finals:
+                origins[ptr] = st.box.elem
+            out_states.append(self.state_doc(st, ptr, origins))
+        # transitions: those whose source is one of these states
+        ids = {id(st) for st in states + finals}
+        out_trans: list[dict[str, Any]] = []
+        for tr, elem in zip(level.transitions, level.trans_origin):
+            if id(tr["_from"]) not in ids:
+                continue
+            doc = {k: v for k, v in tr.items() if not k.startswith("_")}
+            doc["from"], doc["to"] = tr["_from"].id, tr["_to"].id
+            if doc["type"] == "_completion":
+                doc["type"] = "Finished" if self.can_finish(tr["_from"]) else "Always"
+            ptr = f"{base}/transitions/{len(out_trans)}"
+            if elem is not None:
+                origins[ptr] = elem
+            out_trans.append(_ordered(doc, ("type", "from", "to")))
+        doc: dict[str, Any] = dict(meta)
+        if name is not None or "name" in meta:
+            doc["name"] = meta.get("name", name)
+        doc.update({"initial": initial_id or "", "states": out_states, "transitions": out_trans})
+        if layout:
+            doc["layout"] = layout
+        return {k: doc[k] for k in _MACHINE_ORDER if k in doc}
+
+    def can_finish(self, st: StateBox) -> bool:
+        if st.composite and st.type in (None, "FSMState"):
+            lvl = self.scene.levels.get(id(st.box))
+            return bool(lvl and (any(s.box.role == "final" or s.type == "Final" for s in lvl.states)
+                                 or lvl.finals_by_outcome))
+        cls = self.scene.registry().states.get(st.type or "Idle")
+        return bool(cls is not None and cls.can_finish)
+
+    # -- states ---------------------------------------------------------------------------------------------
+    def state_doc(self, st: StateBox, ptr: str, origins: dict[str, RawElement]) -> dict[str, Any]:
+        doc: dict[str, Any] = {"id": st.id}
+        frames: list[Box] = []
+        if st.composite and st.type == "Parallel":
+            doc["type"] = "Parallel"
+            doc.update({k: v for k, v in st.params.items() if k != "regions"})
+            doc["regions"], frames = self.regions(st, ptr, origins)
+        elif st.composite:
+            if st.type not in (None, "FSMState"):
+                self.problem(st.box.elem, f"a {st.type} state cannot contain other boxes",
+                             hint="boxes drawn inside a state form an FSMState's sub-machine (or, in a Parallel "
+                                  "state, its region frames); remove type= or move the boxes out")
+            if "machine" in st.params:
+                self.problem(st.box.elem, "the state both contains boxes and names a 'machine'",
+                             hint="draw the sub-machine inside the box or include it with machine=, not both")
+            lvl = self.scene.levels[id(st.box)]
+            meta = self.metadata(lvl.notes) or {}
+            sub = self.machine_doc(lvl, lvl.states, lvl.initials, ptr + "/machine", origins, meta=meta,
+                                   note=lvl.notes[0] if lvl.notes else None, what=f"composite '{st.id}'")
+            doc["type"] = "FSMState"
+            doc.update({k: v for k, v in st.params.items() if k != "machine"})
+            doc["machine"] = sub
+        else:
+            doc["type"] = st.type or "Idle"
+            doc.update(st.params)
+        if st.description and "description" not in doc:
+            doc["description"] = st.description
+        if st.box.elem is not None and st.box.w > 0:
+            lay = box_layout(st.box)
+            if st.box.role == "final":
+                lay["shape"] = "final"
+            elif st.box.role == "frame":
+                lay["shape"] = "frame"
+            if frames:
+                lay["frames"] = [box_layout(f) for f in frames]
+            doc["layout"] = lay
+        return doc
+
+    def regions(self, st: StateBox, ptr: str, origins: dict[str, RawElement]) -> tuple[list[Any], list[Box]]:
+        """The regions of a Parallel box, one per frame drawn in it, left to right (then top to bottom), and
+        their frames."""
+        scene = self.scene
+        lvl = scene.levels[id(st.box)]
+        if "regions" in st.params:
+            self.problem(st.box.elem, f"Parallel '{st.id}' both holds region frames and gives 'regions'",
+                         hint="draw the regions as frames inside the box, or give regions=, not both")
+        frames = sorted((s for s in lvl.states if id(s.box) in scene.region_frames),
+                        key=lambda s: (s.box.x, s.box.y))
+        hint = ("draw each region as a UMLFrame inside the Parallel state, titled with the region's name, "
+                "holding the region's states and its initial pseudostate")
+        for other in lvl.states:
+            if id(other.box) not in scene.region_frames:
+                self.problem(other.box.elem, f"'{other.id}' is drawn inside Parallel '{st.id}' but in none of "
+                                             "its region frames", hint=hint)
+        for marker in lvl.initials:
+            self.problem(marker.elem, f"initial pseudostate inside Parallel '{st.id}' but in none of its "
+                                      "region frames", hint=hint)
+        for note in lvl.notes:
+            self.problem(note.elem, f"machine note inside Parallel '{st.id}' but in none of its region frames",
+                         hint="a note in a region frame describes that region's machine")
+        out: list[Any] = []
+        boxes: list[Box] = []
+        for fr in frames:
+            region = self.region_doc(st, fr, f"{ptr}/regions/{len(out)}", origins)
+            if region is not None:
+                out.append(region)
+                boxes.append(fr.box)
+        return out, boxes
+
+    def region_doc(self, parallel: StateBox, fr: StateBox, ptr: str,
+                   origins: dict[str, RawElement]) -> dict[str, Any] | None:
+        scene = self.scene
+        origins[ptr] = fr.box.elem
+        lvl = scene.levels.get(id(fr.box))
+        include = T.include_title(fr.id)
+        if include is not None:
+            if lvl is not None:
+                self.problem(fr.box.elem, f"the region frame '{fr.id}' includes a machine from a file, so it "
+                                          "may hold nothing else",
+                             hint="draw the region's states in a frame titled with its name, or include it")
+            return {"file": include}
+        if lvl is None:
+            self.problem(fr.box.elem, f"region frame '{fr.id}' of Parallel '{parallel.id}' is empty",
+                         hint="draw the region's initial pseudostate and states inside it, or title it file=PATH "
+                              "to include the region from a file")
+            return None
+        meta = self.metadata(lvl.notes) or {}
+        if fr.id and "name" in meta and meta["name"] != fr.id:
+            self.problem(lvl.notes[0].elem, f"the machine note names the region '{meta['name']}' but its frame "
+                                            f"is titled '{fr.id}'",
+                         hint="the frame's title is the region's name: remove name= from the note")
+        what = f"region '{fr.id}' of Parallel '{parallel.id}'" if fr.id else f"a region of Parallel '{parallel.id}'"
+        return self.machine_doc(lvl, lvl.states, lvl.initials, ptr, origins, meta=meta, name=fr.id or None,
+                                note=lvl.notes[0] if lvl.notes else None, what=what)
+
+
+def box_layout(box: Box) -> dict[str, Any]:
+    return {"x": num(box.x), "y": num(box.y), "w": num(box.w), "h": num(box.h)}
+
+
+def _ordered(doc: dict[str, Any], first: tuple[str, ...]) -> dict[str, Any]:
+    out = {k: doc[k] for k in first if k in doc}
+    out.update((k, v) for k, v in doc.items() if k not in out and k != "layout")
+    if "layout" in doc:
+        out["layout"] = doc["layout"]
+    return out

@@ -1,0 +1,295 @@
+"""Relations of a UMLet diagram -> transitions and initial states of the machine levels of a :class:`Scene`.
+
+An arrow's ends attach geometrically (:class:`fsm.tools.uxf_geometry.Attacher`); its direction comes from the
+arrowhead. An arrow from an initial pseudostate starts its level. An arrow between levels enters a composite
+through the initial states of the levels on the way (else it is an error), and leaves a composite through
+generated ``Final`` states (outcome ``exit to TARGET``) and ``Finished`` transitions, one per level. Arrows do
+not cross the frame of a ``Parallel`` state's region: a region is left through a Final state.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from . import uxf_text as T
+from .uxf_geometry import Attacher, Box
+from .uxf_scene import Level, Marker, Scene, StateBox, num
+from .uxf_source import RawElement
+
+Attached = tuple[RawElement, T.RelationText, Any, Any, list[list[Any]]]
+
+
+class Relations:
+    """Resolves the relations of ``scene`` into its levels' transitions and initial markers."""
+
+    def __init__(self, scene: Scene) -> None:
+        self.scene = scene
+        self.problem = scene.problem
+        self.attacher = Attacher([b for b in scene.boxes if b.role != "note"])
+        self._initial_used: set[int] = set()
+        self._pending_enter: dict[int, Any] = {}
+
+    def run(self) -> None:
+        self.resolve(self.attach())
+        for elem, node, owner in self._pending_enter.values():
+            st = self.scene.state_of.get(id(node))
+            ow = self.scene.state_of.get(id(owner))
+            self.problem(elem, f"the arrow enters '{st.id if st else '?'}' inside composite "
+                               f"'{ow.id if ow else '?'}', which is not its initial state",
+                         hint="end the arrow at the composite's border and start the composite with an initial "
+                              "pseudostate pointing to that state")
+
+    # -- endpoints ------------------------------------------------------------------------------------------
+    def attach(self) -> list[Attached]:
+        out = []
+        s = self.scene.scale
+        for elem in self.scene.relations:
+            rel = T.parse_relation(elem.text)
+            if not (rel.start_head or rel.end_head):
+                continue  # plain lines and note anchors (lt=.) are not transitions
+            if rel.start_head and rel.end_head:
+                self.problem(elem, f"arrowheads at both ends (lt={rel.lt}): which way does the transition go?",
+                             hint="use lt=-> or lt=<-")
+                continue
+            pts = elem.points
+            if not pts or len(pts) < 4:
+                n = 0 if not pts else len(pts) // 2
+                self.problem(elem, f"a relation needs at least two points, this one has {n}",
+                             hint="draw the arrow again in UMLet")
+                continue
+            if elem.old:  # integers at the stored zoom, relative to the origin
+                absolute = [[(elem.x + pts[i]) * s, (elem.y + pts[i + 1]) * s] for i in range(0, len(pts), 2)]
+                probes = [tuple(p) for p in absolute]
+            else:  # relative to the origin, stored at zoom 10 whatever zoom_level says
+                ox, oy = int(elem.x * s), int(elem.y * s)
+                absolute = [[ox + pts[i], oy + pts[i + 1]] for i in range(0, len(pts), 2)]
+                # Stickables.getAbsolutePosition: realRectangle.x + (int) px
+                probes = [(ox + int(pts[i]), oy + int(pts[i + 1])) for i in range(0, len(pts), 2)]
+            if rel.start_head:
+                absolute.reverse()
+                probes.reverse()
+            ends = []
+            for probe, point in ((probes[0], absolute[0]), (probes[-1], absolute[-1])):
+                ends.append((self.attacher.attach(probe[0], probe[1], elem.old), point))
+            src_box = self.check_end(elem, ends[0], "source")
+            dst_box = self.check_end(elem, ends[1], "target")
+            out.append((elem, rel, src_box, dst_box, [[num(x), num(y)] for x, y in absolute]))
+        return out
+
+    def check_end(self, elem: RawElement, end: Any, role: str) -> Box | None | bool:
+        a, point = end
+        if a.box is not None:
+            return a.box
+        stored = f"x={num(point[0] / self.scene.scale)}, y={num(point[1] / self.scene.scale)}"
+        if a.rule == "ambiguous":
+            names = " and ".join(self.scene.box_name(b) for b in a.others)
+            self.problem(elem, f"{role} end at {stored} is as close to {names}: ambiguous",
+                         hint="move the end onto one of the borders")
+            return False
+        return None  # unattached: decided later (a TRAL label may name the state)
+
+    def dangling(self, elem: RawElement, point: list[Any], role: str) -> None:
+        stored = f"x={num(point[0] / self.scene.scale)}, y={num(point[1] / self.scene.scale)}"
+        hint = "move the arrow's end onto a state's border (UMLet sticks ends closer than 9 px at 100% zoom)"
+        if len([p for p in self.scene.problems if "attached to nothing" in p.message]) < 50:
+            box, d = self.attacher.nearest(point[0], point[1]) if self.attacher.boxes else (None, math.inf)
+            if box is not None:
+                hint = f"nearest is {self.scene.box_name(box)}, {num(round(d, 1))} px away at zoom 10; " + hint
+        self.problem(elem, f"{role} end at {stored} is attached to nothing", hint=hint)
+
+    # -- relations ------------------------------------------------------------------------------------------
+    def resolve(self, attached: list[Attached]) -> None:
+        scene = self.scene
+        touched: set[int] = set()
+        for _, _, a, b, _ in attached:
+            for box in (a, b):
+                if isinstance(box, Box):
+                    touched.add(id(box))
+        for box in scene.boxes:
+            if box.role == "frame" and box.parent is None and id(box) not in touched:
+                scene.machine_frames.add(id(box))
+        # initial markers first: entering a composite checks which state each level starts in
+        first = [r for r in attached if isinstance(r[2], Box) and r[2].role == "initial"]
+        rest = [r for r in attached if not (isinstance(r[2], Box) and r[2].role == "initial")]
+        for elem, rel, src, dst, points in first + rest:
+            self.relation(elem, rel, src, dst, points)
+        for box in scene.boxes:
+            if box.role == "initial" and id(box) not in self._initial_used:
+                self.problem(box.elem, "initial pseudostate has no transition to a state",
+                             hint="draw an arrow from it to the first state of its machine")
+
+    def relation(self, elem: RawElement, rel: T.RelationText, src: Any, dst: Any, points: list[Any]) -> None:
+        scene = self.scene
+        if src is False or dst is False:
+            return  # ambiguous: reported
+        try:
+            label = T.parse_label(rel.label_lines)
+        except T.TextError as exc:
+            self.problem(elem, f"label: {exc}")
+            return
+        params = dict(label.params) if label.params is not None else None
+        explicit: dict[str, Any] = {}
+        if params is not None:
+            for key in ("from", "to"):
+                if key in params:
+                    explicit[key] = params.pop(key)
+            params.pop("id", None)
+        ends = []
+        for box, key, role in ((src, "from", "source"), (dst, "to", "target")):
+            if key in explicit:
+                named = self.find_state(explicit[key])
+                if named is None:
+                    self.problem(elem, f"'{key}': {explicit[key]!r} names no state of the diagram")
+                    return
+                if box is not None and box is not named.box:
+                    self.problem(elem, f"'{key}' in the label names '{named.id}' but the arrow's {role} end is "
+                                       f"attached to {scene.box_name(box)}",
+                                 hint=f"remove '{key}' from the label or move the arrow")
+                    return
+                box = named.box
+            ends.append(box)
+        if ends[0] is None or ends[1] is None:
+            for box, i, role in ((ends[0], 0, "source"), (ends[1], -1, "target")):
+                if box is None:
+                    self.dangling(elem, points[i], role)
+            return
+        src, dst = ends
+        if dst.role == "initial":
+            self.problem(elem, "a transition may not end at an initial pseudostate",
+                         hint="an initial pseudostate only starts its machine; end the arrow at a state "
+                              "(a final state ends the machine)")
+            return
+        for box in (src, dst):
+            if id(box) in scene.region_frames:
+                self.problem(elem, f"the arrow ends at {scene.box_name(box)} of Parallel "
+                                   f"'{scene.state_of[id(box.parent)].id}': a region is not a state",
+                             hint="arrows go between the states inside one region, or to and from the Parallel "
+                                  "state's own border")
+                return
+        if src.role == "initial":
+            self.initial(elem, src, dst, points)
+            return
+        if src.role == "unsupported" or dst.role == "unsupported":
+            return  # the pseudostate is reported
+        s_state = scene.state_of.get(id(src))
+        d_state = scene.state_of.get(id(dst))
+        if s_state is None or d_state is None:
+            return  # their text did not parse: reported
+        if id(src) in scene.machine_frames or id(dst) in scene.machine_frames:
+            return
+        self.transition(elem, s_state, d_state, params, label, points)
+
+    def find_state(self, ref: Any) -> StateBox | None:
+        if not isinstance(ref, (str, int)) or isinstance(ref, bool):
+            return None
+        key = str(ref)
+        states = self.scene.state_of.values()
+        matches = [st for st in states if st.alias == key] or [st for st in states if st.id == key]
+        return matches[0] if len(matches) == 1 else None
+
+    def initial(self, elem: RawElement, marker: Box, dst: Box, points: list[Any]) -> None:
+        scene = self.scene
+        level = scene.level_of(marker)
+        if id(marker) in self._initial_used:
+            self.problem(elem, "a second transition out of the same initial pseudostate",
+                         hint="an initial pseudostate has exactly one outgoing transition")
+            return
+        self._initial_used.add(id(marker))
+        target = scene.state_of.get(id(dst))
+        if target is None:
+            return
+        if dst.parent is not marker.parent:
+            self.problem(elem, f"the initial pseudostate and its target '{target.id}' are not in the same machine",
+                         hint="put the initial pseudostate inside the same box as the state it starts")
+            return
+        level.initial_target = target
+        scene.markers[id(marker)] = Marker(target, points, elem)
+
+    def transition(self, elem: RawElement, s: StateBox, d: StateBox, params: dict[str, Any] | None,
+                   label: T.Label, points: list[Any]) -> None:
+        scene = self.scene
+        src, dst = s.box, d.box
+        s_chain = scene.container_chain(src)
+        d_chain = scene.container_chain(dst)
+        d_set = {id(c) for c in d_chain}
+        common = next(c for c in s_chain if id(c) in d_set)
+        for chain, way in ((s_chain, "leaves"), (d_chain, "enters")):
+            for c in chain:
+                if c is common:
+                    break
+                if c is not None and id(c) in scene.region_frames:
+                    self.problem(elem, f"the arrow {way} {scene.box_name(c)} of Parallel "
+                                       f"'{scene.state_of[id(c.parent)].id}'",
+                                 hint="a region starts at its own initial pseudostate and ends in a Final state; "
+                                      "arrows into or out of the Parallel state end at its border, and Finished "
+                                      "transitions route on the regions' outcomes")
+                    return
+        # enter: the target must be reached through initial states from the common level
+        target = d
+        node = dst
+        while node.parent is not common:
+            owner = node.parent
+            assert owner is not None
+            lvl = scene.levels[id(owner)]
+            if lvl.initial_target is not None and lvl.initial_target.box is node:
+                node = owner
+                target = scene.state_of[id(owner)]
+            else:
+                self._pending_enter.setdefault(id(elem), (elem, node, owner))
+                return
+        if src.parent is common:
+            self.add_transition(scene.level_of(src), s, target, params, label, points, elem)
+            return
+        # exit: an inner state leaves its composite(s): Final in each level, Finished one level up
+        outcome = f"exit to {target.id}"
+        node = src
+        first = True
+        current = s
+        while node.parent is not common:
+            owner = node.parent
+            assert owner is not None
+            lvl = scene.levels[id(owner)]
+            final = lvl.finals_by_outcome.get(outcome)
+            if final is None:
+                taken = {st.id for st in lvl.states} | {f.id for f in lvl.finals_by_outcome.values()}
+                fid = outcome
+                n = 2
+                while fid in taken:
+                    fid = f"{outcome} ({n})"
+                    n += 1
+                final = StateBox(Box(elem, "final", 0, 0, 0, 0), id=fid, type="Final", params={"outcome": outcome})
+                lvl.finals_by_outcome[outcome] = final
+            if first:
+                self.add_transition(lvl, current, final, params, label, points, elem)
+                first = False
+            else:
+                self.add_transition(lvl, current, final, {"type": "Finished", "outcome": outcome},
+                                    T.Label(None, ""), None, None)
+            current = scene.state_of[id(owner)]
+            node = owner
+        self.add_transition(scene.level_of(node), current, target, {"type": "Finished", "outcome": outcome},
+                            T.Label(None, ""), None, None)
+
+    def add_transition(self, level: Level, s: StateBox, d: StateBox, params: dict[str, Any] | None, label: T.Label,
+                       points: list[Any] | None, elem: RawElement | None) -> None:
+        tr: dict[str, Any] = {}
+        if params is not None:
+            typ = params.pop("type", None) if "type" in params else None
+            if not isinstance(typ, str) or not typ:
+                self.problem(elem, f"'type' must be a transition type name, got {typ!r}",
+                             hint="see `fsmctl types` for the transition types")
+                return
+            if label.syntax == "kv" and elem is not None:
+                params = self.scene.coerce_kv("transition", typ, params, elem)
+            tr = {"type": typ, "from": "", "to": "", **params}
+        elif label.text:
+            tr = {"type": "Signal", "from": "", "to": "", "signal": T.event_name(label.text), "label": label.text}
+        else:
+            tr = {"type": "_completion", "from": "", "to": ""}
+        tr["_from"], tr["_to"] = s, d
+        if points is not None:
+            tr["layout"] = {"points": points}
+        level.transitions.append(tr)
+        level.trans_origin.append(elem)
+

@@ -54,13 +54,22 @@ def register_reader(suffix: str, reader: Reader) -> None:
     _READERS[suffix.lower()] = reader
 
 
-def reader_for(path: Path) -> Reader:
-    reader = _READERS.get(path.suffix.lower())
-    if reader is None and path.suffix.lower() == ".uxf":
-        import importlib
+#: Entry-point group of file readers: the entry point's name is the suffix without its dot (``uxf``).
+READER_GROUP = "fsm.readers"
 
-        importlib.import_module("fsm.tools.uxf")  # registers the UMLet reader
-        reader = _READERS.get(".uxf")
+
+def reader_for(path: Path) -> Reader:
+    """The reader of a file by its suffix: registered, or found in the ``fsm.readers`` entry points
+    (how ``fsm.tools`` provides ``.uxf`` without the core knowing UMLet), else JSON."""
+    suffix = path.suffix.lower()
+    reader = _READERS.get(suffix)
+    if reader is None and suffix:
+        from importlib.metadata import entry_points
+
+        for ep in entry_points(group=READER_GROUP, name=suffix[1:]):
+            reader = ep.load()
+            _READERS[suffix] = reader
+            break
     return reader or read_json
 
 

@@ -129,3 +129,15 @@ def test_state_and_transition_libraries_use_the_car_only_through_its_interface()
                           cwd=tempfile.gettempdir())
     assert proc.returncode == 0, proc.stderr
     assert json.loads(proc.stdout.strip().splitlines()[-1]) == []
+
+
+def test_core_source_names_no_tools_or_car_module() -> None:
+    """Also lazy imports count: the core's source names neither fsm.tools nor fsm.sim nor a heavy module."""
+    import re
+
+    core = Path(fsm.__file__).parent
+    pattern = re.compile(r"(import_module\(\s*['\"]|^\s*(from|import)\s+)(fsm\.tools|fsm\.sim|cv2|pymunk|lxml)\b",
+                         re.M)
+    offenders = [str(p.relative_to(core)) for p in core.rglob("*.py")
+                 if "sim" not in p.relative_to(core).parts and pattern.search(p.read_text(encoding="utf-8"))]
+    assert offenders == []

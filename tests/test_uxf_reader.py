@@ -325,16 +325,13 @@ def test_xml2json_legacy_form(tmp_path):
     assert probs[0].pointer == "/diagram/element/0" and probs[0].line == 4
 
 
-def test_huge_file_is_linear(tmp_path):
-    import time
-
+def test_huge_file_gives_one_located_error(tmp_path):
+    """Its speed is measured by benchmarks/bench_big.py, not asserted here."""
     one_state = element("UMLState", 0, 0, 100, 40, "S")
     raw = diagram([one_state.replace("<x>0</x>", f"<x>{i * 200}</x>").replace(">S<", f">S{i}<")
                    for i in range(70_000)]).encode()
     assert len(raw) > 15_000_000
-    start = time.perf_counter()
     probs = errors(raw=raw)  # no initial pseudostate: one located error
-    assert time.perf_counter() - start < 20
     assert len(probs) == 1 and "has no initial state" in probs[0].message
 
 

@@ -197,7 +197,10 @@ class VideoRecorder:
 
     def discard(self) -> None:
         if self.writer is not None:
-            self.writer.release()
+            try:
+                self.writer.release()
+            except FsmError:
+                pass  # the file is thrown away anyway
             self.writer = None
         if self._tmp.exists():
             self._tmp.unlink()

@@ -13,12 +13,13 @@ class Context:
     """Passed to every hook. ``now``/``dt``/``tick`` come from the machine's clock, never the wall clock.
 
     ``vars`` is the blackboard shared by all states (and parallel regions); ``car`` is the plant
-    interface (``None`` for machines that need no car). Signals are boolean inputs (buttons, switches)
-    whose edges are visible for exactly one tick: a change made between ticks ``k`` and ``k+1`` (or
-    during tick ``k``) is an edge during tick ``k+1``.
+    interface (``None`` for machines that need no car). Signals are boolean inputs (buttons, switches).
+    Their level changes at once; an edge is seen for exactly one tick: when the level at the start of
+    tick ``k+1`` differs from the level at the start of tick ``k`` (a change made between the two ticks
+    or during tick ``k``). A signal set and reset between two ticks makes no edge.
     """
 
-    __slots__ = ("now", "dt", "tick", "vars", "car", "machine", "_signals", "_changed")
+    __slots__ = ("now", "dt", "tick", "vars", "car", "machine", "_signals", "_changed", "_pending")
 
     def __init__(self, *, car: Any = None, variables: dict[str, Any] | None = None) -> None:
         self.now = 0.0
@@ -29,14 +30,24 @@ class Context:
         self.machine: Machine | None = None
         self._signals: dict[str, bool] = {}
         self._changed: dict[str, int] = {}
+        #: Signals changed since the last tick started, with their level then.
+        self._pending: dict[str, bool] = {}
 
     # -- signals --------------------------------------------------------------------------------
     def set_signal(self, name: str, value: bool = True) -> None:
-        """Set input signal ``name``; a change is an edge during the next tick."""
+        """Set input signal ``name``; a change of level is an edge during the next tick."""
         value = bool(value)
-        if self._signals.get(name, False) != value:
-            self._changed[name] = self.tick + 1
+        old = self._signals.get(name, False)
+        if old != value and name not in self._pending:
+            self._pending[name] = old
         self._signals[name] = value
+
+    def _tick_boundary(self) -> None:
+        """At the start of a tick: the signals whose level differs from the last boundary have an edge now."""
+        for name, old in self._pending.items():
+            if self._signals.get(name, False) != old:
+                self._changed[name] = self.tick
+        self._pending.clear()
 
     def signal(self, name: str) -> bool:
         """The level of signal ``name`` (``False`` if never set)."""

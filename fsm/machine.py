@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import bisect
+import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -67,7 +68,7 @@ class Machine:
         self.started = True
         ctx = self.ctx
         ctx.now = self.clock.time_at(ctx.tick) if not self._sim else ctx.tick * self._dt
-        self._apply_schedule(ctx.now, during_tick=False)
+        self._apply_schedule(ctx.now)
         try:
             self.root.start(ctx)
         except StateRuntimeError:
@@ -84,7 +85,9 @@ class Machine:
         ctx.dt = now - ctx.now
         ctx.now = now
         if self._schedule:
-            self._apply_schedule(now, during_tick=True)
+            self._apply_schedule(now)
+        if ctx._pending:
+            ctx._tick_boundary()
         try:
             self.root.step(ctx)
         except StateRuntimeError:
@@ -111,7 +114,8 @@ class Machine:
         first = ctx.tick
         end_tick = None if max_ticks is None else first + max_ticks
         if duration is not None:
-            ticks_for_duration = int(round(duration / self._dt)) if self._sim else None
+            # the first tick at or after the duration, as with the real-time clock
+            ticks_for_duration = math.ceil(duration / self._dt - 1e-9) if self._sim else None
             if ticks_for_duration is not None:
                 end_tick = first + ticks_for_duration if end_tick is None else min(end_tick, first + ticks_for_duration)
         end_time = None if (duration is None or self._sim) else ctx.now + duration
@@ -135,15 +139,12 @@ class Machine:
         self._schedule_seq += 1
         bisect.insort(self._schedule, (float(at), self._schedule_seq, name, bool(value)))
 
-    def _apply_schedule(self, now: float, during_tick: bool) -> None:
+    def _apply_schedule(self, now: float) -> None:
+        """Apply the scheduled signal changes due by ``now`` (between ticks: before the tick's boundary)."""
         schedule = self._schedule
-        ctx = self.ctx
         while schedule and schedule[0][0] <= now + 1e-9:
             _, _, name, value = schedule.pop(0)
-            ctx.set_signal(name, value)
-            if during_tick and ctx._changed.get(name) == ctx.tick + 1:
-                # Applied at the start of this tick: the edge belongs to this very tick.
-                ctx._changed[name] = ctx.tick
+            self.ctx.set_signal(name, value)
 
     # -- state of the machine -------------------------------------------------------------------
     @property
@@ -216,19 +217,46 @@ class Machine:
         if state.paused:
             return
         state.paused = True
-        state.paused_since = self.ctx.now
+        now = self.ctx.now
+        for sub in self._active_subtree(state):
+            if sub.frozen_since is None:  # already frozen by an earlier pause below: keep that time
+                sub.frozen_since = now
+                sub._prepare()
         state._prepare()
 
     def resume(self, path: str | None = None) -> None:
-        """Continue a paused state (the whole machine without a path) exactly where it was."""
+        """Continue a paused state (the whole machine without a path) exactly where it was.
+
+        States below it that are still held by another pause stay frozen until that one is resumed.
+        """
         state = self.root.active if not path else self.state(path)
         if not state.paused:
             return
-        pause = self.ctx.now - state.paused_since
         state.paused = False
+        now = self.ctx.now
+        held = any(s.paused for s in self._ancestors(state))
+        if not held:
+            self._thaw(state, now)
         state._prepare()
-        for sub in self._active_subtree(state):
-            sub.entered_at += pause
+
+    def _thaw(self, state: State, now: float) -> None:
+        """Unfreeze ``state`` and its subtree, stopping at states that are paused themselves."""
+        if state.frozen_since is not None:
+            state.entered_at += now - state.frozen_since
+            state.frozen_since = None
+            state._prepare()
+        for region in state.regions:
+            if region.started and not region.active.paused:
+                self._thaw(region.active, now)
+
+    @staticmethod
+    def _ancestors(state: State) -> list[State]:
+        out = []
+        region = state.region
+        while region is not None and region.owner is not None:
+            out.append(region.owner)
+            region = region.owner.region
+        return out
 
     def _active_subtree(self, state: State) -> list[State]:
         out = [state]

@@ -71,6 +71,8 @@ class Region:
             if state._tick is not None:
                 phase = "tick"
                 state._tick(ctx)
+                if state.paused:  # paused during its own tick (by a child or a listener): no transition
+                    return
                 phase = "check"
             for tr in state.regular:
                 if tr.always or tr.check(ctx):
@@ -89,7 +91,10 @@ class Region:
         if state._exit is not None:
             state._exit(ctx)
         if tr._action is not None:
-            tr._action(ctx)
+            try:
+                tr._action(ctx)
+            except Exception as exc:
+                raise ctx.machine._runtime_error(state, f"action of transition {tr.describe()}", exc) from exc  # type: ignore[union-attr]
         target = tr.target
         self.active = target
         target.entered_at = ctx.now

@@ -31,7 +31,7 @@ class State:
         "outcome",
         "entered_at",
         "paused",
-        "paused_since",
+        "frozen_since",
         "preempt",
         "regular",
         "transitions",
@@ -66,7 +66,8 @@ class State:
         self.outcome: str | None = None
         self.entered_at = 0.0
         self.paused = False
-        self.paused_since = 0.0
+        #: Machine time since which this state's clock stands still (it or an ancestor is paused), else None.
+        self.frozen_since: float | None = None
         self.preempt: tuple[Transition, ...] = ()
         self.regular: tuple[Transition, ...] = ()
         self.transitions: list[Transition] = []
@@ -100,13 +101,8 @@ class State:
 
     def time_in_state(self, ctx: Context) -> float:
         """Seconds on the machine's clock since the state was entered, paused time excluded."""
-        now = ctx.now
-        state: State | None = self
-        while state is not None:  # a paused ancestor freezes the whole subtree's clocks
-            if state.paused:
-                now = state.paused_since
-            state = state.region.owner if state.region is not None else None
-        return now - self.entered_at
+        since = self.frozen_since
+        return (ctx.now if since is None else since) - self.entered_at
 
     @property
     def active(self) -> bool:
@@ -133,34 +129,36 @@ class State:
         )
         plain_enter = not (has_enter or self.regions or self._source_hooks or self.can_finish)
         self._enter = None if plain_enter else self._enter_full
-        self._exit = self._exit_full if (has_exit or self.regions or self.paused) else None
+        frozen = self.paused or self.frozen_since is not None
+        self._exit = self._exit_full if (has_exit or self.regions or frozen) else None
 
     def _enter_full(self, ctx: Context) -> None:
         """Enter: reset finishing, arm the outgoing transitions, ``on_enter``, then the sub-machines."""
         self.finished = False
         self.outcome = None
-        self.paused = False
-        for hook in self._source_hooks:
-            hook(ctx)
-        phase_state = self
+        phase = "on_source_enter"
         try:
+            for hook in self._source_hooks:
+                hook(ctx)
+            phase = "on_enter"
             self.on_enter(ctx)
         except Exception as exc:
-            raise ctx.machine._runtime_error(phase_state, "on_enter", exc) from exc
+            raise ctx.machine._runtime_error(self, phase, exc) from exc
         for region in self.regions:
             region.start(ctx)
 
     def _exit_full(self, ctx: Context) -> None:
-        """Exit: sub-machines first (innermost first), then ``on_exit``."""
-        for region in self.regions:
+        """Exit: sub-machines first (innermost first; parallel regions in reverse order), then ``on_exit``."""
+        for region in reversed(self.regions):
             region.stop(ctx)
         try:
             self.on_exit(ctx)
         except Exception as exc:
             raise ctx.machine._runtime_error(self, "on_exit", exc) from exc
-        if self.paused:
-            # A paused state left by an outer transition is no longer paused; restore the plain hooks.
+        if self.paused or self.frozen_since is not None:
+            # Left by an outer transition while paused: no longer paused or frozen; restore the plain hooks.
             self.paused = False
+            self.frozen_since = None
             self._prepare()
 
     def __repr__(self) -> str:

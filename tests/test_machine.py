@@ -477,3 +477,16 @@ def test_legacy_tral_form(registry):
     m = fsm.load(legacy, registry=registry)
     assert m.run(max_ticks=5) == "succeeded"
     assert m.state("1").is_final
+
+
+def test_parallel_regions_exit_in_reverse_order_innermost_first(registry):
+    # leave the parallel state by a preemptive transition added to the document
+    d = parallel("all", 50, 50)
+    d["states"].append(probe("out"))
+    d["transitions"].append(tr("Flag", "p", "out", flag="stop", preempt=True))
+    m = fsm.load(d, registry=registry)
+    m.start()
+    m.ctx.vars["stop"] = True
+    LOG.clear()
+    m.tick()
+    assert LOG == ["check p->out", "exit p/right/w", "exit p/left/w", "action p->out", "enter out"]

@@ -416,20 +416,28 @@ class Loader:
                 continue
             by_source.setdefault(id(src), (src, []))[1].append(p)
         for src, problems in by_source.values():
-            wanted: set[str] = set()
-            for p in problems:
-                parts = p.pointer.split("/")
-                wanted.update("/".join(parts[:k]) for k in range(1, len(parts) + 1))
-            found = src.locator(wanted)
-            for p in problems:
-                parts = p.pointer.split("/")
-                for k in range(len(parts), 0, -1):
-                    pos = found.get("/".join(parts[:k]))
-                    if pos is not None:
-                        p.line, p.column = pos[0], pos[1]
-                        if len(pos) > 2 and p.where is None:
-                            p.where = pos[2]
-                        break
+            place(problems, src.locator)
+
+
+def place(problems: list[Problem], locator: Any) -> None:
+    """Fill in line, column (and drawing position) of ``problems`` from one call of a source's ``locator``;
+    a pointer that is not found takes the position of its nearest enclosing element."""
+    if locator is None:
+        return
+    wanted: set[str] = set()
+    for p in problems:
+        parts = p.pointer.split("/")
+        wanted.update("/".join(parts[:k]) for k in range(1, len(parts) + 1))
+    found = locator(wanted)
+    for p in problems:
+        parts = p.pointer.split("/")
+        for k in range(len(parts), 0, -1):
+            pos = found.get("/".join(parts[:k]))
+            if pos is not None:
+                p.line, p.column = pos[0], pos[1]
+                if len(pos) > 2 and p.where is None:
+                    p.where = pos[2]
+                break
 
 
 def _choices(name: str, by_id: dict[str, Any]) -> str:

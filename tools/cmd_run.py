@@ -203,9 +203,9 @@ def cmd_run(args: argparse.Namespace) -> int:
             print(f"active: {machine.active_path}")
         if sim is not None:
             m = sim.metrics()
-            rms = m["wall_error_rms_m"]
+            rms, near = m["wall_error_rms_m"], m["min_wall_distance_m"]
             print(f"car: {m['distance_m']:.2f} m, {m['collisions']} collisions, min wall distance "
-                  f"{m['min_wall_distance_m']:.3f} m, wall error on straights "
+                  + (f"{near:.3f} m" if near is not None else "n/a") + ", wall error on straights "
                   + (f"{rms * 100:.1f} cm RMS" if rms is not None else "n/a")
                   + f"; {m['realtime_factor']}x real time")
     if interrupted:
@@ -225,7 +225,8 @@ def _car_fields(car: Any) -> Any:
             "x": round(x, 4), "y": round(y, 4), "heading": round(th, 4),
             "left": round(car.left, 4), "right": round(car.right, 4), "front": round(car.front, 4),
             "distance": round(car.distance, 4), "speed": round(car.speed, 4),
-            "steering": round(car.steering, 4), "collisions": car.collisions,
+            "speed_command": round(car.speed_command, 4), "steering": round(car.steering, 4),
+            "collisions": car.collisions,
         }}
 
     return fields

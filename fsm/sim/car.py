@@ -28,6 +28,8 @@ except ImportError:  # pragma: no cover - other pymunk builds: the public API (a
 #: Physics step, seconds (fixed; DESIGN.md).
 PHYSICS_DT = 0.01
 WALL, CAR = 1, 2
+#: Ultrasonic rays start this far behind their mount (inside the body), so a wall touching the sensor is seen.
+RAY_BACK = 0.05
 #: Tyre grip: the largest force (as a multiple of the car's weight) that drives the body after the model.
 GRIP = 2.0
 _CAR_GROUP = 1
@@ -37,6 +39,8 @@ def build_space(world: World, doors: bool = True) -> pymunk.Space:
     """A pymunk space with the world's walls and obstacles as static shapes (collision type ``WALL``)."""
     space = pymunk.Space()
     space.gravity = (0.0, 0.0)
+    # pymunk's default slop (0.1) assumes pixels; in metres it let the car sink 10 cm into a wall.
+    space.collision_slop = 0.001
     static = space.static_body
     shapes: list[pymunk.Shape] = []
     for a, b in world.segments(doors=doors):
@@ -158,7 +162,6 @@ class SimCar:
         self._by_name = {sensor.name: sensor for sensor in self.sensors}
         self._outline = self._outline_points()
         self._half_diagonal = math.hypot(p.length, p.width) / 2
-        self.min_clearance = 1.0
         self._make_queries()
         self.sense()
 
@@ -172,6 +175,11 @@ class SimCar:
         if not value == value:  # NaN: a controller bug must not steer the car somewhere random
             raise ValueError("steering command is NaN")
         self.steering = self._cmd_steer = -1.0 if value < -1.0 else 1.0 if value > 1.0 else value
+
+    @property
+    def speed_command(self) -> float:
+        """The last speed command, m/s (after clamping to the car's maximum)."""
+        return self._cmd_speed
 
     def set_speed(self, value: float) -> None:
         value = float(value)
@@ -245,6 +253,8 @@ class SimCar:
         c, s = math.cos(th), math.sin(th)
         ray = self._ray
         max_r = self._max_r
+        back = RAY_BACK
+        length = max_r + back
         cos_inc = self._cos_inc
         rng = self.rng
         for sensor in self.sensors:
@@ -254,13 +264,14 @@ class SimCar:
             for lx, ly in sensor.rays:
                 dx = c * lx - s * ly
                 dy = s * lx + c * ly
-                hit = ray(ox, oy, ox + dx * max_r, oy + dy * max_r)
+                # Start behind the mount, inside the body: a sensor pressed against a wall still sees it.
+                hit = ray(ox - dx * back, oy - dy * back, ox + dx * max_r, oy + dy * max_r)
                 if hit is None:
                     continue
                 alpha, nx, ny = hit
                 if -(nx * dx + ny * dy) < cos_inc:
                     continue  # too oblique: the echo is reflected away
-                r = alpha * max_r
+                r = alpha * length - back
                 if r < best:
                     best = r
             if best < max_r:
@@ -280,8 +291,9 @@ class SimCar:
         clear = self.min_clearance
         # The body can only be nearer than the clearance so far if its centre is within that plus its half diagonal.
         if nearest(self.space, x, y, clear + self._half_diagonal) < clear + self._half_diagonal:
+            reach = clear if clear != math.inf else 1e3
             for px, py in self._outline:
-                d = nearest(self.space, x + c * px - s * py, y + s * px + c * py, 1.0)
+                d = nearest(self.space, x + c * px - s * py, y + s * px + c * py, reach)
                 if d < clear:
                     clear = d
             self.min_clearance = clear

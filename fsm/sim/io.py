@@ -33,6 +33,8 @@ class CarIO(Protocol):
     #: Measured speed in m/s (from the hall sensor); the last steering command in [-1, 1].
     speed: float
     steering: float
+    #: The last speed command in m/s (``speed`` is what the hall sensor measures).
+    speed_command: float
     #: Geometry controllers may need: wheelbase (m) and the wheel angle at steering 1 (rad).
     wheelbase: float
     max_steering_angle: float

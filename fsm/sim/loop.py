@@ -120,8 +120,9 @@ class Simulation:
             next_progress = progress_every
             eps = 1e-9
             while not m.finished and (end is None or ctx.tick < end):
-                target = (ctx.tick + 1) * dt - eps
-                while car.steps * PHYSICS_DT < target:
+                # physics up to the next tick's time, never past it: the machine sees the past, as on a car
+                target = (ctx.tick + 1) * dt + eps
+                while (car.steps + 1) * PHYSICS_DT <= target:
                     step()
                 m.tick()
                 if watch.changed:

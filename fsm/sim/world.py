@@ -69,6 +69,8 @@ class Wall(WorldModel):
     @model_validator(mode="after")
     def _coords(self) -> Wall:
         _check_points(self.points, "wall")
+        if all(p == self.points[0] for p in self.points):
+            raise ValueError("a wall needs two different points (this one has no length)")
         return self
 
 
@@ -164,6 +166,9 @@ class Ultrasonic(WorldModel):
 
     @model_validator(mode="after")
     def _range(self) -> Ultrasonic:
+        missing = {k: v for k, v in _default_mounts().items() if k not in self.mounts}
+        if missing:  # a file that moves one sensor keeps the other two where they are by default
+            object.__setattr__(self, "mounts", {**missing, **self.mounts})
         if self.min_range >= self.max_range:
             raise ValueError(f"min_range ({self.min_range}) must be below max_range ({self.max_range})")
         return self
@@ -385,21 +390,9 @@ def parse_world(data: Any, name: str | None = None, locator: Any = None) -> Worl
 
 
 def _locate(problems: list[Problem], locator: Any) -> None:
-    if locator is None:
-        return
-    wanted: set[str] = set()
-    for p in problems:
-        parts = p.pointer.split("/")
-        wanted.update("/".join(parts[:k]) for k in range(1, len(parts) + 1))
-    found = locator(wanted)
-    for p in problems:
-        parts = p.pointer.split("/")
-        for k in range(len(parts), 0, -1):
-            pos = found.get("/".join(parts[:k]))
-            if pos is not None:
-                p.line, p.column = pos
-                break
+    from fsm.loader import place
 
+    place(problems, locator)
 
 def read_json_file(path: str | Path, what: str) -> tuple[Any, Any]:
     """Parse a JSON file strictly (UTF-8, line:column on errors); returns the data and a pointer locator."""
@@ -427,6 +420,12 @@ def load_world(path: str | Path, car: str | Path | None = None) -> World:
     world = parse_world(data, str(path), locator)
     if car is not None:
         world.car = load_car(car)
+        problems = semantic_problems(world, str(path))
+        if problems:  # the world's start pose must also fit the car of the car file
+            for p in problems:
+                p.hint = f"{p.hint}; the car comes from {car}" if p.hint else f"the car comes from {car}"
+            _locate(problems, locator)
+            raise DiagramError(problems)
     return world
 
 

@@ -1,8 +1,9 @@
 """The UMLet reader: a ``.uxf`` diagram (or TRAL's ``xml2json`` JSON of one) -> machine documents.
 
-``UMLState`` boxes are states, ``UMLSpecialState`` ``type=initial``/``type=final`` the initial marker and
-final states, ``Relation`` with an arrowhead the transitions; boxes drawn inside a state box or a
-``UMLFrame`` form its sub-machine. Endpoints attach geometrically (:mod:`fsm.tools.uxf_geometry`). Every
+``UMLState`` boxes are states (type and parameters under ``--``: ``"type": "FollowWall"`` then ``key=value``
+lines, see :mod:`~fsm.tools.uxf_text`), ``UMLSpecialState`` ``type=initial``/``type=final`` the initial marker
+and final states, ``Relation`` with an arrowhead the transitions (a dashed arrow from a ``UMLNote`` is the
+note's anchor); boxes drawn inside a state box or a ``UMLFrame`` form its sub-machine. Endpoints attach geometrically (:mod:`fsm.tools.uxf_geometry`). Every
 element that cannot be placed is reported with its kind, label, file line:column and diagram
 coordinates, all at once. Importing this module registers the reader for ``.uxf`` files with the loader.
 
@@ -10,8 +11,8 @@ The work is done in three steps, one module each: :mod:`~fsm.tools.uxf_scene` (w
 machine level it is drawn in), :mod:`~fsm.tools.uxf_relations` (arrows -> transitions and initial states),
 :mod:`~fsm.tools.uxf_documents` (the machine documents). :mod:`fsm.tools.uxf_writer` writes what this reads.
 
-**Parallel states.** A state box with ``type=Parallel`` (and ``join=all|any``) holds one ``UMLFrame`` per
-region. The frame's title is the region's name; inside it are the region's states, its initial
+**Parallel states.** A state box of type ``Parallel`` (``"type": "Parallel"``, and ``join=all|any``) holds one
+``UMLFrame`` per region. The frame's title is the region's name; inside it are the region's states, its initial
 pseudostate and its transitions, drawn like any machine. The regions are ordered by their frames' left
 edges (left to right; frames with the same left edge top to bottom). A frame titled ``file=PATH`` that holds
 nothing is the region ``{"file": PATH}``, included from another file. Arrows stay inside one region, or end

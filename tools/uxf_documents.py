@@ -2,7 +2,7 @@
 
 The top level holds one machine, or several: each top-level ``UMLFrame`` no arrow touches holds one, and
 without frames each connected part with its own initial pseudostate is one. A state box with boxes inside is
-an ``FSMState`` whose machine is what it holds; a ``type=Parallel`` box holds one ``UMLFrame`` per region
+an ``FSMState`` whose machine is what it holds; a ``Parallel`` box holds one ``UMLFrame`` per region
 (frame title = region name; a frame titled ``file=PATH`` is an included region). A ``UMLNote`` whose first line
 is ``machine`` gives the keys of the machine it is drawn in (see :mod:`fsm.tools.uxf`). Every document keeps
 the positions of its boxes under ``layout`` and, per JSON pointer, the element it came from (for messages).
@@ -150,6 +150,8 @@ class Documents:
             initial_id = mk.target.id
             layout["initial"] = {**box_layout(box), "points": mk.points}
             origins[base + "/initial"] = mk.relation
+        elif any(id(m) in scene.broken_markers for m in initials):
+            pass  # the marker's target state has a text error, reported where it is
         elif len(states) == 1:
             initial_id = states[0].id
         else:
@@ -227,7 +229,7 @@ class Documents:
             if st.type not in (None, "FSMState"):
                 self.problem(st.box.elem, f"a {st.type} state cannot contain other boxes",
                              hint="boxes drawn inside a state form an FSMState's sub-machine (or, in a Parallel "
-                                  "state, its region frames); remove type= or move the boxes out")
+                                  "state, its region frames); remove the type or move the boxes out")
             if "machine" in st.params:
                 self.problem(st.box.elem, "the state both contains boxes and names a 'machine'",
                              hint="draw the sub-machine inside the box or include it with machine=, not both")

@@ -2,8 +2,11 @@
 
 UMLet stores no ids in relations; an endpoint belongs to the element whose border it is close to. The
 rule here is UMLet's own first (``Stickables``: distance to the border < 9 px at zoom 10; old elements:
-< the grid size, which is 10 px at zoom 10), then a lenient one for real diagrams (inside the box, or
-at most one grid unit from its border). Among candidates the innermost box wins, then the nearest.
+< the grid size, which is 10 px at zoom 10), then a lenient one for real diagrams: at most one grid unit
+from the border, or inside a box that holds no other boxes (a simple state or pseudostate). The interior of
+a composite state or a frame attaches nothing: an arrow ending there, far from every border, would otherwise
+silently leave or enter the composite (UMLet measures the distance to the border only). Among candidates
+the innermost box wins, then the nearest.
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ class Box:
     """A rectangle element (state, pseudostate, frame) at zoom 10, with its place in the nesting tree."""
 
     elem: Any  # RawElement
-    role: str  # state | frame | initial | final | unsupported
+    role: str  # state | frame | initial | final | unsupported | note | comment
     x: float
     y: float
     w: float
@@ -41,6 +44,12 @@ class Box:
     @property
     def area(self) -> float:
         return self.w * self.h
+
+    @property
+    def simple(self) -> bool:
+        """A box whose interior counts for the lenient rule: no frame, and no boxes drawn inside it (notes
+        aside)."""
+        return self.role != "frame" and not any(c.role != "note" for c in self.children)
 
     def contains_box(self, other: Box) -> bool:
         return (self.x <= other.x and self.y <= other.y and other.x + other.w <= self.x + self.w
@@ -135,8 +144,10 @@ class Attacher:
             d, inside = b.border_distance(px, py)
             if d < threshold:
                 strict.append((b, d))
-            elif inside or d <= LENIENT:
-                lenient.append((b, 0.0 if inside else d))
+            elif inside and b.simple:
+                lenient.append((b, 0.0))
+            elif d <= LENIENT:
+                lenient.append((b, d))
         for rule, cands in (("umlet", strict), ("lenient", lenient)):
             if not cands:
                 continue

@@ -14,7 +14,7 @@ from typing import Any
 
 from . import uxf_text as T
 from .uxf_geometry import Attacher, Box
-from .uxf_scene import Level, Marker, Scene, StateBox, num
+from .uxf_scene import Level, Marker, Scene, StateBox, num, where
 from .uxf_source import RawElement
 
 Attached = tuple[RawElement, T.RelationText, Any, Any, list[list[Any]]]
@@ -27,6 +27,8 @@ class Relations:
         self.scene = scene
         self.problem = scene.problem
         self.attacher = Attacher([b for b in scene.boxes if b.role != "note"])
+        #: Notes (comments and machine notes): UMLet sticks arrows to them like to any box.
+        self.notes = Attacher([b for b in scene.boxes if b.role == "note"] + scene.comment_notes)
         self._initial_used: set[int] = set()
         self._pending_enter: dict[int, Any] = {}
 
@@ -72,16 +74,44 @@ class Relations:
             ends = []
             for probe, point in ((probes[0], absolute[0]), (probes[-1], absolute[-1])):
                 ends.append((self.attacher.attach(probe[0], probe[1], elem.old), point))
+            if self.at_note(elem, rel, ends, (probes[0], probes[-1])):
+                continue
             src_box = self.check_end(elem, ends[0], "source")
             dst_box = self.check_end(elem, ends[1], "target")
             out.append((elem, rel, src_box, dst_box, [[num(x), num(y)] for x, y in absolute]))
         return out
 
+    def at_note(self, elem: RawElement, rel: T.RelationText, ends: list[Any], probes: Any) -> bool:
+        """Whether an end that attaches to no state attaches to a note: a dashed arrow is then the note's anchor
+        (ignored); a solid one is an error."""
+        if not self.notes.boxes:
+            return False
+        for (a, point), probe, role in zip(ends, probes, ("source", "target")):
+            if a.box is not None or a.rule == "ambiguous":
+                continue
+            found = self.notes.attach(probe[0], probe[1], elem.old)
+            note = found.box or (found.others[0] if found.others else None)
+            if note is None:
+                continue
+            if not rel.dashed:
+                label = note.elem.first_line
+                what = f"the note '{label if len(label) <= 30 else label[:27] + '...'}'" if label else "a note"
+                self.problem(elem, f"{role} end at {self.stored(point)} is attached to {what} at "
+                                   f"{where(note.elem)}: a note is no state",
+                             hint="draw a note's anchor dashed (lt=. or lt=.>), or end the arrow at a state's "
+                                  "border")
+            return True
+        return False
+
+    def stored(self, point: list[Any]) -> str:
+        """A point at zoom 10 in the file's pixels."""
+        return f"x={num(point[0] / self.scene.scale)}, y={num(point[1] / self.scene.scale)}"
+
     def check_end(self, elem: RawElement, end: Any, role: str) -> Box | None | bool:
         a, point = end
         if a.box is not None:
             return a.box
-        stored = f"x={num(point[0] / self.scene.scale)}, y={num(point[1] / self.scene.scale)}"
+        stored = self.stored(point)
         if a.rule == "ambiguous":
             names = " and ".join(self.scene.box_name(b) for b in a.others)
             self.problem(elem, f"{role} end at {stored} is as close to {names}: ambiguous",
@@ -90,7 +120,7 @@ class Relations:
         return None  # unattached: decided later (a TRAL label may name the state)
 
     def dangling(self, elem: RawElement, point: list[Any], role: str) -> None:
-        stored = f"x={num(point[0] / self.scene.scale)}, y={num(point[1] / self.scene.scale)}"
+        stored = self.stored(point)
         hint = "move the arrow's end onto a state's border (UMLet sticks ends closer than 9 px at 100% zoom)"
         if len([p for p in self.scene.problems if "attached to nothing" in p.message]) < 50:
             box, d = self.attacher.nearest(point[0], point[1]) if self.attacher.boxes else (None, math.inf)
@@ -197,7 +227,8 @@ class Relations:
             return
         self._initial_used.add(id(marker))
         target = scene.state_of.get(id(dst))
-        if target is None:
+        if target is None:  # its text did not read: reported; the machine does have an initial marker
+            scene.broken_markers.add(id(marker))
             return
         if dst.parent is not marker.parent:
             self.problem(elem, f"the initial pseudostate and its target '{target.id}' are not in the same machine",
@@ -280,8 +311,7 @@ class Relations:
                 self.problem(elem, f"'type' must be a transition type name, got {typ!r}",
                              hint="see `fsmctl types` for the transition types")
                 return
-            if label.syntax == "kv" and elem is not None:
-                params = self.scene.coerce_kv("transition", typ, params, elem)
+            params = self.scene.coerce_kv("transition", typ, params, label.kv_keys)
             tr = {"type": typ, "from": "", "to": "", **params}
         elif label.text:
             tr = {"type": "Signal", "from": "", "to": "", "signal": T.event_name(label.text), "label": label.text}

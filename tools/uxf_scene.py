@@ -105,6 +105,10 @@ class Scene:
         #: Top-level frames that no arrow touches: each holds a machine of its own.
         self.machine_frames: set[int] = set()
         self.markers: dict[int, Marker] = {}  # id(initial pseudostate box) -> its arrow
+        #: Initial pseudostates whose arrow ends at a state whose text did not read (reported there).
+        self.broken_markers: set[int] = set()
+        #: Notes that are no machine notes (comments): not part of a machine, but arrows may anchor at them.
+        self.comment_notes: list[Box] = []
         self._registry: Any = None
 
     # -- problems -------------------------------------------------------------------------------------------
@@ -157,7 +161,6 @@ class Scene:
         self.make_levels()
 
     def classify(self) -> None:
-        s = self.scale
         for elem in self.raw.elements:
             kind = elem.kind
             role = None
@@ -166,7 +169,10 @@ class Scene:
             elif kind in _FRAME_KINDS:
                 role = "frame"
             elif kind in _NOTE_KINDS_NEW or (elem.old and kind in _NOTE_KINDS_OLD):
-                role = "note" if T.is_machine_note(elem.text) else None
+                if not T.is_machine_note(elem.text):
+                    self.comment_notes.append(self.box(elem, "comment"))
+                    continue
+                role = "note"
             elif kind == "UMLSpecialState":
                 special, _ = T.special_kind(elem.text)
                 role = special if special in _SUPPORTED_SPECIAL else "unsupported"
@@ -177,12 +183,8 @@ class Scene:
                 self.relations.append(elem)
                 continue
             if role is None:
-                continue  # other notes, texts, class boxes: not part of a state machine
-            if elem.old:
-                box = Box(elem, role, elem.x * s, elem.y * s, elem.w * s, elem.h * s)
-            else:  # NewGridElement.getRealRectangle: val * 10 / gridSize in integer arithmetic
-                box = Box(elem, role, float(int(elem.x * s)), float(int(elem.y * s)), float(int(elem.w * s)),
-                          float(int(elem.h * s)))
+                continue  # texts, class boxes: not part of a state machine
+            box = self.box(elem, role)
             box.container = role in ("state", "frame")
             self.boxes.append(box)
             if role == "unsupported":
@@ -190,6 +192,15 @@ class Scene:
                 self.problem(elem, f"'{special}' pseudostates are not supported",
                              hint="use states and transitions with guards (types) instead; "
                                   "only type=initial and type=final are understood")
+
+    def box(self, elem: RawElement, role: str) -> Box:
+        """The element's rectangle at zoom 10, as UMLet computes it for sticking."""
+        s = self.scale
+        if elem.old:
+            return Box(elem, role, elem.x * s, elem.y * s, elem.w * s, elem.h * s)
+        # NewGridElement.getRealRectangle: val * 10 / gridSize in integer arithmetic
+        return Box(elem, role, float(int(elem.x * s)), float(int(elem.y * s)), float(int(elem.w * s)),
+                   float(int(elem.h * s)))
 
     def read_states(self) -> None:
         for box in self.boxes:
@@ -199,7 +210,7 @@ class Scene:
                 for ln in elem.text.split("\n"):
                     if T.SEPARATOR.match(ln):
                         break
-                    if not T.is_style(ln) and ln.strip():
+                    if not T.is_style(ln, T.BOX_STYLE_KEYS) and ln.strip():
                         title.append(ln.strip())
                 self.state_of[id(box)] = StateBox(box, id=" ".join(title))
             elif box.role == "state":
@@ -212,7 +223,7 @@ class Scene:
                     _, label = T.special_kind(elem.text)
                 else:
                     label = " ".join(ln.strip() for ln in elem.text.split("\n")
-                                     if ln.strip() and not T.is_style(ln))
+                                     if ln.strip() and not T.is_style(ln, T.BOX_STYLE_KEYS))
                 if label:
                     st.params = {"outcome": label}
                 self.state_of[id(box)] = st
@@ -245,9 +256,7 @@ class Scene:
                              hint="see `fsmctl types` for the state types")
                 return None
             st.type = typ
-            st.params = params
-            if text.syntax == "kv":
-                st.params = self.coerce_kv("state", typ, params, elem)
+            st.params = self.coerce_kv("state", typ, params, text.kv_keys)
         return st
 
     def read_note(self, elem: RawElement) -> dict[str, Any] | None:
@@ -272,8 +281,11 @@ class Scene:
             meta["description"] = note.description
         return meta
 
-    def coerce_kv(self, kind: str, typ: str, params: dict[str, Any], elem: RawElement) -> dict[str, Any]:
-        """``key=value`` texts: a value that looks like a number stays text where the parameter is text."""
+    def coerce_kv(self, kind: str, typ: str, params: dict[str, Any], kv_keys: set[str]) -> dict[str, Any]:
+        """``key=value`` texts (the ``kv_keys``): a value that looks like a number stays text where the parameter
+        is text. Values from JSON are typed already."""
+        if not kv_keys:
+            return params
         reg = self.registry()
         cls = (reg.states if kind == "state" else reg.transitions).get(typ)
         if cls is None:
@@ -281,7 +293,7 @@ class Scene:
         text_fields = _text_fields(cls.Params)
         out = {}
         for k, v in params.items():
-            if k in text_fields and not isinstance(v, str) and not isinstance(v, (dict, list)):
+            if k in kv_keys and k in text_fields and not isinstance(v, str) and not isinstance(v, (dict, list)):
                 v = json.dumps(v)
             out[k] = v
         return out

@@ -248,15 +248,18 @@ def _xml_element(el: Any, index: int, name: str, problems: list[Problem]) -> Raw
 
 
 def _zoom(text: Any, name: str, line: int | None, pointer: str | None = None) -> float:
+    """UMLet reads ``<zoom_level>`` as an integer (``InputHandler``: ``Integer.parseInt``) and zooms only between 1
+    and 20 (``DiagramHandler.setGridAndZoom``)."""
     if text is None:
         return 10.0
     try:
         zoom = float(str(text).strip())
     except ValueError:
         zoom = float("nan")
-    if not (math.isfinite(zoom) and 0 < zoom <= 100):
-        raise DiagramError([Problem(f"<zoom_level> must be a number between 1 and 20, got {str(text).strip()[:40]!r}",
-                                    name, pointer=pointer or "", line=line, hint="UMLet writes 10 for 100%")])
+    if not (math.isfinite(zoom) and zoom.is_integer() and 1 <= zoom <= 20):
+        raise DiagramError([Problem(f"<zoom_level> must be a whole number between 1 and 20, got "
+                                    f"{str(text).strip()[:40]!r}", name, pointer=pointer or "", line=line,
+                                    hint="UMLet writes 10 for 100% and zooms between 1 (10%) and 20 (200%)")])
     return zoom
 
 
@@ -278,10 +281,18 @@ def _number(value: Any) -> float | None:
 def _make_element(index: int, kind: Any, old: bool, coords: Any, text: Any, extra: Any, name: str,
                   problems: list[Problem], where: Callable[[], tuple[int | None, int | None]],
                   pointer: str | None) -> RawElement | None:
+    at: list[float] = []  # x, y once they are read: the element is then named as everywhere else
+
     def problem(message: str, hint: str | None = None) -> None:
         line, col = where()
-        label = (text if isinstance(text, str) else "").strip().split("\n")[0][:40]
-        element = f"{kind or 'element'} #{index + 1}" + (f" '{label}'" if label else "")
+        if len(at) == 2:
+            from .uxf_scene import describe
+
+            element = describe(RawElement(index, str(kind), old, at[0], at[1], 0, 0,
+                                          text.replace("\r\n", "\n") if isinstance(text, str) else "", None))
+        else:
+            label = (text if isinstance(text, str) else "").strip().split("\n")[0][:40]
+            element = f"{kind or 'element'} #{index + 1}" + (f" '{label}'" if label else "")
         problems.append(Problem(message, name, pointer=pointer if pointer is not None else f"#{index}", line=line,
                                 column=col, element=element, hint=hint))
 
@@ -300,8 +311,9 @@ def _make_element(index: int, kind: Any, old: bool, coords: Any, text: Any, extr
                     else f"coordinate <{key}> is missing", hint="UMLet writes whole numbers of pixels")
             return None
         values.append(v)
+    at.extend(values[:2])
     if values[2] < 0 or values[3] < 0:
-        problem(f"negative size w={values[2]:g}, h={values[3]:g}")
+        problem(f"negative size w={values[2]:g}, h={values[3]:g}", hint="UMLet writes sizes of 0 or more pixels")
         return None
     if text is None:
         text = ""
@@ -319,7 +331,8 @@ def _make_element(index: int, kind: Any, old: bool, coords: Any, text: Any, extr
                         hint="additional_attributes holds x;y;x;y;... numbers")
                 return None
             if len(nums) % 2:
-                problem(f"relation points come in x;y pairs, got {len(nums)} numbers")
+                problem(f"relation points come in x;y pairs, got {len(nums)} numbers: {extra.strip()[:60]!r}",
+                        hint="additional_attributes holds x;y;x;y;... numbers; draw the arrow again in UMLet")
                 return None
             points = [float(n) for n in nums]  # type: ignore[arg-type]
     elif extra is not None and not isinstance(extra, str):

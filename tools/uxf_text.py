@@ -1,8 +1,15 @@
 """What the texts of UMLet elements say: names, separators, style facets, arrowheads, parameters, UML labels.
 
-Parameters come in two syntaxes: ``key=value`` lines (``type=FollowWall``, ``distance=0.4``) or TRAL's JSON
-fragment (``"type": "FollowWall", "p": 12``). A text without a type is free text: a state's compartments,
-or a transition's UML label ``event [guard] / action``.
+Parameters come in two syntaxes, which may be mixed: TRAL's JSON fragment (``"type": "FollowWall", "p": 12``)
+and ``key=value`` lines (``distance=0.4``). In a parameter block the JSON lines come first, then the
+``key=value`` lines; the type is given in either (``"type": "FollowWall"`` or ``type=FollowWall``). The writer
+puts a state's type in the JSON form because UMLet owns ``type=`` lines in a ``UMLState`` (``StateTypeFacet``
+accepts only ``state``, ``sender`` and ``receiver`` and draws anything else as an error). A text without a
+type is free text: a state's compartments, or a transition's UML label ``event [guard] / action``.
+
+UMLet offers each line of an element's text to the element's facets, and a facet whose key the line starts
+with (``key=``, exactly) consumes it (``PropertiesParser.parseFacets``, ``KeyValueFacet.checkStart``); the
+key sets below are those facets, per element kind.
 """
 
 from __future__ import annotations
@@ -15,12 +22,27 @@ from typing import Any
 #: Facets UMLet consumes on every element (style, layout, comments); never names or parameters.
 _STYLE_KEYS = {"bg", "fg", "lw", "valign", "halign", "fontsize", "layer", "transparency", "group", "style",
                "symbol", "customelement", "elementstyle", "autoresize"}
-#: Relation facets: line type, end texts and their positions.
-_RELATION_KEYS = {"lt", "m1", "m2", "r1", "r2", "m1pos", "m2pos", "r1pos", "r2pos", "cpos", "mpos", "qualifier"}
-#: ``type=`` values that are UMLet's own shape facets of a UMLState, not state types.
+#: Boxes (``UMLState``, ``UMLSpecialState``, ``UMLFrame``, ``UMLNote``: ``Settings.MANUALRESIZE`` ->
+#: ``BASE_WITH_LINETYPE``) also have ``LineTypeFacet``: ``lt=`` is the border's line type. Not for relations,
+#: whose ``lt=`` (the arrow) :func:`parse_relation` reads itself.
+BOX_STYLE_KEYS = _STYLE_KEYS | {"lt"}
+#: Relation facets: line type, end texts and their positions (``Settings.RELATION``, ``LineDescriptionEnum``,
+#: ``LineDescriptionPositionFacet``; ``cbase`` is ``LineDescriptionBasePositionFacet`` of newer UMLets).
+_RELATION_KEYS = {"lt", "m1", "m2", "r1", "r2", "m1pos", "m2pos", "r1pos", "r2pos", "cpos", "mpos", "qualifier",
+                  "cbase"}
+#: Keys of newer UMLets' ``LinkFacet`` and ``PageFacet``: never written as parameter lines either.
+_LATER_KEYS = {"link", "page"}
+#: Keys a ``key=value`` line of a UMLState may not start with: UMLet would consume (or reject) it.
+STATE_FACET_KEYS = BOX_STYLE_KEYS | {"type"} | _LATER_KEYS
+#: Keys a ``key=value`` line of a Relation's label may not start with (``type=`` is plain label text there).
+RELATION_FACET_KEYS = _STYLE_KEYS | _RELATION_KEYS | _LATER_KEYS
+#: ``type=`` values that are UMLet's own shape facets of a UMLState, not state types (any case: UMLet
+#: upper-cases the value, ``StateTypeFacet``).
 _UMLET_STATE_SHAPES = {"state", "sender", "receiver"}
 SEPARATOR = re.compile(r"^\s*(?:--?|-\.\.?)\s*$")
 _KEY_VALUE = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*=(.*)$")
+#: A parameter name the ``key=value`` syntax can carry.
+KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _JSON_TYPE = re.compile(r'"type"\s*:')
 
 
@@ -43,12 +65,13 @@ class StateText:
     name: str
     params: dict[str, Any] | None  # None: no type given
     description: str | None
-    syntax: str | None = None  # "kv" or "json"
+    #: the parameters written as ``key=value`` lines (texts: a number there may be meant as text)
+    kv_keys: set[str] = field(default_factory=set)
 
 
 def split_state(text: str) -> tuple[list[str], list[list[str]]]:
     """Name lines and compartments (lists of lines) of a UMLState text, style facets removed."""
-    lines = [ln for ln in text.split("\n") if not is_style(ln)]
+    lines = [ln for ln in text.split("\n") if not is_style(ln, BOX_STYLE_KEYS)]
     name_lines: list[str] = []
     compartments: list[list[str]] = []
     current = name_lines
@@ -58,7 +81,7 @@ def split_state(text: str) -> tuple[list[str], list[list[str]]]:
             compartments.append(current)
             continue
         m = _KEY_VALUE.match(ln)
-        if m and m.group(1) == "type" and m.group(2).strip() in _UMLET_STATE_SHAPES:
+        if m and m.group(1) == "type" and m.group(2).strip().lower() in _UMLET_STATE_SHAPES:
             continue
         current.append(ln)
     return name_lines, compartments
@@ -69,23 +92,21 @@ def parse_state(text: str) -> StateText:
     name_lines, compartments = split_state(text)
     name = " ".join(ln.strip() for ln in name_lines if ln.strip())
     params: dict[str, Any] | None = None
-    syntax = None
+    kv_keys: set[str] = set()
     free: list[str] = []
-    # A box holding only a fragment (no separator): its "name" is the fragment.
-    if not compartments and (_has_kv_type(name_lines) or _JSON_TYPE.search(name)):
+    # A box holding only parameters (no separator): its "name" is the parameters.
+    if not compartments and is_param_block(name_lines):
         compartments = [name_lines]
         name = ""
     for comp in compartments:
-        if params is None and _has_kv_type(comp):
-            params, syntax = parse_key_values(comp), "kv"
-        elif params is None and _JSON_TYPE.search("\n".join(comp)):
-            params, syntax = parse_fragment("\n".join(comp)), "json"
+        if params is None and is_param_block(comp):
+            params, kv_keys = parse_params(comp)
         else:
             block = "\n".join(ln.rstrip() for ln in comp).strip("\n")
             if block.strip():
                 free.append(block)
     description = "\n".join(free) if free else None
-    return StateText(name, params, description, syntax)
+    return StateText(name, params, description, kv_keys)
 
 
 def _has_kv_type(lines: list[str]) -> bool:
@@ -96,16 +117,51 @@ def _has_kv_type(lines: list[str]) -> bool:
     return False
 
 
+def is_param_block(lines: list[str]) -> bool:
+    """Whether these lines give a type (``type=X`` or ``"type": "X"``), so they are parameters, not free text."""
+    return _has_kv_type(lines) or bool(_JSON_TYPE.search("\n".join(lines)))
+
+
+def parse_params(lines: list[str]) -> tuple[dict[str, Any], set[str]]:
+    """A parameter block: JSON fragment lines, then ``key=value`` lines (either part may be empty).
+
+    Returns the parameters (``type`` among them) and the keys given as ``key=value`` lines. A line that starts
+    with ``key=`` is never JSON, so where the JSON part ends is unambiguous; after it, every line is
+    ``key=value``.
+    """
+    json_lines: list[str] = []
+    kv_lines: list[str] = []
+    for ln in lines:
+        if kv_lines or _KEY_VALUE.match(ln):
+            kv_lines.append(ln)
+        else:
+            json_lines.append(ln)
+    out: dict[str, Any] = {}
+    if any(ln.strip() for ln in json_lines):
+        fragment = "\n".join(json_lines)
+        if not _JSON_TYPE.search(fragment) and _has_kv_type(kv_lines):
+            first = next(ln for ln in json_lines if ln.strip())
+            raise TextError(f"line {first.strip()[:40]!r} is not key=value (a text with type=... holds only "
+                            "key=value lines, after JSON lines if any)")
+        out = parse_fragment(fragment)
+    kv = parse_key_values(kv_lines)
+    for key in kv:
+        if key in out:
+            raise TextError(f"parameter '{key}' is given twice")
+    out.update(kv)
+    return out, set(kv)
+
+
 def parse_key_values(lines: list[str]) -> dict[str, Any]:
     """``key=value`` lines; values are JSON when they parse as JSON (numbers, true, lists, objects), else text."""
     out: dict[str, Any] = {}
-    for n, ln in enumerate(lines, 1):
+    for ln in lines:
         if not ln.strip():
             continue
         m = _KEY_VALUE.match(ln)
         if not m:
-            raise TextError(f"line {ln.strip()[:40]!r} is not key=value (a text with type=... holds only "
-                            "key=value lines)")
+            raise TextError(f"line {ln.strip()[:40]!r} is not key=value (after the first key=value line of "
+                            "the parameters, every line is key=value)")
         key, value = m.group(1), m.group(2).strip()
         if key in out:
             raise TextError(f"parameter '{key}' is given twice")
@@ -146,11 +202,11 @@ def special_kind(text: str) -> tuple[str, str]:
     kind = "decision"
     label: list[str] = []
     for ln in text.split("\n"):
-        if is_style(ln):
+        if is_style(ln, BOX_STYLE_KEYS):
             continue
         m = _KEY_VALUE.match(ln)
-        if m and m.group(1) == "type":
-            kind = m.group(2).strip()
+        if m and m.group(1) == "type":  # SpecialStateTypeFacet: valueOf(value.toUpperCase(ENGLISH))
+            kind = m.group(2).strip().lower()
             continue
         if ln.strip():
             label.append(ln.strip())
@@ -208,15 +264,14 @@ class Label:
 
     params: dict[str, Any] | None
     text: str  # the label as one line (UML form), "" if none
-    syntax: str | None = None
+    #: the parameters written as ``key=value`` lines
+    kv_keys: set[str] = field(default_factory=set)
 
 
 def parse_label(lines: list[str]) -> Label:
-    if _has_kv_type(lines):
-        return Label(parse_key_values(lines), "", "kv")
-    joined = "\n".join(lines)
-    if _JSON_TYPE.search(joined):
-        return Label(parse_fragment(joined), "", "json")
+    if is_param_block(lines):
+        params, kv_keys = parse_params(lines)
+        return Label(params, "", kv_keys)
     text = " ".join(" ".join(ln.split()) for ln in lines if ln.strip())
     return Label(None, text)
 
@@ -247,7 +302,7 @@ _INCLUDE = re.compile(r"^\s*file\s*=(.*)$")
 def is_machine_note(text: str) -> bool:
     """Whether a note's first line (style lines aside) is ``machine``."""
     for ln in text.split("\n"):
-        if is_style(ln) or not ln.strip():
+        if is_style(ln, BOX_STYLE_KEYS) or not ln.strip():
             continue
         return ln.strip() == MACHINE_NOTE_TITLE
     return False

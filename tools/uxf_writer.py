@@ -1,9 +1,15 @@
 """Writing UMLet diagrams: a machine document as a laid-out ``.uxf`` that converts back to the same document,
 and the palette of every registered type.
 
-Texts are written in the syntax the reader (:mod:`fsm.tools.uxf`) reads back exactly: a plain name for an
-``Idle`` state, ``key=value`` lines under ``--`` for typed states, UML labels for ``Signal`` transitions
-that came from one, and JSON fragments only where ``key=value`` would be ambiguous. A ``Parallel`` state is a
+Texts are written in the syntax the reader (:mod:`fsm.tools.uxf`) reads back exactly, and so that UMLet draws
+them as plain text: no line starts with a key one of the element's facets owns (UMLet would consume it, or
+draw an error box). A plain name for an ``Idle`` state; for a typed state, under ``--``, the type as TRAL's
+JSON fragment ``"type": "FollowWall"`` (UMLet's ``StateTypeFacet`` owns ``type=`` lines in a ``UMLState`` and
+accepts only state/sender/receiver), then ``key=value`` lines; an arrow's label ``type=Timeout`` and
+``key=value`` lines (a ``Relation`` has no ``type`` facet: the lines are its middle label); UML labels for
+``Signal`` transitions that came from one. A parameter whose name is one of the facets' keys (``lw``,
+``style``, ``m1``, ...) goes into the JSON fragment line instead, as does every parameter of a state whose
+name cannot be its first line. A ``Parallel`` state is a
 box holding one ``UMLFrame`` per region (title: the region's name, or ``file=PATH`` for an included region);
 each machine's own keys (name, ``$schema``, description, vars) are in a ``machine`` note drawn in it.
 """
@@ -56,7 +62,6 @@ def _f(v: float) -> str:
 # -- texts -----------------------------------------------------------------------------------------------------
 _COMMON_STATE = {"id", "type", "layout"}
 _COMMON_TRANSITION = {"type", "from", "to", "layout"}
-_FACETS = T._STYLE_KEYS | T._RELATION_KEYS
 
 
 def _value_text(v: Any) -> str:
@@ -67,27 +72,46 @@ def _value_text(v: Any) -> str:
     return json.dumps(v, ensure_ascii=False, separators=(", ", ": "))
 
 
-def param_lines(typ: str, params: dict[str, Any]) -> list[str]:
-    """``type=...`` and ``key=value`` lines; a JSON fragment when a key would read as a UMLet facet."""
-    if any(k in _FACETS or not k.isidentifier() for k in params):
-        return [json.dumps({"type": typ, **params}, ensure_ascii=False)[1:-1]]
-    return [f"type={typ}"] + [f"{k}={_value_text(v)}" for k, v in params.items()]
+def _in_json(key: str, reserved: set[str]) -> bool:
+    """Whether a parameter must go into the JSON fragment line: UMLet owns ``key=`` lines (``reserved``), or the
+    name is no plain identifier."""
+    return key in reserved or not T.KEY.fullmatch(key)
+
+
+def param_lines(typ: str, params: dict[str, Any], reserved: set[str], type_as_json: bool) -> list[str]:
+    """The type and parameters: a JSON fragment line (``"type": "X"``, with the parameters ``key=value`` cannot
+    carry) when ``type_as_json`` or such parameters exist, else ``type=X``; then one ``key=value`` line per
+    parameter. ``reserved``: the keys the element's UMLet facets own."""
+    extra = {k: v for k, v in params.items() if _in_json(k, reserved)}
+    lines = [f"{k}={_value_text(v)}" for k, v in params.items() if k not in extra]
+    if type_as_json or extra:
+        return [json.dumps({"type": typ, **extra}, ensure_ascii=False)[1:-1]] + lines
+    return [f"type={typ}"] + lines
+
+
+def _facet_line(line: str) -> bool:
+    """Whether UMLet (in a state or a note) or the reader would take ``line`` for a facet, not text."""
+    m = T._KEY_VALUE.match(line)
+    return T.is_style(line, T.BOX_STYLE_KEYS) or bool(m and m.group(1) in T.STATE_FACET_KEYS)
+
+
+def _relation_facet_line(line: str) -> bool:
+    """Whether UMLet or the reader would take ``line`` of a relation's text for a facet, not label text."""
+    m = T._KEY_VALUE.match(line)
+    return line.lstrip().startswith("//") or bool(m and m.group(1) in T.RELATION_FACET_KEYS)
 
 
 def _safe_name(name: str) -> bool:
     if not name or name != name.strip() or "\n" in name or "  " in name:
         return False
-    if T.is_style(name) or T.SEPARATOR.match(name) or T._JSON_TYPE.search(name):
-        return False
-    m = T._KEY_VALUE.match(name)
-    return not (m and m.group(1) == "type")
+    return not (_facet_line(name) or T.SEPARATOR.match(name) or T._JSON_TYPE.search(name))
 
 
 def _safe_free_text(text: str) -> bool:
     lines = text.split("\n")
     return (text == text.strip("\n") and all(ln == ln.rstrip() for ln in lines) and bool(text.strip())
-            and not any(T.is_style(ln) or T.SEPARATOR.match(ln) or not ln.strip() for ln in lines)
-            and not T._has_kv_type(lines) and not T._JSON_TYPE.search(text))
+            and not any(_facet_line(ln) or T.SEPARATOR.match(ln) or not ln.strip() for ln in lines)
+            and not T.is_param_block(lines))
 
 
 def state_text(st: dict[str, Any], composite: bool) -> str:
@@ -107,7 +131,7 @@ def state_text(st: dict[str, Any], composite: bool) -> str:
     lines = [sid]
     implied = "FSMState" if composite else "Idle"
     if params or typ != implied:
-        lines += ["--"] + param_lines(typ, params)
+        lines += ["--"] + param_lines(typ, params, T.STATE_FACET_KEYS, type_as_json=True)
     if free:
         lines += ["--", free]
     if composite:
@@ -177,14 +201,14 @@ NOTE_W, NOTE_CHAR_W, NOTE_LINE_H = 360, 7.5, 18
 
 def note_size(text: str) -> tuple[float, float]:
     per_line = int((NOTE_W - 20) / NOTE_CHAR_W)
-    shown = [ln for ln in text.split("\n") if not T.is_style(ln)]
+    shown = [ln for ln in text.split("\n") if not T.is_style(ln, T.BOX_STYLE_KEYS)]
     lines = sum(max(1, len(textwrap.wrap(ln, per_line))) for ln in shown)
     return float(NOTE_W), float(-(-(lines * NOTE_LINE_H + 20) // 10) * 10)
 
 
 def _head(text: str) -> float:
     """The height of a composite box's own text above its content."""
-    shown = [ln for ln in text.split("\n") if not T.is_style(ln)]
+    shown = [ln for ln in text.split("\n") if not T.is_style(ln, T.BOX_STYLE_KEYS)]
     return HEAD + 18 * max(0, len(shown) - 1)
 
 
@@ -206,13 +230,13 @@ def transition_text(tr: dict[str, Any], source: dict[str, Any] | None, registry:
         except T.TextError:
             parsed = None
         if parsed is not None and parsed.params is None and parsed.text == label \
-                and T.event_name(label) == params["signal"]:
+                and T.event_name(label) == params["signal"] and not _relation_facet_line(label):
             return "lt=->\n" + label
     if not params and source is not None:
         can = _can_finish(source, registry)
         if (typ == "Finished" and can) or (typ == "Always" and not can):
             return "lt=->"
-    return "\n".join(["lt=->"] + param_lines(typ, params))
+    return "\n".join(["lt=->"] + param_lines(typ, params, T.RELATION_FACET_KEYS, type_as_json=False))
 
 
 def final_special(st: dict[str, Any], level_names: set[str], used: set[str]) -> str | None:
@@ -280,7 +304,7 @@ def export(doc: dict[str, Any], registry: Any = None) -> str:
         fx, fy = min(frame["x"], x0 - 10), min(frame["y"], y0 - 10)  # the frame holds everything, the note too
         fw, fh = max(frame["x"] + frame["w"], x1 + 10) - fx, max(frame["y"] + frame["h"], y1 + 10) - fy
         title = frame.get("title")
-        title = title if isinstance(title, str) else ""
+        title = title if isinstance(title, str) and _safe_name(title) else ""  # the note names the machine
         out.append(element("UMLFrame", fx, fy, fw, fh, title))
     _emit(level, out, registry, note_of)
     return diagram(out)
@@ -357,12 +381,16 @@ def palette(registry: Any) -> str:
             comments.append(f"// {doc}")
         composite = kind == "state" and bool(getattr(cls, "is_composite", False))
         drawn = composite and any(info["name"] == "regions" for info in infos)
+        reserved = T.STATE_FACET_KEYS if kind == "state" else T.RELATION_FACET_KEYS
+        extra: dict[str, Any] = {}  # parameters UMLet would take for facets: in the JSON line
         for info in infos:
             if drawn and info["name"] == "regions":
                 comments.append("// regions: one UMLFrame per region inside this box, titled with the region's name "
                                 "(or file=PATH to include the region), holding its initial marker, states and arrows")
                 continue
-            if "default" in info:
+            if _in_json(info["name"], reserved):
+                extra[info["name"]] = info.get("default")
+            elif "default" in info:
                 value = _value_text(info["default"]) if info["default"] is not None else "null"
                 lines.append(f"{info['name']}={value}")
             else:
@@ -370,8 +398,9 @@ def palette(registry: Any) -> str:
             req = "required" if info["required"] else "optional"
             desc = f": {info['description']}" if info.get("description") else ""
             comments.append(f"// {info['name']} ({info['type']}, {req}){desc}")
+        head = param_lines(name, extra, reserved, type_as_json=kind == "state")
         if kind == "state":
-            text = "\n".join([name, "--", f"type={name}"] + lines + comments + (["valign=top"] if composite else []))
+            text = "\n".join([name, "--"] + head + lines + comments + (["valign=top"] if composite else []))
             h = 40 + 20 * len(lines) + (80 if composite else 0)
             w = 300 if composite else 220
             frames: list[str] = []
@@ -383,7 +412,7 @@ def palette(registry: Any) -> str:
             out.extend(frames)
             ys += h + 20
         else:
-            text = "\n".join(["lt=->", f"type={name}"] + lines + comments)
+            text = "\n".join(["lt=->"] + head + lines + comments)
             h = 40 + 20 * len(lines)
             out.append(relation([[x_trans + 10, yt + 10], [x_trans + 10, yt + h]], text))
             yt += h + 30

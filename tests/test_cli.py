@@ -700,3 +700,14 @@ def test_validate_checks_world_files_as_worlds(tmp_path: Path, capsys: pytest.Ca
     assert main(["validate", str(bad)]) == 1
     err = capsys.readouterr().err
     assert f"{bad}:2:" in err and "/start/y" in err and "states" not in err
+
+
+def test_every_committed_diagram_and_world_validates_strictly(capsys: pytest.CaptureFixture[str]) -> None:
+    """What a user's CI would run over this repository: every machine, diagram and world is clean."""
+    from fsm.tools.cli import main
+
+    diagrams = Path(__file__).resolve().parents[1] / "diagrams"
+    files = [p for p in sorted(diagrams.rglob("*")) if p.suffix in (".json", ".uxf")
+             and p.name != "TRAL_State-Machine.uxf"]  # the palette is a palette, not a machine
+    assert len(files) > 15
+    assert main(["validate", "--strict", *map(str, files)]) == 0, capsys.readouterr().err

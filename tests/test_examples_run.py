@@ -119,10 +119,13 @@ def test_fsmctl_run_same_seed_same_trace(capsys: pytest.CaptureFixture[str], tmp
 
 def test_fsmctl_run_video_and_plot(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
     cv2 = pytest.importorskip("cv2")
-    video, png = tmp_path / "c.mp4", tmp_path / "c.png"
+    video, png, summary = tmp_path / "c.mp4", tmp_path / "c.png", tmp_path / "s.json"
     code, _, err = run_cli(capsys, "run", str(DIAGRAMS / "corner_turn.json"), "--video", str(video),
-                           "--plot", str(png), "-q")
+                           "--plot", str(png), "--summary", str(summary), "-q")
     assert code == 0, err
+    # H.264 (plays in browsers) through imageio-ffmpeg's ffmpeg, a declared dependency
+    assert json.loads(summary.read_text())["video"]["codec"] == "h264"
+    assert video.read_bytes()[4:8] == b"ftyp"  # an MP4 container
     cap = cv2.VideoCapture(str(video))
     assert cap.isOpened()
     frames = []

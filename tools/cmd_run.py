@@ -75,12 +75,18 @@ def uses_car(spec: Any) -> bool:
 
 
 def default_world(machine_file: str) -> Path:
-    """``hallway.json`` from ``worlds/`` next to the machine, else ``diagrams/worlds/`` here or in the checkout."""
+    """``hallway.json`` from ``worlds/`` next to the machine, else ``diagrams/worlds/`` here, else the worlds
+    installed with the package (``fsm.worlds``, which is ``diagrams/worlds`` of the repository)."""
     candidates = [Path(machine_file).resolve().parent / "worlds" / DEFAULT_WORLD,
                   Path.cwd() / "diagrams" / "worlds" / DEFAULT_WORLD]
-    import fsm
+    from importlib.resources import files
 
-    candidates.append(Path(fsm.__file__).resolve().parent.parent / "diagrams" / "worlds" / DEFAULT_WORLD)
+    try:  # installed from a wheel
+        candidates.append(Path(str(files("fsm.worlds") / DEFAULT_WORLD)))
+    except (ModuleNotFoundError, TypeError):
+        import fsm  # an editable install: the checkout's diagrams/worlds
+
+        candidates.append(Path(fsm.__file__).resolve().parent.parent / "diagrams" / "worlds" / DEFAULT_WORLD)
     for c in candidates:
         if c.is_file():
             return c

@@ -7,10 +7,9 @@ Schema is generated from, so an editor using ``$schema`` and ``fsmctl validate``
 from __future__ import annotations
 
 import difflib
+import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Annotated, Any
-
-import math
 
 from pydantic import Field, ValidationError, WithJsonSchema, field_validator
 

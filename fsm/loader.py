@@ -75,20 +75,25 @@ def reader_for(path: Path) -> Reader:
 
 def read_json(path: Path) -> tuple[Any, Source]:
     """Read a JSON file strictly: UTF-8, one JSON value, limited nesting; problems carry line:column."""
-    name = str(path)
-    if not name or name == ".":
+    if not str(path) or str(path) == ".":
         raise DiagramError([Problem("no file name given", None, hint="name a machine file (.json or .uxf)")])
+    return parse_json_bytes(read_file_bytes(path), str(path), path.parent)
+
+
+def read_file_bytes(path: Path, what: str | None = None) -> bytes:
+    """The bytes of ``path``, or a DiagramError saying why it cannot be read (``what``: "world", ...)."""
+    name = str(path)
     try:
-        raw = path.read_bytes()
+        return path.read_bytes()
     except FileNotFoundError:
-        raise DiagramError([Problem("file not found", name, hint="check the path")]) from None
+        raise DiagramError([Problem(f"{what} file not found" if what else "file not found", name,
+                                    hint="check the path")]) from None
     except IsADirectoryError:
-        raise DiagramError([Problem("is a directory, not a machine file", name)]) from None
+        raise DiagramError([Problem(f"is a directory, not a {what or 'machine'} file", name)]) from None
     except OSError as exc:
         raise DiagramError([Problem(f"cannot read: {exc.strerror or exc}", name)]) from None
     except ValueError as exc:  # e.g. a NUL byte in the path
         raise DiagramError([Problem(f"not a usable file name: {exc}", repr(name))]) from None
-    return parse_json_bytes(raw, name, path.parent)
 
 
 def parse_json_bytes(raw: bytes, name: str | None, directory: Any = None) -> tuple[Any, Source]:

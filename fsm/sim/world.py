@@ -396,21 +396,13 @@ def _locate(problems: list[Problem], locator: Any) -> None:
 
 def read_json_file(path: str | Path, what: str) -> tuple[Any, Any]:
     """Parse a JSON file strictly (UTF-8, line:column on errors); returns the data and a pointer locator."""
-    from fsm.loader import parse_json_bytes
+    from fsm.loader import parse_json_bytes, read_file_bytes
 
     p = Path(path)
-    name = str(path)
-    try:
-        raw = p.read_bytes()
-    except FileNotFoundError:
-        raise DiagramError([Problem(f"{what} file not found", name, hint="check the path")]) from None
-    except IsADirectoryError:
-        raise DiagramError([Problem(f"is a directory, not a {what} file", name)]) from None
-    except OSError as exc:
-        raise DiagramError([Problem(f"cannot read: {exc.strerror or exc}", name)]) from None
+    raw = read_file_bytes(p, what)
     if not raw.strip():
-        raise DiagramError([Problem(f"file is empty; a {what} is a JSON object", name, line=1, column=1)])
-    data, source = parse_json_bytes(raw, name, p.parent)
+        raise DiagramError([Problem(f"file is empty; a {what} is a JSON object", str(path), line=1, column=1)])
+    data, source = parse_json_bytes(raw, str(path), p.parent)
     return data, source.locator
 
 

@@ -7,6 +7,7 @@ import shutil
 from pathlib import Path
 
 import pytest
+from helpers import without_layout as strip
 
 from fsm.tools.cli import main
 from fsm.tools.uxf_writer import diagram, element, relation
@@ -99,10 +100,6 @@ def test_examples_round_trip_and_are_up_to_date(tmp_path, capsys, name):
 def test_export_of_a_document_without_layout_converts_back(tmp_path, capsys):
     doc = json.loads((EXAMPLES / "drive.json").read_text())
 
-    def strip(d):
-        if isinstance(d, dict):
-            return {k: strip(v) for k, v in d.items() if k != "layout"}
-        return [strip(x) for x in d] if isinstance(d, list) else d
 
     (tmp_path / "drive.json").write_text(json.dumps(strip(doc)))
     assert run(capsys, "export", str(tmp_path / "drive.json"), "-o", str(tmp_path / "drive.uxf"))[0] == 0
@@ -121,10 +118,6 @@ def test_every_example_exports_and_converts_back(tmp_path, capsys, path):
     code, _, err = run(capsys, "convert", str(work / "rt.uxf"), "-o", str(work / "rt.json"))
     assert code == 0, err
 
-    def strip(d):  # only the layout may differ: export adds or changes it
-        if isinstance(d, dict):
-            return {k: strip(v) for k, v in d.items() if k != "layout"}
-        return [strip(x) for x in d] if isinstance(d, list) else d
 
     original = json.loads(src.read_text())
     back = json.loads((work / "rt.json").read_text())

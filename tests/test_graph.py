@@ -8,6 +8,7 @@ from xml.etree import ElementTree
 
 from fsm.tools import graph
 from fsm.tools.cli import main
+from helpers import CORPUS
 
 MISSION = Path(__file__).resolve().parents[1] / "diagrams" / "examples" / "drive.json"
 
@@ -54,7 +55,7 @@ import pytest  # noqa: E402
 NS = "{http://www.w3.org/2000/svg}"
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "diagrams" / "examples"
-CORPUS_UXF = Path("/work/shared/corpus/uxf/Belinus-code__Garagen-Controller__Zustandsdiagramm.uxf")
+CORPUS_UXF = CORPUS / "Belinus-code__Garagen-Controller__Zustandsdiagramm.uxf"
 
 
 def _load(path: Path) -> dict:

@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 
 import pytest
+from helpers import without_layout as strip
 
 from fsm.errors import DiagramError
 from fsm.tools.uxf import convert_bytes
@@ -50,12 +51,6 @@ def pairs(doc: dict) -> list[tuple[str, str]]:
     return [(t["from"], t["to"]) for t in doc["transitions"]]
 
 
-def strip(d):
-    if isinstance(d, dict):
-        return {k: strip(v) for k, v in d.items() if k != "layout"}
-    if isinstance(d, list):
-        return [strip(x) for x in d]
-    return d
 
 
 # -- the sticking rule at its edges ---------------------------------------------------------------------------

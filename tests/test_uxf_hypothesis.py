@@ -11,12 +11,12 @@ from hypothesis import strategies as st
 from fsm.errors import DiagramError
 from fsm.tools.uxf import convert_bytes
 from fsm.tools.uxf_writer import export
+from helpers import CORPUS
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "diagrams" / "examples"
 SEEDS = [p.read_bytes() for p in sorted(EXAMPLES.glob("*.uxf"))]
 # a Parallel state drawn as region frames, and machine notes
 SEEDS.append(export(json.loads((EXAMPLES / "mission.json").read_text())).encode())
-CORPUS = Path("/work/shared/corpus/uxf")
 if CORPUS.is_dir():
     SEEDS += [p.read_bytes() for p in sorted(CORPUS.glob("*.uxf"))]
 

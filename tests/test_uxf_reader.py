@@ -7,15 +7,13 @@ import re
 from pathlib import Path
 
 import pytest
+from helpers import CORPUS, without_layout as strip
 
 from fsm.errors import DiagramError
 from fsm.loader import check
 from fsm.tools.uxf import convert_bytes, convert_file
 from fsm.tools.uxf_writer import diagram, element, relation
 
-CORPUS = Path(__file__).resolve().parents[2] / "shared" / "corpus" / "uxf"
-if not CORPUS.is_dir():  # the repository checked out elsewhere
-    CORPUS = Path("/work/shared/corpus/uxf")
 FILES = sorted(CORPUS.glob("*.uxf")) if CORPUS.is_dir() else []
 
 
@@ -41,12 +39,6 @@ B = element("UMLState", 60, 200, 100, 40, "B")
 START = relation([[110, 40], [110, 80]], "lt=->")
 
 
-def strip(d):
-    if isinstance(d, dict):
-        return {k: strip(v) for k, v in d.items() if k != "layout"}
-    if isinstance(d, list):
-        return [strip(x) for x in d]
-    return d
 
 
 # -- the corpus -----------------------------------------------------------------------------------------------

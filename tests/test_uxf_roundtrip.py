@@ -8,6 +8,7 @@ import re
 from pathlib import Path
 
 import pytest
+from helpers import CORPUS, without_layout as strip
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -20,16 +21,10 @@ from fsm.tools.uxf_writer import export
 ROOT = Path(__file__).resolve().parents[1]
 DIAGRAMS = ROOT / "diagrams"
 EXAMPLES = sorted(DIAGRAMS.glob("*.json")) + sorted((DIAGRAMS / "examples").glob("*.json"))
-CORPUS = Path("/work/shared/corpus/uxf")
 FILES = sorted(CORPUS.glob("*.uxf")) if CORPUS.is_dir() else []
 REGISTRY = default_registry()
 
 
-def strip(d):
-    """The document without its ``layout`` keys, at every level; nothing else is left out."""
-    if isinstance(d, dict):
-        return {k: strip(v) for k, v in d.items() if k != "layout"}
-    return [strip(x) for x in d] if isinstance(d, list) else d
 
 
 def round_trip(doc: dict) -> dict:

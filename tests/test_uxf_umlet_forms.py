@@ -20,6 +20,7 @@ import json
 from pathlib import Path
 
 import pytest
+from helpers import without_layout as strip
 
 from fsm.errors import DiagramError
 from fsm.registry import default_registry
@@ -84,10 +85,6 @@ def round_trip(doc: dict) -> tuple[str, dict]:
     return text, machines[0]
 
 
-def strip(d):
-    if isinstance(d, dict):
-        return {k: strip(v) for k, v in d.items() if k != "layout"}
-    return [strip(x) for x in d] if isinstance(d, list) else d
 
 
 # -- what the writer emits ------------------------------------------------------------------------------------

@@ -27,7 +27,7 @@ def json_document(n: int) -> str:
 
 def uxf_document(n: int) -> str:
     """``n`` state boxes in a row and no initial marker (one located error)."""
-    from fsm.tools.uxf_writer import diagram, element
+    from fsm.tools.umlet.writer import diagram, element
 
     return diagram([element("UMLState", i * 200, 0, 100, 40, f"S{i}\n--\nentry / do something {i}")
                     for i in range(n)])

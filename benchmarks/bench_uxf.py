@@ -13,8 +13,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from fsm.tools.uxf import convert_bytes
-from fsm.tools.uxf_writer import diagram, element, relation
+from fsm.tools.umlet.reader import convert_bytes
+from fsm.tools.umlet.writer import diagram, element, relation
 
 
 def big_diagram(n_states: int = 1000, cols: int = 40) -> bytes:

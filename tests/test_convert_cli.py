@@ -10,7 +10,7 @@ import pytest
 from helpers import without_layout as strip
 
 from fsm.tools.cli import main
-from fsm.tools.uxf_writer import diagram, element, relation
+from fsm.tools.umlet.writer import diagram, element, relation
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "diagrams" / "examples"
 

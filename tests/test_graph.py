@@ -60,7 +60,7 @@ CORPUS_UXF = CORPUS / "Belinus-code__Garagen-Controller__Zustandsdiagramm.uxf"
 
 def _load(path: Path) -> dict:
     if path.suffix == ".uxf":
-        from fsm.tools.uxf import convert_file
+        from fsm.tools.umlet.reader import convert_file
 
         return convert_file(path).machines[0]
     return json.loads(path.read_text())

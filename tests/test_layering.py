@@ -141,3 +141,75 @@ def test_core_source_names_no_tools_or_car_module() -> None:
     offenders = [str(p.relative_to(core)) for p in core.rglob("*.py")
                  if "sim" not in p.relative_to(core).parts and pattern.search(p.read_text(encoding="utf-8"))]
     assert offenders == []
+
+
+# -- tools/: one subpackage per concern ------------------------------------------------------------------------
+
+
+#: package -> the fsm.tools packages it must never import (the CLI sits on top; graph sits below UMLet).
+TOOLS_RULES = {"umlet": ("fsm.tools.cli",), "graph": ("fsm.tools.cli", "fsm.tools.umlet")}
+
+
+def tools_modules(package: str) -> list[str]:
+    import fsm.tools
+
+    folder = Path(fsm.tools.__file__).resolve().parent / package
+    prefix = f"fsm.tools.{package}."
+    return [f"fsm.tools.{package}"] + sorted(
+        info.name for info in pkgutil.walk_packages([str(folder)], prefix=prefix, onerror=lambda name: None))
+
+
+def test_tools_is_one_package_per_concern() -> None:
+    """No loose modules pile up in tools/ again: besides the subpackages, only the shared file helpers."""
+    import fsm.tools
+
+    folder = Path(fsm.tools.__file__).resolve().parent
+    loose = sorted(p.name for p in folder.glob("*.py") if p.name not in ("__init__.py", "files.py"))
+    assert loose == []
+    for package in ("cli", "umlet", "graph"):
+        init = folder / package / "__init__.py"
+        assert init.is_file() and len((importlib_docstring(init) or "").split()) >= 20, f"{package} needs a docstring"
+
+
+def importlib_docstring(path: Path) -> str | None:
+    import ast
+
+    return ast.get_docstring(ast.parse(path.read_text(encoding="utf-8")))
+
+
+@pytest.mark.parametrize("package", sorted(TOOLS_RULES))
+def test_umlet_and_graph_never_import_the_cli(package: str) -> None:
+    """Each module of the package, imported alone, pulls in none of what sits above it."""
+    modules = tools_modules(package)
+    assert len(modules) >= 4
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    code = textwrap.dedent('''
+        import importlib, json, sys
+        importlib.import_module(sys.argv[1])
+        print(json.dumps(sorted(sys.modules)))
+    ''')
+    offenders = {}
+    for module in modules:
+        proc = subprocess.run([sys.executable, "-c", code, module], capture_output=True, text=True, timeout=120,
+                              env=env)
+        assert proc.returncode == 0, proc.stderr
+        loaded = json.loads(proc.stdout.strip().splitlines()[-1])
+        bad = [m for m in loaded if any(m == f or m.startswith(f + ".") for f in TOOLS_RULES[package])]
+        if bad:
+            offenders[module] = bad
+    assert offenders == {}
+
+
+@pytest.mark.parametrize("package", sorted(TOOLS_RULES))
+def test_umlet_and_graph_source_names_no_cli(package: str) -> None:
+    """Lazy imports count too: no ``from ..cli`` (or the packages above) anywhere in the package's source."""
+    import re
+
+    import fsm.tools
+
+    folder = Path(fsm.tools.__file__).resolve().parent / package
+    names = "|".join(re.escape(f.rsplit(".", 1)[1]) for f in TOOLS_RULES[package])
+    pattern = re.compile(rf"^\s*(from\s+(\.\.|fsm\.tools\.)({names})\b|import\s+fsm\.tools\.({names})\b)", re.M)
+    offenders = [p.name for p in folder.rglob("*.py") if pattern.search(p.read_text(encoding="utf-8"))]
+    assert offenders == []

@@ -14,7 +14,7 @@ import pytest
 import fsm
 from fsm.document import json_schema
 from fsm.registry import default_registry
-from fsm.tools.cmd_schema import schema_text
+from fsm.tools.cli.schema import schema_text
 
 REPO = Path(__file__).resolve().parents[1]
 COMMITTED = REPO / "fsm" / "schema" / "machine.schema.json"

@@ -332,7 +332,7 @@ def test_min_wall_distance_is_not_capped_at_one_metre() -> None:
     # Was a bug (fixed): SimCar sets `self.min_clearance = 1.0` at start (car.py, just before _make_queries) and the
     # outline queries use a 1 m search radius, so a car that never comes nearer than 1.9 m to any wall
     # reports min_wall_distance_m = 1.0 in the summary. Fix: start at math.inf and search up to the
-    # current clearance (and let cmd_run print "n/a" for None instead of formatting it with :.3f).
+    # current clearance (and let fsmctl run print "n/a" for None instead of formatting it with :.3f).
     car = SimCar(corridor(y=2.0, width=4.0, steering_offset=0.0), noise=False)
     machine = fsm.load({"initial": "m", "states": [
         {"id": "m", "type": "Motor", "speed": 1.0, "distance": 2.0}, {"id": "end", "type": "Final"}],
@@ -441,7 +441,7 @@ def test_fsmctl_run_trace_records_the_speed_command(capsys: pytest.CaptureFixtur
     # Was a bug (fixed): DESIGN.md: the JSONL trace holds "sensors, commands"; the car fields are x, y, heading, left,
     # right, front, distance, speed, steering, collisions, where `steering` is the command but `speed`
     # is the *measured* speed. The speed command is nowhere: on the line where Stop is entered (it
-    # commands 0) the trace says speed 1.0. Responsible: tools/cmd_run.py _car_fields() (and CarIO has
+    # commands 0) the trace says speed 1.0. Responsible: tools/cli/run.py _car_fields() (and CarIO has
     # no attribute for the speed command). Fix: add the command (e.g. "speed_cmd", from a
     # `speed_command` attribute that SimCar/FakeCar already keep as _cmd_speed/speed_command).
     m, w = write_machine_and_world(tmp_path)

@@ -21,8 +21,8 @@ import pytest
 from helpers import without_layout as strip
 
 from fsm.errors import DiagramError
-from fsm.tools.uxf import convert_bytes
-from fsm.tools.uxf_writer import diagram, element, relation
+from fsm.tools.umlet.reader import convert_bytes
+from fsm.tools.umlet.writer import diagram, element, relation
 
 INIT = element("UMLSpecialState", 100, 20, 20, 20, "type=initial")
 START = relation([[110, 40], [110, 80]], "lt=->")

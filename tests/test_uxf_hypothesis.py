@@ -9,8 +9,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from fsm.errors import DiagramError
-from fsm.tools.uxf import convert_bytes
-from fsm.tools.uxf_writer import export
+from fsm.tools.umlet.reader import convert_bytes
+from fsm.tools.umlet.writer import export
 from helpers import CORPUS
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "diagrams" / "examples"

@@ -11,8 +11,8 @@ from helpers import CORPUS, without_layout as strip
 
 from fsm.errors import DiagramError
 from fsm.loader import check
-from fsm.tools.uxf import convert_bytes, convert_file
-from fsm.tools.uxf_writer import diagram, element, relation
+from fsm.tools.umlet.reader import convert_bytes, convert_file
+from fsm.tools.umlet.writer import diagram, element, relation
 
 FILES = sorted(CORPUS.glob("*.uxf")) if CORPUS.is_dir() else []
 
@@ -126,10 +126,10 @@ def test_several_machines_nested_two_levels_and_exits():
     assert strip(first["transitions"][0]) == {"type": "Finished", "from": "Aguardando três avaliadores",
                                               "to": "Aguarda revisões", "outcome": "exit to Aguarda revisões"}
     with pytest.raises(DiagramError) as exc:  # the loader hook wants one machine
-        from fsm.tools.uxf import read_uxf
+        from fsm.tools.umlet.reader import read_uxf
         path = Path("/nonexistent")
         del path
-        raise DiagramError([__import__("fsm.tools.uxf", fromlist=["x"]).several_machines_problem(conv)])
+        raise DiagramError([__import__("fsm.tools.umlet.reader", fromlist=["x"]).several_machines_problem(conv)])
     assert "4 separate machines" in str(exc.value) and "--machine" in str(exc.value)
 
 
@@ -403,7 +403,7 @@ def test_a_hand_drawn_parallel_state_with_region_frames(tmp_path):
                                          / "grip.json").read_text())
     _spec, problems = check(str(src))
     assert not [p for p in problems if p.severity == "error"], problems
-    from fsm.tools.uxf_writer import export
+    from fsm.tools.umlet.writer import export
 
     again = convert_bytes(export(doc).encode(), "again.uxf").machines[0]
     assert strip(again) == strip(doc)

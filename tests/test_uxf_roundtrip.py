@@ -14,9 +14,9 @@ from hypothesis import strategies as st
 
 from fsm.errors import DiagramError
 from fsm.registry import default_registry
-from fsm.tools.uxf import convert_bytes, convert_file
-from fsm.tools.uxf_source import parse_raw
-from fsm.tools.uxf_writer import export
+from fsm.tools.umlet.reader import convert_bytes, convert_file
+from fsm.tools.umlet.source import parse_raw
+from fsm.tools.umlet.writer import export
 
 ROOT = Path(__file__).resolve().parents[1]
 DIAGRAMS = ROOT / "diagrams"
@@ -137,7 +137,7 @@ def test_any_machine_texts_round_trip(name, description, region):
 
 
 def test_a_framed_machine_keeps_its_frame_which_grows_to_hold_the_note():
-    from fsm.tools.uxf_writer import diagram, element, relation
+    from fsm.tools.umlet.writer import diagram, element, relation
 
     drawn = diagram([element("UMLFrame", 0, 0, 400, 300, "framed"),
                      element("UMLSpecialState", 40, 40, 20, 20, "type=initial"),

@@ -24,9 +24,10 @@ from helpers import without_layout as strip
 
 from fsm.errors import DiagramError
 from fsm.registry import default_registry
-from fsm.tools.uxf import convert_bytes
-from fsm.tools.uxf_source import parse_raw
-from fsm.tools.uxf_writer import diagram, element, export, palette, relation
+from fsm.tools.umlet.reader import convert_bytes
+from fsm.tools.umlet.source import parse_raw
+from fsm.tools.umlet.palette import palette
+from fsm.tools.umlet.writer import diagram, element, export, relation
 
 ROOT = Path(__file__).resolve().parents[1]
 DIAGRAMS = sorted((ROOT / "diagrams").glob("*.uxf")) + sorted((ROOT / "diagrams" / "examples").glob("*.uxf"))

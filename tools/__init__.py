@@ -1,1 +1,9 @@
-"""Command-line tools: ``fsmctl`` and, later, the UMLet reader and writer. Installed as ``fsm.tools``."""
+"""What users run, installed as ``fsm.tools``; one subpackage per concern.
+
+- :mod:`fsm.tools.cli`: ``fsmctl``, the entry point and one module per command.
+- :mod:`fsm.tools.umlet`: the ``.uxf`` reader pipeline, the writer and the palette.
+- :mod:`fsm.tools.graph`: the layered layout and the SVG, Mermaid and DOT drawings.
+- :mod:`fsm.tools.files`: reading and writing the files users name, shared by all of them.
+
+Only the CLI imports the other packages' commands; the UMLet and graph packages never import the CLI.
+"""

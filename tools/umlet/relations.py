@@ -1,6 +1,6 @@
 """Relations of a UMLet diagram -> transitions and initial states of the machine levels of a :class:`Scene`.
 
-An arrow's ends attach geometrically (:class:`fsm.tools.uxf_geometry.Attacher`); its direction comes from the
+An arrow's ends attach geometrically (:class:`fsm.tools.umlet.geometry.Attacher`); its direction comes from the
 arrowhead. An arrow from an initial pseudostate starts its level. An arrow between levels enters a composite
 through the initial states of the levels on the way (else it is an error), and leaves a composite through
 generated ``Final`` states (outcome ``exit to TARGET``) and ``Finished`` transitions, one per level. Arrows do
@@ -12,10 +12,10 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from . import uxf_text as T
-from .uxf_geometry import Attacher, Box
-from .uxf_scene import Level, Marker, Scene, StateBox, num, where
-from .uxf_source import RawElement
+from . import text as T
+from .geometry import Attacher, Box
+from .scene import Level, Marker, Scene, StateBox, num, where
+from .source import RawElement
 
 Attached = tuple[RawElement, T.RelationText, Any, Any, list[list[Any]]]
 

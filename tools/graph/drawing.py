@@ -1,283 +1,21 @@
-"""Drawings of a machine with its nesting: Mermaid ``stateDiagram-v2``, Graphviz DOT, and SVG.
+"""The SVG drawing of a machine with its nesting, drawn here without Graphviz.
 
-The SVG is drawn here, without Graphviz: boxes where the diagram's ``layout`` put them (a converted UMLet
-diagram looks like the diagram), a layered layout (:mod:`fsm.tools.layout`) where there is none.
+Boxes go where the diagram's ``layout`` put them (a converted UMLet diagram looks like the diagram), or where
+the layered layout (:mod:`fsm.tools.graph.layout`) puts them; arrow labels are placed clear of boxes and of
+each other.
 """
 
 from __future__ import annotations
 
-import json
 import math
-import unicodedata
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 from xml.sax.saxutils import escape, quoteattr
 
-from fsm.document import normalize_legacy
-from fsm.errors import DiagramError
-
-from .layout import MARKER, REGION_HEAD, Edge, Expansion, LevelLayout, Node, inline_machine, lay_out
-
-#: Includes nested deeper than this are drawn as a box naming the file (a guard, far beyond real diagrams).
-MAX_INCLUDE_DEPTH = 16
-
-_SKIP = {"type", "from", "to", "layout", "label", "description"}
-
-
-def edge_label(tr: dict[str, Any]) -> str:
-    """How a transition is labelled: its UML label, else its type and parameters."""
-    if isinstance(tr.get("label"), str) and tr["label"]:
-        return tr["label"]
-    params = [f"{k}={v if isinstance(v, str) else json.dumps(v)}" for k, v in tr.items() if k not in _SKIP]
-    typ = str(tr.get("type", ""))
-    return typ + (" " + ", ".join(params) if params else "")
-
-
-def state_label(st: dict[str, Any]) -> str:
-    typ = st.get("type")
-    if typ in (None, "Idle", "FSMState") and inline_machine(st) is not None or typ == "Idle":
-        return str(st.get("id"))
-    return f"{st.get('id')} ({typ})"
-
-
-def _sub_machines(st: dict[str, Any]) -> list[dict[str, Any]]:
-    m = inline_machine(st)
-    if m is not None:
-        return [m]
-    regions = st.get("regions")
-    if st.get("type") == "Parallel" and isinstance(regions, list):
-        return [r for r in regions if isinstance(r, dict) and isinstance(r.get("states"), list)]
-    return []
-
-
-# -- Mermaid ---------------------------------------------------------------------------------------------------
-def mermaid(doc: dict[str, Any]) -> str:
-    lines = ["stateDiagram-v2"]
-    counter = [0]
-
-    def mtext(text: str) -> str:
-        return text.replace("\n", " ").replace(";", ",").replace('"', "'").replace(":", "#58;")
-
-    def level(machine: dict[str, Any], indent: str) -> None:
-        ids: dict[str, str] = {}
-        for st in machine.get("states", []):
-            counter[0] += 1
-            ids[str(st.get("id"))] = f"s{counter[0]}"
-        if machine.get("initial") in ids:
-            lines.append(f"{indent}[*] --> {ids[machine['initial']]}")
-        for st in machine.get("states", []):
-            sid = ids[str(st.get("id"))]
-            subs = _sub_machines(st)
-            label = mtext(state_label(st))
-            if subs:
-                lines.append(f'{indent}state "{label}" as {sid} {{')
-                for i, sub in enumerate(subs):
-                    if i:
-                        lines.append(f"{indent}  --")
-                    level(sub, indent + "  ")
-                lines.append(f"{indent}}}")
-            else:
-                lines.append(f'{indent}state "{label}" as {sid}')
-            if st.get("type") == "Final":
-                lines.append(f"{indent}{sid} --> [*]")
-        for tr in machine.get("transitions", []):
-            a, b = ids.get(str(tr.get("from"))), ids.get(str(tr.get("to")))
-            if a and b:
-                lines.append(f"{indent}{a} --> {b} : {mtext(edge_label(tr))}")
-
-    level(doc, "  ")
-    return "\n".join(lines) + "\n"
-
-
-# -- DOT -------------------------------------------------------------------------------------------------------
-def dot(doc: dict[str, Any]) -> str:
-    out = ["digraph machine {", "  compound=true;", '  rankdir=TB;', '  node [shape=box, style=rounded, fontname="Helvetica"];',
-           '  edge [fontname="Helvetica", fontsize=10];']
-    counter = [0]
-
-    def q(text: str) -> str:
-        return json.dumps(text, ensure_ascii=False)
-
-    def level(machine: dict[str, Any], indent: str) -> dict[str, tuple[str, str | None]]:
-        nodes: dict[str, tuple[str, str | None]] = {}
-        counter[0] += 1
-        start = f"init{counter[0]}"
-        out.append(f'{indent}{start} [shape=point, width=0.15, label=""];')
-        for st in machine.get("states", []):
-            counter[0] += 1
-            n = f"n{counter[0]}"
-            subs = _sub_machines(st)
-            if subs:
-                out.append(f"{indent}subgraph cluster_{n} {{")
-                out.append(f'{indent}  label={q(state_label(st))}; style=rounded;')
-                anchor = None
-                for sub in subs:
-                    inner = level(sub, indent + "  ")
-                    anchor = anchor or next(iter(inner.values()))[0] if inner else anchor
-                out.append(f"{indent}}}")
-                nodes[str(st.get("id"))] = (anchor or n, f"cluster_{n}")
-            else:
-                shape = ', shape=doublecircle, label=' + q(str(st.get("id"))) if st.get("type") == "Final" else \
-                    ", label=" + q(state_label(st))
-                out.append(f"{indent}{n} [{shape[2:]}];")
-                nodes[str(st.get("id"))] = (n, None)
-        init = nodes.get(str(machine.get("initial")))
-        if init:
-            extra = f" [lhead={init[1]}]" if init[1] else ""
-            out.append(f"{indent}{start} -> {init[0]}{extra};")
-        for tr in machine.get("transitions", []):
-            a, b = nodes.get(str(tr.get("from"))), nodes.get(str(tr.get("to")))
-            if not (a and b):
-                continue
-            attrs = [f"label={q(edge_label(tr))}"]
-            if a[1]:
-                attrs.append(f"ltail={a[1]}")
-            if b[1]:
-                attrs.append(f"lhead={b[1]}")
-            out.append(f"{indent}{a[0]} -> {b[0]} [{', '.join(attrs)}];")
-        return nodes
-
-    level(doc, "  ")
-    out.append("}")
-    return "\n".join(out) + "\n"
-
-
-# -- SVG -------------------------------------------------------------------------------------------------------
-#: Advance widths (1/100 em) of the printable ASCII characters (space .. ~) in DejaVu Sans, the widest of the
-#: fonts the SVG names or falls back to; text measured with it fits when drawn in Helvetica or Arial too.
-_WIDTHS = (
-    32, 40, 46, 84, 64, 95, 78, 27, 39, 39, 50, 84, 32, 36, 32, 34, 64, 64, 64, 64, 64, 64, 64, 64, 64, 64, 34, 34,
-    84, 84, 84, 53, 100, 68, 69, 70, 77, 63, 58, 77, 75, 29, 29, 66, 56, 86, 75, 79, 60, 79, 69, 63, 61, 73, 68, 99,
-    69, 61, 69, 39, 34, 39, 84, 50, 50, 61, 63, 55, 63, 62, 35, 63, 63, 28, 28, 58, 28, 97, 63, 61, 63, 63, 41, 52,
-    39, 63, 59, 82, 59, 59, 52, 64, 34, 64, 84,
-)
-FONT, LABEL_FONT, SMALL_FONT, MIN_FONT = 12, 11, 10, 8
-BOX_MARGIN = 8  # text keeps this far from a box's left and right border
-FINAL_ICON = 30  # a final state's box: room for the bull's eye at its left
-
-
-def text_width(text: str, size: float, bold: bool = False) -> float:
-    """An estimate (on the wide side) of how wide ``text`` is drawn at font size ``size``."""
-    total = 0
-    for ch in text:
-        code = ord(ch)
-        if 32 <= code < 127:
-            total += _WIDTHS[code - 32]
-        elif unicodedata.east_asian_width(ch) in ("W", "F"):
-            total += 100
-        else:
-            base = unicodedata.normalize("NFKD", ch)[:1]
-            total += _WIDTHS[ord(base) - 32] if base and 32 <= ord(base) < 127 else 84
-    return total / 100 * size * (1.15 if bold else 1.0)
-
-
-def final_text(st: dict[str, Any]) -> str:
-    """A final state's text: ``id → outcome``, or the id alone when it is its outcome."""
-    sid = str(st.get("id"))
-    outcome = str(st.get("outcome", "succeeded"))
-    return sid if outcome == sid else f"{sid} → {outcome}"
-
-
-def _fit(text: str, avail: float, size: float, bold: bool = False) -> tuple[str, float]:
-    """``text`` at the largest size down to ``MIN_FONT`` that fits ``avail``; shortened with … if none does."""
-    s = float(size)
-    while s > MIN_FONT and text_width(text, s, bold) > avail:
-        s -= 0.5
-    if text_width(text, s, bold) <= avail:
-        return text, s
-    k = len(text)
-    while k > 0 and text_width(text[:k] + "…", s, bold) > avail:
-        k -= 1
-    return (text[:k] + "…" if k else ""), s
-
-
-def _parallel_note(st: dict[str, Any]) -> str:
-    join = st.get("join")
-    return "(Parallel" + (f", join={join}" if isinstance(join, str) else "") + ")"
-
-
-def _expander(directory: Path | None, where: str = "", stack: tuple[Path, ...] = (),
-              seen: dict[Path, Any] | None = None) -> Callable[[dict[str, Any]], Expansion | None]:
-    """What a composite shows: inline machines, ``{"file": ...}`` includes (read relative to ``directory``, the
-    including file's folder) and the regions of a ``Parallel`` state.
-
-    An included file is drawn where it is first included (in document order); a later include of the same file
-    is a box naming the file and that first place, so a machine reused many times is drawn once.
-    """
-    seen = {} if seen is None else seen  # file -> (document, folder) | "problem", and where it is drawn
-
-    def resolve(ref: dict[str, Any], here: str) -> tuple[dict[str, Any] | None, Any, str, bool]:
-        """(machine, expand hook for its states, note, whether the note is an error)."""
-        file = str(ref.get("file"))
-        if directory is None:
-            return None, None, f"{file} (not opened)", False
-        path = (directory / file).resolve()
-        if path in stack:
-            return None, None, f"{file}: include cycle", True
-        if len(stack) >= MAX_INCLUDE_DEPTH:
-            return None, None, f"{file}: nested too deep", True
-        if path not in seen:
-            seen[path] = (_read_include(path), here)
-            got = seen[path][0]
-            if isinstance(got, str):
-                return None, None, f"{file}: {got}", True
-            data, folder = got
-            return data, _expander(folder, here, stack + (path,), seen), file, False
-        got, first = seen[path]
-        if isinstance(got, str):
-            return None, None, f"{file}: {got}", True
-        return None, None, f"{file}, drawn in {first}", False
-
-    def part(ref: Any, here: str) -> tuple[dict[str, Any] | None, Any, str | None, bool]:
-        if isinstance(ref, dict) and "file" in ref:
-            return resolve(ref, here)
-        if isinstance(ref, dict) and isinstance(ref.get("states"), list):
-            return ref, _expander(directory, here, stack, seen), None, False
-        return None, None, None, False
-
-    def expand(st: dict[str, Any]) -> Expansion | None:
-        here = f"{where}/{st.get('id')}" if where else str(st.get("id"))
-        if st.get("type") == "Parallel" and isinstance(st.get("regions"), list):
-            parts: list[tuple[str | None, dict[str, Any], Any]] = []
-            for i, ref in enumerate(st["regions"]):
-                inline = ref.get("name") if isinstance(ref, dict) and isinstance(ref.get("name"), str) else None
-                machine, hook, note, error = part(ref, f"{here}/{inline or f'region{i + 1}'}")
-                name = machine.get("name") if machine is not None else None
-                name = name if isinstance(name, str) and name else f"region{i + 1}"
-                if note:
-                    name += f" — {note}" if error else f" ({note})"
-                parts.append((name, machine if machine is not None else {"states": []}, hook))
-            widths = [text_width(name or "", LABEL_FONT) + 2 * BOX_MARGIN + 4 for name, _, _ in parts]
-            return Expansion(parts, _parallel_note(st), foreign=True, min_widths=widths) if parts else None
-        m = st.get("machine")
-        if st.get("type") != "FSMState" or not isinstance(m, dict):
-            return None
-        machine, hook, note, error = part(m, here)
-        if "file" not in m:
-            return Expansion([(None, machine, hook)]) if machine is not None else None
-        return Expansion([(None, machine, hook)] if machine is not None else [], note, foreign=True, error=error)
-
-    return expand
-
-
-def _read_include(path: Path) -> tuple[dict[str, Any], Path] | str:
-    """An included machine document and its folder, or what is wrong with it."""
-    from fsm.loader import reader_for
-
-    try:
-        data, source = reader_for(path)(path)
-    except DiagramError as exc:
-        first = exc.problems[0].message if exc.problems else "cannot be read"
-        return "not found" if first == "file not found" else first
-    except (OSError, ValueError) as exc:
-        return f"cannot be read ({exc})"
-    if not isinstance(data, dict) or not isinstance(data.get("states"), list):
-        return "not a machine document"
-    data = normalize_legacy(data)[0]
-    folder = getattr(source, "directory", None)
-    return data, Path(folder) if folder is not None else path.parent
-
+from .includes import expander
+from .labels import (BOX_MARGIN, FINAL_ICON, FONT, LABEL_FONT, MIN_FONT, SMALL_FONT, edge_label, final_text, fit,
+                     state_label, text_width)
+from .layout import MARKER, REGION_HEAD, Edge, LevelLayout, Node, lay_out
 
 def _box_size(node: Node) -> tuple[float, float]:
     """The size of a state box without a stored layout: its text fits."""
@@ -313,7 +51,7 @@ def svg(doc: dict[str, Any], base: str | Path | None = None) -> str:
         return [state_label(st)]
 
     folder = None if base is None else Path(base).parent if Path(base).is_file() else Path(base)
-    level = lay_out(doc, lines_of, expand=_expander(folder), size=_box_size,
+    level = lay_out(doc, lines_of, expand=expander(folder), size=_box_size,
                     label_width=lambda tr: text_width(edge_label(tr), LABEL_FONT) + 4, drawing=True)
     scene = _Scene()
     scene.collect(level, None, ())
@@ -568,10 +306,10 @@ def _draw(level: LevelLayout, body: list[str]) -> None:
                         'fill="#f4f7fb" stroke="#4a6d94" stroke-width="1.5"/>')
             avail = n.w - 2 * BOX_MARGIN
             top = n.y if n.parts else n.y + max(0.0, (n.h - n.head) / 2)  # no content: the text in the middle
-            title, size = _fit(str(st.get("id")), avail, FONT, bold=True)
+            title, size = fit(str(st.get("id")), avail, FONT, bold=True)
             body.append(_text(n.x + n.w / 2, top + 18, title, size, extra=' font-weight="bold"'))
             if n.note is not None:
-                note, nsize = _fit(n.note, avail, SMALL_FONT)
+                note, nsize = fit(n.note, avail, SMALL_FONT)
                 colour = "#a33" if n.note_error else "#666"
                 body.append(_text(n.x + n.w / 2, top + 32, note, nsize, extra=f' font-style="italic" fill="{colour}"'))
             if n.parts:
@@ -582,7 +320,7 @@ def _draw(level: LevelLayout, body: list[str]) -> None:
                     body.append(f'<line x1="{p.x:.0f}" y1="{p.y:.0f}" x2="{p.x:.0f}" y2="{p.y + p.h:.0f}" '
                                 'stroke="#4a6d94" stroke-dasharray="6,4"/>')
                 if p.name is not None:
-                    name, psize = _fit(p.name, p.w - 2 * BOX_MARGIN, LABEL_FONT)
+                    name, psize = fit(p.name, p.w - 2 * BOX_MARGIN, LABEL_FONT)
                     body.append(_text(p.x + p.w / 2, p.y + 16, name, psize,
                                       extra=' font-style="italic" fill="#4a6d94"'))
             body.append("</g>")
@@ -607,13 +345,13 @@ def _draw(level: LevelLayout, body: list[str]) -> None:
                 text = final_text(st)
                 if text_width(text, FONT - 1.5) > right - left and " → " in text and n.h >= 44:
                     first, second = text.split(" → ", 1)
-                    a, sa = _fit(first, right - left, FONT)
-                    b, sb = _fit("→ " + second, right - left, FONT)
+                    a, sa = fit(first, right - left, FONT)
+                    b, sb = fit("→ " + second, right - left, FONT)
                     size = min(sa, sb)
                     body.append(_text((left + right) / 2, cy - 3, a, size))
                     body.append(_text((left + right) / 2, cy + size, b, size))
                 else:
-                    t, size = _fit(text, right - left, FONT)
+                    t, size = fit(text, right - left, FONT)
                     body.append(_text((left + right) / 2, cy + size / 3, t, size))
                 body.append("</g>")
         else:
@@ -624,12 +362,12 @@ def _draw(level: LevelLayout, body: list[str]) -> None:
             avail = n.w - 2 * BOX_MARGIN
             cx, cy = n.x + n.w / 2, n.y + n.h / 2
             if sub:
-                t, size = _fit(name, avail, FONT)
+                t, size = fit(name, avail, FONT)
                 body.append(_text(cx, cy - 2, t, size))
-                t, size = _fit(sub, avail, SMALL_FONT)
+                t, size = fit(sub, avail, SMALL_FONT)
                 body.append(_text(cx, cy + 12, t, size, extra=' fill="#666"'))
             else:
-                t, size = _fit(name, avail, FONT)
+                t, size = fit(name, avail, FONT)
                 body.append(_text(cx, cy + size / 3, t, size))
             body.append("</g>")
     if level.marker is not None:
@@ -644,5 +382,3 @@ def _draw(level: LevelLayout, body: list[str]) -> None:
         body.append(f'<polyline class="edge" points="{pts}" fill="none" stroke="#333"{dash} '
                     'stroke-linejoin="round" marker-end="url(#arrow)"/>')
 
-
-__all__ = ["dot", "mermaid", "svg", "text_width", "final_text", "quoteattr", "MARKER"]

@@ -1,10 +1,10 @@
-"""The machine documents a resolved :class:`fsm.tools.uxf_scene.Scene` stands for.
+"""The machine documents a resolved :class:`fsm.tools.umlet.scene.Scene` stands for.
 
 The top level holds one machine, or several: each top-level ``UMLFrame`` no arrow touches holds one, and
 without frames each connected part with its own initial pseudostate is one. A state box with boxes inside is
 an ``FSMState`` whose machine is what it holds; a ``Parallel`` box holds one ``UMLFrame`` per region
 (frame title = region name; a frame titled ``file=PATH`` is an included region). A ``UMLNote`` whose first line
-is ``machine`` gives the keys of the machine it is drawn in (see :mod:`fsm.tools.uxf`). Every document keeps
+is ``machine`` gives the keys of the machine it is drawn in (see :mod:`fsm.tools.umlet.reader`). Every document keeps
 the positions of its boxes under ``layout`` and, per JSON pointer, the element it came from (for messages).
 """
 
@@ -13,10 +13,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from . import uxf_text as T
-from .uxf_geometry import Box
-from .uxf_scene import Level, Scene, StateBox, num, where
-from .uxf_source import RawElement
+from . import text as T
+from .geometry import Box
+from .scene import Level, Scene, StateBox, num, where
+from .source import RawElement
 
 #: The order of a machine's own keys in a document.
 _MACHINE_ORDER = ("$schema", "name", "description", "vars", "initial", "states", "transitions", "layout")

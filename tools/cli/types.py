@@ -6,7 +6,7 @@ import argparse
 import json
 import sys
 
-from .cli import EXIT_FAIL, EXIT_OK, registry_from
+from .common import EXIT_FAIL, EXIT_OK, registry_from
 
 
 def register(sub: argparse._SubParsersAction) -> None:

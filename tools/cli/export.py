@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .cli import EXIT_OK, check_writable, registry_from
+from .common import EXIT_OK, check_writable, registry_from
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -20,7 +20,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     from fsm.errors import DiagramError
     from fsm.loader import check, reader_for
 
-    from .uxf_writer import export
+    from ..umlet.writer import export
 
     src = Path(args.file)
     out = args.output or str(src.with_suffix(".uxf"))
@@ -36,7 +36,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     if out == "-":
         print(text, end="")
     else:
-        from .files import write_atomic
+        from ..files import write_atomic
 
         write_atomic(out, text)
     return EXIT_OK

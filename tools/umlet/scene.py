@@ -2,7 +2,7 @@
 
 A :class:`Scene` holds every box with its text read (a state's name, type and parameters; a frame's title; a
 machine note's keys) and the machine level each box is drawn in. Nesting comes from geometry alone
-(:func:`fsm.tools.uxf_geometry.nest`): UMLet stores no hierarchy. Problems are collected, located by the
+(:func:`fsm.tools.umlet.geometry.nest`): UMLet stores no hierarchy. Problems are collected, located by the
 element's kind, label, file line:column and diagram coordinates, never raised one at a time.
 """
 
@@ -14,9 +14,9 @@ from typing import Any
 
 from fsm.errors import Problem
 
-from . import uxf_text as T
-from .uxf_geometry import Box, nest
-from .uxf_source import RawDiagram, RawElement
+from . import text as T
+from .geometry import Box, nest
+from .source import RawDiagram, RawElement
 
 _STATE_KINDS_NEW = {"UMLState"}
 _STATE_KINDS_OLD = {"State", "StateSubDiagram", "SendSignal", "ReceiveSignal"}

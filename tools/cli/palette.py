@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from .cli import emit_generated, registry_from
+from .common import emit_generated, registry_from
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -16,7 +16,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_palette(args: argparse.Namespace) -> int:
-    from .uxf_writer import palette
+    from ..umlet.palette import palette
 
     text = palette(registry_from(args))
     return emit_generated(text, output=args.output, check=args.output if args.check else None,

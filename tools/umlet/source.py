@@ -1,7 +1,7 @@
 """Reading the raw elements of a UMLet diagram: ``.uxf`` XML, or the JSON TRAL's ``xml2json`` made of one.
 
 Only the XML structure is handled here (kinds, coordinates, texts, relation points, where each element is
-in the file); what the elements mean is :mod:`fsm.tools.uxf`'s business. The XML parser resolves no
+in the file); what the elements mean is :mod:`fsm.tools.umlet.reader`'s business. The XML parser resolves no
 entities, loads no DTD and uses no network; a document with a DOCTYPE is refused before it is parsed, so
 entity bombs and external entities never reach lxml.
 """
@@ -286,7 +286,7 @@ def _make_element(index: int, kind: Any, old: bool, coords: Any, text: Any, extr
     def problem(message: str, hint: str | None = None) -> None:
         line, col = where()
         if len(at) == 2:
-            from .uxf_scene import describe
+            from .scene import describe
 
             element = describe(RawElement(index, str(kind), old, at[0], at[1], 0, 0,
                                           text.replace("\r\n", "\n") if isinstance(text, str) else "", None))

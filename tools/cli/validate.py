@@ -9,7 +9,7 @@ from pathlib import Path
 
 from fsm.errors import Problem
 
-from .cli import EXIT_FAIL, EXIT_OK, registry_from
+from .common import EXIT_FAIL, EXIT_OK, registry_from
 
 
 def register(sub: argparse._SubParsersAction) -> None:

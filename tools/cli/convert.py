@@ -9,7 +9,7 @@ from pathlib import Path
 
 from fsm.errors import DiagramError, Problem
 
-from .cli import EXIT_FAIL, EXIT_OK, check_writable, registry_from
+from .common import EXIT_FAIL, EXIT_OK, check_writable, registry_from
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -26,7 +26,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_convert(args: argparse.Namespace) -> int:
-    from .convert import convert_checked, dumps
+    from ..umlet.convert import convert_checked, dumps
 
     src = Path(args.file)
     out = args.output
@@ -47,7 +47,7 @@ def cmd_convert(args: argparse.Namespace) -> int:
     if out == "-":
         sys.stdout.write(text)
         return EXIT_OK
-    from .files import write_atomic
+    from ..files import write_atomic
 
     write_atomic(out, text)
     return EXIT_OK
@@ -94,7 +94,7 @@ def first_difference(a: object, b: object, path: str = "") -> str:
 
 def report(problems: list[Problem], fmt: str) -> None:
     if fmt == "github":
-        from .cmd_validate import github_annotation
+        from .validate import github_annotation
 
         for p in problems:
             print(github_annotation(p))

@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .cli import EXIT_OK, check_writable, registry_from
+from .common import EXIT_OK, check_writable, registry_from
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -22,14 +22,14 @@ def cmd_graph(args: argparse.Namespace) -> int:
     from fsm.errors import DiagramError
     from fsm.loader import check, reader_for
 
-    from . import graph
+    from .. import graph
 
     src = Path(args.file)
     if args.output != "-":
         check_writable(args.output)
     registry = registry_from(args)
     if src.suffix.lower() == ".uxf" or args.machine:
-        from .convert import convert_checked
+        from ..umlet.convert import convert_checked
 
         doc, _ = convert_checked(src, args.machine, registry)
     else:
@@ -45,7 +45,7 @@ def cmd_graph(args: argparse.Namespace) -> int:
     if args.output == "-":
         sys.stdout.write(text)
     else:
-        from .files import write_atomic
+        from ..files import write_atomic
 
         write_atomic(args.output, text)
     return EXIT_OK

@@ -16,7 +16,7 @@ from typing import Any
 
 from fsm.errors import StateRuntimeError, UsageError
 
-from .cli import EXIT_FAIL, EXIT_OK, check_writable, positive_float, positive_int, registry_from, signal_arg
+from .common import EXIT_FAIL, EXIT_OK, check_writable, positive_float, positive_int, registry_from, signal_arg
 
 DEFAULT_MAX_DURATION = 600.0
 DEFAULT_WORLD = "hallway.json"
@@ -101,7 +101,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from fsm.errors import DiagramError
     from fsm.trace import Recorder, summary
 
-    from .files import AtomicFile, write_atomic
+    from ..files import AtomicFile, write_atomic
 
     for out in (args.trace, args.summary, args.video, args.plot):
         if out:

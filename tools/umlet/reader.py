@@ -1,15 +1,15 @@
 """The UMLet reader: a ``.uxf`` diagram (or TRAL's ``xml2json`` JSON of one) -> machine documents.
 
 ``UMLState`` boxes are states (type and parameters under ``--``: ``"type": "FollowWall"`` then ``key=value``
-lines, see :mod:`~fsm.tools.uxf_text`), ``UMLSpecialState`` ``type=initial``/``type=final`` the initial marker
+lines, see :mod:`~fsm.tools.umlet.text`), ``UMLSpecialState`` ``type=initial``/``type=final`` the initial marker
 and final states, ``Relation`` with an arrowhead the transitions (a dashed arrow from a ``UMLNote`` is the
-note's anchor); boxes drawn inside a state box or a ``UMLFrame`` form its sub-machine. Endpoints attach geometrically (:mod:`fsm.tools.uxf_geometry`). Every
+note's anchor); boxes drawn inside a state box or a ``UMLFrame`` form its sub-machine. Endpoints attach geometrically (:mod:`fsm.tools.umlet.geometry`). Every
 element that cannot be placed is reported with its kind, label, file line:column and diagram
 coordinates, all at once. Importing this module registers the reader for ``.uxf`` files with the loader.
 
-The work is done in three steps, one module each: :mod:`~fsm.tools.uxf_scene` (what each box is and which
-machine level it is drawn in), :mod:`~fsm.tools.uxf_relations` (arrows -> transitions and initial states),
-:mod:`~fsm.tools.uxf_documents` (the machine documents). :mod:`fsm.tools.uxf_writer` writes what this reads.
+The work is done in three steps, one module each: :mod:`~fsm.tools.umlet.scene` (what each box is and which
+machine level it is drawn in), :mod:`~fsm.tools.umlet.relations` (arrows -> transitions and initial states),
+:mod:`~fsm.tools.umlet.documents` (the machine documents). :mod:`fsm.tools.umlet.writer` writes what this reads.
 
 **Parallel states.** A state box of type ``Parallel`` (``"type": "Parallel"``, and ``join=all|any``) holds one
 ``UMLFrame`` per region. The frame's title is the region's name; inside it are the region's states, its initial
@@ -51,10 +51,10 @@ from fsm.document import Source
 from fsm.errors import DiagramError, Problem
 from fsm.loader import register_reader
 
-from .uxf_documents import Documents
-from .uxf_relations import Relations
-from .uxf_scene import Scene, describe, where
-from .uxf_source import RawDiagram, RawElement, read_raw
+from .documents import Documents
+from .relations import Relations
+from .scene import Scene, describe, where
+from .source import RawDiagram, RawElement, read_raw
 
 __all__ = ["Converted", "PRESELECTED", "convert_bytes", "convert_file", "convert_raw", "describe", "read_uxf",
            "several_machines_problem", "where"]
@@ -137,7 +137,7 @@ def convert_file(path: Path) -> Converted:
 
 
 def convert_bytes(data: bytes, name: str = "<diagram>") -> Converted:
-    from .uxf_source import parse_raw
+    from .source import parse_raw
 
     return convert_raw(parse_raw(data, name))
 

@@ -6,7 +6,7 @@ import argparse
 import json
 from typing import Any
 
-from .cli import emit_generated, registry_from
+from .common import emit_generated, registry_from
 
 
 def register(sub: argparse._SubParsersAction) -> None:

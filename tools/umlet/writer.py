@@ -1,7 +1,7 @@
-"""Writing UMLet diagrams: a machine document as a laid-out ``.uxf`` that converts back to the same document,
-and the palette of every registered type.
+"""Writing UMLet diagrams: a machine document as a laid-out ``.uxf`` that converts back to the same document.
+The palette of every registered type (:mod:`fsm.tools.umlet.palette`) is drawn with the same helpers.
 
-Texts are written in the syntax the reader (:mod:`fsm.tools.uxf`) reads back exactly, and so that UMLet draws
+Texts are written in the syntax the reader (:mod:`fsm.tools.umlet.reader`) reads back exactly, and so that UMLet draws
 them as plain text: no line starts with a key one of the element's facets owns (UMLet would consume it, or
 draw an error box). A plain name for an ``Idle`` state; for a typed state, under ``--``, the type as TRAL's
 JSON fragment ``"type": "FollowWall"`` (UMLet's ``StateTypeFacet`` owns ``type=`` lines in a ``UMLState`` and
@@ -21,8 +21,8 @@ import textwrap
 from typing import Any
 from xml.sax.saxutils import escape
 
-from . import uxf_text as T
-from .layout import HEAD, Expansion, LevelLayout, inline_machine, lay_out
+from . import text as T
+from ..graph.layout import HEAD, Expansion, LevelLayout, inline_machine, lay_out
 
 HEADER = '<?xml version="1.0" encoding="UTF-8" standalone="no"?>\n<diagram program="umlet" version="15.1">\n'
 
@@ -64,7 +64,7 @@ _COMMON_STATE = {"id", "type", "layout"}
 _COMMON_TRANSITION = {"type", "from", "to", "layout"}
 
 
-def _value_text(v: Any) -> str:
+def value_text(v: Any) -> str:
     if isinstance(v, str):
         if v and v == v.strip() and "\n" not in v and T.parse_value(v) == v:
             return v
@@ -72,7 +72,7 @@ def _value_text(v: Any) -> str:
     return json.dumps(v, ensure_ascii=False, separators=(", ", ": "))
 
 
-def _in_json(key: str, reserved: set[str]) -> bool:
+def in_json(key: str, reserved: set[str]) -> bool:
     """Whether a parameter must go into the JSON fragment line: UMLet owns ``key=`` lines (``reserved``), or the
     name is no plain identifier."""
     return key in reserved or not T.KEY.fullmatch(key)
@@ -82,8 +82,8 @@ def param_lines(typ: str, params: dict[str, Any], reserved: set[str], type_as_js
     """The type and parameters: a JSON fragment line (``"type": "X"``, with the parameters ``key=value`` cannot
     carry) when ``type_as_json`` or such parameters exist, else ``type=X``; then one ``key=value`` line per
     parameter. ``reserved``: the keys the element's UMLet facets own."""
-    extra = {k: v for k, v in params.items() if _in_json(k, reserved)}
-    lines = [f"{k}={_value_text(v)}" for k, v in params.items() if k not in extra]
+    extra = {k: v for k, v in params.items() if in_json(k, reserved)}
+    lines = [f"{k}={value_text(v)}" for k, v in params.items() if k not in extra]
     if type_as_json or extra:
         return [json.dumps({"type": typ, **extra}, ensure_ascii=False)[1:-1]] + lines
     return [f"type={typ}"] + lines
@@ -155,7 +155,7 @@ def drawn_regions(st: dict[str, Any]) -> list[dict[str, Any]] | None:
 def region_title(region: dict[str, Any]) -> str:
     """A region frame's title: ``file=PATH`` for an include, else the region's name when a title can carry it."""
     if "states" not in region:
-        return "file=" + _value_text(region["file"])
+        return "file=" + value_text(region["file"])
     name = region.get("name")
     return name if isinstance(name, str) and _safe_title(name) else ""
 
@@ -180,7 +180,7 @@ def note_text(machine: dict[str, Any], role: str) -> str | None:
         if key == "description" and isinstance(value, str) and _safe_note_text(value):
             free = value
             continue
-        kv.append(f"{key}={json.dumps(value, ensure_ascii=False) if key == 'vars' else _value_text(value)}")
+        kv.append(f"{key}={json.dumps(value, ensure_ascii=False) if key == 'vars' else value_text(value)}")
     if not kv and free is None and role != "top":
         return None
     lines = [T.MACHINE_NOTE_TITLE]
@@ -206,7 +206,7 @@ def note_size(text: str) -> tuple[float, float]:
     return float(NOTE_W), float(-(-(lines * NOTE_LINE_H + 20) // 10) * 10)
 
 
-def _head(text: str) -> float:
+def head_height(text: str) -> float:
     """The height of a composite box's own text above its content."""
     shown = [ln for ln in text.split("\n") if not T.is_style(ln, T.BOX_STYLE_KEYS)]
     return HEAD + 18 * max(0, len(shown) - 1)
@@ -267,7 +267,7 @@ def export(doc: dict[str, Any], registry: Any = None) -> str:
         return state_text(st, composite(st)).split("\n")
 
     def expand(st: dict[str, Any]) -> Expansion | None:
-        head = _head(state_text(st, True))
+        head = head_height(state_text(st, True))
         sub = inline_machine(st)
         if sub is not None:
             return Expansion([(None, sub, None)], head=head)
@@ -344,79 +344,3 @@ def _emit(level: LevelLayout, out: list[str], registry: Any, note_of: Any) -> No
         text = note_of(level.machine)
         if text is not None:
             out.append(element("UMLNote", *level.note, text))
-
-
-# -- palette --------------------------------------------------------------------------------------------------
-#: The palette's machine note: the keys, and where the note goes.
-_NOTE_TEMPLATE = "\n".join([
-    T.MACHINE_NOTE_TITLE, "--", "name=", "description=",
-    "// the keys of the machine this note is drawn in: outside every box, the diagram's machine; in a composite "
-    "state or a region frame, that machine",
-    "// name, $schema, description: texts; vars: a JSON object, e.g. vars={\"count\": 0}",
-    "// free text after another -- line is the description", "style=wordwrap"])
-
-
-def palette(registry: Any) -> str:
-    """The UMLet palette: one template per registered state and transition type, every parameter with its
-    default (required ones empty), each explained in a ``//`` comment line UMLet does not draw; a machine note;
-    a ``Parallel`` state holds two region frames instead of a ``regions`` parameter."""
-    from fsm.document import param_info
-
-    out: list[str] = []
-    y = 20
-    out.append(element("UMLSpecialState", 20, y, 20, 20, "type=initial"))
-    out.append(element("UMLSpecialState", 60, y, 20, 20, "type=final"))
-    out.append(element("Text", 100, y, 300, 30, "initial marker / final state (outcome = its label)\nfontsize=10"))
-    y += 50
-    out.append(element("UMLNote", 20, y, 300, 90, _NOTE_TEMPLATE))
-    y += 110
-    x_state, x_trans = 20, 360
-    ys, yt = y, y
-    for kind, name, cls in registry:
-        infos = param_info(cls.Params)
-        lines: list[str] = []
-        comments: list[str] = []
-        doc = (cls.__doc__ or "").strip().split("\n")[0]
-        if doc:
-            comments.append(f"// {doc}")
-        composite = kind == "state" and bool(getattr(cls, "is_composite", False))
-        drawn = composite and any(info["name"] == "regions" for info in infos)
-        reserved = T.STATE_FACET_KEYS if kind == "state" else T.RELATION_FACET_KEYS
-        extra: dict[str, Any] = {}  # parameters UMLet would take for facets: in the JSON line
-        for info in infos:
-            if drawn and info["name"] == "regions":
-                comments.append("// regions: one UMLFrame per region inside this box, titled with the region's name "
-                                "(or file=PATH to include the region), holding its initial marker, states and arrows")
-                continue
-            if _in_json(info["name"], reserved):
-                extra[info["name"]] = info.get("default")
-            elif "default" in info:
-                value = _value_text(info["default"]) if info["default"] is not None else "null"
-                lines.append(f"{info['name']}={value}")
-            else:
-                lines.append(f"{info['name']}=")
-            req = "required" if info["required"] else "optional"
-            desc = f": {info['description']}" if info.get("description") else ""
-            comments.append(f"// {info['name']} ({info['type']}, {req}){desc}")
-        head = param_lines(name, extra, reserved, type_as_json=kind == "state")
-        if kind == "state":
-            text = "\n".join([name, "--"] + head + lines + comments + (["valign=top"] if composite else []))
-            h = 40 + 20 * len(lines) + (80 if composite else 0)
-            w = 300 if composite else 220
-            frames: list[str] = []
-            if drawn:
-                top = ys + _head(text)
-                h = int(top - ys) + 70 + 20
-                frames = [element("UMLFrame", x_state + 20 + 140 * i, top, 120, 70, f"region{i + 1}") for i in range(2)]
-            out.append(element("UMLState", x_state, ys, w, h, text))
-            out.extend(frames)
-            ys += h + 20
-        else:
-            text = "\n".join(["lt=->"] + head + lines + comments)
-            h = 40 + 20 * len(lines)
-            out.append(relation([[x_trans + 10, yt + 10], [x_trans + 10, yt + h]], text))
-            yt += h + 30
-    y = max(ys, yt) + 10
-    out.append(relation([[x_trans + 10, y + 10], [x_trans + 10, y + 60]],
-                        "lt=->\nevent [guard] / action\n// a UML label: a Signal transition on 'event'"))
-    return diagram(out)

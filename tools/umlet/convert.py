@@ -23,18 +23,18 @@ def convert_checked(path: Path, machine: str | None = None, registry: Any = None
     """
     from fsm.loader import check as check_file
 
-    from . import uxf
+    from . import reader
 
-    conv = uxf.convert_file(path)
+    conv = reader.convert_file(path)
     index = select(conv, machine)
     doc = conv.machines[index]
     if not check:
         return doc, []
-    token = uxf.PRESELECTED.set((path.resolve(), conv, index))
+    token = reader.PRESELECTED.set((path.resolve(), conv, index))
     try:
         _spec, problems = check_file(str(path), registry=registry)
     finally:
-        uxf.PRESELECTED.reset(token)
+        reader.PRESELECTED.reset(token)
     for p in problems:
         if p.file == str(path) and p.pointer:
             coords = conv.coordinates(index, p.pointer)
@@ -46,11 +46,11 @@ def convert_checked(path: Path, machine: str | None = None, registry: Any = None
 
 
 def select(conv: Any, machine: str | None) -> int:
-    from . import uxf
+    from . import reader
 
     if machine is None:
         if len(conv.machines) > 1:
-            raise DiagramError([uxf.several_machines_problem(conv)])
+            raise DiagramError([reader.several_machines_problem(conv)])
         return 0
     if machine in conv.names:
         return conv.names.index(machine)

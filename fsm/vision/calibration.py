@@ -105,7 +105,7 @@ def _camera(fs: Any, text: str, name: str, image_size: tuple[int, int] | None) -
                        f"{', '.join(str(n) for n in DIST_LENGTHS[1:])}", "distortion_coefficients")
     width, height = _int(fs, "image_width"), _int(fs, "image_height")
     if (width is None) != (height is None):
-        raise _Bad("image_width and image_height come together", "image_width" if width is None else "image_height")
+        raise _Bad("image_width and image_height come together", "image_height" if width is None else "image_width")
     if width is None or height is None:
         if image_size is None:
             raise _Bad("the file names no image size", "image_width",

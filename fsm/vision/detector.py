@@ -156,8 +156,10 @@ class MarkerDetector:
         self._since_full += 1
         if not self.track:
             return self._full(gray)
-        if not self._tracks or self._since_full >= self.full_every:
+        if self._since_full >= self.full_every:
             corners, ids = self._full(gray)
+        elif not self._tracks:  # nothing in view: new markers are looked for at the next full search
+            corners, ids = [], []
         else:
             corners, ids = self._regions(gray)
             if not ids:  # everything lost (left the view, or moved too fast): look everywhere now

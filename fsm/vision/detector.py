@@ -7,7 +7,8 @@ and ``minMarkerDistanceRate`` 0.05 (recovers near markers whose paper almost tou
 Optional region-of-interest tracking (``track=True``): between full-frame searches (every
 ``full_every`` frames) only boxes around the markers found in the previous frame are searched, so a
 frame costs a fraction of a full search. A marker that newly enters the view is found at the next
-full search; when every tracked marker is lost the detector searches the whole frame at once.
+full search; when every tracked marker is lost the detector searches the whole frame at once, when
+some are lost, in the next frame. A region search keeps the full frame's marker size limits in pixels.
 """
 
 from __future__ import annotations
@@ -109,7 +110,7 @@ class MarkerDetector:
     def __init__(self, camera: CameraModel, *, dictionary: str = DEFAULT_DICTIONARY,
                  marker_size: float = DEFAULT_MARKER_SIZE, sizes: Mapping[int, float] | None = None,
                  mount: CameraMount | None = None, track: bool = False, full_every: int = 10,
-                 margin: float = 0.75) -> None:
+                 margin: float = 1.0) -> None:
         if not marker_size > 0 or not math.isfinite(marker_size):
             raise ValueError(f"marker size must be > 0, got {marker_size}")
         for i, s in (sizes or {}).items():
@@ -128,7 +129,14 @@ class MarkerDetector:
         params = cv2.aruco.DetectorParameters()
         params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
         params.minMarkerDistanceRate = 0.05
+        self._params = params
         self._detector = cv2.aruco.ArucoDetector(get_dictionary(dictionary), params, cv2.aruco.RefineParameters())
+        # The perimeter limits are rates of the searched image's larger side; a region search keeps the
+        # full frame's limits in pixels (a small crop would otherwise accept every noise speck as a candidate).
+        self._min_perimeter_px = params.minMarkerPerimeterRate * max(camera.width, camera.height)
+        self._max_perimeter_px = params.maxMarkerPerimeterRate * max(camera.width, camera.height)
+        self._roi_detector = cv2.aruco.ArucoDetector(get_dictionary(dictionary), params, cv2.aruco.RefineParameters())
+        self._roi_side = 0
         self._R = self.mount.rotation()
         self._t = self.mount.translation()
         self._objects: dict[float, np.ndarray] = {}
@@ -164,6 +172,8 @@ class MarkerDetector:
             corners, ids = self._regions(gray)
             if not ids:  # everything lost (left the view, or moved too fast): look everywhere now
                 corners, ids = self._full(gray)
+            elif any(i not in ids for i in self._tracks):  # one lost: look everywhere in the next frame
+                self._since_full = self.full_every
         self._update_tracks(corners, ids)
         return corners, ids
 
@@ -187,7 +197,7 @@ class MarkerDetector:
         for i, c in self._tracks.items():
             c = c + self._velocity.get(i, 0.0)
             side = float(np.max(np.ptp(c, axis=0)))
-            pad = self.margin * side + 8.0
+            pad = self.margin * side + 12.0
             x0, y0 = np.min(c, axis=0) - pad
             x1, y1 = np.max(c, axis=0) + pad
             boxes.append([max(0, int(x0)), max(0, int(y0)), min(w, int(math.ceil(x1)) + 1),
@@ -198,13 +208,22 @@ class MarkerDetector:
             if x1 - x0 < 8 or y1 - y0 < 8:
                 continue
             self.roi_searches += 1
-            cs, found, _ = self._detector.detectMarkers(gray[y0:y1, x0:x1])
+            cs, found, _ = self._roi_detect(gray[y0:y1, x0:x1])
             if found is None:
                 continue
             offset = np.array([x0, y0], dtype=np.float32)
             corners += [c.reshape(4, 2) + offset for c in cs]
             ids += [int(i) for i in found.reshape(-1)]
         return corners, ids
+
+    def _roi_detect(self, crop: np.ndarray) -> Any:
+        side = max(crop.shape)
+        if side != self._roi_side:
+            self._params.minMarkerPerimeterRate = self._min_perimeter_px / side
+            self._params.maxMarkerPerimeterRate = self._max_perimeter_px / side
+            self._roi_detector.setDetectorParameters(self._params)
+            self._roi_side = side
+        return self._roi_detector.detectMarkers(crop)
 
     def _update_tracks(self, corners: list[np.ndarray], ids: list[int]) -> None:
         tracks: dict[int, np.ndarray] = {}

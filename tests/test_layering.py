@@ -1,5 +1,6 @@
-"""Layering (DESIGN.md): the ``fsm`` core (everything under ``fsm/`` but ``fsm/sim/``) imports none of cv2,
-pymunk, lxml, ``fsm.sim`` or ``fsm.tools``. Each core module is imported in a fresh interpreter and its
+"""Layering (DESIGN.md): the ``fsm`` core (everything under ``fsm/`` but ``fsm/sim/`` and ``fsm/vision/``) imports
+none of cv2, pymunk, lxml, ``fsm.sim``, ``fsm.vision`` or ``fsm.tools``; ``fsm.vision`` (OpenCV) imports neither
+pymunk nor ``fsm.sim`` nor ``fsm.tools``, since a real camera feeds it. Each core module is imported in a fresh interpreter and its
 ``sys.modules`` inspected, so one module's imports cannot hide another's."""
 
 from __future__ import annotations
@@ -17,33 +18,37 @@ import pytest
 
 import fsm
 
-FORBIDDEN = ("cv2", "pymunk", "lxml", "fsm.sim", "fsm.tools")
+FORBIDDEN = ("cv2", "pymunk", "lxml", "fsm.sim", "fsm.vision", "fsm.tools")
+#: What the perception layer must not import (it may import cv2, numpy and the core).
+VISION_FORBIDDEN = ("pymunk", "lxml", "fsm.sim", "fsm.tools")
 CORE_DIR = Path(fsm.__file__).resolve().parent
 
-PROBE = textwrap.dedent('''
+PROBE_TEMPLATE = textwrap.dedent('''
     import importlib, json, sys
     forbidden = {forbidden!r}
     importlib.import_module(sys.argv[1])
     bad = sorted(m for m in sys.modules if any(m == f or m.startswith(f + ".") for f in forbidden))
     print(json.dumps(bad))
-''').format(forbidden=FORBIDDEN)
+''')
+PROBE = PROBE_TEMPLATE.format(forbidden=FORBIDDEN)
 
 
 def core_modules() -> list[str]:
-    """Every module and package under fsm/ (found on disk, so new modules are covered), except fsm/sim/."""
+    """Every module and package under fsm/ (found on disk, so new modules are covered), except fsm/sim/ and
+    fsm/vision/."""
     names = ["fsm"]
     for info in pkgutil.walk_packages([str(CORE_DIR)], prefix="fsm.", onerror=lambda name: None):
-        if info.name == "fsm.sim" or info.name.startswith("fsm.sim."):
+        if any(info.name == p or info.name.startswith(p + ".") for p in ("fsm.sim", "fsm.vision")):
             continue
         names.append(info.name)
     return sorted(names)
 
 
-def probe(modules: list[str]) -> dict[str, list[str] | str]:
+def probe(modules: list[str], script: str = PROBE) -> dict[str, list[str] | str]:
     """Import each module in its own interpreter (all at once, in parallel): forbidden modules it pulled in."""
     env = dict(os.environ)
     env.pop("PYTHONPATH", None)
-    procs = {m: subprocess.Popen([sys.executable, "-c", PROBE, m], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+    procs = {m: subprocess.Popen([sys.executable, "-c", script, m], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                  text=True, env=env) for m in modules}
     result: dict[str, list[str] | str] = {}
     for module, proc in procs.items():
@@ -60,7 +65,7 @@ def test_core_modules_are_found() -> None:
     for name in ("fsm", "fsm.loader", "fsm.machine", "fsm.document", "fsm.registry", "fsm.jsonpos", "fsm.errors",
                  "fsm.schema"):
         assert name in modules
-    assert not any(m.startswith("fsm.sim") for m in modules)
+    assert not any(m.startswith(("fsm.sim", "fsm.vision")) for m in modules)
 
 
 def test_no_core_module_imports_the_car_umlet_or_tools() -> None:
@@ -136,11 +141,46 @@ def test_core_source_names_no_tools_or_car_module() -> None:
     import re
 
     core = Path(fsm.__file__).parent
-    pattern = re.compile(r"(import_module\(\s*['\"]|^\s*(from|import)\s+)(fsm\.tools|fsm\.sim|cv2|pymunk|lxml)\b",
-                         re.M)
+    pattern = re.compile(
+        r"(import_module\(\s*['\"]|^\s*(from|import)\s+)(fsm\.tools|fsm\.sim|fsm\.vision|cv2|pymunk|lxml)\b", re.M)
     offenders = [str(p.relative_to(core)) for p in core.rglob("*.py")
-                 if "sim" not in p.relative_to(core).parts and pattern.search(p.read_text(encoding="utf-8"))]
+                 if not {"sim", "vision"} & set(p.relative_to(core).parts[:1])
+                 and pattern.search(p.read_text(encoding="utf-8"))]
     assert offenders == []
+
+
+# -- fsm/vision/: perception for a real camera too -----------------------------------------------------------------
+
+
+def vision_modules() -> list[str]:
+    folder = CORE_DIR / "vision"
+    return ["fsm.vision"] + sorted(info.name for info in pkgutil.walk_packages([str(folder)], prefix="fsm.vision.",
+                                                                            onerror=lambda name: None))
+
+
+def test_vision_imports_neither_the_simulator_nor_pymunk_nor_the_tools() -> None:
+    modules = vision_modules()
+    assert {"fsm.vision.detector", "fsm.vision.calibration", "fsm.vision.gates", "fsm.vision.camera"} <= set(modules)
+    results = probe(modules, PROBE_TEMPLATE.format(forbidden=VISION_FORBIDDEN))
+    offenders = {m: r for m, r in results.items() if r}
+    assert not offenders, "fsm.vision modules importing what they must not:\n" + "\n".join(
+        f"  {m}: {r}" for m, r in sorted(offenders.items()))
+
+
+def test_vision_source_names_no_simulator() -> None:
+    """Lazy imports count too: no ``fsm.sim``, pymunk or ``fsm.tools`` anywhere in fsm/vision/ (relative ``..sim``
+    included)."""
+    import re
+
+    pattern = re.compile(r"(import_module\(\s*['\"]|^\s*(from|import)\s+)(fsm\.tools|fsm\.sim|\.\.sim|pymunk)\b",
+                         re.M)
+    offenders = [p.name for p in (CORE_DIR / "vision").rglob("*.py") if pattern.search(p.read_text(encoding="utf-8"))]
+    assert offenders == []
+
+
+def test_the_vision_probe_detects_a_forbidden_import() -> None:
+    script = PROBE_TEMPLATE.format(forbidden=VISION_FORBIDDEN)
+    assert "fsm.sim" in probe(["fsm.sim.camera"], script)["fsm.sim.camera"]
 
 
 # -- tools/: one subpackage per concern ------------------------------------------------------------------------

@@ -18,7 +18,7 @@ from fsm.errors import DiagramError, FsmError, RegistrationError, UsageError
 from .common import EXIT_FAIL, EXIT_OK, EXIT_USAGE, version
 
 #: The command modules, in the order ``fsmctl --help`` lists them.
-COMMANDS = ("validate", "run", "types", "schema", "convert", "export", "palette", "graph")
+COMMANDS = ("validate", "run", "types", "schema", "convert", "export", "palette", "graph", "detect")
 
 
 class _Parser(argparse.ArgumentParser):

@@ -6,8 +6,10 @@ line:column and element; only a document without errors is built.
 
 from __future__ import annotations
 
+import errno
 import json
 import os
+import stat
 from collections import deque
 from collections.abc import Callable
 from pathlib import Path
@@ -29,7 +31,7 @@ from .document import (
     problems_from_validation,
 )
 from .errors import DiagramError, Problem
-from .jsonpos import depth_exceeded_at, locate, pointer
+from .jsonpos import depth_exceeded_at, duplicate_keys, escape, locate, pointer
 from .machine import Machine
 from .paths import resolve_path
 from .region import Region
@@ -110,8 +112,16 @@ def parse_json_bytes(raw: bytes, name: str | None, directory: Any = None) -> tup
     if not text.strip():
         raise DiagramError([Problem("file is empty; a machine document is a JSON object", name, line=1, column=1,
                                     hint='start from {"initial": ..., "states": [...], "transitions": [...]}')])
+    repeated: list[bool] = []
+
+    def pairs_to_dict(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+        obj = dict(pairs)
+        if len(obj) != len(pairs):
+            repeated.append(True)
+        return obj
+
     try:
-        data = json.loads(text)
+        data = json.loads(text, object_pairs_hook=pairs_to_dict)
     except json.JSONDecodeError as exc:
         raise DiagramError([Problem(f"invalid JSON: {exc.msg}", name, line=exc.lineno, column=exc.colno)]) from None
     except RecursionError:
@@ -119,8 +129,28 @@ def parse_json_bytes(raw: bytes, name: str | None, directory: Any = None) -> tup
         line, column = deep if deep is not None else (None, None)
         raise DiagramError([Problem(f"JSON nested more than {MAX_JSON_DEPTH} levels deep", name,
                                     line=line, column=column, hint="no machine document needs this depth")]) from None
+    if repeated:
+        raise DiagramError(duplicate_key_problems(text, name))
     source = Source(name=name, directory=directory, text=text, locator=lambda ptrs: locate(text, ptrs))
     return data, source
+
+
+def duplicate_key_problems(text: str, name: str | None) -> list[Problem]:
+    """One problem per repeated key of ``text``, at the repeat, naming where the key was first written.
+
+    JSON parsers disagree about repeated keys (most keep the last silently), so a document that repeats
+    one means two different machines to two tools: it is refused.
+    """
+    problems = []
+    for ptr, key, (line1, col1), (line2, col2) in duplicate_keys(text):
+        problems.append(Problem(
+            f"duplicate key '{key}' (first at line {line1}, column {col1})", name, f"{ptr}/{escape(key)}",
+            line=line2, column=col2, element=f"object at {ptr}" if ptr else "top-level object",
+            hint="a key may appear once per object; delete one of the two or rename it"))
+    if not problems:  # the scan could not follow the text (far too deep): still refuse, without a place
+        problems.append(Problem("duplicate key in a JSON object", name,
+                                hint="a key may appear once per object; delete one of the two"))
+    return problems
 
 
 class Loader:
@@ -145,7 +175,7 @@ class Loader:
                 except DiagramError as exc:
                     self.problems.extend(exc.problems)
                     return None
-                self._stack.append(path.resolve())
+                self._stack.append(Path(os.path.realpath(path)))
                 spec = self.parse_machine(data, source, "", depth=0)
                 self._stack.pop()
             else:
@@ -265,7 +295,24 @@ class Loader:
 
     def include(self, file: str, source: Source, ptr: str, depth: int) -> MachineSpec | None:
         directory = Path(source.directory) if source.directory is not None else (self.base_dir or Path.cwd())
-        path = (directory / file).resolve()
+        try:
+            # realpath, not Path.resolve: on a symlink loop the latter raises RuntimeError (Python 3.11)
+            path = Path(os.path.realpath(directory / file))
+            mode = os.stat(path).st_mode
+        except FileNotFoundError:
+            mode = None
+        except (OSError, ValueError) as exc:  # a symlink loop (ELOOP), no permission, a NUL byte, ...
+            reason = getattr(exc, "strerror", None) or str(exc)
+            hint = ("the path is a symlink that leads back to itself; point it at a machine file"
+                    if getattr(exc, "errno", None) == errno.ELOOP else "check the path and its permissions")
+            self._add(f"include file '{file}' cannot be read: {reason}", source, ptr + "/file",
+                      element="include", hint=hint)
+            return None
+        if mode is not None and not stat.S_ISREG(mode):
+            what = "a directory" if stat.S_ISDIR(mode) else "not a regular file"
+            self._add(f"include file '{file}' is {what} ({path})", source, ptr + "/file", element="include",
+                      hint="an include names a machine file (.json or .uxf), relative to the including file")
+            return None
         if path in self._stack:
             cycle = self._stack[self._stack.index(path):] + [path]
             self._add("include cycle: " + " -> ".join(p.name for p in cycle), source, ptr + "/file",
@@ -273,7 +320,7 @@ class Loader:
             return None
         if path in self._cache:
             return self._cache[path]
-        if not path.is_file():
+        if mode is None:
             self._add(f"include file '{file}' not found (looked for {path})", source, ptr + "/file",
                       element="include", hint="include paths are relative to the including file")
             return None

@@ -392,8 +392,11 @@ class Loader:
                     continue
                 wanted = getattr(p, "outcome", None)
                 if wanted is not None and outcomes is not None and wanted not in outcomes:
+                    hint = "its outcomes: " + ", ".join(sorted(outcomes))
+                    if source.cls.is_composite and len(source.subs) > 1:
+                        hint += _join_hint(source)
                     self._add(f"'{source.id}' never finishes with outcome '{wanted}'", src, tr.pointer + "/outcome",
-                              element=tr.label, hint="its outcomes: " + ", ".join(sorted(outcomes)))
+                              element=tr.label, hint=hint)
         if spec.initial in by_id:
             reached = _reachable(spec, by_id)
             for st in spec.states:
@@ -438,6 +441,7 @@ class Loader:
             if found is not None:
                 self._add(found[1], tr.source, tr.pointer + found[0], element=tr.label,
                           hint="change the value or the variable's initial value in 'vars'")
+        self.check_variable_kinds(every, variables)
         seen: set[tuple[int, str]] = set()
         for tr, scope in refs:
             for key in tr.cls.state_refs:
@@ -448,6 +452,33 @@ class Loader:
                               element=tr.label,
                               hint="a path of ids joined by '/', relative to this machine or an enclosing one, "
                                    "or absolute with a leading '/'")
+
+    def check_variable_kinds(self, transitions: list[TransitionSpec], variables: dict[str, Any]) -> None:
+        """Every comparison of a blackboard variable uses one kind of value (true/false, number or text),
+        the kind of its initial value in ``vars`` or else of the first comparison: ``true == 1`` or
+        ``5 == "5"`` would silently be true or false forever. true/false are compared with == and != only."""
+        first: dict[str, tuple[str, str]] = {}  # variable -> (kind, where that kind comes from)
+        for name, value in variables.items():
+            first[name] = (value_kind(value), f"its initial value in 'vars' is {json.dumps(value)[:40]}")
+        for tr in transitions:
+            test = tr.cls.variable_test(tr.params)
+            if test is None:
+                continue
+            name, op, value = test
+            kind = value_kind(value)
+            if kind == "true/false" and op not in ("==", "!="):
+                self._add(f"'{op}' on true/false: true/false values are only equal or not", tr.source,
+                          tr.pointer + "/op", element=tr.label, hint="use == or !=")
+                continue
+            known = first.get(name)
+            if known is None:
+                first[name] = (kind, f"{tr.label} at {tr.pointer or '/'} compares it with {json.dumps(value)}")
+                continue
+            if known[0] != kind:
+                self._add(f"cannot compare variable '{name}' with {json.dumps(value)} ({_a(kind)}): it holds "
+                          f"{_a(known[0])} ({known[1]})", tr.source, tr.pointer + "/value", element=tr.label,
+                          hint=f"compare with {_a(known[0])} (true/false is not a number, \"5\" is not 5), "
+                               "or change the variable's initial value")
 
     # -- bookkeeping ----------------------------------------------------------------------------
     def _add(self, message: str, source: Source, ptr: str, element: str | None = None, hint: str | None = None,
@@ -492,6 +523,25 @@ def place(problems: list[Problem], locator: Any) -> None:
                 break
 
 
+def _a(kind: str) -> str:
+    """A kind with its article: "a number", "text", "an object"."""
+    return {"true/false": "a true/false value", "number": "a number", "text": "text", "null": "null",
+            "list": "a list", "object": "an object"}.get(kind, f"a {kind}")
+
+
+def value_kind(value: Any) -> str:
+    """The kind of a value as documents see it (JSON's types; a bool is not a number)."""
+    if isinstance(value, bool):
+        return "true/false"
+    if isinstance(value, (int, float)):
+        return "number"
+    if isinstance(value, str):
+        return "text"
+    if value is None:
+        return "null"
+    return "list" if isinstance(value, (list, tuple)) else "object" if isinstance(value, dict) else type(value).__name__
+
+
 def _choices(name: str, by_id: dict[str, Any]) -> str:
     import difflib
 
@@ -501,6 +551,13 @@ def _choices(name: str, by_id: dict[str, Any]) -> str:
     ids = list(by_id)
     shown = ", ".join(ids[:10]) + (", ..." if len(ids) > 10 else "")
     return f"states here: {shown}" if ids else "this machine has no valid states"
+
+
+def _join_hint(st: StateSpec) -> str:
+    if getattr(st.params, "join", "all") == "any":
+        return " (join=any: the outcome of the first region to finish)"
+    return (" (join=all: 'succeeded' when every region ends in 'succeeded', else the first other outcome "
+            "in region order; a region that cannot succeed hides the outcomes of the regions after it)")
 
 
 def _never_finishes_hint(st: StateSpec) -> str:
@@ -536,6 +593,28 @@ def machine_outcomes(spec: MachineSpec) -> set[str] | None:
         if st is not None and st.cls.is_final:
             out.update(st.cls.possible_outcomes(st.params) or ())
     return out
+
+
+def signal_names(spec: MachineSpec | None) -> set[str]:
+    """The input signal names a checked machine reads, at every level: the parameters its transition (and
+    state) types declare in ``signal_refs`` (``Signal.signal``). ``fsmctl run --signal`` warns about a
+    name outside this set; a plugin type that reads signals declares its parameter there to be counted."""
+    names: set[str] = set()
+    todo = [spec] if spec is not None else []
+    while todo:
+        level = todo.pop()
+        for st in level.states:
+            for key in getattr(st.cls, "signal_refs", ()):
+                value = getattr(st.params, key, None)
+                if isinstance(value, str):
+                    names.add(value)
+            todo.extend(sub for _, sub, _ in st.subs if sub is not None)
+        for tr in level.transitions:
+            for key in tr.cls.signal_refs:
+                value = getattr(tr.params, key, None)
+                if isinstance(value, str):
+                    names.add(value)
+    return names
 
 
 # -- building ---------------------------------------------------------------------------------------
@@ -627,4 +706,5 @@ def load(src: Any, *, registry: Registry | None = None, plugins: tuple[str, ...]
     return build(spec, clock=clock, car=car, context=context)
 
 
-__all__ = ["Loader", "build", "check", "load", "machine_outcomes", "read_json", "register_reader", "pointer"]
+__all__ = ["Loader", "build", "check", "load", "machine_outcomes", "read_json", "register_reader", "pointer",
+           "signal_names", "value_kind"]

@@ -37,7 +37,7 @@ HALL_UNITS_PER_M = 1500 / 1.60
 class WorldModel(ParamsBase):
     """Strict like machine documents: unknown keys, strings for numbers, NaN and infinity are errors."""
 
-    model_config = {**ParamsBase.model_config, "frozen": False, "validate_default": True}
+    model_config = {**ParamsBase.model_config, "frozen": False}
 
 
 def _check_points(points: list[Point], what: str) -> None:
@@ -445,7 +445,9 @@ def load_car(path: str | Path) -> Car:
 
 def world_schema() -> dict[str, Any]:
     """The JSON Schema of world files (committed as ``fsm/schema/world.schema.json``)."""
-    schema = World.model_json_schema(ref_template="#/$defs/{model}")
+    from fsm.document import model_json_schema
+
+    schema = model_json_schema(World)
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         "$id": "https://tral-fsm.invalid/world.schema.json",

@@ -204,3 +204,33 @@ def test_include_through_a_good_symlink_still_works(tmp_path: Path) -> None:
     m = fsm.load(main)
     m.run(max_ticks=5)
     assert m.active_path == "a/x" and m.state("a").finished
+
+
+# -- JSON inside .uxf boxes -----------------------------------------------------------------------------------
+@pytest.mark.parametrize(("text", "words"), [
+    ('A\n--\n"type": "Idle", "type": "Final"', "parameter 'type' is given twice"),
+    ('A\n--\ntype=Final\nlayout={"x": 1, "x": 2}', "key 'x' is given twice"),
+])
+def test_repeated_keys_in_a_state_box_are_errors(text: str, words: str) -> None:
+    from fsm.tools.umlet.reader import convert_bytes
+    from fsm.tools.umlet.writer import diagram, element, relation
+
+    elements = [element("UMLSpecialState", 100, 20, 20, 20, "type=initial"),
+                relation([[110, 40], [110, 80]], "lt=->"), element("UMLState", 60, 80, 100, 40, text)]
+    with pytest.raises(DiagramError) as info:
+        convert_bytes(diagram(elements, 10).encode(), "t.uxf")
+    [p] = info.value.problems
+    assert words in p.message and p.line is not None and "UMLState 'A'" in (p.element or "")
+
+
+def test_repeated_keys_in_a_machine_note_are_errors() -> None:
+    from fsm.tools.umlet.reader import convert_bytes
+    from fsm.tools.umlet.writer import diagram, element, relation
+
+    elements = [element("UMLSpecialState", 100, 20, 20, 20, "type=initial"),
+                relation([[110, 40], [110, 80]], "lt=->"), element("UMLState", 60, 80, 100, 40, "A"),
+                element("UMLNote", 300, 80, 100, 40, 'machine\n--\nvars={"x": 1, "x": 2}')]
+    with pytest.raises(DiagramError) as info:
+        convert_bytes(diagram(elements, 10).encode(), "t.uxf")
+    [p] = info.value.problems
+    assert "key 'x' is given twice" in p.message and "UMLNote" in (p.element or "")

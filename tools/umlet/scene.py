@@ -297,7 +297,11 @@ class Scene:
             return None
         meta: dict[str, Any] = {}
         for key, raw in note.values.items():
-            value = T.parse_value(raw)
+            try:
+                value = T.parse_value(raw, strict=True)
+            except T.TextError as exc:
+                self.problem(elem, f"machine note: {exc}")
+                return None
             if key in _NOTE_TEXT_KEYS:
                 if not isinstance(value, str) and value is not None:
                     value = raw  # 42, true, [..]: the text as written

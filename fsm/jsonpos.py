@@ -79,8 +79,8 @@ def _walk(text: str, idx: int, node: dict[Any, Any], ptr: str, found: dict[str, 
             key, after = _DECODER.raw_decode(text, idx)
             child = node.get(key)
             child_ptr = f"{ptr}/{escape(key)}"
-            if child is not None and child.get(_HERE) and child_ptr not in found:
-                found[child_ptr] = idx
+            if child is not None and child.get(_HERE):
+                found[child_ptr] = idx  # a repeated key: the last one, whose value the parser keeps
             idx = _WS.match(text, after).end() + 1  # the ':'
             idx = _WS.match(text, idx).end()
             idx = _walk(text, idx, child, child_ptr, found) if child is not None else _DECODER.raw_decode(text, idx)[1]
@@ -98,7 +98,7 @@ def _walk(text: str, idx: int, node: dict[Any, Any], ptr: str, found: dict[str, 
             child_ptr = f"{ptr}/{i}"
             if child is not None:
                 if child.get(_HERE):
-                    found.setdefault(child_ptr, idx)
+                    found[child_ptr] = idx
                 idx = _walk(text, idx, child, child_ptr, found)
             else:
                 idx = _DECODER.raw_decode(text, idx)[1]

@@ -98,7 +98,14 @@ def read_file_bytes(path: Path, what: str | None = None) -> bytes:
         raise DiagramError([Problem(f"not a usable file name: {exc}", repr(name))]) from None
 
 
-def parse_json_bytes(raw: bytes, name: str | None, directory: Any = None) -> tuple[Any, Source]:
+def parse_json_bytes(raw: bytes, name: str | None, directory: Any = None,
+                     duplicates: list[Problem] | None = None) -> tuple[Any, Source]:
+    """One JSON value from ``raw``, strictly (UTF-8, limited nesting, no repeated keys), with a locator.
+
+    A repeated key raises :class:`DiagramError`, unless ``duplicates`` is given: then its problems are added
+    there and the data (the last of the repeated values) is returned, so the caller reports them together
+    with everything else it finds.
+    """
     if raw.startswith(b"\xef\xbb\xbf"):
         raw = raw[3:]
     try:
@@ -130,7 +137,9 @@ def parse_json_bytes(raw: bytes, name: str | None, directory: Any = None) -> tup
         raise DiagramError([Problem(f"JSON nested more than {MAX_JSON_DEPTH} levels deep", name,
                                     line=line, column=column, hint="no machine document needs this depth")]) from None
     if repeated:
-        raise DiagramError(duplicate_key_problems(text, name))
+        if duplicates is None:
+            raise DiagramError(duplicate_key_problems(text, name))
+        duplicates.extend(duplicate_key_problems(text, name))
     source = Source(name=name, directory=directory, text=text, locator=lambda ptrs: locate(text, ptrs))
     return data, source
 
@@ -171,7 +180,7 @@ class Loader:
             if isinstance(src, (str, os.PathLike)):
                 path = Path(src)
                 try:
-                    data, source = reader_for(path)(path)
+                    data, source = self._read(path)
                 except DiagramError as exc:
                     self.problems.extend(exc.problems)
                     return None
@@ -189,6 +198,18 @@ class Loader:
             return None
         self._fill_positions()
         return spec
+
+    def _read(self, path: Path) -> tuple[Any, Source]:
+        """A file's document by its reader; a JSON file's repeated keys join the other problems of the load."""
+        reader = reader_for(path)
+        if reader is not read_json:
+            return reader(path)
+        if not str(path) or str(path) == ".":
+            return read_json(path)  # the "no file name" problem
+        repeated: list[Problem] = []
+        data, source = parse_json_bytes(read_file_bytes(path), str(path), path.parent, duplicates=repeated)
+        self.problems.extend(repeated)
+        return data, source
 
     # -- shape ----------------------------------------------------------------------------------
     def parse_machine(self, data: Any, source: Source, base: str, depth: int) -> MachineSpec | None:
@@ -325,7 +346,7 @@ class Loader:
                       element="include", hint="include paths are relative to the including file")
             return None
         try:
-            data, inc_source = reader_for(path)(path)
+            data, inc_source = self._read(path)
         except DiagramError as exc:
             self.problems.extend(exc.problems)
             self._cache[path] = None

@@ -56,10 +56,38 @@ def test_every_repeated_key_of_a_file_is_reported(tmp_path: Path) -> None:
             ' "transitions": [], "vars": {"x": 1, "x": 2}}\n')
     f = tmp_path / "m.json"
     f.write_text(text)
-    found = {(p.pointer, p.line, p.column) for p in problems(f)}
+    found = {(p.pointer, p.line, p.column) for p in problems(f) if "duplicate key" in p.message}
     assert found == {("/initial", *pos_of(text, '"initial"', 1)),
                      ("/states/1/id", *pos_of(text, '"id": "c"')),
                      ("/vars/x", *pos_of(text, '"x": 2'))}
+
+
+def test_repeated_keys_are_reported_with_every_other_problem_of_the_file(tmp_path: Path) -> None:
+    """The parser keeps the last value: the other checks run on it, and their problems point at it."""
+    text = ('{"initial": "a", "initial": "b",\n'
+            ' "states": [{"id": "a", "type": "Idel"}],\n'
+            ' "transitions": [{"type": "Timeout", "from": "a", "to": "a", "seconds": -1}]}\n')
+    f = tmp_path / "m.json"
+    f.write_text(text)
+    found = sorted((p.pointer, p.line, p.column, p.message.split(" (")[0]) for p in problems(f))
+    second = pos_of(text, '"initial"', 1)
+    assert found == sorted([
+        ("/initial", *second, "duplicate key 'initial'"),
+        ("/initial", *second, "initial state 'b' is not a state of this machine"),
+        ("/states/0/type", *pos_of(text, '"type": "Idel"'), "unknown state type 'Idel'"),
+        ("/transitions/0/seconds", *pos_of(text, '"seconds"'), "'seconds': Input should be greater than 0, got -1"),
+    ])
+
+
+def test_repeated_keys_in_a_world_come_with_its_other_problems(tmp_path: Path) -> None:
+    text = ('{"walls": [{"points": [[0, 0], [5, 0]]}], "walls": [],\n'
+            ' "gates": [{"markers": [3, 3], "center": [1, 1]}],\n'
+            ' "start": {"x": 1, "y": 1}}\n')
+    f = tmp_path / "w.json"
+    f.write_text(text)
+    with pytest.raises(DiagramError) as info:
+        load_world(f)
+    assert sorted(p.pointer for p in info.value.problems) == ["/gates/0/markers/1", "/walls"]
 
 
 def test_keys_escaped_differently_are_the_same_key(tmp_path: Path) -> None:
@@ -75,8 +103,11 @@ def test_repeated_key_in_an_included_file_is_located_there(tmp_path: Path) -> No
     main = tmp_path / "main.json"
     main.write_text(json.dumps({"initial": "a", "states": [
         {"id": "a", "type": "FSMState", "machine": {"file": "sub.json"}}]}))
-    [p] = problems(main)
+    found = problems(main)
+    [p] = [p for p in found if "duplicate key" in p.message]
     assert p.file == str(tmp_path / "sub.json") and p.pointer == "/states/0/id" and p.line == 2
+    # the last 'id' counts, so the sub-machine's initial state 'x' is missing: reported in the same run
+    assert any("initial state 'x'" in q.message and q.file == p.file for q in found)
 
 
 def test_repeated_key_in_a_world_file(tmp_path: Path) -> None:

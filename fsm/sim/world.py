@@ -475,22 +475,32 @@ def _locate(problems: list[Problem], locator: Any) -> None:
 
     place(problems, locator)
 
-def read_json_file(path: str | Path, what: str) -> tuple[Any, Any]:
-    """Parse a JSON file strictly (UTF-8, line:column on errors); returns the data and a pointer locator."""
+def read_json_file(path: str | Path, what: str, duplicates: list[Problem] | None = None) -> tuple[Any, Any]:
+    """Parse a JSON file strictly (UTF-8, line:column on errors); returns the data and a pointer locator.
+
+    Repeated keys raise, or are added to ``duplicates`` when it is given (see ``parse_json_bytes``)."""
     from fsm.loader import parse_json_bytes, read_file_bytes
 
     p = Path(path)
     raw = read_file_bytes(p, what)
     if not raw.strip():
         raise DiagramError([Problem(f"file is empty; a {what} is a JSON object", str(path), line=1, column=1)])
-    data, source = parse_json_bytes(raw, str(path), p.parent)
+    data, source = parse_json_bytes(raw, str(path), p.parent, duplicates=duplicates)
     return data, source.locator
 
 
 def load_world(path: str | Path, car: str | Path | None = None) -> World:
-    """Read and check a world file; ``car`` names an optional car file that replaces the world's ``car``."""
-    data, locator = read_json_file(path, "world")
-    world = parse_world(data, str(path), locator)
+    """Read and check a world file; ``car`` names an optional car file that replaces the world's ``car``.
+
+    Every problem of the file is reported at once, repeated keys together with the others."""
+    repeated: list[Problem] = []
+    data, locator = read_json_file(path, "world", repeated)
+    try:
+        world = parse_world(data, str(path), locator)
+    except DiagramError as exc:
+        raise DiagramError(sorted(repeated + exc.problems, key=lambda p: (p.line or 0, p.column or 0))) from None
+    if repeated:
+        raise DiagramError(repeated)
     if car is not None:
         world.car = load_car(car)
         problems = semantic_problems(world, str(path))

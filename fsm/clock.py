@@ -2,10 +2,22 @@
 
 from __future__ import annotations
 
+import math
+import numbers
 import time
 
 #: The TRAL car's control period: 80 Hz (the seed's PD constants 0.0125 s and 80 1/s).
 DEFAULT_DT = 0.0125
+
+
+def check_dt(dt: object) -> float:
+    """A tick period: a finite number of seconds > 0 (``TypeError`` for a non-number, ``ValueError`` else)."""
+    if isinstance(dt, bool) or not isinstance(dt, numbers.Real):
+        raise TypeError(f"dt must be a number of seconds, got {dt!r} ({type(dt).__name__})")
+    value = float(dt)
+    if not (value > 0 and math.isfinite(value)):
+        raise ValueError(f"dt must be a finite number of seconds > 0, got {dt!r}")
+    return value
 
 
 class SimulatedClock:
@@ -18,9 +30,7 @@ class SimulatedClock:
     realtime = False
 
     def __init__(self, dt: float = DEFAULT_DT) -> None:
-        if not dt > 0:
-            raise ValueError(f"dt must be > 0, got {dt!r}")
-        self.dt = float(dt)
+        self.dt = check_dt(dt)
 
     def time_at(self, tick: int) -> float:
         return tick * self.dt
@@ -36,9 +46,7 @@ class RealTimeClock:
     realtime = True
 
     def __init__(self, dt: float = DEFAULT_DT) -> None:
-        if not dt > 0:
-            raise ValueError(f"dt must be > 0, got {dt!r}")
-        self.dt = float(dt)
+        self.dt = check_dt(dt)
         self._t0: float | None = None
 
     def time_at(self, tick: int) -> float:

@@ -52,10 +52,18 @@ class Composite(State):
         if len(sets) == 1:
             return set(sets[0])
         if getattr(params, "join", "all") == "any":
-            return set().union(*sets)
+            return set().union(*sets)  # whichever region is final first (in region order, on a tie)
         if any(not s for s in sets):
             return set()  # some region never finishes, so "all" never joins
-        return set().union(*sets)
+        # join=all (see _join): "succeeded" when every region succeeded, else the first other outcome in region
+        # order, so region i's other outcomes count only when every region before it can succeed
+        out: set[str] = set()
+        for s in sets:
+            out |= s - {"succeeded"}
+            if "succeeded" not in s:
+                return out
+        out.add("succeeded")
+        return out
 
     def tick(self, ctx: Context) -> None:
         for region in self.regions:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numbers
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
@@ -19,12 +20,13 @@ class Context:
     or during tick ``k``). A signal set and reset between two ticks makes no edge.
     """
 
-    __slots__ = ("now", "dt", "tick", "vars", "car", "machine", "_signals", "_changed", "_pending")
+    __slots__ = ("_now", "_dt", "_tick", "vars", "car", "machine", "_signals", "_changed", "_pending")
 
     def __init__(self, *, car: Any = None, variables: dict[str, Any] | None = None) -> None:
-        self.now = 0.0
-        self.dt = 0.0
-        self.tick = 0
+        # Only the machine advances these (through the underscored slots); states read the properties.
+        self._now = 0.0
+        self._dt = 0.0
+        self._tick = 0
         self.vars: dict[str, Any] = dict(variables or {})
         self.car = car
         self.machine: Machine | None = None
@@ -33,10 +35,40 @@ class Context:
         #: Signals changed since the last tick started, with their level then.
         self._pending: dict[str, bool] = {}
 
+    # -- time (read-only: a state that could move the clock would break every other state's timing) -----
+    @property
+    def now(self) -> float:
+        """Machine time of the current tick, in seconds (``tick * dt`` on the simulated clock)."""
+        return self._now
+
+    @now.setter
+    def now(self, value: Any) -> None:
+        _read_only("now")
+
+    @property
+    def dt(self) -> float:
+        """Seconds since the previous tick (0 before the first)."""
+        return self._dt
+
+    @dt.setter
+    def dt(self, value: Any) -> None:
+        _read_only("dt")
+
+    @property
+    def tick(self) -> int:
+        """Number of the current tick (0 while the initial states are entered)."""
+        return self._tick
+
+    @tick.setter
+    def tick(self, value: Any) -> None:
+        _read_only("tick")
+
     # -- signals --------------------------------------------------------------------------------
     def set_signal(self, name: str, value: bool = True) -> None:
-        """Set input signal ``name``; a change of level is an edge during the next tick."""
-        value = bool(value)
+        """Set input signal ``name`` (a non-empty string) to ``value`` (``True``/``False`` or ``1``/``0``);
+        a change of level is an edge during the next tick."""
+        check_signal_name(name)
+        value = signal_level(value)
         old = self._signals.get(name, False)
         if old != value and name not in self._pending:
             self._pending[name] = old
@@ -46,7 +78,7 @@ class Context:
         """At the start of a tick: the signals whose level differs from the last boundary have an edge now."""
         for name, old in self._pending.items():
             if self._signals.get(name, False) != old:
-                self._changed[name] = self.tick
+                self._changed[name] = self._tick
         self._pending.clear()
 
     def signal(self, name: str) -> bool:
@@ -55,11 +87,11 @@ class Context:
 
     def rising(self, name: str) -> bool:
         """True during the one tick after the signal went from low to high."""
-        return self._signals.get(name, False) and self._changed.get(name) == self.tick
+        return self._signals.get(name, False) and self._changed.get(name) == self._tick
 
     def falling(self, name: str) -> bool:
         """True during the one tick after the signal went from high to low."""
-        return (not self._signals.get(name, False)) and self._changed.get(name) == self.tick
+        return (not self._signals.get(name, False)) and self._changed.get(name) == self._tick
 
     @property
     def signals(self) -> dict[str, bool]:
@@ -77,3 +109,34 @@ class Context:
         if isinstance(state, str):
             state = self.state(state)
         return state.time_in_state(self)
+
+
+def _read_only(name: str) -> None:
+    raise AttributeError(f"ctx.{name} is read-only: the machine's clock sets it each tick "
+                         "(keep your own time reference in the state, e.g. self.started = ctx.now)")
+
+
+# -- argument checks (Context.set_signal and Machine.schedule_signal) ---------------------------------
+def _shown(value: Any) -> str:
+    text = repr(value)
+    text = text if len(text) <= 60 else text[:57] + "..."
+    return f"{text} ({type(value).__name__})"
+
+
+def check_signal_name(name: Any) -> None:
+    """A signal name is a non-empty string (``TypeError``/``ValueError`` otherwise)."""
+    if not isinstance(name, str):
+        raise TypeError(f"a signal name is a string, got {_shown(name)}")
+    if not name:
+        raise ValueError("a signal name may not be empty")
+
+
+def signal_level(value: Any) -> bool:
+    """A signal's level from ``True``/``False`` or ``1``/``0``; anything else is refused."""
+    if isinstance(value, bool):
+        return value
+    if isinstance(value, numbers.Integral) and not isinstance(value, bool):
+        if value in (0, 1):
+            return bool(value)
+        raise ValueError(f"a signal's value is True/False or 1/0, got {value!r}")
+    raise TypeError(f"a signal's value is True/False or 1/0, got {_shown(value)}")

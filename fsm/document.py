@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Annotated, Any
 
 from pydantic import Field, ValidationError, WithJsonSchema, field_validator
+from pydantic.json_schema import GenerateJsonSchema
 
 from .errors import Problem
 from .jsonpos import escape, pointer
@@ -192,7 +193,12 @@ def problems_from_validation(
             ptr = base + pointer(*loc)
             where = "/".join(str(x) for x in loc)
             got = _short(e.get("input"))
-            if typ == "string_pattern_mismatch" and loc and loc[-1] in ("id", "initial"):
+            if typ == "value_error" and e.get("input", 0) is None and loc:
+                message = f"'{where}' may not be null"
+                default = _field_default(model, str(loc[-1]))
+                hint = ("leave the key out to get its default" + (f": {default}" if default else "")
+                        if default is not None else "give it a value; null is never a parameter's value")
+            elif typ == "string_pattern_mismatch" and loc and loc[-1] in ("id", "initial"):
                 message = f"'{where}' may not contain '/' (it separates the steps of a state path), got {got}"
             else:
                 message = f"'{where}': {e['msg']}, got {got}"
@@ -233,6 +239,18 @@ def _field_hint(model: type[ParamsBase], name: str) -> str | None:
     if f is not None and f.description:
         return f.description
     return None
+
+
+def _field_default(model: type[ParamsBase], name: str) -> str | None:
+    """How a message names a field's default: ``""`` for an optional field without a shown default,
+    ``None`` for a required field."""
+    f = model.model_fields.get(name) or next(
+        (f for f in model.model_fields.values() if f.alias == name), None)
+    if f is None or f.is_required():
+        return None
+    if f.default is None or f.default_factory is not None:
+        return ""
+    return f"{f.default!r}"
 
 
 def _short(value: Any, limit: int = 60) -> str:
@@ -279,12 +297,31 @@ def check_type(
 SCHEMA_DIALECT = "https://json-schema.org/draft/2020-12/schema"
 
 
+class NoNullSchema(GenerateJsonSchema):
+    """Schemas of our parameter models: an optional field (``str | None = None``) is optional by leaving it
+    out, never by writing ``null`` (:class:`fsm.params.ParamsBase` refuses null), so no branch allows null."""
+
+    def nullable_schema(self, schema: Any) -> Any:
+        return self.generate_inner(schema["schema"])
+
+    def default_schema(self, schema: Any) -> Any:
+        out = super().default_schema(schema)
+        if isinstance(out, dict) and out.get("default", 0) is None:
+            out = {k: v for k, v in out.items() if k != "default"}
+        return out
+
+
+def model_json_schema(model: type[Any], ref_template: str = "#/$defs/{model}") -> dict[str, Any]:
+    """A parameter model's JSON Schema as documents must be written (no null anywhere)."""
+    return model.model_json_schema(ref_template=ref_template, schema_generator=NoNullSchema)
+
+
 def json_schema(registry: Registry) -> dict[str, Any]:
     """The JSON Schema of machine documents for the registered types (discriminated on ``type``)."""
     defs: dict[str, Any] = {}
 
     def model_schema(model: type[Any]) -> dict[str, Any]:
-        schema = model.model_json_schema(ref_template="#/$defs/{model}")
+        schema = model_json_schema(model)
         for name, sub in schema.pop("$defs", {}).items():
             if name in defs and defs[name] != sub:
                 raise ValueError(f"two parameter models are both called {name}; rename one")
@@ -355,7 +392,7 @@ def param_info(model: type[ParamsBase], own_only: bool = True) -> list[dict[str,
 
     Used by ``fsmctl types`` and the UMLet palette, so both always show what the models accept.
     """
-    schema = model.model_json_schema(ref_template="#/$defs/{model}")
+    schema = model_json_schema(model)
     props = schema.get("properties", {})
     required = set(schema.get("required", []))
     out = []
@@ -370,6 +407,8 @@ def param_info(model: type[ParamsBase], own_only: bool = True) -> list[dict[str,
         }
         if "default" in prop:
             info["default"] = prop["default"]
+        elif name not in required:  # optional without a default to show (null in the model): left out
+            info["default"] = None
         out.append(info)
     return out
 

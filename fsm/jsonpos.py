@@ -79,8 +79,8 @@ def _walk(text: str, idx: int, node: dict[Any, Any], ptr: str, found: dict[str, 
             key, after = _DECODER.raw_decode(text, idx)
             child = node.get(key)
             child_ptr = f"{ptr}/{escape(key)}"
-            if child is not None and child.get(_HERE) and child_ptr not in found:
-                found[child_ptr] = idx
+            if child is not None and child.get(_HERE):
+                found[child_ptr] = idx  # a repeated key: the last one, whose value the parser keeps
             idx = _WS.match(text, after).end() + 1  # the ':'
             idx = _WS.match(text, idx).end()
             idx = _walk(text, idx, child, child_ptr, found) if child is not None else _DECODER.raw_decode(text, idx)[1]
@@ -98,7 +98,7 @@ def _walk(text: str, idx: int, node: dict[Any, Any], ptr: str, found: dict[str, 
             child_ptr = f"{ptr}/{i}"
             if child is not None:
                 if child.get(_HERE):
-                    found.setdefault(child_ptr, idx)
+                    found[child_ptr] = idx
                 idx = _walk(text, idx, child, child_ptr, found)
             else:
                 idx = _DECODER.raw_decode(text, idx)[1]
@@ -122,3 +122,52 @@ def depth_exceeded_at(text: str, limit: int) -> tuple[int, int] | None:
         elif ch in "]}":
             depth -= 1
     return None
+
+
+def duplicate_keys(text: str) -> list[tuple[str, str, tuple[int, int], tuple[int, int]]]:
+    """Every key that occurs twice in one object of ``text`` (valid JSON): ``(pointer of the object, key,
+    (line, column) of the first occurrence, (line, column) of the repeat)``, in file order.
+
+    Only called after the fast parse saw a duplicate, so its cost is paid by broken files alone.
+    """
+    found: list[tuple[str, str, int, int]] = []
+    try:
+        _dup_walk(text, _WS.match(text, 0).end(), "", found)
+    except (ValueError, IndexError, RecursionError):
+        pass  # deeper than Python's stack, or not JSON after all: keep what was found
+    index = LineIndex(text)
+    return [(ptr, key, index.position(a), index.position(b)) for ptr, key, a, b in found]
+
+
+def _dup_walk(text: str, idx: int, ptr: str, found: list[tuple[str, str, int, int]]) -> int:
+    ch = text[idx]
+    if ch == "{":
+        idx = _WS.match(text, idx + 1).end()
+        if text[idx] == "}":
+            return idx + 1
+        seen: dict[str, int] = {}
+        while True:
+            key, after = _DECODER.raw_decode(text, idx)
+            if key in seen:
+                found.append((ptr, key, seen[key], idx))
+            else:
+                seen[key] = idx
+            idx = _WS.match(text, _WS.match(text, after).end() + 1).end()  # past the ':'
+            idx = _dup_walk(text, idx, f"{ptr}/{escape(key)}", found)
+            idx = _WS.match(text, idx).end()
+            if text[idx] == "}":
+                return idx + 1
+            idx = _WS.match(text, idx + 1).end()
+    if ch == "[":
+        idx = _WS.match(text, idx + 1).end()
+        if text[idx] == "]":
+            return idx + 1
+        i = 0
+        while True:
+            idx = _dup_walk(text, idx, f"{ptr}/{i}", found)
+            idx = _WS.match(text, idx).end()
+            if text[idx] == "]":
+                return idx + 1
+            idx = _WS.match(text, idx + 1).end()
+            i += 1
+    return _DECODER.raw_decode(text, idx)[1]

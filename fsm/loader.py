@@ -6,8 +6,10 @@ line:column and element; only a document without errors is built.
 
 from __future__ import annotations
 
+import errno
 import json
 import os
+import stat
 from collections import deque
 from collections.abc import Callable
 from pathlib import Path
@@ -29,7 +31,7 @@ from .document import (
     problems_from_validation,
 )
 from .errors import DiagramError, Problem
-from .jsonpos import depth_exceeded_at, locate, pointer
+from .jsonpos import depth_exceeded_at, duplicate_keys, escape, locate, pointer
 from .machine import Machine
 from .paths import resolve_path
 from .region import Region
@@ -96,7 +98,14 @@ def read_file_bytes(path: Path, what: str | None = None) -> bytes:
         raise DiagramError([Problem(f"not a usable file name: {exc}", repr(name))]) from None
 
 
-def parse_json_bytes(raw: bytes, name: str | None, directory: Any = None) -> tuple[Any, Source]:
+def parse_json_bytes(raw: bytes, name: str | None, directory: Any = None,
+                     duplicates: list[Problem] | None = None) -> tuple[Any, Source]:
+    """One JSON value from ``raw``, strictly (UTF-8, limited nesting, no repeated keys), with a locator.
+
+    A repeated key raises :class:`DiagramError`, unless ``duplicates`` is given: then its problems are added
+    there and the data (the last of the repeated values) is returned, so the caller reports them together
+    with everything else it finds.
+    """
     if raw.startswith(b"\xef\xbb\xbf"):
         raw = raw[3:]
     try:
@@ -110,8 +119,16 @@ def parse_json_bytes(raw: bytes, name: str | None, directory: Any = None) -> tup
     if not text.strip():
         raise DiagramError([Problem("file is empty; a machine document is a JSON object", name, line=1, column=1,
                                     hint='start from {"initial": ..., "states": [...], "transitions": [...]}')])
+    repeated: list[bool] = []
+
+    def pairs_to_dict(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+        obj = dict(pairs)
+        if len(obj) != len(pairs):
+            repeated.append(True)
+        return obj
+
     try:
-        data = json.loads(text)
+        data = json.loads(text, object_pairs_hook=pairs_to_dict)
     except json.JSONDecodeError as exc:
         raise DiagramError([Problem(f"invalid JSON: {exc.msg}", name, line=exc.lineno, column=exc.colno)]) from None
     except RecursionError:
@@ -119,8 +136,30 @@ def parse_json_bytes(raw: bytes, name: str | None, directory: Any = None) -> tup
         line, column = deep if deep is not None else (None, None)
         raise DiagramError([Problem(f"JSON nested more than {MAX_JSON_DEPTH} levels deep", name,
                                     line=line, column=column, hint="no machine document needs this depth")]) from None
+    if repeated:
+        if duplicates is None:
+            raise DiagramError(duplicate_key_problems(text, name))
+        duplicates.extend(duplicate_key_problems(text, name))
     source = Source(name=name, directory=directory, text=text, locator=lambda ptrs: locate(text, ptrs))
     return data, source
+
+
+def duplicate_key_problems(text: str, name: str | None) -> list[Problem]:
+    """One problem per repeated key of ``text``, at the repeat, naming where the key was first written.
+
+    JSON parsers disagree about repeated keys (most keep the last silently), so a document that repeats
+    one means two different machines to two tools: it is refused.
+    """
+    problems = []
+    for ptr, key, (line1, col1), (line2, col2) in duplicate_keys(text):
+        problems.append(Problem(
+            f"duplicate key '{key}' (first at line {line1}, column {col1})", name, f"{ptr}/{escape(key)}",
+            line=line2, column=col2, element=f"object at {ptr}" if ptr else "top-level object",
+            hint="a key may appear once per object; delete one of the two or rename it"))
+    if not problems:  # the scan could not follow the text (far too deep): still refuse, without a place
+        problems.append(Problem("duplicate key in a JSON object", name,
+                                hint="a key may appear once per object; delete one of the two"))
+    return problems
 
 
 class Loader:
@@ -141,11 +180,11 @@ class Loader:
             if isinstance(src, (str, os.PathLike)):
                 path = Path(src)
                 try:
-                    data, source = reader_for(path)(path)
+                    data, source = self._read(path)
                 except DiagramError as exc:
                     self.problems.extend(exc.problems)
                     return None
-                self._stack.append(path.resolve())
+                self._stack.append(Path(os.path.realpath(path)))
                 spec = self.parse_machine(data, source, "", depth=0)
                 self._stack.pop()
             else:
@@ -159,6 +198,18 @@ class Loader:
             return None
         self._fill_positions()
         return spec
+
+    def _read(self, path: Path) -> tuple[Any, Source]:
+        """A file's document by its reader; a JSON file's repeated keys join the other problems of the load."""
+        reader = reader_for(path)
+        if reader is not read_json:
+            return reader(path)
+        if not str(path) or str(path) == ".":
+            return read_json(path)  # the "no file name" problem
+        repeated: list[Problem] = []
+        data, source = parse_json_bytes(read_file_bytes(path), str(path), path.parent, duplicates=repeated)
+        self.problems.extend(repeated)
+        return data, source
 
     # -- shape ----------------------------------------------------------------------------------
     def parse_machine(self, data: Any, source: Source, base: str, depth: int) -> MachineSpec | None:
@@ -265,7 +316,24 @@ class Loader:
 
     def include(self, file: str, source: Source, ptr: str, depth: int) -> MachineSpec | None:
         directory = Path(source.directory) if source.directory is not None else (self.base_dir or Path.cwd())
-        path = (directory / file).resolve()
+        try:
+            # realpath, not Path.resolve: on a symlink loop the latter raises RuntimeError (Python 3.11)
+            path = Path(os.path.realpath(directory / file))
+            mode = os.stat(path).st_mode
+        except FileNotFoundError:
+            mode = None
+        except (OSError, ValueError) as exc:  # a symlink loop (ELOOP), no permission, a NUL byte, ...
+            reason = getattr(exc, "strerror", None) or str(exc)
+            hint = ("the path is a symlink that leads back to itself; point it at a machine file"
+                    if getattr(exc, "errno", None) == errno.ELOOP else "check the path and its permissions")
+            self._add(f"include file '{file}' cannot be read: {reason}", source, ptr + "/file",
+                      element="include", hint=hint)
+            return None
+        if mode is not None and not stat.S_ISREG(mode):
+            what = "a directory" if stat.S_ISDIR(mode) else "not a regular file"
+            self._add(f"include file '{file}' is {what} ({path})", source, ptr + "/file", element="include",
+                      hint="an include names a machine file (.json or .uxf), relative to the including file")
+            return None
         if path in self._stack:
             cycle = self._stack[self._stack.index(path):] + [path]
             self._add("include cycle: " + " -> ".join(p.name for p in cycle), source, ptr + "/file",
@@ -273,12 +341,12 @@ class Loader:
             return None
         if path in self._cache:
             return self._cache[path]
-        if not path.is_file():
+        if mode is None:
             self._add(f"include file '{file}' not found (looked for {path})", source, ptr + "/file",
                       element="include", hint="include paths are relative to the including file")
             return None
         try:
-            data, inc_source = reader_for(path)(path)
+            data, inc_source = self._read(path)
         except DiagramError as exc:
             self.problems.extend(exc.problems)
             self._cache[path] = None
@@ -345,8 +413,11 @@ class Loader:
                     continue
                 wanted = getattr(p, "outcome", None)
                 if wanted is not None and outcomes is not None and wanted not in outcomes:
+                    hint = "its outcomes: " + ", ".join(sorted(outcomes))
+                    if source.cls.is_composite and len(source.subs) > 1:
+                        hint += _join_hint(source)
                     self._add(f"'{source.id}' never finishes with outcome '{wanted}'", src, tr.pointer + "/outcome",
-                              element=tr.label, hint="its outcomes: " + ", ".join(sorted(outcomes)))
+                              element=tr.label, hint=hint)
         if spec.initial in by_id:
             reached = _reachable(spec, by_id)
             for st in spec.states:
@@ -391,6 +462,7 @@ class Loader:
             if found is not None:
                 self._add(found[1], tr.source, tr.pointer + found[0], element=tr.label,
                           hint="change the value or the variable's initial value in 'vars'")
+        self.check_variable_kinds(every, variables)
         seen: set[tuple[int, str]] = set()
         for tr, scope in refs:
             for key in tr.cls.state_refs:
@@ -401,6 +473,33 @@ class Loader:
                               element=tr.label,
                               hint="a path of ids joined by '/', relative to this machine or an enclosing one, "
                                    "or absolute with a leading '/'")
+
+    def check_variable_kinds(self, transitions: list[TransitionSpec], variables: dict[str, Any]) -> None:
+        """Every comparison of a blackboard variable uses one kind of value (true/false, number or text),
+        the kind of its initial value in ``vars`` or else of the first comparison: ``true == 1`` or
+        ``5 == "5"`` would silently be true or false forever. true/false are compared with == and != only."""
+        first: dict[str, tuple[str, str]] = {}  # variable -> (kind, where that kind comes from)
+        for name, value in variables.items():
+            first[name] = (value_kind(value), f"its initial value in 'vars' is {json.dumps(value)[:40]}")
+        for tr in transitions:
+            test = tr.cls.variable_test(tr.params)
+            if test is None:
+                continue
+            name, op, value = test
+            kind = value_kind(value)
+            if kind == "true/false" and op not in ("==", "!="):
+                self._add(f"'{op}' on true/false: true/false values are only equal or not", tr.source,
+                          tr.pointer + "/op", element=tr.label, hint="use == or !=")
+                continue
+            known = first.get(name)
+            if known is None:
+                first[name] = (kind, f"{tr.label} at {tr.pointer or '/'} compares it with {json.dumps(value)}")
+                continue
+            if known[0] != kind:
+                self._add(f"cannot compare variable '{name}' with {json.dumps(value)} ({_a(kind)}): it holds "
+                          f"{_a(known[0])} ({known[1]})", tr.source, tr.pointer + "/value", element=tr.label,
+                          hint=f"compare with {_a(known[0])} (true/false is not a number, \"5\" is not 5), "
+                               "or change the variable's initial value")
 
     # -- bookkeeping ----------------------------------------------------------------------------
     def _add(self, message: str, source: Source, ptr: str, element: str | None = None, hint: str | None = None,
@@ -445,6 +544,25 @@ def place(problems: list[Problem], locator: Any) -> None:
                 break
 
 
+def _a(kind: str) -> str:
+    """A kind with its article: "a number", "text", "an object"."""
+    return {"true/false": "a true/false value", "number": "a number", "text": "text", "null": "null",
+            "list": "a list", "object": "an object"}.get(kind, f"a {kind}")
+
+
+def value_kind(value: Any) -> str:
+    """The kind of a value as documents see it (JSON's types; a bool is not a number)."""
+    if isinstance(value, bool):
+        return "true/false"
+    if isinstance(value, (int, float)):
+        return "number"
+    if isinstance(value, str):
+        return "text"
+    if value is None:
+        return "null"
+    return "list" if isinstance(value, (list, tuple)) else "object" if isinstance(value, dict) else type(value).__name__
+
+
 def _choices(name: str, by_id: dict[str, Any]) -> str:
     import difflib
 
@@ -454,6 +572,13 @@ def _choices(name: str, by_id: dict[str, Any]) -> str:
     ids = list(by_id)
     shown = ", ".join(ids[:10]) + (", ..." if len(ids) > 10 else "")
     return f"states here: {shown}" if ids else "this machine has no valid states"
+
+
+def _join_hint(st: StateSpec) -> str:
+    if getattr(st.params, "join", "all") == "any":
+        return " (join=any: the outcome of the first region to finish)"
+    return (" (join=all: 'succeeded' when every region ends in 'succeeded', else the first other outcome "
+            "in region order; a region that cannot succeed hides the outcomes of the regions after it)")
 
 
 def _never_finishes_hint(st: StateSpec) -> str:
@@ -489,6 +614,28 @@ def machine_outcomes(spec: MachineSpec) -> set[str] | None:
         if st is not None and st.cls.is_final:
             out.update(st.cls.possible_outcomes(st.params) or ())
     return out
+
+
+def signal_names(spec: MachineSpec | None) -> set[str]:
+    """The input signal names a checked machine reads, at every level: the parameters its transition (and
+    state) types declare in ``signal_refs`` (``Signal.signal``). ``fsmctl run --signal`` warns about a
+    name outside this set; a plugin type that reads signals declares its parameter there to be counted."""
+    names: set[str] = set()
+    todo = [spec] if spec is not None else []
+    while todo:
+        level = todo.pop()
+        for st in level.states:
+            for key in getattr(st.cls, "signal_refs", ()):
+                value = getattr(st.params, key, None)
+                if isinstance(value, str):
+                    names.add(value)
+            todo.extend(sub for _, sub, _ in st.subs if sub is not None)
+        for tr in level.transitions:
+            for key in tr.cls.signal_refs:
+                value = getattr(tr.params, key, None)
+                if isinstance(value, str):
+                    names.add(value)
+    return names
 
 
 # -- building ---------------------------------------------------------------------------------------
@@ -580,4 +727,5 @@ def load(src: Any, *, registry: Registry | None = None, plugins: tuple[str, ...]
     return build(spec, clock=clock, car=car, context=context)
 
 
-__all__ = ["Loader", "build", "check", "load", "machine_outcomes", "read_json", "register_reader", "pointer"]
+__all__ = ["Loader", "build", "check", "load", "machine_outcomes", "read_json", "register_reader", "pointer",
+           "signal_names", "value_kind"]

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import bisect
 import math
+import numbers
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from .clock import SimulatedClock
-from .context import Context
+from .context import Context, _shown, check_signal_name, signal_level
 from .errors import StateRuntimeError
 
 if TYPE_CHECKING:
@@ -27,11 +28,19 @@ class Listener:
         """A tick has ended."""
 
 
+#: What ``Machine.run`` stops after when given neither ``max_ticks`` nor ``duration``: machine time, in
+#: seconds, the same default as ``fsmctl run``. A machine that can never finish then still returns.
+DEFAULT_RUN_DURATION = 600.0
+
+
 class Machine:
     """A runnable machine built by :func:`fsm.load`. Tick it, or ``run`` it to completion.
 
     The clock is simulated by default (``dt`` = 0.0125 s, 80 Hz as on the TRAL car): tick ``n`` happens
     at ``n * dt``. The first ``tick`` (or ``run``) enters the initial states at time 0.
+
+    Every public method checks its arguments when called: a wrong type raises ``TypeError``, a value out
+    of range (negative, NaN, infinite) ``ValueError``, each with a message naming the argument.
     """
 
     def __init__(
@@ -67,8 +76,8 @@ class Machine:
             return
         self.started = True
         ctx = self.ctx
-        ctx.now = self.clock.time_at(ctx.tick) if not self._sim else ctx.tick * self._dt
-        self._apply_schedule(ctx.now)
+        ctx._now = self.clock.time_at(ctx._tick) if not self._sim else ctx._tick * self._dt
+        self._apply_schedule(ctx._now)
         try:
             self.root.start(ctx)
         except StateRuntimeError:
@@ -80,10 +89,10 @@ class Machine:
         if not self.started:
             self.start()
         ctx = self.ctx
-        n = ctx.tick = ctx.tick + 1
+        n = ctx._tick = ctx._tick + 1
         now = n * self._dt if self._sim else self.clock.time_at(n)
-        ctx.dt = now - ctx.now
-        ctx.now = now
+        ctx._dt = now - ctx._now
+        ctx._now = now
         if self._schedule:
             self._apply_schedule(now)
         if ctx._pending:
@@ -106,38 +115,65 @@ class Machine:
         """Tick until the machine finishes, ``until(machine)`` is true, ``max_ticks`` ticks have run or
         ``duration`` seconds of machine time have passed. Returns the outcome (``None`` if unfinished).
 
-        With a real-time clock, each tick waits for its period.
+        Without ``max_ticks`` and ``duration`` the run stops after :data:`DEFAULT_RUN_DURATION` (600 s of
+        machine time, as ``fsmctl run``), so a machine that can never finish still returns (``None``; check
+        ``finished``). To run longer, pass a larger ``duration``; to run forever, call ``tick()`` in your
+        own loop. With a real-time clock, each tick waits for its period.
+
+        Raises ``TypeError`` for an ``until`` that is not callable, a ``max_ticks`` that is not an integer
+        (``True`` and ``10.0`` are not) or a ``duration`` that is not a number; ``ValueError`` for a negative
+        ``max_ticks`` or a negative, NaN or infinite ``duration``.
         """
+        if until is not None and not callable(until):
+            raise TypeError(f"until must be a function of the machine returning a bool, or None; "
+                            f"got {_shown(until)}")
+        if max_ticks is not None:
+            if isinstance(max_ticks, bool) or not isinstance(max_ticks, numbers.Integral):
+                raise TypeError(f"max_ticks must be an int or None, got {_shown(max_ticks)}")
+            if max_ticks < 0:
+                raise ValueError(f"max_ticks must be >= 0, got {max_ticks}")
+            max_ticks = int(max_ticks)
+        if duration is not None:
+            duration = _seconds("duration", duration)
+        elif max_ticks is None:
+            duration = DEFAULT_RUN_DURATION
         if not self.started:
             self.start()
         ctx = self.ctx
-        first = ctx.tick
+        first = ctx._tick
         end_tick = None if max_ticks is None else first + max_ticks
-        if duration is not None:
+        if duration is not None and self._sim:
             # the first tick at or after the duration, as with the real-time clock
-            ticks_for_duration = math.ceil(duration / self._dt - 1e-9) if self._sim else None
-            if ticks_for_duration is not None:
-                end_tick = first + ticks_for_duration if end_tick is None else min(end_tick, first + ticks_for_duration)
-        end_time = None if (duration is None or self._sim) else ctx.now + duration
+            ticks_for_duration = math.ceil(duration / self._dt - 1e-9)
+            end_tick = first + ticks_for_duration if end_tick is None else min(end_tick, first + ticks_for_duration)
+        end_time = None if (duration is None or self._sim) else ctx._now + duration
         realtime = not self._sim
         tick = self.tick
         while not self.finished:
-            if end_tick is not None and ctx.tick >= end_tick:
+            if end_tick is not None and ctx._tick >= end_tick:
                 break
-            if end_time is not None and ctx.now >= end_time:
+            if end_time is not None and ctx._now >= end_time:
                 break
             if realtime:
-                self.clock.wait_for(ctx.tick + 1)
+                self.clock.wait_for(ctx._tick + 1)
             tick()
             if until is not None and until(self):
                 break
         return self.outcome
 
     # -- inputs ---------------------------------------------------------------------------------
-    def schedule_signal(self, name: str, at: float, value: bool = True) -> None:
-        """Set signal ``name`` to ``value`` at machine time ``at`` (applied before the first tick at or after it)."""
+    def schedule_signal(self, name: str, at: float, value: bool | int = True) -> None:
+        """Set signal ``name`` to ``value`` at machine time ``at`` (applied before the first tick at or after it).
+
+        ``name`` is a non-empty string, ``at`` a finite number of seconds >= 0, ``value`` ``True``/``False``
+        or ``1``/``0``; anything else raises ``TypeError`` or ``ValueError``. A time already past is applied
+        before the next tick.
+        """
+        check_signal_name(name)
+        at = _seconds("at", at)
+        level = signal_level(value)
         self._schedule_seq += 1
-        bisect.insort(self._schedule, (float(at), self._schedule_seq, name, bool(value)))
+        bisect.insort(self._schedule, (at, self._schedule_seq, name, level))
 
     def _apply_schedule(self, now: float) -> None:
         """Apply the scheduled signal changes due by ``now`` (between ticks: before the tick's boundary)."""
@@ -184,7 +220,12 @@ class Machine:
         return self.ctx.tick
 
     def state(self, path: str) -> State:
-        """The state at ``path`` (ids joined by ``/``; under a ``Parallel``, the region name is a step)."""
+        """The state at ``path`` (ids joined by ``/``; under a ``Parallel``, the region name is a step).
+
+        Raises ``KeyError`` (with close matches) for a path that names no state, ``TypeError`` for a non-string.
+        """
+        if not isinstance(path, str):
+            raise TypeError(f"a state path is a string like 'drive/turn', got {_shown(path)}")
         try:
             return self.states_by_path[path.strip("/")]
         except KeyError:
@@ -207,8 +248,11 @@ class Machine:
     def pause(self, path: str | None = None) -> None:
         """Suspend the active state at ``path`` and its subtree: not ticked, clocks frozen, no exit/enter.
 
-        Without a path the whole machine pauses (its top-level active state); the clock goes on.
+        Without a path (``None`` or ``""``) the whole machine pauses (its top-level active state); the clock
+        goes on. Raises ``TypeError`` for a path that is not a string, ``KeyError`` for one that names no
+        state, ``ValueError`` when that state is not active.
         """
+        _check_path(path)
         if not self.started:
             self.start()
         state = self.root.active if not path else self.state(path)
@@ -228,7 +272,9 @@ class Machine:
         """Continue a paused state (the whole machine without a path) exactly where it was.
 
         States below it that are still held by another pause stay frozen until that one is resumed.
+        ``path`` is checked as in :meth:`pause`; resuming a state that is not paused does nothing.
         """
+        _check_path(path)
         state = self.root.active if not path else self.state(path)
         if not state.paused:
             return
@@ -267,12 +313,25 @@ class Machine:
 
     # -- listeners ------------------------------------------------------------------------------
     def add_listener(self, listener: Any) -> Any:
-        """Attach a listener (see :class:`Listener`); returns it."""
+        """Attach a listener: an object with ``on_transition(ctx, source, target, transition)`` and
+        ``on_tick(machine)`` methods (subclass :class:`Listener` and override what you need); returns it.
+
+        Raises ``TypeError`` for anything else (``None``, a plain function), before the machine runs.
+        """
+        missing = [m for m in ("on_transition", "on_tick") if not callable(getattr(listener, m, None))]
+        if missing:
+            raise TypeError(f"a listener needs the methods on_transition(ctx, source, target, transition) and "
+                            f"on_tick(machine); {_shown(listener)} lacks {' and '.join(missing)} "
+                            "(subclass fsm.Listener and override what you need)")
         self.listeners.append(listener)
         return listener
 
     def remove_listener(self, listener: Any) -> None:
-        self.listeners.remove(listener)
+        """Detach a listener attached with :meth:`add_listener` (``ValueError`` if it is not attached)."""
+        try:
+            self.listeners.remove(listener)
+        except ValueError:
+            raise ValueError(f"{_shown(listener)} is not a listener of this machine") from None
 
     # -- errors ---------------------------------------------------------------------------------
     def _runtime_error(self, state: State, phase: str, exc: BaseException) -> StateRuntimeError:
@@ -292,3 +351,20 @@ class Machine:
 
     def __repr__(self) -> str:
         return f"<Machine {self.name!r} tick={self.ctx.tick} active={self.active_path!r}>"
+
+
+# -- argument checks (shared with Context.set_signal) --------------------------------------------------
+def _seconds(name: str, value: Any) -> float:
+    """A time argument: a real number (not a bool, not a string), finite and >= 0."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be a number of seconds, got {_shown(value)}")
+    seconds = float(value)
+    if not math.isfinite(seconds) or seconds < 0:
+        raise ValueError(f"{name} must be a finite number of seconds >= 0, got {value!r}")
+    return seconds
+
+
+def _check_path(path: Any) -> None:
+    if path is not None and not isinstance(path, str):
+        raise TypeError(f"a state path is a string like 'drive/turn' (or None for the whole machine), "
+                        f"got {_shown(path)}")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, field_validator
 
 #: An element id: any non-empty text without "/" (the path separator); UMLet names may contain spaces.
 ID_PATTERN = r"^[^/]+$"
@@ -32,6 +32,15 @@ class ParamsBase(BaseModel):
         frozen=True,
         validate_default=False,
     )
+
+    @field_validator("*", mode="before")
+    @classmethod
+    def _no_null(cls, value: Any) -> Any:
+        """``null`` is never a parameter's value: an optional parameter is left out to get its default
+        (the generated JSON Schema says the same: no field there accepts null)."""
+        if value is None:
+            raise ValueError("null is not allowed here; leave the key out to get its default")
+        return value
 
 
 class StateParams(ParamsBase):

@@ -40,7 +40,7 @@ class Region:
         state = self.initial
         self.active = state
         self.started = True
-        state.entered_at = ctx.now
+        state.entered_at = ctx._now
         if self.listeners:
             for listener in self.listeners:
                 listener.on_transition(ctx, None, state, None)
@@ -97,7 +97,7 @@ class Region:
                 raise ctx.machine._runtime_error(state, f"action of transition {tr.describe()}", exc) from exc  # type: ignore[union-attr]
         target = tr.target
         self.active = target
-        target.entered_at = ctx.now
+        target.entered_at = ctx._now
         self.fired += 1
         if self.listeners:
             for listener in self.listeners:

@@ -33,6 +33,10 @@ class Transition:
     needs_car: ClassVar[bool] = False
     #: Names of parameters that hold state paths; the loader checks that they name existing states.
     state_refs: ClassVar[tuple[str, ...]] = ()
+    #: Names of parameters that hold input signal names (``fsm.loader.signal_names`` collects them).
+    signal_refs: ClassVar[tuple[str, ...]] = ()
+    #: Names of parameters that hold blackboard variable names.
+    variable_refs: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, params: TransitionParams, source: State, target: State, index: int = 0) -> None:
         self.params = params
@@ -47,6 +51,12 @@ class Transition:
     @classmethod
     def check_document(cls, params: TransitionParams, variables: dict[str, Any]) -> tuple[str, str] | None:
         """A load-time check against the document's initial ``vars``: ``(pointer suffix, message)`` or ``None``."""
+        return None
+
+    @classmethod
+    def variable_test(cls, params: TransitionParams) -> tuple[str, str, Any] | None:
+        """``(variable, operator, value)`` when this transition compares a blackboard variable with a literal
+        (``Var``): the loader checks that every comparison of a variable uses one kind of value."""
         return None
 
     def check(self, ctx: Context) -> bool:

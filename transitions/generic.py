@@ -60,4 +60,4 @@ class Timeout(Transition):
         self.seconds = params.seconds - 5e-10  # type: ignore[attr-defined]
 
     def check(self, ctx: Context) -> bool:
-        return ctx.now - self.source.entered_at >= self.seconds
+        return ctx._now - self.source.entered_at >= self.seconds

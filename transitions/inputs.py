@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import Field
 
+from fsm.loader import value_kind
 from fsm.params import TransitionParams
 from fsm.registry import register_transition
 from fsm.transition import Transition
@@ -22,6 +23,7 @@ class Signal(Transition):
     """Fires on an input signal: its rising or falling edge, or while it is high or low."""
 
     __slots__ = ("signal", "edge")
+    signal_refs = ("signal",)
 
     class Params(TransitionParams):
         signal: str = Field(min_length=1, description="Name of the input signal (a button, a switch).")
@@ -56,43 +58,42 @@ _OPS = {
 
 @register_transition
 class Var(Transition):
-    """Fires when blackboard variable `var` compares true with `value` (false while the variable is unset)."""
+    """Fires when blackboard variable `var` compares true with `value` (false while the variable is unset).
 
-    __slots__ = ("var", "op", "value")
+    Both sides must be of one kind: true/false, number or text (``true == 1`` and ``5 == "5"`` are errors, at
+    load time against ``vars`` and the other Var transitions on the variable, at run time against the value
+    a state stored); true/false compare with ``==`` and ``!=`` only.
+    """
+
+    __slots__ = ("var", "op", "value", "_type", "_kind")
+    variable_refs = ("var",)
 
     class Params(TransitionParams):
         var: str = Field(min_length=1, description="Name of the blackboard variable.")
         op: Literal["==", "!=", "<", "<=", ">", ">="] = Field(default="==", description="Comparison.")
-        value: bool | int | float | str | None = Field(description="Value to compare with.")
+        value: bool | int | float | str = Field(description="Value to compare with.")
 
     def __init__(self, params: TransitionParams, source, target, index: int = 0) -> None:  # type: ignore[no-untyped-def]
         super().__init__(params, source, target, index)
         self.var = params.var  # type: ignore[attr-defined]
         self.op = _OPS[params.op]  # type: ignore[attr-defined]
         self.value = params.value  # type: ignore[attr-defined]
+        self._type = type(self.value)
+        self._kind = value_kind(self.value)
 
     @classmethod
-    def check_document(cls, params: TransitionParams, variables: dict[str, Any]) -> tuple[str, str] | None:
-        name, value = params.var, params.value  # type: ignore[attr-defined]
-        if name not in variables:
-            return None
-        try:
-            _OPS[params.op](variables[name], value)  # type: ignore[attr-defined]
-        except TypeError:
-            return "/value", (f"cannot compare variable '{name}' (initially {variables[name]!r}) "
-                              f"{params.op} {value!r}")  # type: ignore[attr-defined]
-        return None
+    def variable_test(cls, params: TransitionParams) -> tuple[str, str, Any] | None:
+        return params.var, params.op, params.value  # type: ignore[attr-defined]
 
     def check(self, ctx: Context) -> bool:
         current = ctx.vars.get(self.var, _UNSET)
         if current is _UNSET:
             return False
-        try:
-            return bool(self.op(current, self.value))
-        except TypeError as exc:
-            raise TypeError(
-                f"cannot compare variable '{self.var}' = {current!r} with {self.value!r}: {exc}"
-            ) from None
+        if type(current) is not self._type and value_kind(current) != self._kind:
+            raise TypeError(f"cannot compare variable '{self.var}' = {current!r} ({value_kind(current)}) with "
+                            f"{self.value!r} ({self._kind}): a Var compares values of one kind (true/false is "
+                            f"not a number); store a value of kind {self._kind}")
+        return bool(self.op(current, self.value))
 
 
 _UNSET: Any = object()

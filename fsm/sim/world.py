@@ -37,7 +37,7 @@ HALL_UNITS_PER_M = 1500 / 1.60
 class WorldModel(ParamsBase):
     """Strict like machine documents: unknown keys, strings for numbers, NaN and infinity are errors."""
 
-    model_config = {**ParamsBase.model_config, "frozen": False, "validate_default": True}
+    model_config = {**ParamsBase.model_config, "frozen": False}
 
 
 def _check_points(points: list[Point], what: str) -> None:
@@ -334,9 +334,83 @@ def _fmt(p: Point) -> str:
     return f"({p[0]:g}, {p[1]:g})"
 
 
+#: Marker ids of the dictionary the gates are printed from (``DICT_4X4_50``).
+MARKER_IDS = range(50)
+
+
+def polygon_problem(points: list[Point]) -> str | None:
+    """Why a polygon is no usable shape (fewer than 3 distinct corners, no area, edges that cross), or None."""
+    pts = [p for i, p in enumerate(points) if p != points[i - 1]] if len(points) > 1 else list(points)
+    distinct = set(pts)
+    if len(distinct) < 3:
+        return f"a polygon needs 3 different corners, this one has {len(distinct)}"
+    a0, a1 = pts[0], next(p for p in pts if p != pts[0])
+    if all(abs((a1[0] - a0[0]) * (p[1] - a0[1]) - (a1[1] - a0[1]) * (p[0] - a0[0])) < 1e-12 for p in pts):
+        return "the polygon's corners lie on one line: it has no area"
+    n = len(pts)
+    if len(distinct) < n:
+        return "the polygon visits a corner twice"
+    if n <= 200:  # edges that cross (not neighbours): O(n^2), cheap for hand-written polygons
+        edges = [(pts[i], pts[(i + 1) % n]) for i in range(n)]
+        for i in range(n):
+            for j in range(i + 2, n):
+                if i == 0 and j == n - 1:
+                    continue  # neighbours through the closing edge
+                if _edges_meet(*edges[i], *edges[j]):
+                    return f"the polygon's edges {i} and {j} cross: it intersects itself"
+    area = sum(a[0] * b[1] - b[0] * a[1] for a, b in zip(pts, pts[1:] + pts[:1])) / 2
+    if abs(area) < 1e-12:
+        return "the polygon has no area"
+    return None
+
+
+def _edges_meet(p: Point, q: Point, a: Point, b: Point) -> bool:
+    """Whether two segments share a point (collinear ones only when they overlap)."""
+    def orient(u: Point, v: Point, w: Point) -> float:
+        return (v[0] - u[0]) * (w[1] - u[1]) - (v[1] - u[1]) * (w[0] - u[0])
+
+    d1, d2, d3, d4 = orient(a, b, p), orient(a, b, q), orient(p, q, a), orient(p, q, b)
+    if d1 == d2 == d3 == d4 == 0:
+        return (min(p[0], q[0]) <= max(a[0], b[0]) and min(a[0], b[0]) <= max(p[0], q[0])
+                and min(p[1], q[1]) <= max(a[1], b[1]) and min(a[1], b[1]) <= max(p[1], q[1]))
+    return d1 * d2 <= 0 and d3 * d4 <= 0
+
+
+def _closed_walls_around(world: World, x: float, y: float) -> list[int] | None:
+    """Indexes of the closed walls whose outline holds (x, y); None when the world has no closed wall."""
+    closed = [(wi, wall) for wi, wall in enumerate(world.walls) if wall.closed and len(set(wall.points)) >= 3]
+    if not closed:
+        return None
+    return [wi for wi, wall in closed if _inside((x, y), list(wall.points))]
+
+
 def semantic_problems(world: World, name: str | None) -> list[Problem]:
-    """Checks beyond shape: doors that do not fit their segment, a car that starts inside a wall or obstacle."""
+    """Checks beyond shape: doors that do not fit their segment, degenerate obstacle polygons, gates that share a
+    marker id, and a car that starts outside every closed wall or inside or touching a wall or obstacle."""
     problems: list[Problem] = []
+    for oi, ob in enumerate(world.obstacles):
+        if ob.type == "polygon" and ob.points is not None:
+            why = polygon_problem(list(ob.points))
+            if why is not None:
+                problems.append(Problem(why, name, f"/obstacles/{oi}/points", element=f"obstacle {oi} (polygon)",
+                                        hint="list the corners in order around the outline, at least 3 of them"))
+    first_gate: dict[int, tuple[int, int]] = {}
+    for gi, gate in enumerate(world.gates):
+        label = f"gate {gi}" + (f" '{gate.name}'" if gate.name else "")
+        for k, marker in enumerate(gate.markers):
+            ptr = f"/gates/{gi}/markers/{k}"
+            if marker not in MARKER_IDS:
+                problems.append(Problem(f"marker id {marker} is not in DICT_4X4_50", name, ptr, element=label,
+                                        hint=f"use ids {MARKER_IDS.start} to {MARKER_IDS.stop - 1}"))
+                continue
+            if marker in first_gate:
+                g0, k0 = first_gate[marker]
+                where = "this gate's other marker" if g0 == gi else f"gate {g0} (/gates/{g0}/markers/{k0})"
+                problems.append(Problem(f"marker id {marker} is also used by {where}", name, ptr, element=label,
+                                        hint="every marker needs its own id, or the camera cannot tell the gates "
+                                             "(or a gate's sides) apart"))
+            else:
+                first_gate[marker] = (gi, k)
     for wi, wall in enumerate(world.walls):
         pts = wall_points(wall)
         for di, d in enumerate(wall.doors):
@@ -352,6 +426,13 @@ def semantic_problems(world: World, name: str | None) -> list[Problem]:
                     f"door from {d.at - d.width / 2:g} m to {d.at + d.width / 2:g} m does not fit its segment "
                     f"(0 to {length:g} m)", name, ptr + "/at", element=f"wall {wi}",
                     hint="'at' is the door centre's distance from the segment's first point"))
+    around = _closed_walls_around(world, world.start.x, world.start.y) if not problems else None
+    if around is not None and len(around) % 2 == 0:  # even-odd, as for a loop: inside the outer, not the inner wall
+        where = "outside every closed wall" if not around else (
+            f"inside the area walled off by wall {around[-1]} (within {len(around)} closed walls)")
+        problems.append(Problem(f"the car starts at ({world.start.x:g}, {world.start.y:g}), {where}", name,
+                                "/start", element="start",
+                                hint="move the start pose into the hallway, between its walls"))
     if not problems:
         hit = footprint_hits(world, world.start.x, world.start.y, math.radians(world.start.heading))
         if hit is not None:
@@ -394,22 +475,32 @@ def _locate(problems: list[Problem], locator: Any) -> None:
 
     place(problems, locator)
 
-def read_json_file(path: str | Path, what: str) -> tuple[Any, Any]:
-    """Parse a JSON file strictly (UTF-8, line:column on errors); returns the data and a pointer locator."""
+def read_json_file(path: str | Path, what: str, duplicates: list[Problem] | None = None) -> tuple[Any, Any]:
+    """Parse a JSON file strictly (UTF-8, line:column on errors); returns the data and a pointer locator.
+
+    Repeated keys raise, or are added to ``duplicates`` when it is given (see ``parse_json_bytes``)."""
     from fsm.loader import parse_json_bytes, read_file_bytes
 
     p = Path(path)
     raw = read_file_bytes(p, what)
     if not raw.strip():
         raise DiagramError([Problem(f"file is empty; a {what} is a JSON object", str(path), line=1, column=1)])
-    data, source = parse_json_bytes(raw, str(path), p.parent)
+    data, source = parse_json_bytes(raw, str(path), p.parent, duplicates=duplicates)
     return data, source.locator
 
 
 def load_world(path: str | Path, car: str | Path | None = None) -> World:
-    """Read and check a world file; ``car`` names an optional car file that replaces the world's ``car``."""
-    data, locator = read_json_file(path, "world")
-    world = parse_world(data, str(path), locator)
+    """Read and check a world file; ``car`` names an optional car file that replaces the world's ``car``.
+
+    Every problem of the file is reported at once, repeated keys together with the others."""
+    repeated: list[Problem] = []
+    data, locator = read_json_file(path, "world", repeated)
+    try:
+        world = parse_world(data, str(path), locator)
+    except DiagramError as exc:
+        raise DiagramError(sorted(repeated + exc.problems, key=lambda p: (p.line or 0, p.column or 0))) from None
+    if repeated:
+        raise DiagramError(repeated)
     if car is not None:
         world.car = load_car(car)
         problems = semantic_problems(world, str(path))
@@ -445,7 +536,9 @@ def load_car(path: str | Path) -> Car:
 
 def world_schema() -> dict[str, Any]:
     """The JSON Schema of world files (committed as ``fsm/schema/world.schema.json``)."""
-    schema = World.model_json_schema(ref_template="#/$defs/{model}")
+    from fsm.document import model_json_schema
+
+    schema = model_json_schema(World)
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         "$id": "https://tral-fsm.invalid/world.schema.json",

@@ -3,7 +3,9 @@
 ``UMLState`` boxes are states (type and parameters under ``--``: ``"type": "FollowWall"`` then ``key=value``
 lines, see :mod:`~fsm.tools.umlet.text`), ``UMLSpecialState`` ``type=initial``/``type=final`` the initial marker
 and final states, ``Relation`` with an arrowhead the transitions (a dashed arrow from a ``UMLNote`` is the
-note's anchor); boxes drawn inside a state box or a ``UMLFrame`` form its sub-machine. Endpoints attach geometrically (:mod:`fsm.tools.umlet.geometry`). Every
+note's anchor); boxes drawn inside a state box or a ``UMLFrame`` form its sub-machine. A diagram without any
+``UMLState`` takes its ``UMLClass`` boxes as the states (students draw machines so); other boxes (class boxes
+among state boxes, generic boxes, boxes of zero size) are ignored, and an arrow ending at one names it. Endpoints attach geometrically (:mod:`fsm.tools.umlet.geometry`). Every
 element that cannot be placed is reported with its kind, label, file line:column and diagram
 coordinates, all at once. Importing this module registers the reader for ``.uxf`` files with the loader.
 

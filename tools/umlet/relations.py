@@ -13,8 +13,8 @@ import math
 from typing import Any
 
 from . import text as T
-from .geometry import Attacher, Box
-from .scene import Level, Marker, Scene, StateBox, num, where
+from .geometry import LENIENT, Attacher, Box
+from .scene import Level, Marker, Scene, StateBox, describe, num, where
 from .source import RawElement
 
 Attached = tuple[RawElement, T.RelationText, Any, Any, list[list[Any]]]
@@ -121,12 +121,31 @@ class Relations:
 
     def dangling(self, elem: RawElement, point: list[Any], role: str) -> None:
         stored = self.stored(point)
+        ignored = self.ignored_at(point)
+        if ignored is not None:
+            box, reason = ignored
+            hint = ("draw the state as a UMLState box (from the palette)" if box.elem.kind != "Relation" and
+                    box.w > 0 and box.h > 0 else "give the box a size in UMLet (drag its corner), or delete it")
+            self.problem(elem, f"{role} end at {stored} ends at {describe(box.elem)}, which is ignored: {reason}",
+                         hint=hint)
+            return
         hint = "move the arrow's end onto a state's border (UMLet sticks ends closer than 9 px at 100% zoom)"
         if len([p for p in self.scene.problems if "attached to nothing" in p.message]) < 50:
             box, d = self.attacher.nearest(point[0], point[1]) if self.attacher.boxes else (None, math.inf)
             if box is not None:
                 hint = f"nearest is {self.scene.box_name(box)}, {num(round(d, 1))} px away at zoom 10; " + hint
         self.problem(elem, f"{role} end at {stored} is attached to nothing", hint=hint)
+
+    def ignored_at(self, point: list[Any]) -> tuple[Box, str] | None:
+        """The ignored box (class box, zero-size box, ...) an arrow's end lies on or next to, innermost first."""
+        best: tuple[float, Box, str] | None = None
+        for box, reason in self.scene.ignored:
+            d, inside = box.border_distance(point[0], point[1])
+            if inside or d <= LENIENT:
+                key = box.w * box.h
+                if best is None or key < best[0]:
+                    best = (key, box, reason)
+        return None if best is None else (best[1], best[2])
 
     # -- relations ------------------------------------------------------------------------------------------
     def resolve(self, attached: list[Attached]) -> None:
@@ -183,6 +202,10 @@ class Relations:
             for box, i, role in ((ends[0], 0, "source"), (ends[1], -1, "target")):
                 if box is None:
                     self.dangling(elem, points[i], role)
+            if isinstance(ends[0], Box) and ends[0].role == "initial":
+                # the marker's arrow is reported where it dangles; its machine does have an initial marker
+                self._initial_used.add(id(ends[0]))
+                scene.broken_markers.add(id(ends[0]))
             return
         src, dst = ends
         if dst.role == "initial":

@@ -20,6 +20,9 @@ from .source import RawDiagram, RawElement
 
 _STATE_KINDS_NEW = {"UMLState"}
 _STATE_KINDS_OLD = {"State", "StateSubDiagram", "SendSignal", "ReceiveSignal"}
+#: Class boxes: states in a diagram that has no state box at all (students draw state machines with them).
+_CLASS_KINDS_NEW = {"UMLClass"}
+_CLASS_KINDS_OLD = {"Class"}
 _FRAME_KINDS = {"UMLFrame"}
 _NOTE_KINDS_NEW = {"UMLNote"}
 _NOTE_KINDS_OLD = {"Note"}
@@ -109,6 +112,11 @@ class Scene:
         self.broken_markers: set[int] = set()
         #: Notes that are no machine notes (comments): not part of a machine, but arrows may anchor at them.
         self.comment_notes: list[Box] = []
+        #: Boxes that are no part of a machine (class boxes, generic boxes, zero-size boxes), each with the reason:
+        #: an arrow that ends at one is reported naming it.
+        self.ignored: list[tuple[Box, str]] = []
+        #: Whether ``UMLClass`` boxes are the states (the diagram has no ``UMLState`` at all).
+        self.class_states = False
         self._registry: Any = None
 
     # -- problems -------------------------------------------------------------------------------------------
@@ -161,10 +169,25 @@ class Scene:
         self.make_levels()
 
     def classify(self) -> None:
+        def is_state(elem: RawElement) -> bool:
+            return elem.kind in _STATE_KINDS_NEW or (elem.old and elem.kind in _STATE_KINDS_OLD)
+
+        def is_class(elem: RawElement) -> bool:
+            return elem.kind in _CLASS_KINDS_NEW or (elem.old and elem.kind in _CLASS_KINDS_OLD)
+
+        self.class_states = not any(is_state(e) for e in self.raw.elements) and any(
+            is_class(e) for e in self.raw.elements)
         for elem in self.raw.elements:
             kind = elem.kind
             role = None
-            if kind in _STATE_KINDS_NEW or (elem.old and kind in _STATE_KINDS_OLD):
+            if kind != "Relation" and (elem.w <= 0 or elem.h <= 0):
+                if is_state(elem) or kind in _FRAME_KINDS or kind == "UMLSpecialState" or (
+                        self.class_states and is_class(elem)) or (elem.old and kind in _SPECIAL_OLD):
+                    self.problem(elem, f"the box has no size (w={num(elem.w)}, h={num(elem.h)}), so it is ignored",
+                                 hint="give it a size in UMLet (drag its corner), or delete it")
+                self.ignored.append((self.box(elem, "ignored"), "it has no size"))
+                continue
+            if is_state(elem) or (self.class_states and is_class(elem)):
                 role = "state"
             elif kind in _FRAME_KINDS:
                 role = "frame"
@@ -182,8 +205,14 @@ class Scene:
             elif kind == "Relation":
                 self.relations.append(elem)
                 continue
-            if role is None:
-                continue  # texts, class boxes: not part of a state machine
+            if role is None:  # texts, class boxes, generic boxes: not part of a state machine
+                if is_class(elem):
+                    reason = ("class boxes are states only in a diagram without UMLState boxes, and this one has "
+                              "UMLState boxes")
+                else:
+                    reason = f"a {kind} is not part of a state machine"
+                self.ignored.append((self.box(elem, "ignored"), reason))
+                continue
             box = self.box(elem, role)
             box.container = role in ("state", "frame")
             self.boxes.append(box)
@@ -268,7 +297,11 @@ class Scene:
             return None
         meta: dict[str, Any] = {}
         for key, raw in note.values.items():
-            value = T.parse_value(raw)
+            try:
+                value = T.parse_value(raw, strict=True)
+            except T.TextError as exc:
+                self.problem(elem, f"machine note: {exc}")
+                return None
             if key in _NOTE_TEXT_KEYS:
                 if not isinstance(value, str) and value is not None:
                     value = raw  # 42, true, [..]: the text as written

@@ -165,19 +165,40 @@ def parse_key_values(lines: list[str]) -> dict[str, Any]:
         key, value = m.group(1), m.group(2).strip()
         if key in out:
             raise TextError(f"parameter '{key}' is given twice")
-        out[key] = parse_value(value)
+        out[key] = parse_value(value, strict=True)
     return out
 
 
-def parse_value(value: str) -> Any:
+def parse_value(value: str, strict: bool = False) -> Any:
+    """A ``key=value`` value: JSON when it parses as JSON, else the text. ``strict``: a JSON object that repeats
+    a key is a :class:`TextError` (else it stays text)."""
     if value == "":
         return ""
     if value[0] in '[{"-0123456789' or value in ("true", "false", "null"):
         try:
-            return json.loads(value)
+            return json.loads(value, object_pairs_hook=_unique_keys)
+        except _RepeatedKey as exc:
+            if strict:
+                raise TextError(f"key '{exc.args[0]}' is given twice in {value[:40]!r}") from None
+            return value
         except ValueError:
             return value
     return value
+
+
+class _RepeatedKey(Exception):
+    """A key written twice in one JSON object of a box's text."""
+
+
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    out = dict(pairs)
+    if len(out) != len(pairs):
+        seen: set[str] = set()
+        for key, _ in pairs:
+            if key in seen:
+                raise _RepeatedKey(key)
+            seen.add(key)
+    return out
 
 
 def parse_fragment(text: str) -> dict[str, Any]:
@@ -186,7 +207,9 @@ def parse_fragment(text: str) -> dict[str, Any]:
     if not body.startswith("{"):
         body = "{" + body.rstrip().rstrip(",") + "}"
     try:
-        data = json.loads(body)
+        data = json.loads(body, object_pairs_hook=_unique_keys)
+    except _RepeatedKey as exc:
+        raise TextError(f"parameter '{exc.args[0]}' is given twice in the JSON parameters") from None
     except json.JSONDecodeError as exc:
         raise TextError(f"JSON parameters do not parse: {exc.msg} (column {exc.colno} of {body[:60]!r})") from None
     except RecursionError:

@@ -22,7 +22,7 @@ import tempfile
 from collections.abc import Iterable
 from typing import IO, Any
 
-from fsm.errors import UsageError
+from fsm.errors import FsmError, UsageError
 
 STDOUT = "-"
 _FD_PATH = re.compile(r"^/(?:dev/fd|proc/self/fd)/(\d+)$")
@@ -87,7 +87,7 @@ class Output:
         self.mode: int | None = None
         self.owner: tuple[int, int] | None = None
         self._tmp: str | None = None
-        self._fh: IO[Any] | None = None
+        self._fh: _Guarded | None = None
 
     # -- checks -------------------------------------------------------------------------------------
     def _fail(self, reason: str, hint: str | None = None) -> UsageError:
@@ -170,28 +170,41 @@ class Output:
             raise RuntimeError("open() an output before writing, and binary outputs through path")
         return self._tmp
 
-    def stream(self) -> IO[Any]:
+    def stream(self) -> Any:
         """A file object to write to (text: UTF-8 with ``\\n`` lines)."""
         if self._fh is None:
-            kwargs: dict[str, Any] = {} if self.binary else {"encoding": "utf-8", "newline": "\n"}
-            mode = "wb" if self.binary else "w"
-            if self._tmp is not None:
-                self._fh = open(self._tmp, mode, **kwargs)
-            elif self.kind == "fd":
-                self._fh = self._std_stream() or os.fdopen(os.dup(self.fd), mode, **kwargs)  # type: ignore[arg-type]
-            else:
-                try:
-                    self._fh = open(self.target, mode, **kwargs)
-                except OSError as exc:
-                    raise self._fail(f"cannot write: {os_reason(exc)}") from None
+            self._fh = _Guarded(self._open_stream(), self)
         return self._fh
+
+    def _open_stream(self) -> IO[Any]:
+        kwargs: dict[str, Any] = {} if self.binary else {"encoding": "utf-8", "newline": "\n"}
+        mode = "wb" if self.binary else "w"
+        if self._tmp is not None:
+            return open(self._tmp, mode, **kwargs)
+        if self.kind == "fd":
+            return self._std_stream() or os.fdopen(os.dup(self.fd), mode, **kwargs)  # type: ignore[arg-type]
+        try:
+            return open(self.target, mode, **kwargs)
+        except OSError as exc:
+            raise self._fail(f"cannot write: {os_reason(exc)}") from None
 
     def write(self, data: str | bytes) -> None:
         self.stream().write(data)
 
+    def _write_failed(self, exc: OSError) -> FsmError:
+        shown = "-" if self.name == STDOUT else self.name
+        return FsmError(f"{self.option} {shown}: cannot write: {os_reason(exc)}")
+
     def commit(self) -> None:
         """Put the written output in place: rename the temporary file, or copy a scratch file to the device."""
-        fh, self._fh = self._fh, None
+        try:
+            self._commit()
+        except OSError as exc:
+            raise self._write_failed(exc) from None
+
+    def _commit(self) -> None:
+        fh = self._fh.raw if self._fh is not None else None
+        self._fh = None
         if fh is not None:
             fh.flush()
             if self.kind == "file":
@@ -231,7 +244,8 @@ class Output:
 
     def discard(self) -> None:
         """Throw away what was written; the user's file stays as it was."""
-        fh, self._fh = self._fh, None
+        fh = self._fh.raw if self._fh is not None else None
+        self._fh = None
         if fh is not None and fh is not self._std_stream():
             try:
                 fh.close()
@@ -257,6 +271,31 @@ class Output:
         if stream is None:
             return None
         return getattr(stream, "buffer", None) if self.binary else stream
+
+
+class _Guarded:
+    """A stream whose write errors (a full disk, /dev/full, a closed pipe) name the output, in one line."""
+
+    __slots__ = ("raw", "_output")
+
+    def __init__(self, raw: IO[Any], output: Output) -> None:
+        self.raw = raw
+        self._output = output
+
+    def write(self, data: Any) -> int:
+        try:
+            return self.raw.write(data)
+        except OSError as exc:
+            raise self._output._write_failed(exc) from None
+
+    def flush(self) -> None:
+        try:
+            self.raw.flush()
+        except OSError as exc:
+            raise self._output._write_failed(exc) from None
+
+    def fileno(self) -> int:
+        return self.raw.fileno()
 
 
 def _stdout_is_terminal() -> bool:

@@ -72,6 +72,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_OK
     except KeyboardInterrupt:
         return _interrupted()
+    except OSError as exc:  # the system refused something the checks could not foresee (a disk that filled up)
+        from ..files import os_reason
+
+        where = f" {exc.filename}" if getattr(exc, "filename", None) else ""
+        print(f"fsmctl: error:{where} {os_reason(exc)}", file=sys.stderr)
+        return EXIT_FAIL
     except MemoryError:
         print("fsmctl: error: out of memory", file=sys.stderr)
         return EXIT_FAIL

@@ -331,8 +331,9 @@ def _run(args: argparse.Namespace, spec: Any, file: str, clock: Any, drive: bool
         failed = True
     limit = args.max_collisions if args.max_collisions is not None else (0 if args.expect is not None else None)
     if limit is not None and car is not None and car.collisions > limit:
-        print(f"fsmctl run: the car collided {car.collisions} times, more than the {limit} allowed "
-              "(--max-collisions)", file=sys.stderr)
+        why = "--max-collisions" if args.max_collisions is not None else "with --expect, unless --max-collisions says"
+        print(f"fsmctl run: the car collided {car.collisions} time{'s' * (car.collisions != 1)}, more than the "
+              f"{limit} allowed ({why})", file=sys.stderr)
         failed = True
     return EXIT_FAIL if failed else EXIT_OK
 

@@ -90,6 +90,13 @@ def read_inputs(files: list[str]) -> dict[str, bytes]:
     return {STDIN_NAME: read_stdin_bytes()}
 
 
+def default_output(src: Path, suffix: str) -> str:
+    """``src`` with another suffix: the default output of convert and export (a usage error without a name)."""
+    if not src.name or src.name in (".", ".."):
+        raise UsageError(f"{str(src)!r} is not a file name; name the input file (and -o OUT{suffix})")
+    return str(src.with_suffix(suffix))
+
+
 def input_name(file: str) -> str:
     """The name a file goes by inside the loader: ``<stdin>`` for ``-``."""
     from fsm.loader import STDIN_NAME

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from fsm.errors import DiagramError, Problem
 
-from .common import EXIT_FAIL, EXIT_OK, registry_from
+from .common import EXIT_FAIL, EXIT_OK, default_output, registry_from
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -31,7 +31,7 @@ def cmd_convert(args: argparse.Namespace) -> int:
     src = Path(args.file)
     out = args.output
     if out is None:
-        out = str(src.with_suffix(".json"))
+        out = default_output(src, ".json")
     outputs = Outputs()
     if not args.check:
         outputs.add(out, "-o")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .common import EXIT_OK, registry_from, spec_files
+from .common import EXIT_OK, default_output, registry_from, spec_files
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -24,7 +24,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     from ..umlet.writer import export
 
     src = Path(args.file)
-    out = args.output or str(src.with_suffix(".uxf"))
+    out = args.output or default_output(src, ".uxf")
     if args.output is None and src.suffix.lower() == ".uxf":
         raise UsageError(f"export {src}: the default output is {src} itself, the diagram being read; "
                          "give -o OUT.uxf")

@@ -11,7 +11,9 @@ import json
 import os
 import stat
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from pathlib import Path
 from typing import Any
 
@@ -63,6 +65,13 @@ READER_GROUP = "fsm.readers"
 def reader_for(path: Path) -> Reader:
     """The reader of a file by its suffix: registered, or found in the ``fsm.readers`` entry points
     (how ``fsm.tools`` provides ``.uxf`` without the core knowing UMLet), else JSON."""
+    pre = _PRELOADED.get()
+    if pre is not None and str(path) in pre:
+        item = pre[str(path)]
+        if isinstance(item, tuple):  # already read and parsed by the caller
+            return lambda _path: item
+        if str(path) == STDIN_NAME and item.lstrip(b"\xef\xbb\xbf \t\r\n").startswith(b"<"):
+            return reader_for(Path(STDIN_NAME + ".uxf"))  # a diagram on standard input
     suffix = path.suffix.lower()
     reader = _READERS.get(suffix)
     if reader is None and suffix:
@@ -82,18 +91,105 @@ def read_json(path: Path) -> tuple[Any, Source]:
     return parse_json_bytes(read_file_bytes(path), str(path), path.parent)
 
 
-def read_file_bytes(path: Path, what: str | None = None) -> bytes:
-    """The bytes of ``path``, or a DiagramError saying why it cannot be read (``what``: "world", ...)."""
-    name = str(path)
+#: Input files larger than this are refused (a guard against /dev/zero-like inputs and exhausted memory, far
+#: above any real diagram: benchmarks/bench_big.py reads 52 MB). ``FSM_MAX_INPUT_BYTES`` overrides it.
+MAX_INPUT_BYTES = 64 * 1024 * 1024
+#: How standard input (``-`` on the command line) is named in messages.
+STDIN_NAME = "<stdin>"
+
+#: Files the caller has already read (``fsmctl`` reads each named file, and standard input, once):
+#: ``str(path)`` -> the bytes, or the ``(document, Source)`` a reader made of them.
+_PRELOADED: ContextVar[dict[str, Any] | None] = ContextVar("_PRELOADED", default=None)
+
+
+@contextmanager
+def preloaded(files: dict[str, Any]) -> Iterator[None]:
+    """While active, ``read_file_bytes`` and the readers take these files' bytes (or parsed documents) from
+    ``files`` instead of reading them again."""
+    token = _PRELOADED.set({**(_PRELOADED.get() or {}), **files})
     try:
-        return path.read_bytes()
+        yield
+    finally:
+        _PRELOADED.reset(token)
+
+
+def max_input_bytes() -> int:
+    try:
+        return max(1, int(os.environ.get("FSM_MAX_INPUT_BYTES", "")))
+    except ValueError:
+        return MAX_INPUT_BYTES
+
+
+def _too_big(name: str, size: int | None, limit: int) -> DiagramError:
+    shown = f"{size / 1048576:.1f} MiB" if size is not None else "more than that"
+    return DiagramError([Problem(f"file is too big ({shown}; the limit is {limit / 1048576:g} MiB)", name,
+                                 hint="set FSM_MAX_INPUT_BYTES to a larger number of bytes to read it")])
+
+
+def read_stdin_bytes() -> bytes:
+    """Standard input, read once and capped (``-`` as a file name); named ``<stdin>`` in messages."""
+    import sys
+
+    limit = max_input_bytes()
+    stream = getattr(sys.stdin, "buffer", None)
+    if stream is None:
+        raise DiagramError([Problem("standard input is not open", STDIN_NAME)])
+    try:
+        data = stream.read(limit + 1)
+    except (OSError, ValueError) as exc:
+        raise DiagramError([Problem(f"cannot read standard input: {exc}", STDIN_NAME)]) from None
+    if len(data) > limit:
+        raise _too_big(STDIN_NAME, None, limit)
+    return data
+
+
+def read_file_bytes(path: Path, what: str | None = None) -> bytes:
+    """The bytes of ``path``, or a DiagramError saying why it cannot be read (``what``: "world", ...).
+
+    Only regular files are read (checked before opening, so a FIFO or ``/dev/zero`` never hangs or fills
+    memory), and at most :func:`max_input_bytes` of them.
+    """
+    import errno
+    import stat
+
+    name = str(path)
+    pre = _PRELOADED.get()
+    if pre is not None and isinstance(pre.get(name), bytes):
+        return pre[name]
+    kind = what or "machine"
+    try:
+        st = os.stat(path)
+        if stat.S_ISDIR(st.st_mode):
+            raise DiagramError([Problem(f"is a directory, not a {kind} file", name)])
+        if not stat.S_ISREG(st.st_mode):
+            sort = ("a FIFO" if stat.S_ISFIFO(st.st_mode) else "a device" if stat.S_ISCHR(st.st_mode)
+                    or stat.S_ISBLK(st.st_mode) else "a socket" if stat.S_ISSOCK(st.st_mode) else "special")
+            raise DiagramError([Problem(f"not a regular file ({sort}); a {kind} file must be a regular file", name,
+                                        hint="pass '-' to read standard input")])
+        limit = max_input_bytes()
+        if st.st_size > limit:
+            raise _too_big(name, st.st_size, limit)
+        # O_NONBLOCK: should the file have become a FIFO since the stat, opening it does not hang
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
+        with os.fdopen(fd, "rb") as fh:
+            if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
+                raise DiagramError([Problem(f"not a regular file; a {kind} file must be a regular file", name)])
+            data = fh.read(limit + 1)
+        if len(data) > limit:
+            raise _too_big(name, None, limit)
+        return data
     except FileNotFoundError:
-        raise DiagramError([Problem(f"{what} file not found" if what else "file not found", name,
+        dangling = os.path.islink(path)
+        raise DiagramError([Problem(
+            ("symlink to a missing file" if dangling else f"{what} file not found" if what else "file not found"),
+            name, hint="check the path")]) from None
+    except NotADirectoryError:
+        raise DiagramError([Problem("file not found (a folder on its path is a file)", name,
                                     hint="check the path")]) from None
-    except IsADirectoryError:
-        raise DiagramError([Problem(f"is a directory, not a {what or 'machine'} file", name)]) from None
     except OSError as exc:
-        raise DiagramError([Problem(f"cannot read: {exc.strerror or exc}", name)]) from None
+        reason = {errno.ELOOP: "too many levels of symbolic links (a symlink loop)",
+                  errno.ENAMETOOLONG: "the file name is too long"}.get(exc.errno or 0, exc.strerror or str(exc))
+        raise DiagramError([Problem(f"cannot read: {reason}", name)]) from None
     except ValueError as exc:  # e.g. a NUL byte in the path
         raise DiagramError([Problem(f"not a usable file name: {exc}", repr(name))]) from None
 

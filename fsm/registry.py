@@ -8,10 +8,14 @@ from __future__ import annotations
 
 import difflib
 import importlib
+import importlib.util
+import os
+import sys
+import traceback
 from collections.abc import Callable, Iterator
 from typing import Any, TypeVar
 
-from .errors import RegistrationError
+from .errors import RegistrationError, UsageError
 from .params import StateParams, TransitionParams
 from .state import State
 from .transition import Transition
@@ -90,11 +94,17 @@ class Registry:
 
     # -- plugins --------------------------------------------------------------------------------
     def load_module(self, module: str) -> None:
-        """Import ``module`` so its decorators register its types into this registry (``--plugin``)."""
+        """Import a plugin so its decorators register its types into this registry (``--plugin``).
+
+        ``module`` is a module name, found among the installed packages and in the current folder (as
+        ``python -m`` finds it), or the path of a ``.py`` file. A plugin that does not exist raises
+        :class:`UsageError`; one that fails while importing or registering raises :class:`PluginError`
+        naming the plugin and the file and line where it failed.
+        """
         if module in self._loaded_plugins:
             return
         with using(self):
-            importlib.import_module(module)
+            _import_plugin(module)
         self._loaded_plugins.add(module)
 
     def load_entry_points(self) -> None:
@@ -109,13 +119,102 @@ class Registry:
                 key = f"{group}:{ep.name}={ep.value}"
                 if key in self._loaded_plugins:
                     continue
-                with using(self):
-                    obj = ep.load()
+                try:
+                    with using(self):
+                        obj = ep.load()
+                except Exception as exc:  # an installed plugin that is broken: say which one and where
+                    raise _plugin_error(f"entry point {ep.name} = {ep.value} ({group})", exc, None) from None
                 if isinstance(obj, type):
                     table = self.states if group == STATE_GROUP else self.transitions
                     if table.get(ep.name) is not obj and table.get(obj.__name__) is not obj:
                         add(obj, ep.name)  # type: ignore[arg-type]
                 self._loaded_plugins.add(key)
+
+
+# -- plugins -----------------------------------------------------------------------------------------
+class PluginError(RegistrationError):
+    """A plugin that failed while importing or registering; ``file``/``line`` say where (when known)."""
+
+    def __init__(self, message: str, file: str | None = None, line: int | None = None) -> None:
+        super().__init__(message)
+        self.file = file
+        self.line = line
+
+    def located(self) -> str:
+        """One line: ``FILE:LINE: error: MESSAGE`` (or ``fsmctl: error: MESSAGE`` without a place)."""
+        where = f"{self.file}:{self.line}" if self.file and self.line else self.file
+        return f"{where}: error: {self}" if where else f"fsmctl: error: {self}"
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
+
+
+def _plugin_error(plugin: str, exc: BaseException, origin: str | None) -> PluginError:
+    """Where ``exc`` happened: for a syntax error its own place, else the innermost frame in the plugin's
+    file (``origin``), else the innermost frame outside tral-fsm, else the innermost one."""
+    if isinstance(exc, SyntaxError) and exc.filename:
+        return PluginError(f"plugin {plugin}: SyntaxError: {_one_line(exc.msg)}", exc.filename, exc.lineno)
+    frames = traceback.extract_tb(exc.__traceback__)
+    here = os.path.dirname(os.path.abspath(__file__))
+    chosen = None
+    if origin is not None:
+        chosen = next((f for f in reversed(frames) if os.path.abspath(f.filename) == origin), None)
+    if chosen is None:
+        chosen = next((f for f in reversed(frames) if not os.path.abspath(f.filename).startswith(here)
+                       and "importlib" not in f.filename), None)
+    if chosen is None and frames:
+        chosen = frames[-1]
+    kind = "registration failed" if isinstance(exc, RegistrationError) else f"{type(exc).__name__}"
+    return PluginError(f"plugin {plugin}: {kind}: {_one_line(str(exc))}",
+                       chosen.filename if chosen else origin, chosen.lineno if chosen else None)
+
+
+def _import_plugin(plugin: str) -> None:
+    """Import a ``--plugin`` module name or ``.py`` file (see :meth:`Registry.load_module`)."""
+    if plugin.endswith(".py") or os.sep in plugin or "/" in plugin:
+        path = os.path.abspath(plugin)
+        if not os.path.isfile(path):
+            raise UsageError(f"--plugin {plugin}: no such file" + (" (a folder)" if os.path.isdir(path) else "")
+                             + "; give a .py file or a module name")
+        stem = "".join(c if c.isalnum() or c == "_" else "_" for c in os.path.splitext(os.path.basename(path))[0])
+        name = f"fsm_plugin_{stem}"
+        if sys.modules.get(name) is not None and getattr(sys.modules[name], "__file__", None) == path:
+            return
+        try:
+            spec = importlib.util.spec_from_file_location(name, path)
+        except (ValueError, OSError) as exc:
+            raise UsageError(f"--plugin {plugin}: cannot load it: {exc}") from None
+        if spec is None or spec.loader is None:
+            raise UsageError(f"--plugin {plugin}: not a Python file")
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        try:
+            spec.loader.exec_module(module)
+        except (Exception, SystemExit) as exc:
+            del sys.modules[name]
+            raise _plugin_error(plugin, exc, path) from None
+        return
+    if not all(part.isidentifier() for part in plugin.split(".")):
+        raise UsageError(f"--plugin {plugin!r}: not a module name or a .py file")
+    cwd = os.getcwd()
+    if cwd not in sys.path and "" not in sys.path:
+        sys.path.append(cwd)  # as `python -m` does; after the installed packages, so it shadows none
+    importlib.invalidate_caches()
+    try:
+        found = importlib.util.find_spec(plugin)
+    except (ImportError, ValueError):
+        found = None
+    except Exception as exc:  # a parent package that fails to import
+        raise _plugin_error(plugin, exc, None) from None
+    if found is None:
+        raise UsageError(f"--plugin {plugin}: no module named {plugin!r} (looked in the current folder and the "
+                         "installed packages); give a module name or the path of a .py file")
+    origin = os.path.abspath(found.origin) if found.origin and os.path.exists(found.origin) else None
+    try:
+        importlib.import_module(plugin)
+    except (Exception, SystemExit) as exc:
+        raise _plugin_error(plugin, exc, origin) from None
 
 
 # -- the process-wide registry and its decorators ---------------------------------------------------

@@ -1,17 +1,32 @@
-"""Writing files atomically: a temporary file in the same folder, renamed over the target when complete."""
+"""Writing the files users name, safe for whatever path they give; every command and output option uses it.
+
+- ``-`` is standard output; ``/dev/stdout``, ``/dev/stderr``, ``/dev/fd/N`` and ``/proc/self/fd/N`` write to
+  that descriptor; a device node or FIFO is opened and written directly, never renamed over.
+- A regular file (or a new one) is written to a unique temporary file in the same folder, fsynced and renamed
+  over the target, keeping the old file's mode (and owner, as root). A symlink is followed: its target is
+  replaced, the link stays. A file with several hard links is refused (replacing it would split the links,
+  writing it in place could leave it half-written).
+- Every check happens in :meth:`Output.open`, before a command does its work: a directory, a missing or
+  unwritable folder, an output that is the same file as an input, two outputs naming one file.
+"""
 
 from __future__ import annotations
 
+import errno
 import os
+import re
+import shutil
+import stat
+import sys
 import tempfile
-from pathlib import Path
+from collections.abc import Iterable
 from typing import IO, Any
 
+from fsm.errors import FsmError, UsageError
 
-def write_atomic(path: str | os.PathLike[str], data: str | bytes) -> None:
-    """Write ``data`` to ``path`` so that readers see the old file or the whole new one, never a half."""
-    with AtomicFile(path, "wb" if isinstance(data, bytes) else "w") as fh:
-        fh.write(data)
+STDOUT = "-"
+_FD_PATH = re.compile(r"^/(?:dev/fd|proc/self/fd)/(\d+)$")
+_NAMED_FDS = {"/dev/stdout": 1, "/dev/stderr": 2}
 
 
 def _umask() -> int:
@@ -20,31 +35,397 @@ def _umask() -> int:
     return mask
 
 
-class AtomicFile:
-    """``with AtomicFile(path) as fh:`` writes to a temporary file; it replaces ``path`` only on success."""
+def _kind_of(mode: int) -> str:
+    if stat.S_ISDIR(mode):
+        return "a directory"
+    if stat.S_ISFIFO(mode):
+        return "a FIFO"
+    if stat.S_ISCHR(mode):
+        return "a character device"
+    if stat.S_ISBLK(mode):
+        return "a block device"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    return "a regular file"
 
-    def __init__(self, path: str | os.PathLike[str], mode: str = "w") -> None:
-        self.path = Path(path)
-        self.mode = mode
+
+def os_reason(exc: OSError) -> str:
+    """A short, user-facing reason for an OSError (no errno numbers, no repr)."""
+    if exc.errno == errno.ENAMETOOLONG:
+        return "the file name is too long"
+    if exc.errno == errno.ELOOP:
+        return "too many levels of symbolic links (a symlink loop)"
+    if exc.errno == errno.EROFS:
+        return "the file system is read-only"
+    return (exc.strerror or str(exc)).rstrip(".")
+
+
+def identity(path: str) -> tuple[int, int] | None:
+    """``(st_dev, st_ino)`` of the file ``path`` names (through symlinks), or ``None`` if there is none."""
+    try:
+        st = os.stat(path)
+    except (OSError, ValueError):
+        return None
+    return st.st_dev, st.st_ino
+
+
+class Output:
+    """One output a user named (``name``) for an option (``option``, for messages).
+
+    ``open`` checks it and prepares it (creates the temporary file), ``stream``/``scratch`` give what to write
+    to, ``commit`` puts the result in place and ``discard`` throws it away, leaving the user's file untouched.
+    """
+
+    def __init__(self, name: str, option: str, *, binary: bool = False, suffix: str = "") -> None:
+        self.name = name
+        self.option = option
+        self.binary = binary
+        self.suffix = suffix  # of the temporary file (encoders that pick the container by suffix)
+        self.kind = ""  # "fd" (standard output, /dev/fd/N), "special" (device, FIFO), "file"
+        self.target = name
+        self.fd: int | None = None
+        self.mode: int | None = None
+        self.owner: tuple[int, int] | None = None
         self._tmp: str | None = None
-        self._fh: IO[Any] | None = None
+        self._fh: _Guarded | None = None
 
-    def __enter__(self) -> IO[Any]:
-        directory = self.path.parent if str(self.path.parent) else Path(".")
-        fd, self._tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".tmp", dir=directory)
-        os.chmod(self._tmp, 0o666 & ~_umask())  # mkstemp makes 0600; a written file should look like any other
-        kwargs = {} if "b" in self.mode else {"encoding": "utf-8", "newline": "\n"}
-        self._fh = os.fdopen(fd, self.mode, **kwargs)
+    # -- checks -------------------------------------------------------------------------------------
+    def _fail(self, reason: str, hint: str | None = None) -> UsageError:
+        shown = "-" if self.name == STDOUT else self.name
+        return UsageError(f"{self.option} {shown}: {reason}" + (f"; {hint}" if hint else ""))
+
+    def classify(self) -> None:
+        """Decide how the output is written; raise :class:`UsageError` for a path that cannot be an output."""
+        name = self.name
+        if name == STDOUT or name in _NAMED_FDS or _FD_PATH.match(name):
+            self.kind = "fd"
+            self.fd = 1 if name == STDOUT else _NAMED_FDS.get(name) or int(_FD_PATH.match(name).group(1))  # type: ignore[union-attr]
+            if self.binary and self.fd == 1 and _stdout_is_terminal():
+                raise self._fail("will not write binary data to a terminal", "redirect standard output or name a file")
+            try:
+                os.fstat(self.fd)
+            except OSError:
+                raise self._fail(f"file descriptor {self.fd} is not open") from None
+            return
+        if not name:
+            raise self._fail("empty file name")
+        if "\0" in name:
+            raise self._fail("the file name contains a NUL byte")
+        try:
+            real = os.path.realpath(name)
+            st = os.stat(real)
+        except FileNotFoundError:
+            st = None
+        except ValueError:
+            raise self._fail("not a usable file name") from None
+        except OSError as exc:
+            if exc.errno == errno.ENOTDIR:
+                raise self._fail("a folder on the path is not a folder") from None
+            raise self._fail(os_reason(exc)) from None
+        self.target = real
+        if st is not None and not stat.S_ISREG(st.st_mode):
+            if stat.S_ISDIR(st.st_mode):
+                raise self._fail("is a directory", "name a file in it")
+            if stat.S_ISSOCK(st.st_mode):
+                raise self._fail("is a socket")
+            self.kind = "special"
+            return
+        self.kind = "file"
+        if st is not None:
+            if st.st_nlink > 1:
+                raise self._fail(f"has {st.st_nlink} hard links; replacing it would split them and writing it in "
+                                 "place is not atomic", "remove the other links or write to another name")
+            self.mode = stat.S_IMODE(st.st_mode)
+            self.owner = (st.st_uid, st.st_gid)
+        folder = os.path.dirname(real) or "."
+        if not os.path.isdir(folder):
+            raise self._fail(f"folder {os.path.dirname(name) or folder} does not exist", "create it first")
+
+    # -- life cycle ---------------------------------------------------------------------------------
+    def open(self) -> Output:
+        """Check and prepare: after this the output can be written and committed without a usage error."""
+        self.classify()
+        if self.kind == "file":
+            folder = os.path.dirname(self.target) or "."
+            base = os.path.basename(self.target)
+            try:
+                fd, self._tmp = tempfile.mkstemp(prefix=f".{base[:80]}.", suffix=f".part{self.suffix}", dir=folder)
+            except OSError as exc:
+                raise self._fail(f"cannot create a file in {folder}: {os_reason(exc)}",
+                                 "choose a folder you can write to") from None
+            os.close(fd)
+            try:
+                os.chmod(self._tmp, self.mode if self.mode is not None else 0o666 & ~_umask())
+            except OSError:
+                pass
+        elif self.binary:
+            fd, self._tmp = tempfile.mkstemp(prefix="fsmctl-", suffix=f".part{self.suffix}")
+            os.close(fd)
+        return self
+
+    @property
+    def path(self) -> str:
+        """Where an encoder writes (a temporary file that :meth:`commit` puts in place)."""
+        if self._tmp is None:
+            raise RuntimeError("open() an output before writing, and binary outputs through path")
+        return self._tmp
+
+    def stream(self) -> Any:
+        """A file object to write to (text: UTF-8 with ``\\n`` lines)."""
+        if self._fh is None:
+            self._fh = _Guarded(self._open_stream(), self)
         return self._fh
 
-    def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
-        assert self._fh is not None and self._tmp is not None
-        self._fh.close()
-        if exc_type is None:
-            os.replace(self._tmp, self.path)
-        else:
+    def _open_stream(self) -> IO[Any]:
+        kwargs: dict[str, Any] = {} if self.binary else {"encoding": "utf-8", "newline": "\n"}
+        mode = "wb" if self.binary else "w"
+        if self._tmp is not None:
+            return open(self._tmp, mode, **kwargs)
+        if self.kind == "fd":
+            return self._std_stream() or os.fdopen(os.dup(self.fd), mode, **kwargs)  # type: ignore[arg-type]
+        try:
+            return open(self.target, mode, **kwargs)
+        except OSError as exc:
+            raise self._fail(f"cannot write: {os_reason(exc)}") from None
+
+    def write(self, data: str | bytes) -> None:
+        self.stream().write(data)
+
+    def _write_failed(self, exc: OSError) -> FsmError:
+        shown = "-" if self.name == STDOUT else self.name
+        return FsmError(f"{self.option} {shown}: cannot write: {os_reason(exc)}")
+
+    def commit(self) -> None:
+        """Put the written output in place: rename the temporary file, or copy a scratch file to the device."""
+        try:
+            self._commit()
+        except OSError as exc:
+            raise self._write_failed(exc) from None
+
+    def _commit(self) -> None:
+        fh = self._fh.raw if self._fh is not None else None
+        self._fh = None
+        if fh is not None:
+            fh.flush()
+            if self.kind == "file":
+                os.fsync(fh.fileno())
+            if fh is not self._std_stream():
+                fh.close()
+        if self._tmp is None:
+            return
+        tmp, self._tmp = self._tmp, None
+        if self.kind == "file":
+            if self.owner is not None and os.geteuid() == 0:
+                try:
+                    os.chown(tmp, *self.owner)
+                except OSError:
+                    pass
+            if fh is None:  # an encoder wrote it
+                with open(tmp, "rb") as f:
+                    os.fsync(f.fileno())
+            os.replace(tmp, self.target)
+            _fsync_folder(os.path.dirname(self.target) or ".")
+            return
+        try:  # a binary output to standard output or a device: written from the scratch file
+            with open(tmp, "rb") as src:
+                if self.kind == "fd":
+                    std = self._std_stream()
+                    if std is not None:
+                        shutil.copyfileobj(src, std)
+                        std.flush()
+                    else:
+                        with os.fdopen(os.dup(self.fd), "wb") as dst:  # type: ignore[arg-type]
+                            shutil.copyfileobj(src, dst)
+                else:
+                    with open(self.target, "wb") as dst:
+                        shutil.copyfileobj(src, dst)
+        finally:
+            os.unlink(tmp)
+
+    def discard(self) -> None:
+        """Throw away what was written; the user's file stays as it was."""
+        fh = self._fh.raw if self._fh is not None else None
+        self._fh = None
+        if fh is not None and fh is not self._std_stream():
+            try:
+                fh.close()
+            except OSError:
+                pass
+        tmp, self._tmp = self._tmp, None
+        if tmp is not None:
+            try:
+                os.unlink(tmp)
+            except OSError:
+                pass
+
+    @property
+    def to_stdout(self) -> bool:
+        return self.kind == "fd" and self.fd == 1
+
+    def _std_stream(self) -> IO[Any] | None:
+        """Python's own ``sys.stdout``/``sys.stderr`` (binary: their buffer) for descriptors 1 and 2, so that
+        output stays in order with what else is printed (and redirections of ``sys.stdout`` are honoured)."""
+        if self.kind != "fd" or self.fd not in (1, 2):
+            return None
+        stream = sys.stdout if self.fd == 1 else sys.stderr
+        if stream is None:
+            return None
+        return getattr(stream, "buffer", None) if self.binary else stream
+
+
+class _Guarded:
+    """A stream whose write errors (a full disk, /dev/full, a closed pipe) name the output, in one line."""
+
+    __slots__ = ("raw", "_output")
+
+    def __init__(self, raw: IO[Any], output: Output) -> None:
+        self.raw = raw
+        self._output = output
+
+    def write(self, data: Any) -> int:
+        try:
+            return self.raw.write(data)
+        except OSError as exc:
+            raise self._output._write_failed(exc) from None
+
+    def flush(self) -> None:
+        try:
+            self.raw.flush()
+        except OSError as exc:
+            raise self._output._write_failed(exc) from None
+
+    def fileno(self) -> int:
+        return self.raw.fileno()
+
+
+def _stdout_is_terminal() -> bool:
+    try:
+        return bool(sys.stdout is not None and sys.stdout.isatty())
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
+def _fsync_folder(folder: str) -> None:
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+class Outputs:
+    """The outputs of one command: checked together (against each other and the inputs), committed together."""
+
+    def __init__(self) -> None:
+        self.items: list[Output] = []
+
+    def add(self, name: str | None, option: str, *, binary: bool = False, suffix: str = "") -> Output | None:
+        if name is None:
+            return None
+        out = Output(name, option, binary=binary, suffix=suffix)
+        self.items.append(out)
+        return out
+
+    def open(self, inputs: Iterable[str | os.PathLike[str]] = ()) -> None:
+        """Check every output (raising :class:`UsageError`), then prepare them; nothing is left behind on error."""
+        for out in self.items:
+            out.classify()
+        check_distinct(self.items, inputs)
+        try:
+            for out in self.items:
+                out.open()
+        except BaseException:
+            self.discard()
+            raise
+
+    @property
+    def to_stdout(self) -> bool:
+        return any(o.to_stdout for o in self.items)
+
+    def commit(self) -> None:
+        try:
+            for out in self.items:
+                out.commit()
+        finally:
             self.discard()
 
     def discard(self) -> None:
-        if self._tmp is not None and os.path.exists(self._tmp):
-            os.unlink(self._tmp)
+        for out in self.items:
+            out.discard()
+
+
+def check_distinct(outputs: list[Output], inputs: Iterable[str | os.PathLike[str]]) -> None:
+    """Refuse an output that is the same file as an input, and two outputs that name the same file."""
+    seen_inputs: dict[tuple[int, int], str] = {}
+    for p in inputs:
+        p = os.fspath(p)
+        if p == "-":
+            continue
+        ident = identity(p)
+        if ident is not None:
+            seen_inputs.setdefault(ident, p)
+    taken: dict[object, Output] = {}
+    for out in outputs:
+        if out.kind == "special":
+            continue  # /dev/null twice, or as an "input", is harmless
+        if out.kind == "fd":
+            key: object = ("fd", out.fd)
+        else:
+            ident = identity(out.target)
+            if ident is not None and ident in seen_inputs:
+                raise out._fail(f"is the same file as the input {seen_inputs[ident]}",
+                                "write the output to another file")
+            key = ident if ident is not None else out.target
+        if key in taken:
+            other = taken[key]
+            if out.kind == "fd" and out.fd == 1 and other.option != out.option:
+                raise out._fail(f"standard output is already taken by {other.option}", "write one of them to a file")
+            raise out._fail(f"names the same file as {other.option}", "give each output its own file")
+        taken[key] = out
+
+
+def write_output(name: str, data: str | bytes, option: str = "-o",
+                 inputs: Iterable[str | os.PathLike[str]] = ()) -> None:
+    """Write ``data`` to the output ``name`` by the rules above (checks first, then a whole file or nothing)."""
+    outputs = Outputs()
+    outputs.add(name, option, binary=isinstance(data, bytes))
+    outputs.open(inputs)
+    try:
+        outputs.items[0].write(data)
+        outputs.commit()
+    finally:
+        outputs.discard()
+
+
+def write_atomic(path: str | os.PathLike[str], data: str | bytes) -> None:
+    """Write ``data`` to ``path`` so that readers see the old file or the whole new one, never a half."""
+    write_output(os.fspath(path), data, option="output")
+
+
+class AtomicFile:
+    """``with AtomicFile(path) as fh:`` writes through :class:`Output`; ``path`` is replaced only on success."""
+
+    def __init__(self, path: str | os.PathLike[str], mode: str = "w") -> None:
+        self.output = Output(os.fspath(path), "output", binary="b" in mode)
+
+    def __enter__(self) -> IO[Any]:
+        self.output.open()
+        return self.output.stream()
+
+    def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
+        if exc_type is None:
+            self.output.commit()
+        else:
+            self.output.discard()
+
+    def discard(self) -> None:
+        self.output.discard()
+
+
+__all__ = ["AtomicFile", "Output", "Outputs", "STDOUT", "check_distinct", "identity", "os_reason", "write_atomic",
+           "write_output"]

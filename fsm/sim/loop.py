@@ -91,8 +91,11 @@ class Simulation:
         self._watch.changed = False
 
     def run(self, duration: float | None = None, max_ticks: int | None = None,
-            progress: Callable[[Simulation], None] | None = None, progress_every: float = 0.5) -> str | None:
-        """Run until the machine finishes or a limit; returns the outcome (``None`` if unfinished).
+            progress: Callable[[Simulation], None] | None = None, progress_every: float = 0.5,
+            stop: Callable[[], bool] | None = None) -> str | None:
+        """Run until the machine finishes, a limit, or ``stop()`` is true (checked after every tick: how
+        ``fsmctl`` ends a run on Ctrl-C between two ticks, never in the middle of one); returns the outcome
+        (``None`` if unfinished).
 
         Exceptions (a state that fails, Ctrl-C) propagate after the wall time is booked, so the
         caller can still write what happened.
@@ -138,6 +141,8 @@ class Simulation:
                 if progress is not None and ctx.now >= next_progress:
                     next_progress += progress_every
                     progress(self)
+                if stop is not None and stop():
+                    break
             if watch.changed:
                 self._update_active()
         finally:

@@ -2,8 +2,11 @@
 
 The frame has a slot for the camera view (top right): when ``car.camera()`` returns an image
 (the camera/ArUco issue), it is drawn there; today it returns ``None`` and the slot stays empty.
-Videos are written with OpenCV's ``VideoWriter`` (``mp4v`` for .mp4, ``MJPG`` for .avi) to a temporary
-file that replaces the target only when the video is complete.
+Videos are H.264 through imageio-ffmpeg's ffmpeg (OpenCV's ``mp4v`` without it; ``MJPG`` for .avi), written to a
+uniquely named temporary file that replaces the target only when the video is complete (or to a file the caller
+names and puts in place itself: ``fsmctl`` does, through its output writer). The encoder runs in its own session,
+so Ctrl-C in a terminal (SIGINT to the whole process group) reaches ``fsmctl``, not ffmpeg, and the video up to
+that moment is kept.
 """
 
 from __future__ import annotations
@@ -12,6 +15,7 @@ import colorsys
 import math
 import os
 import subprocess
+import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -35,6 +39,16 @@ RAY_FAR = (170, 200, 170)
 TEXT = (20, 20, 20)
 PANEL = 56  # px of text under the map
 FONT = cv2.FONT_HERSHEY_SIMPLEX
+#: Video file suffixes and the OpenCV fourcc each stands for (mp4v means H.264 when ffmpeg is available).
+VIDEO_FORMATS = {".avi": "MJPG", ".mp4": "mp4v", ".m4v": "mp4v", ".mov": "mp4v"}
+
+
+def _scratch_next_to(target: Path, suffix: str) -> Path:
+    """A new, uniquely named file beside ``target`` (two runs writing the same video never share it)."""
+    directory = target.parent if str(target.parent) else Path(".")
+    fd, name = tempfile.mkstemp(prefix=f".{target.name[:80]}.", suffix=f".part{suffix}", dir=directory)
+    os.close(fd)
+    return Path(name)
 
 
 def palette(n: int) -> list[tuple[int, int, int]]:
@@ -101,7 +115,9 @@ class VideoRecorder:
     """Renders a frame every ``period`` seconds of simulated time and writes the video (``close`` to finish)."""
 
     def __init__(self, sim: Simulation, path: str | os.PathLike[str], *, speed: float = 4.0, fps: float = 25.0,
-                 width: int = 1280) -> None:
+                 width: int = 1280, scratch: str | os.PathLike[str] | None = None, fmt: str | None = None) -> None:
+        """``path`` is the video's name; with ``scratch`` the encoder writes there and the caller puts the file in
+        place after :meth:`close`; ``fmt`` (a suffix such as ``.mp4``) overrides the suffix of ``path``."""
         self.sim = sim
         self.path = Path(path)
         self.view = TopDown(sim.car.world, width)
@@ -110,18 +126,19 @@ class VideoRecorder:
         self._last_px: tuple[int, int] | None = None
         self.frames = 0
         self.period = speed / fps
-        suffix = self.path.suffix.lower()
-        fourcc = {".avi": "MJPG", ".mp4": "mp4v", ".m4v": "mp4v", ".mov": "mp4v"}.get(suffix)
+        suffix = (fmt or self.path.suffix).lower()
+        fourcc = VIDEO_FORMATS.get(suffix)
         if fourcc is None:
             raise FsmError(f"--video {self.path}: unsupported format '{suffix}'; use .mp4 or .avi")
-        directory = self.path.parent if str(self.path.parent) else Path(".")
-        self._tmp = directory / f".{self.path.stem}.part{suffix}"
+        self._move = scratch is None
+        self._tmp = Path(scratch) if scratch is not None else _scratch_next_to(self.path, suffix)
         size = (self.view.width, self.view.height)
         self.writer: Any = H264Writer.open(self._tmp, fps, size) if fourcc == "mp4v" else None
         self.codec = "h264" if self.writer is not None else fourcc
         if self.writer is None:
             self.writer = cv2.VideoWriter(str(self._tmp), cv2.VideoWriter_fourcc(*fourcc), fps, size)
         if not self.writer.isOpened():
+            self.discard()
             raise FsmError(f"--video {self.path}: OpenCV cannot write {fourcc} video here")
         sim.add_observer(self.period, self)
 
@@ -191,9 +208,10 @@ class VideoRecorder:
             return
         self.writer.write(self.render(self.sim))
         self.frames += 1
-        self.writer.release()
-        self.writer = None
-        os.replace(self._tmp, self.path)
+        writer, self.writer = self.writer, None
+        writer.release()
+        if self._move:
+            os.replace(self._tmp, self.path)
 
     def discard(self) -> None:
         if self.writer is not None:
@@ -202,7 +220,7 @@ class VideoRecorder:
             except FsmError:
                 pass  # the file is thrown away anyway
             self.writer = None
-        if self._tmp.exists():
+        if self._move and self._tmp.exists():
             self._tmp.unlink()
 
 
@@ -230,7 +248,10 @@ class H264Writer:
                "-crf", "23", "-pix_fmt", "yuv420p", "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2",
                "-movflags", "+faststart", "-f", "mp4", str(path)]
         try:
-            proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+            # its own session: a terminal's Ctrl-C (SIGINT to the process group) must not kill the encoder
+            # mid-file; fsmctl stops the run and closes the video itself
+            proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                    start_new_session=True)
         except OSError:
             return None
         return cls(proc)
@@ -258,6 +279,18 @@ class H264Writer:
 
 
 def plot(sim: Simulation, path: str | os.PathLike[str], width: int = 1600) -> None:
+    """Write :func:`plot_png` to ``path`` (a uniquely named temporary file renamed over it)."""
+    target = Path(path)
+    tmp = _scratch_next_to(target, ".png")
+    try:
+        tmp.write_bytes(plot_png(sim, width))
+        os.replace(tmp, target)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def plot_png(sim: Simulation, width: int = 1600) -> bytes:
     """A PNG of the trajectory coloured by the active state (leaf id), with a legend."""
     view = TopDown(sim.car.world, width)
     img = view.background.copy()
@@ -298,8 +331,5 @@ def plot(sim: Simulation, path: str | os.PathLike[str], width: int = 1600) -> No
     cv2.putText(img, text, (10, view.map_h + legend_h + 26), FONT, 0.6, TEXT, 1, cv2.LINE_AA)
     ok, data = cv2.imencode(".png", img)
     if not ok:  # pragma: no cover
-        raise FsmError(f"cannot encode {path}")
-    target = Path(path)
-    tmp = target.with_name(f".{target.name}.part")
-    tmp.write_bytes(data.tobytes())
-    os.replace(tmp, target)
+        raise FsmError("cannot encode the plot as PNG")
+    return data.tobytes()

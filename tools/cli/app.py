@@ -1,8 +1,9 @@
 """``fsmctl``: validate, run and inspect machine documents.
 
 Exit status: 0 success, 1 a document or run failed (one located message per problem, no traceback),
-2 command-line usage error. Each command lives in its own module of this package with a ``register``
-function; heavy modules load only inside the commands that need them.
+2 command-line usage error, 130 a run stopped by Ctrl-C or SIGTERM (its outputs are still written). Each
+command lives in its own module of this package with a ``register`` function; heavy modules load only inside
+the commands that need them.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from typing import Any
 
 from fsm.errors import DiagramError, FsmError, RegistrationError, UsageError
 
-from .common import EXIT_FAIL, EXIT_OK, EXIT_USAGE, version
+from .common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, version
 
 #: The command modules, in the order ``fsmctl --help`` lists them.
 COMMANDS = ("validate", "run", "types", "schema", "convert", "export", "palette", "graph", "detect")
@@ -29,8 +30,9 @@ class _Parser(argparse.ArgumentParser):
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="fsmctl", description="Validate, run and inspect tral-fsm machine documents.")
-    parser.add_argument("--plugin", action="append", default=[], metavar="MODULE",
-                        help="import MODULE to register its state/transition types (repeatable)")
+    parser.add_argument("--plugin", action="append", default=[], metavar="MODULE|FILE.py",
+                        help="import MODULE (installed, or in the current folder) or load FILE.py to register its "
+                             "state/transition types (repeatable)")
     parser.add_argument("--version", action="version", version="%(prog)s " + version())
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name in COMMANDS:
@@ -40,26 +42,63 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except KeyboardInterrupt:
+        return _interrupted()
     if args.command is None:
         parser.print_help(sys.stderr)
         return EXIT_USAGE
     try:
         return int(args.func(args) or 0)
     except UsageError as exc:
-        print(f"fsmctl: error: {exc}", file=sys.stderr)
+        print(f"fsmctl: error: {_one_line(exc)}", file=sys.stderr)
         return EXIT_USAGE
     except DiagramError as exc:
         for problem in exc.problems:
             print(problem, file=sys.stderr)
         return EXIT_FAIL
     except RegistrationError as exc:
-        print(f"fsmctl: plugin error: {exc}", file=sys.stderr)
+        from fsm.registry import PluginError
+
+        print(exc.located() if isinstance(exc, PluginError) else f"fsmctl: plugin error: {_one_line(exc)}",
+              file=sys.stderr)
         return EXIT_FAIL
     except FsmError as exc:
-        print(f"fsmctl: error: {exc}", file=sys.stderr)
+        print(f"fsmctl: error: {_one_line(exc)}", file=sys.stderr)
         return EXIT_FAIL
     except BrokenPipeError:
+        _quiet_stdout()
         return EXIT_OK
+    except KeyboardInterrupt:
+        return _interrupted()
+    except OSError as exc:  # the system refused something the checks could not foresee (a disk that filled up)
+        from ..files import os_reason
+
+        where = f" {exc.filename}" if getattr(exc, "filename", None) else ""
+        print(f"fsmctl: error:{where} {os_reason(exc)}", file=sys.stderr)
+        return EXIT_FAIL
+    except MemoryError:
+        print("fsmctl: error: out of memory", file=sys.stderr)
+        return EXIT_FAIL
 
 
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split())
+
+
+def _interrupted() -> int:
+    print("fsmctl: interrupted", file=sys.stderr)
+    return EXIT_INTERRUPTED
+
+
+def _quiet_stdout() -> None:
+    """After a reader closed the pipe: point standard output at /dev/null so exiting flushes nothing into it."""
+    import os
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):
+        pass

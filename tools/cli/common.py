@@ -7,9 +7,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from fsm.errors import FsmError, RegistrationError, UsageError
+from fsm.errors import UsageError
 
-EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
+EXIT_OK, EXIT_FAIL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
 def positive_int(text: str) -> int:
@@ -56,46 +56,138 @@ def version() -> str:
     return __version__
 
 
+def bounded_float(low: float, high: float, what: str) -> Any:
+    """An argparse type: a finite number in [low, high] (``--fps``, ``--video-speed``)."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+        if not (low <= value <= high):
+            raise argparse.ArgumentTypeError(f"{what} must be between {low:g} and {high:g}, got {text}")
+        return value
+
+    return parse
+
+
 def registry_from(args: argparse.Namespace) -> Any:
-    """The registry with built-ins, installed plugins and the ``--plugin`` modules."""
+    """The registry with built-ins, installed plugins and the ``--plugin`` modules or files."""
     from fsm.registry import default_registry
 
-    try:
-        return default_registry(tuple(args.plugin))
-    except ModuleNotFoundError as exc:
-        raise UsageError(f"--plugin: no module named {exc.name!r}") from None
-    except RegistrationError:
-        raise
-    except Exception as exc:  # a plugin that fails to import is the plugin's error, reported in one line
-        raise FsmError(f"--plugin: importing failed: {type(exc).__name__}: {exc}") from None
+    return default_registry(tuple(args.plugin))
 
 
-def check_writable(path: str) -> None:
-    directory = Path(path).parent
-    if str(directory) and not directory.is_dir():
-        raise UsageError(f"cannot write {path}: folder {directory} does not exist")
+def read_inputs(files: list[str]) -> dict[str, bytes]:
+    """``-`` in ``files`` read from standard input, once: ``{"<stdin>": bytes}`` to preload (or ``{}``)."""
+    from fsm.loader import STDIN_NAME, read_stdin_bytes
+
+    if "-" not in files:
+        return {}
+    if sys.stdin is None or (sys.stdin.isatty() if hasattr(sys.stdin, "isatty") else False):
+        raise UsageError("'-' reads a document from standard input, but standard input is a terminal; "
+                         "pipe a document in (fsmctl validate - < machine.json)")
+    return {STDIN_NAME: read_stdin_bytes()}
+
+
+def default_output(src: Path, suffix: str) -> str:
+    """``src`` with another suffix: the default output of convert and export (a usage error without a name)."""
+    if not src.name or src.name in (".", ".."):
+        raise UsageError(f"{str(src)!r} is not a file name; name the input file (and -o OUT{suffix})")
+    return str(src.with_suffix(suffix))
+
+
+def input_name(file: str) -> str:
+    """The name a file goes by inside the loader: ``<stdin>`` for ``-``."""
+    from fsm.loader import STDIN_NAME
+
+    return STDIN_NAME if file == "-" else file
+
+
+def spec_files(spec: Any) -> list[str]:
+    """Every file a checked machine was read from: the machine's own and its includes, any depth."""
+    seen: list[str] = []
+    todo = [spec] if spec is not None else []
+    while todo:
+        s = todo.pop()
+        name = getattr(s.source, "name", None)
+        if name and name not in seen:
+            seen.append(name)
+        for st in s.states:
+            for _name, sub, _ptr in st.subs:
+                if sub is not None:
+                    todo.append(sub)
+    return seen
 
 
 def emit_generated(text: str, *, output: str | None, check: str | None, command: str) -> int:
     """Write generated ``text`` to ``output`` (standard output for ``None`` or ``-``), or with ``check``
     compare it with that file and exit 1 when the file is stale, naming ``command`` to regenerate it."""
+    if check == "-":
+        raise UsageError("--check compares with a file; name it (standard output cannot be compared)")
     if check:
+        from fsm.errors import DiagramError
+        from fsm.loader import read_file_bytes
+
         try:
-            current = Path(check).read_text(encoding="utf-8")
-        except OSError as exc:
-            print(f"{check}: error: cannot read: {exc.strerror or exc}", file=sys.stderr)
+            current = read_file_bytes(Path(check), "generated").decode("utf-8", errors="replace")
+        except DiagramError as exc:
+            for p in exc.problems:
+                print(p, file=sys.stderr)
             return EXIT_FAIL
         if current != text:
             print(f"{check}: error: stale; regenerate it with `{command} -o {check}`", file=sys.stderr)
             return EXIT_FAIL
         return EXIT_OK
-    if not output or output == "-":
-        sys.stdout.write(text)
-        return EXIT_OK
-    from ..files import write_atomic
+    from ..files import write_output
 
-    check_writable(output)
-    write_atomic(output, text)
+    write_output(output or "-", text, "-o")
     return EXIT_OK
 
 
+class Interrupts:
+    """Ctrl-C (SIGINT) and SIGTERM during a run: the first asks the run to stop after the current tick, so
+    everything written so far is whole and the outputs are still written; a second one during the run raises
+    ``KeyboardInterrupt`` (a state that never returns). While the outputs are written, signals are noted and
+    otherwise ignored, up to three: the files are finished first."""
+
+    SIGNALS = ("SIGINT", "SIGTERM")
+
+    def __init__(self) -> None:
+        self.received: int | None = None
+        self.count = 0
+        self.writing = False
+        self._old: dict[int, Any] = {}
+
+    def __enter__(self) -> Interrupts:
+        import signal
+        import threading
+
+        if threading.current_thread() is threading.main_thread():
+            for name in self.SIGNALS:
+                num = getattr(signal, name, None)
+                if num is not None:
+                    self._old[num] = signal.signal(num, self._handle)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        import signal
+
+        for num, old in self._old.items():
+            signal.signal(num, old)
+        self._old.clear()
+
+    def _handle(self, signum: int, frame: Any) -> None:
+        self.count += 1
+        if self.received is None:
+            self.received = signum
+            return
+        if (not self.writing and self.count >= 2) or self.count >= 4:
+            raise KeyboardInterrupt
+
+    def stop(self) -> bool:
+        return self.received is not None
+
+    @property
+    def interrupted(self) -> bool:
+        return self.received is not None

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from fsm.errors import DiagramError, Problem
 
-from .common import EXIT_FAIL, EXIT_OK, check_writable, registry_from
+from .common import EXIT_FAIL, EXIT_OK, default_output, registry_from
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -26,14 +26,26 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_convert(args: argparse.Namespace) -> int:
-    from ..umlet.convert import convert_checked, dumps
+    from ..files import Outputs
 
     src = Path(args.file)
     out = args.output
     if out is None:
-        out = str(src.with_suffix(".json"))
-    if out != "-" and not args.check:
-        check_writable(out)
+        out = default_output(src, ".json")
+    outputs = Outputs()
+    if not args.check:
+        outputs.add(out, "-o")
+        outputs.items[0].classify()
+        outputs.open([src])  # same file as the diagram (an xml2json .json next to itself), unwritable folder
+    try:
+        return _convert(args, src, out, outputs)
+    finally:
+        outputs.discard()
+
+
+def _convert(args: argparse.Namespace, src: Path, out: str, outputs: object) -> int:
+    from ..umlet.convert import convert_checked, dumps
+
     registry = registry_from(args)
     try:
         doc, warnings = convert_checked(src, args.machine, registry)
@@ -44,12 +56,9 @@ def cmd_convert(args: argparse.Namespace) -> int:
     text = dumps(doc)
     if args.check:
         return check_output(src, out, doc, args.format)
-    if out == "-":
-        sys.stdout.write(text)
-        return EXIT_OK
-    from ..files import write_atomic
-
-    write_atomic(out, text)
+    item = outputs.items[0]  # type: ignore[attr-defined]
+    item.write(text)
+    outputs.commit()  # type: ignore[attr-defined]
     return EXIT_OK
 
 
@@ -58,12 +67,17 @@ def check_output(src: Path, out: str, doc: dict, fmt: str) -> int:
         report([Problem("--check needs a file to compare with, not '-'", str(src))], fmt)
         return EXIT_FAIL
     hint = f"run: fsmctl convert {src} -o {out}"
-    try:
-        committed = json.loads(Path(out).read_text(encoding="utf-8"))
-    except FileNotFoundError:
+    from fsm.loader import read_file_bytes
+
+    if not Path(out).exists() and not Path(out).is_symlink():
         report([Problem(f"{out} does not exist, but {src} converts to a machine", out, hint=hint)], fmt)
         return EXIT_FAIL
-    except (OSError, UnicodeDecodeError, ValueError) as exc:
+    try:
+        committed = json.loads(read_file_bytes(Path(out), "committed").decode("utf-8"))
+    except DiagramError as exc:
+        report(exc.problems, fmt)
+        return EXIT_FAIL
+    except (UnicodeDecodeError, ValueError, RecursionError) as exc:
         report([Problem(f"cannot read the committed document: {exc}", out, hint=hint)], fmt)
         return EXIT_FAIL
     if committed != doc:

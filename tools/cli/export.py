@@ -5,38 +5,47 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .common import EXIT_OK, check_writable, registry_from
+from .common import EXIT_OK, default_output, registry_from, spec_files
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("export", help="write a machine document as a UMLet diagram (.uxf)")
     p.add_argument("file", metavar="FILE.json", help="the machine document (checked first)")
     p.add_argument("-o", "--output", metavar="OUT.uxf",
-                   help="where to write (default: FILE with the suffix .uxf; '-' for standard output)")
+                   help="where to write (default: FILE with the suffix .uxf, never FILE itself; '-' for standard output)")
     p.set_defaults(func=cmd_export)
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    from fsm.errors import DiagramError
-    from fsm.loader import check, reader_for
+    from fsm.errors import DiagramError, UsageError
+    from fsm.loader import check, preloaded, reader_for
 
+    from ..files import Outputs
     from ..umlet.writer import export
 
     src = Path(args.file)
-    out = args.output or str(src.with_suffix(".uxf"))
-    if out != "-":
-        check_writable(out)
-    registry = registry_from(args)
-    _spec, problems = check(str(src), registry=registry)
-    errors = [p for p in problems if p.severity == "error"]
-    if errors:
-        raise DiagramError(errors)
-    doc, _source = reader_for(src)(src)
-    text = export(doc, registry)
-    if out == "-":
-        print(text, end="")
-    else:
-        from ..files import write_atomic
-
-        write_atomic(out, text)
+    out = args.output or default_output(src, ".uxf")
+    if args.output is None and src.suffix.lower() == ".uxf":
+        raise UsageError(f"export {src}: the default output is {src} itself, the diagram being read; "
+                         "give -o OUT.uxf")
+    outputs = Outputs()
+    outputs.add(out, "-o")
+    outputs.items[0].classify()
+    try:
+        registry = registry_from(args)
+        try:
+            document = reader_for(src)(src)  # read once; the check below takes it from here
+        except DiagramError:
+            document = None
+        with preloaded({str(src): document} if document is not None else {}):
+            spec, problems = check(str(src), registry=registry)
+        errors = [p for p in problems if p.severity == "error"]
+        if errors or document is None:
+            raise DiagramError(errors or problems)
+        outputs.open(spec_files(spec) + [str(src)])
+        text = export(document[0], registry)
+        outputs.items[0].write(text)
+        outputs.commit()
+    finally:
+        outputs.discard()
     return EXIT_OK

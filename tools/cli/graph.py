@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
-from .common import EXIT_OK, check_writable, registry_from
+from .common import EXIT_OK, registry_from, spec_files
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -20,32 +19,41 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def cmd_graph(args: argparse.Namespace) -> int:
     from fsm.errors import DiagramError
-    from fsm.loader import check, reader_for
+    from fsm.loader import check, preloaded, reader_for
 
     from .. import graph
+    from ..files import Outputs
 
     src = Path(args.file)
-    if args.output != "-":
-        check_writable(args.output)
-    registry = registry_from(args)
-    if src.suffix.lower() == ".uxf" or args.machine:
-        from ..umlet.convert import convert_checked
+    outputs = Outputs()
+    outputs.add(args.output, "-o")
+    outputs.items[0].classify()
+    try:
+        registry = registry_from(args)
+        if src.suffix.lower() == ".uxf" or args.machine:
+            from ..umlet.convert import convert_checked
 
-        doc, _ = convert_checked(src, args.machine, registry)
-    else:
-        _spec, problems = check(str(src), registry=registry)
-        errors = [p for p in problems if p.severity == "error"]
-        if errors:
-            raise DiagramError(errors)
-        doc, _source = reader_for(src)(src)
-    if args.format == "svg":
-        text = graph.svg(doc, base=src)  # includes are drawn, read relative to the file
-    else:
-        text = {"mermaid": graph.mermaid, "dot": graph.dot}[args.format](doc)
-    if args.output == "-":
-        sys.stdout.write(text)
-    else:
-        from ..files import write_atomic
-
-        write_atomic(args.output, text)
+            doc, _ = convert_checked(src, args.machine, registry)  # reads the diagram once
+            inputs = [str(src)]
+        else:
+            try:
+                document = reader_for(src)(src)  # read once; the check below takes it from here
+            except DiagramError:
+                document = None
+            with preloaded({str(src): document} if document is not None else {}):
+                spec, problems = check(str(src), registry=registry)
+            errors = [p for p in problems if p.severity == "error"]
+            if errors or document is None:
+                raise DiagramError(errors or problems)
+            doc = document[0]
+            inputs = spec_files(spec) + [str(src)]
+        outputs.open(inputs)
+        if args.format == "svg":
+            text = graph.svg(doc, base=src)  # includes are drawn, read relative to the file
+        else:
+            text = {"mermaid": graph.mermaid, "dot": graph.dot}[args.format](doc)
+        outputs.items[0].write(text)
+        outputs.commit()
+    finally:
+        outputs.discard()
     return EXIT_OK

@@ -3,7 +3,9 @@
 A machine that uses car states or transitions (``FollowWall``, ``SensorLevel``, ...), or any machine
 run with ``--world``, drives the simulated car in a world (default ``diagrams/worlds/hallway.json``).
 It reports the outcome, the states visited, and writes trace, summary, video and plot on request.
-Ctrl-C stops the run cleanly: the summary, trace, video and plot still get written.
+Ctrl-C (or SIGTERM) stops the run cleanly after the current tick: the summary (``"interrupted": true``), trace,
+video and plot still get written, and the exit status is 130. Every output goes through
+:mod:`fsm.tools.files` and is checked before the run starts.
 """
 
 from __future__ import annotations
@@ -16,43 +18,90 @@ from typing import Any
 
 from fsm.errors import StateRuntimeError, UsageError
 
-from .common import EXIT_FAIL, EXIT_OK, check_writable, positive_float, positive_int, registry_from, signal_arg
+from .common import (
+    EXIT_FAIL,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    Interrupts,
+    bounded_float,
+    input_name,
+    positive_float,
+    positive_int,
+    read_inputs,
+    registry_from,
+    signal_arg,
+    spec_files,
+)
 
 DEFAULT_MAX_DURATION = 600.0
 DEFAULT_WORLD = "hallway.json"
+#: Runs of more ticks than this are refused unless --max-ticks asks for them (a tiny --dt is usually a typo).
+MAX_TICKS = 10_000_000
+VIDEO_SUFFIXES = (".mp4", ".m4v", ".mov", ".avi")
+
+
+def non_negative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    return value
+
+
+def seed_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if not 0 <= value < 2**63:
+        raise argparse.ArgumentTypeError(f"must be between 0 and 2**63-1, got {text}")
+    return value
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="run a machine until it finishes (or a limit) and print what it did",
                        description="Run a machine. Machines that drive (car states or transitions) run on the "
                                    "simulated TRAL car in a world file; others run on the simulated clock alone.")
-    p.add_argument("file", metavar="FILE")
-    p.add_argument("--max-ticks", type=positive_int, metavar="N", help="stop after N ticks")
+    p.add_argument("file", metavar="FILE", help="the machine (.json or .uxf); '-' reads it from standard input")
+    p.add_argument("--max-ticks", type=positive_int, metavar="N",
+                   help=f"stop after N ticks (runs of more than {MAX_TICKS:,} ticks need it said explicitly)")
     p.add_argument("--duration", type=positive_float, metavar="SECONDS",
                    help=f"stop after this much machine time (default: at most {DEFAULT_MAX_DURATION:g} s "
                         "when no --max-ticks is given)")
     p.add_argument("--dt", type=positive_float, metavar="SECONDS", default=None,
                    help="tick period (default 0.0125 s = 80 Hz, the TRAL car's)")
+
     p.add_argument("--signal", action="append", default=[], metavar="NAME[=0|1]@T", type=signal_arg,
                    help="set input signal NAME high (or to the value given) at machine time T (repeatable)")
     p.add_argument("--trace", metavar="OUT.jsonl",
                    help="write a JSONL trace: one line per tick with a transition (with the car: its sensors, "
-                        "commands and pose)")
-    p.add_argument("--summary", metavar="OUT.json", help="write a JSON summary of the run")
-    p.add_argument("--expect", metavar="OUTCOME", help="exit 1 unless the machine finishes with OUTCOME")
+                        "commands and pose); '-' for standard output")
+    p.add_argument("--summary", metavar="OUT.json", help="write a JSON summary of the run; '-' for standard output")
+    p.add_argument("--expect", metavar="OUTCOME",
+                   help="exit 1 unless the machine finishes with OUTCOME (and, when a car runs, it collided at most "
+                        "--max-collisions times, default 0)")
+    p.add_argument("--max-collisions", type=non_negative_int, metavar="N",
+                   help="exit 1 if the car collided more than N times (default: 0 with --expect; without "
+                        "--expect or this option collisions never fail a run)")
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
     car = p.add_argument_group("the simulated car (for machines that drive, or with --world)")
     car.add_argument("--world", metavar="WORLD.json",
                      help=f"world file (default: {DEFAULT_WORLD} from the worlds folder next to the machine, "
                           "or diagrams/worlds/)")
     car.add_argument("--car", metavar="CAR.json", help="car file replacing the world's car parameters")
-    car.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the sensor noise (default 0)")
+    car.add_argument("--seed", type=seed_int, default=0, metavar="N", help="seed of the sensor noise (default 0)")
     car.add_argument("--no-noise", action="store_true", help="turn the ultrasonic noise off")
-    car.add_argument("--video", metavar="OUT.mp4", help="write a top-down video (.mp4 or .avi)")
-    car.add_argument("--video-speed", type=positive_float, default=4.0, metavar="X",
-                     help="simulated seconds per video second (default 4)")
-    car.add_argument("--fps", type=positive_float, default=25.0, help="video frames per second (default 25)")
-    car.add_argument("--plot", metavar="OUT.png", help="write a PNG of the trajectory coloured by active state")
+    car.add_argument("--video", metavar="OUT.mp4",
+                     help="write a top-down video (.mp4 H.264, or .avi MJPEG; '-' writes MP4 to standard output "
+                          "when it is not a terminal)")
+    car.add_argument("--video-speed", type=bounded_float(0.01, 10000, "--video-speed"), default=4.0, metavar="X",
+                     help="simulated seconds per video second (0.01 to 10000, default 4)")
+    car.add_argument("--fps", type=bounded_float(1, 240, "--fps"), default=25.0,
+                     help="video frames per second (1 to 240, default 25)")
+    car.add_argument("--plot", metavar="OUT.png",
+                     help="write a PNG of the trajectory coloured by active state ('-' for standard output)")
     bar = car.add_mutually_exclusive_group()
     bar.add_argument("--progress", dest="progress", action="store_true", default=None,
                      help="show a progress bar (default: only when standard error is a terminal)")
@@ -95,42 +144,102 @@ def default_world(machine_file: str) -> Path:
 
 
 # -- the command -------------------------------------------------------------------------------------
+def _suffix_ok(name: str | None, suffixes: tuple[str, ...]) -> bool:
+    """A regular file name must end in one of ``suffixes``; ``-`` and device paths carry no suffix."""
+    if name is None or name == "-" or name.startswith("/dev/") or name.startswith("/proc/self/fd/"):
+        return True
+    return Path(name).suffix.lower() in suffixes
+
+
+def _check_usage(args: argparse.Namespace) -> None:
+    if not _suffix_ok(args.plot, (".png",)):
+        raise UsageError(f"--plot {args.plot}: the plot is a PNG; name it with the suffix .png")
+    if not _suffix_ok(args.video, VIDEO_SUFFIXES):
+        raise UsageError(f"--video {args.video}: unsupported video format "
+                         f"'{Path(args.video).suffix or '(no suffix)'}'; use .mp4 (H.264) or .avi (MJPEG)")
+
+
+def _tick_limit(args: argparse.Namespace, dt: float) -> tuple[float | None, int | None]:
+    """The run's ``duration`` and ``max_ticks``; a usage error when it would run more than MAX_TICKS ticks
+    without --max-ticks saying so."""
+    duration = args.duration
+    if duration is None and args.max_ticks is None:
+        duration = DEFAULT_MAX_DURATION
+    if duration is None:
+        return None, args.max_ticks
+    ticks = duration / dt  # may be inf for a denormal dt
+    if args.max_ticks is not None and not ticks <= args.max_ticks:
+        return None, args.max_ticks  # --max-ticks is the tighter limit
+    if args.max_ticks is None and not ticks <= MAX_TICKS:
+        shown = f"{ticks:.3g}" if ticks != float("inf") else "infinitely many"
+        raise UsageError(f"--dt {dt:g} with a run of {duration:g} s makes {shown} ticks, more than {MAX_TICKS:,}; "
+                         "give --max-ticks N to allow a run that long, or a larger --dt / shorter --duration")
+    return duration, args.max_ticks
+
+
 def cmd_run(args: argparse.Namespace) -> int:
-    from fsm.clock import SimulatedClock
-    from fsm.loader import build, check
+    from fsm.clock import DEFAULT_DT, SimulatedClock
     from fsm.errors import DiagramError
-    from fsm.trace import Recorder, summary
+    from fsm.loader import check, preloaded
 
-    from ..files import AtomicFile, write_atomic
+    from ..files import Outputs, check_distinct
 
-    for out in (args.trace, args.summary, args.video, args.plot):
-        if out:
-            check_writable(out)
+    _check_usage(args)
+    dt = args.dt or DEFAULT_DT
+    duration, max_ticks = _tick_limit(args, dt)
+    outputs = Outputs()
+    trace_out = outputs.add(args.trace, "--trace")
+    summary_out = outputs.add(args.summary, "--summary")
+    video_suffix = Path(args.video).suffix.lower() if args.video else ""
+    video_suffix = video_suffix if video_suffix in VIDEO_SUFFIXES else ".mp4"
+    video_out = outputs.add(args.video, "--video", binary=True, suffix=video_suffix)
+    plot_out = outputs.add(args.plot, "--plot", binary=True, suffix=".png")
+    for out in outputs.items:  # a directory, a missing folder, ...: said before anything is read
+        out.classify()
+    check_distinct(outputs.items, [])
+    pre = read_inputs([args.file])
+    file = input_name(args.file)
     registry = registry_from(args)
     clock = SimulatedClock(args.dt) if args.dt else None
-    spec, problems = check(args.file, registry=registry)
+    with preloaded(pre):
+        spec, problems = check(file, registry=registry)
     errors = [p for p in problems if p.severity == "error"]
     if spec is None or errors:
         raise DiagramError(errors or problems)
 
     drive = args.world is not None or args.car is not None or uses_car(spec)
-    car = world = None
+    inputs = spec_files(spec)
     world_path = None
+    if drive:
+        world_path = Path(args.world) if args.world else default_world(file if file != "<stdin>" else ".")
+        inputs += [str(world_path)] + ([args.car] if args.car else [])
+    elif args.video or args.plot:
+        raise UsageError("--video and --plot need a car: this machine uses no car states; pass --world to drive")
+    outputs.open(inputs)  # same-as-input, unwritable folders: refused here, before the run
+    try:
+        return _run(args, spec, file, clock, drive, world_path, duration, max_ticks, outputs,
+                    trace_out, summary_out, video_out, plot_out)
+    finally:
+        outputs.discard()
+
+
+def _run(args: argparse.Namespace, spec: Any, file: str, clock: Any, drive: bool, world_path: Path | None,
+         duration: float | None, max_ticks: int | None, outputs: Any, trace_out: Any, summary_out: Any,
+         video_out: Any, plot_out: Any) -> int:
+    from fsm.loader import build
+    from fsm.trace import Recorder, summary
+
+    car = None
     if drive:
         from fsm.sim.car import SimCar
         from fsm.sim.world import load_world
 
-        world_path = Path(args.world) if args.world else default_world(args.file)
+        assert world_path is not None
         world = load_world(world_path, car=args.car)
         car = SimCar(world, seed=args.seed, noise=not args.no_noise)
-    elif args.video or args.plot:
-        raise UsageError("--video and --plot need a car: this machine uses no car states; pass --world to drive")
     machine = build(spec, clock=clock, car=car)
     for name, value, at in args.signal:
         machine.schedule_signal(name, at, value)
-    duration = args.duration
-    if duration is None and args.max_ticks is None:
-        duration = DEFAULT_MAX_DURATION
 
     sim = None
     video = None
@@ -139,87 +248,94 @@ def cmd_run(args: argparse.Namespace) -> int:
         from fsm.sim.loop import Simulation
 
         sim = Simulation(machine, car)
-        if args.video:
+        if video_out is not None:
             from fsm.sim.render import VideoRecorder
 
-            video = VideoRecorder(sim, args.video, speed=args.video_speed, fps=args.fps)
+            video = VideoRecorder(sim, args.video, speed=args.video_speed, fps=args.fps, scratch=video_out.path,
+                                  fmt=video_out.suffix)
         show = args.progress if args.progress is not None else sys.stderr.isatty()
         if show and not args.quiet:
-            limit = args.duration if args.duration is not None else (
-                args.max_ticks * machine._dt if args.max_ticks is not None else None)
+            limit = duration if duration is not None else (max_ticks * machine._dt if max_ticks is not None else None)
             progress = ProgressBar(limit)
 
-    trace_file = AtomicFile(args.trace) if args.trace else None
-    out = trace_file.__enter__() if trace_file else None
-    recorder = machine.add_listener(Recorder(out, extra=_car_fields(car) if car is not None else None))
+    report = sys.stderr if outputs.to_stdout else sys.stdout  # standard output may carry an output
+    recorder = machine.add_listener(Recorder(trace_out.stream() if trace_out else None,
+                                             extra=_car_fields(car) if car is not None else None))
     error: StateRuntimeError | None = None
-    interrupted = False
-    try:
+    interrupts = Interrupts()
+    with interrupts:
+        try:
+            machine.start()
+            recorder.flush(machine)
+            if sim is not None:
+                sim.run(duration=duration, max_ticks=max_ticks, progress=progress, stop=interrupts.stop)
+            elif not interrupts.stop():
+                machine.run(max_ticks=max_ticks, duration=duration, until=lambda _m: interrupts.stop())
+        except StateRuntimeError as exc:
+            error = exc
+            recorder.flush(machine)
+        except KeyboardInterrupt:  # a second Ctrl-C while a state did not return
+            interrupts.received = interrupts.received or 2
+            recorder.flush(machine)
+        finally:
+            interrupts.writing = True
+            if progress is not None:
+                progress.done()
+        interrupted = interrupts.interrupted
+        result = summary(machine, recorder)
         if sim is not None:
-            machine.start()
-            recorder.flush(machine)
-            sim.run(duration=duration, max_ticks=args.max_ticks, progress=progress)
-        else:
-            machine.start()
-            recorder.flush(machine)
-            machine.run(max_ticks=args.max_ticks, duration=duration)
-    except StateRuntimeError as exc:
-        error = exc
-        recorder.flush(machine)
-    except KeyboardInterrupt:
-        interrupted = True
-        recorder.flush(machine)
-    finally:
-        if progress is not None:
-            progress.done()
-        if trace_file is not None:
-            trace_file.__exit__(None, None, None)
-    result = summary(machine, recorder)
-    if sim is not None:
-        result.update(sim.metrics())
-        result["world"] = str(world_path)
-        result["seed"] = args.seed
-        result["noise"] = not args.no_noise
-    if error is not None:
-        result["error"] = {"state": error.path, "phase": error.phase, "tick": error.tick, "time": error.time,
-                           "message": f"{type(error.cause).__name__}: {error.cause}"}
-    if interrupted:
-        result["interrupted"] = True
-    if video is not None:
-        video.close()
-        result["video"] = {"file": args.video, "frames": video.frames, "codec": video.codec}
-    if args.plot and sim is not None:
-        from fsm.sim.render import plot
+            result.update(sim.metrics())
+            result["world"] = str(world_path)
+            result["seed"] = args.seed
+            result["noise"] = not args.no_noise
+        if error is not None:
+            result["error"] = {"state": error.path, "phase": error.phase, "tick": error.tick, "time": error.time,
+                               "message": f"{type(error.cause).__name__}: {error.cause}"}
+        if interrupted:
+            result["interrupted"] = True
+        if video is not None:
+            video.close()
+            result["video"] = {"file": args.video, "frames": video.frames, "codec": video.codec}
+        if plot_out is not None and sim is not None:
+            from fsm.sim.render import plot_png
 
-        plot(sim, args.plot)
-    if args.summary:
-        write_atomic(args.summary, json.dumps(result, indent=2) + "\n")
+            plot_out.write(plot_png(sim))
+        if summary_out is not None:
+            summary_out.write(json.dumps(result, indent=2) + "\n")
+        outputs.commit()
     if error is not None:
         stopped = " (the car was stopped)" if car is not None else ""
-        print(f"fsmctl run: {args.file}: {error}{stopped}", file=sys.stderr)
+        print(f"fsmctl run: {file}: {error}{stopped}", file=sys.stderr)
         return EXIT_FAIL
     if not args.quiet:
         status = f"outcome {machine.outcome}" if machine.finished else "not finished"
         if interrupted:
             status += " (interrupted)"
-        print(f"{args.file}: {status} after {machine.ticks} ticks ({machine.now:.3f} s), "
-              f"{machine.transition_count} transitions")
-        print("visited: " + " -> ".join(recorder.visited))
+        print(f"{file}: {status} after {machine.ticks} ticks ({machine.now:.3f} s), "
+              f"{machine.transition_count} transitions", file=report)
+        print("visited: " + " -> ".join(recorder.visited), file=report)
         if not machine.finished:
-            print(f"active: {machine.active_path}")
+            print(f"active: {machine.active_path}", file=report)
         if sim is not None:
             m = sim.metrics()
             rms, near = m["wall_error_rms_m"], m["min_wall_distance_m"]
             print(f"car: {m['distance_m']:.2f} m, {m['collisions']} collisions, min wall distance "
                   + (f"{near:.3f} m" if near is not None else "n/a") + ", wall error on straights "
                   + (f"{rms * 100:.1f} cm RMS" if rms is not None else "n/a")
-                  + f"; {m['realtime_factor']}x real time")
+                  + f"; {m['realtime_factor']}x real time", file=report)
     if interrupted:
-        return 130
+        return EXIT_INTERRUPTED
+    failed = False
     if args.expect is not None and machine.outcome != args.expect:
         print(f"fsmctl run: expected outcome {args.expect!r}, got {machine.outcome!r}", file=sys.stderr)
-        return EXIT_FAIL
-    return EXIT_OK
+        failed = True
+    limit = args.max_collisions if args.max_collisions is not None else (0 if args.expect is not None else None)
+    if limit is not None and car is not None and car.collisions > limit:
+        why = "--max-collisions" if args.max_collisions is not None else "with --expect, unless --max-collisions says"
+        print(f"fsmctl run: the car collided {car.collisions} time{'s' * (car.collisions != 1)}, more than the "
+              f"{limit} allowed ({why})", file=sys.stderr)
+        failed = True
+    return EXIT_FAIL if failed else EXIT_OK
 
 
 def _car_fields(car: Any) -> Any:

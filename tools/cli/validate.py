@@ -4,17 +4,21 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 from pathlib import Path
+from typing import Any
 
 from fsm.errors import Problem
 
-from .common import EXIT_FAIL, EXIT_OK, registry_from
+from .common import EXIT_FAIL, EXIT_OK, input_name, read_inputs, registry_from
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("validate", help="check machine documents and world files (exit 1 if any is invalid)")
-    p.add_argument("files", nargs="+", metavar="FILE")
+    p.add_argument("files", nargs="+", metavar="FILE",
+                   help="machines (.json, .uxf), world files, or the UMLet palette (valid when it is what "
+                        "`fsmctl palette` generates); '-' reads one document from standard input")
     p.add_argument("--format", choices=("text", "json", "github"), default="text",
                    help="text (default), json, or github (GitHub Actions ::error annotations)")
     p.add_argument("--strict", action="store_true", help="treat warnings (unreachable states) as errors")
@@ -23,20 +27,17 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
-    from fsm.loader import check
-
     registry = registry_from(args)
+    pre = read_inputs(args.files)
     results = []
     for file in args.files:
-        if is_world_file(file):
-            problems = check_world(file)
-        else:
-            _spec, problems = check(file, registry=registry)
+        name = input_name(file)
+        problems = check_one(name, registry, pre)
         if args.strict:
             for p in problems:
                 p.severity = "error"
         valid = not any(p.severity == "error" for p in problems)
-        results.append((file, valid, problems))
+        results.append((name, valid, problems))
     invalid = sum(1 for _, valid, _ in results if not valid)
     if args.format == "json":
         print(json.dumps([{"file": f, "valid": v, "problems": [p.to_dict() for p in ps]} for f, v, ps in results],
@@ -59,30 +60,100 @@ def cmd_validate(args: argparse.Namespace) -> int:
     return EXIT_FAIL if invalid else EXIT_OK
 
 
-def is_world_file(file: str) -> bool:
+def check_one(name: str, registry: Any, pre: dict[str, bytes]) -> list[Problem]:
+    """Every problem of one file: a world, a palette or a machine, told apart from the bytes read once."""
+    from fsm.errors import DiagramError
+    from fsm.loader import STDIN_NAME, check, parse_json_bytes, preloaded, read_file_bytes
+
+    path = Path(name)
+    with preloaded(pre):
+        try:
+            raw = read_file_bytes(path)
+        except DiagramError as exc:
+            return exc.problems
+    diagram = path.suffix.lower() == ".uxf" or (name == STDIN_NAME and raw.lstrip(b"\xef\xbb\xbf \t\r\n")[:1] == b"<")
+    if path.suffix.lower() == ".json" or (name == STDIN_NAME and not diagram):
+        try:
+            data, source = parse_json_bytes(raw, name, path.parent)
+        except DiagramError as exc:
+            return exc.problems
+        if is_world(data):
+            return check_world(data, name, source.locator)
+        with preloaded({name: (data, source)}):
+            return check(name, registry=registry)[1]
+    if diagram:
+        palette = palette_problems(raw, name, registry)
+        if palette is not None:
+            return palette
+    with preloaded({name: raw}):
+        return check(name, registry=registry)[1]
+
+
+def is_world(data: Any) -> bool:
     """A JSON object with walls (or a world ``$schema``) and no states is a world for the simulated car."""
-    path = Path(file)
-    if path.suffix.lower() != ".json":
-        return False
-    try:
-        data = json.loads(path.read_bytes())
-    except (OSError, ValueError, RecursionError):
-        return False  # the machine check reports it
     if not isinstance(data, dict) or {"states", "initial", "root"} & data.keys():
         return False
     schema = data.get("$schema")
     return "walls" in data or (isinstance(schema, str) and schema.endswith("world.schema.json"))
 
 
-def check_world(file: str) -> list[Problem]:
+def is_world_file(file: str) -> bool:
+    """Whether ``file`` holds a world (see :func:`is_world`); unreadable files are not worlds."""
     from fsm.errors import DiagramError
-    from fsm.sim.world import load_world
+    from fsm.loader import parse_json_bytes, read_file_bytes
+
+    path = Path(file)
+    if path.suffix.lower() != ".json":
+        return False
+    try:
+        data, _source = parse_json_bytes(read_file_bytes(path), file)
+    except DiagramError:
+        return False
+    return is_world(data)
+
+
+def check_world(data: Any, name: str, locator: Any) -> list[Problem]:
+    from fsm.errors import DiagramError
+    from fsm.sim.world import parse_world
 
     try:
-        load_world(file)
+        parse_world(data, name, locator)
     except DiagramError as exc:
         return exc.problems
     return []
+
+
+_TYPE_NAME = re.compile(r'(?:"type"\s*:\s*"|^type=)([A-Za-z_][A-Za-z0-9_]*)', re.M)
+
+
+def palette_problems(raw: bytes, name: str, registry: Any) -> list[Problem] | None:
+    """``None`` unless the diagram is a palette: it holds a template of every built-in state and transition
+    type (no machine uses them all). A palette is valid when it is exactly what ``fsmctl palette`` generates."""
+    from fsm.errors import DiagramError
+
+    from ..umlet.source import parse_raw
+
+    builtin = {(kind, n) for kind, n, cls in registry if cls.__module__.startswith("fsm.")}
+    if not builtin:
+        return None
+    try:
+        diagram = parse_raw(raw, name)
+    except DiagramError:
+        return None  # the machine check reports it
+    found: set[tuple[str, str]] = set()
+    for el in diagram.elements:
+        kind = "state" if el.kind == "UMLState" else "transition" if el.kind == "Relation" else None
+        if kind is not None:
+            found.update((kind, m.group(1)) for m in _TYPE_NAME.finditer(el.text))
+    if not builtin <= found:
+        return None
+    from ..umlet.palette import palette
+
+    if raw.decode("utf-8", errors="replace") == palette(registry):
+        return []
+    return [Problem("this is a UMLet palette (a template of every type), not a machine, and it differs from what "
+                    "`fsmctl palette` generates", name, line=1, column=1,
+                    hint=f"regenerate it: fsmctl palette -o {name} (with the same --plugin options)")]
 
 
 def github_annotation(p: Problem) -> str:

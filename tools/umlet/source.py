@@ -69,15 +69,10 @@ def fail(name: str, message: str, line: int | None = None, column: int | None = 
 # -- entry ------------------------------------------------------------------------------------------------
 def read_raw(path: Path) -> RawDiagram:
     """The elements of a ``.uxf`` file (XML) or of its ``xml2json`` JSON form, whichever ``path`` holds."""
+    from fsm.loader import read_file_bytes  # regular files only, size-capped, standard input when preloaded
+
     name = str(path)
-    try:
-        raw = path.read_bytes()
-    except FileNotFoundError:
-        raise fail(name, "file not found", hint="check the path") from None
-    except IsADirectoryError:
-        raise fail(name, "is a directory, not a diagram file") from None
-    except OSError as exc:
-        raise fail(name, f"cannot read: {exc.strerror or exc}") from None
+    raw = read_file_bytes(path, "diagram")
     return parse_raw(raw, name)
 
 

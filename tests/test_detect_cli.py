@@ -134,3 +134,20 @@ def test_usage_errors(gate_png: Path, capsys: pytest.CaptureFixture[str], argv: 
 def test_output_takes_one_image(gate_png: Path, capsys: pytest.CaptureFixture[str]) -> None:
     code, _, err = run(capsys, "detect", str(gate_png), str(gate_png), "-o", str(gate_png.parent / "a.png"))
     assert code == 2 and "takes one IMAGE" in err
+
+
+def test_the_annotated_output_never_replaces_the_image_it_reads(gate_png: Path,
+                                                                capsys: pytest.CaptureFixture[str]) -> None:
+    before = gate_png.read_bytes()
+    link = gate_png.parent / "link.png"
+    link.symlink_to(gate_png)
+    for out in (gate_png, link):
+        code, _, err = run(capsys, "detect", str(gate_png), "-o", str(out))
+        assert code == 2 and "same file as the input" in err, err
+    assert gate_png.read_bytes() == before and link.is_symlink()
+
+
+def test_the_annotated_output_in_a_missing_folder_is_refused_first(gate_png: Path,
+                                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, err = run(capsys, "detect", str(gate_png), "-o", str(gate_png.parent / "no" / "a.png"))
+    assert code == 2 and out == "" and len(err.strip().splitlines()) == 1, err

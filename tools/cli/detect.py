@@ -17,7 +17,7 @@ from typing import Any
 
 from fsm.errors import DiagramError, Problem, UsageError
 
-from .common import EXIT_OK, check_writable, positive_float
+from .common import EXIT_OK, positive_float
 
 #: Largest image file we read, bytes (a photo is a few MB).
 MAX_IMAGE_BYTES = 200_000_000
@@ -51,6 +51,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", metavar="ANNOTATED.png",
                    help="write the image with the markers, their axes and the gates drawn (one IMAGE only)")
     p.set_defaults(func=cmd_detect)
+
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
 
 
 def read_image(path: str) -> Any:
@@ -90,10 +93,15 @@ def cmd_detect(args: argparse.Namespace) -> int:
         raise UsageError("-o/--output takes one IMAGE")
     if args.calibration and args.fov is not None:
         raise UsageError("--fov is for images without --calibration")
+    outputs = None
     if args.output:
-        check_writable(args.output)
-        if Path(args.output).suffix.lower() not in (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"):
+        from ..files import Outputs
+
+        if Path(args.output).suffix.lower() not in IMAGE_SUFFIXES:
             raise UsageError(f"-o: {args.output}: name an image file (.png, .jpg, ...)")
+        outputs = Outputs()
+        outputs.add(args.output, "-o", binary=True)
+        outputs.items[0].classify()  # a folder, a missing folder: refused before any work
     calibration = load_calibration(args.calibration, image_size=None) if args.calibration else None
     images: list[tuple[str, Any]] = []
     problems: list[Problem] = []
@@ -126,18 +134,22 @@ def cmd_detect(args: argparse.Namespace) -> int:
         markers = detector.detect(image)
         gates = find_gates(markers, rule)
         results.append((file, image, camera, note, markers, gates))
-    if args.output:
+    if outputs is not None:
         import cv2
 
         from fsm.vision.draw import annotate
-
-        from ..files import write_atomic
 
         file, image, camera, _note, markers, gates = results[0]
         ok, png = cv2.imencode(Path(args.output).suffix.lower(), annotate(image, markers, camera, gates))
         if not ok:  # pragma: no cover - OpenCV encodes every suffix we allow
             raise DiagramError([Problem("cannot encode the annotated image", args.output)])
-        write_atomic(args.output, png.tobytes())
+        inputs = list(args.images) + ([args.calibration] if args.calibration else [])
+        outputs.open(inputs)  # the same file as the image read: refused
+        try:
+            outputs.items[0].write(png.tobytes())
+            outputs.commit()
+        finally:
+            outputs.discard()
     if args.format == "json":
         print(json.dumps([{
             "file": file, "width": camera.width, "height": camera.height,

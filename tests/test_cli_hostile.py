@@ -228,21 +228,35 @@ def test_a_machine_is_not_taken_for_a_palette(tmp_path: Path, capsys: pytest.Cap
     for diagram in sorted((REPO / "diagrams").glob("*.uxf")) + sorted(EXAMPLES.glob("*.uxf")):
         if diagram.name == "TRAL_State-Machine.uxf":
             continue
-        from fsm.tools.cli.validate import palette_problems
+        from fsm.tools.umlet.palette import palette_problems
         from fsm.registry import default_registry
 
         assert palette_problems(diagram.read_bytes(), str(diagram), default_registry()) is None, diagram
 
 
-def test_readme_ci_snippet_works_as_written() -> None:
-    readme = (REPO / "README.md").read_text()
-    line = next(ln for ln in readme.splitlines() if "fsmctl validate --format github" in ln)
-    command = line.split("- run:", 1)[1].strip()
-    assert command == "fsmctl validate --format github diagrams/*.uxf diagrams/*.json"
+def test_ci_snippet_works_as_written() -> None:
+    """The documented GitHub Actions steps (docs/umlet.md, linked from the README) pass on this repository."""
+    page = (REPO / "docs" / "umlet.md").read_text()
+    commands = [ln.split("- run:", 1)[1].strip() for ln in page.splitlines() if ln.startswith("- run: ") and "fsmctl" in ln]
+    assert commands == ["fsmctl validate --format github diagrams/*.uxf diagrams/*.json",
+                        'for f in diagrams/*.uxf; do fsmctl convert --check "$f" || exit 1; done']
     env = dict(os.environ, PATH=str(Path(sys.executable).parent) + os.pathsep + os.environ.get("PATH", ""))
-    proc = subprocess.run(command, shell=True, cwd=REPO, env=env, capture_output=True, text=True, timeout=120)
-    assert proc.returncode == 0, proc.stdout + proc.stderr
-    assert "::error" not in proc.stdout and "Traceback" not in proc.stderr
+    for command in commands:
+        proc = subprocess.run(command, shell=True, cwd=REPO, env=env, capture_output=True, text=True, timeout=300)
+        assert proc.returncode == 0, command + "\n" + proc.stdout + proc.stderr
+        assert "::error" not in proc.stdout and "Traceback" not in proc.stderr
+
+
+def test_convert_of_the_palette_checks_it_instead(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    palette = REPO / "diagrams" / "TRAL_State-Machine.uxf"
+    code, _, err = cli(capsys, "convert", "--check", str(palette))
+    assert code == 0, err
+    stale = tmp_path / "TRAL_State-Machine.uxf"
+    stale.write_text(palette.read_text().replace("speed=", "speed_=", 1))
+    code, _, err = cli(capsys, "convert", "--check", str(stale))
+    assert code == 1 and "palette" in err and "fsmctl palette -o" in err
+    code, _, err = cli(capsys, "convert", str(palette), "-o", str(tmp_path / "p.json"))
+    assert code == 1 and "nothing to convert" in err and not (tmp_path / "p.json").exists()
 
 
 # -- --max-collisions -----------------------------------------------------------------------------------

@@ -47,6 +47,14 @@ def _convert(args: argparse.Namespace, src: Path, out: str, outputs: object) -> 
     from ..umlet.convert import convert_checked, dumps
 
     registry = registry_from(args)
+    palette = _palette_problems(src, registry)
+    if palette is not None:  # the palette is a sheet of templates: checked against the registry, never converted
+        if not args.check:
+            palette = palette or [Problem("this is the UMLet palette (a template of every type), not a machine: "
+                                          "there is nothing to convert", str(src), line=1, column=1,
+                                          hint="draw a machine with its templates and convert that diagram")]
+        report(palette, args.format)
+        return EXIT_FAIL if palette else EXIT_OK
     try:
         doc, warnings = convert_checked(src, args.machine, registry)
     except DiagramError as exc:
@@ -60,6 +68,22 @@ def _convert(args: argparse.Namespace, src: Path, out: str, outputs: object) -> 
     item.write(text)
     outputs.commit()  # type: ignore[attr-defined]
     return EXIT_OK
+
+
+def _palette_problems(src: Path, registry: object) -> list[Problem] | None:
+    """``None`` unless ``src`` is the palette; then what is wrong with it (``[]``: it is what ``fsmctl palette``
+    generates)."""
+    from fsm.loader import read_file_bytes
+
+    from ..umlet.palette import palette_problems
+
+    if src.suffix.lower() != ".uxf":
+        return None
+    try:
+        raw = read_file_bytes(src, "diagram")
+    except DiagramError:
+        return None  # convert_checked reports why it cannot be read
+    return palette_problems(raw, str(src), registry)
 
 
 def check_output(src: Path, out: str, doc: dict, fmt: str) -> int:

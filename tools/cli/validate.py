@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import re
 import sys
 from pathlib import Path
 from typing import Any
@@ -82,6 +81,8 @@ def check_one(name: str, registry: Any, pre: dict[str, bytes]) -> list[Problem]:
         with preloaded({name: (data, source)}):
             return check(name, registry=registry)[1]
     if diagram:
+        from ..umlet.palette import palette_problems
+
         palette = palette_problems(raw, name, registry)
         if palette is not None:
             return palette
@@ -121,39 +122,6 @@ def check_world(data: Any, name: str, locator: Any) -> list[Problem]:
     except DiagramError as exc:
         return exc.problems
     return []
-
-
-_TYPE_NAME = re.compile(r'(?:"type"\s*:\s*"|^type=)([A-Za-z_][A-Za-z0-9_]*)', re.M)
-
-
-def palette_problems(raw: bytes, name: str, registry: Any) -> list[Problem] | None:
-    """``None`` unless the diagram is a palette: it holds a template of every built-in state and transition
-    type (no machine uses them all). A palette is valid when it is exactly what ``fsmctl palette`` generates."""
-    from fsm.errors import DiagramError
-
-    from ..umlet.source import parse_raw
-
-    builtin = {(kind, n) for kind, n, cls in registry if cls.__module__.startswith("fsm.")}
-    if not builtin:
-        return None
-    try:
-        diagram = parse_raw(raw, name)
-    except DiagramError:
-        return None  # the machine check reports it
-    found: set[tuple[str, str]] = set()
-    for el in diagram.elements:
-        kind = "state" if el.kind == "UMLState" else "transition" if el.kind == "Relation" else None
-        if kind is not None:
-            found.update((kind, m.group(1)) for m in _TYPE_NAME.finditer(el.text))
-    if not builtin <= found:
-        return None
-    from ..umlet.palette import palette
-
-    if raw.decode("utf-8", errors="replace") == palette(registry):
-        return []
-    return [Problem("this is a UMLet palette (a template of every type), not a machine, and it differs from what "
-                    "`fsmctl palette` generates", name, line=1, column=1,
-                    hint=f"regenerate it: fsmctl palette -o {name} (with the same --plugin options)")]
 
 
 def github_annotation(p: Problem) -> str:

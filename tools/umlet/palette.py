@@ -6,7 +6,10 @@ syntax :mod:`fsm.tools.umlet.reader` reads (see :mod:`fsm.tools.umlet.writer` fo
 
 from __future__ import annotations
 
+import re
 from typing import Any
+
+from fsm.errors import Problem
 
 from . import text as T
 from .writer import diagram, element, head_height, in_json, param_lines, relation, value_text
@@ -84,3 +87,34 @@ def palette(registry: Any) -> str:
     out.append(relation([[x_trans + 10, y + 10], [x_trans + 10, y + 60]],
                         "lt=->\nevent [guard] / action\n// a UML label: a Signal transition on 'event'"))
     return diagram(out)
+
+
+_TYPE_NAME = re.compile(r'(?:"type"\s*:\s*"|^type=)([A-Za-z_][A-Za-z0-9_]*)', re.M)
+
+
+def palette_problems(raw: bytes, name: str, registry: Any) -> list[Problem] | None:
+    """``None`` unless the diagram is a palette: it holds a template of every built-in state and transition
+    type (no machine uses them all). A palette is valid when it is exactly what ``fsmctl palette`` generates."""
+    from fsm.errors import DiagramError
+
+    from .source import parse_raw
+
+    builtin = {(kind, n) for kind, n, cls in registry if cls.__module__.startswith("fsm.")}
+    if not builtin:
+        return None
+    try:
+        diagram = parse_raw(raw, name)
+    except DiagramError:
+        return None  # the machine check reports it
+    found: set[tuple[str, str]] = set()
+    for el in diagram.elements:
+        kind = "state" if el.kind == "UMLState" else "transition" if el.kind == "Relation" else None
+        if kind is not None:
+            found.update((kind, m.group(1)) for m in _TYPE_NAME.finditer(el.text))
+    if not builtin <= found:
+        return None
+    if raw.decode("utf-8", errors="replace") == palette(registry):
+        return []
+    return [Problem("this is a UMLet palette (a template of every type), not a machine, and it differs from what "
+                    "`fsmctl palette` generates", name, line=1, column=1,
+                    hint=f"regenerate it: fsmctl palette -o {name} (with the same --plugin options)")]

@@ -265,3 +265,33 @@ def test_text_width_estimate_grows_with_text_and_size():
 def test_svg_base_may_be_the_document_file_or_its_folder():
     doc = _load(EXAMPLES / "mission.json")
     assert graph.svg(doc, base=EXAMPLES / "mission.json") == graph.svg(doc, base=EXAMPLES)
+
+
+# -- big machines (issue 8, item 9; timing is in benchmarks/bench_graph.py, never here) ---------------------------
+def _overlapping_pairs(rects: list[tuple[float, float, float, float]]) -> list[tuple[int, int]]:
+    """Pairs of rectangles that overlap, by a sweep along x (all pairs would take too long here)."""
+    order = sorted(range(len(rects)), key=lambda i: rects[i][0])
+    out, active = [], []
+    for i in order:
+        active = [j for j in active if rects[j][0] + rects[j][2] > rects[i][0] + 0.01]
+        out += [(j, i) for j in active if _overlap(rects[i], rects[j])]
+        active.append(i)
+    return out
+
+
+@pytest.mark.parametrize("stored", [False, True], ids=["layered", "stored-grid"])
+def test_a_machine_of_2000_states_is_drawn_with_every_label_clear_of_boxes_and_labels(stored):
+    n = 2000
+    doc = {"name": "big", "initial": "s0", "states": [{"id": f"s{i}", "type": "Idle"} for i in range(n)],
+           "transitions": [{"type": "Timeout", "from": f"s{i}", "to": f"s{(i + 1) % n}", "seconds": 0.5}
+                           for i in range(n)]}
+    if stored:
+        for i, st in enumerate(doc["states"]):
+            st["layout"] = {"x": 20 + (i % 45) * 200, "y": 80 + (i // 45) * 120, "w": 120, "h": 40}
+    root = ElementTree.fromstring(graph.svg(doc))
+    boxes = [box for _cls, box, _ in _nodes(root).values()]
+    labels = [_rect(r) for r in root.iter(NS + "rect") if r.get("class") == "label"]
+    assert len(boxes) == n and len(labels) == n
+    assert _overlapping_pairs(labels) == []
+    crossing = [(a, b) for a, b in _overlapping_pairs(boxes + labels) if a < n <= b or b < n <= a]
+    assert crossing == []

@@ -7,11 +7,13 @@ each other.
 
 from __future__ import annotations
 
+import functools
 import math
 from pathlib import Path
 from typing import Any
 from xml.sax.saxutils import escape, quoteattr
 
+from .buckets import Buckets
 from .includes import expander
 from .labels import (BOX_MARGIN, FINAL_ICON, FONT, LABEL_FONT, MIN_FONT, SMALL_FONT, edge_label, final_text, fit,
                      state_label, text_width)
@@ -55,6 +57,7 @@ def svg(doc: dict[str, Any], base: str | Path | None = None) -> str:
                     label_width=lambda tr: text_width(edge_label(tr), LABEL_FONT) + 4, drawing=True)
     scene = _Scene()
     scene.collect(level, None, ())
+    scene.index()
     labels = _place_labels(scene)
     x0, y0, x1, y1 = level.bbox(labels=False)
     for rx, ry, rw, rh in [r for _, r, _ in labels] + scene.outside:
@@ -81,6 +84,8 @@ def svg(doc: dict[str, Any], base: str | Path | None = None) -> str:
 
 # -- edge labels -----------------------------------------------------------------------------------------------
 Rect = tuple[float, float, float, float]
+#: An arrow's segment, the id of its arrow (0: the initial marker's) and its bounding box.
+Segment = tuple[tuple[float, float, float, float], int, float, float, float, float]
 
 
 def _small_final(n: Node) -> bool:
@@ -89,14 +94,19 @@ def _small_final(n: Node) -> bool:
 
 
 class _Scene:
-    """Everything a label must keep clear of, and every arrow with the box it belongs in."""
+    """Everything a label must keep clear of, and every arrow with the box it belongs in.
+
+    Boxes, composites and arrow segments are kept in one grid (:class:`~fsm.tools.graph.buckets.Buckets`,
+    numbered in that order), so a label's candidate place is checked against what lies near it only.
+    """
 
     def __init__(self) -> None:
         self.boxes: list[Rect] = []  # state boxes, title bands, markers, texts beside small finals
         self.composites: list[tuple[Node, Rect]] = []
         self.edges: list[tuple[Edge, Rect | None, tuple[int, ...]]] = []
-        self.segments: list[tuple[tuple[float, float, float, float], int]] = []  # (segment, id of its arrow)
+        self.segments: list[Segment] = []
         self.outside: list[Rect] = []  # texts drawn outside any box (for the picture's size)
+        self.grid = Buckets()
 
     def collect(self, level: LevelLayout, container: Rect | None, ancestors: tuple[int, ...]) -> None:
         for n in level.nodes:
@@ -124,7 +134,16 @@ class _Scene:
 
     def _polyline(self, pts: list[list[float]], owner: int) -> None:
         for (ax, ay), (bx, by) in zip(pts, pts[1:]):
-            self.segments.append(((ax, ay, bx, by), owner))
+            self.segments.append(((ax, ay, bx, by), owner, min(ax, bx), min(ay, by), max(ax, bx), max(ay, by)))
+
+    def index(self) -> None:
+        """Put everything collected into the grid: boxes, then composites, then segments."""
+        for r in self.boxes:
+            self.grid.add_rect(*r)
+        for _n, r in self.composites:
+            self.grid.add_rect(*r)
+        for (ax, ay, bx, by), *_ in self.segments:
+            self.grid.add_segment(ax, ay, bx, by)
 
 
 def _area(a: Rect, b: Rect) -> float:
@@ -200,94 +219,171 @@ def _label_shapes(text: str) -> list[tuple[list[str], float, float, float]]:
     return out
 
 
+#: The rings of candidate places: first those near the arrow (-1: on it), then further out.
+_RINGS = ((-1, 0, 1, 2, 3), tuple(range(4, 12)))
+#: A candidate place: what it costs before looking at the drawing, its number in the order the places are
+#: listed (the first of equally good places wins), its ring, which ``_ALONG`` point, which label shape, which side.
+Candidate = tuple[float, int, int, int, int, int]
+
+
+@functools.lru_cache(maxsize=None)
+def _candidates(worse: tuple[float, ...]) -> tuple[tuple[Candidate, ...], ...]:
+    """For each group of rings, every candidate place for a label with shapes as much ``worse`` than the best,
+    cheapest first: searched in this order, a label rarely has to look at more than a few places."""
+    groups = []
+    idx = 0
+    for rings in _RINGS:
+        group = []
+        for ring in rings:
+            for ti, t in enumerate(_ALONG):
+                for si, bad in enumerate(worse):
+                    for side in ((1,) if ring < 0 else (1, -1)):
+                        group.append((abs(t - 0.5) * 120 + max(ring, 0) * 250 + (0 if side == 1 else 15) + bad, idx,
+                                      ring, ti, si, side))
+                        idx += 1
+        groups.append(tuple(sorted(group)))
+    return tuple(groups)
+
+
 def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
     """A rectangle for every arrow's label, beside its arrow, clear of boxes and other labels where possible.
 
     Greedy, in document order: each label takes the cheapest of a set of candidate places along its arrow, on
-    either side of it and on it, in one line or two (further out only when the near places are all taken).
+    either side of it and on it, in one line or two (further out only when the near places are all taken); of
+    equally cheap places, the first in the order ring, point along the arrow, shape, side.
     """
-    placed: list[Rect] = []
+    placed = _Placed()
     out: list[tuple[Edge, Rect, list[str]]] = []
     for e, container, ancestors in scene.edges:
         text = edge_label(e.doc)
         if not text or len(e.points) < 2:
             continue
         shapes = _label_shapes(text)
-        reach = max(w for _, w, _, _ in shapes) + 12 * (2 * LINE_H + 2)
-        xs, ys = [p[0] for p in e.points], [p[1] for p in e.points]
-        near = (min(xs) - reach, min(ys) - reach, max(xs) - min(xs) + 2 * reach, max(ys) - min(ys) + 2 * reach)
-        obstacles = [r for r in scene.boxes if _area(r, near)]
-        obstacles += [r for n, r in scene.composites if id(n) not in ancestors and _area(r, near)]
-        segments = [(sg, owner == id(e), min(sg[0], sg[2]), min(sg[1], sg[3]), max(sg[0], sg[2]), max(sg[1], sg[3]))
-                    for sg, owner in scene.segments]
-        segments = [sg for sg in segments if _area((sg[2] - 1, sg[3] - 1, sg[4] - sg[2] + 2, sg[5] - sg[3] + 2), near)]
-        labels = [r for r in placed if _area(r, near)]
+        near = _Near(scene, placed, container, ancestors, id(e))
         length = sum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in zip(e.points, e.points[1:]))
-        best: tuple[float, Rect, list[str]] | None = None
-        for rings in ((-1, 0, 1, 2, 3), tuple(range(4, 12))):
-            for ring in rings:
-                for t in _ALONG:
-                    px, py, dx, dy = _point_at(e.points, t * length)
-                    nx, ny = dy, -dx  # right of a downward arrow, above a rightward one
-                    if nx < 0 or (nx == 0 and ny > 0):
-                        nx, ny = -nx, -ny
-                    for lines, w, h, worse in shapes:
-                        for side in ((1,) if ring < 0 else (1, -1)):
-                            sx, sy = nx * side, ny * side
-                            d = 0.0 if ring < 0 else 4 + abs(sx) * w / 2 + abs(sy) * h / 2 + ring * (LINE_H + 2) * 0.75
-                            cx, cy = px + sx * d, py + sy * d
-                            r = (round(cx - w / 2, 1), round(cy - h / 2, 1), w, h)
-                            cost = abs(t - 0.5) * 120 + max(ring, 0) * 250 + (0 if side == 1 else 15) + worse
-                            limit = math.inf if best is None else best[0]
-                            if cost >= limit:
-                                continue
-                            cost += _cost(r, (px, py), labels, obstacles, container, segments, limit - cost)
-                            if cost < limit:
-                                best = (cost, r, lines)
-            if best is not None and best[0] < 1e5:
+        anchors = []
+        for t in _ALONG:
+            px, py, dx, dy = _point_at(e.points, t * length)
+            nx, ny = dy, -dx  # right of a downward arrow, above a rightward one
+            if nx < 0 or (nx == 0 and ny > 0):
+                nx, ny = -nx, -ny
+            anchors.append((px, py, nx, ny))
+        own = [(a[0], a[1], b[0], b[1]) for a, b in zip(e.points, e.points[1:])]
+        best_cost, best_idx = math.inf, -1
+        best_r: Rect | None = None
+        best_lines: list[str] = []
+        for group in _candidates(tuple(worse for *_, worse in shapes)):
+            for base, idx, ring, ti, si, side in group:
+                if base > best_cost or base == best_cost and idx > best_idx:
+                    break  # this place and all after it cost at least as much as the best one
+                px, py, nx, ny = anchors[ti]
+                lines, w, h, _ = shapes[si]
+                sx, sy = nx * side, ny * side
+                d = 0.0 if ring < 0 else 4 + abs(sx) * w / 2 + abs(sy) * h / 2 + ring * (LINE_H + 2) * 0.75
+                cx, cy = px + sx * d, py + sy * d
+                r = (round(cx - w / 2, 1), round(cy - h / 2, 1), w, h)
+                if ring < 0:  # on its own arrow, which costs 600 more: no better than the best one?
+                    low = base + 600
+                    if (low > best_cost or low == best_cost and idx > best_idx) and any(_hits(sg, r) for sg in own):
+                        continue
+                limit = best_cost - base
+                if idx < best_idx:  # as good as the best one would do: it comes first
+                    limit = math.nextafter(limit, math.inf)
+                cost = base + near.cost(r, (px, py), limit)
+                if cost < best_cost or cost == best_cost and idx < best_idx:
+                    best_cost, best_idx, best_r, best_lines = cost, idx, r, lines
+            if best_cost < 1e5:
                 break
-        assert best is not None
-        placed.append(best[1])
-        out.append((e, best[1], best[2]))
+        assert best_r is not None
+        placed.add(best_r)
+        out.append((e, best_r, best_lines))
     return out
 
 
-Segment = tuple[tuple[float, float, float, float], bool, float, float, float, float]  # segment, own, its bbox
+class _Placed:
+    """The labels placed so far, in a grid."""
+
+    def __init__(self) -> None:
+        self.rects: list[Rect] = []
+        self.grid = Buckets()
+
+    def add(self, r: Rect) -> None:
+        self.rects.append(r)
+        self.grid.add_rect(*r)
 
 
-def _cost(r: Rect, anchor: tuple[float, float], placed: list[Rect], obstacles: list[Rect], container: Rect | None,
-          segments: list[Segment], limit: float) -> float:
-    """How bad a place ``r`` for a label is; stops counting once it is worse than ``limit``."""
-    x0, y0, x1, y1 = r[0] - 2, r[1] - 2, r[0] + r[2] + 2, r[1] + r[3] + 2  # with a little air around it
-    cost = 0.0
-    for ox, oy, ow, oh in placed:
-        w, h = min(x1, ox + ow) - max(x0, ox), min(y1, oy + oh) - max(y0, oy)
-        if w > 0 and h > 0:
-            cost += 1e6 + w * h * 100
-    for ox, oy, ow, oh in obstacles:
-        w, h = min(x1, ox + ow) - max(x0, ox), min(y1, oy + oh) - max(y0, oy)
-        if w > 0 and h > 0:
-            cost += 1e5 + w * h * 10
-    if container is not None:
-        inner = (container[0] + 2, container[1] + 2, container[2] - 4, container[3] - 4)
-        outside = r[2] * r[3] - _area(r, inner)
-        if outside > 0.01:
-            cost += 1e5 + outside * 10
-    if cost >= limit:
-        return cost
-    cx = max(r[0], min(anchor[0], r[0] + r[2]))  # the label's point nearest to its arrow
-    cy = max(r[1], min(anchor[1], r[1] + r[3]))
-    leader = (anchor[0], anchor[1], cx, cy)
-    lx0, ly0, lx1, ly1 = min(anchor[0], cx), min(anchor[1], cy), max(anchor[0], cx), max(anchor[1], cy)
-    rx1, ry1 = r[0] + r[2], r[1] + r[3]
-    for seg, own, sx0, sy0, sx1, sy1 in segments:
-        if not (sx1 < r[0] or sx0 > rx1 or sy1 < r[1] or sy0 > ry1) and _hits(seg, r):
-            cost += 600 if own else 3000
-        elif not own and not (sx1 < lx0 or sx0 > lx1 or sy1 < ly0 or sy0 > ly1) and _crosses(leader, seg):
-            cost += 3000  # another arrow runs between this label and its arrow
+class _Near:
+    """What one arrow's label must keep clear of: boxes, composites it is not inside of, other labels and arrows."""
+
+    def __init__(self, scene: _Scene, placed: _Placed, container: Rect | None, ancestors: tuple[int, ...],
+                 owner: int) -> None:
+        self.scene, self.placed, self.container, self.ancestors, self.owner = \
+            scene, placed, container, ancestors, owner
+        self.inner = None if container is None else \
+            (container[0] + 2, container[1] + 2, container[2] - 4, container[3] - 4)
+
+    def cost(self, r: Rect, anchor: tuple[float, float], limit: float) -> float:
+        """How bad a place ``r`` for a label is; stops counting once it is worse than ``limit``."""
+        scene = self.scene
+        rx, ry, rw, rh = r
+        rx1, ry1 = rx + rw, ry + rh
+        x0, y0, x1, y1 = rx - 2, ry - 2, rx1 + 2, ry1 + 2  # with a little air around it
+        cost = 0.0
+        placed = self.placed.rects
+        for i in self.placed.grid.near(x0, y0, x1, y1):
+            ox, oy, ow, oh = placed[i]
+            ox1, oy1 = ox + ow, oy + oh
+            w = (x1 if x1 < ox1 else ox1) - (x0 if x0 > ox else ox)
+            h = (y1 if y1 < oy1 else oy1) - (y0 if y0 > oy else oy)
+            if w > 0 and h > 0:
+                cost += 1e6 + w * h * 100
         if cost >= limit:
-            break
-    return cost
+            return cost
+        ax, ay = anchor
+        # one look into the grid for the boxes (near the place) and the segments (between the place and its arrow)
+        found = scene.grid.near(x0 if x0 < ax else ax, y0 if y0 < ay else ay, x1 if x1 > ax else ax,
+                                y1 if y1 > ay else ay)
+        boxes, composites = scene.boxes, scene.composites
+        n_boxes = len(boxes)
+        n_obstacles = n_boxes + len(composites)
+        k = 0
+        for i in found:
+            if i >= n_obstacles:
+                break
+            k += 1
+            if i < n_boxes:
+                ox, oy, ow, oh = boxes[i]
+            else:
+                n, (ox, oy, ow, oh) = composites[i - n_boxes]
+                if id(n) in self.ancestors:
+                    continue
+            ox1, oy1 = ox + ow, oy + oh
+            w = (x1 if x1 < ox1 else ox1) - (x0 if x0 > ox else ox)
+            h = (y1 if y1 < oy1 else oy1) - (y0 if y0 > oy else oy)
+            if w > 0 and h > 0:
+                cost += 1e5 + w * h * 10
+        if self.inner is not None:
+            outside = rw * rh - _area(r, self.inner)
+            if outside > 0.01:
+                cost += 1e5 + outside * 10
+        if cost >= limit:
+            return cost
+        cx = rx if ax < rx else rx1 if ax > rx1 else ax  # the label's point nearest to its arrow
+        cy = ry if ay < ry else ry1 if ay > ry1 else ay
+        leader = (ax, ay, cx, cy)
+        lx0, lx1 = (ax, cx) if ax <= cx else (cx, ax)
+        ly0, ly1 = (ay, cy) if ay <= cy else (cy, ay)
+        segments = scene.segments
+        owner = self.owner
+        for j in range(k, len(found)):
+            seg, of, sx0, sy0, sx1, sy1 = segments[found[j] - n_obstacles]
+            if not (sx1 < rx or sx0 > rx1 or sy1 < ry or sy0 > ry1) and _hits(seg, r):
+                cost += 600 if of == owner else 3000
+            elif of != owner and not (sx1 < lx0 or sx0 > lx1 or sy1 < ly0 or sy0 > ly1) and _crosses(leader, seg):
+                cost += 3000  # another arrow runs between this label and its arrow
+            if cost >= limit:
+                break
+        return cost
 
 
 # -- drawing ---------------------------------------------------------------------------------------------------

@@ -404,12 +404,16 @@ def _place(level: LevelLayout, by_id: dict[str, Node], label_width: Callable[[di
             rows.setdefault(depth.get(n.id, last), []).append(n)
         y = top
         left = min((n.x for n in placed), default=0.0)
+        into: dict[str, list[dict[str, Any]]] = {}  # the arrows into each state, for the room their labels need
+        if label_width is not None:
+            for tr in _items(level.machine, "transitions"):
+                if isinstance(tr, dict) and str(tr.get("from")) in by_id:
+                    into.setdefault(str(tr.get("to")), []).append(tr)
         for i, r in enumerate(sorted(rows)):
             gap_x = GAP_X
             if label_width is not None:
-                into = [tr for tr in _items(level.machine, "transitions") if isinstance(tr, dict)
-                        and any(str(tr.get("to")) == n.id for n in rows[r]) and str(tr.get("from")) in by_id]
-                widths = [label_width(tr) for tr in into]
+                ids = dict.fromkeys(n.id for n in rows[r])
+                widths = [label_width(tr) for sid in ids for tr in into.get(sid, [])]
                 gap_x = max(GAP_X, _snap(max(widths, default=0) + 20))
                 if i:
                     y += max(0, len(widths) - 1) * 16

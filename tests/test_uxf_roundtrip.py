@@ -20,7 +20,8 @@ from fsm.tools.umlet.writer import export
 
 ROOT = Path(__file__).resolve().parents[1]
 DIAGRAMS = ROOT / "diagrams"
-EXAMPLES = sorted(DIAGRAMS.glob("*.json")) + sorted((DIAGRAMS / "examples").glob("*.json"))
+EXAMPLES = [p for p in sorted(DIAGRAMS.glob("*.json")) + sorted((DIAGRAMS / "examples").glob("*.json"))
+            if not p.name.endswith(".scenario.json")]  # scenarios are not machines
 FILES = sorted(CORPUS.glob("*.uxf")) if CORPUS.is_dir() else []
 REGISTRY = default_registry()
 

@@ -31,7 +31,8 @@ from fsm.tools.umlet.writer import diagram, element, export, relation
 
 ROOT = Path(__file__).resolve().parents[1]
 DIAGRAMS = sorted((ROOT / "diagrams").glob("*.uxf")) + sorted((ROOT / "diagrams" / "examples").glob("*.uxf"))
-EXAMPLES = sorted((ROOT / "diagrams").glob("*.json")) + sorted((ROOT / "diagrams" / "examples").glob("*.json"))
+EXAMPLES = [p for p in sorted((ROOT / "diagrams").glob("*.json")) + sorted((ROOT / "diagrams" / "examples").glob("*.json"))
+            if not p.name.endswith(".scenario.json")]  # scenarios are not machines
 REGISTRY = default_registry()
 
 _BASE = {"bg", "transparency", "fg", "layer", "lw", "group", "link", "page"}

@@ -78,6 +78,8 @@ def check_one(name: str, registry: Any, pre: dict[str, bytes]) -> list[Problem]:
             return exc.problems
         if is_world(data):
             return check_world(data, name, source.locator)
+        if is_scenario(data):
+            return check_scenario(name, registry, pre)
         with preloaded({name: (data, source)}):
             return check(name, registry=registry)[1]
     if diagram:
@@ -96,6 +98,28 @@ def is_world(data: Any) -> bool:
         return False
     schema = data.get("$schema")
     return "walls" in data or (isinstance(schema, str) and schema.endswith("world.schema.json"))
+
+
+def is_scenario(data: Any) -> bool:
+    """A JSON object with ``expect`` (or a scenario ``$schema``) and no states is a scenario for ``fsmctl test``."""
+    if not isinstance(data, dict) or {"states", "initial", "root"} & data.keys():
+        return False
+    schema = data.get("$schema")
+    return "expect" in data or (isinstance(schema, str) and schema.endswith("scenario.schema.json"))
+
+
+def check_scenario(name: str, registry: Any, pre: dict[str, bytes]) -> list[Problem]:
+    from fsm.errors import DiagramError
+    from fsm.loader import preloaded
+
+    from ..scenario.model import load_scenario
+
+    try:
+        with preloaded(pre):
+            loaded = load_scenario(name)
+    except DiagramError as exc:
+        return exc.problems
+    return loaded.warnings
 
 
 def is_world_file(file: str) -> bool:

@@ -1,0 +1,637 @@
+"""The scenario document: pydantic models (the committed ``fsm/schema/scenario.schema.json`` is generated from
+them), and reading a scenario file with every problem located (file:line:column and JSON pointer) at once.
+
+A scenario names a machine (and optionally a world to drive the simulated car in), a timeline of inputs and a
+list of expectations. Shape errors come from the models; the checks that need more (a bounce longer than its
+press, a state name the machine does not have, a time after the end of the run) follow in :func:`load_scenario`.
+"""
+
+from __future__ import annotations
+
+import difflib
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Annotated, Any, Union
+
+from pydantic import Discriminator, Field, Tag, ValidationError
+
+from fsm.errors import DiagramError, Problem
+from fsm.jsonpos import pointer
+from fsm.params import Int, ParamsBase
+
+#: Runs longer than this many ticks are refused (the limit of ``fsmctl run`` without ``--max-ticks``).
+MAX_TICKS = 10_000_000
+#: Length of a run whose scenario gives neither ``duration`` nor ``max_ticks`` (as ``fsmctl run``), seconds.
+DEFAULT_DURATION = 600.0
+#: Default tick period (the TRAL car's 80 Hz), as the core's simulated clock.
+DEFAULT_DT = 0.0125
+#: Tolerance when comparing simulated times (ticks happen at exact multiples of ``dt``; floats do not).
+EPS = 1e-9
+
+Value = Union[bool, int, float, str]  # noqa: UP007 - pydantic's strict union: true stays a bool, 1 an int
+
+
+class ScenarioModel(ParamsBase):
+    """Strict like machine documents: unknown keys, null, strings for numbers, NaN and infinity are errors."""
+
+
+# -- inputs --------------------------------------------------------------------------------------------
+class SignalInput(ScenarioModel):
+    """A signal at a time: a pulse (high, then low again after ``width``) or, with ``value``, a level."""
+
+    at: float = Field(ge=0, description="Simulated time in seconds.")
+    signal: str = Field(min_length=1, description="Name of the input signal.")
+    value: bool | None = Field(default=None, description="Set the signal to this level and leave it there "
+                                                         "(instead of a pulse).")
+    width: float | None = Field(default=None, gt=0, description="How long a pulse stays high, seconds "
+                                                                "(default: one tick, dt).")
+
+
+class Bounce(ScenarioModel):
+    """Contact bounce of a button: after the first contact it opens and closes again ``count`` times, each level
+    change ``interval`` seconds after the previous one, before it settles; the same on release."""
+
+    count: Int = Field(ge=1, le=1000, description="How many times the contact bounces (opens and closes again).")
+    interval: float = Field(gt=0, description="Seconds between two level changes while bouncing.")
+
+
+class PressInput(ScenarioModel):
+    """A button press: high at ``at``, low again ``duration`` seconds later, with optional contact bounce."""
+
+    at: float = Field(ge=0, description="Simulated time of the first contact, seconds.")
+    press: str = Field(min_length=1, description="Name of the button's signal.")
+    duration: float = Field(default=0.2, gt=0, description="Seconds from the first contact to the release.")
+    bounce: Bounce | None = Field(default=None, description="Contact bounce on press and on release.")
+
+
+class SetInput(ScenarioModel):
+    """Blackboard variables set at a time (before the tick at or after it)."""
+
+    at: float = Field(ge=0, description="Simulated time in seconds.")
+    set: dict[str, Value] = Field(min_length=1, description="Variable names and their new values.")
+
+
+def _input_kind(value: Any) -> str | None:
+    if isinstance(value, dict):
+        for key in ("signal", "press", "set"):
+            if key in value:
+                return f"<{key}>"
+    return None
+
+
+Input = Annotated[
+    Union[Annotated[SignalInput, Tag("<signal>")], Annotated[PressInput, Tag("<press>")],  # noqa: UP007
+          Annotated[SetInput, Tag("<set>")]],
+    Discriminator(_input_kind, custom_error_type="input_kind",
+                  custom_error_message="an input is an object with 'signal', 'press' or 'set' (and 'at')"),
+]
+
+
+# -- expectations --------------------------------------------------------------------------------------
+class OutcomeExpect(ScenarioModel):
+    """The machine finishes with this outcome (within the run's limits)."""
+
+    outcome: str = Field(min_length=1, description="Expected outcome of the top-level Final state.")
+
+
+class FinishedExpect(ScenarioModel):
+    """The machine has (``true``) or has not (``false``) finished when the run ends."""
+
+    finished: bool = Field(description="Whether the machine reached a top-level Final state.")
+
+
+class VisitsExpect(ScenarioModel):
+    """These states are entered in this order (other states may be entered in between)."""
+
+    visits: list[Annotated[str, Field(min_length=1)]] = Field(
+        min_length=1, description="State ids or paths ('grip/closing' matches 'run/work/grip/closing').")
+
+
+class NeverExpect(ScenarioModel):
+    """None of these states is ever entered."""
+
+    never: list[Annotated[str, Field(min_length=1)]] = Field(min_length=1, description="State ids or paths.")
+
+
+class AtExpect(ScenarioModel):
+    """At the first tick at or after ``at``: these states are active and these variables have these values."""
+
+    at: float = Field(ge=0, description="Simulated time in seconds.")
+    active: str | list[Annotated[str, Field(min_length=1)]] | None = Field(
+        default=None, description="A state path (or a list of them) that is active: an active leaf's path equals it "
+                                  "or starts with it and '/'.")
+    vars: dict[str, Value] | None = Field(default=None, description="Blackboard variables and their expected values.")
+
+
+class TransitionCount(ScenarioModel):
+    """Bounds on the number of transitions fired in the whole run (all levels; initial entries not counted)."""
+
+    count: Int | None = Field(default=None, ge=0, description="Exactly this many.")
+    min: Int | None = Field(default=None, ge=0, description="At least this many.")
+    max: Int | None = Field(default=None, ge=0, description="At most this many.")
+
+
+class TransitionsExpect(ScenarioModel):
+    """How many transitions fire during the run."""
+
+    transitions: TransitionCount
+
+
+_EXPECT_KEYS = ("outcome", "finished", "visits", "never", "transitions", "at")
+
+
+def _expect_kind(value: Any) -> str | None:
+    if isinstance(value, dict):
+        for key in _EXPECT_KEYS:
+            if key in value:
+                return f"<{key}>"
+    return None
+
+
+Expectation = Annotated[
+    Union[Annotated[OutcomeExpect, Tag("<outcome>")], Annotated[FinishedExpect, Tag("<finished>")],  # noqa: UP007
+          Annotated[VisitsExpect, Tag("<visits>")], Annotated[NeverExpect, Tag("<never>")],
+          Annotated[TransitionsExpect, Tag("<transitions>")], Annotated[AtExpect, Tag("<at>")]],
+    Discriminator(_expect_kind, custom_error_type="expect_kind",
+                  custom_error_message="an expectation is an object with one of 'outcome', 'finished', 'visits', "
+                                       "'never', 'transitions', or 'at' (with 'active' and/or 'vars')"),
+]
+
+_MODELS: dict[str, type[ScenarioModel]] = {
+    "<signal>": SignalInput, "<press>": PressInput, "<set>": SetInput, "<outcome>": OutcomeExpect,
+    "<finished>": FinishedExpect, "<visits>": VisitsExpect, "<never>": NeverExpect,
+    "<transitions>": TransitionsExpect, "<at>": AtExpect,
+}
+
+
+class Scenario(ScenarioModel):
+    """A scenario test: a machine, a timeline of inputs and what the run must show."""
+
+    schema_: str | None = Field(default=None, alias="$schema", description="JSON Schema for editors.")
+    name: str | None = Field(default=None, min_length=1, description="Name in reports (default: the file's name).")
+    description: str | None = Field(default=None, description="Free text for people.")
+    machine: str = Field(min_length=1, description="The machine (.json or .uxf), relative to this file.")
+    world: str | None = Field(default=None, min_length=1,
+                              description="A world file, relative to this file: the machine drives the simulated "
+                                          "car in it (as `fsmctl run --world`).")
+    seed: Int = Field(default=0, ge=0, le=2**63 - 1, description="Seed of the car's sensor noise.")
+    noise: bool = Field(default=True, description="Ultrasonic noise of the simulated car on or off.")
+    plugins: list[Annotated[str, Field(min_length=1)]] = Field(
+        default_factory=list, description="Modules (or .py files relative to this file) registering types.")
+    dt: float | None = Field(default=None, gt=0, description="Tick period in seconds (default 0.0125, 80 Hz).")
+    duration: float | None = Field(default=None, gt=0,
+                                   description="Stop after this much simulated time (default 600 s without "
+                                               "max_ticks).")
+    max_ticks: Int | None = Field(default=None, gt=0, description="Stop after this many ticks.")
+    inputs: list[Input] = Field(default_factory=list, description="The timeline of inputs.")
+    expect: list[Expectation] = Field(min_length=1, description="What the run must show; all are checked.")
+
+
+# -- the schema ------------------------------------------------------------------------------------------
+SCENARIO_SCHEMA_PATH = Path(__file__).resolve().parents[2] / "fsm" / "schema" / "scenario.schema.json"
+
+
+def scenario_schema() -> dict[str, Any]:
+    """The JSON Schema of scenario files (committed as ``fsm/schema/scenario.schema.json``)."""
+    from fsm.document import model_json_schema
+
+    schema = model_json_schema(Scenario)
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "$id": "https://tral-fsm.invalid/scenario.schema.json",
+        "title": "tral-fsm scenario",
+        "description": "A scenario test for `fsmctl test`; generated from fsm.tools.scenario.model by "
+                       "`python -m fsm.tools.scenario --schema`.",
+        **{k: v for k, v in schema.items() if k not in ("title", "description")},
+    }
+
+
+def scenario_schema_text() -> str:
+    return json.dumps(scenario_schema(), indent=2, ensure_ascii=False) + "\n"
+
+
+# -- reading a scenario ----------------------------------------------------------------------------------
+@dataclass
+class LoadedScenario:
+    """A checked scenario with everything a run needs: the checked machine, the world, the tick period."""
+
+    file: str
+    scenario: Scenario
+    spec: Any
+    registry: Any
+    dt: float
+    end_tick: int
+    world_path: Path | None
+    machine_files: list[str] = field(default_factory=list)
+    #: JSON pointer -> (line, column) of every input and expectation (for messages).
+    positions: dict[str, tuple[int, int]] = field(default_factory=dict)
+    state_paths: list[str] = field(default_factory=list)
+    #: Problems that do not stop the run (a signal the machine does not read).
+    warnings: list[Problem] = field(default_factory=list)
+
+    @property
+    def name(self) -> str:
+        if self.scenario.name:
+            return self.scenario.name
+        base = Path(self.file).name
+        for suffix in (".scenario.json", ".json"):
+            if base.endswith(suffix):
+                return base[: -len(suffix)] or base
+        return base
+
+    def where(self, ptr: str) -> str:
+        """``file:line:column`` of the element at ``ptr``."""
+        pos = self.positions.get(ptr)
+        return f"{self.file}:{pos[0]}:{pos[1]}" if pos else self.file
+
+    @property
+    def inputs_files(self) -> list[str]:
+        """Every file the run reads (for output checks): the scenario, the machine and its includes, the world."""
+        return [self.file, *self.machine_files] + ([str(self.world_path)] if self.world_path else [])
+
+
+def load_scenario(file: str | Path, plugins: tuple[str, ...] = ()) -> LoadedScenario:
+    """Read and check a scenario and its machine (and world); raises :class:`DiagramError` with every problem.
+
+    ``plugins`` (from ``fsmctl --plugin``) are loaded besides the scenario's own.
+    """
+    from fsm.loader import parse_json_bytes, place, read_file_bytes
+
+    name = str(file)
+    path = Path(file)
+    raw = read_file_bytes(path, "scenario")
+    repeated: list[Problem] = []
+    if not raw.strip():
+        raise DiagramError([Problem("file is empty; a scenario is a JSON object", name, line=1, column=1,
+                                    hint='{"machine": "m.json", "expect": [{"outcome": "succeeded"}]}')])
+    data, source = parse_json_bytes(raw, name, path.parent, duplicates=repeated)
+    problems = list(repeated)
+    scenario: Scenario | None = None
+    if not isinstance(data, dict):
+        kind = "array" if isinstance(data, list) else type(data).__name__
+        problems.append(Problem(f"a scenario must be a JSON object, got {kind}", name,
+                                hint='{"machine": "m.json", "expect": [{"outcome": "succeeded"}]}'))
+    else:
+        try:
+            scenario = Scenario.model_validate(data)
+        except ValidationError as err:
+            problems += problems_from_errors(err, data, name)
+            problems += _partial_problems(data, path, name)
+    loaded: LoadedScenario | None = None
+    if scenario is not None:
+        problems += timeline_problems(scenario, name)
+        if not problems:
+            loaded, more = _load_machine(scenario, path, name, plugins)
+            problems += more
+        elif not (path.parent / scenario.machine).is_file():
+            problems.append(_missing_machine(path.parent / scenario.machine, name))
+    if problems:
+        errors = [p for p in problems if p.severity == "error"]
+        place([p for p in problems if p.file == name], source.locator)
+        if errors:
+            raise DiagramError(sorted(problems, key=lambda p: (p.file != name, p.file or "", p.line or 0,
+                                                               p.column or 0)))
+    assert loaded is not None
+    loaded.positions = source.locator(_element_pointers(loaded.scenario))
+    loaded.warnings = [p for p in problems if p.severity != "error"]
+    return loaded
+
+
+def _element_pointers(scenario: Scenario) -> set[str]:
+    return ({pointer("inputs", i) for i in range(len(scenario.inputs))}
+            | {pointer("expect", i) for i in range(len(scenario.expect))} | {"/machine"})
+
+
+# -- shape problems --------------------------------------------------------------------------------------
+def _existing_prefix(data: Any, loc: list[Any]) -> list[Any]:
+    """The longest prefix of ``loc`` that is a path into ``data`` (pydantic appends union branch names)."""
+    out: list[Any] = []
+    node = data
+    for token in loc:
+        if isinstance(node, dict) and isinstance(token, str) and token in node:
+            node = node[token]
+        elif isinstance(node, list) and isinstance(token, int) and 0 <= token < len(node):
+            node = node[token]
+        else:
+            break
+        out.append(token)
+    return out
+
+
+def _short(value: Any) -> str:
+    text = json.dumps(value, ensure_ascii=False) if not isinstance(value, float) or math.isfinite(value) else str(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _element(loc: list[Any]) -> str | None:
+    if len(loc) >= 2 and loc[0] in ("inputs", "expect") and isinstance(loc[1], int):
+        return f"{'input' if loc[0] == 'inputs' else 'expectation'} {loc[1]}"
+    return None
+
+
+def problems_from_errors(err: ValidationError, data: Any, name: str) -> list[Problem]:
+    """pydantic's errors as problems with JSON pointers (union tags removed) and "did you mean" hints; one
+    problem per location."""
+    problems: dict[str, Problem] = {}
+    for e in err.errors(include_url=False):
+        full = list(e["loc"])
+        model: type[ScenarioModel] = Scenario
+        for token in full:
+            if isinstance(token, str) and token in _MODELS:
+                model = _MODELS[token]
+        loc = [t for t in full if not (isinstance(t, str) and t.startswith("<"))]
+        if model is TransitionsExpect and "transitions" in loc[2:3]:
+            model = TransitionCount if len(loc) > 3 else model
+        if model is PressInput and "bounce" in loc[2:3] and len(loc) > 3:
+            model = Bounce
+        typ = e["type"]
+        hint = None
+        if typ == "missing":
+            ptr = pointer(*loc[:-1])
+            message = f"missing required key '{loc[-1]}'"
+        elif typ == "extra_forbidden":
+            ptr = pointer(*loc)
+            message = f"unknown key '{loc[-1]}'"
+            fields = sorted({f.alias or n for n, f in model.model_fields.items()})
+            close = difflib.get_close_matches(str(loc[-1]), fields, n=2)
+            hint = ("did you mean " + " or ".join(f"'{c}'" for c in close) + "?") if close else \
+                "known: " + ", ".join(fields)
+        elif typ in ("input_kind", "expect_kind"):
+            ptr = pointer(*loc)
+            message = e["msg"]
+            keys = sorted(e["input"]) if isinstance(e.get("input"), dict) else []
+            hint = f"this one has {', '.join(repr(k) for k in keys)}" if keys else None
+        else:
+            loc = _existing_prefix(data, loc)
+            ptr = pointer(*loc)
+            message = e["msg"].replace("Value error, ", "")
+            if message.startswith("Input should") and loc:
+                message = f"'{loc[-1]}'" + message[len("Input"):]
+            elif message.startswith(("List should", "Dictionary should", "String should")) and loc:
+                message = f"'{loc[-1]}': " + message
+            if "input" in e and not isinstance(e["input"], (dict, list)):
+                message += f", got {_short(e['input'])}"
+        if ptr in problems:
+            if typ not in ("missing", "extra_forbidden") and message not in problems[ptr].message:
+                problems[ptr].message += f" (or: {message})"
+            continue
+        problems[ptr] = Problem(message, name, ptr, element=_element(loc), hint=hint)
+    return list(problems.values())
+
+
+# -- checks beyond shape -----------------------------------------------------------------------------------
+def _missing_machine(machine_path: Path, name: str) -> Problem:
+    what = "is not a file" if machine_path.exists() else "not found"
+    return Problem(f"machine file {what}: {machine_path}", name, "/machine",
+                   hint="the machine's path is relative to the scenario file")
+
+
+def _partial_problems(data: dict[str, Any], path: Path, name: str) -> list[Problem]:
+    """When the scenario's shape is wrong somewhere: the checks of the inputs and expectations that are right
+    (and of the machine's path), so that one run of ``fsmctl test`` reports every problem."""
+    from pydantic import TypeAdapter
+
+    problems: list[Problem] = []
+    machine = data.get("machine")
+    if isinstance(machine, str) and machine and not (path.parent / machine).is_file():
+        problems.append(_missing_machine(path.parent / machine, name))
+    parts: dict[str, list[Any]] = {"inputs": [], "expect": []}
+    for key, kind in (("inputs", Input), ("expect", Expectation)):
+        items = data.get(key)
+        if not isinstance(items, list):
+            continue
+        adapter: TypeAdapter[Any] = TypeAdapter(kind)
+        for item in items:
+            try:
+                parts[key].append(adapter.validate_python(item))
+            except ValidationError:
+                parts[key].append(None)
+    limits_of = {k: data.get(k) for k in ("dt", "duration", "max_ticks")}
+    try:
+        lim = Scenario.model_validate({"machine": "-", "expect": [{"outcome": "-"}],
+                                       **{k: v for k, v in limits_of.items() if k in data}})
+    except ValidationError:
+        lim = None
+    problems += element_problems(parts["inputs"], parts["expect"], lim, name)
+    return problems
+
+
+def limits(scenario: Scenario) -> tuple[float, int]:
+    """The tick period and the tick at which the run ends (``duration`` and ``max_ticks``, the tighter)."""
+    dt = scenario.dt or DEFAULT_DT
+    ends = []
+    if scenario.duration is not None or scenario.max_ticks is None:
+        duration = scenario.duration if scenario.duration is not None else DEFAULT_DURATION
+        ends.append(math.ceil(duration / dt - EPS))
+    if scenario.max_ticks is not None:
+        ends.append(scenario.max_ticks)
+    return dt, min(ends)
+
+
+def tick_at(t: float, dt: float) -> int:
+    """The first tick at or after simulated time ``t`` (tick ``n`` happens at ``n * dt``; as the core applies
+    scheduled signals, a time within 1e-9 s after a tick counts as that tick's)."""
+    return max(0, math.ceil((t - EPS) / dt))
+
+
+def timeline_problems(scenario: Scenario, name: str) -> list[Problem]:
+    """Problems of the timeline the models cannot see: a pulse with both a level and a width, a bounce that
+    outlasts its press, times after the end of the run, a run of too many ticks."""
+    problems: list[Problem] = []
+    dt = scenario.dt or DEFAULT_DT
+    duration = scenario.duration if scenario.duration is not None else DEFAULT_DURATION
+    ticks = duration / dt
+    if scenario.max_ticks is None and not ticks <= MAX_TICKS:
+        problems.append(Problem(f"dt {dt:g} s over {duration:g} s makes {ticks:.3g} ticks, more than {MAX_TICKS:,}",
+                                name, "/dt" if scenario.dt is not None else "/duration",
+                                hint="give max_ticks to allow a run that long, or a larger dt / shorter duration"))
+    return problems + element_problems(list(scenario.inputs), list(scenario.expect), scenario, name)
+
+
+def element_problems(inputs: list[Any], expect: list[Any], lim: Scenario | None, name: str) -> list[Problem]:
+    """The checks of single inputs and expectations (``None`` for one whose shape is wrong); with ``lim``, the
+    scenario whose ``dt``, ``duration`` and ``max_ticks`` give the end of the run, also times after it."""
+    problems: list[Problem] = []
+    end_time = math.inf
+    if lim is not None:
+        dt, end_tick = limits(lim)
+        end_time = end_tick * dt
+    for i, item in enumerate(inputs):
+        if item is None:
+            continue
+        ptr = pointer("inputs", i)
+        label = f"input {i}"
+        if isinstance(item, SignalInput) and item.value is not None and item.width is not None:
+            problems.append(Problem("'value' sets a level and 'width' makes a pulse; give one of them", name,
+                                    ptr + "/width", element=label,
+                                    hint="a pulse: {\"at\": 1, \"signal\": \"s\", \"width\": 0.1}; a level: "
+                                         "{\"at\": 1, \"signal\": \"s\", \"value\": true}"))
+        if isinstance(item, PressInput) and item.bounce is not None:
+            settle = 2 * item.bounce.count * item.bounce.interval
+            if not settle < item.duration:
+                problems.append(Problem(
+                    f"the bounce lasts {settle:g} s ({item.bounce.count} bounces of two level changes "
+                    f"{item.bounce.interval:g} s apart), "
+                    f"not shorter than the press ({item.duration:g} s)", name, ptr + "/bounce", element=label,
+                    hint="make the press longer, or the bounce shorter or rarer"))
+        if item.at > end_time + EPS:
+            problems.append(Problem(f"at {item.at:g} s is after the end of the run ({end_time:g} s)", name,
+                                    ptr + "/at", element=label, hint="raise 'duration' (or 'max_ticks'), or move it"))
+    for i, exp in enumerate(expect):
+        ptr = pointer("expect", i)
+        label = f"expectation {i}"
+        if isinstance(exp, AtExpect):
+            if exp.active is None and exp.vars is None:
+                problems.append(Problem("an 'at' expectation needs 'active' or 'vars' (or both)", name, ptr,
+                                        element=label, hint='{"at": 2.0, "active": "run/work"}'))
+            if exp.at > end_time + EPS:
+                problems.append(Problem(f"at {exp.at:g} s is after the end of the run ({end_time:g} s)", name,
+                                        ptr + "/at", element=label, hint="raise 'duration' (or 'max_ticks')"))
+        if isinstance(exp, TransitionsExpect):
+            c = exp.transitions
+            if c.count is None and c.min is None and c.max is None:
+                problems.append(Problem("give 'count', 'min' or 'max'", name, ptr + "/transitions", element=label))
+            elif c.count is not None and (c.min is not None or c.max is not None):
+                problems.append(Problem("'count' is exact; give it alone, or 'min' and/or 'max'", name,
+                                        ptr + "/transitions", element=label))
+            elif c.min is not None and c.max is not None and c.min > c.max:
+                problems.append(Problem(f"'min' {c.min} is greater than 'max' {c.max}", name, ptr + "/transitions",
+                                        element=label))
+    return problems
+
+
+def state_matches(item: str, path: str) -> bool:
+    """A state id or path written in a scenario names the state at ``path``: equal, or its last segments."""
+    item = item.strip("/")
+    return path == item or path.endswith("/" + item)
+
+
+def active_matches(prefix: str, path: str) -> bool:
+    """An ``active`` entry matches an active leaf path: equal, or a prefix ending at a '/'."""
+    prefix = prefix.strip("/")
+    return path == prefix or path.startswith(prefix + "/")
+
+
+def _load_machine(scenario: Scenario, path: Path, name: str,
+                  cli_plugins: tuple[str, ...]) -> tuple[LoadedScenario | None, list[Problem]]:
+    """Check the machine (and world) a scenario names, and the state names its expectations use."""
+    from fsm.errors import RegistrationError
+    from fsm.loader import build, check, signal_names
+    from fsm.registry import default_registry
+
+    problems: list[Problem] = []
+    base = path.parent
+    plugins = []
+    for i, p in enumerate(scenario.plugins):
+        if p.endswith(".py"):
+            file = base / p
+            if not file.is_file():
+                problems.append(Problem(f"plugin file not found: {file}", name, pointer("plugins", i),
+                                        hint="plugin files are relative to the scenario file"))
+                continue
+            plugins.append(str(file))
+        else:
+            plugins.append(p)
+    try:
+        registry = default_registry(tuple(cli_plugins) + tuple(plugins))
+    except RegistrationError as exc:
+        return None, problems + [Problem(f"plugin error: {' '.join(str(exc).split())}", name, "/plugins")]
+    machine_path = base / scenario.machine
+    if not machine_path.is_file():
+        return None, problems + [_missing_machine(machine_path, name)]
+    world_path = None
+    if scenario.world is not None:
+        world_path = base / scenario.world
+        if not world_path.is_file():
+            problems.append(Problem(f"world file not found: {world_path}", name, "/world",
+                                    hint="the world's path is relative to the scenario file"))
+    spec, machine_problems = check(str(machine_path), registry=registry)
+    errors = [p for p in machine_problems if p.severity == "error"]
+    if spec is None or errors:
+        problems.append(Problem(f"the machine {machine_path} has {len(errors) or 1} error(s), listed with it", name,
+                                "/machine"))
+        return None, problems + (errors or machine_problems)
+    if world_path is None and _uses_car(spec):
+        problems.append(Problem("this machine drives the car; name the world to drive it in", name, "",
+                                hint='"world": "../worlds/hallway.json"'))
+    elif world_path is not None and world_path.is_file():
+        from fsm.sim.world import load_world
+
+        try:
+            load_world(world_path)
+        except DiagramError as exc:
+            problems += exc.problems
+    if problems:
+        return None, problems
+    dt, end_tick = limits(scenario)
+    car = None
+    if world_path is not None:
+        from fsm.sim.fake import FakeCar  # only the state paths are wanted here; the run builds it on a SimCar
+
+        car = FakeCar()
+    paths = list(build(spec, car=car).states_by_path)
+    problems += _name_problems(scenario, paths, name)
+    known = signal_names(spec)
+    for i, item in enumerate(scenario.inputs):
+        sig = item.signal if isinstance(item, SignalInput) else item.press if isinstance(item, PressInput) else None
+        if sig is not None and sig not in known:
+            close = difflib.get_close_matches(sig, sorted(known), n=2)
+            problems.append(Problem(f"the machine reads no signal '{sig}'", name, pointer("inputs", i),
+                                    element=f"input {i}", severity="warning",
+                                    hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close
+                                    else "signals it reads: " + (", ".join(sorted(known)) or "none")))
+    return LoadedScenario(file=name, scenario=scenario, spec=spec, registry=registry, dt=dt, end_tick=end_tick,
+                          world_path=world_path, machine_files=_spec_files(spec), state_paths=paths), problems
+
+
+def _name_problems(scenario: Scenario, paths: list[str], name: str) -> list[Problem]:
+    problems = []
+    ids = sorted({p.rsplit("/", 1)[-1] for p in paths} | set(paths))
+    prefixes = {"/".join(p.split("/")[:k]) for p in paths for k in range(1, p.count("/") + 2)}
+    for i, exp in enumerate(scenario.expect):
+        ptr = pointer("expect", i)
+        names: list[tuple[str, str, bool]] = []
+        if isinstance(exp, VisitsExpect):
+            names = [(s, pointer("expect", i, "visits", k), False) for k, s in enumerate(exp.visits)]
+        elif isinstance(exp, NeverExpect):
+            names = [(s, pointer("expect", i, "never", k), False) for k, s in enumerate(exp.never)]
+        elif isinstance(exp, AtExpect) and exp.active is not None:
+            items = [exp.active] if isinstance(exp.active, str) else exp.active
+            names = [(s, ptr + "/active" + ("" if isinstance(exp.active, str) else f"/{k}"), True)
+                     for k, s in enumerate(items)]
+        for item, at, prefix in names:
+            ok = item.strip("/") in prefixes if prefix else any(state_matches(item, p) for p in paths)
+            if not ok:
+                close = difflib.get_close_matches(item, sorted(prefixes) if prefix else ids, n=3)
+                hint = ("did you mean " + " or ".join(repr(c) for c in close) + "?") if close else \
+                    "states: " + ", ".join(paths[:12]) + (", ..." if len(paths) > 12 else "")
+                what = "no state path starts with" if prefix else "the machine has no state"
+                problems.append(Problem(f"{what} '{item}'", name, at, element=f"expectation {i}", hint=hint))
+    return problems
+
+
+def _uses_car(spec: Any) -> bool:
+    for st in spec.states:
+        if st.cls.needs_car:
+            return True
+        for _name, sub, _ptr in st.subs:
+            if sub is not None and _uses_car(sub):
+                return True
+    return any(tr.cls.needs_car for tr in spec.transitions)
+
+
+def _spec_files(spec: Any) -> list[str]:
+    seen: list[str] = []
+    todo = [spec]
+    while todo:
+        s = todo.pop()
+        n = getattr(s.source, "name", None)
+        if n and n not in seen:
+            seen.append(n)
+        for st in s.states:
+            for _name, sub, _ptr in st.subs:
+                if sub is not None:
+                    todo.append(sub)
+    return seen

@@ -1,0 +1,384 @@
+"""Running a scenario: one deterministic run with a recording listener, then every expectation checked against
+the record. A failure names the expectation (and where it is written), what was expected, what happened, the
+first tick where the run diverged from it and the trace around that tick.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+from fsm.errors import StateRuntimeError
+from fsm.jsonpos import pointer
+from fsm.machine import Listener
+
+from .model import (
+    AtExpect,
+    FinishedExpect,
+    LoadedScenario,
+    NeverExpect,
+    OutcomeExpect,
+    TransitionsExpect,
+    VisitsExpect,
+    active_matches,
+    state_matches,
+    tick_at,
+)
+from .timeline import expand
+
+if TYPE_CHECKING:
+    from fsm.context import Context
+    from fsm.machine import Machine
+    from fsm.state import State
+    from fsm.transition import Transition
+
+#: Trace lines shown before and after the diverging tick.
+CONTEXT_BEFORE, CONTEXT_AFTER = 4, 3
+
+
+@dataclass(frozen=True)
+class Entry:
+    """A state entered: by a transition (``kind`` its type) or as an initial state (``kind`` ``"initial"``)."""
+
+    tick: int
+    time: float
+    path: str
+    source: str | None
+    kind: str
+
+
+class Recording(Listener):
+    """What the run did, tick by tick: states entered, active leaf paths when they change, variable changes,
+    and a snapshot (active paths, variables) at each tick an ``at`` expectation looks at."""
+
+    def __init__(self, snapshot_ticks: set[int]) -> None:
+        self.entries: list[Entry] = []
+        self.active: list[tuple[int, tuple[str, ...]]] = []
+        self.var_changes: list[tuple[int, str, Any, Any]] = []
+        self.snapshots: dict[int, tuple[tuple[str, ...], dict[str, Any]]] = {}
+        self._want = snapshot_ticks
+        self._vars: dict[str, Any] = {}
+        self._moved = True
+
+    def on_transition(self, ctx: Context, source: State | None, target: State, transition: Transition | None) -> None:
+        self.entries.append(Entry(ctx.tick, ctx.now, target.path, source.path if source is not None else None,
+                                  transition.type_name if transition is not None else "initial"))
+        self._moved = True
+
+    def on_tick(self, machine: Machine) -> None:
+        tick = machine.ctx.tick
+        if self._moved:
+            self._moved = False
+            self.active.append((tick, tuple(machine.active_paths)))
+        current = machine.ctx.vars
+        if current != self._vars or any(type(v) is not type(self._vars.get(k)) for k, v in current.items()):
+            for name in sorted(set(current) | set(self._vars)):
+                old, new = self._vars.get(name, _UNSET), current.get(name, _UNSET)
+                if old is not new and (old != new or type(old) is not type(new)):
+                    self.var_changes.append((tick, name, old, new))
+            self._vars = dict(current)
+        if tick in self._want:
+            self.snapshots[tick] = (self.active[-1][1], dict(current))
+
+    def final(self, machine: Machine) -> tuple[tuple[str, ...], dict[str, Any]]:
+        return tuple(machine.active_paths), dict(machine.ctx.vars)
+
+    def active_at(self, tick: int) -> tuple[str, ...]:
+        current: tuple[str, ...] = ()
+        for t, paths in self.active:
+            if t > tick:
+                break
+            current = paths
+        return current
+
+
+class _Unset:
+    def __repr__(self) -> str:
+        return "unset"
+
+
+_UNSET = _Unset()
+
+
+@dataclass
+class Failure:
+    """One expectation that did not hold."""
+
+    index: int
+    where: str
+    kind: str
+    message: str
+    tick: int | None = None
+    time: float | None = None
+    trace: list[str] = field(default_factory=list)
+
+    def lines(self) -> list[str]:
+        head = f"{self.where}: expect[{self.index}] {self.kind}: {self.message}" if self.index >= 0 else \
+            f"{self.where}: {self.message}"
+        return [head] + [f"    {line}" for line in self.trace]
+
+
+@dataclass
+class ScenarioResult:
+    """The outcome of one scenario: passed, or the failures; what ran (ticks, simulated and wall time)."""
+
+    name: str
+    file: str
+    ticks: int = 0
+    sim_time: float = 0.0
+    wall_time: float = 0.0
+    outcome: str | None = None
+    failures: list[Failure] = field(default_factory=list)
+
+    @property
+    def passed(self) -> bool:
+        return not self.failures
+
+    def summary_line(self) -> str:
+        if self.passed:
+            return f"PASS {self.name} ({self.ticks} ticks, {self.sim_time:g} s)"
+        first = self.failures[0]
+        more = f" (+{len(self.failures) - 1} more)" if len(self.failures) > 1 else ""
+        at = f" (tick {first.tick}, t={first.time:g} s)" if first.tick is not None and first.time is not None else ""
+        return f"FAIL {self.name}: expect[{first.index}] {first.kind}{at}: {first.message}{more}" \
+            if first.index >= 0 else f"FAIL {self.name}: {first.message}"
+
+
+def run_scenario(loaded: LoadedScenario) -> ScenarioResult:
+    """Run the scenario's machine on its timeline and check every expectation."""
+    from fsm.clock import SimulatedClock
+    from fsm.loader import build
+
+    sc = loaded.scenario
+    dt = loaded.dt
+    result = ScenarioResult(loaded.name, loaded.file)
+    signals, sets = expand(sc, dt)
+    at_ticks = {min(tick_at(e.at, dt), loaded.end_tick) for e in sc.expect if isinstance(e, AtExpect)}
+    car = None
+    if loaded.world_path is not None:
+        from fsm.sim.car import SimCar
+        from fsm.sim.world import load_world
+
+        car = SimCar(load_world(loaded.world_path), seed=sc.seed, noise=sc.noise)
+    machine = build(loaded.spec, clock=SimulatedClock(dt), car=car)
+    for change in signals:
+        machine.schedule_signal(change.name, change.time, change.level)
+    rec = machine.add_listener(Recording(at_ticks))
+    by_tick: dict[int, list[dict[str, Any]]] = {}
+    for s in sets:
+        by_tick.setdefault(s.tick, []).append(s.values)
+
+    def apply_sets(tick: int) -> None:
+        for values in by_tick.get(tick, ()):
+            machine.ctx.vars.update(values)
+
+    def after_tick(*_: Any) -> bool:
+        apply_sets(machine.ctx.tick + 1)
+        return False
+
+    error: StateRuntimeError | None = None
+    t0 = time.perf_counter()
+    try:
+        apply_sets(0)
+        machine.start()
+        rec.on_tick(machine)
+        if car is not None:
+            from fsm.sim.loop import Simulation
+
+            Simulation(machine, car).run(max_ticks=loaded.end_tick, stop=after_tick)
+        else:
+            machine.run(max_ticks=loaded.end_tick, until=after_tick)
+    except StateRuntimeError as exc:
+        error = exc
+    result.wall_time = time.perf_counter() - t0
+    result.ticks = machine.ticks
+    result.sim_time = round(machine.now, 9)
+    result.outcome = machine.outcome
+    check = _Checker(loaded, machine, rec, signals, sets)
+    if error is not None:
+        result.failures.append(Failure(-1, loaded.file, "error", f"the machine failed: {error}", error.tick,
+                                       error.time, check.trace(error.tick)))
+    for i, exp in enumerate(sc.expect):
+        failure = check.expectation(i, exp)
+        if failure is not None:
+            result.failures.append(failure)
+    return result
+
+
+def _shown(value: Any) -> str:
+    import json
+
+    if value is _UNSET:
+        return "unset"
+    try:
+        return json.dumps(value, ensure_ascii=False)
+    except (TypeError, ValueError):
+        return repr(value)
+
+
+def _same(expected: Any, got: Any) -> bool:
+    """JSON equality: kinds must agree (true is not 1), numbers compare by value (3 == 3.0)."""
+    if isinstance(expected, bool) or isinstance(got, bool):
+        return isinstance(expected, bool) and isinstance(got, bool) and expected == got
+    if isinstance(expected, (int, float)) and isinstance(got, (int, float)):
+        return expected == got or (isinstance(expected, float) and isinstance(got, float)
+                                   and math.isclose(expected, got, rel_tol=1e-12, abs_tol=0.0))
+    return type(expected) is type(got) and expected == got
+
+
+class _Checker:
+    def __init__(self, loaded: LoadedScenario, machine: Machine, rec: Recording, signals: list[Any],
+                 sets: list[Any]) -> None:
+        self.loaded = loaded
+        self.machine = machine
+        self.rec = rec
+        self.dt = loaded.dt
+        self.signals = signals
+        self.sets = sets
+        self.last_tick = machine.ticks
+
+    def t(self, tick: int) -> float:
+        return round(tick * self.dt, 9)
+
+    def at(self, tick: int) -> str:
+        return f"tick {tick} (t={self.t(tick):g} s)"
+
+    def failure(self, i: int, kind: str, message: str, tick: int | None) -> Failure:
+        where = self.loaded.where(pointer("expect", i))
+        return Failure(i, where, kind, message, tick, None if tick is None else self.t(tick),
+                       self.trace(tick) if tick is not None else [])
+
+    # -- the trace ----------------------------------------------------------------------------------------
+    def events(self) -> list[tuple[int, int, str]]:
+        out: list[tuple[int, int, str]] = []
+        for e in self.rec.entries:
+            how = "initial" if e.kind == "initial" else f"{e.kind} from {e.source}"
+            out.append((e.tick, 1, f"enter {e.path} ({how})"))
+        for c in self.signals:
+            if c.tick <= self.last_tick:
+                out.append((c.tick, 0, f"signal {c.name} {'high' if c.level else 'low'} (at {c.time:g} s, "
+                                       f"input {c.index})"))
+        for s in self.sets:
+            if s.tick <= self.last_tick:
+                text = ", ".join(f"{k} = {_shown(v)}" for k, v in s.values.items())
+                out.append((s.tick, 0, f"set {text} (input {s.index})"))
+        for tick, name, old, new in self.rec.var_changes:
+            out.append((tick, 2, f"var {name}: {_shown(old)} -> {_shown(new)}"))
+        out.sort(key=lambda e: (e[0], e[1]))
+        return out
+
+    def trace(self, tick: int) -> list[str]:
+        """The trace lines around ``tick`` (marked ``>``) and the active states at that tick."""
+        events = self.events()
+        before = [e for e in events if e[0] < tick][-CONTEXT_BEFORE:]
+        at = [e for e in events if e[0] == tick]
+        after = [e for e in events if e[0] > tick][:CONTEXT_AFTER]
+        lines = [f"  tick {e[0]:>6} t={self.t(e[0]):<9g} {e[2]}" for e in before]
+        lines += [f"> tick {e[0]:>6} t={self.t(e[0]):<9g} {e[2]}" for e in at]
+        if not at:
+            lines.append(f"> tick {tick:>6} t={self.t(tick):<9g} (nothing happened)")
+        lines += [f"  tick {e[0]:>6} t={self.t(e[0]):<9g} {e[2]}" for e in after]
+        active = self.rec.active_at(tick)
+        lines.append(f"  active at tick {tick}: {', '.join(active) or '(none)'}")
+        return lines
+
+    # -- the expectations ---------------------------------------------------------------------------------
+    def expectation(self, i: int, exp: Any) -> Failure | None:
+        m = self.machine
+        end = self.last_tick
+        if isinstance(exp, OutcomeExpect):
+            if m.outcome == exp.outcome:
+                return None
+            if m.outcome is None:
+                return self.failure(i, "outcome", f"expected outcome '{exp.outcome}', but the machine had not "
+                                                  f"finished when the run ended at {self.at(end)}", end)
+            fin = self.rec.entries[-1].tick if self.rec.entries else end
+            return self.failure(i, "outcome", f"expected outcome '{exp.outcome}', got '{m.outcome}' "
+                                              f"(finished in {m.root.active.path} at {self.at(fin)})", fin)
+        if isinstance(exp, FinishedExpect):
+            if m.finished == exp.finished:
+                return None
+            if exp.finished:
+                return self.failure(i, "finished", f"expected the machine to finish, but it was still in "
+                                                   f"{m.active_path} when the run ended at {self.at(end)}", end)
+            fin = self.rec.entries[-1].tick if self.rec.entries else end
+            return self.failure(i, "finished", f"expected the machine not to finish, but it finished with "
+                                               f"'{m.outcome}' at {self.at(fin)}", fin)
+        if isinstance(exp, VisitsExpect):
+            return self.visits(i, exp.visits)
+        if isinstance(exp, NeverExpect):
+            for e in self.rec.entries:
+                hit = next((n for n in exp.never if state_matches(n, e.path)), None)
+                if hit is not None:
+                    return self.failure(i, "never", f"'{hit}' was entered ({e.path}) at {self.at(e.tick)}", e.tick)
+            return None
+        if isinstance(exp, AtExpect):
+            return self.at_check(i, exp)
+        if isinstance(exp, TransitionsExpect):
+            c = exp.transitions
+            n = m.transition_count
+            want = (f"exactly {c.count}" if c.count is not None else
+                    " and ".join(x for x in (f"at least {c.min}" if c.min is not None else "",
+                                             f"at most {c.max}" if c.max is not None else "") if x))
+            ok = (c.count is None or n == c.count) and (c.min is None or n >= c.min) and (c.max is None or n <= c.max)
+            if ok:
+                return None
+            fired = [e for e in self.rec.entries if e.kind != "initial"]
+            limit = c.count if c.count is not None else c.max
+            tick = fired[limit].tick if limit is not None and n > limit else end
+            return self.failure(i, "transitions", f"expected {want} transitions, {n} fired", tick)
+        return None  # pragma: no cover - the model admits nothing else
+
+    def visits(self, i: int, wanted: list[str]) -> Failure | None:
+        entries = self.rec.entries
+        pos = 0
+        last: Entry | None = None
+        for k, name in enumerate(wanted):
+            found = next((j for j in range(pos, len(entries)) if state_matches(name, entries[j].path)), None)
+            if found is None:
+                earlier = next((e for e in entries[:pos] if state_matches(name, e.path)), None)
+                # the next state entered, not counting the initial sub-states entered together with the last match
+                nxt = next((e for e in entries[pos:] if last is None or e.tick != last.tick
+                            or not e.path.startswith(last.path + "/")), None)
+                after = f"after '{wanted[k - 1]}' ({last.path} at {self.at(last.tick)})" if last else "at all"
+                msg = f"expected '{name}' to be entered {after}, but it never was"
+                if earlier is not None:
+                    msg += f" (only before, at {self.at(earlier.tick)})"
+                if nxt is not None:
+                    msg += f"; next entered: {nxt.path} at {self.at(nxt.tick)}"
+                    tick = nxt.tick
+                else:
+                    msg += f"; nothing was entered after that until the run ended at {self.at(self.last_tick)}"
+                    tick = self.last_tick
+                return self.failure(i, "visits", msg, tick)
+            last = entries[found]
+            pos = found + 1
+        return None
+
+    def at_check(self, i: int, exp: AtExpect) -> Failure | None:
+        tick = tick_at(exp.at, self.dt)
+        shown_tick = tick
+        if tick in self.rec.snapshots:
+            active, values = self.rec.snapshots[tick]
+        else:  # the machine finished (or the run ended) before: it stays as it ended
+            active, values = self.rec.final(self.machine)
+        problems = []
+        if exp.active is not None:
+            wanted = [exp.active] if isinstance(exp.active, str) else exp.active
+            missing = [w for w in wanted if not any(active_matches(w, p) for p in active)]
+            if missing:
+                problems.append(f"expected {', '.join(repr(w) for w in missing)} active, active: "
+                                + (", ".join(active) or "(none)"))
+        if exp.vars is not None:
+            for name, want in exp.vars.items():
+                got = values.get(name, _UNSET)
+                if not _same(want, got):
+                    changed = [c for c in self.rec.var_changes if c[1] == name and c[0] <= tick]
+                    since = f" (since {self.at(changed[-1][0])})" if changed else ""
+                    problems.append(f"expected {name} = {_shown(want)}, got {_shown(got)}{since}")
+        if not problems:
+            return None
+        ended = "" if tick <= self.last_tick else f" (the run ended before, at {self.at(self.last_tick)})"
+        return self.failure(i, f"at {exp.at:g} s", "; ".join(problems) + ended, min(shown_tick, self.last_tick))

@@ -132,7 +132,7 @@ class VideoRecorder:
     def render(self, sim: Simulation) -> np.ndarray:
         view = self.view
         car = sim.car
-        x, y, th = car.pose()
+        x, y, th = car.true_pose()
         p = view.px(x, y)
         color = self.colors[sim._path_index % len(self.colors)]
         if self._last_px is not None:
@@ -166,7 +166,7 @@ class VideoRecorder:
 
     def _camera_inset(self, img: np.ndarray, car: Any) -> None:
         """The camera view, top right, when the car has a camera (an image from ``car.camera()``)."""
-        frame = car.camera()
+        frame = car.camera_image() if hasattr(car, "camera_image") else None
         if not isinstance(frame, np.ndarray):
             return
         h = max(60, self.view.map_h // 3)
@@ -277,7 +277,7 @@ def plot(sim: Simulation, path: str | os.PathLike[str], width: int = 1600) -> No
         prev = p
     s = sim.car.world.start
     cv2.polylines(img, [view.car_polygon(s.x, s.y, math.radians(s.heading))], True, CAR_EDGE, 1, cv2.LINE_AA)
-    x, y, th = sim.car.pose()
+    x, y, th = sim.car.true_pose()
     cv2.fillPoly(img, [view.car_polygon(x, y, th)], CAR, cv2.LINE_AA)
     # legend under the map, in as many rows as needed
     box_w = 34 + max((cv2.getTextSize(n, FONT, 0.5, 1)[0][0] for n in leaf_names), default=40)

@@ -5,9 +5,11 @@ from __future__ import annotations
 from .composites import FSMState, Parallel
 from .driving import ApproachPoint, BasicFollowWall, FollowWall, FollowWallRamp, Motor, Stop
 from .generic import Final, Idle
+from .vision import ArucoGateCenter
 
 __all__ = [
     "ApproachPoint",
+    "ArucoGateCenter",
     "BasicFollowWall",
     "FSMState",
     "Final",

@@ -218,14 +218,16 @@ class FollowWallRamp(BasicFollowWall):
 
 # -- driving to a point, fixed commands, stopping ------------------------------------------------------------
 class ApproachParams(StateParams):
-    x: float = Field(ge=-20, le=20, description="Target ahead of the car (at entry), m.")
+    x: float | None = Field(default=None, ge=-20, le=20,
+                            description="Target ahead of the car (at entry), m; leave it out when a transition "
+                                        "hands the target (ArucoGateFound: a point before the gate).")
     y: float = Field(default=0.0, ge=-20, le=20, description="Target to the left of the car (at entry), m.")
     speed: float = Field(default=0.5, gt=0, le=3.0, description="Speed, m/s.")
     tolerance: float = Field(default=0.1, gt=0, le=5.0, description="Arrived when this close, m.")
 
     @model_validator(mode="after")
     def _not_here(self) -> ApproachParams:
-        if math.hypot(self.x, self.y) <= self.tolerance:
+        if self.x is not None and math.hypot(self.x, self.y) <= self.tolerance:
             raise ValueError(f"the point ({self.x}, {self.y}) is within the tolerance {self.tolerance} m of the "
                              "car: the state would finish at once")
         return self
@@ -235,21 +237,35 @@ class ApproachParams(StateParams):
 class ApproachPoint(CarState):
     """Drives to a point given relative to the car when the state is entered (pure pursuit on odometry); finishes on arrival, or with outcome `missed` when the point falls behind within reach of a turn."""
 
-    __slots__ = ("_tx", "_ty")
+    __slots__ = ("_tx", "_ty", "_handed")
     Params = ApproachParams
     can_finish = True
     outcomes = ("succeeded", "missed")
+    #: Transitions may hand this state its target (``set_target``), as the report's ArucoGateFound does.
+    accepts_target = True
 
     def __init__(self, id: str, params: StateParams | None = None) -> None:
         super().__init__(id, params)
         self._tx = self._ty = 0.0
+        self._handed: tuple[float, float] | None = None
+
+    def set_target(self, ctx: Context, x: float, y: float, heading: float | None = None) -> None:
+        """The point to drive to, relative to the car now (x ahead, y left, m); used on the next entry."""
+        self._handed = (x, y)
 
     def on_enter(self, ctx: Context) -> None:
         x, y, th = ctx.car.pose()
         p = self.params
+        if self._handed is not None:
+            px, py = self._handed
+            self._handed = None
+        elif p.x is not None:  # type: ignore[attr-defined]
+            px, py = p.x, p.y  # type: ignore[attr-defined]
+        else:  # nothing handed and no point given: nowhere to go
+            px = py = 0.0
         c, s = math.cos(th), math.sin(th)
-        self._tx = x + c * p.x - s * p.y  # type: ignore[attr-defined]
-        self._ty = y + s * p.x + c * p.y  # type: ignore[attr-defined]
+        self._tx = x + c * px - s * py
+        self._ty = y + s * px + c * py
 
     def tick(self, ctx: Context) -> None:
         car = ctx.car

@@ -46,8 +46,9 @@ class CarState(State):
 # -- wall following -------------------------------------------------------------------------------------
 class WallParams(StateParams):
     side: Literal["left", "right"] = Field(default="right", description="Which wall to follow.")
-    distance: float = Field(default=0.4, gt=0, le=3.0,
-                            description="Wall distance to keep, m (the side ultrasonic sensor's reading).")
+    distance: float | None = Field(default=0.4, gt=0, le=3.0,
+                                   description="Wall distance to keep, m (the side ultrasonic sensor's reading); "
+                                               "null: the reading on entry (keep the lane the car is in).")
     speed: float = Field(default=0.8, ge=-3.0, le=3.0, description="Speed, m/s.")
     p: float = Field(default=2.0, ge=0, le=1000, description="Proportional gain, steering per metre of error.")
     i: float = Field(default=0.2, ge=0, le=1000, description="Integral gain, steering per metre-second.")
@@ -72,7 +73,7 @@ class BasicFollowWall(CarState):
     def __init__(self, id: str, params: StateParams | None = None) -> None:
         super().__init__(id, params)
         p = self.params
-        self.target: float = p.distance  # type: ignore[attr-defined]
+        self.target: float = p.distance if p.distance is not None else 0.4  # type: ignore[attr-defined]
         self.wall_target: float | None = None
         self.wall_side: str = p.side  # type: ignore[attr-defined]
         self._sign = -1.0 if p.side == "right" else 1.0  # type: ignore[attr-defined]
@@ -87,6 +88,8 @@ class BasicFollowWall(CarState):
 
     def on_enter(self, ctx: Context) -> None:
         car = ctx.car
+        if self.params.distance is None:  # type: ignore[attr-defined]  # keep the lane the car is in
+            self.target = min(getattr(car, self._sensor), 2.0)
         self._esum = 0.0
         self._eold = self.measure(ctx, getattr(car, self._sensor)) - self.target
         self._sample = car.sample

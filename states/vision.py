@@ -83,7 +83,10 @@ class ArucoGateCenter(CarState):
         self._frame = view.frame
         gate = select_gate(view, self._ids)
         if gate is not None and abs(gate.heading) < math.radians(80):
+            known = ctx.vars.get(GATE_VAR)
             self._gate = gate_to_odometry(car, gate)
+            if isinstance(known, dict) and "approach_heading" in known:
+                self._gate["approach_heading"] = known["approach_heading"]
             ctx.vars[GATE_VAR] = self._gate
 
     def tick(self, ctx: Context) -> None:
@@ -118,4 +121,45 @@ class ArucoGateCenter(CarState):
         alpha = math.atan2(fy, fx)
         delta = math.atan2(2.0 * car.wheelbase * math.sin(alpha), dist)
         car.set_steering(_clamp(delta / car.max_steering_angle))
+        car.set_speed(p.speed)  # type: ignore[attr-defined]
+
+
+class AlignHeadingParams(StateParams):
+    speed: float = Field(default=0.5, gt=0, le=2.0, description="Speed while turning, m/s.")
+    offset: float = Field(default=0.0, ge=-180, le=180,
+                          description="Heading to reach relative to the one the car had when the gate was found, "
+                                      "degrees (left positive).")
+    tolerance: float = Field(default=5.0, gt=0, le=45, description="Finished within this of the heading, degrees.")
+    gain: float = Field(default=2.5, gt=0, le=100, description="Steering per radian of heading error.")
+
+
+@register_state
+class AlignHeading(CarState):
+    """After a gate: turns back to the heading the car had when ArucoGateFound fired (odometry), i.e. along the corridor whose wall it was following, plus `offset`; finishes within `tolerance` (at once when no gate was found)."""
+
+    __slots__ = ("_target",)
+    Params = AlignHeadingParams
+    can_finish = True
+
+    def __init__(self, id: str, params: StateParams | None = None) -> None:
+        super().__init__(id, params)
+        self._target: float | None = None
+
+    def on_enter(self, ctx: Context) -> None:
+        gate = ctx.vars.get(GATE_VAR)
+        base = gate.get("approach_heading") if isinstance(gate, dict) else None
+        self._target = None if base is None else base + math.radians(self.params.offset)  # type: ignore[attr-defined]
+
+    def tick(self, ctx: Context) -> None:
+        car = ctx.car
+        p = self.params
+        if self._target is None:
+            if not self.finished:
+                self.finish()
+            return
+        th = car.pose()[2]
+        err = math.atan2(math.sin(self._target - th), math.cos(self._target - th))
+        if not self.finished and abs(err) <= math.radians(p.tolerance):  # type: ignore[attr-defined]
+            self.finish()
+        car.set_steering(_clamp(p.gain * err))  # type: ignore[attr-defined]
         car.set_speed(p.speed)  # type: ignore[attr-defined]

@@ -147,3 +147,21 @@ def test_gate_center_without_a_gate_is_lost() -> None:
     m.tick()
     m.tick()
     assert m.outcome == "lost" and car.speed_command == 0.0
+
+
+def test_pass_point_fires_when_odometry_crosses_the_start_line_nearby() -> None:
+    car = FakeCar()
+    m = load([{"id": "drive", "type": "Idle"}, {"id": "home", "type": "Final"}],
+             [{"type": "PassPoint", "from": "drive", "to": "home", "within": 1.0, "after": 5.0}], car)
+    m.start()
+    car.x, car.y = -0.5, 2.0  # crossing x = 0 too far to the side: not home
+    car.travel(6.0)
+    m.tick()
+    car.x = 0.2
+    m.tick()
+    assert not m.finished
+    car.x, car.y = -0.3, 0.3
+    m.tick()
+    car.x = 0.05
+    m.tick()
+    assert m.finished

@@ -114,7 +114,9 @@ class ArucoGateFound(_CameraTransition):
         gate = self._gate
         if gate is None:
             return
-        ctx.vars[GATE_VAR] = gate_to_odometry(ctx.car, gate)
+        found = gate_to_odometry(ctx.car, gate)
+        found["approach_heading"] = ctx.car.pose()[2]  # the corridor's direction, for AlignHeading after the gate
+        ctx.vars[GATE_VAR] = found
         setter = getattr(self.target, "set_target", None)
         if setter is not None and getattr(self.target, "accepts_target", False):
             px, py = gate.point_before(self.params.before)  # type: ignore[attr-defined]

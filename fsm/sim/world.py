@@ -256,10 +256,10 @@ class Car(WorldModel):
     ultrasonic: Ultrasonic = Field(default_factory=Ultrasonic, description="The ultrasonic sensors.")
     camera: Camera = Field(default_factory=Camera, description="The camera (ArUco markers).")
     odometry_noise: float = Field(
-        default=0.01, ge=0, le=0.5,
+        default=0.005, ge=0, le=0.5,
         description="Odometry: relative error of the hall sensor's distance (seeded, per run), fraction.")
     odometry_steering_noise: float = Field(
-        default=0.003, ge=0, le=0.2,
+        default=0.001, ge=0, le=0.2,
         description="Odometry: error of the steering model's straight-ahead (seeded, per run), in steering units.")
 
     @model_validator(mode="after")

@@ -80,3 +80,15 @@ def test_gate_run_passes_every_gate_and_comes_home(world: str, seed: int, tmp_pa
     assert s["collisions"] == 0
     assert all(g["passed_at"] is not None for g in s["gates"])
     assert s["odometry_error_m"] < 2.0
+
+
+def test_marker_ids_trigger_behaviours_turn_around_on_7_and_stop_on_5() -> None:
+    car = SimCar(__import__("fsm.sim.world", fromlist=["load_world"]).load_world(DIAGRAMS / "worlds" / "signs.json"),
+                 seed=1)
+    sim = Simulation(fsm.load(DIAGRAMS / "marker_signs.json", car=car), car)
+    sim.run(duration=60)
+    assert sim.machine.outcome == "succeeded"
+    assert sim.states_seen[:4] == ["drive", "turn_around", "back", "stop"]
+    assert sim.metrics()["collisions"] == 0
+    x, y, th = car.true_pose()
+    assert x < 2.0 and abs(car.speed) < 0.02  # stopped in front of marker 5 on the west wall

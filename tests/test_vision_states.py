@@ -91,8 +91,8 @@ def test_gate_found_with_ids_ignores_other_gates_and_gates_seen_askew() -> None:
 def test_marker_found_fires_for_its_id_within_range() -> None:
     car = FakeCar()
     m = load([{"id": "drive", "type": "Idle"}, {"id": "five", "type": "Idle"}, {"id": "seven", "type": "Idle"}],
-             [{"type": "ArucoMarkerFound", "from": "drive", "to": "five", "id": 5, "range": 1.2},
-              {"type": "ArucoMarkerFound", "from": "drive", "to": "seven", "id": 7, "range": 1.2}], car)
+             [{"type": "ArucoMarkerFound", "from": "drive", "to": "five", "marker": 5, "range": 1.2},
+              {"type": "ArucoMarkerFound", "from": "drive", "to": "seven", "marker": 7, "range": 1.2}], car)
     m.start()
     for frame in ([det(7, 2.0, 0.0)], [det(7, 1.5, 0.0), det(5, 3, 0)], [det(7, 1.1, 0.0)], [det(7, 1.0, 0.0)]):
         car.see(frame)

@@ -125,16 +125,16 @@ class ArucoGateFound(_CameraTransition):
 
 @register_transition
 class ArucoMarkerFound(_CameraTransition):
-    """Fires when the camera sees marker `id` within `range` metres, in `frames` frames in a row (the report's "behaviour by id": one transition per id)."""
+    """Fires when the camera sees the marker with id `marker` within `range` metres, in `frames` frames in a row (the report's "behaviour by id": one transition per id)."""
 
     __slots__ = ()
 
     class Params(TransitionParams):
-        id: int = Field(ge=0, le=4095, description="ArUco id of the marker.")
+        marker: int = Field(ge=0, le=4095, description="ArUco id of the marker.")
         range: float = Field(default=1.5, gt=0, le=20, description="Fire when the marker is this near (from the "
                                                                    "car's centre, horizontally), m.")
         frames: int = Field(default=2, ge=1, le=100, description="Consecutive camera frames the marker must be seen in.")
 
     def seen(self, view: Any) -> bool:
-        d = view.marker(self.params.id)  # type: ignore[attr-defined]
+        d = view.marker(self.params.marker)  # type: ignore[attr-defined]
         return d is not None and d.distance <= self.params.range  # type: ignore[attr-defined]

@@ -87,6 +87,17 @@ class TopDown:
                 cx = gate.center[0] + side * nx * gate.width / 2
                 cy = gate.center[1] + side * ny * gate.width / 2
                 cv2.circle(img, self.px(cx, cy), max(3, int(0.08 * self.scale)), (0, 0, 0), -1)
+            a = self.px(gate.center[0] + nx * gate.width / 2, gate.center[1] + ny * gate.width / 2)
+            b = self.px(gate.center[0] - nx * gate.width / 2, gate.center[1] - ny * gate.width / 2)
+            cv2.line(img, a, b, (0, 170, 255), 1, cv2.LINE_AA)  # the segment the car must cross
+        for marker in getattr(self.world, "markers", ()):  # standalone signs: a square and the direction they face
+            p = self.px(*marker.position)
+            r = max(3, int(0.07 * self.scale))
+            cv2.rectangle(img, (p[0] - r, p[1] - r), (p[0] + r, p[1] + r), (0, 0, 0), -1)
+            f = math.radians(marker.facing)
+            q = self.px(marker.position[0] + 0.3 * math.cos(f), marker.position[1] + 0.3 * math.sin(f))
+            cv2.arrowedLine(img, p, q, (0, 120, 255), 1, cv2.LINE_AA)
+            cv2.putText(img, str(marker.id), (p[0] + r + 2, p[1] - r), FONT, 0.45, TEXT, 1, cv2.LINE_AA)
         # scale bar: 1 m
         x, y = 10, self.map_h - 10
         cv2.line(img, (x, y), (x + int(self.scale), y), TEXT, 2)

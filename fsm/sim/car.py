@@ -328,7 +328,7 @@ class SimCar:
         c = self.params.camera
         model = CameraModel.from_intrinsics(c.width, c.height, c.fx, c.fy)
         mount = CameraMount(x=c.x, y=c.y, height=c.z, yaw=math.radians(c.yaw), pitch=math.radians(c.pitch))
-        specs = [MarkerSpec(i, x, y, z, f, size) for i, x, y, z, f, size, _post in self._markers]
+        specs = self._specs = [MarkerSpec(i, x, y, z, f, size) for i, x, y, z, f, size, _post in self._markers]
         occluders = self.world.segments()
         renderer = SimCamera(specs, camera=model, mount=mount, occluders=occluders, dictionary=c.dictionary,
                              blur=c.blur, noise=c.noise, lighting=c.lighting, seed=self._cam_seed)
@@ -337,9 +337,9 @@ class SimCar:
                                   mount=mount, track=True, full_every=c.full_every)
         return renderer, detector
 
-    def _maybe_in_view(self) -> bool:
-        """A cheap frustum test: could any marker be in the image (in front, within the field of view plus a
-        margin, in range, its face towards the camera)?"""
+    def _maybe_in_view(self) -> list[int]:
+        """A cheap frustum test: the indices of the markers that could be in the image (in front, within the field
+        of view plus a margin, in range, their face towards the camera)."""
         c = self.params.camera
         x, y = self.body.position
         th = self.body.angle
@@ -348,7 +348,8 @@ class SimCar:
         yaw = th + math.radians(c.yaw)
         cy_, sy_ = math.cos(yaw), math.sin(yaw)
         half = math.atan2(c.width / 2, c.fx) + 0.2
-        for _id, mx, my, _z, facing, size, _post in self._markers:
+        out = []
+        for k, (_id, mx, my, _z, facing, size, _post) in enumerate(self._markers):
             dx, dy = mx - cx, my - cy
             fwd = cy_ * dx + sy_ * dy
             if fwd <= 0.02 or fwd > CAMERA_RANGE:
@@ -358,8 +359,8 @@ class SimCar:
                 continue
             if math.cos(facing) * dx + math.sin(facing) * dy >= 0:
                 continue  # seen from behind
-            return True
-        return False
+            out.append(k)
+        return out
 
     def capture(self) -> None:
         """Take one camera frame: render the markers in view from the true pose (rendering only) and detect
@@ -367,7 +368,8 @@ class SimCar:
         look at, nothing detected."""
         self.camera_frames += 1
         t = self.time
-        if not self._maybe_in_view():
+        candidates = self._maybe_in_view()
+        if not candidates:
             self._frame = None
             if self._cam is not None:
                 self._cam[1].reset()
@@ -376,6 +378,7 @@ class SimCar:
         if self._cam is None:
             self._cam = self._camera_setup()
         renderer, detector = self._cam
+        renderer.markers = [self._specs[k] for k in candidates]  # the exact projection only for these
         x, y = self.body.position
         frame = renderer.render(x, y, self.body.angle)
         self.rendered_frames += 1

@@ -46,6 +46,20 @@ def select_gate(view: Any, ids: tuple[int, int] | None) -> Any | None:
     return Gate.from_markers(left, right)
 
 
+def clamp_to_walls(car: Any, y: float, margin: float) -> float:
+    """A lateral offset (car frame, left positive) kept ``margin`` inside the walls the side sensors read now (the
+    car drives along them); readings at the sensor's maximum are no wall."""
+    if margin <= 0:
+        return y
+    top = max(0.0, car.left - margin) if car.left < 2.9 else None
+    bottom = -max(0.0, car.right - margin) if car.right < 2.9 else None
+    if top is not None and y > top:
+        y = top
+    if bottom is not None and y < bottom:
+        y = bottom
+    return y
+
+
 class _CameraTransition(Transition):
     __slots__ = ("_frame", "_count")
     needs_car = True
@@ -89,6 +103,10 @@ class ArucoGateFound(_CameraTransition):
                               description="Distance of the approach point handed to the target, in front of the "
                                           "gate on its centre line, m.")
         frames: int = Field(default=2, ge=1, le=100, description="Consecutive camera frames the gate must be seen in.")
+        wall_margin: float = Field(
+            default=0.35, ge=0, le=3,
+            description="Keep the handed point at least this far from the walls the side ultrasonic sensors see "
+                        "(a gate turned towards a wall would put it into the wall), m; 0: off.")
 
         @model_validator(mode="after")
         def _range(self) -> "ArucoGateFound.Params":
@@ -120,6 +138,7 @@ class ArucoGateFound(_CameraTransition):
         setter = getattr(self.target, "set_target", None)
         if setter is not None and getattr(self.target, "accepts_target", False):
             px, py = gate.point_before(self.params.before)  # type: ignore[attr-defined]
+            py = clamp_to_walls(ctx.car, py, self.params.wall_margin)  # type: ignore[attr-defined]
             setter(ctx, px, py, gate.heading)
 
 

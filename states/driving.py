@@ -48,8 +48,12 @@ class WallParams(StateParams):
     side: Literal["left", "right"] = Field(default="right", description="Which wall to follow.")
     distance: float | None = Field(default=0.4, gt=0, le=3.0,
                                    description="Wall distance to keep, m (the side ultrasonic sensor's reading); "
-                                               "null: the reading on entry (keep the lane the car is in).")
+                                               "null: the reading on entry (keep the lane the car is in; see "
+                                               "clear).")
     speed: float = Field(default=0.8, ge=-3.0, le=3.0, description="Speed, m/s.")
+    clear: float | None = Field(default=None, gt=0, le=3.0,
+                                description="With distance null: keep at least this reading from the opposite wall "
+                                            "(its sensor), m (default: no limit).")
     p: float = Field(default=2.0, ge=0, le=1000, description="Proportional gain, steering per metre of error.")
     i: float = Field(default=0.2, ge=0, le=1000, description="Integral gain, steering per metre-second.")
     d: float = Field(default=1.5, ge=0, le=1000, description="Derivative gain, steering per metre/second.")
@@ -88,8 +92,13 @@ class BasicFollowWall(CarState):
 
     def on_enter(self, ctx: Context) -> None:
         car = ctx.car
-        if self.params.distance is None:  # type: ignore[attr-defined]  # keep the lane the car is in
-            self.target = min(getattr(car, self._sensor), 2.0)
+        p = self.params
+        if p.distance is None:  # type: ignore[attr-defined]  # keep the lane the car is in ...
+            reading = getattr(car, self._sensor)
+            other = car.left if self._sensor == "right" else car.right
+            if p.clear is not None and other < 2.9:  # type: ignore[attr-defined]  # ... clear of the other wall
+                reading = min(reading, reading + other - p.clear)  # type: ignore[attr-defined]
+            self.target = max(0.1, min(reading, 2.0))
         self._esum = 0.0
         self._eold = self.measure(ctx, getattr(car, self._sensor)) - self.target
         self._sample = car.sample

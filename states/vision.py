@@ -131,6 +131,11 @@ class AlignHeadingParams(StateParams):
                                       "degrees (left positive).")
     tolerance: float = Field(default=5.0, gt=0, le=45, description="Finished within this of the heading, degrees.")
     gain: float = Field(default=2.5, gt=0, le=100, description="Steering per radian of heading error.")
+    snap: float | None = Field(
+        default=None, gt=0, le=180,
+        description="Round the heading to reach to a multiple of this many degrees from the start heading (90 in a "
+                    "rectangular loop, whose corridors all are: the heading when the gate was found may be off "
+                    "the corridor's, e.g. right after a corner).")
 
 
 @register_state
@@ -148,6 +153,10 @@ class AlignHeading(CarState):
     def on_enter(self, ctx: Context) -> None:
         gate = ctx.vars.get(GATE_VAR)
         base = gate.get("approach_heading") if isinstance(gate, dict) else None
+        snap = self.params.snap  # type: ignore[attr-defined]
+        if base is not None and snap is not None:
+            step = math.radians(snap)
+            base = round(base / step) * step
         self._target = None if base is None else base + math.radians(self.params.offset)  # type: ignore[attr-defined]
 
     def tick(self, ctx: Context) -> None:

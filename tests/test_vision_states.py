@@ -165,3 +165,42 @@ def test_pass_point_fires_when_odometry_crosses_the_start_line_nearby() -> None:
     car.x = 0.05
     m.tick()
     assert m.finished
+
+
+def test_align_heading_turns_back_to_the_corridor_snapped_to_90_degrees() -> None:
+    car = FakeCar()
+    car.heading = math.radians(25)  # after a gate turned 25 degrees
+    m = load([{"id": "s", "type": "AlignHeading", "snap": 90}, {"id": "done", "type": "Final"}],
+             [{"type": "Finished", "from": "s", "to": "done"}], car)
+    m.ctx.vars["gate"] = {"ids": [1, 2], "x": 2.0, "y": 0.0, "heading": 0.4, "approach_heading": math.radians(8)}
+    m.start()
+    m.tick()
+    assert car.steering < 0  # towards 0 degrees (8 snapped), i.e. right
+    for _ in range(400):
+        m.tick()
+        move(car)
+        if m.finished:
+            break
+    assert m.finished and abs(car.heading) <= math.radians(5)
+
+
+def test_follow_wall_without_distance_keeps_the_lane_but_clear_of_the_other_wall() -> None:
+    car = FakeCar(left=1.2, right=0.7)
+    m = load([{"id": "keep", "type": "FollowWall", "side": "right", "distance": None}], [], car)
+    m.start()
+    assert m.state("keep").target == pytest.approx(0.7)
+    car2 = FakeCar(left=0.2, right=1.5)
+    m2 = load([{"id": "keep", "type": "FollowWall", "side": "right", "distance": None, "clear": 0.6}], [], car2)
+    m2.start()
+    assert m2.state("keep").target == pytest.approx(1.5 + 0.2 - 0.6)
+
+
+def test_gate_found_keeps_the_handed_point_inside_the_walls() -> None:
+    car = FakeCar(left=0.5, right=0.4)
+    m = load([{"id": "look", "type": "Idle"}, {"id": "go", "type": "ApproachPoint"}],
+             [{"type": "ArucoGateFound", "from": "look", "to": "go", "frames": 1}], car)
+    m.start()
+    g = gate_seen_from(car, (2.2, 0.4), math.radians(-25))  # its point 1 m before lies 0.82 m to the left
+    car.see([g.left, g.right], [g])
+    m.tick()
+    assert m.active_path == "go" and m.state("go")._ty == pytest.approx(0.5 - 0.35)

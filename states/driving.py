@@ -274,7 +274,8 @@ class ApproachPoint(CarState):
         elif p.x is not None:  # type: ignore[attr-defined]
             px, py = p.x, p.y  # type: ignore[attr-defined]
         else:  # nothing handed and no point given: nowhere to go
-            px = py = 0.0
+            self._tx = math.nan
+            return
         c, s = math.cos(th), math.sin(th)
         self._tx = x + c * px - s * py
         self._ty = y + s * px + c * py
@@ -282,6 +283,11 @@ class ApproachPoint(CarState):
     def tick(self, ctx: Context) -> None:
         car = ctx.car
         p = self.params
+        if self._tx != self._tx:  # no target (NaN): nothing was handed
+            car.set_speed(0.0)
+            if not self.finished:
+                self.finish("missed")
+            return
         x, y, th = car.pose()
         dx, dy = self._tx - x, self._ty - y
         dist = math.hypot(dx, dy)

@@ -204,3 +204,12 @@ def test_gate_found_keeps_the_handed_point_inside_the_walls() -> None:
     car.see([g.left, g.right], [g])
     m.tick()
     assert m.active_path == "go" and m.state("go")._ty == pytest.approx(0.5 - 0.35)
+
+
+def test_approach_point_without_a_point_or_a_handed_target_is_missed() -> None:
+    car = FakeCar()
+    m = load([{"id": "go", "type": "ApproachPoint"}, {"id": "nowhere", "type": "Final", "outcome": "missed"}],
+             [{"type": "Finished", "from": "go", "to": "nowhere", "outcome": "missed"}], car)
+    m.start()
+    m.tick()
+    assert m.outcome == "missed" and car.speed_command == 0.0

@@ -214,6 +214,9 @@ def cmd_run(args: argparse.Namespace) -> int:
                   + (f"{near:.3f} m" if near is not None else "n/a") + ", wall error on straights "
                   + (f"{rms * 100:.1f} cm RMS" if rms is not None else "n/a")
                   + f"; {m['realtime_factor']}x real time")
+            if m.get("gates_total"):
+                print(f"gates: {m['gates_passed']}/{m['gates_total']} passed; odometry error at the end "
+                      f"{m['odometry_error_m']:.2f} m")
     if interrupted:
         return 130
     if args.expect is not None and machine.outcome != args.expect:

@@ -1,10 +1,12 @@
-"""Benchmark: the closed loop without camera (physics 100 Hz, ultrasonic 20 Hz, machine 80 Hz), in x real time.
+"""Benchmark: the closed loop (physics 100 Hz, ultrasonic 20 Hz, machine 80 Hz), in x real time; without and with camera.
 
 Runs ``diagrams/hallway_lap.json`` in ``diagrams/worlds/hallway.json`` (three laps, about 200 s of
 simulated time) a few times on one core and prints the best and median realtime factor, plus a
-breakdown per simulated second (physics, sensors, machine). Not a timed test: CI does not run it.
+breakdown per simulated second (physics, sensors, machine). Then the camera loop: ``diagrams/gate_run.json``
+in ``diagrams/worlds/gates.json`` with the camera at 640x480, 20 Hz, video off, OpenCV on one thread
+(issue 9's target: at least 25x), with the render and detect cost per frame. Not a timed test: CI does not run it.
 
-    .venv/bin/python benchmarks/bench_sim.py [--repeat 5] [--seed 0]
+    .venv/bin/python benchmarks/bench_sim.py [--repeat 5] [--seed 0] [--camera-only]
 """
 
 from __future__ import annotations
@@ -66,11 +68,76 @@ def breakdown(seed: int) -> dict[str, float]:
     }
 
 
+def run_camera(seed: int) -> dict[str, float]:
+    """One gate_run lap with the camera; realtime factor and ms per rendered frame for render and detect."""
+    import cv2
+
+    import fsm
+    from fsm.sim.car import SimCar
+    from fsm.sim.loop import Simulation
+    from fsm.sim.world import load_world
+
+    cv2.setNumThreads(1)
+    world = load_world(ROOT / "diagrams" / "worlds" / "gates.json")
+    car = SimCar(world, seed=seed)
+    cost = {"render": 0.0, "detect": 0.0}
+    setup = car._camera_setup
+
+    def timed_setup() -> tuple:
+        renderer, detector = setup()
+        render, detect = renderer.render, detector.detect
+
+        def r(*a: object) -> object:
+            t0 = time.perf_counter()
+            out = render(*a)
+            cost["render"] += time.perf_counter() - t0
+            return out
+
+        def d(*a: object) -> object:
+            t0 = time.perf_counter()
+            out = detect(*a)
+            cost["detect"] += time.perf_counter() - t0
+            return out
+
+        renderer.render, detector.detect = r, d
+        return renderer, detector
+
+    car._camera_setup = timed_setup  # type: ignore[method-assign]
+    sim = Simulation(fsm.load(ROOT / "diagrams" / "gate_run.json", car=car), car)
+    sim.run(duration=300)
+    m = sim.metrics()
+    n = max(1, car.rendered_frames)
+    return {"factor": m["sim_time"] / sim.wall_time, "sim_time": m["sim_time"], "outcome": sim.machine.outcome,
+            "gates": f"{m['gates_passed']}/{m['gates_total']}", "collisions": m["collisions"],
+            "frames": car.camera_frames, "rendered": car.rendered_frames,
+            "render_ms": 1e3 * cost["render"] / n, "detect_ms": 1e3 * cost["detect"] / n,
+            "camera_ms_per_s": 1e3 * (cost["render"] + cost["detect"]) / m["sim_time"],
+            "odometry_error_m": m["odometry_error_m"]}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--camera-only", action="store_true", help="only the camera loop")
     args = parser.parse_args(argv)
+    if not args.camera_only:
+        no_camera(args)
+    runs = [run_camera(args.seed) for _ in range(args.repeat)]
+    factors = [r["factor"] for r in runs]
+    r = runs[0]
+    print(f"closed loop with camera 640x480 @ 20 Hz, video off: gate_run.json in gates.json, {r['sim_time']:.1f} s "
+          f"simulated, outcome {r['outcome']}, gates {r['gates']}, collisions {r['collisions']}, "
+          f"odometry error {r['odometry_error_m']:.2f} m")
+    print(f"realtime factor: best {max(factors):.1f}x, median {statistics.median(factors):.1f}x "
+          f"(of {args.repeat} runs, one core, OpenCV 1 thread)")
+    print(f"camera: {r['frames']} frames, {r['rendered']} rendered (markers possibly in view); per rendered frame "
+          f"render {r['render_ms']:.2f} ms, detect {r['detect_ms']:.2f} ms; {r['camera_ms_per_s']:.1f} ms of "
+          "camera per simulated second")
+    return 0
+
+
+def no_camera(args: argparse.Namespace) -> None:
     factors = []
     for _ in range(args.repeat):
         sim_time, wall, metrics = run_once(args.seed)
@@ -80,7 +147,6 @@ def main(argv: list[str] | None = None) -> int:
     print(f"realtime factor: best {max(factors):.0f}x, median {statistics.median(factors):.0f}x "
           f"(of {args.repeat} runs, one core)")
     print("breakdown per simulated second:", breakdown(args.seed))
-    return 0
 
 
 if __name__ == "__main__":

@@ -5,9 +5,12 @@ from __future__ import annotations
 from .composites import FSMState, Parallel
 from .driving import ApproachPoint, BasicFollowWall, FollowWall, FollowWallRamp, Motor, Stop
 from .generic import Final, Idle
+from .vision import AlignHeading, ArucoGateCenter
 
 __all__ = [
+    "AlignHeading",
     "ApproachPoint",
+    "ArucoGateCenter",
     "BasicFollowWall",
     "FSMState",
     "Final",

@@ -16,7 +16,7 @@ the real car's units and are not comparable.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, ClassVar, Literal
+from typing import TYPE_CHECKING, Annotated, ClassVar, Literal
 
 from pydantic import Field, model_validator
 
@@ -46,9 +46,13 @@ class CarState(State):
 # -- wall following -------------------------------------------------------------------------------------
 class WallParams(StateParams):
     side: Literal["left", "right"] = Field(default="right", description="Which wall to follow.")
-    distance: float = Field(default=0.4, gt=0, le=3.0,
-                            description="Wall distance to keep, m (the side ultrasonic sensor's reading).")
+    distance: Annotated[float, Field(gt=0, le=3.0)] | Literal["lane"] = Field(
+        default=0.4, description="Wall distance to keep, m (the side ultrasonic sensor's reading); \"lane\": the "
+                                 "reading on entry (keep the lane the car is in; see clear).")
     speed: float = Field(default=0.8, ge=-3.0, le=3.0, description="Speed, m/s.")
+    clear: float | None = Field(default=None, gt=0, le=3.0,
+                                description="With distance \"lane\": keep at least this reading from the opposite wall "
+                                            "(its sensor), m (default: no limit).")
     p: float = Field(default=2.0, ge=0, le=1000, description="Proportional gain, steering per metre of error.")
     i: float = Field(default=0.2, ge=0, le=1000, description="Integral gain, steering per metre-second.")
     d: float = Field(default=1.5, ge=0, le=1000, description="Derivative gain, steering per metre/second.")
@@ -72,7 +76,7 @@ class BasicFollowWall(CarState):
     def __init__(self, id: str, params: StateParams | None = None) -> None:
         super().__init__(id, params)
         p = self.params
-        self.target: float = p.distance  # type: ignore[attr-defined]
+        self.target: float = 0.4 if p.distance == "lane" else p.distance  # type: ignore[attr-defined]
         self.wall_target: float | None = None
         self.wall_side: str = p.side  # type: ignore[attr-defined]
         self._sign = -1.0 if p.side == "right" else 1.0  # type: ignore[attr-defined]
@@ -87,6 +91,13 @@ class BasicFollowWall(CarState):
 
     def on_enter(self, ctx: Context) -> None:
         car = ctx.car
+        p = self.params
+        if p.distance == "lane":  # type: ignore[attr-defined]  # keep the lane the car is in ...
+            reading = getattr(car, self._sensor)
+            other = car.left if self._sensor == "right" else car.right
+            if p.clear is not None and other < 2.9:  # type: ignore[attr-defined]  # ... clear of the other wall
+                reading = min(reading, reading + other - p.clear)  # type: ignore[attr-defined]
+            self.target = max(0.1, min(reading, 2.0))
         self._esum = 0.0
         self._eold = self.measure(ctx, getattr(car, self._sensor)) - self.target
         self._sample = car.sample
@@ -218,14 +229,16 @@ class FollowWallRamp(BasicFollowWall):
 
 # -- driving to a point, fixed commands, stopping ------------------------------------------------------------
 class ApproachParams(StateParams):
-    x: float = Field(ge=-20, le=20, description="Target ahead of the car (at entry), m.")
+    x: float | None = Field(default=None, ge=-20, le=20,
+                            description="Target ahead of the car (at entry), m; leave it out when a transition "
+                                        "hands the target (ArucoGateFound: a point before the gate).")
     y: float = Field(default=0.0, ge=-20, le=20, description="Target to the left of the car (at entry), m.")
     speed: float = Field(default=0.5, gt=0, le=3.0, description="Speed, m/s.")
     tolerance: float = Field(default=0.1, gt=0, le=5.0, description="Arrived when this close, m.")
 
     @model_validator(mode="after")
     def _not_here(self) -> ApproachParams:
-        if math.hypot(self.x, self.y) <= self.tolerance:
+        if self.x is not None and math.hypot(self.x, self.y) <= self.tolerance:
             raise ValueError(f"the point ({self.x}, {self.y}) is within the tolerance {self.tolerance} m of the "
                              "car: the state would finish at once")
         return self
@@ -235,25 +248,45 @@ class ApproachParams(StateParams):
 class ApproachPoint(CarState):
     """Drives to a point given relative to the car when the state is entered (pure pursuit on odometry); finishes on arrival, or with outcome `missed` when the point falls behind within reach of a turn."""
 
-    __slots__ = ("_tx", "_ty")
+    __slots__ = ("_tx", "_ty", "_handed")
     Params = ApproachParams
     can_finish = True
     outcomes = ("succeeded", "missed")
+    #: Transitions may hand this state its target (``set_target``), as the report's ArucoGateFound does.
+    accepts_target = True
 
     def __init__(self, id: str, params: StateParams | None = None) -> None:
         super().__init__(id, params)
         self._tx = self._ty = 0.0
+        self._handed: tuple[float, float] | None = None
+
+    def set_target(self, ctx: Context, x: float, y: float, heading: float | None = None) -> None:
+        """The point to drive to, relative to the car now (x ahead, y left, m); used on the next entry."""
+        self._handed = (x, y)
 
     def on_enter(self, ctx: Context) -> None:
         x, y, th = ctx.car.pose()
         p = self.params
+        if self._handed is not None:
+            px, py = self._handed
+            self._handed = None
+        elif p.x is not None:  # type: ignore[attr-defined]
+            px, py = p.x, p.y  # type: ignore[attr-defined]
+        else:  # nothing handed and no point given: nowhere to go
+            self._tx = math.nan
+            return
         c, s = math.cos(th), math.sin(th)
-        self._tx = x + c * p.x - s * p.y  # type: ignore[attr-defined]
-        self._ty = y + s * p.x + c * p.y  # type: ignore[attr-defined]
+        self._tx = x + c * px - s * py
+        self._ty = y + s * px + c * py
 
     def tick(self, ctx: Context) -> None:
         car = ctx.car
         p = self.params
+        if self._tx != self._tx:  # no target (NaN): nothing was handed
+            car.set_speed(0.0)
+            if not self.finished:
+                self.finish("missed")
+            return
         x, y, th = car.pose()
         dx, dy = self._tx - x, self._ty - y
         dist = math.hypot(dx, dy)

@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parent.parent
 DIAGRAMS = ROOT / "diagrams"
 HALLWAY = DIAGRAMS / "worlds" / "hallway.json"
 OBSTACLE = DIAGRAMS / "worlds" / "obstacle.json"
-EXAMPLES = ["hallway_lap", "lap", "turn_left", "lane_change", "corner_turn"]
+EXAMPLES = ["hallway_lap", "lap", "turn_left", "lane_change", "corner_turn", "gate_run", "gate_side", "gate_home", "marker_signs"]
 #: One lap of the hallway at 0.4 m from the outer wall, corners cut: about 55 m.
 LAP_M = 55.0
 
@@ -41,7 +41,7 @@ def test_hallway_lap_three_laps_without_collision(seed: int) -> None:
     assert 2.8 * LAP_M < m["distance_m"] < 3.2 * LAP_M
     assert m["wall_error_rms_m"] < 0.03, m
     assert m["wall_error_samples"] > 1000
-    x, y, _ = sim.car.pose()
+    x, y, _ = sim.car.true_pose()
     start = sim.car.world.start
     assert abs(x - start.x) < 0.5 and abs(y - start.y) < 0.2  # back at the start
     assert abs(sim.car.speed) < 0.011 and sim.car._cmd_speed == 0.0
@@ -65,7 +65,7 @@ def test_corner_turn_with_a_nested_fsm_state() -> None:
     assert sim.machine.outcome == "succeeded"
     assert m["collisions"] == 0
     assert {"turn/arc", "turn/settle", "along"} <= set(sim.states_seen)
-    x, y, th = sim.car.pose()
+    x, y, th = sim.car.true_pose()
     assert x > 19.0 and 3.0 < y < 6.0  # up the right-hand side after the corner
 
 

@@ -53,7 +53,7 @@ def test_steering_positive_turns_left_counter_clockwise(steer: float, sign: int)
     car.set_steering(steer)
     car.set_speed(0.5)
     drive(car, 1.0)
-    x, y, th = car.pose()
+    x, y, th = car.true_pose()
     assert sign * th > 0.3  # counter-clockwise (world frame, y up) for +1
     assert sign * y > 0.05  # and the car went to its left
     assert x > 0.2
@@ -68,7 +68,7 @@ def test_heading_is_degrees_and_the_left_sensor_looks_left(heading: float) -> No
     cx, cy = lx * 1.0, ly * 1.0
     wall = {"points": [[cx - fx * 5, cy - fy * 5], [cx + fx * 5, cy + fy * 5]]}
     car = SimCar(world([wall], {"x": 0.0, "y": 0.0, "heading": heading}), noise=False)
-    assert car.pose()[2] == pytest.approx(h)
+    assert car.true_pose()[2] == pytest.approx(h)
     assert car.left == pytest.approx(1.0 - HW - SURFACE, abs=0.0011)
     assert car.right == 3.0 and car.front == 3.0
 
@@ -161,7 +161,7 @@ def test_hall_counts_up_when_driving_backwards_and_a_backwards_motor_finishes() 
            "transitions": [{"type": "Finished", "from": "back", "to": "end"}]}
     sim = Simulation(fsm.load(doc, car=car), car)
     assert sim.run(duration=10) == "succeeded"
-    assert car.pose()[0] < 2.0 - 0.95  # it really went backwards
+    assert car.true_pose()[0] < 2.0 - 0.95  # it really went backwards
     assert 1.0 <= car.distance < 1.02 and car.hall == int(car.distance * 1500 / 1.60 + 1e-6)
     assert car.hall >= 1500 / 1.60  # unsigned: 937.5 units per metre, forwards or backwards
 
@@ -196,12 +196,12 @@ def test_servo_goes_lock_to_lock_in_two_over_rate_seconds() -> None:
 def test_hall_distance_matches_the_path_length_in_free_driving() -> None:
     car = SimCar(world(), noise=False)
     car.set_speed(1.2)
-    path, (px, py, _) = 0.0, car.pose()
+    path, (px, py, _) = 0.0, car.true_pose()
     for k in range(800):
         if k % 200 == 0:
             car.set_steering([0.0, 1.0, -0.6, 0.3][k // 200])
         car.step()
-        x, y, _ = car.pose()
+        x, y, _ = car.true_pose()
         path += math.hypot(x - px, y - py)
         px, py = x, y
     assert car.distance == pytest.approx(path, rel=0.005)
@@ -214,7 +214,7 @@ def test_scraping_along_a_wall_counts_one_collision() -> None:
     drive(car, 6.0)
     assert car.collisions == 1
     assert car.contact_steps * PHYSICS_DT > 3.0  # it kept touching while sliding along
-    assert car.pose()[0] > 8.0  # and slid along, not stuck
+    assert car.true_pose()[0] > 8.0  # and slid along, not stuck
 
 
 def test_driving_head_on_into_a_wall_at_top_speed_does_not_sink_into_it() -> None:
@@ -227,7 +227,7 @@ def test_driving_head_on_into_a_wall_at_top_speed_does_not_sink_into_it() -> Non
                        steering_offset=0.0), noise=False)
     car.set_speed(2.5)
     drive(car, 4.0)
-    x, y, th = car.pose()
+    x, y, th = car.true_pose()
     top = max(p[1] for p in car_footprint(car.params, x, y, th))
     assert car.collisions == 1
     assert top - (3.0 - SURFACE) < 0.003
@@ -240,9 +240,9 @@ def test_emergency_stop_holds_the_car_until_a_new_command() -> None:
     drive(car, 2.0)
     car.emergency_stop()
     assert car.speed == 0.0
-    x, y, _ = car.pose()
+    x, y, _ = car.true_pose()
     drive(car, 0.5)
-    assert car.pose()[:2] == pytest.approx((x, y), abs=1e-6) and car.speed == 0.0
+    assert car.true_pose()[:2] == pytest.approx((x, y), abs=1e-6) and car.speed == 0.0
     car.set_speed(0.5)  # not latched: a new command drives again, with the acceleration limit
     drive(car, 0.1)
     assert 0.0 < car.speed <= 0.15 + 1e-9

@@ -37,11 +37,11 @@ def test_steering_zero_does_not_drive_straight_but_the_offset_can_be_zeroed() ->
     car = SimCar(corridor())
     car.set_speed(1.0)
     drive(car, 3.0)
-    assert car.pose()[2] > math.radians(5)  # the default offset pulls left, as on the real car
+    assert car.true_pose()[2] > math.radians(5)  # the default offset pulls left, as on the real car
     straight = SimCar(corridor(steering_offset=0.0))
     straight.set_speed(1.0)
     drive(straight, 3.0)
-    x, y, th = straight.pose()
+    x, y, th = straight.true_pose()
     assert th == pytest.approx(0.0, abs=1e-9) and y == pytest.approx(0.5, abs=1e-9)
 
 
@@ -77,7 +77,7 @@ def test_hall_sensor_counts_1500_units_per_1_6_metres() -> None:
     car = SimCar(corridor(steering_offset=0.0))
     car.set_speed(0.8)
     drive(car, 4.0)
-    x, _, _ = car.pose()
+    x, _, _ = car.true_pose()
     assert car.distance == pytest.approx(x - 2.0, abs=0.01)  # wheel travel; the body lags it a little
     assert car.hall == int(car._travel * 1500 / 1.60)
     assert car.distance == pytest.approx(car.hall * 1.60 / 1500)
@@ -133,7 +133,7 @@ def test_driving_into_a_wall_counts_one_collision_and_the_wall_holds() -> None:
     drive(car, 3.0)
     assert car.collisions == 1
     assert car.contact_steps > 0
-    assert car.pose()[1] > 0.0  # pushed back, not through the wall
+    assert car.true_pose()[1] > 0.0  # pushed back, not through the wall
     assert car.min_clearance < 0.01
 
 
@@ -142,9 +142,9 @@ def test_emergency_stop_stops_at_once() -> None:
     car.set_speed(1.0)
     drive(car, 2.0)
     car.emergency_stop()
-    x = car.pose()[0]
+    x = car.true_pose()[0]
     drive(car, 1.0)
-    assert car.pose()[0] == pytest.approx(x, abs=1e-6)
+    assert car.true_pose()[0] == pytest.approx(x, abs=1e-6)
 
 
 def test_nan_command_is_refused() -> None:
@@ -153,8 +153,13 @@ def test_nan_command_is_refused() -> None:
         car.set_steering(float("nan"))
 
 
-def test_camera_slot_is_empty_for_now() -> None:
-    assert SimCar(corridor()).camera() is None
+def test_camera_sees_nothing_without_markers_and_is_none_when_switched_off() -> None:
+    car = SimCar(corridor())
+    drive(car, 0.5)
+    view = car.camera()
+    assert view is not None and view.frame == 10 and view.detections == () and view.gates == ()
+    assert car.rendered_frames == 0  # no marker can be in view: nothing rendered
+    assert SimCar(corridor(camera={"enabled": False})).camera() is None
 
 
 # -- the closed loop -------------------------------------------------------------------------------------
@@ -173,7 +178,7 @@ def run(doc: Any, seed: int, trace: list[str] | None = None) -> Simulation:
         import io
 
         buf = io.StringIO()
-        machine.add_listener(Recorder(buf, extra=lambda: {"x": car.pose()[0], "y": car.pose()[1],
+        machine.add_listener(Recorder(buf, extra=lambda: {"x": car.true_pose()[0], "y": car.true_pose()[1],
                                                           "right": car.right}))
     sim = Simulation(machine, car)
     sim.run(duration=60)

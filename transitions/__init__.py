@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-from .car import Distance, SensorLevel
+from .car import Distance, PassPoint, SensorLevel
 from .generic import Always, Finished, Timeout
 from .inputs import InState, Signal, Var
+from .vision import ArucoGateFound, ArucoMarkerFound
 
-__all__ = ["Always", "Distance", "Finished", "InState", "SensorLevel", "Signal", "Timeout", "Var"]
+__all__ = ["Always", "ArucoGateFound", "ArucoMarkerFound", "Distance", "Finished", "InState", "PassPoint", "SensorLevel", "Signal", "Timeout", "Var"]

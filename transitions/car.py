@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Literal
 
 from pydantic import Field, model_validator
@@ -78,3 +79,42 @@ class SensorLevel(Transition):
             hit = value < self.below if self.below is not None else value > self.above  # type: ignore[operator]
             self._count = self._count + 1 if hit else 0
         return self._count >= self.samples
+
+
+@register_transition
+class PassPoint(Transition):
+    """Fires when the car's odometry crosses the line through the point (`x`, `y`) perpendicular to `heading`, driving that way, within `within` metres of the point, after `after` metres travelled since the source was entered. Odometry starts at the start pose (x ahead, y left), so the defaults mean "back at the start"; odometry drifts (about 1-2 % of the distance travelled)."""
+
+    __slots__ = ("_d0", "_last", "_ux", "_uy")
+    needs_car = True
+
+    class Params(TransitionParams):
+        x: float = Field(default=0.0, ge=-10000, le=10000, description="Point, odometry frame (start: 0, 0), m.")
+        y: float = Field(default=0.0, ge=-10000, le=10000, description="Point, odometry frame, m.")
+        heading: float = Field(default=0.0, ge=-360, le=360,
+                               description="Direction of crossing, degrees in the odometry frame (start: 0).")
+        within: float = Field(default=2.0, gt=0, le=100, description="Only crossings this near the point count, m.")
+        after: float = Field(default=0.0, ge=0, le=10000,
+                             description="Only after this travelled distance since the source was entered, m.")
+
+    def __init__(self, params: TransitionParams, source, target, index: int = 0) -> None:  # type: ignore[no-untyped-def]
+        super().__init__(params, source, target, index)
+        h = math.radians(params.heading)  # type: ignore[attr-defined]
+        self._ux, self._uy = math.cos(h), math.sin(h)
+        self._d0 = 0.0
+        self._last: float | None = None
+
+    def on_source_enter(self, ctx: Context) -> None:
+        self._d0 = ctx.car.distance
+        self._last = None
+
+    def check(self, ctx: Context) -> bool:
+        p = self.params
+        car = ctx.car
+        x, y, _ = car.pose()
+        dx, dy = x - p.x, y - p.y  # type: ignore[attr-defined]
+        along = dx * self._ux + dy * self._uy
+        last, self._last = self._last, along
+        if car.distance - self._d0 < p.after or last is None:  # type: ignore[attr-defined]
+            return False
+        return last < 0.0 <= along and math.hypot(dx, dy) <= p.within  # type: ignore[attr-defined]

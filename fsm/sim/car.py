@@ -17,7 +17,8 @@ from typing import Any
 
 import pymunk
 
-from .world import World
+from .io import NO_VIEW, CameraView
+from .world import World, world_markers
 
 try:  # pymunk's own cffi binding: the same C calls as Space.*_query_*, without building result objects
     from pymunk._chipmunk import ffi as _ffi
@@ -28,6 +29,10 @@ except ImportError:  # pragma: no cover - other pymunk builds: the public API (a
 #: Physics step, seconds (fixed; DESIGN.md).
 PHYSICS_DT = 0.01
 WALL, CAR = 1, 2
+#: Radius of the posts markers stand on (physical obstacles), m.
+POST_RADIUS = 0.02
+#: Markers farther than this from the camera are never rendered (they would be a few pixels), m.
+CAMERA_RANGE = 8.0
 #: Ultrasonic rays start this far behind their mount (inside the body), so a wall touching the sensor is seen.
 RAY_BACK = 0.05
 #: Tyre grip: the largest force (as a multiple of the car's weight) that drives the body after the model.
@@ -50,6 +55,9 @@ def build_space(world: World, doors: bool = True) -> pymunk.Space:
         if ob.type == "circle":
             assert ob.center is not None and ob.radius is not None
             shapes.append(pymunk.Circle(static, ob.radius, ob.center))
+    for _id, mx, my, _z, _facing, _size, post in world_markers(world):
+        if post:  # the post a marker stands on: hitting it is a collision
+            shapes.append(pymunk.Circle(static, POST_RADIUS, (mx, my)))
     for s in shapes:
         s.collision_type = WALL
         s.friction = 0.6
@@ -163,12 +171,46 @@ class SimCar:
         self._outline = self._outline_points()
         self._half_diagonal = math.hypot(p.length, p.width) / 2
         self._make_queries()
+        # odometry: dead reckoning from the hall sensor and the steering model (its own seeded errors)
+        odo = random.Random(f"odometry/{seed}")
+        self._odo_scale = (1.0 + odo.gauss(0.0, p.odometry_noise)) / self._units if noise else 1.0 / self._units
+        self._odo_offset = self._offset + (odo.gauss(0.0, p.odometry_steering_noise) if noise else 0.0)
+        self._odo_servo = 0.0
+        self._odo_hall = 0
+        self._odo = [0.0, 0.0, 0.0]
+        # camera
+        self._view: CameraView | None = None
+        self._frame: Any = None
+        self._cam: Any = None
+        self.camera_frames = self.rendered_frames = 0
+        cam = p.camera
+        if cam.enabled:
+            self._view = NO_VIEW
+            self.camera_every = max(1, round(1.0 / (cam.rate * PHYSICS_DT)))
+            self._markers = world_markers(world)
+            self._cam_seed = seed
         self.sense()
 
     # -- CarIO ----------------------------------------------------------------------------------------
     def pose(self) -> tuple[float, float, float]:
+        """Odometry: x, y, heading dead-reckoned from the hall sensor and the steering model, in the frame of
+        the start pose (origin at the start, x along the start heading). It drifts, as a real car's does."""
+        o = self._odo
+        return o[0], o[1], o[2]
+
+    def true_pose(self) -> tuple[float, float, float]:
+        """Ground truth (world frame): for metrics, rendering and tests only; no state or transition reads it."""
         x, y = self.body.position
         return x, y, self.body.angle
+
+    def odometry_error(self) -> float:
+        """Distance between the odometry position and the true one (in the start frame), m."""
+        s = self.world.start
+        x, y, _ = self.true_pose()
+        h = math.radians(s.heading)
+        dx, dy = x - s.x, y - s.y
+        tx, ty = math.cos(h) * dx + math.sin(h) * dy, -math.sin(h) * dx + math.cos(h) * dy
+        return math.hypot(self._odo[0] - tx, self._odo[1] - ty)
 
     def set_steering(self, value: float) -> None:
         value = float(value)
@@ -197,9 +239,20 @@ class SimCar:
         self.body.velocity = (0.0, 0.0)
         self.body.angular_velocity = 0.0
 
-    def camera(self) -> Any | None:
-        """No camera yet (the camera/ArUco issue adds it): always ``None``."""
-        return None
+    def camera(self) -> CameraView | None:
+        """The latest camera detections (``None`` when the car has no camera)."""
+        return self._view
+
+    def camera_image(self) -> Any:
+        """The latest rendered frame annotated with what was detected (BGR), or ``None`` (no camera, or no marker
+        was in view: nothing rendered). For the video."""
+        if self._frame is None or self._cam is None:
+            return None
+        from fsm.vision.draw import annotate
+
+        view = self._view
+        return annotate(self._frame, view.detections if view else (), self._cam[0].camera,
+                        view.gates if view else ())
 
     # -- physics ------------------------------------------------------------------------------------
     def step(self) -> None:
@@ -234,8 +287,109 @@ class SimCar:
         self.hall = h = int(self._travel * self._units)
         self.distance = h / self._units
         self.speed = v
+        self._odometry(h)
         if self.steps % self.sensor_every == 0:
             self.sense()
+        if self._view is not None and self.steps % self.camera_every == 0:
+            self.capture()
+
+    def _odometry(self, hall: int) -> None:
+        """Dead reckoning for one step: hall units travelled and the steering servo as the car's model of it (rate
+        limit and its calibrated straight-ahead offset, which is a little off)."""
+        s = self._odo_servo
+        d = self._cmd_steer - s
+        lim = self._rate_dt
+        s = s + lim if d > lim else s - lim if d < -lim else self._cmd_steer
+        self._odo_servo = s
+        dh = hall - self._odo_hall
+        if not dh:
+            return
+        self._odo_hall = hall
+        ds = dh * self._odo_scale
+        if self._cmd_speed < 0 or (self._cmd_speed == 0 and self._v < 0):
+            ds = -ds
+        t = math.tan((s + self._odo_offset) * self.max_steering_angle)
+        beta = math.atan(0.5 * t)
+        o = self._odo
+        th = o[2] + beta
+        o[0] += ds * math.cos(th)
+        o[1] += ds * math.sin(th)
+        o[2] += ds * math.cos(beta) * t / self.wheelbase
+
+    # -- camera -------------------------------------------------------------------------------------
+    def _camera_setup(self) -> tuple[Any, Any]:
+        """The renderer and the detector (built on the first frame: OpenCV loads only for cars that see markers)."""
+
+        from fsm.vision.camera import CameraModel, CameraMount
+        from fsm.vision.detector import MarkerDetector
+
+        from .camera import MarkerSpec, SimCamera
+
+        c = self.params.camera
+        model = CameraModel.from_intrinsics(c.width, c.height, c.fx, c.fy)
+        mount = CameraMount(x=c.x, y=c.y, height=c.z, yaw=math.radians(c.yaw), pitch=math.radians(c.pitch))
+        specs = self._specs = [MarkerSpec(i, x, y, z, f, size) for i, x, y, z, f, size, _post in self._markers]
+        occluders = self.world.segments()
+        renderer = SimCamera(specs, camera=model, mount=mount, occluders=occluders, dictionary=c.dictionary,
+                             blur=c.blur, noise=c.noise, lighting=c.lighting, seed=self._cam_seed)
+        sizes = {} if c.marker_size is not None else {m.id: m.size for m in specs}
+        detector = MarkerDetector(model, dictionary=c.dictionary, marker_size=c.marker_size or 0.15, sizes=sizes,
+                                  mount=mount, track=True, full_every=c.full_every)
+        return renderer, detector
+
+    def _maybe_in_view(self) -> list[int]:
+        """A cheap frustum test: the indices of the markers that could be in the image (in front, within the field
+        of view plus a margin, in range, their face towards the camera)."""
+        c = self.params.camera
+        x, y = self.body.position
+        th = self.body.angle
+        ct, st = math.cos(th), math.sin(th)
+        cx, cy = x + ct * c.x - st * c.y, y + st * c.x + ct * c.y
+        yaw = th + math.radians(c.yaw)
+        cy_, sy_ = math.cos(yaw), math.sin(yaw)
+        half = math.atan2(c.width / 2, c.fx) + 0.2
+        out = []
+        for k, (_id, mx, my, _z, facing, size, _post) in enumerate(self._markers):
+            dx, dy = mx - cx, my - cy
+            fwd = cy_ * dx + sy_ * dy
+            if fwd <= 0.02 or fwd > CAMERA_RANGE:
+                continue
+            side = -sy_ * dx + cy_ * dy
+            if abs(math.atan2(side, fwd)) > half + size / max(fwd, 0.1):
+                continue
+            if math.cos(facing) * dx + math.sin(facing) * dy >= 0:
+                continue  # seen from behind
+            out.append(k)
+        return out
+
+    def capture(self) -> None:
+        """Take one camera frame: render the markers in view from the true pose (rendering only) and detect
+        them in the pixels; what states see comes from the detector. No marker can be in view: no frame to
+        look at, nothing detected."""
+        self.camera_frames += 1
+        t = self.time
+        candidates = self._maybe_in_view()
+        if not candidates:
+            self._frame = None
+            if self._cam is not None:
+                self._cam[1].reset()
+            self._view = CameraView(t, self.camera_frames)
+            return
+        if self._cam is None:
+            self._cam = self._camera_setup()
+        renderer, detector = self._cam
+        renderer.markers = [self._specs[k] for k in candidates]  # the exact projection only for these
+        x, y = self.body.position
+        frame = renderer.render(x, y, self.body.angle)
+        self.rendered_frames += 1
+        detections = detector.detect(frame)
+        gates: tuple[Any, ...] = ()
+        if len(detections) > 1:
+            from fsm.vision.gates import find_gates
+
+            gates = tuple(find_gates(detections))
+        self._frame = frame
+        self._view = CameraView(t, self.camera_frames, tuple(detections), gates)
 
     def _begin(self, arbiter: Any, space: Any, data: Any) -> None:
         if self._touching == 0:

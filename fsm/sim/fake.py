@@ -26,6 +26,16 @@ class FakeCar:
         self.x = self.y = self.heading = 0.0
         self.stopped = False
         self.commands: list[tuple[str, float]] = []
+        self.view: Any = None
+        self._frames = 0
+
+    def see(self, detections: Any = (), gates: Any = (), time: float | None = None) -> None:
+        """Script the camera: its next frame shows these detections and gates (a camera appears on first use)."""
+        from .io import CameraView
+
+        self._frames += 1
+        self.view = CameraView(self._frames * 0.05 if time is None else time, self._frames, tuple(detections),
+                               tuple(gates))
 
     def new_sample(self, **readings: float) -> None:
         """New ultrasonic readings (only the ones given change) and a new sample number."""
@@ -54,4 +64,4 @@ class FakeCar:
         self.speed = 0.0
 
     def camera(self) -> Any | None:
-        return None
+        return self.view

@@ -9,12 +9,36 @@ positive = left (counter-clockwise); ultrasonic readings are the latest sample (
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any, Literal, Protocol, runtime_checkable
 
 #: The ultrasonic sensors of the TRAL car, by name.
 SENSORS: tuple[str, ...] = ("left", "right", "front")
 Side = Literal["left", "right"]
 SensorName = Literal["left", "right", "front"]
+
+
+@dataclass(frozen=True, slots=True)
+class CameraView:
+    """What the camera saw in its latest frame: the frame's ``time`` (s, the machine's clock), the markers
+    detected in it (:class:`fsm.vision.Detection`, car frame) and the gates they make (:class:`fsm.vision.Gate`,
+    nearest first). ``frame`` counts the frames taken so far (it changes when a new frame arrives)."""
+
+    time: float
+    frame: int
+    detections: tuple[Any, ...] = ()
+    gates: tuple[Any, ...] = ()
+
+    def marker(self, marker_id: int) -> Any | None:
+        """The detection of ``marker_id`` in this frame, or ``None``."""
+        for d in self.detections:
+            if d.id == marker_id:
+                return d
+        return None
+
+
+#: The view of a camera that has not taken a frame yet.
+NO_VIEW = CameraView(0.0, 0)
 
 
 @runtime_checkable
@@ -55,8 +79,8 @@ class CarIO(Protocol):
         """Stop now: speed command 0 and the motor braked (called when a state fails)."""
         ...
 
-    def camera(self) -> Any | None:
-        """The latest camera frame or detections, or ``None`` when the car has no camera."""
+    def camera(self) -> CameraView | None:
+        """The latest camera detections (:class:`CameraView`), or ``None`` when the car has no camera."""
         ...
 
 

@@ -39,6 +39,50 @@ class _Watch(Listener):
         self.changed = True
 
 
+class GateLog:
+    """Ground truth for the summary: when the car's centre crossed each gate (the segment between its two markers) in
+    the gate's direction."""
+
+    def __init__(self, world: Any) -> None:
+        self.gates = []
+        for g in world.gates:
+            h = math.radians(g.heading)
+            nx, ny = -math.sin(h), math.cos(h)
+            a = (g.center[0] + nx * g.width / 2, g.center[1] + ny * g.width / 2)
+            b = (g.center[0] - nx * g.width / 2, g.center[1] - ny * g.width / 2)
+            self.gates.append((g, a, b, math.cos(h), math.sin(h)))
+        self.passed: list[list[float]] = [[] for _ in self.gates]
+        self._last: tuple[float, float] | None = None
+
+    def update(self, now: float, x: float, y: float) -> None:
+        last, self._last = self._last, (x, y)
+        if last is None or last == (x, y):
+            return
+        px, py = last
+        for k, (_g, a, b, ux, uy) in enumerate(self.gates):
+            if (x - px) * ux + (y - py) * uy <= 0:
+                continue  # not driving through in the gate's direction
+            if _crosses(px, py, x, y, a, b):
+                self.passed[k].append(round(now, 4))
+
+    def metrics(self) -> dict[str, Any]:
+        return {
+            "gates_passed": sum(1 for p in self.passed if p),
+            "gates_total": len(self.gates),
+            "gates": [{"name": g.name, "markers": list(g.markers), "passed_at": p[0] if p else None,
+                       "times_passed": len(p)} for (g, *_rest), p in zip(self.gates, self.passed)],
+        }
+
+
+def _crosses(px: float, py: float, qx: float, qy: float, a: tuple[float, float], b: tuple[float, float]) -> bool:
+    def orient(ux: float, uy: float, vx: float, vy: float, wx: float, wy: float) -> float:
+        return (vx - ux) * (wy - uy) - (vy - uy) * (wx - ux)
+
+    d1, d2 = orient(a[0], a[1], b[0], b[1], px, py), orient(a[0], a[1], b[0], b[1], qx, qy)
+    d3, d4 = orient(px, py, qx, qy, a[0], a[1]), orient(px, py, qx, qy, b[0], b[1])
+    return d1 * d2 <= 0 and d1 != d2 and d3 * d4 <= 0
+
+
 class Simulation:
     """A machine driving a :class:`SimCar`; ``run`` advances both and collects metrics and a trajectory.
 
@@ -65,6 +109,7 @@ class Simulation:
         self._err_sample = -1
         self._leaf_d0 = 0.0
         self.wall_time = 0.0
+        self.gate_log = GateLog(car.world) if car.world.gates else None
 
     def add_observer(self, period: float, observer: Callable[[Simulation], None]) -> None:
         self.observers.append((period, observer))
@@ -133,6 +178,8 @@ class Simulation:
                 if car.sample != self._err_sample:
                     self._err_sample = car.sample
                     self._measure()
+                if self.gate_log is not None:
+                    self.gate_log.update(ctx.now, *car.body.position)
                 if ctx.tick % track_every == 0:
                     x, y = car.body.position
                     track.append((ctx.now, x, y, self._path_index))
@@ -188,4 +235,20 @@ class Simulation:
             "sim_time": round(sim_time, 6),
             "wall_time": round(self.wall_time, 4),
             "realtime_factor": round(sim_time / self.wall_time, 1) if self.wall_time > 0 else None,
+            **self._camera_metrics(),
         }
+
+    def _camera_metrics(self) -> dict[str, Any]:
+        """Gates passed (ground truth), the odometry's error at the end, and what the camera did."""
+        car = self.car
+        out: dict[str, Any] = {}
+        if self.gate_log is not None:
+            out.update(self.gate_log.metrics())
+        else:
+            out.update({"gates_passed": 0, "gates_total": 0, "gates": []})
+        if hasattr(car, "odometry_error"):
+            out["odometry_error_m"] = round(car.odometry_error(), 4)
+        if getattr(car, "camera_frames", 0):
+            out["camera_frames"] = car.camera_frames
+            out["camera_rendered"] = car.rendered_frames
+        return out

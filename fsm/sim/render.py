@@ -101,6 +101,17 @@ class TopDown:
                 cx = gate.center[0] + side * nx * gate.width / 2
                 cy = gate.center[1] + side * ny * gate.width / 2
                 cv2.circle(img, self.px(cx, cy), max(3, int(0.08 * self.scale)), (0, 0, 0), -1)
+            a = self.px(gate.center[0] + nx * gate.width / 2, gate.center[1] + ny * gate.width / 2)
+            b = self.px(gate.center[0] - nx * gate.width / 2, gate.center[1] - ny * gate.width / 2)
+            cv2.line(img, a, b, (0, 170, 255), 1, cv2.LINE_AA)  # the segment the car must cross
+        for marker in getattr(self.world, "markers", ()):  # standalone signs: a square and the direction they face
+            p = self.px(*marker.position)
+            r = max(3, int(0.07 * self.scale))
+            cv2.rectangle(img, (p[0] - r, p[1] - r), (p[0] + r, p[1] + r), (0, 0, 0), -1)
+            f = math.radians(marker.facing)
+            q = self.px(marker.position[0] + 0.3 * math.cos(f), marker.position[1] + 0.3 * math.sin(f))
+            cv2.arrowedLine(img, p, q, (0, 120, 255), 1, cv2.LINE_AA)
+            cv2.putText(img, str(marker.id), (p[0] + r + 2, p[1] - r), FONT, 0.45, TEXT, 1, cv2.LINE_AA)
         # scale bar: 1 m
         x, y = 10, self.map_h - 10
         cv2.line(img, (x, y), (x + int(self.scale), y), TEXT, 2)
@@ -149,7 +160,7 @@ class VideoRecorder:
     def render(self, sim: Simulation) -> np.ndarray:
         view = self.view
         car = sim.car
-        x, y, th = car.pose()
+        x, y, th = car.true_pose()
         p = view.px(x, y)
         color = self.colors[sim._path_index % len(self.colors)]
         if self._last_px is not None:
@@ -183,7 +194,7 @@ class VideoRecorder:
 
     def _camera_inset(self, img: np.ndarray, car: Any) -> None:
         """The camera view, top right, when the car has a camera (an image from ``car.camera()``)."""
-        frame = car.camera()
+        frame = car.camera_image() if hasattr(car, "camera_image") else None
         if not isinstance(frame, np.ndarray):
             return
         h = max(60, self.view.map_h // 3)
@@ -310,7 +321,7 @@ def plot_png(sim: Simulation, width: int = 1600) -> bytes:
         prev = p
     s = sim.car.world.start
     cv2.polylines(img, [view.car_polygon(s.x, s.y, math.radians(s.heading))], True, CAR_EDGE, 1, cv2.LINE_AA)
-    x, y, th = sim.car.pose()
+    x, y, th = sim.car.true_pose()
     cv2.fillPoly(img, [view.car_polygon(x, y, th)], CAR, cv2.LINE_AA)
     # legend under the map, in as many rows as needed
     box_w = 34 + max((cv2.getTextSize(n, FONT, 0.5, 1)[0][0] for n in leaf_names), default=40)

@@ -121,6 +121,19 @@ class Gate(WorldModel):
     height: float = Field(default=0.15, ge=0, le=2, description="Height of the marker centres above the floor, m.")
 
 
+class Marker(WorldModel):
+    """A standalone ArUco marker (a sign on a wall or on a post): id, position, the direction its face looks to."""
+
+    name: str | None = Field(default=None, description="Name of the marker, for traces.")
+    id: int = Field(ge=0, description="ArUco id (in the car camera's dictionary, DICT_4X4_50 by default: 0-49).")
+    position: Point = Field(description="Centre of the marker [x, y] in metres (on the floor plan).")
+    facing: float = Field(description="Direction the printed face looks to, degrees counter-clockwise from +x.")
+    size: float = Field(default=0.15, gt=0, le=1, description="Side of the black marker square, m.")
+    height: float = Field(default=0.15, ge=0, le=2, description="Height of the marker centre above the floor, m.")
+    post: bool = Field(default=False, description="The marker stands on a post (a physical obstacle) rather "
+                                                  "than hanging on a wall.")
+
+
 class Start(WorldModel):
     """Where the car starts: position of its centre and heading."""
 
@@ -174,6 +187,54 @@ class Ultrasonic(WorldModel):
         return self
 
 
+#: Ids per predefined ArUco dictionary (world checks run without OpenCV).
+DICTIONARY_SIZES: dict[str, int] = {
+    **{f"DICT_{b}X{b}_{n}": n for b in (4, 5, 6, 7) for n in (50, 100, 250, 1000)},
+    "DICT_ARUCO_ORIGINAL": 1024, "DICT_APRILTAG_16h5": 30, "DICT_APRILTAG_25h9": 35,
+    "DICT_APRILTAG_36h10": 2320, "DICT_APRILTAG_36h11": 587, "DICT_ARUCO_MIP_36h12": 250,
+}
+
+
+class Camera(WorldModel):
+    """The car's camera: a pinhole (no distortion) on a mount, rendering the world's markers at ``rate``; the
+    same ArUco detector a real car runs finds them in those frames."""
+
+    enabled: bool = Field(default=True, description="False: the car has no camera (car.camera() is None).")
+    rate: float = Field(default=20.0, gt=0, le=100, description="Frames per second.")
+    width: int = Field(default=640, ge=32, le=4096, description="Image width, px.")
+    height: int = Field(default=480, ge=32, le=4096, description="Image height, px.")
+    fx: float = Field(default=600.0, gt=0, le=100000, description="Focal length in pixels (x).")
+    fy: float | None = Field(default=None, gt=0, le=100000, description="Focal length in pixels (y; default fx).")
+    x: float = Field(default=0.15, ge=-5, le=5, description="Forward offset of the camera from the car's centre, m.")
+    y: float = Field(default=0.0, ge=-5, le=5, description="Left offset of the camera from the car's centre, m.")
+    z: float = Field(default=0.18, ge=0, le=5, description="Height of the camera above the floor, m.")
+    yaw: float = Field(default=0.0, ge=-180, le=180, description="Camera yaw, degrees (left positive).")
+    pitch: float = Field(default=0.0, ge=-90, le=90, description="Camera pitch, degrees (down positive).")
+    dictionary: str = Field(default="DICT_4X4_50", description="ArUco dictionary of the markers.")
+    marker_size: float | None = Field(
+        default=None, gt=0, le=1,
+        description="Side of the printed markers the detector assumes, m (default: the sizes of the world's "
+                    "markers, as an operator configures the sizes they printed).")
+    blur: float = Field(default=0.7, ge=0, le=10, description="Gaussian blur of the rendered frames, px.")
+    noise: float = Field(default=3.0, ge=0, le=50, description="Image noise standard deviation, grey levels.")
+    lighting: float = Field(default=0.2, ge=0, le=1, description="Vignetting strength (0: off).")
+    full_every: int = Field(default=5, ge=1, le=100,
+                            description="Full-frame search every this many frames; in between only around "
+                                        "tracked markers.")
+
+    @model_validator(mode="after")
+    def _dictionary(self) -> Camera:
+        if self.dictionary not in DICTIONARY_SIZES:
+            raise ValueError(f"unknown ArUco dictionary {self.dictionary!r}; choose one of "
+                             + ", ".join(sorted(DICTIONARY_SIZES)))
+        return self
+
+    @property
+    def ids(self) -> int:
+        """Number of ids of the dictionary (valid ids: 0 .. ids - 1)."""
+        return DICTIONARY_SIZES[self.dictionary]
+
+
 class Car(WorldModel):
     """The TRAL car: body, bicycle-model steering with a servo, speed controller, hall sensor, ultrasonic sensors."""
 
@@ -193,6 +254,13 @@ class Car(WorldModel):
     deceleration: float = Field(default=3.0, gt=0, description="Braking limit, m/s^2.")
     hall_units_per_m: float = Field(default=HALL_UNITS_PER_M, gt=0, description="Hall units per metre (1500 per 1.60 m).")
     ultrasonic: Ultrasonic = Field(default_factory=Ultrasonic, description="The ultrasonic sensors.")
+    camera: Camera = Field(default_factory=Camera, description="The camera (ArUco markers).")
+    odometry_noise: float = Field(
+        default=0.005, ge=0, le=0.5,
+        description="Odometry: relative error of the hall sensor's distance (seeded, per run), fraction.")
+    odometry_steering_noise: float = Field(
+        default=0.001, ge=0, le=0.2,
+        description="Odometry: error of the steering model's straight-ahead (seeded, per run), in steering units.")
 
     @model_validator(mode="after")
     def _geometry(self) -> Car:
@@ -210,6 +278,7 @@ class World(WorldModel):
     walls: list[Wall] = Field(default_factory=list, description="Wall polylines in metres.")
     obstacles: list[Obstacle] = Field(default_factory=list, description="Static obstacles.")
     gates: list[Gate] = Field(default_factory=list, description="ArUco gates (two markers each).")
+    markers: list[Marker] = Field(default_factory=list, description="Standalone ArUco markers (signs).")
     start: Start = Field(description="The car's start pose.")
     car: Car = Field(default_factory=Car, description="Car and sensor parameters (defaults: the TRAL car).")
 
@@ -334,10 +403,6 @@ def _fmt(p: Point) -> str:
     return f"({p[0]:g}, {p[1]:g})"
 
 
-#: Marker ids of the dictionary the gates are printed from (``DICT_4X4_50``).
-MARKER_IDS = range(50)
-
-
 def polygon_problem(points: list[Point]) -> str | None:
     """Why a polygon is no usable shape (fewer than 3 distinct corners, no area, edges that cross), or None."""
     pts = [p for i, p in enumerate(points) if p != points[i - 1]] if len(points) > 1 else list(points)
@@ -385,8 +450,9 @@ def _closed_walls_around(world: World, x: float, y: float) -> list[int] | None:
 
 
 def semantic_problems(world: World, name: str | None) -> list[Problem]:
-    """Checks beyond shape: doors that do not fit their segment, degenerate obstacle polygons, gates that share a
-    marker id, and a car that starts outside every closed wall or inside or touching a wall or obstacle."""
+    """Checks beyond shape: doors that do not fit their segment, degenerate obstacle polygons, markers the
+    camera could not tell apart (:func:`marker_problems`), and a car that starts outside every closed wall or
+    inside or touching a wall or obstacle."""
     problems: list[Problem] = []
     for oi, ob in enumerate(world.obstacles):
         if ob.type == "polygon" and ob.points is not None:
@@ -394,23 +460,6 @@ def semantic_problems(world: World, name: str | None) -> list[Problem]:
             if why is not None:
                 problems.append(Problem(why, name, f"/obstacles/{oi}/points", element=f"obstacle {oi} (polygon)",
                                         hint="list the corners in order around the outline, at least 3 of them"))
-    first_gate: dict[int, tuple[int, int]] = {}
-    for gi, gate in enumerate(world.gates):
-        label = f"gate {gi}" + (f" '{gate.name}'" if gate.name else "")
-        for k, marker in enumerate(gate.markers):
-            ptr = f"/gates/{gi}/markers/{k}"
-            if marker not in MARKER_IDS:
-                problems.append(Problem(f"marker id {marker} is not in DICT_4X4_50", name, ptr, element=label,
-                                        hint=f"use ids {MARKER_IDS.start} to {MARKER_IDS.stop - 1}"))
-                continue
-            if marker in first_gate:
-                g0, k0 = first_gate[marker]
-                where = "this gate's other marker" if g0 == gi else f"gate {g0} (/gates/{g0}/markers/{k0})"
-                problems.append(Problem(f"marker id {marker} is also used by {where}", name, ptr, element=label,
-                                        hint="every marker needs its own id, or the camera cannot tell the gates "
-                                             "(or a gate's sides) apart"))
-            else:
-                first_gate[marker] = (gi, k)
     for wi, wall in enumerate(world.walls):
         pts = wall_points(wall)
         for di, d in enumerate(wall.doors):
@@ -433,6 +482,7 @@ def semantic_problems(world: World, name: str | None) -> list[Problem]:
         problems.append(Problem(f"the car starts at ({world.start.x:g}, {world.start.y:g}), {where}", name,
                                 "/start", element="start",
                                 hint="move the start pose into the hallway, between its walls"))
+    problems += marker_problems(world, name)
     if not problems:
         hit = footprint_hits(world, world.start.x, world.start.y, math.radians(world.start.heading))
         if hit is not None:
@@ -440,6 +490,59 @@ def semantic_problems(world: World, name: str | None) -> list[Problem]:
                                     hint="move the start pose into free space (the car is "
                                          f"{world.car.length:g} x {world.car.width:g} m around x, y)"))
     return problems
+
+
+def marker_problems(world: World, name: str | None) -> list[Problem]:
+    """Markers the camera could not tell apart or not decode, and a camera that cannot see them: two markers
+    sharing an id, an id outside the dictionary, a camera pitched so far that the horizon leaves the image."""
+    problems: list[Problem] = []
+    cam = world.car.camera
+    seen: dict[int, tuple[str, str]] = {}
+
+    def check(marker_id: int, ptr: str, element: str) -> None:
+        if marker_id >= cam.ids:
+            problems.append(Problem(f"marker id {marker_id} is not in {cam.dictionary} (ids 0-{cam.ids - 1})", name,
+                                    ptr, element=element, hint="use an id of the camera's dictionary, or set "
+                                                               "car.camera.dictionary"))
+        elif marker_id in seen:
+            first, first_ptr = seen[marker_id]
+            where = "this gate's other marker" if first == element else first
+            problems.append(Problem(f"marker id {marker_id} is used twice (also by {where}, {first_ptr})", name, ptr,
+                                    element=element, hint="every marker needs its own id, or the car cannot tell "
+                                                          "them (or a gate's sides) apart"))
+        else:
+            seen[marker_id] = (element, ptr)
+
+    for gi, g in enumerate(world.gates):
+        element = f"gate {g.name or gi}"
+        for k, marker_id in enumerate(g.markers):
+            check(marker_id, f"/gates/{gi}/markers/{k}", element)
+    for mi, m in enumerate(world.markers):
+        check(m.id, f"/markers/{mi}/id", f"marker {m.name or mi}")
+    fy = cam.fy or cam.fx
+    half = math.degrees(math.atan2(cam.height / 2, fy))
+    if abs(cam.pitch) >= half:
+        where = "floor" if cam.pitch > 0 else "ceiling"
+        problems.append(Problem(
+            f"the camera points into the {where}: pitch {cam.pitch:g} deg puts the horizon outside the image "
+            f"(half the vertical field of view is {half:.1f} deg)", name, "/car/camera/pitch", element="car",
+            hint=f"use a pitch between {-half:.1f} and {half:.1f} degrees (down positive)"))
+    return problems
+
+
+def world_markers(world: World) -> list[tuple[int, float, float, float, float, float, bool]]:
+    """Every marker of the world as (id, x, y, height, facing in rad, size, on a post): the gates' two each
+    (facing the approaching car, on posts) and the standalone ones."""
+    out = []
+    for g in world.gates:
+        h = math.radians(g.heading)
+        nx, ny = -math.sin(h), math.cos(h)
+        for marker_id, side in zip(g.markers, (1.0, -1.0)):
+            out.append((int(marker_id), g.center[0] + side * nx * g.width / 2, g.center[1] + side * ny * g.width / 2,
+                        float(g.height), h + math.pi, float(g.marker_size), True))
+    for m in world.markers:
+        out.append((m.id, m.position[0], m.position[1], m.height, math.radians(m.facing), m.size, m.post))
+    return out
 
 
 # -- loading ------------------------------------------------------------------------------------------

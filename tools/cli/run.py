@@ -323,6 +323,9 @@ def _run(args: argparse.Namespace, spec: Any, file: str, clock: Any, drive: bool
                   + (f"{near:.3f} m" if near is not None else "n/a") + ", wall error on straights "
                   + (f"{rms * 100:.1f} cm RMS" if rms is not None else "n/a")
                   + f"; {m['realtime_factor']}x real time", file=report)
+            if m.get("gates_total"):
+                print(f"gates: {m['gates_passed']}/{m['gates_total']} passed; odometry error at the end "
+                      f"{m['odometry_error_m']:.2f} m", file=report)
     if interrupted:
         return EXIT_INTERRUPTED
     failed = False
@@ -342,9 +345,11 @@ def _car_fields(car: Any) -> Any:
     """The trace's extra fields: sensors, commands and pose of the car at the line's tick."""
 
     def fields() -> dict[str, Any]:
-        x, y, th = car.pose()
+        x, y, th = car.true_pose()  # ground truth, for reports; "odometry" is what the car believed
+        ox, oy, oth = car.pose()
         return {"car": {
             "x": round(x, 4), "y": round(y, 4), "heading": round(th, 4),
+            "odometry": [round(ox, 4), round(oy, 4), round(oth, 4)],
             "left": round(car.left, 4), "right": round(car.right, 4), "front": round(car.front, 4),
             "distance": round(car.distance, 4), "speed": round(car.speed, 4),
             "speed_command": round(car.speed_command, 4), "steering": round(car.steering, 4),

@@ -1,0 +1,174 @@
+"""States on the camera: ``ArucoGateCenter`` lines the car up with a gate (square to it and centred) before ``Motor``
+drives through. It reads only ``ctx.car.camera()`` and odometry (``ctx.car.pose()``), never ground truth."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+from pydantic import Field
+
+from fsm.params import StateParams
+from fsm.registry import register_state
+from fsm.transitions.vision import GATE_VAR, gate_to_odometry, select_gate
+
+from .driving import CarState, _clamp
+
+if TYPE_CHECKING:
+    from fsm.context import Context
+
+
+class GateCenterParams(StateParams):
+    ids: tuple[int, int] | None = Field(default=None, description="Left and right marker id of the gate (default: the "
+                                                                  "gate ArucoGateFound found, else the nearest).")
+    speed: float = Field(default=0.4, gt=0, le=2.0, description="Speed while lining up, m/s.")
+    lookahead: float = Field(default=0.45, gt=0.05, le=5.0,
+                             description="Steers towards the gate's centre line this far ahead, m.")
+    angle: float = Field(default=3.0, gt=0, le=45, description="Aligned when the heading is within this of the "
+                                                               "gate's, degrees.")
+    offset: float = Field(default=0.04, gt=0, le=1.0, description="... and the car within this of the centre line, m.")
+    near: float = Field(default=0.9, gt=0, le=5.0,
+                        description="Finish aligned only this near the gate, m (so Motor's straight run through it "
+                                    "is short and the remaining error small).")
+    min_distance: float = Field(default=0.4, ge=0, le=5.0,
+                                description="Finish (outcome `close`) when this near the gate without being "
+                                            "aligned, m (Motor drives on from there).")
+
+
+@register_state
+class ArucoGateCenter(CarState):
+    """Lines the car up with a gate: drives slowly along the gate's centre line (pure pursuit on it, from camera and odometry) until it is square to the gate and centred, then finishes (`succeeded`); `close` when it got near the gate first, `lost` when it never had a gate."""
+
+    __slots__ = ("_gate", "_frame", "_ids")
+    Params = GateCenterParams
+    can_finish = True
+    outcomes = ("succeeded", "close", "lost")
+    accepts_target = True
+
+    def __init__(self, id: str, params: StateParams | None = None) -> None:
+        super().__init__(id, params)
+        self._gate: dict[str, Any] | None = None
+        self._frame = -1
+        self._ids: tuple[int, int] | None = None
+
+    def set_target(self, ctx: Context, x: float, y: float, heading: float | None = None) -> None:
+        """A point on the gate's centre line (car frame) and the gate's heading: the line to line up with."""
+        if heading is None:
+            return
+        px, py, th = ctx.car.pose()
+        c, s = math.cos(th), math.sin(th)
+        self._gate = {"ids": None, "x": px + c * x - s * y, "y": py + s * x + c * y, "heading": th + heading}
+
+    def on_enter(self, ctx: Context) -> None:
+        p = self.params
+        known = ctx.vars.get(GATE_VAR)
+        self._ids = tuple(p.ids) if p.ids is not None else None  # type: ignore[attr-defined]
+        if self._gate is None and isinstance(known, dict):
+            if self._ids is None or list(self._ids) == known.get("ids"):
+                self._gate = dict(known)
+        if self._ids is None and self._gate is not None and self._gate.get("ids"):
+            self._ids = tuple(self._gate["ids"])  # type: ignore[assignment]
+        self._frame = -1
+        self._update(ctx)
+
+    def on_exit(self, ctx: Context) -> None:
+        self._gate = None
+
+    def _update(self, ctx: Context) -> None:
+        """A new camera frame with the gate: its pose replaces the one kept in the odometry frame (nearer is better)."""
+        car = ctx.car
+        view = car.camera()
+        if view is None or view.frame == self._frame:
+            return
+        self._frame = view.frame
+        gate = select_gate(view, self._ids)
+        if gate is not None and abs(gate.heading) < math.radians(80):
+            known = ctx.vars.get(GATE_VAR)
+            self._gate = gate_to_odometry(car, gate)
+            if isinstance(known, dict) and "approach_heading" in known:
+                self._gate["approach_heading"] = known["approach_heading"]
+            ctx.vars[GATE_VAR] = self._gate
+
+    def tick(self, ctx: Context) -> None:
+        car = ctx.car
+        p = self.params
+        self._update(ctx)
+        gate = self._gate
+        if gate is None:
+            car.set_speed(0.0)
+            if not self.finished:
+                self.finish("lost")
+            return
+        x, y, th = car.pose()
+        h = gate["heading"]
+        ux, uy = math.cos(h), math.sin(h)
+        dx, dy = x - gate["x"], y - gate["y"]
+        along = dx * ux + dy * uy  # < 0 before the gate
+        lateral = -dx * uy + dy * ux  # > 0: left of the centre line
+        err = math.atan2(math.sin(th - h), math.cos(th - h))
+        if not self.finished:
+            if (-along <= p.near and abs(lateral) <= p.offset  # type: ignore[attr-defined]
+                    and abs(err) <= math.radians(p.angle)):  # type: ignore[attr-defined]
+                self.finish()
+            elif -along <= p.min_distance:  # type: ignore[attr-defined]
+                self.finish("close")
+        # pure pursuit towards a point on the centre line, lookahead ahead of the car's projection on it
+        a = along + p.lookahead  # type: ignore[attr-defined]
+        cx, cy = gate["x"] + ux * a, gate["y"] + uy * a
+        c, s = math.cos(th), math.sin(th)
+        fx, fy = c * (cx - x) + s * (cy - y), -s * (cx - x) + c * (cy - y)
+        dist = math.hypot(fx, fy)
+        alpha = math.atan2(fy, fx)
+        delta = math.atan2(2.0 * car.wheelbase * math.sin(alpha), dist)
+        car.set_steering(_clamp(delta / car.max_steering_angle))
+        car.set_speed(p.speed)  # type: ignore[attr-defined]
+
+
+class AlignHeadingParams(StateParams):
+    speed: float = Field(default=0.5, gt=0, le=2.0, description="Speed while turning, m/s.")
+    offset: float = Field(default=0.0, ge=-180, le=180,
+                          description="Heading to reach relative to the one the car had when the gate was found, "
+                                      "degrees (left positive).")
+    tolerance: float = Field(default=5.0, gt=0, le=45, description="Finished within this of the heading, degrees.")
+    gain: float = Field(default=2.5, gt=0, le=100, description="Steering per radian of heading error.")
+    snap: float | None = Field(
+        default=None, gt=0, le=180,
+        description="Round the heading to reach to a multiple of this many degrees from the start heading (90 in a "
+                    "rectangular loop, whose corridors all are: the heading when the gate was found may be off "
+                    "the corridor's, e.g. right after a corner).")
+
+
+@register_state
+class AlignHeading(CarState):
+    """After a gate: turns back to the heading the car had when ArucoGateFound fired (odometry), i.e. along the corridor whose wall it was following, plus `offset`; finishes within `tolerance` (at once when no gate was found)."""
+
+    __slots__ = ("_target",)
+    Params = AlignHeadingParams
+    can_finish = True
+
+    def __init__(self, id: str, params: StateParams | None = None) -> None:
+        super().__init__(id, params)
+        self._target: float | None = None
+
+    def on_enter(self, ctx: Context) -> None:
+        gate = ctx.vars.get(GATE_VAR)
+        base = gate.get("approach_heading") if isinstance(gate, dict) else None
+        snap = self.params.snap  # type: ignore[attr-defined]
+        if base is not None and snap is not None:
+            step = math.radians(snap)
+            base = round(base / step) * step
+        self._target = None if base is None else base + math.radians(self.params.offset)  # type: ignore[attr-defined]
+
+    def tick(self, ctx: Context) -> None:
+        car = ctx.car
+        p = self.params
+        if self._target is None:
+            if not self.finished:
+                self.finish()
+            return
+        th = car.pose()[2]
+        err = math.atan2(math.sin(self._target - th), math.cos(self._target - th))
+        if not self.finished and abs(err) <= math.radians(p.tolerance):  # type: ignore[attr-defined]
+            self.finish()
+        car.set_steering(_clamp(p.gain * err))  # type: ignore[attr-defined]
+        car.set_speed(p.speed)  # type: ignore[attr-defined]

@@ -711,3 +711,16 @@ def test_every_committed_diagram_and_world_validates_strictly(capsys: pytest.Cap
              and p.name != "TRAL_State-Machine.uxf"]  # the palette is a palette, not a machine
     assert len(files) > 15
     assert main(["validate", "--strict", *map(str, files)]) == 0, capsys.readouterr().err
+
+
+def test_signal_warnings_name_a_typo_and_a_time_after_the_end(capsys: pytest.CaptureFixture[str]) -> None:
+    mission = str(Path(__file__).resolve().parents[1] / "diagrams" / "examples" / "mission.json")
+    code = main(["run", mission, "--signal", "strat@0.5", "--signal", "gripped@1", "--signal", "start@900",
+                 "--max-ticks", "100"])
+    err = capsys.readouterr().err
+    assert code == 0
+    assert "warning: --signal strat:" in err and "did you mean start?" in err
+    assert "warning: --signal start@900: after the end of the run (1.25 s" in err
+    assert "gripped" not in err  # read by the machine, and in time
+    code = main(["run", mission, "--signal", "start@0.5", "--signal", "gripped@3"])
+    assert code == 0 and "warning" not in capsys.readouterr().err

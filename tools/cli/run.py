@@ -177,6 +177,29 @@ def _tick_limit(args: argparse.Namespace, dt: float) -> tuple[float | None, int 
     return duration, args.max_ticks
 
 
+def signal_warnings(signals: list[tuple[str, bool, float]], spec: Any, file: str, duration: float | None,
+                    max_ticks: int | None, dt: float) -> list[str]:
+    """What is suspicious about the ``--signal`` options: a name no transition reads (a typo, most likely),
+    and a time after the run's end (the signal would never be seen)."""
+    import difflib
+
+    from fsm.loader import signal_names
+
+    known = signal_names(spec)
+    ends = [x for x in (duration, max_ticks * dt if max_ticks is not None else None) if x is not None]
+    end = min(ends) if ends else None
+    out: list[str] = []
+    for name in sorted({n for n, _v, _t in signals} - known):
+        close = difflib.get_close_matches(name, sorted(known), n=1)
+        reads = ", ".join(sorted(known)) if known else "no signal at all"
+        out.append(f"--signal {name}: {file} reads no signal '{name}'"
+                   + (f" (did you mean {close[0]}?)" if close else f" (it reads {reads})"))
+    for name, _value, at in signals:
+        if end is not None and at > end:
+            out.append(f"--signal {name}@{at:g}: after the end of the run ({end:g} s of machine time), so never seen")
+    return out
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     from fsm.clock import DEFAULT_DT, SimulatedClock
     from fsm.errors import DiagramError
@@ -206,6 +229,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     errors = [p for p in problems if p.severity == "error"]
     if spec is None or errors:
         raise DiagramError(errors or problems)
+    for warning in signal_warnings(args.signal, spec, file, duration, max_ticks, dt):
+        print(f"fsmctl run: warning: {warning}", file=sys.stderr)
 
     drive = args.world is not None or args.car is not None or uses_car(spec)
     inputs = spec_files(spec)

@@ -200,6 +200,8 @@ def problems_from_validation(
                         if default is not None else "give it a value; null is never a parameter's value")
             elif typ == "string_pattern_mismatch" and loc and loc[-1] in ("id", "initial"):
                 message = f"'{where}' may not contain '/' (it separates the steps of a state path), got {got}"
+            elif not loc:  # a check of the whole element (a type's model validator): its own words say it all
+                message = str(e["msg"]).removeprefix("Value error, ").removeprefix("Assertion failed, ")
             else:
                 message = f"'{where}': {e['msg']}, got {got}"
             earlier = at_pointer.get(ptr)

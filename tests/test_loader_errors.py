@@ -558,3 +558,36 @@ def test_20_mb_document_validates_and_locates_a_planted_error(tmp_path: Path) ->
     assert (problem.line, problem.column) == (line, column + len(f'{{"id": "s{bad}", '))
 
 
+
+
+def test_a_types_own_validator_speaks_for_itself(tmp_path: Path) -> None:
+    """A model validator of a type's Params (a check across parameters) is reported in its own words."""
+    from pydantic import Field, model_validator
+
+    from fsm import State, StateParams
+    from fsm.registry import Registry, using
+
+    registry = Registry()
+    with using(registry):
+        from fsm.registry import register_state
+
+        @register_state
+        class Band(State):
+            """A band."""
+
+            class Params(StateParams):
+                low: float = Field(20.0)
+                high: float = Field(25.0)
+
+                @model_validator(mode="after")
+                def _order(self) -> "Band.Params":
+                    if self.high < self.low:
+                        raise ValueError(f"high ({self.high}) must not be below low ({self.low})")
+                    return self
+
+    doc = tmp_path / "band.json"
+    doc.write_text('{"initial": "a", "states": [{"id": "a", "type": "Band", "low": 20, "high": 15}]}')
+    _spec, problems = fsm.check(str(doc), registry=registry)
+    [p] = [p for p in problems if p.severity == "error"]
+    assert p.pointer == "/states/0" and p.message == "high (15.0) must not be below low (20.0)", p.message
+    assert "state 'a'" in str(p)

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 from .car import Distance, SensorLevel
+from .conditions import ConditionTransition
 from .generic import Always, Finished, Timeout
 from .inputs import InState, Signal, Var
 
-__all__ = ["Always", "Distance", "Finished", "InState", "SensorLevel", "Signal", "Timeout", "Var"]
+__all__ = ["Always", "ConditionTransition", "Distance", "Finished", "InState", "SensorLevel", "Signal", "Timeout", "Var"]

@@ -20,7 +20,7 @@ class Context:
     or during tick ``k``). A signal set and reset between two ticks makes no edge.
     """
 
-    __slots__ = ("_now", "_dt", "_tick", "vars", "car", "machine", "_signals", "_changed", "_pending")
+    __slots__ = ("_now", "_dt", "_tick", "vars", "car", "machine", "_signals", "_changed", "_pending", "_history")
 
     def __init__(self, *, car: Any = None, variables: dict[str, Any] | None = None) -> None:
         # Only the machine advances these (through the underscored slots); states read the properties.
@@ -34,6 +34,8 @@ class Context:
         self._changed: dict[str, int] = {}
         #: Signals changed since the last tick started, with their level then.
         self._pending: dict[str, bool] = {}
+        #: Level changes of the watched signals (debounced conditions): name -> [(time, level)].
+        self._history: dict[str, list[tuple[float, bool]]] = {}
 
     # -- time (read-only: a state that could move the clock would break every other state's timing) -----
     @property
@@ -76,10 +78,24 @@ class Context:
 
     def _tick_boundary(self) -> None:
         """At the start of a tick: the signals whose level differs from the last boundary have an edge now."""
+        history = self._history
         for name, old in self._pending.items():
-            if self._signals.get(name, False) != old:
+            level = self._signals.get(name, False)
+            if level != old:
                 self._changed[name] = self._tick
+                if name in history:
+                    history[name].append((self._now, level))
         self._pending.clear()
+
+    def watch_signal(self, name: str) -> list[tuple[float, bool]]:
+        """The change history of signal ``name``, kept from now on: ``[(time, level)]``, one entry per tick
+        boundary at which its level differed from the previous boundary (conditions with ``debounce`` read it)."""
+        history = self._history.get(name)
+        if history is None:
+            history = self._history[name] = []
+            if self._signals.get(name, False):
+                history.append((self._now, True))
+        return history
 
     def signal(self, name: str) -> bool:
         """The level of signal ``name`` (``False`` if never set)."""

@@ -35,6 +35,9 @@ def _link_machines(node: Any) -> Any:
         if node.get("x-machine") is True:
             rest = {k: v for k, v in node.items() if k not in ("x-machine", "type")}
             return {**rest, **_MACHINE_REF}
+        if node.get("x-condition") is True:
+            rest = {k: v for k, v in node.items() if k not in ("x-condition", "type")}
+            return {**rest, "$ref": "#/$defs/Condition"}
         return {k: _link_machines(v) for k, v in node.items()}
     if isinstance(node, list):
         return [_link_machines(v) for v in node]
@@ -88,6 +91,23 @@ class StateSpec:
     pointer: str
     source: Source
     subs: list[tuple[str | None, MachineSpec | None, str]] = field(default_factory=list)
+    #: the compiled ``set``: (on_enter, on_exit), each ``fn(ctx)`` or None (filled in by the loader's checks)
+    actions: tuple[Any, Any] = (None, None)
+
+
+@dataclass
+class ConditionSpec:
+    """A checked condition object: its class, parameters, nested conditions and compiled expressions."""
+
+    cls: type[Any]
+    params: Any
+    pointer: str
+    children: list[ConditionSpec] = field(default_factory=list)
+    exprs: dict[str, Any] = field(default_factory=dict)
+
+    def build(self) -> Any:
+        """A fresh instance (each transition gets its own: conditions keep state)."""
+        return self.cls(self.params, [c.build() for c in self.children], dict(self.exprs))
 
 
 @dataclass
@@ -96,6 +116,11 @@ class TransitionSpec:
     params: TransitionParams
     pointer: str
     source: Source
+    #: the compiled guard ``fn(ctx) -> bool`` (an expression's), the ``set`` ``fn(ctx)``, and the condition
+    #: objects by parameter name ("guard" for a condition guard); filled in by the loader's checks
+    guard: Any = None
+    assign: Any = None
+    conditions: dict[str, ConditionSpec] = field(default_factory=dict)
 
     @property
     def label(self) -> str:
@@ -231,7 +256,7 @@ def _existing_prefix(data: Any, loc: list[Any]) -> list[Any]:
     return out
 
 
-_COMMON_FIELDS = {"id", "type", "description", "layout", "from", "to", "priority", "preempt"}
+_COMMON_FIELDS = {"id", "type", "description", "layout", "from", "to", "priority", "preempt", "guard", "set"}
 
 
 def _field_hint(model: type[ParamsBase], name: str) -> str | None:
@@ -268,6 +293,8 @@ def element_label(kind: str, data: Any) -> str | None:
         return None
     if kind == "state":
         return f"state '{data['id']}'" if isinstance(data.get("id"), (str, int)) else "state"
+    if kind == "condition":
+        return f"condition {data['type']}" if isinstance(data.get("type"), str) else "condition"
     src, dst = data.get("from"), data.get("to")
     if isinstance(src, (str, int)) and isinstance(dst, (str, int)):
         return f"transition {src} -> {dst}"
@@ -279,7 +306,7 @@ def check_type(
 ) -> tuple[type | None, list[Problem]]:
     """The registered class an element names by ``type``, or a problem that suggests close names."""
     name = data.get("type")
-    table = registry.states if kind == "state" else registry.transitions
+    table = registry.table(kind)
     cls = table.get(name) if isinstance(name, str) else None
     if cls is not None:
         return cls, []
@@ -359,6 +386,7 @@ def json_schema(registry: Registry) -> dict[str, Any]:
     machine["properties"]["transitions"]["items"] = {"$ref": "#/$defs/Transition"}
     defs["State"] = dispatch("state", registry.states)
     defs["Transition"] = dispatch("transition", registry.transitions)
+    defs["Condition"] = dispatch("condition", registry.conditions)
     defs["Include"] = model_schema(Include)
     defs["Machine"] = machine
     return {
@@ -372,6 +400,7 @@ def json_schema(registry: Registry) -> dict[str, Any]:
 
 
 __all__ = [
+    "ConditionSpec",
     "Include",
     "MachineEnvelope",
     "MachineSpec",
@@ -418,6 +447,8 @@ def param_info(model: type[ParamsBase], own_only: bool = True) -> list[dict[str,
 def _type_text(prop: dict[str, Any]) -> str:
     if prop.get("x-machine"):
         return 'machine document or {"file": ...}'
+    if prop.get("x-condition"):
+        return "condition"
     if "const" in prop:
         return repr(prop["const"])
     if "enum" in prop:

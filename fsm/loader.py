@@ -9,6 +9,7 @@ from __future__ import annotations
 import errno
 import json
 import os
+import re
 import stat
 from collections import deque
 from collections.abc import Callable, Iterator
@@ -21,6 +22,7 @@ from pydantic import ValidationError
 
 from .context import Context
 from .document import (
+    ConditionSpec,
     Include,
     MachineEnvelope,
     MachineSpec,
@@ -553,6 +555,7 @@ class Loader:
                     refs.append((tr, prefix))
 
         walk(root, "")
+        self.check_actions(root, variables, paths)
         for tr in every:
             found = tr.cls.check_document(tr.params, variables)
             if found is not None:
@@ -569,6 +572,187 @@ class Loader:
                               element=tr.label,
                               hint="a path of ids joined by '/', relative to this machine or an enclosing one, "
                                    "or absolute with a leading '/'")
+
+    # -- guards, set and conditions ---------------------------------------------------------------
+    def check_actions(self, root: MachineSpec, variables: dict[str, Any], paths: set[str]) -> None:
+        """Parse, check and compile every ``set``, ``guard`` and condition of the tree (results on the specs).
+
+        A variable is known when ``vars`` gives it or some ``set`` assigns it; its kind is that of its initial
+        value, else of what the ``set`` expressions assign to it (``any`` where that cannot be decided)."""
+        from . import expr as E
+
+        states: list[StateSpec] = []
+        transitions: list[tuple[TransitionSpec, str]] = []
+
+        def walk(spec: MachineSpec, prefix: str) -> None:
+            for st in spec.states:
+                states.append(st)
+                path = f"{prefix}/{st.id}" if prefix else st.id
+                for name, sub, _ in st.subs:
+                    if sub is not None:
+                        walk(sub, f"{path}/{name}" if name else path)
+            transitions.extend((tr, prefix) for tr in spec.transitions)
+
+        walk(root, "")
+        # every assignment: (target, value, source, pointer, element)
+        assignments: list[tuple[str, Any, Source, str, str]] = []
+        for st in states:
+            sets = st.params.set
+            if sets is None:
+                continue
+            for hook in ("on_enter", "on_exit"):
+                for name, value in (getattr(sets, hook) or {}).items():
+                    assignments.append((name, value, st.source, f"{st.pointer}/set/{hook}/{escape(name)}",
+                                        f"state '{st.id}'"))
+        for tr, _ in transitions:
+            for name, value in (tr.params.set or {}).items():
+                assignments.append((name, value, tr.source, f"{tr.pointer}/set/{escape(name)}", tr.label))
+        if not assignments and not any(tr.params.guard is not None or tr.cls.condition_fields
+                                       for tr, _ in transitions):
+            return
+        kinds: dict[str, str] = {name: E.kind_of(value) for name, value in variables.items()}
+        declared = set(kinds)
+        for name, *_ in assignments:
+            if name in E.KEYWORDS:
+                continue
+            kinds.setdefault(name, E.ANY)
+        for _ in range(3):  # infer the kinds of variables only ``set`` gives, from what is assigned
+            changed = False
+            for name, value, *_ in assignments:
+                if name in declared or kinds.get(name) != E.ANY:
+                    continue
+                kind = self._kind_of_value(value, kinds)
+                if kind != E.ANY:
+                    kinds[name] = kind
+                    changed = True
+            if not changed:
+                break
+        compiled: dict[str, Any] = {}
+        for name, value, source, ptr, element in assignments:
+            if name in E.KEYWORDS:
+                self._add(f"'{name}' is a keyword, not a variable name", source, ptr, element=element,
+                          hint="rename the variable")
+                continue
+            c = self._compile(value, kinds, source, ptr, element, None)
+            if c is None:
+                continue
+            want = kinds.get(name, E.ANY)
+            if want != E.ANY and c.kind not in (want, E.ANY):
+                origin = "its initial value in 'vars'" if name in declared else "another set assigns it"
+                self._add(f"assigns {E._a(c.kind)} to variable '{name}', which holds {E._a(want)} ({origin})",
+                          source, ptr, element=element,
+                          hint="a variable keeps one kind: true/false, number or text")
+                continue
+            compiled[ptr] = c
+        for st in states:
+            sets = st.params.set
+            if sets is None:
+                continue
+            hooks = []
+            for hook in ("on_enter", "on_exit"):
+                items = getattr(sets, hook) or {}
+                targets = [(n, compiled.get(f"{st.pointer}/set/{hook}/{escape(n)}")) for n in items]
+                hooks.append(E.assigner(targets) if targets and all(c is not None for _, c in targets) else None)
+            st.actions = (hooks[0], hooks[1])
+        for tr, scope in transitions:
+            items = tr.params.set or {}
+            targets = [(n, compiled.get(f"{tr.pointer}/set/{escape(n)}")) for n in items]
+            if targets and all(c is not None for _, c in targets):
+                tr.assign = E.assigner(targets)
+            guard = tr.params.guard
+            if isinstance(guard, str):
+                c = self._compile(guard, kinds, tr.source, tr.pointer + "/guard", tr.label, E.BOOL)
+                if c is not None:
+                    if c.constant and c.value is False:
+                        self._add("the guard is always false, so the transition can never fire", tr.source,
+                                  tr.pointer + "/guard", element=tr.label, severity="warning",
+                                  hint="remove the transition or correct the guard")
+                    fn = c.fn
+                    tr.guard = lambda ctx, fn=fn: fn(ctx.vars)
+            elif isinstance(guard, dict):
+                cs = self._parse_condition(guard, tr.source, tr.pointer + "/guard", tr.label, kinds, paths, scope, 0)
+                if cs is not None:
+                    tr.conditions["guard"] = cs
+            for key in tr.cls.condition_fields:
+                raw = getattr(tr.params, key, None)
+                if isinstance(raw, dict):
+                    cs = self._parse_condition(raw, tr.source, f"{tr.pointer}/{key}", tr.label, kinds, paths,
+                                               scope, 0)
+                    if cs is not None:
+                        tr.conditions[key] = cs
+
+    @staticmethod
+    def _kind_of_value(value: Any, kinds: dict[str, str]) -> str:
+        from . import expr as E
+
+        if not isinstance(value, str):
+            return E.kind_of(value)
+        try:
+            return E.compile_expr(value, kinds).kind
+        except E.ExprError:
+            return E.ANY
+
+    def _compile(self, value: Any, kinds: dict[str, str], source: Source, ptr: str, element: str,
+                 want: str | None) -> Any:
+        """A compiled expression (a constant for a number or true/false), or None with a located problem."""
+        from . import expr as E
+
+        if not isinstance(value, str):
+            return E.Compiled(lambda v, value=value: value, E.kind_of(value), repr(value), True, value)
+        try:
+            return E.compile_expr(value, kinds, want)
+        except E.ExprError as exc:
+            hint = None
+            if exc.message.startswith("unknown variable"):
+                known = sorted(kinds)
+                import difflib
+
+                name = exc.message.split("'")[1]
+                close = difflib.get_close_matches(name, known, n=2)
+                hint = ("did you mean " + " or ".join(f"'{c}'" for c in close) + "?" if close else
+                        "give it an initial value in the machine's 'vars' (or assign it in a set)")
+            problem = Problem(f"{str(exc)}: {value if len(value) <= 60 else value[:57] + '...'}", source.name,
+                              ptr, element=element, hint=hint)
+            problem.expr_column = exc.column  # type: ignore[attr-defined]
+            self._extend([problem], source)
+            return None
+
+    def _parse_condition(self, raw: Any, source: Source, ptr: str, element: str, kinds: dict[str, str],
+                         paths: set[str], scope: str, depth: int) -> ConditionSpec | None:
+        """A condition object: its type and parameters, nested conditions, expressions and state paths."""
+        if depth > MAX_MACHINE_DEPTH:
+            self._add("conditions nested too deeply", source, ptr, element=element)
+            return None
+        parsed = self._parse_element("condition", raw, source, ptr)
+        if parsed is None:
+            return None
+        cls, params = parsed
+        spec = ConditionSpec(cls, params, ptr)
+        ok = True
+        for key in cls.condition_fields:
+            value = getattr(params, key)
+            items = list(enumerate(value)) if isinstance(value, list) else [(None, value)]
+            for i, item in items:
+                sub_ptr = f"{ptr}/{key}" + (f"/{i}" if i is not None else "")
+                child = self._parse_condition(item, source, sub_ptr, element, kinds, paths, scope, depth + 1)
+                if child is None:
+                    ok = False
+                else:
+                    spec.children.append(child)
+        for key in cls.expr_fields:
+            c = self._compile(getattr(params, key), kinds, source, f"{ptr}/{key}", element, "true/false")
+            if c is None:
+                ok = False
+            else:
+                spec.exprs[key] = c
+        for key in cls.state_refs:
+            value = getattr(params, key)
+            if resolve_path(value, scope, paths) is None:
+                ok = False
+                self._add(f"'{key}' names no state: '{value}'", source, f"{ptr}/{key}", element=element,
+                          hint="a path of ids joined by '/', relative to this machine or an enclosing one, "
+                               "or absolute with a leading '/'")
+        return spec if ok else None
 
     def check_variable_kinds(self, transitions: list[TransitionSpec], variables: dict[str, Any]) -> None:
         """Every comparison of a blackboard variable uses one kind of value (true/false, number or text),
@@ -617,6 +801,9 @@ class Loader:
             by_source.setdefault(id(src), (src, []))[1].append(p)
         for src, problems in by_source.values():
             place(problems, src.locator)
+            if src.text is not None:
+                for p in problems:
+                    _expression_column(p, src.text)
 
 
 def place(problems: list[Problem], locator: Any) -> None:
@@ -638,6 +825,28 @@ def place(problems: list[Problem], locator: Any) -> None:
                 if len(pos) > 2 and p.where is None:
                     p.where = pos[2]
                 break
+
+
+_MEMBER_VALUE = re.compile(r'"(?:[^"\\]|\\.)*"\s*:\s*"')
+
+
+def _expression_column(problem: Problem, text: str) -> None:
+    """Move a problem in an expression from its key to the character in the JSON string (when it has no
+    escapes before that character, so file columns and expression columns agree)."""
+    col = getattr(problem, "expr_column", None)
+    if col is None or problem.line is None or problem.column is None or problem.where is not None:
+        return
+    lines = text.split("\n", problem.line)
+    if len(lines) < problem.line:
+        return
+    line = lines[problem.line - 1]
+    m = _MEMBER_VALUE.match(line, problem.column - 1)
+    if m is None:
+        return
+    value = line[m.end():m.end() + col - 1]
+    if "\\" in value or '"' in value or len(value) < col - 1:
+        return
+    problem.column = m.end() + col
 
 
 def _a(kind: str) -> str:
@@ -731,6 +940,14 @@ def signal_names(spec: MachineSpec | None) -> set[str]:
                 value = getattr(tr.params, key, None)
                 if isinstance(value, str):
                     names.add(value)
+            todo_c = list(tr.conditions.values())
+            while todo_c:
+                cs = todo_c.pop()
+                for key in getattr(cs.cls, "signal_refs", ()):
+                    value = getattr(cs.params, key, None)
+                    if isinstance(value, str):
+                        names.add(value)
+                todo_c.extend(cs.children)
     return names
 
 
@@ -759,6 +976,8 @@ def build(spec: MachineSpec, *, clock: Any = None, car: Any = None, context: Con
         for state in region.states.values():
             for tr in state.transitions:
                 tr.bind(machine)
+                if tr.conditions:
+                    tr._bind_conditions(machine)
     return machine
 
 
@@ -787,7 +1006,16 @@ def _build_region(spec: MachineSpec, name: str, prefix: str, owner: State | None
     for index, tr in enumerate(spec.transitions):
         p = tr.params
         t = tr.cls(p, states[p.from_], states[p.to], index)
+        if tr.guard is not None or tr.assign is not None or tr.conditions:
+            conditions = {key: cs.build() for key, cs in tr.conditions.items()}
+            guard = tr.guard
+            if "guard" in conditions:
+                guard = conditions["guard"].holds
+            t.attach(guard, tr.assign, conditions)
         states[p.from_].transitions.append(t)
+    for st in spec.states:
+        if st.actions != (None, None):
+            states[st.id]._set_enter, states[st.id]._set_exit = st.actions
     for obj in states.values():
         ordered = sorted(obj.transitions, key=lambda t: -t.params.priority)
         obj.preempt = tuple(t for t in ordered if t.params.preempt)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, field_validator
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, WithJsonSchema, field_validator
 
 #: An element id: any non-empty text without "/" (the path separator); UMLet names may contain spaces.
 ID_PATTERN = r"^[^/]+$"
@@ -43,12 +43,33 @@ class ParamsBase(BaseModel):
         return value
 
 
+#: A condition object (``{"type": "SignalHigh", ...}``); checked against the registered condition types by the
+#: loader, and in the generated schema a reference to their union.
+ConditionField = Annotated[dict[str, Any], WithJsonSchema({"type": "object", "x-condition": True})]
+#: A variable name an action may assign: letters (any script), digits and _, not starting with a digit.
+VAR_PATTERN = r"^[^\W\d]\w*$"
+#: The value of one assignment: an expression (text) or a constant number or true/false.
+Assigned = bool | int | float | str
+#: ``{"variable": value or expression, ...}``, run in the order written.
+Assignments = Annotated[dict[Annotated[str, Field(pattern=VAR_PATTERN)], Assigned], Field(min_length=1)]
+
+
+class StateSet(ParamsBase):
+    """What a state assigns to blackboard variables when it is entered and when it is left."""
+
+    on_enter: Assignments | None = Field(
+        default=None, description="Assigned on entry, before the state's own on_enter: {\"var\": \"expression\"}.")
+    on_exit: Assignments | None = Field(
+        default=None, description="Assigned on exit, after the state's own on_exit: {\"var\": \"expression\"}.")
+
+
 class StateParams(ParamsBase):
     """Fields every state element has; a state type's own ``Params`` subclasses this."""
 
     id: str = Field(min_length=1, pattern=ID_PATTERN, description="Unique name of the state in its machine.")
     type: str = Field(description="Registered state type.")
     description: str | None = Field(default=None, description="Free text for people.")
+    set: StateSet | None = Field(default=None, description="Variables assigned on entry and exit (UML entry/exit).")
     layout: dict[str, Any] | None = Field(default=None, description="Diagram layout (x, y, w, h); ignored at run time.")
 
 
@@ -65,5 +86,15 @@ class TransitionParams(ParamsBase):
         default=False,
         description="Checked before the source state is ticked (a monitor); outermost level first.",
     )
+    guard: str | ConditionField | None = Field(
+        default=None, description="Must also hold for the transition to fire: an expression or a condition object.")
+    set: Assignments | None = Field(
+        default=None, description="The transition's action: variables assigned while firing, in order.")
     description: str | None = Field(default=None, description="Free text for people.")
     layout: dict[str, Any] | None = Field(default=None, description="Diagram layout (points); ignored at run time.")
+
+
+class ConditionParams(ParamsBase):
+    """Fields every condition object has; a condition type's own ``Params`` subclasses this."""
+
+    type: str = Field(description="Registered condition type.")

@@ -64,7 +64,7 @@ class Region:
         try:
             if state.preempt:
                 for tr in state.preempt:
-                    if tr.always or tr.check(ctx):
+                    if tr.always or tr._check(ctx):
                         phase = "firing"
                         self.fire(state, tr, ctx)
                         return
@@ -75,7 +75,7 @@ class Region:
                     return
                 phase = "check"
             for tr in state.regular:
-                if tr.always or tr.check(ctx):
+                if tr.always or tr._check(ctx):
                     phase = "firing"
                     self.fire(state, tr, ctx)
                     return

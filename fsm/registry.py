@@ -15,24 +15,28 @@ import traceback
 from collections.abc import Callable, Iterator
 from typing import Any, TypeVar
 
+from .condition import Condition
 from .errors import RegistrationError, UsageError
-from .params import StateParams, TransitionParams
+from .params import ConditionParams, StateParams, TransitionParams
 from .state import State
 from .transition import Transition
 
 S = TypeVar("S", bound=type[State])
 T = TypeVar("T", bound=type[Transition])
+C = TypeVar("C", bound=type[Condition])
 
 STATE_GROUP = "fsm.states"
 TRANSITION_GROUP = "fsm.transitions"
+CONDITION_GROUP = "fsm.conditions"
 
 
 class Registry:
-    """Two name spaces, states and transitions; a name may not be registered twice in one of them."""
+    """Three name spaces, states, transitions and conditions; a name may not be registered twice in one."""
 
     def __init__(self) -> None:
         self.states: dict[str, type[State]] = {}
         self.transitions: dict[str, type[Transition]] = {}
+        self.conditions: dict[str, type[Condition]] = {}
         self._loaded_plugins: set[str] = set()
 
     # -- registration ---------------------------------------------------------------------------
@@ -41,6 +45,9 @@ class Registry:
 
     def add_transition(self, cls: type[Transition], name: str | None = None) -> type[Transition]:
         return self._add(self.transitions, Transition, TransitionParams, cls, name, "transition")
+
+    def add_condition(self, cls: type[Condition], name: str | None = None) -> type[Condition]:
+        return self._add(self.conditions, Condition, ConditionParams, cls, name, "condition")
 
     def _add(self, table: dict[str, Any], base: type, params_base: type, cls: Any, name: str | None,
              kind: str) -> Any:
@@ -79,18 +86,32 @@ class Registry:
     def transition_class(self, name: str) -> type[Transition] | None:
         return self.transitions.get(name)
 
+    def condition_class(self, name: str) -> type[Condition] | None:
+        return self.conditions.get(name)
+
+    def table(self, kind: str) -> dict[str, Any]:
+        """The name space of ``kind``: "state", "transition" or "condition"."""
+        return {"state": self.states, "transition": self.transitions, "condition": self.conditions}[kind]
+
     def suggest(self, name: str, kind: str) -> list[str]:
         """Registered names close to ``name`` (for "did you mean" hints)."""
-        table = self.states if kind == "state" else self.transitions
+        table = self.table(kind)
         by_lower = {n.lower(): n for n in table}
         close = difflib.get_close_matches(name.lower(), list(by_lower), n=3, cutoff=0.6)
         return [by_lower[c] for c in close]
 
     def __iter__(self) -> Iterator[tuple[str, str, type]]:
+        """``(kind, name, class)`` of the state and transition types (the types a diagram draws)."""
         for name, cls in sorted(self.states.items()):
             yield "state", name, cls
         for name, tcls in sorted(self.transitions.items()):
             yield "transition", name, tcls
+
+    def every(self) -> Iterator[tuple[str, str, type]]:
+        """``(kind, name, class)`` of every registered type: states, transitions, then conditions."""
+        yield from self
+        for name, ccls in sorted(self.conditions.items()):
+            yield "condition", name, ccls
 
     # -- plugins --------------------------------------------------------------------------------
     def load_module(self, module: str) -> None:
@@ -108,13 +129,15 @@ class Registry:
         self._loaded_plugins.add(module)
 
     def load_entry_points(self) -> None:
-        """Load third-party types from the entry-point groups ``fsm.states`` and ``fsm.transitions``.
+        """Load third-party types from the entry-point groups ``fsm.states``, ``fsm.transitions`` and
+        ``fsm.conditions``.
 
         An entry point names a module (its decorators register) or a class (registered under its name).
         """
         from importlib.metadata import entry_points
 
-        for group, add in ((STATE_GROUP, self.add_state), (TRANSITION_GROUP, self.add_transition)):
+        for group, add in ((STATE_GROUP, self.add_state), (TRANSITION_GROUP, self.add_transition),
+                           (CONDITION_GROUP, self.add_condition)):
             for ep in entry_points(group=group):
                 key = f"{group}:{ep.name}={ep.value}"
                 if key in self._loaded_plugins:
@@ -125,7 +148,8 @@ class Registry:
                 except Exception as exc:  # an installed plugin that is broken: say which one and where
                     raise _plugin_error(f"entry point {ep.name} = {ep.value} ({group})", exc, None) from None
                 if isinstance(obj, type):
-                    table = self.states if group == STATE_GROUP else self.transitions
+                    table = {STATE_GROUP: self.states, TRANSITION_GROUP: self.transitions}.get(group,
+                                                                                                self.conditions)
                     if table.get(ep.name) is not obj and table.get(obj.__name__) is not obj:
                         add(obj, ep.name)  # type: ignore[arg-type]
                 self._loaded_plugins.add(key)
@@ -261,6 +285,16 @@ def register_transition(cls: T | None = None, *, name: str | None = None) -> Any
     return deco(cls) if cls is not None else deco
 
 
+def register_condition(cls: C | None = None, *, name: str | None = None) -> Any:
+    """Class decorator: register a Condition subclass under its class name (or ``name``)."""
+
+    def deco(c: C) -> C:
+        current().add_condition(c, name)
+        return c
+
+    return deco(cls) if cls is not None else deco
+
+
 def default_registry(plugins: list[str] | tuple[str, ...] = (), entry_points: bool = True) -> Registry:
     """The process registry with the built-in types, installed plugins and the ``plugins`` modules loaded."""
     global _builtins_loaded
@@ -278,5 +312,5 @@ def default_registry(plugins: list[str] | tuple[str, ...] = (), entry_points: bo
 
 
 def builder(kind: str) -> Callable[..., Any]:
-    """``register_state`` or ``register_transition`` by kind name."""
-    return register_state if kind == "state" else register_transition
+    """``register_state``, ``register_transition`` or ``register_condition`` by kind name."""
+    return {"state": register_state, "condition": register_condition}.get(kind, register_transition)

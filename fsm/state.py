@@ -39,6 +39,8 @@ class State:
         "_enter",
         "_exit",
         "_source_hooks",
+        "_set_enter",
+        "_set_exit",
     )
 
     Params: ClassVar[type[StateParams]] = StateParams
@@ -75,6 +77,9 @@ class State:
         self._enter: Any = None
         self._exit: Any = None
         self._source_hooks: tuple[Any, ...] = ()
+        #: The document's ``set`` of this state, compiled: ``fn(ctx)`` or None.
+        self._set_enter: Any = None
+        self._set_exit: Any = None
 
     @classmethod
     def possible_outcomes(cls, params: StateParams) -> set[str] | None:
@@ -125,19 +130,23 @@ class State:
         has_enter = cls.on_enter is not State.on_enter
         has_exit = cls.on_exit is not State.on_exit
         self._source_hooks = tuple(
-            t.on_source_enter for t in self.transitions if t._has_source_hook
+            t._source_hook for t in self.transitions if t._source_hook is not None
         )
-        plain_enter = not (has_enter or self.regions or self._source_hooks or self.can_finish)
+        plain_enter = not (has_enter or self.regions or self._source_hooks or self.can_finish
+                           or self._set_enter is not None)
         self._enter = None if plain_enter else self._enter_full
         frozen = self.paused or self.frozen_since is not None
-        self._exit = self._exit_full if (has_exit or self.regions or frozen) else None
+        self._exit = self._exit_full if (has_exit or self.regions or frozen or self._set_exit is not None) else None
 
     def _enter_full(self, ctx: Context) -> None:
         """Enter: reset finishing, arm the outgoing transitions, ``on_enter``, then the sub-machines."""
         self.finished = False
         self.outcome = None
-        phase = "on_source_enter"
+        phase = "set on_enter"
         try:
+            if self._set_enter is not None:
+                self._set_enter(ctx)
+            phase = "on_source_enter"
             for hook in self._source_hooks:
                 hook(ctx)
             phase = "on_enter"
@@ -151,10 +160,14 @@ class State:
         """Exit: sub-machines first (innermost first; parallel regions in reverse order), then ``on_exit``."""
         for region in reversed(self.regions):
             region.stop(ctx)
+        phase = "on_exit"
         try:
             self.on_exit(ctx)
+            if self._set_exit is not None:
+                phase = "set on_exit"
+                self._set_exit(ctx)
         except Exception as exc:
-            raise ctx.machine._runtime_error(self, "on_exit", exc) from exc
+            raise ctx.machine._runtime_error(self, phase, exc) from exc
         if self.paused or self.frozen_since is not None:
             # Left by an outer transition while paused: no longer paused or frozen; restore the plain hooks.
             self.paused = False

@@ -18,8 +18,10 @@ class Recorder(Listener):
     """Collects the transitions of the current tick; writes one JSONL line per tick that had any.
 
     A line: ``{"tick", "time", "active", "transitions": [{"tick", "time", "from", "to", "type"}]}``;
-    the initial entry is a transition from ``null`` of type ``"initial"``. ``extra`` (a callable
-    returning a dict) adds fields to every line, e.g. sensors and commands of a car.
+    the initial entry is a transition from ``null`` of type ``"initial"``. A line also has ``"vars"``,
+    the blackboard variables whose value changed during the tick (all of them on the first line), and a
+    line is written for a tick in which only variables changed. ``extra`` (a callable returning a dict) adds
+    fields to every line, e.g. sensors and commands of a car.
     """
 
     def __init__(self, out: IO[str] | None = None, extra: Any = None) -> None:
@@ -29,6 +31,7 @@ class Recorder(Listener):
         self._seen: set[str] = set()
         self.transitions = 0
         self._pending: list[dict[str, Any]] = []
+        self._vars: dict[str, Any] | None = None
 
     def on_transition(self, ctx: Context, source: State | None, target: State, transition: Transition | None) -> None:
         if target.path not in self._seen:
@@ -49,7 +52,8 @@ class Recorder(Listener):
 
     def flush(self, machine: Machine) -> None:
         """Write the pending line (also used after ``start`` for the initial entries)."""
-        if not self._pending:
+        changed = self._changed_vars(machine.ctx.vars)
+        if not self._pending and not changed:
             return
         if self.out is not None:
             line: dict[str, Any] = {
@@ -58,14 +62,42 @@ class Recorder(Listener):
                 "active": machine.active_path,
                 "transitions": self._pending,
             }
+            if changed:
+                line["vars"] = {k: jsonable(v) for k, v in changed.items()}
             if self.extra is not None:
                 line.update(self.extra())
             self.out.write(json.dumps(line, separators=(",", ":")) + "\n")
         self._pending = []
 
 
+    def _changed_vars(self, current: dict[str, Any]) -> dict[str, Any] | None:
+        """The variables set or changed since the last call (a removed one as None); None if nothing changed."""
+        last = self._vars
+        if last is not None and current == last and all(type(v) is type(last[k]) for k, v in current.items()):
+            return None
+        self._vars = dict(current)
+        if last is None:
+            return dict(current) or None
+        out = {k: v for k, v in current.items() if k not in last or last[k] != v or type(last[k]) is not type(v)}
+        out.update({k: None for k in last if k not in current})
+        return out or None
+
+
+def jsonable(value: Any) -> Any:
+    """A value as JSON can hold it (a state may store anything on the blackboard)."""
+    if value is None or isinstance(value, (bool, int, str)):
+        return value
+    if isinstance(value, float):
+        return value if value == value and value not in (float("inf"), float("-inf")) else str(value)
+    if isinstance(value, (list, tuple)):
+        return [jsonable(v) for v in value]
+    if isinstance(value, dict):
+        return {str(k): jsonable(v) for k, v in value.items()}
+    return repr(value)
+
+
 def summary(machine: Machine, recorder: Recorder) -> dict[str, Any]:
-    """The run summary: outcome, finished, ticks, sim_time, transitions, visited."""
+    """The run summary: outcome, finished, ticks, sim_time, transitions, visited, vars (final values)."""
     return {
         "outcome": machine.outcome,
         "finished": machine.finished,
@@ -73,4 +105,5 @@ def summary(machine: Machine, recorder: Recorder) -> dict[str, Any]:
         "sim_time": round(machine.now, 9),
         "transitions": machine.transition_count,
         "visited": list(recorder.visited),
+        "vars": {k: jsonable(v) for k, v in machine.ctx.vars.items()},
     }

@@ -18,9 +18,13 @@ class Transition:
     it for ``preempt: true``); the first transition whose check is true fires. ``on_source_enter`` is
     called whenever the source is entered (to take a reference value, e.g. the travelled distance).
     ``action`` runs while firing, between the source's exit and the target's entry.
+
+    A document may add a ``guard`` (an expression or a condition, checked before ``check``: both must hold)
+    and a ``set`` (assignments run after ``action``); the loader compiles them and calls :meth:`attach`.
     """
 
-    __slots__ = ("params", "source", "target", "index", "always", "_action", "_has_source_hook")
+    __slots__ = ("params", "source", "target", "index", "always", "conditions", "_check", "_action",
+                 "_source_hook", "_has_source_hook")
 
     Params: ClassVar[type[TransitionParams]] = TransitionParams
     #: Registered type name; set by the registry.
@@ -37,6 +41,8 @@ class Transition:
     signal_refs: ClassVar[tuple[str, ...]] = ()
     #: Names of parameters that hold blackboard variable names.
     variable_refs: ClassVar[tuple[str, ...]] = ()
+    #: Names of parameters that hold condition objects; built instances are in ``self.conditions``.
+    condition_fields: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, params: TransitionParams, source: State, target: State, index: int = 0) -> None:
         self.params = params
@@ -45,8 +51,44 @@ class Transition:
         self.index = index
         self.always = self.unconditional
         cls = type(self)
+        self.conditions: dict[str, Any] = {}
+        self._check: Any = self.check
         self._action: Any = self.action if cls.action is not Transition.action else None
         self._has_source_hook = cls.on_source_enter is not Transition.on_source_enter
+        self._source_hook: Any = self.on_source_enter if self._has_source_hook else None
+
+    def attach(self, guard: Any = None, assign: Any = None, conditions: dict[str, Any] | None = None) -> None:
+        """Add what the document gives on top of the type: ``guard(ctx) -> bool`` (checked first), ``assign(ctx)``
+        (after ``action``) and condition instances by parameter name (``"guard"`` for a condition guard), which
+        are reset each time the source is entered."""
+        if conditions:
+            self.conditions.update(conditions)
+            resets = tuple(c.reset for c in conditions.values())
+            own = self._source_hook
+
+            def arm(ctx: Any) -> None:
+                for reset in resets:
+                    reset(ctx)
+                if own is not None:
+                    own(ctx)
+            self._source_hook = arm
+            self._has_source_hook = True
+        if guard is not None:
+            check = self.check
+            if self.unconditional:
+                self._check = guard
+            else:
+                self._check = lambda ctx: guard(ctx) and check(ctx)
+            self.always = False
+        if assign is not None:
+            action = self._action
+            if action is None:
+                self._action = assign
+            else:
+                def both(ctx: Any) -> None:
+                    action(ctx)
+                    assign(ctx)
+                self._action = both
 
     @classmethod
     def check_document(cls, params: TransitionParams, variables: dict[str, Any]) -> tuple[str, str] | None:
@@ -71,6 +113,10 @@ class Transition:
 
     def bind(self, machine: Any) -> None:
         """Called once when the machine is built, to resolve references to other states (``InState``)."""
+
+    def _bind_conditions(self, machine: Any) -> None:
+        for condition in self.conditions.values():
+            condition.bind(machine, self.source)
 
     def describe(self) -> str:
         """One line for traces and messages."""

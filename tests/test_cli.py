@@ -23,7 +23,7 @@ from fsm.tools.cli import main
 
 REPO = Path(__file__).resolve().parents[1]
 COMMITTED_SCHEMA = REPO / "fsm" / "schema" / "machine.schema.json"
-SUMMARY_KEYS = {"outcome", "finished", "ticks", "sim_time", "transitions", "visited"}
+SUMMARY_KEYS = {"outcome", "finished", "ticks", "sim_time", "transitions", "visited", "vars"}
 
 BLINK = {
     "name": "blink",
@@ -262,7 +262,8 @@ def test_types_lists_every_registered_type_with_parameters_and_defaults(capsys: 
     assert code == 0
     registry = default_registry()
     listed = set(re.findall(r"^  (\w+)(?: \[finishes\])?: ", out, re.M))
-    assert listed == set(registry.states) | set(registry.transitions)
+    assert listed == set(registry.states) | set(registry.transitions) | set(registry.conditions)
+    assert "\nConditions\n" in out
     for name in ("Idle", "Final", "FSMState", "Parallel", "Always", "Finished", "Timeout", "Signal", "Var",
                  "InState"):
         assert name in listed
@@ -277,12 +278,13 @@ def test_types_lists_every_registered_type_with_parameters_and_defaults(capsys: 
 def test_types_json_has_every_parameter_of_every_model(capsys: pytest.CaptureFixture[str]) -> None:
     code, out, _err = cli(capsys, "types", "--format", "json")
     assert code == 0
-    rows = {r["name"]: r for r in json.loads(out)}
+    rows = {(r["kind"], r["name"]): r for r in json.loads(out)}
     registry = default_registry()
-    assert set(rows) == set(registry.states) | set(registry.transitions)
-    common = {"id", "type", "description", "layout", "from", "to", "priority", "preempt"}
-    for kind, name, cls in registry:
-        row = rows[name]
+    assert set(rows) == ({("state", n) for n in registry.states} | {("transition", n) for n in registry.transitions}
+                         | {("condition", n) for n in registry.conditions})
+    common = {"id", "type", "description", "layout", "from", "to", "priority", "preempt", "guard", "set"}
+    for kind, name, cls in registry.every():
+        row = rows[(kind, name)]
         assert row["kind"] == kind
         own = {f.alias or n for n, f in cls.Params.model_fields.items()} - common
         assert {p["name"] for p in row["params"]} == own, name
@@ -291,7 +293,7 @@ def test_types_json_has_every_parameter_of_every_model(capsys: pytest.CaptureFix
             assert p["required"] == field.is_required()
             if not field.is_required() and field.default is not None:
                 assert p["default"] == field.default
-    assert rows["Final"]["can_finish"] is True and rows["Idle"]["can_finish"] is False
+    assert rows[("state", "Final")]["can_finish"] is True and rows[("state", "Idle")]["can_finish"] is False
 
 
 def test_types_with_names_shows_only_those(capsys: pytest.CaptureFixture[str]) -> None:

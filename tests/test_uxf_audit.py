@@ -190,17 +190,18 @@ def test_arrowheads_at_both_ends_are_one_located_error(lt):
 
 
 def test_self_loop_drawn_with_lt_reversed():
-    doc = one(INIT, START, A, relation([[160, 90], [200, 90], [200, 110], [160, 110]], "lt=<-\nagain / count"))
+    doc = one(INIT, START, A, relation([[160, 90], [200, 90], [200, 110], [160, 110]], "lt=<-\nagain / count = count + 1"))
     assert strip(doc["transitions"]) == [{"type": "Signal", "from": "A", "to": "A", "signal": "again",
-                                          "label": "again / count"}]
+                                          "label": "again / count = count + 1", "set": {"count": "count + 1"}}]
 
 
 # -- labels: every line that is no facet is a middle label line (LineDescriptionFacet, priority LOWEST) ------------
 def test_label_ignores_end_texts_and_styles_and_may_precede_lt():
-    doc = one(INIT, START, A, B, relation(A_TO_B, "m1=0..1\nev [armed]\nlt=<-\nm2=*\n/ beep\nr2=role\nlw=2\nfg=red\n"
+    doc = one(INIT, START, A, B, relation(A_TO_B, "m1=0..1\nev [armed]\nlt=<-\nm2=*\n/ beep = 1\nr2=role\nlw=2\nfg=red\n"
                                                   "// why\nm1pos=5,5"))
     assert strip(doc["transitions"]) == [{"type": "Signal", "from": "B", "to": "A", "signal": "ev",
-                                          "label": "ev [armed] / beep"}]
+                                          "label": "ev [armed] / beep = 1", "guard": "armed",
+                                          "set": {"beep": 1}}]
 
 
 def test_only_end_texts_make_no_label():
@@ -210,8 +211,8 @@ def test_only_end_texts_make_no_label():
 
 
 @pytest.mark.parametrize("label, signal", [
-    ("evt[g]/act", "evt"), ("evt / act [x]", "evt"), ("e1, e2 / a", "e1, e2"), ("a [x / 2 > 1] / b", "a"),
-    ("  spaced    out  ", "spaced out"), ("ÖFFNEN [offen] / 開く", "ÖFFNEN"),
+    ("evt[g]/act=1", "evt"), ("evt / act = 'x [x]'", "evt"), ("e1, e2 / a = 2", "e1, e2"),
+    ("a [x / 2 > 1] / b = x", "a"), ("  spaced    out  ", "spaced out"), ("ÖFFNEN [offen] / 開く = true", "ÖFFNEN"),
 ])
 def test_uml_label_event_names(label, signal):
     doc = one(INIT, START, A, B, relation(A_TO_B, f"lt=->\n{label}"))
@@ -230,9 +231,11 @@ def test_tral_label_with_from_to_ids_and_nested_json():
 def test_state_text_facets_comments_and_compartments():
     doc = one(INIT, START, element("UMLState", 60, 80, 100, 40,
                                    "// a comment\nGo\nAhead\nvalign=top\nbg=red\n--\ntype=Timeout\n// in between\n"
-                                   "seconds=2\nfg=#00ff00\n-.\nentry / beep\n-..\nexit / stop\nhalign=left"))
+                                   "seconds=2\nfg=#00ff00\n-.\nentry / beep = 1\nsome words\n-..\nexit / stop = beep\n"
+                                   "halign=left"))
     assert strip(doc["states"]) == [{"id": "Go Ahead", "type": "Timeout", "seconds": 2,
-                                     "description": "entry / beep\nexit / stop"}]
+                                     "set": {"on_enter": {"beep": 1}, "on_exit": {"stop": "beep"}},
+                                     "description": "some words"}]
 
 
 @pytest.mark.parametrize("sep", ["-", "--", "-.", "-.."])
@@ -262,12 +265,13 @@ def test_json_fragment_with_nested_braces_and_escaped_quotes():
 
 
 def test_unicode_names_and_crlf_everywhere():
-    raw = diagram([INIT, START, element("UMLState", 60, 80, 100, 40, "Öffnen\r\nTür\r\n--\r\nentry / 開く"),
+    raw = diagram([INIT, START, element("UMLState", 60, 80, 100, 40, "Öffnen\r\nTür\r\n--\r\nentry / 開く = 1\r\nTür zu"),
                    element("UMLState", 60, 200, 100, 40, "完了"),
                    relation(A_TO_B, "lt=->\r\nÖFFNEN")]).encode().replace(b"\n", b"\r\n")
     doc = one(raw=raw)
     assert strip(doc) == {"name": "t", "initial": "Öffnen Tür",
-                          "states": [{"id": "Öffnen Tür", "type": "Idle", "description": "entry / 開く"},
+                          "states": [{"id": "Öffnen Tür", "type": "Idle", "set": {"on_enter": {"開く": 1}},
+                                      "description": "Tür zu"},
                                      {"id": "完了", "type": "Idle"}],
                           "transitions": [{"type": "Signal", "from": "Öffnen Tür", "to": "完了", "signal": "ÖFFNEN",
                                            "label": "ÖFFNEN"}]}

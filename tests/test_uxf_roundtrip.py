@@ -38,8 +38,10 @@ def _itaxo_renamed() -> bytes:
     """The Itaxo01 corpus diagram with its duplicate 'Associa primeiro' names made unique (in memory)."""
     raw = (CORPUS / "Itaxo01__Projeto-Engenharia-de-Software__Statechart.uxf").read_bytes()
     n = iter(range(1, 10))
-    return re.sub(rb"<panel_attributes>Associa primeiro</panel_attributes>",
-                  lambda m: f"<panel_attributes>Associa {next(n)}</panel_attributes>".encode(), raw)
+    raw = re.sub(rb"<panel_attributes>Associa primeiro</panel_attributes>",
+                 lambda m: f"<panel_attributes>Associa {next(n)}</panel_attributes>".encode(), raw)
+    # "Ligar/Desligar": in a UML label '/' starts the action, and 'Desligar' is no assignment (a located error)
+    return raw.replace("Ligar/Desligar".encode(), "Ligar ou Desligar".encode())
 
 
 def _corpus_docs():
@@ -59,7 +61,7 @@ def test_every_kind_of_example_is_covered():
     texts = {p.stem: p.read_text() for p in EXAMPLES}
     assert '"type": "Parallel"' in texts["mission"] and '"file": "grip.json"' in texts["mission"]
     assert all('"description"' in texts[k] for k in ("mission", "grip", "lane_change", "hallway_lap"))
-    assert len(_corpus_docs()) >= 9
+    assert len(_corpus_docs()) >= 7  # KIT-MAMID and ikageso1 write free text after '/': no longer converted
 
 
 @pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.stem)

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 from .car import Distance, PassPoint, SensorLevel
+from .conditions import ConditionTransition
 from .generic import Always, Finished, Timeout
 from .inputs import InState, Signal, Var
 from .vision import ArucoGateFound, ArucoMarkerFound
 
-__all__ = ["Always", "ArucoGateFound", "ArucoMarkerFound", "Distance", "Finished", "InState", "PassPoint", "SensorLevel", "Signal", "Timeout", "Var"]
+__all__ = ["Always", "ArucoGateFound", "ArucoMarkerFound", "ConditionTransition", "Distance", "Finished", "InState",
+           "PassPoint", "SensorLevel", "Signal", "Timeout", "Var"]

@@ -10,7 +10,7 @@ from .common import EXIT_FAIL, EXIT_OK, registry_from
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("types", help="list the registered state and transition types with their parameters")
+    p = sub.add_parser("types", help="list the registered state, transition and condition types with their parameters")
     p.add_argument("names", nargs="*", metavar="TYPE", help="only these types")
     p.add_argument("--format", choices=("text", "json"), default="text")
     p.set_defaults(func=cmd_types)
@@ -21,7 +21,7 @@ def cmd_types(args: argparse.Namespace) -> int:
 
     registry = registry_from(args)
     rows = []
-    for kind, name, cls in registry:
+    for kind, name, cls in registry.every():
         if args.names and name not in args.names:
             continue
         doc = (cls.__doc__ or "").strip().splitlines()
@@ -33,14 +33,14 @@ def cmd_types(args: argparse.Namespace) -> int:
     if unknown:
         hints = []
         for n in unknown:
-            close = registry.suggest(n, "state") + registry.suggest(n, "transition")
+            close = registry.suggest(n, "state") + registry.suggest(n, "transition") + registry.suggest(n, "condition")
             hints.append(f"{n!r}" + (f" (did you mean {', '.join(close)}?)" if close else ""))
         print("fsmctl types: unknown type " + ", ".join(hints), file=sys.stderr)
         return EXIT_FAIL
     if args.format == "json":
         print(json.dumps(rows, indent=2))
         return EXIT_OK
-    for heading, kind in (("States", "state"), ("Transitions", "transition")):
+    for heading, kind in (("States", "state"), ("Transitions", "transition"), ("Conditions", "condition")):
         group = [r for r in rows if r["kind"] == kind]
         if not group:
             continue
@@ -54,6 +54,8 @@ def cmd_types(args: argparse.Namespace) -> int:
                 print(f"      {prm['name']}: {prm['type']} ({default}){desc}")
         print()
     if not args.names:
-        print("Every transition also takes: from, to, priority (default 0), preempt (default false).")
-        print("Every element may carry: description, layout.")
+        print("Every transition also takes: from, to, priority (default 0), preempt (default false), guard, set.")
+        print("Every state also takes: set (on_enter, on_exit).")
+        print("Every element may carry: description, layout. A condition is written in a guard or a Condition "
+              "transition.")
     return EXIT_OK

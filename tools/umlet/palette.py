@@ -40,6 +40,8 @@ def palette(registry: Any) -> str:
     x_state, x_trans = 20, 360
     ys, yt = y, y
     for kind, name, cls in registry:
+        if kind == "condition":
+            continue  # conditions are written inside a guard or a Condition transition, not drawn
         infos = param_info(cls.Params)
         lines: list[str] = []
         comments: list[str] = []

@@ -328,18 +328,42 @@ class Relations:
     def add_transition(self, level: Level, s: StateBox, d: StateBox, params: dict[str, Any] | None, label: T.Label,
                        points: list[Any] | None, elem: RawElement | None) -> None:
         tr: dict[str, Any] = {}
+        uml = label.uml or label.text
+        try:
+            event, guard, action = T.split_uml(uml) if uml else ("", None, None)
+            if guard is not None:
+                T.check_guard(guard)
+            actions = T.parse_actions(action) if action is not None else None
+        except T.TextError as exc:
+            self.problem(elem, f"label: {exc}",
+                         hint="a label is 'event [guard] / name = expression; ...' (see `fsmctl types` and the "
+                              "expression grammar in the documentation)")
+            return
         if params is not None:
             typ = params.pop("type", None) if "type" in params else None
             if not isinstance(typ, str) or not typ:
                 self.problem(elem, f"'type' must be a transition type name, got {typ!r}",
                              hint="see `fsmctl types` for the transition types")
                 return
+            if label.uml and event:
+                self.problem(elem, f"label: the line {label.uml[:40]!r} after the parameters may only hold "
+                                   "'[guard] / action'; the type is given above it")
+                return
+            for key, value in (("guard", guard), ("set", actions)):
+                if value is not None and key in params:
+                    self.problem(elem, f"label: '{key}' is given both as a parameter and in the "
+                                       "'[guard] / action' line", hint="keep one of the two")
+                    return
             params = self.scene.coerce_kv("transition", typ, params, label.kv_keys)
             tr = {"type": typ, "from": "", "to": "", **params}
-        elif label.text:
-            tr = {"type": "Signal", "from": "", "to": "", "signal": T.event_name(label.text), "label": label.text}
+        elif event:
+            tr = {"type": "Signal", "from": "", "to": "", "signal": event, "label": label.text}
         else:
             tr = {"type": "_completion", "from": "", "to": ""}
+        if guard is not None:
+            tr["guard"] = guard
+        if actions is not None:
+            tr["set"] = actions
         tr["_from"], tr["_to"] = s, d
         if points is not None:
             tr["layout"] = {"points": points}

@@ -286,6 +286,27 @@ class Scene:
                 return None
             st.type = typ
             st.params = self.coerce_kv("state", typ, params, text.kv_keys)
+        if text.activities:
+            sets: dict[str, dict[str, Any]] = {}
+            for when, action in text.activities:
+                hook = "on_enter" if when == "entry" else "on_exit"
+                try:
+                    assigned = T.parse_actions(action)
+                except T.TextError as exc:
+                    self.problem(elem, f"{when} / ...: {exc}",
+                                 hint="an internal activity is 'entry / name = expression; ...' (or exit)")
+                    return None
+                target = sets.setdefault(hook, {})
+                for name, value in assigned.items():
+                    if name in target:
+                        self.problem(elem, f"{when} / ...: '{name}' is assigned twice",
+                                     hint="assign each variable once per entry (or exit)")
+                        return None
+                    target[name] = value
+            if "set" in st.params:
+                self.problem(elem, "the state gives both set= and entry / exit lines", hint="keep one of the two")
+                return None
+            st.params = {**st.params, "set": sets}
         return st
 
     def read_note(self, elem: RawElement) -> dict[str, Any] | None:

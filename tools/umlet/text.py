@@ -67,6 +67,12 @@ class StateText:
     description: str | None
     #: the parameters written as ``key=value`` lines (texts: a number there may be meant as text)
     kv_keys: set[str] = field(default_factory=set)
+    #: UML internal activities: ``("entry" | "exit", action text)`` from ``entry / x = 1`` lines
+    activities: list[tuple[str, str]] = field(default_factory=list)
+
+
+#: A UML internal activity line of a state: ``entry / count = count + 1`` or ``exit / led = false``.
+ACTIVITY = re.compile(r"^\s*(entry|exit)\s*/(.*)$")
 
 
 def split_state(text: str) -> tuple[list[str], list[list[str]]]:
@@ -98,15 +104,23 @@ def parse_state(text: str) -> StateText:
     if not compartments and is_param_block(name_lines):
         compartments = [name_lines]
         name = ""
+    activities: list[tuple[str, str]] = []
     for comp in compartments:
         if params is None and is_param_block(comp):
             params, kv_keys = parse_params(comp)
         else:
-            block = "\n".join(ln.rstrip() for ln in comp).strip("\n")
+            rest = []
+            for ln in comp:
+                m = ACTIVITY.match(ln)
+                if m:
+                    activities.append((m.group(1), m.group(2).strip()))
+                else:
+                    rest.append(ln)
+            block = "\n".join(ln.rstrip() for ln in rest).strip("\n")
             if block.strip():
                 free.append(block)
     description = "\n".join(free) if free else None
-    return StateText(name, params, description, kv_keys)
+    return StateText(name, params, description, kv_keys, activities)
 
 
 def _has_kv_type(lines: list[str]) -> bool:
@@ -283,15 +297,32 @@ def arrowheads(lt: str) -> tuple[bool, bool, bool]:
 
 @dataclass
 class Label:
-    """A transition label: explicit type and parameters, or a UML ``event [guard] / action`` text."""
+    """A transition label: explicit type and parameters, or a UML ``event [guard] / action`` text.
+
+    With a type, a last line ``[guard] / action`` (starting with ``[`` or ``/``) adds a guard and a ``set``."""
 
     params: dict[str, Any] | None
     text: str  # the label as one line (UML form), "" if none
     #: the parameters written as ``key=value`` lines
     kv_keys: set[str] = field(default_factory=set)
+    #: the ``[guard] / action`` line after typed parameters, "" if none
+    uml: str = ""
+
+
+def _is_uml_line(line: str) -> bool:
+    return line.lstrip().startswith(("[", "/"))
 
 
 def parse_label(lines: list[str]) -> Label:
+    body = list(lines)
+    while body and not body[-1].strip():
+        body.pop()
+    tail: list[str] = []
+    while body and _is_uml_line(body[-1]):
+        tail.insert(0, body.pop())
+    if tail and body and is_param_block(body):
+        params, kv_keys = parse_params(body)
+        return Label(params, "", kv_keys, " ".join(" ".join(ln.split()) for ln in tail))
     if is_param_block(lines):
         params, kv_keys = parse_params(lines)
         return Label(params, "", kv_keys)
@@ -302,15 +333,67 @@ def parse_label(lines: list[str]) -> Label:
 _UML_LABEL = re.compile(r"^(?P<event>[^\[/]*)(?:\[(?P<guard>[^\]]*)\])?\s*(?:/(?P<action>.*))?$", re.S)
 
 
-def event_name(label: str) -> str:
-    """The event of a UML label ``event [guard] / action``; the guard or action when there is no event."""
+def split_uml(label: str) -> tuple[str, str | None, str | None]:
+    """``event [guard] / action`` -> ``(event, guard, action)`` (``None`` where the part is not written);
+    :class:`TextError` for a text that is not of that form."""
     m = _UML_LABEL.match(label)
-    if m:
-        for part in ("event", "guard", "action"):
-            value = (m.group(part) or "").strip()
-            if value:
-                return value
-    return label.strip()
+    if m is None:
+        if "[" in label and "]" not in label.split("[", 1)[1]:
+            raise TextError(f"label {label[:40]!r}: '[' without ']' (a guard is written [condition])")
+        raise TextError(f"label {label[:40]!r} is not 'event [guard] / action'")
+    guard = m.group("guard")
+    action = m.group("action")
+    return (" ".join(m.group("event").split()), guard.strip() if guard is not None else None,
+            action.strip() if action is not None else None)
+
+
+def event_name(label: str) -> str:
+    """The event of a UML label ``event [guard] / action`` ("" when there is none)."""
+    try:
+        return split_uml(label)[0]
+    except TextError:
+        return label.strip()
+
+
+def literal(text: str) -> Any:
+    """A number or true/false written as an action's value is stored as that constant; else the expression."""
+    if text in ("true", "false"):
+        return text == "true"
+    if re.fullmatch(r"-?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][+-]?\d+)?", text):
+        try:
+            value = json.loads(text)
+        except ValueError:
+            return text
+        return value if json.dumps(value) == text else text
+    return text
+
+
+def parse_actions(text: str) -> dict[str, Any]:
+    """An action ``a = expr; b = 2`` -> ``{"a": "expr", "b": 2}``; :class:`TextError` (with the column) if it
+    does not parse."""
+    from fsm.expr import ExprError, parse_assignments
+
+    try:
+        pairs = parse_assignments(text)
+    except ExprError as exc:
+        raise TextError(f"action {text[:60]!r}: {exc}") from None
+    out: dict[str, Any] = {}
+    for name, expr_text, _ in pairs:
+        if name in out:
+            raise TextError(f"action {text[:60]!r} assigns '{name}' twice")
+        out[name] = literal(expr_text)
+    return out
+
+
+def check_guard(text: str) -> str:
+    """A guard's syntax (its variables are checked with the machine); :class:`TextError` if it does not parse."""
+    from fsm.expr import ExprError, parse
+
+    try:
+        parse(text)
+    except ExprError as exc:
+        raise TextError(f"guard [{text[:60]}]: {exc}") from None
+    return text
 
 
 # -- machine notes and region frames --------------------------------------------------------------------------

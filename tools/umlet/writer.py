@@ -110,8 +110,64 @@ def _safe_name(name: str) -> bool:
 def _safe_free_text(text: str) -> bool:
     lines = text.split("\n")
     return (text == text.strip("\n") and all(ln == ln.rstrip() for ln in lines) and bool(text.strip())
-            and not any(_facet_line(ln) or T.SEPARATOR.match(ln) or not ln.strip() for ln in lines)
+            and not any(_facet_line(ln) or T.SEPARATOR.match(ln) or not ln.strip() or T.ACTIVITY.match(ln)
+                        for ln in lines)
             and not T.is_param_block(lines))
+
+
+def action_text(assignments: Any) -> str | None:
+    """``a = expr; b = 2`` for a ``set`` that reads back exactly (:func:`fsm.tools.umlet.text.parse_actions`),
+    else None (then it is written as a parameter)."""
+    if not isinstance(assignments, dict) or not assignments:
+        return None
+    parts = []
+    for name, value in assignments.items():
+        if isinstance(value, str):
+            if value != value.strip() or "\n" in value or T.literal(value) != value:
+                return None
+            parts.append(f"{name} = {value}")
+        elif isinstance(value, (bool, int, float)):
+            parts.append(f"{name} = {json.dumps(value)}")
+        else:
+            return None
+    text = "; ".join(parts)
+    try:
+        back = T.parse_actions(text)
+    except T.TextError:
+        return None
+    if back != assignments or any(type(back[k]) is not type(v) for k, v in assignments.items()):
+        return None
+    return text
+
+
+def activity_lines(sets: Any) -> list[str] | None:
+    """The ``entry / ...`` and ``exit / ...`` lines of a state's ``set``, or None when it cannot be written so."""
+    if not isinstance(sets, dict) or not sets or set(sets) - {"on_enter", "on_exit"}:
+        return None
+    lines = []
+    for hook, word in (("on_enter", "entry"), ("on_exit", "exit")):
+        if hook in sets:
+            text = action_text(sets[hook])
+            if text is None:
+                return None
+            lines.append(f"{word} / {text}")
+    return lines
+
+
+def guard_action_text(guard: Any, assignments: Any) -> str | None:
+    """``[guard] / action`` for a transition's guard and ``set`` (either may be None), or None when one of them
+    cannot be written so (a condition object guard, a guard holding ']')."""
+    parts = []
+    if guard is not None:
+        if not isinstance(guard, str) or guard != guard.strip() or "]" in guard or "\n" in guard or not guard:
+            return None
+        parts.append(f"[{guard}]")
+    if assignments is not None:
+        text = action_text(assignments)
+        if text is None:
+            return None
+        parts.append(f"/ {text}")
+    return " ".join(parts) if parts else None
 
 
 def state_text(st: dict[str, Any], composite: bool) -> str:
@@ -128,10 +184,15 @@ def state_text(st: dict[str, Any], composite: bool) -> str:
         frag = json.dumps({"id": sid, "type": typ, **params}, ensure_ascii=False)[1:-1]
         lines = [frag] + (["--", free] if free else [])
         return "\n".join(lines) + ("\nvalign=top" if composite else "")
+    activities = activity_lines(params.get("set"))
+    if activities is not None:
+        params.pop("set")
     lines = [sid]
     implied = "FSMState" if composite else "Idle"
     if params or typ != implied:
         lines += ["--"] + param_lines(typ, params, T.STATE_FACET_KEYS, type_as_json=True)
+    if activities:
+        lines += ["--"] + activities
     if free:
         lines += ["--", free]
     if composite:
@@ -220,23 +281,39 @@ def _can_finish(st: dict[str, Any], registry: Any) -> bool:
     return bool(cls is not None and cls.can_finish)
 
 
+def _reads_back(label: str, signal: str, guard: Any, assignments: Any) -> bool:
+    """Whether a UML label converts back to exactly this signal, guard and ``set``."""
+    try:
+        parsed = T.parse_label(label.split("\n"))
+        if parsed.params is not None or parsed.text != label or _relation_facet_line(label):
+            return False
+        event, g, action = T.split_uml(label)
+        actions = T.parse_actions(action) if action is not None else None
+    except T.TextError:
+        return False
+    return event == signal and g == guard and actions == assignments and (
+        actions is None or all(type(actions[k]) is type(v) for k, v in assignments.items()))
+
+
 def transition_text(tr: dict[str, Any], source: dict[str, Any] | None, registry: Any) -> str:
     typ = str(tr.get("type"))
     params = {k: v for k, v in tr.items() if k not in _COMMON_TRANSITION}
-    if typ == "Signal" and set(params) == {"signal", "label"} and isinstance(params["label"], str):
+    if typ == "Signal" and set(params) - {"guard", "set"} == {"signal", "label"} and isinstance(params["label"], str):
         label = params["label"]
-        try:
-            parsed = T.parse_label(label.split("\n"))
-        except T.TextError:
-            parsed = None
-        if parsed is not None and parsed.params is None and parsed.text == label \
-                and T.event_name(label) == params["signal"] and not _relation_facet_line(label):
+        if _reads_back(label, params["signal"], params.get("guard"), params.get("set")):
             return "lt=->\n" + label
+    tail = None
+    if "guard" in params or "set" in params:
+        tail = guard_action_text(params.get("guard"), params.get("set"))
+        if tail is not None:
+            params.pop("guard", None)
+            params.pop("set", None)
     if not params and source is not None:
         can = _can_finish(source, registry)
         if (typ == "Finished" and can) or (typ == "Always" and not can):
-            return "lt=->"
-    return "\n".join(["lt=->"] + param_lines(typ, params, T.RELATION_FACET_KEYS, type_as_json=False))
+            return "lt=->" + (f"\n{tail}" if tail else "")
+    return "\n".join(["lt=->"] + param_lines(typ, params, T.RELATION_FACET_KEYS, type_as_json=False)
+                     + ([tail] if tail else []))
 
 
 def final_special(st: dict[str, Any], level_names: set[str], used: set[str]) -> str | None:

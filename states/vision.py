@@ -10,7 +10,7 @@ from pydantic import Field
 
 from fsm.params import StateParams
 from fsm.registry import register_state
-from fsm.transitions.vision import GATE_VAR, gate_to_odometry, select_gate
+from fsm.transitions.vision import GATE_VAR, gate_to_odometry, mark_passed, remember_gates, select_gate
 
 from .driving import CarState, _clamp
 
@@ -37,7 +37,7 @@ class GateCenterParams(StateParams):
 
 @register_state
 class ArucoGateCenter(CarState):
-    """Lines the car up with a gate: drives slowly along the gate's centre line (pure pursuit on it, from camera and odometry) until it is square to the gate and centred, then finishes (`succeeded`); `close` when it got near the gate first, `lost` when it never had a gate."""
+    """Lines the car up with a gate: drives slowly along the gate's centre line (pure pursuit on it, from camera and odometry) until it is square to the gate and centred, then finishes (`succeeded`); `close` when it got near the gate first, `lost` when it never had a gate. Finishing (`succeeded` or `close`) marks the gate passed on the blackboard (`gates_passed`), and every gate it sees is remembered (`gates_seen`) for ArucoGateFound with `memory`."""
 
     __slots__ = ("_gate", "_frame", "_ids")
     Params = GateCenterParams
@@ -81,6 +81,7 @@ class ArucoGateCenter(CarState):
         if view is None or view.frame == self._frame:
             return
         self._frame = view.frame
+        remember_gates(ctx, view)
         gate = select_gate(view, self._ids)
         if gate is not None and abs(gate.heading) < math.radians(80):
             known = ctx.vars.get(GATE_VAR)
@@ -110,8 +111,10 @@ class ArucoGateCenter(CarState):
             if (-along <= p.near and abs(lateral) <= p.offset  # type: ignore[attr-defined]
                     and abs(err) <= math.radians(p.angle)):  # type: ignore[attr-defined]
                 self.finish()
+                mark_passed(ctx, self._ids)
             elif -along <= p.min_distance:  # type: ignore[attr-defined]
                 self.finish("close")
+                mark_passed(ctx, self._ids)
         # pure pursuit towards a point on the centre line, lookahead ahead of the car's projection on it
         a = along + p.lookahead  # type: ignore[attr-defined]
         cx, cy = gate["x"] + ux * a, gate["y"] + uy * a

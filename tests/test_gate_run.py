@@ -92,3 +92,69 @@ def test_marker_ids_trigger_behaviours_turn_around_on_7_and_stop_on_5() -> None:
     assert sim.metrics()["collisions"] == 0
     x, y, th = car.true_pose()
     assert x < 2.0 and abs(car.speed) < 0.02  # stopped in front of marker 5 on the west wall
+
+
+#: A loop from benchmarks/bench_gate_worlds.py (seed 21): the gate 6/5 stands 1.9 m after the start, 0.6 m to the
+#: left, outside the camera's view from the start pose; the home stretch used to stop at the start line before it.
+GATE_AFTER_START = {'description': 'random loop 21: 20.9 x 11.8 m, corridors 1.93 m, 7 gates, start on straight 1',
+                    'walls': [{'points': [[0, 0], [20.898, 0], [20.898, 11.81], [0, 11.81]], 'closed': True},
+                              {'points': [[1.932, 1.932], [18.966, 1.932], [18.966, 9.878], [1.932, 9.878]],
+                               'closed': True}],
+                    'gates': [{'markers': [35, 26],
+                               'center': [14.77, 1.111],
+                               'heading': 4.0,
+                               'width': 0.91,
+                               'marker_size': 0.112,
+                               'height': 0.2},
+                              {'markers': [22, 21],
+                               'center': [11.14, 1.234],
+                               'heading': -14.9,
+                               'width': 0.93,
+                               'marker_size': 0.189,
+                               'height': 0.2},
+                              {'markers': [31, 47],
+                               'center': [17.898, 0.624],
+                               'heading': -23.7,
+                               'width': 0.75,
+                               'marker_size': 0.172,
+                               'height': 0.2},
+                              {'markers': [29, 25],
+                               'center': [19.912, 4.943],
+                               'heading': 95.0,
+                               'width': 0.63,
+                               'marker_size': 0.157,
+                               'height': 0.2},
+                              {'markers': [6, 5],
+                               'center': [19.819, 8.799],
+                               'heading': 98.5,
+                               'width': 0.65,
+                               'marker_size': 0.183,
+                               'height': 0.2},
+                              {'markers': [8, 16],
+                               'center': [11.448, 11.124],
+                               'heading': 170.3,
+                               'width': 0.84,
+                               'marker_size': 0.107,
+                               'height': 0.2},
+                              {'markers': [7, 18],
+                               'center': [1.105, 3.812],
+                               'heading': 279.2,
+                               'width': 0.75,
+                               'marker_size': 0.19,
+                               'height': 0.2}],
+                    'start': {'x': 20.403, 'y': 6.938, 'heading': 90.0}}
+
+
+def test_gate_run_passes_a_gate_just_after_the_start_on_the_home_stretch(tmp_path: Path,
+                                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    world = tmp_path / "loop21.json"
+    world.write_text(json.dumps(GATE_AFTER_START))
+    summary = tmp_path / "s.json"
+    code = main(["run", str(DIAGRAMS / "gate_run.uxf"), "--world", str(world), "--seed", "0",
+                 "--summary", str(summary), "-q"])
+    assert code == 0, capsys.readouterr().err
+    s = json.loads(summary.read_text())
+    assert s["outcome"] == "succeeded" and s["collisions"] == 0
+    assert s["gates_passed"] == s["gates_total"] == 7, s["gates"]
+    first = s["gates"][4]  # 6/5, just after the start: passed last, on the home stretch
+    assert first["passed_at"] == max(g["passed_at"] for g in s["gates"])

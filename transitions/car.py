@@ -83,7 +83,7 @@ class SensorLevel(Transition):
 
 @register_transition
 class PassPoint(Transition):
-    """Fires when the car's odometry crosses the line through the point (`x`, `y`) perpendicular to `heading`, driving that way, within `within` metres of the point, after `after` metres travelled since the source was entered. Odometry starts at the start pose (x ahead, y left), so the defaults mean "back at the start"; odometry drifts (about 1-2 % of the distance travelled)."""
+    """Fires when the car's odometry crosses the line through the point (`x`, `y`) perpendicular to `heading`, driving that way, within `within` metres of the point, after `after` metres travelled since the source was entered; with `beyond`, also when the car is already up to that far past the line. Odometry starts at the start pose (x ahead, y left), so the defaults mean "back at the start"; odometry drifts (about 1-2 % of the distance travelled)."""
 
     __slots__ = ("_d0", "_last", "_ux", "_uy")
     needs_car = True
@@ -96,6 +96,10 @@ class PassPoint(Transition):
         within: float = Field(default=2.0, gt=0, le=100, description="Only crossings this near the point count, m.")
         after: float = Field(default=0.0, ge=0, le=10000,
                              description="Only after this travelled distance since the source was entered, m.")
+        beyond: float = Field(default=0.0, ge=0, le=100,
+                              description="Also fire when the car is already past the line by at most this much, "
+                                          "m (it crossed it in another state, e.g. driving through a gate); 0: "
+                                          "only a crossing counts.")
 
     def __init__(self, params: TransitionParams, source, target, index: int = 0) -> None:  # type: ignore[no-untyped-def]
         super().__init__(params, source, target, index)
@@ -115,6 +119,9 @@ class PassPoint(Transition):
         dx, dy = x - p.x, y - p.y  # type: ignore[attr-defined]
         along = dx * self._ux + dy * self._uy
         last, self._last = self._last, along
-        if car.distance - self._d0 < p.after or last is None:  # type: ignore[attr-defined]
+        if car.distance - self._d0 < p.after:  # type: ignore[attr-defined]
             return False
-        return last < 0.0 <= along and math.hypot(dx, dy) <= p.within  # type: ignore[attr-defined]
+        near = math.hypot(dx, dy) <= p.within  # type: ignore[attr-defined]
+        if 0.0 <= along <= p.beyond and near:  # type: ignore[attr-defined]
+            return True
+        return last is not None and last < 0.0 <= along and near

@@ -18,6 +18,12 @@ if TYPE_CHECKING:
 
 #: The blackboard variable where ArucoGateFound leaves the gate it found (odometry frame) for the next states.
 GATE_VAR = "gate"
+#: Gates seen so far (ArucoGateFound with `memory`, ArucoGateCenter): "left,right" ids -> pose in the odometry frame.
+SEEN_VAR = "gates_seen"
+#: Gates lined up with and driven through (ArucoGateCenter): a list of [left, right] ids.
+PASSED_VAR = "gates_passed"
+#: Sightings farther than this are not remembered (their pose is too rough to drive to), m.
+REMEMBER_RANGE = 6.0
 
 
 def gate_to_odometry(car: Any, gate: Any) -> dict[str, Any]:
@@ -29,12 +35,64 @@ def gate_to_odometry(car: Any, gate: Any) -> dict[str, Any]:
             "heading": th + gate.heading}
 
 
-def select_gate(view: Any, ids: tuple[int, int] | None) -> Any | None:
-    """The nearest gate of a camera view (with the given left/right ids, when given)."""
+def remember_gates(ctx: Any, view: Any) -> None:
+    """Keep the latest pose (odometry frame) of every gate in a camera view on the blackboard (`gates_seen`), so
+    that a gate seen while the car was busy with another one can be driven to when it is out of view."""
+    if view is None or not view.gates:
+        return
+    seen = ctx.vars.setdefault(SEEN_VAR, {})
+    for g in view.gates:
+        if g.distance <= REMEMBER_RANGE and abs(g.heading) < math.radians(80):
+            seen[f"{int(g.ids[0])},{int(g.ids[1])}"] = gate_to_odometry(ctx.car, g)
+
+
+def mark_passed(ctx: Any, ids: Any) -> None:
+    """Record a gate (left, right ids) as passed, so ArucoGateFound with `memory` never goes for it again."""
+    if ids is None:
+        return
+    passed = ctx.vars.setdefault(PASSED_VAR, [])
+    entry = [int(ids[0]), int(ids[1])]
+    if entry not in passed:
+        passed.append(entry)
+
+
+def was_passed(ctx: Any, ids: Any) -> bool:
+    return [int(ids[0]), int(ids[1])] in ctx.vars.get(PASSED_VAR, [])
+
+
+class RememberedGate:
+    """A gate from the blackboard (`gates_seen`) in the car frame: what ArucoGateFound hands on, like a seen Gate."""
+
+    __slots__ = ("ids", "center", "heading")
+
+    def __init__(self, car: Any, entry: dict[str, Any]) -> None:
+        x, y, th = car.pose()
+        dx, dy = entry["x"] - x, entry["y"] - y
+        c, s = math.cos(th), math.sin(th)
+        self.ids = (int(entry["ids"][0]), int(entry["ids"][1]))
+        self.center = (c * dx + s * dy, -s * dx + c * dy)
+        h = entry["heading"] - th
+        self.heading = math.atan2(math.sin(h), math.cos(h))
+
+    @property
+    def distance(self) -> float:
+        return math.hypot(*self.center)
+
+    def point_before(self, distance: float = 1.0) -> tuple[float, float]:
+        return (self.center[0] - distance * math.cos(self.heading),
+                self.center[1] - distance * math.sin(self.heading))
+
+
+def select_gate(view: Any, ids: tuple[int, int] | None, skip: Any = None) -> Any | None:
+    """The nearest gate of a camera view (with the given left/right ids, when given; without ids, the nearest one
+    for which ``skip(ids)`` is not true)."""
     if view is None:
         return None
     if ids is None:
-        return view.gates[0] if view.gates else None
+        for g in view.gates:
+            if skip is None or not skip(g.ids):
+                return g
+        return None
     for g in view.gates:
         if tuple(g.ids) == tuple(ids):
             return g
@@ -78,16 +136,16 @@ class _CameraTransition(Transition):
         if view is None or view.frame == self._frame:
             return self._count >= self.params.frames  # type: ignore[attr-defined]
         self._frame = view.frame
-        self._count = self._count + 1 if self.seen(view) else 0
+        self._count = self._count + 1 if self.seen(view, ctx) else 0
         return self._count >= self.params.frames  # type: ignore[attr-defined]
 
-    def seen(self, view: Any) -> bool:
+    def seen(self, view: Any, ctx: Context) -> bool:
         raise NotImplementedError
 
 
 @register_transition
 class ArucoGateFound(_CameraTransition):
-    """Fires when the camera sees a gate (two markers; with `ids`, that gate) whose centre is within `range` and which the car faces (|heading| <= `max_angle`), in `frames` frames in a row. Hands the target state (ApproachPoint) the point `before` metres in front of the gate, and leaves the gate on the blackboard (`gate`, odometry frame) for ArucoGateCenter."""
+    """Fires when the camera sees a gate (two markers; with `ids`, that gate) whose centre is within `range` and which the car faces (|heading| <= `max_angle`), in `frames` frames in a row. Hands the target state (ApproachPoint) the point `before` metres in front of the gate, and leaves the gate on the blackboard (`gate`, odometry frame) for ArucoGateCenter. With `memory`, gates already passed (ArucoGateCenter marks them) are never chosen again, and a gate seen earlier but now out of the camera's view (e.g. while the car was busy with the gate before it) fires at once when it lies ahead within range, its approach point at least `before` ahead."""
 
     __slots__ = ("_gate",)
 
@@ -107,6 +165,10 @@ class ArucoGateFound(_CameraTransition):
             default=0.35, ge=0, le=3,
             description="Keep the handed point at least this far from the walls the side ultrasonic sensors see "
                         "(a gate turned towards a wall would put it into the wall), m; 0: off.")
+        memory: bool = Field(
+            default=False,
+            description="Remember gates (odometry): skip gates already passed, and fire at once on a gate seen "
+                        "earlier, not passed and now out of view, that lies ahead within range.")
 
         @model_validator(mode="after")
         def _range(self) -> "ArucoGateFound.Params":
@@ -120,11 +182,47 @@ class ArucoGateFound(_CameraTransition):
         super().__init__(params, source, target, index)
         self._gate: Any = None
 
-    def seen(self, view: Any) -> bool:
+    def check(self, ctx: Context) -> bool:
+        if not self.params.memory:  # type: ignore[attr-defined]
+            return super().check(ctx)
+        view = ctx.car.camera()
+        if view is not None and view.frame != self._frame:
+            remember_gates(ctx, view)
+        if super().check(ctx):
+            return True
+        gate = self._remembered(ctx)
+        if gate is None:
+            return False
+        self._gate = gate
+        return True
+
+    def _usable(self, gate: Any) -> bool:
         p = self.params
-        gate = select_gate(view, p.ids)  # type: ignore[attr-defined]
-        ok = (gate is not None and p.min_range <= gate.distance <= p.range  # type: ignore[attr-defined]
-              and abs(gate.heading) <= math.radians(p.max_angle))  # type: ignore[attr-defined]
+        return (gate is not None and p.min_range <= gate.distance <= p.range  # type: ignore[attr-defined]
+                and abs(gate.heading) <= math.radians(p.max_angle))  # type: ignore[attr-defined]
+
+    def _remembered(self, ctx: Context) -> Any | None:
+        """The nearest gate seen earlier, not passed, ahead within range, whose approach point lies ahead."""
+        p = self.params
+        best = None
+        for entry in ctx.vars.get(SEEN_VAR, {}).values():
+            if was_passed(ctx, entry["ids"]) or (p.ids is not None  # type: ignore[attr-defined]
+                                                 and list(p.ids) != list(entry["ids"])):  # type: ignore[attr-defined]
+                continue
+            gate = RememberedGate(ctx.car, entry)
+            if (self._usable(gate) and gate.center[0] > 0
+                    and gate.point_before(p.before)[0] >= p.before):  # type: ignore[attr-defined]
+                if best is None or gate.distance < best.distance:
+                    best = gate
+        return best
+
+    def seen(self, view: Any, ctx: Context) -> bool:
+        p = self.params
+        skip = (lambda ids: was_passed(ctx, ids)) if p.memory else None  # type: ignore[attr-defined]
+        gate = select_gate(view, p.ids, skip)  # type: ignore[attr-defined]
+        if gate is not None and skip is not None and skip(gate.ids):
+            gate = None
+        ok = self._usable(gate)
         self._gate = gate if ok else None
         return ok
 
@@ -154,6 +252,6 @@ class ArucoMarkerFound(_CameraTransition):
                                                                    "car's centre, horizontally), m.")
         frames: int = Field(default=2, ge=1, le=100, description="Consecutive camera frames the marker must be seen in.")
 
-    def seen(self, view: Any) -> bool:
+    def seen(self, view: Any, ctx: Context) -> bool:
         d = view.marker(self.params.marker)  # type: ignore[attr-defined]
         return d is not None and d.distance <= self.params.range  # type: ignore[attr-defined]

@@ -25,6 +25,7 @@ Kinds are those of :func:`fsm.loader.value_kind`: number, true/false, text; true
 from __future__ import annotations
 
 import math
+import operator
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -422,7 +423,7 @@ def _compile(node: Node, kinds: dict[str, str]) -> tuple[Fn, str, bool, Any]:
             raise ExprError(f"cannot compare {_a(lk)} with {_a(rk)} (true/false is not a number, '5' is not 5)",
                             node.column)
         fn = (lambda v: lf(v) == rf(v)) if op == "==" else (lambda v: lf(v) != rf(v))
-        return _fold(fn, BOOL, [left, right])
+        return _fold(_fused(op, node, kinds) or fn, BOOL, [left, right])
     if op in ("<", "<=", ">", ">="):
         if BOOL in (lk, rk):
             raise ExprError(f"'{op}' on true/false: true/false values are only equal or not", node.column)
@@ -430,7 +431,7 @@ def _compile(node: Node, kinds: dict[str, str]) -> tuple[Fn, str, bool, Any]:
             raise ExprError(f"cannot compare {_a(lk)} with {_a(rk)}", node.column)
         fn = {"<": lambda v: lf(v) < rf(v), "<=": lambda v: lf(v) <= rf(v),
               ">": lambda v: lf(v) > rf(v), ">=": lambda v: lf(v) >= rf(v)}[op]
-        return _fold(fn, BOOL, [left, right])
+        return _fold(_fused(op, node, kinds) or fn, BOOL, [left, right])
     # arithmetic
     if op == "+" and TEXT in (lk, rk):
         if {lk, rk} - {TEXT, ANY}:
@@ -451,7 +452,43 @@ def _compile(node: Node, kinds: dict[str, str]) -> tuple[Fn, str, bool, Any]:
         fn = lambda v: _div(lf(v), rf(v))  # noqa: E731
     else:
         fn = lambda v: _mod(lf(v), rf(v))  # noqa: E731
-    return _fold(fn, kind, [left, right])
+    return _fold(_fused(op, node, kinds) or fn, kind, [left, right])
+
+
+#: The operators :func:`_fused` runs as one C call (division keeps its own zero handling).
+_FUSABLE = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge, "==": operator.eq,
+            "!=": operator.ne, "+": operator.add, "-": operator.sub, "*": operator.mul}
+
+
+def _fused(op: str, node: Node, kinds: dict[str, str]) -> Fn | None:
+    """``number_var OP constant`` (or the other way round) as one closure: the common guard (``n < 3``) and
+    counter (``n + 1``) forms, which would otherwise call three closures per evaluation. Called after the
+    generic path has checked the kinds; a variable holding another kind still gets the generic error."""
+    f = _FUSABLE.get(op)
+    a, b = node.args
+    if f is None:
+        return None
+    if a.op == "var" and b.op == "const":
+        name, const, swap = a.args[0], b.args[0], False
+    elif a.op == "const" and b.op == "var":
+        name, const, swap = b.args[0], a.args[0], True
+    else:
+        return None
+    if kinds.get(name) != NUMBER or kind_of(const) != NUMBER:
+        return None
+    read = _var(name, NUMBER)  # the slow path: a missing value, or a value of another kind
+    numeric = _NUMERIC
+
+    if swap:
+        def fused_swapped(v: dict[str, Any]) -> Any:
+            x = v.get(name)
+            return f(const, x if type(x) in numeric else read(v))
+        return fused_swapped
+
+    def fused(v: dict[str, Any]) -> Any:
+        x = v.get(name)
+        return f(x if type(x) in numeric else read(v), const)
+    return fused
 
 
 def _div(a: Any, b: Any) -> Any:

@@ -203,3 +203,17 @@ def test_garbage_gives_only_located_errors(text: str) -> None:
             run()
         except ExprError as exc:
             assert 1 <= exc.column <= len(text) + 1
+
+
+def test_fused_number_comparisons_and_arithmetic_behave_like_the_generic_path() -> None:
+    """``n < 3`` and ``n + 1`` run as one closure; results and errors stay those of the generic closures."""
+    from fsm.expr import ExprRuntimeError, compile_expr
+
+    kinds = {"n": "number"}
+    for text, n, want in [("n < 3", 2, True), ("3 < n", 2, False), ("n + 1", 2, 3), ("1 - n", 2, -1),
+                          ("n * 2.5", 2, 5.0), ("n == 2", 2, True), ("2 != n", 2, False), ("n >= 0", -1, False)]:
+        assert compile_expr(text, kinds).fn({"n": n}) == want, text
+    with pytest.raises(ExprRuntimeError, match="no value yet"):
+        compile_expr("n < 3", kinds).fn({})
+    with pytest.raises(ExprRuntimeError, match="holds True"):
+        compile_expr("n + 1", kinds).fn({"n": True})

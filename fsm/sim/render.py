@@ -132,6 +132,7 @@ class VideoRecorder:
         self.sim = sim
         self.path = Path(path)
         self.view = TopDown(sim.car.world, width)
+        self._inset_at: tuple[int, int] | None = None  # the camera inset's corner (it moves away from the car)
         self.trail = self.view.background.copy()
         self.colors = palette(24)
         self._last_px: tuple[int, int] | None = None
@@ -188,12 +189,13 @@ class VideoRecorder:
         cv2.polylines(img, [poly], True, CAR_EDGE, 1, cv2.LINE_AA)
         nose = view.px(x + c * car.length / 2, y + s * car.length / 2)
         cv2.circle(img, nose, 3, (0, 0, 200), -1, cv2.LINE_AA)
-        self._camera_inset(img, car)
+        self._camera_inset(img, car, view.px(x, y))
         self._panel(img, sim)
         return img
 
-    def _camera_inset(self, img: np.ndarray, car: Any) -> None:
-        """The camera view, top right, when the car has a camera (an image from ``car.camera()``)."""
+    def _camera_inset(self, img: np.ndarray, car: Any, at: tuple[int, int]) -> None:
+        """The camera view, when the car has a camera, in the corner of the map farthest from the car (``at``,
+        its pixel), so that the inset never hides the car."""
         frame = car.camera_image() if hasattr(car, "camera_image") else None
         if not isinstance(frame, np.ndarray):
             return
@@ -202,7 +204,15 @@ class VideoRecorder:
         inset = cv2.resize(frame, (w, h))
         if inset.ndim == 2:
             inset = cv2.cvtColor(inset, cv2.COLOR_GRAY2BGR)
-        img[8:8 + h, self.view.width - w - 8:self.view.width - 8] = inset
+        corners = [(x0, max(0, y0)) for y0 in (8, self.view.map_h - h - 8) for x0 in (self.view.width - w - 8, 8)]
+        here = self._inset_at
+        near = 60  # px: move only when the car comes this close to the inset, so it does not flicker
+        if here not in corners or (here[0] - near <= at[0] <= here[0] + w + near
+                                   and here[1] - near <= at[1] <= here[1] + h + near):
+            here = max(corners, key=lambda c: (c[0] + w / 2 - at[0]) ** 2 + (c[1] + h / 2 - at[1]) ** 2)
+            self._inset_at = here
+        x0, y0 = here
+        img[y0:y0 + h, x0:x0 + w] = inset
 
     def _panel(self, img: np.ndarray, sim: Simulation) -> None:
         car = sim.car

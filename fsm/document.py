@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import difflib
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Annotated, Any
 
@@ -141,6 +142,14 @@ class MachineSpec:
     edges: list[tuple[str, str]] = field(default_factory=list)
     #: False when an element of this level failed to parse (then outcomes are not guessed).
     complete: bool = True
+
+    def levels(self) -> Iterator[MachineSpec]:
+        """This level and every sub-machine below it (inline, included, parallel regions), any depth."""
+        todo: list[MachineSpec] = [self]
+        while todo:
+            level = todo.pop()
+            yield level
+            todo.extend(sub for st in level.states for _name, sub, _ptr in st.subs if sub is not None)
 
 
 # -- shape validation -------------------------------------------------------------------------------
@@ -343,6 +352,19 @@ class NoNullSchema(GenerateJsonSchema):
 def model_json_schema(model: type[Any], ref_template: str = "#/$defs/{model}") -> dict[str, Any]:
     """A parameter model's JSON Schema as documents must be written (no null anywhere)."""
     return model.model_json_schema(ref_template=ref_template, schema_generator=NoNullSchema)
+
+
+def file_schema(model: type[Any], file: str, title: str, description: str) -> dict[str, Any]:
+    """The committed JSON Schema of a kind of file described by one pydantic model (worlds, scenarios):
+    the model's schema under the project's dialect, ``$id``, title and description."""
+    schema = model_json_schema(model)
+    return {
+        "$schema": SCHEMA_DIALECT,
+        "$id": f"https://tral-fsm.invalid/{file}",
+        "title": title,
+        "description": description,
+        **{k: v for k, v in schema.items() if k not in ("title", "description")},
+    }
 
 
 def json_schema(registry: Registry) -> dict[str, Any]:

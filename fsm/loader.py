@@ -921,20 +921,30 @@ def machine_outcomes(spec: MachineSpec) -> set[str] | None:
     return out
 
 
+def uses_car(spec: MachineSpec | None) -> bool:
+    """True when any state or transition type of the checked machine (sub-machines included) needs a car."""
+    return spec is not None and any(
+        any(st.cls.needs_car for st in level.states) or any(tr.cls.needs_car for tr in level.transitions)
+        for level in spec.levels())
+
+
+def machine_files(spec: MachineSpec | None) -> list[str]:
+    """Every file a checked machine was read from: its own and its includes, any depth (each once)."""
+    names = (getattr(level.source, "name", None) for level in spec.levels()) if spec is not None else ()
+    return list(dict.fromkeys(n for n in names if n))
+
+
 def signal_names(spec: MachineSpec | None) -> set[str]:
     """The input signal names a checked machine reads, at every level: the parameters its transition (and
     state) types declare in ``signal_refs`` (``Signal.signal``). ``fsmctl run --signal`` warns about a
     name outside this set; a plugin type that reads signals declares its parameter there to be counted."""
     names: set[str] = set()
-    todo = [spec] if spec is not None else []
-    while todo:
-        level = todo.pop()
+    for level in spec.levels() if spec is not None else ():
         for st in level.states:
             for key in getattr(st.cls, "signal_refs", ()):
                 value = getattr(st.params, key, None)
                 if isinstance(value, str):
                     names.add(value)
-            todo.extend(sub for _, sub, _ in st.subs if sub is not None)
         for tr in level.transitions:
             for key in tr.cls.signal_refs:
                 value = getattr(tr.params, key, None)

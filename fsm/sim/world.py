@@ -639,17 +639,11 @@ def load_car(path: str | Path) -> Car:
 
 def world_schema() -> dict[str, Any]:
     """The JSON Schema of world files (committed as ``fsm/schema/world.schema.json``)."""
-    from fsm.document import model_json_schema
+    from fsm.document import file_schema
 
-    schema = model_json_schema(World)
-    return {
-        "$schema": "https://json-schema.org/draft/2020-12/schema",
-        "$id": "https://tral-fsm.invalid/world.schema.json",
-        "title": "tral-fsm world",
-        "description": "A world for the simulated TRAL car; generated from fsm.sim.world by "
-                       "`python -m fsm.sim.world --schema`.",
-        **{k: v for k, v in schema.items() if k not in ("title", "description")},
-    }
+    return file_schema(World, "world.schema.json", "tral-fsm world",
+                       "A world for the simulated TRAL car; generated from fsm.sim.world by "
+                       "`python -m fsm.sim.world --schema`.")
 
 
 WORLD_SCHEMA_PATH = Path(__file__).resolve().parent.parent / "schema" / "world.schema.json"

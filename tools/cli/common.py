@@ -12,14 +12,21 @@ from fsm.errors import UsageError
 EXIT_OK, EXIT_FAIL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
-def positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value <= 0:
-        raise argparse.ArgumentTypeError(f"must be > 0, got {value}")
-    return value
+def whole_number(low: int, high: int | None = None, high_text: str | None = None) -> Any:
+    """An argparse type: a whole number >= ``low`` (and <= ``high``, shown as ``high_text``)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+        if high is None and value < low:
+            raise argparse.ArgumentTypeError(f"must be >= {low}, got {value}")
+        if high is not None and not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"must be between {low} and {high_text or high}, got {text}")
+        return value
+
+    return parse
 
 
 def positive_float(text: str) -> float:
@@ -104,20 +111,22 @@ def input_name(file: str) -> str:
     return STDIN_NAME if file == "-" else file
 
 
-def spec_files(spec: Any) -> list[str]:
-    """Every file a checked machine was read from: the machine's own and its includes, any depth."""
-    seen: list[str] = []
-    todo = [spec] if spec is not None else []
-    while todo:
-        s = todo.pop()
-        name = getattr(s.source, "name", None)
-        if name and name not in seen:
-            seen.append(name)
-        for st in s.states:
-            for _name, sub, _ptr in st.subs:
-                if sub is not None:
-                    todo.append(sub)
-    return seen
+def read_checked(src: Path, registry: Any) -> tuple[dict[str, Any], list[str]]:
+    """The machine document of ``src`` (read once: the check takes the bytes already read) and every file it
+    was read from (for the same-as-input check of outputs); a :class:`DiagramError` when it has errors."""
+    from fsm.errors import DiagramError
+    from fsm.loader import check, machine_files, preloaded, reader_for
+
+    try:
+        document = reader_for(src)(src)
+    except DiagramError:
+        document = None  # the check below reports why, with the loader's own words
+    with preloaded({str(src): document} if document is not None else {}):
+        spec, problems = check(str(src), registry=registry)
+    errors = [p for p in problems if p.severity == "error"]
+    if errors or document is None:
+        raise DiagramError(errors or problems)
+    return document[0], machine_files(spec) + [str(src)]
 
 
 def emit_generated(text: str, *, output: str | None, check: str | None, command: str) -> int:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .common import EXIT_OK, default_output, registry_from, spec_files
+from .common import EXIT_OK, default_output, read_checked, registry_from
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -17,8 +17,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    from fsm.errors import DiagramError, UsageError
-    from fsm.loader import check, preloaded, reader_for
+    from fsm.errors import UsageError
 
     from ..files import Outputs
     from ..umlet.writer import export
@@ -33,17 +32,9 @@ def cmd_export(args: argparse.Namespace) -> int:
     outputs.items[0].classify()
     try:
         registry = registry_from(args)
-        try:
-            document = reader_for(src)(src)  # read once; the check below takes it from here
-        except DiagramError:
-            document = None
-        with preloaded({str(src): document} if document is not None else {}):
-            spec, problems = check(str(src), registry=registry)
-        errors = [p for p in problems if p.severity == "error"]
-        if errors or document is None:
-            raise DiagramError(errors or problems)
-        outputs.open(spec_files(spec) + [str(src)])
-        text = export(document[0], registry)
+        document, inputs = read_checked(src, registry)
+        outputs.open(inputs)
+        text = export(document, registry)
         outputs.items[0].write(text)
         outputs.commit()
     finally:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .common import EXIT_OK, registry_from, spec_files
+from .common import EXIT_OK, read_checked, registry_from
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -18,9 +18,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_graph(args: argparse.Namespace) -> int:
-    from fsm.errors import DiagramError
-    from fsm.loader import check, preloaded, reader_for
-
     from .. import graph
     from ..files import Outputs
 
@@ -36,17 +33,7 @@ def cmd_graph(args: argparse.Namespace) -> int:
             doc, _ = convert_checked(src, args.machine, registry)  # reads the diagram once
             inputs = [str(src)]
         else:
-            try:
-                document = reader_for(src)(src)  # read once; the check below takes it from here
-            except DiagramError:
-                document = None
-            with preloaded({str(src): document} if document is not None else {}):
-                spec, problems = check(str(src), registry=registry)
-            errors = [p for p in problems if p.severity == "error"]
-            if errors or document is None:
-                raise DiagramError(errors or problems)
-            doc = document[0]
-            inputs = spec_files(spec) + [str(src)]
+            doc, inputs = read_checked(src, registry)
         outputs.open(inputs)
         if args.format == "svg":
             text = graph.svg(doc, base=src)  # includes are drawn, read relative to the file

@@ -26,11 +26,10 @@ from .common import (
     bounded_float,
     input_name,
     positive_float,
-    positive_int,
     read_inputs,
     registry_from,
     signal_arg,
-    spec_files,
+    whole_number,
 )
 
 DEFAULT_MAX_DURATION = 600.0
@@ -40,32 +39,12 @@ MAX_TICKS = 10_000_000
 VIDEO_SUFFIXES = (".mp4", ".m4v", ".mov", ".avi")
 
 
-def non_negative_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
-    return value
-
-
-def seed_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if not 0 <= value < 2**63:
-        raise argparse.ArgumentTypeError(f"must be between 0 and 2**63-1, got {text}")
-    return value
-
-
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="run a machine until it finishes (or a limit) and print what it did",
                        description="Run a machine. Machines that drive (car states or transitions) run on the "
                                    "simulated TRAL car in a world file; others run on the simulated clock alone.")
     p.add_argument("file", metavar="FILE", help="the machine (.json or .uxf); '-' reads it from standard input")
-    p.add_argument("--max-ticks", type=positive_int, metavar="N",
+    p.add_argument("--max-ticks", type=whole_number(1), metavar="N",
                    help=f"stop after N ticks (runs of more than {MAX_TICKS:,} ticks need it said explicitly)")
     p.add_argument("--duration", type=positive_float, metavar="SECONDS",
                    help=f"stop after this much machine time (default: at most {DEFAULT_MAX_DURATION:g} s "
@@ -82,7 +61,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--expect", metavar="OUTCOME",
                    help="exit 1 unless the machine finishes with OUTCOME (and, when a car runs, it collided at most "
                         "--max-collisions times, default 0)")
-    p.add_argument("--max-collisions", type=non_negative_int, metavar="N",
+    p.add_argument("--max-collisions", type=whole_number(0), metavar="N",
                    help="exit 1 if the car collided more than N times (default: 0 with --expect; without "
                         "--expect or this option collisions never fail a run)")
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
@@ -91,7 +70,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                      help=f"world file (default: {DEFAULT_WORLD} from the worlds folder next to the machine, "
                           "or diagrams/worlds/)")
     car.add_argument("--car", metavar="CAR.json", help="car file replacing the world's car parameters")
-    car.add_argument("--seed", type=seed_int, default=0, metavar="N", help="seed of the sensor noise (default 0)")
+    car.add_argument("--seed", type=whole_number(0, 2**63 - 1, "2**63-1"), default=0, metavar="N", help="seed of the sensor noise (default 0)")
     car.add_argument("--no-noise", action="store_true", help="turn the ultrasonic noise off")
     car.add_argument("--video", metavar="OUT.mp4",
                      help="write a top-down video (.mp4 H.264, or .avi MJPEG; '-' writes MP4 to standard output "
@@ -110,17 +89,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 # -- deciding whether a machine drives ---------------------------------------------------------------
-def uses_car(spec: Any) -> bool:
-    """True when any state or transition type in the checked machine (sub-machines included) needs a car."""
-    if spec is None:
-        return False
-    for st in spec.states:
-        if st.cls.needs_car:
-            return True
-        for _name, sub, _ptr in st.subs:
-            if uses_car(sub):
-                return True
-    return any(tr.cls.needs_car for tr in spec.transitions)
 
 
 def default_world(machine_file: str) -> Path:
@@ -203,7 +171,7 @@ def signal_warnings(signals: list[tuple[str, bool, float]], spec: Any, file: str
 def cmd_run(args: argparse.Namespace) -> int:
     from fsm.clock import DEFAULT_DT, SimulatedClock
     from fsm.errors import DiagramError
-    from fsm.loader import check, preloaded
+    from fsm.loader import check, machine_files, preloaded, uses_car
 
     from ..files import Outputs, check_distinct
 
@@ -233,7 +201,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"fsmctl run: warning: {warning}", file=sys.stderr)
 
     drive = args.world is not None or args.car is not None or uses_car(spec)
-    inputs = spec_files(spec)
+    inputs = machine_files(spec)
     world_path = None
     if drive:
         world_path = Path(args.world) if args.world else default_world(file if file != "<stdin>" else ".")

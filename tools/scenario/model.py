@@ -195,17 +195,11 @@ SCENARIO_SCHEMA_PATH = Path(__file__).resolve().parents[2] / "fsm" / "schema" / 
 
 def scenario_schema() -> dict[str, Any]:
     """The JSON Schema of scenario files (committed as ``fsm/schema/scenario.schema.json``)."""
-    from fsm.document import model_json_schema
+    from fsm.document import file_schema
 
-    schema = model_json_schema(Scenario)
-    return {
-        "$schema": "https://json-schema.org/draft/2020-12/schema",
-        "$id": "https://tral-fsm.invalid/scenario.schema.json",
-        "title": "tral-fsm scenario",
-        "description": "A scenario test for `fsmctl test`; generated from fsm.tools.scenario.model by "
-                       "`python -m fsm.tools.scenario --schema`.",
-        **{k: v for k, v in schema.items() if k not in ("title", "description")},
-    }
+    return file_schema(Scenario, "scenario.schema.json", "tral-fsm scenario",
+                       "A scenario test for `fsmctl test`; generated from fsm.tools.scenario.model by "
+                       "`python -m fsm.tools.scenario --schema`.")
 
 
 def scenario_schema_text() -> str:
@@ -518,7 +512,7 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
                   cli_plugins: tuple[str, ...]) -> tuple[LoadedScenario | None, list[Problem]]:
     """Check the machine (and world) a scenario names, and the state names its expectations use."""
     from fsm.errors import RegistrationError
-    from fsm.loader import build, check, signal_names
+    from fsm.loader import build, check, machine_files, signal_names, uses_car
     from fsm.registry import default_registry
 
     problems: list[Problem] = []
@@ -553,7 +547,7 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
         problems.append(Problem(f"the machine {machine_path} has {len(errors) or 1} error(s), listed with it", name,
                                 "/machine"))
         return None, problems + (errors or machine_problems)
-    if world_path is None and _uses_car(spec):
+    if world_path is None and uses_car(spec):
         problems.append(Problem("this machine drives the car; name the world to drive it in", name, "",
                                 hint='"world": "../worlds/hallway.json"'))
     elif world_path is not None and world_path.is_file():
@@ -583,7 +577,7 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
                                     hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close
                                     else "signals it reads: " + (", ".join(sorted(known)) or "none")))
     return LoadedScenario(file=name, scenario=scenario, spec=spec, registry=registry, dt=dt, end_tick=end_tick,
-                          world_path=world_path, machine_files=_spec_files(spec), state_paths=paths), problems
+                          world_path=world_path, machine_files=machine_files(spec), state_paths=paths), problems
 
 
 def _name_problems(scenario: Scenario, paths: list[str], name: str) -> list[Problem]:
@@ -610,28 +604,3 @@ def _name_problems(scenario: Scenario, paths: list[str], name: str) -> list[Prob
                 what = "no state path starts with" if prefix else "the machine has no state"
                 problems.append(Problem(f"{what} '{item}'", name, at, element=f"expectation {i}", hint=hint))
     return problems
-
-
-def _uses_car(spec: Any) -> bool:
-    for st in spec.states:
-        if st.cls.needs_car:
-            return True
-        for _name, sub, _ptr in st.subs:
-            if sub is not None and _uses_car(sub):
-                return True
-    return any(tr.cls.needs_car for tr in spec.transitions)
-
-
-def _spec_files(spec: Any) -> list[str]:
-    seen: list[str] = []
-    todo = [spec]
-    while todo:
-        s = todo.pop()
-        n = getattr(s.source, "name", None)
-        if n and n not in seen:
-            seen.append(n)
-        for st in s.states:
-            for _name, sub, _ptr in st.subs:
-                if sub is not None:
-                    todo.append(sub)
-    return seen

@@ -5,6 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import pytest
+
 
 def without_layout(d: Any) -> Any:
     """A document with every ``layout`` key removed, at any depth: what may differ after a diagram round trip."""
@@ -23,3 +25,16 @@ def _corpus() -> Path:
 
 #: The corpus of real-world UMLet diagrams (read from there, never copied into the project).
 CORPUS = _corpus()
+
+
+def cli(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
+    """Run ``fsmctl argv`` in-process: (exit status, stdout, stderr); a traceback is never acceptable."""
+    from fsm.tools.cli import main
+
+    try:
+        code = main(list(argv))
+    except SystemExit as exc:  # argparse usage errors and --help/--version
+        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
+    out, err = capsys.readouterr()
+    assert "Traceback" not in out and "Traceback" not in err, err
+    return code, out, err

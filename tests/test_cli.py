@@ -20,6 +20,7 @@ import fsm
 from fsm import RegistrationError, State, StateParams
 from fsm.registry import Registry, default_registry, register_state, using
 from fsm.tools.cli import main
+from helpers import cli
 
 REPO = Path(__file__).resolve().parents[1]
 COMMITTED_SCHEMA = REPO / "fsm" / "schema" / "machine.schema.json"
@@ -49,17 +50,6 @@ UNREACHABLE = {
     "states": [{"id": "a", "type": "Idle"}, {"id": "b", "type": "Final"}, {"id": "island", "type": "Idle"}],
     "transitions": [{"type": "Timeout", "from": "a", "to": "b", "seconds": 0.1}],
 }
-
-
-def cli(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    """Run ``fsmctl argv`` in-process: (exit status, stdout, stderr); a traceback is never acceptable."""
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:  # argparse usage errors and --help/--version
-        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
-    out, err = capsys.readouterr()
-    assert "Traceback" not in out and "Traceback" not in err, err
-    return code, out, err
 
 
 @pytest.fixture

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from fsm.tools.cli import main
+from helpers import cli
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLES = REPO / "diagrams" / "examples"
@@ -23,16 +23,6 @@ BLINK = {"initial": "a", "states": [{"id": "a", "type": "Idle"}, {"id": "b", "ty
 CRASH = {"initial": "go", "states": [{"id": "go", "type": "Motor", "speed": 1.0, "steering": -1.0, "distance": 3.0},
                                      {"id": "done", "type": "Final"}],
          "transitions": [{"type": "Finished", "from": "go", "to": "done"}]}
-
-
-def cli(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:
-        code = exc.code if isinstance(exc.code, int) else 2
-    out, err = capsys.readouterr()
-    assert "Traceback" not in out + err, err
-    return code, out, err
 
 
 @pytest.fixture

@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 from fsm.errors import FsmError, UsageError
-from fsm.tools.cli import main
+from helpers import cli
 from fsm.tools.files import Output, Outputs, write_output
 
 REPO = Path(__file__).resolve().parents[1]
@@ -30,16 +30,6 @@ BLINK = {
     "states": [{"id": "wait", "type": "Idle"}, {"id": "done", "type": "Final"}],
     "transitions": [{"type": "Timeout", "from": "wait", "to": "done", "seconds": 0.05}],
 }
-
-
-def cli(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    try:
-        code = main(list(argv))
-    except SystemExit as exc:
-        code = exc.code if isinstance(exc.code, int) else 2
-    out, err = capsys.readouterr()
-    assert "Traceback" not in out + err, err
-    return code, out, err
 
 
 def snapshot(folder: Path) -> dict[str, str]:

@@ -177,6 +177,8 @@ class SimCar:
         self._odo_offset = self._offset + (odo.gauss(0.0, p.odometry_steering_noise) if noise else 0.0)
         self._odo_servo = 0.0
         self._odo_hall = 0
+        self._odo_delta: float | None = None  # the model's steering angle, its tangent, slip angle and cosine
+        self._odo_tan = self._odo_beta = self._odo_cos = 0.0
         self._odo = [0.0, 0.0, 0.0]
         # camera
         self._view: CameraView | None = None
@@ -308,13 +310,17 @@ class SimCar:
         ds = dh * self._odo_scale
         if self._cmd_speed < 0 or (self._cmd_speed == 0 and self._v < 0):
             ds = -ds
-        t = math.tan((s + self._odo_offset) * self.max_steering_angle)
-        beta = math.atan(0.5 * t)
+        delta = (s + self._odo_offset) * self.max_steering_angle
+        if delta != self._odo_delta:  # as in step(): the trigonometry only when the steering moved
+            self._odo_delta = delta
+            self._odo_tan = t = math.tan(delta)
+            self._odo_beta = beta = math.atan(0.5 * t)
+            self._odo_cos = math.cos(beta)
         o = self._odo
-        th = o[2] + beta
+        th = o[2] + self._odo_beta
         o[0] += ds * math.cos(th)
         o[1] += ds * math.sin(th)
-        o[2] += ds * math.cos(beta) * t / self.wheelbase
+        o[2] += ds * self._odo_cos * self._odo_tan / self.wheelbase
 
     # -- camera -------------------------------------------------------------------------------------
     def _camera_setup(self) -> tuple[Any, Any]:

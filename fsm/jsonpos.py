@@ -70,43 +70,64 @@ def _walk(text: str, idx: int, node: dict[Any, Any], ptr: str, found: dict[str, 
     """Walk the value starting at ``idx``; record wanted positions below ``node``; return the end index."""
     if not any(key is not _HERE for key in node):
         return _DECODER.raw_decode(text, idx)[1]
+    members = _members(text, idx)
+    if members is None:
+        return _DECODER.raw_decode(text, idx)[1]
+    try:
+        token, at = next(members)
+        while True:
+            child = node.get(token)
+            child_ptr = f"{ptr}/{escape(token)}"
+            if child is not None and child.get(_HERE):
+                found[child_ptr] = at  # a repeated key: the last one, whose value the parser keeps
+            value = members.send(None)
+            end = _walk(text, value, child, child_ptr, found) if child is not None else _skip(text, value)
+            token, at = members.send(end)
+    except StopIteration as stop:
+        return stop.value
+
+
+def _members(text: str, idx: int) -> Any:
+    """The members of the object or array at ``idx``, or ``None`` for a scalar: a generator that yields
+    ``(token, offset)`` per member (the key and its offset; for an array element its index and the value's
+    offset), then, sent ``None``, the offset of the member's value, and is sent back where the value ends. It
+    returns (``StopIteration.value``) the offset after the container."""
     ch = text[idx]
-    if ch == "{":
-        idx = _WS.match(text, idx + 1).end()
+    if ch not in "{[":
+        return None
+    return _object_members(text, idx) if ch == "{" else _array_members(text, idx)
+
+
+def _object_members(text: str, idx: int) -> Any:
+    idx = _WS.match(text, idx + 1).end()
+    if text[idx] == "}":
+        return idx + 1
+    while True:
+        key, after = _DECODER.raw_decode(text, idx)
+        yield key, idx
+        idx = yield _WS.match(text, _WS.match(text, after).end() + 1).end()  # past the ':'
+        idx = _WS.match(text, idx).end()
         if text[idx] == "}":
             return idx + 1
-        while True:
-            key, after = _DECODER.raw_decode(text, idx)
-            child = node.get(key)
-            child_ptr = f"{ptr}/{escape(key)}"
-            if child is not None and child.get(_HERE):
-                found[child_ptr] = idx  # a repeated key: the last one, whose value the parser keeps
-            idx = _WS.match(text, after).end() + 1  # the ':'
-            idx = _WS.match(text, idx).end()
-            idx = _walk(text, idx, child, child_ptr, found) if child is not None else _DECODER.raw_decode(text, idx)[1]
-            idx = _WS.match(text, idx).end()
-            if text[idx] == "}":
-                return idx + 1
-            idx = _WS.match(text, idx + 1).end()  # after ','
-    if ch == "[":
-        idx = _WS.match(text, idx + 1).end()
+        idx = _WS.match(text, idx + 1).end()  # after ','
+
+
+def _array_members(text: str, idx: int) -> Any:
+    idx = _WS.match(text, idx + 1).end()
+    if text[idx] == "]":
+        return idx + 1
+    i = 0
+    while True:
+        yield str(i), idx
+        idx = yield idx
+        idx = _WS.match(text, idx).end()
         if text[idx] == "]":
             return idx + 1
-        i = 0
-        while True:
-            child = node.get(str(i))
-            child_ptr = f"{ptr}/{i}"
-            if child is not None:
-                if child.get(_HERE):
-                    found[child_ptr] = idx
-                idx = _walk(text, idx, child, child_ptr, found)
-            else:
-                idx = _DECODER.raw_decode(text, idx)[1]
-            idx = _WS.match(text, idx).end()
-            if text[idx] == "]":
-                return idx + 1
-            idx = _WS.match(text, idx + 1).end()
-            i += 1
+        idx = _WS.match(text, idx + 1).end()
+        i += 1
+
+
+def _skip(text: str, idx: int) -> int:
     return _DECODER.raw_decode(text, idx)[1]
 
 
@@ -140,34 +161,20 @@ def duplicate_keys(text: str) -> list[tuple[str, str, tuple[int, int], tuple[int
 
 
 def _dup_walk(text: str, idx: int, ptr: str, found: list[tuple[str, str, int, int]]) -> int:
-    ch = text[idx]
-    if ch == "{":
-        idx = _WS.match(text, idx + 1).end()
-        if text[idx] == "}":
-            return idx + 1
-        seen: dict[str, int] = {}
+    members = _members(text, idx)
+    if members is None:
+        return _skip(text, idx)
+    is_object = text[idx] == "{"
+    seen: dict[str, int] = {}
+    try:
+        token, at = next(members)
         while True:
-            key, after = _DECODER.raw_decode(text, idx)
-            if key in seen:
-                found.append((ptr, key, seen[key], idx))
-            else:
-                seen[key] = idx
-            idx = _WS.match(text, _WS.match(text, after).end() + 1).end()  # past the ':'
-            idx = _dup_walk(text, idx, f"{ptr}/{escape(key)}", found)
-            idx = _WS.match(text, idx).end()
-            if text[idx] == "}":
-                return idx + 1
-            idx = _WS.match(text, idx + 1).end()
-    if ch == "[":
-        idx = _WS.match(text, idx + 1).end()
-        if text[idx] == "]":
-            return idx + 1
-        i = 0
-        while True:
-            idx = _dup_walk(text, idx, f"{ptr}/{i}", found)
-            idx = _WS.match(text, idx).end()
-            if text[idx] == "]":
-                return idx + 1
-            idx = _WS.match(text, idx + 1).end()
-            i += 1
-    return _DECODER.raw_decode(text, idx)[1]
+            if is_object:
+                if token in seen:
+                    found.append((ptr, token, seen[token], at))
+                else:
+                    seen[token] = at
+            value = members.send(None)
+            token, at = members.send(_dup_walk(text, value, f"{ptr}/{escape(token)}", found))
+    except StopIteration as stop:
+        return stop.value

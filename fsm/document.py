@@ -94,6 +94,10 @@ class StateSpec:
     subs: list[tuple[str | None, MachineSpec | None, str]] = field(default_factory=list)
     #: the compiled ``set``: (on_enter, on_exit), each ``fn(ctx)`` or None (filled in by the loader's checks)
     actions: tuple[Any, Any] = (None, None)
+    #: the step-common keys compiled (``fsm.sequencer.compile.Watch``), or None when the state has none
+    watch: Any = None
+    #: a Sequence's compiled layout (``fsm.sequencer.compile.SequenceLayout``), else None
+    sequence: Any = None
 
 
 @dataclass
@@ -265,7 +269,8 @@ def _existing_prefix(data: Any, loc: list[Any]) -> list[Any]:
     return out
 
 
-_COMMON_FIELDS = {"id", "type", "description", "layout", "from", "to", "priority", "preempt", "guard", "set"}
+_COMMON_FIELDS = {"id", "type", "description", "layout", "from", "to", "priority", "preempt", "guard", "set",
+                  "precondition", "until", "monitors", "timeout", "timeout_behavior", "timeout_exception"}
 
 
 def _field_hint(model: type[ParamsBase], name: str) -> str | None:

@@ -383,7 +383,11 @@ class Loader:
             return None
         cls, params = parsed
         spec = StateSpec(params.id, cls, params, ptr, source)
-        if cls.is_composite:
+        if getattr(cls, "compiles_steps", False):
+            from .sequencer.compile import parse_sequence
+
+            parse_sequence(self, spec, source, ptr, depth)
+        elif cls.is_composite:
             for default_name, sub, rel in cls.submachines(params):
                 sub_spec = self.parse_sub(sub, source, ptr + rel, depth + 1)
                 name = default_name
@@ -526,11 +530,15 @@ class Loader:
 
     def outcomes(self, st: StateSpec) -> set[str] | None:
         """The outcomes a state can finish with (empty: never finishes; ``None``: any)."""
+        from .sequencer.compile import child_outcomes, extra_outcomes
+
         cls = st.cls
         if cls.is_composite:
             region_outcomes = [None if sub is None else machine_outcomes(sub) for _, sub, _ in st.subs]
-            return cls.composite_outcomes(st.params, region_outcomes)  # type: ignore[attr-defined]
-        return cls.possible_outcomes(st.params)
+            out = cls.composite_outcomes(st.params, region_outcomes)  # type: ignore[attr-defined]
+            return None if out is None else out | extra_outcomes(st.params) | child_outcomes(st)
+        out = cls.possible_outcomes(st.params)
+        return None if out is None else out | extra_outcomes(st.params)
 
     def check_tree(self, root: MachineSpec) -> None:
         """Checks that need the whole tree: state paths named by transitions (``InState``) exist, and
@@ -555,6 +563,9 @@ class Loader:
                     refs.append((tr, prefix))
 
         walk(root, "")
+        from .sequencer.compile import check_tree as check_sequences
+
+        check_sequences(self, root)
         self.check_actions(root, variables, paths)
         for tr in every:
             found = tr.cls.check_document(tr.params, variables)
@@ -581,12 +592,16 @@ class Loader:
         value, else of what the ``set`` expressions assign to it (``any`` where that cannot be decided)."""
         from . import expr as E
 
+        from .sequencer.compile import assignments as set_vars, compile_watch
+
         states: list[StateSpec] = []
+        scopes: list[tuple[StateSpec, str]] = []
         transitions: list[tuple[TransitionSpec, str]] = []
 
         def walk(spec: MachineSpec, prefix: str) -> None:
             for st in spec.states:
                 states.append(st)
+                scopes.append((st, prefix))
                 path = f"{prefix}/{st.id}" if prefix else st.id
                 for name, sub, _ in st.subs:
                     if sub is not None:
@@ -604,11 +619,16 @@ class Loader:
                 for name, value in (getattr(sets, hook) or {}).items():
                     assignments.append((name, value, st.source, f"{st.pointer}/set/{hook}/{escape(name)}",
                                         f"state '{st.id}'"))
+        for st in states:
+            for name, value, ptr in set_vars(st):
+                assignments.append((name, value, st.source, ptr, f"state '{st.id}'"))
         for tr, _ in transitions:
             for name, value in (tr.params.set or {}).items():
                 assignments.append((name, value, tr.source, f"{tr.pointer}/set/{escape(name)}", tr.label))
-        if not assignments and not any(tr.params.guard is not None or tr.cls.condition_fields
-                                       for tr, _ in transitions):
+        watched = [(st, scope) for st, scope in scopes if any(
+            getattr(st.params, key, None) is not None for key in ("precondition", "until", "monitors", "timeout"))]
+        if not assignments and not watched and not any(tr.params.guard is not None or tr.cls.condition_fields
+                                                       for tr, _ in transitions):
             return
         kinds: dict[str, str] = {name: E.kind_of(value) for name, value in variables.items()}
         declared = set(kinds)
@@ -646,14 +666,19 @@ class Loader:
             compiled[ptr] = c
         for st in states:
             sets = st.params.set
-            if sets is None:
+            extra = set_vars(st)
+            if sets is None and not extra:
                 continue
             hooks = []
             for hook in ("on_enter", "on_exit"):
-                items = getattr(sets, hook) or {}
+                items = (getattr(sets, hook) or {}) if sets is not None else {}
                 targets = [(n, compiled.get(f"{st.pointer}/set/{hook}/{escape(n)}")) for n in items]
+                if hook == "on_enter":
+                    targets += [(n, compiled.get(ptr)) for n, _, ptr in extra]
                 hooks.append(E.assigner(targets) if targets and all(c is not None for _, c in targets) else None)
             st.actions = (hooks[0], hooks[1])
+        for st, scope in watched:
+            compile_watch(self, st, kinds, paths, scope)
         for tr, scope in transitions:
             items = tr.params.set or {}
             targets = [(n, compiled.get(f"{tr.pointer}/set/{escape(n)}")) for n in items]
@@ -939,12 +964,22 @@ def signal_names(spec: MachineSpec | None) -> set[str]:
     state) types declare in ``signal_refs`` (``Signal.signal``). ``fsmctl run --signal`` warns about a
     name outside this set; a plugin type that reads signals declares its parameter there to be counted."""
     names: set[str] = set()
+    from .sequencer.compile import condition_specs
+
     for level in spec.levels() if spec is not None else ():
         for st in level.states:
             for key in getattr(st.cls, "signal_refs", ()):
                 value = getattr(st.params, key, None)
                 if isinstance(value, str):
                     names.add(value)
+            todo_s = condition_specs(st)
+            while todo_s:
+                cs = todo_s.pop()
+                for key in getattr(cs.cls, "signal_refs", ()):
+                    value = getattr(cs.params, key, None)
+                    if isinstance(value, str):
+                        names.add(value)
+                todo_s.extend(cs.children)
         for tr in level.transitions:
             for key in tr.cls.signal_refs:
                 value = getattr(tr.params, key, None)
@@ -967,7 +1002,8 @@ def build(spec: MachineSpec, *, clock: Any = None, car: Any = None, context: Con
     by_path: dict[str, State] = {}
     regions: list[Region] = []
     variables: dict[str, Any] = {}
-    root = _build_region(spec, spec.name or "", "", None, by_path, regions, variables)
+    specs: dict[str, StateSpec] = {}
+    root = _build_region(spec, spec.name or "", "", None, by_path, regions, variables, specs)
     ctx = context if context is not None else Context(car=car)
     for key, value in variables.items():
         ctx.vars.setdefault(key, value)
@@ -988,11 +1024,16 @@ def build(spec: MachineSpec, *, clock: Any = None, car: Any = None, context: Con
                 tr.bind(machine)
                 if tr.conditions:
                     tr._bind_conditions(machine)
+    from .sequencer.compile import bind
+
+    bind(machine, specs)
     return machine
 
 
 def _build_region(spec: MachineSpec, name: str, prefix: str, owner: State | None, by_path: dict[str, State],
-                  regions: list[Region], variables: dict[str, Any]) -> Region:
+                  regions: list[Region], variables: dict[str, Any], specs: dict[str, StateSpec]) -> Region:
+    from .sequencer.compile import build_state
+
     states: dict[str, State] = {}
     for key, value in spec.vars.items():
         variables.setdefault(key, value)
@@ -1000,13 +1041,15 @@ def _build_region(spec: MachineSpec, name: str, prefix: str, owner: State | None
         obj = st.cls(st.id, st.params)
         obj.path = f"{prefix}/{st.id}" if prefix else st.id
         by_path[obj.path] = obj
+        specs[obj.path] = st
         if st.subs:
             subs = []
             for rname, sub, _ in st.subs:
                 assert sub is not None
                 sub_prefix = f"{obj.path}/{rname}" if rname else obj.path
-                subs.append(_build_region(sub, rname or st.id, sub_prefix, obj, by_path, regions, variables))
+                subs.append(_build_region(sub, rname or st.id, sub_prefix, obj, by_path, regions, variables, specs))
             obj.regions = tuple(subs)
+        build_state(obj, st, regions)
         states[st.id] = obj
     region = Region(name, prefix, states, states[spec.initial])
     region.owner = owner

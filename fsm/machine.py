@@ -27,6 +27,13 @@ class Listener:
     def on_tick(self, machine: Machine) -> None:
         """A tick has ended."""
 
+    def on_monitor(self, ctx: Context, owner: State, monitor: Any) -> None:
+        """A monitor (or a timeout) of ``owner`` fired; ``monitor.label``, ``.kind``, ``.behavior``,
+        ``.exception_id``. Optional: listeners without this method are not told."""
+
+    def on_pause(self, ctx: Context, state: State, paused: bool) -> None:
+        """``state`` was paused (``paused`` True) or resumed. Optional, like ``on_monitor``."""
+
 
 #: What ``Machine.run`` stops after when given neither ``max_ticks`` nor ``duration``: machine time, in
 #: seconds, the same default as ``fsmctl run``. A machine that can never finish then still returns.
@@ -66,6 +73,8 @@ class Machine:
         self._dt = self.clock.dt
         self._schedule: list[tuple[float, int, str, bool]] = []
         self._schedule_seq = 0
+        #: pause buttons: (rising-edge detector ``fn(ctx) -> bool``, state) checked before each tick
+        self._toggles: list[tuple[Any, State]] = []
         for region in self.regions:
             region.listeners = self.listeners
 
@@ -97,6 +106,8 @@ class Machine:
             self._apply_schedule(now)
         if ctx._pending:
             ctx._tick_boundary()
+        if self._toggles:
+            self._check_toggles(ctx)
         try:
             self.root.step(ctx)
         except StateRuntimeError:
@@ -267,6 +278,8 @@ class Machine:
                 sub.frozen_since = now
                 sub._prepare()
         state._prepare()
+        if self.listeners:
+            self._notify_pause(state, True)
 
     def resume(self, path: str | None = None) -> None:
         """Continue a paused state (the whole machine without a path) exactly where it was.
@@ -284,6 +297,8 @@ class Machine:
         if not held:
             self._thaw(state, now)
         state._prepare()
+        if self.listeners:
+            self._notify_pause(state, False)
 
     def _thaw(self, state: State, now: float) -> None:
         """Unfreeze ``state`` and its subtree, stopping at states that are paused themselves."""
@@ -291,7 +306,7 @@ class Machine:
             state.entered_at += now - state.frozen_since
             state.frozen_since = None
             state._prepare()
-        for region in state.regions:
+        for region in _inner_regions(state):
             if region.started and not region.active.paused:
                 self._thaw(region.active, now)
 
@@ -306,10 +321,32 @@ class Machine:
 
     def _active_subtree(self, state: State) -> list[State]:
         out = [state]
-        for region in state.regions:
+        for region in _inner_regions(state):
             if region.started:
                 out.extend(self._active_subtree(region.active))
         return out
+
+    def _check_toggles(self, ctx: Context) -> None:
+        """``pause_signal``: each rising edge pauses the state if it runs, resumes it if paused (one push button).
+        An edge while the state is not active is used up."""
+        for edge, state in self._toggles:
+            if edge(ctx) and state.active:
+                if state.paused:
+                    self.resume(state.path)
+                else:
+                    self.pause(state.path)
+
+    def _notify_monitor(self, owner: State, monitor: Any) -> None:
+        for listener in self.listeners:
+            hook = getattr(listener, "on_monitor", None)
+            if hook is not None:
+                hook(self.ctx, owner, monitor)
+
+    def _notify_pause(self, state: State, paused: bool) -> None:
+        for listener in self.listeners:
+            hook = getattr(listener, "on_pause", None)
+            if hook is not None:
+                hook(self.ctx, state, paused)
 
     # -- listeners ------------------------------------------------------------------------------
     def add_listener(self, listener: Any) -> Any:
@@ -351,6 +388,14 @@ class Machine:
 
     def __repr__(self) -> str:
         return f"<Machine {self.name!r} tick={self.ctx.tick} active={self.active_path!r}>"
+
+
+def _inner_regions(state: State) -> tuple[Region, ...]:
+    """The regions below ``state``: its own and the exception sequence running for it, if any."""
+    w = state._watcher
+    if w is not None and w.running is not None:
+        return state.regions + (w.running[1],)
+    return state.regions
 
 
 # -- argument checks (shared with Context.set_signal) --------------------------------------------------

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Annotated, Any, ClassVar, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, WithJsonSchema, field_validator
 
@@ -63,6 +63,27 @@ class StateSet(ParamsBase):
         default=None, description="Assigned on exit, after the state's own on_exit: {\"var\": \"expression\"}.")
 
 
+#: What a monitor (or a timeout) does to its owner when it fires (EEROS thesis, five behaviours).
+Behavior = Literal["nothing", "abortOwner", "restartOwner", "abortCallerOfOwner", "restartCallerOfOwner"]
+BEHAVIORS: tuple[str, ...] = ("nothing", "abortOwner", "restartOwner", "abortCallerOfOwner", "restartCallerOfOwner")
+
+
+class MonitorParams(ParamsBase):
+    """A condition watched every tick while its owner (or anything inside it) is active."""
+
+    condition: str | ConditionField = Field(
+        description="When it holds, the monitor fires: an expression or a condition object.")
+    exception: str | None = Field(
+        default=None, min_length=1,
+        description="Id of an exception sequence (declared in 'exceptions' of this sequence or an enclosing one), "
+                    "run while the owner is suspended, before the behavior applies.")
+    behavior: Behavior = Field(
+        default="nothing",
+        description="nothing: the owner resumes; abortOwner: it finishes with outcome 'aborted'; restartOwner: it "
+                    "is entered again from its start; the CallerOfOwner variants act on the enclosing state.")
+    description: str | None = Field(default=None, description="Free text for people.")
+
+
 class StateParams(ParamsBase):
     """Fields every state element has; a state type's own ``Params`` subclasses this."""
 
@@ -71,6 +92,26 @@ class StateParams(ParamsBase):
     description: str | None = Field(default=None, description="Free text for people.")
     set: StateSet | None = Field(default=None, description="Variables assigned on entry and exit (UML entry/exit).")
     layout: dict[str, Any] | None = Field(default=None, description="Diagram layout (x, y, w, h); ignored at run time.")
+    precondition: str | ConditionField | None = Field(
+        default=None, description="Checked on entry: when false the state is skipped (nothing of it runs) and "
+                                  "finishes with outcome 'precondition_failed'.")
+    until: str | ConditionField | None = Field(
+        default=None, description="Exit condition: the state finishes ('succeeded') in the first tick it holds, "
+                                  "checked after the state's tick.")
+    monitors: list[MonitorParams] | None = Field(
+        default=None, min_length=1, description="Conditions watched each tick before this state is ticked, while "
+                                                "it or anything inside it is active.")
+    timeout: float | None = Field(
+        default=None, gt=0, description="Seconds (paused and suspended time excluded) after which the timeout "
+                                        "monitor fires with timeout_behavior.")
+    timeout_behavior: Behavior = Field(
+        default="abortOwner", description="What the timeout does (abortOwner: outcome 'timeout').")
+    timeout_exception: str | None = Field(
+        default=None, min_length=1, description="Exception sequence run when the timeout fires.")
+
+    #: The step-common keys (EEROS): allowed on every state, compiled by the loader into the state's watcher.
+    STEP_KEYS: ClassVar[tuple[str, ...]] = ("precondition", "until", "monitors", "timeout", "timeout_behavior",
+                                            "timeout_exception")
 
 
 class TransitionParams(ParamsBase):

@@ -59,6 +59,17 @@ class Region:
         state = self.active
         if state.paused:
             return
+        if state._watch is not None:
+            try:
+                verdict = state._watch(ctx)
+            except StateRuntimeError:
+                raise
+            except Exception as exc:
+                raise ctx.machine._runtime_error(state, "monitors", exc) from exc  # type: ignore[union-attr]
+            if verdict is not None:
+                if not verdict:
+                    self._transitions_only(state, ctx)
+                return
         phase = "check"
         tr: Transition | None = None
         try:
@@ -84,6 +95,20 @@ class Region:
         except Exception as exc:
             if phase in ("check", "firing") and tr is not None:
                 phase = f"{phase} of transition {tr.describe()}"
+            raise ctx.machine._runtime_error(state, phase, exc) from exc  # type: ignore[union-attr]
+
+    def _transitions_only(self, state: State, ctx: Context) -> None:
+        """A halted state (aborted, or skipped by its precondition): not ticked, its transitions checked."""
+        tr: Transition | None = None
+        try:
+            for tr in state.preempt + state.regular:
+                if tr.always or tr._check(ctx):
+                    self.fire(state, tr, ctx)
+                    return
+        except StateRuntimeError:
+            raise
+        except Exception as exc:
+            phase = f"check of transition {tr.describe()}" if tr is not None else "check"
             raise ctx.machine._runtime_error(state, phase, exc) from exc  # type: ignore[union-attr]
 
     def fire(self, state: State, tr: Transition, ctx: Context) -> None:

@@ -41,6 +41,9 @@ class State:
         "_source_hooks",
         "_set_enter",
         "_set_exit",
+        "_watch",
+        "_watcher",
+        "_until",
     )
 
     Params: ClassVar[type[StateParams]] = StateParams
@@ -80,6 +83,12 @@ class State:
         #: The document's ``set`` of this state, compiled: ``fn(ctx)`` or None.
         self._set_enter: Any = None
         self._set_exit: Any = None
+        #: Monitors, timeout and precondition (``fsm.sequencer.watch.Watcher``) or None; ``_watch`` is its
+        #: ``check``, which ``Region.step`` calls before anything else of this state.
+        self._watcher: Any = None
+        self._watch: Any = None
+        #: The exit condition (``until``): ``(holds(ctx), condition objects to reset on entry)`` or None.
+        self._until: Any = None
 
     @classmethod
     def possible_outcomes(cls, params: StateParams) -> set[str] | None:
@@ -127,13 +136,15 @@ class State:
         """Precompute the hot-path hooks: ``None`` where the class keeps the base no-op."""
         cls = type(self)
         self._tick = self.tick if cls.tick is not State.tick else None
+        if self._until is not None:
+            self._tick = self._until_tick(self._tick, self._until[0])
         has_enter = cls.on_enter is not State.on_enter
         has_exit = cls.on_exit is not State.on_exit
         self._source_hooks = tuple(
             t._source_hook for t in self.transitions if t._source_hook is not None
         )
         plain_enter = not (has_enter or self.regions or self._source_hooks or self.can_finish
-                           or self._set_enter is not None)
+                           or self._set_enter is not None or self._watcher is not None or self._until is not None)
         self._enter = None if plain_enter else self._enter_full
         frozen = self.paused or self.frozen_since is not None
         self._exit = self._exit_full if (has_exit or self.regions or frozen or self._set_exit is not None) else None
@@ -144,6 +155,17 @@ class State:
         self.outcome = None
         phase = "set on_enter"
         try:
+            if self._until is not None:
+                phase = "until"
+                for condition in self._until[1]:
+                    condition.reset(ctx)
+            if self._watcher is not None:
+                phase = "precondition"
+                if not self._watcher.arm(ctx):
+                    self.finished = True
+                    self.outcome = "precondition_failed"
+                    return
+                phase = "set on_enter"
             if self._set_enter is not None:
                 self._set_enter(ctx)
             phase = "on_source_enter"
@@ -156,10 +178,27 @@ class State:
         for region in self.regions:
             region.start(ctx)
 
+    def _until_tick(self, tick: Any, until: Any) -> Any:
+        """The tick with the exit condition checked after it: the state finishes when ``until`` holds."""
+        if tick is None:
+            def check(ctx: Context) -> None:
+                if not self.finished and until(ctx):
+                    self.finish("succeeded")
+            return check
+
+        def tick_then_check(ctx: Context) -> None:
+            tick(ctx)
+            if not self.finished and until(ctx):
+                self.finish("succeeded")
+        return tick_then_check
+
     def _exit_full(self, ctx: Context) -> None:
         """Exit: sub-machines first (innermost first; parallel regions in reverse order), then ``on_exit``."""
         for region in reversed(self.regions):
             region.stop(ctx)
+        w = self._watcher
+        if w is not None and w.halted and self.outcome == "precondition_failed":
+            return  # skipped by its precondition: it was never entered, so it is not exited either
         phase = "on_exit"
         try:
             self.on_exit(ctx)

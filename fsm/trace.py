@@ -17,7 +17,9 @@ if TYPE_CHECKING:
 class Recorder(Listener):
     """Collects the transitions of the current tick; writes one JSONL line per tick that had any.
 
-    A line: ``{"tick", "time", "active", "transitions": [{"tick", "time", "from", "to", "type"}]}``;
+    A line: ``{"tick", "time", "active", "transitions": [{"tick", "time", "from", "to", "type"}]}``, and when
+    they happened in the tick, ``"monitors": [{"owner", "monitor", "kind", "behavior", "exception"}]`` (monitor
+    and timeout firings), ``"paused"`` / ``"resumed"``: [state paths];
     the initial entry is a transition from ``null`` of type ``"initial"``. A line also has ``"vars"``,
     the blackboard variables whose value changed during the tick (all of them on the first line), and a
     line is written for a tick in which only variables changed. ``extra`` (a callable returning a dict) adds
@@ -32,6 +34,10 @@ class Recorder(Listener):
         self.transitions = 0
         self._pending: list[dict[str, Any]] = []
         self._vars: dict[str, Any] | None = None
+        #: monitor firings, pauses and resumes of the current tick, by kind
+        self._events: dict[str, list[Any]] = {}
+        #: monitor (and timeout) firings so far, by owner path
+        self.monitor_counts: dict[str, int] = {}
 
     def on_transition(self, ctx: Context, source: State | None, target: State, transition: Transition | None) -> None:
         if target.path not in self._seen:
@@ -47,13 +53,23 @@ class Recorder(Listener):
             "type": transition.type_name if transition is not None else "initial",
         })
 
+    def on_monitor(self, ctx: Context, owner: State, monitor: Any) -> None:
+        event = {"owner": owner.path, "monitor": monitor.label, "kind": monitor.kind, "behavior": monitor.behavior}
+        if monitor.exception_id is not None:
+            event["exception"] = monitor.exception_id
+        self._events.setdefault("monitors", []).append(event)
+        self.monitor_counts[owner.path] = self.monitor_counts.get(owner.path, 0) + 1
+
+    def on_pause(self, ctx: Context, state: State, paused: bool) -> None:
+        self._events.setdefault("paused" if paused else "resumed", []).append(state.path)
+
     def on_tick(self, machine: Machine) -> None:
         self.flush(machine)
 
     def flush(self, machine: Machine) -> None:
         """Write the pending line (also used after ``start`` for the initial entries)."""
         changed = self._changed_vars(machine.ctx.vars)
-        if not self._pending and not changed:
+        if not self._pending and not changed and not self._events:
             return
         if self.out is not None:
             line: dict[str, Any] = {
@@ -64,10 +80,13 @@ class Recorder(Listener):
             }
             if changed:
                 line["vars"] = {k: jsonable(v) for k, v in changed.items()}
+            if self._events:
+                line.update(self._events)
             if self.extra is not None:
                 line.update(self.extra())
             self.out.write(json.dumps(line, separators=(",", ":")) + "\n")
         self._pending = []
+        self._events = {}
 
 
     def _changed_vars(self, current: dict[str, Any]) -> dict[str, Any] | None:
@@ -106,4 +125,5 @@ def summary(machine: Machine, recorder: Recorder) -> dict[str, Any]:
         "transitions": machine.transition_count,
         "visited": list(recorder.visited),
         "vars": {k: jsonable(v) for k, v in machine.ctx.vars.items()},
+        **({"monitors": dict(recorder.monitor_counts)} if recorder.monitor_counts else {}),
     }

@@ -5,6 +5,7 @@ from __future__ import annotations
 from .composites import FSMState, Parallel
 from .driving import ApproachPoint, BasicFollowWall, FollowWall, FollowWallRamp, Motor, Stop
 from .generic import Final, Idle
+from .sequence import Join, ResetTimeout, Sequence, SetVar, Step, Wait
 from .vision import AlignHeading, ArucoGateCenter
 
 __all__ = [
@@ -19,5 +20,11 @@ __all__ = [
     "Idle",
     "Motor",
     "Parallel",
+    "Sequence",
+    "SetVar",
+    "Step",
     "Stop",
+    "Wait",
+    "Join",
+    "ResetTimeout",
 ]

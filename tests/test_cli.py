@@ -272,7 +272,8 @@ def test_types_json_has_every_parameter_of_every_model(capsys: pytest.CaptureFix
     registry = default_registry()
     assert set(rows) == ({("state", n) for n in registry.states} | {("transition", n) for n in registry.transitions}
                          | {("condition", n) for n in registry.conditions})
-    common = {"id", "type", "description", "layout", "from", "to", "priority", "preempt", "guard", "set"}
+    common = {"id", "type", "description", "layout", "from", "to", "priority", "preempt", "guard", "set",
+              *StateParams.STEP_KEYS}
     for kind, name, cls in registry.every():
         row = rows[(kind, name)]
         assert row["kind"] == kind

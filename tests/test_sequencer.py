@@ -435,3 +435,12 @@ def test_duplicate_step_ids_and_an_empty_or_non_blocking_only_sequence() -> None
     assert problems([seq("s", wait("w", 1), wait("w", 2))])[0].startswith("/states/0/steps/1/id: duplicate id 'w'")
     assert problems([seq("s", seq("bg", wait("b", 1), blocking=False))]) == [
         "/states/0/steps: a sequence needs at least one blocking step"]
+
+
+def test_the_outcome_of_an_aborted_step_is_visible_to_a_later_precondition() -> None:
+    aborted = {"type": "Outcome", "state": "slow", "outcome": "timeout"}
+    m, _ = machine([seq("main", wait("slow", 10, timeout=1), setvar("retry", r=1) | {"precondition": aborted},
+                        setvar("fine", f=1) | {"precondition": {"type": "Not", "condition": aborted}}), done()],
+                   [route("main", "end")], r=0, f=0)
+    assert m.run(duration=20) == "succeeded"
+    assert m.ctx.vars == {"r": 1, "f": 0}

@@ -185,6 +185,31 @@ class InStateCondition(Condition):
         return self.other.active
 
 
+class OutcomeParams(InStateParams):
+    outcome: str = Field(min_length=1, description="The outcome (succeeded, aborted, timeout, precondition_failed, "
+                                                   "or a Final state's).")
+
+
+@register_condition(name="Outcome")
+class OutcomeCondition(Condition):
+    """Holds when the state at path `state` last finished with `outcome` (a sequence's step that was aborted,
+    timed out or skipped stays readable until it is entered again)."""
+
+    __slots__ = ("other", "outcome")
+    Params = OutcomeParams
+    state_refs = ("state",)
+
+    def bind(self, machine: Machine, owner: State) -> None:
+        super().bind(machine, owner)
+        scope = owner.region.path if owner.region is not None else ""
+        self.other = machine.resolve(self.params.state, scope)  # type: ignore[attr-defined]
+        self.outcome = self.params.outcome  # type: ignore[attr-defined]
+
+    def holds(self, ctx: Context) -> bool:
+        other = self.other
+        return other.finished and other.outcome == self.outcome
+
+
 class ManyParams(ConditionParams):
     conditions: list[ConditionField] = Field(min_length=1, description="The conditions (each a condition object).")
 

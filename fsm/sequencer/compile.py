@@ -338,9 +338,9 @@ def compile_watch(loader: Any, st: StateSpec, kinds: dict[str, str], paths: set[
 
 def assignments(st: StateSpec) -> list[tuple[str, Any, str]]:
     """A SetVar's ``assign`` as (variable, value, pointer): compiled like a ``set.on_enter``."""
-    items = getattr(st.params, "assign", None)
-    if not items or st.cls.type_name != "SetVar":
+    if st.cls.type_name != "SetVar":
         return []
+    items = st.params.assign  # type: ignore[attr-defined]
     return [(name, value, f"{st.pointer}/assign/{escape(name)}") for name, value in items.items()]
 
 
@@ -412,8 +412,10 @@ def bind(machine: Machine, specs: dict[str, StateSpec]) -> None:
         w = obj._watcher
         if w is not None:
             w.machine = machine
+            for c in w.pre_conditions:
+                c.bind(machine, obj)
             for m in w.monitors:
-                for c in m.conditions + w.pre_conditions:
+                for c in m.conditions:
                     c.bind(machine, obj)
                 if m.exception_id is not None:
                     m.exception = _exception_region(obj, m.exception_id)

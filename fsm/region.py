@@ -133,12 +133,17 @@ class Region:
     def leaf_paths(self) -> list[str]:
         """Paths of the active leaf states below this level (several under a parallel state)."""
         state = self.active
+        w = state._watcher
+        if w is not None and w.running is not None:  # suspended for an exception sequence: both are shown
+            inner = [p for r in state.regions if r.started for p in r.leaf_paths()] or [state.path]
+            return inner + w.running[1].leaf_paths()
         if not state.regions:
             return [state.path]
         paths: list[str] = []
         for region in state.regions:
-            paths.extend(region.leaf_paths())
-        return paths
+            if region.started:  # an aborted (halted) composite has left its sub-states: it is the leaf
+                paths.extend(region.leaf_paths())
+        return paths or [state.path]
 
     def __repr__(self) -> str:
         return f"<Region {self.path!r} active={self.active.id!r}>"

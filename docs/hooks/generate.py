@@ -32,6 +32,7 @@ GRAPHS = {
     "mission": "diagrams/examples/mission.json",
     "blinker": "diagrams/examples/blinker.uxf",
     "drive": "diagrams/examples/drive.uxf",
+    "sorter": "diagrams/examples/sorter.json",
 }
 
 _WIDTH = 88  # columns of the usage lines, independent of the terminal that runs the build

@@ -22,6 +22,34 @@ def parallel_note(st: dict[str, Any]) -> str:
     return "(Parallel" + (f", join={join}" if isinstance(join, str) else "") + ")"
 
 
+def sequence_machine(st: dict[str, Any]) -> dict[str, Any]:
+    """A Sequence drawn as the machine the loader compiles it to: its blocking steps chained by ``Finished``
+    arrows, each non-blocking sequence started (``start``) where it is placed, its exception sequences beside."""
+    steps = [s for s in st["steps"] if isinstance(s, dict) and isinstance(s.get("id"), str)]
+    blocking = [s for s in steps if not (s.get("type") == "Sequence" and s.get("blocking") is False)]
+    transitions: list[dict[str, Any]] = []
+    last: str | None = None
+    for s in steps:
+        if s in blocking:
+            if last is not None:
+                transitions.append({"type": "Finished", "from": last, "to": s["id"]})
+            last = s["id"]
+        elif last is not None:
+            transitions.append({"type": "start", "from": last, "to": s["id"]})
+    exceptions = [e for e in st.get("exceptions") or () if isinstance(e, dict) and isinstance(e.get("id"), str)]
+    initial = blocking[0]["id"] if blocking else (steps[0]["id"] if steps else "")
+    return {"initial": initial, "states": steps + exceptions, "transitions": transitions}
+
+
+def sequence_note(st: dict[str, Any]) -> str:
+    keys = [f"repeat={st['repeat']}" for _ in [0] if isinstance(st.get("repeat"), int) and st["repeat"] != 1]
+    if st.get("blocking") is False:
+        keys.append("non-blocking")
+    if st.get("pause_signal"):
+        keys.append(f"pause={st['pause_signal']}")
+    return "(Sequence" + (", " + ", ".join(keys) if keys else "") + ")"
+
+
 def expander(directory: Path | None, where: str = "", stack: tuple[Path, ...] = (),
               seen: dict[Path, Any] | None = None) -> Callable[[dict[str, Any]], Expansion | None]:
     """What a composite shows: inline machines, ``{"file": ...}`` includes (read relative to ``directory``, the
@@ -75,6 +103,9 @@ def expander(directory: Path | None, where: str = "", stack: tuple[Path, ...] = 
                 parts.append((name, machine if machine is not None else {"states": []}, hook))
             widths = [text_width(name or "", LABEL_FONT) + 2 * BOX_MARGIN + 4 for name, _, _ in parts]
             return Expansion(parts, parallel_note(st), foreign=True, min_widths=widths) if parts else None
+        if st.get("type") == "Sequence" and isinstance(st.get("steps"), list):
+            seq = sequence_machine(st)
+            return Expansion([(None, seq, expander(directory, here, stack, seen))], sequence_note(st))
         m = st.get("machine")
         if st.get("type") != "FSMState" or not isinstance(m, dict):
             return None

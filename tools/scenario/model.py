@@ -13,7 +13,7 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any, Union
+from typing import Annotated, Any, Literal, Union
 
 from pydantic import Discriminator, Field, Tag, ValidationError
 
@@ -139,7 +139,27 @@ class TransitionsExpect(ScenarioModel):
     transitions: TransitionCount
 
 
-_EXPECT_KEYS = ("outcome", "finished", "visits", "never", "transitions", "at")
+class MonitorFired(ScenarioModel):
+    """Which monitor firings count, and how many there must be (at least one when no count is given)."""
+
+    owner: str = Field(min_length=1, description="The monitor's owner: a state id or path ('w2' matches 'main/sub/w2').")
+    behavior: str | None = Field(default=None, min_length=1, description="Only firings with this behaviour.")
+    kind: Literal["monitor", "timeout"] | None = Field(default=None, description="Only monitors, or only timeouts.")
+    count: Int | None = Field(default=None, ge=0, description="Exactly this many.")
+    min: Int | None = Field(default=None, ge=0, description="At least this many.")
+    max: Int | None = Field(default=None, ge=0, description="At most this many.")
+    at: list[Annotated[float, Field(ge=0)]] | None = Field(
+        default=None, description="The simulated times (s) at which it fires, in order (each at the first tick at "
+                                  "or after it).")
+
+
+class MonitorsExpect(ScenarioModel):
+    """A monitor (or timeout) of a state fires during the run."""
+
+    monitors: MonitorFired
+
+
+_EXPECT_KEYS = ("outcome", "finished", "visits", "never", "transitions", "at", "monitors")
 
 
 def _expect_kind(value: Any) -> str | None:
@@ -153,16 +173,17 @@ def _expect_kind(value: Any) -> str | None:
 Expectation = Annotated[
     Union[Annotated[OutcomeExpect, Tag("<outcome>")], Annotated[FinishedExpect, Tag("<finished>")],  # noqa: UP007
           Annotated[VisitsExpect, Tag("<visits>")], Annotated[NeverExpect, Tag("<never>")],
-          Annotated[TransitionsExpect, Tag("<transitions>")], Annotated[AtExpect, Tag("<at>")]],
+          Annotated[TransitionsExpect, Tag("<transitions>")], Annotated[AtExpect, Tag("<at>")],
+          Annotated[MonitorsExpect, Tag("<monitors>")]],
     Discriminator(_expect_kind, custom_error_type="expect_kind",
                   custom_error_message="an expectation is an object with one of 'outcome', 'finished', 'visits', "
-                                       "'never', 'transitions', or 'at' (with 'active' and/or 'vars')"),
+                                       "'never', 'transitions', 'monitors', or 'at' (with 'active' and/or 'vars')"),
 ]
 
 _MODELS: dict[str, type[ScenarioModel]] = {
     "<signal>": SignalInput, "<press>": PressInput, "<set>": SetInput, "<outcome>": OutcomeExpect,
     "<finished>": FinishedExpect, "<visits>": VisitsExpect, "<never>": NeverExpect,
-    "<transitions>": TransitionsExpect, "<at>": AtExpect,
+    "<transitions>": TransitionsExpect, "<at>": AtExpect, "<monitors>": MonitorsExpect,
 }
 
 
@@ -591,6 +612,8 @@ def _name_problems(scenario: Scenario, paths: list[str], name: str) -> list[Prob
             names = [(s, pointer("expect", i, "visits", k), False) for k, s in enumerate(exp.visits)]
         elif isinstance(exp, NeverExpect):
             names = [(s, pointer("expect", i, "never", k), False) for k, s in enumerate(exp.never)]
+        elif isinstance(exp, MonitorsExpect):
+            names = [(exp.monitors.owner, pointer("expect", i, "monitors", "owner"), False)]
         elif isinstance(exp, AtExpect) and exp.active is not None:
             items = [exp.active] if isinstance(exp.active, str) else exp.active
             names = [(s, ptr + "/active" + ("" if isinstance(exp.active, str) else f"/{k}"), True)

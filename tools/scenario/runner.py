@@ -21,6 +21,7 @@ from .model import (
     NeverExpect,
     OutcomeExpect,
     TransitionsExpect,
+    MonitorsExpect,
     VisitsExpect,
     active_matches,
     state_matches,
@@ -61,6 +62,16 @@ class Recording(Listener):
         self._want = snapshot_ticks
         self._vars: dict[str, Any] = {}
         self._moved = True
+        #: (tick, owner path, monitor label, kind, behavior) per monitor or timeout firing
+        self.monitors: list[tuple[int, str, str, str, str]] = []
+        #: (tick, state path, paused) per pause and resume
+        self.pauses: list[tuple[int, str, bool]] = []
+
+    def on_monitor(self, ctx: Context, owner: State, monitor: Any) -> None:
+        self.monitors.append((ctx.tick, owner.path, monitor.label, monitor.kind, monitor.behavior))
+
+    def on_pause(self, ctx: Context, state: State, paused: bool) -> None:
+        self.pauses.append((ctx.tick, state.path, paused))
 
     def on_transition(self, ctx: Context, source: State | None, target: State, transition: Transition | None) -> None:
         self.entries.append(Entry(ctx.tick, ctx.now, target.path, source.path if source is not None else None,
@@ -92,6 +103,10 @@ class Recording(Listener):
                 break
             current = paths
         return current
+
+
+def _times(n: int) -> str:
+    return "once" if n == 1 else f"{n} times"
 
 
 class _Unset:
@@ -266,6 +281,10 @@ class _Checker:
                 out.append((s.tick, 0, f"set {text} (input {s.index})"))
         for tick, name, old, new in self.rec.var_changes:
             out.append((tick, 2, f"var {name}: {_shown(old)} -> {_shown(new)}"))
+        for tick, owner, label, kind, behavior in self.rec.monitors:
+            out.append((tick, 1, f"{kind} of {owner} fired ({label}): {behavior}"))
+        for tick, path, paused in self.rec.pauses:
+            out.append((tick, 1, f"{'pause' if paused else 'resume'} {path}"))
         out.sort(key=lambda e: (e[0], e[1]))
         return out
 
@@ -329,7 +348,39 @@ class _Checker:
             limit = c.count if c.count is not None else c.max
             tick = fired[limit].tick if limit is not None and n > limit else end
             return self.failure(i, "transitions", f"expected {want} transitions, {n} fired", tick)
+        if isinstance(exp, MonitorsExpect):
+            return self.monitor_check(i, exp.monitors)
         return None  # pragma: no cover - the model admits nothing else
+
+    def monitor_check(self, i: int, c: Any) -> Failure | None:
+        fired = [f for f in self.rec.monitors if state_matches(c.owner, f[1])
+                 and (c.behavior is None or f[4] == c.behavior) and (c.kind is None or f[3] == c.kind)]
+        n = len(fired)
+        if c.count is None and c.min is None and c.max is None:
+            ok, want = n >= 1, "at least once"
+        else:
+            ok = (c.count is None or n == c.count) and (c.min is None or n >= c.min) and (c.max is None or n <= c.max)
+            want = (f"exactly {_times(c.count)}" if c.count is not None else
+                    " and ".join(x for x in (f"at least {_times(c.min)}" if c.min is not None else "",
+                                             f"at most {_times(c.max)}" if c.max is not None else "") if x))
+        if ok and c.at is not None:
+            times = [round(f[0] * self.dt, 9) for f in fired]
+            wanted = [tick_at(t, self.dt) for t in c.at]
+            got = [f[0] for f in fired]
+            if got != wanted:
+                first = next((k for k, (a, b) in enumerate(zip(got, wanted)) if a != b), min(len(got), len(wanted)))
+                tick = got[first] if first < len(got) else (wanted[first] if first < len(wanted) else self.last_tick)
+                return self.failure(i, "monitors", f"expected the monitor of '{c.owner}' to fire at "
+                                                   f"{', '.join(f'{t:g}' for t in c.at)} s, it fired at "
+                                                   f"{', '.join(f'{t:g}' for t in times) or 'no time'} s",
+                                    min(tick, self.last_tick))
+        if ok:
+            return None
+        what = "" if c.behavior is None else f" with {c.behavior}"
+        limit = c.count if c.count is not None else c.max
+        tick = fired[limit][0] if limit is not None and n > limit else self.last_tick
+        return self.failure(i, "monitors", f"expected a monitor of '{c.owner}'{what} to fire {want}, it fired "
+                                           f"{_times(n)}", tick)
 
     def visits(self, i: int, wanted: list[str]) -> Failure | None:
         entries = self.rec.entries

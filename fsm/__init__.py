@@ -15,8 +15,11 @@ from .context import Context
 from .errors import DiagramError, FsmError, Problem, RegistrationError, StateRuntimeError
 from .loader import check, load
 from .machine import Listener, Machine
-from .params import StateParams, TransitionParams
-from .registry import Registry, default_registry, register_state, register_transition
+from .condition import Condition
+from .params import ConditionParams, StateParams, TransitionParams
+from .plant import Plant, PlantParams
+from .registry import (Registry, default_registry, register_condition, register_plant, register_state,
+                       register_transition)
 from .state import State
 from .transition import Transition
 
@@ -25,11 +28,15 @@ __version__ = "0.1.0"
 __all__ = [
     "DEFAULT_DT",
     "Composite",
+    "Condition",
+    "ConditionParams",
     "Context",
     "DiagramError",
     "FsmError",
     "Listener",
     "Machine",
+    "Plant",
+    "PlantParams",
     "Problem",
     "RealTimeClock",
     "Registry",
@@ -43,6 +50,8 @@ __all__ = [
     "check",
     "default_registry",
     "load",
+    "register_condition",
+    "register_plant",
     "register_state",
     "register_transition",
 ]

@@ -20,7 +20,8 @@ class Context:
     or during tick ``k``). A signal set and reset between two ticks makes no edge.
     """
 
-    __slots__ = ("_now", "_dt", "_tick", "vars", "car", "machine", "_signals", "_changed", "_pending", "_history")
+    __slots__ = ("_now", "_dt", "_tick", "vars", "car", "machine", "_signals", "_changed", "_pending", "_history",
+                 "plants")
 
     def __init__(self, *, car: Any = None, variables: dict[str, Any] | None = None) -> None:
         # Only the machine advances these (through the underscored slots); states read the properties.
@@ -30,6 +31,8 @@ class Context:
         self.vars: dict[str, Any] = dict(variables or {})
         self.car = car
         self.machine: Machine | None = None
+        #: simulated plants by name (``fsm.plant.Plant``), attached by a scenario or a run
+        self.plants: dict[str, Any] = {}
         self._signals: dict[str, bool] = {}
         self._changed: dict[str, int] = {}
         #: Signals changed since the last tick started, with their level then.
@@ -86,6 +89,15 @@ class Context:
                 if name in history:
                     history[name].append((self._now, level))
         self._pending.clear()
+
+    def plant(self, name: str) -> Any:
+        """The plant attached under ``name`` (``KeyError`` naming the attached ones when there is none)."""
+        try:
+            return self.plants[name]
+        except KeyError:
+            known = ", ".join(sorted(self.plants)) or "none"
+            raise KeyError(f"no plant '{name}' is attached (attached: {known}); a scenario attaches plants with "
+                           f"\"plants\": [{{\"name\": \"{name}\", \"type\": ...}}]") from None
 
     def watch_signal(self, name: str) -> list[tuple[float, bool]]:
         """The change history of signal ``name``, kept from now on: ``[(time, level)]``, one entry per tick

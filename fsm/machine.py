@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 from .clock import SimulatedClock
 from .context import Context, _shown, check_signal_name, signal_level
 from .errors import StateRuntimeError
+from .state import State as _State
 
 if TYPE_CHECKING:
     from .region import Region
@@ -277,6 +278,8 @@ class Machine:
             if sub.frozen_since is None:  # already frozen by an earlier pause below: keep that time
                 sub.frozen_since = now
                 sub._prepare()
+                if type(sub).on_pause is not _State.on_pause:
+                    sub.on_pause(self.ctx)
         state._prepare()
         if self.listeners:
             self._notify_pause(state, True)
@@ -306,6 +309,8 @@ class Machine:
             state.entered_at += now - state.frozen_since
             state.frozen_since = None
             state._prepare()
+            if state.paused is False and type(state).on_resume is not _State.on_resume:
+                state.on_resume(self.ctx)
         for region in _inner_regions(state):
             if region.started and not region.active.paused:
                 self._thaw(region.active, now)

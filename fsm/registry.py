@@ -28,6 +28,7 @@ C = TypeVar("C", bound=type[Condition])
 STATE_GROUP = "fsm.states"
 TRANSITION_GROUP = "fsm.transitions"
 CONDITION_GROUP = "fsm.conditions"
+PLANT_GROUP = "fsm.plants"
 
 
 class Registry:
@@ -37,6 +38,7 @@ class Registry:
         self.states: dict[str, type[State]] = {}
         self.transitions: dict[str, type[Transition]] = {}
         self.conditions: dict[str, type[Condition]] = {}
+        self.plants: dict[str, type[Any]] = {}
         self._loaded_plugins: set[str] = set()
 
     # -- registration ---------------------------------------------------------------------------
@@ -48,6 +50,11 @@ class Registry:
 
     def add_condition(self, cls: type[Condition], name: str | None = None) -> type[Condition]:
         return self._add(self.conditions, Condition, ConditionParams, cls, name, "condition")
+
+    def add_plant(self, cls: type[Any], name: str | None = None) -> type[Any]:
+        from .plant import Plant, PlantParams
+
+        return self._add(self.plants, Plant, PlantParams, cls, name, "plant")
 
     def _add(self, table: dict[str, Any], base: type, params_base: type, cls: Any, name: str | None,
              kind: str) -> Any:
@@ -137,7 +144,7 @@ class Registry:
         from importlib.metadata import entry_points
 
         for group, add in ((STATE_GROUP, self.add_state), (TRANSITION_GROUP, self.add_transition),
-                           (CONDITION_GROUP, self.add_condition)):
+                           (CONDITION_GROUP, self.add_condition), (PLANT_GROUP, self.add_plant)):
             for ep in entry_points(group=group):
                 key = f"{group}:{ep.name}={ep.value}"
                 if key in self._loaded_plugins:
@@ -148,8 +155,8 @@ class Registry:
                 except Exception as exc:  # an installed plugin that is broken: say which one and where
                     raise _plugin_error(f"entry point {ep.name} = {ep.value} ({group})", exc, None) from None
                 if isinstance(obj, type):
-                    table = {STATE_GROUP: self.states, TRANSITION_GROUP: self.transitions}.get(group,
-                                                                                                self.conditions)
+                    table = {STATE_GROUP: self.states, TRANSITION_GROUP: self.transitions,
+                             PLANT_GROUP: self.plants}.get(group, self.conditions)
                     if table.get(ep.name) is not obj and table.get(obj.__name__) is not obj:
                         add(obj, ep.name)  # type: ignore[arg-type]
                 self._loaded_plugins.add(key)
@@ -309,6 +316,16 @@ def default_registry(plugins: list[str] | tuple[str, ...] = (), entry_points: bo
     for module in plugins:
         registry.load_module(module)
     return registry
+
+
+def register_plant(cls: Any = None, *, name: str | None = None) -> Any:
+    """Class decorator: register a Plant subclass (``fsm.plant``) under its class name (or ``name``)."""
+
+    def deco(c: Any) -> Any:
+        current().add_plant(c, name)
+        return c
+
+    return deco(cls) if cls is not None else deco
 
 
 def builder(kind: str) -> Callable[..., Any]:

@@ -107,6 +107,13 @@ class State:
     def on_exit(self, ctx: Context) -> None:
         """Called when the state is left (innermost first)."""
 
+    def on_pause(self, ctx: Context) -> None:
+        """Called when the state stops being ticked by a pause (its own or an ancestor's) or while a monitor's
+        exception sequence suspends it: stop what it drives (a motor, the car), as a paused machine stands still."""
+
+    def on_resume(self, ctx: Context) -> None:
+        """Called when a pause ends and the state is ticked again: restart what ``on_pause`` stopped."""
+
     # -- API for subclasses ---------------------------------------------------------------------
     def finish(self, outcome: str = "succeeded") -> None:
         """Mark the state finished with ``outcome``; ``Finished`` transitions out of it can now fire."""

@@ -15,10 +15,11 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from fsm.state import State
+
 if TYPE_CHECKING:
     from fsm.context import Context
     from fsm.region import Region
-    from fsm.state import State
 
 #: Slack for timeouts computed from ticks (80 ticks of 0.0125 s are 1 s).
 _EPS = 5e-10
@@ -177,6 +178,8 @@ def suspend(state: State, ctx: Context) -> None:
         if s.frozen_since is None:
             s.frozen_since = now
             s._prepare()
+            if type(s).on_pause is not State.on_pause:
+                s.on_pause(ctx)
         todo.extend(r.active for r in s.regions if r.started)
         w = s._watcher
         if s is not state and w is not None and w.running is not None:

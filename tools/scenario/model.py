@@ -206,6 +206,9 @@ class Scenario(ScenarioModel):
                                    description="Stop after this much simulated time (default 600 s without "
                                                "max_ticks).")
     max_ticks: Int | None = Field(default=None, gt=0, description="Stop after this many ticks.")
+    plants: list[dict[str, Any]] = Field(
+        default_factory=list, description="Simulated plants behind the machine (registered plant types): "
+                                          "{\"name\": \"axis\", \"type\": \"Axis\", ...parameters}.")
     inputs: list[Input] = Field(default_factory=list, description="The timeline of inputs.")
     expect: list[Expectation] = Field(min_length=1, description="What the run must show; all are checked.")
 
@@ -240,6 +243,8 @@ class LoadedScenario:
     end_tick: int
     world_path: Path | None
     machine_files: list[str] = field(default_factory=list)
+    #: the plants to attach: (class, validated parameters)
+    plants: list[tuple[type, Any]] = field(default_factory=list)
     #: JSON pointer -> (line, column) of every input and expectation (for messages).
     positions: dict[str, tuple[int, int]] = field(default_factory=dict)
     state_paths: list[str] = field(default_factory=list)
@@ -588,7 +593,19 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
         car = FakeCar()
     paths = list(build(spec, car=car).states_by_path)
     problems += _name_problems(scenario, paths, name)
+    plants, more = _plants(scenario, registry, name)
+    problems += more
     known = signal_names(spec)
+    given = {item.signal if isinstance(item, SignalInput) else item.press for item in scenario.inputs
+             if isinstance(item, (SignalInput, PressInput))}
+    given |= {sig for cls, params in plants for sig in cls(params).signals()}
+    for level in spec.levels():
+        for st in level.states:
+            pause = getattr(st.params, "pause_signal", None) if st.cls.type_name == "Sequence" else None
+            if pause and pause not in given:
+                problems.append(Problem(f"the pause button '{pause}' of '{st.id}' is never pressed by this scenario",
+                                        name, "/inputs", severity="warning",
+                                        hint=f'add {{"at": 1.0, "press": "{pause}"}} to test the pause'))
     for i, item in enumerate(scenario.inputs):
         sig = item.signal if isinstance(item, SignalInput) else item.press if isinstance(item, PressInput) else None
         if sig is not None and sig not in known:
@@ -598,7 +615,47 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
                                     hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close
                                     else "signals it reads: " + (", ".join(sorted(known)) or "none")))
     return LoadedScenario(file=name, scenario=scenario, spec=spec, registry=registry, dt=dt, end_tick=end_tick,
-                          world_path=world_path, machine_files=machine_files(spec), state_paths=paths), problems
+                          world_path=world_path, machine_files=machine_files(spec), state_paths=paths,
+                          plants=plants), problems
+
+
+def _plants(scenario: Scenario, registry: Any, name: str) -> tuple[list[tuple[type, Any]], list[Problem]]:
+    """The scenario's plants: each type registered and its parameters valid (located problems otherwise)."""
+    from pydantic import ValidationError
+
+    from fsm.document import problems_from_validation
+
+    out: list[tuple[type, Any]] = []
+    problems: list[Problem] = []
+    names: set[str] = set()
+    for i, raw in enumerate(scenario.plants):
+        ptr = pointer("plants", i)
+        kind = raw.get("type")
+        cls = registry.plants.get(kind) if isinstance(kind, str) else None
+        if cls is None:
+            known = sorted(registry.plants)
+            close = difflib.get_close_matches(str(kind), known, n=2)
+            problems.append(Problem(f"unknown plant type {kind!r}" if kind is not None else "a plant needs a 'type'",
+                                    name, ptr + ("/type" if kind is not None else ""), element=f"plant {i}",
+                                    hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close else
+                                    ("plant types: " + ", ".join(known)) if known else
+                                    "load the plugin that registers it (\"plugins\": [...])"))
+            continue
+        try:
+            params = cls.Params.model_validate(raw)
+        except ValidationError as err:
+            from fsm.document import Source
+
+            problems += problems_from_validation(err, source=Source(name=name), base=ptr, element=f"plant {i}",
+                                                 model=cls.Params, kind="parameter", data=raw)
+            continue
+        if params.name in names:
+            problems.append(Problem(f"two plants are named '{params.name}'", name, ptr + "/name", element=f"plant {i}",
+                                    hint="give each plant its own name"))
+            continue
+        names.add(params.name)
+        out.append((cls, params))
+    return out, problems
 
 
 def _name_problems(scenario: Scenario, paths: list[str], name: str) -> list[Problem]:

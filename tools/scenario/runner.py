@@ -178,6 +178,8 @@ def run_scenario(loaded: LoadedScenario) -> ScenarioResult:
 
         car = SimCar(load_world(loaded.world_path), seed=sc.seed, noise=sc.noise)
     machine = build(loaded.spec, clock=SimulatedClock(dt), car=car)
+    for cls, params in loaded.plants:
+        cls(params).attach(machine)
     for change in signals:
         machine.schedule_signal(change.name, change.time, change.level)
     rec = machine.add_listener(Recording(at_ticks))

@@ -4,9 +4,36 @@ CI means a real regression, not a newly drawn example; locally it keeps explorin
 from __future__ import annotations
 
 import os
+import sys
+from collections.abc import Iterator
 
+import pytest
 from hypothesis import settings
 
 settings.register_profile("ci", derandomize=True, print_blob=True)
 if os.environ.get("CI"):
     settings.load_profile("ci")
+
+
+@pytest.fixture(autouse=True)
+def _no_plugin_leaks() -> Iterator[None]:
+    """A test that loads a plugin (``--plugin``, a scenario's ``plugins``) registers its types into the process's
+    registry, as a one-shot ``fsmctl`` process does; undo that after the test, so later tests (the committed
+    schema and palette, ``fsmctl types``) see the built-in types only."""
+    from fsm.registry import default_registry
+
+    registry = default_registry()
+    tables = (registry.states, registry.transitions, registry.conditions, registry.plants)
+    saved = [dict(t) for t in tables]
+    loaded = set(registry._loaded_plugins)
+    modules = set(sys.modules)
+    yield
+    added: set[str] = set()
+    for table, before in zip(tables, saved):
+        if table != before:
+            added |= {cls.__module__ for name, cls in table.items() if before.get(name) is not cls}
+            table.clear()
+            table.update(before)
+    registry._loaded_plugins.intersection_update(loaded)
+    for name in added - modules:  # imported by this test only to register: imported afresh when needed again
+        sys.modules.pop(name, None)

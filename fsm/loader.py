@@ -948,8 +948,20 @@ def machine_outcomes(spec: MachineSpec) -> set[str] | None:
 
 def uses_car(spec: MachineSpec | None) -> bool:
     """True when any state or transition type of the checked machine (sub-machines included) needs a car."""
+    from .sequencer.compile import condition_specs
+
+    def car_condition(specs: list[Any]) -> bool:
+        todo = list(specs)
+        while todo:
+            cs = todo.pop()
+            if getattr(cs.cls, "needs_car", False):
+                return True
+            todo.extend(cs.children)
+        return False
+
     return spec is not None and any(
-        any(st.cls.needs_car for st in level.states) or any(tr.cls.needs_car for tr in level.transitions)
+        any(st.cls.needs_car or car_condition(condition_specs(st)) for st in level.states)
+        or any(tr.cls.needs_car or car_condition(list(tr.conditions.values())) for tr in level.transitions)
         for level in spec.levels())
 
 

@@ -42,6 +42,10 @@ class CarState(State):
     __slots__ = ()
     needs_car = True
 
+    def on_pause(self, ctx: Context) -> None:
+        """A paused (or suspended) driving state stops the car; its next tick after the pause drives again."""
+        ctx.car.set_speed(0.0)
+
 
 # -- wall following -------------------------------------------------------------------------------------
 class WallParams(StateParams):

@@ -1,14 +1,16 @@
-"""Transitions on the car's sensors: ``Distance`` (hall sensor) and ``SensorLevel`` (ultrasonic thresholds)."""
+"""Transitions on the car's sensors: ``Distance`` (hall sensor) and ``SensorLevel`` (ultrasonic thresholds); the
+conditions ``Sensor`` and ``Travelled`` for monitors, exit conditions and guards."""
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import Field, model_validator
 
-from fsm.params import TransitionParams
-from fsm.registry import register_transition
+from fsm.condition import Condition
+from fsm.params import ConditionParams, TransitionParams
+from fsm.registry import register_condition, register_transition
 from fsm.transition import Transition
 
 if TYPE_CHECKING:
@@ -125,3 +127,69 @@ class PassPoint(Transition):
         if 0.0 <= along <= p.beyond and near:  # type: ignore[attr-defined]
             return True
         return last is not None and last < 0.0 <= along and near
+
+
+# -- conditions on the car (for monitors, exit conditions, preconditions and guards) ------------------------
+class SensorConditionParams(ConditionParams):
+    sensor: Literal["left", "right", "front"] = Field(description="The ultrasonic sensor.")
+    below: float | None = Field(default=None, gt=0, le=10, description="Holds while the reading is below this, m.")
+    above: float | None = Field(default=None, gt=0, le=10, description="Holds while the reading is above this, m.")
+    samples: int = Field(default=1, ge=1, le=100, description="Consecutive samples it must hold (filters outliers).")
+
+    @model_validator(mode="after")
+    def _one_threshold(self) -> "SensorConditionParams":
+        if (self.below is None) == (self.above is None):
+            raise ValueError("give exactly one of 'below' and 'above'")
+        return self
+
+
+@register_condition(name="Sensor")
+class SensorCondition(Condition):
+    """Holds while ultrasonic sensor `sensor` reads `below` or `above` a threshold, `samples` samples in a row
+    (an obstacle-ahead monitor: {"type": "Sensor", "sensor": "front", "below": 0.25})."""
+
+    __slots__ = ("count", "seen")
+    Params = SensorConditionParams
+    needs_car = True
+
+    def __init__(self, params: Any, children: Any = None, exprs: Any = None) -> None:
+        super().__init__(params, children, exprs)
+        self.count = 0
+        self.seen = -1
+
+    def reset(self, ctx: Context) -> None:
+        self.count = 0
+        self.seen = -1
+
+    def holds(self, ctx: Context) -> bool:
+        car = ctx.car
+        if car.sample != self.seen:
+            self.seen = car.sample
+            p = self.params
+            value = getattr(car, p.sensor)  # type: ignore[attr-defined]
+            hit = value < p.below if p.below is not None else value > p.above  # type: ignore[attr-defined]
+            self.count = self.count + 1 if hit else 0
+        return self.count >= self.params.samples  # type: ignore[attr-defined]
+
+
+class TravelledParams(ConditionParams):
+    distance: float = Field(gt=0, le=1000, description="Metres travelled (hall sensor) since the owner was entered.")
+
+
+@register_condition(name="Travelled")
+class TravelledCondition(Condition):
+    """Holds once the car has travelled `distance` metres since the state that uses it was entered."""
+
+    __slots__ = ("start",)
+    Params = TravelledParams
+    needs_car = True
+
+    def __init__(self, params: Any, children: Any = None, exprs: Any = None) -> None:
+        super().__init__(params, children, exprs)
+        self.start = 0.0
+
+    def reset(self, ctx: Context) -> None:
+        self.start = ctx.car.distance
+
+    def holds(self, ctx: Context) -> bool:
+        return ctx.car.distance - self.start >= self.params.distance - 1e-9  # type: ignore[attr-defined]

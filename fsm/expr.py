@@ -483,12 +483,36 @@ def _fused(op: str, node: Node, kinds: dict[str, str]) -> Fn | None:
         def fused_swapped(v: dict[str, Any]) -> Any:
             x = v.get(name)
             return f(const, x if type(x) in numeric else read(v))
+        fused_swapped.shape = (name, f, const, True, read)  # type: ignore[attr-defined]
         return fused_swapped
 
     def fused(v: dict[str, Any]) -> Any:
         x = v.get(name)
         return f(x if type(x) in numeric else read(v), const)
+    fused.shape = (name, f, const, False, read)  # type: ignore[attr-defined]
     return fused
+
+
+def on_context(fn: Fn) -> Callable[[Any], Any]:
+    """``fn`` (a compiled expression over the variables) as a function of the context: ``ctx -> fn(ctx.vars)``,
+    one closure for the fused ``var OP constant`` form (the common guard), so a guard costs one call."""
+    shape = getattr(fn, "shape", None)
+    if shape is None:
+        return lambda ctx: fn(ctx.vars)
+    name, f, const, swap, read = shape
+    numeric = _NUMERIC
+    if swap:
+        def guard_swapped(ctx: Any) -> Any:
+            v = ctx.vars
+            x = v.get(name)
+            return f(const, x if type(x) in numeric else read(v))
+        return guard_swapped
+
+    def guard(ctx: Any) -> Any:
+        v = ctx.vars
+        x = v.get(name)
+        return f(x if type(x) in numeric else read(v), const)
+    return guard
 
 
 def _div(a: Any, b: Any) -> Any:
@@ -573,6 +597,17 @@ def assigner(targets: list[tuple[str, Compiled]]) -> Callable[[Any], None]:
                 ctx.vars[name] = value
             return run1c
 
+        shape = getattr(fn, "shape", None)
+        if shape is not None and not shape[3]:  # name = var OP constant (a counter): one closure
+            var, f, const, _swap, read = shape
+            numeric = _NUMERIC
+
+            def run1f(ctx: Any) -> None:
+                v = ctx.vars
+                x = v.get(var)
+                v[name] = f(x if type(x) in numeric else read(v), const)
+            return run1f
+
         def run1(ctx: Any) -> None:
             v = ctx.vars
             v[name] = fn(v)
@@ -587,4 +622,4 @@ def assigner(targets: list[tuple[str, Compiled]]) -> Callable[[Any], None]:
 
 
 __all__ = ["ANY", "BOOL", "NUMBER", "TEXT", "Compiled", "ExprError", "ExprRuntimeError", "Node", "assigner",
-           "compile_expr", "kind_of", "parse", "parse_assignments", "tokenize", "unparse"]
+           "compile_expr", "kind_of", "on_context", "parse", "parse_assignments", "tokenize", "unparse"]

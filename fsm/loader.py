@@ -692,8 +692,7 @@ class Loader:
                         self._add("the guard is always false, so the transition can never fire", tr.source,
                                   tr.pointer + "/guard", element=tr.label, severity="warning",
                                   hint="remove the transition or correct the guard")
-                    fn = c.fn
-                    tr.guard = lambda ctx, fn=fn: fn(ctx.vars)
+                    tr.guard = E.on_context(c.fn)
             elif isinstance(guard, dict):
                 cs = self._parse_condition(guard, tr.source, tr.pointer + "/guard", tr.label, kinds, paths, scope, 0)
                 if cs is not None:

@@ -315,8 +315,7 @@ def compile_watch(loader: Any, st: StateSpec, kinds: dict[str, str], paths: set[
                             element=element, hint="correct the condition")
                 ok = False
                 return None
-            fn = c.fn
-            return (lambda ctx, fn=fn: fn(ctx.vars)), []
+            return E.on_context(c.fn), []
         cs = loader._parse_condition(raw, st.source, ptr, element, kinds, paths, scope, 0)
         if cs is None:
             ok = False

@@ -216,6 +216,17 @@ class Simulation:
         self.wall_errors.append(true - target)
 
     # -- results ----------------------------------------------------------------------------------------
+    def summary(self, recorder: Any, world: Any, seed: int, noise: bool) -> dict[str, Any]:
+        """The run summary of ``fsmctl run --summary`` (and of each run of a sweep): the machine's, then the car's."""
+        from fsm.trace import summary
+
+        result = summary(self.machine, recorder)
+        result.update(self.metrics())
+        result["world"] = str(world)
+        result["seed"] = seed
+        result["noise"] = noise
+        return result
+
     def metrics(self) -> dict[str, Any]:
         """What the summary adds for a car run."""
         car = self.car

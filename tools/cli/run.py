@@ -54,6 +54,11 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     p.add_argument("--signal", action="append", default=[], metavar="NAME[=0|1]@T", type=signal_arg,
                    help="set input signal NAME high (or to the value given) at machine time T (repeatable)")
+    p.add_argument("--set", action="append", default=[], metavar="PATH.PARAM=VALUE", dest="overrides",
+                   help="set a parameter of the state at PATH before the run, e.g. home.speed=0.8 or "
+                        "lap1/bottom.speed=1.0 (repeatable; as `fsmctl sweep --set` does for one of its runs)")
+    p.add_argument("--var", action="append", default=[], metavar="NAME=VALUE", dest="variables",
+                   help="start with blackboard variable NAME = VALUE (a number, true/false or text; repeatable)")
     p.add_argument("--trace", metavar="OUT.jsonl",
                    help="write a JSONL trace: one line per tick with a transition (with the car: its sensors, "
                         "commands and pose); '-' for standard output")
@@ -117,6 +122,36 @@ def _suffix_ok(name: str | None, suffixes: tuple[str, ...]) -> bool:
     if name is None or name == "-" or name.startswith("/dev/") or name.startswith("/proc/self/fd/"):
         return True
     return Path(name).suffix.lower() in suffixes
+
+
+def apply_overrides(spec: Any, texts: list[str], file: str) -> Any:
+    """``--set PATH.PARAM=VALUE``: each checked against the machine (a located message and exit 1 otherwise)."""
+    from fsm.errors import DiagramError, Problem
+
+    from ..sweep import overrides as O
+
+    changes = []
+    for text in texts:
+        try:
+            o = O.parse(text, several=False)
+            O.check(spec, o)
+        except O.OverrideError as exc:
+            raise DiagramError([Problem(str(exc), file)]) from None
+        changes.append(o.one(o.values[0]))
+    return O.apply(spec, changes) if changes else spec
+
+
+def parse_vars(texts: list[str]) -> dict[str, Any]:
+    """``--var NAME=VALUE`` as a dict (VALUE a JSON scalar, or text)."""
+    from ..sweep.overrides import parse_value
+
+    out: dict[str, Any] = {}
+    for text in texts:
+        name, sep, value = text.partition("=")
+        if not sep or not name.strip().isidentifier():
+            raise UsageError(f"--var {text!r}: write NAME=VALUE, e.g. --var speed=0.8")
+        out[name.strip()] = parse_value(value.strip())
+    return out
 
 
 def _check_usage(args: argparse.Namespace) -> None:
@@ -197,6 +232,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     errors = [p for p in problems if p.severity == "error"]
     if spec is None or errors:
         raise DiagramError(errors or problems)
+    spec = apply_overrides(spec, args.overrides, file)
+    args.initial_vars = parse_vars(args.variables)
     for warning in signal_warnings(args.signal, spec, file, duration, max_ticks, dt):
         print(f"fsmctl run: warning: {warning}", file=sys.stderr)
 
@@ -231,6 +268,7 @@ def _run(args: argparse.Namespace, spec: Any, file: str, clock: Any, drive: bool
         world = load_world(world_path, car=args.car)
         car = SimCar(world, seed=args.seed, noise=not args.no_noise)
     machine = build(spec, clock=clock, car=car)
+    machine.ctx.vars.update(args.initial_vars)
     for name, value, at in args.signal:
         machine.schedule_signal(name, at, value)
 
@@ -275,12 +313,10 @@ def _run(args: argparse.Namespace, spec: Any, file: str, clock: Any, drive: bool
             if progress is not None:
                 progress.done()
         interrupted = interrupts.interrupted
-        result = summary(machine, recorder)
         if sim is not None:
-            result.update(sim.metrics())
-            result["world"] = str(world_path)
-            result["seed"] = args.seed
-            result["noise"] = not args.no_noise
+            result = sim.summary(recorder, world_path, args.seed, not args.no_noise)
+        else:
+            result = summary(machine, recorder)
         if error is not None:
             result["error"] = {"state": error.path, "phase": error.phase, "tick": error.tick, "time": error.time,
                                "message": f"{type(error.cause).__name__}: {error.cause}"}

@@ -1,0 +1,161 @@
+"""One run of a sweep: a plain dict in, a plain dict out, the same code on a local process and on a Ray worker.
+
+The run is what ``fsmctl run`` does (check, ``--set`` overrides, build, drive the simulated car, summarise with
+``Simulation.summary``), so the printed ``fsmctl run`` command reproduces it alone. Anything a run raises
+becomes a record with ``ok: false`` and the error; the sweep goes on.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+import traceback
+from pathlib import Path
+from typing import Any
+
+#: Fields of a summary that depend on the machine the run ran on, not on the run: left out of comparisons.
+TIMING = ("wall_time", "realtime_factor")
+#: Trajectory points kept per run for the report's small multiples.
+TRACK_POINTS = 300
+#: The checked machine per (file, plugins), in this worker process.
+_CHECKED: dict[tuple[str, tuple[str, ...]], Any] = {}
+
+
+def init_worker() -> None:
+    """Each worker uses one thread for OpenCV and BLAS: the pool's processes are the parallelism. Ctrl-C is the
+    parent's to handle (it stops the pool and writes what finished)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")
+    # what every run needs, imported while the parent still plans the sweep
+    import fsm.sim.car  # noqa: F401
+    import fsm.sim.loop  # noqa: F401
+    from fsm.registry import default_registry
+
+    default_registry()
+
+
+def _one_cv2_thread() -> None:
+    """OpenCV's own thread pool off (called once a run uses the camera: importing cv2 costs 0.1 s otherwise)."""
+    import cv2
+
+    cv2.setNumThreads(1)
+
+
+def run_one(job: dict[str, Any]) -> dict[str, Any]:
+    """Run one point of the grid; ``job`` holds only JSON-able values (it may travel to another machine)."""
+    t0 = time.perf_counter()
+    record: dict[str, Any] = {"id": job["id"], "index": job["index"], "key": job["key"], "world": job["world"],
+                              "seed": job["seed"], "run_seed": job["run_seed"], "params": job["params"],
+                              "command": job["command"]}
+    try:
+        summary, track, dwell = _simulate(job)
+        record["ok"] = True
+        record["states"] = summary.pop("states_seen", [])
+        record["summary"] = summary
+        record["track"] = track
+        record["dwell"] = dwell
+    except Exception as exc:  # noqa: BLE001 - a failing run is a result, not the end of the sweep
+        record["ok"] = False
+        record["error"] = f"{type(exc).__name__}: {exc}"
+        record["traceback"] = traceback.format_exc(limit=6)
+    record["seconds"] = round(time.perf_counter() - t0, 3)
+    return record
+
+
+class Dwell:
+    """Seconds spent in each state (every level), for the report's dwell times across runs."""
+
+    def __init__(self) -> None:
+        self.since: dict[str, float] = {}
+        self.total: dict[str, float] = {}
+
+    def on_transition(self, ctx: Any, source: Any, target: Any, transition: Any) -> None:
+        now = ctx.now
+        if source is not None:
+            gone = [p for p in self.since if p == source.path or p.startswith(source.path + "/")]
+            for p in gone:
+                self.total[p] = self.total.get(p, 0.0) + now - self.since.pop(p)
+        self.since[target.path] = now
+
+    def on_tick(self, machine: Any) -> None:
+        pass
+
+    def result(self, now: float) -> dict[str, float]:
+        out = dict(self.total)
+        for p, t in self.since.items():
+            out[p] = out.get(p, 0.0) + now - t
+        return {p: round(v, 4) for p, v in sorted(out.items())}
+
+
+def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], dict[str, float]]:
+    from fsm.errors import DiagramError
+    from fsm.loader import build, check, uses_car
+    from fsm.registry import default_registry
+    from fsm.trace import Recorder, summary
+
+    from .overrides import apply
+
+    key = (job["machine"], tuple(job.get("plugins") or ()))
+    spec = _CHECKED.get(key)
+    if spec is None:  # each worker reads and checks the machine once (the files do not change during a sweep)
+        registry = default_registry(key[1])
+        spec, problems = check(job["machine"], registry=registry)
+        errors = [p for p in problems if p.severity == "error"]
+        if spec is None or errors:
+            raise DiagramError(errors or problems)
+        _CHECKED[key] = spec
+    spec = apply(spec, [tuple(c) for c in job["sets"]])  # type: ignore[misc]
+    out_dir = Path(job["out"]) if job.get("out") else None
+    if out_dir is not None:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    trace_file = open(out_dir / "trace.jsonl", "w", encoding="utf-8") if out_dir and job.get("trace") else None
+    try:
+        car = None
+        if job["world"] is not None or uses_car(spec):
+            from fsm.sim.car import SimCar
+            from fsm.sim.world import load_world
+
+            car = SimCar(load_world(job["world"]), seed=job["run_seed"], noise=job["noise"])
+            if car.params.camera.enabled:
+                _one_cv2_thread()
+        machine = build(spec, car=car)
+        machine.ctx.vars.update(job["vars"])
+        extra = None
+        if car is not None:
+            from fsm.tools.cli.run import _car_fields  # the same trace fields as `fsmctl run --trace`
+
+            extra = _car_fields(car)
+        recorder = machine.add_listener(Recorder(trace_file, extra=extra))
+        dwell = machine.add_listener(Dwell())
+        duration = job["duration"] if job["duration"] is not None else 600.0
+        machine.start()
+        recorder.flush(machine)
+        if car is None:
+            machine.run(duration=duration)
+            return summary(machine, recorder), [], dwell.result(machine.now)
+        from fsm.sim.loop import Simulation
+
+        sim = Simulation(machine, car)
+        video = None
+        if out_dir is not None and job.get("video"):
+            from fsm.sim.render import VideoRecorder
+
+            video = VideoRecorder(sim, str(out_dir / "video.mp4"))
+        sim.run(duration=duration)
+        result = sim.summary(recorder, job["world"], job["run_seed"], job["noise"])
+        if video is not None:
+            video.close()
+        if out_dir is not None and job.get("plot"):
+            from fsm.sim.render import plot_png
+
+            (out_dir / "plot.png").write_bytes(plot_png(sim))
+        step = max(1, len(sim.track) // TRACK_POINTS)
+        track = [[round(x, 3), round(y, 3), k] for _t, x, y, k in sim.track[::step]]
+        result["states_seen"] = list(sim.states_seen)
+        return result, track, dwell.result(machine.now)
+    finally:
+        if trace_file is not None:
+            trace_file.close()

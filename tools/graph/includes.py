@@ -14,31 +14,12 @@ from fsm.document import normalize_legacy
 from fsm.errors import DiagramError
 
 from .labels import BOX_MARGIN, LABEL_FONT, text_width
-from .layout import Expansion
+from .layout import Expansion, sequence_machine
 
 MAX_INCLUDE_DEPTH = 16
 def parallel_note(st: dict[str, Any]) -> str:
     join = st.get("join")
     return "(Parallel" + (f", join={join}" if isinstance(join, str) else "") + ")"
-
-
-def sequence_machine(st: dict[str, Any]) -> dict[str, Any]:
-    """A Sequence drawn as the machine the loader compiles it to: its blocking steps chained by ``Finished``
-    arrows, each non-blocking sequence started (``start``) where it is placed, its exception sequences beside."""
-    steps = [s for s in st["steps"] if isinstance(s, dict) and isinstance(s.get("id"), str)]
-    blocking = [s for s in steps if not (s.get("type") == "Sequence" and s.get("blocking") is False)]
-    transitions: list[dict[str, Any]] = []
-    last: str | None = None
-    for s in steps:
-        if s in blocking:
-            if last is not None:
-                transitions.append({"type": "Finished", "from": last, "to": s["id"]})
-            last = s["id"]
-        elif last is not None:
-            transitions.append({"type": "start", "from": last, "to": s["id"]})
-    exceptions = [e for e in st.get("exceptions") or () if isinstance(e, dict) and isinstance(e.get("id"), str)]
-    initial = blocking[0]["id"] if blocking else (steps[0]["id"] if steps else "")
-    return {"initial": initial, "states": steps + exceptions, "transitions": transitions}
 
 
 def sequence_note(st: dict[str, Any]) -> str:

@@ -202,6 +202,27 @@ def inline_machine(state: dict[str, Any]) -> dict[str, Any] | None:
     return None
 
 
+def sequence_machine(st: dict[str, Any], start: str = "start") -> dict[str, Any]:
+    """A Sequence drawn as the machine the loader compiles it to: its blocking steps chained by ``Finished``
+    arrows, an arrow (typed ``start``) to each non-blocking sequence from the step it follows, its exception
+    sequences beside, unconnected. The UMLet writer types the start arrows ``Finished`` too (what a diagram can
+    say); the reader rebuilds the steps from the arrows."""
+    steps = [s for s in st["steps"] if isinstance(s, dict) and isinstance(s.get("id"), str)]
+    blocking = [s for s in steps if not (s.get("type") == "Sequence" and s.get("blocking") is False)]
+    transitions: list[dict[str, Any]] = []
+    last: str | None = None
+    for s in steps:
+        if s in blocking:
+            if last is not None:
+                transitions.append({"type": "Finished", "from": last, "to": s["id"]})
+            last = s["id"]
+        elif last is not None:
+            transitions.append({"type": start, "from": last, "to": s["id"]})
+    exceptions = [e for e in st.get("exceptions") or () if isinstance(e, dict) and isinstance(e.get("id"), str)]
+    initial = blocking[0]["id"] if blocking else (steps[0]["id"] if steps else "")
+    return {"initial": initial, "states": steps + exceptions, "transitions": transitions}
+
+
 def inline_only(state: dict[str, Any]) -> Expansion | None:
     """The default expansion: an inline ``FSMState`` machine, in this diagram's coordinates."""
     m = inline_machine(state)

@@ -209,6 +209,67 @@ class Documents:
             doc["layout"] = layout
         return {k: doc[k] for k in _MACHINE_ORDER if k in doc}
 
+    def sequence_steps(self, st: StateBox, sub: dict[str, Any]) -> tuple[list[Any], list[Any]]:
+        """The steps of a Sequence box, in the order its arrows give: from the first step (the initial marker's),
+        each step's arrow to the next blocking step, and arrows from a step to the non-blocking sequences that
+        start after it. Unconnected non-blocking sequences start first; unconnected Sequences are exception
+        sequences. A fork (two arrows to blocking steps), a cycle or an unconnected step is a located problem."""
+        states = {x["id"]: x for x in sub.get("states", []) if isinstance(x, dict) and isinstance(x.get("id"), str)}
+        boxes = {b.id: b for b in self.scene.levels[id(st.box)].states}
+        outs: dict[str, list[str]] = {}
+        into: dict[str, int] = {}
+        for tr in sub.get("transitions", []):
+            outs.setdefault(tr["from"], []).append(tr["to"])
+            into[tr["to"]] = into.get(tr["to"], 0) + 1
+
+        def detached(sid: str) -> bool:
+            x = states[sid]
+            return x.get("type") == "Sequence" and x.get("blocking") is False
+
+        def y(sid: str) -> float:
+            box = boxes.get(sid)
+            return box.box.y if box is not None else 0.0
+
+        order: list[str] = []
+        seen: set[str] = set()
+        cur = sub.get("initial") or None
+        while cur is not None and cur in states:
+            if cur in seen:
+                self.problem(boxes[cur].box.elem if cur in boxes else st.box.elem,
+                             f"the steps of sequence '{st.id}' form a cycle at '{cur}'",
+                             hint="a sequence runs its steps once each, in order (use repeat= to run them again)")
+                break
+            seen.add(cur)
+            order.append(cur)
+            back = [t for t in outs.get(cur, []) if t in seen]
+            if back:
+                self.problem(boxes[cur].box.elem if cur in boxes else st.box.elem,
+                             f"the steps of sequence '{st.id}' form a cycle: '{cur}' -> '{back[0]}'",
+                             hint="a sequence runs its steps once each, in order (use repeat= to run them again)")
+            nxt = sorted((t for t in outs.get(cur, []) if t not in seen), key=y)
+            for t in [t for t in nxt if detached(t)]:
+                order.append(t)
+                seen.add(t)
+            blocking = [t for t in nxt if not detached(t)]
+            if len(blocking) > 1:
+                self.problem(boxes[cur].box.elem if cur in boxes else st.box.elem,
+                             f"step '{cur}' of sequence '{st.id}' has arrows to several steps: "
+                             + ", ".join(f"'{b}'" for b in blocking),
+                             hint="steps run one after the other: one arrow to the next step (parallel work is a "
+                                  "non-blocking Sequence, blocking=false)")
+            cur = blocking[0] if blocking else None
+        first = [sid for sid in states if sid not in seen and detached(sid) and not into.get(sid)]
+        exceptions = [sid for sid in states if sid not in seen and sid not in first
+                      and states[sid].get("type") == "Sequence" and not into.get(sid) and not outs.get(sid)]
+        for sid in states:
+            if sid not in seen and sid not in first and sid not in exceptions:
+                self.problem(boxes[sid].box.elem if sid in boxes else st.box.elem,
+                             f"step '{sid}' of sequence '{st.id}' is not on the chain of steps",
+                             hint="connect it with an arrow from the step before it (only Sequence boxes may stand "
+                                  "alone: they are exception sequences)")
+        return ([states[sid] for sid in sorted(first, key=y) + order],
+                [states[sid] for sid in exceptions])
+
     def can_finish(self, st: StateBox) -> bool:
         if st.composite and st.type in (None, "FSMState"):
             lvl = self.scene.levels.get(id(st.box))
@@ -225,6 +286,20 @@ class Documents:
             doc["type"] = "Parallel"
             doc.update({k: v for k, v in st.params.items() if k != "regions"})
             doc["regions"], frames = self.regions(st, ptr, origins)
+        elif st.composite and st.type == "Sequence":
+            doc["type"] = "Sequence"
+            doc.update({k: v for k, v in st.params.items() if k not in ("steps", "exceptions")})
+            if "steps" in st.params or "exceptions" in st.params:
+                self.problem(st.box.elem, f"Sequence '{st.id}' both contains step boxes and gives 'steps' or "
+                                          "'exceptions' as text", hint="draw the steps inside the box, or write them "
+                                                                      "as text, not both")
+            lvl = self.scene.levels[id(st.box)]
+            sub = self.machine_doc(lvl, lvl.states, lvl.initials, ptr + "/steps", origins, meta={},
+                                   note=None, what=f"sequence '{st.id}'")
+            steps, exceptions = self.sequence_steps(st, sub)
+            doc["steps"] = steps
+            if exceptions:
+                doc["exceptions"] = exceptions
         elif st.composite:
             if st.type not in (None, "FSMState"):
                 self.problem(st.box.elem, f"a {st.type} state cannot contain other boxes",

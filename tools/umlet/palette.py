@@ -53,6 +53,11 @@ def palette(registry: Any) -> str:
         reserved = T.STATE_FACET_KEYS if kind == "state" else T.RELATION_FACET_KEYS
         extra: dict[str, Any] = {}  # parameters UMLet would take for facets: in the JSON line
         for info in infos:
+            if getattr(cls, "compiles_steps", False) and info["name"] in ("steps", "exceptions"):
+                comments.append("// steps: boxes drawn inside this box, chained by arrows from an initial marker; a "
+                                "non-blocking Sequence hangs off the step it follows" if info["name"] == "steps" else
+                                "// exceptions: Sequence boxes drawn inside this box with no arrow to or from them")
+                continue
             if drawn and info["name"] == "regions":
                 comments.append("// regions: one UMLFrame per region inside this box, titled with the region's name "
                                 "(or file=PATH to include the region), holding its initial marker, states and arrows")

@@ -22,7 +22,7 @@ from typing import Any
 from xml.sax.saxutils import escape
 
 from . import text as T
-from ..graph.layout import HEAD, Expansion, LevelLayout, inline_machine, lay_out
+from ..graph.layout import HEAD, Expansion, LevelLayout, inline_machine, lay_out, sequence_machine
 
 HEADER = '<?xml version="1.0" encoding="UTF-8" standalone="no"?>\n<diagram program="umlet" version="15.1">\n'
 
@@ -174,7 +174,7 @@ def state_text(st: dict[str, Any], composite: bool) -> str:
     """The text of a state box; a composite's (``composite``) leaves out what is drawn inside it."""
     sid = str(st.get("id", ""))
     typ = str(st.get("type", "Idle"))
-    inside = ("machine", "regions") if composite else ()
+    inside = ("machine", "regions", "steps", "exceptions") if composite else ()
     params = {k: v for k, v in st.items() if k not in _COMMON_STATE and k not in inside}
     desc = params.get("description")
     free = None
@@ -188,7 +188,7 @@ def state_text(st: dict[str, Any], composite: bool) -> str:
     if activities is not None:
         params.pop("set")
     lines = [sid]
-    implied = "FSMState" if composite else "Idle"
+    implied = "FSMState" if composite and typ != "Sequence" else "Idle"
     if params or typ != implied:
         lines += ["--"] + param_lines(typ, params, T.STATE_FACET_KEYS, type_as_json=True)
     if activities:
@@ -273,7 +273,19 @@ def head_height(text: str) -> float:
     return HEAD + 18 * max(0, len(shown) - 1)
 
 
+def drawn_steps(st: dict[str, Any]) -> dict[str, Any] | None:
+    """A Sequence's steps (and exception sequences) as the machine drawn inside its box, or None."""
+    steps = st.get("steps")
+    if st.get("type") != "Sequence" or not isinstance(steps, list) or not steps:
+        return None
+    if not all(isinstance(x, dict) and isinstance(x.get("id"), str) for x in steps + list(st.get("exceptions") or [])):
+        return None
+    return sequence_machine(st, start="Finished")
+
+
 def _can_finish(st: dict[str, Any], registry: Any) -> bool:
+    if drawn_steps(st) is not None:
+        return True
     sub = inline_machine(st)
     if sub is not None:
         return any(isinstance(s, dict) and s.get("type") == "Final" for s in sub.get("states", []))
@@ -338,7 +350,7 @@ def export(doc: dict[str, Any], registry: Any = None) -> str:
     roles: dict[int, str] = {id(doc): "top"}
 
     def composite(st: dict[str, Any]) -> bool:
-        return inline_machine(st) is not None or drawn_regions(st) is not None
+        return inline_machine(st) is not None or drawn_regions(st) is not None or drawn_steps(st) is not None
 
     def lines_of(st: dict[str, Any]) -> list[str]:
         return state_text(st, composite(st)).split("\n")
@@ -346,6 +358,8 @@ def export(doc: dict[str, Any], registry: Any = None) -> str:
     def expand(st: dict[str, Any]) -> Expansion | None:
         head = head_height(state_text(st, True))
         sub = inline_machine(st)
+        if sub is None:
+            sub = drawn_steps(st)
         if sub is not None:
             return Expansion([(None, sub, None)], head=head)
         regions = drawn_regions(st)

@@ -61,6 +61,10 @@ class MachineEnvelope(ParamsBase):
     states: list[dict[str, Any]] = Field(min_length=1, description="The states of this level.")
     transitions: list[dict[str, Any]] = Field(default_factory=list, description="The transitions of this level.")
     vars: dict[str, Any] = Field(default_factory=dict, description="Initial blackboard variables (top level only).")
+    inputs: list[Annotated[str, Field(min_length=1)]] | None = Field(
+        default=None, description="The input signals the machine's environment provides (buttons, switches). When "
+                                  "given, every signal the machine reads (transitions, conditions, pause buttons) "
+                                  "must be one of them: a typo or a pause button nobody can press is a load error.")
     layout: dict[str, Any] | None = Field(default=None, description="Diagram layout; ignored at run time.")
 
     @field_validator("vars")
@@ -146,6 +150,8 @@ class MachineSpec:
     edges: list[tuple[str, str]] = field(default_factory=list)
     #: False when an element of this level failed to parse (then outcomes are not guessed).
     complete: bool = True
+    #: The declared input signals (top level), or None when the document does not declare them.
+    inputs: list[str] | None = None
 
     def levels(self) -> Iterator[MachineSpec]:
         """This level and every sub-machine below it (inline, included, parallel regions), any depth."""

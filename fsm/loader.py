@@ -6,6 +6,7 @@ line:column and element; only a document without errors is built.
 
 from __future__ import annotations
 
+import difflib
 import errno
 import json
 import os
@@ -357,6 +358,7 @@ class Loader:
             vars=dict(envelope.vars) if envelope else {},
             edges=edges,
             complete=complete,
+            inputs=list(envelope.inputs) if envelope and envelope.inputs is not None else None,
         )
         self.check_level(spec, envelope is not None, states_raw, trans_raw)
         return spec
@@ -567,6 +569,8 @@ class Loader:
 
         check_sequences(self, root)
         self.check_actions(root, variables, paths)
+        if root.inputs is not None:
+            self.check_inputs(root)
         for tr in every:
             found = tr.cls.check_document(tr.params, variables)
             if found is not None:
@@ -583,6 +587,38 @@ class Loader:
                               element=tr.label,
                               hint="a path of ids joined by '/', relative to this machine or an enclosing one, "
                                    "or absolute with a leading '/'")
+
+    def check_inputs(self, root: MachineSpec) -> None:
+        """With declared ``inputs``: every signal read (by a state, transition or condition) is one of them."""
+        from .sequencer.compile import condition_specs
+
+        declared = set(root.inputs or ())
+
+        def check(kind: Any, params: Any, source: Source, ptr: str, element: str) -> None:
+            for key in getattr(kind, "signal_refs", ()):
+                value = getattr(params, key, None)
+                if isinstance(value, str) and value not in declared:
+                    what = "pause button" if key == "pause_signal" else "signal"
+                    close = difflib.get_close_matches(value, sorted(declared), n=2)
+                    self._add(f"{what} '{value}' is not one of the machine's inputs ({', '.join(sorted(declared)) or 'none'})",
+                              source, f"{ptr}/{key}", element=element,
+                              hint=("did you mean " + " or ".join(f"'{c}'" for c in close) + "?") if close else
+                              f"add '{value}' to the top level's \"inputs\" if the machine's environment provides it")
+
+        def conditions(specs: list[Any], source: Source, element: str) -> None:
+            todo = list(specs)
+            while todo:
+                cs = todo.pop()
+                check(cs.cls, cs.params, source, cs.pointer, element)
+                todo.extend(cs.children)
+
+        for level in root.levels():
+            for st in level.states:
+                check(st.cls, st.params, st.source, st.pointer, f"state '{st.id}'")
+                conditions(condition_specs(st), st.source, f"state '{st.id}'")
+            for tr in level.transitions:
+                check(tr.cls, tr.params, tr.source, tr.pointer, tr.label)
+                conditions(list(tr.conditions.values()), tr.source, tr.label)
 
     # -- guards, set and conditions ---------------------------------------------------------------
     def check_actions(self, root: MachineSpec, variables: dict[str, Any], paths: set[str]) -> None:

@@ -444,3 +444,20 @@ def test_the_outcome_of_an_aborted_step_is_visible_to_a_later_precondition() -> 
                    [route("main", "end")], r=0, f=0)
     assert m.run(duration=20) == "succeeded"
     assert m.ctx.vars == {"r": 1, "f": 0}
+
+
+def test_declared_inputs_make_an_unpressable_pause_button_and_a_misspelt_signal_load_errors() -> None:
+    doc = {"name": "t", "initial": "main", "inputs": ["start", "pause_btn"],
+           "states": [seq("main", {"id": "go", "type": "Step", "until": {"type": "SignalHigh", "signal": "strat"}},
+                          pause_signal="pause")]}
+    with pytest.raises(DiagramError) as err:
+        fsm.load(doc)
+    found = [f"{p.pointer}: {p.message}" for p in err.value.problems]
+    assert found == [
+        "/states/0/pause_signal: pause button 'pause' is not one of the machine's inputs (pause_btn, start)",
+        "/states/0/steps/0/until/signal: signal 'strat' is not one of the machine's inputs (pause_btn, start)"]
+    assert "did you mean 'pause_btn'?" in str(err.value) and "did you mean 'start'?" in str(err.value)
+    doc["inputs"] = ["strat", "pause"]
+    fsm.load(doc)  # declared: fine; without "inputs" nothing is checked
+    del doc["inputs"]
+    fsm.load(doc)

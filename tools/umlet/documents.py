@@ -19,7 +19,7 @@ from .scene import Level, Scene, StateBox, num, where
 from .source import RawElement
 
 #: The order of a machine's own keys in a document.
-_MACHINE_ORDER = ("$schema", "name", "description", "vars", "initial", "states", "transitions", "layout")
+_MACHINE_ORDER = ("$schema", "name", "description", "vars", "inputs", "initial", "states", "transitions", "layout")
 
 
 class Documents:

@@ -326,6 +326,11 @@ class Scene:
             if key in _NOTE_TEXT_KEYS:
                 if not isinstance(value, str) and value is not None:
                     value = raw  # 42, true, [..]: the text as written
+            elif key == "inputs":
+                if not (isinstance(value, list) and all(isinstance(v, str) for v in value)):
+                    self.problem(elem, f"machine note: 'inputs' must be a JSON list of signal names, got {raw[:40]!r}",
+                                 hint='write it as inputs=["start", "pause"]')
+                    return None
             elif not isinstance(value, dict):
                 self.problem(elem, f"machine note: '{key}' must be a JSON object, got {raw[:40]!r}",
                              hint='write it as vars={"name": value, ...}')

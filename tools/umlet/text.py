@@ -400,7 +400,7 @@ def check_guard(text: str) -> str:
 #: The first line of a ``UMLNote`` that carries a machine's own keys.
 MACHINE_NOTE_TITLE = "machine"
 #: The keys a machine note may give, in the order the writer puts them.
-MACHINE_KEYS = ("name", "$schema", "description", "vars")
+MACHINE_KEYS = ("name", "$schema", "description", "vars", "inputs")
 _NOTE_KEY_VALUE = re.compile(r"^\s*(\$?[A-Za-z_][A-Za-z0-9_]*)\s*=(.*)$")
 _INCLUDE = re.compile(r"^\s*file\s*=(.*)$")
 

@@ -241,7 +241,7 @@ def note_text(machine: dict[str, Any], role: str) -> str | None:
         if key == "description" and isinstance(value, str) and _safe_note_text(value):
             free = value
             continue
-        kv.append(f"{key}={json.dumps(value, ensure_ascii=False) if key == 'vars' else value_text(value)}")
+        kv.append(f"{key}={json.dumps(value, ensure_ascii=False) if key in ('vars', 'inputs') else value_text(value)}")
     if not kv and free is None and role != "top":
         return None
     lines = [T.MACHINE_NOTE_TITLE]

@@ -104,3 +104,19 @@ def test_the_umlet_drawing_converts_to_the_machine(case: str, tmp_path: Path, ca
     code, _out, err = cli(capsys, "--plugin", str(PLUGIN), "convert", str(CASES / f"{case}.uxf"), "-o", str(out))
     assert code == 0, err
     assert _plain(json.loads(out.read_text())) == _plain(json.loads((CASES / f"{case}.json").read_text()))
+
+
+def test_bad_plants_are_located_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    scenario = json.loads((CASES / "case1_axis.scenario.json").read_text())
+    scenario.pop("$schema")
+    scenario["machine"] = str(CASES / "case1_axis.json")
+    scenario["plugins"] = [str(PLUGIN)]
+    scenario["plants"] = [{"name": "axis", "type": "Axsi"}, {"name": "b", "type": "Axis", "speed": -1},
+                          {"type": "Axis"}, {"name": "axis", "type": "Axis"}, {"name": "axis", "type": "Axis"}]
+    (tmp_path / "s.scenario.json").write_text(json.dumps(scenario, indent=1))
+    code, out, err = cli(capsys, "test", str(tmp_path / "s.scenario.json"))
+    assert code == 1 and "1 invalid" in out
+    assert "at /plants/0/type: error: plant 0: unknown plant type 'Axsi' (did you mean 'Axis'?)" in err
+    assert "at /plants/1/speed: error: plant 1: 'speed': Input should be greater than 0" in err
+    assert "at /plants/2: error: plant 2: missing required parameter 'name'" in err
+    assert "at /plants/4/name: error: plant 4: two plants are named 'axis'" in err

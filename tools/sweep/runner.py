@@ -37,6 +37,10 @@ class Plan:
     worlds: dict[str, Any] = field(default_factory=dict)
 
 
+#: What ``where`` says when the sweep comes from flags, not a file.
+CLI = "the command line"
+
+
 class PlanError(Exception):
     def __init__(self, problems: list[Problem]) -> None:
         super().__init__("; ".join(p.message for p in problems))
@@ -51,6 +55,12 @@ def plan(spec: SweepSpec, base: Path, name: str, where: str, out_dir: Path) -> P
     problems: list[Problem] = []
 
     def fail(message: str, ptr: str = "", hint: str | None = None) -> PlanError:
+        if where == CLI:  # said as the flag it came from, not as a place in a file
+            flag = {"seeds": "--seeds", "worlds": "--world", "set": "--set", "machine": "--machine",
+                    "vars": "--var"}.get(ptr.strip("/").split("/")[0], "fsmctl sweep")
+            text = message if message.startswith(("--", "worlds", "seeds")) else f"{flag}: {message}"
+            return PlanError(problems + [Problem(text.replace("worlds: ", "--world: ").replace(
+                "seeds ", "--seeds ", 1), "fsmctl sweep", hint=hint)])
         return PlanError(problems + [Problem(message, where, ptr, hint=hint)])
 
     plugins = [str(base / p) if p.endswith(".py") else p for p in spec.plugins]
@@ -255,7 +265,7 @@ def load_spec_file(path: Path) -> tuple[SweepSpec, list[Problem]]:
     from fsm.document import Source, problems_from_validation
     from fsm.loader import parse_json_bytes, place, read_file_bytes
 
-    raw = read_file_bytes(path, "sweep file")
+    raw = read_file_bytes(path, "sweep")
     data, source = parse_json_bytes(raw, str(path), path.parent)
     if not isinstance(data, dict):
         return SweepSpec(machine="?"), [Problem("a sweep file is a JSON object with 'machine'", str(path))]

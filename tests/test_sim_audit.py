@@ -441,7 +441,7 @@ def test_fsmctl_run_trace_records_the_speed_command(capsys: pytest.CaptureFixtur
     # Was a bug (fixed): DESIGN.md: the JSONL trace holds "sensors, commands"; the car fields are x, y, heading, left,
     # right, front, distance, speed, steering, collisions, where `steering` is the command but `speed`
     # is the *measured* speed. The speed command is nowhere: on the line where Stop is entered (it
-    # commands 0) the trace says speed 1.0. Responsible: tools/cli/run.py _car_fields() (and CarIO has
+    # commands 0) the trace says speed 1.0. Responsible: fsm/sim/loop.py car_trace_fields() (and CarIO has
     # no attribute for the speed command). Fix: add the command (e.g. "speed_cmd", from a
     # `speed_command` attribute that SimCar/FakeCar already keep as _cmd_speed/speed_command).
     m, w = write_machine_and_world(tmp_path)

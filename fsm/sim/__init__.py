@@ -9,4 +9,7 @@ from __future__ import annotations
 
 from .io import SENSORS, CarIO
 
-__all__ = ["SENSORS", "CarIO"]
+#: The world a machine that drives runs in when none is given (``fsm.sim.world.default_world`` finds it).
+DEFAULT_WORLD = "hallway.json"
+
+__all__ = ["DEFAULT_WORLD", "SENSORS", "CarIO"]

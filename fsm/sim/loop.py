@@ -263,3 +263,22 @@ class Simulation:
             out["camera_frames"] = car.camera_frames
             out["camera_rendered"] = car.rendered_frames
         return out
+
+
+def car_trace_fields(car: Any) -> Any:
+    """The trace's extra fields (``fsmctl run --trace``, a sweep's traces): sensors, commands and pose of the car at
+    the line's tick."""
+
+    def fields() -> dict[str, Any]:
+        x, y, th = car.true_pose()  # ground truth, for reports; "odometry" is what the car believed
+        ox, oy, oth = car.pose()
+        return {"car": {
+            "x": round(x, 4), "y": round(y, 4), "heading": round(th, 4),
+            "odometry": [round(ox, 4), round(oy, 4), round(oth, 4)],
+            "left": round(car.left, 4), "right": round(car.right, 4), "front": round(car.front, 4),
+            "distance": round(car.distance, 4), "speed": round(car.speed, 4),
+            "speed_command": round(car.speed_command, 4), "steering": round(car.steering, 4),
+            "collisions": car.collisions,
+        }}
+
+    return fields

@@ -16,7 +16,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BeforeValidator, Field, ValidationError, model_validator
 
-from fsm.errors import DiagramError, Problem
+from fsm.errors import DiagramError, Problem, UsageError
 from fsm.params import ParamsBase
 
 
@@ -672,3 +672,26 @@ if __name__ == "__main__":  # pragma: no cover - regenerate the committed schema
             except DiagramError as exc:
                 print(exc, file=sys.stderr)
                 sys.exit(1)
+
+
+from . import DEFAULT_WORLD  # noqa: E402 - the name lives in the cheap package init for the CLI's help
+
+
+def default_world(machine_file: str) -> Path:
+    """``hallway.json`` from ``worlds/`` next to the machine, else ``diagrams/worlds/`` here, else the worlds
+    installed with the package (``fsm.worlds``, which is ``diagrams/worlds`` of the repository)."""
+    candidates = [Path(machine_file).resolve().parent / "worlds" / DEFAULT_WORLD,
+                  Path.cwd() / "diagrams" / "worlds" / DEFAULT_WORLD]
+    from importlib.resources import files
+
+    try:  # installed from a wheel
+        candidates.append(Path(str(files("fsm.worlds") / DEFAULT_WORLD)))
+    except (ModuleNotFoundError, TypeError):
+        import fsm  # an editable install: the checkout's diagrams/worlds
+
+        candidates.append(Path(fsm.__file__).resolve().parent.parent / "diagrams" / "worlds" / DEFAULT_WORLD)
+    for c in candidates:
+        if c.is_file():
+            return c
+    raise UsageError(f"no world given and no {DEFAULT_WORLD} found (looked in "
+                     + ", ".join(str(c.parent) for c in candidates) + "); pass --world WORLD.json")

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from fsm.errors import StateRuntimeError, UsageError
+from fsm.sim import DEFAULT_WORLD
 
 from .common import (
     EXIT_FAIL,
@@ -33,7 +34,6 @@ from .common import (
 )
 
 DEFAULT_MAX_DURATION = 600.0
-DEFAULT_WORLD = "hallway.json"
 #: Runs of more ticks than this are refused unless --max-ticks asks for them (a tiny --dt is usually a typo).
 MAX_TICKS = 10_000_000
 VIDEO_SUFFIXES = (".mp4", ".m4v", ".mov", ".avi")
@@ -94,26 +94,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 # -- deciding whether a machine drives ---------------------------------------------------------------
-
-
-def default_world(machine_file: str) -> Path:
-    """``hallway.json`` from ``worlds/`` next to the machine, else ``diagrams/worlds/`` here, else the worlds
-    installed with the package (``fsm.worlds``, which is ``diagrams/worlds`` of the repository)."""
-    candidates = [Path(machine_file).resolve().parent / "worlds" / DEFAULT_WORLD,
-                  Path.cwd() / "diagrams" / "worlds" / DEFAULT_WORLD]
-    from importlib.resources import files
-
-    try:  # installed from a wheel
-        candidates.append(Path(str(files("fsm.worlds") / DEFAULT_WORLD)))
-    except (ModuleNotFoundError, TypeError):
-        import fsm  # an editable install: the checkout's diagrams/worlds
-
-        candidates.append(Path(fsm.__file__).resolve().parent.parent / "diagrams" / "worlds" / DEFAULT_WORLD)
-    for c in candidates:
-        if c.is_file():
-            return c
-    raise UsageError(f"no world given and no {DEFAULT_WORLD} found (looked in "
-                     + ", ".join(str(c.parent) for c in candidates) + "); pass --world WORLD.json")
 
 
 # -- the command -------------------------------------------------------------------------------------
@@ -237,6 +217,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     for warning in signal_warnings(args.signal, spec, file, duration, max_ticks, dt):
         print(f"fsmctl run: warning: {warning}", file=sys.stderr)
 
+    from fsm.sim.world import default_world
+
     drive = args.world is not None or args.car is not None or uses_car(spec)
     inputs = machine_files(spec)
     world_path = None
@@ -290,8 +272,10 @@ def _run(args: argparse.Namespace, spec: Any, file: str, clock: Any, drive: bool
             progress = ProgressBar(limit)
 
     report = sys.stderr if outputs.to_stdout else sys.stdout  # standard output may carry an output
+    if car is not None:
+        from fsm.sim.loop import car_trace_fields
     recorder = machine.add_listener(Recorder(trace_out.stream() if trace_out else None,
-                                             extra=_car_fields(car) if car is not None else None))
+                                             extra=car_trace_fields(car) if car is not None else None))
     error: StateRuntimeError | None = None
     interrupts = Interrupts()
     with interrupts:
@@ -368,24 +352,6 @@ def _run(args: argparse.Namespace, spec: Any, file: str, clock: Any, drive: bool
               f"{limit} allowed ({why})", file=sys.stderr)
         failed = True
     return EXIT_FAIL if failed else EXIT_OK
-
-
-def _car_fields(car: Any) -> Any:
-    """The trace's extra fields: sensors, commands and pose of the car at the line's tick."""
-
-    def fields() -> dict[str, Any]:
-        x, y, th = car.true_pose()  # ground truth, for reports; "odometry" is what the car believed
-        ox, oy, oth = car.pose()
-        return {"car": {
-            "x": round(x, 4), "y": round(y, 4), "heading": round(th, 4),
-            "odometry": [round(ox, 4), round(oy, 4), round(oth, 4)],
-            "left": round(car.left, 4), "right": round(car.right, 4), "front": round(car.front, 4),
-            "distance": round(car.distance, 4), "speed": round(car.speed, 4),
-            "speed_command": round(car.speed_command, 4), "steering": round(car.steering, 4),
-            "collisions": car.collisions,
-        }}
-
-    return fields
 
 
 class ProgressBar:

@@ -97,7 +97,7 @@ def plan(spec: SweepSpec, base: Path, name: str, where: str, out_dir: Path) -> P
         raise fail(str(exc), "/worlds") from None
     if not worlds:
         if uses_car(mspec):
-            from ..cli.run import default_world
+            from fsm.sim.world import default_world
 
             worlds = [default_world(str(machine)).resolve()]
         else:

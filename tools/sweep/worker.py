@@ -125,9 +125,9 @@ def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], d
         machine.ctx.vars.update(job["vars"])
         extra = None
         if car is not None:
-            from fsm.tools.cli.run import _car_fields  # the same trace fields as `fsmctl run --trace`
+            from fsm.sim.loop import car_trace_fields  # the same trace fields as `fsmctl run --trace`
 
-            extra = _car_fields(car)
+            extra = car_trace_fields(car)
         recorder = machine.add_listener(Recorder(trace_file, extra=extra))
         dwell = machine.add_listener(Dwell())
         duration = job["duration"] if job["duration"] is not None else 600.0

@@ -1013,33 +1013,21 @@ def signal_names(spec: MachineSpec | None) -> set[str]:
     names: set[str] = set()
     from .sequencer.compile import condition_specs
 
+    def add(kind: Any, params: Any) -> None:
+        for key in getattr(kind, "signal_refs", ()):
+            value = getattr(params, key, None)
+            if isinstance(value, str):
+                names.add(value)
+
     for level in spec.levels() if spec is not None else ():
-        for st in level.states:
-            for key in getattr(st.cls, "signal_refs", ()):
-                value = getattr(st.params, key, None)
-                if isinstance(value, str):
-                    names.add(value)
-            todo_s = condition_specs(st)
-            while todo_s:
-                cs = todo_s.pop()
-                for key in getattr(cs.cls, "signal_refs", ()):
-                    value = getattr(cs.params, key, None)
-                    if isinstance(value, str):
-                        names.add(value)
-                todo_s.extend(cs.children)
-        for tr in level.transitions:
-            for key in tr.cls.signal_refs:
-                value = getattr(tr.params, key, None)
-                if isinstance(value, str):
-                    names.add(value)
-            todo_c = list(tr.conditions.values())
-            while todo_c:
-                cs = todo_c.pop()
-                for key in getattr(cs.cls, "signal_refs", ()):
-                    value = getattr(cs.params, key, None)
-                    if isinstance(value, str):
-                        names.add(value)
-                todo_c.extend(cs.children)
+        elements = [(st.cls, st.params, condition_specs(st)) for st in level.states]
+        elements += [(tr.cls, tr.params, list(tr.conditions.values())) for tr in level.transitions]
+        for kind, params, conditions in elements:
+            add(kind, params)
+            while conditions:
+                cs = conditions.pop()
+                add(cs.cls, cs.params)
+                conditions.extend(cs.children)
     return names
 
 

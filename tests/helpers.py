@@ -17,6 +17,16 @@ def without_layout(d: Any) -> Any:
     return d
 
 
+def plain_document(d: Any) -> Any:
+    """A document without ``layout``, ``$schema`` and empty lists at any depth: what a UMLet round trip may change
+    (``"transitions": []`` and a missing ``transitions`` say the same)."""
+    if isinstance(d, dict):
+        return {k: plain_document(v) for k, v in d.items() if k not in ("layout", "$schema") and v != []}
+    if isinstance(d, list):
+        return [plain_document(x) for x in d]
+    return d
+
+
 def _corpus() -> Path:
     """The real UMLet files: ``../shared/corpus/uxf`` beside the checkout (as on CI), else the workplace copy."""
     beside = Path(__file__).resolve().parents[2] / "shared" / "corpus" / "uxf"

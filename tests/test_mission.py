@@ -11,7 +11,7 @@ from typing import Any
 import pytest
 
 import fsm
-from helpers import cli
+from helpers import cli, plain_document
 
 REPO = Path(__file__).resolve().parents[1]
 MISSION = REPO / "diagrams" / "mission.json"
@@ -75,10 +75,4 @@ def test_the_umlet_mission_converts_to_the_json(tmp_path: Path, capsys: pytest.C
     code, _out, err = cli(capsys, "convert", str(REPO / "diagrams" / "mission.uxf"), "-o", str(out))
     assert code == 0, err
 
-    def plain(d: Any) -> Any:
-        if isinstance(d, dict):
-            return {k: plain(v) for k, v in d.items() if k not in ("layout", "$schema") and v != []}
-        if isinstance(d, list):
-            return [plain(x) for x in d]
-        return d
-    assert plain(json.loads(out.read_text())) == plain(json.loads(MISSION.read_text()))
+    assert plain_document(json.loads(out.read_text())) == plain_document(json.loads(MISSION.read_text()))

@@ -11,17 +11,10 @@ from typing import Any
 import pytest
 
 from fsm.tools.umlet.writer import diagram, element, relation
-from helpers import cli
+from helpers import cli, plain_document
 
 REPO = Path(__file__).resolve().parents[1]
 
-
-def plain(d: Any) -> Any:
-    if isinstance(d, dict):
-        return {k: plain(v) for k, v in d.items() if k not in ("layout", "$schema") and v != []}
-    if isinstance(d, list):
-        return [plain(x) for x in d]
-    return d
 
 
 @pytest.mark.parametrize("machine", ["diagrams/examples/sorter.json", "diagrams/mission.json"])
@@ -37,7 +30,7 @@ def test_export_draws_the_steps_and_convert_reads_them_back(machine: str, tmp_pa
     assert "steps=" not in text
     code, _out, err = cli(capsys, "convert", str(uxf), "-o", str(back))
     assert code == 0, err
-    assert plain(json.loads(back.read_text())) == plain(doc)
+    assert plain_document(json.loads(back.read_text())) == plain_document(doc)
 
 
 def _sequence_diagram(extra: list[str]) -> str:

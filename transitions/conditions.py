@@ -191,18 +191,15 @@ class OutcomeParams(InStateParams):
 
 
 @register_condition(name="Outcome")
-class OutcomeCondition(Condition):
+class OutcomeCondition(InStateCondition):
     """Holds when the state at path `state` last finished with `outcome` (a sequence's step that was aborted,
     timed out or skipped stays readable until it is entered again)."""
 
-    __slots__ = ("other", "outcome")
+    __slots__ = ("outcome",)
     Params = OutcomeParams
-    state_refs = ("state",)
 
     def bind(self, machine: Machine, owner: State) -> None:
         super().bind(machine, owner)
-        scope = owner.region.path if owner.region is not None else ""
-        self.other = machine.resolve(self.params.state, scope)  # type: ignore[attr-defined]
         self.outcome = self.params.outcome  # type: ignore[attr-defined]
 
     def holds(self, ctx: Context) -> bool:

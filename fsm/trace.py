@@ -1,8 +1,28 @@
-"""Trace and summary: listeners that record what a machine did (JSONL trace, visited states, counts)."""
+"""Trace and summary: listeners that record what a machine did (JSONL trace, visited states, counts).
+
+The trace (``fsmctl run --trace``) is the one record of a run that reports, exports and replays read; its
+lines are described by ``fsm/schema/trace.schema.json`` and read back by :mod:`fsm.replay`. Each line is a JSON
+object with a ``"type"``:
+
+- ``header`` (first line): format and version, the machine's regions and their states, ``dt``, the sample
+  and keyframe periods, and what the caller adds (the machine document with its layout, world, car, seed).
+- ``event``: a tick in which something happened: transitions (with the initial entries, type
+  ``"initial"``), variable changes (``vars``; removed ones in ``unset``), monitor firings, pauses; ``active``
+  lists the active leaf paths after the tick.
+- ``keyframe``: every ``keyframe_period`` seconds (and at tick 0), the whole active configuration and every
+  variable, so a reader seeks to any tick by reading one keyframe and the events after it.
+- ``sample``: every ``sample_period`` seconds, continuous values (the car's pose, sensors and commands).
+- ``frame``: every ``frame_period`` seconds, what ``frames`` returns (camera thumbnails and detections).
+- ``end`` (last line, when the run ended normally or was stopped): outcome, ticks, time. A trace without it was
+  cut off (the process was killed); its whole lines still read.
+
+Lines of one tick come in that order: event, keyframe, sample, frame.
+"""
 
 from __future__ import annotations
 
 import json
+import platform
 from typing import IO, TYPE_CHECKING, Any
 
 from .machine import Listener
@@ -13,22 +33,40 @@ if TYPE_CHECKING:
     from .state import State
     from .transition import Transition
 
+#: What the first line's ``format`` says, and the version of the line layout described here.
+TRACE_FORMAT = "tral-fsm-trace"
+TRACE_VERSION = 2
+#: Default periods (seconds of machine time): samples at 20 Hz, a keyframe every second, camera frames at 1 Hz.
+SAMPLE_PERIOD = 0.05
+KEYFRAME_PERIOD = 1.0
+FRAME_PERIOD = 1.0
+
 
 class Recorder(Listener):
-    """Collects the transitions of the current tick; writes one JSONL line per tick that had any.
+    """Records a run: visited states and counts for the summary, and, with ``out``, the JSONL trace.
 
-    A line: ``{"tick", "time", "active", "transitions": [{"tick", "time", "from", "to", "type"}]}``, and when
-    they happened in the tick, ``"monitors": [{"owner", "monitor", "kind", "behavior", "exception"}]`` (monitor
-    and timeout firings), ``"paused"`` / ``"resumed"``: [state paths];
-    the initial entry is a transition from ``null`` of type ``"initial"``. A line also has ``"vars"``,
-    the blackboard variables whose value changed during the tick (all of them on the first line), and a
-    line is written for a tick in which only variables changed. ``extra`` (a callable returning a dict) adds
-    fields to every line, e.g. sensors and commands of a car.
+    ``extra`` (a callable returning a dict) adds fields to every event line (e.g. the car at a transition);
+    ``sample`` (likewise) makes the sample lines; or, when ``sample_fields`` names its values (``"car.x"``,
+    ``"car.odometry[0]"``, ...), it returns a tuple of numbers and the samples are written in blocks of one keyframe
+    period (a ``samples`` line with a row per sample: cheaper to write, and :mod:`fsm.replay` reads them back as
+    sample lines); ``frames`` (a callable returning a dict or ``None``) the frame
+    lines; ``header`` is merged into the header line.
     """
 
-    def __init__(self, out: IO[str] | None = None, extra: Any = None) -> None:
+    def __init__(self, out: IO[str] | None = None, extra: Any = None, *, header: dict[str, Any] | None = None,
+                 sample: Any = None, sample_period: float = SAMPLE_PERIOD, keyframe_period: float = KEYFRAME_PERIOD,
+                 frames: Any = None, frame_period: float = FRAME_PERIOD, sample_fields: list[str] | None = None,
+                 sample_digits: int = 4) -> None:
         self.out = out
         self.extra = extra
+        self.header = header or {}
+        self.sample = sample
+        self.sample_fields = list(sample_fields) if sample_fields is not None else None
+        self.sample_digits = sample_digits
+        self._rows: list[Any] = []  # the samples not written yet (block mode), each (tick, values)
+        self.frames = frames
+        self.periods = (sample_period, keyframe_period, frame_period)
+        self._every: tuple[int, int, int] | None = None  # the periods in ticks, known at the first flush
         self.visited: list[str] = []
         self._seen: set[str] = set()
         self.transitions = 0
@@ -38,6 +76,10 @@ class Recorder(Listener):
         self._events: dict[str, list[Any]] = {}
         #: monitor (and timeout) firings so far, by owner path
         self.monitor_counts: dict[str, int] = {}
+        self._last_tick = -1
+        self._due = 0  # the next tick with a keyframe, sample or frame line
+        self._sample_only = False
+        self.ended = False
 
     def on_transition(self, ctx: Context, source: State | None, target: State, transition: Transition | None) -> None:
         if target.path not in self._seen:
@@ -64,42 +106,160 @@ class Recorder(Listener):
         self._events.setdefault("paused" if paused else "resumed", []).append(state.path)
 
     def on_tick(self, machine: Machine) -> None:
+        if self.out is None:  # summary only: visited states and counts come from the other hooks
+            self._pending = []
+            if self._events:
+                self._events = {}
+            return
+        ctx = machine.ctx
+        if self._pending or self._events:
+            self.flush(machine)
+            return
+        current, last = ctx.vars, self._vars
+        if current != last or (current and not all(type(v) is type(last[k]) for k, v in current.items())):  # type: ignore[index]
+            self.flush(machine)
+            return
+        tick = ctx._tick
+        if tick < self._due:
+            return
+        if tick == self._due and self._sample_only:  # most due ticks: one sample, kept for its block
+            self._rows.append((tick, self.sample()))
+            self._last_tick = tick
+            s_every, k_every, f_every = self._every  # type: ignore[misc]
+            due = self._due = tick + s_every
+            if due % k_every == 0 or (self.frames is not None and due % f_every == 0):
+                self._schedule(tick)
+            return
         self.flush(machine)
 
     def flush(self, machine: Machine) -> None:
-        """Write the pending line (also used after ``start`` for the initial entries)."""
+        """Write the lines of the tick that just ended (also used after ``start`` for the initial entries; a
+        second call for the same tick writes only what happened since)."""
+        out = self.out
         changed = self._changed_vars(machine.ctx.vars)
-        if not self._pending and not changed and not self._events:
+        if out is None:
+            self._pending = []
+            self._events = {}
             return
-        if self.out is not None:
-            line: dict[str, Any] = {
-                "tick": machine.ctx.tick,
-                "time": round(machine.ctx.now, 9),
-                "active": machine.active_path,
-                "transitions": self._pending,
-            }
-            if changed:
-                line["vars"] = {k: jsonable(v) for k, v in changed.items()}
+        ctx = machine.ctx
+        tick = ctx.tick
+        if self._every is None:
+            self._every = tuple(max(1, round(p / machine._dt)) for p in self.periods)  # type: ignore[assignment]
+            out.write(_dumps(self._header_line(machine)))
+        time = round(ctx.now, 9)
+        if self._pending or changed is not None or self._events:
+            line: dict[str, Any] = {"type": "event", "tick": tick, "time": time, "active": machine.active_paths,
+                                    "transitions": self._pending}
+            if changed is not None:
+                values, unset = changed
+                if values:
+                    line["vars"] = {k: jsonable(v) for k, v in values.items()}
+                if unset:
+                    line["unset"] = unset
             if self._events:
                 line.update(self._events)
             if self.extra is not None:
                 line.update(self.extra())
-            self.out.write(json.dumps(line, separators=(",", ":")) + "\n")
-        self._pending = []
-        self._events = {}
+            out.write(_dumps(line))
+            self._pending = []
+            self._events = {}
+        if tick == self._last_tick:
+            return
+        self._last_tick = tick
+        s_every, k_every, f_every = self._every  # type: ignore[misc]
+        if tick % k_every == 0:
+            out.write(_dumps({"type": "keyframe", "tick": tick, "time": time, "active": machine.active_paths,
+                              "vars": {k: jsonable(v) for k, v in ctx.vars.items()}}))
+        if self.sample is not None and tick % s_every == 0:
+            if self.sample_fields is not None:
+                if tick % k_every == 0:
+                    self._write_samples(machine)
+                self._rows.append((tick, self.sample()))
+            else:
+                out.write(_dumps({"type": "sample", "tick": tick, "time": time, **self.sample()}))
+        if self.frames is not None and tick % f_every == 0:
+            frame = self.frames()
+            if frame:
+                out.write(_dumps({"type": "frame", "tick": tick, "time": time, **frame}))
+        self._schedule(tick)
 
+    def _write_samples(self, machine: Machine) -> None:
+        """The samples kept since the last block, as one ``samples`` line (first tick, tick step, rows)."""
+        rows = self._rows
+        if not rows or self.out is None:
+            return
+        self._rows = []
+        digits = self.sample_digits
+        data = [[round(v, digits) if v.__class__ is float else v for v in values] for _, values in rows]
+        self.out.write(_dumps({"type": "samples", "tick": rows[0][0], "time": round(rows[0][0] * machine._dt, 9),
+                               "every": self._every[0] if self._every else 1,  # type: ignore[index]
+                               "fields": self.sample_fields, "rows": data}))
 
-    def _changed_vars(self, current: dict[str, Any]) -> dict[str, Any] | None:
-        """The variables set or changed since the last call (a removed one as None); None if nothing changed."""
+    def _schedule(self, tick: int) -> None:
+        """The next tick after ``tick`` with a keyframe, sample or frame, and whether it has only a sample."""
+        s_every, k_every, f_every = self._every  # type: ignore[misc]
+        nxt = [tick - tick % k_every + k_every]
+        if self.sample is not None:
+            nxt.append(tick - tick % s_every + s_every)
+        if self.frames is not None:
+            nxt.append(tick - tick % f_every + f_every)
+        due = self._due = min(nxt)
+        self._sample_only = (self.sample is not None and due % s_every == 0 and due % k_every != 0
+                             and (self.frames is None or due % f_every != 0))
+
+    def finish(self, machine: Machine, **info: Any) -> None:
+        """Write the last line (``end``): outcome, ticks, time and ``info`` (``interrupted``, ``error``)."""
+        if self.out is None or self.ended:
+            return
+        self.flush(machine)
+        self._write_samples(machine)
+        self.ended = True
+        self.out.write(_dumps({"type": "end", "tick": machine.ctx.tick, "time": round(machine.ctx.now, 9),
+                               "outcome": machine.outcome, "finished": machine.finished,
+                               "transitions": machine.transition_count, **info}))
+
+    def _header_line(self, machine: Machine) -> dict[str, Any]:
+        from . import __version__
+
+        s_every, k_every, f_every = self._every  # type: ignore[misc]
+        dt = machine._dt
+        line: dict[str, Any] = {
+            "type": "header", "format": TRACE_FORMAT, "version": TRACE_VERSION,
+            "tral_fsm": __version__, "python": platform.python_version(),
+            "name": machine.name, "dt": dt,
+            "regions": [{"path": r.path, "name": r.name, "states": [s.path for s in r.states.values()]}
+                        for r in machine.regions],
+            "keyframe_period": round(k_every * dt, 9),
+        }
+        if self.sample is not None:
+            line["sample_period"] = round(s_every * dt, 9)
+            if self.sample_fields is not None:
+                line["sample_fields"] = self.sample_fields
+        if self.frames is not None:
+            line["frame_period"] = round(f_every * dt, 9)
+        line.update(self.header)
+        return line
+
+    def _changed_vars(self, current: dict[str, Any]) -> tuple[dict[str, Any], list[str]] | None:
+        """The variables set or changed since the last call and those removed; None if nothing changed."""
         last = self._vars
         if last is not None and current == last and all(type(v) is type(last[k]) for k, v in current.items()):
             return None
         self._vars = dict(current)
         if last is None:
-            return dict(current) or None
-        out = {k: v for k, v in current.items() if k not in last or last[k] != v or type(last[k]) is not type(v)}
-        out.update({k: None for k in last if k not in current})
-        return out or None
+            return (dict(current), []) if current else None
+        values = {k: v for k, v in current.items() if k not in last or last[k] != v or type(last[k]) is not type(v)}
+        unset = [k for k in last if k not in current]
+        return (values, unset) if values or unset else None
+
+
+def _dumps(line: dict[str, Any]) -> str:
+    """One line; a value JSON cannot hold (an infinite reading, an object on the blackboard) as :func:`jsonable`
+    makes it, so every line parses in any JSON reader (a browser's too)."""
+    try:
+        return json.dumps(line, separators=(",", ":"), allow_nan=False) + "\n"
+    except (ValueError, TypeError):
+        return json.dumps(jsonable(line), separators=(",", ":")) + "\n"
 
 
 def jsonable(value: Any) -> Any:

@@ -48,3 +48,10 @@ def cli(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
     out, err = capsys.readouterr()
     assert "Traceback" not in out and "Traceback" not in err, err
     return code, out, err
+
+
+def trace_events(text: str) -> list[dict[str, Any]]:
+    """The event lines of a JSONL trace (``fsm.trace``): one per tick in which something happened."""
+    import json
+
+    return [line for line in map(json.loads, text.splitlines()) if line.get("type") == "event"]

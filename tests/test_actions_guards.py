@@ -13,6 +13,7 @@ import fsm
 from fsm import State, StateParams, register_state
 from fsm.registry import Registry, default_registry, using
 from fsm.trace import Recorder, summary
+from helpers import trace_events
 
 REG = default_registry()
 
@@ -131,7 +132,7 @@ def test_trace_has_vars_where_they_changed_and_summary_has_final_values() -> Non
     rec.flush(m)
     m.ctx.vars["k"] = 2  # a change made by a state's code between ticks is seen at the next tick's line
     m.run(max_ticks=10)
-    lines = [json.loads(x) for x in out.getvalue().splitlines()]
+    lines = trace_events(out.getvalue())
     assert lines[0]["vars"] == {"n": 0, "flag": False, "k": 1}
     assert lines[1]["tick"] == 1 and lines[1]["vars"] == {"k": 2} and lines[1]["transitions"] == []
     by_tick = {line["tick"]: line for line in lines}

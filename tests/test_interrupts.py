@@ -52,7 +52,8 @@ def test_signal_to_the_group_keeps_video_summary_trace_and_plot(signum: int, tmp
     assert frames == summary["video"]["frames"]
     assert (tmp_path / "p.png").read_bytes().startswith(b"\x89PNG")
     lines = [json.loads(line) for line in trace.read_text().splitlines()]
-    assert lines and lines[0]["transitions"][0]["type"] == "initial"
+    assert lines and lines[1]["type"] == "event" and lines[1]["transitions"][0]["type"] == "initial"
+    assert lines[-1]["type"] == "end" and lines[-1]["interrupted"] is True
     assert sorted(p.name for p in tmp_path.iterdir()) == ["p.png", "s.json", "trace.jsonl", "v.mp4"]
 
 
@@ -77,7 +78,9 @@ def test_interrupted_run_without_a_car(tmp_path: Path) -> None:
     assert proc.returncode == 130, err
     assert b"Traceback" not in err and b"(interrupted)" in out
     assert json.loads((tmp_path / "s.json").read_text())["interrupted"] is True
-    assert (tmp_path / "t.jsonl").read_text().startswith('{"tick":0')
+    lines = (tmp_path / "t.jsonl").read_text().splitlines()
+    assert lines[0].startswith('{"type":"header"') and lines[1].startswith('{"type":"event","tick":0')
+    assert json.loads(lines[-1])["interrupted"] is True
 
 
 def test_encoder_runs_in_its_own_session(tmp_path: Path) -> None:

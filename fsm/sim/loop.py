@@ -265,6 +265,27 @@ class Simulation:
         return out
 
 
+#: The car's values in a trace's samples (``car_trace_sample``), the same as :func:`car_trace_fields`'s.
+CAR_SAMPLE_FIELDS = ["car.x", "car.y", "car.heading", "car.odometry[0]", "car.odometry[1]", "car.odometry[2]",
+                     "car.left", "car.right", "car.front", "car.distance", "car.speed", "car.speed_command",
+                     "car.steering", "car.collisions"]
+
+
+def car_trace_sample(car: Any) -> Any:
+    """The trace's samples of ``car``: a tuple of the values named by :data:`CAR_SAMPLE_FIELDS` (a sample is taken
+    every few ticks, so it must cost little; the recorder writes them in blocks)."""
+    body = car.body
+    pose = car.pose
+
+    def sample() -> tuple[Any, ...]:
+        x, y = body.position
+        ox, oy, oth = pose()
+        return (x, y, body.angle, ox, oy, oth, car.left, car.right, car.front, car.distance, car.speed,
+                car.speed_command, car.steering, car.collisions)
+
+    return sample
+
+
 def car_trace_fields(car: Any) -> Any:
     """The trace's extra fields (``fsmctl run --trace``, a sweep's traces): sensors, commands and pose of the car at
     the line's tick."""
@@ -282,3 +303,58 @@ def car_trace_fields(car: Any) -> Any:
         }}
 
     return fields
+
+
+#: Camera thumbnails in a trace: this wide (px), JPEG at this quality.
+THUMB_WIDTH = 160
+THUMB_QUALITY = 70
+
+
+def car_trace_frames(car: Any, width: int = THUMB_WIDTH) -> Any:
+    """The trace's frame lines (``None`` for a car without a camera): the latest camera frame as a small JPEG
+    (base64) with what the detector found in it (marker ids, corners scaled to the thumbnail, distance and
+    bearing; gates by their marker ids). ``None`` from the callable when no new frame was taken since the last
+    call (a frame appears once in a trace) or no marker was in view (nothing was rendered)."""
+    if car.params.camera is None or not car.params.camera.enabled:
+        return None
+    last = [-1]
+
+    def frame() -> dict[str, Any] | None:
+        view = car.camera()
+        if view is None or view.frame == last[0]:
+            return None
+        last[0] = view.frame
+        image = car._frame
+        if image is None and not view.detections:
+            return None  # nothing in view: no frame was rendered
+        line: dict[str, Any] = {"camera_time": round(view.time, 6), "frame": view.frame}
+        scale = 1.0
+        if image is not None:
+            import base64
+
+            import cv2
+
+            h, w = image.shape[:2]
+            scale = width / w
+            small = cv2.resize(image, (width, max(1, round(h * scale))), interpolation=cv2.INTER_AREA)
+            ok, jpeg = cv2.imencode(".jpg", small, [cv2.IMWRITE_JPEG_QUALITY, THUMB_QUALITY])
+            if ok:
+                line.update(jpeg=base64.b64encode(jpeg.tobytes()).decode("ascii"), width=small.shape[1],
+                            height=small.shape[0])
+        line["detections"] = [{"id": int(d.id), "corners": [[round(float(x) * scale, 1), round(float(y) * scale, 1)]
+                                                            for x, y in d.corners],
+                               "distance": round(float(d.distance), 3), "bearing": round(float(d.bearing), 4)}
+                              for d in view.detections]
+        if view.gates:
+            line["gates"] = [[int(g.left.id), int(g.right.id)] for g in view.gates]
+        return line
+
+    return frame
+
+
+def car_trace_header(car: Any, world_file: Any, seed: int, noise: bool) -> dict[str, Any]:
+    """What a trace's header says of the car and its world: the world (walls, obstacles, gates, markers, start) and
+    car parameters as loaded, the world's file name, seed and noise; enough to draw the map of a run."""
+    world = car.world
+    return {"world": world.model_dump(mode="json", exclude_none=True), "world_file": str(world_file),
+            "seed": seed, "noise": noise}

@@ -19,7 +19,8 @@ from fsm.errors import DiagramError, FsmError, RegistrationError, UsageError
 from .common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, version
 
 #: The command modules, in the order ``fsmctl --help`` lists them.
-COMMANDS = ("validate", "run", "test", "sweep", "types", "schema", "convert", "export", "palette", "graph", "detect")
+COMMANDS = ("validate", "run", "test", "sweep", "report", "types", "schema", "convert", "export", "palette", "graph",
+            "detect")
 
 
 class _Parser(argparse.ArgumentParser):

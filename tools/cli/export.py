@@ -9,10 +9,15 @@ from .common import EXIT_OK, default_output, read_checked, registry_from
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("export", help="write a machine document as a UMLet diagram (.uxf)")
-    p.add_argument("file", metavar="FILE.json", help="the machine document (checked first)")
+    p = sub.add_parser("export", help="write a machine document as a UMLet diagram (.uxf), or a trace as MCAP",
+                       description="Write a machine document as a laid-out UMLet diagram; with --mcap, write a run's "
+                                   "trace (fsmctl run --trace) as an MCAP file for Foxglove, Lichtblick, PlotJuggler "
+                                   "and Rerun.")
+    p.add_argument("file", metavar="FILE.json|TRACE.jsonl", help="the machine document (checked first), or the trace "
+                                                                 "with --mcap")
     p.add_argument("-o", "--output", metavar="OUT.uxf",
                    help="where to write (default: FILE with the suffix .uxf, never FILE itself; '-' for standard output)")
+    p.add_argument("--mcap", metavar="OUT.mcap", help="FILE is a trace: write it as MCAP to OUT.mcap")
     p.set_defaults(func=cmd_export)
 
 
@@ -22,6 +27,8 @@ def cmd_export(args: argparse.Namespace) -> int:
     from ..files import Outputs
     from ..umlet.writer import export
 
+    if args.mcap is not None:
+        return _export_mcap(args)
     src = Path(args.file)
     out = args.output or default_output(src, ".uxf")
     if args.output is None and src.suffix.lower() == ".uxf":
@@ -36,6 +43,36 @@ def cmd_export(args: argparse.Namespace) -> int:
         outputs.open(inputs)
         text = export(document, registry)
         outputs.items[0].write(text)
+        outputs.commit()
+    finally:
+        outputs.discard()
+    return EXIT_OK
+
+
+def _export_mcap(args: argparse.Namespace) -> int:
+    import sys
+
+    from fsm.errors import UsageError
+
+    from ..files import Outputs
+    from ..trace.mcap import write_mcap
+    from .report import read_trace_arg
+
+    if args.output is not None:
+        raise UsageError("export --mcap OUT.mcap names the output; -o is for the UMLet export")
+    outputs = Outputs()
+    outputs.add(args.mcap, "--mcap", binary=True, suffix=".mcap")
+    outputs.items[0].classify()
+    try:
+        outputs.open([args.file] if args.file != "-" else [])
+        trace = read_trace_arg(args.file)
+        for warning in trace.warnings:
+            print(f"fsmctl export: warning: {warning}", file=sys.stderr)
+        import io
+
+        buffer = io.BytesIO()
+        write_mcap(trace, buffer)
+        outputs.items[0].write(buffer.getvalue())
         outputs.commit()
     finally:
         outputs.discard()

@@ -62,6 +62,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--trace", metavar="OUT.jsonl",
                    help="write a JSONL trace: one line per tick with a transition (with the car: its sensors, "
                         "commands and pose); '-' for standard output")
+    p.add_argument("--report", metavar="OUT.html",
+                   help="write the run's HTML report (statechart, state lanes, map, plots; one offline file), as "
+                        "`fsmctl report TRACE` does")
+    p.add_argument("--sample-rate", type=bounded_float(0.1, 1000, "--sample-rate"), default=20.0, metavar="HZ",
+                   help="how often the trace (and report) samples the car's pose, sensors and commands "
+                        "(0.1 to 1000 Hz, default 20)")
     p.add_argument("--summary", metavar="OUT.json", help="write a JSON summary of the run; '-' for standard output")
     p.add_argument("--expect", metavar="OUTCOME",
                    help="exit 1 unless the machine finishes with OUTCOME (and, when a car runs, it collided at most "
@@ -195,6 +201,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     duration, max_ticks = _tick_limit(args, dt)
     outputs = Outputs()
     trace_out = outputs.add(args.trace, "--trace")
+    report_out = outputs.add(args.report, "--report", suffix=".html")
     summary_out = outputs.add(args.summary, "--summary")
     video_suffix = Path(args.video).suffix.lower() if args.video else ""
     video_suffix = video_suffix if video_suffix in VIDEO_SUFFIXES else ".mp4"
@@ -229,15 +236,16 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise UsageError("--video and --plot need a car: this machine uses no car states; pass --world to drive")
     outputs.open(inputs)  # same-as-input, unwritable folders: refused here, before the run
     try:
+        args.pre = pre
         return _run(args, spec, file, clock, drive, world_path, duration, max_ticks, outputs,
-                    trace_out, summary_out, video_out, plot_out)
+                    trace_out, summary_out, video_out, plot_out, report_out)
     finally:
         outputs.discard()
 
 
 def _run(args: argparse.Namespace, spec: Any, file: str, clock: Any, drive: bool, world_path: Path | None,
          duration: float | None, max_ticks: int | None, outputs: Any, trace_out: Any, summary_out: Any,
-         video_out: Any, plot_out: Any) -> int:
+         video_out: Any, plot_out: Any, report_out: Any) -> int:
     from fsm.loader import build
     from fsm.trace import Recorder, summary
 
@@ -272,10 +280,7 @@ def _run(args: argparse.Namespace, spec: Any, file: str, clock: Any, drive: bool
             progress = ProgressBar(limit)
 
     report = sys.stderr if outputs.to_stdout else sys.stdout  # standard output may carry an output
-    if car is not None:
-        from fsm.sim.loop import car_trace_fields
-    recorder = machine.add_listener(Recorder(trace_out.stream() if trace_out else None,
-                                             extra=car_trace_fields(car) if car is not None else None))
+    recorder = machine.add_listener(_recorder(args, file, car, world_path, trace_out, report_out))
     error: StateRuntimeError | None = None
     interrupts = Interrupts()
     with interrupts:
@@ -306,6 +311,14 @@ def _run(args: argparse.Namespace, spec: Any, file: str, clock: Any, drive: bool
                                "message": f"{type(error.cause).__name__}: {error.cause}"}
         if interrupted:
             result["interrupted"] = True
+        end: dict[str, Any] = {}
+        if interrupted:
+            end["interrupted"] = True
+        if "error" in result:
+            end["error"] = result["error"]
+        recorder.finish(machine, **end)
+        if report_out is not None:
+            _write_report(recorder.out, report_out, args.trace if args.trace not in (None, "-") else file)
         if video is not None:
             video.close()
             result["video"] = {"file": args.video, "frames": video.frames, "codec": video.codec}
@@ -352,6 +365,42 @@ def _run(args: argparse.Namespace, spec: Any, file: str, clock: Any, drive: bool
               f"{limit} allowed ({why})", file=sys.stderr)
         failed = True
     return EXIT_FAIL if failed else EXIT_OK
+
+
+class _Tee:
+    """The trace written to the user's file and kept in memory for the report."""
+
+    def __init__(self, *streams: Any) -> None:
+        import io
+
+        self.memory = io.StringIO()
+        self.streams = [st for st in streams if st is not None] + [self.memory]
+
+    def write(self, text: str) -> None:
+        for st in self.streams:
+            st.write(text)
+
+
+def _recorder(args: argparse.Namespace, file: str, car: Any, world_path: Path | None, trace_out: Any,
+              report_out: Any) -> Any:
+    """The trace recorder (to the --trace file, and kept in memory for --report)."""
+    from ..trace import run_recorder
+
+    stream = trace_out.stream() if trace_out is not None else None
+    if report_out is not None:
+        stream = _Tee(stream)
+    return run_recorder(stream, file, car, world_file=world_path, seed=args.seed, noise=not args.no_noise,
+                        preloaded=args.pre, overrides=args.overrides, initial_vars=args.initial_vars,
+                        sample_rate=args.sample_rate)
+
+
+def _write_report(stream: Any, report_out: Any, name: str) -> None:
+    from fsm.replay import parse_trace
+
+    from ..report import report_html
+
+    trace = parse_trace(stream.memory.getvalue().encode("utf-8"), name)
+    report_out.write(report_html(trace))
 
 
 class ProgressBar:

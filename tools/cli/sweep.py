@@ -42,6 +42,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="a local process pool (default) or a Ray cluster (pip install 'tral-fsm[ray]')")
     p.add_argument("--address", metavar="ADDR", help="the Ray cluster to use (default: start one on this machine)")
     p.add_argument("--trace", action="store_true", help="write each run's trace.jsonl")
+    p.add_argument("--report", action="store_true", help="write each run's report.html (linked from sweep.html)")
     p.add_argument("--plot", action="store_true", help="write each run's plot.png")
     p.add_argument("--video", action="store_true", help="write each run's video.mp4 (slow)")
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
@@ -104,7 +105,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     if args.no_noise:
         data["noise"] = False
     outputs = dict(data.get("outputs") or {})
-    for key in ("trace", "plot", "video"):
+    for key in ("trace", "report", "plot", "video"):
         if getattr(args, key):
             outputs[key] = True
     data["outputs"] = outputs

@@ -65,13 +65,16 @@ def svg(doc: dict[str, Any], base: str | Path | None = None) -> str:
     m = 20
     width, height = x1 - x0 + 2 * m, y1 - y0 + 2 * m
     body: list[str] = []
-    _draw(level, body)
-    for _e, (rx, ry, rw, rh), lines in labels:
+    where: dict[int, str] = {}
+    _draw(level, body, "", where)
+    for e, (rx, ry, rw, rh), lines in labels:
+        body.append(f'<g class="label" data-in={quoteattr(where.get(id(e), ""))}>')
         body.append(f'<rect class="label" x="{rx:.1f}" y="{ry:.1f}" width="{rw:.1f}" height="{rh:.1f}" fill="white" '
                     'fill-opacity="0.85"/>')
         for i, line in enumerate(lines):
             body.append(f'<text class="label" x="{rx + 2:.1f}" y="{ry + 11 + i * LINE_H:.1f}" font-size="{LABEL_FONT}" '
                         f'fill="#1a4d80">{escape(line)}</text>')
+        body.append("</g>")
     title = escape(str(doc.get("name") or "machine"))
     return (f'<svg xmlns="http://www.w3.org/2000/svg" width="{width:.0f}" height="{height:.0f}" '
             f'viewBox="{x0 - m:.0f} {y0 - m:.0f} {width:.0f} {height:.0f}" font-family="Helvetica, Arial, sans-serif" '
@@ -392,12 +395,26 @@ def _text(x: float, y: float, text: str, size: float, anchor: str = "middle", ex
     return (f'<text x="{x:.1f}" y="{y:.1f}" text-anchor="{anchor}"{size_attr}{extra}>{escape(text)}</text>')
 
 
-def _draw(level: LevelLayout, body: list[str]) -> None:
+def _region_prefix(n: Node, path: str, i: int) -> str:
+    """The state path under which part ``i`` of composite ``n`` (at ``path``) has its states, as the loader names
+    them: a ``Parallel`` region adds its machine's name (else ``region<i+1>``), other composites nothing."""
+    if n.doc.get("type") != "Parallel":
+        return path
+    name = n.parts[i].level.machine.get("name")
+    return f"{path}/{name if isinstance(name, str) and name else f'region{i + 1}'}"
+
+
+def _draw(level: LevelLayout, body: list[str], prefix: str = "", where: dict[int, str] | None = None) -> None:
+    """The SVG of ``level``; each state's group carries ``data-path``, its state path in a running machine, and
+    the level's initial marker and arrows are in a group whose ``data-in`` is the path of the composite they are
+    drawn in (for a viewer that folds composites); ``where`` gets that path for each arrow (for its label)."""
     for n in level.nodes:
         st = n.doc
         sid = escape(str(st.get("id")))
+        path = f"{prefix}/{st.get('id')}" if prefix else str(st.get("id"))
+        dpath = f" data-path={quoteattr(path)}"
         if n.composite:
-            body.append(f'<g class="node composite" data-id={quoteattr(str(st.get("id")))}>')
+            body.append(f'<g class="node composite" data-id={quoteattr(str(st.get("id")))}{dpath}>')
             body.append(f'<rect x="{n.x:.0f}" y="{n.y:.0f}" width="{n.w:.0f}" height="{n.h:.0f}" rx="12" '
                         'fill="#f4f7fb" stroke="#4a6d94" stroke-width="1.5"/>')
             avail = n.w - 2 * BOX_MARGIN
@@ -420,19 +437,19 @@ def _draw(level: LevelLayout, body: list[str]) -> None:
                     body.append(_text(p.x + p.w / 2, p.y + 16, name, psize,
                                       extra=' font-style="italic" fill="#4a6d94"'))
             body.append("</g>")
-            for p in n.parts:
-                _draw(p.level, body)
+            for i, p in enumerate(n.parts):
+                _draw(p.level, body, _region_prefix(n, path, i), where)
         elif st.get("type") == "Final":
             cx, cy = n.x + n.w / 2, n.y + n.h / 2
             if _small_final(n):  # a UMLet final pseudostate
                 r = n.w / 2
-                body.append(f'<g class="pseudo" data-id={quoteattr(str(st.get("id")))}>')
+                body.append(f'<g class="pseudo" data-id={quoteattr(str(st.get("id")))}{dpath}>')
                 body.append(f'<circle cx="{cx:.0f}" cy="{cy:.0f}" r="{r:.1f}" fill="white" stroke="#333"/>')
                 body.append(f'<circle cx="{cx:.0f}" cy="{cy:.0f}" r="{max(r - 4, 2):.1f}" fill="#333"/>')
                 body.append(f'<text x="{cx + r + 4:.0f}" y="{cy + 4:.0f}" fill="#555">{sid}</text>')
                 body.append("</g>")
             else:
-                body.append(f'<g class="node final" data-id={quoteattr(str(st.get("id")))}>')
+                body.append(f'<g class="node final" data-id={quoteattr(str(st.get("id")))}{dpath}>')
                 body.append(f'<rect x="{n.x:.0f}" y="{n.y:.0f}" width="{n.w:.0f}" height="{n.h:.0f}" rx="10" '
                             'fill="#eef6ee" stroke="#333" stroke-width="3"/>')
                 body.append(f'<circle cx="{n.x + 16:.0f}" cy="{cy:.0f}" r="7" fill="white" stroke="#333"/>')
@@ -451,7 +468,7 @@ def _draw(level: LevelLayout, body: list[str]) -> None:
                     body.append(_text((left + right) / 2, cy + size / 3, t, size))
                 body.append("</g>")
         else:
-            body.append(f'<g class="node" data-id={quoteattr(str(st.get("id")))}>')
+            body.append(f'<g class="node" data-id={quoteattr(str(st.get("id")))}{dpath}>')
             body.append(f'<rect x="{n.x:.0f}" y="{n.y:.0f}" width="{n.w:.0f}" height="{n.h:.0f}" rx="10" fill="#fffbe6" '
                         'stroke="#333" stroke-width="1.2"/>')
             name, sub = _state_lines(st)
@@ -466,6 +483,7 @@ def _draw(level: LevelLayout, body: list[str]) -> None:
                 t, size = fit(name, avail, FONT)
                 body.append(_text(cx, cy + size / 3, t, size))
             body.append("</g>")
+    body.append(f'<g class="level" data-in={quoteattr(prefix)}>')
     if level.marker is not None:
         mx, my = level.marker
         w, h = level.marker_size
@@ -477,4 +495,7 @@ def _draw(level: LevelLayout, body: list[str]) -> None:
         dash = ' stroke-dasharray="5,3"' if e.doc.get("preempt") else ""
         body.append(f'<polyline class="edge" points="{pts}" fill="none" stroke="#333"{dash} '
                     'stroke-linejoin="round" marker-end="url(#arrow)"/>')
+        if where is not None:
+            where[id(e)] = prefix
+    body.append("</g>")
 

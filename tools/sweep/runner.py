@@ -129,7 +129,7 @@ def plan(spec: SweepSpec, base: Path, name: str, where: str, out_dir: Path) -> P
 
 
 def _job(run: Run, spec: SweepSpec, machine: Path, plugins: list[str], out_dir: Path) -> dict[str, Any]:
-    wants = spec.outputs.trace or spec.outputs.plot or spec.outputs.video
+    wants = spec.outputs.trace or spec.outputs.report or spec.outputs.plot or spec.outputs.video
     cmd = ["fsmctl"] + [a for p in plugins for a in ("--plugin", p)] + ["run", str(machine)]
     if run.world is not None:
         cmd += ["--world", str(run.world), "--seed", str(run.run_seed)]
@@ -147,7 +147,7 @@ def _job(run: Run, spec: SweepSpec, machine: Path, plugins: list[str], out_dir: 
             "sets": [list(s) for s in run.sets], "vars": run.variables, "params": run.params,
             "duration": spec.duration, "noise": spec.noise,
             "out": str(out_dir / "runs" / run.id) if wants else None,
-            "trace": spec.outputs.trace, "plot": spec.outputs.plot, "video": spec.outputs.video,
+            "trace": spec.outputs.trace, "report": spec.outputs.report, "plot": spec.outputs.plot, "video": spec.outputs.video,
             "command": shlex.join(cmd)}
 
 

@@ -28,6 +28,7 @@ class Outputs(ParamsBase):
     """What each run writes besides its summary, under OUT/runs/<run id>/."""
 
     trace: bool = Field(default=False, description="Write trace.jsonl.")
+    report: bool = Field(default=False, description="Write report.html (the run's HTML report, as `fsmctl report`).")
     plot: bool = Field(default=False, description="Write plot.png (runs with a car).")
     video: bool = Field(default=False, description="Write video.mp4 (runs with a car; slow).")
 

@@ -7,6 +7,7 @@ becomes a record with ``ok: false`` and the error; the sweep goes on.
 
 from __future__ import annotations
 
+import json
 import os
 import time
 import traceback
@@ -111,7 +112,9 @@ def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], d
     out_dir = Path(job["out"]) if job.get("out") else None
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)
-    trace_file = open(out_dir / "trace.jsonl", "w", encoding="utf-8") if out_dir and job.get("trace") else None
+    trace_file = open(out_dir / "trace.jsonl", "w+", encoding="utf-8") \
+        if out_dir and (job.get("trace") or job.get("report")) else None
+    recorder = machine = None
     try:
         car = None
         if job["world"] is not None or uses_car(spec):
@@ -123,12 +126,12 @@ def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], d
                 _one_cv2_thread()
         machine = build(spec, car=car)
         machine.ctx.vars.update(job["vars"])
-        extra = None
-        if car is not None:
-            from fsm.sim.loop import car_trace_fields  # the same trace fields as `fsmctl run --trace`
+        from ..trace import run_recorder  # the same trace as `fsmctl run --trace`
 
-            extra = car_trace_fields(car)
-        recorder = machine.add_listener(Recorder(trace_file, extra=extra))
+        recorder = machine.add_listener(run_recorder(
+            trace_file, job["machine"], car, world_file=job["world"], seed=job["run_seed"], noise=job["noise"],
+            overrides=[f"{c[0]}.{c[1]}={json.dumps(c[2])}" for c in job["sets"]] if job["sets"] else None,
+            initial_vars=job["vars"]))
         dwell = machine.add_listener(Dwell())
         duration = job["duration"] if job["duration"] is not None else 600.0
         machine.start()
@@ -158,4 +161,24 @@ def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], d
         return result, track, dwell.result(machine.now)
     finally:
         if trace_file is not None:
-            trace_file.close()
+            if recorder is not None and machine is not None:
+                recorder.finish(machine)
+            _finish_trace(trace_file, out_dir, job)
+
+
+def _finish_trace(trace_file: Any, out_dir: Path | None, job: dict[str, Any]) -> None:
+    """Close the run's trace; write its report.html from it when asked (and drop the trace unless asked for)."""
+    try:
+        if out_dir is not None and job.get("report"):
+            from fsm.replay import parse_trace
+
+            from ..report import report_html
+
+            trace_file.flush()
+            trace_file.seek(0)
+            trace = parse_trace(trace_file.read().encode("utf-8"), str(out_dir / "trace.jsonl"))
+            (out_dir / "report.html").write_text(report_html(trace), encoding="utf-8")
+    finally:
+        trace_file.close()
+        if out_dir is not None and not job.get("trace"):
+            (out_dir / "trace.jsonl").unlink(missing_ok=True)

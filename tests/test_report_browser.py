@@ -1,0 +1,192 @@
+"""The HTML report in a real browser (issue 11): Debian's Chromium, headless, driven by Playwright (which downloads
+no browser of its own here). The page is loaded with the network off and every request intercepted: only the file
+itself may be fetched, and nothing may be logged as an error. The cursor is dragged on the state lanes and moved
+with the keyboard, and what the page highlights and lists is compared with the trace read in Python.
+
+`.ci/run` installs Chromium when it is missing, so in CI (``CI`` set) these tests never skip; elsewhere they skip
+when Chromium or Playwright is not there, saying which."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from fsm.replay import read_trace
+from helpers import cli
+
+REPO = Path(__file__).resolve().parents[1]
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+def _need_browser() -> None:
+    why = None
+    if CHROMIUM is None:
+        why = "Chromium is not installed (apt-get install chromium; .ci/run does)"
+    else:
+        try:
+            import playwright.sync_api  # noqa: F401
+        except ImportError:
+            why = "playwright is not installed (pip install -e '.[test]')"
+    if why is not None:
+        if os.environ.get("CI"):
+            pytest.fail(f"browser tests must run in CI: {why}")
+        pytest.skip(why)
+
+
+class Page:
+    """One headless Chromium page with the network off; what it requested and logged."""
+
+    def __init__(self, pw: Any, path: Path) -> None:
+        self.browser = pw.chromium.launch(executable_path=CHROMIUM, args=["--no-sandbox"])
+        self.context = self.browser.new_context(offline=True, viewport={"width": 1400, "height": 1000})
+        self.page = self.context.new_page()
+        self.url = path.resolve().as_uri()
+        self.requests: list[str] = []
+        self.errors: list[str] = []
+        self.dialogs: list[str] = []
+        self.context.route("**/*", self._route)
+        self.page.on("console", lambda m: self.errors.append(m.text) if m.type in ("error", "warning") else None)
+        self.page.on("pageerror", lambda e: self.errors.append(str(e)))
+        self.page.on("dialog", lambda d: (self.dialogs.append(d.message), d.dismiss()))
+        self.page.goto(self.url)
+        self.page.wait_for_function("window.tralReport !== undefined")
+
+    def _route(self, route: Any) -> None:
+        self.requests.append(route.request.url)
+        if route.request.url == self.url:
+            route.continue_()
+        else:
+            route.abort()
+
+    def current(self) -> dict[str, Any]:
+        return self.page.evaluate("window.tralReport.current()")
+
+    def highlighted(self) -> set[str]:
+        return set(self.page.eval_on_selector_all("#chart g.active[data-path]",
+                                                  "els => els.map(e => e.getAttribute('data-path'))"))
+
+    def variables(self) -> dict[str, Any]:
+        rows = self.page.eval_on_selector_all(
+            "#vars tr[data-name]", "rows => rows.map(r => [r.dataset.name, r.cells[1].dataset.value])")
+        return {name: json.loads(value) for name, value in rows}
+
+    def close(self) -> None:
+        self.browser.close()
+
+
+@pytest.fixture(scope="module")
+def mission_report(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    from fsm.tools.cli import main
+
+    out = tmp_path_factory.mktemp("report")
+    code = main(["run", str(REPO / "diagrams" / "mission.json"), "--world", str(REPO / "diagrams" / "worlds" /
+                 "obstacle.json"), "--signal", "pause@5", "--signal", "pause=0@5.1", "--signal", "pause@8",
+                 "--signal", "pause=0@8.1", "--duration", "60", "--expect", "succeeded", "--trace", str(out / "t.jsonl"),
+                 "--report", str(out / "r.html"), "-q"])
+    assert code == 0
+    return out / "t.jsonl", out / "r.html"
+
+
+def _expected_highlight(active: list[str], drawn: set[str]) -> set[str]:
+    out = set()
+    for leaf in active:
+        parts = leaf.split("/")
+        out |= {"/".join(parts[:n]) for n in range(1, len(parts) + 1)} & drawn
+    return out
+
+
+def test_the_report_replays_the_trace_at_the_dragged_cursor(mission_report: tuple[Path, Path],
+                                                           tmp_path: Path) -> None:
+    _need_browser()
+    from playwright.sync_api import sync_playwright
+
+    trace_file, html = mission_report
+    trace = read_trace(trace_file)
+    with sync_playwright() as pw:
+        p = Page(pw, html)
+        try:
+            drawn = set(p.page.eval_on_selector_all("#chart g[data-path]", "els => els.map(e => e.dataset.path)"))
+            assert {"mission", "mission/drive"} <= drawn
+            box = p.page.locator("#lanes").bounding_box()
+            assert box is not None
+            y = box["y"] + 9
+            checked = 0
+            p.page.mouse.move(box["x"] + 200, y)
+            p.page.mouse.down()
+            for frac in (0.05, 0.2, 0.35, 0.5, 0.65, 0.8, 0.95):  # a drag across the whole run
+                p.page.mouse.move(box["x"] + 170 + (box["width"] - 178) * frac, y, steps=3)
+                now = p.current()
+                active, variables = trace.at(now["tick"])
+                assert now["active"] == active and now["vars"] == variables
+                assert p.highlighted() == _expected_highlight(active, drawn)
+                assert p.variables() == variables
+                assert p.page.inner_text("#active") == ", ".join(active)
+                checked += 1
+            p.page.mouse.up()
+            assert checked == 7 and p.current()["time"] > 0.9 * trace.end["time"]
+
+            # Home, then Right: the first transition after the initial entries; Left goes back
+            p.page.keyboard.press("Home")
+            p.page.keyboard.press("ArrowRight")
+            times = sorted({tr["time"] for e in trace.events for tr in e["transitions"] if tr["from"] is not None})
+            assert p.current()["time"] == pytest.approx(times[0])
+            p.page.keyboard.press("ArrowRight")
+            assert p.current()["time"] == pytest.approx(times[1])
+            p.page.keyboard.press("ArrowLeft")
+            assert p.current()["time"] == pytest.approx(times[0])
+            # Space plays and pauses
+            start = p.current()["time"]
+            p.page.keyboard.press("Space")
+            p.page.wait_for_timeout(400)
+            p.page.keyboard.press("Space")
+            later = p.current()["time"]
+            p.page.wait_for_timeout(200)
+            assert later > start and p.current()["time"] == later
+
+            # a state's visits; folding a composite hides what is inside it
+            p.page.locator('#chart g[data-path="mission/drive"] > rect').first.click(position={"x": 5, "y": 40})
+            visits = p.page.eval_on_selector_all("#visits tbody tr", "rows => rows.length")
+            lanes = json.loads(p.page.evaluate("JSON.stringify(window.tralReport.stateAt(0))"))
+            assert visits >= 1 and lanes["active"]
+            inner = '#chart g[data-path^="mission/drive/"]'
+            assert p.page.locator(inner).count() > 0
+            p.page.locator('#chart g[data-path="mission/drive"] > text').first.click()
+            assert all("hidden" in (c or "") for c in p.page.eval_on_selector_all(inner, "els => els.map(e => e.className.baseVal)"))
+
+            p.page.evaluate(f"window.tralReport.setTime({trace.end['time'] / 3})")
+            p.page.screenshot(path=str(tmp_path / "report.png"), full_page=True)
+            assert (tmp_path / "report.png").stat().st_size > 20_000
+            assert p.requests == [p.url], p.requests  # the file itself, nothing else
+            assert p.errors == [] and p.dialogs == []
+        finally:
+            p.close()
+
+
+def test_machine_strings_render_as_text_in_the_browser(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    _need_browser()
+    from playwright.sync_api import sync_playwright
+
+    doc = {"name": "</script><script>alert('name')</script>", "initial": "<img src=x onerror=alert('id')>",
+           "vars": {"v": "<script>alert('var')</script>"},
+           "states": [{"id": "<img src=x onerror=alert('id')>", "type": "Idle"}, {"id": "b & <c>", "type": "Final"}],
+           "transitions": [{"type": "Timeout", "from": "<img src=x onerror=alert('id')>", "to": "b & <c>",
+                            "seconds": 0.2}]}
+    (tmp_path / "evil.json").write_text(json.dumps(doc))
+    code, _, err = cli(capsys, "run", str(tmp_path / "evil.json"), "--report", str(tmp_path / "r.html"), "-q")
+    assert code == 0, err
+    with sync_playwright() as pw:
+        p = Page(pw, tmp_path / "r.html")
+        try:
+            assert p.page.inner_text("#title") == doc["name"]
+            p.page.evaluate("window.tralReport.setTime(0.05)")
+            assert p.variables() == {"v": doc["vars"]["v"]}
+            assert p.page.inner_text("#active") == doc["initial"]
+            assert p.page.locator("img[src='x']").count() == 0
+            assert p.dialogs == [] and p.errors == [] and p.requests == [p.url]
+        finally:
+            p.close()

@@ -1,0 +1,60 @@
+"""``fsmctl report TRACE -o run.html``: the offline HTML report of a run's trace (``fsmctl run --trace``)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from .common import EXIT_OK, default_output
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("report", help="write the HTML report of a run's trace (statechart, lanes, map, plots)",
+                       description="Write one self-contained HTML file that replays a trace written by "
+                                   "`fsmctl run --trace`: the statechart with the active path, state lanes, the map, "
+                                   "sensor and command plots, camera frames, variables. It works offline.")
+    p.add_argument("trace", metavar="TRACE.jsonl", help="the trace")
+    p.add_argument("-o", "--output", metavar="OUT.html",
+                   help="where to write (default: TRACE with the suffix .html; '-' for standard output)")
+    p.set_defaults(func=cmd_report)
+
+
+def read_trace_arg(name: str) -> Any:
+    """The trace named on the command line; a located error (exit 1) when it is missing or none."""
+    from fsm.errors import FsmError
+    from fsm.replay import read_trace
+
+    from ..files import os_reason
+
+    if name == "-":
+        from fsm.replay import parse_trace
+
+        return parse_trace(sys.stdin.buffer.read(), "<stdin>")
+    try:
+        return read_trace(name)
+    except IsADirectoryError:
+        raise FsmError(f"{name}: is a folder; name the trace file (fsmctl run --trace FILE.jsonl writes one)") from None
+    except OSError as exc:
+        raise FsmError(f"{name}: {os_reason(exc)}") from None
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    from ..files import Outputs
+    from ..report import report_html
+
+    out = args.output or default_output(Path(args.trace), ".html")
+    outputs = Outputs()
+    outputs.add(out, "-o", suffix=".html")
+    outputs.items[0].classify()
+    try:
+        outputs.open([args.trace] if args.trace != "-" else [])
+        trace = read_trace_arg(args.trace)
+        for warning in trace.warnings:
+            print(f"fsmctl report: warning: {warning}", file=sys.stderr)
+        outputs.items[0].write(report_html(trace))
+        outputs.commit()
+    finally:
+        outputs.discard()
+    return EXIT_OK

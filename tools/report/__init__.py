@@ -1,0 +1,79 @@
+"""The run report: one self-contained HTML file that replays a trace (statechart with the active path, state lanes,
+map, plots, camera, variables, visits). Works offline: the page makes no request (a Content-Security-Policy
+forbids any), its only library (uPlot, MIT) is vendored in ``assets/`` with its licence.
+
+:func:`report_html` builds the page from a :class:`fsm.replay.Trace`; :mod:`~fsm.tools.report.model` computes
+what it shows. May import the core, the graph drawing and the simulator's world model; never the CLI.
+"""
+
+from __future__ import annotations
+
+import json
+from html import escape
+from importlib import resources
+from typing import Any
+
+from fsm.replay import Trace
+
+from .model import build_model
+
+__all__ = ["build_model", "report_html"]
+
+
+def _asset(name: str) -> str:
+    return (resources.files(__package__) / "assets" / name).read_text(encoding="utf-8")
+
+
+def _embedded_json(data: Any) -> str:
+    """JSON that cannot end its ``<script>`` element (nor open a comment) whatever strings it holds."""
+    text = json.dumps(data, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+    return (text.replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
+            .replace("\u2028", "\\u2028").replace("\u2029", "\\u2029"))
+
+
+def chart_svg(trace: Trace, warnings: list[str]) -> str:
+    """The statechart as the user drew it (the header's document and its layout), or ``""`` with a warning."""
+    doc = trace.header.get("machine")
+    if not isinstance(doc, dict):
+        if trace.version >= 2:
+            warnings.append("the trace carries no machine document: no statechart")
+        return ""
+    from ..graph import svg
+
+    try:
+        return svg(doc)
+    except Exception as exc:  # a document that no longer draws: the rest of the report still stands
+        warnings.append(f"the machine in the trace cannot be drawn ({type(exc).__name__}: {exc}): no statechart")
+        return ""
+
+
+def report_html(trace: Trace) -> str:
+    """The report page of ``trace``, as text (UTF-8 when written)."""
+    from fsm import __version__
+
+    model = build_model(trace)
+    chart = chart_svg(trace, model["meta"]["warnings"])
+    page = _asset("report.html")
+    parts = {
+        "__TITLE__": escape(f"{model['meta']['name']} — tral-fsm report"),
+        "__VERSION__": escape(__version__),
+        "__UPLOT_CSS__": _asset("uPlot.min.css"),
+        "__CSS__": _asset("report.css"),
+        "__SVG__": chart,
+        "__DATA__": _embedded_json(model),
+        "__UPLOT_JS__": _asset("uPlot.iife.min.js").replace("</script", "<\\/script"),
+        "__JS__": _asset("report.js"),
+    }
+    out = []
+    rest = page
+    # one pass, in the template's order, so text put in by one part is never searched for the next
+    while True:
+        hits = [(rest.find(k), k) for k in parts if rest.find(k) >= 0]
+        if not hits:
+            out.append(rest)
+            break
+        at, key = min(hits)
+        out.append(rest[:at])
+        out.append(parts[key])
+        rest = rest[at + len(key):]
+    return "".join(out)

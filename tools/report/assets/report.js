@@ -1,0 +1,402 @@
+/* tral-fsm run report: replays a trace (embedded as JSON) at a cursor time. Plain DOM and canvas, uPlot for the
+   plots. Every string from the trace goes through textContent, never innerHTML. */
+(function () {
+  "use strict";
+  var D = JSON.parse(document.getElementById("data").textContent);
+  var M = D.meta, S = D.states, dt = M.dt || 0.0125, T = Math.max(M.t_end, dt);
+  var $ = function (id) { return document.getElementById(id); };
+  var cursor = 0, playing = false, lastFrame = 0, selected = -1, lastLeaf = null;
+
+  // -- colours: one per state, stable ------------------------------------------------------------------
+  function colour(i) {
+    var h = (i * 137.508) % 360;
+    return "hsl(" + h.toFixed(0) + ",55%," + (i % 2 ? "62%" : "72%") + ")";
+  }
+
+  // -- replay: the configuration and variables after tick k (nearest keyframe, then the events) -------------
+  var keyTicks = D.keyframes.map(function (k) { return k[0]; });
+  var eventTicks = D.events.map(function (e) { return e[0]; });
+  function upper(arr, x) { var lo = 0, hi = arr.length; while (lo < hi) { var m = (lo + hi) >> 1; if (arr[m] <= x) lo = m + 1; else hi = m; } return lo; }
+  function stateAt(tick) {
+    var k = upper(keyTicks, tick) - 1, active = [], vars = {}, since = -1;
+    if (k >= 0) { active = D.keyframes[k][1]; vars = Object.assign({}, D.keyframes[k][2]); since = keyTicks[k]; }
+    var changed = {};
+    for (var i = upper(eventTicks, since), n = upper(eventTicks, tick); i < n; i++) {
+      var e = D.events[i];
+      active = e[1];
+      for (var name in e[2]) { vars[name] = e[2][name]; if (e[0] === tick) changed[name] = true; }
+      for (var j = 0; j < e[3].length; j++) delete vars[e[3][j]];
+    }
+    return { active: active, vars: vars, changed: changed };
+  }
+  function tickAt(t) { return Math.floor(t / dt + 1e-6); }
+
+  // -- header -------------------------------------------------------------------------------------------------
+  $("title").textContent = M.name;
+  $("trace-name").textContent = M.trace;
+  document.title = M.name + " — tral-fsm report";
+  (function () {
+    var meta = $("meta");
+    function add(text, cls) { var s = document.createElement("span"); s.textContent = text; if (cls) s.className = cls; meta.appendChild(s); meta.appendChild(document.createTextNode("  ·  ")); }
+    add(M.source);
+    if (M.outcome !== null && M.outcome !== undefined) add("outcome " + M.outcome, M.outcome === "succeeded" ? "good" : "bad");
+    else add(M.cut_off ? "cut off (no end line)" : "not finished", "bad");
+    if (M.interrupted) add("interrupted", "bad");
+    if (M.error) add("error: " + M.error, "bad");
+    add(T.toFixed(2) + " s, " + M.ticks + " ticks, " + D.transitions.length + " transitions");
+    if (M.seed !== null && M.seed !== undefined) add("seed " + M.seed);
+    if (M.world_file) add("world " + M.world_file);
+    if (M.overrides.length) add("--set " + M.overrides.join(" "));
+    var ul = $("warnings");
+    M.warnings.forEach(function (w) { var li = document.createElement("li"); li.textContent = w; ul.appendChild(li); });
+  })();
+
+  // -- statechart -------------------------------------------------------------------------------------------
+  var svg = document.querySelector("#chart svg");
+  var groups = {};  // path -> [g]
+  if (svg) {
+    Array.prototype.forEach.call(svg.querySelectorAll("g[data-path]"), function (g) {
+      var p = g.getAttribute("data-path");
+      (groups[p] = groups[p] || []).push(g);
+      g.addEventListener("click", function (ev) {
+        var i = S.indexOf(p);
+        if (g.classList.contains("composite") && ev.target.tagName === "text") { fold(p); ev.stopPropagation(); return; }
+        if (i >= 0) { showVisits(i); ev.stopPropagation(); }
+      });
+    });
+  } else {
+    $("chart").textContent = "No drawing: the trace carries no machine document that can be drawn.";
+  }
+  $("fit").addEventListener("change", function () { $("chart").classList.toggle("fit", this.checked); lastLeaf = null; setTime(cursor); });
+  if (svg) {  // fit the drawing into the box when it stays readable (at least half its size), else scroll and follow
+    var cw = $("chart").clientWidth, ch = 0.66 * window.innerHeight;
+    if (Math.min(cw / svg.width.baseVal.value, ch / svg.height.baseVal.value) >= 0.45) { $("fit").checked = true; $("chart").classList.add("fit"); }
+  }
+  var folded = {};
+  function fold(path) {
+    folded[path] = !folded[path];
+    (groups[path] || []).forEach(function (g) { g.classList.toggle("folded", !!folded[path]); });
+    var prefixes = Object.keys(folded).filter(function (p) { return folded[p]; });
+    function inside(p) { return prefixes.some(function (f) { return p === f || p.indexOf(f + "/") === 0; }); }
+    Array.prototype.forEach.call(svg.querySelectorAll("[data-path],[data-in]"), function (el) {
+      var p = el.getAttribute("data-path"), within = el.getAttribute("data-in");
+      var hide = p !== null ? prefixes.some(function (f) { return p.indexOf(f + "/") === 0; }) : (within !== "" && inside(within));
+      el.classList.toggle("hidden", hide);
+    });
+  }
+  var shown = [];
+  function highlight(active) {
+    shown.forEach(function (g) { g.classList.remove("active"); });
+    shown = [];
+    var leaf = null;
+    active.forEach(function (i) {
+      var parts = S[i].split("/");
+      for (var n = 1; n <= parts.length; n++) {
+        var gs = groups[parts.slice(0, n).join("/")];
+        if (gs) gs.forEach(function (g) { g.classList.add("active"); shown.push(g); if (n === parts.length && !leaf) leaf = g; });
+      }
+    });
+    if ($("follow").checked && leaf && leaf !== lastLeaf && !leaf.classList.contains("hidden")) {
+      var box = $("chart"), r = leaf.getBoundingClientRect(), b = box.getBoundingClientRect();
+      if (r.left < b.left || r.right > b.right || r.top < b.top || r.bottom > b.bottom) {
+        box.scrollLeft += (r.left + r.width / 2) - (b.left + b.width / 2);
+        box.scrollTop += (r.top + r.height / 2) - (b.top + b.height / 2);
+      }
+    }
+    lastLeaf = leaf;
+  }
+
+  // -- visits of a state ---------------------------------------------------------------------------------
+  function transitionAt(time, pred) {
+    for (var i = 0; i < D.transitions.length; i++) {
+      var tr = D.transitions[i];
+      if (Math.abs(tr[0] - time) < dt / 2 && pred(tr)) return tr;
+    }
+    return null;
+  }
+  function describe(tr) {
+    if (!tr) return "";
+    return D.types[tr[4]] + (tr[2] >= 0 ? " from " + S[tr[2]] : "") + " to " + S[tr[3]];
+  }
+  function showVisits(i) {
+    selected = i;
+    Object.keys(groups).forEach(function (p) { groups[p].forEach(function (g) { g.classList.toggle("selected", p === S[i]); }); });
+    $("visits-of").textContent = "of " + S[i];
+    var body = $("visits").tBodies[0];
+    body.textContent = "";
+    var prefix = S[i] + "/";
+    D.lanes.forEach(function (lane) {
+      var seg = lane.seg;
+      for (var k = 0; k < seg.length; k += 3) {
+        if (seg[k + 2] !== i) continue;
+        var t0 = seg[k], t1 = seg[k + 1];
+        var by = transitionAt(t0, function (tr) { return tr[3] === i; });
+        var out = t1 < T - dt / 2 ? transitionAt(t1, function (tr) { return tr[2] >= 0 && (tr[2] === i || (S[i] + "/").indexOf(S[tr[2]] + "/") === 0 || S[tr[2]].indexOf(prefix) === 0); }) : null;
+        var row = body.insertRow();
+        [t0.toFixed(3) + " s", t1 < T - dt / 2 ? t1.toFixed(3) + " s" : "(active at the end)", (t1 - t0).toFixed(3) + " s",
+         by ? describe(by) : "", out ? describe(out) : ""].forEach(function (text) { row.insertCell().textContent = text; });
+        row.dataset.t0 = t0; row.dataset.t1 = t1;
+        row.addEventListener("click", function () { setTime(parseFloat(this.dataset.t0)); });
+      }
+    });
+    if (!body.rows.length) { var row = body.insertRow(); var c = row.insertCell(); c.colSpan = 5; c.textContent = "never active"; }
+    markVisit();
+  }
+  function markVisit() {
+    Array.prototype.forEach.call($("visits").tBodies[0].rows, function (row) {
+      var a = parseFloat(row.dataset.t0), b = parseFloat(row.dataset.t1);
+      row.classList.toggle("current", cursor >= a && cursor < b);
+    });
+  }
+
+  // -- variables ----------------------------------------------------------------------------------------------
+  function showVars(vars, changed) {
+    var body = $("vars").tBodies[0];
+    body.textContent = "";
+    var names = Object.keys(vars).sort();
+    names.forEach(function (name) {
+      var row = body.insertRow();
+      row.dataset.name = name;
+      row.insertCell().textContent = name;
+      var cell = row.insertCell();
+      cell.textContent = JSON.stringify(vars[name]);
+      cell.dataset.value = JSON.stringify(vars[name]);
+      if (changed[name]) row.classList.add("changed");
+    });
+    if (!names.length) { var row = body.insertRow(); row.insertCell().textContent = "(no variables)"; }
+  }
+
+  // -- timeline lanes ---------------------------------------------------------------------------------------
+  var LANE_H = 18, LABEL_W = 170, lanes = $("lanes"), lanesBg = document.createElement("canvas");
+  function laneX(t, w) { return LABEL_W + (w - LABEL_W - 8) * (t / T); }
+  function laneT(x, w) { return Math.min(T, Math.max(0, (x - LABEL_W) / (w - LABEL_W - 8) * T)); }
+  function drawLanesBg() {
+    var ratio = window.devicePixelRatio || 1, w = lanes.clientWidth || 800;
+    var h = D.lanes.length * LANE_H + 22;
+    lanes.style.height = h + "px";
+    lanes.width = lanesBg.width = Math.round(w * ratio);
+    lanes.height = lanesBg.height = Math.round(h * ratio);
+    var c = lanesBg.getContext("2d");
+    c.setTransform(ratio, 0, 0, ratio, 0, 0);
+    c.fillStyle = "#fff"; c.fillRect(0, 0, w, h);
+    c.font = "11px Helvetica, Arial, sans-serif"; c.textBaseline = "middle";
+    var base = D.lanes.length * LANE_H;
+    var step = Math.pow(10, Math.floor(Math.log10(T / 5 || 1)));
+    if (T / step > 12) step *= 5; else if (T / step > 6) step *= 2;
+    c.fillStyle = "#e4e4e4";
+    for (var g = 0; g <= T + 1e-9; g += step) c.fillRect(laneX(g, w), 0, 1, base + 4);
+    D.lanes.forEach(function (lane, row) {
+      var y = row * LANE_H;
+      c.fillStyle = "#345";
+      c.fillText(lane.label.length > 28 ? lane.label.slice(0, 27) + "…" : lane.label, 4 + 6 * Math.min(lane.depth, 4), y + LANE_H / 2);
+      var seg = lane.seg;
+      for (var k = 0; k < seg.length; k += 3) {
+        var x0 = laneX(seg[k], w), x1 = Math.max(laneX(seg[k + 1], w), x0 + 1);
+        c.fillStyle = colour(seg[k + 2]);
+        c.fillRect(x0, y + 2, x1 - x0, LANE_H - 4);
+        if (x1 - x0 > 40) {
+          c.fillStyle = "#222";
+          var name = S[seg[k + 2]].split("/").pop();
+          c.save(); c.beginPath(); c.rect(x0, y, x1 - x0 - 2, LANE_H); c.clip();
+          c.fillText(name, x0 + 3, y + LANE_H / 2); c.restore();
+        }
+      }
+    });
+    c.strokeStyle = "rgba(0,0,0,0.55)"; c.lineWidth = 1;
+    D.transitions.forEach(function (tr) {
+      if (tr[2] < 0) return;
+      var x = Math.round(laneX(tr[0], w)) + 0.5;
+      c.beginPath(); c.moveTo(x, base); c.lineTo(x, base + 6); c.stroke();
+    });
+    c.fillStyle = "#c00";
+    D.monitors.forEach(function (m) { var x = laneX(m[0], w); c.fillRect(x - 2, base + 6, 4, 4); });
+    c.fillStyle = "#555"; c.textBaseline = "top";
+    for (var t = 0; t <= T + 1e-9; t += step) c.fillText(+t.toFixed(3) + " s", laneX(t, w) + 2, base + 10);
+  }
+  function drawLanes() {
+    var ratio = window.devicePixelRatio || 1, w = lanes.clientWidth || 800;
+    var c = lanes.getContext("2d");
+    c.setTransform(1, 0, 0, 1, 0, 0);
+    c.drawImage(lanesBg, 0, 0);
+    c.setTransform(ratio, 0, 0, ratio, 0, 0);
+    var x = laneX(cursor, w);
+    c.fillStyle = "#c00"; c.fillRect(x - 1, 0, 2, lanes.height / ratio);
+  }
+  var dragging = false;
+  function fromMouse(ev) { var r = lanes.getBoundingClientRect(); setTime(laneT(ev.clientX - r.left, r.width)); }
+  lanes.addEventListener("mousedown", function (ev) { dragging = true; fromMouse(ev); ev.preventDefault(); });
+  window.addEventListener("mousemove", function (ev) { if (dragging) fromMouse(ev); });
+  window.addEventListener("mouseup", function () { dragging = false; });
+
+  // -- map -------------------------------------------------------------------------------------------------
+  var map = $("map"), mapBg = document.createElement("canvas"), view = null, Sm = D.samples;
+  var hasTrack = Sm && Sm["car.x"] && Sm["car.y"];
+  if (!D.map && !hasTrack) $("map-box").style.display = "none";
+  function drawMapBg() {
+    if (!D.map && !hasTrack) return;
+    var ratio = window.devicePixelRatio || 1, w = map.clientWidth || 400;
+    var x0, y0, x1, y1;
+    if (D.map) { x0 = D.map.bounds[0]; y0 = D.map.bounds[1]; x1 = D.map.bounds[2]; y1 = D.map.bounds[3]; }
+    else { x0 = y0 = Infinity; x1 = y1 = -Infinity; }
+    if (hasTrack) Sm["car.x"].forEach(function (x, i) { var y = Sm["car.y"][i]; if (x === null) return; x0 = Math.min(x0, x); x1 = Math.max(x1, x); y0 = Math.min(y0, y); y1 = Math.max(y1, y); });
+    var pad = 0.3; x0 -= pad; y0 -= pad; x1 += pad; y1 += pad;
+    var s = w / (x1 - x0), h = Math.min(Math.max((y1 - y0) * s, 120), 700);
+    s = Math.min(s, h / (y1 - y0));
+    view = { s: s, x0: x0, y1: y1 };
+    map.style.height = h + "px";
+    map.width = mapBg.width = Math.round(w * ratio); map.height = mapBg.height = Math.round(h * ratio);
+    var c = mapBg.getContext("2d");
+    c.setTransform(ratio, 0, 0, ratio, 0, 0);
+    c.fillStyle = "#fff"; c.fillRect(0, 0, w, h);
+    function X(x) { return (x - x0) * s; } function Y(y) { return (y1 - y) * s; }
+    view.X = X; view.Y = Y;
+    if (D.map) {
+      c.strokeStyle = "#333"; c.lineWidth = 2;
+      D.map.walls.forEach(function (wl) { c.beginPath(); c.moveTo(X(wl[0]), Y(wl[1])); c.lineTo(X(wl[2]), Y(wl[3])); c.stroke(); });
+      c.fillStyle = "#999";
+      D.map.obstacles.forEach(function (o) {
+        c.beginPath();
+        if (o.poly) { o.poly.forEach(function (p, i) { if (i) c.lineTo(X(p[0]), Y(p[1])); else c.moveTo(X(p[0]), Y(p[1])); }); c.closePath(); }
+        else c.arc(X(o.circle[0]), Y(o.circle[1]), o.circle[2] * s, 0, 2 * Math.PI);
+        c.fill();
+      });
+      c.strokeStyle = "#0a7"; c.lineWidth = 3; c.font = "10px Helvetica, Arial, sans-serif"; c.fillStyle = "#0a7";
+      D.map.gates.forEach(function (g) {
+        c.beginPath(); c.moveTo(X(g.a[0]), Y(g.a[1])); c.lineTo(X(g.b[0]), Y(g.b[1])); c.stroke();
+        c.fillText(g.name, X((g.a[0] + g.b[0]) / 2) + 4, Y((g.a[1] + g.b[1]) / 2) - 4);
+      });
+      c.fillStyle = "#07a";
+      D.map.markers.forEach(function (m) { c.fillRect(X(m.p[0]) - 3, Y(m.p[1]) - 3, 6, 6); c.fillText("#" + m.id, X(m.p[0]) + 4, Y(m.p[1]) - 4); });
+    }
+    if (hasTrack) {  // the trajectory, coloured by the active leaf at each sample
+      c.lineWidth = 2.5;
+      var xs = Sm["car.x"], ys = Sm["car.y"], ts = Sm.t, prev = null, prevState = null;
+      for (var i = 0; i < ts.length; i++) {
+        if (xs[i] === null) { prev = null; continue; }
+        var st = stateAt(tickAt(ts[i])).active, leaf = st.length ? st[0] : -1;
+        if (prev) {
+          c.strokeStyle = leaf >= 0 ? colour(leaf) : "#888";
+          c.beginPath(); c.moveTo(X(prev[0]), Y(prev[1])); c.lineTo(X(xs[i]), Y(ys[i])); c.stroke();
+        }
+        prev = [xs[i], ys[i]]; prevState = leaf;
+      }
+    }
+  }
+  function sampleIndex(t) { return Sm ? Math.max(0, upper(Sm.t, t + 1e-9) - 1) : -1; }
+  function drawMap() {
+    if (!view) return;
+    var ratio = window.devicePixelRatio || 1, c = map.getContext("2d");
+    c.setTransform(1, 0, 0, 1, 0, 0); c.drawImage(mapBg, 0, 0);
+    if (!hasTrack) return;
+    c.setTransform(ratio, 0, 0, ratio, 0, 0);
+    var i = sampleIndex(cursor), x = Sm["car.x"][i], y = Sm["car.y"][i], h = Sm["car.heading"] ? Sm["car.heading"][i] : 0;
+    if (x === null || x === undefined) return;
+    var L = D.map ? D.map.car.length : 0.4, W = D.map ? D.map.car.width : 0.2;
+    c.save(); c.translate(view.X(x), view.Y(y)); c.rotate(-h);
+    c.fillStyle = "rgba(200,30,30,0.85)"; c.fillRect(-L / 2 * view.s, -W / 2 * view.s, L * view.s, W * view.s);
+    c.fillStyle = "#fff"; c.fillRect(L / 4 * view.s, -W / 4 * view.s, L / 4 * view.s, W / 2 * view.s);
+    c.restore();
+  }
+
+  // -- camera ---------------------------------------------------------------------------------------------
+  var frames = D.frames.filter(function (f) { return f.jpeg || f.det.length; }), frameTimes = frames.map(function (f) { return f.t; }), shownFrame = -2;
+  if (!frames.length) $("camera-box").style.display = "none";
+  function drawCamera() {
+    if (!frames.length) return;
+    var k = upper(frameTimes, cursor + 1e-9) - 1;
+    if (k === shownFrame) return;
+    shownFrame = k;
+    var img = $("frame"), cv = $("dets"), c = cv.getContext("2d");
+    cv.width = 320; cv.height = 240; c.clearRect(0, 0, 320, 240);
+    if (k < 0) { img.removeAttribute("src"); $("camera-info").textContent = "no frame yet"; return; }
+    var f = frames[k];
+    if (f.jpeg) img.src = "data:image/jpeg;base64," + f.jpeg; else img.removeAttribute("src");
+    var sx = 320 / (f.w || 160), sy = 240 / (f.h || 120);
+    c.strokeStyle = "#0f0"; c.lineWidth = 2; c.fillStyle = "#0f0"; c.font = "bold 12px Helvetica, Arial, sans-serif";
+    f.det.forEach(function (d) {
+      if (!d.c || d.c.length !== 4) return;
+      c.beginPath(); d.c.forEach(function (p, i) { if (i) c.lineTo(p[0] * sx, p[1] * sy); else c.moveTo(p[0] * sx, p[1] * sy); }); c.closePath(); c.stroke();
+      c.fillText("#" + d.id, d.c[0][0] * sx, d.c[0][1] * sy - 3);
+    });
+    $("camera-info").textContent = "frame at " + f.t.toFixed(2) + " s: " + (f.det.length ? f.det.map(function (d) { return "#" + d.id + " at " + d.d.toFixed(2) + " m"; }).join(", ") : "no marker") + (f.gates.length ? "; gates " + f.gates.map(function (g) { return g.join("/"); }).join(", ") : "");
+  }
+
+  // -- plots -------------------------------------------------------------------------------------------------
+  var plots = [];
+  function makePlots() {
+    var box = $("plots");
+    box.textContent = "";
+    plots = [];
+    if (!Sm || typeof uPlot === "undefined") return;
+    var palette = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd"];
+    var per = Math.min(3, D.plots.length || 1);
+    var width = Math.max(280, Math.floor((box.clientWidth - 28 - 12 * (per - 1)) / per) - 2);
+    D.plots.forEach(function (p) {
+      var div = document.createElement("div"); div.className = "plot"; box.appendChild(div);
+      var series = [{}].concat(p.series.map(function (s, i) { return { label: s.label, stroke: palette[i % palette.length], width: 1.2 }; }));
+      var data = [Sm.t].concat(p.series.map(function (s) { return Sm[s.field]; }));
+      var u = new uPlot({ title: p.title + " (" + p.unit + ")", width: width, height: 180, series: series,
+        scales: { x: { time: false } }, axes: [{ label: "s" }, {}], cursor: { drag: { x: false, y: false } },
+        legend: { live: false } }, data, div);
+      var line = document.createElement("div"); line.className = "cursor"; div.appendChild(line);
+      u.over.addEventListener("click", function (ev) { setTime(u.posToVal(ev.offsetX, "x")); });
+      plots.push({ u: u, line: line, div: div });
+    });
+  }
+  function drawPlots() {
+    plots.forEach(function (p) {
+      var o = p.u.over, x = p.u.valToPos(cursor, "x");
+      p.line.style.left = (o.offsetLeft + x) + "px"; p.line.style.top = o.offsetTop + "px"; p.line.style.height = o.clientHeight + "px";
+    });
+  }
+
+  // -- the cursor --------------------------------------------------------------------------------------------
+  var current = null;
+  function setTime(t) {
+    cursor = Math.min(T, Math.max(0, t));
+    var tick = tickAt(cursor), st = stateAt(tick);
+    current = { time: cursor, tick: tick, active: st.active.map(function (i) { return S[i]; }), vars: st.vars };
+    var el = $("time"); el.textContent = cursor.toFixed(3) + " s"; el.dataset.t = cursor; el.dataset.tick = tick;
+    $("active").textContent = current.active.join(", ");
+    highlight(st.active);
+    showVars(st.vars, st.changed);
+    markVisit();
+    drawLanes(); drawMap(); drawCamera(); drawPlots();
+  }
+  var stops = D.transitions.filter(function (tr) { return tr[2] >= 0; }).map(function (tr) { return tr[0]; });
+  function jump(dir) {
+    var t = null;
+    if (dir > 0) { for (var i = 0; i < stops.length; i++) if (stops[i] > cursor + dt / 2) { t = stops[i]; break; } }
+    else { for (var j = stops.length - 1; j >= 0; j--) if (stops[j] < cursor - dt / 2) { t = stops[j]; break; } }
+    if (t !== null) setTime(t);
+  }
+  function play(on) {
+    playing = on === undefined ? !playing : on;
+    $("play").innerHTML = playing ? "&#10074;&#10074;" : "&#9654;";
+    if (playing) { if (cursor >= T) setTime(0); lastFrame = performance.now(); requestAnimationFrame(step); }
+  }
+  function step(now) {
+    if (!playing) return;
+    var speed = parseFloat($("speed").value);
+    setTime(cursor + (now - lastFrame) / 1000 * speed);
+    lastFrame = now;
+    if (cursor >= T) play(false); else requestAnimationFrame(step);
+  }
+  $("play").addEventListener("click", function () { play(); });
+  $("prev").addEventListener("click", function () { jump(-1); });
+  $("next").addEventListener("click", function () { jump(1); });
+  document.addEventListener("keydown", function (ev) {
+    if (ev.target && (ev.target.tagName === "INPUT" || ev.target.tagName === "SELECT")) return;
+    if (ev.key === " ") { play(); ev.preventDefault(); }
+    else if (ev.key === "ArrowLeft") { jump(-1); ev.preventDefault(); }
+    else if (ev.key === "ArrowRight") { jump(1); ev.preventDefault(); }
+    else if (ev.key === "Home") setTime(0);
+    else if (ev.key === "End") setTime(T);
+  });
+  function layout() { drawLanesBg(); drawMapBg(); makePlots(); setTime(cursor); }
+  var resizeTimer = null;
+  window.addEventListener("resize", function () { clearTimeout(resizeTimer); resizeTimer = setTimeout(layout, 150); });
+  layout();
+  // for tests and the console: the state at the cursor, and moving it
+  window.tralReport = { setTime: setTime, current: function () { return current; }, stateAt: stateAt, duration: T, dt: dt };
+})();

@@ -1,0 +1,37 @@
+"""Traces outside the core: the machine document a trace's header carries (includes inlined, layout kept), and
+the MCAP export (:mod:`~fsm.tools.trace.mcap`, imported only when asked for). Reading traces is
+:mod:`fsm.replay`; the HTML report is :mod:`fsm.tools.report`."""
+
+from typing import IO, Any
+
+from .document import header_document
+
+__all__ = ["header_document", "run_recorder"]
+
+
+def run_recorder(stream: IO[str] | None, file: str, car: Any = None, *, world_file: Any = None, seed: int = 0,
+                 noise: bool = True, preloaded: dict[str, Any] | None = None, overrides: list[str] | None = None,
+                 initial_vars: dict[str, Any] | None = None, sample_rate: float = 20.0) -> Any:
+    """The recorder of a run as ``fsmctl run`` and ``fsmctl sweep`` write it: the header (the machine document
+    with its layout, world, seed, overrides), the car's samples at ``sample_rate`` Hz and its camera frames; a
+    bare :class:`~fsm.trace.Recorder` (summary only) when ``stream`` is ``None``."""
+    from fsm.trace import Recorder
+
+    if stream is None:
+        return Recorder()
+    header: dict[str, Any] = {"source": file, "machine": header_document(file, preloaded)}
+    if overrides:
+        header["overrides"] = list(overrides)
+    if initial_vars:
+        header["initial_vars"] = dict(initial_vars)
+    extra = sample = frames = None
+    if car is not None:
+        from fsm.sim.loop import CAR_SAMPLE_FIELDS, car_trace_fields, car_trace_frames, car_trace_header, car_trace_sample
+
+        header.update(car_trace_header(car, world_file, seed, noise))
+        extra = car_trace_fields(car)
+        sample = car_trace_sample(car)
+        frames = car_trace_frames(car)
+    fields = CAR_SAMPLE_FIELDS if car is not None else None
+    return Recorder(stream, extra=extra, header=header, sample=sample, sample_period=1.0 / sample_rate, frames=frames,
+                    sample_fields=fields)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 from .common import EXIT_OK, default_output, read_checked, registry_from
 
@@ -50,30 +51,19 @@ def cmd_export(args: argparse.Namespace) -> int:
 
 
 def _export_mcap(args: argparse.Namespace) -> int:
-    import sys
+    import io
 
     from fsm.errors import UsageError
 
-    from ..files import Outputs
     from ..trace.mcap import write_mcap
-    from .report import read_trace_arg
+    from .report import write_from_trace
 
     if args.output is not None:
         raise UsageError("export --mcap OUT.mcap names the output; -o is for the UMLet export")
-    outputs = Outputs()
-    outputs.add(args.mcap, "--mcap", binary=True, suffix=".mcap")
-    outputs.items[0].classify()
-    try:
-        outputs.open([args.file] if args.file != "-" else [])
-        trace = read_trace_arg(args.file)
-        for warning in trace.warnings:
-            print(f"fsmctl export: warning: {warning}", file=sys.stderr)
-        import io
 
+    def render(trace: Any) -> bytes:
         buffer = io.BytesIO()
         write_mcap(trace, buffer)
-        outputs.items[0].write(buffer.getvalue())
-        outputs.commit()
-    finally:
-        outputs.discard()
-    return EXIT_OK
+        return buffer.getvalue()
+
+    return write_from_trace(args.file, args.mcap, "--mcap", ".mcap", "export", render, binary=True)

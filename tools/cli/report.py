@@ -40,21 +40,30 @@ def read_trace_arg(name: str) -> Any:
         raise FsmError(f"{name}: {os_reason(exc)}") from None
 
 
-def cmd_report(args: argparse.Namespace) -> int:
+def write_from_trace(name: str, out: str, option: str, suffix: str, command: str, render: Any,
+                     binary: bool = False) -> int:
+    """Read the trace ``name`` and write ``render(trace)`` to ``out`` (checked before the trace is read, written
+    atomically, nothing left behind on error); the trace's warnings go to standard error."""
     from ..files import Outputs
-    from ..report import report_html
 
-    out = args.output or default_output(Path(args.trace), ".html")
     outputs = Outputs()
-    outputs.add(out, "-o", suffix=".html")
-    outputs.items[0].classify()
+    output = outputs.add(out, option, binary=binary, suffix=suffix)
+    assert output is not None
+    output.classify()
     try:
-        outputs.open([args.trace] if args.trace != "-" else [])
-        trace = read_trace_arg(args.trace)
+        outputs.open([name] if name != "-" else [])
+        trace = read_trace_arg(name)
         for warning in trace.warnings:
-            print(f"fsmctl report: warning: {warning}", file=sys.stderr)
-        outputs.items[0].write(report_html(trace))
+            print(f"fsmctl {command}: warning: {warning}", file=sys.stderr)
+        output.write(render(trace))
         outputs.commit()
     finally:
         outputs.discard()
     return EXIT_OK
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    from ..report import report_html
+
+    out = args.output or default_output(Path(args.trace), ".html")
+    return write_from_trace(args.trace, out, "-o", ".html", "report", report_html)

@@ -137,14 +137,15 @@ def _job(run: Run, spec: SweepSpec, machine: Path, plugins: list[str], out_dir: 
         cmd.append("--no-noise")
     if spec.duration is not None:
         cmd += ["--duration", f"{spec.duration:g}"]
-    for path, param, value in run.sets:
-        cmd += ["--set", f"{path}.{param}={json.dumps(value)}"]
+    overrides = [f"{path}.{param}={json.dumps(value)}" for path, param, value in run.sets]
+    for text in overrides:
+        cmd += ["--set", text]
     for name, value in run.variables.items():
         cmd += ["--var", f"{name}={json.dumps(value)}"]
     cmd += ["--summary", "summary.json"]
     return {"id": run.id, "index": run.index, "key": run.key, "machine": str(machine), "plugins": plugins,
             "world": str(run.world) if run.world is not None else None, "seed": run.seed, "run_seed": run.run_seed,
-            "sets": [list(s) for s in run.sets], "vars": run.variables, "params": run.params,
+            "sets": [list(s) for s in run.sets], "overrides": overrides, "vars": run.variables, "params": run.params,
             "duration": spec.duration, "noise": spec.noise,
             "out": str(out_dir / "runs" / run.id) if wants else None,
             "trace": spec.outputs.trace, "report": spec.outputs.report, "plot": spec.outputs.plot, "video": spec.outputs.video,

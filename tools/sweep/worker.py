@@ -7,7 +7,6 @@ becomes a record with ``ok: false`` and the error; the sweep goes on.
 
 from __future__ import annotations
 
-import json
 import os
 import time
 import traceback
@@ -20,6 +19,8 @@ TIMING = ("wall_time", "realtime_factor")
 TRACK_POINTS = 300
 #: The checked machine per (file, plugins), in this worker process.
 _CHECKED: dict[tuple[str, tuple[str, ...]], Any] = {}
+#: The machine document each run's trace header carries, by machine file (per worker, like the check).
+_DOCUMENTS: dict[str, Any] = {}
 
 
 def init_worker() -> None:
@@ -128,10 +129,16 @@ def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], d
         machine.ctx.vars.update(job["vars"])
         from ..trace import run_recorder  # the same trace as `fsmctl run --trace`
 
+        document = None
+        if trace_file is not None:
+            from ..trace import header_document
+
+            if job["machine"] not in _DOCUMENTS:  # read and converted once per worker, as the check is
+                _DOCUMENTS[job["machine"]] = header_document(job["machine"])
+            document = _DOCUMENTS[job["machine"]]
         recorder = machine.add_listener(run_recorder(
             trace_file, job["machine"], car, world_file=job["world"], seed=job["run_seed"], noise=job["noise"],
-            overrides=[f"{c[0]}.{c[1]}={json.dumps(c[2])}" for c in job["sets"]] if job["sets"] else None,
-            initial_vars=job["vars"]))
+            overrides=job["overrides"], initial_vars=job["vars"], document=document))
         dwell = machine.add_listener(Dwell())
         duration = job["duration"] if job["duration"] is not None else 600.0
         machine.start()

@@ -11,20 +11,23 @@ __all__ = ["header_document", "run_recorder"]
 
 def run_recorder(stream: IO[str] | None, file: str, car: Any = None, *, world_file: Any = None, seed: int = 0,
                  noise: bool = True, preloaded: dict[str, Any] | None = None, overrides: list[str] | None = None,
-                 initial_vars: dict[str, Any] | None = None, sample_rate: float = 20.0) -> Any:
+                 initial_vars: dict[str, Any] | None = None, sample_rate: float = 20.0,
+                 document: dict[str, Any] | None = None) -> Any:
     """The recorder of a run as ``fsmctl run`` and ``fsmctl sweep`` write it: the header (the machine document
     with its layout, world, seed, overrides), the car's samples at ``sample_rate`` Hz and its camera frames; a
-    bare :class:`~fsm.trace.Recorder` (summary only) when ``stream`` is ``None``."""
+    bare :class:`~fsm.trace.Recorder` (summary only) when ``stream`` is ``None``. ``document``: the header's machine
+    document when the caller already has it (else read again from ``file``)."""
     from fsm.trace import Recorder
 
     if stream is None:
         return Recorder()
-    header: dict[str, Any] = {"source": file, "machine": header_document(file, preloaded)}
+    header: dict[str, Any] = {"source": file,
+                              "machine": document if document is not None else header_document(file, preloaded)}
     if overrides:
         header["overrides"] = list(overrides)
     if initial_vars:
         header["initial_vars"] = dict(initial_vars)
-    extra = sample = frames = None
+    extra = sample = frames = fields = None
     if car is not None:
         from fsm.sim.loop import CAR_SAMPLE_FIELDS, car_trace_fields, car_trace_frames, car_trace_header, car_trace_sample
 
@@ -32,6 +35,6 @@ def run_recorder(stream: IO[str] | None, file: str, car: Any = None, *, world_fi
         extra = car_trace_fields(car)
         sample = car_trace_sample(car)
         frames = car_trace_frames(car)
-    fields = CAR_SAMPLE_FIELDS if car is not None else None
+        fields = CAR_SAMPLE_FIELDS
     return Recorder(stream, extra=extra, header=header, sample=sample, sample_period=1.0 / sample_rate, frames=frames,
                     sample_fields=fields)

@@ -37,13 +37,16 @@
   document.title = M.name + " — tral-fsm report";
   (function () {
     var meta = $("meta");
-    function add(text, cls) { var s = document.createElement("span"); s.textContent = text; if (cls) s.className = cls; meta.appendChild(s); meta.appendChild(document.createTextNode("  ·  ")); }
+    function add(text, cls) {
+      if (meta.childNodes.length) meta.appendChild(document.createTextNode("  ·  "));
+      var s = document.createElement("span"); s.textContent = text; if (cls) s.className = cls; meta.appendChild(s);
+    }
     add(M.source);
     if (M.outcome !== null && M.outcome !== undefined) add("outcome " + M.outcome, M.outcome === "succeeded" ? "good" : "bad");
     else add(M.cut_off ? "cut off (no end line)" : "not finished", "bad");
     if (M.interrupted) add("interrupted", "bad");
     if (M.error) add("error: " + M.error, "bad");
-    add(T.toFixed(2) + " s, " + M.ticks + " ticks, " + D.transitions.length + " transitions");
+    add(T.toFixed(2) + " s, " + M.ticks + " ticks, " + D.transitions.filter(function (tr) { return tr[2] >= 0; }).length + " transitions");
     if (M.seed !== null && M.seed !== undefined) add("seed " + M.seed);
     if (M.world_file) add("world " + M.world_file);
     if (M.overrides.length) add("--set " + M.overrides.join(" "));

@@ -9,14 +9,17 @@ Anything else that is not a trace raises :class:`TraceError` with the reason and
 
 from __future__ import annotations
 
+import array
+import base64
 import bisect
 import json
 import os
+import sys
 from dataclasses import dataclass, field
 from typing import Any
 
 from .errors import FsmError
-from .trace import TRACE_FORMAT, TRACE_VERSION
+from .trace import PACKED_SAMPLES, TRACE_FORMAT, TRACE_VERSION
 
 
 class TraceError(FsmError, ValueError):
@@ -192,10 +195,15 @@ def _problem(line: Any, version: int) -> str | None:
     kind = line.get("type", "event" if version == 1 else None)
     if kind not in _KINDS and kind not in ("end", "samples"):
         return f"unknown line type {kind!r}"
-    if kind == "samples" and not (isinstance(line.get("fields"), list) and isinstance(line.get("rows"), list)
-                                  and isinstance(line.get("every"), int) and line["every"] > 0
-                                  and all(isinstance(r, list) and len(r) == len(line["fields"]) for r in line["rows"])):
-        return "a samples block needs fields, every and rows as long as fields"
+    if kind == "samples":
+        if "data" in line and "rows" not in line:
+            problem = _unpack_samples(line)
+            if problem is not None:
+                return problem
+        if not (isinstance(line.get("fields"), list) and isinstance(line.get("rows"), list)
+                and isinstance(line.get("every"), int) and line["every"] > 0
+                and all(isinstance(r, list) and len(r) == len(line["fields"]) for r in line["rows"])):
+            return "a samples block needs fields, every and rows as long as fields"
     if not isinstance(line.get("tick"), int) or isinstance(line.get("tick"), bool):
         return "no tick"
     if kind == "event" and not isinstance(line.get("transitions", []), list):
@@ -204,6 +212,38 @@ def _problem(line: Any, version: int) -> str | None:
         return "a keyframe needs active and vars"
     if kind == "event" and not isinstance(line.get("vars", {}), dict):
         return "vars is not an object"
+    return None
+
+
+def _unpack_samples(line: dict[str, Any]) -> str | None:
+    """Unpack a version-3 block's ``data`` into ``rows`` (numbers rounded to its ``digits``, integer columns as
+    integers, an infinite reading as the string JSON gives it elsewhere); what is wrong with it, or None."""
+    fields, count, digits = line.get("fields"), line.get("count"), line.get("digits", 6)
+    integers = line.get("integers", [])
+    if line.get("encoding") != PACKED_SAMPLES:
+        return f"a samples block's encoding is {line.get('encoding')!r}, not {PACKED_SAMPLES!r}"
+    if not (isinstance(fields, list) and isinstance(count, int) and count >= 0 and isinstance(digits, int)
+            and isinstance(line["data"], str) and isinstance(integers, list)
+            and all(isinstance(i, int) and 0 <= i < len(fields) for i in integers)):
+        return "a packed samples block needs fields, count, digits and data"
+    try:
+        raw = base64.b64decode(line["data"], validate=True)
+    except (ValueError, TypeError):
+        return "a samples block's data is not base64"
+    if len(raw) != 4 * count * len(fields):
+        return f"a samples block's data holds {len(raw) // 4} values, not {count} rows of {len(fields)}"
+    values = array.array("f")
+    values.frombytes(raw)
+    if sys.byteorder == "big":
+        values.byteswap()
+    flat = [v if v - v == 0 else str(v) for v in (round(v, digits) for v in values.tolist())]  # v - v: nan for inf
+    width = len(fields)
+    rows = [flat[i:i + width] for i in range(0, len(flat), width)]
+    for i in integers:
+        for row in rows:
+            if isinstance(row[i], float):
+                row[i] = int(row[i])
+    line["rows"] = rows
     return None
 
 

@@ -21,8 +21,12 @@ Lines of one tick come in that order: event, keyframe, sample, frame.
 
 from __future__ import annotations
 
+import base64
+import functools
+import itertools
 import json
 import platform
+import struct
 from typing import IO, TYPE_CHECKING, Any
 
 from .machine import Listener
@@ -35,7 +39,10 @@ if TYPE_CHECKING:
 
 #: What the first line's ``format`` says, and the version of the line layout described here.
 TRACE_FORMAT = "tral-fsm-trace"
-TRACE_VERSION = 2
+TRACE_VERSION = 3
+#: How a version-3 ``samples`` line packs rows of numbers: ``data`` is their little-endian float32 values, row after
+#: row, in base64 (``count`` rows; the columns listed in ``integers`` hold integers).
+PACKED_SAMPLES = "float32-base64"
 #: Default periods (seconds of machine time): samples at 20 Hz, a keyframe every second, camera frames at 1 Hz.
 SAMPLE_PERIOD = 0.05
 KEYFRAME_PERIOD = 1.0
@@ -64,6 +71,8 @@ class Recorder(Listener):
         self.sample_fields = list(sample_fields) if sample_fields is not None else None
         self.sample_digits = sample_digits
         self._rows: list[Any] = []  # the samples not written yet (block mode), each (tick, values)
+        self._tails: dict[tuple[int, ...], str] = {}
+        self._active_json: str | None = None  # the active leaves as JSON, until the next transition
         self.frames = frames
         self.periods = (sample_period, keyframe_period, frame_period)
         self._every: tuple[int, int, int] | None = None  # the periods in ticks, known at the first flush
@@ -78,6 +87,7 @@ class Recorder(Listener):
         self.monitor_counts: dict[str, int] = {}
         self._last_tick = -1
         self._due = 0  # the next tick with a keyframe, sample or frame line
+        self._special = 0  # the next tick with a keyframe or frame line
         self._sample_only = False
         self.ended = False
 
@@ -87,6 +97,7 @@ class Recorder(Listener):
             self.visited.append(target.path)
         if transition is not None:
             self.transitions += 1
+        self._active_json = None
         self._pending.append({
             "tick": ctx.tick,
             "time": round(ctx.now, 9),
@@ -106,15 +117,17 @@ class Recorder(Listener):
         self._events.setdefault("paused" if paused else "resumed", []).append(state.path)
 
     def on_tick(self, machine: Machine) -> None:
-        if self.out is None:  # summary only: visited states and counts come from the other hooks
-            self._pending = []
-            if self._events:
+        # Called every tick: the common case (nothing happened, no line due) returns after a few comparisons.
+        if self._pending or self._events:
+            if self.out is None:  # summary only: visited states and counts come from the other hooks
+                self._pending = []
                 self._events = {}
+            else:
+                self.flush(machine)
+            return
+        if self.out is None:
             return
         ctx = machine.ctx
-        if self._pending or self._events:
-            self.flush(machine)
-            return
         current, last = ctx.vars, self._vars
         if current != last or (current and not all(type(v) is type(last[k]) for k, v in current.items())):  # type: ignore[index]
             self.flush(machine)
@@ -125,9 +138,8 @@ class Recorder(Listener):
         if tick == self._due and self._sample_only:  # most due ticks: one sample, kept for its block
             self._rows.append((tick, self.sample()))
             self._last_tick = tick
-            s_every, k_every, f_every = self._every  # type: ignore[misc]
-            due = self._due = tick + s_every
-            if due % k_every == 0 or (self.frames is not None and due % f_every == 0):
+            due = self._due = tick + self._every[0]  # type: ignore[index]
+            if due >= self._special:
                 self._schedule(tick)
             return
         self.flush(machine)
@@ -163,13 +175,17 @@ class Recorder(Listener):
             out.write(_dumps(line))
             self._pending = []
             self._events = {}
+            self._active_json = None  # whatever changed (a transition, an abort, a pause), print it again
         if tick == self._last_tick:
             return
         self._last_tick = tick
         s_every, k_every, f_every = self._every  # type: ignore[misc]
         if tick % k_every == 0:
-            out.write(_dumps({"type": "keyframe", "tick": tick, "time": time, "active": machine.active_paths,
-                              "vars": {k: jsonable(v) for k, v in ctx.vars.items()}}))
+            active = self._active_json
+            if active is None:  # printed again only after a transition
+                active = self._active_json = _dumps(machine.active_paths)[:-1]
+            values = _dumps({k: jsonable(v) for k, v in ctx.vars.items()})[:-1] if ctx.vars else "{}"
+            out.write(f'{{"type":"keyframe","tick":{tick},"time":{time!r},"active":{active},"vars":{values}}}\n')
         if self.sample is not None and tick % s_every == 0:
             if self.sample_fields is not None:
                 if tick % k_every == 0:
@@ -184,28 +200,48 @@ class Recorder(Listener):
         self._schedule(tick)
 
     def _write_samples(self, machine: Machine) -> None:
-        """The samples kept since the last block, as one ``samples`` line (first tick, tick step, rows)."""
+        """The samples kept since the last block, as one ``samples`` line (first tick, tick step, and the rows).
+        Rows of numbers are packed (:data:`PACKED_SAMPLES`: float32, base64; a reader rounds them to ``digits``
+        decimals), which costs the loop a fifth of rounding and printing each number; other rows are written as
+        they are."""
         rows = self._rows
         if not rows or self.out is None:
             return
         self._rows = []
+        values = [v for _, v in rows]
+        tick = rows[0][0]
+        time = round(tick * machine._dt, 9)
+        every = self._every[0] if self._every else 1  # type: ignore[index]
         digits = self.sample_digits
-        data = [[round(v, digits) if v.__class__ is float else v for v in values] for _, values in rows]
-        self.out.write(_dumps({"type": "samples", "tick": rows[0][0], "time": round(rows[0][0] * machine._dt, 9),
-                               "every": self._every[0] if self._every else 1,  # type: ignore[index]
-                               "fields": self.sample_fields, "rows": data}))
+        packed = _packed_rows(values)
+        if packed is None:
+            self.out.write(_dumps({
+                "type": "samples", "tick": tick, "time": time, "every": every, "fields": self.sample_fields,
+                "rows": [[round(v, digits) if v.__class__ is float else jsonable(v) for v in row] for row in values]}))
+            return
+        integers, data = packed
+        key = tuple(integers)
+        tail = self._tails.get(key)
+        if tail is None:  # what all blocks of these fields share, printed once
+            tail = self._tails[key] = _dumps({"fields": self.sample_fields, "encoding": PACKED_SAMPLES,
+                                              "digits": digits, **({"integers": integers} if integers else {})})[1:-2]
+        # printed by hand, not by json.dumps: this line is written every second and base64 needs no escaping
+        self.out.write(f'{{"type":"samples","tick":{tick},"time":{time!r},"every":{every},{tail},'
+                       f'"count":{len(values)},"data":"{data}"}}\n')
 
     def _schedule(self, tick: int) -> None:
-        """The next tick after ``tick`` with a keyframe, sample or frame, and whether it has only a sample."""
+        """The next tick after ``tick`` with a keyframe, sample or frame, whether it has only a sample, and the next
+        tick with a keyframe or frame."""
         s_every, k_every, f_every = self._every  # type: ignore[misc]
-        nxt = [tick - tick % k_every + k_every]
-        if self.sample is not None:
-            nxt.append(tick - tick % s_every + s_every)
+        special = tick - tick % k_every + k_every
         if self.frames is not None:
-            nxt.append(tick - tick % f_every + f_every)
-        due = self._due = min(nxt)
-        self._sample_only = (self.sample is not None and due % s_every == 0 and due % k_every != 0
-                             and (self.frames is None or due % f_every != 0))
+            special = min(special, tick - tick % f_every + f_every)
+        self._special = special
+        due = special
+        if self.sample is not None:
+            due = min(due, tick - tick % s_every + s_every)
+        self._due = due
+        self._sample_only = due < special
 
     def finish(self, machine: Machine, **info: Any) -> None:
         """Write the last line (``end``): outcome, ticks, time and ``info`` (``interrupted``, ``error``)."""
@@ -251,6 +287,30 @@ class Recorder(Listener):
         values = {k: v for k, v in current.items() if k not in last or last[k] != v or type(last[k]) is not type(v)}
         unset = [k for k in last if k not in current]
         return (values, unset) if values or unset else None
+
+
+def _packed_rows(rows: list[Any]) -> tuple[list[int], str] | None:
+    """``rows`` (tuples of numbers, all as long) as little-endian float32, row after row, in base64, and the columns
+    that hold integers (by the first row); ``None`` when a row holds anything else (a string, a bool) or is longer or
+    shorter than the first, an integer is beyond what a float32 holds exactly, or a number beyond its range."""
+    first = rows[0]
+    if not all(v.__class__ is float or v.__class__ is int for v in first) or len(set(map(len, rows))) != 1:
+        return None
+    integers = [i for i, v in enumerate(first) if v.__class__ is int]
+    for i in integers:
+        column = [row[i] for row in rows]
+        if not all(v.__class__ is int for v in column) or max(column) > 1 << 24 or min(column) < -(1 << 24):
+            return None
+    try:
+        data = _packer(len(rows) * len(first)).pack(*itertools.chain.from_iterable(rows))
+    except (TypeError, struct.error, OverflowError):  # a value that is no number, or too big for a float32
+        return None
+    return integers, base64.b64encode(data).decode("ascii")
+
+
+@functools.lru_cache(maxsize=16)
+def _packer(count: int) -> struct.Struct:
+    return struct.Struct(f"<{count}f")
 
 
 def _dumps(line: dict[str, Any]) -> str:

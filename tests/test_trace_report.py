@@ -126,6 +126,68 @@ def test_replay_sees_variables_removed_and_set_between_ticks_and_parallel_region
     assert any(e.get("unset") == ["extra"] for e in trace.events)
 
 
+def _sampled(sample: Any, ticks: int = 120) -> tuple[str, list[tuple[int, Any]]]:
+    """A one-state machine traced with ``sample`` (called with the tick) as its sample callable, and what it
+    returned at each tick it was called."""
+    m = fsm.load({"initial": "a", "states": [{"id": "a", "type": "Idle"}]}, dt=0.01)
+    taken: list[tuple[int, Any]] = []
+
+    def take() -> Any:
+        taken.append((m.ctx.tick, sample(m.ctx.tick)))
+        return taken[-1][1]
+
+    out = io.StringIO()
+    rec = m.add_listener(Recorder(out, sample=take, sample_fields=["v.a", "v.b", "v.n", "v.r"], keyframe_period=0.25))
+    m.start()
+    rec.flush(m)
+    for _ in range(ticks):
+        m.tick()
+    rec.finish(m)
+    return out.getvalue(), taken
+
+
+def test_samples_read_back_as_they_were_taken_packed_or_not() -> None:
+    # Numbers are packed (float32, base64) and read back rounded to the block's digits; integer columns stay
+    # integers; an infinite reading comes back as JSON holds it elsewhere ("inf").
+    text, taken = _sampled(lambda t: (t * 0.0123457, -t * 1.5 - 1000.0, t * 7, float("inf") if t == 40 else 0.25))
+    lines = [json.loads(line) for line in text.splitlines()]
+    blocks = [line for line in lines if line["type"] == "samples"]
+    assert blocks and all("data" in b and "rows" not in b and b["integers"] == [2] for b in blocks)
+    validator = jsonschema.Draft202012Validator(SCHEMA)
+    assert not [e.message for line in lines for e in validator.iter_errors(line)]
+    trace = parse_trace(text.encode())
+    assert not trace.warnings
+    assert [s["tick"] for s in trace.samples] == [t for t, _ in taken]
+    for sample, (_, (a, b, n, r)) in zip(trace.samples, taken):
+        v = sample["v"]
+        assert v["a"] == pytest.approx(a, abs=1.5e-4) and v["b"] == pytest.approx(b, abs=1.5e-4)
+        assert v["n"] == n and type(v["n"]) is int
+        assert v["r"] == ("inf" if r == float("inf") else r)
+    # rows that are not all numbers (a string, an integer beyond a float32's exact range) are written as JSON
+    for sample in (lambda t: (t * 0.5, "on" if t % 2 else "off", t, 1.0), lambda t: (0.5, 1.0, t + 2 ** 25, 1.0)):
+        text, taken = _sampled(sample)
+        assert '"rows"' in text and '"data"' not in text
+        trace = parse_trace(text.encode())
+        assert [tuple(s["v"][k] for k in "abnr") for s in trace.samples] == [v for _, v in taken]
+
+
+@pytest.mark.parametrize("damage, says", [
+    (lambda b: {**b, "data": b["data"][:-8]}, "holds"),
+    (lambda b: {**b, "data": "not base64!"}, "not base64"),
+    (lambda b: {**b, "encoding": "float64-hex"}, "encoding is 'float64-hex'"),
+    (lambda b: {**b, "integers": [9]}, "needs fields, count, digits and data"),
+])
+def test_a_damaged_samples_block_is_read_up_to_the_line_before(damage: Any, says: str) -> None:
+    text, _ = _sampled(lambda t: (t * 0.5, 1.0, t, 1.0))
+    lines = text.splitlines()
+    number = next(i for i, line in enumerate(lines, 1) if '"samples"' in line and '"tick":25' in line)
+    lines[number - 1] = json.dumps(damage(json.loads(lines[number - 1])))
+    trace = parse_trace("\n".join(lines).encode() + b"\n", "run.jsonl")
+    assert len(trace.warnings) >= 1 and f"run.jsonl:{number}: line {number} is damaged" in trace.warnings[0]
+    assert says in trace.warnings[0]
+    assert trace.samples and trace.samples[-1]["tick"] < 25
+
+
 def test_a_cut_off_trace_reads_up_to_its_last_whole_line(mission: Any, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     text, live = mission
     data = text.encode()

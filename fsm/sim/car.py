@@ -106,6 +106,8 @@ class SimCar:
         # body
         moment = pymunk.moment_for_box(p.mass, (p.length, p.width))
         self.body = pymunk.Body(p.mass, moment)
+        self._pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+        self._pose_step = -1  # the step in which sense() read _pose
         self.body.position = (world.start.x, world.start.y)
         self.body.angle = math.radians(world.start.heading)
         self.shape = pymunk.Poly.create_box(self.body, (p.length, p.width), 0.0)
@@ -192,6 +194,7 @@ class SimCar:
             self._markers = world_markers(world)
             self._cam_seed = seed
         self.sense()
+        self._pose_step = -1  # the body may still be placed by hand before the first step
 
     # -- CarIO ----------------------------------------------------------------------------------------
     def pose(self) -> tuple[float, float, float]:
@@ -201,7 +204,11 @@ class SimCar:
         return o[0], o[1], o[2]
 
     def true_pose(self) -> tuple[float, float, float]:
-        """Ground truth (world frame): for metrics, rendering and tests only; no state or transition reads it."""
+        """Ground truth (world frame): for metrics, rendering and tests only; no state or transition reads it.
+        The pose :meth:`sense` read in this physics step when it ran in it (the trajectory, the trace's samples and
+        the gate log read it at the ticks the sensors fire: one read of pymunk instead of several)."""
+        if self._pose_step == self.steps:
+            return self._pose
         x, y = self.body.position
         return x, y, self.body.angle
 
@@ -347,8 +354,7 @@ class SimCar:
         """A cheap frustum test: the indices of the markers that could be in the image (in front, within the field
         of view plus a margin, in range, their face towards the camera)."""
         c = self.params.camera
-        x, y = self.body.position
-        th = self.body.angle
+        x, y, th = self.true_pose()
         ct, st = math.cos(th), math.sin(th)
         cx, cy = x + ct * c.x - st * c.y, y + st * c.x + ct * c.y
         yaw = th + math.radians(c.yaw)
@@ -385,8 +391,7 @@ class SimCar:
             self._cam = self._camera_setup()
         renderer, detector = self._cam
         renderer.markers = [self._specs[k] for k in candidates]  # the exact projection only for these
-        x, y = self.body.position
-        frame = renderer.render(x, y, self.body.angle)
+        frame = renderer.render(*self.true_pose())
         self.rendered_frames += 1
         detections = detector.detect(frame)
         gates: tuple[Any, ...] = ()
@@ -410,6 +415,8 @@ class SimCar:
         """Take one ultrasonic sample of all three sensors (and the clearance to the walls)."""
         x, y = self.body.position
         th = self.body.angle
+        self._pose = (x, y, th)
+        self._pose_step = self.steps
         c, s = math.cos(th), math.sin(th)
         ray = self._ray
         max_r = self._max_r

@@ -161,6 +161,7 @@ class Simulation:
             if max_ticks is not None:
                 end = ctx.tick + max_ticks if end is None else min(end, ctx.tick + max_ticks)
             step = car.step
+            true_pose = car.true_pose
             watch = self._watch
             track = self.track
             track_every = self.track_every
@@ -179,9 +180,10 @@ class Simulation:
                     self._err_sample = car.sample
                     self._measure()
                 if self.gate_log is not None:
-                    self.gate_log.update(ctx.now, *car.body.position)
+                    x, y, _ = true_pose()
+                    self.gate_log.update(ctx.now, x, y)
                 if ctx.tick % track_every == 0:
-                    x, y = car.body.position
+                    x, y, _ = true_pose()
                     track.append((ctx.now, x, y, self._path_index))
                 if observers:
                     self._observe()
@@ -274,13 +276,11 @@ CAR_SAMPLE_FIELDS = ["car.x", "car.y", "car.heading", "car.odometry[0]", "car.od
 def car_trace_sample(car: Any) -> Any:
     """The trace's samples of ``car``: a tuple of the values named by :data:`CAR_SAMPLE_FIELDS` (a sample is taken
     every few ticks, so it must cost little; the recorder writes them in blocks)."""
-    body = car.body
+    true_pose = car.true_pose
     pose = car.pose
 
     def sample() -> tuple[Any, ...]:
-        x, y = body.position
-        ox, oy, oth = pose()
-        return (x, y, body.angle, ox, oy, oth, car.left, car.right, car.front, car.distance, car.speed,
+        return (*true_pose(), *pose(), car.left, car.right, car.front, car.distance, car.speed,
                 car.speed_command, car.steering, car.collisions)
 
     return sample

@@ -8,8 +8,19 @@ labels and text measurement (:mod:`~fsm.tools.graph.labels`), the text formats
 
 from __future__ import annotations
 
-from .drawing import svg
-from .labels import FONT, edge_label, state_label, text_width
-from .text import dot, mermaid
+from typing import Any
 
 __all__ = ["FONT", "dot", "edge_label", "mermaid", "state_label", "svg", "text_width"]
+_HOMES = {"svg": "drawing", "FONT": "labels", "edge_label": "labels", "state_label": "labels", "text_width": "labels",
+          "dot": "text", "mermaid": "text"}
+
+
+def __getattr__(name: str) -> Any:
+    """The drawing modules load when first used: a run that traces imports only ``includes`` from here."""
+    if name not in _HOMES:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(f".{_HOMES[name]}", __name__), name)
+    globals()[name] = value
+    return value

@@ -194,18 +194,24 @@ def execute(p: Plan, out_dir: Path, *, backend: str = "process", jobs: int = 1, 
                     stream.flush()
                     results[rec["key"]] = rec
                     bar.step(rec)
-            pool.close()
+            pool.close()  # the workers exit while the reports are written
         except KeyboardInterrupt:
             interrupted = True
             pool.terminate()
+        except BaseException:
+            pool.terminate()
+            raise
         finally:
-            pool.join()
             bar.done()
-            if backend == "ray":
-                shutdown_ray()
     records = [results[job["key"]] for job in p.jobs if job["key"] in results]
     out_dir.mkdir(parents=True, exist_ok=True)
-    write_reports(p, out_dir, records)
+    try:
+        write_reports(p, out_dir, records)
+    finally:
+        if pool is not None and todo:
+            pool.join()
+            if backend == "ray":
+                shutdown_ray()
     return Outcome(records, len(records) - len(done), len(done), interrupted, time.perf_counter() - t0)
 
 

@@ -40,7 +40,7 @@ def init_worker() -> None:
 
 
 def _one_cv2_thread() -> None:
-    """OpenCV's own thread pool off (called once a run uses the camera: importing cv2 costs 0.1 s otherwise)."""
+    """OpenCV's own thread pool off (called once a run's camera can see a marker: importing cv2 costs 0.1 s)."""
     import cv2
 
     cv2.setNumThreads(1)
@@ -122,8 +122,9 @@ def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], d
             from fsm.sim.car import SimCar
             from fsm.sim.world import load_world
 
-            car = SimCar(load_world(job["world"]), seed=job["run_seed"], noise=job["noise"])
-            if car.params.camera.enabled:
+            world = load_world(job["world"])
+            car = SimCar(world, seed=job["run_seed"], noise=job["noise"])
+            if car.params.camera.enabled and (world.gates or world.markers):  # else no frame is ever rendered
                 _one_cv2_thread()
         machine = build(spec, car=car)
         machine.ctx.vars.update(job["vars"])

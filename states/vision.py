@@ -1,5 +1,5 @@
-"""States on the camera: ``ArucoGateCenter`` lines the car up with a gate (square to it and centred) before ``Motor``
-drives through. It reads only ``ctx.car.camera()`` and odometry (``ctx.car.pose()``), never ground truth."""
+"""States on the camera: ``ArucoGateApproach`` drives to the point in front of a gate, refining it as the gate comes
+nearer; ``ArucoGateCenter`` lines the car up with a gate (square to it and centred) before ``Motor`` drives through. It reads only ``ctx.car.camera()`` and odometry (``ctx.car.pose()``), never ground truth."""
 
 from __future__ import annotations
 
@@ -10,12 +10,75 @@ from pydantic import Field
 
 from fsm.params import StateParams
 from fsm.registry import register_state
-from fsm.transitions.vision import GATE_VAR, gate_to_odometry, mark_passed, remember_gates, select_gate
+from fsm.transitions.vision import (GATE_VAR, approach_point, gate_to_odometry, mark_passed, remember_gates,
+                                    select_gate)
 
-from .driving import CarState, _clamp
+from .driving import ApproachParams, ApproachPoint, CarState, _clamp
 
 if TYPE_CHECKING:
     from fsm.context import Context
+
+
+def update_gate_var(ctx: Any, gate: Any) -> dict[str, Any]:
+    """A fresh sighting of the gate being driven to replaces `gate` on the blackboard (odometry frame), keeping
+    the corridor heading ArucoGateFound recorded for AlignHeading."""
+    known = ctx.vars.get(GATE_VAR)
+    fresh = gate_to_odometry(ctx.car, gate)
+    if isinstance(known, dict) and "approach_heading" in known:
+        fresh["approach_heading"] = known["approach_heading"]
+    ctx.vars[GATE_VAR] = fresh
+    return fresh
+
+
+class GateApproachParams(ApproachParams):
+    before: float = Field(default=1.0, ge=0, le=5,
+                          description="The point to reach lies this far in front of the gate on its centre line, m "
+                                      "(as ArucoGateFound's `before`).")
+    wall_margin: float = Field(default=0.35, ge=0, le=3,
+                               description="Keep the point this far from the walls the side sensors see (as "
+                                           "ArucoGateFound's), m; 0: off.")
+    snap: float | None = Field(default=None, gt=0, le=180,
+                               description="The walls run along a multiple of this many degrees from the start "
+                                           "heading (as ArucoGateFound's `snap`).")
+    refine: float = Field(default=0.6, ge=0, le=5,
+                          description="Refine the point from new camera frames while it is at least this far ahead, "
+                                      "m (nearer, the gate leaves the camera's view and the last point is kept).")
+
+
+@register_state
+class ArucoGateApproach(ApproachPoint):
+    """Drives to the point `before` m in front of the gate ArucoGateFound found (handed by it, like ApproachPoint), and moves that point each time the camera sees the gate again while the point is still `refine` m ahead: a gate first seen 4 m away has a rough pose (its heading may be 10 degrees off), which gets better as the car comes nearer. The fresh pose also replaces `gate` on the blackboard for ArucoGateCenter. Finishes on arrival, or `missed` when the point falls behind."""
+
+    __slots__ = ("_frame", "_ids")
+    Params = GateApproachParams
+
+    def __init__(self, id: str, params: StateParams | None = None) -> None:
+        super().__init__(id, params)
+        self._frame = -1
+        self._ids: tuple[int, int] | None = None
+
+    def on_enter(self, ctx: Context) -> None:
+        super().on_enter(ctx)
+        known = ctx.vars.get(GATE_VAR)
+        self._ids = tuple(known["ids"]) if isinstance(known, dict) and known.get("ids") else None  # type: ignore[assignment]
+        self._frame = -1
+
+    def tick(self, ctx: Context) -> None:
+        car = ctx.car
+        view = car.camera()
+        if self._ids is not None and self._tx == self._tx and view is not None and view.frame != self._frame:
+            self._frame = view.frame
+            remember_gates(ctx, view)
+            gate = select_gate(view, self._ids)
+            if gate is not None and abs(gate.heading) < math.radians(80):
+                p = self.params
+                px, py = approach_point(car, gate, p.before, p.wall_margin, p.snap)  # type: ignore[attr-defined]
+                if px >= p.refine:  # type: ignore[attr-defined]
+                    x, y, th = car.pose()
+                    c, s = math.cos(th), math.sin(th)
+                    self._tx, self._ty = x + c * px - s * py, y + s * px + c * py
+                    update_gate_var(ctx, gate)
+        super().tick(ctx)
 
 
 class GateCenterParams(StateParams):
@@ -33,16 +96,21 @@ class GateCenterParams(StateParams):
     min_distance: float = Field(default=0.4, ge=0, le=5.0,
                                 description="Finish (outcome `close`) when this near the gate without being "
                                             "aligned, m (Motor drives on from there).")
+    clearance: float = Field(default=0.15, ge=0, le=1.0,
+                             description="At `min_distance`: when the car, driving straight on, would cross the gate "
+                                         "line nearer a post than this (m, from its centre: half the car's width "
+                                         "and a margin), finish `wide` instead of `close`, so that the diagram can "
+                                         "back off and line up again; 0: never.")
 
 
 @register_state
 class ArucoGateCenter(CarState):
-    """Lines the car up with a gate: drives slowly along the gate's centre line (pure pursuit on it, from camera and odometry) until it is square to the gate and centred, then finishes (`succeeded`); `close` when it got near the gate first, `lost` when it never had a gate. Finishing (`succeeded` or `close`) marks the gate passed on the blackboard (`gates_passed`), and every gate it sees is remembered (`gates_seen`) for ArucoGateFound with `memory`."""
+    """Lines the car up with a gate: drives slowly along the gate's centre line (pure pursuit on it, from camera and odometry) until it is square to the gate and centred, then finishes (`succeeded`); `close` when it got near the gate first, `wide` when it got near so far off the centre line that driving on would hit a post (the gate's width is measured by the camera; route it to a short reverse and back here), `lost` when it never had a gate. Finishing (`succeeded` or `close`) marks the gate passed on the blackboard (`gates_passed`), and every gate it sees is remembered (`gates_seen`) for ArucoGateFound with `memory`."""
 
     __slots__ = ("_gate", "_frame", "_ids")
     Params = GateCenterParams
     can_finish = True
-    outcomes = ("succeeded", "close", "lost")
+    outcomes = ("succeeded", "close", "wide", "lost")
     accepts_target = True
 
     def __init__(self, id: str, params: StateParams | None = None) -> None:
@@ -68,6 +136,8 @@ class ArucoGateCenter(CarState):
                 self._gate = dict(known)
         if self._ids is None and self._gate is not None and self._gate.get("ids"):
             self._ids = tuple(self._gate["ids"])  # type: ignore[assignment]
+        if self._ids is None and isinstance(known, dict) and known.get("ids"):  # handed by ArucoGateFound
+            self._ids = tuple(known["ids"])  # type: ignore[assignment]
         self._frame = -1
         self._update(ctx)
 
@@ -84,11 +154,7 @@ class ArucoGateCenter(CarState):
         remember_gates(ctx, view)
         gate = select_gate(view, self._ids)
         if gate is not None and abs(gate.heading) < math.radians(80):
-            known = ctx.vars.get(GATE_VAR)
-            self._gate = gate_to_odometry(car, gate)
-            if isinstance(known, dict) and "approach_heading" in known:
-                self._gate["approach_heading"] = known["approach_heading"]
-            ctx.vars[GATE_VAR] = self._gate
+            self._gate = update_gate_var(ctx, gate)
 
     def tick(self, ctx: Context) -> None:
         car = ctx.car
@@ -113,8 +179,14 @@ class ArucoGateCenter(CarState):
                 self.finish()
                 mark_passed(ctx, self._ids)
             elif -along <= p.min_distance:  # type: ignore[attr-defined]
-                self.finish("close")
-                mark_passed(ctx, self._ids)
+                # where the car would cross the gate line driving straight on
+                at_line = lateral + (-along) * math.tan(max(-1.2, min(1.2, err)))
+                width = gate.get("width")
+                if p.clearance > 0 and width and abs(at_line) > width / 2 - p.clearance:  # type: ignore[attr-defined]
+                    self.finish("wide")
+                else:
+                    self.finish("close")
+                    mark_passed(ctx, self._ids)
         # pure pursuit towards a point on the centre line, lookahead ahead of the car's projection on it
         a = along + p.lookahead  # type: ignore[attr-defined]
         cx, cy = gate["x"] + ux * a, gate["y"] + uy * a

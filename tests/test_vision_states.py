@@ -200,10 +200,65 @@ def test_gate_found_keeps_the_handed_point_inside_the_walls() -> None:
     m = load([{"id": "look", "type": "Idle"}, {"id": "go", "type": "ApproachPoint"}],
              [{"type": "ArucoGateFound", "from": "look", "to": "go", "frames": 1}], car)
     m.start()
-    g = gate_seen_from(car, (2.2, 0.4), math.radians(-25))  # its point 1 m before lies 0.82 m to the left
+    g = gate_seen_from(car, (2.2, 0.1), math.radians(-25))  # its point 1 m before lies 0.52 m to the left
     car.see([g.left, g.right], [g])
     m.tick()
     assert m.active_path == "go" and m.state("go")._ty == pytest.approx(0.5 - 0.35)
+
+
+def test_the_wall_clamp_never_moves_the_point_past_the_gate_centre() -> None:
+    """The side readings describe the walls beside the car: a car turned 20 degrees away from a gate 3 m ahead
+    sees its centre 1.5 m to the left while the left wall reads 0.9 m; the point before the gate is kept."""
+    car = FakeCar(left=0.9, right=1.0)
+    m = load([{"id": "look", "type": "Idle"}, {"id": "go", "type": "ApproachPoint"}],
+             [{"type": "ArucoGateFound", "from": "look", "to": "go", "frames": 1, "range": 4.0}], car)
+    m.start()
+    g = gate_seen_from(car, (3.0, 1.5), 0.0)
+    car.see([g.left, g.right], [g])
+    m.tick()
+    assert m.active_path == "go"
+    assert m.state("go")._tx == pytest.approx(2.0) and m.state("go")._ty == pytest.approx(1.5)
+
+
+def test_gates_seen_while_busy_are_remembered_and_driven_to_from_memory() -> None:
+    """The car's gate memory is fed on every frame, whatever state is active: a gate seen while the machine was
+    busy elsewhere (no camera transition active) is found from memory once it is out of view."""
+    car = FakeCar()
+    m = load([{"id": "busy", "type": "Idle"}, {"id": "look", "type": "Idle"},
+              {"id": "go", "type": "ApproachPoint"}],
+             [{"type": "Timeout", "from": "busy", "to": "look", "seconds": 0.05},
+              {"type": "ArucoGateFound", "from": "look", "to": "go", "range": 4.0, "memory": True}], car)
+    m.start()
+    g = gate_seen_from(car, (3.5, 0.3), 0.0, ids=(12, 13))
+    car.see([g.left, g.right], [g])
+    m.tick()
+    assert m.active_path == "busy" and "12,13" in car.gate_memory.gates
+    car.x = 0.5  # the car moved on (odometry); the camera lost the gate
+    for _ in range(8):
+        car.see()
+        m.tick()
+    assert m.active_path == "go"
+    assert m.ctx.vars["gates_seen"]["12,13"]["width"] == pytest.approx(0.7)
+    assert m.state("go")._tx == pytest.approx(2.5) and m.state("go")._ty == pytest.approx(0.3)
+
+
+@pytest.mark.parametrize("y0, outcome", [(0.05, "close"), (0.3, "wide"), (-0.3, "wide")])
+def test_gate_center_near_the_gate_finishes_wide_when_driving_on_would_hit_a_post(y0: float, outcome: str) -> None:
+    car = FakeCar()
+    car.y = y0
+    m = load([{"id": "find", "type": "Idle"}, {"id": "center", "type": "ArucoGateCenter"},
+              {"id": "back", "type": "Final", "outcome": "backed"}, {"id": "on", "type": "Final"}],
+             [{"type": "ArucoGateFound", "from": "find", "to": "center", "frames": 1},
+              {"type": "Finished", "from": "center", "to": "back", "outcome": "wide"},
+              {"type": "Finished", "from": "center", "to": "on"}], car)
+    m.start()
+    g = gate_seen_from(car, (0.38, 0.0), 0.0)  # 0.7 m wide: the posts 0.35 m either side of the centre line
+    car.see([g.left, g.right], [g])
+    m.tick()
+    m.tick()
+    m.tick()
+    assert m.outcome == ("backed" if outcome == "wide" else "succeeded")
+    assert (m.ctx.vars.get("gates_passed") == [[3, 4]]) == (outcome == "close")  # a wide gate is not passed yet
 
 
 def test_approach_point_without_a_point_or_a_handed_target_is_missed() -> None:
@@ -213,3 +268,34 @@ def test_approach_point_without_a_point_or_a_handed_target_is_missed() -> None:
     m.start()
     m.tick()
     assert m.outcome == "missed" and car.speed_command == 0.0
+
+
+def test_gate_approach_refines_the_point_as_the_gate_comes_nearer() -> None:
+    """A gate first seen with its heading 12 degrees off: ArucoGateApproach moves its point with each new frame
+    while the point is still `refine` m ahead, and hands the fresh pose on (`gate`); ApproachPoint would not."""
+    car = FakeCar(left=3.0, right=3.0)
+    m = load([{"id": "look", "type": "Idle"}, {"id": "go", "type": "ArucoGateApproach", "speed": 0.5},
+              {"id": "there", "type": "Final"}],
+             [{"type": "ArucoGateFound", "from": "look", "to": "go", "frames": 1, "range": 4.5},
+              {"type": "Finished", "from": "go", "to": "there"}], car)
+    m.start()
+    center, true_heading = (4.0, 0.3), 0.0
+    rough = gate_seen_from(car, center, math.radians(12))  # the far sighting's heading error
+    car.see([rough.left, rough.right], [rough])
+    m.tick()
+    assert m.active_path == "go"
+    first = (m.state("go")._tx, m.state("go")._ty)
+    assert first[1] == pytest.approx(0.3 - math.sin(math.radians(12)), abs=1e-6)
+    for k in range(1500):
+        if k % 4 == 0 and m.active_path == "go":
+            g = gate_seen_from(car, center, true_heading)
+            if all(d.position[0] > 0.3 and abs(d.bearing) < math.radians(28) for d in (g.left, g.right)):
+                car.see([g.left, g.right], [g])
+        m.tick()
+        move(car)
+        if m.finished:
+            break
+    assert m.finished
+    # it arrived at the point 1 m before the gate as the nearer frames put it, not at the first, rough one
+    assert car.x == pytest.approx(3.0, abs=0.2) and car.y == pytest.approx(0.3, abs=0.15)
+    assert m.ctx.vars["gate"]["heading"] == pytest.approx(0.0, abs=1e-6)

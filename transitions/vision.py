@@ -28,16 +28,21 @@ REMEMBER_RANGE = 6.0
 
 def gate_to_odometry(car: Any, gate: Any) -> dict[str, Any]:
     """A gate seen in the car frame as a blackboard entry in the odometry frame: ids, centre x/y (m), heading (rad)."""
-    x, y, th = car.pose()
-    c, s = math.cos(th), math.sin(th)
-    gx, gy = gate.center
-    return {"ids": [int(gate.ids[0]), int(gate.ids[1])], "x": x + c * gx - s * gy, "y": y + s * gx + c * gy,
-            "heading": th + gate.heading}
+    from fsm.sim.io import gate_in_odometry
+
+    return gate_in_odometry(car.pose(), gate)
 
 
 def remember_gates(ctx: Any, view: Any) -> None:
-    """Keep the latest pose (odometry frame) of every gate in a camera view on the blackboard (`gates_seen`), so
-    that a gate seen while the car was busy with another one can be driven to when it is out of view."""
+    """Keep the latest pose (odometry frame) of every gate seen on the blackboard (`gates_seen`), so that a gate
+    seen while the car was busy with another one can be driven to when it is out of view. A car with a
+    ``gate_memory`` (fed on every camera frame, whatever state is active) is copied; otherwise the gates of this
+    view are added."""
+    memory = getattr(ctx.car, "gate_memory", None)
+    if memory is not None:
+        if memory.gates and ctx.vars.get(SEEN_VAR) != memory.gates:
+            ctx.vars[SEEN_VAR] = {key: dict(entry) for key, entry in memory.gates.items()}
+        return
     if view is None or not view.gates:
         return
     seen = ctx.vars.setdefault(SEEN_VAR, {})
@@ -63,7 +68,7 @@ def was_passed(ctx: Any, ids: Any) -> bool:
 class RememberedGate:
     """A gate from the blackboard (`gates_seen`) in the car frame: what ArucoGateFound hands on, like a seen Gate."""
 
-    __slots__ = ("ids", "center", "heading")
+    __slots__ = ("ids", "center", "heading", "width")
 
     def __init__(self, car: Any, entry: dict[str, Any]) -> None:
         x, y, th = car.pose()
@@ -73,6 +78,7 @@ class RememberedGate:
         self.center = (c * dx + s * dy, -s * dx + c * dy)
         h = entry["heading"] - th
         self.heading = math.atan2(math.sin(h), math.cos(h))
+        self.width = float(entry.get("width") or 0.0)  # 0: not measured (an entry written by an older car)
 
     @property
     def distance(self) -> float:
@@ -104,18 +110,41 @@ def select_gate(view: Any, ids: tuple[int, int] | None, skip: Any = None) -> Any
     return Gate.from_markers(left, right)
 
 
-def clamp_to_walls(car: Any, y: float, margin: float) -> float:
-    """A lateral offset (car frame, left positive) kept ``margin`` inside the walls the side sensors read now (the
-    car drives along them); readings at the sensor's maximum are no wall."""
+def clamp_to_walls(car: Any, x: float, y: float, margin: float, keep: tuple[float, float] | None = None,
+                   corridor: float = 0.0) -> tuple[float, float]:
+    """A point (car frame, x ahead, y left) kept ``margin`` inside the walls the side sensors read now; readings
+    at the sensor's maximum are no wall. ``corridor``: the walls' direction in the car frame (rad; 0: the car
+    drives along them): the readings are turned into distances square to the walls, and the point is moved
+    square to them. ``keep``: a point known to lie in the corridor (a gate's centre): the point is never moved
+    past it across the corridor (when the walls' direction is only assumed, the readings describe the walls
+    beside the car, not metres ahead)."""
     if margin <= 0:
-        return y
-    top = max(0.0, car.left - margin) if car.left < 2.9 else None
-    bottom = -max(0.0, car.right - margin) if car.right < 2.9 else None
-    if top is not None and y > top:
-        y = top
-    if bottom is not None and y < bottom:
-        y = bottom
-    return y
+        return x, y
+    c, s = math.cos(corridor), math.sin(corridor)
+    u, v = x * c + y * s, -x * s + y * c  # along and across the corridor
+    kv = None if keep is None else -keep[0] * s + keep[1] * c
+    square = abs(c)
+    top = max(0.0, car.left * square - margin) if car.left < 2.9 else None
+    bottom = -max(0.0, car.right * square - margin) if car.right < 2.9 else None
+    if top is not None and v > top:
+        v = top if kv is None else max(top, min(v, kv))
+    if bottom is not None and v < bottom:
+        v = bottom if kv is None else min(bottom, max(v, kv))
+    return u * c - v * s, u * s + v * c
+
+
+def approach_point(car: Any, gate: Any, before: float, margin: float, snap: float | None) -> tuple[float, float]:
+    """The point ``before`` m in front of ``gate`` (car frame), kept ``margin`` inside the walls the side sensors
+    read (:func:`clamp_to_walls`); ``snap``: the walls run along multiples of this many degrees from the start
+    heading (odometry), else along the car."""
+    px, py = gate.point_before(before)
+    corridor = 0.0
+    if snap is not None:
+        th = car.pose()[2]
+        step = math.radians(snap)
+        corridor = round(th / step) * step - th
+        corridor = math.atan2(math.sin(corridor), math.cos(corridor))
+    return clamp_to_walls(car, px, py, margin, keep=gate.center, corridor=corridor)
 
 
 class _CameraTransition(Transition):
@@ -145,7 +174,7 @@ class _CameraTransition(Transition):
 
 @register_transition
 class ArucoGateFound(_CameraTransition):
-    """Fires when the camera sees a gate (two markers; with `ids`, that gate) whose centre is within `range` and which the car faces (|heading| <= `max_angle`), in `frames` frames in a row. Hands the target state (ApproachPoint) the point `before` metres in front of the gate, and leaves the gate on the blackboard (`gate`, odometry frame) for ArucoGateCenter. With `memory`, gates already passed (ArucoGateCenter marks them) are never chosen again, and a gate seen earlier but now out of the camera's view (e.g. while the car was busy with the gate before it) fires at once when it lies ahead within range, its approach point at least `before` ahead."""
+    """Fires when the camera sees a gate (two markers; with `ids`, that gate) whose centre is within `range` and which the car faces (|heading| <= `max_angle`), in `frames` frames in a row. Hands the target state (ApproachPoint) the point `before` metres in front of the gate, and leaves the gate on the blackboard (`gate`, odometry frame) for ArucoGateCenter. With `memory`, gates already passed (ArucoGateCenter marks them) are never chosen again, and a gate seen earlier but now out of the camera's view (e.g. while the car was busy with the gate before it) fires at once when it lies ahead within range, its centre at least `before` (and 0.5 m) ahead. Gates are remembered from every camera frame (the car's `gate_memory`), whatever state is active."""
 
     __slots__ = ("_gate",)
 
@@ -164,7 +193,13 @@ class ArucoGateFound(_CameraTransition):
         wall_margin: float = Field(
             default=0.35, ge=0, le=3,
             description="Keep the handed point at least this far from the walls the side ultrasonic sensors see "
-                        "(a gate turned towards a wall would put it into the wall), m; 0: off.")
+                        "(a gate turned towards a wall would put it into the wall), but never past the gate's centre (the "
+                        "readings describe the walls beside the car, not metres ahead), m; 0: off.")
+        snap: float | None = Field(
+            default=None, gt=0, le=180,
+            description="The walls run along a multiple of this many degrees from the start heading (90 in a "
+                        "rectangular loop): the wall margin is then kept square to them, also when the car is turned "
+                        "(default: the car is taken to drive along the walls).")
         memory: bool = Field(
             default=False,
             description="Remember gates (odometry): skip gates already passed, and fire at once on a gate seen "
@@ -202,7 +237,8 @@ class ArucoGateFound(_CameraTransition):
                 and abs(gate.heading) <= math.radians(p.max_angle))  # type: ignore[attr-defined]
 
     def _remembered(self, ctx: Context) -> Any | None:
-        """The nearest gate seen earlier, not passed, ahead within range, whose approach point lies ahead."""
+        """The nearest gate seen earlier, not passed, within range and at least `before` (0.5 m at least) ahead:
+        nearer than its approach point the car may still line up with it (ArucoGateCenter backs off when not)."""
         p = self.params
         best = None
         for entry in ctx.vars.get(SEEN_VAR, {}).values():
@@ -210,8 +246,7 @@ class ArucoGateFound(_CameraTransition):
                                                  and list(p.ids) != list(entry["ids"])):  # type: ignore[attr-defined]
                 continue
             gate = RememberedGate(ctx.car, entry)
-            if (self._usable(gate) and gate.center[0] > 0
-                    and gate.point_before(p.before)[0] >= p.before):  # type: ignore[attr-defined]
+            if self._usable(gate) and gate.center[0] >= max(p.before, 0.5):  # type: ignore[attr-defined]
                 if best is None or gate.distance < best.distance:
                     best = gate
         return best
@@ -235,8 +270,8 @@ class ArucoGateFound(_CameraTransition):
         ctx.vars[GATE_VAR] = found
         setter = getattr(self.target, "set_target", None)
         if setter is not None and getattr(self.target, "accepts_target", False):
-            px, py = gate.point_before(self.params.before)  # type: ignore[attr-defined]
-            py = clamp_to_walls(ctx.car, py, self.params.wall_margin)  # type: ignore[attr-defined]
+            p = self.params
+            px, py = approach_point(ctx.car, gate, p.before, p.wall_margin, p.snap)  # type: ignore[attr-defined]
             setter(ctx, px, py, gate.heading)
 
 

@@ -17,7 +17,7 @@ from typing import Any
 
 import pymunk
 
-from .io import NO_VIEW, CameraView
+from .io import NO_VIEW, CameraView, GateMemory
 from .world import World, world_markers
 
 try:  # pymunk's own cffi binding: the same C calls as Space.*_query_*, without building result objects
@@ -188,8 +188,10 @@ class SimCar:
         self._cam: Any = None
         self.camera_frames = self.rendered_frames = 0
         cam = p.camera
+        self.gate_memory: GateMemory | None = None
         if cam.enabled:
             self._view = NO_VIEW
+            self.gate_memory = GateMemory()
             self.camera_every = max(1, round(1.0 / (cam.rate * PHYSICS_DT)))
             self._markers = world_markers(world)
             self._cam_seed = seed
@@ -401,6 +403,8 @@ class SimCar:
             gates = tuple(find_gates(detections))
         self._frame = frame
         self._view = CameraView(t, self.camera_frames, tuple(detections), gates)
+        if gates:
+            self.gate_memory.update(self.pose(), gates)  # type: ignore[union-attr]
 
     def _begin(self, arbiter: Any, space: Any, data: Any) -> None:
         if self._touching == 0:

@@ -28,6 +28,9 @@ class FakeCar:
         self.commands: list[tuple[str, float]] = []
         self.view: Any = None
         self._frames = 0
+        from .io import GateMemory
+
+        self.gate_memory = GateMemory()
 
     def see(self, detections: Any = (), gates: Any = (), time: float | None = None) -> None:
         """Script the camera: its next frame shows these detections and gates (a camera appears on first use)."""
@@ -36,6 +39,7 @@ class FakeCar:
         self._frames += 1
         self.view = CameraView(self._frames * 0.05 if time is None else time, self._frames, tuple(detections),
                                tuple(gates))
+        self.gate_memory.update(self.pose(), self.view.gates)
 
     def new_sample(self, **readings: float) -> None:
         """New ultrasonic readings (only the ones given change) and a new sample number."""

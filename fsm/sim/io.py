@@ -5,10 +5,15 @@ and a hardware or ROS bridge implement it without inheriting from anything. Stdl
 
 Conventions: metres, seconds, radians inside the code; steering is normalised to [-1, 1] with
 positive = left (counter-clockwise); ultrasonic readings are the latest sample (held between samples).
+
+A car with a camera may also keep a :class:`GateMemory` as ``gate_memory`` (the simulator and the test double
+do): where each gate was last seen, in the odometry frame, updated on every camera frame whatever state is
+active. ``ArucoGateFound`` with ``memory`` drives to a gate from it when the gate is out of view.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, Literal, Protocol, runtime_checkable
 
@@ -39,6 +44,40 @@ class CameraView:
 
 #: The view of a camera that has not taken a frame yet.
 NO_VIEW = CameraView(0.0, 0)
+
+
+def gate_in_odometry(pose: tuple[float, float, float], gate: Any) -> dict[str, Any]:
+    """A gate seen in the car frame (centre, heading; :class:`fsm.vision.Gate`) with the car at ``pose``
+    (odometry) as an entry in the odometry frame: ids, centre ``x``/``y`` (m), ``heading`` (rad), ``width`` (m)."""
+    x, y, th = pose
+    c, s = math.cos(th), math.sin(th)
+    gx, gy = gate.center
+    return {"ids": [int(gate.ids[0]), int(gate.ids[1])], "x": x + c * gx - s * gy, "y": y + s * gx + c * gy,
+            "heading": th + gate.heading, "width": float(getattr(gate, "width", 0.0) or 0.0)}
+
+
+class GateMemory:
+    """Where each gate was last seen, in the odometry frame: a small landmark memory beside the camera.
+
+    The car's interface feeds it every frame (:meth:`update` with the odometry pose at the frame), so a gate seen
+    while the behaviour was busy with another one (approaching, lining up, driving through) is known when the
+    camera has lost it. Sightings farther than ``max_range`` m or seen more than ``max_angle`` rad askew are too
+    rough to drive to and are not kept. ``gates`` maps "left,right" ids to :func:`gate_in_odometry` entries;
+    ``version`` counts the updates that changed it."""
+
+    __slots__ = ("gates", "version", "max_range", "max_angle")
+
+    def __init__(self, max_range: float = 6.0, max_angle: float = math.radians(80)) -> None:
+        self.gates: dict[str, dict[str, Any]] = {}
+        self.version = 0
+        self.max_range = max_range
+        self.max_angle = max_angle
+
+    def update(self, pose: tuple[float, float, float], gates: Any) -> None:
+        for g in gates:
+            if g.distance <= self.max_range and abs(g.heading) < self.max_angle:
+                self.gates[f"{int(g.ids[0])},{int(g.ids[1])}"] = gate_in_odometry(pose, g)
+                self.version += 1
 
 
 @runtime_checkable

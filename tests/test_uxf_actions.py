@@ -76,6 +76,7 @@ def test_entry_and_exit_lines() -> None:
     ("go [n > 1 / n = 1", "'[' without ']'"),
     ("go / n = 1; n = 2", "assigns 'n' twice"),
     ("type=Timeout\nseconds=1\ngo [x]", "'go [x]' is not key=value"),
+    ("outcome=wide", "'outcome=wide' looks like a parameter, but the relation has no 'type=' line"),
 ])
 def test_bad_labels_are_located_errors(label: str, fragment: str) -> None:
     probs = errors(INIT, START, A, B, relation(A_TO_B, f"lt=->\n{label}"))

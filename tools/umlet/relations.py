@@ -357,6 +357,13 @@ class Relations:
             params = self.scene.coerce_kv("transition", typ, params, label.kv_keys)
             tr = {"type": typ, "from": "", "to": "", **params}
         elif event:
+            key, eq, value = event.partition("=")
+            if eq and key.strip().isidentifier() and value.strip():
+                self.problem(elem, f"label: {event!r} looks like a parameter, but the relation has no 'type=' line "
+                                   "(a signal's name has no '=')",
+                             hint=f"add the transition type above it, e.g. 'type=Finished' then '{event.strip()}' "
+                                  "(see `fsmctl types`)")
+                return
             tr = {"type": "Signal", "from": "", "to": "", "signal": event, "label": label.text}
         else:
             tr = {"type": "_completion", "from": "", "to": ""}

@@ -269,7 +269,6 @@ class ApproachPoint(CarState):
         self._handed = (x, y)
 
     def on_enter(self, ctx: Context) -> None:
-        x, y, th = ctx.car.pose()
         p = self.params
         if self._handed is not None:
             px, py = self._handed
@@ -279,6 +278,11 @@ class ApproachPoint(CarState):
         else:  # nothing handed and no point given: nowhere to go
             self._tx = math.nan
             return
+        self.aim(ctx, px, py)
+
+    def aim(self, ctx: Context, px: float, py: float) -> None:
+        """Drive to the point ``px`` ahead and ``py`` to the left of the car now (kept in the odometry frame)."""
+        x, y, th = ctx.car.pose()
         c, s = math.cos(th), math.sin(th)
         self._tx = x + c * px - s * py
         self._ty = y + s * px + c * py

@@ -10,8 +10,8 @@ from pydantic import Field
 
 from fsm.params import StateParams
 from fsm.registry import register_state
-from fsm.transitions.vision import (GATE_VAR, approach_point, gate_to_odometry, mark_passed, remember_gates,
-                                    select_gate)
+from fsm.transitions.vision import (APPROACH_BEFORE, GATE_VAR, WALL_MARGIN, approach_point, gate_to_odometry,
+                                    mark_passed, remember_gates, select_gate, snap_heading)
 
 from .driving import ApproachParams, ApproachPoint, CarState, _clamp
 
@@ -31,10 +31,10 @@ def update_gate_var(ctx: Any, gate: Any) -> dict[str, Any]:
 
 
 class GateApproachParams(ApproachParams):
-    before: float = Field(default=1.0, ge=0, le=5,
+    before: float = Field(default=APPROACH_BEFORE, ge=0, le=5,
                           description="The point to reach lies this far in front of the gate on its centre line, m "
                                       "(as ArucoGateFound's `before`).")
-    wall_margin: float = Field(default=0.35, ge=0, le=3,
+    wall_margin: float = Field(default=WALL_MARGIN, ge=0, le=3,
                                description="Keep the point this far from the walls the side sensors see (as "
                                            "ArucoGateFound's), m; 0: off.")
     snap: float | None = Field(default=None, gt=0, le=180,
@@ -74,9 +74,7 @@ class ArucoGateApproach(ApproachPoint):
                 p = self.params
                 px, py = approach_point(car, gate, p.before, p.wall_margin, p.snap)  # type: ignore[attr-defined]
                 if px >= p.refine:  # type: ignore[attr-defined]
-                    x, y, th = car.pose()
-                    c, s = math.cos(th), math.sin(th)
-                    self._tx, self._ty = x + c * px - s * py, y + s * px + c * py
+                    self.aim(ctx, px, py)
                     update_gate_var(ctx, gate)
         super().tick(ctx)
 
@@ -230,8 +228,7 @@ class AlignHeading(CarState):
         base = gate.get("approach_heading") if isinstance(gate, dict) else None
         snap = self.params.snap  # type: ignore[attr-defined]
         if base is not None and snap is not None:
-            step = math.radians(snap)
-            base = round(base / step) * step
+            base = snap_heading(base, snap)
         self._target = None if base is None else base + math.radians(self.params.offset)  # type: ignore[attr-defined]
 
     def tick(self, ctx: Context) -> None:

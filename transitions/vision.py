@@ -22,13 +22,15 @@ GATE_VAR = "gate"
 SEEN_VAR = "gates_seen"
 #: Gates lined up with and driven through (ArucoGateCenter): a list of [left, right] ids.
 PASSED_VAR = "gates_passed"
-#: Sightings farther than this are not remembered (their pose is too rough to drive to), m.
-REMEMBER_RANGE = 6.0
+#: Defaults of the point in front of a gate, shared by ArucoGateFound and ArucoGateApproach: its distance before
+#: the gate and its margin to the walls, m.
+APPROACH_BEFORE = 1.0
+WALL_MARGIN = 0.35
 
 
 def gate_to_odometry(car: Any, gate: Any) -> dict[str, Any]:
     """A gate seen in the car frame as a blackboard entry in the odometry frame: ids, centre x/y (m), heading (rad)."""
-    from fsm.sim.io import gate_in_odometry
+    from fsm.sim.io import gate_in_odometry  # here, not at the top: loading a machine imports no fsm.sim
 
     return gate_in_odometry(car.pose(), gate)
 
@@ -37,18 +39,16 @@ def remember_gates(ctx: Any, view: Any) -> None:
     """Keep the latest pose (odometry frame) of every gate seen on the blackboard (`gates_seen`), so that a gate
     seen while the car was busy with another one can be driven to when it is out of view. A car with a
     ``gate_memory`` (fed on every camera frame, whatever state is active) is copied; otherwise the gates of this
-    view are added."""
+    view are added, kept by the same rule (:class:`~fsm.sim.io.GateMemory`)."""
     memory = getattr(ctx.car, "gate_memory", None)
     if memory is not None:
         if memory.gates and ctx.vars.get(SEEN_VAR) != memory.gates:
             ctx.vars[SEEN_VAR] = {key: dict(entry) for key, entry in memory.gates.items()}
         return
-    if view is None or not view.gates:
-        return
-    seen = ctx.vars.setdefault(SEEN_VAR, {})
-    for g in view.gates:
-        if g.distance <= REMEMBER_RANGE and abs(g.heading) < math.radians(80):
-            seen[f"{int(g.ids[0])},{int(g.ids[1])}"] = gate_to_odometry(ctx.car, g)
+    if view is not None and view.gates:
+        from fsm.sim.io import GateMemory  # as in gate_to_odometry
+
+        GateMemory(ctx.vars.setdefault(SEEN_VAR, {})).update(ctx.car.pose(), view.gates)
 
 
 def mark_passed(ctx: Any, ids: Any) -> None:
@@ -133,6 +133,13 @@ def clamp_to_walls(car: Any, x: float, y: float, margin: float, keep: tuple[floa
     return u * c - v * s, u * s + v * c
 
 
+def snap_heading(heading: float, snap: float) -> float:
+    """``heading`` (rad, odometry) rounded to a multiple of ``snap`` degrees from the start heading: the corridor's
+    direction in a loop whose corridors all are (90 in a rectangular one)."""
+    step = math.radians(snap)
+    return round(heading / step) * step
+
+
 def approach_point(car: Any, gate: Any, before: float, margin: float, snap: float | None) -> tuple[float, float]:
     """The point ``before`` m in front of ``gate`` (car frame), kept ``margin`` inside the walls the side sensors
     read (:func:`clamp_to_walls`); ``snap``: the walls run along multiples of this many degrees from the start
@@ -141,8 +148,7 @@ def approach_point(car: Any, gate: Any, before: float, margin: float, snap: floa
     corridor = 0.0
     if snap is not None:
         th = car.pose()[2]
-        step = math.radians(snap)
-        corridor = round(th / step) * step - th
+        corridor = snap_heading(th, snap) - th
         corridor = math.atan2(math.sin(corridor), math.cos(corridor))
     return clamp_to_walls(car, px, py, margin, keep=gate.center, corridor=corridor)
 
@@ -186,12 +192,12 @@ class ArucoGateFound(_CameraTransition):
         min_range: float = Field(default=0.0, ge=0, le=20, description="... and at least this far, m.")
         max_angle: float = Field(default=60.0, gt=0, le=90,
                                  description="Only gates the car faces: |gate heading| at most this, degrees.")
-        before: float = Field(default=1.0, ge=0, le=5,
+        before: float = Field(default=APPROACH_BEFORE, ge=0, le=5,
                               description="Distance of the approach point handed to the target, in front of the "
                                           "gate on its centre line, m.")
         frames: int = Field(default=2, ge=1, le=100, description="Consecutive camera frames the gate must be seen in.")
         wall_margin: float = Field(
-            default=0.35, ge=0, le=3,
+            default=WALL_MARGIN, ge=0, le=3,
             description="Keep the handed point at least this far from the walls the side ultrasonic sensors see "
                         "(a gate turned towards a wall would put it into the wall), but never past the gate's centre (the "
                         "readings describe the walls beside the car, not metres ahead), m; 0: off.")

@@ -62,14 +62,14 @@ class GateMemory:
     The car's interface feeds it every frame (:meth:`update` with the odometry pose at the frame), so a gate seen
     while the behaviour was busy with another one (approaching, lining up, driving through) is known when the
     camera has lost it. Sightings farther than ``max_range`` m or seen more than ``max_angle`` rad askew are too
-    rough to drive to and are not kept. ``gates`` maps "left,right" ids to :func:`gate_in_odometry` entries;
-    ``version`` counts the updates that changed it."""
+    rough to drive to and are not kept. ``gates`` maps "left,right" ids to :func:`gate_in_odometry` entries (a
+    dict given to the constructor is filled in place)."""
 
-    __slots__ = ("gates", "version", "max_range", "max_angle")
+    __slots__ = ("gates", "max_range", "max_angle")
 
-    def __init__(self, max_range: float = 6.0, max_angle: float = math.radians(80)) -> None:
-        self.gates: dict[str, dict[str, Any]] = {}
-        self.version = 0
+    def __init__(self, gates: dict[str, dict[str, Any]] | None = None, max_range: float = 6.0,
+                 max_angle: float = math.radians(80)) -> None:
+        self.gates: dict[str, dict[str, Any]] = {} if gates is None else gates
         self.max_range = max_range
         self.max_angle = max_angle
 
@@ -77,7 +77,6 @@ class GateMemory:
         for g in gates:
             if g.distance <= self.max_range and abs(g.heading) < self.max_angle:
                 self.gates[f"{int(g.ids[0])},{int(g.ids[1])}"] = gate_in_odometry(pose, g)
-                self.version += 1
 
 
 @runtime_checkable

@@ -495,7 +495,9 @@ def _fused(op: str, node: Node, kinds: dict[str, str]) -> Fn | None:
 
 def on_context(fn: Fn) -> Callable[[Any], Any]:
     """``fn`` (a compiled expression over the variables) as a function of the context: ``ctx -> fn(ctx.vars)``,
-    one closure for the fused ``var OP constant`` form (the common guard), so a guard costs one call."""
+    one closure for the fused ``var OP constant`` form (the common guard), so a guard costs one call. A fused
+    comparison also carries ``test = (variable, operator, constant, read)``, which ``Region.step`` runs inline
+    without calling the closure (``read(vars)`` gives the value, or the error, when it is not a number)."""
     shape = getattr(fn, "shape", None)
     if shape is None:
         return lambda ctx: fn(ctx.vars)
@@ -506,13 +508,22 @@ def on_context(fn: Fn) -> Callable[[Any], Any]:
             v = ctx.vars
             x = v.get(name)
             return f(const, x if type(x) in numeric else read(v))
+        if f in _FLIPPED:
+            guard_swapped.test = (name, _FLIPPED[f], const, read)  # type: ignore[attr-defined]
         return guard_swapped
 
     def guard(ctx: Any) -> Any:
         v = ctx.vars
         x = v.get(name)
         return f(x if type(x) in numeric else read(v), const)
+    if f in _FLIPPED:
+        guard.test = (name, f, const, read)  # type: ignore[attr-defined]
     return guard
+
+
+#: ``const OP var`` is ``var FLIPPED[OP] const``: a guard's test is always read as ``var OP const``.
+_FLIPPED = {operator.lt: operator.gt, operator.le: operator.ge, operator.gt: operator.lt, operator.ge: operator.le,
+            operator.eq: operator.eq, operator.ne: operator.ne}
 
 
 def _div(a: Any, b: Any) -> Any:
@@ -606,6 +617,7 @@ def assigner(targets: list[tuple[str, Compiled]]) -> Callable[[Any], None]:
                 v = ctx.vars
                 x = v.get(var)
                 v[name] = f(x if type(x) in numeric else read(v), const)
+            run1f.count = (name, var, f, const, read)  # type: ignore[attr-defined]  # run inline by Region.fire
             return run1f
 
         def run1(ctx: Any) -> None:

@@ -12,6 +12,9 @@ if TYPE_CHECKING:
     from .transition import Transition
 
 
+_NUMERIC = (int, float)
+
+
 class Region:
     """A machine level. The root machine has one; a composite state owns one (``FSMState``) or several
     (``Parallel``).
@@ -86,10 +89,23 @@ class Region:
                     return
                 phase = "check"
             for tr in state.regular:
-                if tr.always or tr._check(ctx):
+                if tr.always:
                     phase = "firing"
                     self.fire(state, tr, ctx)
                     return
+                test = tr.test
+                if test is None:
+                    if not tr._check(ctx):
+                        continue
+                else:  # a guard ``var OP constant`` and nothing else, inline (see Transition.test)
+                    name, op, const, read = test
+                    v = ctx.vars
+                    x = v[name] if name in v else read(v)
+                    if not op(x if type(x) in _NUMERIC else read(v), const):
+                        continue
+                phase = "firing"
+                self.fire(state, tr, ctx)
+                return
         except StateRuntimeError:
             raise
         except Exception as exc:
@@ -115,9 +131,16 @@ class Region:
         """Leave ``state`` by ``tr``: exit innermost first, the transition's action, enter the target."""
         if state._exit is not None:
             state._exit(ctx)
-        if tr._action is not None:
+        count = tr.count
+        if count is not None or tr._action is not None:
             try:
-                tr._action(ctx)
+                if count is not None:  # a set ``target = var OP constant`` and nothing else, inline
+                    to, name, op, const, read = count
+                    v = ctx.vars
+                    x = v[name] if name in v else read(v)
+                    v[to] = op(x if type(x) in _NUMERIC else read(v), const)
+                else:
+                    tr._action(ctx)
             except Exception as exc:
                 raise ctx.machine._runtime_error(state, f"action of transition {tr.describe()}", exc) from exc  # type: ignore[union-attr]
         target = tr.target

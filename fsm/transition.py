@@ -24,7 +24,7 @@ class Transition:
     """
 
     __slots__ = ("params", "source", "target", "index", "always", "conditions", "_check", "_action",
-                 "_source_hook", "_has_source_hook")
+                 "_source_hook", "_has_source_hook", "test", "count")
 
     Params: ClassVar[type[TransitionParams]] = TransitionParams
     #: Registered type name; set by the registry.
@@ -56,6 +56,12 @@ class Transition:
         self._action: Any = self.action if cls.action is not Transition.action else None
         self._has_source_hook = cls.on_source_enter is not Transition.on_source_enter
         self._source_hook: Any = self.on_source_enter if self._has_source_hook else None
+        #: ``(variable, operator, constant, read)`` when the whole check is a guard ``var OP constant``: the
+        #: region runs it inline (a Python call costs as much as the comparison); ``_check`` stays equivalent.
+        self.test: tuple[Any, ...] | None = None
+        #: ``(target, variable, operator, constant, read)`` when the whole action is a ``set`` ``target = var OP
+        #: constant`` (a counter): run inline by ``Region.fire``; ``_action`` stays equivalent.
+        self.count: tuple[Any, ...] | None = None
 
     def attach(self, guard: Any = None, assign: Any = None, conditions: dict[str, Any] | None = None) -> None:
         """Add what the document gives on top of the type: ``guard(ctx) -> bool`` (checked first), ``assign(ctx)``
@@ -77,6 +83,7 @@ class Transition:
             check = self.check
             if self.unconditional:
                 self._check = guard
+                self.test = getattr(guard, "test", None)
             else:
                 self._check = lambda ctx: guard(ctx) and check(ctx)
             self.always = False
@@ -84,11 +91,21 @@ class Transition:
             action = self._action
             if action is None:
                 self._action = assign
+                self.count = getattr(assign, "count", None)
             else:
-                def both(ctx: Any) -> None:
-                    action(ctx)
-                    assign(ctx)
-                self._action = both
+                self.then(assign)
+
+    def then(self, run: Any) -> None:
+        """Run ``run(ctx)`` while firing, after what already runs there (the type's action, the ``set``)."""
+        action = self._action
+        if action is None:
+            self._action = run
+        else:
+            def both(ctx: Any) -> None:
+                action(ctx)
+                run(ctx)
+            self._action = both
+        self.count = None
 
     @classmethod
     def check_document(cls, params: TransitionParams, variables: dict[str, Any]) -> tuple[str, str] | None:

@@ -167,14 +167,7 @@ class Sequence(Composite):
 
 def _start_on(link: Any, seq: Sequence, region: Region) -> None:
     """Make the chain's link ``link`` start the non-blocking sequence in ``region`` when it fires."""
-    action = link._action
-
-    def start(ctx: Any) -> None:
-        if action is not None:
-            action(ctx)
-        seq.start_detached(region, ctx)
-
-    link._action = start
+    link.then(lambda ctx: seq.start_detached(region, ctx))
 
 
 @register_state

@@ -148,6 +148,40 @@ def test_machine_without_guards_pays_nothing() -> None:
     assert state._enter is None and state._exit is None and state.regular[0].always
 
 
+@pytest.mark.parametrize("op", ["<", "<=", ">", ">=", "==", "!="])
+def test_inline_guard_and_counter_agree_with_their_closures(op: str) -> None:
+    """A guard ``var OP constant`` on an ``Always`` and a ``set`` ``x = var OP constant`` run inline in the region
+    (Transition.test / .count); written either way round, they fire and count exactly as the closures would."""
+    for text in (f"n {op} 2", f"2 {op} n"):
+        for n in (1, 2, 3, 2.5, -7):
+            m = machine([{"id": "a", "type": "Idle"}, {"id": "b", "type": "Idle"}],
+                        [{"type": "Always", "from": "a", "to": "b", "guard": text, "set": {"k": "n * 3"}}], n=n, k=0)
+            tr = m.root.states["a"].regular[0]
+            assert tr.test is not None and tr.count is not None, "the inline paths are not taken"
+            m.run(max_ticks=1)
+            fires = bool(tr._check(m.ctx))
+            assert (m.active_path == "b") == fires, (text, n)
+            assert m.ctx.vars["k"] == (n * 3 if fires else 0), (text, n)
+
+
+def test_inline_guard_keeps_the_kind_check_and_an_added_action_ends_the_inline_counter() -> None:
+    from fsm.errors import StateRuntimeError
+
+    m = machine([{"id": "a", "type": "Idle"}, {"id": "b", "type": "Idle"}],
+                [{"type": "Always", "from": "a", "to": "b", "guard": "n >= 0", "set": {"k": "n + 1"}}], n=0, k=0)
+    m.ctx.vars["n"] = True  # a bool is no number, though Python would compare it
+    with pytest.raises(StateRuntimeError, match="holds True"):
+        m.run(max_ticks=1)
+    m = machine([{"id": "a", "type": "Idle"}, {"id": "b", "type": "Idle"}],
+                [{"type": "Always", "from": "a", "to": "b", "set": {"k": "n + 1"}}], n=0, k=0)
+    tr = m.root.states["a"].regular[0]
+    seen: list[int] = []
+    tr.then(lambda ctx: seen.append(ctx.vars["k"]))
+    assert tr.count is None
+    m.run(max_ticks=1)
+    assert seen == [1] and m.ctx.vars["k"] == 1
+
+
 # -- load-time errors -------------------------------------------------------------------------------------------
 BASE = {"initial": "a", "vars": {"n": 0, "on": False},
         "states": [{"id": "a", "type": "Idle"}, {"id": "b", "type": "Idle"}]}

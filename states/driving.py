@@ -30,6 +30,10 @@ if TYPE_CHECKING:
 
 #: Slack for comparing travelled distances (sums of floats), metres.
 EPS = 1e-9
+#: Wall following with ``max_angle``: the limit holds from this much before it (the steering servo lags), rad,
+#: and turns back with this gain (steering per radian beyond that point).
+ANGLE_MARGIN = math.radians(3.0)
+ANGLE_GAIN = 4.0
 
 
 def _clamp(x: float, lo: float = -1.0, hi: float = 1.0) -> float:
@@ -60,6 +64,11 @@ class WallParams(StateParams):
     p: float = Field(default=2.0, ge=0, le=1000, description="Proportional gain, steering per metre of error.")
     i: float = Field(default=0.2, ge=0, le=1000, description="Integral gain, steering per metre-second.")
     d: float = Field(default=1.5, ge=0, le=1000, description="Derivative gain, steering per metre/second.")
+    max_angle: float | None = Field(
+        default=None, gt=0, le=80,
+        description="Never turn more than this towards the wall from the heading on entry (odometry), degrees: a car "
+                    "that starts far from the wall approaches it at this angle instead of turning into it (facing "
+                    "the wall, the side sensor reads farther, not nearer). Default: no limit.")
 
 
 @register_state
@@ -72,7 +81,7 @@ class BasicFollowWall(CarState):
     """
 
     __slots__ = ("target", "wall_target", "wall_side", "_sign", "_esum", "_eold", "_sample", "_t", "_y",
-                 "_p", "_i", "_d", "_speed", "_sensor")
+                 "_p", "_i", "_d", "_speed", "_sensor", "_max_angle", "_heading")
     Params = WallParams
     #: Samples of this state count towards the wall-distance error on straights (the sim's metric).
     straight_metric: ClassVar[bool] = True
@@ -87,6 +96,9 @@ class BasicFollowWall(CarState):
         self._sensor = p.side  # type: ignore[attr-defined]
         self._p, self._i, self._d = p.p, p.i, p.d  # type: ignore[attr-defined]
         self._speed = p.speed  # type: ignore[attr-defined]
+        limit = p.max_angle  # type: ignore[attr-defined]
+        self._max_angle = math.radians(limit) if limit is not None else None
+        self._heading = 0.0
         self._esum = 0.0
         self._eold = 0.0
         self._sample = -1
@@ -108,6 +120,8 @@ class BasicFollowWall(CarState):
         self._t = ctx.now
         self._y = 0.0
         self.wall_target = self.target
+        if self._max_angle is not None:
+            self._heading = car.pose()[2]
         car.set_speed(self._speed)
 
     def measure(self, ctx: Context, reading: float) -> float:
@@ -121,11 +135,20 @@ class BasicFollowWall(CarState):
             dt = ctx.now - self._t
             self._t = ctx.now
             e = self.measure(ctx, getattr(car, self._sensor)) - self.target
+            limited = False
+            if self._max_angle is not None:
+                th = car.pose()[2] - self._heading
+                toward = self._sign * math.atan2(math.sin(th), math.cos(th))  # > 0: turned towards the wall
+                limited = toward > self._max_angle - ANGLE_MARGIN
             if dt > 0:
-                self._esum += e
+                if not limited:  # no wind-up while the angle limit holds the car back
+                    self._esum += e
                 self._y = self._p * e + self._esum * self._i * dt + self._d * (e - self._eold) / dt
             self._eold = e
-            car.set_steering(_clamp(self._sign * self._y))
+            steering = _clamp(self._sign * self._y)
+            if limited and self._sign * steering > 0:  # at the limit: turn no further towards the wall
+                steering = -self._sign * _clamp(ANGLE_GAIN * (toward - self._max_angle + ANGLE_MARGIN), 0.0, 1.0)
+            car.set_steering(steering)
         car.set_speed(self._speed)
 
     def on_exit(self, ctx: Context) -> None:

@@ -241,3 +241,29 @@ def test_an_exception_in_a_state_stops_the_car() -> None:
     assert err.value.path == "go/b" and err.value.tick == 81
     assert car.speed == 0.0 and car._cmd_speed == 0.0
     assert json.dumps(sim.metrics())  # metrics still available after the failure
+
+
+def test_wall_follower_far_from_its_wall_turns_into_it_unless_its_angle_is_limited() -> None:
+    """Started 1.4 m from the right wall with 0.45 m to keep, the plain PD saturates and turns the car round (facing
+    the wall, the side sensor reads farther, not nearer); with ``max_angle`` it approaches at that angle, settles
+    at the distance and drives on along the corridor."""
+    world = parse_world({"walls": [{"points": [[0, 0], [30, 0], [30, 2.6], [0, 2.6]], "closed": True}],
+                         "start": {"x": 2.0, "y": 1.4, "heading": 0}})
+
+    def follow(**limit: Any) -> tuple[SimCar, list[float]]:
+        doc = {"initial": "f", "states": [{"id": "f", "type": "FollowWall", "side": "right", "distance": 0.45,
+                                           "speed": 0.6, **limit}]}
+        car = SimCar(world, seed=0)
+        sim = Simulation(fsm.load(doc, car=car), car)
+        headings: list[float] = []
+        for _ in range(120):
+            sim.run(max_ticks=8)  # 0.1 s
+            headings.append(math.degrees(car.true_pose()[2]))
+        return car, headings
+
+    car, headings = follow()
+    assert min(headings) < -80 or car.collisions > 0, "the plain PD was expected to turn the car into the wall"
+    car, headings = follow(max_angle=25)
+    assert min(headings) > -25 - 8 and car.collisions == 0
+    x, y, th = car.true_pose()
+    assert x > 8.0 and abs(car.true_distance("right") - 0.45) < 0.05 and abs(math.degrees(th)) < 5

@@ -16,7 +16,7 @@ the real car's units and are not comparable.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Annotated, ClassVar, Literal
+from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Literal
 
 from pydantic import Field, model_validator
 
@@ -61,6 +61,12 @@ class WallParams(StateParams):
     clear: float | None = Field(default=None, gt=0, le=3.0,
                                 description="With distance \"lane\": keep at least this reading from the opposite wall "
                                             "(its sensor), m (default: no limit).")
+    snap: float | None = Field(
+        default=None, gt=0, le=180,
+        description="The walls run along a multiple of this many degrees from the start heading (90 in a rectangular "
+                    "loop): the side reading is taken square to the wall (times the cosine of the car's angle to it, "
+                    "odometry), so that a far wall read askew does not look farther than it is (default: the car is "
+                    "taken to drive along the wall).")
     p: float = Field(default=2.0, ge=0, le=1000, description="Proportional gain, steering per metre of error.")
     i: float = Field(default=0.2, ge=0, le=1000, description="Integral gain, steering per metre-second.")
     d: float = Field(default=1.5, ge=0, le=1000, description="Derivative gain, steering per metre/second.")
@@ -81,7 +87,7 @@ class BasicFollowWall(CarState):
     """
 
     __slots__ = ("target", "wall_target", "wall_side", "_sign", "_esum", "_eold", "_sample", "_t", "_y",
-                 "_p", "_i", "_d", "_speed", "_sensor", "_max_angle", "_heading")
+                 "_p", "_i", "_d", "_speed", "_sensor", "_snap", "_max_angle", "_heading")
     Params = WallParams
     #: Samples of this state count towards the wall-distance error on straights (the sim's metric).
     straight_metric: ClassVar[bool] = True
@@ -96,6 +102,7 @@ class BasicFollowWall(CarState):
         self._sensor = p.side  # type: ignore[attr-defined]
         self._p, self._i, self._d = p.p, p.i, p.d  # type: ignore[attr-defined]
         self._speed = p.speed  # type: ignore[attr-defined]
+        self._snap = p.snap  # type: ignore[attr-defined]
         limit = p.max_angle  # type: ignore[attr-defined]
         self._max_angle = math.radians(limit) if limit is not None else None
         self._heading = 0.0
@@ -109,13 +116,13 @@ class BasicFollowWall(CarState):
         car = ctx.car
         p = self.params
         if p.distance == "lane":  # type: ignore[attr-defined]  # keep the lane the car is in ...
-            reading = getattr(car, self._sensor)
+            reading = self.reading(car)
             other = car.left if self._sensor == "right" else car.right
             if p.clear is not None and other < 2.9:  # type: ignore[attr-defined]  # ... clear of the other wall
                 reading = min(reading, reading + other - p.clear)  # type: ignore[attr-defined]
             self.target = max(0.1, min(reading, 2.0))
         self._esum = 0.0
-        self._eold = self.measure(ctx, getattr(car, self._sensor)) - self.target
+        self._eold = self.measure(ctx, self.reading(car)) - self.target
         self._sample = car.sample
         self._t = ctx.now
         self._y = 0.0
@@ -123,6 +130,16 @@ class BasicFollowWall(CarState):
         if self._max_angle is not None:
             self._heading = car.pose()[2]
         car.set_speed(self._speed)
+
+    def reading(self, car: Any) -> float:
+        """The side sensor's reading, square to the wall with `snap` (a reading at the sensor's maximum is kept)."""
+        value = getattr(car, self._sensor)
+        if self._snap is None or value >= 2.9:
+            return value
+        from fsm.transitions.vision import snap_heading  # the corridor's direction, as the gate states take it
+
+        th = car.pose()[2]
+        return value * abs(math.cos(th - snap_heading(th, self._snap)))
 
     def measure(self, ctx: Context, reading: float) -> float:
         """The wall distance the controller uses for a new reading (``FollowWall`` filters door frames)."""
@@ -134,7 +151,7 @@ class BasicFollowWall(CarState):
             self._sample = car.sample
             dt = ctx.now - self._t
             self._t = ctx.now
-            e = self.measure(ctx, getattr(car, self._sensor)) - self.target
+            e = self.measure(ctx, self.reading(car)) - self.target
             limited = False
             if self._max_angle is not None:
                 th = car.pose()[2] - self._heading
@@ -190,7 +207,7 @@ class FollowWall(BasicFollowWall):
         self._ignored_at = 0.0
 
     def on_enter(self, ctx: Context) -> None:
-        self._last = getattr(ctx.car, self._sensor)
+        self._last = self.reading(ctx.car)
         self._offset = 0.0
         super().on_enter(ctx)
 
@@ -238,7 +255,7 @@ class FollowWallRamp(BasicFollowWall):
     def on_enter(self, ctx: Context) -> None:
         car = ctx.car
         start = self.params.start  # type: ignore[attr-defined]
-        self._from = start if start is not None else min(getattr(car, self._sensor), 3.0)
+        self._from = start if start is not None else min(self.reading(car), 3.0)
         self._d0 = car.distance
         self.target = self._from
         super().on_enter(ctx)

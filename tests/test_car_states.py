@@ -77,6 +77,33 @@ def test_basic_follow_wall_has_no_derivative_kick_on_entry() -> None:
     assert car.steering == 0.0
 
 
+def test_follow_wall_with_snap_takes_the_reading_square_to_the_wall() -> None:
+    """Turned 25 degrees off a corridor that runs along the start heading, a far wall read 2.2 m away is
+    2.2 * cos(25) m away: with snap the controller sees that, without it the askew reading."""
+    def steer(**extra: Any) -> float:
+        m, car = machine([{"id": "f", "type": "BasicFollowWall", "distance": 1.8, "p": 1.0, "i": 0, "d": 0,
+                           **extra}], car=FakeCar(right=2.2))
+        car.heading = math.radians(90 + 25)  # the corridor runs along 90 degrees from the start heading
+        m.start()
+        car.new_sample(right=2.2)
+        m.tick()
+        return car.steering
+
+    assert steer() == pytest.approx(-0.4)
+    assert steer(snap=90.0) == pytest.approx(-(2.2 * math.cos(math.radians(25)) - 1.8))
+    m, car = machine([{"id": "f", "type": "FollowWall", "distance": "lane", "snap": 90.0}], car=FakeCar(right=2.2))
+    car.heading = math.radians(-25)
+    m.start()
+    assert m.state("f").target == pytest.approx(2.2 * math.cos(math.radians(25)))  # the lane, square to the wall
+    m, car = machine([{"id": "f", "type": "BasicFollowWall", "distance": 0.4, "p": 1.0, "i": 0, "d": 0,
+                       "snap": 90.0}], car=FakeCar(right=3.0))
+    car.heading = math.radians(30)
+    m.start()
+    car.new_sample(right=3.0)  # no echo: the maximum stays the maximum
+    m.tick()
+    assert car.steering == pytest.approx(-1.0)
+
+
 # -- FollowWall: door frames --------------------------------------------------------------------------
 def follow_wall(**extra: Any) -> tuple[fsm.Machine, FakeCar]:
     state = {"id": "f", "type": "FollowWall", "distance": 0.4, "p": 2.0, "i": 0, "d": 0, **extra}

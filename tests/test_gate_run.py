@@ -145,16 +145,41 @@ GATE_AFTER_START = {'description': 'random loop 21: 20.9 x 11.8 m, corridors 1.9
                     'start': {'x': 20.403, 'y': 6.938, 'heading': 90.0}}
 
 
-def test_gate_run_passes_a_gate_just_after_the_start_on_the_home_stretch(tmp_path: Path,
-                                                                         capsys: pytest.CaptureFixture[str]) -> None:
+def run_loop21(tmp_path: Path, capsys: pytest.CaptureFixture[str], machine: Path) -> dict[str, Any]:
     world = tmp_path / "loop21.json"
     world.write_text(json.dumps(GATE_AFTER_START))
     summary = tmp_path / "s.json"
-    code = main(["run", str(DIAGRAMS / "gate_run.uxf"), "--world", str(world), "--seed", "0",
-                 "--summary", str(summary), "-q"])
+    code = main(["run", str(machine), "--world", str(world), "--seed", "0", "--summary", str(summary), "-q"])
     assert code == 0, capsys.readouterr().err
     s = json.loads(summary.read_text())
     assert s["outcome"] == "succeeded" and s["collisions"] == 0
     assert s["gates_passed"] == s["gates_total"] == 7, s["gates"]
+    return s
+
+
+def test_gate_run_backs_off_at_the_start_when_it_sees_one_post_of_a_gate(tmp_path: Path,
+                                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    """From the start pose the camera sees one marker of 6/5 (its partner is outside the field of view): the car
+    backs off 1 m, sees the whole gate and passes it first."""
+    s = run_loop21(tmp_path, capsys, DIAGRAMS / "gate_run.uxf")
+    assert s["visited"][:3] == ["look", "view", "side1"]
+    first = s["gates"][4]
+    assert first["passed_at"] == min(g["passed_at"] for g in s["gates"])
+
+
+def test_gate_run_passes_a_gate_just_after_the_start_on_the_home_stretch(tmp_path: Path,
+                                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    """Without the back-off at the start the car leaves 6/5 behind; the home stretch passes it before the lap ends
+    (it used to stop at the start line before it)."""
+    doc = json.loads((DIAGRAMS / "gate_run.json").read_text())
+    doc["transitions"] = [t for t in doc["transitions"] if t["type"] != "ArucoMarkerUnpaired"]
+    for state in doc["states"]:
+        if "machine" in state:
+            state["machine"]["file"] = str(DIAGRAMS / state["machine"]["file"])
+    doc.pop("$schema", None)
+    machine = tmp_path / "gate_run_no_lone_post.json"
+    machine.write_text(json.dumps(doc))
+    s = run_loop21(tmp_path, capsys, machine)
+    assert "view" not in s["visited"]
     first = s["gates"][4]  # 6/5, just after the start: passed last, on the home stretch
     assert first["passed_at"] == max(g["passed_at"] for g in s["gates"])

@@ -100,6 +100,30 @@ def test_marker_found_fires_for_its_id_within_range() -> None:
     assert m.active_path == "seven"
 
 
+def test_marker_unpaired_fires_for_one_post_of_a_gate_never_seen_whole() -> None:
+    """One marker in view without its partner (the other post outside the field of view) is a gate not yet seen
+    whole; markers of a gate in view, of a remembered gate, of a passed gate or beyond range are not."""
+    car = FakeCar()
+    m = load([{"id": "look", "type": "Idle"}, {"id": "back", "type": "Idle"}],
+             [{"type": "ArucoMarkerUnpaired", "from": "look", "to": "back", "range": 4.5}], car)
+    m.start()
+    whole = gate_seen_from(car, (2.0, 0.0), 0.0, ids=(3, 4))
+    for frame in ([whole.left, whole.right], [whole.left, whole.right], [det(3, 2.0, 0.35)], [det(3, 2.0, 0.35)],
+                  [det(8, 5.0, 1.0)], [det(8, 5.0, 1.0)], [det(11, 3.0, 1.6)]):
+        car.see(frame, [whole] if len(frame) == 2 else [])
+        m.tick()
+    assert m.active_path == "look"  # the lone 3 belongs to a gate seen before; 8 is beyond range; 11 seen once
+    m.ctx.vars["gates_passed"] = [[20, 21]]
+    for _ in range(2):
+        car.see([det(21, 3.0, -1.0)])
+        m.tick()
+    assert m.active_path == "look"  # a post of a gate passed
+    for _ in range(2):
+        car.see([det(11, 3.0, 1.6)])
+        m.tick()
+    assert m.active_path == "back"
+
+
 @pytest.mark.parametrize("y0, heading0, gate_heading", [(0.3, -10, 0), (-0.25, 15, 10), (0.6, -25, -25), (-0.4, 10, 20)])
 def test_gate_center_lines_the_car_up_and_motor_drives_through(y0: float, heading0: float,
                                                                gate_heading: float) -> None:

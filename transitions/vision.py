@@ -296,3 +296,23 @@ class ArucoMarkerFound(_CameraTransition):
     def seen(self, view: Any, ctx: Context) -> bool:
         d = view.marker(self.params.marker)  # type: ignore[attr-defined]
         return d is not None and d.distance <= self.params.range  # type: ignore[attr-defined]
+
+
+@register_transition
+class ArucoMarkerUnpaired(_CameraTransition):
+    """Fires when the camera sees, within `range`, a marker that makes no gate with another marker in view and belongs to no gate seen before or passed, in `frames` frames in a row: one post of a gate whose other post is out of the camera's view (near a wall, at the edge of the field of view), so the gate has never been seen whole. Route it to a state that gives the camera a wider look (backing off)."""
+
+    __slots__ = ()
+
+    class Params(TransitionParams):
+        range: float = Field(default=4.5, gt=0, le=20, description="Only markers this near (from the car's centre, "
+                                                                   "horizontally), m.")
+        frames: int = Field(default=2, ge=1, le=100, description="Consecutive camera frames the marker must be seen in.")
+
+    def seen(self, view: Any, ctx: Context) -> bool:
+        remember_gates(ctx, view)
+        known = {int(i) for g in view.gates for i in g.ids}
+        known.update(int(i) for entry in ctx.vars.get(SEEN_VAR, {}).values() for i in entry["ids"])
+        known.update(int(i) for ids in ctx.vars.get(PASSED_VAR, []) for i in ids)
+        return any(d.id not in known and d.distance <= self.params.range  # type: ignore[attr-defined]
+                   for d in view.detections)

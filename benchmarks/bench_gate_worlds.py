@@ -42,8 +42,9 @@ POST_CLEAR = 0.15  # m between a marker post and a wall
 START_LANE = 0.495  # the start pose's distance from the outer wall, m
 
 
-def generate(seed: int) -> dict[str, Any]:
-    """A random loop: outer rectangle W x H, corridors of width c, gates on the four straights."""
+def generate(seed: int, anywhere: bool = False) -> dict[str, Any]:
+    """A random loop: outer rectangle W x H, corridors of width c, gates on the four straights; with ``anywhere``
+    the same loop with the start moved across the corridor (0.35 m from either wall at most)."""
     r = random.Random(seed)
     c = r.uniform(*CORRIDOR)
     width, height = r.uniform(14, 24), r.uniform(8, 14)
@@ -80,8 +81,13 @@ def generate(seed: int) -> dict[str, Any]:
     ux, uy = math.cos(math.radians(sdir)), math.sin(math.radians(sdir))
     start = {"x": round(sox + ux * s_start - uy * START_LANE, 3), "y": round(soy + uy * s_start + ux * START_LANE, 3),
              "heading": sdir}
+    lane = ""
+    if anywhere:
+        shift = random.Random(1000 + seed).uniform(0.35, c - 0.35) - START_LANE
+        start["x"], start["y"] = round(start["x"] - uy * shift, 3), round(start["y"] + ux * shift, 3)
+        lane = f", start lane {START_LANE + shift:.2f} m"
     return {"description": f"random loop {seed}: {width:.1f} x {height:.1f} m, corridors {c:.2f} m, "
-                           f"{len(gates)} gates, start on straight {side}",
+                           f"{len(gates)} gates, start on straight {side}{lane}",
             "walls": [{"points": [[0, 0], [width, 0], [width, height], [0, height]], "closed": True},
                       {"points": [[c, c], [width - c, c], [width - c, height - c], [c, height - c]],
                        "closed": True}],
@@ -115,6 +121,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--machine", type=Path, default=MACHINE)
     ap.add_argument("--keep", type=Path, help="write the worlds (and summaries) here instead of a temp dir")
     ap.add_argument("-j", "--jobs", type=int, default=4, help="runs in parallel (default 4)")
+    ap.add_argument("--anywhere", action="store_true",
+                    help="start anywhere across the corridor instead of 0.5 m from the outer wall")
     args = ap.parse_args(argv)
 
     with tempfile.TemporaryDirectory(prefix="gate_worlds_") as tmp:
@@ -123,7 +131,7 @@ def main(argv: list[str] | None = None) -> int:
         worlds = list(args.world)
         for k in range(args.first, args.first + args.n):
             path = out / f"w{k}.json"
-            path.write_text(json.dumps(generate(k), indent=1) + "\n")
+            path.write_text(json.dumps(generate(k, args.anywhere), indent=1) + "\n")
             worlds.append(path)
         bad = fsmctl("validate", *map(str, worlds[len(args.world):])) if args.n else None
         if bad is not None and bad.returncode != 0:

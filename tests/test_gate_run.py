@@ -183,3 +183,39 @@ def test_gate_run_passes_a_gate_just_after_the_start_on_the_home_stretch(tmp_pat
     assert "view" not in s["visited"]
     first = s["gates"][4]  # 6/5, just after the start: passed last, on the home stretch
     assert first["passed_at"] == max(g["passed_at"] for g in s["gates"])
+
+
+#: Random loop 217 of bench_gate_worlds.py --anywhere: the start is 0.43 m from the inner wall and 1.7 m before a
+#: corner, so the car takes that corner while it settles to the outer wall, without the corner arc that ends a
+#: straight; its fourth straight then runs across the start line.
+START_BEFORE_CORNER = {"walls": [{"points": [[0, 0], [16.356, 0], [16.356, 9.51], [0, 9.51]], "closed": True},
+                                 {"points": [[2.568, 2.568], [13.788, 2.568], [13.788, 6.941], [2.568, 6.941]],
+                                  "closed": True}],
+                       "gates": [{"markers": [26, 33], "center": [10.995, 1.562], "heading": 19.1, "width": 0.84,
+                                  "marker_size": 0.128, "height": 0.2},
+                                 {"markers": [23, 29], "center": [6.948, 1.752], "heading": 14.1, "width": 0.9,
+                                  "marker_size": 0.16, "height": 0.2},
+                                 {"markers": [31, 24], "center": [15.1, 5.684], "heading": 109.4, "width": 0.96,
+                                  "marker_size": 0.117, "height": 0.2},
+                                 {"markers": [32, 2], "center": [10.755, 7.717], "heading": 190.4, "width": 0.85,
+                                  "marker_size": 0.186, "height": 0.2},
+                                 {"markers": [48, 44], "center": [5.099, 8.201], "heading": 202.2, "width": 0.78,
+                                  "marker_size": 0.161, "height": 0.2}],
+                       "start": {"x": 2.144, "y": 4.244, "heading": 270.0}}
+
+
+def test_gate_run_ends_at_the_start_line_when_the_first_corner_came_while_settling(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The fourth straight crosses the start line (PassPoint on side4): the lap ends there, one lap long. Before,
+    the home stretch began after the start, drove a second lap on drifting odometry and touched walls 7 times."""
+    world = tmp_path / "loop217.json"
+    world.write_text(json.dumps(START_BEFORE_CORNER))
+    summary = tmp_path / "s.json"
+    code = main(["run", str(DIAGRAMS / "gate_run.uxf"), "--world", str(world), "--seed", "0", "--summary",
+                 str(summary), "-q"])
+    assert code == 0, capsys.readouterr().err
+    s = json.loads(summary.read_text())
+    assert s["outcome"] == "succeeded" and s["collisions"] == 0
+    assert s["gates_passed"] == s["gates_total"] == 5
+    assert all(g["times_passed"] == 1 for g in s["gates"])
+    assert s["distance_m"] < 55, "one lap of this loop is about 45 m"

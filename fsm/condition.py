@@ -7,7 +7,7 @@ instance, so two transitions using the same kind of condition never share a debo
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 from .params import ConditionParams
 

@@ -1,4 +1,5 @@
-"""Loader: document -> Machine. Reads files, resolves includes, checks shape and semantics, builds the objects.
+"""Loader: document -> Machine. Resolves includes, checks shape and semantics (reading files is
+``fsm.reading``, building the objects ``fsm.build``).
 
 Every problem of a document is collected (all at once, not only the first) with its file, JSON pointer,
 line:column and element; only a document without errors is built.
@@ -13,14 +14,12 @@ import os
 import re
 import stat
 from collections import deque
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
-from contextvars import ContextVar
 from pathlib import Path
 from typing import Any
 
 from pydantic import ValidationError
 
+from .build import build
 from .context import Context
 from .document import (
     ConditionSpec,
@@ -36,231 +35,14 @@ from .document import (
     problems_from_validation,
 )
 from .errors import DiagramError, Problem
-from .jsonpos import depth_exceeded_at, duplicate_keys, escape, locate, pointer
+from .jsonpos import escape, pointer
 from .machine import Machine
 from .paths import resolve_path
-from .region import Region
+from .reading import parse_json_bytes, place, read_file_bytes, read_json, reader_for, register_reader
 from .registry import Registry, default_registry
-from .state import State
 
 #: Machines nested deeper than this are refused (a recursion guard, far beyond any real diagram).
 MAX_MACHINE_DEPTH = 48
-#: Where a too-deep JSON text is reported (Python's parser gives up somewhat deeper than this).
-MAX_JSON_DEPTH = 400
-
-Reader = Callable[[Path], tuple[Any, Source]]
-_READERS: dict[str, Reader] = {}
-
-
-def register_reader(suffix: str, reader: Reader) -> None:
-    """Let ``load`` read files ending in ``suffix`` (``".uxf"``) with ``reader(path) -> (document, Source)``.
-
-    The reader raises :class:`DiagramError` for a file it cannot read. This keeps the core free of
-    UMLet: ``fsm.tools`` registers its reader.
-    """
-    _READERS[suffix.lower()] = reader
-
-
-#: Entry-point group of file readers: the entry point's name is the suffix without its dot (``uxf``).
-READER_GROUP = "fsm.readers"
-
-
-def reader_for(path: Path) -> Reader:
-    """The reader of a file by its suffix: registered, or found in the ``fsm.readers`` entry points
-    (how ``fsm.tools`` provides ``.uxf`` without the core knowing UMLet), else JSON."""
-    pre = _PRELOADED.get()
-    if pre is not None and str(path) in pre:
-        item = pre[str(path)]
-        if isinstance(item, tuple):  # already read and parsed by the caller
-            return lambda _path: item
-        if str(path) == STDIN_NAME and item.lstrip(b"\xef\xbb\xbf \t\r\n").startswith(b"<"):
-            return reader_for(Path(STDIN_NAME + ".uxf"))  # a diagram on standard input
-    suffix = path.suffix.lower()
-    reader = _READERS.get(suffix)
-    if reader is None and suffix:
-        from importlib.metadata import entry_points
-
-        for ep in entry_points(group=READER_GROUP, name=suffix[1:]):
-            reader = ep.load()
-            _READERS[suffix] = reader
-            break
-    return reader or read_json
-
-
-def read_json(path: Path) -> tuple[Any, Source]:
-    """Read a JSON file strictly: UTF-8, one JSON value, limited nesting; problems carry line:column."""
-    if not str(path) or str(path) == ".":
-        raise DiagramError([Problem("no file name given", None, hint="name a machine file (.json or .uxf)")])
-    return parse_json_bytes(read_file_bytes(path), str(path), path.parent)
-
-
-#: Input files larger than this are refused (a guard against /dev/zero-like inputs and exhausted memory, far
-#: above any real diagram: benchmarks/bench_big.py reads 52 MB). ``FSM_MAX_INPUT_BYTES`` overrides it.
-MAX_INPUT_BYTES = 64 * 1024 * 1024
-#: How standard input (``-`` on the command line) is named in messages.
-STDIN_NAME = "<stdin>"
-
-#: Files the caller has already read (``fsmctl`` reads each named file, and standard input, once):
-#: ``str(path)`` -> the bytes, or the ``(document, Source)`` a reader made of them.
-_PRELOADED: ContextVar[dict[str, Any] | None] = ContextVar("_PRELOADED", default=None)
-
-
-@contextmanager
-def preloaded(files: dict[str, Any]) -> Iterator[None]:
-    """While active, ``read_file_bytes`` and the readers take these files' bytes (or parsed documents) from
-    ``files`` instead of reading them again."""
-    token = _PRELOADED.set({**(_PRELOADED.get() or {}), **files})
-    try:
-        yield
-    finally:
-        _PRELOADED.reset(token)
-
-
-def max_input_bytes() -> int:
-    try:
-        return max(1, int(os.environ.get("FSM_MAX_INPUT_BYTES", "")))
-    except ValueError:
-        return MAX_INPUT_BYTES
-
-
-def _too_big(name: str, size: int | None, limit: int) -> DiagramError:
-    shown = f"{size / 1048576:.1f} MiB" if size is not None else "more than that"
-    return DiagramError([Problem(f"file is too big ({shown}; the limit is {limit / 1048576:g} MiB)", name,
-                                 hint="set FSM_MAX_INPUT_BYTES to a larger number of bytes to read it")])
-
-
-def read_stdin_bytes() -> bytes:
-    """Standard input, read once and capped (``-`` as a file name); named ``<stdin>`` in messages."""
-    import sys
-
-    limit = max_input_bytes()
-    stream = getattr(sys.stdin, "buffer", None)
-    if stream is None:
-        raise DiagramError([Problem("standard input is not open", STDIN_NAME)])
-    try:
-        data = stream.read(limit + 1)
-    except (OSError, ValueError) as exc:
-        raise DiagramError([Problem(f"cannot read standard input: {exc}", STDIN_NAME)]) from None
-    if len(data) > limit:
-        raise _too_big(STDIN_NAME, None, limit)
-    return data
-
-
-def read_file_bytes(path: Path, what: str | None = None) -> bytes:
-    """The bytes of ``path``, or a DiagramError saying why it cannot be read (``what``: "world", ...).
-
-    Only regular files are read (checked before opening, so a FIFO or ``/dev/zero`` never hangs or fills
-    memory), and at most :func:`max_input_bytes` of them.
-    """
-    import errno
-    import stat
-
-    name = str(path)
-    pre = _PRELOADED.get()
-    if pre is not None and isinstance(pre.get(name), bytes):
-        return pre[name]
-    kind = what or "machine"
-    try:
-        st = os.stat(path)
-        if stat.S_ISDIR(st.st_mode):
-            raise DiagramError([Problem(f"is a directory, not a {kind} file", name)])
-        if not stat.S_ISREG(st.st_mode):
-            sort = ("a FIFO" if stat.S_ISFIFO(st.st_mode) else "a device" if stat.S_ISCHR(st.st_mode)
-                    or stat.S_ISBLK(st.st_mode) else "a socket" if stat.S_ISSOCK(st.st_mode) else "special")
-            raise DiagramError([Problem(f"not a regular file ({sort}); a {kind} file must be a regular file", name,
-                                        hint="pass '-' to read standard input")])
-        limit = max_input_bytes()
-        if st.st_size > limit:
-            raise _too_big(name, st.st_size, limit)
-        # O_NONBLOCK: should the file have become a FIFO since the stat, opening it does not hang
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
-        with os.fdopen(fd, "rb") as fh:
-            if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
-                raise DiagramError([Problem(f"not a regular file; a {kind} file must be a regular file", name)])
-            data = fh.read(limit + 1)
-        if len(data) > limit:
-            raise _too_big(name, None, limit)
-        return data
-    except FileNotFoundError:
-        dangling = os.path.islink(path)
-        raise DiagramError([Problem(
-            ("symlink to a missing file" if dangling else f"{what} file not found" if what else "file not found"),
-            name, hint="check the path")]) from None
-    except NotADirectoryError:
-        raise DiagramError([Problem("file not found (a folder on its path is a file)", name,
-                                    hint="check the path")]) from None
-    except OSError as exc:
-        reason = {errno.ELOOP: "too many levels of symbolic links (a symlink loop)",
-                  errno.ENAMETOOLONG: "the file name is too long"}.get(exc.errno or 0, exc.strerror or str(exc))
-        raise DiagramError([Problem(f"cannot read: {reason}", name)]) from None
-    except ValueError as exc:  # e.g. a NUL byte in the path
-        raise DiagramError([Problem(f"not a usable file name: {exc}", repr(name))]) from None
-
-
-def parse_json_bytes(raw: bytes, name: str | None, directory: Any = None,
-                     duplicates: list[Problem] | None = None) -> tuple[Any, Source]:
-    """One JSON value from ``raw``, strictly (UTF-8, limited nesting, no repeated keys), with a locator.
-
-    A repeated key raises :class:`DiagramError`, unless ``duplicates`` is given: then its problems are added
-    there and the data (the last of the repeated values) is returned, so the caller reports them together
-    with everything else it finds.
-    """
-    if raw.startswith(b"\xef\xbb\xbf"):
-        raw = raw[3:]
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        line = raw.count(b"\n", 0, exc.start) + 1
-        col = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
-        raise DiagramError([Problem(
-            f"not UTF-8: byte 0x{raw[exc.start]:02x} at offset {exc.start} cannot be decoded",
-            name, line=line, column=col, hint="save the file as UTF-8")]) from None
-    if not text.strip():
-        raise DiagramError([Problem("file is empty; a machine document is a JSON object", name, line=1, column=1,
-                                    hint='start from {"initial": ..., "states": [...], "transitions": [...]}')])
-    repeated: list[bool] = []
-
-    def pairs_to_dict(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
-        obj = dict(pairs)
-        if len(obj) != len(pairs):
-            repeated.append(True)
-        return obj
-
-    try:
-        data = json.loads(text, object_pairs_hook=pairs_to_dict)
-    except json.JSONDecodeError as exc:
-        raise DiagramError([Problem(f"invalid JSON: {exc.msg}", name, line=exc.lineno, column=exc.colno)]) from None
-    except RecursionError:
-        deep = depth_exceeded_at(text, MAX_JSON_DEPTH)
-        line, column = deep if deep is not None else (None, None)
-        raise DiagramError([Problem(f"JSON nested more than {MAX_JSON_DEPTH} levels deep", name,
-                                    line=line, column=column, hint="no machine document needs this depth")]) from None
-    if repeated:
-        if duplicates is None:
-            raise DiagramError(duplicate_key_problems(text, name))
-        duplicates.extend(duplicate_key_problems(text, name))
-    source = Source(name=name, directory=directory, text=text, locator=lambda ptrs: locate(text, ptrs))
-    return data, source
-
-
-def duplicate_key_problems(text: str, name: str | None) -> list[Problem]:
-    """One problem per repeated key of ``text``, at the repeat, naming where the key was first written.
-
-    JSON parsers disagree about repeated keys (most keep the last silently), so a document that repeats
-    one means two different machines to two tools: it is refused.
-    """
-    problems = []
-    for ptr, key, (line1, col1), (line2, col2) in duplicate_keys(text):
-        problems.append(Problem(
-            f"duplicate key '{key}' (first at line {line1}, column {col1})", name, f"{ptr}/{escape(key)}",
-            line=line2, column=col2, element=f"object at {ptr}" if ptr else "top-level object",
-            hint="a key may appear once per object; delete one of the two or rename it"))
-    if not problems:  # the scan could not follow the text (far too deep): still refuse, without a place
-        problems.append(Problem("duplicate key in a JSON object", name,
-                                hint="a key may appear once per object; delete one of the two"))
-    return problems
-
-
 class Loader:
     """One load: the registry, the problems found so far, and the include bookkeeping."""
 
@@ -866,27 +648,6 @@ class Loader:
                     _expression_column(p, src.text)
 
 
-def place(problems: list[Problem], locator: Any) -> None:
-    """Fill in line, column (and drawing position) of ``problems`` from one call of a source's ``locator``;
-    a pointer that is not found takes the position of its nearest enclosing element."""
-    if locator is None:
-        return
-    wanted: set[str] = set()
-    for p in problems:
-        parts = p.pointer.split("/")
-        wanted.update("/".join(parts[:k]) for k in range(1, len(parts) + 1))
-    found = locator(wanted)
-    for p in problems:
-        parts = p.pointer.split("/")
-        for k in range(len(parts), 0, -1):
-            pos = found.get("/".join(parts[:k]))
-            if pos is not None:
-                p.line, p.column = pos[0], pos[1]
-                if len(pos) > 2 and p.where is None:
-                    p.where = pos[2]
-                break
-
-
 _MEMBER_VALUE = re.compile(r'"(?:[^"\\]|\\.)*"\s*:\s*"')
 
 
@@ -1029,87 +790,6 @@ def signal_names(spec: MachineSpec | None) -> set[str]:
                 add(cs.cls, cs.params)
                 conditions.extend(cs.children)
     return names
-
-
-# -- building ---------------------------------------------------------------------------------------
-def build(spec: MachineSpec, *, clock: Any = None, car: Any = None, context: Context | None = None) -> Machine:
-    """Objects from a checked spec: states, regions, transitions with precomputed lists, the Machine."""
-    by_path: dict[str, State] = {}
-    regions: list[Region] = []
-    variables: dict[str, Any] = {}
-    specs: dict[str, StateSpec] = {}
-    root = _build_region(spec, spec.name or "", "", None, by_path, regions, variables, specs)
-    ctx = context if context is not None else Context(car=car)
-    for key, value in variables.items():
-        ctx.vars.setdefault(key, value)
-    if ctx.car is None:
-        needy = [f"'{s.path}' ({s.type_name})" for s in by_path.values() if s.needs_car]
-        needy += [f"{t.source.path} -> {t.target.path} ({t.type_name})" for s in by_path.values()
-                  for t in s.transitions if t.needs_car]
-        if needy:
-            names = ", ".join(needy[:5]) + (" ..." if len(needy) > 5 else "")
-            raise DiagramError([Problem(f"this machine drives a car ({names}) but no car was given",
-                                        spec.source.name, hint="run it with `fsmctl run FILE --world WORLD`, "
-                                        "or pass car= to fsm.load")])
-    machine = Machine(root, name=spec.name or "", clock=clock, context=ctx, all_regions=regions,
-                      states_by_path=by_path)
-    for region in regions:
-        for state in region.states.values():
-            for tr in state.transitions:
-                tr.bind(machine)
-                if tr.conditions:
-                    tr._bind_conditions(machine)
-    from .sequencer.compile import bind
-
-    bind(machine, specs)
-    return machine
-
-
-def _build_region(spec: MachineSpec, name: str, prefix: str, owner: State | None, by_path: dict[str, State],
-                  regions: list[Region], variables: dict[str, Any], specs: dict[str, StateSpec]) -> Region:
-    from .sequencer.compile import build_state
-
-    states: dict[str, State] = {}
-    for key, value in spec.vars.items():
-        variables.setdefault(key, value)
-    for st in spec.states:
-        obj = st.cls(st.id, st.params)
-        obj.path = f"{prefix}/{st.id}" if prefix else st.id
-        by_path[obj.path] = obj
-        specs[obj.path] = st
-        if st.subs:
-            subs = []
-            for rname, sub, _ in st.subs:
-                assert sub is not None
-                sub_prefix = f"{obj.path}/{rname}" if rname else obj.path
-                subs.append(_build_region(sub, rname or st.id, sub_prefix, obj, by_path, regions, variables, specs))
-            obj.regions = tuple(subs)
-        build_state(obj, st, regions)
-        states[st.id] = obj
-    region = Region(name, prefix, states, states[spec.initial])
-    region.owner = owner
-    regions.append(region)
-    for obj in states.values():
-        obj.region = region
-    for index, tr in enumerate(spec.transitions):
-        p = tr.params
-        t = tr.cls(p, states[p.from_], states[p.to], index)
-        if tr.guard is not None or tr.assign is not None or tr.conditions:
-            conditions = {key: cs.build() for key, cs in tr.conditions.items()}
-            guard = tr.guard
-            if "guard" in conditions:
-                guard = conditions["guard"].holds
-            t.attach(guard, tr.assign, conditions)
-        states[p.from_].transitions.append(t)
-    for st in spec.states:
-        if st.actions != (None, None):
-            states[st.id]._set_enter, states[st.id]._set_exit = st.actions
-    for obj in states.values():
-        ordered = sorted(obj.transitions, key=lambda t: -t.params.priority)
-        obj.preempt = tuple(t for t in ordered if t.params.preempt)
-        obj.regular = tuple(t for t in ordered if not t.params.preempt)
-        obj._prepare()
-    return region
 
 
 # -- public API -------------------------------------------------------------------------------------

@@ -4,7 +4,6 @@ and the load-time errors of bad expressions."""
 from __future__ import annotations
 
 import io
-import json
 from typing import Any
 
 import pytest

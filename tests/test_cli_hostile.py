@@ -83,7 +83,7 @@ def test_size_cap(tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatc
 
 
 def test_default_cap_is_above_the_benchmarks_52_mb() -> None:
-    from fsm.loader import MAX_INPUT_BYTES
+    from fsm.reading import MAX_INPUT_BYTES
 
     assert MAX_INPUT_BYTES >= 60 * 1024 * 1024
 
@@ -128,7 +128,7 @@ def test_standard_input_is_read_once(monkeypatch: pytest.MonkeyPatch, capsys: py
 
 # -- each file read once -------------------------------------------------------------------------------
 def _count_opens(monkeypatch: pytest.MonkeyPatch) -> dict[str, int]:
-    import fsm.loader
+    import fsm.reading
 
     counts: dict[str, int] = {}
     real_open = os.open
@@ -142,7 +142,7 @@ def _count_opens(monkeypatch: pytest.MonkeyPatch) -> dict[str, int]:
         counts[self.name] = counts.get(self.name, 0) + 1
         return real_read_bytes(self)
 
-    monkeypatch.setattr(fsm.loader.os, "open", counting_open)
+    monkeypatch.setattr(fsm.reading.os, "open", counting_open)
     monkeypatch.setattr(Path, "read_bytes", counting_read_bytes)
     return counts
 

@@ -170,7 +170,7 @@ def documents_with_a_repeat(draw: st.DrawFn) -> tuple[str, str, str]:
 @given(documents_with_a_repeat())
 def test_random_documents_with_a_repeated_key_are_refused_with_both_places(case: tuple[str, str, str]) -> None:
     text, ptr, key = case
-    from fsm.loader import parse_json_bytes
+    from fsm.reading import parse_json_bytes
 
     with pytest.raises(DiagramError) as info:
         parse_json_bytes(text.encode(), "doc.json")

@@ -16,7 +16,7 @@ import pytest
 
 import fsm
 from fsm import DiagramError, Problem
-from fsm.loader import MAX_JSON_DEPTH
+from fsm.reading import MAX_JSON_DEPTH
 from fsm.tools.cli import main as fsmctl
 
 

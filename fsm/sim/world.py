@@ -574,7 +574,7 @@ def parse_world(data: Any, name: str | None = None, locator: Any = None) -> Worl
 
 
 def _locate(problems: list[Problem], locator: Any) -> None:
-    from fsm.loader import place
+    from fsm.reading import place
 
     place(problems, locator)
 
@@ -582,7 +582,7 @@ def read_json_file(path: str | Path, what: str, duplicates: list[Problem] | None
     """Parse a JSON file strictly (UTF-8, line:column on errors); returns the data and a pointer locator.
 
     Repeated keys raise, or are added to ``duplicates`` when it is given (see ``parse_json_bytes``)."""
-    from fsm.loader import parse_json_bytes, read_file_bytes
+    from fsm.reading import parse_json_bytes, read_file_bytes
 
     p = Path(path)
     raw = read_file_bytes(p, what)

@@ -37,7 +37,7 @@ class _Bad(Exception):
 def load_calibration(path: str | Path, *, image_size: tuple[int, int] | None = None) -> CameraModel:
     """The camera described by a calibration file; ``image_size`` (width, height) is used when the file
     names none, and otherwise must agree with it (raises :class:`DiagramError`)."""
-    from fsm.loader import read_file_bytes
+    from fsm.reading import read_file_bytes
 
     name = str(path)
     raw = read_file_bytes(Path(path), "calibration")

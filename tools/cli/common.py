@@ -87,7 +87,7 @@ def registry_from(args: argparse.Namespace) -> Any:
 
 def read_inputs(files: list[str]) -> dict[str, bytes]:
     """``-`` in ``files`` read from standard input, once: ``{"<stdin>": bytes}`` to preload (or ``{}``)."""
-    from fsm.loader import STDIN_NAME, read_stdin_bytes
+    from fsm.reading import STDIN_NAME, read_stdin_bytes
 
     if "-" not in files:
         return {}
@@ -106,7 +106,7 @@ def default_output(src: Path, suffix: str) -> str:
 
 def input_name(file: str) -> str:
     """The name a file goes by inside the loader: ``<stdin>`` for ``-``."""
-    from fsm.loader import STDIN_NAME
+    from fsm.reading import STDIN_NAME
 
     return STDIN_NAME if file == "-" else file
 
@@ -115,7 +115,8 @@ def read_checked(src: Path, registry: Any) -> tuple[dict[str, Any], list[str]]:
     """The machine document of ``src`` (read once: the check takes the bytes already read) and every file it
     was read from (for the same-as-input check of outputs); a :class:`DiagramError` when it has errors."""
     from fsm.errors import DiagramError
-    from fsm.loader import check, machine_files, preloaded, reader_for
+    from fsm.loader import check, machine_files
+    from fsm.reading import preloaded, reader_for
 
     try:
         document = reader_for(src)(src)
@@ -136,7 +137,7 @@ def emit_generated(text: str, *, output: str | None, check: str | None, command:
         raise UsageError("--check compares with a file; name it (standard output cannot be compared)")
     if check:
         from fsm.errors import DiagramError
-        from fsm.loader import read_file_bytes
+        from fsm.reading import read_file_bytes
 
         try:
             current = read_file_bytes(Path(check), "generated").decode("utf-8", errors="replace")

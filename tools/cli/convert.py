@@ -73,7 +73,7 @@ def _convert(args: argparse.Namespace, src: Path, out: str, outputs: object) -> 
 def _palette_problems(src: Path, registry: object) -> list[Problem] | None:
     """``None`` unless ``src`` is the palette; then what is wrong with it (``[]``: it is what ``fsmctl palette``
     generates)."""
-    from fsm.loader import read_file_bytes
+    from fsm.reading import read_file_bytes
 
     from ..umlet.palette import palette_problems
 
@@ -91,7 +91,7 @@ def check_output(src: Path, out: str, doc: dict, fmt: str) -> int:
         report([Problem("--check needs a file to compare with, not '-'", str(src))], fmt)
         return EXIT_FAIL
     hint = f"run: fsmctl convert {src} -o {out}"
-    from fsm.loader import read_file_bytes
+    from fsm.reading import read_file_bytes
 
     if not Path(out).exists() and not Path(out).is_symlink():
         report([Problem(f"{out} does not exist, but {src} converts to a machine", out, hint=hint)], fmt)

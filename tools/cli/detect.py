@@ -61,7 +61,7 @@ def read_image(path: str) -> Any:
     import cv2
     import numpy as np
 
-    from fsm.loader import read_file_bytes
+    from fsm.reading import read_file_bytes
 
     p = Path(path)
     try:

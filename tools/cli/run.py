@@ -192,7 +192,8 @@ def signal_warnings(signals: list[tuple[str, bool, float]], spec: Any, file: str
 def cmd_run(args: argparse.Namespace) -> int:
     from fsm.clock import DEFAULT_DT, SimulatedClock
     from fsm.errors import DiagramError
-    from fsm.loader import check, machine_files, preloaded, uses_car
+    from fsm.loader import check, machine_files, uses_car
+    from fsm.reading import preloaded
 
     from ..files import Outputs, check_distinct
 
@@ -246,8 +247,8 @@ def cmd_run(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace, spec: Any, file: str, clock: Any, drive: bool, world_path: Path | None,
          duration: float | None, max_ticks: int | None, outputs: Any, trace_out: Any, summary_out: Any,
          video_out: Any, plot_out: Any, report_out: Any) -> int:
-    from fsm.loader import build
-    from fsm.trace import Recorder, summary
+    from fsm.build import build
+    from fsm.trace import summary
 
     car = None
     if drive:

@@ -62,7 +62,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
 def check_one(name: str, registry: Any, pre: dict[str, bytes]) -> list[Problem]:
     """Every problem of one file: a world, a palette or a machine, told apart from the bytes read once."""
     from fsm.errors import DiagramError
-    from fsm.loader import STDIN_NAME, check, parse_json_bytes, preloaded, read_file_bytes
+    from fsm.loader import check
+    from fsm.reading import STDIN_NAME, parse_json_bytes, preloaded, read_file_bytes
 
     path = Path(name)
     with preloaded(pre):
@@ -110,7 +111,7 @@ def is_scenario(data: Any) -> bool:
 
 def check_scenario(name: str, registry: Any, pre: dict[str, bytes]) -> list[Problem]:
     from fsm.errors import DiagramError
-    from fsm.loader import preloaded
+    from fsm.reading import preloaded
 
     from ..scenario.model import load_scenario
 
@@ -125,7 +126,7 @@ def check_scenario(name: str, registry: Any, pre: dict[str, bytes]) -> list[Prob
 def is_world_file(file: str) -> bool:
     """Whether ``file`` holds a world (see :func:`is_world`); unreadable files are not worlds."""
     from fsm.errors import DiagramError
-    from fsm.loader import parse_json_bytes, read_file_bytes
+    from fsm.reading import parse_json_bytes, read_file_bytes
 
     path = Path(file)
     if path.suffix.lower() != ".json":

@@ -100,7 +100,7 @@ def expander(directory: Path | None, where: str = "", stack: tuple[Path, ...] = 
 
 def read_include(path: Path) -> tuple[dict[str, Any], Path] | str:
     """An included machine document and its folder, or what is wrong with it."""
-    from fsm.loader import reader_for
+    from fsm.reading import reader_for
 
     try:
         data, source = reader_for(path)(path)

@@ -277,7 +277,7 @@ def load_scenario(file: str | Path, plugins: tuple[str, ...] = ()) -> LoadedScen
 
     ``plugins`` (from ``fsmctl --plugin``) are loaded besides the scenario's own.
     """
-    from fsm.loader import parse_json_bytes, place, read_file_bytes
+    from fsm.reading import parse_json_bytes, place, read_file_bytes
 
     name = str(file)
     path = Path(file)
@@ -538,7 +538,8 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
                   cli_plugins: tuple[str, ...]) -> tuple[LoadedScenario | None, list[Problem]]:
     """Check the machine (and world) a scenario names, and the state names its expectations use."""
     from fsm.errors import RegistrationError
-    from fsm.loader import build, check, machine_files, signal_names, uses_car
+    from fsm.build import build
+    from fsm.loader import check, machine_files, signal_names, uses_car
     from fsm.registry import default_registry
 
     problems: list[Problem] = []

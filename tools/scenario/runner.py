@@ -164,7 +164,7 @@ class ScenarioResult:
 def run_scenario(loaded: LoadedScenario) -> ScenarioResult:
     """Run the scenario's machine on its timeline and check every expectation."""
     from fsm.clock import SimulatedClock
-    from fsm.loader import build
+    from fsm.build import build
 
     sc = loaded.scenario
     dt = loaded.dt

@@ -270,7 +270,7 @@ def load_spec_file(path: Path) -> tuple[SweepSpec, list[Problem]]:
     from pydantic import ValidationError
 
     from fsm.document import Source, problems_from_validation
-    from fsm.loader import parse_json_bytes, place, read_file_bytes
+    from fsm.reading import parse_json_bytes, place, read_file_bytes
 
     raw = read_file_bytes(path, "sweep")
     data, source = parse_json_bytes(raw, str(path), path.parent)

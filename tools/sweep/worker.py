@@ -94,9 +94,10 @@ class Dwell:
 
 def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], dict[str, float]]:
     from fsm.errors import DiagramError
-    from fsm.loader import build, check, uses_car
+    from fsm.build import build
+    from fsm.loader import check, uses_car
     from fsm.registry import default_registry
-    from fsm.trace import Recorder, summary
+    from fsm.trace import summary
 
     from .overrides import apply
 

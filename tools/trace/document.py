@@ -19,7 +19,7 @@ def header_document(file: str, preloaded_files: dict[str, Any] | None = None) ->
     read again (the run still writes its trace, without a drawing)."""
     from fsm.document import normalize_legacy
     from fsm.errors import DiagramError
-    from fsm.loader import preloaded, reader_for
+    from fsm.reading import preloaded, reader_for
 
     try:
         with preloaded(preloaded_files or {}):

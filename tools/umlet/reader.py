@@ -51,7 +51,7 @@ from typing import Any
 
 from fsm.document import Source
 from fsm.errors import DiagramError, Problem
-from fsm.loader import register_reader
+from fsm.reading import register_reader
 
 from .documents import Documents
 from .relations import Relations

@@ -69,7 +69,7 @@ def fail(name: str, message: str, line: int | None = None, column: int | None = 
 # -- entry ------------------------------------------------------------------------------------------------
 def read_raw(path: Path) -> RawDiagram:
     """The elements of a ``.uxf`` file (XML) or of its ``xml2json`` JSON form, whichever ``path`` holds."""
-    from fsm.loader import read_file_bytes  # regular files only, size-capped, standard input when preloaded
+    from fsm.reading import read_file_bytes  # regular files only, size-capped, standard input when preloaded
 
     name = str(path)
     raw = read_file_bytes(path, "diagram")
@@ -342,7 +342,7 @@ def _make_element(index: int, kind: Any, old: bool, coords: Any, text: Any, extr
 def parse_xml2json(raw: bytes, name: str) -> RawDiagram:
     """The legacy form: ``{"diagram": {"zoom_level": "10", "element": [...] or {...}}}``, every value a string."""
     from fsm.jsonpos import locate
-    from fsm.loader import parse_json_bytes
+    from fsm.reading import parse_json_bytes
 
     data, source = parse_json_bytes(raw, name, None)
     text = source.text or ""

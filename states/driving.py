@@ -23,6 +23,7 @@ from pydantic import Field, model_validator
 from fsm.params import StateParams
 from fsm.registry import register_state
 from fsm.state import State
+from fsm.transitions.vision import snap_heading  # the corridor's direction, as the gate states take it
 
 if TYPE_CHECKING:
     from fsm.context import Context
@@ -136,8 +137,6 @@ class BasicFollowWall(CarState):
         value = getattr(car, self._sensor)
         if self._snap is None or value >= 2.9:
             return value
-        from fsm.transitions.vision import snap_heading  # the corridor's direction, as the gate states take it
-
         th = car.pose()[2]
         return value * abs(math.cos(th - snap_heading(th, self._snap)))
 

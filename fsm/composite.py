@@ -2,16 +2,23 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, TypeVar
 
+from .document import SubMachine
+from .params import StateParams
 from .state import State
 
 if TYPE_CHECKING:
     from .context import Context
-    from .params import StateParams
+    from .document import StateSpec
+    from .parsing import Parser
+    from .plan import StatePlan
+    from .region import Region
+
+P = TypeVar("P", bound=StateParams)
 
 
-class Composite(State):
+class Composite(State[P]):
     """Base of ``FSMState`` (one region), ``Parallel`` (several) and the sequencer's states.
 
     Ticking a composite steps each region in declaration order, then applies the join rule: with one
@@ -20,17 +27,16 @@ class Composite(State):
     other outcome in region order), ``join = "any"`` when the first region is final (its outcome).
     """
 
-    __slots__ = ("join", "final_outcomes")
+    __slots__ = ("join",)
 
     can_finish = True
     outcomes = None
     #: Sub-machines of this type are its regions: the loader asks ``submachines`` for their documents.
     is_composite: ClassVar[bool] = True
 
-    def __init__(self, id: str, params: StateParams | None = None) -> None:
+    def __init__(self, id: str, params: P | None = None) -> None:
         super().__init__(id, params)
         self.join = getattr(self.params, "join", "all")
-        self.final_outcomes: frozenset[str] = frozenset()
 
     @classmethod
     def submachines(cls, params: StateParams) -> list[tuple[str | None, Any, str]]:
@@ -40,6 +46,24 @@ class Composite(State):
         means the region's states sit directly under the composite in paths (``FSMState``).
         """
         raise NotImplementedError
+
+    @classmethod
+    def parse_regions(cls, parser: Parser, spec: StateSpec, depth: int) -> None:
+        """Parse the element's sub-machines into ``spec.subs`` (the parse stage calls this for composites)."""
+        for default_name, doc, rel in cls.submachines(spec.params):
+            sub = parser.submachine(doc, spec.source, spec.pointer + rel, depth + 1)
+            name = default_name
+            if default_name is not None and sub is not None and sub.name:
+                name = sub.name
+                if "/" in name or any(name == other.name for other in spec.subs):
+                    parser.problems.add(f"region name '{name}' is not usable as a path step (it contains '/' or is "
+                                        f"used twice in '{spec.id}')", sub.source, sub.pointer + "/name",
+                                        element=spec.label, hint="give each region a unique name")
+            spec.subs.append(SubMachine(name, sub, spec.pointer + rel))
+
+    def attach_regions(self, regions: list[Region], plan: StatePlan) -> None:
+        """Take the built regions (in the order of ``plan.regions``) as this state's sub-machines."""
+        self.regions = tuple(regions)
 
     @classmethod
     def composite_outcomes(cls, params: StateParams, regions: list[set[str] | None]) -> set[str] | None:

@@ -25,8 +25,6 @@ class Condition:
     __slots__ = ("params", "owner", "children", "exprs")
 
     Params: ClassVar[type[ConditionParams]] = ConditionParams
-    #: Registered type name; set by the registry.
-    type_name: ClassVar[str] = ""
     #: Parameters that hold nested conditions: one condition object, or a list of them.
     condition_fields: ClassVar[tuple[str, ...]] = ()
     #: Parameters that hold expressions (checked and compiled by the loader, passed in ``exprs``).
@@ -57,6 +55,11 @@ class Condition:
     def holds(self, ctx: Context) -> bool:
         """True when the condition is met now."""
         raise NotImplementedError
+
+    @property
+    def type_name(self) -> str:
+        """The registered type name this condition was built as (its document's ``type``)."""
+        return self.params.type
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.type_name}>"

@@ -99,7 +99,7 @@ class Context:
             raise KeyError(f"no plant '{name}' is attached (attached: {known}); a scenario attaches plants with "
                            f"\"plants\": [{{\"name\": \"{name}\", \"type\": ...}}]") from None
 
-    def watch_signal(self, name: str) -> list[tuple[float, bool]]:
+    def signal_history(self, name: str) -> list[tuple[float, bool]]:
         """The change history of signal ``name``, kept from now on: ``[(time, level)]``, one entry per tick
         boundary at which its level differed from the previous boundary (conditions with ``debounce`` read it)."""
         history = self._history.get(name)

@@ -10,16 +10,17 @@ import difflib
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any, NamedTuple
 
 from pydantic import Field, ValidationError, WithJsonSchema, field_validator
 from pydantic.json_schema import GenerateJsonSchema
 
 from .errors import Problem
 from .jsonpos import escape, pointer
-from .params import ID_PATTERN, ParamsBase, StateParams, TransitionParams
+from .params import ID_PATTERN, ConditionParams, ParamsBase, StateParams, TransitionParams
 
 if TYPE_CHECKING:
+    from .condition import Condition
     from .registry import Registry
     from .state import State
     from .transition import Transition
@@ -88,56 +89,90 @@ class Source:
     locator: Any = None
 
 
+class SubMachine(NamedTuple):
+    """One region of a composite as parsed: its name as a path step (``None``: the composite's states sit
+    directly under it, as in ``FSMState``), its machine (``None`` when it failed to parse) and where it is written,
+    relative to the composite's element (``"/machine"``, ``"/regions/1"``)."""
+
+    name: str | None
+    machine: MachineSpec | None
+    pointer: str
+
+
+@dataclass
+class ConditionSpec:
+    """A parsed condition object: its class, parameters and nested conditions (expressions are checked and
+    compiled by the later stages)."""
+
+    cls: type[Condition]
+    params: ConditionParams
+    pointer: str
+    children: list[ConditionSpec] = field(default_factory=list)
+
+    @property
+    def type(self) -> str:
+        return self.params.type
+
+    def walk(self) -> Iterator[ConditionSpec]:
+        """This condition and every condition nested in it."""
+        todo = [self]
+        while todo:
+            cs = todo.pop()
+            yield cs
+            todo.extend(cs.children)
+
+
 @dataclass
 class StateSpec:
+    """A parsed state element: its type, parameters, sub-machines and condition objects."""
+
     id: str
     cls: type[State]
     params: StateParams
     pointer: str
     source: Source
-    subs: list[tuple[str | None, MachineSpec | None, str]] = field(default_factory=list)
-    #: the compiled ``set``: (on_enter, on_exit), each ``fn(ctx)`` or None (filled in by the loader's checks)
-    actions: tuple[Any, Any] = (None, None)
-    #: the step-common keys compiled (``fsm.sequencer.compile.Watch``), or None when the state has none
-    watch: Any = None
-    #: a Sequence's compiled layout (``fsm.sequencer.compile.SequenceLayout``), else None
+    subs: list[SubMachine] = field(default_factory=list)
+    #: The condition objects of the step-common keys, by key relative to the element (``"precondition"``,
+    #: ``"until"``, ``"monitors/0"``); a key written as an expression (text) is not here.
+    conditions: dict[str, ConditionSpec] = field(default_factory=dict)
+    #: A Sequence's layout (``fsm.sequencer.parsing.SequenceLayout``), else None.
     sequence: Any = None
 
+    @property
+    def type(self) -> str:
+        """The registered type name the element uses."""
+        return self.params.type
 
-@dataclass
-class ConditionSpec:
-    """A checked condition object: its class, parameters, nested conditions and compiled expressions."""
-
-    cls: type[Any]
-    params: Any
-    pointer: str
-    children: list[ConditionSpec] = field(default_factory=list)
-    exprs: dict[str, Any] = field(default_factory=dict)
-
-    def build(self) -> Any:
-        """A fresh instance (each transition gets its own: conditions keep state)."""
-        return self.cls(self.params, [c.build() for c in self.children], dict(self.exprs))
+    @property
+    def label(self) -> str:
+        return f"state '{self.id}'"
 
 
 @dataclass
 class TransitionSpec:
+    """A parsed transition element: its type, parameters and condition objects (a condition guard is
+    ``"guard"``; a type's condition parameters by name)."""
+
     cls: type[Transition]
     params: TransitionParams
     pointer: str
     source: Source
-    #: the compiled guard ``fn(ctx) -> bool`` (an expression's), the ``set`` ``fn(ctx)``, and the condition
-    #: objects by parameter name ("guard" for a condition guard); filled in by the loader's checks
-    guard: Any = None
-    assign: Any = None
     conditions: dict[str, ConditionSpec] = field(default_factory=dict)
 
     @property
+    def type(self) -> str:
+        return self.params.type
+
+    @property
     def label(self) -> str:
-        return f"transition {self.params.from_} -> {self.params.to} ({self.cls.type_name})"
+        return f"transition {self.params.from_} -> {self.params.to} ({self.params.type})"
 
 
 @dataclass
 class MachineSpec:
+    """One parsed machine level: its states and transitions (those that parsed), and what the checks need of
+    the elements as written, including the ones that did not parse (their ids and endpoints)."""
+
     source: Source
     pointer: str
     name: str | None
@@ -152,6 +187,14 @@ class MachineSpec:
     complete: bool = True
     #: The declared input signals (top level), or None when the document does not declare them.
     inputs: list[str] | None = None
+    #: Whether the level's envelope (initial, states, ...) was valid.
+    envelope_ok: bool = True
+    #: False for a level the document does not write as a machine (a Sequence's chain, one of its non-blocking or
+    #: exception sequences): the sequencer checks those, not the checks of a written level.
+    written: bool = True
+    #: The state and transition elements as written (for the checks of ids and endpoints).
+    raw_states: list[Any] = field(default_factory=list)
+    raw_transitions: list[Any] = field(default_factory=list)
 
     def levels(self) -> Iterator[MachineSpec]:
         """This level and every sub-machine below it (inline, included, parallel regions), any depth."""
@@ -159,7 +202,26 @@ class MachineSpec:
         while todo:
             level = todo.pop()
             yield level
-            todo.extend(sub for st in level.states for _name, sub, _ptr in st.subs if sub is not None)
+            todo.extend(sub.machine for st in level.states for sub in st.subs if sub.machine is not None)
+
+    def walk(self, prefix: str = "") -> Iterator[tuple[StateSpec, str]]:
+        """Every state below this level with the path of the level it is in (``""`` at the top), depth first in
+        document order."""
+        for st in self.states:
+            yield st, prefix
+            path = f"{prefix}/{st.id}" if prefix else st.id
+            for sub in st.subs:
+                if sub.machine is not None:
+                    yield from sub.machine.walk(f"{path}/{sub.name}" if sub.name else path)
+
+    def scoped_transitions(self, prefix: str = "") -> Iterator[tuple[TransitionSpec, str]]:
+        """Every transition below this level with the path of its level."""
+        yield from ((tr, prefix) for tr in self.transitions)
+        for st in self.states:
+            path = f"{prefix}/{st.id}" if prefix else st.id
+            for sub in st.subs:
+                if sub.machine is not None:
+                    yield from sub.machine.scoped_transitions(f"{path}/{sub.name}" if sub.name else path)
 
 
 # -- shape validation -------------------------------------------------------------------------------
@@ -440,6 +502,7 @@ __all__ = [
     "MachineSpecField",
     "Source",
     "StateSpec",
+    "SubMachine",
     "TransitionSpec",
     "check_type",
     "element_label",

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 
 @dataclass
@@ -23,6 +24,9 @@ class Problem:
     severity: str = "error"
     #: Where in a drawing, for documents converted from diagrams (``"x=480, y=460"``).
     where: str | None = None
+    #: For a problem inside an expression: the 1-based column in the expression's text, so the line:column
+    #: can point at the character in the file rather than at the key (see ``fsm.problems``).
+    expr_column: int | None = field(default=None, repr=False, compare=False)
 
     @property
     def location(self) -> str:
@@ -92,6 +96,13 @@ class StateRuntimeError(FsmError):
 
     Names the state path, the phase (``on_enter``, ``tick``, ``on_exit``, ``check``, ``action``) and the tick.
     """
+
+    @classmethod
+    def of(cls, state: Any, phase: str, ctx: Any, exc: BaseException) -> StateRuntimeError:
+        """``exc`` raised in ``phase`` of ``state`` (an error already located is passed on as it is)."""
+        if isinstance(exc, StateRuntimeError):
+            return exc
+        return cls(state.path, phase, ctx.tick, ctx.now, exc)
 
     def __init__(self, path: str, phase: str, tick: int, time: float, cause: BaseException) -> None:
         self.path = path

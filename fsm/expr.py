@@ -19,7 +19,7 @@ Grammar (lowest precedence first)::
     atom        := NUMBER | STRING | "true" | "false" | NAME | NAME "(" [expr ("," expr)*] ")" | "(" expr ")"
 
 Functions: ``abs(x)``, ``min(x, y, ...)``, ``max(x, y, ...)``. Strings are quoted with ``'`` or ``"``.
-Kinds are those of :func:`fsm.loader.value_kind`: number, true/false, text; true/false is not a number.
+Kinds are those of :func:`fsm.checking.value_kind`: number, true/false, text; true/false is not a number.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ import operator
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 NUMBER, BOOL, TEXT, ANY = "number", "true/false", "text", "any"
 KEYWORDS = frozenset({"true", "false", "and", "or", "not"})
@@ -333,15 +333,49 @@ def _a(kind: str) -> str:
     return {NUMBER: "a number", BOOL: "true/false", TEXT: "text"}.get(kind, kind)
 
 
-@dataclass
+class VarOp(NamedTuple):
+    """An expression of the form ``variable OP constant`` (a number variable, a number constant): the common guard
+    (``n < 3``) and counter (``n + 1``), which the runtime runs inline instead of calling a closure.
+
+    ``read(vars)`` gives the variable's value, or raises the run-time error, when it is not a plain number.
+    ``swapped``: written ``constant OP variable``."""
+
+    variable: str
+    op: Callable[[Any, Any], Any]
+    constant: Any
+    swapped: bool
+    read: Fn
+
+
+@dataclass(frozen=True)
 class Compiled:
-    """A checked expression: its closure over the variables, its kind, its constant value (if constant)."""
+    """A checked expression: its closure over the variables, its kind, its constant value (if constant), and
+    its ``variable OP constant`` form when it has one."""
 
     fn: Fn
     kind: str
     text: str
     constant: bool = False
     value: Any = None
+    var_op: VarOp | None = None
+
+    def comparison(self) -> VarOp | None:
+        """The expression as ``variable OP constant`` with a comparison operator, read left to right (``3 > n``
+        becomes ``n < 3``), or None."""
+        v = self.var_op
+        if v is None or v.op not in _FLIPPED:
+            return None
+        return v._replace(op=_FLIPPED[v.op], swapped=False) if v.swapped else v
+
+    def counter(self) -> VarOp | None:
+        """The expression as ``variable OP constant`` (not swapped: ``1 - n`` is not a counter), or None."""
+        v = self.var_op
+        return v if v is not None and not v.swapped else None
+
+
+def constant(value: Any) -> Compiled:
+    """A constant written as a JSON number or true/false (not as an expression text)."""
+    return Compiled(lambda v: value, kind_of(value), repr(value), True, value)
 
 
 class ExprRuntimeError(ValueError):
@@ -360,7 +394,7 @@ def compile_expr(text: str, kinds: dict[str, str], want: str | None = None) -> C
         raise ExprError(f"the expression gives {_a(kind)}, {_a(want)} is needed here", node.column)
     if want == BOOL and kind == ANY:
         fn = _checked_bool(fn, text)
-    return Compiled(fn, kind, text, const, value)
+    return Compiled(fn, kind, text, const, value, None if const else _var_op(node, kinds))
 
 
 def _checked_bool(fn: Fn, text: str) -> Fn:
@@ -436,7 +470,7 @@ def _compile(node: Node, kinds: dict[str, str]) -> tuple[Fn, str, bool, Any]:
     if op == "+" and TEXT in (lk, rk):
         if {lk, rk} - {TEXT, ANY}:
             raise ExprError(f"cannot add {_a(lk)} and {_a(rk)}", node.column)
-        return _fold(lambda v: lf(v) + rf(v), TEXT, [left, right])
+        return _fold(lambda v: _join_text(lf(v), rf(v)), TEXT, [left, right])
     _need(lk, NUMBER, f"'{op}'", node.args[0].column)
     _need(rk, NUMBER, f"'{op}'", node.args[1].column)
     if op in ("/", "%") and right[2] and right[3] == 0:
@@ -460,70 +494,67 @@ _FUSABLE = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operato
             "!=": operator.ne, "+": operator.add, "-": operator.sub, "*": operator.mul}
 
 
-def _fused(op: str, node: Node, kinds: dict[str, str]) -> Fn | None:
-    """``number_var OP constant`` (or the other way round) as one closure: the common guard (``n < 3``) and
-    counter (``n + 1``) forms, which would otherwise call three closures per evaluation. Called after the
-    generic path has checked the kinds; a variable holding another kind still gets the generic error."""
-    f = _FUSABLE.get(op)
-    a, b = node.args
+def _var_op(node: Node, kinds: dict[str, str]) -> VarOp | None:
+    """``number_var OP constant`` (or the other way round) as a record, for the runtime's inline forms. Called
+    after the generic path has checked the kinds; a variable holding another kind still gets the generic error."""
+    f = _FUSABLE.get(node.op)
     if f is None:
         return None
+    a, b = node.args
     if a.op == "var" and b.op == "const":
-        name, const, swap = a.args[0], b.args[0], False
+        name, const, swapped = a.args[0], b.args[0], False
     elif a.op == "const" and b.op == "var":
-        name, const, swap = b.args[0], a.args[0], True
+        name, const, swapped = b.args[0], a.args[0], True
     else:
         return None
     if kinds.get(name) != NUMBER or kind_of(const) != NUMBER:
         return None
-    read = _var(name, NUMBER)  # the slow path: a missing value, or a value of another kind
+    return VarOp(name, f, const, swapped, _var(name, NUMBER))
+
+
+def _fused(op: str, node: Node, kinds: dict[str, str]) -> Fn | None:
+    """``number_var OP constant`` as one closure: the common guard (``n < 3``) and counter (``n + 1``) forms, which
+    would otherwise call three closures per evaluation."""
+    form = _var_op(node, kinds)
+    if form is None:
+        return None
+    name, f, const, swapped, read = form
     numeric = _NUMERIC
-
-    if swap:
-        def fused_swapped(v: dict[str, Any]) -> Any:
-            x = v.get(name)
-            return f(const, x if type(x) in numeric else read(v))
-        fused_swapped.shape = (name, f, const, True, read)  # type: ignore[attr-defined]
-        return fused_swapped
-
-    def fused(v: dict[str, Any]) -> Any:
-        x = v.get(name)
-        return f(x if type(x) in numeric else read(v), const)
-    fused.shape = (name, f, const, False, read)  # type: ignore[attr-defined]
-    return fused
+    if swapped:
+        return lambda v: f(const, x if type(x := v.get(name)) in numeric else read(v))
+    return lambda v: f(x if type(x := v.get(name)) in numeric else read(v), const)
 
 
-def on_context(fn: Fn) -> Callable[[Any], Any]:
-    """``fn`` (a compiled expression over the variables) as a function of the context: ``ctx -> fn(ctx.vars)``,
-    one closure for the fused ``var OP constant`` form (the common guard), so a guard costs one call. A fused
-    comparison also carries ``test = (variable, operator, constant, read)``, which ``Region.step`` runs inline
-    without calling the closure (``read(vars)`` gives the value, or the error, when it is not a number)."""
-    shape = getattr(fn, "shape", None)
-    if shape is None:
+def on_context(c: Compiled) -> Callable[[Any], Any]:
+    """A compiled expression over the variables as a function of the context: ``ctx -> fn(ctx.vars)``, one
+    closure for the ``var OP constant`` form (the common guard), so a guard costs one call."""
+    form = c.var_op
+    if form is None:
+        fn = c.fn
         return lambda ctx: fn(ctx.vars)
-    name, f, const, swap, read = shape
+    name, f, const, swapped, read = form
     numeric = _NUMERIC
-    if swap:
-        def guard_swapped(ctx: Any) -> Any:
-            v = ctx.vars
-            x = v.get(name)
-            return f(const, x if type(x) in numeric else read(v))
-        if f in _FLIPPED:
-            guard_swapped.test = (name, _FLIPPED[f], const, read)  # type: ignore[attr-defined]
-        return guard_swapped
-
-    def guard(ctx: Any) -> Any:
-        v = ctx.vars
-        x = v.get(name)
-        return f(x if type(x) in numeric else read(v), const)
-    if f in _FLIPPED:
-        guard.test = (name, f, const, read)  # type: ignore[attr-defined]
-    return guard
+    if swapped:
+        return lambda ctx: f(const, x if type(x := (v := ctx.vars).get(name)) in numeric else read(v))
+    return lambda ctx: f(x if type(x := (v := ctx.vars).get(name)) in numeric else read(v), const)
 
 
 #: ``const OP var`` is ``var FLIPPED[OP] const``: a guard's test is always read as ``var OP const``.
 _FLIPPED = {operator.lt: operator.gt, operator.le: operator.ge, operator.gt: operator.lt, operator.ge: operator.le,
             operator.eq: operator.eq, operator.ne: operator.ne}
+
+
+#: The longest text an expression may make (characters): a text doubled on every tick would fill the memory in
+#: seconds, so a longer result is a run-time error of the state or transition that computes it.
+MAX_TEXT_LENGTH = 65536
+
+
+def _join_text(a: Any, b: Any) -> Any:
+    out = a + b
+    if type(out) is str and len(out) > MAX_TEXT_LENGTH:
+        raise ExprRuntimeError(f"text longer than {MAX_TEXT_LENGTH} characters ({len(out)}): text variables are "
+                               "capped so a growing text cannot fill the memory")
+    return out
 
 
 def _div(a: Any, b: Any) -> Any:
@@ -600,38 +631,36 @@ def assigner(targets: list[tuple[str, Compiled]]) -> Callable[[Any], None]:
     """One closure running ``name = expr`` in order (each sees the values assigned before it) on ``ctx.vars``."""
     if len(targets) == 1:
         name, c = targets[0]
-        fn = c.fn
         if c.constant:
             value = c.value
 
-            def run1c(ctx: Any) -> None:
+            def assign_constant(ctx: Any) -> None:
                 ctx.vars[name] = value
-            return run1c
-
-        shape = getattr(fn, "shape", None)
-        if shape is not None and not shape[3]:  # name = var OP constant (a counter): one closure
-            var, f, const, _swap, read = shape
+            return assign_constant
+        form = c.counter()
+        if form is not None:  # name = var OP constant (a counter): one closure
+            var, f, const, _swapped, read = form
             numeric = _NUMERIC
 
-            def run1f(ctx: Any) -> None:
+            def count(ctx: Any) -> None:
                 v = ctx.vars
                 x = v.get(var)
                 v[name] = f(x if type(x) in numeric else read(v), const)
-            run1f.count = (name, var, f, const, read)  # type: ignore[attr-defined]  # run inline by Region.fire
-            return run1f
+            return count
+        fn = c.fn
 
-        def run1(ctx: Any) -> None:
+        def assign_one(ctx: Any) -> None:
             v = ctx.vars
             v[name] = fn(v)
-        return run1
+        return assign_one
     pairs = tuple((name, c.fn) for name, c in targets)
 
-    def run(ctx: Any) -> None:
+    def assign_all(ctx: Any) -> None:
         v = ctx.vars
         for name, f in pairs:
             v[name] = f(v)
-    return run
+    return assign_all
 
 
-__all__ = ["ANY", "BOOL", "NUMBER", "TEXT", "Compiled", "ExprError", "ExprRuntimeError", "Node", "assigner",
+__all__ = ["ANY", "BOOL", "NUMBER", "TEXT", "Compiled", "VarOp", "constant", "ExprError", "ExprRuntimeError", "Node", "assigner",
            "compile_expr", "kind_of", "on_context", "parse", "parse_assignments", "tokenize", "unparse"]

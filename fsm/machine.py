@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import bisect
+import difflib
 import math
 import numbers
 from collections.abc import Callable
@@ -10,7 +11,9 @@ from typing import TYPE_CHECKING, Any
 
 from .clock import SimulatedClock
 from .context import Context, _shown, check_signal_name, signal_level
+from .debounce import Debounced
 from .errors import StateRuntimeError
+from .paths import resolve_path
 from .state import State as _State
 
 if TYPE_CHECKING:
@@ -75,7 +78,7 @@ class Machine:
         self._schedule: list[tuple[float, int, str, bool]] = []
         self._schedule_seq = 0
         #: pause buttons: (rising-edge detector ``fn(ctx) -> bool``, state) checked before each tick
-        self._toggles: list[tuple[Any, State]] = []
+        self._toggles: list[tuple[Callable[[Context], bool], State[Any]]] = []
         for region in self.regions:
             region.listeners = self.listeners
 
@@ -241,16 +244,12 @@ class Machine:
         try:
             return self.states_by_path[path.strip("/")]
         except KeyError:
-            import difflib
-
             close = difflib.get_close_matches(path, list(self.states_by_path), n=3)
             hint = f"; did you mean {', '.join(close)}?" if close else ""
             raise KeyError(f"no state at path '{path}'{hint}") from None
 
     def resolve(self, path: str, scope: str = "") -> State:
         """The state ``path`` names when written in the level at ``scope`` (see :func:`fsm.paths.resolve_path`)."""
-        from .paths import resolve_path
-
         full = resolve_path(path, scope, self.states_by_path)
         if full is None:
             raise KeyError(f"no state '{path}' seen from '{scope or '/'}'")
@@ -277,10 +276,8 @@ class Machine:
         for sub in self._active_subtree(state):
             if sub.frozen_since is None:  # already frozen by an earlier pause below: keep that time
                 sub.frozen_since = now
-                sub._prepare()
                 if type(sub).on_pause is not _State.on_pause:
                     sub.on_pause(self.ctx)
-        state._prepare()
         if self.listeners:
             self._notify_pause(state, True)
 
@@ -298,22 +295,21 @@ class Machine:
         now = self.ctx.now
         held = any(s.paused for s in self._ancestors(state))
         if not held:
-            self._thaw(state, now)
-        state._prepare()
+            self.thaw(state, now)
         if self.listeners:
             self._notify_pause(state, False)
 
-    def _thaw(self, state: State, now: float) -> None:
-        """Unfreeze ``state`` and its subtree, stopping at states that are paused themselves."""
+    def thaw(self, state: State[Any], now: float) -> None:
+        """Unfreeze ``state`` and its subtree after a pause or a suspension, stopping at states that are paused
+        themselves: their clocks go on from where they stood (the frozen time is not counted)."""
         if state.frozen_since is not None:
             state.entered_at += now - state.frozen_since
             state.frozen_since = None
-            state._prepare()
             if state.paused is False and type(state).on_resume is not _State.on_resume:
                 state.on_resume(self.ctx)
         for region in _inner_regions(state):
             if region.started and not region.active.paused:
-                self._thaw(region.active, now)
+                self.thaw(region.active, now)
 
     @staticmethod
     def _ancestors(state: State) -> list[State]:
@@ -341,7 +337,21 @@ class Machine:
                 else:
                     self.pause(state.path)
 
-    def _notify_monitor(self, owner: State, monitor: Any) -> None:
+    def add_pause_button(self, state: State[Any], signal: str, debounce: float = 0.0) -> None:
+        """Each rising edge of ``signal`` (debounced by ``debounce`` seconds) pauses ``state`` when it runs and
+        resumes it when it is paused (one push button, checked before each tick)."""
+        filt = Debounced(self.ctx.signal_history(signal), debounce)
+        last = [False]
+
+        def edge(ctx: Context) -> bool:
+            level = filt.advance(ctx.now)
+            rose = level and not last[0]
+            last[0] = level
+            return rose
+        self._toggles.append((edge, state))
+
+    def notify_monitor(self, owner: State[Any], monitor: Any) -> None:
+        """Tell the listeners that a monitor (or a timeout) of ``owner`` fired."""
         for listener in self.listeners:
             hook = getattr(listener, "on_monitor", None)
             if hook is not None:
@@ -376,11 +386,6 @@ class Machine:
             raise ValueError(f"{_shown(listener)} is not a listener of this machine") from None
 
     # -- errors ---------------------------------------------------------------------------------
-    def _runtime_error(self, state: State, phase: str, exc: BaseException) -> StateRuntimeError:
-        if isinstance(exc, StateRuntimeError):
-            return exc
-        return StateRuntimeError(state.path, phase, self.ctx.tick, self.ctx.now, exc)
-
     def _emergency_stop(self) -> None:
         """Stop the plant (speed 0) after a state failed, if it can be stopped."""
         car = self.ctx.car
@@ -397,9 +402,9 @@ class Machine:
 
 def _inner_regions(state: State) -> tuple[Region, ...]:
     """The regions below ``state``: its own and the exception sequence running for it, if any."""
-    w = state._watcher
+    w = state.supervisor
     if w is not None and w.running is not None:
-        return state.regions + (w.running[1],)
+        return state.regions + (w.running.region,)
     return state.regions
 
 

@@ -36,8 +36,6 @@ class Plant(Listener):
     """Subclass it, declare ``Params`` (a :class:`PlantParams`), override ``reset`` and ``step``, register it."""
 
     Params: ClassVar[type[PlantParams]] = PlantParams
-    #: Registered type name; set by the registry.
-    type_name: ClassVar[str] = ""
     #: Input signals the plant writes (``fsmctl test`` then knows who drives them).
     signal_refs: ClassVar[tuple[str, ...]] = ()
 
@@ -52,6 +50,11 @@ class Plant(Listener):
         machine.ctx.plants[self.name] = self
         machine.add_listener(self)
         self.reset(machine.ctx)
+
+    @property
+    def type_name(self) -> str:
+        """The registered type name this plant was built as (its element's ``type``)."""
+        return self.params.type
 
     def signals(self) -> set[str]:
         """The input signals this plant writes (from the parameters named in ``signal_refs``)."""

@@ -5,56 +5,66 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from .errors import StateRuntimeError
+from .plan import ActionKind, GuardKind
+from .sequencer.verdict import Verdict
 
 if TYPE_CHECKING:
     from .context import Context
+    from .machine import Listener
     from .state import State
     from .transition import Transition
 
-
 _NUMERIC = (int, float)
+_ALWAYS = GuardKind.ALWAYS
+_COMPARE = GuardKind.COMPARE
+_NO_ACTION = ActionKind.NONE
+_COUNTER = ActionKind.COUNTER
+_PROCEED = Verdict.PROCEED
+_HALTED = Verdict.HALTED
 
 
 class Region:
     """A machine level. The root machine has one; a composite state owns one (``FSMState``) or several
     (``Parallel``).
 
-    One tick of a level whose active state is S (DESIGN.md, Tick semantics): S's preemptive
-    transitions (the caller's level was checked before, so outermost first); S's tick (which steps
-    S's sub-levels by the same rule); S's regular transitions in priority/declaration order. At most
+    One tick of a level whose active state is S (docs/semantics.md, "One tick"): S's supervisor (monitors,
+    timeout), S's preemptive transitions (the caller's level was checked before, so outermost first); S's tick
+    (which steps S's sub-levels by the same rule); S's regular transitions in priority/declaration order. At most
     one transition fires per level per tick.
+
+    Whether a transition fires is decided by its ``kind``: ``ALWAYS`` fires, ``COMPARE`` runs the comparison
+    ``variable OP constant`` inline, ``CALL`` calls ``test(ctx)``. Firing runs its ``effect`` the same way.
     """
 
     __slots__ = ("name", "path", "states", "initial", "active", "owner", "started", "fired", "listeners")
 
-    def __init__(self, name: str, path: str, states: dict[str, State], initial: State) -> None:
+    def __init__(self, name: str, path: str, states: dict[str, State[Any]], initial: State[Any]) -> None:
         self.name = name
         self.path = path
         self.states = states
         self.initial = initial
-        self.active: State = initial
-        self.owner: State | None = None
+        self.active: State[Any] = initial
+        self.owner: State[Any] | None = None
         self.started = False
         self.fired = 0
-        self.listeners: list[Any] = []
+        self.listeners: list[Listener] = []
 
     def start(self, ctx: Context) -> None:
         """Enter the initial state (and down into its initial sub-states)."""
         state = self.initial
         self.active = state
         self.started = True
-        state.entered_at = ctx._now
+        state.entered_at = ctx._now  # the machine's time slot: a property costs a call
         if self.listeners:
             for listener in self.listeners:
                 listener.on_transition(ctx, None, state, None)
-        if state._enter is not None:
-            state._enter(ctx)
+        if state.enter_hook is not None:
+            state.enter_hook(ctx)
 
     def stop(self, ctx: Context) -> None:
         """Exit the active state (innermost first)."""
-        state = self.active
-        if self.started and state._exit is not None:
-            state._exit(ctx)
+        if self.started:
+            self.active.leave(ctx)
         self.started = False
 
     def step(self, ctx: Context) -> None:
@@ -62,46 +72,43 @@ class Region:
         state = self.active
         if state.paused:
             return
-        if state._watch is not None:
+        if state.supervisor is not None:
             try:
-                verdict = state._watch(ctx)
+                verdict = state.supervisor.check(ctx)
             except StateRuntimeError:
                 raise
             except Exception as exc:
-                raise ctx.machine._runtime_error(state, "monitors", exc) from exc  # type: ignore[union-attr]
-            if verdict is not None:
-                if not verdict:
+                raise StateRuntimeError.of(state, "monitors", ctx, exc) from exc
+            if verdict is not _PROCEED:
+                if verdict is _HALTED:
                     self._transitions_only(state, ctx)
                 return
         phase = "check"
-        tr: Transition | None = None
+        tr: Transition[Any] | None = None
         try:
             if state.preempt:
                 for tr in state.preempt:
-                    if tr.always or tr._check(ctx):
+                    if tr.fires(ctx):
                         phase = "firing"
                         self.fire(state, tr, ctx)
                         return
-            if state._tick is not None:
+            tick = state.tick_hook
+            if tick is not None:
                 phase = "tick"
-                state._tick(ctx)
+                tick(ctx)
                 if state.paused:  # paused during its own tick (by a child or a listener): no transition
                     return
                 phase = "check"
             for tr in state.regular:
-                if tr.always:
-                    phase = "firing"
-                    self.fire(state, tr, ctx)
-                    return
-                test = tr.test
-                if test is None:
-                    if not tr._check(ctx):
-                        continue
-                else:  # a guard ``var OP constant`` and nothing else, inline (see Transition.test)
-                    name, op, const, read = test
-                    v = ctx.vars
-                    x = v[name] if name in v else read(v)
-                    if not op(x if type(x) in _NUMERIC else read(v), const):
+                kind = tr.kind
+                if kind is not _ALWAYS:
+                    if kind is _COMPARE:  # the guard ``variable OP constant``, inline
+                        name, op, const, _swapped, read = tr.compare  # type: ignore[misc]
+                        v = ctx.vars
+                        x = v[name] if name in v else read(v)
+                        if not op(x if type(x) in _NUMERIC else read(v), const):
+                            continue
+                    elif not tr.test(ctx):  # type: ignore[misc]
                         continue
                 phase = "firing"
                 self.fire(state, tr, ctx)
@@ -111,38 +118,40 @@ class Region:
         except Exception as exc:
             if phase in ("check", "firing") and tr is not None:
                 phase = f"{phase} of transition {tr.describe()}"
-            raise ctx.machine._runtime_error(state, phase, exc) from exc  # type: ignore[union-attr]
+            raise StateRuntimeError.of(state, phase, ctx, exc) from exc
 
-    def _transitions_only(self, state: State, ctx: Context) -> None:
+    def _transitions_only(self, state: State[Any], ctx: Context) -> None:
         """A halted state (aborted, or skipped by its precondition): not ticked, its transitions checked."""
-        tr: Transition | None = None
+        tr: Transition[Any] | None = None
         try:
             for tr in state.preempt + state.regular:
-                if tr.always or tr._check(ctx):
+                if tr.fires(ctx):
                     self.fire(state, tr, ctx)
                     return
         except StateRuntimeError:
             raise
         except Exception as exc:
             phase = f"check of transition {tr.describe()}" if tr is not None else "check"
-            raise ctx.machine._runtime_error(state, phase, exc) from exc  # type: ignore[union-attr]
+            raise StateRuntimeError.of(state, phase, ctx, exc) from exc
 
-    def fire(self, state: State, tr: Transition, ctx: Context) -> None:
+    def fire(self, state: State[Any], tr: Transition[Any], ctx: Context) -> None:
         """Leave ``state`` by ``tr``: exit innermost first, the transition's action, enter the target."""
-        if state._exit is not None:
-            state._exit(ctx)
-        count = tr.count
-        if count is not None or tr._action is not None:
+        if state.exit_hook is not None:
+            state.exit_hook(ctx)
+        effect = tr.effect
+        if effect is not _NO_ACTION:
             try:
-                if count is not None:  # a set ``target = var OP constant`` and nothing else, inline
-                    to, name, op, const, read = count
+                if effect is _COUNTER:  # a set ``target = variable OP constant`` and nothing else, inline
+                    to, (name, op, const, _swapped, read) = tr.counter  # type: ignore[misc]
                     v = ctx.vars
                     x = v[name] if name in v else read(v)
                     v[to] = op(x if type(x) in _NUMERIC else read(v), const)
                 else:
-                    tr._action(ctx)
+                    tr.run(ctx)  # type: ignore[misc]
+            except StateRuntimeError:
+                raise
             except Exception as exc:
-                raise ctx.machine._runtime_error(state, f"action of transition {tr.describe()}", exc) from exc  # type: ignore[union-attr]
+                raise StateRuntimeError.of(state, f"action of transition {tr.describe()}", ctx, exc) from exc
         target = tr.target
         self.active = target
         target.entered_at = ctx._now
@@ -150,16 +159,16 @@ class Region:
         if self.listeners:
             for listener in self.listeners:
                 listener.on_transition(ctx, state, target, tr)
-        if target._enter is not None:
-            target._enter(ctx)
+        if target.enter_hook is not None:
+            target.enter_hook(ctx)
 
     def leaf_paths(self) -> list[str]:
         """Paths of the active leaf states below this level (several under a parallel state)."""
         state = self.active
-        w = state._watcher
-        if w is not None and w.running is not None:  # suspended for an exception sequence: both are shown
+        supervisor = state.supervisor
+        if supervisor is not None and supervisor.running is not None:  # suspended for an exception sequence
             inner = [p for r in state.regions if r.started for p in r.leaf_paths()] or [state.path]
-            return inner + w.running[1].leaf_paths()
+            return inner + supervisor.running.region.leaf_paths()
         if not state.regions:
             return [state.path]
         paths: list[str] = []

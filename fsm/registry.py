@@ -32,7 +32,13 @@ PLANT_GROUP = "fsm.plants"
 
 
 class Registry:
-    """Three name spaces, states, transitions and conditions; a name may not be registered twice in one."""
+    """Name spaces of types: states, transitions, conditions and plants; a name may not be registered twice in one.
+
+    A registry is a value: ``Registry()`` is empty, :meth:`with_builtins` a fresh one with the built-in types, and
+    :func:`default_registry` the process's (built-ins, installed plugins, ``--plugin`` modules). Registering
+    changes the registry only, never the class: one class may be registered under different names in different
+    registries, and an element knows its type's name from its document (``params.type``).
+    """
 
     def __init__(self) -> None:
         self.states: dict[str, type[State]] = {}
@@ -63,9 +69,25 @@ class Registry:
             raise RegistrationError(f"{cls!r} is not a subclass of fsm.{base.__name__}")
         self._check_params(cls, name, params_base)
         self._check_free(table, name, cls, kind)
-        cls.type_name = name
         table[name] = cls
         return cls
+
+    @classmethod
+    def with_builtins(cls) -> Registry:
+        """A fresh registry holding the built-in state, transition and condition types (no plugins)."""
+        registry = cls()
+        for kind, name, type_ in builtin_types():
+            {"state": registry.add_state, "transition": registry.add_transition,
+             "condition": registry.add_condition, "plant": registry.add_plant}[kind](type_, name)
+        return registry
+
+    def name_of(self, cls: type) -> str | None:
+        """The name ``cls`` is registered under here (states, transitions, conditions, plants), or None."""
+        for table in (self.states, self.transitions, self.conditions, self.plants):
+            for name, registered in table.items():
+                if registered is cls:
+                    return name
+        return None
 
     @staticmethod
     def _check_params(cls: type, name: str, base: type) -> None:
@@ -87,15 +109,6 @@ class Registry:
             )
 
     # -- lookup ---------------------------------------------------------------------------------
-    def state_class(self, name: str) -> type[State] | None:
-        return self.states.get(name)
-
-    def transition_class(self, name: str) -> type[Transition] | None:
-        return self.transitions.get(name)
-
-    def condition_class(self, name: str) -> type[Condition] | None:
-        return self.conditions.get(name)
-
     def table(self, kind: str) -> dict[str, Any]:
         """The name space of ``kind``: "state", "transition" or "condition"."""
         return {"state": self.states, "transition": self.transitions, "condition": self.conditions}[kind]
@@ -251,6 +264,19 @@ def _import_plugin(plugin: str) -> None:
 # -- the process-wide registry and its decorators ---------------------------------------------------
 _current: list[Registry] = [Registry()]
 _builtins_loaded = False
+#: Every registration a decorator made in this process: (kind, name, class).
+_DECLARED: list[tuple[str, str, type]] = []
+
+
+def builtin_types() -> list[tuple[str, str, type]]:
+    """``(kind, name, class)`` of the built-in types: those tral-fsm's own modules register."""
+    importlib.import_module("fsm.states")
+    importlib.import_module("fsm.transitions")
+    return [(kind, name, cls) for kind, name, cls in _DECLARED if cls.__module__.startswith("fsm.")]
+
+
+def _declare(kind: str, name: str | None, cls: type) -> None:
+    _DECLARED.append((kind, name or cls.__name__, cls))
 
 
 class using:
@@ -277,6 +303,7 @@ def register_state(cls: S | None = None, *, name: str | None = None) -> Any:
 
     def deco(c: S) -> S:
         current().add_state(c, name)
+        _declare("state", name, c)
         return c
 
     return deco(cls) if cls is not None else deco
@@ -287,6 +314,7 @@ def register_transition(cls: T | None = None, *, name: str | None = None) -> Any
 
     def deco(c: T) -> T:
         current().add_transition(c, name)
+        _declare("transition", name, c)
         return c
 
     return deco(cls) if cls is not None else deco
@@ -297,6 +325,7 @@ def register_condition(cls: C | None = None, *, name: str | None = None) -> Any:
 
     def deco(c: C) -> C:
         current().add_condition(c, name)
+        _declare("condition", name, c)
         return c
 
     return deco(cls) if cls is not None else deco
@@ -311,11 +340,20 @@ def default_registry(plugins: list[str] | tuple[str, ...] = (), entry_points: bo
         with using(registry):
             importlib.import_module("fsm.states")
             importlib.import_module("fsm.transitions")
-        if entry_points:
-            registry.load_entry_points()
+    if entry_points and not _entry_points_loaded:
+        _load_entry_points(registry)
     for module in plugins:
         registry.load_module(module)
     return registry
+
+
+_entry_points_loaded = False
+
+
+def _load_entry_points(registry: Registry) -> None:
+    global _entry_points_loaded
+    _entry_points_loaded = True
+    registry.load_entry_points()
 
 
 def register_plant(cls: Any = None, *, name: str | None = None) -> Any:
@@ -323,6 +361,7 @@ def register_plant(cls: Any = None, *, name: str | None = None) -> Any:
 
     def deco(c: Any) -> Any:
         current().add_plant(c, name)
+        _declare("plant", name, c)
         return c
 
     return deco(cls) if cls is not None else deco

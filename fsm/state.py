@@ -2,23 +2,43 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, ClassVar
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, ClassVar, Generic, NamedTuple, TypeVar, cast
 
+from .errors import StateRuntimeError
 from .params import StateParams
 
 if TYPE_CHECKING:
+    from .condition import Condition
     from .context import Context
+    from .machine import Machine
     from .region import Region
+    from .sequencer.supervisor import Supervisor
     from .transition import Transition
 
+P = TypeVar("P", bound=StateParams)
 
-class State:
+#: A hook the runtime calls with the context (``None`` where there is nothing to do).
+Hook = Callable[["Context"], None]
+
+
+class Until(NamedTuple):
+    """A state's exit condition, built: ``holds(ctx)`` and the condition objects to reset on each entry."""
+
+    holds: Callable[[Context], bool]
+    conditions: tuple[Condition, ...]
+
+
+class State(Generic[P]):
     """A state of a machine. Subclass it, declare ``Params``, override the hooks you need, and register it.
 
     The runtime calls ``on_enter`` when the state becomes active (take resources), ``tick`` once per
     machine tick while it is active (compute outputs), and ``on_exit`` when it is left (release them).
     A state that can finish (``can_finish = True``) calls ``finish(outcome)``; ``Finished``
     transitions then route on that outcome.
+
+    ``State`` is generic over its parameters: ``class Wait(State[WaitParams])`` with ``Params = WaitParams``
+    types ``self.params.seconds``.
     """
 
     __slots__ = (
@@ -35,20 +55,17 @@ class State:
         "preempt",
         "regular",
         "transitions",
-        "_tick",
-        "_enter",
-        "_exit",
-        "_source_hooks",
-        "_set_enter",
-        "_set_exit",
-        "_watch",
-        "_watcher",
-        "_until",
+        "supervisor",
+        "until",
+        "entry_action",
+        "exit_action",
+        "tick_hook",
+        "enter_hook",
+        "exit_hook",
+        "arms",
     )
 
     Params: ClassVar[type[StateParams]] = StateParams
-    #: Registered type name; set by the registry.
-    type_name: ClassVar[str] = ""
     #: Whether instances can finish; the loader refuses a ``Finished`` transition out of a type that cannot.
     can_finish: ClassVar[bool] = False
     #: The outcomes instances can finish with (checked against ``Finished`` transitions that name one).
@@ -60,10 +77,14 @@ class State:
     is_composite: ClassVar[bool] = False
     #: States that drive the plant (``ctx.car``); a machine with one cannot be built without a car.
     needs_car: ClassVar[bool] = False
+    #: Names of parameters that hold input signal names (``pause_signal``).
+    signal_refs: ClassVar[tuple[str, ...]] = ()
+    #: Names of parameters that hold assignments (``{"var": "expression"}``) run on entry, like ``set.on_enter``.
+    assignment_fields: ClassVar[tuple[str, ...]] = ()
 
-    def __init__(self, id: str, params: StateParams | None = None) -> None:
+    def __init__(self, id: str, params: P | None = None) -> None:
         self.id = id
-        self.params = params if params is not None else self.Params(id=id, type=self.type_name or type(self).__name__)
+        self.params: P = params if params is not None else cast(P, self.Params(id=id, type=type(self).__name__))
         self.path = id
         self.region: Region | None = None
         self.regions: tuple[Region, ...] = ()
@@ -71,24 +92,30 @@ class State:
         self.outcome: str | None = None
         self.entered_at = 0.0
         self.paused = False
-        #: Machine time since which this state's clock stands still (it or an ancestor is paused), else None.
+        #: Machine time since which this state's clock stands still (it or an ancestor is paused, or it is
+        #: suspended while a monitor's exception sequence runs), else None.
         self.frozen_since: float | None = None
-        self.preempt: tuple[Transition, ...] = ()
-        self.regular: tuple[Transition, ...] = ()
-        self.transitions: list[Transition] = []
-        self._tick: Any = None
-        self._enter: Any = None
-        self._exit: Any = None
-        self._source_hooks: tuple[Any, ...] = ()
-        #: The document's ``set`` of this state, compiled: ``fn(ctx)`` or None.
-        self._set_enter: Any = None
-        self._set_exit: Any = None
-        #: Monitors, timeout and precondition (``fsm.sequencer.watch.Watcher``) or None; ``_watch`` is its
-        #: ``check``, which ``Region.step`` calls before anything else of this state.
-        self._watcher: Any = None
-        self._watch: Any = None
-        #: The exit condition (``until``): ``(holds(ctx), condition objects to reset on entry)`` or None.
-        self._until: Any = None
+        self.preempt: tuple[Transition[Any], ...] = ()
+        self.regular: tuple[Transition[Any], ...] = ()
+        self.transitions: list[Transition[Any]] = []
+        #: Monitors, timeout and precondition (:class:`fsm.sequencer.supervisor.Supervisor`), or None.
+        self.supervisor: Supervisor | None = None
+        #: The exit condition (``until``), or None.
+        self.until: Until | None = None
+        #: The document's ``set`` of this state, compiled, or None.
+        self.entry_action: Hook | None = None
+        self.exit_action: Hook | None = None
+        # What the runtime calls, fixed when the machine is built (seal): None where the base does nothing.
+        self.tick_hook: Hook | None = None
+        self.enter_hook: Hook | None = None
+        self.exit_hook: Hook | None = None
+        #: The outgoing transitions' hooks run on each entry (their references, their conditions' resets).
+        self.arms: tuple[Hook, ...] = ()
+
+    @property
+    def type_name(self) -> str:
+        """The registered type name this state was built as (its document's ``type``)."""
+        return self.params.type
 
     @classmethod
     def possible_outcomes(cls, params: StateParams) -> set[str] | None:
@@ -114,6 +141,9 @@ class State:
     def on_resume(self, ctx: Context) -> None:
         """Called when a pause ends and the state is ticked again: restart what ``on_pause`` stopped."""
 
+    def bind(self, machine: Machine) -> None:
+        """Called once when the machine is built, to resolve references to other states (``Join``)."""
+
     # -- API for subclasses ---------------------------------------------------------------------
     def finish(self, outcome: str = "succeeded") -> None:
         """Mark the state finished with ``outcome``; ``Finished`` transitions out of it can now fire."""
@@ -128,7 +158,7 @@ class State:
     @property
     def active(self) -> bool:
         """True while this state and all its ancestors are active."""
-        state: State | None = self
+        state: State[Any] | None = self
         while state is not None:
             region = state.region
             if region is None:
@@ -138,54 +168,60 @@ class State:
             state = region.owner
         return True
 
-    # -- runtime internals ----------------------------------------------------------------------
-    def _prepare(self) -> None:
-        """Precompute the hot-path hooks: ``None`` where the class keeps the base no-op."""
+    # -- the runtime ----------------------------------------------------------------------------
+    def seal(self) -> None:
+        """Fix the hooks the runtime calls, once the machine is built: ``None`` where there is nothing to do, so
+        a plain state costs the tick loop one test per hook."""
         cls = type(self)
-        self._tick = self.tick if cls.tick is not State.tick else None
-        if self._until is not None:
-            self._tick = self._until_tick(self._tick, self._until[0])
-        has_enter = cls.on_enter is not State.on_enter
+        self.arms = tuple(arm for t in self.transitions if (arm := t.arm) is not None)
+        tick = self.tick if cls.tick is not State.tick else None
+        self.tick_hook = tick if self.until is None else self._until_tick(tick, self.until.holds)
+        plain_enter = not (cls.on_enter is not State.on_enter or self.regions or self.arms or self.can_finish
+                           or self.entry_action is not None or self.supervisor is not None or self.until is not None)
+        self.enter_hook = None if plain_enter else self._enter
         has_exit = cls.on_exit is not State.on_exit
-        self._source_hooks = tuple(
-            t._source_hook for t in self.transitions if t._source_hook is not None
-        )
-        plain_enter = not (has_enter or self.regions or self._source_hooks or self.can_finish
-                           or self._set_enter is not None or self._watcher is not None or self._until is not None)
-        self._enter = None if plain_enter else self._enter_full
-        frozen = self.paused or self.frozen_since is not None
-        self._exit = self._exit_full if (has_exit or self.regions or frozen or self._set_exit is not None) else None
+        self.exit_hook = self._exit if (has_exit or self.regions or self.exit_action is not None) else None
 
-    def _enter_full(self, ctx: Context) -> None:
+    def leave(self, ctx: Context) -> None:
+        """Exit as a transition or an outer level does, and drop a pause or suspension it was held in."""
+        if self.exit_hook is not None:
+            self.exit_hook(ctx)
+        if self.frozen_since is not None:
+            self.paused = False
+            self.frozen_since = None
+
+    def _enter(self, ctx: Context) -> None:
         """Enter: reset finishing, arm the outgoing transitions, ``on_enter``, then the sub-machines."""
         self.finished = False
         self.outcome = None
         phase = "set on_enter"
         try:
-            if self._until is not None:
+            if self.until is not None:
                 phase = "until"
-                for condition in self._until[1]:
+                for condition in self.until.conditions:
                     condition.reset(ctx)
-            if self._watcher is not None:
+            if self.supervisor is not None:
                 phase = "precondition"
-                if not self._watcher.arm(ctx):
+                if not self.supervisor.arm(ctx):
                     self.finished = True
                     self.outcome = "precondition_failed"
                     return
                 phase = "set on_enter"
-            if self._set_enter is not None:
-                self._set_enter(ctx)
+            if self.entry_action is not None:
+                self.entry_action(ctx)
             phase = "on_source_enter"
-            for hook in self._source_hooks:
-                hook(ctx)
+            for arm in self.arms:
+                arm(ctx)
             phase = "on_enter"
             self.on_enter(ctx)
+        except StateRuntimeError:
+            raise
         except Exception as exc:
-            raise ctx.machine._runtime_error(self, phase, exc) from exc
+            raise StateRuntimeError.of(self, phase, ctx, exc) from exc
         for region in self.regions:
             region.start(ctx)
 
-    def _until_tick(self, tick: Any, until: Any) -> Any:
+    def _until_tick(self, tick: Hook | None, until: Callable[[Context], bool]) -> Hook:
         """The tick with the exit condition checked after it: the state finishes when ``until`` holds."""
         if tick is None:
             def check(ctx: Context) -> None:
@@ -199,26 +235,23 @@ class State:
                 self.finish("succeeded")
         return tick_then_check
 
-    def _exit_full(self, ctx: Context) -> None:
+    def _exit(self, ctx: Context) -> None:
         """Exit: sub-machines first (innermost first; parallel regions in reverse order), then ``on_exit``."""
         for region in reversed(self.regions):
             region.stop(ctx)
-        w = self._watcher
-        if w is not None and w.halted and self.outcome == "precondition_failed":
+        supervisor = self.supervisor
+        if supervisor is not None and supervisor.halted and self.outcome == "precondition_failed":
             return  # skipped by its precondition: it was never entered, so it is not exited either
         phase = "on_exit"
         try:
             self.on_exit(ctx)
-            if self._set_exit is not None:
+            if self.exit_action is not None:
                 phase = "set on_exit"
-                self._set_exit(ctx)
+                self.exit_action(ctx)
+        except StateRuntimeError:
+            raise
         except Exception as exc:
-            raise ctx.machine._runtime_error(self, phase, exc) from exc
-        if self.paused or self.frozen_since is not None:
-            # Left by an outer transition while paused: no longer paused or frozen; restore the plain hooks.
-            self.paused = False
-            self.frozen_since = None
-            self._prepare()
+            raise StateRuntimeError.of(self, phase, ctx, exc) from exc
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.path!r}>"

@@ -2,16 +2,23 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, ClassVar
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
 
+from .expr import VarOp
 from .params import TransitionParams
+from .plan import ActionKind, GuardKind
 
 if TYPE_CHECKING:
+    from .condition import Condition
     from .context import Context
+    from .machine import Machine
     from .state import State
 
+P = TypeVar("P", bound=TransitionParams)
 
-class Transition:
+
+class Transition(Generic[P]):
     """A transition from ``source`` to ``target``. Subclass it, declare ``Params``, override ``check``.
 
     ``check(ctx)`` is called each tick while the source is active (after the source's tick, or before
@@ -20,15 +27,15 @@ class Transition:
     ``action`` runs while firing, between the source's exit and the target's entry.
 
     A document may add a ``guard`` (an expression or a condition, checked before ``check``: both must hold)
-    and a ``set`` (assignments run after ``action``); the loader compiles them and calls :meth:`attach`.
+    and a ``set`` (assignments run after ``action``); the build stage applies them with :meth:`apply_plan`.
+    How the region decides and fires is explicit: ``kind`` (always, an inline ``variable OP constant``
+    comparison, or a call of ``test``) and ``effect`` (nothing, an inline counter, or a call of ``run``).
     """
 
-    __slots__ = ("params", "source", "target", "index", "always", "conditions", "_check", "_action",
-                 "_source_hook", "_has_source_hook", "test", "count")
+    __slots__ = ("params", "source", "target", "index", "kind", "compare", "test", "effect", "counter", "run",
+                 "assign", "conditions", "arm")
 
     Params: ClassVar[type[TransitionParams]] = TransitionParams
-    #: Registered type name; set by the registry.
-    type_name: ClassVar[str] = ""
     #: True for transitions that fire whenever checked (``Always``); the runtime then skips ``check``.
     unconditional: ClassVar[bool] = False
     #: True when the transition fires only on a finished source (the loader checks that it can finish).
@@ -37,76 +44,105 @@ class Transition:
     needs_car: ClassVar[bool] = False
     #: Names of parameters that hold state paths; the loader checks that they name existing states.
     state_refs: ClassVar[tuple[str, ...]] = ()
-    #: Names of parameters that hold input signal names (``fsm.loader.signal_names`` collects them).
+    #: Names of parameters that hold input signal names (collected for ``fsmctl run --signal`` and ``inputs``).
     signal_refs: ClassVar[tuple[str, ...]] = ()
-    #: Names of parameters that hold blackboard variable names.
-    variable_refs: ClassVar[tuple[str, ...]] = ()
     #: Names of parameters that hold condition objects; built instances are in ``self.conditions``.
     condition_fields: ClassVar[tuple[str, ...]] = ()
 
-    def __init__(self, params: TransitionParams, source: State, target: State, index: int = 0) -> None:
+    def __init__(self, params: P, source: State[Any], target: State[Any], index: int = 0) -> None:
         self.params = params
         self.source = source
         self.target = target
         self.index = index
-        self.always = self.unconditional
         cls = type(self)
-        self.conditions: dict[str, Any] = {}
-        self._check: Any = self.check
-        self._action: Any = self.action if cls.action is not Transition.action else None
-        self._has_source_hook = cls.on_source_enter is not Transition.on_source_enter
-        self._source_hook: Any = self.on_source_enter if self._has_source_hook else None
-        #: ``(variable, operator, constant, read)`` when the whole check is a guard ``var OP constant``: the
-        #: region runs it inline (a Python call costs as much as the comparison); ``_check`` stays equivalent.
-        self.test: tuple[Any, ...] | None = None
-        #: ``(target, variable, operator, constant, read)`` when the whole action is a ``set`` ``target = var OP
-        #: constant`` (a counter): run inline by ``Region.fire``; ``_action`` stays equivalent.
-        self.count: tuple[Any, ...] | None = None
+        own = self.action if cls.action is not Transition.action else None
+        #: How the region decides: ALWAYS, COMPARE (``compare`` inline) or CALL (``test(ctx)``).
+        self.kind = GuardKind.ALWAYS if cls.unconditional else GuardKind.CALL
+        self.compare: VarOp | None = None
+        self.test: Callable[[Context], bool] | None = None if cls.unconditional else self.check
+        #: What firing runs: NONE, COUNTER (``counter`` inline) or CALL (``run(ctx)``).
+        self.effect = ActionKind.CALL if own is not None else ActionKind.NONE
+        self.counter: tuple[str, VarOp] | None = None
+        self.run: Callable[[Context], None] | None = own
+        #: The document's ``set``, compiled (kept to combine it with further actions, see ``then``).
+        self.assign: Callable[[Context], None] | None = None
+        #: Condition objects by parameter name (a condition guard is ``"guard"``).
+        self.conditions: dict[str, Condition] = {}
+        #: Run on each entry of the source: the type's ``on_source_enter`` and the conditions' resets.
+        self.arm: Callable[[Context], None] | None = (
+            self.on_source_enter if cls.on_source_enter is not Transition.on_source_enter else None)
 
-    def attach(self, guard: Any = None, assign: Any = None, conditions: dict[str, Any] | None = None) -> None:
-        """Add what the document gives on top of the type: ``guard(ctx) -> bool`` (checked first), ``assign(ctx)``
-        (after ``action``) and condition instances by parameter name (``"guard"`` for a condition guard), which
-        are reset each time the source is entered."""
-        if conditions:
-            self.conditions.update(conditions)
-            resets = tuple(c.reset for c in conditions.values())
-            own = self._source_hook
+    @property
+    def type_name(self) -> str:
+        """The registered type name this transition was built as (its document's ``type``)."""
+        return self.params.type
 
-            def arm(ctx: Any) -> None:
-                for reset in resets:
-                    reset(ctx)
-                if own is not None:
-                    own(ctx)
-            self._source_hook = arm
-            self._has_source_hook = True
-        if guard is not None:
-            check = self.check
-            if self.unconditional:
-                self._check = guard
-                self.test = getattr(guard, "test", None)
-            else:
-                self._check = lambda ctx: guard(ctx) and check(ctx)
-            self.always = False
-        if assign is not None:
-            action = self._action
-            if action is None:
-                self._action = assign
-                self.count = getattr(assign, "count", None)
-            else:
-                self.then(assign)
+    # -- built from the plan --------------------------------------------------------------------------
+    def apply_guard(self, guard: Callable[[Context], bool] | None, compare: VarOp | None = None) -> None:
+        """Add the document's guard: checked first, then the type's ``check`` (an ``Always`` has none). With
+        ``compare`` (a guard ``variable OP constant`` on an ``Always``) the region runs it inline."""
+        if compare is not None and type(self).unconditional:
+            self.kind = GuardKind.COMPARE
+            self.compare = compare
+        if guard is None:
+            return
+        check = self.test
+        self.test = guard if check is None else (lambda ctx: guard(ctx) and check(ctx))
+        if self.kind is GuardKind.ALWAYS:
+            self.kind = GuardKind.CALL
 
-    def then(self, run: Any) -> None:
+    def apply_conditions(self, conditions: dict[str, Condition]) -> None:
+        """Keep the condition objects, reset each time the source is entered."""
+        self.conditions.update(conditions)
+        resets = tuple(c.reset for c in conditions.values())
+        own = self.arm
+
+        def arm(ctx: Context) -> None:
+            for reset in resets:
+                reset(ctx)
+            if own is not None:
+                own(ctx)
+        self.arm = arm
+
+    def apply_set(self, assign: Callable[[Context], None], counter: tuple[str, VarOp] | None = None) -> None:
+        """Add the document's ``set`` (after the type's ``action``); a lone counter runs inline."""
+        self.assign = assign
+        if self.effect is ActionKind.NONE and counter is not None:
+            self.effect = ActionKind.COUNTER
+            self.counter = counter
+            return
+        self.then(assign)
+
+    def then(self, run: Callable[[Context], None]) -> None:
         """Run ``run(ctx)`` while firing, after what already runs there (the type's action, the ``set``)."""
-        action = self._action
-        if action is None:
-            self._action = run
+        before = self.run
+        if self.effect is ActionKind.COUNTER:
+            before = self.assign
+        if before is None:
+            self.run = run
         else:
-            def both(ctx: Any) -> None:
-                action(ctx)
+            def both(ctx: Context) -> None:
+                before(ctx)
                 run(ctx)
-            self._action = both
-        self.count = None
+            self.run = both
+        self.effect = ActionKind.CALL
+        self.counter = None
 
+    def fires(self, ctx: Context) -> bool:
+        """Whether the transition fires now, by its kind (the region runs the same inline)."""
+        kind = self.kind
+        if kind is GuardKind.ALWAYS:
+            return True
+        if kind is GuardKind.COMPARE:
+            assert self.compare is not None
+            name, op, const, _swapped, read = self.compare
+            v = ctx.vars
+            x = v[name] if name in v else read(v)
+            return bool(op(x if type(x) in (int, float) else read(v), const))
+        assert self.test is not None
+        return bool(self.test(ctx))
+
+    # -- hooks for subclasses ---------------------------------------------------------------------------
     @classmethod
     def check_document(cls, params: TransitionParams, variables: dict[str, Any]) -> tuple[str, str] | None:
         """A load-time check against the document's initial ``vars``: ``(pointer suffix, message)`` or ``None``."""
@@ -128,12 +164,8 @@ class Transition:
     def action(self, ctx: Context) -> None:
         """Called while firing, after the source's exit and before the target's entry."""
 
-    def bind(self, machine: Any) -> None:
+    def bind(self, machine: Machine) -> None:
         """Called once when the machine is built, to resolve references to other states (``InState``)."""
-
-    def _bind_conditions(self, machine: Any) -> None:
-        for condition in self.conditions.values():
-            condition.bind(machine, self.source)
 
     def describe(self) -> str:
         """One line for traces and messages."""

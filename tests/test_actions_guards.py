@@ -143,22 +143,29 @@ def test_trace_has_vars_where_they_changed_and_summary_has_final_values() -> Non
 def test_machine_without_guards_pays_nothing() -> None:
     m = machine([{"id": "a", "type": "Idle"}, {"id": "b", "type": "Idle"}],
                 [{"type": "Always", "from": "a", "to": "b"}, {"type": "Always", "from": "b", "to": "a"}])
+    from fsm.plan import ActionKind, GuardKind
+
     state = m.root.states["a"]
-    assert state._enter is None and state._exit is None and state.regular[0].always
+    assert state.enter_hook is None and state.exit_hook is None
+    assert state.regular[0].kind is GuardKind.ALWAYS and state.regular[0].effect is ActionKind.NONE
 
 
 @pytest.mark.parametrize("op", ["<", "<=", ">", ">=", "==", "!="])
 def test_inline_guard_and_counter_agree_with_their_closures(op: str) -> None:
     """A guard ``var OP constant`` on an ``Always`` and a ``set`` ``x = var OP constant`` run inline in the region
-    (Transition.test / .count); written either way round, they fire and count exactly as the closures would."""
+    (GuardKind.COMPARE, ActionKind.COUNTER); written either way round, they fire and count exactly as the closures
+    would."""
+    from fsm.plan import ActionKind, GuardKind
+
     for text in (f"n {op} 2", f"2 {op} n"):
         for n in (1, 2, 3, 2.5, -7):
             m = machine([{"id": "a", "type": "Idle"}, {"id": "b", "type": "Idle"}],
                         [{"type": "Always", "from": "a", "to": "b", "guard": text, "set": {"k": "n * 3"}}], n=n, k=0)
             tr = m.root.states["a"].regular[0]
-            assert tr.test is not None and tr.count is not None, "the inline paths are not taken"
+            assert tr.kind is GuardKind.COMPARE and tr.effect is ActionKind.COUNTER, "the inline paths are not taken"
+            assert tr.test is not None
             m.run(max_ticks=1)
-            fires = bool(tr._check(m.ctx))
+            fires = bool(tr.test(m.ctx))
             assert (m.active_path == "b") == fires, (text, n)
             assert m.ctx.vars["k"] == (n * 3 if fires else 0), (text, n)
 
@@ -176,7 +183,7 @@ def test_inline_guard_keeps_the_kind_check_and_an_added_action_ends_the_inline_c
     tr = m.root.states["a"].regular[0]
     seen: list[int] = []
     tr.then(lambda ctx: seen.append(ctx.vars["k"]))
-    assert tr.count is None
+    assert tr.counter is None
     m.run(max_ticks=1)
     assert seen == [1] and m.ctx.vars["k"] == 1
 

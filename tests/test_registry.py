@@ -30,7 +30,7 @@ def test_decorator_registers_into_the_active_registry_and_refuses_a_duplicate() 
                 """Another."""
 
     assert reg.states == {"Blink": Blink}
-    assert Blink.type_name == "Blink"
+    assert reg.name_of(Blink) == "Blink" and "type_name" not in vars(Blink), "registering does not change the class"
 
 
 def test_a_class_of_the_wrong_kind_or_with_a_bad_params_model_is_refused() -> None:

@@ -223,9 +223,9 @@ _outcome_names = st.sampled_from(["succeeded", "aborted", "timeout"])
 def test_outcome_analysis_is_exactly_what_runs_produce(regions: list[list[str]], join: str) -> None:
     spec, problems = fsm.check(parallel(regions, join, []))
     assert spec is not None
-    from fsm.loader import Loader
+    from fsm.outcomes import state_outcomes
 
-    analysed = Loader(fsm.registry.default_registry()).outcomes(spec.states[0])
+    analysed = state_outcomes(spec.states[0])
     assert analysed == outcomes_by_running(regions, join)
     # and a Finished on an outcome outside the analysis is an error, one inside is not
     for outcome in ["succeeded", "aborted", "timeout"]:

@@ -35,7 +35,7 @@ class _SignalCondition(Condition):
     def bind(self, machine: Machine, owner: State) -> None:
         super().bind(machine, owner)
         if self.debounce > 0:
-            self.filter = Debounced(machine.ctx.watch_signal(self.signal), self.debounce)
+            self.filter = Debounced(machine.ctx.signal_history(self.signal), self.debounce)
 
 
 class SignalParams(ConditionParams):
@@ -149,7 +149,7 @@ class TimeSince(Condition):
     def bind(self, machine: Machine, owner: State) -> None:
         super().bind(machine, owner)
         if self.signal is not None:
-            self.history = machine.ctx.watch_signal(self.signal)
+            self.history = machine.ctx.signal_history(self.signal)
 
     def holds(self, ctx: Context) -> bool:
         h = self.history

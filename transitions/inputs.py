@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import Field
 
-from fsm.loader import value_kind
+from fsm.checking import value_kind
 from fsm.params import TransitionParams
 from fsm.registry import register_transition
 from fsm.transition import Transition

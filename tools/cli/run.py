@@ -247,7 +247,8 @@ def cmd_run(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace, spec: Any, file: str, clock: Any, drive: bool, world_path: Path | None,
          duration: float | None, max_ticks: int | None, outputs: Any, trace_out: Any, summary_out: Any,
          video_out: Any, plot_out: Any, report_out: Any) -> int:
-    from fsm.build import build
+    from fsm.building import build
+    from fsm.loader import compile as compile_spec
     from fsm.trace import summary
 
     car = None
@@ -258,7 +259,7 @@ def _run(args: argparse.Namespace, spec: Any, file: str, clock: Any, drive: bool
         assert world_path is not None
         world = load_world(world_path, car=args.car)
         car = SimCar(world, seed=args.seed, noise=not args.no_noise)
-    machine = build(spec, clock=clock, car=car)
+    machine = build(compile_spec(spec), clock=clock, car=car)
     machine.ctx.vars.update(args.initial_vars)
     for name, value, at in args.signal:
         machine.schedule_signal(name, at, value)

@@ -538,8 +538,7 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
                   cli_plugins: tuple[str, ...]) -> tuple[LoadedScenario | None, list[Problem]]:
     """Check the machine (and world) a scenario names, and the state names its expectations use."""
     from fsm.errors import RegistrationError
-    from fsm.build import build
-    from fsm.loader import check, machine_files, signal_names, uses_car
+    from fsm.loader import check, compile as compile_spec, machine_files, signal_names, uses_car
     from fsm.registry import default_registry
 
     problems: list[Problem] = []
@@ -587,12 +586,7 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
     if problems:
         return None, problems
     dt, end_tick = limits(scenario)
-    car = None
-    if world_path is not None:
-        from fsm.sim.fake import FakeCar  # only the state paths are wanted here; the run builds it on a SimCar
-
-        car = FakeCar()
-    paths = list(build(spec, car=car).states_by_path)
+    paths = [sp.path for sp in compile_spec(spec).states()]
     problems += _name_problems(scenario, paths, name)
     plants, more = _plants(scenario, registry, name)
     problems += more
@@ -602,7 +596,7 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
     given |= {sig for cls, params in plants for sig in cls(params).signals()}
     for level in spec.levels():
         for st in level.states:
-            pause = getattr(st.params, "pause_signal", None) if st.cls.type_name == "Sequence" else None
+            pause = getattr(st.params, "pause_signal", None)
             if pause and pause not in given:
                 problems.append(Problem(f"the pause button '{pause}' of '{st.id}' is never pressed by this scenario",
                                         name, "/inputs", severity="warning",

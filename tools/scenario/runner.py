@@ -164,7 +164,8 @@ class ScenarioResult:
 def run_scenario(loaded: LoadedScenario) -> ScenarioResult:
     """Run the scenario's machine on its timeline and check every expectation."""
     from fsm.clock import SimulatedClock
-    from fsm.build import build
+    from fsm.building import build
+    from fsm.loader import compile as compile_spec
 
     sc = loaded.scenario
     dt = loaded.dt
@@ -177,7 +178,7 @@ def run_scenario(loaded: LoadedScenario) -> ScenarioResult:
         from fsm.sim.world import load_world
 
         car = SimCar(load_world(loaded.world_path), seed=sc.seed, noise=sc.noise)
-    machine = build(loaded.spec, clock=SimulatedClock(dt), car=car)
+    machine = build(compile_spec(loaded.spec), clock=SimulatedClock(dt), car=car)
     for cls, params in loaded.plants:
         cls(params).attach(machine)
     for change in signals:

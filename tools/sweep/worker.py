@@ -94,8 +94,8 @@ class Dwell:
 
 def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], dict[str, float]]:
     from fsm.errors import DiagramError
-    from fsm.build import build
-    from fsm.loader import check, uses_car
+    from fsm.building import build
+    from fsm.loader import check, compile as compile_spec, uses_car
     from fsm.registry import default_registry
     from fsm.trace import summary
 
@@ -127,7 +127,7 @@ def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], d
             car = SimCar(world, seed=job["run_seed"], noise=job["noise"])
             if car.params.camera.enabled and (world.gates or world.markers):  # else no frame is ever rendered
                 _one_cv2_thread()
-        machine = build(spec, car=car)
+        machine = build(compile_spec(spec), car=car)
         machine.ctx.vars.update(job["vars"])
         from ..trace import run_recorder  # the same trace as `fsmctl run --trace`
 

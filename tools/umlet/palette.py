@@ -28,6 +28,7 @@ def palette(registry: Any) -> str:
     default (required ones empty), each explained in a ``//`` comment line UMLet does not draw; a machine note;
     a ``Parallel`` state holds two region frames instead of a ``regions`` parameter."""
     from fsm.document import param_info
+    from fsm.sequencer.parsing import is_sequence
 
     out: list[str] = []
     y = 20
@@ -53,7 +54,7 @@ def palette(registry: Any) -> str:
         reserved = T.STATE_FACET_KEYS if kind == "state" else T.RELATION_FACET_KEYS
         extra: dict[str, Any] = {}  # parameters UMLet would take for facets: in the JSON line
         for info in infos:
-            if getattr(cls, "compiles_steps", False) and info["name"] in ("steps", "exceptions"):
+            if is_sequence(cls) and info["name"] in ("steps", "exceptions"):
                 comments.append("// steps: boxes drawn inside this box, chained by arrows from an initial marker; a "
                                 "non-blocking Sequence hangs off the step it follows" if info["name"] == "steps" else
                                 "// exceptions: Sequence boxes drawn inside this box with no arrow to or from them")

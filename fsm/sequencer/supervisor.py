@@ -1,24 +1,24 @@
 """The runtime side of the step-common keys (EEROS): monitors, the timeout monitor, the precondition and the
 exception sequences they run, and what their behaviours do to a state (abort, restart, resume).
 
-A state with monitors, a timeout or a precondition has a :class:`Watcher`; ``Region.step`` asks it first
-(``state._watch``), before the state's preemptive transitions and its tick, so monitors are checked outermost
-first, each tick, while the owner or anything inside it is active. The watcher answers
-
-- ``None``: nothing to do, tick the state as usual;
-- ``1``: this tick is used up (a monitor fired, an exception sequence ran a tick, the owner was restarted);
-- ``0``: the owner is halted (aborted or skipped by its precondition): not ticked, but its transitions are
-  checked (so a sequence goes on with its next step in the same tick).
+A state with monitors, a timeout or a precondition has a :class:`Supervisor`; ``Region.step`` asks it first,
+before the state's preemptive transitions and its tick, so monitors are checked outermost first, each tick,
+while the owner or anything inside it is active. It answers with a :class:`~fsm.sequencer.verdict.Verdict`.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from fsm.state import State
 
+from .verdict import Verdict
+
 if TYPE_CHECKING:
+    from fsm.condition import Condition
     from fsm.context import Context
+    from fsm.machine import Machine
     from fsm.region import Region
 
 #: Slack for timeouts computed from ticks (80 ticks of 0.0125 s are 1 s).
@@ -30,8 +30,8 @@ class Monitor:
 
     __slots__ = ("holds", "behavior", "exception", "exception_id", "label", "kind", "conditions", "fired")
 
-    def __init__(self, holds: Any, behavior: str, exception_id: str | None, label: str, kind: str = "monitor",
-                 conditions: tuple[Any, ...] = ()) -> None:
+    def __init__(self, holds: Callable[[Context], bool], behavior: str, exception_id: str | None, label: str,
+                 kind: str = "monitor", conditions: tuple[Condition, ...] = ()) -> None:
         self.holds = holds
         self.behavior = behavior
         self.exception_id = exception_id
@@ -51,7 +51,7 @@ class Restart:
 
     __slots__ = ("source", "target", "type_name", "monitor")
 
-    def __init__(self, state: State, monitor: Monitor | None) -> None:
+    def __init__(self, state: State[Any], monitor: Monitor | None) -> None:
         self.source = state
         self.target = state
         self.type_name = "restart"
@@ -61,14 +61,21 @@ class Restart:
         return f"restart {self.source.id}" + (f" ({self.monitor.label})" if self.monitor else "")
 
 
-class Watcher:
-    """Monitors, timeout and precondition of one state."""
+class Running(NamedTuple):
+    """An exception sequence running for its owner: the monitor that started it and the sequence's region."""
+
+    monitor: Monitor
+    region: Region
+
+
+class Supervisor:
+    """Monitors, timeout and precondition of one state (its *owner*)."""
 
     __slots__ = ("owner", "monitors", "precondition", "pre_conditions", "timeout", "reset_at", "running",
                  "machine", "halted")
 
-    def __init__(self, owner: State, monitors: list[Monitor], precondition: Any = None,
-                 pre_conditions: tuple[Any, ...] = (), timeout: float | None = None) -> None:
+    def __init__(self, owner: State[Any], monitors: list[Monitor], precondition: Callable[[Context], bool] | None = None,
+                 pre_conditions: tuple[Condition, ...] = (), timeout: float | None = None) -> None:
         self.owner = owner
         self.monitors = tuple(monitors)
         self.precondition = precondition
@@ -76,9 +83,9 @@ class Watcher:
         self.timeout = timeout
         #: the owner's time in state at which its timeout clock was last (re)started
         self.reset_at = 0.0
-        #: (monitor, exception region) while an exception sequence runs for this owner
-        self.running: tuple[Monitor, Region] | None = None
-        self.machine: Any = None
+        #: the exception sequence running for this owner, if any
+        self.running: Running | None = None
+        self.machine: Machine | None = None
         self.halted = False
 
     # -- entry -------------------------------------------------------------------------------------
@@ -104,27 +111,27 @@ class Watcher:
         return self.owner.time_in_state(ctx) - self.reset_at
 
     def timed_out(self, ctx: Context) -> bool:
-        return self.owner.time_in_state(ctx) - self.reset_at >= self.timeout - _EPS  # type: ignore[operator]
+        assert self.timeout is not None
+        return self.owner.time_in_state(ctx) - self.reset_at >= self.timeout - _EPS
 
     def reset_timeout(self, ctx: Context) -> None:
         self.reset_at = self.owner.time_in_state(ctx)
 
     # -- each tick ---------------------------------------------------------------------------------
-    def check(self, ctx: Context) -> int | None:
+    def check(self, ctx: Context) -> Verdict:
+        """Before the owner is ticked: run a running exception sequence, or check the monitors in order."""
         if self.halted:
-            return 0
+            return Verdict.HALTED
         running = self.running
         if running is not None:
-            monitor, region = running
-            region.step(ctx)
+            running.region.step(ctx)
             if self.running is not running:
-                return 1  # the owner was left or restarted from inside (an outer behaviour)
-            exc = region.active
-            if exc.finished:
-                region.stop(ctx)
+                return Verdict.CONSUMED  # the owner was left or restarted from inside (an outer behaviour)
+            if running.region.active.finished:
+                running.region.stop(ctx)
                 self.running = None
-                return self.apply(monitor, ctx)
-            return 1
+                return self.apply(running.monitor, ctx)
+            return Verdict.CONSUMED
         for m in self.monitors:
             if m.holds(ctx):
                 exc = m.exception
@@ -133,60 +140,59 @@ class Watcher:
                 m.fired += 1
                 owner = self.owner
                 machine = self.machine
-                if machine.listeners:
-                    machine._notify_monitor(owner, m)
+                if machine is not None and machine.listeners:
+                    machine.notify_monitor(owner, m)
                 if exc is None:
                     return self.apply(m, ctx)
                 suspend(owner, ctx)
-                self.running = (m, exc)
+                self.running = Running(m, exc)
                 exc.start(ctx)
-                return 1
-        return None
+                return Verdict.CONSUMED
+        return Verdict.PROCEED
 
-    def apply(self, m: Monitor, ctx: Context) -> int | None:
+    def apply(self, m: Monitor, ctx: Context) -> Verdict:
         """The monitor's behaviour, after its exception sequence (if any) has finished."""
         owner = self.owner
         behavior = m.behavior
         if behavior == "nothing":
             unsuspend(owner, ctx)
-            return None if m.exception is None else 1
+            return Verdict.PROCEED if m.exception is None else Verdict.CONSUMED
         outcome = "timeout" if m.kind == "timeout" else "aborted"
         if behavior == "abortOwner":
             abort(owner, outcome, ctx)
-            return 0
+            return Verdict.HALTED
         if behavior == "restartOwner":
             restart(owner, ctx, m)
-            return 1
+            return Verdict.CONSUMED
         caller = owner.region.owner if owner.region is not None else None
         unsuspend(owner, ctx)
-        if caller is None:  # the loader refuses this; a hand-built machine gets the owner's own behaviour
+        if caller is None:  # the checks refuse this; a hand-built machine gets the owner's own behaviour
             caller = owner
         if behavior == "abortCallerOfOwner":
             abort(caller, outcome, ctx)
         else:
             restart(caller, ctx, m)
-        return 1
+        return Verdict.CONSUMED
 
 
 # -- what behaviours do to a state ------------------------------------------------------------------------
-def suspend(state: State, ctx: Context) -> None:
+def suspend(state: State[Any], ctx: Context) -> None:
     """Freeze ``state`` and its active subtree (not ticked, clocks stand still) while an exception sequence runs."""
-    now = ctx._now
+    now = ctx.now
     todo = [state]
     while todo:
         s = todo.pop()
         if s.frozen_since is None:
             s.frozen_since = now
-            s._prepare()
             if type(s).on_pause is not State.on_pause:
                 s.on_pause(ctx)
         todo.extend(r.active for r in s.regions if r.started)
-        w = s._watcher
+        w = s.supervisor
         if s is not state and w is not None and w.running is not None:
-            todo.append(w.running[1].active)  # an exception sequence running further down stands still too
+            todo.append(w.running.region.active)  # an exception sequence running further down stands still too
 
 
-def unsuspend(state: State, ctx: Context) -> None:
+def unsuspend(state: State[Any], ctx: Context) -> None:
     """Undo :func:`suspend` (states held by a pause stay frozen until resumed)."""
     if state.frozen_since is None:
         return
@@ -195,18 +201,19 @@ def unsuspend(state: State, ctx: Context) -> None:
         if s.paused:
             return
         s = s.region.owner if s.region is not None else None
-    ctx.machine._thaw(state, ctx._now)  # type: ignore[union-attr]
+    assert ctx.machine is not None
+    ctx.machine.thaw(state, ctx.now)
 
 
-def abort(state: State, outcome: str, ctx: Context) -> None:
+def abort(state: State[Any], outcome: str, ctx: Context) -> None:
     """End ``state`` where it is: everything inside it is left (innermost first), it is finished with
     ``outcome`` and halted (no longer ticked) until its own level leaves it by a transition."""
     for region in reversed(state.regions):
         region.stop(ctx)
-    w = state._watcher
+    w = state.supervisor
     if w is not None:
         if w.running is not None:
-            w.running[1].stop(ctx)
+            w.running.region.stop(ctx)
             w.running = None
         w.halted = True
     state.finished = True
@@ -216,25 +223,27 @@ def abort(state: State, outcome: str, ctx: Context) -> None:
         stopped(ctx)
 
 
-def restart(state: State, ctx: Context, monitor: Monitor | None = None) -> None:
+def restart(state: State[Any], ctx: Context, monitor: Monitor | None = None) -> None:
     """Leave ``state`` (its subtree first) and enter it again from its start, with a fresh timeout."""
-    w = state._watcher
+    w = state.supervisor
     if w is not None and w.running is not None:
-        w.running[1].stop(ctx)
+        w.running.region.stop(ctx)
         w.running = None
-    if state._exit is not None:
-        state._exit(ctx)
+    if state.exit_hook is not None:
+        state.leave(ctx)
     else:
         for region in reversed(state.regions):
             region.stop(ctx)
-    state.entered_at = ctx._now
+        state.frozen_since = None
+        state.paused = False
+    state.entered_at = ctx.now
     region = state.region
     if region is not None and region.listeners:
         marker = Restart(state, monitor)
         for listener in region.listeners:
             listener.on_transition(ctx, state, state, marker)
-    if state._enter is not None:
-        state._enter(ctx)
+    if state.enter_hook is not None:
+        state.enter_hook(ctx)
     else:
         state.finished = False
         state.outcome = None

@@ -1,0 +1,310 @@
+"""The EEROS sequencer's vocabulary as state types: ``Sequence``, ``Step``, ``Wait``, ``SetVar``,
+``ResetTimeout`` and ``Join`` (docs/semantics.md, "Sequences"). They live in the core because the sequencer
+compiles and binds them; ``fsm.states`` registers them.
+
+A ``Sequence`` is a composite state. The loader compiles its ``steps`` into one region, the *chain*: the
+blocking steps in order, linked by ``Finished`` transitions (any outcome goes on to the next step). A
+non-blocking sequence (``"blocking": false``) is not in the chain: it gets a region of its own that the
+sequence starts when the chain passes its place, and that then runs beside the chain until it finishes.
+Exception sequences (``exceptions``) get regions too, started only by a monitor.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from pydantic import Field
+
+from fsm.composite import Composite
+from fsm.params import Assignments, Int, StateParams
+from fsm.state import State
+
+from . import parsing as sequence_parsing
+
+if TYPE_CHECKING:
+    from fsm.context import Context
+    from fsm.document import StateSpec
+    from fsm.machine import Machine
+    from fsm.parsing import Parser
+    from fsm.plan import StatePlan
+    from fsm.region import Region
+
+#: Slack for times computed from ticks (80 ticks of 0.0125 s are 1 s).
+_EPS = 5e-10
+
+
+class Sequence(Composite):
+    """Steps run in order (EEROS); finishes when the last step and its non-blocking sequences have, `repeat` times.
+
+    Outcome "succeeded"; with the step-common keys also "aborted", "timeout" or "precondition_failed"."""
+
+    __slots__ = ("chain", "last", "detached", "running", "done", "exceptions", "repeat", "iteration", "epoch",
+                 "tail")
+
+    signal_refs = ("pause_signal",)
+    outcomes = None
+
+    class Params(StateParams):
+        steps: list[dict[str, Any]] = Field(
+            min_length=1, description="The steps in order: state elements (any registered state type, Step, Wait, "
+                                      "SetVar, ResetTimeout, Join, or a nested Sequence).")
+        blocking: bool = Field(
+            default=True, description="false: when its caller reaches it, it starts beside the caller's next "
+                                      "steps (a parallel region) and the caller goes on at once.")
+        repeat: Int = Field(default=1, ge=0, description="Times the steps run; 0: again and again until "
+                                                         "stopped from outside.")
+        pause_signal: str | None = Field(
+            default=None, min_length=1, description="Input signal whose rising edges pause and resume this "
+                                                    "sequence (one push button).")
+        pause_debounce: float = Field(default=0.0, ge=0, description="Seconds the pause signal must be stable "
+                                                                     "before an edge counts (0: none).")
+        exceptions: list[dict[str, Any]] | None = Field(
+            default=None, min_length=1, description="Exception sequences (Sequence elements), named by monitors "
+                                                    "and timeouts of this sequence and of everything inside it.")
+
+    def __init__(self, id: str, params: StateParams | None = None) -> None:
+        super().__init__(id, params)
+        self.chain: Region | None = None
+        self.last: State | None = None
+        #: non-blocking sequences: (index of the blocking step after which it starts, -1: at once, region)
+        self.detached: list[tuple[int, Region]] = []
+        self.running: list[Region] = []
+        #: outcome of each non-blocking sequence that finished in this run of the steps, by id
+        self.done: dict[str, str] = {}
+        self.exceptions: dict[str, Region] = {}
+        self.repeat = getattr(self.params, "repeat", 1)
+        self.iteration = 0
+        #: bumped on each entry: a tick that sees it change was interrupted by a restart from inside
+        self.epoch = 0
+        self.tail = False
+
+    @classmethod
+    def submachines(cls, params: StateParams) -> list[tuple[str | None, Any, str]]:
+        return []  # its regions come from its steps: see parse_regions
+
+    @classmethod
+    def parse_regions(cls, parser: Parser, spec: StateSpec, depth: int) -> None:
+        """The steps become the chain region, each non-blocking sequence and exception sequence a region."""
+        sequence_parsing.parse_sequence(parser, spec, depth)
+
+    @classmethod
+    def composite_outcomes(cls, params: StateParams, regions: list[set[str] | None]) -> set[str] | None:
+        return {"succeeded"}
+
+    # -- built from the plan ----------------------------------------------------------------------------
+    def attach_regions(self, regions: list[Region], plan: StatePlan) -> None:
+        """Sort the built regions: the chain, the non-blocking sequences (with where they start), the exceptions."""
+        layout = plan.sequence
+        assert layout is not None
+        n = len(layout.detached_after)
+        self.chain = regions[0]
+        self.detached = [(after, regions[1 + i]) for i, after in enumerate(layout.detached_after)]
+        self.exceptions = dict(zip(layout.exception_ids, regions[1 + n:]))
+        self.regions = (self.chain,)
+        steps = list(self.chain.states.values())
+        self.last = steps[-1]
+        for after, region in self.detached:
+            if after < 0 or after == len(steps) - 1:
+                continue
+            link = next(t for t in steps[after].transitions if t.target is steps[after + 1])
+            _start_on(link, self, region)
+
+    def bind(self, machine: Machine) -> None:
+        """A pause button (``pause_signal``): each debounced rising edge pauses or resumes this sequence."""
+        signal = self.params.pause_signal  # type: ignore[attr-defined]
+        if signal:
+            machine.add_pause_button(self, signal, self.params.pause_debounce)  # type: ignore[attr-defined]
+
+    # -- running ----------------------------------------------------------------------------------------
+    def on_enter(self, ctx: Context) -> None:
+        self.epoch += 1
+        self.iteration = 0
+        self._begin()
+
+    def _begin(self) -> None:
+        """A fresh run of the steps: the chain and the non-blocking sequences placed before the first step."""
+        self.done = {}
+        self.tail = False
+        self.running = [r for after, r in self.detached if after < 0]
+        self.regions = (self.chain, *self.running)  # type: ignore[assignment]
+
+    def start_detached(self, region: Region, ctx: Context) -> None:
+        """The chain passed the place of a non-blocking sequence: it starts beside the chain."""
+        state = region.initial
+        self.done.pop(state.id, None)
+        if region.started:  # still running from before (a repeat): it goes on
+            return
+        self.running.append(region)
+        self.regions = (*self.regions, region)
+        region.start(ctx)
+
+    def tick(self, ctx: Context) -> None:
+        epoch = self.epoch
+        for region in self.regions:
+            region.step(ctx)
+            if self.epoch != epoch or self.finished:
+                return  # restarted or aborted from inside
+            if region is not self.chain and region.active.finished:
+                self._detached_done(region, ctx)
+        chain = self.chain
+        if chain.active is not self.last or not self.last.finished:  # type: ignore[union-attr]
+            return
+        if not self.tail:
+            self.tail = True
+            for after, region in self.detached:
+                if after == len(chain.states) - 1:  # type: ignore[union-attr]
+                    self.start_detached(region, ctx)
+        if self.running:
+            return  # the last step is done; waiting for the non-blocking sequences (implicit join)
+        self.iteration += 1
+        if self.repeat == 0 or self.iteration < self.repeat:
+            chain.stop(ctx)  # type: ignore[union-attr]
+            self._begin()
+            for region in self.running:
+                region.start(ctx)
+            chain.start(ctx)  # type: ignore[union-attr]
+            return
+        self.finish("succeeded")
+
+    def _detached_done(self, region: Region, ctx: Context) -> None:
+        state = region.active
+        self.done[state.id] = state.outcome or "succeeded"
+        region.stop(ctx)
+        self.running.remove(region)
+        self.regions = tuple(r for r in self.regions if r is not region)  # type: ignore[assignment]
+
+    def on_exit(self, ctx: Context) -> None:
+        self.running = []
+        self.regions = (self.chain,)  # type: ignore[assignment]
+
+
+def _start_on(link: Any, seq: Sequence, region: Region) -> None:
+    """Make the chain's link ``link`` start the non-blocking sequence in ``region`` when it fires."""
+    link.then(lambda ctx: seq.start_detached(region, ctx))
+
+
+class Step(State):
+    """A step (EEROS): its action is its `set.on_enter`; finishes when `until` holds (at once without `until`)."""
+
+    __slots__ = ()
+    can_finish = True
+
+    def tick(self, ctx: Context) -> None:
+        if self.until is None:
+            self.finish("succeeded")
+
+
+class Wait(State):
+    """Finishes after `seconds` in the state (paused and suspended time excluded)."""
+
+    __slots__ = ("seconds",)
+    can_finish = True
+
+    class Params(StateParams):
+        seconds: float = Field(ge=0, description="How long to wait, in seconds of machine time.")
+
+    def __init__(self, id: str, params: StateParams | None = None) -> None:
+        super().__init__(id, params)
+        self.seconds = getattr(self.params, "seconds", 0.0) - _EPS
+
+    def tick(self, ctx: Context) -> None:
+        if self.time_in_state(ctx) >= self.seconds:
+            self.finish("succeeded")
+
+
+class SetVar(State):
+    """Assigns blackboard variables on entry and finishes in the tick it is entered."""
+
+    __slots__ = ()
+    can_finish = True
+
+    assignment_fields = ("assign",)
+
+    class Params(StateParams):
+        assign: Assignments = Field(description='Variables assigned on entry, in order: {"var": "expression"}.')
+
+    def on_enter(self, ctx: Context) -> None:
+        self.finish("succeeded")
+
+
+class ResetTimeout(State):
+    """Restarts the timeout clock of `owner` (a sequence or step: its id); finishes at once."""
+
+    __slots__ = ("target",)
+    can_finish = True
+    state_refs = ("owner",)
+
+    class Params(StateParams):
+        owner: str = Field(min_length=1, description="The sequence or step whose timeout restarts: its id, or a "
+                                                     "path relative to this machine or absolute.")
+
+    def __init__(self, id: str, params: StateParams | None = None) -> None:
+        super().__init__(id, params)
+        self.target: State | None = None
+
+    def bind(self, machine: Machine) -> None:
+        """The owner: the nearest enclosing sequence of that id, or a step of one (the checks found it)."""
+        name = self.params.owner.strip("/").split("/")[-1]  # type: ignore[attr-defined]
+        seq = enclosing_sequence(self)
+        target: State | None = None
+        while seq is not None and target is None:
+            if seq.id == name:
+                target = seq
+            else:
+                target = seq.chain.states.get(name) if seq.chain is not None else None
+                if target is None:
+                    target = next((r.initial for _, r in seq.detached if r.initial.id == name), None)
+            seq = enclosing_sequence(seq)
+        self.target = target
+
+    def on_enter(self, ctx: Context) -> None:
+        target = self.target
+        if target is not None and target.supervisor is not None and target.active:
+            target.supervisor.reset_timeout(ctx)
+        self.finish("succeeded")
+
+
+class Join(State):
+    """Waits until the named non-blocking sequences (started before, here or in an enclosing sequence) finished."""
+
+    __slots__ = ("holders",)
+    can_finish = True
+
+    class Params(StateParams):
+        sequences: list[str] = Field(min_length=1, description="Ids of non-blocking sequences to wait for.")
+
+    def __init__(self, id: str, params: StateParams | None = None) -> None:
+        super().__init__(id, params)
+        #: (sequence that starts it, its id) per name, bound when the machine is built
+        self.holders: list[tuple[Sequence, str]] = []
+
+    def bind(self, machine: Machine) -> None:
+        """Each named non-blocking sequence's holder: the nearest enclosing sequence that starts it."""
+        holders = []
+        for name in self.params.sequences:  # type: ignore[attr-defined]
+            holder = enclosing_sequence(self)
+            while holder is not None and name not in [r.initial.id for _, r in holder.detached]:
+                holder = enclosing_sequence(holder)
+            if holder is not None:
+                holders.append((holder, name))
+        self.holders = holders
+
+    def tick(self, ctx: Context) -> None:
+        for holder, name in self.holders:
+            if name not in holder.done:
+                return
+        self.finish("succeeded")
+
+
+def enclosing_sequence(state: State) -> Sequence | None:
+    """The nearest Sequence that contains ``state``."""
+    region = state.region
+    while region is not None and region.owner is not None:
+        owner = region.owner
+        if isinstance(owner, Sequence):
+            return owner
+        region = owner.region
+    return None
+
+
+__all__ = ["Join", "ResetTimeout", "Sequence", "SetVar", "Step", "Wait", "enclosing_sequence"]

@@ -20,6 +20,7 @@ from .params import ConditionParams, StateParams, TransitionParams
 from .plant import Plant, PlantParams
 from .registry import (Registry, default_registry, register_condition, register_plant, register_state,
                        register_transition)
+from .session import Session, StopRules
 from .state import State
 from .transition import Transition
 
@@ -41,10 +42,12 @@ __all__ = [
     "RealTimeClock",
     "Registry",
     "RegistrationError",
+    "Session",
     "SimulatedClock",
     "State",
     "StateParams",
     "StateRuntimeError",
+    "StopRules",
     "Transition",
     "TransitionParams",
     "check",

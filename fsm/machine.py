@@ -9,7 +9,7 @@ import numbers
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from .clock import SimulatedClock
+from .clock import DEFAULT_DURATION, SimulatedClock
 from .context import Context, _shown, check_signal_name, signal_level
 from .debounce import Debounced
 from .errors import StateRuntimeError
@@ -39,9 +39,10 @@ class Listener:
         """``state`` was paused (``paused`` True) or resumed. Optional, like ``on_monitor``."""
 
 
-#: What ``Machine.run`` stops after when given neither ``max_ticks`` nor ``duration``: machine time, in
-#: seconds, the same default as ``fsmctl run``. A machine that can never finish then still returns.
-DEFAULT_RUN_DURATION = 600.0
+#: What ``Machine.run`` stops after when given neither ``max_ticks`` nor ``duration`` (machine time, seconds).
+DEFAULT_RUN_DURATION = DEFAULT_DURATION
+#: ``Machine.run`` refuses a duration of more ticks than this (1e308 s would never end).
+MAX_RUN_TICKS = 10**12
 
 
 class Machine:
@@ -128,7 +129,8 @@ class Machine:
         duration: float | None = None,
     ) -> str | None:
         """Tick until the machine finishes, ``until(machine)`` is true, ``max_ticks`` ticks have run or
-        ``duration`` seconds of machine time have passed. Returns the outcome (``None`` if unfinished).
+        ``duration`` seconds of machine time have passed (the first tick at or after it). Returns the outcome
+        (``None`` if unfinished). This is a :class:`fsm.Session` without a world; use one to run a machine on a car.
 
         Without ``max_ticks`` and ``duration`` the run stops after :data:`DEFAULT_RUN_DURATION` (600 s of
         machine time, as ``fsmctl run``), so a machine that can never finish still returns (``None``; check
@@ -137,8 +139,10 @@ class Machine:
 
         Raises ``TypeError`` for an ``until`` that is not callable, a ``max_ticks`` that is not an integer
         (``True`` and ``10.0`` are not) or a ``duration`` that is not a number; ``ValueError`` for a negative
-        ``max_ticks`` or a negative, NaN or infinite ``duration``.
+        ``max_ticks`` or a negative, NaN or infinite ``duration``, or one of more than 10**12 ticks.
         """
+        from .session import Session, StopRules  # the session drives machines: it imports this module
+
         if until is not None and not callable(until):
             raise TypeError(f"until must be a function of the machine returning a bool, or None; "
                             f"got {_shown(until)}")
@@ -150,31 +154,12 @@ class Machine:
             max_ticks = int(max_ticks)
         if duration is not None:
             duration = _seconds("duration", duration)
-        elif max_ticks is None:
-            duration = DEFAULT_RUN_DURATION
-        if not self.started:
-            self.start()
-        ctx = self.ctx
-        first = ctx._tick
-        end_tick = None if max_ticks is None else first + max_ticks
-        if duration is not None and self._sim:
-            # the first tick at or after the duration, as with the real-time clock
-            ticks_for_duration = math.ceil(duration / self._dt - 1e-9)
-            end_tick = first + ticks_for_duration if end_tick is None else min(end_tick, first + ticks_for_duration)
-        end_time = None if (duration is None or self._sim) else ctx._now + duration
-        realtime = not self._sim
-        tick = self.tick
-        while not self.finished:
-            if end_tick is not None and ctx._tick >= end_tick:
-                break
-            if end_time is not None and ctx._now >= end_time:
-                break
-            if realtime:
-                self.clock.wait_for(ctx._tick + 1)
-            tick()
-            if until is not None and until(self):
-                break
-        return self.outcome
+            if duration / self._dt > MAX_RUN_TICKS:
+                raise ValueError(f"duration must be at most {MAX_RUN_TICKS:.0e} ticks of {self._dt:g} s, got "
+                                 f"{duration!r} s; run in steps with tick() for longer")
+        session = Session(self, stop=StopRules(duration, max_ticks), record=False)
+        check = None if until is None else (lambda _session: until(self))
+        return session.run(until=check).outcome
 
     # -- inputs ---------------------------------------------------------------------------------
     def schedule_signal(self, name: str, at: float, value: bool | int = True) -> None:
@@ -229,6 +214,11 @@ class Machine:
     @property
     def now(self) -> float:
         return self.ctx.now
+
+    @property
+    def dt(self) -> float:
+        """The tick period, seconds."""
+        return self._dt
 
     @property
     def ticks(self) -> int:

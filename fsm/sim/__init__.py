@@ -7,9 +7,56 @@ Importing this package is cheap: pymunk and OpenCV load only in the modules that
 
 from __future__ import annotations
 
+import os
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
 from .io import SENSORS, CarIO
+
+if TYPE_CHECKING:
+    from fsm.registry import Registry
+    from fsm.session import Session, StopRules
 
 #: The world a machine that drives runs in when none is given (``fsm.sim.world.default_world`` finds it).
 DEFAULT_WORLD = "hallway.json"
 
-__all__ = ["DEFAULT_WORLD", "SENSORS", "CarIO"]
+
+
+def simulate(source: Any, *, world: str | os.PathLike[str] | None = None, car_file: str | None = None, seed: int = 0,
+             noise: bool = True, registry: Registry | None = None, plugins: tuple[str, ...] = (),
+             variables: Mapping[str, Any] | None = None, dt: float | None = None, stop: StopRules | None = None,
+             max_collisions: int | None = None) -> Session:
+    """A session that runs the machine in ``source`` (a file, a document dict, a parsed spec or a plan) on the
+    simulated TRAL car in ``world`` (default: ``hallway.json`` from the worlds folder next to the machine, or the
+    installed worlds)::
+
+        from fsm.sim import simulate
+        session = simulate("diagrams/hallway_lap.uxf")
+        print(session.run().outcome, session.summary()["collisions"])
+
+    ``car_file`` replaces the world's car parameters; ``seed`` and ``noise`` drive the sensor noise. The session's
+    driver (``session.driver``) is the :class:`~fsm.sim.loop.Simulation`: trajectory, metrics, observers.
+    """
+    from fsm.building import build
+    from fsm.clock import SimulatedClock
+    from fsm.loader import compile as compile_plan
+    from fsm.plan import MachinePlan
+
+    from .car import SimCar
+    from .loop import Simulation
+    from .world import default_world, load_world
+
+    plan = source if isinstance(source, MachinePlan) else compile_plan(source, registry=registry, plugins=plugins)
+    if world is None:
+        world = default_world(str(source) if isinstance(source, (str, os.PathLike)) else ".")
+    car = SimCar(load_world(world, car=car_file), seed=seed, noise=noise)
+    machine = build(plan, clock=SimulatedClock(dt) if dt is not None else None, car=car)
+    if variables:
+        machine.ctx.vars.update(variables)
+    sim = Simulation(machine, car, world_file=world, seed=seed, noise=noise, max_collisions=max_collisions)
+    if stop is not None:
+        sim.session.stop_rules = stop
+    return sim.session
+
+
+__all__ = ["DEFAULT_WORLD", "SENSORS", "CarIO", "simulate"]

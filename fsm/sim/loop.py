@@ -14,11 +14,12 @@ with a fixed distance (BasicFollowWall, FollowWall; not FollowWallRamp) has been
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from fsm.machine import Listener
+from fsm.session import Session, StopRules
+from fsm.trace import summary
 
 from .car import PHYSICS_DT, SimCar
 
@@ -27,16 +28,6 @@ if TYPE_CHECKING:
     from fsm.machine import Machine
     from fsm.state import State
     from fsm.transition import Transition
-
-
-class _Watch(Listener):
-    """Notices transitions, so the loop recomputes the active leaf and path only when they change."""
-
-    def __init__(self) -> None:
-        self.changed = True
-
-    def on_transition(self, ctx: Context, source: State | None, target: State, transition: Transition | None) -> None:
-        self.changed = True
 
 
 class GateLog:
@@ -83,24 +74,41 @@ def _crosses(px: float, py: float, qx: float, qy: float, a: tuple[float, float],
     return d1 * d2 <= 0 and d1 != d2 and d3 * d4 <= 0
 
 
-class Simulation:
-    """A machine driving a :class:`SimCar`; ``run`` advances both and collects metrics and a trajectory.
+class _TransitionFlag(Listener):
+    """Notices transitions, so the loop recomputes the active leaf and path only when they change."""
 
-    ``observers`` are called as ``observer(sim)`` every ``frame_period`` seconds of simulated time
-    (the video recorder); ``track_every`` machine ticks a trajectory point is recorded (the plot).
+    def __init__(self) -> None:
+        self.changed = True
+
+    def on_transition(self, ctx: Context, source: State[Any] | None, target: State[Any],
+                      transition: Transition[Any] | None) -> None:
+        self.changed = True
+
+
+class Simulation:
+    """The simulated car as the world around a machine (a session's :class:`~fsm.session.Driver`): physics up to
+    each tick's time before it; metrics, gates passed and the trajectory after it.
+
+    ``Simulation(machine, car)`` makes the session it drives (``sim.session``); ``sim.run(...)`` runs it.
+    Observers are called as ``observer(sim)`` every ``period`` seconds of simulated time (the video recorder);
+    every ``track_every`` machine ticks a trajectory point is recorded (the plot). With ``max_collisions`` the run
+    stops as soon as the car has collided more often than that.
     """
 
-    def __init__(self, machine: Machine, car: SimCar, *, settle: float = 2.0, track_every: int = 4) -> None:
+    def __init__(self, machine: Machine, car: SimCar, *, settle: float = 2.0, track_every: int = 4,
+                 max_collisions: int | None = None, world_file: Any = None, seed: int = 0,
+                 noise: bool = True) -> None:
         self.machine = machine
         self.car = car
         self.settle = settle
         self.track_every = track_every
-        self.observers: list[tuple[float, Callable[[Simulation], None]]] = []
-        self._next_frame: list[float] = []
-        self._watch = _Watch()
-        machine.add_listener(self._watch)
+        self.max_collisions = max_collisions
+        self.world_file = world_file
+        self.seed = seed
+        self.noise = noise
+        self._flag = _TransitionFlag()
         self.active_path = ""
-        self.leaf: State | None = None
+        self.leaf: State[Any] | None = None
         self.states_seen: list[str] = []
         #: Trajectory: (time, x, y, index into states_seen).
         self.track: list[tuple[float, float, float, int]] = []
@@ -108,16 +116,53 @@ class Simulation:
         self.wall_errors: list[float] = []
         self._err_sample = -1
         self._leaf_d0 = 0.0
-        self.wall_time = 0.0
         self.gate_log = GateLog(car.world) if car.world.gates else None
+        self.session = Session(machine, driver=self)
+
+    # -- the driver -------------------------------------------------------------------------------------
+    def attach(self, session: Session) -> None:
+        self.session = session
+        self.machine = session.machine
+        session.machine.add_listener(self._flag)
+
+    def before_tick(self, time_s: float) -> None:
+        """Physics up to the tick's time, never past it: the machine sees the past, as on a car."""
+        car = self.car
+        target = time_s + 1e-9
+        step = car.step
+        while (car.steps + 1) * PHYSICS_DT <= target:
+            step()
+
+    def after_tick(self) -> None:
+        if self._flag.changed:
+            self._update_active()
+        car = self.car
+        if car.sample != self._err_sample:
+            self._err_sample = car.sample
+            self._measure()
+        ctx = self.machine.ctx
+        if self.gate_log is not None:
+            x, y, _ = car.true_pose()
+            self.gate_log.update(ctx.now, x, y)
+        if ctx.tick % self.track_every == 0:
+            x, y, _ = car.true_pose()
+            self.track.append((ctx.now, x, y, self._path_index))
+
+    def should_stop(self) -> str | None:
+        limit = self.max_collisions
+        return "collisions" if limit is not None and self.car.collisions > limit else None
 
     def add_observer(self, period: float, observer: Callable[[Simulation], None]) -> None:
-        self.observers.append((period, observer))
-        self._next_frame.append(0.0)
+        """Call ``observer(sim)`` every ``period`` seconds of simulated time (first at the start)."""
+        self.session.every(period, lambda _session: observer(self))
 
     @property
     def now(self) -> float:
         return self.machine.ctx.now
+
+    @property
+    def wall_time(self) -> float:
+        return self.session.wall_time
 
     def _update_active(self) -> None:
         m = self.machine
@@ -133,77 +178,17 @@ class Simulation:
         except ValueError:
             self._path_index = len(self.states_seen)
             self.states_seen.append(self.active_path)
-        self._watch.changed = False
+        self._flag.changed = False
 
     def run(self, duration: float | None = None, max_ticks: int | None = None,
             progress: Callable[[Simulation], None] | None = None, progress_every: float = 0.5,
             stop: Callable[[], bool] | None = None) -> str | None:
-        """Run until the machine finishes, a limit, or ``stop()`` is true (checked after every tick: how
-        ``fsmctl`` ends a run on Ctrl-C between two ticks, never in the middle of one); returns the outcome
-        (``None`` if unfinished).
-
-        Exceptions (a state that fails, Ctrl-C) propagate after the wall time is booked, so the
-        caller can still write what happened.
-        """
-        m = self.machine
-        car = self.car
-        ctx = m.ctx
-        t0 = time.perf_counter()
-        try:
-            if not m.started:
-                m.start()
-                self._update_active()
-                self._observe()
-            dt = m._dt
-            end = None
-            if duration is not None:
-                end = ctx.tick + int(round(duration / dt))
-            if max_ticks is not None:
-                end = ctx.tick + max_ticks if end is None else min(end, ctx.tick + max_ticks)
-            step = car.step
-            true_pose = car.true_pose
-            watch = self._watch
-            track = self.track
-            track_every = self.track_every
-            observers = bool(self.observers)
-            next_progress = progress_every
-            eps = 1e-9
-            while not m.finished and (end is None or ctx.tick < end):
-                # physics up to the next tick's time, never past it: the machine sees the past, as on a car
-                target = (ctx.tick + 1) * dt + eps
-                while (car.steps + 1) * PHYSICS_DT <= target:
-                    step()
-                m.tick()
-                if watch.changed:
-                    self._update_active()
-                if car.sample != self._err_sample:
-                    self._err_sample = car.sample
-                    self._measure()
-                if self.gate_log is not None:
-                    x, y, _ = true_pose()
-                    self.gate_log.update(ctx.now, x, y)
-                if ctx.tick % track_every == 0:
-                    x, y, _ = true_pose()
-                    track.append((ctx.now, x, y, self._path_index))
-                if observers:
-                    self._observe()
-                if progress is not None and ctx.now >= next_progress:
-                    next_progress += progress_every
-                    progress(self)
-                if stop is not None and stop():
-                    break
-            if watch.changed:
-                self._update_active()
-        finally:
-            self.wall_time += time.perf_counter() - t0
-        return m.outcome
-
-    def _observe(self) -> None:
-        now = self.machine.ctx.now
-        for k, (period, observer) in enumerate(self.observers):
-            if now + 1e-9 >= self._next_frame[k]:
-                self._next_frame[k] += period
-                observer(self)
+        """Run the session until the machine finishes, a limit (600 s of machine time without one), or ``stop()``
+        is true (checked after every tick: how ``fsmctl`` ends a run on Ctrl-C between two ticks); returns the
+        outcome (``None`` if unfinished). A state that fails raises after the car was stopped."""
+        if progress is not None:
+            self.session.every(progress_every, lambda _session: progress(self))
+        return self.session.run(stop=stop, stop_rules=StopRules(duration, max_ticks)).outcome
 
     def _measure(self) -> None:
         leaf = self.leaf
@@ -212,21 +197,22 @@ class Simulation:
             return
         if self.car.distance - self._leaf_d0 < self.settle:
             return
-        true = self.car.true_distance(leaf.wall_side)  # type: ignore[union-attr]
+        true = self.car.true_distance(getattr(leaf, "wall_side"))
         if true > target + 0.5:
             return  # no wall there (an opening): nothing to follow
         self.wall_errors.append(true - target)
 
     # -- results ----------------------------------------------------------------------------------------
-    def summary(self, recorder: Any, world: Any, seed: int, noise: bool) -> dict[str, Any]:
+    def summary(self, recorder: Any = None, world: Any = None, seed: int | None = None,
+                noise: bool | None = None) -> dict[str, Any]:
         """The run summary of ``fsmctl run --summary`` (and of each run of a sweep): the machine's, then the car's."""
-        from fsm.trace import summary
-
-        result = summary(self.machine, recorder)
-        result.update(self.metrics())
-        result["world"] = str(world)
-        result["seed"] = seed
-        result["noise"] = noise
+        result = self.session.summary() if recorder is None else summary(self.machine, recorder) | self.metrics()
+        if world is not None:
+            result["world"] = str(world)
+        if seed is not None:
+            result["seed"] = seed
+        if noise is not None:
+            result["noise"] = noise
         return result
 
     def metrics(self) -> dict[str, Any]:
@@ -236,7 +222,8 @@ class Simulation:
         rms = math.sqrt(sum(e * e for e in errs) / len(errs)) if errs else None
         sim_time = self.machine.ctx.now
         clearance = car.min_clearance if car.min_clearance != math.inf else None
-        return {
+        wall_time = self.wall_time
+        out = {
             "distance_m": round(car.distance, 4),
             "hall_units": car.hall,
             "collisions": car.collisions,
@@ -246,10 +233,13 @@ class Simulation:
             "wall_error_max_m": round(max(abs(e) for e in errs), 5) if errs else None,
             "wall_error_samples": len(errs),
             "sim_time": round(sim_time, 6),
-            "wall_time": round(self.wall_time, 4),
-            "realtime_factor": round(sim_time / self.wall_time, 1) if self.wall_time > 0 else None,
+            "wall_time": round(wall_time, 4),
+            "realtime_factor": round(sim_time / wall_time, 1) if wall_time > 0 else None,
             **self._camera_metrics(),
         }
+        if self.world_file is not None:
+            out.update({"world": str(self.world_file), "seed": self.seed, "noise": self.noise})
+        return out
 
     def _camera_metrics(self) -> dict[str, Any]:
         """Gates passed (ground truth), the odometry's error at the end, and what the camera did."""

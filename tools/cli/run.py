@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from fsm.clock import DEFAULT_DURATION as DEFAULT_MAX_DURATION
 from fsm.errors import StateRuntimeError, UsageError
 from fsm.sim import DEFAULT_WORLD
 
@@ -33,7 +34,6 @@ from .common import (
     whole_number,
 )
 
-DEFAULT_MAX_DURATION = 600.0
 #: Runs of more ticks than this are refused unless --max-ticks asks for them (a tiny --dt is usually a typo).
 MAX_TICKS = 10_000_000
 VIDEO_SUFFIXES = (".mp4", ".m4v", ".mov", ".avi")
@@ -190,7 +190,7 @@ def signal_warnings(signals: list[tuple[str, bool, float]], spec: Any, file: str
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from fsm.clock import DEFAULT_DT, SimulatedClock
+    from fsm.clock import DEFAULT_DT
     from fsm.errors import DiagramError
     from fsm.loader import check, machine_files, uses_car
     from fsm.reading import preloaded
@@ -214,7 +214,6 @@ def cmd_run(args: argparse.Namespace) -> int:
     pre = read_inputs([args.file])
     file = input_name(args.file)
     registry = registry_from(args)
-    clock = SimulatedClock(args.dt) if args.dt else None
     with preloaded(pre):
         spec, problems = check(file, registry=registry)
     errors = [p for p in problems if p.severity == "error"]
@@ -238,39 +237,43 @@ def cmd_run(args: argparse.Namespace) -> int:
     outputs.open(inputs)  # same-as-input, unwritable folders: refused here, before the run
     try:
         args.pre = pre
-        return _run(args, spec, file, clock, drive, world_path, duration, max_ticks, outputs,
+        return _run(args, spec, file, drive, world_path, duration, max_ticks, outputs,
                     trace_out, summary_out, video_out, plot_out, report_out)
     finally:
         outputs.discard()
 
 
-def _run(args: argparse.Namespace, spec: Any, file: str, clock: Any, drive: bool, world_path: Path | None,
-         duration: float | None, max_ticks: int | None, outputs: Any, trace_out: Any, summary_out: Any,
-         video_out: Any, plot_out: Any, report_out: Any) -> int:
-    from fsm.building import build
+def _session(args: argparse.Namespace, spec: Any, drive: bool, world_path: Path | None, duration: float | None,
+             max_ticks: int | None) -> Any:
+    """The run's session: the machine on the simulated car in its world, or on the simulated clock alone."""
     from fsm.loader import compile as compile_spec
-    from fsm.trace import summary
+    from fsm.session import Session, SetSignal, StopRules
 
-    car = None
+    plan = compile_spec(spec)
+    stop = StopRules(duration, max_ticks)
     if drive:
-        from fsm.sim.car import SimCar
-        from fsm.sim.world import load_world
+        from fsm.sim import simulate
 
         assert world_path is not None
-        world = load_world(world_path, car=args.car)
-        car = SimCar(world, seed=args.seed, noise=not args.no_noise)
-    machine = build(compile_spec(spec), clock=clock, car=car)
-    machine.ctx.vars.update(args.initial_vars)
+        session = simulate(plan, world=world_path, car_file=args.car, seed=args.seed, noise=not args.no_noise,
+                           variables=args.initial_vars, dt=args.dt, stop=stop)
+    else:
+        session = Session.open(plan, variables=args.initial_vars, dt=args.dt, stop=stop)
     for name, value, at in args.signal:
-        machine.schedule_signal(name, at, value)
+        session.schedule(at, SetSignal(name, value))
+    return session
 
-    sim = None
+
+def _run(args: argparse.Namespace, spec: Any, file: str, drive: bool, world_path: Path | None,
+         duration: float | None, max_ticks: int | None, outputs: Any, trace_out: Any, summary_out: Any,
+         video_out: Any, plot_out: Any, report_out: Any) -> int:
+    session = _session(args, spec, drive, world_path, duration, max_ticks)
+    machine = session.machine
+    car = session.car
+    sim = session.driver  # the Simulation when the car drives
     video = None
     progress = None
-    if car is not None:
-        from fsm.sim.loop import Simulation
-
-        sim = Simulation(machine, car)
+    if sim is not None:
         if video_out is not None:
             from fsm.sim.render import VideoRecorder
 
@@ -278,21 +281,20 @@ def _run(args: argparse.Namespace, spec: Any, file: str, clock: Any, drive: bool
                                   fmt=video_out.suffix)
         show = args.progress if args.progress is not None else sys.stderr.isatty()
         if show and not args.quiet:
-            limit = duration if duration is not None else (max_ticks * machine._dt if max_ticks is not None else None)
+            limit = duration if duration is not None else (max_ticks * machine.dt if max_ticks is not None else None)
             progress = ProgressBar(limit)
+            session.every(0.5, progress)
 
     report = sys.stderr if outputs.to_stdout else sys.stdout  # standard output may carry an output
-    recorder = machine.add_listener(_recorder(args, file, car, world_path, trace_out, report_out))
+    recorder = session.record(_recorder(args, file, car, world_path, trace_out, report_out))
     error: StateRuntimeError | None = None
     interrupts = Interrupts()
     with interrupts:
         try:
-            machine.start()
-            recorder.flush(machine)
-            if sim is not None:
-                sim.run(duration=duration, max_ticks=max_ticks, progress=progress, stop=interrupts.stop)
-            elif not interrupts.stop():
-                machine.run(max_ticks=max_ticks, duration=duration, until=lambda _m: interrupts.stop())
+            if not interrupts.stop():
+                session.run(stop=interrupts.stop)
+            else:
+                session.start()
         except StateRuntimeError as exc:
             error = exc
             recorder.flush(machine)
@@ -304,10 +306,7 @@ def _run(args: argparse.Namespace, spec: Any, file: str, clock: Any, drive: bool
             if progress is not None:
                 progress.done()
         interrupted = interrupts.interrupted
-        if sim is not None:
-            result = sim.summary(recorder, world_path, args.seed, not args.no_noise)
-        else:
-            result = summary(machine, recorder)
+        result = session.summary()
         if error is not None:
             result["error"] = {"state": error.path, "phase": error.phase, "tick": error.tick, "time": error.time,
                                "message": f"{type(error.cause).__name__}: {error.cause}"}
@@ -318,7 +317,7 @@ def _run(args: argparse.Namespace, spec: Any, file: str, clock: Any, drive: bool
             end["interrupted"] = True
         if "error" in result:
             end["error"] = result["error"]
-        recorder.finish(machine, **end)
+        session.finish(**end)
         if report_out is not None:
             _write_report(recorder.out, report_out, args.trace if args.trace not in (None, "-") else file)
         if video is not None:

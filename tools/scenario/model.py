@@ -20,6 +20,7 @@ from pydantic import Discriminator, Field, Tag, ValidationError
 from fsm.errors import DiagramError, Problem
 from fsm.jsonpos import pointer
 from fsm.params import Int, ParamsBase
+from fsm.session import tick_at
 
 #: Runs longer than this many ticks are refused (the limit of ``fsmctl run`` without ``--max-ticks``).
 MAX_TICKS = 10_000_000
@@ -448,12 +449,6 @@ def limits(scenario: Scenario) -> tuple[float, int]:
     if scenario.max_ticks is not None:
         ends.append(scenario.max_ticks)
     return dt, min(ends)
-
-
-def tick_at(t: float, dt: float) -> int:
-    """The first tick at or after simulated time ``t`` (tick ``n`` happens at ``n * dt``; as the core applies
-    scheduled signals, a time within 1e-9 s after a tick counts as that tick's)."""
-    return max(0, math.ceil((t - EPS) / dt))
 
 
 def timeline_problems(scenario: Scenario, name: str) -> list[Problem]:

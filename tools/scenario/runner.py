@@ -163,51 +163,36 @@ class ScenarioResult:
 
 def run_scenario(loaded: LoadedScenario) -> ScenarioResult:
     """Run the scenario's machine on its timeline and check every expectation."""
-    from fsm.clock import SimulatedClock
-    from fsm.building import build
     from fsm.loader import compile as compile_spec
+    from fsm.session import Session, SetSignal, SetVars, StopRules
 
     sc = loaded.scenario
     dt = loaded.dt
     result = ScenarioResult(loaded.name, loaded.file)
     signals, sets = expand(sc, dt)
     at_ticks = {min(tick_at(e.at, dt), loaded.end_tick) for e in sc.expect if isinstance(e, AtExpect)}
-    car = None
+    plan = compile_spec(loaded.spec)
+    stop = StopRules(max_ticks=loaded.end_tick)
     if loaded.world_path is not None:
-        from fsm.sim.car import SimCar
-        from fsm.sim.world import load_world
+        from fsm.sim import simulate
 
-        car = SimCar(load_world(loaded.world_path), seed=sc.seed, noise=sc.noise)
-    machine = build(compile_spec(loaded.spec), clock=SimulatedClock(dt), car=car)
+        session = simulate(plan, world=loaded.world_path, seed=sc.seed, noise=sc.noise, dt=dt, stop=stop)
+    else:
+        session = Session.open(plan, dt=dt, stop=stop, record=False)
+    machine = session.machine
     for cls, params in loaded.plants:
         cls(params).attach(machine)
     for change in signals:
-        machine.schedule_signal(change.name, change.time, change.level)
-    rec = machine.add_listener(Recording(at_ticks))
-    by_tick: dict[int, list[dict[str, Any]]] = {}
+        session.schedule(change.time, SetSignal(change.name, change.level))
     for s in sets:
-        by_tick.setdefault(s.tick, []).append(s.values)
-
-    def apply_sets(tick: int) -> None:
-        for values in by_tick.get(tick, ()):
-            machine.ctx.vars.update(values)
-
-    def after_tick(*_: Any) -> bool:
-        apply_sets(machine.ctx.tick + 1)
-        return False
-
+        session.schedule(s.time, SetVars(s.values))
+    rec = machine.add_listener(Recording(at_ticks))
     error: StateRuntimeError | None = None
     t0 = time.perf_counter()
     try:
-        apply_sets(0)
-        machine.start()
+        session.start()
         rec.on_tick(machine)
-        if car is not None:
-            from fsm.sim.loop import Simulation
-
-            Simulation(machine, car).run(max_ticks=loaded.end_tick, stop=after_tick)
-        else:
-            machine.run(max_ticks=loaded.end_tick, until=after_tick)
+        session.run()
     except StateRuntimeError as exc:
         error = exc
     result.wall_time = time.perf_counter() - t0

@@ -94,11 +94,11 @@ class Dwell:
 
 def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], dict[str, float]]:
     from fsm.errors import DiagramError
-    from fsm.building import build
     from fsm.loader import check, compile as compile_spec, uses_car
     from fsm.registry import default_registry
-    from fsm.trace import summary
+    from fsm.session import Session, StopRules
 
+    from ..trace import header_document, run_recorder  # the same trace as `fsmctl run --trace`
     from .overrides import apply
 
     key = (job["machine"], tuple(job.get("plugins") or ()))
@@ -111,53 +111,45 @@ def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], d
             raise DiagramError(errors or problems)
         _CHECKED[key] = spec
     spec = apply(spec, [tuple(c) for c in job["sets"]])  # type: ignore[misc]
+    plan = compile_spec(spec)
     out_dir = Path(job["out"]) if job.get("out") else None
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)
     trace_file = open(out_dir / "trace.jsonl", "w+", encoding="utf-8") \
         if out_dir and (job.get("trace") or job.get("report")) else None
-    recorder = machine = None
+    session = None
     try:
-        car = None
+        stop = StopRules(job["duration"])
         if job["world"] is not None or uses_car(spec):
-            from fsm.sim.car import SimCar
-            from fsm.sim.world import load_world
+            from fsm.sim import simulate
 
-            world = load_world(job["world"])
-            car = SimCar(world, seed=job["run_seed"], noise=job["noise"])
-            if car.params.camera.enabled and (world.gates or world.markers):  # else no frame is ever rendered
+            session = simulate(plan, world=job["world"], seed=job["run_seed"], noise=job["noise"],
+                               variables=job["vars"], stop=stop)
+            car = session.car
+            if car.params.camera.enabled and (car.world.gates or car.world.markers):  # else no frame is rendered
                 _one_cv2_thread()
-        machine = build(compile_spec(spec), car=car)
-        machine.ctx.vars.update(job["vars"])
-        from ..trace import run_recorder  # the same trace as `fsmctl run --trace`
-
+        else:
+            session = Session.open(plan, variables=job["vars"], stop=stop)
+            car = None
         document = None
         if trace_file is not None:
-            from ..trace import header_document
-
             if job["machine"] not in _DOCUMENTS:  # read and converted once per worker, as the check is
                 _DOCUMENTS[job["machine"]] = header_document(job["machine"])
             document = _DOCUMENTS[job["machine"]]
-        recorder = machine.add_listener(run_recorder(
+        session.record(run_recorder(
             trace_file, job["machine"], car, world_file=job["world"], seed=job["run_seed"], noise=job["noise"],
             overrides=job["overrides"], initial_vars=job["vars"], document=document))
-        dwell = machine.add_listener(Dwell())
-        duration = job["duration"] if job["duration"] is not None else 600.0
-        machine.start()
-        recorder.flush(machine)
-        if car is None:
-            machine.run(duration=duration)
-            return summary(machine, recorder), [], dwell.result(machine.now)
-        from fsm.sim.loop import Simulation
-
-        sim = Simulation(machine, car)
+        dwell = session.add_listener(Dwell())
+        sim = session.driver
         video = None
-        if out_dir is not None and job.get("video"):
+        if sim is not None and out_dir is not None and job.get("video"):
             from fsm.sim.render import VideoRecorder
 
             video = VideoRecorder(sim, str(out_dir / "video.mp4"))
-        sim.run(duration=duration)
-        result = sim.summary(recorder, job["world"], job["run_seed"], job["noise"])
+        session.run()
+        if sim is None:
+            return session.summary(), [], dwell.result(session.now)
+        result = session.summary()
         if video is not None:
             video.close()
         if out_dir is not None and job.get("plot"):
@@ -167,11 +159,11 @@ def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], d
         step = max(1, len(sim.track) // TRACK_POINTS)
         track = [[round(x, 3), round(y, 3), k] for _t, x, y, k in sim.track[::step]]
         result["states_seen"] = list(sim.states_seen)
-        return result, track, dwell.result(machine.now)
+        return result, track, dwell.result(session.now)
     finally:
         if trace_file is not None:
-            if recorder is not None and machine is not None:
-                recorder.finish(machine)
+            if session is not None and session.recorder is not None:
+                session.finish()
             _finish_trace(trace_file, out_dir, job)
 
 

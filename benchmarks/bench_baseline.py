@@ -1,0 +1,206 @@
+#!/usr/bin/env python
+"""This checkout against an earlier commit, in one run on one machine: the speed budgets of issue 21.
+
+The earlier commit (default 2a4832e, before the load path and the run loop grew slower) is checked out into a
+temporary git worktree and imported from there; each workload runs in a fresh process, the two sides
+alternating round by round, so both see the same machine load. Figures are medians over the rounds.
+
+Workloads (each the same code on both sides):
+
+  load        load + validate + build of the 1000-state ring from disk, ms (median of 7 per process);
+              transitions' ``Machine`` (which validates nothing) in the same processes, for the ratio
+  flat        the flat ring of 100 states (Always), transitions/s (best of 5 x 0.5 s)
+  nested      10 x 10 x 10 nested composites, transitions/s
+  guard       the flat ring with a guard ``n >= 0`` on every transition; ``guard+set`` adds ``n = n + 1``
+  lap         the hallway lap without camera (three laps, 200 s simulated), x real time
+
+    python benchmarks/bench_baseline.py [--base 2a4832e] [--rounds 3] [--only load,flat]
+
+Budgets (issue 21): load at least 2x faster than transitions' Machine and at most 10 ms; flat and nested at
+least as fast as the base; guard / guard+set at most 30 % / 50 % below the plain ring (this checkout); the lap
+at least 90 % of the base's real-time factor.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+REPO = Path(__file__).resolve().parents[1]
+BENCH = Path(__file__).resolve().parent
+WORKLOADS = ("load", "flat", "nested", "guard", "guard+set", "lap")
+
+#: Run in a fresh interpreter on either side: prints one JSON object. ``sys.argv[1]`` is the workload.
+PROBE = r'''
+import gc, json, statistics, sys, tempfile, time
+from pathlib import Path
+sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(BENCH).resolve().parent]
+sys.path.insert(0, BENCH)
+import fsm
+from peers.tral_fsm import ring_doc as load_ring, nested_doc
+from peers.workloads import FLAT_N
+from bench_sequencer import ring_doc as guard_ring
+workload = sys.argv[1]
+
+def rate(doc, count_transitions):
+    best = 0.0
+    for _ in range(5):
+        m = fsm.load(doc)
+        m.start()
+        tick = m.tick
+        n = 20000
+        while True:
+            gc.collect()
+            before = m.transition_count
+            t0 = time.perf_counter()
+            for _ in range(n):
+                tick()
+            dt = time.perf_counter() - t0
+            if dt > 0.5:
+                break
+            n *= 2
+        fired = m.transition_count - before if count_transitions else n
+        best = max(best, fired / dt)
+    return best
+
+if workload == "load":
+    import json as _json
+    d = tempfile.mkdtemp()
+    path = Path(d) / "ring1000.json"
+    path.write_text(_json.dumps(load_ring(1000), indent=1))
+    fsm.load(path)
+    times = []
+    for _ in range(7):
+        gc.collect()
+        t0 = time.perf_counter(); fsm.load(path); times.append(time.perf_counter() - t0)
+    out = {"ms": statistics.median(times) * 1000}
+    try:
+        from peers.pytransitions import TransitionsLoad
+        loader = TransitionsLoad(Path(d)); loader.prepare(); loader.once()
+        peer = []
+        for _ in range(7):
+            gc.collect()
+            t0 = time.perf_counter(); loader.once(); peer.append(time.perf_counter() - t0)
+        out["transitions_ms"] = statistics.median(peer) * 1000
+    except Exception as exc:
+        out["transitions_error"] = repr(exc)
+    print(json.dumps(out))
+elif workload in ("flat", "nested"):
+    doc = load_ring(FLAT_N) if workload == "flat" else nested_doc()
+    print(json.dumps({"rate": rate(doc, True)}))
+elif workload in ("guard", "guard+set", "plain"):
+    print(json.dumps({"rate": rate(guard_ring(workload), True)}))
+elif workload == "lap":
+    from bench_sim import run_once
+    factors = []
+    for _ in range(2):
+        sim_time, wall, _m = run_once(0)
+        factors.append(sim_time / wall)
+    print(json.dumps({"factor": max(factors)}))
+'''
+
+
+def base_tree(commit: str, where: Path) -> Path:
+    """The base commit checked out into ``where`` (a git worktree), importable as ``fsm`` by PYTHONPATH."""
+    tree = where / "base"
+    subprocess.run(["git", "-C", str(REPO), "worktree", "add", "--detach", "--force", str(tree), commit],
+                   check=True, capture_output=True)
+    for name, target in (("states", "../states"), ("transitions", "../transitions"), ("tools", "../tools"),
+                         ("worlds", "../diagrams/worlds")):
+        link = tree / "fsm" / name
+        if not link.exists():
+            link.symlink_to(target)
+    return tree
+
+
+def probe(workload: str, tree: Path | None) -> dict[str, Any]:
+    env = dict(os.environ)
+    if tree is not None:
+        env["PYTHONPATH"] = str(tree)
+    else:
+        env.pop("PYTHONPATH", None)
+    code = f"BENCH = {str(BENCH)!r}\n" + PROBE
+    if tree is not None:  # the base's fsm must win over this checkout's editable install
+        code = ("import sys\nsys.meta_path[:] = [f for f in sys.meta_path if 'editable' not in "
+                "type(f).__module__.lower()]\n" + code)
+    done = subprocess.run([sys.executable, "-c", code, workload], env=env, capture_output=True, text=True,
+                          cwd=str(tree or REPO), timeout=900)
+    if done.returncode != 0:
+        raise RuntimeError(f"{workload} on {'base' if tree else 'this checkout'} failed:\n{done.stderr[-2000:]}")
+    result: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
+    return result
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--base", default="2a4832e", help="the commit to compare with (default 2a4832e)")
+    ap.add_argument("--rounds", type=int, default=3, help="rounds, each running every workload on both sides")
+    ap.add_argument("--only", default=",".join(WORKLOADS), help="comma-separated workloads: " + ", ".join(WORKLOADS))
+    args = ap.parse_args(argv)
+    chosen = [w for w in args.only.split(",") if w]
+    unknown = [w for w in chosen if w not in WORKLOADS]
+    if unknown:
+        print(f"unknown workload(s): {', '.join(unknown)}", file=sys.stderr)
+        return 2
+    where = Path(tempfile.mkdtemp(prefix="tral-base-"))
+    try:
+        tree = base_tree(args.base, where)
+        runs: dict[tuple[str, str], list[dict[str, Any]]] = {}
+        needs_plain = any(w in chosen for w in ("guard", "guard+set"))
+        for r in range(args.rounds):
+            for workload in chosen + (["plain"] if needs_plain else []):
+                for side, path in (("base", tree), ("main", None)):
+                    if workload in ("guard", "guard+set", "plain") and side == "base":
+                        continue  # the guard budget is against this checkout's plain ring
+                    runs.setdefault((workload, side), []).append(probe(workload, path))
+            print(f"round {r + 1} of {args.rounds} done", file=sys.stderr)
+        report(runs, chosen, args.base)
+    finally:
+        subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(where / "base")],
+                       capture_output=True)
+        shutil.rmtree(where, ignore_errors=True)
+    return 0
+
+
+def median(runs: list[dict[str, Any]], key: str) -> float:
+    return statistics.median(r[key] for r in runs if key in r)
+
+
+def report(runs: dict[tuple[str, str], list[dict[str, Any]]], chosen: list[str], base: str) -> None:
+    print(f"| workload | {base} | this checkout | ratio | budget |")
+    print("|---|---:|---:|---:|---|")
+    if "load" in chosen:
+        b, m = median(runs["load", "base"], "ms"), median(runs["load", "main"], "ms")
+        peer = median(runs["load", "main"], "transitions_ms")
+        verdict = "pass" if peer / m >= 2 and m <= 10 else "MISS"
+        print(f"| load + validate + build, 1000 states (ms, median) | {b:.1f} | {m:.1f} | {b / m:.2f}x faster | "
+              f"<= 10 ms and >= 2x transitions' Machine ({peer:.1f} ms: {peer / m:.2f}x): {verdict} |")
+    for workload in ("flat", "nested"):
+        if workload in chosen:
+            b, m = median(runs[workload, "base"], "rate"), median(runs[workload, "main"], "rate")
+            print(f"| {workload} (transitions/s) | {b:,.0f} | {m:,.0f} | {m / b:.2f} | >= base: "
+                  f"{'pass' if m >= b else 'MISS'} |")
+    if ("plain", "main") in runs:
+        plain = median(runs["plain", "main"], "rate")
+        for workload, budget in (("guard", 0.30), ("guard+set", 0.50)):
+            if workload in chosen:
+                r = median(runs[workload, "main"], "rate")
+                loss = 1 - r / plain
+                print(f"| flat ring, {workload} on every transition (transitions/s) | | {r:,.0f} | {loss:.0%} below "
+                      f"plain {plain:,.0f} | <= {budget:.0%}: {'pass' if loss <= budget else 'MISS'} |")
+    if "lap" in chosen:
+        b, m = median(runs["lap", "base"], "factor"), median(runs["lap", "main"], "factor")
+        print(f"| hallway lap, no camera (x real time) | {b:.0f} | {m:.0f} | {m / b:.2f} | >= 0.90: "
+              f"{'pass' if m >= 0.9 * b else 'MISS'} |")
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -26,7 +26,7 @@ from fsm.errors import DiagramError, Problem
 from .camera import CameraModel, pinhole_problems
 from .images import PIXELS_ENV, max_pixels
 
-#: A calibration is a few hundred bytes (OpenCV's sample with every view's extrinsics and image points, ~50 KB).
+#: A calibration is a few hundred bytes (OpenCV's sample with every view's extrinsics and image points: 15-20 KB).
 MAX_BYTES = 64 * 1024
 #: Nesting levels (the file's mapping, a matrix's mapping, its data list, a row: 4).
 MAX_DEPTH = 8
@@ -47,6 +47,8 @@ KEYS = ("image_width", "image_height", "camera_matrix", "distortion_coefficients
 _HINT = ("expected an OpenCV or ROS calibration: camera_matrix {rows: 3, cols: 3, data: [fx, 0, cx, 0, fy, cy, "
          "0, 0, 1]}, distortion_coefficients {rows: 1, cols: 5, data: [...]}, image_width, image_height")
 _SIMPLE = "keep camera_matrix, distortion_coefficients, image_width and image_height"
+#: Where a top-level key is written: (line, column), either unknown.
+_Where = Callable[[str], tuple[int | None, int | None]]
 
 
 class _Bad(Exception):
@@ -67,7 +69,7 @@ class _Bads(Exception):
 
 def load_calibration(path: str | Path, *, image_size: tuple[int, int] | None = None) -> CameraModel:
     """The camera described by a calibration file; ``image_size`` (width, height) is used when the file
-    names none, and otherwise must agree with it (raises :class:`DiagramError`)."""
+    names none. Every problem raises a located :class:`DiagramError`."""
     from fsm.reading import read_file_bytes
 
     return parse_calibration(read_file_bytes(Path(path), "calibration"), str(path), image_size=image_size)
@@ -87,7 +89,7 @@ def parse_calibration(raw: bytes, name: str, *, image_size: tuple[int, int] | No
     if not text.strip():
         raise DiagramError([Problem("file is empty", name, line=1, hint=_HINT)])
     if text.lstrip().startswith("{"):
-        data, where = _read_json(raw, name)
+        data, where = _read_json(raw, text, name)
     else:
         data, where = _read_filestorage(text, name)
     try:
@@ -98,19 +100,19 @@ def parse_calibration(raw: bytes, name: str, *, image_size: tuple[int, int] | No
         raise DiagramError([_problem(bad, name, where) for bad in bads.bads]) from None
 
 
-def _problem(bad: _Bad, name: str, where: Callable[[str], tuple[int | None, int | None]]) -> Problem:
+def _problem(bad: _Bad, name: str, where: _Where) -> Problem:
     line, column = where(bad.key) if bad.key else (None, None)
     return Problem(str(bad), name, pointer=f"/{bad.key}" if bad.key else "", line=line, column=column,
                    hint=bad.hint)
 
 
 # -- reading ------------------------------------------------------------------------------------------------
-def _read_json(raw: bytes, name: str) -> tuple[dict[str, Any], Callable[[str], tuple[int | None, int | None]]]:
+def _read_json(raw: bytes, text: str, name: str) -> tuple[dict[str, Any], _Where]:
     """A JSON calibration through the strict reader; the text is checked first, as for YAML (a number of
     thousands of digits would otherwise stop Python's parser with an error of its own)."""
     from fsm.reading import parse_json_bytes
 
-    check_text(raw.decode("utf-8-sig"), name)
+    check_text(text, name)
     data, source = parse_json_bytes(raw, name)
     if not isinstance(data, dict):
         raise DiagramError([Problem("not a calibration: the file is not a JSON object", name, line=1, hint=_HINT)])
@@ -122,7 +124,7 @@ def _read_json(raw: bytes, name: str) -> tuple[dict[str, Any], Callable[[str], t
     return {k: data[k] for k in KEYS if k in data}, where
 
 
-def _read_filestorage(text: str, name: str) -> tuple[dict[str, Any], Callable[[str], tuple[int | None, int | None]]]:
+def _read_filestorage(text: str, name: str) -> tuple[dict[str, Any], _Where]:
     """The keys we read from a YAML or XML calibration, as Python values, through ``cv2.FileStorage`` once the
     text passed :func:`check_text`."""
     check_text(text, name)
@@ -253,6 +255,7 @@ _DQ = re.compile(r'"(?:[^"\\]|\\.)*"', re.S)
 _SQ = re.compile(r"'(?:[^']|'')*'")
 _PLAIN_END = re.compile(r"[\s,\[\]{}]|:(?=[\s,\[\]{}]|$)")
 _DIRECTIVE = re.compile(r"%YAML[: ]\s*1\.\d+\s*$")
+_DASHES = re.compile(r"(?:-(?:[ \t]+|$))*")  # "- - - " opening nested block sequences on one line
 
 
 class _YamlShape(_Shape):
@@ -317,8 +320,8 @@ class _YamlShape(_Shape):
             self.indents.pop()
         if not self.indents or self.indents[-1] < indent:
             self.indents.append(indent)
-        dashes = len(re.match(r"(?:-(?:[ \t]+|$))*", content).group())  # type: ignore[union-attr]
-        self.block = len(self.indents) + content[:dashes].count("-")
+        dashes = _DASHES.match(content)
+        self.block = len(self.indents) + (content[:dashes.end()].count("-") if dashes else 0)
         self.depth(self.block)
         self.pos = eol - len(content)
 

@@ -26,8 +26,13 @@ MAX_PIXELS = 50_000_000
 PIXELS_ENV = "FSM_MAX_IMAGE_PIXELS"
 #: The formats whose headers we read, as messages name them.
 FORMATS = "PNG, JPEG, BMP, TIFF, WebP or PBM/PGM/PPM"
+#: PNG chunks we walk (a 64 MB PNG written in libpng's 8 KB IDAT chunks has 8,000).
+_MAX_PNG_CHUNKS = 100_000
 #: JPEG segments before the frame header we look at (real files have a dozen: APPn, DQT, DHT).
 _MAX_JPEG_SEGMENTS = 1000
+#: Scans of a progressive JPEG (encoders write about 10; each is another pass over the image, so thousands make
+#: a small file take minutes to decode; libjpeg-turbo's own optional limit is 500).
+_MAX_JPEG_SCANS = 100
 #: TIFF directory entries we look at (real files have a few dozen).
 _MAX_TIFF_ENTRIES = 4096
 #: Bytes of a PBM/PGM/PPM header (magic, comments, width, height).
@@ -67,7 +72,7 @@ def image_header(raw: bytes, name: str | None = None) -> ImageHeader:
                                     hint=f"give a {FORMATS} file")])
     try:
         header = reader(raw)
-    except (_Bad, struct.error, IndexError) as exc:
+    except (_Bad, struct.error, IndexError, OverflowError) as exc:
         what = str(exc) if isinstance(exc, _Bad) else "header cut short"
         raise DiagramError([Problem(f"damaged {_format_name(reader)} file: {what}", name,
                                     hint="the file is truncated or not what its name says")]) from None
@@ -157,11 +162,31 @@ def _png(raw: bytes) -> ImageHeader:
     if kind != b"IHDR" or length != 13:
         raise _Bad("the first chunk is not the image header (IHDR)")
     width, height = struct.unpack_from(">II", raw, 16)
+    _png_chunks(raw)
     return ImageHeader("PNG", width, height)
+
+
+def _png_chunks(raw: bytes) -> None:
+    """Every chunk fits in the file, up to IEND: OpenCV's PNG reader allocates what a chunk's length field says
+    (an 18 KB file whose IDAT claims 4 GB takes 4 GB and 6 s)."""
+    at, size = 8, len(raw)
+    for _ in range(_MAX_PNG_CHUNKS):
+        if at + 12 > size:
+            raise _Bad(f"the file ends at byte {size:,} without the closing IEND chunk")
+        length, kind = struct.unpack_from(">I4s", raw, at)
+        if length > size - at - 12:
+            raise _Bad(f"chunk '{kind.decode('latin-1')}' at byte {at:,} says {length:,} bytes, but the file ends "
+                       f"{max(0, size - at - 12):,} bytes later")
+        if kind == b"IEND":
+            return
+        at += 12 + length
+    raise _Bad(f"more than {_MAX_PNG_CHUNKS:,} chunks")
 
 
 #: JPEG frame headers (SOF0-SOF15 but DHT, JPG and DAC), which carry the image size.
 _SOF = frozenset(range(0xC0, 0xD0)) - {0xC4, 0xC8, 0xCC}
+#: Progressive frame headers (SOF2, SOF6, SOF10, SOF14).
+_PROGRESSIVE = frozenset((0xC2, 0xC6, 0xCA, 0xCE))
 _FILL = re.compile(rb"\xff+")
 
 
@@ -185,6 +210,10 @@ def _jpeg(raw: bytes) -> ImageHeader:
             height, width = struct.unpack_from(">HH", raw, i + 3)
             if height == 0:
                 raise _Bad("the height is given after the image data (DNL marker), which is not supported")
+            scans = raw.count(b"\xff\xda")  # 0xFF in coded data is followed by 0x00: only markers match
+            if marker in _PROGRESSIVE and scans > _MAX_JPEG_SCANS:
+                raise _Bad(f"progressive image of {scans:,} scans (at most {_MAX_JPEG_SCANS:,}: each scan is "
+                           "another pass over the whole image)")
             return ImageHeader("JPEG", width, height)
         i += length
     raise _Bad(f"no frame header (SOF) in the first {_MAX_JPEG_SEGMENTS} segments")

@@ -132,14 +132,15 @@ def read_file_bytes(path: Path, what: str | None = None) -> bytes:
     if pre is not None and isinstance(pre.get(name), bytes):
         return pre[name]
     kind = what or "machine"
+    a_kind = ("an " if kind[:1] in "aeiou" else "a ") + kind  # "an image"
     try:
         st = os.stat(path)
         if stat.S_ISDIR(st.st_mode):
-            raise DiagramError([Problem(f"is a directory, not a {kind} file", name)])
+            raise DiagramError([Problem(f"is a directory, not {a_kind} file", name)])
         if not stat.S_ISREG(st.st_mode):
             sort = ("a FIFO" if stat.S_ISFIFO(st.st_mode) else "a device" if stat.S_ISCHR(st.st_mode)
                     or stat.S_ISBLK(st.st_mode) else "a socket" if stat.S_ISSOCK(st.st_mode) else "special")
-            raise DiagramError([Problem(f"not a regular file ({sort}); a {kind} file must be a regular file", name,
+            raise DiagramError([Problem(f"not a regular file ({sort}); {a_kind} file must be a regular file", name,
                                         hint="pass '-' to read standard input")])
         limit = max_input_bytes()
         if st.st_size > limit:
@@ -148,7 +149,7 @@ def read_file_bytes(path: Path, what: str | None = None) -> bytes:
         fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
         with os.fdopen(fd, "rb") as fh:
             if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
-                raise DiagramError([Problem(f"not a regular file; a {kind} file must be a regular file", name)])
+                raise DiagramError([Problem(f"not a regular file; {a_kind} file must be a regular file", name)])
             data = fh.read(limit + 1)
         if len(data) > limit:
             raise _too_big(name, None, limit)

@@ -119,7 +119,7 @@ def test_calibration_at_another_resolution_is_scaled_or_refused(gate_png: Path,
 
 @pytest.mark.parametrize("argv,message", [
     (["--dictionary", "DICT_9X9_9"], "unknown 'DICT_9X9_9'"),
-    (["--marker-size", "0"], "must be a finite number > 0"),
+    (["--marker-size", "0"], "must be more than 0.001 m and at most 10 m"),
     (["--gate", "3,3"], "two different ids"),
     (["--fov", "50", "--calibration", "x.yaml"], "--fov is for images without"),
 ])

@@ -153,3 +153,25 @@ def test_shipped_worlds_still_load() -> None:
     root = Path(__file__).resolve().parents[1] / "diagrams" / "worlds"
     for path in sorted(root.glob("*.json")):
         load_world(path)
+
+
+# -- the camera's field of view (the range calibrations are held to, fsm.vision.camera.FOV_RANGE) -------------
+@pytest.mark.parametrize(("camera", "pointers", "words"), [
+    ({"fx": 1e-9, "width": 4096, "height": 32}, ["/car/camera/fx", "/car/camera/fx"],
+     ["fx = 1e-09 px gives a horizontal field of view of 180 deg at 4096x32; a pinhole camera has 1-179 deg",
+      "fx (fy is not set, so also the vertical focal length) = 1e-09 px gives a vertical field of view of 180"]),
+    ({"fx": 600, "fy": 100000, "height": 32}, ["/car/camera/fy"], ["fy = 100000 px gives a vertical field of view "
+                                                                   "of 0.01833 deg"]),
+    ({"fx": 2.7, "width": 640}, ["/car/camera/fx"], ["horizontal field of view of 179 deg"]),
+])
+def test_a_camera_seeing_180_degrees_or_almost_nothing_is_refused(camera: dict[str, Any], pointers: list[str],
+                                                                  words: list[str]) -> None:
+    problems = problems_of(world(car={"camera": camera}))
+    assert [p.pointer for p in problems] == pointers
+    for p, w in zip(problems, words):
+        assert w in p.message and "use a focal length between" in (p.hint or ""), str(p)
+
+
+def test_the_edges_of_the_camera_field_of_view_are_fine() -> None:
+    for fx in (2.8, 600, 36000):  # 178.997 deg, 56 deg, 1.02 deg horizontally at 640 px
+        parse_world(world(car={"camera": {"fx": fx, "fy": 600}}), "w.json")

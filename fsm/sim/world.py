@@ -520,6 +520,7 @@ def marker_problems(world: World, name: str | None) -> list[Problem]:
     for mi, m in enumerate(world.markers):
         check(m.id, f"/markers/{mi}/id", f"marker {m.name or mi}")
     fy = cam.fy or cam.fx
+    problems += camera_fov_problems(cam, name)
     half = math.degrees(math.atan2(cam.height / 2, fy))
     if abs(cam.pitch) >= half:
         where = "floor" if cam.pitch > 0 else "ceiling"
@@ -527,6 +528,31 @@ def marker_problems(world: World, name: str | None) -> list[Problem]:
             f"the camera points into the {where}: pitch {cam.pitch:g} deg puts the horizon outside the image "
             f"(half the vertical field of view is {half:.1f} deg)", name, "/car/camera/pitch", element="car",
             hint=f"use a pitch between {-half:.1f} and {half:.1f} degrees (down positive)"))
+    return problems
+
+
+#: The field of view a camera may have, degrees: fsm.vision.camera.FOV_RANGE, the range calibrations are held
+#: to (written out here because world checks run without OpenCV).
+CAMERA_FOV_RANGE = (1.0, 179.0)
+
+
+def camera_fov_problems(cam: Camera, name: str | None) -> list[Problem]:
+    """A focal length that makes the camera see (nearly) 180 degrees or under 1 degree: the pinhole model breaks
+    down (no marker pose comes out) or every marker is out of view."""
+    low, high = CAMERA_FOV_RANGE
+    problems = []
+    fy = cam.fy if cam.fy is not None else cam.fx
+    for axis, size, focal, key in (("horizontal", cam.width, cam.fx, "fx"), ("vertical", cam.height, fy, "fy")):
+        fov = math.degrees(2 * math.atan2(size / 2, focal))
+        if not low <= fov <= high:
+            shared = key == "fy" and cam.fy is None
+            label = "fx (fy is not set, so also the vertical focal length)" if shared else key
+            at = "fx" if shared else key
+            lo, hi = (size / 2) / math.tan(math.radians(high / 2)), (size / 2) / math.tan(math.radians(low / 2))
+            problems.append(Problem(
+                f"{label} = {focal:g} px gives a {axis} field of view of {fov:.4g} deg at {cam.width}x{cam.height}; "
+                f"a pinhole camera has {low:g}-{high:g} deg", name, f"/car/camera/{at}", element="car",
+                hint=f"use a focal length between {lo:.4g} and {hi:.4g} px for this {axis} size of {size} px"))
     return problems
 
 

@@ -13,7 +13,8 @@ Frames and units (what states drive on):
   ``distance``, ``bearing`` and a gate's ``heading`` are in this frame; angles are radians,
   counter-clockwise (left) positive, 0 = straight ahead.
 
-Modules: :mod:`.camera` (intrinsics, mount, frame changes), :mod:`.calibration` (OpenCV / ROS YAML),
+Modules: :mod:`.camera` (intrinsics, mount, frame changes), :mod:`.calibration` (OpenCV / ROS YAML, XML, JSON),
+:mod:`.images` (image files: the size from the header, checked before decoding),
 :mod:`.detector` (markers and their poses, optional region-of-interest tracking), :mod:`.gates`
 (two markers make a gate), :mod:`.draw` (annotated images).
 """

@@ -14,6 +14,12 @@ import numpy as np
 
 #: Horizontal field of view assumed for an image without a calibration, degrees (a typical webcam).
 DEFAULT_FOV = 60.0
+#: The horizontal and vertical field of view a calibration may give, degrees: 180 is a focal length of 0 (the
+#: pinhole model breaks down), and under 1 degree a marker across the room is a speck.
+FOV_RANGE = (1.0, 179.0)
+#: The field of view an image without a calibration may be assumed to have, degrees (a rectilinear lens; a wider
+#: one is a fisheye and needs its calibration).
+ASSUMED_FOV_RANGE = (1.0, 170.0)
 
 #: Optical axes in the camera's body frame (x forward, y left, z up): columns are optical x, y, z.
 _BODY_FROM_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
@@ -77,7 +83,12 @@ class CameraModel:
     @property
     def hfov(self) -> float:
         """Horizontal field of view, degrees."""
-        return math.degrees(2 * math.atan2(self.width / 2, self.fx))
+        return field_of_view(self.width, self.fx)
+
+    @property
+    def vfov(self) -> float:
+        """Vertical field of view, degrees."""
+        return field_of_view(self.height, self.fy)
 
     def scaled(self, width: int, height: int) -> CameraModel:
         """The same camera at another resolution (a calibration made at 1280x960 used at 640x480)."""
@@ -93,6 +104,31 @@ class CameraModel:
         return (f"{self.width}x{self.height}, fx={self.fx:.1f} fy={self.fy:.1f} cx={self.cx:.1f} cy={self.cy:.1f}, "
                 f"hfov {self.hfov:.1f} deg" + (", distortion " + " ".join(f"{d:g}" for d in self.dist)
                                               if self.dist.size and np.any(self.dist) else ""))
+
+
+def field_of_view(size_px: float, focal_px: float) -> float:
+    """The field of view, degrees, of a pinhole whose image is ``size_px`` wide with focal length ``focal_px``."""
+    return math.degrees(2 * math.atan2(size_px / 2, focal_px))
+
+
+def pinhole_problems(width: int, height: int, fx: float, fy: float, cx: float, cy: float) -> list[str]:
+    """Why these intrinsics are no usable camera (each a sentence), or nothing: focal lengths > 0 and a field of
+    view in :data:`FOV_RANGE` both ways, the principal point inside the image."""
+    values = (width, height, fx, fy, cx, cy)
+    if not all(math.isfinite(v) for v in values):
+        return ["the camera matrix and image size must be finite numbers"]
+    if not (fx > 0 and fy > 0):
+        return [f"focal lengths must be > 0, got fx={fx:g}, fy={fy:g}"]
+    low, high = FOV_RANGE
+    problems = []
+    for axis, size, focal, name in (("horizontal", width, fx, "fx"), ("vertical", height, fy, "fy")):
+        fov = field_of_view(size, focal)
+        if not low <= fov <= high:
+            problems.append(f"{name}={focal:g} px gives a {axis} field of view of {fov:.4g} deg at {width}x{height}; "
+                            f"a pinhole camera has {low:g}-{high:g} deg")
+    if not (-0.5 <= cx <= width - 0.5 and -0.5 <= cy <= height - 0.5):
+        problems.append(f"the principal point (cx, cy) = ({cx:g}, {cy:g}) is outside the {width}x{height} image")
+    return problems
 
 
 @dataclass(frozen=True)

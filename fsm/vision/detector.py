@@ -155,7 +155,7 @@ class MarkerDetector:
             raise ValueError(f"image is {gray.shape[1]}x{gray.shape[0]}, the camera model "
                              f"{self.camera.width}x{self.camera.height}")
         corners, ids = self.find(gray)
-        out = [self._pose(i, c) for c, i in zip(corners, ids)]
+        out = [d for d in (self._pose(i, c) for c, i in zip(corners, ids)) if d is not None]
         out.sort(key=lambda d: d.id)
         return out
 
@@ -240,19 +240,25 @@ class MarkerDetector:
     def size_of(self, marker_id: int) -> float:
         return self.sizes.get(marker_id, self.marker_size)
 
-    def _pose(self, marker_id: int, corners: np.ndarray) -> Detection:
+    def _pose(self, marker_id: int, corners: np.ndarray) -> Detection | None:
+        """The marker's pose, or ``None`` when there is none to give (``solvePnP`` failed or its numbers are not
+        finite: a degenerate camera matrix or distortion, an absurd marker size)."""
         size = self.size_of(marker_id)
         obj = self._objects.get(size)
         if obj is None:
             obj = self._objects[size] = object_points(size)
         img = corners.astype(np.float64)
-        _ok, rvec, tvec = cv2.solvePnP(obj, img, self.camera.K, self.camera.dist, flags=cv2.SOLVEPNP_IPPE_SQUARE)
+        ok, rvec, tvec = cv2.solvePnP(obj, img, self.camera.K, self.camera.dist, flags=cv2.SOLVEPNP_IPPE_SQUARE)
+        if not ok or rvec is None or tvec is None:
+            return None
         rvec, tvec = rvec.reshape(3), tvec.reshape(3)
         proj, _ = cv2.projectPoints(obj, rvec, tvec, self.camera.K, self.camera.dist)
         error = float(np.sqrt(np.mean(np.sum((proj.reshape(4, 2) - img) ** 2, axis=1))))
         p = self._R @ tvec + self._t
         normal = self._R @ cv2.Rodrigues(rvec)[0][:, 2]
         x, y, z = float(p[0]), float(p[1]), float(p[2])
+        if not (math.isfinite(x + y + z + error) and np.isfinite(rvec).all() and np.isfinite(normal).all()):
+            return None
         return Detection(marker_id, corners.astype(np.float32), size, rvec, tvec, (x, y, z), math.hypot(x, y),
                          math.atan2(y, x), math.atan2(float(normal[1]), float(normal[0])), error)
 

@@ -17,10 +17,10 @@ from typing import Any
 
 from fsm.errors import DiagramError, Problem, UsageError
 
-from .common import EXIT_OK, positive_float
+from .common import EXIT_OK, input_name
 
-#: Largest image file we read, bytes (a photo is a few MB).
-MAX_IMAGE_BYTES = 200_000_000
+#: The side of a marker, metres: above 1 mm (a speck no camera resolves) and at most 10 m.
+MARKER_SIZE_RANGE = (0.001, 10.0)
 
 
 def gate_pair(text: str) -> tuple[int, int]:
@@ -34,17 +34,46 @@ def gate_pair(text: str) -> tuple[int, int]:
     return pair
 
 
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+
+
+def fov_degrees(text: str) -> float:
+    """``--fov``: a horizontal field of view a rectilinear lens can have (``ASSUMED_FOV_RANGE``, degrees)."""
+    from fsm.vision.camera import ASSUMED_FOV_RANGE
+
+    value, (low, high) = _number(text), ASSUMED_FOV_RANGE
+    if not low <= value <= high:
+        raise argparse.ArgumentTypeError(f"must be between {low:g} and {high:g} degrees, got {text} (a wider lens "
+                                         "is a fisheye: give its --calibration)")
+    return value
+
+
+def marker_size(text: str) -> float:
+    """``--marker-size``: metres, in :data:`MARKER_SIZE_RANGE` (more than 1 mm, at most 10 m)."""
+    value, (low, high) = _number(text), MARKER_SIZE_RANGE
+    if not low < value <= high:
+        raise argparse.ArgumentTypeError(f"must be more than {low:g} m and at most {high:g} m, got {text} (the side "
+                                         "of the black square, in metres)")
+    return value
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("detect", help="find ArUco markers and gates in images and print their poses")
-    p.add_argument("images", nargs="+", metavar="IMAGE", help="PNG, JPEG or any image OpenCV reads")
+    p.add_argument("images", nargs="+", metavar="IMAGE",
+                   help="PNG, JPEG, BMP, TIFF, WebP or PGM/PPM file ('-': one image from standard input); at most "
+                        "50 megapixels (FSM_MAX_IMAGE_PIXELS changes the limit)")
     p.add_argument("--calibration", metavar="FILE",
-                   help="camera calibration (OpenCV FileStorage or ROS camera_info YAML: camera_matrix, "
-                        "distortion_coefficients)")
-    p.add_argument("--fov", type=positive_float, default=None, metavar="DEG",
-                   help="without --calibration: horizontal field of view of the assumed pinhole (default 60)")
+                   help="camera calibration (OpenCV FileStorage YAML, XML or JSON, or ROS camera_info YAML: "
+                        "camera_matrix, distortion_coefficients, image_width, image_height; '-': standard input)")
+    p.add_argument("--fov", type=fov_degrees, default=None, metavar="DEG",
+                   help="without --calibration: horizontal field of view of the assumed pinhole, 1-170 (default 60)")
     p.add_argument("--dictionary", default="DICT_4X4_50", metavar="DICT", help="ArUco dictionary (DICT_4X4_50)")
-    p.add_argument("--marker-size", type=positive_float, default=0.15, metavar="M",
-                   help="side of the black marker square in metres (default 0.15)")
+    p.add_argument("--marker-size", type=marker_size, default=0.15, metavar="M",
+                   help="side of the black marker square in metres, over 0.001 and up to 10 (default 0.15)")
     p.add_argument("--gate", type=gate_pair, action="append", metavar="LEFT,RIGHT",
                    help="a gate's marker ids (repeatable); default: any two markers 0.3-1.5 m apart")
     p.add_argument("--format", choices=("text", "json"), default="text")
@@ -57,35 +86,57 @@ IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
 
 
 def read_image(path: str) -> Any:
-    """The image at ``path`` (BGR or grey, uint8), or a located error."""
-    import cv2
-    import numpy as np
-
+    """The image at ``path`` (BGR or grey, uint8), or a located error: read through the reading rule, its size
+    checked from the header before anything is decoded (:mod:`fsm.vision.images`)."""
     from fsm.reading import read_file_bytes
+    from fsm.vision.images import decode_image
 
-    p = Path(path)
-    try:
-        size = p.stat().st_size
-    except OSError:
-        size = 0
-    if size > MAX_IMAGE_BYTES:
-        raise DiagramError([Problem(f"file is {size} bytes; too large for an image", path)])
-    raw = read_file_bytes(p, "image")
-    image = cv2.imdecode(np.frombuffer(raw, np.uint8), cv2.IMREAD_UNCHANGED) if raw else None
-    if image is None or image.ndim not in (2, 3) or image.size == 0:
-        raise DiagramError([Problem("not an image OpenCV can read", path, hint="give a PNG, JPEG, BMP or TIFF file")])
-    if image.dtype != np.uint8:  # 16-bit PNGs: scale to 8 bits
-        image = cv2.convertScaleAbs(image, alpha=255.0 / max(1.0, float(image.max())))
-    if image.ndim == 3 and image.shape[2] == 4:
-        image = cv2.cvtColor(image, cv2.COLOR_BGRA2BGR)
-    elif image.ndim == 3 and image.shape[2] == 1:
-        image = image[:, :, 0]
-    return image
+    return decode_image(read_file_bytes(Path(path), "image"), path)
+
+
+def read_stdin(args: argparse.Namespace) -> dict[str, bytes]:
+    """Standard input, when ``-`` names one IMAGE or the calibration: ``{"<stdin>": bytes}`` to preload."""
+    from fsm.reading import STDIN_NAME, read_stdin_bytes
+
+    users = args.images.count("-") + (args.calibration == "-")
+    if not users:
+        return {}
+    if users > 1:
+        raise UsageError("'-' (standard input) can be given once: for one IMAGE or for --calibration")
+    if sys.stdin is None or (sys.stdin.isatty() if hasattr(sys.stdin, "isatty") else False):
+        raise UsageError("'-' reads from standard input, but standard input is a terminal; pipe a file in "
+                         "(fsmctl detect - < frame.png)")
+    return {STDIN_NAME: read_stdin_bytes()}
+
+
+def detect_in(file: str, image: Any, calibration: Any, calibration_name: str | None, rule: Any,
+              args: argparse.Namespace, keep: bool) -> tuple[str, Any, Any, str | None, list[Any], list[Any]]:
+    """Markers and gates in one image: (file, the image if ``keep`` else None, camera, note, markers, gates)."""
+    from fsm.vision import CameraModel, MarkerDetector, find_gates
+    from fsm.vision.camera import DEFAULT_FOV
+
+    h, w = image.shape[:2]
+    note = None
+    if calibration is None:
+        fov = args.fov if args.fov is not None else DEFAULT_FOV
+        camera = CameraModel.from_fov(w, h, fov)
+        note = f"assumed pinhole, {fov:g} deg horizontal field of view (no --calibration): distances scale with it"
+    elif (calibration.width, calibration.height) != (w, h):
+        if abs(calibration.width / calibration.height - w / h) > 0.01:
+            raise DiagramError([Problem(
+                f"the calibration is for {calibration.width}x{calibration.height}, the image is {w}x{h} "
+                "(another aspect ratio)", file, hint=f"calibrate at this resolution; calibration: {calibration_name}")])
+        camera = calibration.scaled(w, h)
+        note = f"calibration made at {calibration.width}x{calibration.height}, scaled to {w}x{h}"
+    else:
+        camera = calibration
+    markers = MarkerDetector(camera, dictionary=args.dictionary, marker_size=args.marker_size).detect(image)
+    return file, image if keep else None, camera, note, markers, find_gates(markers, rule)
 
 
 def cmd_detect(args: argparse.Namespace) -> int:
-    from fsm.vision import CameraModel, GateRule, MarkerDetector, dictionary_names, find_gates, load_calibration
-    from fsm.vision.camera import DEFAULT_FOV
+    from fsm.reading import preloaded
+    from fsm.vision import GateRule, dictionary_names, load_calibration
 
     if args.dictionary not in dictionary_names():
         raise UsageError(f"--dictionary: unknown {args.dictionary!r}; choose one of {', '.join(dictionary_names())}")
@@ -102,38 +153,24 @@ def cmd_detect(args: argparse.Namespace) -> int:
         outputs = Outputs()
         outputs.add(args.output, "-o", binary=True)
         outputs.items[0].classify()  # a folder, a missing folder: refused before any work
-    calibration = load_calibration(args.calibration, image_size=None) if args.calibration else None
-    images: list[tuple[str, Any]] = []
+    stdin = read_stdin(args)
+    calibration_name = input_name(args.calibration) if args.calibration else None
+    rule = GateRule(pairs=args.gate) if args.gate else GateRule()
+    results: list[tuple[str, Any, Any, str | None, list[Any], list[Any]]] = []
     problems: list[Problem] = []
-    for file in args.images:
-        try:
-            images.append((file, read_image(file)))
-        except DiagramError as exc:
-            problems += exc.problems
+    with preloaded(stdin):
+        calibration = load_calibration(calibration_name) if calibration_name else None
+        for file in map(input_name, args.images):
+            try:
+                image = read_image(file)
+                if not problems:  # once one file failed, the others are only checked
+                    results.append(detect_in(file, image, calibration, calibration_name, rule, args,
+                                             keep=outputs is not None))
+                del image  # one decoded image in memory at a time
+            except DiagramError as exc:
+                problems += exc.problems
     if problems:
         raise DiagramError(problems)
-    rule = GateRule(pairs=args.gate) if args.gate else GateRule()
-    results = []
-    for file, image in images:
-        h, w = image.shape[:2]
-        note = None
-        if calibration is None:
-            fov = args.fov if args.fov is not None else DEFAULT_FOV
-            camera = CameraModel.from_fov(w, h, fov)
-            note = f"assumed pinhole, {fov:g} deg horizontal field of view (no --calibration): distances scale with it"
-        elif (calibration.width, calibration.height) != (w, h):
-            if abs(calibration.width / calibration.height - w / h) > 0.01:
-                raise DiagramError([Problem(
-                    f"the calibration is for {calibration.width}x{calibration.height}, the image is {w}x{h} "
-                    "(another aspect ratio)", file, hint=f"calibrate at this resolution; calibration: {args.calibration}")])
-            camera = calibration.scaled(w, h)
-            note = f"calibration made at {calibration.width}x{calibration.height}, scaled to {w}x{h}"
-        else:
-            camera = calibration
-        detector = MarkerDetector(camera, dictionary=args.dictionary, marker_size=args.marker_size)
-        markers = detector.detect(image)
-        gates = find_gates(markers, rule)
-        results.append((file, image, camera, note, markers, gates))
     if outputs is not None:
         import cv2
 
@@ -143,7 +180,7 @@ def cmd_detect(args: argparse.Namespace) -> int:
         ok, png = cv2.imencode(Path(args.output).suffix.lower(), annotate(image, markers, camera, gates))
         if not ok:  # pragma: no cover - OpenCV encodes every suffix we allow
             raise DiagramError([Problem("cannot encode the annotated image", args.output)])
-        inputs = list(args.images) + ([args.calibration] if args.calibration else [])
+        inputs = [f for f in args.images + [args.calibration or "-"] if f != "-"]
         outputs.open(inputs)  # the same file as the image read: refused
         try:
             outputs.items[0].write(png.tobytes())

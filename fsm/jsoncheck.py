@@ -101,8 +101,19 @@ class _Compiler:
                                       self._additional(schema), self._items(schema), _lengths(schema),
                                       self._one_of(schema)) if check is not None]
         general = checks[0] if len(checks) == 1 else _all(checks) if checks else _accept
-        fits = _fast_test(schema)
+        fits = _fast_test(schema) or self._fast_list(schema)
         return general if fits is None else _with_fast_test(fits, general)
+
+    def _fast_list(self, schema: dict[str, Any]) -> Callable[[Any], bool] | None:
+        """The predicate of a list whose items have one (rows of sample values), else ``None``."""
+        keys = set(schema) - ANNOTATIONS
+        if schema.get("type") != "array" or not keys <= {"type", "items", "minItems", "maxItems"}:
+            return None
+        inner = getattr(self.compile(schema["items"]), "fits", None) if "items" in schema else _anything
+        if inner is None:
+            return None
+        low, high = schema.get("minItems", 0), schema.get("maxItems", math.inf)
+        return lambda value: type(value) is list and low <= len(value) <= high and all(map(inner, value))
 
     def _ref(self, schema: dict[str, Any]) -> Check | None:
         ref = schema.get("$ref")
@@ -205,6 +216,10 @@ def _accept(value: Any) -> None:
 
 def _never(value: Any) -> bool:
     return False
+
+
+def _anything(value: Any) -> bool:
+    return True
 
 
 #: The Python types json.loads makes for each JSON Schema type.

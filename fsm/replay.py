@@ -1,10 +1,16 @@
 """Reading a trace back (:mod:`fsm.trace` writes it): its lines by type, and the machine's configuration and
 variables at any tick, rebuilt from the nearest keyframe and the events after it.
 
+A trace is an input like any other: read by the reading rule (:mod:`fsm.reading`: a regular file or standard
+input, capped in size), each line strict JSON checked against ``fsm/schema/trace.schema.json`` before it is used
+(compiled once, :mod:`fsm.jsoncheck`), so what the report and the MCAP export get holds no surprise (no NaN, no
+time beyond :data:`MAX_TIME`, no string where a list belongs).
+
 A trace cut off mid-line (the process was killed) reads up to its last whole line, with a warning naming the
-line that is not; so does one with a damaged line (the rest is not trusted). A trace written before the header,
-keyframes and samples existed (version 1: event lines only) reads too, with a warning saying what it lacks.
-Anything else that is not a trace raises :class:`TraceError` with the reason and the line.
+line that is not; so does one with a damaged line (the rest is not trusted), the warning saying where in the line,
+what was expected and what was found. A trace written before the header, keyframes and samples existed (version
+1: event lines only) reads too, with a warning saying what it lacks. Anything else that is not a trace raises
+:class:`TraceError` with the reason and the line.
 """
 
 from __future__ import annotations
@@ -21,7 +27,8 @@ from pathlib import Path
 from typing import Any
 
 from .errors import FsmError
-from .jsoncheck import Check, compile_definition, describe, either
+from .jsoncheck import Check, compile_definition, describe
+from .reading import max_input_bytes, parse_json_line, read_file_bytes
 from .trace import TRACE_FORMAT, TRACE_VERSION
 
 
@@ -132,8 +139,6 @@ MAX_TICK = 2**53
 def read_trace(path: str | os.PathLike[str]) -> Trace:
     """Read a trace file by the reading rule (a regular file, at most ``FSM_MAX_INPUT_BYTES``): :class:`TraceError`
     if it is no trace, :class:`~fsm.errors.DiagramError` if it cannot be read."""
-    from .reading import read_file_bytes
-
     return parse_trace(read_file_bytes(Path(path), "trace"), str(path))
 
 
@@ -148,6 +153,8 @@ def parse_trace(data: bytes, name: str = "<trace>") -> Trace:
     lines = data.split(b"\n")
     cut = bool(lines[-1].strip())  # the last line has no newline: the writer was stopped in it
     trace: Trace | None = None
+    stopped = False  # at a whole line: the run may well have ended, its end line unread
+    limit = max_samples()
     for number, raw in enumerate(lines, 1):
         if not raw.strip():
             continue
@@ -155,30 +162,59 @@ def parse_trace(data: bytes, name: str = "<trace>") -> Trace:
             trace = _first(raw, number, name)
             continue
         try:
-            line = _checked_line(raw, trace)
+            line = _checked_line(raw, trace, limit - len(trace.samples))
+        except _TooMany:
+            stopped = True
+            trace.warnings.append(f"{name}:{number}: line {number} would make the trace hold more than {limit} "
+                                  f"samples (one per {BYTES_PER_SAMPLE} bytes of the input size cap; set "
+                                  f"FSM_MAX_INPUT_BYTES higher to read more); read up to line {number - 1}")
+            break
         except _Damaged as exc:
-            if number == len(lines) and cut:
-                why = "is cut off (the run was stopped while it was written)"
-            else:
+            stopped = not (number == len(lines) and cut)
+            if stopped:
                 why = f"is damaged ({exc}); the lines after it are not read either"
+            else:
+                why = "is cut off (the run was stopped while it was written)"
             trace.warnings.append(f"{name}:{number}: line {number} {why}; read up to line {number - 1}")
             break
         _add(trace, line)
     assert trace is not None
-    if trace.version >= 2 and trace.end is None:
+    if trace.version >= 2 and trace.end is None and not stopped:
         trace.warnings.append(f"{name}: no end line: the run was cut off after tick {trace.last_tick}")
     trace.index()
     return trace
+
+
+#: A trace may hold one sample per this many bytes of the input size cap (1 Mi samples by default: 14 hours at
+#: 20 Hz; the 200 s lap takes 108 bytes a sample). A samples block row can be 4 bytes of text but becomes a
+#: sample of some hundred bytes, and the report a few more: without a bound, 64 MiB of rows would fill 10 GB.
+BYTES_PER_SAMPLE = 64
+
+
+def max_samples() -> int:
+    """How many samples a trace may hold (see :data:`BYTES_PER_SAMPLE`; ``FSM_MAX_INPUT_BYTES`` raises it)."""
+    return max(1, max_input_bytes() // BYTES_PER_SAMPLE)
+
+
+def _sample_count(line: dict[str, Any]) -> int:
+    """How many samples a line says it holds (before it is checked: a block's rows, or the count of packed ones)."""
+    kind = line.get("type")
+    if kind == "samples":
+        rows, count = line.get("rows"), line.get("count")
+        return len(rows) if isinstance(rows, list) else count if isinstance(count, int) else 0
+    return 1 if kind == "sample" else 0
 
 
 class _Damaged(Exception):
     """A line after the first that cannot be used; the message says why and what was expected."""
 
 
+class _TooMany(Exception):
+    """A line whose samples the trace has no room for (:func:`max_samples`)."""
+
+
 def _first(raw: bytes, number: int, name: str) -> Trace:
     """The trace that the first line begins: a header (version 2 or later) or a version-1 event line."""
-    from .reading import parse_json_line
-
     where = f"{name}:{number}"
     try:
         line, reason = parse_json_line(raw), None
@@ -211,7 +247,7 @@ def _first(raw: bytes, number: int, name: str) -> Trace:
 
 def _header_version(header: dict[str, Any], where: str) -> int:
     """The header's format and version checked, saying what was found; the version."""
-    readable = f"this tral-fsm reads trace versions {either(str(v) for v in range(2, TRACE_VERSION + 1))}"
+    readable = f"this tral-fsm reads trace versions {', '.join(map(str, range(2, TRACE_VERSION)))} and {TRACE_VERSION}"
     if header.get("format") != TRACE_FORMAT:
         found = f"is {describe(header['format'])}" if "format" in header else "is missing"
         raise TraceError(f"{where}: not a trace: the header's format {found}, not {TRACE_FORMAT!r}")
@@ -246,11 +282,10 @@ def _line_checks() -> dict[str, Check]:
     return {kind: compile_definition(schema, kind) for kind in ("header", "event_v1", *_LINE_TYPES)}
 
 
-def _checked_line(raw: bytes, trace: Trace) -> dict[str, Any]:
+def _checked_line(raw: bytes, trace: Trace, room: int) -> dict[str, Any]:
     """A line after the first, parsed strictly and checked against the schema (a samples block also unpacked and
-    checked against its fields); :class:`_Damaged` saying the first thing wrong with it."""
-    from .reading import parse_json_line
-
+    checked against its fields); :class:`_Damaged` saying the first thing wrong with it, :class:`_TooMany` if it
+    holds more than ``room`` samples (said before they are checked or unpacked)."""
     try:
         line = parse_json_line(raw)
     except ValueError as exc:
@@ -265,6 +300,8 @@ def _checked_line(raw: bytes, trace: Trace) -> dict[str, Any]:
         kind = "event_v1" if trace.version == 1 else None
         if kind is None:
             raise _Damaged("a line without a type")
+    if _sample_count(line) > room:
+        raise _TooMany()
     mismatch = _line_checks()[kind](line)
     if mismatch is not None:
         raise _Damaged(f"{kind} line {mismatch}" if mismatch.path else f"{kind} line: {mismatch}")

@@ -140,7 +140,7 @@ DAMAGED = [
 def test_the_first_damaged_line_is_named_with_what_was_expected(kind: str, line: Any, says: str) -> None:
     trace = parse_trace(_trace(**{kind: line}).encode(), "t.jsonl")
     n = _number(kind)
-    warning = trace.warnings[0]
+    [warning] = trace.warnings  # no "cut off" besides: the run may have ended, its end line unread
     assert warning.startswith(f"t.jsonl:{n}: line {n} is damaged (") and says in warning, warning
     assert warning.endswith(f"; the lines after it are not read either; read up to line {n - 1}")
     before = parse_trace(_text(list(LINES.values())[:n - 1]).encode())
@@ -161,9 +161,9 @@ def test_the_first_damaged_line_is_named_with_what_was_expected(kind: str, line:
     ("[" * 100000, "not a JSON object (JSON nested more than 400 levels deep (column 401); it begins '[[[["),
     ({**V1, "active": [1]}, "the first line of this version-1 trace is damaged (at /active: fits none"),
     ({**LINES["header"], "version": "3"}, "trace version '3' (a string) is not a version: a version is a whole number "
-                                          "(this tral-fsm reads trace versions 2 or 3)"),
+                                          "(this tral-fsm reads trace versions 2 and 3)"),
     ({k: v for k, v in LINES["header"].items() if k != "version"}, "the trace's header has no version (this tral-fsm "
-                                                                   "reads trace versions 2 or 3)"),
+                                                                   "reads trace versions 2 and 3)"),
     ({**LINES["header"], "version": -5}, "trace version -5 is not a version: versions count from 1"),
     ({**LINES["header"], "version": 0}, "trace version 0 is not a version"),
     ({**LINES["header"], "version": True}, "trace version true (a boolean) is not a version"),
@@ -192,6 +192,20 @@ def test_a_first_line_that_begins_no_trace_is_an_error_saying_what_was_found(hea
 def test_parse_trace_of_deep_brackets_is_a_trace_error() -> None:
     with pytest.raises(TraceError, match="nested more than 400 levels deep"):
         parse_trace(b"[" * 100000)
+
+
+def test_samples_are_capped_by_the_input_size_cap(monkeypatch: pytest.MonkeyPatch) -> None:
+    # a samples row can be 4 bytes of text and become a sample of hundreds: one sample per 64 bytes of the cap
+    monkeypatch.setenv("FSM_MAX_INPUT_BYTES", str(64 * 4))
+    trace = parse_trace(_trace().encode(), "t.jsonl")
+    n = _number("sample")
+    assert len(trace.samples) == 4 and trace.warnings == [
+        f"t.jsonl:{n}: line {n} would make the trace hold more than 4 samples (one per 64 bytes of the input size "
+        f"cap; set FSM_MAX_INPUT_BYTES higher to read more); read up to line {n - 1}"]
+    rows = {"type": "samples", "tick": 0, "time": 0, "every": 1, "fields": ["a"], "rows": [[0]] * 5}
+    for block in (rows, {**LINES["samples"], "count": 10 ** 12}):  # said before the rows are checked or unpacked
+        trace = parse_trace(_text([LINES["header"], block]).encode(), "t.jsonl")
+        assert not trace.samples and "would make the trace hold more than 4 samples" in trace.warnings[0]
 
 
 def test_a_version_1_trace_is_checked_too() -> None:

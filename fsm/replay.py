@@ -102,7 +102,7 @@ def event_active(event: dict[str, Any]) -> list[str]:
 def expand_samples(block: dict[str, Any], dt: float | None) -> list[dict[str, Any]]:
     """A ``samples`` block as sample lines: ``{"type": "sample", "tick", "time", "car": {"x": ..., "odometry":
     [...]}}`` from the fields ``car.x``, ``car.odometry[0]``, ... (checked by :func:`_samples_problem`)."""
-    paths = [_field_path(name) for name in block["fields"]]
+    paths = _field_paths(tuple(block["fields"]))
     out = []
     step = block["every"]
     first, t0 = block["tick"], float(block.get("time", 0.0))
@@ -120,6 +120,12 @@ def expand_samples(block: dict[str, Any], dt: float | None) -> list[dict[str, An
                 group.setdefault(key, []).append(value)
         out.append(line)
     return out
+
+
+@functools.lru_cache(maxsize=64)
+def _field_paths(fields: tuple[str, ...]) -> list[tuple[str, str, int | None]]:
+    """Each field's place in a sample (every block of a trace has the same fields: worked out once)."""
+    return [_field_path(name) for name in fields]
 
 
 def _field_path(name: str) -> tuple[str, str, int | None]:
@@ -322,7 +328,7 @@ def _samples_problem(line: dict[str, Any], dt: float | None) -> str | None:
             return problem
     if any(len(row) != len(fields) for row in line["rows"]):
         return f"a samples block's rows must be as long as its {len(fields)} fields"
-    problem = _fields_problem(fields)
+    problem = _fields_problem(tuple(fields))
     if problem is not None:
         return problem
     last = line["tick"] + max(len(line["rows"]) - 1, 0) * line["every"]
@@ -331,12 +337,12 @@ def _samples_problem(line: dict[str, Any], dt: float | None) -> str | None:
     return None
 
 
-def _fields_problem(fields: list[str]) -> str | None:
+@functools.lru_cache(maxsize=64)
+def _fields_problem(fields: tuple[str, ...]) -> str | None:
     """Fields whose values cannot be put together into one sample (``car`` and ``car.x``; ``car.x`` and
     ``car.x[0]``), or None."""
     kinds: dict[tuple[str, ...], str] = {}
-    for name in fields:
-        head, key, index = _field_path(name)
+    for name, (head, key, index) in zip(fields, _field_paths(fields)):
         parts = [((head,), "group" if key else "value")]
         if key:
             parts.append(((head, key), "list" if index is not None else "value"))

@@ -52,8 +52,7 @@ def describe(value: Any, limit: int = 40) -> str:
     if isinstance(value, bool):
         return f"{'true' if value else 'false'} (a boolean)"
     if isinstance(value, int):
-        text = str(value) if abs(value) < 10 ** 24 else f"a whole number of {len(str(abs(value)))} digits"
-        return text
+        return str(value) if abs(value) < 10 ** 24 else f"a whole number of {len(str(abs(value)))} digits"
     if isinstance(value, float):
         return repr(value)
     if isinstance(value, str):
@@ -154,7 +153,8 @@ class _Compiler:
         extra = schema.get("additionalProperties", True)
         if extra is True:
             return None
-        known = frozenset(schema.get("properties", {}))
+        names = list(schema.get("properties", {}))
+        known = frozenset(names)
         sub = None if extra is False else self.compile(extra)
 
         def check(value: Any) -> Mismatch | None:
@@ -162,7 +162,7 @@ class _Compiler:
                 for key in value:
                     if key not in known:
                         if sub is None:
-                            return Mismatch(f"unexpected property {describe(key)} (allowed: {', '.join(known)})")
+                            return Mismatch(f"unexpected property {describe(key)} (allowed: {', '.join(names)})")
                         found = sub(value[key])
                         if found is not None:
                             found.path.append(key)
@@ -344,8 +344,7 @@ def _const(schema: dict[str, Any]) -> Check | None:
         return None
     if any(isinstance(a, (list, dict)) for a in allowed):
         raise ValueError("const and enum of lists or objects are not checked by fsm.jsoncheck")
-    expected = either("null" if a is None else repr(a) if isinstance(a, str) else str(a).lower()
-                           if isinstance(a, bool) else str(a) for a in allowed)
+    expected = either(describe(a).partition(" (")[0] for a in allowed)  # 'header', 2, true, null
 
     def check(value: Any) -> Mismatch | None:
         if isinstance(value, (list, dict)) or not any(_same(a, value) for a in allowed):

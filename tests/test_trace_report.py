@@ -173,9 +173,9 @@ def test_samples_read_back_as_they_were_taken_packed_or_not() -> None:
 
 @pytest.mark.parametrize("damage, says", [
     (lambda b: {**b, "data": b["data"][:-8]}, "holds"),
-    (lambda b: {**b, "data": "not base64!"}, "not base64"),
-    (lambda b: {**b, "encoding": "float64-hex"}, "encoding is 'float64-hex'"),
-    (lambda b: {**b, "integers": [9]}, "needs fields, count, digits and data"),
+    (lambda b: {**b, "data": "not base64!"}, "at /data: expected base64 text, found 'not base64!'"),
+    (lambda b: {**b, "encoding": "float64-hex"}, "at /encoding: expected 'float32-base64', found 'float64-hex'"),
+    (lambda b: {**b, "integers": [9]}, "integers name column 9, but it has 4 fields"),
 ])
 def test_a_damaged_samples_block_is_read_up_to_the_line_before(damage: Any, says: str) -> None:
     text, _ = _sampled(lambda t: (t * 0.5, 1.0, t, 1.0))

@@ -154,6 +154,7 @@ class Output:
                 raise self._fail(f"cannot create a file in {folder}: {os_reason(exc)}",
                                  "choose a folder you can write to") from None
             os.close(fd)
+            track_temporary(self._tmp)
             try:
                 os.chmod(self._tmp, self.mode if self.mode is not None else 0o666 & ~_umask())
             except OSError:
@@ -161,6 +162,7 @@ class Output:
         elif self.binary:
             fd, self._tmp = tempfile.mkstemp(prefix="fsmctl-", suffix=f".part{self.suffix}")
             os.close(fd)
+            track_temporary(self._tmp)
         return self
 
     @property
@@ -224,6 +226,7 @@ class Output:
                 with open(tmp, "rb") as f:
                     os.fsync(f.fileno())
             os.replace(tmp, self.target)
+            _TEMPORARY.discard(tmp)
             _fsync_folder(os.path.dirname(self.target) or ".")
             return
         try:  # a binary output to standard output or a device: written from the scratch file
@@ -241,6 +244,7 @@ class Output:
                         shutil.copyfileobj(src, dst)
         finally:
             os.unlink(tmp)
+            _TEMPORARY.discard(tmp)
 
     def discard(self) -> None:
         """Throw away what was written; the user's file stays as it was."""
@@ -257,6 +261,7 @@ class Output:
                 os.unlink(tmp)
             except OSError:
                 pass
+            _TEMPORARY.discard(tmp)
 
     @property
     def to_stdout(self) -> bool:
@@ -425,6 +430,59 @@ class AtomicFile:
 
     def discard(self) -> None:
         self.output.discard()
+
+
+# -- temporary files when the process is stopped -----------------------------------------------------
+#: The temporary files of this process's open outputs, removed should a signal end it (they would stay behind).
+_TEMPORARY: set[str] = set()
+#: The process they belong to (a forked child must not remove its parent's files).
+_OWNER = [os.getpid()]
+_AT_EXIT: list[Any] = []  # not empty once remove_temporary_files runs at exit
+#: Signals whose default action ends the process at once; SIGINT raises KeyboardInterrupt unless a program has
+#: set it back to the default, and the outputs are then discarded as after any error.
+_FATAL_SIGNALS = ("SIGTERM", "SIGINT", "SIGHUP")
+
+
+def track_temporary(path: str) -> None:
+    """Remember a temporary output file until it is committed or discarded; while any is open, a signal that
+    would end the process at once (SIGTERM, SIGHUP; SIGINT where nothing handles it) first removes them.
+    A handler a command installed itself (``fsmctl run`` stops between ticks) is left alone."""
+    import atexit
+    import signal
+    import threading
+
+    if _OWNER[0] != os.getpid():
+        _TEMPORARY.clear()
+        _OWNER[0] = os.getpid()
+    if not _AT_EXIT:
+        _AT_EXIT.append(atexit.register(remove_temporary_files))
+    _TEMPORARY.add(path)
+    if threading.current_thread() is threading.main_thread():
+        for name in _FATAL_SIGNALS:
+            num = getattr(signal, name, None)
+            if num is not None and signal.getsignal(num) == signal.SIG_DFL:
+                signal.signal(num, _end_by_signal)
+
+
+def remove_temporary_files() -> None:
+    """Remove the temporary files of outputs still open in this process (called on a fatal signal and at exit)."""
+    if _OWNER[0] != os.getpid():
+        return
+    for path in list(_TEMPORARY):
+        try:
+            os.unlink(path)
+        except OSError:
+            pass
+    _TEMPORARY.clear()
+
+
+def _end_by_signal(signum: int, frame: Any) -> None:
+    """Remove the temporary files, then end the process by the same signal, as it would have ended without us."""
+    import signal
+
+    remove_temporary_files()
+    signal.signal(signum, signal.SIG_DFL)
+    os.kill(os.getpid(), signum)
 
 
 __all__ = ["AtomicFile", "Output", "Outputs", "STDOUT", "check_distinct", "identity", "os_reason", "write_atomic",

@@ -22,22 +22,14 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def read_trace_arg(name: str) -> Any:
-    """The trace named on the command line; a located error (exit 1) when it is missing or none."""
-    from fsm.errors import FsmError
-    from fsm.replay import read_trace
-
-    from ..files import os_reason
+    """The trace named on the command line, read by the reading rule (a regular file or '-' for standard input,
+    at most FSM_MAX_INPUT_BYTES); a located error (exit 1) when it cannot be read or is none."""
+    from fsm.reading import STDIN_NAME, read_stdin_bytes
+    from fsm.replay import parse_trace, read_trace
 
     if name == "-":
-        from fsm.replay import parse_trace
-
-        return parse_trace(sys.stdin.buffer.read(), "<stdin>")
-    try:
-        return read_trace(name)
-    except IsADirectoryError:
-        raise FsmError(f"{name}: is a folder; name the trace file (fsmctl run --trace FILE.jsonl writes one)") from None
-    except OSError as exc:
-        raise FsmError(f"{name}: {os_reason(exc)}") from None
+        return parse_trace(read_stdin_bytes(), STDIN_NAME)
+    return read_trace(name)
 
 
 def write_from_trace(name: str, out: str, option: str, suffix: str, command: str, render: Any,

@@ -3,18 +3,24 @@
 One line per scenario (``PASS name (ticks, time)`` or ``FAIL name: ...`` followed by the failing expectations
 with the trace around their first diverging tick), then ``N passed, M failed``. Exit 0 when every scenario
 passed, 1 when any failed or is invalid (its problems printed as located error lines), 2 for usage errors.
-``--junit OUT.xml`` is written through :mod:`fsm.tools.files`, checked before anything runs.
+``--junit OUT.xml`` is written through :mod:`fsm.tools.files`, checked before any scenario runs against every
+file the scenarios name (their machines and includes, worlds, plugin files). Printed lines go through
+:func:`fsm.errors.printable`: ids from a file cannot drive the terminal.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, NamedTuple, TextIO
 
-from fsm.errors import printable
+from fsm.errors import Problem, printable
 
 from .common import EXIT_FAIL, EXIT_OK, registry_from
+
+if TYPE_CHECKING:
+    from ..scenario.model import LoadedScenario
+    from ..scenario.runner import ScenarioResult
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -34,8 +40,8 @@ class _Load(NamedTuple):
     """One scenario file after loading: ready to run (``loaded``) or its ``problems``; the files it names."""
 
     file: str
-    loaded: Any
-    problems: list[Any]
+    loaded: LoadedScenario | None
+    problems: list[Problem]
     files: list[str]
 
 
@@ -99,7 +105,7 @@ def _load(file: str, plugins: tuple[str, ...]) -> _Load:
     return _Load(file, loaded, [], loaded.inputs_files)
 
 
-def _run(loaded: Any) -> Any:
+def _run(loaded: LoadedScenario) -> ScenarioResult:
     """Run one scenario; a plugin that calls ``sys.exit`` during the run fails that scenario instead of ending
     ``fsmctl test`` with its status as if every scenario had passed."""
     from ..scenario.runner import Failure, ScenarioResult, run_scenario
@@ -112,7 +118,7 @@ def _run(loaded: Any) -> Any:
                                       "the scenario did not finish")])
 
 
-def _say(line: str, stream: Any) -> None:
+def _say(line: str, stream: TextIO) -> None:
     """Print one report line; ids and messages from files cannot drive the terminal (see ``printable``)."""
     print(printable(line), file=stream)
 

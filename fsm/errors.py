@@ -2,8 +2,30 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from typing import Any
+
+#: What a terminal may act on: C0 controls, DEL, C1 controls (``\x9b`` starts a sequence as ``ESC [`` does) and
+#: lone surrogates (which cannot be encoded); the second form keeps line feeds and tabs of multi-line output.
+_CONTROL = re.compile("[\x00-\x1f\x7f-\x9f\ud800-\udfff]")
+_CONTROL_KEEP_LINES = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\ud800-\udfff]")
+
+
+def escape_char(char: str) -> str:
+    """One character as Python writes it in a string literal: ``\\x1b``, ``\\x9b``, ``\\ud800``."""
+    code = ord(char)
+    return f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}"
+
+
+def printable(text: str, *, multiline: bool = False) -> str:
+    """``text`` safe to print on a terminal: control characters are shown as ``\\x1b`` (``\\n`` and ``\\t``
+    kept when ``multiline``), so an id or a message from a file cannot clear the screen or set the window title.
+
+    Files keep the real characters (their format escapes them); only what is printed goes through this.
+    """
+    pattern = _CONTROL_KEEP_LINES if multiline else _CONTROL
+    return pattern.sub(lambda m: escape_char(m.group()), text) if pattern.search(text) else text
 
 
 @dataclass
@@ -43,7 +65,9 @@ class Problem:
             loc += f" at {self.pointer}"
         return loc
 
-    def __str__(self) -> str:
+    @property
+    def text(self) -> str:
+        """The problem in one line, with the real characters of ids and messages (for files: JUnit, JSON)."""
         text = f"{self.location}: {self.severity}: "
         if self.element:
             text += f"{self.element}: "
@@ -51,6 +75,10 @@ class Problem:
         if self.hint:
             text += f" ({self.hint})"
         return text
+
+    def __str__(self) -> str:
+        """The problem as printed: :attr:`text` with control characters escaped (see :func:`printable`)."""
+        return printable(self.text)
 
     def to_dict(self) -> dict[str, object]:
         return {

@@ -37,18 +37,25 @@ if TYPE_CHECKING:
 
 #: Slack when comparing machine times (80 ticks of 0.0125 s are 1 s, however the floats round).
 TIME_EPS = 1e-9
+#: A tick no run reaches: what a time too far for any run (1e308 s) comes to.
+NEVER = 2**63
 
 
 def ticks_for(duration: float, dt: float) -> int:
     """How many ticks a run of ``duration`` seconds is: the first tick at or after it (``ceil``, with slack for
-    rounding: 1 s at 80 Hz is 80 ticks, 0.018 s is 2)."""
-    return max(0, math.ceil(duration / dt - TIME_EPS))
+    rounding: 1 s at 80 Hz is 80 ticks, 0.018 s is 2); :data:`NEVER` for a duration no run reaches."""
+    return _whole(duration / dt - TIME_EPS)
 
 
 def tick_at(time_s: float, dt: float) -> int:
     """The first tick whose time is at or after ``time_s`` (a nanosecond of slack): when an input given for that
-    time applies."""
-    return max(0, math.ceil((time_s - TIME_EPS) / dt))
+    time applies; :data:`NEVER` for a time no run reaches."""
+    return _whole((time_s - TIME_EPS) / dt)
+
+
+def _whole(ticks: float) -> int:
+    """``ticks`` rounded up and at least 0 (a float beyond any run, or infinite, has no whole number: NEVER)."""
+    return max(0, math.ceil(ticks)) if ticks < NEVER else NEVER
 
 
 class Driver(Protocol):
@@ -375,5 +382,5 @@ class Session:
         return result
 
 
-__all__ = ["DEFAULT_DURATION", "Driver", "Input", "PauseState", "RunResult", "Session", "SetSignal", "SetVars",
+__all__ = ["DEFAULT_DURATION", "NEVER", "Driver", "Input", "PauseState", "RunResult", "Session", "SetSignal", "SetVars",
            "StopRules", "tick_at", "ticks_for"]

@@ -14,7 +14,7 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-from fsm.errors import DiagramError, FsmError, RegistrationError, UsageError
+from fsm.errors import DiagramError, FsmError, RegistrationError, UsageError, printable
 
 from .common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, version
 
@@ -62,7 +62,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except RegistrationError as exc:
         from fsm.registry import PluginError
 
-        print(exc.located() if isinstance(exc, PluginError) else f"fsmctl: plugin error: {_one_line(exc)}",
+        print(printable(exc.located()) if isinstance(exc, PluginError) else f"fsmctl: plugin error: {_one_line(exc)}",
               file=sys.stderr)
         return EXIT_FAIL
     except FsmError as exc:
@@ -77,7 +77,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         from ..files import os_reason
 
         where = f" {exc.filename}" if getattr(exc, "filename", None) else ""
-        print(f"fsmctl: error:{where} {os_reason(exc)}", file=sys.stderr)
+        print(printable(f"fsmctl: error:{where} {os_reason(exc)}"), file=sys.stderr)
         return EXIT_FAIL
     except MemoryError:
         print("fsmctl: error: out of memory", file=sys.stderr)
@@ -85,7 +85,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _one_line(exc: BaseException) -> str:
-    return " ".join(str(exc).split())
+    """The error's message on one line, safe for a terminal (a file name or id cannot drive it)."""
+    return printable(" ".join(str(exc).split()))
 
 
 def _interrupted() -> int:

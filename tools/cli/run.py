@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from fsm.clock import DEFAULT_DURATION as DEFAULT_MAX_DURATION
-from fsm.errors import StateRuntimeError, UsageError
+from fsm.errors import StateRuntimeError, UsageError, printable
 from fsm.sim import DEFAULT_WORLD
 
 from .common import (
@@ -222,7 +222,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     spec = apply_overrides(spec, args.overrides, file)
     args.initial_vars = parse_vars(args.variables)
     for warning in signal_warnings(args.signal, spec, file, duration, max_ticks, dt):
-        print(f"fsmctl run: warning: {warning}", file=sys.stderr)
+        print(printable(f"fsmctl run: warning: {warning}"), file=sys.stderr)
 
     from fsm.sim.world import default_world
 
@@ -332,17 +332,17 @@ def _run(args: argparse.Namespace, spec: Any, file: str, drive: bool, world_path
         outputs.commit()
     if error is not None:
         stopped = " (the car was stopped)" if car is not None else ""
-        print(f"fsmctl run: {file}: {error}{stopped}", file=sys.stderr)
+        print(printable(f"fsmctl run: {file}: {error}{stopped}"), file=sys.stderr)
         return EXIT_FAIL
     if not args.quiet:
         status = f"outcome {machine.outcome}" if machine.finished else "not finished"
         if interrupted:
             status += " (interrupted)"
-        print(f"{file}: {status} after {machine.ticks} ticks ({machine.now:.3f} s), "
-              f"{machine.transition_count} transitions", file=report)
-        print("visited: " + " -> ".join(recorder.visited), file=report)
+        print(printable(f"{file}: {status} after {machine.ticks} ticks ({machine.now:.3f} s), "
+                        f"{machine.transition_count} transitions"), file=report)
+        print(printable("visited: " + " -> ".join(recorder.visited)), file=report)
         if not machine.finished:
-            print(f"active: {machine.active_path}", file=report)
+            print(printable(f"active: {machine.active_path}"), file=report)
         if sim is not None:
             m = sim.metrics()
             rms, near = m["wall_error_rms_m"], m["min_wall_distance_m"]
@@ -357,7 +357,7 @@ def _run(args: argparse.Namespace, spec: Any, file: str, drive: bool, world_path
         return EXIT_INTERRUPTED
     failed = False
     if args.expect is not None and machine.outcome != args.expect:
-        print(f"fsmctl run: expected outcome {args.expect!r}, got {machine.outcome!r}", file=sys.stderr)
+        print(printable(f"fsmctl run: expected outcome {args.expect!r}, got {machine.outcome!r}"), file=sys.stderr)
         failed = True
     limit = args.max_collisions if args.max_collisions is not None else (0 if args.expect is not None else None)
     if limit is not None and car is not None and car.collisions > limit:
@@ -426,7 +426,7 @@ class ProgressBar:
             head = "[" + "#" * filled + "-" * (self.width - filled) + "] "
         else:
             head = ""
-        sys.stderr.write(f"\r{head}{sim.now:7.1f} s  {sim.car.distance:7.1f} m  {sim.active_path[:40]:40s}")
+        sys.stderr.write(f"\r{head}{sim.now:7.1f} s  {sim.car.distance:7.1f} m  {printable(sim.active_path)[:40]:40s}")
         sys.stderr.flush()
 
     def done(self) -> None:

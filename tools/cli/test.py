@@ -3,15 +3,24 @@
 One line per scenario (``PASS name (ticks, time)`` or ``FAIL name: ...`` followed by the failing expectations
 with the trace around their first diverging tick), then ``N passed, M failed``. Exit 0 when every scenario
 passed, 1 when any failed or is invalid (its problems printed as located error lines), 2 for usage errors.
-``--junit OUT.xml`` is written through :mod:`fsm.tools.files`, checked before anything runs.
+``--junit OUT.xml`` is written through :mod:`fsm.tools.files`, checked before any scenario runs against every
+file the scenarios name (their machines and includes, worlds, plugin files). Printed lines go through
+:func:`fsm.errors.printable`: ids from a file cannot drive the terminal.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING, NamedTuple, TextIO
 
-from .common import EXIT_FAIL, EXIT_OK
+from fsm.errors import Problem, printable
+
+from .common import EXIT_FAIL, EXIT_OK, registry_from
+
+if TYPE_CHECKING:
+    from ..scenario.model import LoadedScenario
+    from ..scenario.runner import ScenarioResult
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -27,43 +36,50 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=cmd_test)
 
 
-def cmd_test(args: argparse.Namespace) -> int:
-    from fsm.errors import DiagramError
+class _Load(NamedTuple):
+    """One scenario file after loading: ready to run (``loaded``) or its ``problems``; the files it names."""
 
-    from ..files import Outputs
+    file: str
+    loaded: LoadedScenario | None
+    problems: list[Problem]
+    files: list[str]
+
+
+def cmd_test(args: argparse.Namespace) -> int:
+    from ..files import Outputs, check_distinct
     from ..scenario.junit import Invalid, junit_xml
-    from ..scenario.model import load_scenario
-    from ..scenario.runner import ScenarioResult, run_scenario
+    from ..scenario.runner import ScenarioResult
 
     outputs = Outputs()
     junit = outputs.add(args.junit, "--junit")
-    outputs.open(args.scenarios)  # a bad --junit path, or one naming a scenario, is refused before any run
+    for out in outputs.items:  # a directory, a missing folder, a scenario: said before any plugin is imported
+        out.classify()
+    check_distinct(outputs.items, args.scenarios)
+    registry_from(args)  # a --plugin that fails is a usage error, said once and not of a scenario
+    loads = [_load(file, tuple(args.plugin)) for file in args.scenarios]
+    # every file the inputs name (machines, includes, worlds, plugins): refused as --junit before any run
+    outputs.open([*args.scenarios, *args.plugin, *(f for ld in loads for f in ld.files)])
     report = sys.stderr if outputs.to_stdout else sys.stdout
     results: list[ScenarioResult | Invalid] = []
     try:
-        for file in args.scenarios:
-            try:
-                loaded = load_scenario(file, tuple(args.plugin))
-            except DiagramError as exc:
-                for problem in exc.problems:
+        for ld in loads:
+            if ld.loaded is None:
+                for problem in ld.problems:
                     print(problem, file=sys.stderr)
-                name = _name(file)
-                results.append(Invalid(name, file, exc.problems))
-                print(f"ERROR {name}: invalid scenario ({len(exc.errors) or len(exc.problems)} problem(s) above)",
-                      file=report)
+                name = _name(ld.file)
+                results.append(Invalid(name, ld.file, ld.problems))
+                errors = sum(1 for p in ld.problems if p.severity == "error")
+                _say(f"ERROR {name}: invalid scenario ({errors or len(ld.problems)} problem(s) above)", report)
                 continue
-            for warning in loaded.warnings:
+            for warning in ld.loaded.warnings:
                 print(warning, file=sys.stderr)
-            result = run_scenario(loaded)
+            result = _run(ld.loaded)
             results.append(result)
-            if result.passed:
-                if not args.quiet:
-                    print(result.summary_line(), file=report)
-            else:
-                print(result.summary_line(), file=report)
-                for failure in result.failures:
-                    for line in failure.lines():
-                        print(f"    {line}", file=report)
+            if not result.passed or not args.quiet:
+                _say(result.summary_line(), report)
+            for failure in result.failures:
+                for line in failure.lines():
+                    _say(f"    {line}", report)
         passed = sum(1 for r in results if isinstance(r, ScenarioResult) and r.passed)
         failed = sum(1 for r in results if isinstance(r, ScenarioResult) and not r.passed)
         invalid = sum(1 for r in results if isinstance(r, Invalid))
@@ -74,6 +90,37 @@ def cmd_test(args: argparse.Namespace) -> int:
     finally:
         outputs.discard()
     return EXIT_OK if passed == len(results) else EXIT_FAIL
+
+
+def _load(file: str, plugins: tuple[str, ...]) -> _Load:
+    """Read and check one scenario (and its machine); an invalid one keeps its problems, not a run."""
+    from fsm.errors import DiagramError
+
+    from ..scenario.model import load_scenario, named_files
+
+    try:
+        loaded = load_scenario(file, plugins)
+    except DiagramError as exc:
+        return _Load(file, None, exc.problems, named_files(file))
+    return _Load(file, loaded, [], loaded.inputs_files)
+
+
+def _run(loaded: LoadedScenario) -> ScenarioResult:
+    """Run one scenario; a plugin that calls ``sys.exit`` during the run fails that scenario instead of ending
+    ``fsmctl test`` with its status as if every scenario had passed."""
+    from ..scenario.runner import Failure, ScenarioResult, run_scenario
+
+    try:
+        return run_scenario(loaded)
+    except SystemExit as exc:
+        return ScenarioResult(loaded.name, loaded.file, failures=[Failure(
+            -1, loaded.file, "error", f"a plugin ended the process during the run (SystemExit: {exc.code!r}); "
+                                      "the scenario did not finish")])
+
+
+def _say(line: str, stream: TextIO) -> None:
+    """Print one report line; ids and messages from files cannot drive the terminal (see ``printable``)."""
+    print(printable(line), file=stream)
 
 
 def _name(file: str) -> str:

@@ -6,6 +6,8 @@ import argparse
 import json
 import sys
 
+from fsm.errors import printable
+
 from .common import EXIT_FAIL, EXIT_OK, registry_from
 
 
@@ -35,7 +37,7 @@ def cmd_types(args: argparse.Namespace) -> int:
         for n in unknown:
             close = registry.suggest(n, "state") + registry.suggest(n, "transition") + registry.suggest(n, "condition")
             hints.append(f"{n!r}" + (f" (did you mean {', '.join(close)}?)" if close else ""))
-        print("fsmctl types: unknown type " + ", ".join(hints), file=sys.stderr)
+        print(printable("fsmctl types: unknown type " + ", ".join(hints)), file=sys.stderr)
         return EXIT_FAIL
     if args.format == "json":
         print(json.dumps(rows, indent=2))
@@ -47,11 +49,11 @@ def cmd_types(args: argparse.Namespace) -> int:
         print(heading)
         for r in group:
             finish = " [finishes]" if r.get("can_finish") else ""
-            print(f"  {r['name']}{finish}: {r['doc']}")
+            print(printable(f"  {r['name']}{finish}: {r['doc']}"))
             for prm in r["params"]:
                 default = "required" if prm["required"] else f"default {json.dumps(prm.get('default'))}"
                 desc = f"  {prm['description']}" if prm["description"] else ""
-                print(f"      {prm['name']}: {prm['type']} ({default}){desc}")
+                print(printable(f"      {prm['name']}: {prm['type']} ({default}){desc}"))
         print()
     if not args.names:
         print("Every transition also takes: from, to, priority (default 0), preempt (default false), guard, set.")

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from fsm.errors import Problem
+from fsm.errors import Problem, printable
 
 from .common import EXIT_FAIL, EXIT_OK, input_name, read_inputs, registry_from
 
@@ -44,7 +44,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
     elif args.format == "github":
         for _, _, problems in results:
             for p in problems:
-                print(github_annotation(p))
+                print(printable(github_annotation(p)))
     else:
         for file, valid, problems in results:
             for p in problems:
@@ -55,7 +55,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
                 state = "ok" if valid else f"{errors} error{'s' * (errors != 1)}"
                 if warnings:
                     state += f", {warnings} warning{'s' * (warnings != 1)}"
-                print(f"{file}: {state}")
+                print(printable(f"{file}: {state}"))
     return EXIT_FAIL if invalid else EXIT_OK
 
 

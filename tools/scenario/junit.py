@@ -3,10 +3,11 @@ with one ``testcase`` per scenario; a failed expectation is a ``failure``, an in
 
 from __future__ import annotations
 
+import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
-from fsm.errors import Problem
+from fsm.errors import Problem, escape_char
 
 from .runner import ScenarioResult
 
@@ -35,7 +36,7 @@ def junit_xml(results: list[ScenarioResult | Invalid], suite: str = "fsmctl test
         if isinstance(r, Invalid):
             err = ET.SubElement(case, "error", type="invalid scenario",
                                 message=f"{len([p for p in r.problems if p.severity == 'error'])} problem(s)")
-            err.text = "\n".join(str(p) for p in r.problems)
+            err.text = "\n".join(p.text for p in r.problems)
         elif not r.passed:
             first = r.failures[0]
             fail = ET.SubElement(case, "failure", type=first.kind, message=r.summary_line())
@@ -44,7 +45,17 @@ def junit_xml(results: list[ScenarioResult | Invalid], suite: str = "fsmctl test
             out = ET.SubElement(case, "system-out")
             out.text = r.summary_line()
     ET.indent(root)
-    return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+    return '<?xml version="1.0" encoding="UTF-8"?>\n' + xml_safe(ET.tostring(root, encoding="unicode")) + "\n"
+
+
+#: Characters XML 1.0 does not allow anywhere, not even as character references (ElementTree writes them raw).
+_NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
+
+
+def xml_safe(text: str) -> str:
+    """``text`` with every character XML 1.0 forbids shown as ``\\x1b`` (``\\ud800``), so a state id or message
+    holding one still makes a report that parses; every other character stays as it was."""
+    return _NOT_XML.sub(lambda m: escape_char(m.group()), text)
 
 
 def _classname(file: str) -> str:

@@ -20,7 +20,7 @@ from pydantic import Discriminator, Field, Tag, ValidationError
 from fsm.errors import DiagramError, Problem
 from fsm.jsonpos import pointer
 from fsm.params import Int, ParamsBase
-from fsm.session import tick_at
+from fsm.session import NEVER, tick_at, ticks_for
 
 #: Runs longer than this many ticks are refused (the limit of ``fsmctl run`` without ``--max-ticks``).
 MAX_TICKS = 10_000_000
@@ -30,6 +30,7 @@ DEFAULT_DURATION = 600.0
 DEFAULT_DT = 0.0125
 #: Tolerance when comparing simulated times (ticks happen at exact multiples of ``dt``; floats do not).
 EPS = 1e-9
+#: A tick no run reaches (``max_ticks`` is at most one less): the tick of a time too far to count in ticks.
 
 Value = Union[bool, int, float, str]  # noqa: UP007 - pydantic's strict union: true stays a bool, 1 an int
 
@@ -206,7 +207,7 @@ class Scenario(ScenarioModel):
     duration: float | None = Field(default=None, gt=0,
                                    description="Stop after this much simulated time (default 600 s without "
                                                "max_ticks).")
-    max_ticks: Int | None = Field(default=None, gt=0, description="Stop after this many ticks.")
+    max_ticks: Int | None = Field(default=None, gt=0, le=NEVER - 1, description="Stop after this many ticks.")
     plants: list[dict[str, Any]] = Field(
         default_factory=list, description="Simulated plants behind the machine (registered plant types): "
                                           "{\"name\": \"axis\", \"type\": \"Axis\", ...parameters}.")
@@ -244,6 +245,8 @@ class LoadedScenario:
     end_tick: int
     world_path: Path | None
     machine_files: list[str] = field(default_factory=list)
+    #: The files of the scenario's plugins (its ``.py`` files, the files of the modules it names).
+    plugin_files: list[str] = field(default_factory=list)
     #: the plants to attach: (class, validated parameters)
     plants: list[tuple[type, Any]] = field(default_factory=list)
     #: JSON pointer -> (line, column) of every input and expectation (for messages).
@@ -269,8 +272,10 @@ class LoadedScenario:
 
     @property
     def inputs_files(self) -> list[str]:
-        """Every file the run reads (for output checks): the scenario, the machine and its includes, the world."""
-        return [self.file, *self.machine_files] + ([str(self.world_path)] if self.world_path else [])
+        """Every file the run reads (for output checks): the scenario, the machine and its includes, the world,
+        the plugins."""
+        return ([self.file, *self.machine_files] + ([str(self.world_path)] if self.world_path else [])
+                + self.plugin_files)
 
 
 def load_scenario(file: str | Path, plugins: tuple[str, ...] = ()) -> LoadedScenario:
@@ -445,7 +450,7 @@ def limits(scenario: Scenario) -> tuple[float, int]:
     ends = []
     if scenario.duration is not None or scenario.max_ticks is None:
         duration = scenario.duration if scenario.duration is not None else DEFAULT_DURATION
-        ends.append(math.ceil(duration / dt - EPS))
+        ends.append(ticks_for(duration, dt))
     if scenario.max_ticks is not None:
         ends.append(scenario.max_ticks)
     return dt, min(ends)
@@ -458,10 +463,15 @@ def timeline_problems(scenario: Scenario, name: str) -> list[Problem]:
     dt = scenario.dt or DEFAULT_DT
     duration = scenario.duration if scenario.duration is not None else DEFAULT_DURATION
     ticks = duration / dt
+    where = "/dt" if scenario.dt is not None else "/duration"
     if scenario.max_ticks is None and not ticks <= MAX_TICKS:
-        problems.append(Problem(f"dt {dt:g} s over {duration:g} s makes {ticks:.3g} ticks, more than {MAX_TICKS:,}",
-                                name, "/dt" if scenario.dt is not None else "/duration",
+        shown = f"{ticks:.3g}" if math.isfinite(ticks) else "infinitely many"
+        problems.append(Problem(f"dt {dt:g} s over {duration:g} s makes {shown} ticks, more than {MAX_TICKS:,}",
+                                name, where,
                                 hint="give max_ticks to allow a run that long, or a larger dt / shorter duration"))
+    elif limits(scenario)[1] < 1:
+        problems.append(Problem(f"dt {dt:g} s is longer than the run ({duration:g} s): not one tick would run",
+                                name, where, hint="make dt shorter than the duration"))
     return problems + element_problems(list(scenario.inputs), list(scenario.expect), scenario, name)
 
 
@@ -472,7 +482,7 @@ def element_problems(inputs: list[Any], expect: list[Any], lim: Scenario | None,
     end_time = math.inf
     if lim is not None:
         dt, end_tick = limits(lim)
-        end_time = end_tick * dt
+        end_time = end_tick * dt if end_tick < NEVER else math.inf  # too many ticks: said of dt or duration
     for i, item in enumerate(inputs):
         if item is None:
             continue
@@ -514,6 +524,12 @@ def element_problems(inputs: list[Any], expect: list[Any], lim: Scenario | None,
             elif c.min is not None and c.max is not None and c.min > c.max:
                 problems.append(Problem(f"'min' {c.min} is greater than 'max' {c.max}", name, ptr + "/transitions",
                                         element=label))
+        if isinstance(exp, MonitorsExpect):
+            for k, at in enumerate(exp.monitors.at or ()):
+                if at > end_time + EPS:
+                    problems.append(Problem(f"at {at:g} s is after the end of the run ({end_time:g} s)", name,
+                                            f"{ptr}/monitors/at/{k}", element=label,
+                                            hint="raise 'duration' (or 'max_ticks')"))
     return problems
 
 
@@ -532,27 +548,14 @@ def active_matches(prefix: str, path: str) -> bool:
 def _load_machine(scenario: Scenario, path: Path, name: str,
                   cli_plugins: tuple[str, ...]) -> tuple[LoadedScenario | None, list[Problem]]:
     """Check the machine (and world) a scenario names, and the state names its expectations use."""
-    from fsm.errors import RegistrationError
     from fsm.loader import check, compile as compile_spec, machine_files, signal_names, uses_car
     from fsm.registry import default_registry
 
-    problems: list[Problem] = []
     base = path.parent
-    plugins = []
-    for i, p in enumerate(scenario.plugins):
-        if p.endswith(".py"):
-            file = base / p
-            if not file.is_file():
-                problems.append(Problem(f"plugin file not found: {file}", name, pointer("plugins", i),
-                                        hint="plugin files are relative to the scenario file"))
-                continue
-            plugins.append(str(file))
-        else:
-            plugins.append(p)
-    try:
-        registry = default_registry(tuple(cli_plugins) + tuple(plugins))
-    except RegistrationError as exc:
-        return None, problems + [Problem(f"plugin error: {' '.join(str(exc).split())}", name, "/plugins")]
+    registry = default_registry(tuple(cli_plugins))  # a --plugin that fails is the command line's error
+    plugin_files, problems = _load_plugins(scenario, base, name, registry)
+    if problems:
+        return None, problems
     machine_path = base / scenario.machine
     if not machine_path.is_file():
         return None, problems + [_missing_machine(machine_path, name)]
@@ -605,8 +608,72 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
                                     hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close
                                     else "signals it reads: " + (", ".join(sorted(known)) or "none")))
     return LoadedScenario(file=name, scenario=scenario, spec=spec, registry=registry, dt=dt, end_tick=end_tick,
-                          world_path=world_path, machine_files=machine_files(spec), state_paths=paths,
-                          plants=plants), problems
+                          world_path=world_path, machine_files=machine_files(spec), plugin_files=plugin_files,
+                          state_paths=paths, plants=plants), problems
+
+
+def _load_plugins(scenario: Scenario, base: Path, name: str, registry: Any) -> tuple[list[str], list[Problem]]:
+    """Import the scenario's ``plugins`` into ``registry``: the files they were loaded from, and a problem at
+    ``/plugins/N`` for each one that is missing or fails (the scenario's error, not the command line's)."""
+    import sys
+
+    from fsm.errors import RegistrationError, UsageError
+
+    files: list[str] = []
+    problems: list[Problem] = []
+    for i, plugin in enumerate(scenario.plugins):
+        ptr = pointer("plugins", i)
+        target = str(base / plugin) if plugin.endswith(".py") else plugin
+        if plugin.endswith(".py") and not Path(target).is_file():
+            problems.append(Problem(f"plugin file not found: {target}", name, ptr,
+                                    hint="plugin files are relative to the scenario file"))
+            continue
+        try:
+            registry.load_module(target)
+        except UsageError as exc:  # its words name a --plugin flag: say it of the scenario's entry instead
+            reason = str(exc)
+            for prefix in (f"--plugin {target}: ", f"--plugin {target!r}: "):
+                reason = reason.removeprefix(prefix)
+            problems.append(Problem(f"plugin '{plugin}' cannot be loaded: {reason}", name, ptr))
+            continue
+        except RegistrationError as exc:
+            where = [getattr(exc, "file", None), getattr(exc, "line", None)]
+            problems.append(Problem(f"plugin error: {' '.join(str(exc).split())}", name, ptr,
+                                    hint=f"it failed at {where[0]}:{where[1]}" if all(where) else None))
+            continue
+        module = sys.modules.get(plugin) if not plugin.endswith(".py") else None
+        files.append(target if module is None else str(getattr(module, "__file__", None) or target))
+    return files, problems
+
+
+def named_files(file: str | Path) -> list[str]:
+    """Every file a scenario names, as far as it can be told without running it: the scenario, its machine and
+    the machine's includes, its world and its plugin files. For the output checks of a scenario whose loading
+    stopped at a problem; never raises."""
+    from fsm.errors import FsmError
+    from fsm.loader import check, machine_files
+    from fsm.reading import parse_json_bytes, read_file_bytes
+    from fsm.registry import default_registry
+
+    path = Path(file)
+    files = [str(file)]
+    try:
+        data, _source = parse_json_bytes(read_file_bytes(path, "scenario"), str(file), path.parent)
+    except (FsmError, RecursionError, MemoryError):
+        return files
+    if not isinstance(data, dict):
+        return files
+    plugins = data.get("plugins")
+    named = [data.get("machine"), data.get("world")] + (plugins if isinstance(plugins, list) else [])
+    files += [str(path.parent / n) for n in named if isinstance(n, str) and n and "\0" not in n]
+    machine = path.parent / data["machine"] if isinstance(data.get("machine"), str) else None
+    try:
+        if machine is not None and machine.is_file():
+            spec, problems = check(str(machine), registry=default_registry())
+            files += machine_files(spec) + [p.file for p in problems if p.file]
+    except (FsmError, RecursionError, OSError, ValueError):
+        pass
+    return files
 
 
 def _plants(scenario: Scenario, registry: Any, name: str) -> tuple[list[tuple[type, Any]], list[Problem]]:

@@ -12,6 +12,7 @@ debounced condition has to cope with.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -68,6 +69,7 @@ def expand(scenario: Scenario, dt: float) -> tuple[list[SignalChange], list[VarS
                         for t, level in press_changes(item.at, item.duration, item.bounce)]
         elif isinstance(item, SetInput):
             sets.append(VarSet(item.at, tick_at(item.at, dt), dict(item.set), i))
+    signals = [c for c in signals if math.isfinite(c.time)]  # a release at 1e308 s + 1e308 s never comes
     signals.sort(key=lambda c: (c.time, c.index))
     sets.sort(key=lambda s: (s.time, s.index))
     return signals, sets

@@ -62,26 +62,23 @@ class _Compiler:
 
     def state(self, st: StateSpec, prefix: str, outgoing: list[TransitionPlan]) -> StatePlan:
         path = f"{prefix}/{st.id}" if prefix else st.id
-        if st.cls.needs_car:
+        cls, params = st.cls, st.params
+        if cls.needs_car:
             self.car_users.append(f"'{path}' ({st.type})")
-        self._car_conditions(conditions_of(st.conditions), f"'{path}'")
+        if st.conditions:
+            self._car_conditions(conditions_of(st.conditions), f"'{path}'")
         regions = tuple(self.region(sub.machine, sub.name or st.id, f"{path}/{sub.name}" if sub.name else path)
-                        for sub in st.subs if sub.machine is not None)
-        ordered = sorted(outgoing, key=lambda t: -t.params.priority)  # stable: declaration order within a priority
-        return StatePlan(
-            cls=st.cls,
-            params=st.params,
-            id=st.id,
-            path=path,
-            on_enter=self.assigner(st.source, self.entry_assignments(st)),
-            on_exit=self.assigner(st.source, [(name, f"{st.pointer}/set/on_exit/{escape(name)}")
-                                              for name in ((st.params.set.on_exit or {}) if st.params.set else {})]),
-            supervision=self.supervision(st),
-            regions=regions,
-            sequence=st.sequence,
-            preempt=tuple(t for t in ordered if t.params.preempt),
-            regular=tuple(t for t in ordered if not t.params.preempt),
-        )
+                        for sub in st.subs if sub.machine is not None) if st.subs else ()
+        if len(outgoing) > 1:
+            outgoing = sorted(outgoing, key=_priority)  # stable: declaration order within a priority
+        preempt = tuple(t for t in outgoing if t.params.preempt) if outgoing else ()
+        on_enter = on_exit = None
+        if params.set is not None or cls.assignment_fields:
+            on_enter = self.assigner(st.source, self.entry_assignments(st))
+            on_exit = self.assigner(st.source, [(name, f"{st.pointer}/set/on_exit/{escape(name)}")
+                                                for name in ((params.set.on_exit or {}) if params.set else {})])
+        return StatePlan(cls, params, st.id, path, on_enter, on_exit, self.supervision(st), regions, st.sequence,
+                         preempt, tuple(t for t in outgoing if not t.params.preempt) if preempt else tuple(outgoing))
 
     def entry_assignments(self, st: StateSpec) -> list[tuple[str, str]]:
         """``(variable, pointer)`` of what runs on entry: ``set.on_enter``, then the type's assignment parameters."""
@@ -100,12 +97,16 @@ class _Compiler:
         p = tr.params
         if tr.cls.needs_car:
             self.car_users.append(f"{_join(prefix, p.from_)} -> {_join(prefix, p.to)} ({tr.type})")
-        self._car_conditions(conditions_of(tr.conditions), f"{_join(prefix, p.from_)} -> {_join(prefix, p.to)}")
-        guard = GuardPlan()
-        if isinstance(p.guard, str):
-            guard = GuardPlan(expression=self.analysis.expression(tr.source, tr.pointer + "/guard"))
-        elif "guard" in tr.conditions:
-            guard = GuardPlan(condition=self.condition(tr.conditions["guard"], tr.source))
+        if tr.conditions:
+            self._car_conditions(conditions_of(tr.conditions), f"{_join(prefix, p.from_)} -> {_join(prefix, p.to)}")
+        guard = _NO_GUARD
+        if p.guard is not None:
+            if isinstance(p.guard, str):
+                guard = GuardPlan(expression=self.analysis.expression(tr.source, tr.pointer + "/guard"))
+            elif "guard" in tr.conditions:
+                guard = GuardPlan(condition=self.condition(tr.conditions["guard"], tr.source))
+        if p.set is None and not tr.conditions:
+            return TransitionPlan(tr.cls, p, p.from_, p.to, index, guard)
         targets = [(name, f"{tr.pointer}/set/{escape(name)}") for name in (p.set or {})]
         counter = None
         if len(targets) == 1:
@@ -153,6 +154,13 @@ class _Compiler:
         for cs in conditions:
             if getattr(cs.cls, "needs_car", False):
                 self.car_users.append(f"{where} (condition {cs.type})")
+
+
+_NO_GUARD = GuardPlan()
+
+
+def _priority(t: TransitionPlan) -> int:
+    return -t.params.priority
 
 
 def _join(prefix: str, sid: str) -> str:

@@ -14,6 +14,7 @@ if TYPE_CHECKING:
     from .parsing import Parser
     from .plan import StatePlan
     from .region import Region
+    from .state import Hook
 
 P = TypeVar("P", bound=StateParams)
 
@@ -94,6 +95,21 @@ class Composite(State[P]):
             region.step(ctx)
         if not self.finished:
             self._join()
+
+    def tick_method(self) -> Hook | None:
+        """A composite of one region (an ``FSMState``) ticks it and finishes with its Final state's outcome, without
+        the general join; other composites tick as their class says."""
+        if type(self).tick is Composite.tick and len(self.regions) == 1:
+            return self._tick_one
+        return super().tick_method()
+
+    def _tick_one(self, ctx: Context) -> None:
+        region = self.regions[0]
+        region.step(ctx)
+        if not self.finished:
+            active = region.active
+            if active.is_final:
+                self.finish(active.outcome or "succeeded")
 
     def _join(self) -> None:
         regions = self.regions

@@ -50,6 +50,8 @@ class Parser:
         self.base_dir = Path(base_dir) if base_dir is not None else None
         self._cache: dict[Path, MachineSpec | None] = {}
         self._stack: list[Path] = []
+        self._tables = {"state": registry.states, "transition": registry.transitions,
+                        "condition": registry.conditions}
 
     # -- documents ------------------------------------------------------------------------------
     def document(self, src: Any) -> MachineSpec | None:
@@ -191,10 +193,13 @@ class Parser:
         """The class an element's ``type`` names and its validated parameters, or ``None`` (problems added)."""
         if not isinstance(raw, dict):
             return None  # the envelope reported it
-        cls, problems = check_type(kind, raw, self.registry, source, ptr)
+        name = raw.get("type")
+        cls = self._tables[kind].get(name) if isinstance(name, str) else None
         if cls is None:
-            self.problems.extend(problems, source)
-            return None
+            cls, problems = check_type(kind, raw, self.registry, source, ptr)
+            if cls is None:
+                self.problems.extend(problems, source)
+                return None
         model: type[ParamsBase] = cls.Params
         try:
             return cls, model.model_validate(raw)
@@ -219,6 +224,8 @@ class Parser:
     def _step_conditions(self, spec: StateSpec) -> None:
         """The condition objects of a state's precondition, until and monitors (expressions stay text)."""
         p = spec.params
+        if p.precondition is None and p.until is None and p.monitors is None:
+            return
         keys: list[tuple[str, Any]] = [("precondition", p.precondition), ("until", p.until)]
         keys += [(f"monitors/{i}/condition", m.condition) for i, m in enumerate(p.monitors or ())]
         for key, raw in keys:
@@ -233,12 +240,14 @@ class Parser:
         if parsed is None:
             return None
         spec = TransitionSpec(parsed[0], parsed[1], ptr, source)
-        for key in ("guard", *spec.cls.condition_fields):
-            value = getattr(spec.params, key, None)
-            if isinstance(value, dict):
-                cs = self.condition(value, source, f"{ptr}/{key}", spec.label)
-                if cs is not None:
-                    spec.conditions[key] = cs
+        fields = spec.cls.condition_fields
+        if fields or type(spec.params.guard) is dict:
+            for key in ("guard", *fields):
+                value = getattr(spec.params, key, None)
+                if isinstance(value, dict):
+                    cs = self.condition(value, source, f"{ptr}/{key}", spec.label)
+                    if cs is not None:
+                        spec.conditions[key] = cs
         return spec
 
     def condition(self, raw: Any, source: Source, ptr: str, element: str, depth: int = 0) -> ConditionSpec | None:

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import enum
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Union
+from types import MappingProxyType
+from typing import TYPE_CHECKING, Any, NamedTuple, Union
 
 from .expr import Compiled, VarOp
 
@@ -48,14 +48,17 @@ class ActionKind(enum.Enum):
     CALL = "call"
 
 
-@dataclass(frozen=True)
-class ConditionPlan:
+#: An empty mapping, shared (plans are never changed).
+NOTHING: Mapping[str, Any] = MappingProxyType({})
+
+
+class ConditionPlan(NamedTuple):
     """A condition object ready to build: its class, parameters, children and compiled expressions."""
 
     cls: type[Condition]
     params: ConditionParams
     children: tuple[ConditionPlan, ...] = ()
-    exprs: Mapping[str, Compiled] = field(default_factory=dict)
+    exprs: Mapping[str, Compiled] = NOTHING
 
     def build(self) -> Condition:
         """A fresh instance (each user gets its own: conditions keep state)."""
@@ -66,16 +69,14 @@ class ConditionPlan:
 Check = Union[Compiled, ConditionPlan]
 
 
-@dataclass(frozen=True)
-class GuardPlan:
+class GuardPlan(NamedTuple):
     """A transition's document guard on top of its type's check: none, an expression, or a condition object."""
 
     expression: Compiled | None = None
     condition: ConditionPlan | None = None
 
 
-@dataclass(frozen=True)
-class TransitionPlan:
+class TransitionPlan(NamedTuple):
     """One transition: its type and parameters, its endpoints (ids in its level), its document guard and ``set``,
     and the condition objects of its type's condition parameters."""
 
@@ -85,12 +86,12 @@ class TransitionPlan:
     target: str
     #: declaration order in its level
     index: int
-    guard: GuardPlan = GuardPlan()
+    guard: GuardPlan = GuardPlan(None, None)
     #: the ``set``, compiled: one action, or None
     assign: Action | None = None
     #: ``target = variable OP constant`` when that is the whole ``set`` (the region runs it inline)
     counter: tuple[str, VarOp] | None = None
-    conditions: Mapping[str, ConditionPlan] = field(default_factory=dict)
+    conditions: Mapping[str, ConditionPlan] = NOTHING
 
     @property
     def kind(self) -> GuardKind:
@@ -103,8 +104,7 @@ class TransitionPlan:
         return GuardKind.COMPARE if expression.comparison() is not None else GuardKind.CALL
 
 
-@dataclass(frozen=True)
-class MonitorPlan:
+class MonitorPlan(NamedTuple):
     """A monitor of a state, or its timeout (``condition`` None: the supervisor's clock decides)."""
 
     condition: Check | None
@@ -114,8 +114,7 @@ class MonitorPlan:
     kind: str = "monitor"
 
 
-@dataclass(frozen=True)
-class SupervisionPlan:
+class SupervisionPlan(NamedTuple):
     """A state's step-common keys, compiled: precondition, exit condition, monitors (the timeout first)."""
 
     precondition: Check | None = None
@@ -129,8 +128,7 @@ class SupervisionPlan:
         return bool(self.monitors) or self.precondition is not None
 
 
-@dataclass(frozen=True)
-class StatePlan:
+class StatePlan(NamedTuple):
     """One state: its type, parameters, path, hooks, supervision, regions and outgoing transitions (ordered:
     preemptive first as the region checks them, then the regular ones, by priority and declaration)."""
 
@@ -148,8 +146,7 @@ class StatePlan:
     regular: tuple[TransitionPlan, ...] = ()
 
 
-@dataclass(frozen=True)
-class RegionPlan:
+class RegionPlan(NamedTuple):
     """One machine level: its states in document order and its initial state's id."""
 
     name: str
@@ -158,8 +155,7 @@ class RegionPlan:
     initial: str
 
 
-@dataclass(frozen=True)
-class MachinePlan:
+class MachinePlan(NamedTuple):
     """A whole machine: its levels, the initial blackboard, and what runners ask before they build it."""
 
     name: str
@@ -180,14 +176,13 @@ class MachinePlan:
         return bool(self.car_users)
 
     def states(self) -> list[StatePlan]:
-        """Every state of the machine, depth first in document order."""
+        """Every state of the machine, each level's states before those of the levels below it."""
         out: list[StatePlan] = []
         todo = [self.root]
         while todo:
-            region = todo.pop()
-            for st in region.states:
-                out.append(st)
-            todo.extend(reversed([r for st in region.states for r in st.regions]))
+            region = todo.pop(0)
+            out.extend(region.states)
+            todo.extend(r for st in region.states for r in st.regions)
         return out
 
 

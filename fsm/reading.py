@@ -55,14 +55,20 @@ def reader_for(path: Path) -> Reader:
             return reader_for(Path(STDIN_NAME + ".uxf"))  # a diagram on standard input
     suffix = path.suffix.lower()
     reader = _READERS.get(suffix)
-    if reader is None and suffix:
+    if reader is None and suffix and suffix not in _NO_READER:
         from importlib.metadata import entry_points
 
         for ep in entry_points(group=READER_GROUP, name=suffix[1:]):
             reader = ep.load()
             _READERS[suffix] = reader
             break
+        else:
+            _NO_READER.add(suffix)  # looking the entry points up costs more than parsing a small file
     return reader or read_json
+
+
+#: Suffixes no entry point provides a reader for (read as JSON), so the lookup is made once per process.
+_NO_READER: set[str] = set()
 
 
 def read_json(path: Path) -> tuple[Any, Source]:

@@ -16,11 +16,13 @@ if TYPE_CHECKING:
 
 _NUMERIC = (int, float)
 _ALWAYS = GuardKind.ALWAYS
-_COMPARE = GuardKind.COMPARE
+_CALL = GuardKind.CALL
 _NO_ACTION = ActionKind.NONE
 _COUNTER = ActionKind.COUNTER
 _PROCEED = Verdict.PROCEED
 _HALTED = Verdict.HALTED
+#: What ``Region._before_tick`` returns when nothing more happens at this level in this tick.
+_USED_UP: Any = object()
 
 
 class Region:
@@ -62,80 +64,68 @@ class Region:
             state.enter_hook(ctx)
 
     def stop(self, ctx: Context) -> None:
-        """Exit the active state (innermost first)."""
+        """Exit the active state (innermost first); a pause or suspension it was held in ends with it."""
         if self.started:
-            self.active.leave(ctx)
+            state = self.active
+            if state.exit_hook is not None:
+                state.exit_hook(ctx)
+            if state.frozen_since is not None:
+                state.release()
         self.started = False
 
     def step(self, ctx: Context) -> None:
-        """One tick of this level."""
+        """One tick of this level: choose the transition that fires (if any), then fire it.
+
+        Choosing: the supervisor first (it may use up the tick, or halt the state so that only its transitions
+        are checked), then the preemptive transitions, the state's tick, the regular transitions in order.
+        Firing: exit (innermost first), the transition's action, entry of the target (and down into its initial
+        sub-states). Both are written out here, in one function, because this is the loop every tick runs; each
+        part that runs user code has its own ``try`` (free unless something raises) to name the phase that failed.
+        """
         state = self.active
         if state.paused:
             return
-        if state.supervisor is not None:
-            try:
-                verdict = state.supervisor.check(ctx)
-            except StateRuntimeError:
-                raise
-            except Exception as exc:
-                raise StateRuntimeError.of(state, "monitors", ctx, exc) from exc
-            if verdict is not _PROCEED:
-                if verdict is _HALTED:
-                    self._transitions_only(state, ctx)
+        if state.watched:  # a supervisor or preemptive transitions: checked before the tick
+            chosen = self._before_tick(state, ctx)
+            if chosen is _USED_UP:
                 return
-        phase = "check"
-        tr: Transition[Any] | None = None
-        try:
-            if state.preempt:
-                for tr in state.preempt:
-                    if tr.fires(ctx):
-                        phase = "firing"
-                        self.fire(state, tr, ctx)
-                        return
+        else:
+            chosen = None
+        if chosen is not None:
+            tr = chosen
+        else:
             tick = state.tick_hook
             if tick is not None:
-                phase = "tick"
-                tick(ctx)
+                try:
+                    tick(ctx)
+                except StateRuntimeError:
+                    raise
+                except Exception as exc:
+                    raise StateRuntimeError.of(state, "tick", ctx, exc) from exc
                 if state.paused:  # paused during its own tick (by a child or a listener): no transition
                     return
-                phase = "check"
-            for tr in state.regular:
-                kind = tr.kind
-                if kind is not _ALWAYS:
-                    if kind is _COMPARE:  # the guard ``variable OP constant``, inline
+            tr = None
+            try:
+                for tr in state.regular:
+                    kind = tr.kind
+                    if kind is _ALWAYS:
+                        break
+                    if kind is _CALL:
+                        if tr.test(ctx):  # type: ignore[misc]
+                            break
+                    else:  # COMPARE: the guard ``variable OP constant``, inline
                         name, op, const, _swapped, read = tr.compare  # type: ignore[misc]
                         v = ctx.vars
                         x = v[name] if name in v else read(v)
-                        if not op(x if type(x) in _NUMERIC else read(v), const):
-                            continue
-                    elif not tr.test(ctx):  # type: ignore[misc]
-                        continue
-                phase = "firing"
-                self.fire(state, tr, ctx)
-                return
-        except StateRuntimeError:
-            raise
-        except Exception as exc:
-            if phase in ("check", "firing") and tr is not None:
-                phase = f"{phase} of transition {tr.describe()}"
-            raise StateRuntimeError.of(state, phase, ctx, exc) from exc
-
-    def _transitions_only(self, state: State[Any], ctx: Context) -> None:
-        """A halted state (aborted, or skipped by its precondition): not ticked, its transitions checked."""
-        tr: Transition[Any] | None = None
-        try:
-            for tr in state.preempt + state.regular:
-                if tr.fires(ctx):
-                    self.fire(state, tr, ctx)
+                        if op(x if type(x) in _NUMERIC else read(v), const):
+                            break
+                else:
                     return
-        except StateRuntimeError:
-            raise
-        except Exception as exc:
-            phase = f"check of transition {tr.describe()}" if tr is not None else "check"
-            raise StateRuntimeError.of(state, phase, ctx, exc) from exc
-
-    def fire(self, state: State[Any], tr: Transition[Any], ctx: Context) -> None:
-        """Leave ``state`` by ``tr``: exit innermost first, the transition's action, enter the target."""
+            except StateRuntimeError:
+                raise
+            except Exception as exc:
+                raise StateRuntimeError.of(state, f"check of transition {tr.describe()}", ctx, exc) from exc
+        # -- firing ``tr`` --
         if state.exit_hook is not None:
             state.exit_hook(ctx)
         effect = tr.effect
@@ -154,13 +144,47 @@ class Region:
                 raise StateRuntimeError.of(state, f"action of transition {tr.describe()}", ctx, exc) from exc
         target = tr.target
         self.active = target
-        target.entered_at = ctx._now
+        target.entered_at = ctx._now  # the machine's time slot: the property costs a call on this path
         self.fired += 1
         if self.listeners:
-            for listener in self.listeners:
-                listener.on_transition(ctx, state, target, tr)
+            try:
+                for listener in self.listeners:
+                    listener.on_transition(ctx, state, target, tr)
+            except StateRuntimeError:
+                raise
+            except Exception as exc:
+                raise StateRuntimeError.of(state, f"firing of transition {tr.describe()}", ctx, exc) from exc
         if target.enter_hook is not None:
             target.enter_hook(ctx)
+
+    def _before_tick(self, state: State[Any], ctx: Context) -> Any:
+        """The supervisor and the preemptive transitions: the transition that fires, None (go on with the tick),
+        or ``_USED_UP`` (the supervisor used the tick up, or the state is halted and none of its transitions
+        fires)."""
+        candidates: tuple[Transition[Any], ...] = state.preempt
+        supervisor = state.supervisor
+        if supervisor is not None:
+            try:
+                verdict = supervisor.check(ctx)
+            except StateRuntimeError:
+                raise
+            except Exception as exc:
+                raise StateRuntimeError.of(state, "monitors", ctx, exc) from exc
+            if verdict is not _PROCEED:
+                if verdict is not _HALTED:
+                    return _USED_UP
+                candidates = state.preempt + state.regular  # halted: not ticked, its transitions checked
+        tr = None
+        try:
+            for tr in candidates:
+                if tr.fires(ctx):
+                    return tr
+        except StateRuntimeError:
+            raise
+        except Exception as exc:
+            assert tr is not None
+            raise StateRuntimeError.of(state, f"check of transition {tr.describe()}", ctx, exc) from exc
+        return _USED_UP if candidates is not state.preempt else None
 
     def leaf_paths(self) -> list[str]:
         """Paths of the active leaf states below this level (several under a parallel state)."""

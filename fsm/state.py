@@ -63,6 +63,7 @@ class State(Generic[P]):
         "enter_hook",
         "exit_hook",
         "arms",
+        "watched",
     )
 
     Params: ClassVar[type[StateParams]] = StateParams
@@ -111,6 +112,8 @@ class State(Generic[P]):
         self.exit_hook: Hook | None = None
         #: The outgoing transitions' hooks run on each entry (their references, their conditions' resets).
         self.arms: tuple[Hook, ...] = ()
+        #: Whether anything is checked before the tick: a supervisor or preemptive transitions (fixed by seal).
+        self.watched = False
 
     @property
     def type_name(self) -> str:
@@ -174,7 +177,8 @@ class State(Generic[P]):
         a plain state costs the tick loop one test per hook."""
         cls = type(self)
         self.arms = tuple(arm for t in self.transitions if (arm := t.arm) is not None)
-        tick = self.tick if cls.tick is not State.tick else None
+        self.watched = self.supervisor is not None or bool(self.preempt)
+        tick = self.tick_method()
         self.tick_hook = tick if self.until is None else self._until_tick(tick, self.until.holds)
         plain_enter = not (cls.on_enter is not State.on_enter or self.regions or self.arms or self.can_finish
                            or self.entry_action is not None or self.supervisor is not None or self.until is not None)
@@ -182,13 +186,20 @@ class State(Generic[P]):
         has_exit = cls.on_exit is not State.on_exit
         self.exit_hook = self._exit if (has_exit or self.regions or self.exit_action is not None) else None
 
+    def tick_method(self) -> Hook | None:
+        """What ticking this state calls, or None when its class keeps the base's empty tick."""
+        return self.tick if type(self).tick is not State.tick else None
+
     def leave(self, ctx: Context) -> None:
         """Exit as a transition or an outer level does, and drop a pause or suspension it was held in."""
         if self.exit_hook is not None:
             self.exit_hook(ctx)
-        if self.frozen_since is not None:
-            self.paused = False
-            self.frozen_since = None
+        self.release()
+
+    def release(self) -> None:
+        """No longer paused or frozen (the state was left while held)."""
+        self.paused = False
+        self.frozen_since = None
 
     def _enter(self, ctx: Context) -> None:
         """Enter: reset finishing, arm the outgoing transitions, ``on_enter``, then the sub-machines."""

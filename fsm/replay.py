@@ -95,8 +95,8 @@ def expand_samples(block: dict[str, Any], dt: float | None) -> list[dict[str, An
     paths = []
     for name in block["fields"]:
         head, _, rest = str(name).partition(".")
-        key, _, index = rest.partition("[")
-        paths.append((head, key, int(index.rstrip("]")) if index else None))
+        key, _, bracket = rest.partition("[")
+        paths.append((head, key, int(bracket.rstrip("]")) if bracket else None))
     out = []
     step = block["every"]
     first, t0 = block["tick"], float(block.get("time", 0.0))

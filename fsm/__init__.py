@@ -9,7 +9,7 @@ Load a machine document (JSON, or a UMLet diagram) and tick it::
 
 from __future__ import annotations
 
-from .clock import DEFAULT_DT, RealTimeClock, SimulatedClock
+from .clock import DEFAULT_DT, Clock, RealTimeClock, SimulatedClock
 from .composite import Composite
 from .context import Context
 from .errors import DiagramError, FsmError, Problem, RegistrationError, StateRuntimeError
@@ -28,6 +28,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "DEFAULT_DT",
+    "Clock",
     "Composite",
     "Condition",
     "ConditionParams",

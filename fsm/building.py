@@ -11,6 +11,7 @@ from __future__ import annotations
 from typing import Any
 
 from . import expr as E
+from .composite import Composite
 from .condition import Condition
 from .context import Context
 from .errors import DiagramError, Problem
@@ -49,7 +50,7 @@ class _Builder:
         #: each state with its plan, in build order (for binding)
         self.built: list[tuple[State[Any], StatePlan]] = []
         #: each condition object with the state it belongs to
-        self.conditions: list[tuple[Condition, State[Any]]] = []
+        self.conditions: list[tuple[Condition[Any], State[Any]]] = []
 
     def region(self, plan: RegionPlan, owner: State[Any] | None) -> Region:
         states = {sp.id: self.state(sp) for sp in plan.states}
@@ -72,7 +73,8 @@ class _Builder:
         self.built.append((obj, plan))
         if plan.regions:
             regions = [self.region(rp, obj) for rp in plan.regions]
-            obj.attach_regions(regions, plan)  # type: ignore[attr-defined]
+            assert isinstance(obj, Composite)  # only composites have regions
+            obj.attach_regions(regions, plan)
         obj.entry_action = plan.on_enter
         obj.exit_action = plan.on_exit
         sup = plan.supervision
@@ -98,7 +100,7 @@ class _Builder:
                 m.holds = supervisor.timed_out
         obj.supervisor = supervisor
 
-    def check(self, check: Check, owner: State[Any]) -> tuple[Any, tuple[Condition, ...]]:
+    def check(self, check: Check, owner: State[Any]) -> tuple[Any, tuple[Condition[Any], ...]]:
         """``(holds(ctx), condition objects)`` of a step condition: an expression, or a condition object."""
         if isinstance(check, ConditionPlan):
             condition = check.build()

@@ -5,12 +5,36 @@ from __future__ import annotations
 import math
 import numbers
 import time
+from typing import Protocol, runtime_checkable
 
 #: The TRAL car's control period: 80 Hz (the seed's PD constants 0.0125 s and 80 1/s).
 DEFAULT_DT = 0.0125
 #: Machine time a run stops after when given neither a duration nor a tick limit (seconds): a machine that can
 #: never finish still returns. The one default of ``fsmctl run``, sweeps, scenarios, sessions and ``Machine.run``.
 DEFAULT_DURATION = 600.0
+
+
+@runtime_checkable
+class Clock(Protocol):
+    """What a machine asks its clock: the tick period, the time of a tick, and waiting for a tick to be due.
+
+    :class:`SimulatedClock` and :class:`RealTimeClock` are clocks; any object with these members is one too
+    (a clock driven by a robot's own control loop, say)."""
+
+    @property
+    def dt(self) -> float:
+        """The tick period, seconds."""
+
+    @property
+    def realtime(self) -> bool:
+        """True when ``time_at`` reads a wall clock (the machine asks it each tick); false when tick ``n``
+        happens at ``n * dt`` exactly."""
+
+    def time_at(self, tick: int) -> float:
+        """The machine time of tick ``tick``, seconds."""
+
+    def wait_for(self, tick: int) -> None:
+        """Return when tick ``tick`` is due (at once for simulated time)."""
 
 
 def check_dt(dt: object) -> float:
@@ -36,6 +60,7 @@ class SimulatedClock:
         self.dt = check_dt(dt)
 
     def time_at(self, tick: int) -> float:
+        """Tick ``tick`` happens at ``tick * dt``."""
         return tick * self.dt
 
     def wait_for(self, tick: int) -> None:
@@ -53,6 +78,7 @@ class RealTimeClock:
         self._t0: float | None = None
 
     def time_at(self, tick: int) -> float:
+        """Seconds since the first reading (``tick`` is not needed: the wall clock says when it is)."""
         now = time.monotonic()
         if self._t0 is None:
             self._t0 = now

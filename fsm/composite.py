@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, ClassVar, TypeVar
+from typing import TYPE_CHECKING, Any, ClassVar, TypeVar, cast
 
 from .document import SubMachine
 from .params import StateParams
@@ -40,7 +40,7 @@ class Composite(State[P]):
         self.join = getattr(self.params, "join", "all")
 
     @classmethod
-    def submachines(cls, params: StateParams) -> list[tuple[str | None, Any, str]]:
+    def submachines(cls, params: P) -> list[tuple[str | None, Any, str]]:
         """The sub-machine documents of an element: ``(region name or None, document or include, pointer)``.
 
         The pointer is relative to the element (``"/machine"``, ``"/regions/1"``). ``None`` as name
@@ -51,7 +51,8 @@ class Composite(State[P]):
     @classmethod
     def parse_regions(cls, parser: Parser, spec: StateSpec, depth: int) -> None:
         """Parse the element's sub-machines into ``spec.subs`` (the parse stage calls this for composites)."""
-        for default_name, doc, rel in cls.submachines(spec.params):
+        params = cast(P, spec.params)  # the parse stage validated it with cls.Params, the model P stands for
+        for default_name, doc, rel in cls.submachines(params):
             sub = parser.submachine(doc, spec.source, spec.pointer + rel, depth + 1)
             name = default_name
             if default_name is not None and sub is not None and sub.name:
@@ -67,7 +68,7 @@ class Composite(State[P]):
         self.regions = tuple(regions)
 
     @classmethod
-    def composite_outcomes(cls, params: StateParams, regions: list[set[str] | None]) -> set[str] | None:
+    def composite_outcomes(cls, params: P, regions: list[set[str] | None]) -> set[str] | None:
         """Outcomes this composite can finish with, from the outcomes each region's machine can reach."""
         if any(r is None for r in regions):
             return None  # a region failed to load: do not guess

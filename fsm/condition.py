@@ -7,7 +7,7 @@ instance, so two transitions using the same kind of condition never share a debo
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
 
 from .params import ConditionParams
 
@@ -17,10 +17,15 @@ if TYPE_CHECKING:
     from .machine import Machine
     from .state import State
 
+P = TypeVar("P", bound=ConditionParams)
 
-class Condition:
+
+class Condition(Generic[P]):
     """Subclass it, declare ``Params`` (a :class:`fsm.params.ConditionParams`), override ``holds`` (and
-    ``reset`` when it keeps state), and register it with :func:`fsm.register_condition`."""
+    ``reset`` when it keeps state), and register it with :func:`fsm.register_condition`.
+
+    ``Condition`` is generic over its parameters, as states are: ``class Hot(Condition[HotParams])`` with
+    ``Params = HotParams`` types ``self.params.limit``."""
 
     __slots__ = ("params", "owner", "children", "exprs")
 
@@ -34,14 +39,14 @@ class Condition:
     #: Parameters that hold input signal names.
     signal_refs: ClassVar[tuple[str, ...]] = ()
 
-    def __init__(self, params: ConditionParams, children: list[Condition] | None = None,
+    def __init__(self, params: P, children: list[Condition[Any]] | None = None,
                  exprs: dict[str, Compiled] | None = None) -> None:
         self.params = params
-        self.owner: State | None = None
+        self.owner: State[Any] | None = None
         self.children = tuple(children or ())
         self.exprs = exprs or {}
 
-    def bind(self, machine: Machine, owner: State) -> None:
+    def bind(self, machine: Machine, owner: State[Any]) -> None:
         """Called once when the machine is built; resolve references here. Binds the children too."""
         self.owner = owner
         for child in self.children:

@@ -127,12 +127,12 @@ class Context:
         return dict(self._signals)
 
     # -- lookup ---------------------------------------------------------------------------------
-    def state(self, path: str) -> State:
+    def state(self, path: str) -> State[Any]:
         """The state at ``path`` (``"drive/turn/slow"``), like EEROS ``getSequenceByName``."""
         assert self.machine is not None
         return self.machine.state(path)
 
-    def time_in_state(self, state: State | str) -> float:
+    def time_in_state(self, state: State[Any] | str) -> float:
         """Seconds since ``state`` (an object or a path) was entered, paused time excluded."""
         if isinstance(state, str):
             state = self.state(state)

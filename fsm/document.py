@@ -12,7 +12,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Annotated, Any, NamedTuple
 
-from pydantic import Field, ValidationError, WithJsonSchema, field_validator
+from pydantic import BaseModel, Field, ValidationError, WithJsonSchema, field_validator
 from pydantic.json_schema import GenerateJsonSchema
 
 from .errors import Problem
@@ -22,6 +22,7 @@ from .params import ID_PATTERN, ConditionParams, ParamsBase, StateParams, Transi
 if TYPE_CHECKING:
     from .condition import Condition
     from .registry import Registry
+    from .sequencer.parsing import SequenceLayout
     from .state import State
     from .transition import Transition
 
@@ -104,7 +105,7 @@ class ConditionSpec:
     """A parsed condition object: its class, parameters and nested conditions (expressions are checked and
     compiled by the later stages)."""
 
-    cls: type[Condition]
+    cls: type[Condition[Any]]
     params: ConditionParams
     pointer: str
     children: list[ConditionSpec] = field(default_factory=list)
@@ -127,7 +128,7 @@ class StateSpec:
     """A parsed state element: its type, parameters, sub-machines and condition objects."""
 
     id: str
-    cls: type[State]
+    cls: type[State[Any]]
     params: StateParams
     pointer: str
     source: Source
@@ -135,8 +136,8 @@ class StateSpec:
     #: The condition objects of the step-common keys, by key relative to the element (``"precondition"``,
     #: ``"until"``, ``"monitors/0"``); a key written as an expression (text) is not here.
     conditions: dict[str, ConditionSpec] = field(default_factory=dict)
-    #: A Sequence's layout (``fsm.sequencer.parsing.SequenceLayout``), else None.
-    sequence: Any = None
+    #: A Sequence's layout, else None.
+    sequence: SequenceLayout | None = None
 
     @property
     def type(self) -> str:
@@ -153,7 +154,7 @@ class TransitionSpec:
     """A parsed transition element: its type, parameters and condition objects (a condition guard is
     ``"guard"``; a type's condition parameters by name)."""
 
-    cls: type[Transition]
+    cls: type[Transition[Any]]
     params: TransitionParams
     pointer: str
     source: Source
@@ -385,7 +386,7 @@ def element_label(kind: str, data: Any) -> str | None:
 
 def check_type(
     kind: str, data: dict[str, Any], registry: Registry, source: Source, base: str
-) -> tuple[type | None, list[Problem]]:
+) -> tuple[type[Any] | None, list[Problem]]:
     """The registered class an element names by ``type``, or a problem that suggests close names."""
     name = data.get("type")
     table = registry.table(kind)
@@ -422,7 +423,7 @@ class NoNullSchema(GenerateJsonSchema):
         return out
 
 
-def model_json_schema(model: type[Any], ref_template: str = "#/$defs/{model}") -> dict[str, Any]:
+def model_json_schema(model: type[BaseModel], ref_template: str = "#/$defs/{model}") -> dict[str, Any]:
     """A parameter model's JSON Schema as documents must be written (no null anywhere)."""
     return model.model_json_schema(ref_template=ref_template, schema_generator=NoNullSchema)
 
@@ -452,7 +453,7 @@ def json_schema(registry: Registry) -> dict[str, Any]:
             defs[name] = sub
         return schema
 
-    def dispatch(kind: str, table: dict[str, type]) -> dict[str, Any]:
+    def dispatch(kind: str, table: dict[str, type[Any]]) -> dict[str, Any]:
         names = sorted(table)
         branches = []
         for name in names:
@@ -554,7 +555,8 @@ def _type_text(prop: dict[str, Any]) -> str:
         parts = [p for p in parts if p != "null"] or ["null"]
         return " or ".join(dict.fromkeys(parts))
     if "$ref" in prop:
-        return prop["$ref"].rsplit("/", 1)[-1].lower()
+        ref: str = prop["$ref"]
+        return ref.rsplit("/", 1)[-1].lower()
     typ = prop.get("type", "any")
     text = {"number": "number", "integer": "integer", "string": "text", "boolean": "true|false",
             "object": "object", "array": "list", "null": "null"}.get(typ, str(typ))

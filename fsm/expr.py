@@ -298,7 +298,8 @@ def unparse(node: Node) -> str:
             return f"'{v}'" if "'" not in v else f'"{v}"'
         return repr(v)
     if op == "var":
-        return node.args[0]
+        name: str = node.args[0]
+        return name
     if op == "call":
         return f"{node.args[0]}({', '.join(unparse(a) for a in node.args[1:])})"
     if op in ("neg", "not"):
@@ -427,7 +428,8 @@ def _compile(node: Node, kinds: dict[str, str]) -> tuple[Fn, str, bool, Any]:
         for a, (_, kind, _, _) in zip(node.args[1:], parts):
             _need(kind, NUMBER, f"{fname}()", a.column)
         fns = [p[0] for p in parts]
-        impl = {"abs": abs, "min": min, "max": max}[fname]
+        impls: dict[str, Callable[..., Any]] = {"abs": abs, "min": min, "max": max}
+        impl = impls[fname]
         if fname == "abs":
             f0 = fns[0]
             fn: Fn = lambda v: abs(f0(v))

@@ -5,7 +5,8 @@ from __future__ import annotations
 import bisect
 import json
 import re
-from typing import Any
+from collections.abc import Callable
+from typing import Any, cast
 
 _NEWLINE = re.compile(r"\n")
 
@@ -37,14 +38,14 @@ def locate(text: str, pointers: set[str]) -> dict[str, tuple[int, int]]:
     value, the whole document (``""``) at its first token. Unknown pointers are left out. Subtrees
     holding no wanted pointer are skipped by the C decoder, so a 20 MB file takes about one parse.
     """
-    trie: dict[str, Any] = {}
+    trie: dict[Any, Any] = {}
     for ptr in pointers:
         node = trie
         for token in _tokens(ptr):
             node = node.setdefault(token, {})
         node[_HERE] = True
     found: dict[str, int] = {}
-    idx = _WS.match(text, 0).end()
+    idx = _ws_match(text, 0).end()
     if trie.get(_HERE):
         found[""] = idx
     try:
@@ -57,6 +58,8 @@ def locate(text: str, pointers: set[str]) -> dict[str, tuple[int, int]]:
 
 _HERE = object()
 _WS = re.compile(r"[ \t\n\r]*")
+#: ``_WS.match``, which never gives None (the pattern matches the empty string too).
+_ws_match = cast(Callable[[str, int], "re.Match[str]"], _WS.match)
 _DECODER = json.JSONDecoder()
 
 
@@ -84,7 +87,8 @@ def _walk(text: str, idx: int, node: dict[Any, Any], ptr: str, found: dict[str, 
             end = _walk(text, value, child, child_ptr, found) if child is not None else _skip(text, value)
             token, at = members.send(end)
     except StopIteration as stop:
-        return stop.value
+        after: int = stop.value  # where the container ends
+        return after
 
 
 def _members(text: str, idx: int) -> Any:
@@ -99,31 +103,31 @@ def _members(text: str, idx: int) -> Any:
 
 
 def _object_members(text: str, idx: int) -> Any:
-    idx = _WS.match(text, idx + 1).end()
+    idx = _ws_match(text, idx + 1).end()
     if text[idx] == "}":
         return idx + 1
     while True:
         key, after = _DECODER.raw_decode(text, idx)
         yield key, idx
-        idx = yield _WS.match(text, _WS.match(text, after).end() + 1).end()  # past the ':'
-        idx = _WS.match(text, idx).end()
+        idx = yield _ws_match(text, _ws_match(text, after).end() + 1).end()  # past the ':'
+        idx = _ws_match(text, idx).end()
         if text[idx] == "}":
             return idx + 1
-        idx = _WS.match(text, idx + 1).end()  # after ','
+        idx = _ws_match(text, idx + 1).end()  # after ','
 
 
 def _array_members(text: str, idx: int) -> Any:
-    idx = _WS.match(text, idx + 1).end()
+    idx = _ws_match(text, idx + 1).end()
     if text[idx] == "]":
         return idx + 1
     i = 0
     while True:
         yield str(i), idx
         idx = yield idx
-        idx = _WS.match(text, idx).end()
+        idx = _ws_match(text, idx).end()
         if text[idx] == "]":
             return idx + 1
-        idx = _WS.match(text, idx + 1).end()
+        idx = _ws_match(text, idx + 1).end()
         i += 1
 
 
@@ -153,7 +157,7 @@ def duplicate_keys(text: str) -> list[tuple[str, str, tuple[int, int], tuple[int
     """
     found: list[tuple[str, str, int, int]] = []
     try:
-        _dup_walk(text, _WS.match(text, 0).end(), "", found)
+        _dup_walk(text, _ws_match(text, 0).end(), "", found)
     except (ValueError, IndexError, RecursionError):
         pass  # deeper than Python's stack, or not JSON after all: keep what was found
     index = LineIndex(text)
@@ -177,4 +181,5 @@ def _dup_walk(text: str, idx: int, ptr: str, found: list[tuple[str, str, int, in
             value = members.send(None)
             token, at = members.send(_dup_walk(text, value, f"{ptr}/{escape(token)}", found))
     except StopIteration as stop:
-        return stop.value
+        after: int = stop.value  # where the container ends
+        return after

@@ -6,6 +6,7 @@ from __future__ import annotations
 from collections import deque
 from typing import Any
 
+from .composite import Composite
 from .document import MachineSpec, StateSpec
 
 
@@ -13,8 +14,9 @@ def state_outcomes(st: StateSpec) -> set[str] | None:
     """The outcomes a state can finish with (empty: never finishes; ``None``: any)."""
     cls = st.cls
     if cls.is_composite:
+        assert issubclass(cls, Composite)  # is_composite is Composite's flag
         regions = [None if sub.machine is None else machine_outcomes(sub.machine) for sub in st.subs]
-        out = cls.composite_outcomes(st.params, regions)  # type: ignore[attr-defined]
+        out = cls.composite_outcomes(st.params, regions)
         return None if out is None else out | step_outcomes(st.params) | caller_outcomes(st)
     out = cls.possible_outcomes(st.params)
     return None if out is None else out | step_outcomes(st.params)

@@ -55,12 +55,12 @@ NOTHING: Mapping[str, Any] = MappingProxyType({})
 class ConditionPlan(NamedTuple):
     """A condition object ready to build: its class, parameters, children and compiled expressions."""
 
-    cls: type[Condition]
+    cls: type[Condition[Any]]
     params: ConditionParams
     children: tuple[ConditionPlan, ...] = ()
     exprs: Mapping[str, Compiled] = NOTHING
 
-    def build(self) -> Condition:
+    def build(self) -> Condition[Any]:
         """A fresh instance (each user gets its own: conditions keep state)."""
         return self.cls(self.params, [c.build() for c in self.children], dict(self.exprs))
 
@@ -80,7 +80,7 @@ class TransitionPlan(NamedTuple):
     """One transition: its type and parameters, its endpoints (ids in its level), its document guard and ``set``,
     and the condition objects of its type's condition parameters."""
 
-    cls: type[Transition]
+    cls: type[Transition[Any]]
     params: TransitionParams
     source: str
     target: str
@@ -132,7 +132,7 @@ class StatePlan(NamedTuple):
     """One state: its type, parameters, path, hooks, supervision, regions and outgoing transitions (ordered:
     preemptive first as the region checks them, then the regular ones, by priority and declaration)."""
 
-    cls: type[State]
+    cls: type[State[Any]]
     params: StateParams
     id: str
     path: str

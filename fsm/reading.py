@@ -122,7 +122,7 @@ def read_stdin_bytes() -> bytes:
     if stream is None:
         raise DiagramError([Problem("standard input is not open", STDIN_NAME)])
     try:
-        data = stream.read(limit + 1)
+        data: bytes = stream.read(limit + 1)
     except (OSError, ValueError) as exc:
         raise DiagramError([Problem(f"cannot read standard input: {exc}", STDIN_NAME)]) from None
     if len(data) > limit:
@@ -138,8 +138,9 @@ def read_file_bytes(path: Path, what: str | None = None) -> bytes:
     """
     name = str(path)
     pre = _PRELOADED.get()
-    if pre is not None and isinstance(pre.get(name), bytes):
-        return pre[name]
+    cached = pre.get(name) if pre is not None else None
+    if isinstance(cached, bytes):
+        return cached
     kind = what or "machine"
     a_kind = ("an " if kind[:1] in "aeiou" else "a ") + kind  # "an image"
     try:
@@ -214,9 +215,10 @@ def parse_json_bytes(raw: bytes, name: str | None, directory: Any = None,
         raise DiagramError([Problem(f"invalid JSON: {exc.msg}", name, line=exc.lineno, column=exc.colno)]) from None
     except RecursionError:
         deep = depth_exceeded_at(text, MAX_JSON_DEPTH)
-        line, column = deep if deep is not None else (None, None)
+        at_line, at_column = deep if deep is not None else (None, None)
         raise DiagramError([Problem(f"JSON nested more than {MAX_JSON_DEPTH} levels deep", name,
-                                    line=line, column=column, hint="no machine document needs this depth")]) from None
+                                    line=at_line, column=at_column,
+                                    hint="no machine document needs this depth")]) from None
     if repeated:
         if duplicates is None:
             raise DiagramError(duplicate_key_problems(text, name))

@@ -21,9 +21,11 @@ from .params import ConditionParams, StateParams, TransitionParams
 from .state import State
 from .transition import Transition
 
-S = TypeVar("S", bound=type[State])
-T = TypeVar("T", bound=type[Transition])
-C = TypeVar("C", bound=type[Condition])
+S = TypeVar("S", bound=type[State[Any]])
+T = TypeVar("T", bound=type[Transition[Any]])
+C = TypeVar("C", bound=type[Condition[Any]])
+#: A registered class, of any kind.
+K = TypeVar("K", bound=type)
 
 STATE_GROUP = "fsm.states"
 TRANSITION_GROUP = "fsm.transitions"
@@ -41,20 +43,20 @@ class Registry:
     """
 
     def __init__(self) -> None:
-        self.states: dict[str, type[State]] = {}
-        self.transitions: dict[str, type[Transition]] = {}
-        self.conditions: dict[str, type[Condition]] = {}
+        self.states: dict[str, type[State[Any]]] = {}
+        self.transitions: dict[str, type[Transition[Any]]] = {}
+        self.conditions: dict[str, type[Condition[Any]]] = {}
         self.plants: dict[str, type[Any]] = {}
         self._loaded_plugins: set[str] = set()
 
     # -- registration ---------------------------------------------------------------------------
-    def add_state(self, cls: type[State], name: str | None = None) -> type[State]:
+    def add_state(self, cls: type[State[Any]], name: str | None = None) -> type[State[Any]]:
         return self._add(self.states, State, StateParams, cls, name, "state")
 
-    def add_transition(self, cls: type[Transition], name: str | None = None) -> type[Transition]:
+    def add_transition(self, cls: type[Transition[Any]], name: str | None = None) -> type[Transition[Any]]:
         return self._add(self.transitions, Transition, TransitionParams, cls, name, "transition")
 
-    def add_condition(self, cls: type[Condition], name: str | None = None) -> type[Condition]:
+    def add_condition(self, cls: type[Condition[Any]], name: str | None = None) -> type[Condition[Any]]:
         return self._add(self.conditions, Condition, ConditionParams, cls, name, "condition")
 
     def add_plant(self, cls: type[Any], name: str | None = None) -> type[Any]:
@@ -62,8 +64,7 @@ class Registry:
 
         return self._add(self.plants, Plant, PlantParams, cls, name, "plant")
 
-    def _add(self, table: dict[str, Any], base: type, params_base: type, cls: Any, name: str | None,
-             kind: str) -> Any:
+    def _add(self, table: dict[str, K], base: type, params_base: type, cls: K, name: str | None, kind: str) -> K:
         name = name or cls.__name__
         if not (isinstance(cls, type) and issubclass(cls, base)):
             raise RegistrationError(f"{cls!r} is not a subclass of fsm.{base.__name__}")
@@ -111,7 +112,9 @@ class Registry:
     # -- lookup ---------------------------------------------------------------------------------
     def table(self, kind: str) -> dict[str, Any]:
         """The name space of ``kind``: "state", "transition" or "condition"."""
-        return {"state": self.states, "transition": self.transitions, "condition": self.conditions}[kind]
+        tables: dict[str, dict[str, Any]] = {"state": self.states, "transition": self.transitions,
+                                             "condition": self.conditions}
+        return tables[kind]
 
     def suggest(self, name: str, kind: str) -> list[str]:
         """Registered names close to ``name`` (for "did you mean" hints)."""
@@ -156,8 +159,10 @@ class Registry:
         """
         from importlib.metadata import entry_points
 
-        for group, add in ((STATE_GROUP, self.add_state), (TRANSITION_GROUP, self.add_transition),
-                           (CONDITION_GROUP, self.add_condition), (PLANT_GROUP, self.add_plant)):
+        adders: tuple[tuple[str, Callable[[Any, str], object]], ...] = (
+            (STATE_GROUP, self.add_state), (TRANSITION_GROUP, self.add_transition),
+            (CONDITION_GROUP, self.add_condition), (PLANT_GROUP, self.add_plant))
+        for group, add in adders:
             for ep in entry_points(group=group):
                 key = f"{group}:{ep.name}={ep.value}"
                 if key in self._loaded_plugins:
@@ -168,10 +173,11 @@ class Registry:
                 except Exception as exc:  # an installed plugin that is broken: say which one and where
                     raise _plugin_error(f"entry point {ep.name} = {ep.value} ({group})", exc, None) from None
                 if isinstance(obj, type):
-                    table = {STATE_GROUP: self.states, TRANSITION_GROUP: self.transitions,
-                             PLANT_GROUP: self.plants}.get(group, self.conditions)
+                    tables: dict[str, dict[str, Any]] = {STATE_GROUP: self.states, TRANSITION_GROUP: self.transitions,
+                                                         PLANT_GROUP: self.plants}
+                    table = tables.get(group, self.conditions)
                     if table.get(ep.name) is not obj and table.get(obj.__name__) is not obj:
-                        add(obj, ep.name)  # type: ignore[arg-type]
+                        add(obj, ep.name)
                 self._loaded_plugins.add(key)
 
 

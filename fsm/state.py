@@ -26,7 +26,7 @@ class Until(NamedTuple):
     """A state's exit condition, built: ``holds(ctx)`` and the condition objects to reset on each entry."""
 
     holds: Callable[[Context], bool]
-    conditions: tuple[Condition, ...]
+    conditions: tuple[Condition[Any], ...]
 
 
 class State(Generic[P]):
@@ -121,7 +121,7 @@ class State(Generic[P]):
         return self.params.type
 
     @classmethod
-    def possible_outcomes(cls, params: StateParams) -> set[str] | None:
+    def possible_outcomes(cls, params: P) -> set[str] | None:
         """The outcomes an element with ``params`` can finish with: empty if it never finishes, ``None`` if any."""
         if not cls.can_finish:
             return set()

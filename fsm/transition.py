@@ -67,7 +67,7 @@ class Transition(Generic[P]):
         #: The document's ``set``, compiled (kept to combine it with further actions, see ``then``).
         self.assign: Callable[[Context], None] | None = None
         #: Condition objects by parameter name (a condition guard is ``"guard"``).
-        self.conditions: dict[str, Condition] = {}
+        self.conditions: dict[str, Condition[Any]] = {}
         #: Run on each entry of the source: the type's ``on_source_enter`` and the conditions' resets.
         self.arm: Callable[[Context], None] | None = (
             self.on_source_enter if cls.on_source_enter is not Transition.on_source_enter else None)
@@ -91,7 +91,7 @@ class Transition(Generic[P]):
         if self.kind is GuardKind.ALWAYS:
             self.kind = GuardKind.CALL
 
-    def apply_conditions(self, conditions: dict[str, Condition]) -> None:
+    def apply_conditions(self, conditions: dict[str, Condition[Any]]) -> None:
         """Keep the condition objects, reset each time the source is entered."""
         self.conditions.update(conditions)
         resets = tuple(c.reset for c in conditions.values())
@@ -144,12 +144,12 @@ class Transition(Generic[P]):
 
     # -- hooks for subclasses ---------------------------------------------------------------------------
     @classmethod
-    def check_document(cls, params: TransitionParams, variables: dict[str, Any]) -> tuple[str, str] | None:
+    def check_document(cls, params: P, variables: dict[str, Any]) -> tuple[str, str] | None:
         """A load-time check against the document's initial ``vars``: ``(pointer suffix, message)`` or ``None``."""
         return None
 
     @classmethod
-    def variable_test(cls, params: TransitionParams) -> tuple[str, str, Any] | None:
+    def variable_test(cls, params: P) -> tuple[str, str, Any] | None:
         """``(variable, operator, value)`` when this transition compares a blackboard variable with a literal
         (``Var``): the loader checks that every comparison of a variable uses one kind of value."""
         return None

@@ -12,35 +12,39 @@ from fsm.params import StateParams
 from fsm.registry import register_state
 
 
+class FSMStateParams(StateParams):
+    machine: MachineSpecField = Field(
+        description='The sub-machine: a machine document, or {"file": "path"} relative to this file.')
+
+
 @register_state
-class FSMState(Composite):
+class FSMState(Composite[FSMStateParams]):
     """A nested machine, inline or from a file; finishes with the outcome of the Final state it reaches."""
 
     __slots__ = ()
-
-    class Params(StateParams):
-        machine: MachineSpecField = Field(
-            description='The sub-machine: a machine document, or {"file": "path"} relative to this file.')
+    Params = FSMStateParams
 
     @classmethod
-    def submachines(cls, params: StateParams) -> list[tuple[str | None, Any, str]]:
-        return [(None, params.machine, "/machine")]  # type: ignore[attr-defined]
+    def submachines(cls, params: FSMStateParams) -> list[tuple[str | None, Any, str]]:
+        return [(None, params.machine, "/machine")]
+
+
+class ParallelParams(StateParams):
+    regions: list[MachineSpecField] = Field(
+        min_length=1,
+        description="The regions: machine documents (or includes); a region's path step is its "
+                    "machine's name, else region1, region2, ...")
+    join: Literal["all", "any"] = Field(
+        default="all", description="Finish when all regions are final, or when any is.")
 
 
 @register_state
-class Parallel(Composite):
+class Parallel(Composite[ParallelParams]):
     """Regions ticked in declaration order; finishes when all (join=all) or any (join=any) reach a Final state."""
 
     __slots__ = ()
-
-    class Params(StateParams):
-        regions: list[MachineSpecField] = Field(
-            min_length=1,
-            description="The regions: machine documents (or includes); a region's path step is its "
-                        "machine's name, else region1, region2, ...")
-        join: Literal["all", "any"] = Field(
-            default="all", description="Finish when all regions are final, or when any is.")
+    Params = ParallelParams
 
     @classmethod
-    def submachines(cls, params: StateParams) -> list[tuple[str | None, Any, str]]:
-        return [(f"region{i + 1}", doc, f"/regions/{i}") for i, doc in enumerate(params.regions)]  # type: ignore[attr-defined]
+    def submachines(cls, params: ParallelParams) -> list[tuple[str | None, Any, str]]:
+        return [(f"region{i + 1}", doc, f"/regions/{i}") for i, doc in enumerate(params.regions)]

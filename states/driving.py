@@ -16,7 +16,7 @@ the real car's units and are not comparable.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Literal
+from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Literal, TypeVar
 
 from pydantic import Field, model_validator
 
@@ -41,7 +41,10 @@ def _clamp(x: float, lo: float = -1.0, hi: float = 1.0) -> float:
     return lo if x < lo else hi if x > hi else x
 
 
-class CarState(State):
+P = TypeVar("P", bound=StateParams)
+
+
+class CarState(State[P]):
     """Base of the states that drive the car: they need ``ctx.car`` (``fsmctl run`` creates one)."""
 
     __slots__ = ()
@@ -78,8 +81,11 @@ class WallParams(StateParams):
                     "the wall, the side sensor reads farther, not nearer). Default: no limit.")
 
 
+WP = TypeVar("WP", bound=WallParams)
+
+
 @register_state
-class BasicFollowWall(CarState):
+class BasicFollowWall(CarState[WP]):
     """Keeps `distance` to the `side` wall with the report's PD(I) law y = p*e + esum*i*dt + d*(e - eold)/dt.
 
     ``e`` is the side sensor's reading minus the distance to keep. The law is evaluated whenever a
@@ -89,22 +95,22 @@ class BasicFollowWall(CarState):
 
     __slots__ = ("target", "wall_target", "wall_side", "_sign", "_esum", "_eold", "_sample", "_t", "_y",
                  "_p", "_i", "_d", "_speed", "_sensor", "_snap", "_max_angle", "_heading")
-    Params = WallParams
+    Params: ClassVar[type[WallParams]] = WallParams
     #: Samples of this state count towards the wall-distance error on straights (the sim's metric).
     straight_metric: ClassVar[bool] = True
 
-    def __init__(self, id: str, params: StateParams | None = None) -> None:
+    def __init__(self, id: str, params: WP | None = None) -> None:
         super().__init__(id, params)
         p = self.params
-        self.target: float = 0.4 if p.distance == "lane" else p.distance  # type: ignore[attr-defined]
+        self.target: float = 0.4 if p.distance == "lane" else p.distance
         self.wall_target: float | None = None
-        self.wall_side: str = p.side  # type: ignore[attr-defined]
-        self._sign = -1.0 if p.side == "right" else 1.0  # type: ignore[attr-defined]
-        self._sensor = p.side  # type: ignore[attr-defined]
-        self._p, self._i, self._d = p.p, p.i, p.d  # type: ignore[attr-defined]
-        self._speed = p.speed  # type: ignore[attr-defined]
-        self._snap = p.snap  # type: ignore[attr-defined]
-        limit = p.max_angle  # type: ignore[attr-defined]
+        self.wall_side: str = p.side
+        self._sign = -1.0 if p.side == "right" else 1.0
+        self._sensor = p.side
+        self._p, self._i, self._d = p.p, p.i, p.d
+        self._speed = p.speed
+        self._snap = p.snap
+        limit = p.max_angle
         self._max_angle = math.radians(limit) if limit is not None else None
         self._heading = 0.0
         self._esum = 0.0
@@ -116,11 +122,11 @@ class BasicFollowWall(CarState):
     def on_enter(self, ctx: Context) -> None:
         car = ctx.car
         p = self.params
-        if p.distance == "lane":  # type: ignore[attr-defined]  # keep the lane the car is in ...
+        if p.distance == "lane":  # keep the lane the car is in ...
             reading = self.reading(car)
             other = car.left if self._sensor == "right" else car.right
-            if p.clear is not None and other < 2.9:  # type: ignore[attr-defined]  # ... clear of the other wall
-                reading = min(reading, reading + other - p.clear)  # type: ignore[attr-defined]
+            if p.clear is not None and other < 2.9:  # ... clear of the other wall
+                reading = min(reading, reading + other - p.clear)
             self.target = max(0.1, min(reading, 2.0))
         self._esum = 0.0
         self._eold = self.measure(ctx, self.reading(car)) - self.target
@@ -134,7 +140,7 @@ class BasicFollowWall(CarState):
 
     def reading(self, car: Any) -> float:
         """The side sensor's reading, square to the wall with `snap` (a reading at the sensor's maximum is kept)."""
-        value = getattr(car, self._sensor)
+        value: float = getattr(car, self._sensor)
         if self._snap is None or value >= 2.9:
             return value
         th = car.pose()[2]
@@ -162,7 +168,8 @@ class BasicFollowWall(CarState):
                 self._y = self._p * e + self._esum * self._i * dt + self._d * (e - self._eold) / dt
             self._eold = e
             steering = _clamp(self._sign * self._y)
-            if limited and self._sign * steering > 0:  # at the limit: turn no further towards the wall
+            # at the limit: turn no further towards the wall (limited implies a max_angle)
+            if limited and self._sign * steering > 0 and self._max_angle is not None:
                 steering = -self._sign * _clamp(ANGLE_GAIN * (toward - self._max_angle + ANGLE_MARGIN), 0.0, 1.0)
             car.set_steering(steering)
         car.set_speed(self._speed)
@@ -185,7 +192,7 @@ class FollowWallParams(WallParams):
 
 
 @register_state
-class FollowWall(BasicFollowWall):
+class FollowWall(BasicFollowWall[FollowWallParams]):
     """BasicFollowWall that ignores ultrasonic jumps larger than `jump` (2 cm), so door frames do not make it swing.
 
     A jump between two samples is taken out of the signal (remembered as an offset) instead of
@@ -197,10 +204,10 @@ class FollowWall(BasicFollowWall):
     __slots__ = ("_last", "_offset", "_ignored_at", "_jump", "_hold")
     Params = FollowWallParams
 
-    def __init__(self, id: str, params: StateParams | None = None) -> None:
+    def __init__(self, id: str, params: FollowWallParams | None = None) -> None:
         super().__init__(id, params)
-        self._jump = self.params.jump  # type: ignore[attr-defined]
-        self._hold = self.params.hold  # type: ignore[attr-defined]
+        self._jump = self.params.jump
+        self._hold = self.params.hold
         self._last = 0.0
         self._offset = 0.0
         self._ignored_at = 0.0
@@ -236,7 +243,7 @@ class RampParams(WallParams):
 
 
 @register_state
-class FollowWallRamp(BasicFollowWall):
+class FollowWallRamp(BasicFollowWall[RampParams]):
     """Follows the wall at a distance changing linearly from the current one to `distance` over `length` metres travelled; finishes at the end of the ramp (and keeps following at `distance`)."""
 
     __slots__ = ("_from", "_d0", "_length", "_end")
@@ -244,16 +251,16 @@ class FollowWallRamp(BasicFollowWall):
     can_finish = True
     straight_metric = False
 
-    def __init__(self, id: str, params: StateParams | None = None) -> None:
+    def __init__(self, id: str, params: RampParams | None = None) -> None:
         super().__init__(id, params)
-        self._end = self.params.distance  # type: ignore[attr-defined]
-        self._length = self.params.length  # type: ignore[attr-defined]
+        self._end = self.params.distance
+        self._length = self.params.length
         self._from = self._end
         self._d0 = 0.0
 
     def on_enter(self, ctx: Context) -> None:
         car = ctx.car
-        start = self.params.start  # type: ignore[attr-defined]
+        start = self.params.start
         self._from = start if start is not None else min(self.reading(car), 3.0)
         self._d0 = car.distance
         self.target = self._from
@@ -287,18 +294,21 @@ class ApproachParams(StateParams):
         return self
 
 
+AP = TypeVar("AP", bound=ApproachParams)
+
+
 @register_state
-class ApproachPoint(CarState):
+class ApproachPoint(CarState[AP]):
     """Drives to a point given relative to the car when the state is entered (pure pursuit on odometry); finishes on arrival, or with outcome `missed` when the point falls behind within reach of a turn."""
 
     __slots__ = ("_tx", "_ty", "_handed")
-    Params = ApproachParams
+    Params: ClassVar[type[ApproachParams]] = ApproachParams
     can_finish = True
     outcomes = ("succeeded", "missed")
     #: Transitions may hand this state its target (``set_target``), as the report's ArucoGateFound does.
     accepts_target = True
 
-    def __init__(self, id: str, params: StateParams | None = None) -> None:
+    def __init__(self, id: str, params: AP | None = None) -> None:
         super().__init__(id, params)
         self._tx = self._ty = 0.0
         self._handed: tuple[float, float] | None = None
@@ -312,8 +322,8 @@ class ApproachPoint(CarState):
         if self._handed is not None:
             px, py = self._handed
             self._handed = None
-        elif p.x is not None:  # type: ignore[attr-defined]
-            px, py = p.x, p.y  # type: ignore[attr-defined]
+        elif p.x is not None:
+            px, py = p.x, p.y
         else:  # nothing handed and no point given: nowhere to go
             self._tx = math.nan
             return
@@ -337,7 +347,7 @@ class ApproachPoint(CarState):
         x, y, th = car.pose()
         dx, dy = self._tx - x, self._ty - y
         dist = math.hypot(dx, dy)
-        if dist <= p.tolerance:  # type: ignore[attr-defined]
+        if dist <= p.tolerance:
             car.set_speed(0.0)
             self.finish()
             return
@@ -351,7 +361,7 @@ class ApproachPoint(CarState):
         alpha = math.atan2(fy, fx)
         delta = math.atan2(2.0 * car.wheelbase * math.sin(alpha), dist)  # pure pursuit, look-ahead = dist
         car.set_steering(_clamp(delta / car.max_steering_angle))
-        car.set_speed(p.speed)  # type: ignore[attr-defined]
+        car.set_speed(p.speed)
 
 
 class MotorParams(StateParams):
@@ -367,29 +377,29 @@ class MotorParams(StateParams):
 
 
 @register_state
-class Motor(CarState):
+class Motor(CarState[MotorParams]):
     """Drives with a fixed speed and steering; finishes after `distance` metres (hall sensor)."""
 
     __slots__ = ("_d0",)
     Params = MotorParams
     can_finish = True
 
-    def __init__(self, id: str, params: StateParams | None = None) -> None:
+    def __init__(self, id: str, params: MotorParams | None = None) -> None:
         super().__init__(id, params)
         self._d0 = 0.0
 
     def on_enter(self, ctx: Context) -> None:
         car = ctx.car
         self._d0 = car.distance
-        car.set_steering(self.params.steering)  # type: ignore[attr-defined]
-        car.set_speed(self.params.speed)  # type: ignore[attr-defined]
+        car.set_steering(self.params.steering)
+        car.set_speed(self.params.speed)
 
     def tick(self, ctx: Context) -> None:
         car = ctx.car
-        if not self.finished and car.distance - self._d0 >= self.params.distance - EPS:  # type: ignore[attr-defined]
+        if not self.finished and car.distance - self._d0 >= self.params.distance - EPS:
             self.finish()
-        car.set_steering(self.params.steering)  # type: ignore[attr-defined]
-        car.set_speed(self.params.speed)  # type: ignore[attr-defined]
+        car.set_steering(self.params.steering)
+        car.set_speed(self.params.speed)
 
 
 class StopParams(StateParams):
@@ -399,7 +409,7 @@ class StopParams(StateParams):
 
 
 @register_state
-class Stop(CarState):
+class Stop(CarState[StopParams]):
     """Commands speed 0; finishes when the car stands still."""
 
     __slots__ = ()
@@ -408,11 +418,11 @@ class Stop(CarState):
 
     def on_enter(self, ctx: Context) -> None:
         ctx.car.set_speed(0.0)
-        if self.params.steering is not None:  # type: ignore[attr-defined]
-            ctx.car.set_steering(self.params.steering)  # type: ignore[attr-defined]
+        if self.params.steering is not None:
+            ctx.car.set_steering(self.params.steering)
 
     def tick(self, ctx: Context) -> None:
         car = ctx.car
         car.set_speed(0.0)
-        if not self.finished and abs(car.speed) < self.params.still:  # type: ignore[attr-defined]
+        if not self.finished and abs(car.speed) < self.params.still:
             self.finish()

@@ -15,27 +15,29 @@ if TYPE_CHECKING:
 
 
 @register_state
-class Idle(State):
+class Idle(State[StateParams]):
     """Does nothing and never finishes; leave it by a Timeout, Signal, Var or InState transition."""
 
     __slots__ = ()
 
 
+class FinalParams(StateParams):
+    outcome: str = Field(default="succeeded", min_length=1,
+                         description="Outcome the machine finishes with (succeeded, aborted, ...).")
+
+
 @register_state
-class Final(State):
+class Final(State[FinalParams]):
     """Ends its machine level; the enclosing composite (or the machine) finishes with this outcome."""
 
     __slots__ = ()
     can_finish = True
     is_final = True
-
-    class Params(StateParams):
-        outcome: str = Field(default="succeeded", min_length=1,
-                             description="Outcome the machine finishes with (succeeded, aborted, ...).")
+    Params = FinalParams
 
     @classmethod
-    def possible_outcomes(cls, params: StateParams) -> set[str]:
-        return {params.outcome}  # type: ignore[attr-defined]
+    def possible_outcomes(cls, params: FinalParams) -> set[str]:
+        return {params.outcome}
 
     def on_enter(self, ctx: Context) -> None:
-        self.finish(self.params.outcome)  # type: ignore[attr-defined]
+        self.finish(self.params.outcome)

@@ -46,21 +46,21 @@ class GateApproachParams(ApproachParams):
 
 
 @register_state
-class ArucoGateApproach(ApproachPoint):
+class ArucoGateApproach(ApproachPoint[GateApproachParams]):
     """Drives to the point `before` m in front of the gate ArucoGateFound found (handed by it, like ApproachPoint), and moves that point each time the camera sees the gate again while the point is still `refine` m ahead: a gate first seen 4 m away has a rough pose (its heading may be 10 degrees off), which gets better as the car comes nearer. The fresh pose also replaces `gate` on the blackboard for ArucoGateCenter. Finishes on arrival, or `missed` when the point falls behind."""
 
     __slots__ = ("_frame", "_ids")
     Params = GateApproachParams
 
-    def __init__(self, id: str, params: StateParams | None = None) -> None:
+    def __init__(self, id: str, params: GateApproachParams | None = None) -> None:
         super().__init__(id, params)
         self._frame = -1
-        self._ids: tuple[int, int] | None = None
+        self._ids: tuple[int, ...] | None = None
 
     def on_enter(self, ctx: Context) -> None:
         super().on_enter(ctx)
         known = ctx.vars.get(GATE_VAR)
-        self._ids = tuple(known["ids"]) if isinstance(known, dict) and known.get("ids") else None  # type: ignore[assignment]
+        self._ids = tuple(known["ids"]) if isinstance(known, dict) and known.get("ids") else None
         self._frame = -1
 
     def tick(self, ctx: Context) -> None:
@@ -72,8 +72,8 @@ class ArucoGateApproach(ApproachPoint):
             gate = select_gate(view, self._ids)
             if gate is not None and abs(gate.heading) < math.radians(80):
                 p = self.params
-                px, py = approach_point(car, gate, p.before, p.wall_margin, p.snap)  # type: ignore[attr-defined]
-                if px >= p.refine:  # type: ignore[attr-defined]
+                px, py = approach_point(car, gate, p.before, p.wall_margin, p.snap)
+                if px >= p.refine:
                     self.aim(ctx, px, py)
                     update_gate_var(ctx, gate)
         super().tick(ctx)
@@ -102,7 +102,7 @@ class GateCenterParams(StateParams):
 
 
 @register_state
-class ArucoGateCenter(CarState):
+class ArucoGateCenter(CarState[GateCenterParams]):
     """Lines the car up with a gate: drives slowly along the gate's centre line (pure pursuit on it, from camera and odometry) until it is square to the gate and centred, then finishes (`succeeded`); `close` when it got near the gate first, `wide` when it got near so far off the centre line that driving on would hit a post (the gate's width is measured by the camera; route it to a short reverse and back here), `lost` when it never had a gate. Finishing (`succeeded` or `close`) marks the gate passed on the blackboard (`gates_passed`), and every gate it sees is remembered (`gates_seen`) for ArucoGateFound with `memory`."""
 
     __slots__ = ("_gate", "_frame", "_ids")
@@ -111,11 +111,11 @@ class ArucoGateCenter(CarState):
     outcomes = ("succeeded", "close", "wide", "lost")
     accepts_target = True
 
-    def __init__(self, id: str, params: StateParams | None = None) -> None:
+    def __init__(self, id: str, params: GateCenterParams | None = None) -> None:
         super().__init__(id, params)
         self._gate: dict[str, Any] | None = None
         self._frame = -1
-        self._ids: tuple[int, int] | None = None
+        self._ids: tuple[int, ...] | None = None
 
     def set_target(self, ctx: Context, x: float, y: float, heading: float | None = None) -> None:
         """A point on the gate's centre line (car frame) and the gate's heading: the line to line up with."""
@@ -128,14 +128,14 @@ class ArucoGateCenter(CarState):
     def on_enter(self, ctx: Context) -> None:
         p = self.params
         known = ctx.vars.get(GATE_VAR)
-        self._ids = tuple(p.ids) if p.ids is not None else None  # type: ignore[attr-defined]
+        self._ids = tuple(p.ids) if p.ids is not None else None
         if self._gate is None and isinstance(known, dict):
             if self._ids is None or list(self._ids) == known.get("ids"):
                 self._gate = dict(known)
         if self._ids is None and self._gate is not None and self._gate.get("ids"):
-            self._ids = tuple(self._gate["ids"])  # type: ignore[assignment]
+            self._ids = tuple(self._gate["ids"])
         if self._ids is None and isinstance(known, dict) and known.get("ids"):  # handed by ArucoGateFound
-            self._ids = tuple(known["ids"])  # type: ignore[assignment]
+            self._ids = tuple(known["ids"])
         self._frame = -1
         self._update(ctx)
 
@@ -172,21 +172,21 @@ class ArucoGateCenter(CarState):
         lateral = -dx * uy + dy * ux  # > 0: left of the centre line
         err = math.atan2(math.sin(th - h), math.cos(th - h))
         if not self.finished:
-            if (-along <= p.near and abs(lateral) <= p.offset  # type: ignore[attr-defined]
-                    and abs(err) <= math.radians(p.angle)):  # type: ignore[attr-defined]
+            if (-along <= p.near and abs(lateral) <= p.offset
+                    and abs(err) <= math.radians(p.angle)):
                 self.finish()
                 mark_passed(ctx, self._ids)
-            elif -along <= p.min_distance:  # type: ignore[attr-defined]
+            elif -along <= p.min_distance:
                 # where the car would cross the gate line driving straight on
                 at_line = lateral + (-along) * math.tan(max(-1.2, min(1.2, err)))
                 width = gate.get("width")
-                if p.clearance > 0 and width and abs(at_line) > width / 2 - p.clearance:  # type: ignore[attr-defined]
+                if p.clearance > 0 and width and abs(at_line) > width / 2 - p.clearance:
                     self.finish("wide")
                 else:
                     self.finish("close")
                     mark_passed(ctx, self._ids)
         # pure pursuit towards a point on the centre line, lookahead ahead of the car's projection on it
-        a = along + p.lookahead  # type: ignore[attr-defined]
+        a = along + p.lookahead
         cx, cy = gate["x"] + ux * a, gate["y"] + uy * a
         c, s = math.cos(th), math.sin(th)
         fx, fy = c * (cx - x) + s * (cy - y), -s * (cx - x) + c * (cy - y)
@@ -194,7 +194,7 @@ class ArucoGateCenter(CarState):
         alpha = math.atan2(fy, fx)
         delta = math.atan2(2.0 * car.wheelbase * math.sin(alpha), dist)
         car.set_steering(_clamp(delta / car.max_steering_angle))
-        car.set_speed(p.speed)  # type: ignore[attr-defined]
+        car.set_speed(p.speed)
 
 
 class AlignHeadingParams(StateParams):
@@ -212,24 +212,24 @@ class AlignHeadingParams(StateParams):
 
 
 @register_state
-class AlignHeading(CarState):
+class AlignHeading(CarState[AlignHeadingParams]):
     """After a gate: turns back to the heading the car had when ArucoGateFound fired (odometry), i.e. along the corridor whose wall it was following, plus `offset`; finishes within `tolerance` (at once when no gate was found)."""
 
     __slots__ = ("_target",)
     Params = AlignHeadingParams
     can_finish = True
 
-    def __init__(self, id: str, params: StateParams | None = None) -> None:
+    def __init__(self, id: str, params: AlignHeadingParams | None = None) -> None:
         super().__init__(id, params)
         self._target: float | None = None
 
     def on_enter(self, ctx: Context) -> None:
         gate = ctx.vars.get(GATE_VAR)
         base = gate.get("approach_heading") if isinstance(gate, dict) else None
-        snap = self.params.snap  # type: ignore[attr-defined]
+        snap = self.params.snap
         if base is not None and snap is not None:
             base = snap_heading(base, snap)
-        self._target = None if base is None else base + math.radians(self.params.offset)  # type: ignore[attr-defined]
+        self._target = None if base is None else base + math.radians(self.params.offset)
 
     def tick(self, ctx: Context) -> None:
         car = ctx.car
@@ -240,7 +240,7 @@ class AlignHeading(CarState):
             return
         th = car.pose()[2]
         err = math.atan2(math.sin(self._target - th), math.cos(self._target - th))
-        if not self.finished and abs(err) <= math.radians(p.tolerance):  # type: ignore[attr-defined]
+        if not self.finished and abs(err) <= math.radians(p.tolerance):
             self.finish()
-        car.set_steering(_clamp(p.gain * err))  # type: ignore[attr-defined]
-        car.set_speed(p.speed)  # type: ignore[attr-defined]
+        car.set_steering(_clamp(p.gain * err))
+        car.set_speed(p.speed)

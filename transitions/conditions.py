@@ -3,7 +3,8 @@ the ``Condition`` transition that fires when one holds."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, Literal
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, ClassVar, Literal, TypeVar, cast
 
 from pydantic import Field
 
@@ -15,27 +16,12 @@ from fsm.transition import Transition
 
 if TYPE_CHECKING:
     from fsm.context import Context
+    from fsm.expr import Compiled
     from fsm.machine import Machine
     from fsm.state import State
 
 #: Half a nanosecond of slack for times computed from ticks (80 ticks of 0.0125 s are 1 s).
 _EPS = 5e-10
-
-
-class _SignalCondition(Condition):
-    __slots__ = ("signal", "debounce", "filter")
-    signal_refs = ("signal",)
-
-    def __init__(self, params: Any, children: Any = None, exprs: Any = None) -> None:
-        super().__init__(params, children, exprs)
-        self.signal: str = params.signal
-        self.debounce: float = params.debounce
-        self.filter: Debounced | None = None
-
-    def bind(self, machine: Machine, owner: State) -> None:
-        super().bind(machine, owner)
-        if self.debounce > 0:
-            self.filter = Debounced(machine.ctx.signal_history(self.signal), self.debounce)
 
 
 class SignalParams(ConditionParams):
@@ -44,8 +30,28 @@ class SignalParams(ConditionParams):
                                                            "counts (0: no debouncing).")
 
 
+SP = TypeVar("SP", bound=SignalParams)
+
+
+class _SignalCondition(Condition[SP]):
+    __slots__ = ("signal", "debounce", "filter")
+    signal_refs = ("signal",)
+
+    def __init__(self, params: SP, children: list[Condition[Any]] | None = None,
+                 exprs: dict[str, Compiled] | None = None) -> None:
+        super().__init__(params, children, exprs)
+        self.signal: str = params.signal
+        self.debounce: float = params.debounce
+        self.filter: Debounced | None = None
+
+    def bind(self, machine: Machine, owner: State[Any]) -> None:
+        super().bind(machine, owner)
+        if self.debounce > 0:
+            self.filter = Debounced(machine.ctx.signal_history(self.signal), self.debounce)
+
+
 @register_condition
-class SignalHigh(_SignalCondition):
+class SignalHigh(_SignalCondition[SignalParams]):
     """Holds while the signal is high (debounced: once it has been high for `debounce` seconds)."""
 
     __slots__ = ()
@@ -58,7 +64,7 @@ class SignalHigh(_SignalCondition):
 
 
 @register_condition
-class SignalLow(_SignalCondition):
+class SignalLow(_SignalCondition[SignalParams]):
     """Holds while the signal is low (debounced: once it has been low for `debounce` seconds)."""
 
     __slots__ = ()
@@ -75,14 +81,15 @@ class SignalEdgeParams(SignalParams):
 
 
 @register_condition
-class SignalEdge(_SignalCondition):
+class SignalEdge(_SignalCondition[SignalEdgeParams]):
     """Holds in the one tick after the signal's (debounced) level changed as `edge` says; each change counts
     once, however the signal bounced."""
 
     __slots__ = ("rising", "seen")
     Params = SignalEdgeParams
 
-    def __init__(self, params: Any, children: Any = None, exprs: Any = None) -> None:
+    def __init__(self, params: SignalEdgeParams, children: list[Condition[Any]] | None = None,
+                 exprs: dict[str, Compiled] | None = None) -> None:
         super().__init__(params, children, exprs)
         self.rising = params.edge == "rising"
         self.seen = -1.0  # debounced edges up to this time are consumed
@@ -109,16 +116,18 @@ class ExprParams(ConditionParams):
 
 
 @register_condition
-class Expr(Condition):
+class Expr(Condition[ExprParams]):
     """Holds while the expression over blackboard variables is true (`x > 3 and not busy`)."""
 
     __slots__ = ("fn",)
     Params = ExprParams
     expr_fields = ("expr",)
 
-    def __init__(self, params: Any, children: Any = None, exprs: Any = None) -> None:
+    def __init__(self, params: ExprParams, children: list[Condition[Any]] | None = None,
+                 exprs: dict[str, Compiled] | None = None) -> None:
         super().__init__(params, children, exprs)
-        self.fn = self.exprs["expr"].fn
+        # the loader compiled `expr` as a true/false expression, so its closure gives a bool
+        self.fn = cast(Callable[[dict[str, Any]], bool], self.exprs["expr"].fn)
 
     def holds(self, ctx: Context) -> bool:
         return self.fn(ctx.vars)
@@ -132,7 +141,7 @@ class TimeSinceParams(ConditionParams):
 
 
 @register_condition
-class TimeSince(Condition):
+class TimeSince(Condition[TimeSinceParams]):
     """Holds once `seconds` have passed in the owner state (paused time excluded), or since `signal` last
     rose (false while it never has)."""
 
@@ -140,13 +149,14 @@ class TimeSince(Condition):
     Params = TimeSinceParams
     signal_refs = ("signal",)
 
-    def __init__(self, params: Any, children: Any = None, exprs: Any = None) -> None:
+    def __init__(self, params: TimeSinceParams, children: list[Condition[Any]] | None = None,
+                 exprs: dict[str, Compiled] | None = None) -> None:
         super().__init__(params, children, exprs)
         self.seconds = params.seconds - _EPS
         self.signal = params.signal
         self.history: list[tuple[float, bool]] | None = None
 
-    def bind(self, machine: Machine, owner: State) -> None:
+    def bind(self, machine: Machine, owner: State[Any]) -> None:
         super().bind(machine, owner)
         if self.signal is not None:
             self.history = machine.ctx.signal_history(self.signal)
@@ -168,18 +178,21 @@ class InStateParams(ConditionParams):
                                                  "enclosing one ('other/wait'), or absolute ('/a/b').")
 
 
+IP = TypeVar("IP", bound=InStateParams)
+
+
 @register_condition(name="InState")
-class InStateCondition(Condition):
+class InStateCondition(Condition[IP]):
     """Holds while the state at path `state` is active."""
 
     __slots__ = ("other",)
-    Params = InStateParams
+    Params: ClassVar[type[InStateParams]] = InStateParams
     state_refs = ("state",)
 
-    def bind(self, machine: Machine, owner: State) -> None:
+    def bind(self, machine: Machine, owner: State[Any]) -> None:
         super().bind(machine, owner)
         scope = owner.region.path if owner.region is not None else ""
-        self.other = machine.resolve(self.params.state, scope)  # type: ignore[attr-defined]
+        self.other: State[Any] = machine.resolve(self.params.state, scope)
 
     def holds(self, ctx: Context) -> bool:
         return self.other.active
@@ -191,16 +204,16 @@ class OutcomeParams(InStateParams):
 
 
 @register_condition(name="Outcome")
-class OutcomeCondition(InStateCondition):
+class OutcomeCondition(InStateCondition[OutcomeParams]):
     """Holds when the state at path `state` last finished with `outcome` (a sequence's step that was aborted,
     timed out or skipped stays readable until it is entered again)."""
 
     __slots__ = ("outcome",)
     Params = OutcomeParams
 
-    def bind(self, machine: Machine, owner: State) -> None:
+    def bind(self, machine: Machine, owner: State[Any]) -> None:
         super().bind(machine, owner)
-        self.outcome = self.params.outcome  # type: ignore[attr-defined]
+        self.outcome = self.params.outcome
 
     def holds(self, ctx: Context) -> bool:
         other = self.other
@@ -212,7 +225,7 @@ class ManyParams(ConditionParams):
 
 
 @register_condition(name="All")
-class AllOf(Condition):
+class AllOf(Condition[ManyParams]):
     """Holds when every one of `conditions` holds (each is asked every time, so all keep their state)."""
 
     __slots__ = ()
@@ -228,7 +241,7 @@ class AllOf(Condition):
 
 
 @register_condition(name="Any")
-class AnyOf(Condition):
+class AnyOf(Condition[ManyParams]):
     """Holds when at least one of `conditions` holds (each is asked every time, so all keep their state)."""
 
     __slots__ = ()
@@ -248,7 +261,7 @@ class NotParams(ConditionParams):
 
 
 @register_condition(name="Not")
-class NotOf(Condition):
+class NotOf(Condition[NotParams]):
     """Holds when `condition` does not."""
 
     __slots__ = ()
@@ -264,7 +277,7 @@ class ConditionTransitionParams(TransitionParams):
 
 
 @register_transition(name="Condition")
-class ConditionTransition(Transition):
+class ConditionTransition(Transition[ConditionTransitionParams]):
     """Fires when `condition` (a condition object: SignalEdge, Expr, TimeSince, All, ...) holds."""
 
     __slots__ = ()

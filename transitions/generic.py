@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from pydantic import Field
 
@@ -12,10 +12,11 @@ from fsm.transition import Transition
 
 if TYPE_CHECKING:
     from fsm.context import Context
+    from fsm.state import State
 
 
 @register_transition
-class Always(Transition):
+class Always(Transition[TransitionParams]):
     """Fires at the first check: after one tick of the source (or before it, with preempt)."""
 
     __slots__ = ()
@@ -25,39 +26,43 @@ class Always(Transition):
         return True
 
 
+class FinishedParams(TransitionParams):
+    outcome: str | None = Field(default=None, min_length=1,
+                                description="Only this outcome (succeeded, aborted, ...); any if omitted.")
+
+
 @register_transition
-class Finished(Transition):
+class Finished(Transition[FinishedParams]):
     """Fires when the source has finished; with `outcome`, only when it finished with that outcome."""
 
     __slots__ = ("outcome",)
     needs_finishing_source = True
+    Params = FinishedParams
 
-    class Params(TransitionParams):
-        outcome: str | None = Field(default=None, min_length=1,
-                                    description="Only this outcome (succeeded, aborted, ...); any if omitted.")
-
-    def __init__(self, params: TransitionParams, source, target, index: int = 0) -> None:  # type: ignore[no-untyped-def]
+    def __init__(self, params: FinishedParams, source: State[Any], target: State[Any], index: int = 0) -> None:
         super().__init__(params, source, target, index)
-        self.outcome = params.outcome  # type: ignore[attr-defined]
+        self.outcome = params.outcome
 
     def check(self, ctx: Context) -> bool:
         source = self.source
         return source.finished and (self.outcome is None or source.outcome == self.outcome)
 
 
+class TimeoutParams(TransitionParams):
+    seconds: float = Field(gt=0, description="Time in the source state, in seconds.")
+
+
 @register_transition
-class Timeout(Transition):
+class Timeout(Transition[TimeoutParams]):
     """Fires when the source has been active for `seconds` (machine time, paused time excluded)."""
 
     __slots__ = ("seconds",)
+    Params = TimeoutParams
 
-    class Params(TransitionParams):
-        seconds: float = Field(gt=0, description="Time in the source state, in seconds.")
-
-    def __init__(self, params: TransitionParams, source, target, index: int = 0) -> None:  # type: ignore[no-untyped-def]
+    def __init__(self, params: TimeoutParams, source: State[Any], target: State[Any], index: int = 0) -> None:
         super().__init__(params, source, target, index)
         # Half a nanosecond of slack: 80 ticks of 0.0125 s are 1 s, however the floats round.
-        self.seconds = params.seconds - 5e-10  # type: ignore[attr-defined]
+        self.seconds = params.seconds - 5e-10
 
     def check(self, ctx: Context) -> bool:
         return ctx._now - self.source.entered_at >= self.seconds

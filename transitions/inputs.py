@@ -18,23 +18,25 @@ if TYPE_CHECKING:
     from fsm.state import State
 
 
+class SignalTransitionParams(TransitionParams):
+    signal: str = Field(min_length=1, description="Name of the input signal (a button, a switch).")
+    edge: Literal["rising", "falling", "high", "low"] = Field(
+        default="rising", description="rising/falling: the one tick after the change; high/low: while so.")
+    label: str | None = Field(default=None, description="The UML label this transition was drawn with.")
+
+
 @register_transition
-class Signal(Transition):
+class Signal(Transition[SignalTransitionParams]):
     """Fires on an input signal: its rising or falling edge, or while it is high or low."""
 
     __slots__ = ("signal", "edge")
     signal_refs = ("signal",)
+    Params = SignalTransitionParams
 
-    class Params(TransitionParams):
-        signal: str = Field(min_length=1, description="Name of the input signal (a button, a switch).")
-        edge: Literal["rising", "falling", "high", "low"] = Field(
-            default="rising", description="rising/falling: the one tick after the change; high/low: while so.")
-        label: str | None = Field(default=None, description="The UML label this transition was drawn with.")
-
-    def __init__(self, params: TransitionParams, source, target, index: int = 0) -> None:  # type: ignore[no-untyped-def]
+    def __init__(self, params: SignalTransitionParams, source: State[Any], target: State[Any], index: int = 0) -> None:
         super().__init__(params, source, target, index)
-        self.signal = params.signal  # type: ignore[attr-defined]
-        self.edge = params.edge  # type: ignore[attr-defined]
+        self.signal = params.signal
+        self.edge = params.edge
 
     def check(self, ctx: Context) -> bool:
         edge = self.edge
@@ -56,8 +58,14 @@ _OPS = {
 }
 
 
+class VarParams(TransitionParams):
+    var: str = Field(min_length=1, description="Name of the blackboard variable.")
+    op: Literal["==", "!=", "<", "<=", ">", ">="] = Field(default="==", description="Comparison.")
+    value: bool | int | float | str = Field(description="Value to compare with.")
+
+
 @register_transition
-class Var(Transition):
+class Var(Transition[VarParams]):
     """Fires when blackboard variable `var` compares true with `value` (false while the variable is unset).
 
     Both sides must be of one kind: true/false, number or text (``true == 1`` and ``5 == "5"`` are errors, at
@@ -67,23 +75,19 @@ class Var(Transition):
 
     __slots__ = ("var", "op", "value", "_type", "_kind")
     variable_refs = ("var",)
+    Params = VarParams
 
-    class Params(TransitionParams):
-        var: str = Field(min_length=1, description="Name of the blackboard variable.")
-        op: Literal["==", "!=", "<", "<=", ">", ">="] = Field(default="==", description="Comparison.")
-        value: bool | int | float | str = Field(description="Value to compare with.")
-
-    def __init__(self, params: TransitionParams, source, target, index: int = 0) -> None:  # type: ignore[no-untyped-def]
+    def __init__(self, params: VarParams, source: State[Any], target: State[Any], index: int = 0) -> None:
         super().__init__(params, source, target, index)
-        self.var = params.var  # type: ignore[attr-defined]
-        self.op = _OPS[params.op]  # type: ignore[attr-defined]
-        self.value = params.value  # type: ignore[attr-defined]
+        self.var = params.var
+        self.op = _OPS[params.op]
+        self.value = params.value
         self._type = type(self.value)
         self._kind = value_kind(self.value)
 
     @classmethod
-    def variable_test(cls, params: TransitionParams) -> tuple[str, str, Any] | None:
-        return params.var, params.op, params.value  # type: ignore[attr-defined]
+    def variable_test(cls, params: VarParams) -> tuple[str, str, Any] | None:
+        return params.var, params.op, params.value
 
     def check(self, ctx: Context) -> bool:
         current = ctx.vars.get(self.var, _UNSET)
@@ -99,24 +103,26 @@ class Var(Transition):
 _UNSET: Any = object()
 
 
+class InStateParams(TransitionParams):
+    state: str = Field(min_length=1, description="Path of the state, relative to this machine or an "
+                                                 "enclosing one ('other/wait'), or absolute ('/a/b').")
+
+
 @register_transition
-class InState(Transition):
+class InState(Transition[InStateParams]):
     """Fires while the state at path `state` is active (to synchronise parallel regions)."""
 
     __slots__ = ("_other",)
     state_refs = ("state",)
+    Params = InStateParams
 
-    class Params(TransitionParams):
-        state: str = Field(min_length=1, description="Path of the state, relative to this machine or an "
-                                                     "enclosing one ('other/wait'), or absolute ('/a/b').")
-
-    def __init__(self, params: TransitionParams, source, target, index: int = 0) -> None:  # type: ignore[no-untyped-def]
+    def __init__(self, params: InStateParams, source: State[Any], target: State[Any], index: int = 0) -> None:
         super().__init__(params, source, target, index)
-        self._other: State | None = None
+        self._other: State[Any] | None = None
 
     def bind(self, machine: Machine) -> None:
         scope = self.source.region.path if self.source.region is not None else ""
-        self._other = machine.resolve(self.params.state, scope)  # type: ignore[attr-defined]
+        self._other = machine.resolve(self.params.state, scope)
 
     def check(self, ctx: Context) -> bool:
         other = self._other

@@ -5,7 +5,8 @@ and the car's odometry, never the simulator's ground truth."""
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from pydantic import Field, model_validator
 
@@ -15,6 +16,7 @@ from fsm.transition import Transition
 
 if TYPE_CHECKING:
     from fsm.context import Context
+    from fsm.state import State
 
 #: The blackboard variable where ArucoGateFound leaves the gate it found (odometry frame) for the next states.
 GATE_VAR = "gate"
@@ -89,7 +91,7 @@ class RememberedGate:
                 self.center[1] - distance * math.sin(self.heading))
 
 
-def select_gate(view: Any, ids: tuple[int, int] | None, skip: Any = None) -> Any | None:
+def select_gate(view: Any, ids: Sequence[int] | None, skip: Any = None) -> Any | None:
     """The nearest gate of a camera view (with the given left/right ids, when given; without ids, the nearest one
     for which ``skip(ids)`` is not true)."""
     if view is None:
@@ -153,11 +155,64 @@ def approach_point(car: Any, gate: Any, before: float, margin: float, snap: floa
     return clamp_to_walls(car, px, py, margin, keep=gate.center, corridor=corridor)
 
 
-class _CameraTransition(Transition):
+class ArucoGateFoundParams(TransitionParams):
+    ids: list[int] | None = Field(default=None, min_length=2, max_length=2,
+                                  description="Left and right marker id of the gate "
+                                              "(default: any two markers a gate width apart).")
+    range: float = Field(default=2.5, gt=0, le=20, description="Fire when the gate centre is this near, m.")
+    min_range: float = Field(default=0.0, ge=0, le=20, description="... and at least this far, m.")
+    max_angle: float = Field(default=60.0, gt=0, le=90,
+                             description="Only gates the car faces: |gate heading| at most this, degrees.")
+    before: float = Field(default=APPROACH_BEFORE, ge=0, le=5,
+                          description="Distance of the approach point handed to the target, in front of the "
+                                      "gate on its centre line, m.")
+    frames: int = Field(default=2, ge=1, le=100, description="Consecutive camera frames the gate must be seen in.")
+    wall_margin: float = Field(
+        default=WALL_MARGIN, ge=0, le=3,
+        description="Keep the handed point at least this far from the walls the side ultrasonic sensors see "
+                    "(a gate turned towards a wall would put it into the wall), but never past the gate's centre (the "
+                    "readings describe the walls beside the car, not metres ahead), m; 0: off.")
+    snap: float | None = Field(
+        default=None, gt=0, le=180,
+        description="The walls run along a multiple of this many degrees from the start heading (90 in a "
+                    "rectangular loop): the wall margin is then kept square to them, also when the car is turned "
+                    "(default: the car is taken to drive along the walls).")
+    memory: bool = Field(
+        default=False,
+        description="Remember gates (odometry): skip gates already passed, and fire at once on a gate seen "
+                    "earlier, not passed and now out of view, that lies ahead within range.")
+
+    @model_validator(mode="after")
+    def _range(self) -> ArucoGateFoundParams:
+        if self.ids is not None and self.ids[0] == self.ids[1]:
+            raise ValueError("a gate needs two different marker ids")
+        if self.min_range >= self.range:
+            raise ValueError(f"min_range ({self.min_range}) must be below range ({self.range})")
+        return self
+
+
+class ArucoMarkerFoundParams(TransitionParams):
+    marker: int = Field(ge=0, le=4095, description="ArUco id of the marker.")
+    range: float = Field(default=1.5, gt=0, le=20, description="Fire when the marker is this near (from the "
+                                                               "car's centre, horizontally), m.")
+    frames: int = Field(default=2, ge=1, le=100, description="Consecutive camera frames the marker must be seen in.")
+
+
+class ArucoMarkerUnpairedParams(TransitionParams):
+    range: float = Field(default=4.5, gt=0, le=20, description="Only markers this near (from the car's centre, "
+                                                               "horizontally), m.")
+    frames: int = Field(default=2, ge=1, le=100, description="Consecutive camera frames the marker must be seen in.")
+
+
+#: The parameters of a camera transition: each has `frames`.
+CP = TypeVar("CP", bound=ArucoGateFoundParams | ArucoMarkerFoundParams | ArucoMarkerUnpairedParams)
+
+
+class _CameraTransition(Transition[CP]):
     __slots__ = ("_frame", "_count")
     needs_car = True
 
-    def __init__(self, params: TransitionParams, source, target, index: int = 0) -> None:  # type: ignore[no-untyped-def]
+    def __init__(self, params: CP, source: State[Any], target: State[Any], index: int = 0) -> None:
         super().__init__(params, source, target, index)
         self._frame = -1
         self._count = 0
@@ -169,62 +224,28 @@ class _CameraTransition(Transition):
     def check(self, ctx: Context) -> bool:
         view = ctx.car.camera()
         if view is None or view.frame == self._frame:
-            return self._count >= self.params.frames  # type: ignore[attr-defined]
+            return self._count >= self.params.frames
         self._frame = view.frame
         self._count = self._count + 1 if self.seen(view, ctx) else 0
-        return self._count >= self.params.frames  # type: ignore[attr-defined]
+        return self._count >= self.params.frames
 
     def seen(self, view: Any, ctx: Context) -> bool:
         raise NotImplementedError
 
 
 @register_transition
-class ArucoGateFound(_CameraTransition):
+class ArucoGateFound(_CameraTransition[ArucoGateFoundParams]):
     """Fires when the camera sees a gate (two markers; with `ids`, that gate) whose centre is within `range` and which the car faces (|heading| <= `max_angle`), in `frames` frames in a row. Hands the target state (ApproachPoint) the point `before` metres in front of the gate, and leaves the gate on the blackboard (`gate`, odometry frame) for ArucoGateCenter. With `memory`, gates already passed (ArucoGateCenter marks them) are never chosen again, and a gate seen earlier but now out of the camera's view (e.g. while the car was busy with the gate before it) fires at once when it lies ahead within range, its centre at least `before` (and 0.5 m) ahead. Gates are remembered from every camera frame (the car's `gate_memory`), whatever state is active."""
 
     __slots__ = ("_gate",)
+    Params = ArucoGateFoundParams
 
-    class Params(TransitionParams):
-        ids: list[int] | None = Field(default=None, min_length=2, max_length=2,
-                                     description="Left and right marker id of the gate "
-                                                                      "(default: any two markers a gate width apart).")
-        range: float = Field(default=2.5, gt=0, le=20, description="Fire when the gate centre is this near, m.")
-        min_range: float = Field(default=0.0, ge=0, le=20, description="... and at least this far, m.")
-        max_angle: float = Field(default=60.0, gt=0, le=90,
-                                 description="Only gates the car faces: |gate heading| at most this, degrees.")
-        before: float = Field(default=APPROACH_BEFORE, ge=0, le=5,
-                              description="Distance of the approach point handed to the target, in front of the "
-                                          "gate on its centre line, m.")
-        frames: int = Field(default=2, ge=1, le=100, description="Consecutive camera frames the gate must be seen in.")
-        wall_margin: float = Field(
-            default=WALL_MARGIN, ge=0, le=3,
-            description="Keep the handed point at least this far from the walls the side ultrasonic sensors see "
-                        "(a gate turned towards a wall would put it into the wall), but never past the gate's centre (the "
-                        "readings describe the walls beside the car, not metres ahead), m; 0: off.")
-        snap: float | None = Field(
-            default=None, gt=0, le=180,
-            description="The walls run along a multiple of this many degrees from the start heading (90 in a "
-                        "rectangular loop): the wall margin is then kept square to them, also when the car is turned "
-                        "(default: the car is taken to drive along the walls).")
-        memory: bool = Field(
-            default=False,
-            description="Remember gates (odometry): skip gates already passed, and fire at once on a gate seen "
-                        "earlier, not passed and now out of view, that lies ahead within range.")
-
-        @model_validator(mode="after")
-        def _range(self) -> "ArucoGateFound.Params":
-            if self.ids is not None and self.ids[0] == self.ids[1]:
-                raise ValueError("a gate needs two different marker ids")
-            if self.min_range >= self.range:
-                raise ValueError(f"min_range ({self.min_range}) must be below range ({self.range})")
-            return self
-
-    def __init__(self, params: TransitionParams, source, target, index: int = 0) -> None:  # type: ignore[no-untyped-def]
+    def __init__(self, params: ArucoGateFoundParams, source: State[Any], target: State[Any], index: int = 0) -> None:
         super().__init__(params, source, target, index)
         self._gate: Any = None
 
     def check(self, ctx: Context) -> bool:
-        if not self.params.memory:  # type: ignore[attr-defined]
+        if not self.params.memory:
             return super().check(ctx)
         view = ctx.car.camera()
         if view is not None and view.frame != self._frame:
@@ -239,8 +260,8 @@ class ArucoGateFound(_CameraTransition):
 
     def _usable(self, gate: Any) -> bool:
         p = self.params
-        return (gate is not None and p.min_range <= gate.distance <= p.range  # type: ignore[attr-defined]
-                and abs(gate.heading) <= math.radians(p.max_angle))  # type: ignore[attr-defined]
+        return (gate is not None and p.min_range <= gate.distance <= p.range
+                and abs(gate.heading) <= math.radians(p.max_angle))
 
     def _remembered(self, ctx: Context) -> Any | None:
         """The nearest gate seen earlier, not passed, within range and at least `before` (0.5 m at least) ahead:
@@ -248,19 +269,19 @@ class ArucoGateFound(_CameraTransition):
         p = self.params
         best = None
         for entry in ctx.vars.get(SEEN_VAR, {}).values():
-            if was_passed(ctx, entry["ids"]) or (p.ids is not None  # type: ignore[attr-defined]
-                                                 and list(p.ids) != list(entry["ids"])):  # type: ignore[attr-defined]
+            if was_passed(ctx, entry["ids"]) or (p.ids is not None
+                                                 and list(p.ids) != list(entry["ids"])):
                 continue
             gate = RememberedGate(ctx.car, entry)
-            if self._usable(gate) and gate.center[0] >= max(p.before, 0.5):  # type: ignore[attr-defined]
+            if self._usable(gate) and gate.center[0] >= max(p.before, 0.5):
                 if best is None or gate.distance < best.distance:
                     best = gate
         return best
 
     def seen(self, view: Any, ctx: Context) -> bool:
         p = self.params
-        skip = (lambda ids: was_passed(ctx, ids)) if p.memory else None  # type: ignore[attr-defined]
-        gate = select_gate(view, p.ids, skip)  # type: ignore[attr-defined]
+        skip = (lambda ids: was_passed(ctx, ids)) if p.memory else None
+        gate = select_gate(view, p.ids, skip)
         if gate is not None and skip is not None and skip(gate.ids):
             gate = None
         ok = self._usable(gate)
@@ -277,42 +298,33 @@ class ArucoGateFound(_CameraTransition):
         setter = getattr(self.target, "set_target", None)
         if setter is not None and getattr(self.target, "accepts_target", False):
             p = self.params
-            px, py = approach_point(ctx.car, gate, p.before, p.wall_margin, p.snap)  # type: ignore[attr-defined]
+            px, py = approach_point(ctx.car, gate, p.before, p.wall_margin, p.snap)
             setter(ctx, px, py, gate.heading)
 
 
 @register_transition
-class ArucoMarkerFound(_CameraTransition):
+class ArucoMarkerFound(_CameraTransition[ArucoMarkerFoundParams]):
     """Fires when the camera sees the marker with id `marker` within `range` metres, in `frames` frames in a row (the report's "behaviour by id": one transition per id)."""
 
     __slots__ = ()
-
-    class Params(TransitionParams):
-        marker: int = Field(ge=0, le=4095, description="ArUco id of the marker.")
-        range: float = Field(default=1.5, gt=0, le=20, description="Fire when the marker is this near (from the "
-                                                                   "car's centre, horizontally), m.")
-        frames: int = Field(default=2, ge=1, le=100, description="Consecutive camera frames the marker must be seen in.")
+    Params = ArucoMarkerFoundParams
 
     def seen(self, view: Any, ctx: Context) -> bool:
-        d = view.marker(self.params.marker)  # type: ignore[attr-defined]
-        return d is not None and d.distance <= self.params.range  # type: ignore[attr-defined]
+        d = view.marker(self.params.marker)
+        return d is not None and d.distance <= self.params.range
 
 
 @register_transition
-class ArucoMarkerUnpaired(_CameraTransition):
+class ArucoMarkerUnpaired(_CameraTransition[ArucoMarkerUnpairedParams]):
     """Fires when the camera sees, within `range`, a marker that makes no gate with another marker in view and belongs to no gate seen before or passed, in `frames` frames in a row: one post of a gate whose other post is out of the camera's view (near a wall, at the edge of the field of view), so the gate has never been seen whole. Route it to a state that gives the camera a wider look (backing off)."""
 
     __slots__ = ()
-
-    class Params(TransitionParams):
-        range: float = Field(default=4.5, gt=0, le=20, description="Only markers this near (from the car's centre, "
-                                                                   "horizontally), m.")
-        frames: int = Field(default=2, ge=1, le=100, description="Consecutive camera frames the marker must be seen in.")
+    Params = ArucoMarkerUnpairedParams
 
     def seen(self, view: Any, ctx: Context) -> bool:
         remember_gates(ctx, view)
         known = {int(i) for g in view.gates for i in g.ids}
         known.update(int(i) for entry in ctx.vars.get(SEEN_VAR, {}).values() for i in entry["ids"])
         known.update(int(i) for ids in ctx.vars.get(PASSED_VAR, []) for i in ids)
-        return any(d.id not in known and d.distance <= self.params.range  # type: ignore[attr-defined]
+        return any(d.id not in known and d.distance <= self.params.range
                    for d in view.detections)

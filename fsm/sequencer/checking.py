@@ -6,13 +6,14 @@ from __future__ import annotations
 
 import difflib
 from dataclasses import dataclass
+from typing import cast
 
 from fsm.document import MachineSpec, StateSpec
 from fsm.outcomes import can_finish
 from fsm.problems import Problems
 
 from .parsing import SequenceLayout, is_detached
-from .steps import Join, ResetTimeout
+from .steps import Join, JoinParams, ResetTimeout, ResetTimeoutParams
 
 #: Behaviours that act on the owner's caller (the state that contains it).
 CALLER_BEHAVIORS = ("abortCallerOfOwner", "restartCallerOfOwner")
@@ -91,7 +92,8 @@ def _check_state(problems: Problems, st: StateSpec, caller: StateSpec | None, se
 
 def _check_steps(problems: Problems, st: StateSpec, seqs: tuple[Enclosing, ...]) -> None:
     """Join and ResetTimeout references; blocking steps that can never finish."""
-    layout: SequenceLayout = st.sequence
+    layout = st.sequence
+    assert layout is not None  # called for sequences only
     started: dict[str, bool] = {}  # non-blocking sequence ids placed before the current step, here and outside
     for holder in seqs:
         for step in holder.layout.steps:
@@ -105,7 +107,7 @@ def _check_steps(problems: Problems, st: StateSpec, seqs: tuple[Enclosing, ...])
         if issubclass(step.cls, Join):
             _check_join(problems, step, started, blocking_ids)
         if issubclass(step.cls, ResetTimeout):
-            owner = step.params.owner  # type: ignore[attr-defined]
+            owner = cast(ResetTimeoutParams, step.params).owner  # a ResetTimeout's parameters are its Params
             target = _reset_target(owner, seqs, st)
             if target is None:
                 problems.add(f"'owner' names no sequence or step: '{owner}'", step.source, step.pointer + "/owner",
@@ -120,7 +122,7 @@ def _check_steps(problems: Problems, st: StateSpec, seqs: tuple[Enclosing, ...])
 
 
 def _check_join(problems: Problems, step: StateSpec, started: dict[str, bool], blocking_ids: set[str]) -> None:
-    for i, name in enumerate(step.params.sequences):  # type: ignore[attr-defined]
+    for i, name in enumerate(cast(JoinParams, step.params).sequences):  # a Join's parameters are its Params
         ptr = f"{step.pointer}/sequences/{i}"
         if name in started:
             continue
@@ -143,7 +145,8 @@ def _reset_target(name: str, seqs: tuple[Enclosing, ...], here: StateSpec) -> St
     for holder in [here] + [s.spec for s in reversed(seqs)]:
         if holder.id == name:
             return holder
-        layout: SequenceLayout = holder.sequence
+        layout = holder.sequence
+        assert layout is not None  # this sequence and the enclosing ones
         for step in layout.steps:
             if step.id == name:
                 return step

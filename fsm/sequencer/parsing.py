@@ -7,7 +7,7 @@ compile, build) treat it like any drawn machine.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 from fsm.document import MachineSpec, Source, StateSpec, SubMachine, TransitionSpec
 
@@ -55,7 +55,8 @@ def is_detached(st: StateSpec) -> bool:
 
 def parse_sequence(parser: Parser, spec: StateSpec, depth: int) -> None:
     """Parse a Sequence's steps and exceptions into ``spec.subs`` and ``spec.sequence``."""
-    source, ptr, params = spec.source, spec.pointer, spec.params
+    source, ptr = spec.source, spec.pointer
+    params = cast(steps.SequenceParams, spec.params)  # a Sequence's parameters are its Params
     add = parser.problems.add
     found = _Steps()
     first_at: dict[str, str] = {}
@@ -69,7 +70,7 @@ def parse_sequence(parser: Parser, spec: StateSpec, depth: int) -> None:
         else:
             first_at[st_id] = p
 
-    for i, raw in enumerate(params.steps):  # type: ignore[attr-defined]
+    for i, raw in enumerate(params.steps):
         p = f"{ptr}/steps/{i}"
         if not isinstance(raw, dict):
             add("a step is a state element (an object with 'id' and 'type')", source, p,
@@ -86,7 +87,7 @@ def parse_sequence(parser: Parser, spec: StateSpec, depth: int) -> None:
             found.detached.append((len(found.chain) - 1, st))
         else:
             found.chain.append(st)
-    for i, raw in enumerate(getattr(params, "exceptions", None) or ()):
+    for i, raw in enumerate(params.exceptions or ()):
         p = f"{ptr}/exceptions/{i}"
         if not isinstance(raw, dict):
             add("an exception sequence is a Sequence element", source, p, element=f"sequence '{spec.id}'")

@@ -33,7 +33,26 @@ if TYPE_CHECKING:
 _EPS = 5e-10
 
 
-class Sequence(Composite):
+class SequenceParams(StateParams):
+    steps: list[dict[str, Any]] = Field(
+        min_length=1, description="The steps in order: state elements (any registered state type, Step, Wait, "
+                                  "SetVar, ResetTimeout, Join, or a nested Sequence).")
+    blocking: bool = Field(
+        default=True, description="false: when its caller reaches it, it starts beside the caller's next "
+                                  "steps (a parallel region) and the caller goes on at once.")
+    repeat: Int = Field(default=1, ge=0, description="Times the steps run; 0: again and again until "
+                                                     "stopped from outside.")
+    pause_signal: str | None = Field(
+        default=None, min_length=1, description="Input signal whose rising edges pause and resume this "
+                                                "sequence (one push button).")
+    pause_debounce: float = Field(default=0.0, ge=0, description="Seconds the pause signal must be stable "
+                                                                 "before an edge counts (0: none).")
+    exceptions: list[dict[str, Any]] | None = Field(
+        default=None, min_length=1, description="Exception sequences (Sequence elements), named by monitors "
+                                                "and timeouts of this sequence and of everything inside it.")
+
+
+class Sequence(Composite[SequenceParams]):
     """Steps run in order (EEROS); finishes when the last step and its non-blocking sequences have, `repeat` times.
 
     Outcome "succeeded"; with the step-common keys also "aborted", "timeout" or "precondition_failed"."""
@@ -43,43 +62,26 @@ class Sequence(Composite):
 
     signal_refs = ("pause_signal",)
     outcomes = None
+    Params = SequenceParams
 
-    class Params(StateParams):
-        steps: list[dict[str, Any]] = Field(
-            min_length=1, description="The steps in order: state elements (any registered state type, Step, Wait, "
-                                      "SetVar, ResetTimeout, Join, or a nested Sequence).")
-        blocking: bool = Field(
-            default=True, description="false: when its caller reaches it, it starts beside the caller's next "
-                                      "steps (a parallel region) and the caller goes on at once.")
-        repeat: Int = Field(default=1, ge=0, description="Times the steps run; 0: again and again until "
-                                                         "stopped from outside.")
-        pause_signal: str | None = Field(
-            default=None, min_length=1, description="Input signal whose rising edges pause and resume this "
-                                                    "sequence (one push button).")
-        pause_debounce: float = Field(default=0.0, ge=0, description="Seconds the pause signal must be stable "
-                                                                     "before an edge counts (0: none).")
-        exceptions: list[dict[str, Any]] | None = Field(
-            default=None, min_length=1, description="Exception sequences (Sequence elements), named by monitors "
-                                                    "and timeouts of this sequence and of everything inside it.")
-
-    def __init__(self, id: str, params: StateParams | None = None) -> None:
+    def __init__(self, id: str, params: SequenceParams | None = None) -> None:
         super().__init__(id, params)
         self.chain: Region | None = None
-        self.last: State | None = None
+        self.last: State[Any] | None = None
         #: non-blocking sequences: (index of the blocking step after which it starts, -1: at once, region)
         self.detached: list[tuple[int, Region]] = []
         self.running: list[Region] = []
         #: outcome of each non-blocking sequence that finished in this run of the steps, by id
         self.done: dict[str, str] = {}
         self.exceptions: dict[str, Region] = {}
-        self.repeat = getattr(self.params, "repeat", 1)
+        self.repeat = self.params.repeat
         self.iteration = 0
         #: bumped on each entry: a tick that sees it change was interrupted by a restart from inside
         self.epoch = 0
         self.tail = False
 
     @classmethod
-    def submachines(cls, params: StateParams) -> list[tuple[str | None, Any, str]]:
+    def submachines(cls, params: SequenceParams) -> list[tuple[str | None, Any, str]]:
         return []  # its regions come from its steps: see parse_regions
 
     @classmethod
@@ -88,7 +90,7 @@ class Sequence(Composite):
         sequence_parsing.parse_sequence(parser, spec, depth)
 
     @classmethod
-    def composite_outcomes(cls, params: StateParams, regions: list[set[str] | None]) -> set[str] | None:
+    def composite_outcomes(cls, params: SequenceParams, regions: list[set[str] | None]) -> set[str] | None:
         return {"succeeded"}
 
     # -- built from the plan ----------------------------------------------------------------------------
@@ -111,9 +113,9 @@ class Sequence(Composite):
 
     def bind(self, machine: Machine) -> None:
         """A pause button (``pause_signal``): each debounced rising edge pauses or resumes this sequence."""
-        signal = self.params.pause_signal  # type: ignore[attr-defined]
+        signal = self.params.pause_signal
         if signal:
-            machine.add_pause_button(self, signal, self.params.pause_debounce)  # type: ignore[attr-defined]
+            machine.add_pause_button(self, signal, self.params.pause_debounce)
 
     # -- running ----------------------------------------------------------------------------------------
     def on_enter(self, ctx: Context) -> None:
@@ -123,10 +125,12 @@ class Sequence(Composite):
 
     def _begin(self) -> None:
         """A fresh run of the steps: the chain and the non-blocking sequences placed before the first step."""
+        chain = self.chain
+        assert chain is not None  # attach_regions set it when the machine was built
         self.done = {}
         self.tail = False
         self.running = [r for after, r in self.detached if after < 0]
-        self.regions = (self.chain, *self.running)  # type: ignore[assignment]
+        self.regions = (chain, *self.running)
 
     def start_detached(self, region: Region, ctx: Context) -> None:
         """The chain passed the place of a non-blocking sequence: it starts beside the chain."""
@@ -146,23 +150,24 @@ class Sequence(Composite):
                 return  # restarted or aborted from inside
             if region is not self.chain and region.active.finished:
                 self._detached_done(region, ctx)
-        chain = self.chain
-        if chain.active is not self.last or not self.last.finished:  # type: ignore[union-attr]
+        chain, last = self.chain, self.last
+        assert chain is not None and last is not None  # attach_regions set them when the machine was built
+        if chain.active is not last or not last.finished:
             return
         if not self.tail:
             self.tail = True
             for after, region in self.detached:
-                if after == len(chain.states) - 1:  # type: ignore[union-attr]
+                if after == len(chain.states) - 1:
                     self.start_detached(region, ctx)
         if self.running:
             return  # the last step is done; waiting for the non-blocking sequences (implicit join)
         self.iteration += 1
         if self.repeat == 0 or self.iteration < self.repeat:
-            chain.stop(ctx)  # type: ignore[union-attr]
+            chain.stop(ctx)
             self._begin()
             for region in self.running:
                 region.start(ctx)
-            chain.start(ctx)  # type: ignore[union-attr]
+            chain.start(ctx)
             return
         self.finish("succeeded")
 
@@ -171,11 +176,11 @@ class Sequence(Composite):
         self.done[state.id] = state.outcome or "succeeded"
         region.stop(ctx)
         self.running.remove(region)
-        self.regions = tuple(r for r in self.regions if r is not region)  # type: ignore[assignment]
+        self.regions = tuple(r for r in self.regions if r is not region)
 
     def on_exit(self, ctx: Context) -> None:
         self.running = []
-        self.regions = (self.chain,)  # type: ignore[assignment]
+        self.regions = () if self.chain is None else (self.chain,)
 
 
 def _start_on(link: Any, seq: Sequence, region: Region) -> None:
@@ -183,7 +188,7 @@ def _start_on(link: Any, seq: Sequence, region: Region) -> None:
     link.then(lambda ctx: seq.start_detached(region, ctx))
 
 
-class Step(State):
+class Step(State[StateParams]):
     """A step (EEROS): its action is its `set.on_enter`; finishes when `until` holds (at once without `until`)."""
 
     __slots__ = ()
@@ -194,59 +199,65 @@ class Step(State):
             self.finish("succeeded")
 
 
-class Wait(State):
+class WaitParams(StateParams):
+    seconds: float = Field(ge=0, description="How long to wait, in seconds of machine time.")
+
+
+class Wait(State[WaitParams]):
     """Finishes after `seconds` in the state (paused and suspended time excluded)."""
 
     __slots__ = ("seconds",)
     can_finish = True
+    Params = WaitParams
 
-    class Params(StateParams):
-        seconds: float = Field(ge=0, description="How long to wait, in seconds of machine time.")
-
-    def __init__(self, id: str, params: StateParams | None = None) -> None:
+    def __init__(self, id: str, params: WaitParams | None = None) -> None:
         super().__init__(id, params)
-        self.seconds = getattr(self.params, "seconds", 0.0) - _EPS
+        self.seconds = self.params.seconds - _EPS
 
     def tick(self, ctx: Context) -> None:
         if self.time_in_state(ctx) >= self.seconds:
             self.finish("succeeded")
 
 
-class SetVar(State):
+class SetVarParams(StateParams):
+    assign: Assignments = Field(description='Variables assigned on entry, in order: {"var": "expression"}.')
+
+
+class SetVar(State[SetVarParams]):
     """Assigns blackboard variables on entry and finishes in the tick it is entered."""
 
     __slots__ = ()
     can_finish = True
+    Params = SetVarParams
 
     assignment_fields = ("assign",)
-
-    class Params(StateParams):
-        assign: Assignments = Field(description='Variables assigned on entry, in order: {"var": "expression"}.')
 
     def on_enter(self, ctx: Context) -> None:
         self.finish("succeeded")
 
 
-class ResetTimeout(State):
+class ResetTimeoutParams(StateParams):
+    owner: str = Field(min_length=1, description="The sequence or step whose timeout restarts: its id, or a "
+                                                 "path relative to this machine or absolute.")
+
+
+class ResetTimeout(State[ResetTimeoutParams]):
     """Restarts the timeout clock of `owner` (a sequence or step: its id); finishes at once."""
 
     __slots__ = ("target",)
     can_finish = True
     state_refs = ("owner",)
+    Params = ResetTimeoutParams
 
-    class Params(StateParams):
-        owner: str = Field(min_length=1, description="The sequence or step whose timeout restarts: its id, or a "
-                                                     "path relative to this machine or absolute.")
-
-    def __init__(self, id: str, params: StateParams | None = None) -> None:
+    def __init__(self, id: str, params: ResetTimeoutParams | None = None) -> None:
         super().__init__(id, params)
-        self.target: State | None = None
+        self.target: State[Any] | None = None
 
     def bind(self, machine: Machine) -> None:
         """The owner: the nearest enclosing sequence of that id, or a step of one (the checks found it)."""
-        name = self.params.owner.strip("/").split("/")[-1]  # type: ignore[attr-defined]
+        name = self.params.owner.strip("/").split("/")[-1]
         seq = enclosing_sequence(self)
-        target: State | None = None
+        target: State[Any] | None = None
         while seq is not None and target is None:
             if seq.id == name:
                 target = seq
@@ -264,16 +275,18 @@ class ResetTimeout(State):
         self.finish("succeeded")
 
 
-class Join(State):
+class JoinParams(StateParams):
+    sequences: list[str] = Field(min_length=1, description="Ids of non-blocking sequences to wait for.")
+
+
+class Join(State[JoinParams]):
     """Waits until the named non-blocking sequences (started before, here or in an enclosing sequence) finished."""
 
     __slots__ = ("holders",)
     can_finish = True
+    Params = JoinParams
 
-    class Params(StateParams):
-        sequences: list[str] = Field(min_length=1, description="Ids of non-blocking sequences to wait for.")
-
-    def __init__(self, id: str, params: StateParams | None = None) -> None:
+    def __init__(self, id: str, params: JoinParams | None = None) -> None:
         super().__init__(id, params)
         #: (sequence that starts it, its id) per name, bound when the machine is built
         self.holders: list[tuple[Sequence, str]] = []
@@ -281,7 +294,7 @@ class Join(State):
     def bind(self, machine: Machine) -> None:
         """Each named non-blocking sequence's holder: the nearest enclosing sequence that starts it."""
         holders = []
-        for name in self.params.sequences:  # type: ignore[attr-defined]
+        for name in self.params.sequences:
             holder = enclosing_sequence(self)
             while holder is not None and name not in [r.initial.id for _, r in holder.detached]:
                 holder = enclosing_sequence(holder)
@@ -296,7 +309,7 @@ class Join(State):
         self.finish("succeeded")
 
 
-def enclosing_sequence(state: State) -> Sequence | None:
+def enclosing_sequence(state: State[Any]) -> Sequence | None:
     """The nearest Sequence that contains ``state``."""
     region = state.region
     while region is not None and region.owner is not None:

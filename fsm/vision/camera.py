@@ -148,7 +148,8 @@ class CameraMount:
         cp, sp = math.cos(self.pitch), math.sin(self.pitch)
         yaw = np.array([[cy_, -sy_, 0.0], [sy_, cy_, 0.0], [0.0, 0.0, 1.0]])
         pitch = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])  # about +y: forward tilts down
-        return yaw @ pitch @ _BODY_FROM_OPTICAL
+        rotation: np.ndarray = yaw @ pitch @ _BODY_FROM_OPTICAL  # numpy types the product of arrays as Any
+        return rotation
 
     def translation(self) -> np.ndarray:
         return np.array([self.x, self.y, self.height])
@@ -156,4 +157,5 @@ class CameraMount:
     def to_car(self, p_optical: np.ndarray) -> np.ndarray:
         """A point (or N x 3 points) from the optical frame into the car frame."""
         p = np.asarray(p_optical, dtype=np.float64)
-        return p @ self.rotation().T + self.translation()
+        point: np.ndarray = p @ self.rotation().T + self.translation()  # numpy types the product as Any
+        return point

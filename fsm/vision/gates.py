@@ -98,9 +98,9 @@ def find_gates(detections: Iterable[Detection], rule: GateRule | None = None) ->
         for d in markers:  # a duplicated id: keep the nearer one
             if d.id not in by_id or d.distance < by_id[d.id].distance:
                 by_id[d.id] = d
-        for left, right in rule.pairs:
-            if left in by_id and right in by_id:
-                gates.append(Gate.from_markers(by_id[left], by_id[right]))
+        for left_id, right_id in rule.pairs:
+            if left_id in by_id and right_id in by_id:
+                gates.append(Gate.from_markers(by_id[left_id], by_id[right_id]))
     else:
         candidates = []
         for i, a in enumerate(markers):

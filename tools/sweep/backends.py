@@ -13,11 +13,22 @@ class BackendError(Exception):
 
 
 def local_pool(processes: int) -> Any:
+    """A spawn pool whose workers never see Ctrl-C: SIGINT is blocked while they start (a blocked signal stays
+    blocked across exec, so a Ctrl-C while a worker imports raises nothing there) and ignored once they run; the
+    parent stops them. A Ctrl-C that arrives meanwhile reaches the parent when it is unblocked."""
     import multiprocessing
+    import signal
+    from multiprocessing import resource_tracker
 
     from .worker import init_worker
 
-    return multiprocessing.get_context("spawn").Pool(processes, initializer=init_worker)
+    resource_tracker.ensure_running()  # first: starting it unblocks SIGINT in this thread again
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT}) if hasattr(signal, "pthread_sigmask") else None
+    try:
+        return multiprocessing.get_context("spawn").Pool(processes, initializer=init_worker)
+    finally:
+        if blocked is not None:
+            signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
 
 
 def ray_pool(processes: int, address: str | None) -> Any:

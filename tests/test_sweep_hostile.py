@@ -205,11 +205,14 @@ def test_the_longest_sweep_duration_is_one_fsmctl_run_accepts() -> None:
     assert spec.check_duration(longest * (1 + 1e-12)) is not None
 
 
-def test_the_reproduce_command_carries_the_duration_exactly(machine: Path, tmp_path: Path,
-                                                            capsys: pytest.CaptureFixture[str]) -> None:
-    code, _out, err = sweep(capsys, machine, tmp_path / "o", "--duration", "0.123456789")
-    assert code == 0, err
-    assert "--duration 0.123456789 " in lines(tmp_path / "o" / "sweep.jsonl")[0]["command"]
+def test_the_reproduce_command_carries_the_duration_exactly(machine: Path, tmp_path: Path) -> None:
+    """``0.123456789`` is not cut to six digits (``%g``): the run alone stops where the sweep's did."""
+    from fsm.tools.sweep.runner import CLI, plan
+    from fsm.tools.sweep.spec import SweepSpec
+
+    spec = SweepSpec(machine=str(machine), duration=0.123456789)
+    command = plan(spec, tmp_path, "x", CLI, tmp_path / "o").jobs[0]["command"]
+    assert "--duration 0.123456789 " in command
 
 
 @pytest.mark.parametrize("key, values, message", [

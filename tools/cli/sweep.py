@@ -100,12 +100,14 @@ def _sweep(args: argparse.Namespace, interrupts: Interrupts) -> int:
         todo = [job for job in p.jobs if job["key"] not in resume.records]
         folder.check_runs(job["id"] for job in todo)
         if interrupts.stop():
-            print("fsmctl sweep: interrupted before any run started", file=sys.stderr)
-            return EXIT_INTERRUPTED
-    except BaseException:
+            raise KeyboardInterrupt
+    except BaseException as exc:
         if pool is not None:
             pool.terminate()
             pool.join()
+        if isinstance(exc, KeyboardInterrupt):
+            print("fsmctl sweep: interrupted before any run started", file=sys.stderr)
+            return EXIT_INTERRUPTED
         raise
     if not args.quiet:
         for warning in resume.warnings:

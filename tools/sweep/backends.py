@@ -41,6 +41,11 @@ def ray_pool(processes: int, address: str | None) -> Any:
 
     if address and address != "auto":
         _reachable(address)
+    import signal
+    import threading
+
+    main = threading.current_thread() is threading.main_thread()
+    sigterm = signal.getsignal(signal.SIGTERM) if main else None
     try:
         if not ray.is_initialized():
             if address:
@@ -51,6 +56,9 @@ def ray_pool(processes: int, address: str | None) -> Any:
     except Exception as exc:  # ConnectionError, TimeoutError, ValueError for a malformed address, ...
         where = f"at {address}" if address else "locally"
         raise BackendError(f"cannot start or reach a Ray cluster {where}: {' '.join(str(exc).split())[:300]}") from None
+    finally:
+        if main and sigterm is not None:  # ray.init makes SIGTERM exit at once; the sweep's own handler stops cleanly
+            signal.signal(signal.SIGTERM, sigterm)
     return Pool(processes, initializer=init_worker)
 
 

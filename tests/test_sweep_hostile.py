@@ -167,7 +167,7 @@ def test_a_grid_too_large_is_refused_before_it_is_built(machine: Path, tmp_path:
     ("0:1e9", "at /seeds: error: seeds '0:1e9': write START:STOP"),
     ("-3:2", "at /seeds: error: seeds '-3:2'"),
     ([], "the grid is empty"),
-    ([3, 3], "runs 0000 and 0001 would be the same run"),
+    ([3, 3], "at /seeds/1: error: seeds: 3 is given twice (items 0 and 1)"),
 ])
 def test_bad_seeds_in_a_sweep_file(seeds: object, message: str, machine: Path, tmp_path: Path,
                                    capsys: pytest.CaptureFixture[str]) -> None:
@@ -213,6 +213,21 @@ def test_the_reproduce_command_carries_the_duration_exactly(machine: Path, tmp_p
     spec = SweepSpec(machine=str(machine), duration=0.123456789)
     command = plan(spec, tmp_path, "x", CLI, tmp_path / "o").jobs[0]["command"]
     assert "--duration 0.123456789 " in command
+
+
+def test_a_world_or_value_given_twice_is_refused(machine: Path, tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    """Two runs that would be the same run (a world named twice, by a glob and by name; a value twice)."""
+    (tmp_path / "worlds").mkdir()
+    (tmp_path / "worlds" / "hallway.json").write_bytes(HALLWAY.read_bytes())
+    spec = tmp_path / "s.json"
+    spec.write_text(json.dumps({"machine": "mission.json", "worlds": ["worlds/*.json", "./worlds/hallway.json"]}))
+    code, _out, err = cli(capsys, "sweep", str(spec), "-o", str(tmp_path / "o"))
+    assert code == 1 and f"at /worlds/1: error: worlds: {tmp_path / 'worlds' / 'hallway.json'} is named twice (by " \
+                         "'worlds/*.json' and './worlds/hallway.json')" in err, err
+    spec.write_text(json.dumps({"machine": "mission.json", "set": {"mission/halt.still": [0.5, 1, 0.5]}}))
+    code, _out, err = cli(capsys, "sweep", str(spec), "-o", str(tmp_path / "o"))
+    assert code == 1 and "at /set/mission~1halt.still/2: error: set mission/halt.still: 0.5 is given twice" in err
 
 
 @pytest.mark.parametrize("key, values, message", [

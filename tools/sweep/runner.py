@@ -24,8 +24,8 @@ from fsm.errors import DiagramError, FsmError, Problem, UsageError
 from . import overrides as O
 from .folder import Folder, RecordLog, Resume, write_file
 from .results import csv_text, html_page, success
-from .spec import (MAX_RUNS, Run, SpecError, SweepSpec, check_duration, check_vars, count_runs, escape_pointer,
-                   expand_worlds, files_digest, grid, parse_seeds, run_key, seed_runs)
+from .spec import (MAX_RUNS, Run, SpecError, SweepSpec, check_duration, check_unique, check_vars, count_runs,
+                   escape_pointer, expand_worlds, files_digest, grid, parse_seeds, run_key, seed_runs)
 
 
 @dataclass
@@ -92,6 +92,11 @@ def plan(spec: SweepSpec, base: Path, name: str, where: str, out_dir: Path, *, f
         sets = _set_axes(spec.set)
         check_vars(spec.vars)
         worlds: list[Path | None] = list(expand_worlds(spec.worlds, base))
+        check_unique(seeds, "seeds", "/seeds")
+        for path, param, values in sets:
+            check_unique(values, f"set {path}.{param}", f"/set/{escape_pointer(f'{path}.{param}')}")
+        for key, values in spec.vars.items():
+            check_unique(values, f"vars {key}", f"/vars/{escape_pointer(key)}")
     except SpecError as exc:
         raise fail(str(exc), exc.pointer) from None
     axes = [(f"{len(values)} values of {path}.{param}", len(values)) for path, param, values in sets]

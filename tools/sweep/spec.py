@@ -151,6 +151,19 @@ def check_vars(variables: dict[str, list[Any]]) -> None:
                 raise SpecError(f"vars {name}: {_short(v)} is not a number, true/false or text", f"{where}/{i}")
 
 
+def check_unique(values: Sequence[Any], what: str, pointer: str) -> None:
+    """A :class:`SpecError` when a value is given twice (two runs would be the same run)."""
+    if isinstance(values, range):
+        return
+    seen: dict[str, int] = {}
+    for i, value in enumerate(values):
+        text = json.dumps(value, sort_keys=True, default=str)
+        if text in seen:
+            raise SpecError(f"{what}: {_short(value)} is given twice (items {seen[text]} and {i}), which would "
+                            "run the same run twice", f"{pointer}/{i}")
+        seen[text] = i
+
+
 def escape_pointer(key: str) -> str:
     """``key`` as one step of a JSON pointer."""
     return key.replace("~", "~0").replace("/", "~1")
@@ -185,9 +198,9 @@ def read_spec_file(path: Path) -> SweepSpec:
 
 
 def expand_worlds(patterns: list[str], base: Path) -> list[Path]:
-    """World files from names and globs (relative to ``base``, made absolute and normal, so one world named two
-    ways is one); a glob that matches nothing, or a file that is not there, is a :class:`SpecError`."""
-    out: list[Path] = []
+    """World files from names and globs (relative to ``base``, made absolute and normal); a glob that matches
+    nothing, a file that is not there, or a world named twice (two runs would be one) is a :class:`SpecError`."""
+    out: dict[Path, int] = {}
     for i, pattern in enumerate(patterns):
         full = os.path.normpath(os.path.join(base, pattern))
         try:
@@ -195,16 +208,20 @@ def expand_worlds(patterns: list[str], base: Path) -> list[Path]:
                 found = sorted(Path(p) for p in glob.glob(full))
                 if not found:
                     raise SpecError(f"worlds: {pattern!r} matches no file (looked in {base})", f"/worlds/{i}")
-                out.extend(found)
             elif os.path.isfile(full):
-                out.append(Path(full))
+                found = [Path(full)]
             else:
                 raise SpecError(f"worlds: no world file {full}", f"/worlds/{i}")
         except ValueError as exc:
             if isinstance(exc, SpecError):
                 raise
             raise SpecError(f"worlds: {pattern!r} is not a usable file name", f"/worlds/{i}") from None
-    return out
+        for path in found:
+            if path in out:
+                raise SpecError(f"worlds: {path} is named twice (by {patterns[out[path]]!r} and {pattern!r}), which "
+                                "would run the same runs twice", f"/worlds/{i}")
+            out[path] = i
+    return list(out)
 
 
 @dataclass

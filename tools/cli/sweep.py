@@ -2,18 +2,24 @@
 process pool or a Ray cluster (``fsm.tools.sweep``).
 
 Everything is checked before the first run (a located error and exit 1 for an override naming no state or
-parameter, a value its type refuses, an empty grid, a glob matching nothing, an unreachable Ray address). Exit 0
-when every run ran (whatever its outcome), 1 when a run raised, 130 on Ctrl-C after writing what finished.
+parameter, a value its type refuses, an empty grid or one of more than ``--max-runs`` runs, a glob matching
+nothing, an unreachable Ray address; exit 2 for an output folder holding a symlink, a FIFO or an input where the
+sweep writes). Exit 0 when every run ran (whatever its outcome), 1 when a run raised, 130 on Ctrl-C or SIGTERM
+after writing what finished.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 from typing import Any
 
-from .common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, positive_float, whole_number
+from fsm.errors import DiagramError, Problem, UsageError
+
+from ..sweep.spec import MAX_RUNS, check_duration
+from .common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, Interrupts, positive_float, registry_from, whole_number
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -47,44 +53,108 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--video", action="store_true", help="write each run's video.mp4 (slow)")
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="a progress bar with the time left (default: on a terminal)")
+    p.add_argument("--max-runs", type=whole_number(1), metavar="N", default=None,
+                   help=f"run a sweep of up to N runs (default {MAX_RUNS:,}; every finished run's record, about 70 KB, "
+                        "stays in memory until the report is written)")
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
     p.set_defaults(func=cmd_sweep)
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    import os
+    """Ctrl-C and SIGTERM are noted from the start (a second one while planning ends at once): the sweep stops at
+    the next safe point, keeps what finished and exits 130."""
+    with Interrupts() as interrupts:
+        return _sweep(args, interrupts)
 
-    from fsm.errors import DiagramError, Problem, UsageError
 
-    from ..sweep import overrides as O
+def _sweep(args: argparse.Namespace, interrupts: Interrupts) -> int:
     from ..sweep.backends import BackendError
-    from ..sweep.runner import PlanError, execute, load_spec_file, plan
-    from ..sweep.spec import SweepSpec
+    from ..sweep.folder import Folder, read_records
+    from ..sweep.runner import execute, plan
 
     if args.spec is None and args.machine is None:
         raise UsageError("give a sweep file or --machine FILE")
     if args.address and args.backend != "ray":
         raise UsageError("--address is for --backend ray")
+    if not args.out:
+        raise UsageError("-o: give the name of a folder")
+    if args.duration is not None and (problem := check_duration(args.duration)) is not None:
+        raise UsageError(f"--{problem}")
+    spec, base, where, name, flags = _spec(args)
+    out_dir = Path(args.out)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise UsageError(f"-o {args.out}: not a folder")
+    flag_plugins = _flag_plugins(args)
+    jobs = args.jobs or (len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
+    pool = None
+    try:
+        if args.backend == "process":
+            from ..sweep.backends import local_pool
+
+            pool = local_pool(jobs)  # its processes start (and import) while the sweep is planned
+        p = plan(spec, base, name, where, out_dir.resolve(), flags=flags, flag_plugins=flag_plugins,
+                 max_runs=args.max_runs or MAX_RUNS)
+        folder = Folder(out_dir, p.inputs)
+        folder.check()
+        resume = read_records(out_dir / "sweep.jsonl", {job["key"] for job in p.jobs})
+        todo = [job for job in p.jobs if job["key"] not in resume.records]
+        folder.check_runs(job["id"] for job in todo)
+        if interrupts.stop():
+            raise KeyboardInterrupt
+    except BaseException as exc:
+        if pool is not None:
+            pool.terminate()
+            pool.join()
+        if isinstance(exc, KeyboardInterrupt):
+            print("fsmctl sweep: interrupted before any run started", file=sys.stderr)
+            return EXIT_INTERRUPTED
+        raise
+    if not args.quiet:
+        for warning in resume.warnings:
+            print(warning, file=sys.stderr)
+        print(f"{len(p.jobs)} run{'s' * (len(p.jobs) != 1)}: {len(todo)} to run ({jobs} at a time), "
+              f"{len(resume.records)} finished before", flush=True)
+    show = args.progress if args.progress is not None else sys.stderr.isatty()
+    try:
+        result = execute(p, folder, todo, resume, interrupts, backend=args.backend, jobs=jobs, address=args.address,
+                         progress=show and not args.quiet, pool=pool)
+    except BackendError as exc:
+        raise DiagramError([Problem(str(exc), where, hint="check --address (host:port of the Ray head) or leave "
+                                                          "it out to start Ray here")]) from None
+    return _report(args, p, result, out_dir)
+
+
+def _spec(args: argparse.Namespace) -> tuple[Any, Path, str, str, set[str]]:
+    """The sweep: the file's keys overridden by the flags; where it came from (for messages) and which keys
+    (as JSON pointers) the flags gave."""
+    from pydantic import ValidationError
+
+    from ..sweep import overrides as O
+    from ..sweep.runner import CLI
+    from ..sweep.spec import SweepSpec, escape_pointer, read_spec_file
+
     data: dict[str, Any] = {}
     base = Path.cwd()
-    where = "the command line"
+    where = CLI
     name = Path(args.machine).stem if args.machine else "sweep"
+    flags: set[str] = set()
     if args.spec is not None:
         spec_path = Path(args.spec)
-        spec, problems = load_spec_file(spec_path)
-        if problems:
-            raise DiagramError(problems)
+        spec = read_spec_file(spec_path)
         data = spec.model_dump(by_alias=True, exclude_unset=True)
         base = spec_path.resolve().parent
         where = str(spec_path)
         name = spec.name or spec_path.stem
     if args.machine:
         data["machine"] = str(Path(args.machine).resolve())
+        flags.add("/machine")
     if args.world:
         data["worlds"] = [str(Path(w).resolve()) if not any(c in w for c in "*?[") else str(Path.cwd() / w)
                           for w in args.world]
+        flags.add("/worlds")
     if args.seeds:
         data["seeds"] = args.seeds
+        flags.add("/seeds")
     sets = dict(data.get("set") or {})
     for text in args.overrides:
         try:
@@ -92,6 +162,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         except O.OverrideError as exc:
             raise UsageError(str(exc)) from None
         sets[f"{o.path}.{o.param}"] = list(o.values)
+        flags.add(f"/set/{escape_pointer(f'{o.path}.{o.param}')}")
     data["set"] = sets
     variables = dict(data.get("vars") or {})
     for text in args.variables:
@@ -99,9 +170,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         if not sep or not key.strip().isidentifier() or not values.strip():
             raise UsageError(f"--var {text!r}: write NAME=V1[,V2...], e.g. --var limit=1,2")
         variables[key.strip()] = [O.parse_value(v.strip()) for v in values.split(",")]
+        flags.add(f"/vars/{key.strip()}")
     data["vars"] = variables
     if args.duration is not None:
         data["duration"] = args.duration
+        flags.add("/duration")
     if args.no_noise:
         data["noise"] = False
     outputs = dict(data.get("outputs") or {})
@@ -109,30 +182,22 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         if getattr(args, key):
             outputs[key] = True
     data["outputs"] = outputs
-    spec = SweepSpec.model_validate(data)
-    out_dir = Path(args.out)
-    if out_dir.exists() and not out_dir.is_dir():
-        raise UsageError(f"-o {args.out}: not a folder")
-    jobs = args.jobs or (len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
-    pool = None
-    if args.backend == "process":
-        from ..sweep.backends import local_pool
+    try:
+        return SweepSpec.model_validate(data), base, where, name, flags
+    except ValidationError as err:
+        first = err.errors()[0]
+        raise UsageError(f"{'.'.join(map(str, first['loc']))}: {first['msg']}") from None
 
-        pool = local_pool(jobs)  # its processes start (and import) while the sweep is planned
-    try:
-        p = plan(spec, base, name, where, out_dir.resolve())
-    except PlanError as exc:
-        if pool is not None:
-            pool.terminate()
-            pool.join()
-        raise DiagramError(exc.problems) from None
-    show = args.progress if args.progress is not None else sys.stderr.isatty()
-    try:
-        result = execute(p, out_dir, backend=args.backend, jobs=jobs, address=args.address,
-                         progress=show and not args.quiet, pool=pool)
-    except BackendError as exc:
-        raise DiagramError([Problem(str(exc), where, hint="check --address (host:port of the Ray head) or leave "
-                                                          "it out to start Ray here")]) from None
+
+def _flag_plugins(args: argparse.Namespace) -> list[str]:
+    """``fsmctl --plugin`` for a sweep: loaded here (a missing one is blamed on the flag) and by every worker
+    (.py files by their absolute path, since a worker may run elsewhere)."""
+    registry_from(args)
+    return [str(Path(p).resolve()) if p.endswith(".py") else p for p in args.plugin]
+
+
+def _report(args: argparse.Namespace, p: Any, result: Any, out_dir: Path) -> int:
+    """The closing lines, and the exit status: 130 interrupted, 1 when a run raised, else 0."""
     failed = [r for r in result.records if not r.get("ok")]
     if not args.quiet:
         ok = sum(1 for r in result.records if r.get("ok") and (r.get("summary") or {}).get("outcome") == "succeeded")
@@ -141,6 +206,12 @@ def cmd_sweep(args: argparse.Namespace) -> int:
               f"{out_dir / 'sweep.html'}")
         for r in failed[:5]:
             print(f"run {r['id']} raised {r.get('error')}; reproduce: {r['command']}", file=sys.stderr)
+    elif failed:  # one line even with -q: exit status 1 is not left unexplained
+        first = " ".join(str(failed[0].get("error")).split())[:300]
+        print(f"fsmctl sweep: {len(failed)} of {len(result.records)} runs raised (run {failed[0]['id']}: {first}); "
+              f"see {out_dir / 'sweep.html'}", file=sys.stderr)
     if result.interrupted:
+        print(f"fsmctl sweep: interrupted; the {len(result.records)} finished runs are kept in "
+              f"{out_dir / 'sweep.jsonl'} (the same command goes on from there)", file=sys.stderr)
         return EXIT_INTERRUPTED
     return EXIT_FAIL if failed else EXIT_OK

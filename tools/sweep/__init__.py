@@ -6,6 +6,7 @@
 - :mod:`.worker`: one run, a plain dict in and out, the same code on a process pool and on Ray;
 - :mod:`.backends`: the local spawn pool and ``ray.util.multiprocessing.Pool`` (Ray imported only there);
 - :mod:`.runner`: planning (every mistake before the first run), running, resuming, Ctrl-C;
+- :mod:`.folder`: the output folder checked before any run, ``sweep.jsonl`` read back and appended safely;
 - :mod:`.results`: ``sweep.jsonl``, ``sweep.csv`` and the self-contained ``sweep.html``.
 """
 

@@ -13,11 +13,22 @@ class BackendError(Exception):
 
 
 def local_pool(processes: int) -> Any:
+    """A spawn pool whose workers never see Ctrl-C: SIGINT is blocked while they start (a blocked signal stays
+    blocked across exec, so a Ctrl-C while a worker imports raises nothing there) and ignored once they run; the
+    parent stops them. A Ctrl-C that arrives meanwhile reaches the parent when it is unblocked."""
     import multiprocessing
+    import signal
+    from multiprocessing import resource_tracker
 
     from .worker import init_worker
 
-    return multiprocessing.get_context("spawn").Pool(processes, initializer=init_worker)
+    resource_tracker.ensure_running()  # first: starting it unblocks SIGINT in this thread again
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT}) if hasattr(signal, "pthread_sigmask") else None
+    try:
+        return multiprocessing.get_context("spawn").Pool(processes, initializer=init_worker)
+    finally:
+        if blocked is not None:
+            signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
 
 
 def ray_pool(processes: int, address: str | None) -> Any:
@@ -30,6 +41,11 @@ def ray_pool(processes: int, address: str | None) -> Any:
 
     if address and address != "auto":
         _reachable(address)
+    import signal
+    import threading
+
+    main = threading.current_thread() is threading.main_thread()
+    sigterm = signal.getsignal(signal.SIGTERM) if main else None
     try:
         if not ray.is_initialized():
             if address:
@@ -40,6 +56,9 @@ def ray_pool(processes: int, address: str | None) -> Any:
     except Exception as exc:  # ConnectionError, TimeoutError, ValueError for a malformed address, ...
         where = f"at {address}" if address else "locally"
         raise BackendError(f"cannot start or reach a Ray cluster {where}: {' '.join(str(exc).split())[:300]}") from None
+    finally:
+        if main and sigterm is not None:  # ray.init makes SIGTERM exit at once; the sweep's own handler stops cleanly
+            signal.signal(signal.SIGTERM, sigterm)
     return Pool(processes, initializer=init_worker)
 
 

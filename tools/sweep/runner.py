@@ -14,15 +14,18 @@ import os
 import shlex
 import sys
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from fsm.errors import Problem
+from fsm.errors import DiagramError, FsmError, Problem, UsageError
 
 from . import overrides as O
-from .results import csv_text, html_page, read_jsonl, success
-from .spec import Run, SweepSpec, expand_worlds, files_digest, grid, parse_seeds, run_key, seed_runs
+from .folder import Folder, RecordLog, Resume, write_file
+from .results import csv_text, html_page, success
+from .spec import (MAX_RUNS, Run, SpecError, SweepSpec, check_duration, check_unique, check_vars, count_runs,
+                   escape_pointer, expand_worlds, files_digest, grid, parse_seeds, run_key, seed_runs)
 
 
 @dataclass
@@ -35,66 +38,95 @@ class Plan:
     param_names: list[str]
     plugins: list[str] = field(default_factory=list)
     worlds: dict[str, Any] = field(default_factory=dict)
+    #: Every file the sweep reads (machine and includes, worlds, the sweep file, plugin files): no output may be one.
+    inputs: list[str] = field(default_factory=list)
 
 
 #: What ``where`` says when the sweep comes from flags, not a file.
 CLI = "the command line"
+#: The flag that gives each key of a sweep file on the command line.
+FLAGS = {"seeds": "--seeds", "worlds": "--world", "set": "--set", "machine": "--machine", "vars": "--var",
+         "duration": "--duration", "plugins": "--plugin"}
 
 
-class PlanError(Exception):
-    def __init__(self, problems: list[Problem]) -> None:
-        super().__init__("; ".join(p.message for p in problems))
-        self.problems = problems
+class PlanError(DiagramError):
+    """A sweep that cannot run: every problem is said before the first run."""
 
 
-def plan(spec: SweepSpec, base: Path, name: str, where: str, out_dir: Path) -> Plan:
-    """Everything checked; ``where`` names the spec (a file, or 'the command line') in messages."""
+def plan(spec: SweepSpec, base: Path, name: str, where: str, out_dir: Path, *, flags: Iterable[str] = (),
+         flag_plugins: Iterable[str] = (), max_runs: int = MAX_RUNS) -> Plan:
+    """Everything checked; ``where`` names the spec (a file, or 'the command line') in messages, and the keys in
+    ``flags`` (JSON pointers: ``/seeds``, ``/set/home.speed``) are said as the flags they came from.
+    ``flag_plugins`` (``fsmctl --plugin``, already loaded here) are loaded by the workers too. The grid's size is
+    computed before it is built: more than ``max_runs`` runs are refused."""
     from fsm.loader import check, machine_files, uses_car
     from fsm.registry import default_registry
 
-    problems: list[Problem] = []
+    from_flags = set(flags)
 
     def fail(message: str, ptr: str = "", hint: str | None = None) -> PlanError:
-        if where == CLI:  # said as the flag it came from, not as a place in a file
-            flag = {"seeds": "--seeds", "worlds": "--world", "set": "--set", "machine": "--machine",
-                    "vars": "--var"}.get(ptr.strip("/").split("/")[0], "fsmctl sweep")
-            text = message if message.startswith(("--", "worlds", "seeds")) else f"{flag}: {message}"
-            return PlanError(problems + [Problem(text.replace("worlds: ", "--world: ").replace(
-                "seeds ", "--seeds ", 1), "fsmctl sweep", hint=hint)])
-        return PlanError(problems + [Problem(message, where, ptr, hint=hint)])
+        top = ptr.strip("/").split("/")[0]
+        flagged = any(ptr == f or ptr.startswith(f + "/") for f in from_flags)
+        if where == CLI or flagged:  # said as the flag it came from, not as a place in a file
+            flag = FLAGS.get(top, "")
+            head, _, rest = message.partition(" ")
+            if flag and head.rstrip(":") == top:
+                text = f"{flag}{':' if head.endswith(':') else ''} {rest}"
+            else:
+                text = f"{flag}: {message}" if flag else message
+            return PlanError([Problem(text, "fsmctl sweep", hint=hint)])
+        return PlanError([Problem(message, where, ptr, hint=hint)])
 
     plugins = [str(base / p) if p.endswith(".py") else p for p in spec.plugins]
-    machine = (base / spec.machine).resolve()
-    if not machine.is_file():
+    registry = default_registry(())
+    for i, plugin in enumerate(plugins):
+        try:
+            registry.load_module(plugin)
+        except UsageError as exc:
+            text = str(exc).removeprefix(f"--plugin {plugin}: ").removeprefix(f"--plugin {plugin!r}: ")
+            raise fail(f"plugin {spec.plugins[i]!r}: {text}", f"/plugins/{i}") from None
+    try:
+        seeds = parse_seeds(spec.seeds)
+        if (problem := check_duration(spec.duration)) is not None:
+            raise SpecError(problem, "/duration")
+        sets = _set_axes(spec.set)
+        check_vars(spec.vars)
+        worlds: list[Path | None] = list(expand_worlds(spec.worlds, base))
+        check_unique(seeds, "seeds", "/seeds")
+        for path, param, values in sets:
+            check_unique(values, f"set {path}.{param}", f"/set/{escape_pointer(f'{path}.{param}')}")
+        for key, values in spec.vars.items():
+            check_unique(values, f"vars {key}", f"/vars/{escape_pointer(key)}")
+    except SpecError as exc:
+        raise fail(str(exc), exc.pointer) from None
+    axes = [(f"{len(values)} values of {path}.{param}", len(values)) for path, param, values in sets]
+    axes += [(f"{len(values)} values of {key}", len(values)) for key, values in spec.vars.items()]
+    count = count_runs(len(worlds) or 1, len(seeds), [n for _, n in axes])
+    if not count:
+        raise fail("the grid is empty: no seed to run", "/seeds", hint="give --seeds START:STOP")
+    if count > max_runs:
+        sizes = " x ".join([f"{len(worlds)} world{'s' * (len(worlds) > 1)}"] * bool(worlds)
+                           + [f"{len(seeds):,} seed{'s' * (len(seeds) != 1)}"] + [t for t, _ in axes])
+        raise fail(f"the sweep would make {count:,} runs ({sizes}), more than {max_runs:,}",
+                   "/seeds" if count // max(len(seeds), 1) <= max_runs else "",
+                   hint=f"give --max-runs {count} to run them all, or fewer seeds, worlds or values")
+    try:
+        machine = (base / spec.machine).resolve()
+        found_machine = machine.is_file()
+    except (OSError, ValueError):
+        machine, found_machine = base / spec.machine, False
+    if not found_machine:
         raise fail(f"machine file not found: {machine}", "/machine")
-    registry = default_registry(tuple(plugins))
     mspec, found = check(str(machine), registry=registry)
     errors = [p for p in found if p.severity == "error"]
     if mspec is None or errors:
         raise PlanError(errors or found)
-    try:
-        seeds = parse_seeds(spec.seeds)
-    except ValueError as exc:
-        raise fail(str(exc), "/seeds") from None
-    sets = []
-    for i, (key, values) in enumerate(spec.set.items()):
-        if not isinstance(values, list) or not values:
-            raise fail(f"set {key!r}: give a non-empty list of values", f"/set/{key}")
-        text = f"{key}={','.join(json.dumps(v) for v in values)}"
+    for path, param, values in sets:
+        key = f"{path}.{param}"
         try:
-            o = O.parse(text)
-            o = O.Override(o.path, o.param, tuple(values), text)
-            O.check(mspec, o)
+            O.check(mspec, O.Override(path, param, tuple(values), f"{key}={','.join(json.dumps(v) for v in values)}"))
         except O.OverrideError as exc:
-            raise fail(str(exc), f"/set/{key}") from None
-        sets.append((o.path, o.param, list(values)))
-    for key, values in spec.vars.items():
-        if not isinstance(values, list) or not values:
-            raise fail(f"vars {key!r}: give a non-empty list of values", f"/vars/{key}")
-    try:
-        worlds: list[Path | None] = list(expand_worlds(spec.worlds, base))
-    except ValueError as exc:
-        raise fail(str(exc), "/worlds") from None
+            raise fail(str(exc), f"/set/{escape_pointer(key)}") from None
     if not worlds:
         if uses_car(mspec):
             from fsm.sim.world import default_world
@@ -115,17 +147,37 @@ def plan(spec: SweepSpec, base: Path, name: str, where: str, out_dir: Path) -> P
         world_walls[str(w)] = [[list(pt) for pt in wall.points] + ([list(wall.points[0])] if wall.closed else [])
                                for wall in world.walls]
     runs = grid(worlds, seeds, sets, spec.vars)
-    if not runs:
-        raise fail("the grid is empty: no world, seed or value to run", "", hint="give --seeds and --world")
     seed_runs(runs)
     files = machine_files(mspec) + [str(w) for w in worlds if w is not None]
     digest = files_digest(files)
     param_names = list(runs[0].params)
     jobs = []
+    seen: dict[str, Run] = {}
+    all_plugins = plugins + list(flag_plugins)
     for run in runs:
         run.key = run_key(run, digest, spec)
-        jobs.append(_job(run, spec, machine, plugins, out_dir))
-    return Plan(spec, name, machine, runs, jobs, param_names, plugins, world_walls)
+        twin = seen.setdefault(run.key, run)
+        if twin is not run:
+            raise fail(f"runs {twin.id} and {run.id} would be the same run (world, seed and values): a world, seed "
+                       "or value is given twice", "", hint="give each once")
+        jobs.append(_job(run, spec, machine, all_plugins, out_dir))
+    inputs = files + [where] * (where != CLI) + [p for p in all_plugins if p.endswith(".py")]
+    return Plan(spec, name, machine, runs, jobs, param_names, all_plugins, world_walls, inputs)
+
+
+def _set_axes(sets: dict[str, list[Any]]) -> list[tuple[str, str, list[Any]]]:
+    """The ``set`` key of a sweep: each ``PATH.PARAM`` with a non-empty list of values (checked against the machine
+    later), as ``(path, param, values)``."""
+    axes = []
+    for key, values in sets.items():
+        where = f"/set/{escape_pointer(key)}"
+        path, dot, param = key.strip().rpartition(".")
+        if not dot or not path.strip("/") or not param.strip():
+            raise SpecError(f"set {key!r}: write STATE_PATH.PARAMETER, e.g. home.speed", where)
+        if not isinstance(values, list) or not values:
+            raise SpecError(f"set {key!r}: give a non-empty list of values", where)
+        axes.append((path.strip().strip("/"), param.strip(), list(values)))
+    return axes
 
 
 def _job(run: Run, spec: SweepSpec, machine: Path, plugins: list[str], out_dir: Path) -> dict[str, Any]:
@@ -136,7 +188,7 @@ def _job(run: Run, spec: SweepSpec, machine: Path, plugins: list[str], out_dir: 
     if not spec.noise:
         cmd.append("--no-noise")
     if spec.duration is not None:
-        cmd += ["--duration", f"{spec.duration:g}"]
+        cmd += ["--duration", repr(float(spec.duration))]  # every digit: the run alone stops where the sweep's did
     overrides = [f"{path}.{param}={json.dumps(value)}" for path, param, value in run.sets]
     for text in overrides:
         cmd += ["--set", text]
@@ -161,79 +213,106 @@ class Outcome:
     seconds: float
 
 
-def execute(p: Plan, out_dir: Path, *, backend: str = "process", jobs: int = 1, address: str | None = None,
-            progress: bool = False, pool: Any = None) -> Outcome:
-    """Run what is not finished yet; write sweep.jsonl as runs finish, then sweep.csv and sweep.html."""
+#: How often (seconds) the loop that collects results looks whether Ctrl-C asked it to stop.
+POLL = 0.2
+
+
+def execute(p: Plan, folder: Folder, todo: list[dict[str, Any]], resume: Resume, interrupts: Any, *,
+            backend: str = "process", jobs: int = 1, address: str | None = None, progress: bool = False,
+            pool: Any = None) -> Outcome:
+    """Run ``todo`` (the jobs of ``p`` that ``resume`` has no record of); append each record to sweep.jsonl as
+    its run finishes, then write sweep.csv and sweep.html. ``interrupts.stop()`` (Ctrl-C, SIGTERM) stops the
+    pool: what finished is kept and written, and the outcome says it was interrupted."""
     from .backends import local_pool, ray_pool, shutdown_ray
 
-    jsonl = out_dir / "sweep.jsonl"
-    keys = {job["key"] for job in p.jobs}
-    done: dict[str, dict[str, Any]] = {}
-    for rec in read_jsonl(jsonl):
-        if rec["key"] in keys and rec.get("ok"):
-            done[rec["key"]] = rec
-    todo = [job for job in p.jobs if job["key"] not in done]
-    results = dict(done)
+    results = dict(resume.records)
     t0 = time.perf_counter()
-    interrupted = False
     bar = Progress(len(todo), enabled=progress)
+    interrupts.writing = True  # a Ctrl-C stops the loop below at once; only a fourth one raises KeyboardInterrupt
     if not todo and pool is not None:
         pool.terminate()
         pool.join()
-    if todo:
-        if pool is None:  # may refuse (Ray): nothing is written yet
-            pool = ray_pool(jobs, address) if backend == "ray" else local_pool(jobs)
-        out_dir.mkdir(parents=True, exist_ok=True)
-        from .worker import run_one
-
-        try:
-            with open(jsonl, "a", encoding="utf-8") as stream:
-                for rec in pool.imap_unordered(run_one, todo):
-                    rec["files"] = _write_run(out_dir, rec)
-                    stream.write(json.dumps(rec, separators=(",", ":")) + "\n")
-                    stream.flush()
-                    results[rec["key"]] = rec
-                    bar.step(rec)
-            pool.close()  # the workers exit while the reports are written
-        except KeyboardInterrupt:
-            interrupted = True
-            pool.terminate()
-        except BaseException:
-            pool.terminate()
-            raise
-        finally:
-            bar.done()
-    records = [results[job["key"]] for job in p.jobs if job["key"] in results]
-    out_dir.mkdir(parents=True, exist_ok=True)
+        pool = None
     try:
-        write_reports(p, out_dir, records)
+        if todo and pool is None:  # may refuse (Ray): nothing is written yet
+            pool = ray_pool(jobs, address) if backend == "ray" else local_pool(jobs)
+        if todo or resume.cut_at is not None:
+            folder.mkdir(folder.out)
+            with RecordLog(folder.out / "sweep.jsonl", resume.cut_at) as log:
+                if todo:
+                    _collect(pool, todo, folder, log, results, bar, interrupts)
+        if pool is not None:
+            if interrupts.stop():
+                pool.terminate()
+            else:
+                pool.close()  # the workers exit while the reports are written
+        records = [results[job["key"]] for job in p.jobs if job["key"] in results]
+        folder.mkdir(folder.out)
+        write_reports(p, folder.out, records)
+    except BaseException:
+        if pool is not None:
+            pool.terminate()
+        raise
     finally:
-        if pool is not None and todo:
+        bar.done()
+        if pool is not None:
             pool.join()
             if backend == "ray":
                 shutdown_ray()
-    return Outcome(records, len(records) - len(done), len(done), interrupted, time.perf_counter() - t0)
+    ran = len(records) - len(resume.records)
+    return Outcome(records, ran, len(resume.records), interrupts.stop(), time.perf_counter() - t0)
 
 
-def _write_run(out_dir: Path, rec: dict[str, Any]) -> list[str]:
+def _collect(pool: Any, todo: list[dict[str, Any]], folder: Folder, log: RecordLog, results: dict[str, Any],
+             bar: Progress, interrupts: Any) -> None:
+    """Take the records as runs finish, until every run is done or Ctrl-C asks to stop."""
+    import multiprocessing
+
+    from .worker import run_one
+
+    waiting = (TimeoutError, multiprocessing.TimeoutError)
+    it = pool.imap_unordered(run_one, todo)
+    while not interrupts.stop():
+        try:
+            rec = it.next(timeout=POLL)
+        except StopIteration:
+            return
+        except waiting:
+            continue
+        rec["files"] = _write_run(folder, rec)
+        log.append(json.dumps(rec, separators=(",", ":")) + "\n")
+        results[rec["key"]] = rec
+        bar.step(rec)
+
+
+def _write_run(folder: Folder, rec: dict[str, Any]) -> list[str]:
     """OUT/runs/<id>/summary.json (the run's `fsmctl run --summary`), next to what the worker wrote there."""
-    folder = out_dir / "runs" / rec["id"]
-    folder.mkdir(parents=True, exist_ok=True)
+    path = folder.out / "runs" / rec["id"]
+    folder.mkdir(path)
     data = rec["summary"] if rec.get("ok") else {"error": rec.get("error"), "traceback": rec.get("traceback")}
-    (folder / "summary.json").write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")
-    return sorted(f.name for f in folder.iterdir() if f.is_file())
+    write_file(path / "summary.json", json.dumps(data, indent=2) + "\n")
+    try:
+        return sorted(e.name for e in os.scandir(path) if e.is_file(follow_symlinks=False))
+    except OSError as exc:
+        raise FsmError(f"{path}: cannot list: {exc.strerror or exc}") from None
 
 
 def write_reports(p: Plan, out_dir: Path, records: list[dict[str, Any]]) -> None:
-    from ..files import Output
+    """sweep.csv and sweep.html, each whole or not at all (tools/files.py), neither of them an input."""
+    from ..files import Outputs
 
-    for name, text in (("sweep.csv", csv_text(records, p.param_names)),
-                       ("sweep.html", html_page(p.name, records, p.param_names, p.worlds))):
-        out = Output(str(out_dir / name), f"sweep {name}")
-        out.classify()
-        out.open()
-        out.write(text)
-        out.commit()
+    texts = {"sweep.csv": csv_text(records, p.param_names),
+             "sweep.html": html_page(p.name, records, p.param_names, p.worlds)}
+    outputs = Outputs()
+    for name in texts:
+        outputs.add(str(out_dir / name), f"sweep {name}")
+    outputs.open(p.inputs)
+    try:
+        for out, text in zip(outputs.items, texts.values()):
+            out.write(text)
+        outputs.commit()
+    finally:
+        outputs.discard()
 
 
 class Progress:
@@ -263,26 +342,6 @@ class Progress:
         if self.enabled:
             sys.stderr.write("\n")
             sys.stderr.flush()
-
-
-def load_spec_file(path: Path) -> tuple[SweepSpec, list[Problem]]:
-    """A sweep file, validated against the model (located problems)."""
-    from pydantic import ValidationError
-
-    from fsm.document import Source, problems_from_validation
-    from fsm.reading import parse_json_bytes, place, read_file_bytes
-
-    raw = read_file_bytes(path, "sweep")
-    data, source = parse_json_bytes(raw, str(path), path.parent)
-    if not isinstance(data, dict):
-        return SweepSpec(machine="?"), [Problem("a sweep file is a JSON object with 'machine'", str(path))]
-    try:
-        return SweepSpec.model_validate(data), []
-    except ValidationError as err:
-        problems = problems_from_validation(err, source=Source(name=str(path)), base="", element=None,
-                                            model=SweepSpec, kind="key", data=data)
-        place(problems, source.locator)
-        return SweepSpec(machine="?"), problems
 
 
 def _env_cpus() -> int:

@@ -11,6 +11,9 @@ import glob
 import hashlib
 import itertools
 import json
+import math
+import os
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -65,43 +68,160 @@ def sweep_schema_text() -> str:
     return json.dumps(sweep_schema(), indent=2, ensure_ascii=False) + "\n"
 
 
-def parse_seeds(value: str | list[int]) -> list[int]:
-    """``"0:16"`` (or ``"5"``), or a list of integers."""
+#: Seeds are whole numbers from 0 to this (as ``fsmctl run --seed``).
+MAX_SEED = 2**63 - 1
+#: A sweep of more runs is refused unless ``--max-runs`` allows it: every finished run's record (about 70 KB with
+#: its trajectory) is kept in memory until sweep.csv and sweep.html are written, and planning holds every run.
+MAX_RUNS = 10_000
+#: The most ticks ``fsmctl run`` runs without ``--max-ticks`` (``MAX_TICKS`` of tools/cli/run.py, which this package
+#: may not import): a sweep's duration must be one its printed ``fsmctl run`` command accepts.
+MAX_TICKS = 10_000_000
+
+
+class SpecError(ValueError):
+    """A value of a sweep that cannot be run; ``pointer`` is the key it came from (a JSON pointer)."""
+
+    def __init__(self, message: str, pointer: str = "") -> None:
+        super().__init__(message)
+        self.pointer = pointer
+
+
+def parse_seeds(value: str | list[int]) -> Sequence[int]:
+    """``"0:16"`` (a ``range``: nothing is built for a long one), ``"5"``, or a list of whole numbers, each from 0
+    to :data:`MAX_SEED`; a :class:`SpecError` otherwise."""
     if isinstance(value, list):
+        for i, seed in enumerate(value):
+            if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
+                raise SpecError(f"seeds: {_short(seed)} is not a seed; a seed is a whole number from 0 to 2**63-1",
+                                f"/seeds/{i}")
         return list(value)
     text = value.strip()
     try:
         if ":" in text:
             a, b = text.split(":", 1)
             start, stop = int(a or 0), int(b)
-            if stop <= start or start < 0:
+            if stop <= start or start < 0 or stop - 1 > MAX_SEED:
                 raise ValueError
-            return list(range(start, stop))
+            return range(start, stop)
         n = int(text)
-        if n < 0:
+        if not 0 <= n <= MAX_SEED:
             raise ValueError
         return [n]
     except ValueError:
-        raise ValueError(f"seeds {value!r}: write START:STOP with 0 <= START < STOP (0:16 is 16 seeds), or one "
-                         "seed") from None
+        raise SpecError(f"seeds {_short(value)}: write START:STOP with 0 <= START < STOP <= 2**63 (0:16 is 16 seeds), "
+                        "or one seed", "/seeds") from None
+
+
+def _short(value: Any, limit: int = 60) -> str:
+    """``value`` as JSON (text as Python writes it, in single quotes), shortened for a message."""
+    try:
+        text = repr(value) if isinstance(value, str) else json.dumps(value)
+    except (TypeError, ValueError):
+        text = repr(value)
+    return text if len(text) <= limit else text[:limit] + "..."
+
+
+def check_duration(duration: float | None) -> str | None:
+    """Why ``duration`` (seconds of simulated time per run) cannot be a sweep's, or ``None`` when it can: finite,
+    > 0, and at most :data:`MAX_TICKS` ticks of the default period, the longest run ``fsmctl run`` accepts."""
+    from fsm.clock import DEFAULT_DT
+
+    if duration is None:
+        return None
+    if not (isinstance(duration, (int, float)) and duration > 0 and math.isfinite(duration)):
+        return f"duration {_short(duration)}: give a number of seconds > 0"
+    if not duration / DEFAULT_DT <= MAX_TICKS:
+        return (f"duration {duration!r}: more than {MAX_TICKS:,} ticks of {DEFAULT_DT:g} s, the longest run "
+                f"`fsmctl run` accepts without --max-ticks; give at most {MAX_TICKS * DEFAULT_DT:g} s")
+    return None
+
+
+def check_vars(variables: dict[str, list[Any]]) -> None:
+    """Each variable a name ``fsmctl run --var`` takes and a non-empty list of JSON scalars (what its printed
+    command can give back), else a :class:`SpecError`."""
+    for name, values in variables.items():
+        where = f"/vars/{escape_pointer(name)}"
+        if not name.isidentifier():
+            raise SpecError(f"vars {_short(name)}: a variable's name is a word of letters, digits and _ (not "
+                            "starting with a digit)", where)
+        if not isinstance(values, list) or not values:
+            raise SpecError(f"vars {_short(name)}: give a non-empty list of values", where)
+        for i, v in enumerate(values):
+            if isinstance(v, float) and not math.isfinite(v) or not isinstance(v, (bool, int, float, str)):
+                raise SpecError(f"vars {name}: {_short(v)} is not a number, true/false or text", f"{where}/{i}")
+
+
+def check_unique(values: Sequence[Any], what: str, pointer: str) -> None:
+    """A :class:`SpecError` when a value is given twice (two runs would be the same run)."""
+    if isinstance(values, range):
+        return
+    seen: dict[str, int] = {}
+    for i, value in enumerate(values):
+        text = json.dumps(value, sort_keys=True, default=str)
+        if text in seen:
+            raise SpecError(f"{what}: {_short(value)} is given twice (items {seen[text]} and {i}), which would "
+                            "run the same run twice", f"{pointer}/{i}")
+        seen[text] = i
+
+
+def escape_pointer(key: str) -> str:
+    """``key`` as one step of a JSON pointer."""
+    return key.replace("~", "~0").replace("/", "~1")
+
+
+def count_runs(worlds: int, seeds: int, axes: list[int]) -> int:
+    """How many runs a grid has, computed, not built: worlds x seeds x the number of values of each axis."""
+    return math.prod([worlds, seeds, *axes])
+
+
+def read_spec_file(path: Path) -> SweepSpec:
+    """A sweep file, read by the project's reading rule (regular files only, size cap, strict JSON) and validated
+    against the model; a :class:`DiagramError` with located problems otherwise."""
+    from pydantic import ValidationError
+
+    from fsm.document import Source, problems_from_validation
+    from fsm.errors import DiagramError, Problem
+    from fsm.reading import parse_json_bytes, place, read_file_bytes
+
+    raw = read_file_bytes(path, "sweep")
+    data, source = parse_json_bytes(raw, str(path), path.parent)
+    if not isinstance(data, dict):
+        raise DiagramError([Problem("a sweep file is a JSON object with 'machine'", str(path), line=1, column=1,
+                                    hint='e.g. {"machine": "lap.uxf", "seeds": "0:16"}')])
+    try:
+        return SweepSpec.model_validate(data)
+    except ValidationError as err:
+        problems = problems_from_validation(err, source=Source(name=str(path)), base="", element=None,
+                                            model=SweepSpec, kind="key", data=data)
+        place(problems, source.locator)
+        raise DiagramError(problems) from None
 
 
 def expand_worlds(patterns: list[str], base: Path) -> list[Path]:
-    """World files from names and globs (relative to ``base``); a glob that matches nothing is an error."""
-    out: list[Path] = []
-    for pattern in patterns:
-        full = str(base / pattern) if not Path(pattern).is_absolute() else pattern
-        if any(c in pattern for c in "*?["):
-            found = sorted(Path(p) for p in glob.glob(full))
-            if not found:
-                raise ValueError(f"worlds: {pattern!r} matches no file (looked in {base})")
-            out.extend(found)
-        else:
-            path = Path(full)
-            if not path.is_file():
-                raise ValueError(f"worlds: no world file {path}")
-            out.append(path)
-    return out
+    """World files from names and globs (relative to ``base``, made absolute and normal); a glob that matches
+    nothing, a file that is not there, or a world named twice (two runs would be one) is a :class:`SpecError`."""
+    out: dict[Path, int] = {}
+    for i, pattern in enumerate(patterns):
+        full = os.path.normpath(os.path.join(base, pattern))
+        try:
+            if any(c in pattern for c in "*?["):
+                found = sorted(Path(p) for p in glob.glob(full))
+                if not found:
+                    raise SpecError(f"worlds: {pattern!r} matches no file (looked in {base})", f"/worlds/{i}")
+            elif os.path.isfile(full):
+                found = [Path(full)]
+            else:
+                raise SpecError(f"worlds: no world file {full}", f"/worlds/{i}")
+        except ValueError as exc:
+            if isinstance(exc, SpecError):
+                raise
+            raise SpecError(f"worlds: {pattern!r} is not a usable file name", f"/worlds/{i}") from None
+        for path in found:
+            if path in out:
+                raise SpecError(f"worlds: {path} is named twice (by {patterns[out[path]]!r} and {pattern!r}), which "
+                                "would run the same runs twice", f"/worlds/{i}")
+            out[path] = i
+    return list(out)
 
 
 @dataclass

@@ -28,7 +28,9 @@ def init_worker() -> None:
     parent's to handle (it stops the pool and writes what finished)."""
     import signal
 
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # a Ctrl-C pending since the start is dropped, then unblocked
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ.setdefault(var, "1")
     # what every run needs, imported while the parent still plans the sweep
@@ -99,6 +101,7 @@ def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], d
     from fsm.session import Session, StopRules
 
     from ..trace import header_document, run_recorder  # the same trace as `fsmctl run --trace`
+    from .folder import OutFile, write_file
     from .overrides import apply
 
     key = (job["machine"], tuple(job.get("plugins") or ()))
@@ -115,8 +118,8 @@ def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], d
     out_dir = Path(job["out"]) if job.get("out") else None
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)
-    trace_file = open(out_dir / "trace.jsonl", "w+", encoding="utf-8") \
-        if out_dir and (job.get("trace") or job.get("report")) else None
+    trace_file = OutFile(out_dir / "trace.jsonl", "w+") if out_dir and (job.get("trace") or job.get("report")) \
+        else None
     session = None
     try:
         stop = StopRules(job["duration"])
@@ -155,7 +158,7 @@ def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], d
         if out_dir is not None and job.get("plot"):
             from fsm.sim.render import plot_png
 
-            (out_dir / "plot.png").write_bytes(plot_png(sim))
+            write_file(out_dir / "plot.png", plot_png(sim))
         step = max(1, len(sim.track) // TRACK_POINTS)
         track = [[round(x, 3), round(y, 3), k] for _t, x, y, k in sim.track[::step]]
         result["states_seen"] = list(sim.states_seen)
@@ -169,6 +172,8 @@ def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], d
 
 def _finish_trace(trace_file: Any, out_dir: Path | None, job: dict[str, Any]) -> None:
     """Close the run's trace; write its report.html from it when asked (and drop the trace unless asked for)."""
+    from .folder import write_file
+
     try:
         if out_dir is not None and job.get("report"):
             from fsm.replay import parse_trace
@@ -178,7 +183,7 @@ def _finish_trace(trace_file: Any, out_dir: Path | None, job: dict[str, Any]) ->
             trace_file.flush()
             trace_file.seek(0)
             trace = parse_trace(trace_file.read().encode("utf-8"), str(out_dir / "trace.jsonl"))
-            (out_dir / "report.html").write_text(report_html(trace), encoding="utf-8")
+            write_file(out_dir / "report.html", report_html(trace))
     finally:
         trace_file.close()
         if out_dir is not None and not job.get("trace"):

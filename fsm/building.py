@@ -110,7 +110,7 @@ class _Builder:
 
     def transition(self, plan: TransitionPlan, states: dict[str, State[Any]]) -> Transition[Any]:
         source = states[plan.source]
-        t = plan.cls(plan.params, source, states[plan.target], plan.index)
+        t = plan.cls(plan.params, source, states[plan.target], plan.position)
         conditions = {key: cp.build() for key, cp in plan.conditions.items()}
         guard = plan.guard
         if guard.condition is not None:

@@ -113,7 +113,7 @@ class _Compiler:
             form = self.analysis.expression(tr.source, targets[0][1]).counter()
             counter = None if form is None else (targets[0][0], form)
         return TransitionPlan(
-            cls=tr.cls, params=p, source=p.from_, target=p.to, index=index, guard=guard,
+            cls=tr.cls, params=p, source=p.from_, target=p.to, position=index, guard=guard,
             assign=self.assigner(tr.source, targets), counter=counter,
             conditions={key: self.condition(cs, tr.source) for key, cs in tr.conditions.items() if key != "guard"},
         )

@@ -50,7 +50,7 @@ class Parser:
         self.base_dir = Path(base_dir) if base_dir is not None else None
         self._cache: dict[Path, MachineSpec | None] = {}
         self._stack: list[Path] = []
-        self._tables = {"state": registry.states, "transition": registry.transitions,
+        self._tables: dict[str, dict[str, type[Any]]] = {"state": registry.states, "transition": registry.transitions,
                         "condition": registry.conditions}
 
     # -- documents ------------------------------------------------------------------------------

@@ -85,7 +85,7 @@ class TransitionPlan(NamedTuple):
     source: str
     target: str
     #: declaration order in its level
-    index: int
+    position: int
     guard: GuardPlan = GuardPlan(None, None)
     #: the ``set``, compiled: one action, or None
     assign: Action | None = None

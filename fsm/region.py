@@ -132,12 +132,12 @@ class Region:
         if effect is not _NO_ACTION:
             try:
                 if effect is _COUNTER:  # a set ``target = variable OP constant`` and nothing else, inline
-                    to, (name, op, const, _swapped, read) = tr.counter  # type: ignore[misc]
+                    to, (name, op, const, _swapped, read) = tr.counter
                     v = ctx.vars
                     x = v[name] if name in v else read(v)
                     v[to] = op(x if type(x) in _NUMERIC else read(v), const)
                 else:
-                    tr.run(ctx)  # type: ignore[misc]
+                    tr.run(ctx)
             except StateRuntimeError:
                 raise
             except Exception as exc:

@@ -343,7 +343,7 @@ def _fields_problem(fields: tuple[str, ...]) -> str | None:
     ``car.x[0]``), or None."""
     kinds: dict[tuple[str, ...], str] = {}
     for name, (head, key, index) in zip(fields, _field_paths(fields)):
-        parts = [((head,), "group" if key else "value")]
+        parts: list[tuple[tuple[str, ...], str]] = [((head,), "group" if key else "value")]
         if key:
             parts.append(((head, key), "list" if index is not None else "value"))
         for where, kind in parts:

@@ -49,6 +49,8 @@ class _Builder:
         self.regions: list[Region] = []
         #: each state with its plan, in build order (for binding)
         self.built: list[tuple[State[Any], StatePlan]] = []
+        #: the states with a supervisor
+        self.supervised: list[tuple[State[Any], StatePlan]] = []
         #: each condition object with the state it belongs to
         self.conditions: list[tuple[Condition[Any], State[Any]]] = []
 
@@ -59,11 +61,19 @@ class _Builder:
         self.regions.append(region)
         for obj in states.values():
             obj.region = region
+        transition = self.transition
         for sp in plan.states:
+            if not sp.regular and not sp.preempt:
+                continue
             source = states[sp.id]
-            source.preempt = tuple(self.transition(tp, states) for tp in sp.preempt)
-            source.regular = tuple(self.transition(tp, states) for tp in sp.regular)
-            source.transitions = sorted(source.preempt + source.regular, key=lambda t: t.index)
+            source.regular = tuple([transition(tp, states) for tp in sp.regular])
+            if sp.preempt:
+                source.preempt = tuple([transition(tp, states) for tp in sp.preempt])
+                source.transitions = sorted(source.preempt + source.regular, key=_position)
+            elif len(source.regular) > 1:
+                source.transitions = sorted(source.regular, key=_position)
+            else:
+                source.transitions = list(source.regular)
         return region
 
     def state(self, plan: StatePlan) -> State[Any]:
@@ -84,6 +94,7 @@ class _Builder:
                 obj.until = Until(holds, conditions)
             if sup.watches:
                 self.supervise(obj, plan)
+                self.supervised.append((obj, plan))
         return obj
 
     def supervise(self, obj: State[Any], plan: StatePlan) -> None:
@@ -111,8 +122,10 @@ class _Builder:
     def transition(self, plan: TransitionPlan, states: dict[str, State[Any]]) -> Transition[Any]:
         source = states[plan.source]
         t = plan.cls(plan.params, source, states[plan.target], plan.position)
-        conditions = {key: cp.build() for key, cp in plan.conditions.items()}
         guard = plan.guard
+        if not plan.conditions and guard.expression is None and guard.condition is None and plan.assign is None:
+            return t
+        conditions = {key: cp.build() for key, cp in plan.conditions.items()}
         if guard.condition is not None:
             conditions["guard"] = guard.condition.build()
             t.apply_guard(conditions["guard"].holds)
@@ -128,7 +141,7 @@ class _Builder:
     def bind(self, machine: Machine) -> None:
         """Once everything exists: references, supervisors (exception sequences, callers), conditions' owners;
         then every state's hooks are sealed."""
-        for obj, _plan in self.built:
+        for obj, _plan in self.supervised:
             supervisor = obj.supervisor
             if supervisor is not None:
                 supervisor.machine = machine
@@ -141,10 +154,16 @@ class _Builder:
             condition.bind(machine, owner)
         for obj, _plan in self.built:
             for t in obj.transitions:
-                t.bind(machine)
-            obj.bind(machine)
+                if t.binds_references:
+                    t.bind(machine)
+            if obj.binds_references:
+                obj.bind(machine)
         for obj, _plan in self.built:
             obj.seal()
+
+
+def _position(t: Transition[Any]) -> int:
+    return t.index
 
 
 def _never(ctx: Context) -> bool:

@@ -52,26 +52,28 @@ class Assignment:
 
 def check(root: MachineSpec, problems: Problems) -> Analysis:
     """Check ``root`` and every level below it; problems go to ``problems``."""
-    for level in root.levels():
+    levels = list(root.levels())
+    for level in levels:
         if level.written:
             check_level(level, problems)
-    paths = frozenset(path_of(st, prefix) for st, prefix in root.walk())
+    states = list(root.walk())
+    transitions = list(root.scoped_transitions())
+    paths = frozenset([f"{prefix}/{st.id}" if prefix else st.id for st, prefix in states])
     variables: dict[str, Any] = {}
-    for level in root.levels():
+    for level in levels:
         for key, value in level.vars.items():
             variables.setdefault(key, value)
     check_sequences(root, problems)
-    kinds, expressions = _Expressions(root, variables, paths, problems).check()
+    kinds, expressions = _Expressions(states, transitions, variables, paths, problems).check()
     if root.inputs is not None:
         check_inputs(root, problems)
-    transitions = [tr for tr, _scope in root.scoped_transitions()]
-    for tr in transitions:
+    for tr in [tr for tr, _scope in transitions if tr.cls.checks_document]:
         found = tr.cls.check_document(tr.params, variables)
         if found is not None:
             problems.add(found[1], tr.source, tr.pointer + found[0], element=tr.label,
                          hint="change the value or the variable's initial value in 'vars'")
-    check_variable_kinds(transitions, variables, problems)
-    for tr, scope in root.scoped_transitions():
+    check_variable_kinds([tr for tr, _scope in transitions if tr.cls.tests_variables], variables, problems)
+    for tr, scope in transitions:
         for key in tr.cls.state_refs:
             value = getattr(tr.params, key)
             if resolve_path(value, scope, paths) is None:
@@ -123,7 +125,7 @@ def check_level(spec: MachineSpec, problems: Problems) -> None:
                     element=element_label("transition", raw), hint=_choices(ref, first_at))
     for tr in spec.transitions:
         source = by_id.get(tr.params.from_)
-        if source is not None:
+        if source is not None and (source.cls.is_final or tr.cls.needs_finishing_source):
             _check_source(tr, source, problems)
     if spec.initial in by_id:
         reached = reachable(spec)
@@ -160,7 +162,8 @@ def _check_source(tr: TransitionSpec, source: StateSpec, problems: Problems) -> 
 def check_inputs(root: MachineSpec, problems: Problems) -> None:
     """With declared ``inputs``: every signal read (by a state, transition or condition) is one of them."""
     declared = set(root.inputs or ())
-    for kind, params, source, ptr, element in signal_readers(root):
+    for kind, params, source, ptr, owner in signal_readers(root):
+        element = owner.label
         for key in getattr(kind, "signal_refs", ()):
             value = getattr(params, key, None)
             if isinstance(value, str) and value not in declared:
@@ -172,17 +175,20 @@ def check_inputs(root: MachineSpec, problems: Problems) -> None:
                              f"add '{value}' to the top level's \"inputs\" if the machine's environment provides it")
 
 
-def signal_readers(root: MachineSpec) -> Iterator[tuple[type[Any], Any, Source, str, str]]:
-    """``(class, params, source, pointer, element)`` of every state, transition and condition of the tree."""
+def signal_readers(root: MachineSpec) -> Iterator[tuple[type[Any], Any, Source, str, StateSpec | TransitionSpec]]:
+    """``(class, params, source, pointer, element)`` of every state, transition and condition of the tree; the
+    element is the state or transition (a condition's: the one it belongs to)."""
     for level in root.levels():
         for st in level.states:
-            yield st.cls, st.params, st.source, st.pointer, st.label
-            for cs in conditions_of(st.conditions):
-                yield cs.cls, cs.params, st.source, cs.pointer, st.label
+            yield st.cls, st.params, st.source, st.pointer, st
+            if st.conditions:
+                for cs in conditions_of(st.conditions):
+                    yield cs.cls, cs.params, st.source, cs.pointer, st
         for tr in level.transitions:
-            yield tr.cls, tr.params, tr.source, tr.pointer, tr.label
-            for cs in conditions_of(tr.conditions):
-                yield cs.cls, cs.params, tr.source, cs.pointer, tr.label
+            yield tr.cls, tr.params, tr.source, tr.pointer, tr
+            if tr.conditions:
+                for cs in conditions_of(tr.conditions):
+                    yield cs.cls, cs.params, tr.source, cs.pointer, tr
 
 
 def signal_names(spec: MachineSpec | None) -> set[str]:
@@ -191,7 +197,9 @@ def signal_names(spec: MachineSpec | None) -> set[str]:
     --signal`` warns about a name outside this set; a plugin type that reads signals declares its parameter there."""
     names: set[str] = set()
     for cls, params, *_rest in signal_readers(spec) if spec is not None else ():
-        for key in getattr(cls, "signal_refs", ()):
+        if not cls.signal_refs:
+            continue
+        for key in cls.signal_refs:
             value = getattr(params, key, None)
             if isinstance(value, str):
                 names.add(value)
@@ -238,9 +246,10 @@ class _Expressions:
     kinds and compiled. A variable is known when ``vars`` gives it or some ``set`` assigns it; its kind is that
     of its initial value, else of what the assignments give it (``any`` where that cannot be decided)."""
 
-    def __init__(self, root: MachineSpec, variables: dict[str, Any], paths: frozenset[str],
-                 problems: Problems) -> None:
-        self.root = root
+    def __init__(self, states: list[tuple[StateSpec, str]], transitions: list[tuple[TransitionSpec, str]],
+                 variables: dict[str, Any], paths: frozenset[str], problems: Problems) -> None:
+        self.states = states
+        self.transitions = transitions
         self.variables = variables
         self.paths = paths
         self.problems = problems
@@ -252,10 +261,14 @@ class _Expressions:
         self.kinds = self.infer_kinds(assignments)
         for a in assignments:
             self.assignment(a)
-        for st, scope in self.root.walk():
-            self.step_conditions(st, scope)
-        for tr, scope in self.root.scoped_transitions():
+        for st, scope in self.states:
+            p = st.params
+            if p.precondition is not None or p.until is not None or p.monitors is not None:
+                self.step_conditions(st, scope)
+        for tr, scope in self.transitions:
             guard = tr.params.guard
+            if guard is None and not tr.conditions:
+                continue
             if isinstance(guard, str):
                 c = self.compile(guard, tr.source, tr.pointer + "/guard", tr.label, E.BOOL)
                 if c is not None and c.constant and c.value is False:
@@ -268,17 +281,21 @@ class _Expressions:
 
     def assignments(self) -> Iterator[Assignment]:
         """Every assignment of the tree: states' ``set``, assignment parameters (SetVar), transitions' ``set``."""
-        for st, _ in self.root.walk():
+        for st, _ in self.states:
             sets = st.params.set
+            if sets is None:
+                continue
             for hook in ("on_enter", "on_exit"):
-                for name, value in ((getattr(sets, hook) or {}) if sets is not None else {}).items():
+                for name, value in (getattr(sets, hook) or {}).items():
                     yield Assignment(name, value, st.source, f"{st.pointer}/set/{hook}/{escape(name)}", st.label)
-        for st, _ in self.root.walk():
+        for st, _ in self.states:
             for key in st.cls.assignment_fields:
                 for name, value in getattr(st.params, key).items():
                     yield Assignment(name, value, st.source, f"{st.pointer}/{key}/{escape(name)}", st.label)
-        for tr, _ in self.root.scoped_transitions():
-            for name, value in (tr.params.set or {}).items():
+        for tr, _ in self.transitions:
+            if tr.params.set is None:
+                continue
+            for name, value in tr.params.set.items():
                 yield Assignment(name, value, tr.source, f"{tr.pointer}/set/{escape(name)}", tr.label)
 
     def infer_kinds(self, assignments: list[Assignment]) -> dict[str, str]:

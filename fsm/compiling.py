@@ -53,32 +53,42 @@ class _Compiler:
     def region(self, spec: MachineSpec, name: str, prefix: str) -> RegionPlan:
         for key, value in spec.vars.items():
             self.variables.setdefault(key, value)
-        outgoing: dict[str, list[TransitionPlan]] = {st.id: [] for st in spec.states}
+        regular: dict[str, list[TransitionPlan]] = {}
+        preempt: dict[str, list[TransitionPlan]] = {}
+        ordered = False
         for index, tr in enumerate(spec.transitions):
             plan = self.transition(tr, index, prefix)
-            outgoing[plan.source].append(plan)
-        states = tuple(self.state(st, prefix, outgoing[st.id]) for st in spec.states)
+            p = plan.params
+            (preempt if p.preempt else regular).setdefault(plan.source, []).append(plan)
+            ordered = ordered or p.priority != 0
+        states = tuple([self.state(st, prefix, regular.get(st.id, _NONE), preempt.get(st.id, _NONE), ordered)
+                        for st in spec.states])
         return RegionPlan(name, prefix, states, spec.initial)
 
-    def state(self, st: StateSpec, prefix: str, outgoing: list[TransitionPlan]) -> StatePlan:
+    def state(self, st: StateSpec, prefix: str, regular: list[TransitionPlan], preempt: list[TransitionPlan],
+              ordered: bool) -> StatePlan:
         path = f"{prefix}/{st.id}" if prefix else st.id
         cls, params = st.cls, st.params
         if cls.needs_car:
             self.car_users.append(f"'{path}' ({st.type})")
         if st.conditions:
             self._car_conditions(conditions_of(st.conditions), f"'{path}'")
-        regions = tuple(self.region(sub.machine, sub.name or st.id, f"{path}/{sub.name}" if sub.name else path)
-                        for sub in st.subs if sub.machine is not None) if st.subs else ()
-        if len(outgoing) > 1:
-            outgoing = sorted(outgoing, key=_priority)  # stable: declaration order within a priority
-        preempt = tuple(t for t in outgoing if t.params.preempt) if outgoing else ()
+        regions = tuple([self.region(sub.machine, sub.name or st.id, f"{path}/{sub.name}" if sub.name else path)
+                         for sub in st.subs if sub.machine is not None]) if st.subs else ()
+        if ordered:  # by priority, higher first; stable: declaration order within a priority
+            regular = sorted(regular, key=_priority)
+            preempt = sorted(preempt, key=_priority)
         on_enter = on_exit = None
         if params.set is not None or cls.assignment_fields:
             on_enter = self.assigner(st.source, self.entry_assignments(st))
             on_exit = self.assigner(st.source, [(name, f"{st.pointer}/set/on_exit/{escape(name)}")
                                                 for name in ((params.set.on_exit or {}) if params.set else {})])
-        return StatePlan(cls, params, st.id, path, on_enter, on_exit, self.supervision(st), regions, st.sequence,
-                         preempt, tuple(t for t in outgoing if not t.params.preempt) if preempt else tuple(outgoing))
+        supervision = None
+        if params.precondition is not None or params.until is not None or params.monitors is not None \
+                or params.timeout is not None:
+            supervision = self.supervision(st)
+        return StatePlan(cls, params, st.id, path, on_enter, on_exit, supervision, regions, st.sequence,
+                         tuple(preempt), tuple(regular))
 
     def entry_assignments(self, st: StateSpec) -> list[tuple[str, str]]:
         """``(variable, pointer)`` of what runs on entry: ``set.on_enter``, then the type's assignment parameters."""
@@ -157,6 +167,7 @@ class _Compiler:
 
 
 _NO_GUARD = GuardPlan()
+_NONE: list[TransitionPlan] = []
 
 
 def _priority(t: TransitionPlan) -> int:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import difflib
 import math
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Annotated, Any, NamedTuple
 
@@ -90,6 +90,8 @@ class Source:
     locator: Any = None
 
 
+
+
 class SubMachine(NamedTuple):
     """One region of a composite as parsed: its name as a path step (``None``: the composite's states sit
     directly under it, as in ``FSMState``), its machine (``None`` when it failed to parse) and where it is written,
@@ -134,7 +136,7 @@ class StateSpec:
     source: Source
     subs: list[SubMachine] = field(default_factory=list)
     #: The condition objects of the step-common keys, by key relative to the element (``"precondition"``,
-    #: ``"until"``, ``"monitors/0"``); a key written as an expression (text) is not here.
+    #: ``"until"``, ``"monitors/0/condition"``); a key written as an expression (text) is not here.
     conditions: dict[str, ConditionSpec] = field(default_factory=dict)
     #: A Sequence's layout, else None.
     sequence: SequenceLayout | None = None

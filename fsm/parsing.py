@@ -228,11 +228,14 @@ class Parser:
             return
         keys: list[tuple[str, Any]] = [("precondition", p.precondition), ("until", p.until)]
         keys += [(f"monitors/{i}/condition", m.condition) for i, m in enumerate(p.monitors or ())]
+        conditions = {}
         for key, raw in keys:
             if isinstance(raw, dict):
                 cs = self.condition(raw, spec.source, f"{spec.pointer}/{key}", spec.label)
                 if cs is not None:
-                    spec.conditions[key] = cs
+                    conditions[key] = cs
+        if conditions:
+            spec.conditions = conditions
 
     def transition(self, raw: Any, source: Source, ptr: str) -> TransitionSpec | None:
         """A transition element and its condition objects (a condition guard, the type's condition parameters)."""
@@ -242,12 +245,15 @@ class Parser:
         spec = TransitionSpec(parsed[0], parsed[1], ptr, source)
         fields = spec.cls.condition_fields
         if fields or type(spec.params.guard) is dict:
+            conditions = {}
             for key in ("guard", *fields):
                 value = getattr(spec.params, key, None)
                 if isinstance(value, dict):
                     cs = self.condition(value, source, f"{ptr}/{key}", spec.label)
                     if cs is not None:
-                        spec.conditions[key] = cs
+                        conditions[key] = cs
+            if conditions:
+                spec.conditions = conditions
         return spec
 
     def condition(self, raw: Any, source: Source, ptr: str, element: str, depth: int = 0) -> ConditionSpec | None:

@@ -82,6 +82,18 @@ class State(Generic[P]):
     signal_refs: ClassVar[tuple[str, ...]] = ()
     #: Names of parameters that hold assignments (``{"var": "expression"}``) run on entry, like ``set.on_enter``.
     assignment_fields: ClassVar[tuple[str, ...]] = ()
+    # Which hooks a class overrides, found once per class (``__init_subclass__``) rather than per state built.
+    _overrides_enter: ClassVar[bool] = False
+    _overrides_exit: ClassVar[bool] = False
+    _overrides_tick: ClassVar[bool] = False
+    binds_references: ClassVar[bool] = False
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        cls._overrides_enter = cls.on_enter is not State.on_enter
+        cls._overrides_exit = cls.on_exit is not State.on_exit
+        cls._overrides_tick = cls.tick is not State.tick
+        cls.binds_references = cls.bind is not State.bind
 
     def __init__(self, id: str, params: P | None = None) -> None:
         self.id = id
@@ -176,19 +188,20 @@ class State(Generic[P]):
         """Fix the hooks the runtime calls, once the machine is built: ``None`` where there is nothing to do, so
         a plain state costs the tick loop one test per hook."""
         cls = type(self)
-        self.arms = tuple(arm for t in self.transitions if (arm := t.arm) is not None)
-        self.watched = self.supervisor is not None or bool(self.preempt)
-        tick = self.tick_method()
+        if self.transitions:
+            self.arms = tuple(arm for t in self.transitions if (arm := t.arm) is not None)
+        supervised = self.supervisor is not None
+        self.watched = supervised or bool(self.preempt)
+        tick = self.tick_method() if cls._overrides_tick or self.regions else None
         self.tick_hook = tick if self.until is None else self._until_tick(tick, self.until.holds)
-        plain_enter = not (cls.on_enter is not State.on_enter or self.regions or self.arms or self.can_finish
-                           or self.entry_action is not None or self.supervisor is not None or self.until is not None)
+        plain_enter = not (cls._overrides_enter or self.regions or self.arms or self.can_finish
+                           or self.entry_action is not None or supervised or self.until is not None)
         self.enter_hook = None if plain_enter else self._enter
-        has_exit = cls.on_exit is not State.on_exit
-        self.exit_hook = self._exit if (has_exit or self.regions or self.exit_action is not None) else None
+        self.exit_hook = self._exit if (cls._overrides_exit or self.regions or self.exit_action is not None) else None
 
     def tick_method(self) -> Hook | None:
         """What ticking this state calls, or None when its class keeps the base's empty tick."""
-        return self.tick if type(self).tick is not State.tick else None
+        return self.tick if type(self)._overrides_tick else None
 
     def leave(self, ctx: Context) -> None:
         """Exit as a transition or an outer level does, and drop a pause or suspension it was held in."""

@@ -16,6 +16,8 @@ if TYPE_CHECKING:
     from .state import State
 
 P = TypeVar("P", bound=TransitionParams)
+#: The conditions of a transition that has none (shared; ``apply_conditions`` makes a transition its own).
+_NO_CONDITIONS: dict[str, Any] = {}
 
 
 class Transition(Generic[P]):
@@ -48,6 +50,22 @@ class Transition(Generic[P]):
     signal_refs: ClassVar[tuple[str, ...]] = ()
     #: Names of parameters that hold condition objects; built instances are in ``self.conditions``.
     condition_fields: ClassVar[tuple[str, ...]] = ()
+    # Which hooks a class overrides, found once per class (``__init_subclass__``) rather than per transition built.
+    _overrides_action: ClassVar[bool] = False
+    _overrides_source_enter: ClassVar[bool] = False
+    binds_references: ClassVar[bool] = False
+    #: Whether the type has its own load-time checks (``check_document``, ``variable_test``): the checks call them
+    #: only where it does.
+    checks_document: ClassVar[bool] = False
+    tests_variables: ClassVar[bool] = False
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        cls._overrides_action = cls.action is not Transition.action
+        cls._overrides_source_enter = cls.on_source_enter is not Transition.on_source_enter
+        cls.binds_references = cls.bind is not Transition.bind
+        cls.checks_document = cls.check_document.__func__ is not Transition.check_document.__func__  # type: ignore[attr-defined]
+        cls.tests_variables = cls.variable_test.__func__ is not Transition.variable_test.__func__  # type: ignore[attr-defined]
 
     def __init__(self, params: P, source: State[Any], target: State[Any], index: int = 0) -> None:
         self.params = params
@@ -55,22 +73,28 @@ class Transition(Generic[P]):
         self.target = target
         self.index = index
         cls = type(self)
-        own = self.action if cls.action is not Transition.action else None
         #: How the region decides: ALWAYS, COMPARE (``compare`` inline) or CALL (``test(ctx)``).
-        self.kind = GuardKind.ALWAYS if cls.unconditional else GuardKind.CALL
+        if cls.unconditional:
+            self.kind = GuardKind.ALWAYS
+            self.test: Callable[[Context], bool] | None = None
+        else:
+            self.kind = GuardKind.CALL
+            self.test = self.check
         self.compare: VarOp | None = None
-        self.test: Callable[[Context], bool] | None = None if cls.unconditional else self.check
         #: What firing runs: NONE, COUNTER (``counter`` inline) or CALL (``run(ctx)``).
-        self.effect = ActionKind.CALL if own is not None else ActionKind.NONE
+        if cls._overrides_action:
+            self.effect = ActionKind.CALL
+            self.run: Callable[[Context], None] | None = self.action
+        else:
+            self.effect = ActionKind.NONE
+            self.run = None
         self.counter: tuple[str, VarOp] | None = None
-        self.run: Callable[[Context], None] | None = own
         #: The document's ``set``, compiled (kept to combine it with further actions, see ``then``).
         self.assign: Callable[[Context], None] | None = None
         #: Condition objects by parameter name (a condition guard is ``"guard"``).
-        self.conditions: dict[str, Condition[Any]] = {}
+        self.conditions: dict[str, Condition[Any]] = _NO_CONDITIONS
         #: Run on each entry of the source: the type's ``on_source_enter`` and the conditions' resets.
-        self.arm: Callable[[Context], None] | None = (
-            self.on_source_enter if cls.on_source_enter is not Transition.on_source_enter else None)
+        self.arm: Callable[[Context], None] | None = self.on_source_enter if cls._overrides_source_enter else None
 
     @property
     def type_name(self) -> str:
@@ -93,7 +117,7 @@ class Transition(Generic[P]):
 
     def apply_conditions(self, conditions: dict[str, Condition[Any]]) -> None:
         """Keep the condition objects, reset each time the source is entered."""
-        self.conditions.update(conditions)
+        self.conditions = {**self.conditions, **conditions}
         resets = tuple(c.reset for c in conditions.values())
         own = self.arm
 

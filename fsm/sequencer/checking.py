@@ -39,8 +39,12 @@ def check_sequences(root: MachineSpec, problems: Problems) -> None:
     def walk(level: MachineSpec, prefix: str, caller: StateSpec | None, seqs: tuple[Enclosing, ...],
              using: tuple[str, ...]) -> None:
         for st in level.states:
+            p = st.params
+            if p.monitors is not None or p.timeout is not None or p.timeout_exception is not None:
+                _check_state(problems, st, caller, seqs, using)
+            if not st.subs:
+                continue
             path = f"{prefix}/{st.id}" if prefix else st.id
-            _check_state(problems, st, caller, seqs, using)
             inner = seqs + (Enclosing(st, path),) if st.sequence is not None else seqs
             if st.sequence is not None:
                 _check_steps(problems, st, seqs)

@@ -41,7 +41,7 @@ class Listener(Protocol):
                       transition: Fired | None) -> None:
         """``target`` was entered: by ``transition`` from ``source``, by a monitor's restart (``transition`` is a
         :class:`~fsm.sequencer.supervisor.Restart`; ``source`` and ``target`` are the restarted state), or as an
-        initial state (``source`` and ``transition`` are ``None``)."""
+        initial state (``source`` and ``transition`` are ``None``). ``transition`` is a :data:`Fired` or ``None``."""
         return None
 
     def on_tick(self, machine: Machine) -> None:

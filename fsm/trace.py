@@ -70,7 +70,8 @@ class Recorder(Listener):
         self.extra = extra
         self.header = header or {}
         self.sample = sample
-        self._sampler: Callable[[], Any] = sample if sample is not None else tuple  # called when _sample_only
+        #: ``sample`` for the tick loop, which calls it only when a sample is due (so never ``tuple``)
+        self._sampler: Callable[[], Any] = sample if sample is not None else tuple
         self.sample_fields = list(sample_fields) if sample_fields is not None else None
         self.sample_digits = sample_digits
         self._rows: list[tuple[int, Any]] = []  # the samples not written yet (block mode), each (tick, values)

@@ -8,21 +8,28 @@ states. Its ``action`` records when it fired. Run it: ``python examples/custom_t
 
 from __future__ import annotations
 
+from typing import Any
+
 from pydantic import Field
 
 import fsm
 from fsm import Transition, TransitionParams, register_transition
 
 
+class BatteryLowParams(TransitionParams):
+    """The parameters of ``BatteryLow``: a named model, so that ``Transition[BatteryLowParams]`` types them."""
+
+    var: str = Field("battery", description="Blackboard variable holding the battery voltage.")
+    below: float = Field(gt=0, description="Voltage under which the battery counts as low.")
+    hysteresis: float = Field(0.2, ge=0, description="How far above `below` the level must have been to arm.")
+    samples: int = Field(3, ge=1, description="Ticks in a row the level must stay low.")
+
+
 @register_transition
-class BatteryLow(Transition):
+class BatteryLow(Transition[BatteryLowParams]):
     """Fires when `var` stays below `below` for `samples` ticks, after it was seen above `below + hysteresis`."""
 
-    class Params(TransitionParams):
-        var: str = Field("battery", description="Blackboard variable holding the battery voltage.")
-        below: float = Field(gt=0, description="Voltage under which the battery counts as low.")
-        hysteresis: float = Field(0.2, ge=0, description="How far above `below` the level must have been to arm.")
-        samples: int = Field(3, ge=1, description="Ticks in a row the level must stay low.")
+    Params = BatteryLowParams
 
     # Per-instance state: one transition object exists per document element.
     armed: bool
@@ -48,7 +55,7 @@ class BatteryLow(Transition):
         ctx.vars["low_at"] = round(ctx.now, 4)
 
 
-MACHINE = {
+MACHINE: dict[str, Any] = {
     "name": "battery_watch",
     "initial": "work",
     "vars": {"battery": 12.6, "low_at": -1.0},

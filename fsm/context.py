@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from .machine import Machine
+    from .plant import Plant
     from .state import State
 
 
@@ -32,7 +33,7 @@ class Context:
         self.car = car
         self.machine: Machine | None = None
         #: simulated plants by name (``fsm.plant.Plant``), attached by a scenario or a run
-        self.plants: dict[str, Any] = {}
+        self.plants: dict[str, Plant] = {}
         self._signals: dict[str, bool] = {}
         self._changed: dict[str, int] = {}
         #: Signals changed since the last tick started, with their level then.

@@ -7,36 +7,69 @@ import difflib
 import math
 import numbers
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol, TypeAlias, TypeVar, runtime_checkable
 
-from .clock import DEFAULT_DURATION, SimulatedClock
+from .clock import DEFAULT_DURATION, Clock, SimulatedClock
 from .context import Context, _shown, check_signal_name, signal_level
 from .debounce import Debounced
 from .errors import StateRuntimeError
 from .paths import resolve_path
-from .state import State as _State
+from .sequencer.supervisor import Restart
+from .state import State
+from .transition import Transition
 
 if TYPE_CHECKING:
     from .region import Region
-    from .state import State
-    from .transition import Transition
+    from .sequencer.supervisor import Monitor
+
+#: What a listener's ``on_transition`` gets as the ``transition`` that entered a state (``None`` for an initial
+#: entry): the transition that fired, or the :class:`~fsm.sequencer.supervisor.Restart` record of a monitor that
+#: restarted the state (``type_name`` ``"restart"``). Both have ``type_name``, ``source`` and ``target``.
+Fired: TypeAlias = Transition[Any] | Restart
 
 
-class Listener:
-    """Observer of a running machine. Override what you need; the machine calls nothing when none is attached."""
+@runtime_checkable
+class Listener(Protocol):
+    """Observer of a running machine: any object with ``on_transition`` and ``on_tick`` is one. Subclass it to
+    override only what you need (the others do nothing); the machine calls nothing when no listener is attached.
 
-    def on_transition(self, ctx: Context, source: State | None, target: State, transition: Transition | None) -> None:
-        """A state was entered; ``source`` and ``transition`` are ``None`` for an initial entry."""
+    Two hooks are optional, called only on listeners that have them (see :class:`MonitorListener` and
+    :class:`PauseListener`): ``on_monitor(ctx, owner, monitor)`` and ``on_pause(ctx, state, paused)``.
+    """
+
+    def on_transition(self, ctx: Context, source: State[Any] | None, target: State[Any],
+                      transition: Fired | None) -> None:
+        """``target`` was entered: by ``transition`` from ``source``, by a monitor's restart (``transition`` is a
+        :class:`~fsm.sequencer.supervisor.Restart`; ``source`` and ``target`` are the restarted state), or as an
+        initial state (``source`` and ``transition`` are ``None``). ``transition`` is a :data:`Fired` or ``None``."""
+        return None
 
     def on_tick(self, machine: Machine) -> None:
         """A tick has ended."""
+        return None
 
-    def on_monitor(self, ctx: Context, owner: State, monitor: Any) -> None:
+
+@runtime_checkable
+class MonitorListener(Listener, Protocol):
+    """A listener that is also told when a monitor (or a timeout) fires."""
+
+    def on_monitor(self, ctx: Context, owner: State[Any], monitor: Monitor) -> None:
         """A monitor (or a timeout) of ``owner`` fired; ``monitor.label``, ``.kind``, ``.behavior``,
-        ``.exception_id``. Optional: listeners without this method are not told."""
+        ``.exception_id``."""
+        return None
 
-    def on_pause(self, ctx: Context, state: State, paused: bool) -> None:
-        """``state`` was paused (``paused`` True) or resumed. Optional, like ``on_monitor``."""
+
+@runtime_checkable
+class PauseListener(Listener, Protocol):
+    """A listener that is also told when a state is paused or resumed."""
+
+    def on_pause(self, ctx: Context, state: State[Any], paused: bool) -> None:
+        """``state`` was paused (``paused`` True) or resumed."""
+        return None
+
+
+#: A listener passed to :meth:`Machine.add_listener`, returned as it came.
+L = TypeVar("L", bound=Listener)
 
 
 #: What ``Machine.run`` stops after when given neither ``max_ticks`` nor ``duration`` (machine time, seconds).
@@ -60,19 +93,19 @@ class Machine:
         root: Region,
         *,
         name: str = "",
-        clock: Any = None,
+        clock: Clock | None = None,
         context: Context | None = None,
         all_regions: list[Region] | None = None,
-        states_by_path: dict[str, State] | None = None,
+        states_by_path: dict[str, State[Any]] | None = None,
     ) -> None:
         self.name = name
         self.root = root
-        self.clock = clock if clock is not None else SimulatedClock()
+        self.clock: Clock = clock if clock is not None else SimulatedClock()
         self.ctx = context if context is not None else Context()
         self.ctx.machine = self
         self.regions: list[Region] = all_regions if all_regions is not None else [root]
-        self.states_by_path: dict[str, State] = states_by_path or {}
-        self.listeners: list[Any] = []
+        self.states_by_path: dict[str, State[Any]] = states_by_path or {}
+        self.listeners: list[Listener] = []
         self.started = False
         self._sim = not getattr(self.clock, "realtime", False)
         self._dt = self.clock.dt
@@ -224,7 +257,7 @@ class Machine:
     def ticks(self) -> int:
         return self.ctx.tick
 
-    def state(self, path: str) -> State:
+    def state(self, path: str) -> State[Any]:
         """The state at ``path`` (ids joined by ``/``; under a ``Parallel``, the region name is a step).
 
         Raises ``KeyError`` (with close matches) for a path that names no state, ``TypeError`` for a non-string.
@@ -238,7 +271,7 @@ class Machine:
             hint = f"; did you mean {', '.join(close)}?" if close else ""
             raise KeyError(f"no state at path '{path}'{hint}") from None
 
-    def resolve(self, path: str, scope: str = "") -> State:
+    def resolve(self, path: str, scope: str = "") -> State[Any]:
         """The state ``path`` names when written in the level at ``scope`` (see :func:`fsm.paths.resolve_path`)."""
         full = resolve_path(path, scope, self.states_by_path)
         if full is None:
@@ -266,7 +299,7 @@ class Machine:
         for sub in self._active_subtree(state):
             if sub.frozen_since is None:  # already frozen by an earlier pause below: keep that time
                 sub.frozen_since = now
-                if type(sub).on_pause is not _State.on_pause:
+                if type(sub).on_pause is not State.on_pause:
                     sub.on_pause(self.ctx)
         if self.listeners:
             self._notify_pause(state, True)
@@ -295,14 +328,14 @@ class Machine:
         if state.frozen_since is not None:
             state.entered_at += now - state.frozen_since
             state.frozen_since = None
-            if state.paused is False and type(state).on_resume is not _State.on_resume:
+            if state.paused is False and type(state).on_resume is not State.on_resume:
                 state.on_resume(self.ctx)
         for region in _inner_regions(state):
             if region.started and not region.active.paused:
                 self.thaw(region.active, now)
 
     @staticmethod
-    def _ancestors(state: State) -> list[State]:
+    def _ancestors(state: State[Any]) -> list[State[Any]]:
         out = []
         region = state.region
         while region is not None and region.owner is not None:
@@ -310,7 +343,7 @@ class Machine:
             region = region.owner.region
         return out
 
-    def _active_subtree(self, state: State) -> list[State]:
+    def _active_subtree(self, state: State[Any]) -> list[State[Any]]:
         out = [state]
         for region in _inner_regions(state):
             if region.started:
@@ -340,21 +373,21 @@ class Machine:
             return rose
         self._toggles.append((edge, state))
 
-    def notify_monitor(self, owner: State[Any], monitor: Any) -> None:
+    def notify_monitor(self, owner: State[Any], monitor: Monitor) -> None:
         """Tell the listeners that a monitor (or a timeout) of ``owner`` fired."""
         for listener in self.listeners:
             hook = getattr(listener, "on_monitor", None)
             if hook is not None:
                 hook(self.ctx, owner, monitor)
 
-    def _notify_pause(self, state: State, paused: bool) -> None:
+    def _notify_pause(self, state: State[Any], paused: bool) -> None:
         for listener in self.listeners:
             hook = getattr(listener, "on_pause", None)
             if hook is not None:
                 hook(self.ctx, state, paused)
 
     # -- listeners ------------------------------------------------------------------------------
-    def add_listener(self, listener: Any) -> Any:
+    def add_listener(self, listener: L) -> L:
         """Attach a listener: an object with ``on_transition(ctx, source, target, transition)`` and
         ``on_tick(machine)`` methods (subclass :class:`Listener` and override what you need); returns it.
 
@@ -368,7 +401,7 @@ class Machine:
         self.listeners.append(listener)
         return listener
 
-    def remove_listener(self, listener: Any) -> None:
+    def remove_listener(self, listener: Listener) -> None:
         """Detach a listener attached with :meth:`add_listener` (``ValueError`` if it is not attached)."""
         try:
             self.listeners.remove(listener)
@@ -390,7 +423,7 @@ class Machine:
         return f"<Machine {self.name!r} tick={self.ctx.tick} active={self.active_path!r}>"
 
 
-def _inner_regions(state: State) -> tuple[Region, ...]:
+def _inner_regions(state: State[Any]) -> tuple[Region, ...]:
     """The regions below ``state``: its own and the exception sequence running for it, if any."""
     w = state.supervisor
     if w is not None and w.running is not None:

@@ -32,8 +32,9 @@ from .errors import StateRuntimeError
 from .trace import Recorder, summary
 
 if TYPE_CHECKING:
-    from .machine import Listener, Machine
+    from .machine import L, Machine
     from .registry import Registry
+    from .sim.io import CarIO
 
 #: Slack when comparing machine times (80 ticks of 0.0125 s are 1 s, however the floats round).
 TIME_EPS = 1e-9
@@ -193,10 +194,10 @@ class Session:
 
     # -- building one -----------------------------------------------------------------------------------------
     @classmethod
-    def open(cls, source: Any, *, car: Any = None, driver: Driver | None = None, registry: Registry | None = None,
-             plugins: tuple[str, ...] = (), variables: Mapping[str, Any] | None = None, dt: float | None = None,
-             stop: StopRules | None = None, base_dir: str | os.PathLike[str] | None = None,
-             record: bool = True) -> Session:
+    def open(cls, source: Any, *, car: CarIO | None = None, driver: Driver | None = None,
+             registry: Registry | None = None, plugins: tuple[str, ...] = (),
+             variables: Mapping[str, Any] | None = None, dt: float | None = None, stop: StopRules | None = None,
+             base_dir: str | os.PathLike[str] | None = None, record: bool = True) -> Session:
         """A session for the machine in ``source`` (a file, a document dict, a parsed spec or a compiled plan).
 
         ``car``: anything that implements the car interface (``fsm.sim.io.CarIO``); a machine that drives needs
@@ -219,9 +220,9 @@ class Session:
     def car(self) -> Any:
         return self.machine.ctx.car
 
-    def add_listener(self, listener: Listener) -> Listener:
+    def add_listener(self, listener: L) -> L:
         """Attach a listener to the machine (see :class:`fsm.Listener`)."""
-        return self.machine.add_listener(listener)  # type: ignore[no-any-return]
+        return self.machine.add_listener(listener)
 
     def record(self, recorder: Recorder) -> Recorder:
         """Record the run with ``recorder`` (a trace): flushed after the start, finished at the end."""

@@ -27,15 +27,16 @@ import itertools
 import json
 import platform
 import struct
+from collections.abc import Callable
 from typing import IO, TYPE_CHECKING, Any
 
 from .machine import Listener
 
 if TYPE_CHECKING:
     from .context import Context
-    from .machine import Machine
+    from .machine import Fired, Machine
+    from .sequencer.supervisor import Monitor
     from .state import State
-    from .transition import Transition
 
 #: What the first line's ``format`` says, and the version of the line layout described here.
 TRACE_FORMAT = "tral-fsm-trace"
@@ -60,22 +61,27 @@ class Recorder(Listener):
     lines; ``header`` is merged into the header line.
     """
 
-    def __init__(self, out: IO[str] | None = None, extra: Any = None, *, header: dict[str, Any] | None = None,
-                 sample: Any = None, sample_period: float = SAMPLE_PERIOD, keyframe_period: float = KEYFRAME_PERIOD,
-                 frames: Any = None, frame_period: float = FRAME_PERIOD, sample_fields: list[str] | None = None,
-                 sample_digits: int = 4) -> None:
+    def __init__(self, out: IO[str] | None = None, extra: Callable[[], dict[str, Any]] | None = None, *,
+                 header: dict[str, Any] | None = None, sample: Callable[[], Any] | None = None,
+                 sample_period: float = SAMPLE_PERIOD, keyframe_period: float = KEYFRAME_PERIOD,
+                 frames: Callable[[], dict[str, Any] | None] | None = None, frame_period: float = FRAME_PERIOD,
+                 sample_fields: list[str] | None = None, sample_digits: int = 4) -> None:
         self.out = out
         self.extra = extra
         self.header = header or {}
         self.sample = sample
+        #: ``sample`` for the tick loop, which calls it only when a sample is due (so never ``tuple``)
+        self._sampler: Callable[[], Any] = sample if sample is not None else tuple
         self.sample_fields = list(sample_fields) if sample_fields is not None else None
         self.sample_digits = sample_digits
-        self._rows: list[Any] = []  # the samples not written yet (block mode), each (tick, values)
+        self._rows: list[tuple[int, Any]] = []  # the samples not written yet (block mode), each (tick, values)
         self._tails: dict[tuple[int, ...], str] = {}
         self._active_json: str | None = None  # the active leaves as JSON, until the next transition
         self.frames = frames
         self.periods = (sample_period, keyframe_period, frame_period)
-        self._every: tuple[int, int, int] | None = None  # the periods in ticks, known at the first flush
+        #: the sample, keyframe and frame periods in ticks, known at the first flush (which writes the header)
+        self._every = (0, 0, 0)
+        self._sample_every = 0  # the first of them, read each tick a sample is due
         self.visited: list[str] = []
         self._seen: set[str] = set()
         self.transitions = 0
@@ -91,7 +97,8 @@ class Recorder(Listener):
         self._sample_only = False
         self.ended = False
 
-    def on_transition(self, ctx: Context, source: State | None, target: State, transition: Transition | None) -> None:
+    def on_transition(self, ctx: Context, source: State[Any] | None, target: State[Any],
+                      transition: Fired | None) -> None:
         if target.path not in self._seen:
             self._seen.add(target.path)
             self.visited.append(target.path)
@@ -106,14 +113,14 @@ class Recorder(Listener):
             "type": transition.type_name if transition is not None else "initial",
         })
 
-    def on_monitor(self, ctx: Context, owner: State, monitor: Any) -> None:
+    def on_monitor(self, ctx: Context, owner: State[Any], monitor: Monitor) -> None:
         event = {"owner": owner.path, "monitor": monitor.label, "kind": monitor.kind, "behavior": monitor.behavior}
         if monitor.exception_id is not None:
             event["exception"] = monitor.exception_id
         self._events.setdefault("monitors", []).append(event)
         self.monitor_counts[owner.path] = self.monitor_counts.get(owner.path, 0) + 1
 
-    def on_pause(self, ctx: Context, state: State, paused: bool) -> None:
+    def on_pause(self, ctx: Context, state: State[Any], paused: bool) -> None:
         self._events.setdefault("paused" if paused else "resumed", []).append(state.path)
 
     def on_tick(self, machine: Machine) -> None:
@@ -129,16 +136,16 @@ class Recorder(Listener):
             return
         ctx = machine.ctx
         current, last = ctx.vars, self._vars
-        if current != last or (current and not all(type(v) is type(last[k]) for k, v in current.items())):  # type: ignore[index]
+        if current != last or (current and not all(type(v) is type(last[k]) for k, v in current.items())):
             self.flush(machine)
             return
         tick = ctx._tick
         if tick < self._due:
             return
         if tick == self._due and self._sample_only:  # most due ticks: one sample, kept for its block
-            self._rows.append((tick, self.sample()))
+            self._rows.append((tick, self._sampler()))
             self._last_tick = tick
-            due = self._due = tick + self._every[0]  # type: ignore[index]
+            due = self._due = tick + self._sample_every
             if due >= self._special:
                 self._schedule(tick)
             return
@@ -155,8 +162,10 @@ class Recorder(Listener):
             return
         ctx = machine.ctx
         tick = ctx.tick
-        if self._every is None:
-            self._every = tuple(max(1, round(p / machine._dt)) for p in self.periods)  # type: ignore[assignment]
+        if not self._sample_every:
+            s_every, k_every, f_every = (max(1, round(p / machine._dt)) for p in self.periods)
+            self._every = (s_every, k_every, f_every)
+            self._sample_every = s_every
             out.write(_dumps(self._header_line(machine)))
         time = round(ctx.now, 9)
         if self._pending or changed is not None or self._events:
@@ -179,13 +188,13 @@ class Recorder(Listener):
         if tick == self._last_tick:
             return
         self._last_tick = tick
-        s_every, k_every, f_every = self._every  # type: ignore[misc]
+        s_every, k_every, f_every = self._every
         if tick % k_every == 0:
             active = self._active_json
             if active is None:  # printed again only after a transition
                 active = self._active_json = _dumps(machine.active_paths)[:-1]
-            values = _dumps({k: jsonable(v) for k, v in ctx.vars.items()})[:-1] if ctx.vars else "{}"
-            out.write(f'{{"type":"keyframe","tick":{tick},"time":{time!r},"active":{active},"vars":{values}}}\n')
+            variables = _dumps({k: jsonable(v) for k, v in ctx.vars.items()})[:-1] if ctx.vars else "{}"
+            out.write(f'{{"type":"keyframe","tick":{tick},"time":{time!r},"active":{active},"vars":{variables}}}\n')
         if self.sample is not None and tick % s_every == 0:
             if self.sample_fields is not None:
                 if tick % k_every == 0:
@@ -211,7 +220,7 @@ class Recorder(Listener):
         values = [v for _, v in rows]
         tick = rows[0][0]
         time = round(tick * machine._dt, 9)
-        every = self._every[0] if self._every else 1  # type: ignore[index]
+        every = self._sample_every or 1
         digits = self.sample_digits
         packed = _packed_rows(values)
         if packed is None:
@@ -232,7 +241,7 @@ class Recorder(Listener):
     def _schedule(self, tick: int) -> None:
         """The next tick after ``tick`` with a keyframe, sample or frame, whether it has only a sample, and the next
         tick with a keyframe or frame."""
-        s_every, k_every, f_every = self._every  # type: ignore[misc]
+        s_every, k_every, f_every = self._every
         special = tick - tick % k_every + k_every
         if self.frames is not None:
             special = min(special, tick - tick % f_every + f_every)
@@ -257,7 +266,7 @@ class Recorder(Listener):
     def _header_line(self, machine: Machine) -> dict[str, Any]:
         from . import __version__
 
-        s_every, k_every, f_every = self._every  # type: ignore[misc]
+        s_every, k_every, f_every = self._every
         dt = machine._dt
         line: dict[str, Any] = {
             "type": "header", "format": TRACE_FORMAT, "version": TRACE_VERSION,
@@ -313,7 +322,7 @@ def _packer(count: int) -> struct.Struct:
     return struct.Struct(f"<{count}f")
 
 
-def _dumps(line: dict[str, Any]) -> str:
+def _dumps(line: dict[str, Any] | list[Any]) -> str:
     """One line; a value JSON cannot hold (an infinite reading, an object on the blackboard) as :func:`jsonable`
     makes it, so every line parses in any JSON reader (a browser's too)."""
     try:

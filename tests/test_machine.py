@@ -413,6 +413,36 @@ def test_listener_sees_every_transition(registry):
     assert seen == [(0, None, "a", "initial"), (1, "a", "b", "Always")]
 
 
+def test_listener_is_a_protocol_and_a_base_class(registry):
+    """Any object with on_transition and on_tick is a Listener; a subclass gets the methods it does not write
+    (doing nothing), and the optional hooks only when it writes them."""
+    from fsm.machine import MonitorListener, PauseListener
+
+    class ByMethods:
+        def on_transition(self, ctx, source, target, transition):
+            pass
+
+        def on_tick(self, machine):
+            self.ticks = machine.ticks
+
+    class Ticks(fsm.Listener):
+        def on_tick(self, machine):
+            self.ticks = machine.ticks
+
+    class Pauses(Ticks):
+        def on_pause(self, ctx, state, paused):
+            self.paused = (state.path, paused)
+
+    assert isinstance(ByMethods(), fsm.Listener) and isinstance(Ticks(), fsm.Listener)
+    assert not isinstance(object(), fsm.Listener) and not isinstance(Ticks(), (MonitorListener, PauseListener))
+    assert isinstance(Pauses(), PauseListener) and not isinstance(Pauses(), MonitorListener)
+    m = fsm.load(doc("a", [probe("a"), probe("b")], [tr("Always", "a", "b")]), registry=registry)
+    listeners = [m.add_listener(ByMethods()), m.add_listener(Ticks()), m.add_listener(Pauses())]
+    m.run(max_ticks=2)
+    m.pause()
+    assert [x.ticks for x in listeners] == [2, 2, 2] and listeners[2].paused == ("b", True)
+
+
 def test_identical_runs_give_identical_traces(tmp_path, registry):
     from fsm.trace import Recorder
 

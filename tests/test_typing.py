@@ -7,6 +7,7 @@ second."""
 from __future__ import annotations
 
 import importlib.util
+import re
 import subprocess
 import sys
 import textwrap
@@ -15,6 +16,9 @@ from types import ModuleType
 
 ROOT = Path(__file__).resolve().parent.parent
 SCRIPT = ROOT / "scripts" / "typecheck.py"
+#: What control developers copy: the examples, written the typed way (checked with the documented ones).
+EXAMPLES = ["examples/listener.py", "examples/custom_transition.py", "examples/eeros/eeros_plant.py",
+            "examples/plugin/src/tral_fsm_blink/states.py", "examples/plugin/src/tral_fsm_blink/transitions.py"]
 
 
 def typecheck(*args: str) -> subprocess.CompletedProcess[str]:
@@ -88,6 +92,91 @@ def test_parameters_are_typed_for_plugin_authors(tmp_path: Path) -> None:
     assert errors == expected, done.stdout + done.stderr
     assert '"BlinkParams" has no attribute "perod"' in done.stdout
     assert '"WaitParams" has no attribute "nope"' in done.stdout
+
+
+def error_lines(source: str, done: subprocess.CompletedProcess[str]) -> tuple[list[int], list[int]]:
+    """The lines of ``source`` marked ``# error``, and those mypy reported errors on."""
+    expected = [n for n, line in enumerate(source.splitlines(), 1) if "# error" in line]
+    found = sorted({int(line.split(":")[1]) for line in done.stdout.splitlines() if ": error:" in line})
+    return expected, found
+
+
+def test_listeners_and_clocks_are_typed(tmp_path: Path) -> None:
+    """A listener gets what the machine passes: a Transition, a monitor's Restart or None; one that takes only a
+    Transition is refused, as is an object without the methods; the optional hooks have their Protocols."""
+    source = textwrap.dedent('''
+        from typing import Any
+
+        from fsm import Context, Listener, Machine, State, Transition
+        from fsm.machine import Fired, MonitorListener
+        from fsm.sequencer.supervisor import Monitor, Restart
+
+
+        class Ticks(Listener):
+            def on_tick(self, machine: Machine) -> None:
+                pass
+
+
+        class ByMethods:
+            def on_transition(self, ctx: Context, source: State[Any] | None, target: State[Any],
+                              transition: Fired | None) -> None:
+                if isinstance(transition, Restart):
+                    monitor: Monitor | None = transition.monitor
+                elif transition is not None:
+                    fired: Transition[Any] = transition
+                    name: str = transition.type_name
+
+            def on_tick(self, machine: Machine) -> None:
+                pass
+
+
+        class OnlyTransitions(Listener):
+            def on_transition(self, ctx: Context, source: State[Any] | None, target: State[Any],
+                              transition: Transition[Any] | None) -> None:  # error: a restart is no Transition
+                pass
+
+
+        class Monitors(Listener):
+            def on_monitor(self, ctx: Context, owner: State[Any], monitor: Monitor) -> None:
+                label: str = monitor.label
+
+
+        def attach(machine: Machine) -> None:
+            ticks: Ticks = machine.add_listener(Ticks())
+            machine.add_listener(ByMethods())
+            machine.add_listener(object())  # error: not a listener
+            watching: MonitorListener = Monitors()
+            deaf: MonitorListener = Ticks()  # error: no on_monitor
+            due: float = machine.clock.time_at(3)
+            period: int = machine.clock.dt  # error: a float
+    ''')
+    sample = tmp_path / "listening.py"
+    sample.write_text(source)
+    done = typecheck(str(sample))
+    expected, found = error_lines(source, done)
+    assert found == expected, done.stdout + done.stderr
+    assert 'Argument 4 of "on_transition" is incompatible with supertype' in done.stdout
+
+
+def python_blocks(page: Path) -> str:
+    return "\n".join(re.findall(r"^```python\n(.*?)^```", page.read_text(encoding="utf-8"), flags=re.M | re.S))
+
+
+def test_examples_and_documented_types_pass_mypy_strict(tmp_path: Path) -> None:
+    """The examples and the code of the pages on writing types and plugins type-check in strict mode, with no
+    ``type: ignore``: what plugin authors copy is the typed way."""
+    pages = []
+    for name in ("extending", "plugins"):
+        page = tmp_path / f"{name}_page.py"
+        page.write_text(python_blocks(ROOT / "docs" / f"{name}.md"), encoding="utf-8")
+        pages.append(str(page))
+    done = typecheck(*EXAMPLES, *pages)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert f"Success: no issues found in {len(EXAMPLES) + len(pages)} source files" in done.stdout
+    ignored = [f"{name}:{n}" for name in EXAMPLES
+               for n, line in enumerate((ROOT / name).read_text(encoding="utf-8").splitlines(), 1)
+               if "type: ignore" in line]
+    assert ignored == []
 
 
 def test_no_type_ignore_in_states_and_transitions() -> None:

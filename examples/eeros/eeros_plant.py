@@ -12,35 +12,42 @@ A control developer adds two kinds of things here, both registered like any type
 Use it from a scenario (``"plugins": ["../../examples/eeros/eeros_plant.py"]``) or with ``--plugin``.
 The models are simple but strict: an axis driven into its end stop counts a crash, a gripper that opens with
 nothing below to take the part drops it, so a wrong sequence fails its scenario.
+
+Every type names its parameter model (``AxisParams``, ``MoveAxisParams``, ...): ``State[MoveAxisParams]`` types
+``self.params`` of a step, and a plant declares ``params: AxisParams``, so mypy --strict checks every parameter
+read here.
 """
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Literal, TypeVar
 
 from pydantic import Field
 
-from fsm import Plant, PlantParams, State, StateParams, register_plant, register_state
+from fsm import Context, Plant, PlantParams, State, StateParams, register_plant, register_state
 
 _EPS = 1e-9
 
 
 # -- the axis of test cases 1, 4 and 5 ---------------------------------------------------------------------
+class AxisParams(PlantParams):
+    length: float = Field(default=1.0, gt=0, description="Travel in metres.")
+    speed: float = Field(default=0.25, gt=0, description="Speed in m/s.")
+    start: float = Field(default=0.5, ge=0, description="Start position in metres.")
+    left_switch: str = Field(default="limit_left", min_length=1, description="Signal of the left limit switch.")
+    right_switch: str = Field(default="limit_right", min_length=1, description="Signal of the right one.")
+
+
 @register_plant
 class Axis(Plant):
     """A linear axis from 0 to `length` m with a limit switch at each end; moves at `speed` m/s while commanded.
     Writes its position to the variable `<name>_x` and counts `<name>_crashes` (driving on against an end)."""
 
     signal_refs = ("left_switch", "right_switch")
+    Params = AxisParams
+    params: AxisParams  # what the registry builds it with (a plant is not generic over its parameters)
 
-    class Params(PlantParams):
-        length: float = Field(default=1.0, gt=0, description="Travel in metres.")
-        speed: float = Field(default=0.25, gt=0, description="Speed in m/s.")
-        start: float = Field(default=0.5, ge=0, description="Start position in metres.")
-        left_switch: str = Field(default="limit_left", min_length=1, description="Signal of the left limit switch.")
-        right_switch: str = Field(default="limit_right", min_length=1, description="Signal of the right one.")
-
-    def reset(self, ctx: Any) -> None:
+    def reset(self, ctx: Context) -> None:
         p = self.params
         self.x = min(p.start, p.length)
         self.direction = 0
@@ -52,7 +59,7 @@ class Axis(Plant):
         """-1 left, +1 right, 0 stop."""
         self.direction = direction
 
-    def step(self, ctx: Any, dt: float) -> None:
+    def step(self, ctx: Context, dt: float) -> None:
         p = self.params
         if self.direction:
             x = self.x + self.direction * p.speed * dt
@@ -62,7 +69,7 @@ class Axis(Plant):
             self.x = min(max(x, 0.0), p.length)
         self._publish(ctx)
 
-    def _publish(self, ctx: Any) -> None:
+    def _publish(self, ctx: Context) -> None:
         p = self.params
         left, right = self.x <= _EPS, self.x >= p.length - _EPS
         self.at_end = left or right
@@ -74,53 +81,63 @@ class Axis(Plant):
         ctx.vars[f"{self.name}_crashes"] = self.crashes
 
 
+class MoveAxisParams(StateParams):
+    axis: str = Field(default="axis", min_length=1, description="Name of the Axis plant.")
+    direction: Literal["left", "right"] = Field(description="Which way to drive.")
+
+
 @register_state
-class MoveAxis(State):
+class MoveAxis(State[MoveAxisParams]):
     """Drives an axis plant left or right; finishes when its limit switch on that side is closed. Stops the axis
     when left and while paused."""
 
     can_finish = True
+    Params = MoveAxisParams
 
-    class Params(StateParams):
-        axis: str = Field(default="axis", min_length=1, description="Name of the Axis plant.")
-        direction: Literal["left", "right"] = Field(description="Which way to drive.")
-
-    def on_enter(self, ctx: Any) -> None:
+    def on_enter(self, ctx: Context) -> None:
         self._drive(ctx)
 
-    def tick(self, ctx: Any) -> None:
-        axis = ctx.plant(self.params.axis)
+    def tick(self, ctx: Context) -> None:
+        axis = self._axis(ctx)
         p = axis.params
         if ctx.signal(p.left_switch if self.params.direction == "left" else p.right_switch):
             axis.command(0)
             self.finish("succeeded")
 
-    def on_exit(self, ctx: Any) -> None:
-        ctx.plant(self.params.axis).command(0)
+    def on_exit(self, ctx: Context) -> None:
+        self._axis(ctx).command(0)
 
-    def on_pause(self, ctx: Any) -> None:
-        ctx.plant(self.params.axis).command(0)
+    def on_pause(self, ctx: Context) -> None:
+        self._axis(ctx).command(0)
 
-    def on_resume(self, ctx: Any) -> None:
+    def on_resume(self, ctx: Context) -> None:
         if not self.finished:
             self._drive(ctx)
 
-    def _drive(self, ctx: Any) -> None:
-        ctx.plant(self.params.axis).command(-1 if self.params.direction == "left" else 1)
+    def _drive(self, ctx: Context) -> None:
+        self._axis(ctx).command(-1 if self.params.direction == "left" else 1)
+
+    def _axis(self, ctx: Context) -> Axis:
+        axis: Axis = ctx.plant(self.params.axis)  # the scenario attaches an Axis under this name
+        return axis
 
 
 # -- grippers and conveyors of test cases 3 and 8 --------------------------------------------------------------
+class ConveyorParams(PlantParams):
+    at: str = Field(min_length=1, description="The place where grippers meet this conveyor.")
+    role: Literal["supply", "takeaway"] = Field(description="Brings parts, or carries them off.")
+    period: float = Field(default=0.5, ge=0, description="Seconds until the next part is ready (supply).")
+
+
 @register_plant
 class Conveyor(Plant):
     """A conveyor end at place `at`: a `supply` conveyor has a new part ready `period` s after the last was taken
     (signal `<name>_ready`); a `takeaway` conveyor carries placed parts off and counts them in `<name>_parts`."""
 
-    class Params(PlantParams):
-        at: str = Field(min_length=1, description="The place where grippers meet this conveyor.")
-        role: Literal["supply", "takeaway"] = Field(description="Brings parts, or carries them off.")
-        period: float = Field(default=0.5, ge=0, description="Seconds until the next part is ready (supply).")
+    Params = ConveyorParams
+    params: ConveyorParams
 
-    def reset(self, ctx: Any) -> None:
+    def reset(self, ctx: Context) -> None:
         self.at = self.params.at
         self.part: int | None = 1 if self.params.role == "supply" else None
         self.next_part = 2
@@ -136,19 +153,25 @@ class Conveyor(Plant):
     def put(self, part: int) -> None:
         self.parts += 1
 
-    def step(self, ctx: Any, dt: float) -> None:
+    def step(self, ctx: Context, dt: float) -> None:
         if self.params.role == "supply" and self.part is None:
             self.wait -= dt
             if self.wait <= _EPS:
                 self.part, self.next_part = self.next_part, self.next_part + 1
         self._publish(ctx)
 
-    def _publish(self, ctx: Any) -> None:
+    def _publish(self, ctx: Context) -> None:
         ready = self.part is not None
         name = f"{self.name}_ready"
         if ctx.signal(name) != ready:
             ctx.set_signal(name, ready)
         ctx.vars[f"{self.name}_parts"] = self.parts
+
+
+class GripperParams(PlantParams):
+    places: list[str] = Field(min_length=1, description="The places it can reach; it starts at the first.")
+    travel: float = Field(default=0.5, gt=0, description="Seconds from one place to another.")
+    close_time: float = Field(default=0.2, ge=0, description="Seconds to open or close.")
 
 
 @register_plant
@@ -158,12 +181,10 @@ class Gripper(Plant):
     hands it to another gripper holding it too, or puts it on a takeaway conveyor; anything else drops it
     (counted in the variable `dropped`). Writes `<name>_at` (its place) and `<name>_holding` (true/false)."""
 
-    class Params(PlantParams):
-        places: list[str] = Field(min_length=1, description="The places it can reach; it starts at the first.")
-        travel: float = Field(default=0.5, gt=0, description="Seconds from one place to another.")
-        close_time: float = Field(default=0.2, ge=0, description="Seconds to open or close.")
+    Params = GripperParams
+    params: GripperParams
 
-    def reset(self, ctx: Any) -> None:
+    def reset(self, ctx: Context) -> None:
         self.at: str | None = self.params.places[0]
         self.target = self.at
         self.left = 0.0
@@ -182,7 +203,7 @@ class Gripper(Plant):
     def arrived(self) -> bool:
         return self.at == self.target and self.left <= _EPS
 
-    def close(self, ctx: Any) -> None:
+    def close(self, ctx: Context) -> None:
         self.moving_jaws = self.params.close_time
         if self.part is not None or self.at is None:
             return
@@ -196,7 +217,7 @@ class Gripper(Plant):
                 self.part = other.part  # both hold it until one opens
                 return
 
-    def open(self, ctx: Any) -> None:
+    def open(self, ctx: Context) -> None:
         self.moving_jaws = self.params.close_time
         part, self.part = self.part, None
         if part is None:
@@ -214,7 +235,7 @@ class Gripper(Plant):
     def jaws_done(self) -> bool:
         return self.moving_jaws <= _EPS
 
-    def step(self, ctx: Any, dt: float) -> None:
+    def step(self, ctx: Context, dt: float) -> None:
         if self.at is None:
             self.left -= dt
             if self.left <= _EPS:
@@ -223,58 +244,72 @@ class Gripper(Plant):
             self.moving_jaws -= dt
         self._publish(ctx)
 
-    def _publish(self, ctx: Any) -> None:
+    def _publish(self, ctx: Context) -> None:
         ctx.vars[f"{self.name}_at"] = self.at or "moving"
         ctx.vars[f"{self.name}_holding"] = self.part is not None
 
 
-class _GripperStep(State):
+class GripperStepParams(StateParams):
+    gripper: str = Field(min_length=1, description="Name of the Gripper plant.")
+
+
+#: The parameters of a gripper step: a gripper's name, and what the step adds.
+GP = TypeVar("GP", bound=GripperStepParams)
+
+
+class _GripperStep(State[GP]):
+    """A step that commands a gripper (generic, so that each step keeps its own parameters typed)."""
+
     can_finish = True
 
-    class Params(StateParams):
-        gripper: str = Field(min_length=1, description="Name of the Gripper plant.")
+    def gripper(self, ctx: Context) -> Gripper:
+        gripper: Gripper = ctx.plant(self.params.gripper)  # the scenario attaches a Gripper under this name
+        return gripper
 
-    def gripper(self, ctx: Any) -> Gripper:
-        return ctx.plant(self.params.gripper)  # type: ignore[no-any-return]
+
+class MoveGripperParams(GripperStepParams):
+    to: str = Field(min_length=1, description="The place to go to.")
 
 
 @register_state
-class MoveGripper(_GripperStep):
+class MoveGripper(_GripperStep[MoveGripperParams]):
     """Moves a gripper to a place; finishes on arrival."""
 
-    class Params(_GripperStep.Params):
-        to: str = Field(min_length=1, description="The place to go to.")
+    Params = MoveGripperParams
 
-    def on_enter(self, ctx: Any) -> None:
+    def on_enter(self, ctx: Context) -> None:
         self.gripper(ctx).move(self.params.to)
 
-    def tick(self, ctx: Any) -> None:
+    def tick(self, ctx: Context) -> None:
         if self.gripper(ctx).arrived():
             self.finish("succeeded")
 
 
 @register_state
-class Grip(_GripperStep):
+class Grip(_GripperStep[GripperStepParams]):
     """Closes a gripper; finishes when the jaws are closed (outcome "empty" when there was nothing to hold)."""
 
     outcomes = ("succeeded", "empty")
+    Params = GripperStepParams
 
-    def on_enter(self, ctx: Any) -> None:
+    def on_enter(self, ctx: Context) -> None:
         self.gripper(ctx).close(ctx)
 
-    def tick(self, ctx: Any) -> None:
+    def tick(self, ctx: Context) -> None:
         g = self.gripper(ctx)
         if g.jaws_done():
             self.finish("succeeded" if g.part is not None else "empty")
 
 
 @register_state
-class Release(_GripperStep):
+class Release(_GripperStep[GripperStepParams]):
     """Opens a gripper; finishes when the jaws are open."""
 
-    def on_enter(self, ctx: Any) -> None:
+    Params = GripperStepParams
+
+    def on_enter(self, ctx: Context) -> None:
         self.gripper(ctx).open(ctx)
 
-    def tick(self, ctx: Any) -> None:
+    def tick(self, ctx: Context) -> None:
         if self.gripper(ctx).jaws_done():
             self.finish("succeeded")

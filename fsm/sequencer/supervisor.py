@@ -241,9 +241,7 @@ def restart(state: State[Any], ctx: Context, monitor: Monitor | None = None) -> 
     if region is not None and region.listeners:
         marker = Restart(state, monitor)
         for listener in region.listeners:
-            # Listener.on_transition (fsm/machine.py) is typed to take a Transition; it should also name Restart,
-            # which listeners get in its place here. Pending the machine's rework, which owns that signature.
-            listener.on_transition(ctx, state, state, marker)  # type: ignore[arg-type]
+            listener.on_transition(ctx, state, state, marker)
     if state.enter_hook is not None:
         state.enter_hook(ctx)
     else:

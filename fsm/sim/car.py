@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import random
+from collections.abc import Callable
 from typing import Any
 
 import pymunk
@@ -38,6 +39,13 @@ RAY_BACK = 0.05
 #: Tyre grip: the largest force (as a multiple of the car's weight) that drives the body after the model.
 GRIP = 2.0
 _CAR_GROUP = 1
+
+#: Where a ray hit first: the fraction of the ray's length, and the normal (x, y) of the surface hit.
+Hit = tuple[float, float, float]
+#: A ray query: from (ax, ay) to (bx, by), the first :data:`Hit` or None.
+RayQuery = Callable[[float, float, float, float], "Hit | None"]
+#: A nearest-point query: the distance from (px, py) in a space to its nearest shape within max_d (inf if none).
+NearestQuery = Callable[[pymunk.Space, float, float, float], float]
 
 
 def build_space(world: World, doors: bool = True) -> pymunk.Space:
@@ -142,7 +150,7 @@ class SimCar:
         self._acc_dt = p.acceleration * PHYSICS_DT
         self._dec_dt = p.deceleration * PHYSICS_DT
         self._max_speed = p.max_speed
-        self._delta = None
+        self._delta: float | None = None
         self._k_beta = 0.0
         self._k_w = 0.0
         self._units = p.hall_units_per_m
@@ -403,8 +411,8 @@ class SimCar:
             gates = tuple(find_gates(detections))
         self._frame = frame
         self._view = CameraView(t, self.camera_frames, tuple(detections), gates)
-        if gates:
-            self.gate_memory.update(self.pose(), gates)  # type: ignore[union-attr]
+        if gates and self.gate_memory is not None:  # it is: a car with a camera has one
+            self.gate_memory.update(self.pose(), gates)
 
     def _begin(self, arbiter: Any, space: Any, data: Any) -> None:
         if self._touching == 0:
@@ -481,18 +489,22 @@ class SimCar:
             pt_nearest = _lib.cpSpacePointQueryNearest
             cflt = _ffi.new("cpShapeFilter *", tuple(flt))[0]
 
-            def ray(ax: float, ay: float, bx: float, by: float, _sp: Any = space._space) -> Any:
+            def ray_c(ax: float, ay: float, bx: float, by: float, _sp: Any = space._space) -> Hit | None:
                 if seg_first(_sp, (ax, ay), (bx, by), 0.0, cflt, seg_info) == null:
                     return None
                 n = seg_info.normal
                 return seg_info.alpha, n.x, n.y
 
-            def nearest(sp: pymunk.Space, px: float, py: float, max_d: float) -> float:
+            def nearest_c(sp: pymunk.Space, px: float, py: float, max_d: float) -> float:
                 if pt_nearest(sp._space, (px, py), max_d, cflt, pt_info) == null:
                     return math.inf
-                return pt_info.distance
+                distance: float = pt_info.distance
+                return distance
+
+            self._ray: RayQuery = ray_c
+            self._nearest: NearestQuery = nearest_c
         else:
-            def ray(ax: float, ay: float, bx: float, by: float) -> Any:
+            def ray(ax: float, ay: float, bx: float, by: float) -> Hit | None:
                 hit = space.segment_query_first((ax, ay), (bx, by), 0.0, flt)
                 if hit is None:
                     return None
@@ -502,8 +514,8 @@ class SimCar:
                 info = sp.point_query_nearest((px, py), max_d, flt)
                 return math.inf if info is None else info.distance
 
-        self._ray = ray
-        self._nearest = nearest
+            self._ray = ray
+            self._nearest = nearest
 
     def _outline_points(self) -> list[tuple[float, float]]:
         hl, hw = self.length / 2, self.width / 2

@@ -6,7 +6,14 @@ Implements :class:`fsm.sim.io.CarIO` with plain attributes and no physics; stdli
 from __future__ import annotations
 
 import math
-from typing import Any
+from collections.abc import Iterable
+from typing import TYPE_CHECKING
+
+from .io import CameraView, GateMemory
+
+if TYPE_CHECKING:
+    from fsm.vision.detector import Detection
+    from fsm.vision.gates import Gate
 
 
 class FakeCar:
@@ -26,16 +33,12 @@ class FakeCar:
         self.x = self.y = self.heading = 0.0
         self.stopped = False
         self.commands: list[tuple[str, float]] = []
-        self.view: Any = None
+        self.view: CameraView | None = None
         self._frames = 0
-        from .io import GateMemory
-
         self.gate_memory = GateMemory()
 
-    def see(self, detections: Any = (), gates: Any = (), time: float | None = None) -> None:
+    def see(self, detections: Iterable[Detection] = (), gates: Iterable[Gate] = (), time: float | None = None) -> None:
         """Script the camera: its next frame shows these detections and gates (a camera appears on first use)."""
-        from .io import CameraView
-
         self._frames += 1
         self.view = CameraView(self._frames * 0.05 if time is None else time, self._frames, tuple(detections),
                                tuple(gates))
@@ -67,5 +70,5 @@ class FakeCar:
         self.speed_command = 0.0
         self.speed = 0.0
 
-    def camera(self) -> Any | None:
+    def camera(self) -> CameraView | None:
         return self.view

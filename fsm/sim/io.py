@@ -14,8 +14,13 @@ active. ``ArucoGateFound`` with ``memory`` drives to a gate from it when the gat
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Any, Literal, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Literal, Protocol, runtime_checkable
+
+if TYPE_CHECKING:  # OpenCV: this module stays stdlib only at run time
+    from fsm.vision.detector import Detection
+    from fsm.vision.gates import Gate
 
 #: The ultrasonic sensors of the TRAL car, by name.
 SENSORS: tuple[str, ...] = ("left", "right", "front")
@@ -31,10 +36,10 @@ class CameraView:
 
     time: float
     frame: int
-    detections: tuple[Any, ...] = ()
-    gates: tuple[Any, ...] = ()
+    detections: tuple[Detection, ...] = ()
+    gates: tuple[Gate, ...] = ()
 
-    def marker(self, marker_id: int) -> Any | None:
+    def marker(self, marker_id: int) -> Detection | None:
         """The detection of ``marker_id`` in this frame, or ``None``."""
         for d in self.detections:
             if d.id == marker_id:
@@ -46,7 +51,7 @@ class CameraView:
 NO_VIEW = CameraView(0.0, 0)
 
 
-def gate_in_odometry(pose: tuple[float, float, float], gate: Any) -> dict[str, Any]:
+def gate_in_odometry(pose: tuple[float, float, float], gate: Gate) -> dict[str, Any]:
     """A gate seen in the car frame (centre, heading; :class:`fsm.vision.Gate`) with the car at ``pose``
     (odometry) as an entry in the odometry frame: ids, centre ``x``/``y`` (m), ``heading`` (rad), ``width`` (m)."""
     x, y, th = pose
@@ -73,7 +78,7 @@ class GateMemory:
         self.max_range = max_range
         self.max_angle = max_angle
 
-    def update(self, pose: tuple[float, float, float], gates: Any) -> None:
+    def update(self, pose: tuple[float, float, float], gates: Iterable[Gate]) -> None:
         for g in gates:
             if g.distance <= self.max_range and abs(g.heading) < self.max_angle:
                 self.gates[f"{int(g.ids[0])},{int(g.ids[1])}"] = gate_in_odometry(pose, g)
@@ -81,25 +86,63 @@ class GateMemory:
 
 @runtime_checkable
 class CarIO(Protocol):
-    """The plant as states see it (``ctx.car``)."""
+    """The plant as states see it (``ctx.car``). States read its values and command it through its methods only,
+    so a car may keep its values as plain attributes or as read-only properties."""
 
-    #: Latest ultrasonic readings in metres (the sensor's maximum range when there is no echo).
-    left: float
-    right: float
-    front: float
-    #: Number of ultrasonic samples so far; it changes when new readings arrive (about 20 Hz).
-    sample: int
-    #: Travelled distance from the hall sensor: metres, and raw hall units (1500 units per 1.60 m).
-    distance: float
-    hall: int
-    #: Measured speed in m/s (from the hall sensor); the last steering command in [-1, 1].
-    speed: float
-    steering: float
-    #: The last speed command in m/s (``speed`` is what the hall sensor measures).
-    speed_command: float
-    #: Geometry controllers may need: wheelbase (m) and the wheel angle at steering 1 (rad).
-    wheelbase: float
-    max_steering_angle: float
+    @property
+    def left(self) -> float:
+        """Latest reading of the left ultrasonic sensor, m (the sensor's maximum range when there is no echo)."""
+        ...
+
+    @property
+    def right(self) -> float:
+        """Latest reading of the right ultrasonic sensor, m."""
+        ...
+
+    @property
+    def front(self) -> float:
+        """Latest reading of the front ultrasonic sensor, m."""
+        ...
+
+    @property
+    def sample(self) -> int:
+        """Number of ultrasonic samples so far; it changes when new readings arrive (about 20 Hz)."""
+        ...
+
+    @property
+    def distance(self) -> float:
+        """Travelled distance from the hall sensor, m."""
+        ...
+
+    @property
+    def hall(self) -> int:
+        """Travelled distance in raw hall units (1500 units per 1.60 m)."""
+        ...
+
+    @property
+    def speed(self) -> float:
+        """Measured speed in m/s (from the hall sensor)."""
+        ...
+
+    @property
+    def steering(self) -> float:
+        """The last steering command, in [-1, 1]."""
+        ...
+
+    @property
+    def speed_command(self) -> float:
+        """The last speed command in m/s (``speed`` is what the hall sensor measures)."""
+        ...
+
+    @property
+    def wheelbase(self) -> float:
+        """Distance between the axles, m (for controllers)."""
+        ...
+
+    @property
+    def max_steering_angle(self) -> float:
+        """The wheel angle at steering 1, rad."""
+        ...
 
     def pose(self) -> tuple[float, float, float]:
         """Odometry: x, y (m) and heading (rad) in the car's odometry frame."""

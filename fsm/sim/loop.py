@@ -14,28 +14,29 @@ with a fixed distance (BasicFollowWall, FollowWall; not FollowWallRamp) has been
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from fsm.machine import Listener
 from fsm.session import Session, StopRules
-from fsm.trace import summary
+from fsm.trace import Recorder, summary
 
 from .car import PHYSICS_DT, SimCar
+from .world import Gate, World
 
 if TYPE_CHECKING:
     from fsm.context import Context
-    from fsm.machine import Machine
+    from fsm.machine import Fired, Machine
     from fsm.state import State
-    from fsm.transition import Transition
 
 
 class GateLog:
     """Ground truth for the summary: when the car's centre crossed each gate (the segment between its two markers) in
     the gate's direction."""
 
-    def __init__(self, world: Any) -> None:
-        self.gates = []
+    def __init__(self, world: World) -> None:
+        self.gates: list[tuple[Gate, tuple[float, float], tuple[float, float], float, float]] = []
         for g in world.gates:
             h = math.radians(g.heading)
             nx, ny = -math.sin(h), math.cos(h)
@@ -81,7 +82,7 @@ class _TransitionFlag(Listener):
         self.changed = True
 
     def on_transition(self, ctx: Context, source: State[Any] | None, target: State[Any],
-                      transition: Transition[Any] | None) -> None:
+                      transition: Fired | None) -> None:
         self.changed = True
 
 
@@ -96,7 +97,7 @@ class Simulation:
     """
 
     def __init__(self, machine: Machine, car: SimCar, *, settle: float = 2.0, track_every: int = 4,
-                 max_collisions: int | None = None, world_file: Any = None, seed: int = 0,
+                 max_collisions: int | None = None, world_file: str | os.PathLike[str] | None = None, seed: int = 0,
                  noise: bool = True) -> None:
         self.machine = machine
         self.car = car
@@ -203,7 +204,7 @@ class Simulation:
         self.wall_errors.append(true - target)
 
     # -- results ----------------------------------------------------------------------------------------
-    def summary(self, recorder: Any = None, world: Any = None, seed: int | None = None,
+    def summary(self, recorder: Recorder | None = None, world: object = None, seed: int | None = None,
                 noise: bool | None = None) -> dict[str, Any]:
         """The run summary of ``fsmctl run --summary`` (and of each run of a sweep): the machine's, then the car's."""
         result = self.session.summary() if recorder is None else summary(self.machine, recorder) | self.metrics()
@@ -263,7 +264,7 @@ CAR_SAMPLE_FIELDS = ["car.x", "car.y", "car.heading", "car.odometry[0]", "car.od
                      "car.steering", "car.collisions"]
 
 
-def car_trace_sample(car: Any) -> Any:
+def car_trace_sample(car: SimCar) -> Callable[[], tuple[Any, ...]]:
     """The trace's samples of ``car``: a tuple of the values named by :data:`CAR_SAMPLE_FIELDS` (a sample is taken
     every few ticks, so it must cost little; the recorder writes them in blocks)."""
     true_pose = car.true_pose
@@ -276,7 +277,7 @@ def car_trace_sample(car: Any) -> Any:
     return sample
 
 
-def car_trace_fields(car: Any) -> Any:
+def car_trace_fields(car: SimCar) -> Callable[[], dict[str, Any]]:
     """The trace's extra fields (``fsmctl run --trace``, a sweep's traces): sensors, commands and pose of the car at
     the line's tick."""
 
@@ -300,7 +301,7 @@ THUMB_WIDTH = 160
 THUMB_QUALITY = 70
 
 
-def car_trace_frames(car: Any, width: int = THUMB_WIDTH) -> Any:
+def car_trace_frames(car: SimCar, width: int = THUMB_WIDTH) -> Callable[[], dict[str, Any] | None] | None:
     """The trace's frame lines (``None`` for a car without a camera): the latest camera frame as a small JPEG
     (base64) with what the detector found in it (marker ids, corners scaled to the thumbnail, distance and
     bearing; gates by their marker ids). ``None`` from the callable when no new frame was taken since the last
@@ -342,7 +343,7 @@ def car_trace_frames(car: Any, width: int = THUMB_WIDTH) -> Any:
     return frame
 
 
-def car_trace_header(car: Any, world_file: Any, seed: int, noise: bool) -> dict[str, Any]:
+def car_trace_header(car: SimCar, world_file: object, seed: int, noise: bool) -> dict[str, Any]:
     """What a trace's header says of the car and its world: the world (walls, obstacles, gates, markers, start) and
     car parameters as loaded, the world's file name, seed and noise; enough to draw the map of a run."""
     world = car.world

@@ -27,6 +27,7 @@ from fsm.errors import FsmError
 from .world import World, car_footprint, wall_segments
 
 if TYPE_CHECKING:
+    from .car import SimCar
     from .loop import Simulation
 
 FLOOR = (245, 245, 245)
@@ -148,7 +149,7 @@ class VideoRecorder:
         self.writer: Any = H264Writer.open(self._tmp, fps, size) if fourcc == "mp4v" else None
         self.codec = "h264" if self.writer is not None else fourcc
         if self.writer is None:
-            self.writer = cv2.VideoWriter(str(self._tmp), cv2.VideoWriter_fourcc(*fourcc), fps, size)
+            self.writer = cv2.VideoWriter(str(self._tmp), cv2.VideoWriter.fourcc(*fourcc), fps, size)
         if not self.writer.isOpened():
             self.discard()
             raise FsmError(f"--video {self.path}: OpenCV cannot write {fourcc} video here")
@@ -193,7 +194,7 @@ class VideoRecorder:
         self._panel(img, sim)
         return img
 
-    def _camera_inset(self, img: np.ndarray, car: Any, at: tuple[int, int]) -> None:
+    def _camera_inset(self, img: np.ndarray, car: SimCar, at: tuple[int, int]) -> None:
         """The camera view, when the car has a camera, in the corner of the map farthest from the car (``at``,
         its pixel), so that the inset never hides the car."""
         frame = car.camera_image() if hasattr(car, "camera_image") else None

@@ -11,6 +11,7 @@ Stdlib and pydantic only; the pymunk space is built from a checked world in :mod
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -18,6 +19,8 @@ from pydantic import BeforeValidator, Field, ValidationError, model_validator
 
 from fsm.errors import DiagramError, Problem, UsageError
 from fsm.params import ParamsBase
+
+from .io import SensorName
 
 
 
@@ -151,7 +154,7 @@ class Mount(WorldModel):
     angle: float = Field(description="Direction the sensor looks, degrees from straight ahead (left positive).")
 
 
-def _default_mounts() -> dict[str, Mount]:
+def _default_mounts() -> dict[SensorName, Mount]:
     return {
         "left": Mount(x=0.08, y=0.095, angle=90.0),
         "right": Mount(x=0.08, y=-0.095, angle=-90.0),
@@ -174,7 +177,7 @@ class Ultrasonic(WorldModel):
     noise_rel: float = Field(default=0.004, ge=0, le=0.5, description="Noise standard deviation, fraction of range.")
     outliers: float = Field(default=0.0, ge=0, le=1, description="Probability that a sample is a random outlier.")
     resolution: float = Field(default=0.001, ge=0, le=0.1, description="Readings are rounded to this, m (0: off).")
-    mounts: dict[Literal["left", "right", "front"], Mount] = Field(
+    mounts: dict[SensorName, Mount] = Field(
         default_factory=_default_mounts, description="Position and direction of each sensor on the car.")
 
     @model_validator(mode="after")
@@ -604,7 +607,8 @@ def _locate(problems: list[Problem], locator: Any) -> None:
 
     place(problems, locator)
 
-def read_json_file(path: str | Path, what: str, duplicates: list[Problem] | None = None) -> tuple[Any, Any]:
+def read_json_file(path: str | os.PathLike[str], what: str,
+                   duplicates: list[Problem] | None = None) -> tuple[Any, Any]:
     """Parse a JSON file strictly (UTF-8, line:column on errors); returns the data and a pointer locator.
 
     Repeated keys raise, or are added to ``duplicates`` when it is given (see ``parse_json_bytes``)."""
@@ -618,7 +622,7 @@ def read_json_file(path: str | Path, what: str, duplicates: list[Problem] | None
     return data, source.locator
 
 
-def load_world(path: str | Path, car: str | Path | None = None) -> World:
+def load_world(path: str | os.PathLike[str], car: str | os.PathLike[str] | None = None) -> World:
     """Read and check a world file; ``car`` names an optional car file that replaces the world's ``car``.
 
     Every problem of the file is reported at once, repeated keys together with the others."""
@@ -641,7 +645,7 @@ def load_world(path: str | Path, car: str | Path | None = None) -> World:
     return world
 
 
-def load_car(path: str | Path) -> Car:
+def load_car(path: str | os.PathLike[str]) -> Car:
     """Read and check a car file (the ``car`` object of a world, on its own)."""
     from fsm.document import Source, problems_from_validation
 

@@ -8,12 +8,18 @@ from pydantic import Field
 from fsm import Context, Transition, TransitionParams
 
 
-class Counted(Transition):
+class CountedParams(TransitionParams):
+    """The parameters of ``Counted``."""
+
+    var: str = Field(description="Blackboard variable holding a count.")
+    count: int = Field(ge=1, description="The count that fires the transition.")
+
+
+class Counted(Transition[CountedParams]):
     """Fires when blackboard variable `var` has reached `count`."""
 
-    class Params(TransitionParams):
-        var: str = Field(description="Blackboard variable holding a count.")
-        count: int = Field(ge=1, description="The count that fires the transition.")
+    Params = CountedParams
 
     def check(self, ctx: Context) -> bool:
-        return ctx.vars.get(self.params.var, 0) >= self.params.count
+        count: int = ctx.vars.get(self.params.var, 0)  # the blackboard holds any value: this one is a count
+        return count >= self.params.count

@@ -1,6 +1,6 @@
 """Benchmark: accuracy of the camera pipeline against ground truth, and its cost per frame.
 
-The issue-9 sweep, as in docs/notes/sim-vision.md 1.4: 640x480, fx = fy = 600, DICT_4X4_50, 0.15 m
+The issue-9 sweep: 640x480, fx = fy = 600, DICT_4X4_50, 0.15 m
 markers, a gate of two markers 0.5 m apart (0.24 m at 0.5 m, so both fit) straight ahead at 0.5-4 m,
 turned by 0/30/60 degrees; per cell ``--frames`` rendered frames (seeded noise). Columns: detection
 rate, marker position error (3-D, median / p95, cm), gate heading error from the two marker positions

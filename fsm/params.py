@@ -112,7 +112,7 @@ class StateParams(ParamsBase):
     timeout_exception: str | None = Field(
         default=None, min_length=1, description="Exception sequence run when the timeout fires.")
 
-    #: The step-common keys (EEROS): allowed on every state, compiled by the loader into the state's watcher.
+    #: The step-common keys (EEROS): allowed on every state, compiled by the loader into the state's supervisor.
     STEP_KEYS: ClassVar[tuple[str, ...]] = ("precondition", "until", "monitors", "timeout", "timeout_behavior",
                                             "timeout_exception")
 

@@ -1,6 +1,7 @@
 """Regenerate docs/img/report.png, the report screenshot at the top of the README: the hallway lap run with
-`fsmctl run --report`, opened in headless Chromium (Debian's, driven by Playwright from the test extra), the cursor
-put in the second lap's first turn.
+`fsmctl run --world diagrams/worlds/hallway.json --report` (paths relative to the repository, so the page shows
+none of this machine's), opened in headless Chromium (Debian's, driven by Playwright from the test extra), the
+cursor put in the second lap's first turn.
 
     .venv/bin/python scripts/report_screenshot.py [--out docs/img/report.png]
 """
@@ -30,8 +31,9 @@ def main() -> int:
 
     with tempfile.TemporaryDirectory() as tmp:
         html = Path(tmp) / "lap.html"
+        # The world is named relative to the repository, so the page's header shows no path of this machine.
         subprocess.run([sys.executable, "-m", "fsm.tools.cli", "run", "diagrams/hallway_lap.uxf",
-                        "--report", str(html), "-q"], check=True, cwd=REPO)
+                        "--world", "diagrams/worlds/hallway.json", "--report", str(html), "-q"], check=True, cwd=REPO)
         with sync_playwright() as pw:
             browser = pw.chromium.launch(executable_path=chromium, args=["--no-sandbox"])
             page = browser.new_context(offline=True, viewport={"width": 1280, "height": 860},

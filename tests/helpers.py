@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
@@ -27,14 +28,29 @@ def plain_document(d: Any) -> Any:
     return d
 
 
+#: Names the folder of the real UMLet corpus when it is not at ``../shared/corpus/uxf`` beside the checkout.
+CORPUS_ENV = "TRAL_UXF_CORPUS"
+
+
 def _corpus() -> Path:
-    """The real UMLet files: ``../shared/corpus/uxf`` beside the checkout (as on CI), else the workplace copy."""
-    beside = Path(__file__).resolve().parents[2] / "shared" / "corpus" / "uxf"
-    return beside if beside.is_dir() else Path("/work/shared/corpus/uxf")
+    """The real UMLet files: the folder ``$TRAL_UXF_CORPUS`` names, else ``../shared/corpus/uxf`` beside the
+    checkout (where CI puts it). They are third-party diagrams under their authors' licences: read where they are,
+    never copied into the project."""
+    given = os.environ.get(CORPUS_ENV)
+    if given:
+        return Path(given)
+    return Path(__file__).resolve().parents[2] / "shared" / "corpus" / "uxf"
 
 
-#: The corpus of real-world UMLet diagrams (read from there, never copied into the project).
+#: The corpus of real-world UMLet diagrams.
 CORPUS = _corpus()
+
+#: Marks a test that reads the corpus: skipped, saying why, when the corpus is not there and no folder was named
+#: (a folder named in ``$TRAL_UXF_CORPUS`` that does not exist fails the tests instead of skipping them).
+needs_corpus = pytest.mark.skipif(
+    not CORPUS.is_dir() and not os.environ.get(CORPUS_ENV),
+    reason=f"the real UMLet corpus is not at {CORPUS}: put it at ../shared/corpus/uxf beside the checkout "
+           f"(as CI does) or set {CORPUS_ENV} to its folder")
 
 
 def cli(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:

@@ -1,7 +1,7 @@
-"""Layering (DESIGN.md): the ``fsm`` core (everything under ``fsm/`` but ``fsm/sim/`` and ``fsm/vision/``) imports
-none of cv2, pymunk, lxml, ``fsm.sim``, ``fsm.vision`` or ``fsm.tools``; ``fsm.vision`` (OpenCV) imports neither
-pymunk nor ``fsm.sim`` nor ``fsm.tools``, since a real camera feeds it. Each core module is imported in a fresh interpreter and its
-``sys.modules`` inspected, so one module's imports cannot hide another's."""
+"""Layering (docs/architecture.md, "Layering"): the ``fsm`` core (everything under ``fsm/`` but ``fsm/sim/`` and
+``fsm/vision/``) imports none of cv2, pymunk, lxml, ``fsm.sim``, ``fsm.vision`` or ``fsm.tools``; ``fsm.vision``
+(OpenCV) imports neither pymunk nor ``fsm.sim`` nor ``fsm.tools``, since a real camera feeds it. Each core module is
+imported in a fresh interpreter and its ``sys.modules`` inspected, so one module's imports cannot hide another's."""
 
 from __future__ import annotations
 
@@ -103,7 +103,8 @@ def test_load_and_run_import_no_heavy_module() -> None:
 
 @pytest.mark.parametrize("command", [["validate"], ["types"]])
 def test_fsmctl_validate_and_types_do_not_import_cv2_or_pymunk(tmp_path: Path, command: list[str]) -> None:
-    """`fsmctl validate` starts fast (DESIGN.md): the heavy modules stay unimported for JSON documents."""
+    """`fsmctl validate` starts fast (docs/architecture.md, "Layering"): the heavy modules stay unimported for JSON
+    documents."""
     doc = tmp_path / "m.json"
     doc.write_text(json.dumps({"initial": "a", "states": [{"id": "a", "type": "Idle"}]}))
     argv = [*command, str(doc)] if command == ["validate"] else command

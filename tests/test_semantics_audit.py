@@ -1,4 +1,4 @@
-"""Audit of the runtime's semantics at the edges (DESIGN.md: Tick semantics, Finishing, Context, EEROS).
+"""Audit of the runtime's semantics at the edges (docs/semantics.md: one tick, firing, time, pause, sequences).
 
 The EEROS sequencer (monitors, abort/restart, timeouts, pause/resume) is built on exactly these
 mechanisms, so these tests pin them down. Tests marked ``# Was a bug (fixed):`` reproduce bugs this audit
@@ -453,7 +453,7 @@ def test_nested_pauses_freeze_time_once(registry):
 def test_pause_requested_during_a_tick_stops_the_paused_state_from_leaving(registry):
     # Was a bug (fixed): a step pauses its sequence (its region's owner) from its tick. The owner's Region.step checked
     # `paused` before ticking, so after the tick it still checks the owner's regular transitions and
-    # fires Always a->b: the "paused" subtree is exited in the very tick it was paused (DESIGN.md: a
+    # fires Always a->b: the "paused" subtree is exited in the very tick it was paused (docs/semantics.md: a
     # paused subtree has no exit/enter), and the exit silently clears the pause.
     # Responsible: fsm/region.py Region.step; re-check `state.paused` after `state._tick(ctx)` and return.
     inner = doc("x", [{"id": "x", "type": "PauseMyOwner"}])
@@ -702,7 +702,8 @@ def test_exception_in_a_transition_action_is_reported_as_action(registry):
 def test_exception_in_on_source_enter_of_the_initial_state_is_a_state_runtime_error(registry):
     # Was a bug (fixed): a transition's on_source_enter (Distance reads ctx.car.distance there) that raises while the
     # machine starts escapes as the raw KeyError: no state path, no tick, and the car is not stopped
-    # (DESIGN.md, Errors: "reported with the state path and the tick, and the machine stops the car").
+    # (docs/semantics.md, "Errors at run time": the error names the state's path and the tick; the car gets an
+    # emergency stop).
     # Responsible: fsm/state.py State._enter_full calls the source hooks outside its try block, and
     # Machine.start only catches StateRuntimeError. Move the hooks into the try (phase "on_enter" or
     # "on_source_enter of <transition>").

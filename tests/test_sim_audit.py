@@ -440,8 +440,8 @@ def test_fsmctl_run_trace_and_summary_carry_sensors_and_metrics(capsys: pytest.C
 
 
 def test_fsmctl_run_trace_records_the_speed_command(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
-    # Was a bug (fixed): DESIGN.md: the JSONL trace holds "sensors, commands"; the car fields are x, y, heading, left,
-    # right, front, distance, speed, steering, collisions, where `steering` is the command but `speed`
+    # Was a bug (fixed): the JSONL trace holds sensors and commands (docs/report.md); the car fields are x, y, heading,
+    # left, right, front, distance, speed, steering, collisions, where `steering` is the command but `speed`
     # is the *measured* speed. The speed command is nowhere: on the line where Stop is entered (it
     # commands 0) the trace says speed 1.0. Responsible: fsm/sim/loop.py car_trace_fields() (and CarIO has
     # no attribute for the speed command). Fix: add the command (e.g. "speed_cmd", from a

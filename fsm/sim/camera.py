@@ -3,7 +3,7 @@
 The frames go to the same :class:`fsm.vision.MarkerDetector` a real car would use, so what states see
 comes from pixels. The camera pose is the simulator's ground truth (rendering only; no state reads it).
 
-Rendering (docs/notes/sim-vision.md 1.3): a plain background (floor grey below the horizon, lighter wall
+Rendering: a plain background (floor grey below the horizon, lighter wall
 above), each marker in view as ``generateImageMarker`` with a one-cell white margin, taken from a
 pre-generated mip pyramid and drawn with one perspective warp into its region (``BORDER_TRANSPARENT``),
 far markers first, each on a post down to the floor; then a Gaussian blur, an optional vignetting

@@ -1,12 +1,11 @@
 """The simulated TRAL car: a pymunk world, a bicycle model on a dynamic body, ultrasonic and hall sensors.
 
-Model (DESIGN.md, "The simulated TRAL car"; docs/notes/sim-vision.md section 2, model A): each physics
-step (0.01 s) the steering servo moves towards its command with a rate limit, the speed towards its
-command with acceleration limits; the bicycle model at the centre of gravity (mid-wheelbase) gives
-the body's velocity and yaw rate, which are set on a *dynamic* pymunk body, so walls push back through
-real contacts and every new contact counts as a collision. The ultrasonic sensors cast a cone of
-rays each at their own rate, take the nearest echo (echoes hitting a surface too obliquely are lost),
-add seeded Gaussian noise and round to the sensor's resolution. The hall sensor counts wheel travel.
+Model (for users: docs/car.md): each physics step (0.01 s) the steering servo moves towards its command with a rate
+limit, the speed towards its command with acceleration limits; the bicycle model at the centre of gravity
+(mid-wheelbase) gives the body's velocity and yaw rate, which are set on a *dynamic* pymunk body, so walls push back
+through real contacts and every new contact counts as a collision. The ultrasonic sensors cast a cone of rays each
+at their own rate, take the nearest echo (echoes hitting a surface too obliquely are lost), add seeded Gaussian
+noise and round to the sensor's resolution. The hall sensor counts wheel travel.
 """
 
 from __future__ import annotations
@@ -27,7 +26,7 @@ try:  # pymunk's own cffi binding: the same C calls as Space.*_query_*, without 
 except ImportError:  # pragma: no cover - other pymunk builds: the public API (about half as fast)
     _ffi = _lib = None
 
-#: Physics step, seconds (fixed; DESIGN.md).
+#: Physics step, seconds (fixed, independent of the machine's tick).
 PHYSICS_DT = 0.01
 WALL, CAR = 1, 2
 #: Radius of the posts markers stand on (physical obstacles), m.

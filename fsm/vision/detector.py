@@ -1,8 +1,9 @@
 """ArUco markers in an image, each with its pose: ``cv2.aruco.ArucoDetector`` + ``solvePnP(IPPE_SQUARE)``.
 
-Works with OpenCV 4.8+ and 5.x (5.x removed ``estimatePoseSingleMarkers``; see docs/notes/sim-vision.md).
-Settings measured in the notes: sub-pixel corner refinement (best accuracy at ~3 ms per 640x480 frame)
-and ``minMarkerDistanceRate`` 0.05 (recovers near markers whose paper almost touches the image border).
+Works with OpenCV 4.8+ and 5.x (5.x removed ``estimatePoseSingleMarkers``). Settings chosen by measurement
+on rendered frames (``benchmarks/bench_vision.py``): sub-pixel corner refinement (best accuracy at ~3 ms per
+640x480 frame) and ``minMarkerDistanceRate`` 0.05 (recovers near markers whose paper almost touches the image
+border).
 
 Optional region-of-interest tracking (``track=True``): between full-frame searches (every
 ``full_every`` frames) only boxes around the markers found in the previous frame are searched, so a

@@ -1,7 +1,7 @@
 """ArUco gates: two markers side by side; the car drives between them.
 
 A gate's pose comes from the *positions* of its two markers, never from one marker's rotation (that
-rotation flips beyond about 2 m; docs/notes/sim-vision.md 1.4): the centre is their midpoint, the
+rotation flips beyond about 2 m, the planar ambiguity of ``solvePnP``): the centre is their midpoint, the
 width their distance, and the heading is the direction to drive through, perpendicular to the line
 from the right to the left marker. All in the car frame (x forward, y left, m; heading in rad, 0 =
 straight ahead, left positive), so a heading of 0 means the car is square to the gate.

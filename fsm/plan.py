@@ -18,7 +18,7 @@ from .expr import Compiled, VarOp
 if TYPE_CHECKING:
     from .condition import Condition
     from .document import MachineSpec
-    from .params import ConditionParams, MonitorParams, StateParams, TransitionParams
+    from .params import ConditionParams, StateParams, TransitionParams
     from .sequencer.parsing import SequenceLayout
     from .state import State
     from .transition import Transition

@@ -20,7 +20,7 @@ from pydantic import Discriminator, Field, Tag, ValidationError
 from fsm.errors import DiagramError, Problem
 from fsm.jsonpos import pointer
 from fsm.params import Int, ParamsBase
-from fsm.session import NEVER, tick_at, ticks_for
+from fsm.session import NEVER, ticks_for
 
 #: Runs longer than this many ticks are refused (the limit of ``fsmctl run`` without ``--max-ticks``).
 MAX_TICKS = 10_000_000

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 from fsm.errors import StateRuntimeError
 from fsm.jsonpos import pointer
 from fsm.machine import Listener
+from fsm.session import tick_at
 
 from .model import (
     AtExpect,
@@ -25,7 +26,6 @@ from .model import (
     VisitsExpect,
     active_matches,
     state_matches,
-    tick_at,
 )
 from .timeline import expand
 

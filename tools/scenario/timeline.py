@@ -16,7 +16,9 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from .model import Bounce, PressInput, Scenario, SetInput, SignalInput, tick_at
+from fsm.session import tick_at
+
+from .model import Bounce, PressInput, Scenario, SetInput, SignalInput
 
 
 def press_changes(at: float, duration: float, bounce: Bounce | None = None) -> list[tuple[float, bool]]:

@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol, cast
 
 from fsm.machine import Listener
 from fsm.session import Session, StopRules
@@ -29,6 +29,15 @@ if TYPE_CHECKING:
     from fsm.context import Context
     from fsm.machine import Fired, Machine
     from fsm.state import State
+
+
+class WallFollowing(Protocol):
+    """What a wall-following state (states/driving.py) shows the loop, which measures the wall-distance error while
+    ``wall_target`` is set and the state counts as a straight."""
+
+    wall_target: float | None
+    wall_side: str
+    straight_metric: bool
 
 
 class GateLog:
@@ -198,7 +207,7 @@ class Simulation:
             return
         if self.car.distance - self._leaf_d0 < self.settle:
             return
-        true = self.car.true_distance(getattr(leaf, "wall_side"))
+        true = self.car.true_distance(cast(WallFollowing, leaf).wall_side)
         if true > target + 0.5:
             return  # no wall there (an opening): nothing to follow
         self.wall_errors.append(true - target)

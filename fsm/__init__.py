@@ -11,15 +11,21 @@ from __future__ import annotations
 
 from .clock import DEFAULT_DT, Clock, RealTimeClock, SimulatedClock
 from .composite import Composite
+from .condition import Condition
 from .context import Context
 from .errors import DiagramError, FsmError, Problem, RegistrationError, StateRuntimeError
 from .loader import check, load
 from .machine import Listener, Machine
-from .condition import Condition
 from .params import ConditionParams, StateParams, TransitionParams
 from .plant import Plant, PlantParams
-from .registry import (Registry, default_registry, register_condition, register_plant, register_state,
-                       register_transition)
+from .registry import (
+    Registry,
+    default_registry,
+    register_condition,
+    register_plant,
+    register_state,
+    register_transition,
+)
 from .session import Session, StopRules
 from .state import State
 from .transition import Transition

@@ -12,7 +12,8 @@ import os
 from typing import Any
 
 from .building import build
-from .checking import Analysis, check as check_spec, conditions_of, signal_names, signal_readers, value_kind
+from .checking import Analysis, conditions_of, signal_names, signal_readers, value_kind
+from .checking import check as check_spec
 from .clock import SimulatedClock
 from .compiling import compile_machine
 from .context import Context

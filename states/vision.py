@@ -10,8 +10,17 @@ from pydantic import Field
 
 from fsm.params import StateParams
 from fsm.registry import register_state
-from fsm.transitions.vision import (APPROACH_BEFORE, GATE_VAR, WALL_MARGIN, approach_point, gate_to_odometry,
-                                    mark_passed, remember_gates, select_gate, snap_heading)
+from fsm.transitions.vision import (
+    APPROACH_BEFORE,
+    GATE_VAR,
+    WALL_MARGIN,
+    approach_point,
+    gate_to_odometry,
+    mark_passed,
+    remember_gates,
+    select_gate,
+    snap_heading,
+)
 
 from .driving import ApproachParams, ApproachPoint, CarState, _clamp
 

@@ -218,8 +218,8 @@ def test_a_machine_is_not_taken_for_a_palette(tmp_path: Path, capsys: pytest.Cap
     for diagram in sorted((REPO / "diagrams").glob("*.uxf")) + sorted(EXAMPLES.glob("*.uxf")):
         if diagram.name == "TRAL_State-Machine.uxf":
             continue
-        from fsm.tools.umlet.palette import palette_problems
         from fsm.registry import default_registry
+        from fsm.tools.umlet.palette import palette_problems
 
         assert palette_problems(diagram.read_bytes(), str(diagram), default_registry()) is None, diagram
 

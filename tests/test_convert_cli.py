@@ -7,10 +7,10 @@ import shutil
 from pathlib import Path
 
 import pytest
-from helpers import without_layout as strip
 
 from fsm.tools.cli import main
 from fsm.tools.umlet.writer import diagram, element, relation
+from helpers import without_layout as strip
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "diagrams" / "examples"
 

@@ -102,8 +102,7 @@ def test_encoder_runs_in_its_own_session(tmp_path: Path) -> None:
 
 def test_keyboard_interrupt_while_loading_exits_130(monkeypatch: pytest.MonkeyPatch,
                                                    capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
-    from fsm.tools.cli import main
-    from fsm.tools.cli import validate
+    from fsm.tools.cli import main, validate
 
     def boom(*_a: object, **_k: object) -> None:
         raise KeyboardInterrupt

@@ -18,8 +18,8 @@ from pathlib import Path
 import pytest
 
 from fsm.errors import FsmError, UsageError
-from helpers import cli
 from fsm.tools.files import Output, Outputs, write_output
+from helpers import cli
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLES = REPO / "diagrams" / "examples"

@@ -5,9 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from fsm.registry import default_registry
+from fsm.tools.umlet.palette import palette
 from fsm.tools.umlet.source import parse_raw
 from fsm.tools.umlet.text import parse_label, parse_machine_note, parse_relation, parse_state
-from fsm.tools.umlet.palette import palette
 
 PALETTE = Path(__file__).resolve().parents[1] / "diagrams" / "TRAL_State-Machine.uxf"
 

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from fsm import Registry, RegistrationError, State, StateParams, Transition
+from fsm import RegistrationError, Registry, State, StateParams, Transition
 from fsm.registry import register_state, using
 
 

@@ -28,8 +28,14 @@ def _mission_trace(pause: bool = True) -> tuple[str, list[tuple[int, list[str], 
     """The car mission (sequences, monitors, a pause, variables) in the obstacle world, traced as `fsmctl run`
     traces it, and the live configuration and variables after every tick."""
     from fsm.sim.car import SimCar
-    from fsm.sim.loop import (CAR_SAMPLE_FIELDS, Simulation, car_trace_fields, car_trace_frames, car_trace_header,
-                              car_trace_sample)
+    from fsm.sim.loop import (
+        CAR_SAMPLE_FIELDS,
+        Simulation,
+        car_trace_fields,
+        car_trace_frames,
+        car_trace_header,
+        car_trace_sample,
+    )
     from fsm.sim.world import load_world
 
     car = SimCar(load_world(OBSTACLE), seed=3)

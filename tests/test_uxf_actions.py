@@ -6,13 +6,13 @@ from __future__ import annotations
 from typing import Any
 
 import pytest
-from helpers import without_layout as strip
 
 import fsm
 from fsm.errors import DiagramError
 from fsm.registry import default_registry
 from fsm.tools.umlet.reader import convert_bytes
 from fsm.tools.umlet.writer import diagram, element, relation, transition_text
+from helpers import without_layout as strip
 
 REG = default_registry()
 INIT = element("UMLSpecialState", 100, 20, 20, 20, "type=initial")

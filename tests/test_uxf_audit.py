@@ -18,11 +18,11 @@ from __future__ import annotations
 import json
 
 import pytest
-from helpers import without_layout as strip
 
 from fsm.errors import DiagramError
 from fsm.tools.umlet.reader import convert_bytes
 from fsm.tools.umlet.writer import diagram, element, relation
+from helpers import without_layout as strip
 
 INIT = element("UMLSpecialState", 100, 20, 20, 20, "type=initial")
 START = relation([[110, 40], [110, 80]], "lt=->")

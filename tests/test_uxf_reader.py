@@ -7,12 +7,13 @@ import re
 from pathlib import Path
 
 import pytest
-from helpers import CORPUS, needs_corpus, without_layout as strip
 
 from fsm.errors import DiagramError
 from fsm.loader import check
 from fsm.tools.umlet.reader import convert_bytes, convert_file
 from fsm.tools.umlet.writer import diagram, element, relation
+from helpers import CORPUS, needs_corpus
+from helpers import without_layout as strip
 
 FILES = sorted(CORPUS.glob("*.uxf")) if CORPUS.is_dir() else []
 

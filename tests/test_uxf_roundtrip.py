@@ -8,7 +8,6 @@ import re
 from pathlib import Path
 
 import pytest
-from helpers import CORPUS, needs_corpus, without_layout as strip
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -17,6 +16,8 @@ from fsm.registry import default_registry
 from fsm.tools.umlet.reader import convert_bytes, convert_file
 from fsm.tools.umlet.source import parse_raw
 from fsm.tools.umlet.writer import export
+from helpers import CORPUS, needs_corpus
+from helpers import without_layout as strip
 
 ROOT = Path(__file__).resolve().parents[1]
 DIAGRAMS = ROOT / "diagrams"

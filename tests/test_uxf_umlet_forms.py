@@ -20,14 +20,14 @@ import json
 from pathlib import Path
 
 import pytest
-from helpers import without_layout as strip
 
 from fsm.errors import DiagramError
 from fsm.registry import default_registry
+from fsm.tools.umlet.palette import palette
 from fsm.tools.umlet.reader import convert_bytes
 from fsm.tools.umlet.source import parse_raw
-from fsm.tools.umlet.palette import palette
 from fsm.tools.umlet.writer import diagram, element, export, relation
+from helpers import without_layout as strip
 
 ROOT = Path(__file__).resolve().parents[1]
 DIAGRAMS = sorted((ROOT / "diagrams").glob("*.uxf")) + sorted((ROOT / "diagrams" / "examples").glob("*.uxf"))

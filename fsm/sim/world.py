@@ -23,7 +23,6 @@ from fsm.params import ParamsBase
 from .io import SensorName
 
 
-
 def _pair(value: Any) -> Any:
     """JSON has no tuples: a list of two becomes a pair (then checked strictly as two numbers)."""
     return tuple(value) if isinstance(value, list) and len(value) == 2 else value

@@ -15,9 +15,20 @@ from xml.sax.saxutils import escape, quoteattr
 
 from .buckets import Buckets
 from .includes import expander
-from .labels import (BOX_MARGIN, FINAL_ICON, FONT, LABEL_FONT, SMALL_FONT, edge_label, final_text, fit,
-                     state_label, text_width)
+from .labels import (
+    BOX_MARGIN,
+    FINAL_ICON,
+    FONT,
+    LABEL_FONT,
+    SMALL_FONT,
+    edge_label,
+    final_text,
+    fit,
+    state_label,
+    text_width,
+)
 from .layout import REGION_HEAD, Edge, LevelLayout, Node, lay_out
+
 
 def _box_size(node: Node) -> tuple[float, float]:
     """The size of a state box without a stored layout: its text fits."""

@@ -11,6 +11,7 @@ from typing import Any
 
 from .labels import edge_label, state_label, sub_machines
 
+
 # -- Mermaid ---------------------------------------------------------------------------------------------------
 def mermaid(doc: dict[str, Any]) -> str:
     lines = ["stateDiagram-v2"]

@@ -548,7 +548,8 @@ def active_matches(prefix: str, path: str) -> bool:
 def _load_machine(scenario: Scenario, path: Path, name: str,
                   cli_plugins: tuple[str, ...]) -> tuple[LoadedScenario | None, list[Problem]]:
     """Check the machine (and world) a scenario names, and the state names its expectations use."""
-    from fsm.loader import check, compile as compile_spec, machine_files, signal_names, uses_car
+    from fsm.loader import check, machine_files, signal_names, uses_car
+    from fsm.loader import compile as compile_spec
     from fsm.registry import default_registry
 
     base = path.parent

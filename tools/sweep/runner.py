@@ -24,8 +24,23 @@ from fsm.errors import DiagramError, FsmError, Problem, UsageError
 from . import overrides as O
 from .folder import Folder, RecordLog, Resume, write_file
 from .results import csv_text, html_page, success
-from .spec import (MAX_RUNS, Run, SpecError, SweepSpec, check_duration, check_unique, check_vars, count_runs,
-                   escape_pointer, expand_worlds, files_digest, grid, parse_seeds, run_key, seed_runs)
+from .spec import (
+    MAX_RUNS,
+    Run,
+    SpecError,
+    SweepSpec,
+    check_duration,
+    check_unique,
+    check_vars,
+    count_runs,
+    escape_pointer,
+    expand_worlds,
+    files_digest,
+    grid,
+    parse_seeds,
+    run_key,
+    seed_runs,
+)
 
 
 @dataclass

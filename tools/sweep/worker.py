@@ -96,7 +96,8 @@ class Dwell:
 
 def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], dict[str, float]]:
     from fsm.errors import DiagramError
-    from fsm.loader import check, compile as compile_spec, uses_car
+    from fsm.loader import check, uses_car
+    from fsm.loader import compile as compile_spec
     from fsm.registry import default_registry
     from fsm.session import Session, StopRules
 

@@ -29,7 +29,13 @@ def run_recorder(stream: IO[str] | None, file: str, car: Any = None, *, world_fi
         header["initial_vars"] = dict(initial_vars)
     extra = sample = frames = fields = None
     if car is not None:
-        from fsm.sim.loop import CAR_SAMPLE_FIELDS, car_trace_fields, car_trace_frames, car_trace_header, car_trace_sample
+        from fsm.sim.loop import (
+            CAR_SAMPLE_FIELDS,
+            car_trace_fields,
+            car_trace_frames,
+            car_trace_header,
+            car_trace_sample,
+        )
 
         header.update(car_trace_header(car, world_file, seed, noise))
         extra = car_trace_fields(car)

@@ -21,8 +21,8 @@ import textwrap
 from typing import Any
 from xml.sax.saxutils import escape
 
-from . import text as T
 from ..graph.layout import HEAD, Expansion, LevelLayout, inline_machine, lay_out, sequence_machine
+from . import text as T
 
 HEADER = '<?xml version="1.0" encoding="UTF-8" standalone="no"?>\n<diagram program="umlet" version="15.1">\n'
 

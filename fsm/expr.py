@@ -425,7 +425,7 @@ def _compile(node: Node, kinds: dict[str, str]) -> tuple[Fn, str, bool, Any]:
     if op == "call":
         fname = node.args[0]
         parts = [_compile(a, kinds) for a in node.args[1:]]
-        for a, (_, kind, _, _) in zip(node.args[1:], parts):
+        for a, (_, kind, _, _) in zip(node.args[1:], parts, strict=True):
             _need(kind, NUMBER, f"{fname}()", a.column)
         fns = [p[0] for p in parts]
         impls: dict[str, Callable[..., Any]] = {"abs": abs, "min": min, "max": max}

@@ -110,7 +110,7 @@ def expand_samples(block: dict[str, Any], dt: float | None) -> list[dict[str, An
         tick = first + i * step
         line: dict[str, Any] = {"type": "sample", "tick": tick,
                                 "time": round(tick * dt, 9) if dt else t0}
-        for (head, key, index), value in zip(paths, row):
+        for (head, key, index), value in zip(paths, row, strict=True):
             group = line.setdefault(head, {}) if key else line
             if not key:
                 line[head] = value
@@ -342,7 +342,7 @@ def _fields_problem(fields: tuple[str, ...]) -> str | None:
     """Fields whose values cannot be put together into one sample (``car`` and ``car.x``; ``car.x`` and
     ``car.x[0]``), or None."""
     kinds: dict[tuple[str, ...], str] = {}
-    for name, (head, key, index) in zip(fields, _field_paths(fields)):
+    for name, (head, key, index) in zip(fields, _field_paths(fields), strict=True):
         parts: list[tuple[tuple[str, ...], str]] = [((head,), "group" if key else "value")]
         if key:
             parts.append(((head, key), "list" if index is not None else "value"))

@@ -29,7 +29,7 @@ def _no_plugin_leaks() -> Iterator[None]:
     modules = set(sys.modules)
     yield
     added: set[str] = set()
-    for table, before in zip(tables, saved):
+    for table, before in zip(tables, saved, strict=True):
         if table != before:
             added |= {cls.__module__ for name, cls in table.items() if before.get(name) is not cls}
             table.clear()

@@ -66,7 +66,7 @@ def test_the_pause_button_stops_the_car_and_freezes_the_timers() -> None:
     still = [(t, v, d) for t, v, d in samples if 5.6 <= t <= 8.0]
     assert still and all(abs(v) < 1e-6 for _, v, _ in still)  # stopped within 0.6 s of the press
     assert still[-1][2] - still[0][2] < 1e-9  # and did not move
-    shift = [a[0] - b[0] for a, b in zip(watch.firings, plain[2].firings)]
+    shift = [a[0] - b[0] for a, b in zip(watch.firings, plain[2].firings, strict=True)]
     assert len(shift) == 2 and all(s == pytest.approx(3.0, abs=0.3) for s in shift)  # every later event ~3 s later
 
 

@@ -182,7 +182,7 @@ def test_bad_scenarios_give_every_located_error_at_once(capsys: pytest.CaptureFi
         f"{file}:11:5 at /expect/1: error: expectation 1: an expectation is an object with one of",
     ]
     assert len(lines) == len(expected), err
-    for line, start in zip(lines, expected):
+    for line, start in zip(lines, expected, strict=True):
         assert line.startswith(start), (line, start)
     assert "Traceback" not in err
     assert out.splitlines() == ["ERROR bad: invalid scenario (7 problem(s) above)", "0 passed, 0 failed, 1 invalid"]

@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import math
 import statistics
+from itertools import pairwise
 from pathlib import Path
 from typing import Any
 
@@ -311,7 +312,7 @@ def _idle_run(ticks: int) -> list[tuple[int, float, float, int]]:
 def test_new_ultrasonic_samples_reach_the_machine_at_20_hz_on_every_fourth_tick() -> None:
     rows = _idle_run(80)
     assert rows[-1][1] == pytest.approx(1.0)
-    new = [(tick, now) for (tick, now, _, sample), prev in zip(rows[1:], rows) if sample != prev[3]]
+    new = [(tick, now) for prev, (tick, now, _, sample) in pairwise(rows) if sample != prev[3]]
     assert [tick for tick, _ in new] == list(range(4, 81, 4))  # samples at physics steps 5, 10, ... = ticks 4k
     assert all(now == pytest.approx(0.05 * tick / 4) for tick, now in new)
 

@@ -164,7 +164,7 @@ def test_samples_read_back_as_they_were_taken_packed_or_not() -> None:
     trace = parse_trace(text.encode())
     assert not trace.warnings
     assert [s["tick"] for s in trace.samples] == [t for t, _ in taken]
-    for sample, (_, (a, b, n, r)) in zip(trace.samples, taken):
+    for sample, (_, (a, b, n, r)) in zip(trace.samples, taken, strict=True):
         v = sample["v"]
         assert v["a"] == pytest.approx(a, abs=1.5e-4) and v["b"] == pytest.approx(b, abs=1.5e-4)
         assert v["n"] == n and type(v["n"]) is int

@@ -100,7 +100,7 @@ def test_corpus_file_converts_or_fails_located(path: Path):
         errors = [p for p in problems if p.severity == "error"]
         fragments = want[3] if len(want) > 3 else []
         assert len(errors) == len(fragments), errors
-        for p, fragment in zip(errors, fragments):
+        for p, fragment in zip(errors, fragments, strict=True):
             assert fragment in p.message and p.line and p.where
         return
     with pytest.raises(DiagramError) as exc:

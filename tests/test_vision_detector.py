@@ -64,7 +64,7 @@ def test_region_tracking_finds_what_full_frames_find() -> None:
         frame = cam.render(0.05 * k, 0.02 * math.sin(k / 3), 0.05 * math.sin(k / 4))
         a, b = full.detect(frame), tracked.detect(frame)
         assert [d.id for d in a] == [d.id for d in b] == [3, 4]
-        for da, db in zip(a, b):
+        for da, db in zip(a, b, strict=True):
             assert np.allclose(da.corners, db.corners, atol=0.3)
     assert tracked.full_searches == 3 and tracked.roi_searches >= 27
 

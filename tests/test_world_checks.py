@@ -69,7 +69,7 @@ def test_polygon_check_on_random_corners(corners: set[tuple[int, int]]) -> None:
     angles = [math.atan2(p[1] - cy, p[0] - cx) for p in pts]
     if len({round(a, 9) for a in angles}) < len(angles) or any(p == (cx, cy) for p in pts):
         return  # two corners on one ray from the centre: the angular order is not a simple polygon
-    ring = [p for _, p in sorted(zip(angles, pts))]
+    ring = [p for _, p in sorted(zip(angles, pts, strict=True))]
     collinear = all(abs((ring[1][0] - ring[0][0]) * (p[1] - ring[0][1]) - (ring[1][1] - ring[0][1])
                         * (p[0] - ring[0][0])) < 1e-12 for p in ring)
     why = polygon_problem(ring)
@@ -168,7 +168,7 @@ def test_a_camera_seeing_180_degrees_or_almost_nothing_is_refused(camera: dict[s
                                                                   words: list[str]) -> None:
     problems = problems_of(world(car={"camera": camera}))
     assert [p.pointer for p in problems] == pointers
-    for p, w in zip(problems, words):
+    for p, w in zip(problems, words, strict=True):
         assert w in p.message and "use a focal length between" in (p.hint or ""), str(p)
 
 

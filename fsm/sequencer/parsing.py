@@ -7,6 +7,7 @@ compile, build) treat it like any drawn machine.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from itertools import pairwise
 from typing import TYPE_CHECKING, Any, cast
 
 from fsm.document import MachineSpec, Source, StateSpec, SubMachine, TransitionSpec
@@ -114,7 +115,7 @@ def parse_sequence(parser: Parser, spec: StateSpec, depth: int) -> None:
     chain = MachineSpec(source=source, pointer=ptr, name=None, initial=found.chain[0].id,
                         initial_pointer=ptr + "/steps", states=found.chain,
                         transitions=_links(parser, spec, found.chain), vars={},
-                        edges=[(a.id, b.id) for a, b in zip(found.chain, found.chain[1:])], complete=found.complete,
+                        edges=[(a.id, b.id) for a, b in pairwise(found.chain)], complete=found.complete,
                         written=False)
     subs = [SubMachine(None, chain, ptr)]
     subs += [SubMachine(None, _single(st, source), st.pointer) for _after, st in found.detached]
@@ -142,7 +143,7 @@ def _links(parser: Parser, spec: StateSpec, chain: list[StateSpec]) -> list[Tran
                                  f"'{LINK_TYPE}' transition")
         return []
     return [TransitionSpec(link, link.Params.model_validate({"type": LINK_TYPE, "from": a.id, "to": b.id}),
-                           b.pointer, spec.source) for a, b in zip(chain, chain[1:])]
+                           b.pointer, spec.source) for a, b in pairwise(chain)]
 
 
 def _single(st: StateSpec, source: Source) -> MachineSpec:

@@ -101,7 +101,7 @@ class Sequence(Composite[SequenceParams]):
         n = len(layout.detached_after)
         self.chain = regions[0]
         self.detached = [(after, regions[1 + i]) for i, after in enumerate(layout.detached_after)]
-        self.exceptions = dict(zip(layout.exception_ids, regions[1 + n:]))
+        self.exceptions = dict(zip(layout.exception_ids, regions[1 + n:], strict=True))
         self.regions = (self.chain,)
         steps = list(self.chain.states.values())
         self.last = steps[-1]

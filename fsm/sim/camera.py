@@ -67,7 +67,7 @@ def markers_from_gates(gates: Iterable[Any]) -> list[MarkerSpec]:
     for g in gates:
         h = math.radians(g.heading)
         nx, ny = -math.sin(h), math.cos(h)  # left of the driving direction
-        for marker_id, side in zip(g.markers, (1.0, -1.0)):
+        for marker_id, side in zip(g.markers, (1.0, -1.0), strict=True):
             out.append(MarkerSpec(int(marker_id), g.center[0] + side * nx * g.width / 2,
                                   g.center[1] + side * ny * g.width / 2, float(g.height), h + math.pi,
                                   float(g.marker_size)))

@@ -71,7 +71,7 @@ class GateLog:
             "gates_passed": sum(1 for p in self.passed if p),
             "gates_total": len(self.gates),
             "gates": [{"name": g.name, "markers": list(g.markers), "passed_at": p[0] if p else None,
-                       "times_passed": len(p)} for (g, *_rest), p in zip(self.gates, self.passed)],
+                       "times_passed": len(p)} for (g, *_rest), p in zip(self.gates, self.passed, strict=True)],
         }
 
 

@@ -425,7 +425,7 @@ def polygon_problem(points: list[Point]) -> str | None:
                     continue  # neighbours through the closing edge
                 if _edges_meet(*edges[i], *edges[j]):
                     return f"the polygon's edges {i} and {j} cross: it intersects itself"
-    area = sum(a[0] * b[1] - b[0] * a[1] for a, b in zip(pts, pts[1:] + pts[:1])) / 2
+    area = sum(a[0] * b[1] - b[0] * a[1] for a, b in zip(pts, pts[1:] + pts[:1], strict=True)) / 2
     if abs(area) < 1e-12:
         return "the polygon has no area"
     return None
@@ -565,7 +565,7 @@ def world_markers(world: World) -> list[tuple[int, float, float, float, float, f
     for g in world.gates:
         h = math.radians(g.heading)
         nx, ny = -math.sin(h), math.cos(h)
-        for marker_id, side in zip(g.markers, (1.0, -1.0)):
+        for marker_id, side in zip(g.markers, (1.0, -1.0), strict=True):
             out.append((int(marker_id), g.center[0] + side * nx * g.width / 2, g.center[1] + side * ny * g.width / 2,
                         float(g.height), h + math.pi, float(g.marker_size), True))
     for m in world.markers:

@@ -156,7 +156,7 @@ class MarkerDetector:
             raise ValueError(f"image is {gray.shape[1]}x{gray.shape[0]}, the camera model "
                              f"{self.camera.width}x{self.camera.height}")
         corners, ids = self.find(gray)
-        out = [d for d in (self._pose(i, c) for c, i in zip(corners, ids)) if d is not None]
+        out = [d for d in (self._pose(i, c) for c, i in zip(corners, ids, strict=True)) if d is not None]
         out.sort(key=lambda d: d.id)
         return out
 
@@ -228,7 +228,7 @@ class MarkerDetector:
 
     def _update_tracks(self, corners: list[np.ndarray], ids: list[int]) -> None:
         tracks: dict[int, np.ndarray] = {}
-        for c, i in zip(corners, ids):
+        for c, i in zip(corners, ids, strict=True):
             if i in self._tracks:
                 self._velocity[i] = (c.mean(axis=0) - self._tracks[i].mean(axis=0))
             else:

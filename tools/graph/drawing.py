@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import functools
 import math
+from itertools import pairwise
 from pathlib import Path
 from typing import Any
 from xml.sax.saxutils import escape, quoteattr
@@ -147,7 +148,7 @@ class _Scene:
             self._polyline(e.points, id(e))
 
     def _polyline(self, pts: list[list[float]], owner: int) -> None:
-        for (ax, ay), (bx, by) in zip(pts, pts[1:]):
+        for (ax, ay), (bx, by) in pairwise(pts):
             self.segments.append(((ax, ay, bx, by), owner, min(ax, bx), min(ay, by), max(ax, bx), max(ay, by)))
 
     def index(self) -> None:
@@ -201,7 +202,7 @@ def _crosses(a: tuple[float, float, float, float], b: tuple[float, float, float,
 def _point_at(pts: list[list[float]], s: float) -> tuple[float, float, float, float]:
     """The point at arc length ``s`` along ``pts`` and the unit direction there."""
     last = len(pts) - 2
-    for i, ((ax, ay), (bx, by)) in enumerate(zip(pts, pts[1:])):
+    for i, ((ax, ay), (bx, by)) in enumerate(pairwise(pts)):
         seg = math.hypot(bx - ax, by - ay)
         if seg > 0 and (s <= seg or i == last):
             f = max(0.0, min(1.0, s / seg))
@@ -274,7 +275,7 @@ def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
             continue
         shapes = _label_shapes(text)
         near = _Near(scene, placed, container, ancestors, id(e))
-        length = sum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in zip(e.points, e.points[1:]))
+        length = sum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in pairwise(e.points))
         anchors = []
         for t in _ALONG:
             px, py, dx, dy = _point_at(e.points, t * length)
@@ -282,7 +283,7 @@ def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
             if nx < 0 or (nx == 0 and ny > 0):
                 nx, ny = -nx, -ny
             anchors.append((px, py, nx, ny))
-        own = [(a[0], a[1], b[0], b[1]) for a, b in zip(e.points, e.points[1:])]
+        own = [(a[0], a[1], b[0], b[1]) for a, b in pairwise(e.points)]
         best_cost, best_idx = math.inf, -1
         best_r: Rect | None = None
         best_lines: list[str] = []

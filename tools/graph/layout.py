@@ -358,7 +358,7 @@ def _arrange(n: Node) -> None:
     gap = REGION_GAP if n.inset else 0
     extra = max(0.0, n.w - sum(w for w, _ in sizes) - gap * (len(sizes) + 1)) / len(sizes)
     x = n.x + gap
-    for i, (p, (w, _)) in enumerate(zip(n.parts, sizes)):
+    for i, (p, (w, _)) in enumerate(zip(n.parts, sizes, strict=True)):
         p.x, p.y = x, n.y + n.head
         p.w = n.x + n.w - gap - x if i == len(sizes) - 1 else math.floor(w + extra)
         p.h = n.y + n.h - gap - p.y
@@ -376,7 +376,7 @@ def _stored_frames(n: Node) -> list[tuple[float, float, float, float]] | None:
     if not n.inset or n.stored is None or not isinstance(stored, list) or len(stored) != len(n.parts):
         return None
     frames = []
-    for p, fr in zip(n.parts, stored):
+    for p, fr in zip(n.parts, stored, strict=True):
         if not isinstance(fr, dict) or not all(_num(fr.get(k)) for k in "xywh"):
             return None
         x, y, w, h = (float(fr[k]) for k in "xywh")
@@ -476,7 +476,7 @@ def _fit_composites(level: LevelLayout, drawing: bool) -> None:
             continue
         frames = _stored_frames(n) if n.regions else None
         if frames is not None:
-            for p, (x, y, w, h) in zip(n.parts, frames):
+            for p, (x, y, w, h) in zip(n.parts, frames, strict=True):
                 p.x, p.y, p.w, p.h = x, y, w, h
             continue
         if n.foreign or n.regions:

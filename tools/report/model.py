@@ -9,6 +9,7 @@ and a warning says what is missing.
 from __future__ import annotations
 
 import math
+from itertools import pairwise
 from typing import Any
 
 from fsm.replay import Trace, event_active
@@ -221,7 +222,7 @@ def _lanes(trace: Trace, regions: list[dict[str, Any]], states: list[str], index
 def _overlap(a: list[list[float]], b: list[list[float]]) -> bool:
     """Whether two lists of ``[t0, t1, state]`` share any time (touching ends do not count)."""
     both = sorted([(s[0], s[1]) for s in a] + [(s[0], s[1]) for s in b])
-    return any(later[0] < earlier[1] for earlier, later in zip(both, both[1:]))
+    return any(later[0] < earlier[1] for earlier, later in pairwise(both))
 
 
 def _flatten(prefix: str, value: Any, out: dict[str, float | None]) -> None:

@@ -323,7 +323,7 @@ def write_reports(p: Plan, out_dir: Path, records: list[dict[str, Any]]) -> None
         outputs.add(str(out_dir / name), f"sweep {name}")
     outputs.open(p.inputs)
     try:
-        for out, text in zip(outputs.items, texts.values()):
+        for out, text in zip(outputs.items, texts.values(), strict=True):
             out.write(text)
         outputs.commit()
     finally:

@@ -190,7 +190,7 @@ class Documents:
         # transitions: those whose source is one of these states
         ids = {id(st) for st in states + finals}
         out_trans: list[dict[str, Any]] = []
-        for tr, elem in zip(level.transitions, level.trans_origin):
+        for tr, elem in zip(level.transitions, level.trans_origin, strict=True):
             if id(tr["_from"]) not in ids:
                 continue
             doc = {k: v for k, v in tr.items() if not k.startswith("_")}

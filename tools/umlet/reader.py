@@ -120,7 +120,7 @@ def source_for(conv: Converted, index: int, path: Path) -> Source:
 
 
 def several_machines_problem(conv: Converted, hint: str | None = None) -> Problem:
-    listing = "; ".join(f"'{n}' ({_machine_where(m)})" for n, m in zip(conv.names, conv.machines))
+    listing = "; ".join(f"'{n}' ({_machine_where(m)})" for n, m in zip(conv.names, conv.machines, strict=True))
     return Problem(f"the diagram holds {len(conv.machines)} separate machines: {listing}", conv.diagram.name,
                    line=1, column=1,
                    hint=hint or "convert one with `fsmctl convert FILE.uxf --machine NAME`, "

@@ -86,7 +86,7 @@ class Relations:
         (ignored); a solid one is an error."""
         if not self.notes.boxes:
             return False
-        for (a, point), probe, role in zip(ends, probes, ("source", "target")):
+        for (a, point), probe, role in zip(ends, probes, ("source", "target"), strict=True):
             if a.box is not None or a.rule == "ambiguous":
                 continue
             found = self.notes.attach(probe[0], probe[1], elem.old)

@@ -321,7 +321,7 @@ def _make_element(index: int, kind: Any, old: bool, coords: Any, text: Any, extr
         nums = [_number(p) for p in parts]
         if kind == "Relation":
             if any(n is None for n in nums):
-                bad = next(p for p, n in zip(parts, nums) if n is None)
+                bad = next(p for p, n in zip(parts, nums, strict=True) if n is None)
                 problem(f"relation point {bad.strip()[:30]!r} is not a number",
                         hint="additional_attributes holds x;y;x;y;... numbers")
                 return None

@@ -152,6 +152,11 @@ def _heatmap(records: list[dict[str, Any]], px: str, py: str) -> str:
     return "".join(out)
 
 
+def _map_xy(p: Any, x0: float, y1: float, scale: float) -> str:
+    """A point in metres as SVG coordinates on a map whose top-left corner is (x0, y1), ``scale`` pixels a metre."""
+    return f"{(p[0] - x0) * scale:.1f},{(y1 - p[1]) * scale:.1f}"
+
+
 def _trajectories(records: list[dict[str, Any]], worlds: dict[str, Any]) -> str:
     by_world: dict[str, list[dict[str, Any]]] = defaultdict(list)
     for r in records:
@@ -170,16 +175,12 @@ def _trajectories(records: list[dict[str, Any]], worlds: dict[str, Any]) -> str:
         w = 220
         h = max(60, int(w * (y1 - y0) / max(x1 - x0, 1e-6)))
         sx = w / (x1 - x0)
-
-        def xy(p: Any) -> str:
-            return f"{(p[0] - x0) * sx:.1f},{(y1 - p[1]) * sx:.1f}"
-
-        wall_svg = "".join(f"<polyline points='{' '.join(xy(p) for p in line)}' fill='none' stroke='#333' "
-                           "stroke-width='1.5'/>" for line in walls)
+        wall_svg = "".join(f"<polyline points='{' '.join(_map_xy(p, x0, y1, sx) for p in line)}' fill='none' "
+                           "stroke='#333' stroke-width='1.5'/>" for line in walls)
         out.append(f"<h3>{_e(Path(world).name)}</h3><div class=multiples>")
         for r in recs:
             colour = "#2a8f4a" if success(r) else "#c83a2e"
-            path = " ".join(xy(p) for p in r["track"])
+            path = " ".join(_map_xy(p, x0, y1, sx) for p in r["track"])
             label = ", ".join(f"{k}={v}" for k, v in r["params"].items())
             out.append(f"<figure><svg width='{w}' height='{h}' viewBox='0 0 {w} {h}' role='img'>{wall_svg}"
                        f"<polyline points='{path}' fill='none' stroke='{colour}' stroke-width='1.2'/></svg>"

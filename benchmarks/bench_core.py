@@ -86,7 +86,8 @@ def main(argv: list[str] | None = None) -> int:
            "machine": platform.machine(), "platform": platform.platform(), "cpus": os.cpu_count(),
            "loadavg_start": " ".join(f"{x:.2f}" for x in os.getloadavg()),
            "quick": args.quick, "repeat": args.repeat, "seconds_per_repeat": args.seconds,
-           "load_repeat": args.load_repeat, "gc": "off while timing" if args.no_gc else "on, collected before each repeat"}
+           "load_repeat": args.load_repeat,
+           "gc": "off while timing" if args.no_gc else "on, collected before each repeat"}
     results: list[dict[str, Any]] = []
     t0 = time.perf_counter()
     measure_rates(args, chosen, results)

@@ -1,6 +1,6 @@
-"""Sequencer speed (issue 10), and what guards and ``set`` cost on the flat ring: a sequence of 1,000 steps, each watched by 3 monitors of its callers, must run at
->= 200,000 ticks per second; pausing and resuming a subtree must cost the same whatever the size of the rest of
-the machine (O(1) in it).
+"""Sequencer speed (issue 10), and what guards and ``set`` cost on the flat ring: a sequence of 1,000 steps, each
+watched by 3 monitors of its callers, must run at >= 200,000 ticks per second; pausing and resuming a subtree must
+cost the same whatever the size of the rest of the machine (O(1) in it).
 
 Each step is a ``Step`` that finishes at its first tick, so every tick checks the three monitors (one per
 enclosing sequence, expressions that stay false), ticks one step and fires one link to the next step.
@@ -16,8 +16,10 @@ from typing import Any
 
 def sequence_doc(steps: int) -> dict[str, Any]:
     chain = [{"id": f"s{i}", "type": "Step"} for i in range(steps)]
-    inner = {"id": "c", "type": "Sequence", "steps": chain, "monitors": [{"condition": "stop > 2", "behavior": "abortOwner"}]}
-    middle = {"id": "b", "type": "Sequence", "steps": [inner], "monitors": [{"condition": "stop > 1", "behavior": "abortOwner"}]}
+    inner = {"id": "c", "type": "Sequence", "steps": chain,
+             "monitors": [{"condition": "stop > 2", "behavior": "abortOwner"}]}
+    middle = {"id": "b", "type": "Sequence", "steps": [inner],
+              "monitors": [{"condition": "stop > 1", "behavior": "abortOwner"}]}
     outer = {"id": "a", "type": "Sequence", "steps": [middle], "repeat": 0,
              "monitors": [{"condition": "stop > 0", "behavior": "abortOwner"}]}
     return {"name": "bench", "initial": "a", "vars": {"stop": 0}, "states": [outer]}
@@ -43,8 +45,9 @@ def rate(doc: dict[str, Any], ticks: int, repeat: int) -> float:
 def wide_doc(others: int) -> dict[str, Any]:
     """A Parallel with ``others`` busy regions beside the one sequence that gets paused."""
     target = {"name": "arm", "initial": "arm", "states": [
-        {"id": "arm", "type": "Sequence", "repeat": 0, "steps": [{"id": "w", "type": "Wait", "seconds": 1},
-                                                                  {"id": "x", "type": "SetVar", "assign": {"n": "n + 1"}}]}]}
+        {"id": "arm", "type": "Sequence", "repeat": 0,
+         "steps": [{"id": "w", "type": "Wait", "seconds": 1},
+                   {"id": "x", "type": "SetVar", "assign": {"n": "n + 1"}}]}]}
     rest = [{"name": f"r{i}", "initial": "i", "states": [{"id": "i", "type": "Idle"}]} for i in range(others)]
     return {"name": "wide", "initial": "p", "vars": {"n": 0},
             "states": [{"id": "p", "type": "Parallel", "regions": [target, *rest]}]}

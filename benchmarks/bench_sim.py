@@ -1,4 +1,5 @@
-"""Benchmark: the closed loop (physics 100 Hz, ultrasonic 20 Hz, machine 80 Hz), in x real time; without and with camera.
+"""Benchmark: the closed loop (physics 100 Hz, ultrasonic 20 Hz, machine 80 Hz), in x real time; without and with
+camera.
 
 Runs ``diagrams/hallway_lap.json`` in ``diagrams/worlds/hallway.json`` (three laps, about 200 s of
 simulated time) a few times on one core and prints the best and median realtime factor, plus a

@@ -465,7 +465,8 @@ def json_schema(registry: Registry) -> dict[str, Any]:
             doc = (cls.__doc__ or "").strip().splitlines()
             if doc:
                 schema["description"] = doc[0]
-            schema["properties"]["type"] = {"const": name, "description": schema["properties"]["type"].get("description", "")}
+            schema["properties"]["type"] = {"const": name,
+                                            "description": schema["properties"]["type"].get("description", "")}
             defs[f"{kind}.{name}"] = schema
             branches.append(
                 {"if": {"properties": {"type": {"const": name}}, "required": ["type"]},

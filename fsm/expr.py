@@ -664,5 +664,5 @@ def assigner(targets: list[tuple[str, Compiled]]) -> Callable[[Any], None]:
     return assign_all
 
 
-__all__ = ["ANY", "BOOL", "NUMBER", "TEXT", "Compiled", "VarOp", "constant", "ExprError", "ExprRuntimeError", "Node", "assigner",
-           "compile_expr", "kind_of", "on_context", "parse", "parse_assignments", "tokenize", "unparse"]
+__all__ = ["ANY", "BOOL", "NUMBER", "TEXT", "Compiled", "VarOp", "constant", "ExprError", "ExprRuntimeError", "Node",
+           "assigner", "compile_expr", "kind_of", "on_context", "parse", "parse_assignments", "tokenize", "unparse"]

@@ -29,7 +29,8 @@ from .registry import Registry, default_registry
 
 
 def analyse(src: Any, *, registry: Registry | None = None, plugins: tuple[str, ...] = (),
-            base_dir: str | os.PathLike[str] | None = None) -> tuple[MachineSpec | None, Analysis | None, list[Problem]]:
+            base_dir: str | os.PathLike[str] | None = None
+            ) -> tuple[MachineSpec | None, Analysis | None, list[Problem]]:
     """Parse and check ``src`` (a path, a document dict, or an already parsed spec): the spec (``None`` if
     unusable), what checking found out (``None`` then too) and every problem, located and sorted."""
     if registry is not None and not isinstance(registry, Registry):

@@ -244,7 +244,7 @@ class RampParams(WallParams):
 
 @register_state
 class FollowWallRamp(BasicFollowWall[RampParams]):
-    """Follows the wall at a distance changing linearly from the current one to `distance` over `length` metres travelled; finishes at the end of the ramp (and keeps following at `distance`)."""
+    """Follows the wall at a distance changing linearly from the current one to `distance` over `length` metres travelled; finishes at the end of the ramp (and keeps following at `distance`)."""  # noqa: E501 (one line: the schema, palette and `fsmctl types` show the first)
 
     __slots__ = ("_from", "_d0", "_length", "_end")
     Params = RampParams
@@ -299,7 +299,7 @@ AP = TypeVar("AP", bound=ApproachParams)
 
 @register_state
 class ApproachPoint(CarState[AP]):
-    """Drives to a point given relative to the car when the state is entered (pure pursuit on odometry); finishes on arrival, or with outcome `missed` when the point falls behind within reach of a turn."""
+    """Drives to a point given relative to the car when the state is entered (pure pursuit on odometry); finishes on arrival, or with outcome `missed` when the point falls behind within reach of a turn."""  # noqa: E501 (one line: the schema, palette and `fsmctl types` show the first)
 
     __slots__ = ("_tx", "_ty", "_handed")
     Params: ClassVar[type[ApproachParams]] = ApproachParams

@@ -1,5 +1,6 @@
 """States on the camera: ``ArucoGateApproach`` drives to the point in front of a gate, refining it as the gate comes
-nearer; ``ArucoGateCenter`` lines the car up with a gate (square to it and centred) before ``Motor`` drives through. It reads only ``ctx.car.camera()`` and odometry (``ctx.car.pose()``), never ground truth."""
+nearer; ``ArucoGateCenter`` lines the car up with a gate (square to it and centred) before ``Motor`` drives through.
+It reads only ``ctx.car.camera()`` and odometry (``ctx.car.pose()``), never ground truth."""
 
 from __future__ import annotations
 
@@ -56,7 +57,7 @@ class GateApproachParams(ApproachParams):
 
 @register_state
 class ArucoGateApproach(ApproachPoint[GateApproachParams]):
-    """Drives to the point `before` m in front of the gate ArucoGateFound found (handed by it, like ApproachPoint), and moves that point each time the camera sees the gate again while the point is still `refine` m ahead: a gate first seen 4 m away has a rough pose (its heading may be 10 degrees off), which gets better as the car comes nearer. The fresh pose also replaces `gate` on the blackboard for ArucoGateCenter. Finishes on arrival, or `missed` when the point falls behind."""
+    """Drives to the point `before` m in front of the gate ArucoGateFound found (handed by it, like ApproachPoint), and moves that point each time the camera sees the gate again while the point is still `refine` m ahead: a gate first seen 4 m away has a rough pose (its heading may be 10 degrees off), which gets better as the car comes nearer. The fresh pose also replaces `gate` on the blackboard for ArucoGateCenter. Finishes on arrival, or `missed` when the point falls behind."""  # noqa: E501 (one line: the schema, palette and `fsmctl types` show the first)
 
     __slots__ = ("_frame", "_ids")
     Params = GateApproachParams
@@ -112,7 +113,7 @@ class GateCenterParams(StateParams):
 
 @register_state
 class ArucoGateCenter(CarState[GateCenterParams]):
-    """Lines the car up with a gate: drives slowly along the gate's centre line (pure pursuit on it, from camera and odometry) until it is square to the gate and centred, then finishes (`succeeded`); `close` when it got near the gate first, `wide` when it got near so far off the centre line that driving on would hit a post (the gate's width is measured by the camera; route it to a short reverse and back here), `lost` when it never had a gate. Finishing (`succeeded` or `close`) marks the gate passed on the blackboard (`gates_passed`), and every gate it sees is remembered (`gates_seen`) for ArucoGateFound with `memory`."""
+    """Lines the car up with a gate: drives slowly along the gate's centre line (pure pursuit on it, from camera and odometry) until it is square to the gate and centred, then finishes (`succeeded`); `close` when it got near the gate first, `wide` when it got near so far off the centre line that driving on would hit a post (the gate's width is measured by the camera; route it to a short reverse and back here), `lost` when it never had a gate. Finishing (`succeeded` or `close`) marks the gate passed on the blackboard (`gates_passed`), and every gate it sees is remembered (`gates_seen`) for ArucoGateFound with `memory`."""  # noqa: E501 (one line: the schema, palette and `fsmctl types` show the first)
 
     __slots__ = ("_gate", "_frame", "_ids")
     Params = GateCenterParams
@@ -222,7 +223,7 @@ class AlignHeadingParams(StateParams):
 
 @register_state
 class AlignHeading(CarState[AlignHeadingParams]):
-    """After a gate: turns back to the heading the car had when ArucoGateFound fired (odometry), i.e. along the corridor whose wall it was following, plus `offset`; finishes within `tolerance` (at once when no gate was found)."""
+    """After a gate: turns back to the heading the car had when ArucoGateFound fired (odometry), i.e. along the corridor whose wall it was following, plus `offset`; finishes within `tolerance` (at once when no gate was found)."""  # noqa: E501 (one line: the schema, palette and `fsmctl types` show the first)
 
     __slots__ = ("_target",)
     Params = AlignHeadingParams

@@ -227,7 +227,8 @@ def test_a_machine_is_not_taken_for_a_palette(tmp_path: Path, capsys: pytest.Cap
 def test_ci_snippet_works_as_written() -> None:
     """The documented GitHub Actions steps (docs/umlet.md, linked from the README) pass on this repository."""
     page = (REPO / "docs" / "umlet.md").read_text()
-    commands = [ln.split("- run:", 1)[1].strip() for ln in page.splitlines() if ln.startswith("- run: ") and "fsmctl" in ln]
+    commands = [ln.split("- run:", 1)[1].strip() for ln in page.splitlines()
+                if ln.startswith("- run: ") and "fsmctl" in ln]
     assert commands == ["fsmctl validate --format github diagrams/*.uxf diagrams/*.json",
                         'for f in diagrams/*.uxf; do fsmctl convert --check "$f" || exit 1; done']
     env = dict(os.environ, PATH=str(Path(sys.executable).parent) + os.pathsep + os.environ.get("PATH", ""))

@@ -107,7 +107,8 @@ def test_export_of_a_document_without_layout_converts_back(tmp_path, capsys):
     assert strip(json.loads((tmp_path / "back.json").read_text())) == strip(doc)
 
 
-@pytest.mark.parametrize("path", sorted(p for p in EXAMPLES.glob("*.json") if not p.name.endswith(".scenario.json")), ids=lambda p: p.stem)
+@pytest.mark.parametrize("path", sorted(p for p in EXAMPLES.glob("*.json") if not p.name.endswith(".scenario.json")),
+                         ids=lambda p: p.stem)
 def test_every_example_exports_and_converts_back(tmp_path, capsys, path):
     """Round trip through the command line on every example document (also those without a diagram), includes
     resolved next to it: the same document, name, $schema and descriptions included."""

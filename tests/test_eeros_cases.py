@@ -91,7 +91,8 @@ def test_a_broken_machine_fails_its_scenario(case: str, tmp_path: Path, capsys: 
 
 
 @pytest.mark.parametrize("case", sorted(BROKEN))
-def test_the_umlet_drawing_converts_to_the_machine(case: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_the_umlet_drawing_converts_to_the_machine(case: str, tmp_path: Path,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
     """diagrams/eeros/*.uxf (made with `fsmctl export`) convert back to the JSON the scenarios run."""
     out = tmp_path / "back.json"
     code, _out, err = cli(capsys, "--plugin", str(PLUGIN), "convert", str(CASES / f"{case}.uxf"), "-o", str(out))

@@ -20,7 +20,8 @@ ROOT = Path(__file__).resolve().parent.parent
 DIAGRAMS = ROOT / "diagrams"
 HALLWAY = DIAGRAMS / "worlds" / "hallway.json"
 OBSTACLE = DIAGRAMS / "worlds" / "obstacle.json"
-EXAMPLES = ["hallway_lap", "lap", "turn_left", "lane_change", "corner_turn", "gate_run", "gate_side", "gate_home", "marker_signs"]
+EXAMPLES = ["hallway_lap", "lap", "turn_left", "lane_change", "corner_turn", "gate_run", "gate_side", "gate_home",
+            "marker_signs"]
 #: One lap of the hallway at 0.4 m from the outer wall, corners cut: about 55 m.
 LAP_M = 55.0
 

@@ -188,7 +188,8 @@ def test_the_vision_probe_detects_a_forbidden_import() -> None:
 
 
 #: package -> the fsm.tools packages it must never import (the CLI sits on top; graph sits below UMLet).
-TOOLS_RULES = {"umlet": ("fsm.tools.cli",), "graph": ("fsm.tools.cli", "fsm.tools.umlet"), "scenario": ("fsm.tools.cli",)}
+TOOLS_RULES = {"umlet": ("fsm.tools.cli",), "graph": ("fsm.tools.cli", "fsm.tools.umlet"),
+               "scenario": ("fsm.tools.cli",)}
 
 
 def tools_modules(package: str) -> list[str]:

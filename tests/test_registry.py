@@ -69,7 +69,8 @@ def test_third_party_types_arrive_through_entry_points(tmp_path: Path) -> None:
     dist = tmp_path / "beeper-1.0.dist-info"
     dist.mkdir()
     (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: beeper\nVersion: 1.0\n")
-    (dist / "entry_points.txt").write_text("[fsm.states]\nBeep = beeper:Beep\n\n[fsm.transitions]\nNever = beeper:Never\n")
+    (dist / "entry_points.txt").write_text("[fsm.states]\nBeep = beeper:Beep\n\n"
+                                           "[fsm.transitions]\nNever = beeper:Never\n")
     doc = {"initial": "a", "states": [{"id": "a", "type": "Beep"}, {"id": "b", "type": "Beep"}],
            "transitions": [{"type": "Never", "from": "a", "to": "b"}]}
     (tmp_path / "m.json").write_text(json.dumps(doc))

@@ -86,8 +86,8 @@ def mission_report(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path
     out = tmp_path_factory.mktemp("report")
     code = main(["run", str(REPO / "diagrams" / "mission.json"), "--world", str(REPO / "diagrams" / "worlds" /
                  "obstacle.json"), "--signal", "pause@5", "--signal", "pause=0@5.1", "--signal", "pause@8",
-                 "--signal", "pause=0@8.1", "--duration", "60", "--expect", "succeeded", "--trace", str(out / "t.jsonl"),
-                 "--report", str(out / "r.html"), "-q"])
+                 "--signal", "pause=0@8.1", "--duration", "60", "--expect", "succeeded",
+                 "--trace", str(out / "t.jsonl"), "--report", str(out / "r.html"), "-q"])
     assert code == 0
     return out / "t.jsonl", out / "r.html"
 
@@ -156,7 +156,8 @@ def test_the_report_replays_the_trace_at_the_dragged_cursor(mission_report: tupl
             inner = '#chart g[data-path^="mission/drive/"]'
             assert p.page.locator(inner).count() > 0
             p.page.locator('#chart g[data-path="mission/drive"] > text').first.click()
-            assert all("hidden" in (c or "") for c in p.page.eval_on_selector_all(inner, "els => els.map(e => e.className.baseVal)"))
+            classes = p.page.eval_on_selector_all(inner, "els => els.map(e => e.className.baseVal)")
+            assert all("hidden" in (c or "") for c in classes)
 
             p.page.evaluate(f"window.tralReport.setTime({trace.end['time'] / 3})")
             p.page.screenshot(path=str(tmp_path / "report.png"), full_page=True)

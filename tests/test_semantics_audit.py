@@ -375,7 +375,8 @@ def test_paused_composite_left_by_outer_transition_reenters_fresh(registry):
     LOG.clear()
     m.ctx.vars["leave"] = True
     m.tick()
-    assert [e for e in LOG if "check" not in e] == ["exit o/a/x", "action o->b", "enter b"]  # a paused subtree is exited normally by an outer transition
+    # a paused subtree is exited normally by an outer transition
+    assert [e for e in LOG if "check" not in e] == ["exit o/a/x", "action o->b", "enter b"]
     assert not a.paused
     m.ctx.vars.update(leave=False, back=True)
     m.tick()

@@ -133,8 +133,8 @@ def test_the_front_sensor_sees_obstacles(obstacle: dict[str, Any], expected: flo
 
 @pytest.mark.parametrize("side", ["right", "front"])
 def test_a_sensor_touching_a_wall_reads_min_range_not_no_echo(side: str) -> None:
-    # Was a bug (fixed): the side sensors sit on the body's edge (mount y = +-0.095 = half width) and the front one on its
-    # nose (x = 0.20), and walls are 5 mm-radius segments. Once the body touches a wall the sensor's origin
+    # Was a bug (fixed): the side sensors sit on the body's edge (mount y = +-0.095 = half width) and the front one on
+    # its nose (x = 0.20), and walls are 5 mm-radius segments. Once the body touches a wall the sensor's origin
     # is inside the wall shape, pymunk's segment query from inside finds nothing, and the sensor reads
     # max range (3.0 m, "no echo") instead of min range: a car scraping its right wall reads "no wall",
     # SensorLevel(right above ...) fires, the wall follower steers further into the wall. Reproduce: drive

@@ -37,8 +37,10 @@ def opencv_projection(cam: SimCamera, m: MarkerSpec, pose: tuple[float, float, f
     return pts.reshape(4, 2)
 
 
-@pytest.mark.parametrize("distance,yaw,pose", [(1.0, 0, (0, 0, 0)), (2.0, 30, (0, 0, 0.1)), (1.5, -45, (0.2, 0.1, -0.05))])
-def test_projected_corners_are_opencvs_projection(distance: float, yaw: float, pose: tuple[float, float, float]) -> None:
+@pytest.mark.parametrize("distance,yaw,pose",
+                         [(1.0, 0, (0, 0, 0)), (2.0, 30, (0, 0, 0.1)), (1.5, -45, (0.2, 0.1, -0.05))])
+def test_projected_corners_are_opencvs_projection(distance: float, yaw: float,
+                                                  pose: tuple[float, float, float]) -> None:
     m = marker_at(distance, yaw)
     cam = clean_camera([m])
     (p,) = cam.project(*pose)

@@ -89,7 +89,8 @@ def test_bad_markers_and_cameras_are_located_errors(doc: dict[str, Any], pointer
     with pytest.raises(DiagramError) as err:
         parse_world({**base, **doc}, "w.json")
     problems = err.value.problems
-    assert any(p.pointer == pointer and words in p.message for p in problems), [(p.pointer, p.message) for p in problems]
+    assert any(p.pointer == pointer and words in p.message for p in problems), [(p.pointer, p.message)
+                                                                                for p in problems]
 
 
 def test_odometry_is_dead_reckoning_that_drifts() -> None:

@@ -98,7 +98,8 @@ def test_a_run_that_raises_is_a_record_and_the_sweep_goes_on(tmp_path: Path,
                                 "duration": 1}))
     code, out, err = cli(capsys, "sweep", str(spec), "-o", str(tmp_path / "out"), "-j", "2", "--no-progress")
     assert code == 1
-    recs = {r["params"]["vars.n"]: r for r in map(json.loads, (tmp_path / "out" / "sweep.jsonl").read_text().splitlines())}
+    lines = (tmp_path / "out" / "sweep.jsonl").read_text().splitlines()
+    recs = {r["params"]["vars.n"]: r for r in map(json.loads, lines)}
     assert recs[0]["ok"] and recs[1]["ok"] and not recs[2]["ok"]
     assert "raised RuntimeError in tick" in recs[2]["error"] and "n is 2" in recs[2]["error"]
     assert "reproduce: fsmctl" in err

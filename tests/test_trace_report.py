@@ -48,7 +48,8 @@ def _mission_trace(pause: bool = True) -> tuple[str, list[tuple[int, list[str], 
     from fsm.tools.trace import header_document
 
     out = io.StringIO()
-    header = {"source": str(MISSION), "machine": header_document(str(MISSION)), **car_trace_header(car, OBSTACLE, 3, True)}
+    header = {"source": str(MISSION), "machine": header_document(str(MISSION)),
+              **car_trace_header(car, OBSTACLE, 3, True)}
     rec = m.add_listener(Recorder(out, extra=car_trace_fields(car), sample=car_trace_sample(car),
                                   sample_fields=CAR_SAMPLE_FIELDS, frames=car_trace_frames(car), header=header))
     live: list[tuple[int, list[str], dict[str, Any]]] = []
@@ -86,7 +87,8 @@ def test_every_line_follows_the_trace_schema(mission: Any) -> None:
     samples = parse_trace(text.encode()).samples
     assert [s["tick"] for s in samples[:3]] == [0, 4, 8]  # 20 Hz at 80 Hz ticks
     assert len(samples) == (lines[-1]["tick"]) // 4 + 1
-    assert {"x", "y", "heading", "odometry", "left", "front", "right", "speed_command", "steering"} <= set(samples[5]["car"])
+    assert {"x", "y", "heading", "odometry", "left", "front", "right", "speed_command",
+            "steering"} <= set(samples[5]["car"])
     events = [line for line in lines if line["type"] == "event"]
     assert any("monitors" in e for e in events) and any("paused" in e for e in events)
 
@@ -194,7 +196,8 @@ def test_a_damaged_samples_block_is_read_up_to_the_line_before(damage: Any, says
     assert trace.samples and trace.samples[-1]["tick"] < 25
 
 
-def test_a_cut_off_trace_reads_up_to_its_last_whole_line(mission: Any, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_cut_off_trace_reads_up_to_its_last_whole_line(mission: Any, tmp_path: Path,
+                                                         capsys: pytest.CaptureFixture[str]) -> None:
     text, live = mission
     data = text.encode()
     cut = data[: len(data) // 2 + 17]  # killed mid-line
@@ -221,7 +224,8 @@ def test_a_cut_off_trace_reads_up_to_its_last_whole_line(mission: Any, tmp_path:
     (b'{"type": "header", "format": "tral-fsm-trace", "version": 99}\n', "newer than this tral-fsm reads"),
     (b'{"type": "header", "format": "something-else", "version": 2}\n', "format is 'something-else'"),
 ])
-def test_what_is_not_a_trace_is_an_error_with_the_reason(content: bytes, says: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_what_is_not_a_trace_is_an_error_with_the_reason(content: bytes, says: str, tmp_path: Path,
+                                                         capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(TraceError, match=re.escape(says)):
         parse_trace(content, "x.jsonl")
     f = tmp_path / "x.jsonl"
@@ -242,7 +246,8 @@ def test_report_and_export_of_a_missing_trace_or_a_folder(tmp_path: Path, capsys
     assert list(tmp_path.iterdir()) == []
 
 
-def test_the_trace_itself_as_the_report_output_is_refused(mission: Any, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_the_trace_itself_as_the_report_output_is_refused(mission: Any, tmp_path: Path,
+                                                          capsys: pytest.CaptureFixture[str]) -> None:
     f = tmp_path / "run.jsonl"
     f.write_text(mission[0])
     before = f.read_bytes()
@@ -251,7 +256,8 @@ def test_the_trace_itself_as_the_report_output_is_refused(mission: Any, tmp_path
     assert f.read_bytes() == before
 
 
-def test_a_version_1_trace_gives_a_report_of_what_can_be_shown(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_version_1_trace_gives_a_report_of_what_can_be_shown(tmp_path: Path,
+                                                               capsys: pytest.CaptureFixture[str]) -> None:
     old = [{"tick": 0, "time": 0.0, "active": "a", "transitions": [{"tick": 0, "time": 0.0, "from": None, "to": "a",
                                                                      "type": "initial"}], "vars": {"n": 1}},
            {"tick": 8, "time": 0.1, "active": "b", "transitions": [{"tick": 8, "time": 0.1, "from": "a", "to": "b",
@@ -267,7 +273,8 @@ def test_a_version_1_trace_gives_a_report_of_what_can_be_shown(tmp_path: Path, c
     assert "older tral-fsm" in html and '"states":["a","b"]' in html
 
 
-def test_a_trace_whose_machine_no_longer_draws_still_reports(mission: Any, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_trace_whose_machine_no_longer_draws_still_reports(mission: Any, tmp_path: Path,
+                                                             capsys: pytest.CaptureFixture[str]) -> None:
     lines = mission[0].splitlines()
     header = json.loads(lines[0])
     header["machine"] = {"initial": "nowhere", "states": [{"id": 3, "type": None, "machine": {"file": 7}}]}
@@ -288,7 +295,8 @@ def test_state_names_are_text_in_the_report_never_markup(tmp_path: Path, capsys:
            "transitions": [{"type": "Timeout", "from": evil, "to": "end & <done>", "seconds": 0.1}]}
     f = tmp_path / "evil.json"
     f.write_text(json.dumps(doc))
-    code, _, err = cli(capsys, "run", str(f), "--trace", str(tmp_path / "t.jsonl"), "--report", str(tmp_path / "r.html"), "-q")
+    code, _, err = cli(capsys, "run", str(f), "--trace", str(tmp_path / "t.jsonl"),
+                       "--report", str(tmp_path / "r.html"), "-q")
     assert code == 0, err
     html = (tmp_path / "r.html").read_text()
     assert "<script>alert" not in html and "<img src=x" not in html and "<b>bold" not in html

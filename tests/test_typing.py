@@ -202,8 +202,10 @@ def test_messages_name_files_in_the_repository(tmp_path: Path) -> None:
     assert sorted(p.name for p in (layout / "fsm").iterdir()) == ["state.py", "states", "transitions"]
     assert (layout / "fsm" / "states").resolve() == (root / "states").resolve()
     sep = "/" if sys.platform != "win32" else "\\"
-    for line, want in ((f"{layout}{sep}fsm{sep}states{sep}driving.py:3: error: x", f"states{sep}driving.py:3: error: x"),
-                       (f"{layout}{sep}fsm{sep}sequencer{sep}steps.py:1: note", f"fsm{sep}sequencer{sep}steps.py:1: note"),
+    for line, want in ((f"{layout}{sep}fsm{sep}states{sep}driving.py:3: error: x",
+                        f"states{sep}driving.py:3: error: x"),
+                       (f"{layout}{sep}fsm{sep}sequencer{sep}steps.py:1: note",
+                        f"fsm{sep}sequencer{sep}steps.py:1: note"),
                        (f"{layout}{sep}fsm{sep}state.py:9: error", f"fsm{sep}state.py:9: error"),
                        ("Found 2 errors in 1 file", "Found 2 errors in 1 file")):
         assert mod.repository_path(line, root, layout) == want

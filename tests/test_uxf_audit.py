@@ -190,15 +190,16 @@ def test_arrowheads_at_both_ends_are_one_located_error(lt):
 
 
 def test_self_loop_drawn_with_lt_reversed():
-    doc = one(INIT, START, A, relation([[160, 90], [200, 90], [200, 110], [160, 110]], "lt=<-\nagain / count = count + 1"))
+    doc = one(INIT, START, A, relation([[160, 90], [200, 90], [200, 110], [160, 110]],
+                                       "lt=<-\nagain / count = count + 1"))
     assert strip(doc["transitions"]) == [{"type": "Signal", "from": "A", "to": "A", "signal": "again",
                                           "label": "again / count = count + 1", "set": {"count": "count + 1"}}]
 
 
 # -- labels: every line that is no facet is a middle label line (LineDescriptionFacet, priority LOWEST) ------------
 def test_label_ignores_end_texts_and_styles_and_may_precede_lt():
-    doc = one(INIT, START, A, B, relation(A_TO_B, "m1=0..1\nev [armed]\nlt=<-\nm2=*\n/ beep = 1\nr2=role\nlw=2\nfg=red\n"
-                                                  "// why\nm1pos=5,5"))
+    doc = one(INIT, START, A, B, relation(A_TO_B, "m1=0..1\nev [armed]\nlt=<-\nm2=*\n/ beep = 1\nr2=role\nlw=2\n"
+                                                  "fg=red\n// why\nm1pos=5,5"))
     assert strip(doc["transitions"]) == [{"type": "Signal", "from": "B", "to": "A", "signal": "ev",
                                           "label": "ev [armed] / beep = 1", "guard": "armed",
                                           "set": {"beep": 1}}]
@@ -265,7 +266,8 @@ def test_json_fragment_with_nested_braces_and_escaped_quotes():
 
 
 def test_unicode_names_and_crlf_everywhere():
-    raw = diagram([INIT, START, element("UMLState", 60, 80, 100, 40, "Öffnen\r\nTür\r\n--\r\nentry / 開く = 1\r\nTür zu"),
+    raw = diagram([INIT, START,
+                   element("UMLState", 60, 80, 100, 40, "Öffnen\r\nTür\r\n--\r\nentry / 開く = 1\r\nTür zu"),
                    element("UMLState", 60, 200, 100, 40, "完了"),
                    relation(A_TO_B, "lt=->\r\nÖFFNEN")]).encode().replace(b"\n", b"\r\n")
     doc = one(raw=raw)

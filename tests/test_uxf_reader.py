@@ -48,7 +48,8 @@ EXPECTED = {  # file prefix: (states incl. pseudostates, relations, nested boxes
     "Belinus": (10, 15, 0),
     "ForceGitE": (8, 8, 4, ["unknown variable 'questionsanswered'"]),
     "KIT-MAMID": ["action 'automatic replacement': expected '='"],
-    "ikageso1": ["action 'プロフィールを表示'", "action '評価を送信'", "action '研究室一覧を表示'", "action 'ランキングを表示'"],
+    "ikageso1": ["action 'プロフィールを表示'", "action '評価を送信'", "action '研究室一覧を表示'",
+                 "action 'ランキングを表示'"],
     "nastygorodi": (8, 7, 0),
     "73jn": ["duplicate state name 'WIFI CONNECT'"],
     "Bleksak": ["has no initial state", "duplicate state name 'TAKE'"],
@@ -236,7 +237,8 @@ def test_ambiguous_endpoint_and_duplicate_names():
 
 
 def test_tral_from_to_must_agree_with_geometry():
-    probs = errors(INIT, START, A, B, relation([[110, 120], [110, 200]], 'lt=->\n"type": "Always", "from": "B", "to": "B"'))
+    probs = errors(INIT, START, A, B,
+                   relation([[110, 120], [110, 200]], 'lt=->\n"type": "Always", "from": "B", "to": "B"'))
     assert "'from' in the label names 'B' but the arrow's source end is attached to 'A'" in probs[0].message
     # no geometry at one end: the label names it
     doc = one(INIT, START, A, B, relation([[110, 120], [400, 400]], 'lt=->\n"type": "Always", "to": "B"'))

@@ -31,7 +31,8 @@ from helpers import without_layout as strip
 
 ROOT = Path(__file__).resolve().parents[1]
 DIAGRAMS = sorted((ROOT / "diagrams").glob("*.uxf")) + sorted((ROOT / "diagrams" / "examples").glob("*.uxf"))
-EXAMPLES = [p for p in sorted((ROOT / "diagrams").glob("*.json")) + sorted((ROOT / "diagrams" / "examples").glob("*.json"))
+EXAMPLES = [p for p in sorted((ROOT / "diagrams").glob("*.json"))
+            + sorted((ROOT / "diagrams" / "examples").glob("*.json"))
             if not p.name.endswith(".scenario.json")]  # scenarios are not machines
 REGISTRY = default_registry()
 

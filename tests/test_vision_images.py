@@ -84,7 +84,8 @@ def test_a_bottom_up_and_a_top_down_bmp() -> None:
 def test_a_big_endian_and_a_bigtiff_header() -> None:
     entries = [(256, 3, 1, 640), (257, 4, 1, 480)]
     classic = b"MM\x00*" + struct.pack(">I", 8) + struct.pack(">H", len(entries)) + b"".join(
-        struct.pack(">HHI", tag, kind, count) + (struct.pack(">HH", value, 0) if kind == 3 else struct.pack(">I", value))
+        struct.pack(">HHI", tag, kind, count)
+        + (struct.pack(">HH", value, 0) if kind == 3 else struct.pack(">I", value))
         for tag, kind, count, value in entries)
     assert image_header(classic) == ImageHeader("TIFF", 640, 480)
     big = b"II+\x00" + struct.pack("<HHQ", 8, 0, 16) + struct.pack("<Q", 2) + b"".join(

@@ -124,7 +124,8 @@ def test_marker_unpaired_fires_for_one_post_of_a_gate_never_seen_whole() -> None
     assert m.active_path == "back"
 
 
-@pytest.mark.parametrize("y0, heading0, gate_heading", [(0.3, -10, 0), (-0.25, 15, 10), (0.6, -25, -25), (-0.4, 10, 20)])
+@pytest.mark.parametrize("y0, heading0, gate_heading",
+                         [(0.3, -10, 0), (-0.25, 15, 10), (0.6, -25, -25), (-0.4, 10, 20)])
 def test_gate_center_lines_the_car_up_and_motor_drives_through(y0: float, heading0: float,
                                                                gate_heading: float) -> None:
     car = FakeCar()

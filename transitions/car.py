@@ -60,7 +60,7 @@ class SensorLevelParams(TransitionParams):
 
 @register_transition
 class SensorLevel(Transition[SensorLevelParams]):
-    """Fires when ultrasonic sensor `sensor` (left, right, front) reads `below` or `above` a threshold, for `samples` samples in a row."""
+    """Fires when ultrasonic sensor `sensor` (left, right, front) reads `below` or `above` a threshold, for `samples` samples in a row."""  # noqa: E501 (one line: the schema, palette and `fsmctl types` show the first)
 
     __slots__ = ("sensor", "below", "above", "samples", "_count", "_seen")
     needs_car = True
@@ -106,7 +106,7 @@ class PassPointParams(TransitionParams):
 
 @register_transition
 class PassPoint(Transition[PassPointParams]):
-    """Fires when the car's odometry crosses the line through the point (`x`, `y`) perpendicular to `heading`, driving that way, within `within` metres of the point, after `after` metres travelled since the source was entered; with `beyond`, also when the car is already up to that far past the line. Odometry starts at the start pose (x ahead, y left), so the defaults mean "back at the start"; odometry drifts (about 1-2 % of the distance travelled)."""
+    """Fires when the car's odometry crosses the line through the point (`x`, `y`) perpendicular to `heading`, driving that way, within `within` metres of the point, after `after` metres travelled since the source was entered; with `beyond`, also when the car is already up to that far past the line. Odometry starts at the start pose (x ahead, y left), so the defaults mean "back at the start"; odometry drifts (about 1-2 % of the distance travelled)."""  # noqa: E501 (one line: the schema, palette and `fsmctl types` show the first)
 
     __slots__ = ("_d0", "_last", "_ux", "_uy")
     needs_car = True

@@ -235,7 +235,7 @@ class _CameraTransition(Transition[CP]):
 
 @register_transition
 class ArucoGateFound(_CameraTransition[ArucoGateFoundParams]):
-    """Fires when the camera sees a gate (two markers; with `ids`, that gate) whose centre is within `range` and which the car faces (|heading| <= `max_angle`), in `frames` frames in a row. Hands the target state (ApproachPoint) the point `before` metres in front of the gate, and leaves the gate on the blackboard (`gate`, odometry frame) for ArucoGateCenter. With `memory`, gates already passed (ArucoGateCenter marks them) are never chosen again, and a gate seen earlier but now out of the camera's view (e.g. while the car was busy with the gate before it) fires at once when it lies ahead within range, its centre at least `before` (and 0.5 m) ahead. Gates are remembered from every camera frame (the car's `gate_memory`), whatever state is active."""
+    """Fires when the camera sees a gate (two markers; with `ids`, that gate) whose centre is within `range` and which the car faces (|heading| <= `max_angle`), in `frames` frames in a row. Hands the target state (ApproachPoint) the point `before` metres in front of the gate, and leaves the gate on the blackboard (`gate`, odometry frame) for ArucoGateCenter. With `memory`, gates already passed (ArucoGateCenter marks them) are never chosen again, and a gate seen earlier but now out of the camera's view (e.g. while the car was busy with the gate before it) fires at once when it lies ahead within range, its centre at least `before` (and 0.5 m) ahead. Gates are remembered from every camera frame (the car's `gate_memory`), whatever state is active."""  # noqa: E501 (one line: the schema, palette and `fsmctl types` show the first)
 
     __slots__ = ("_gate",)
     Params = ArucoGateFoundParams
@@ -304,7 +304,7 @@ class ArucoGateFound(_CameraTransition[ArucoGateFoundParams]):
 
 @register_transition
 class ArucoMarkerFound(_CameraTransition[ArucoMarkerFoundParams]):
-    """Fires when the camera sees the marker with id `marker` within `range` metres, in `frames` frames in a row (the report's "behaviour by id": one transition per id)."""
+    """Fires when the camera sees the marker with id `marker` within `range` metres, in `frames` frames in a row (the report's "behaviour by id": one transition per id)."""  # noqa: E501 (one line: the schema, palette and `fsmctl types` show the first)
 
     __slots__ = ()
     Params = ArucoMarkerFoundParams
@@ -316,7 +316,7 @@ class ArucoMarkerFound(_CameraTransition[ArucoMarkerFoundParams]):
 
 @register_transition
 class ArucoMarkerUnpaired(_CameraTransition[ArucoMarkerUnpairedParams]):
-    """Fires when the camera sees, within `range`, a marker that makes no gate with another marker in view and belongs to no gate seen before or passed, in `frames` frames in a row: one post of a gate whose other post is out of the camera's view (near a wall, at the edge of the field of view), so the gate has never been seen whole. Route it to a state that gives the camera a wider look (backing off)."""
+    """Fires when the camera sees, within `range`, a marker that makes no gate with another marker in view and belongs to no gate seen before or passed, in `frames` frames in a row: one post of a gate whose other post is out of the camera's view (near a wall, at the edge of the field of view), so the gate has never been seen whole. Route it to a state that gives the camera a wider look (backing off)."""  # noqa: E501 (one line: the schema, palette and `fsmctl types` show the first)
 
     __slots__ = ()
     Params = ArucoMarkerUnpairedParams

@@ -98,7 +98,8 @@ class PyTrees(Adapter):
     def check(self, when: str) -> None:
         if self.root.status != self.running:
             # The tick where the whole ring completed: every leaf has run, the next tick restarts.
-            expect(self.steps % self.workload.cycle, 0, f"py_trees {self.workload.name}, {when}: ring completed off-cycle")
+            expect(self.steps % self.workload.cycle, 0,
+                   f"py_trees {self.workload.name}, {when}: ring completed off-cycle")
             return
         super().check(when)
 

@@ -74,7 +74,8 @@ class Supervisor:
     __slots__ = ("owner", "monitors", "precondition", "pre_conditions", "timeout", "reset_at", "running",
                  "machine", "halted")
 
-    def __init__(self, owner: State[Any], monitors: list[Monitor], precondition: Callable[[Context], bool] | None = None,
+    def __init__(self, owner: State[Any], monitors: list[Monitor],
+                 precondition: Callable[[Context], bool] | None = None,
                  pre_conditions: tuple[Condition[Any], ...] = (), timeout: float | None = None) -> None:
         self.owner = owner
         self.monitors = tuple(monitors)

@@ -205,7 +205,8 @@ class SimCamera:
             half = m.paper / 2
             if self.posts:
                 self._draw_post(frame, co, ro, uo, m, K)
-            corners = np.array([co + sx * half * ro + sy * half * uo for sx, sy in ((-1, 1), (1, 1), (1, -1), (-1, -1))])
+            corners = np.array([co + sx * half * ro + sy * half * uo
+                                for sx, sy in ((-1, 1), (1, 1), (1, -1), (-1, -1))])
             pp = corners @ K.T
             pp = pp[:, :2] / pp[:, 2:]
             x0, y0 = max(0, int(math.floor(pp[:, 0].min()))), max(0, int(math.floor(pp[:, 1].min())))

@@ -81,7 +81,8 @@ class Obstacle(WorldModel):
 
     type: Literal["box", "circle", "polygon"] = Field(description="Shape of the obstacle.")
     center: Point | None = Field(default=None, description="Centre [x, y] in metres (box, circle).")
-    size: Annotated[tuple[float, float], BeforeValidator(_pair)] | None = Field(default=None, description="Box size [length, width] in metres.")
+    size: Annotated[tuple[float, float], BeforeValidator(_pair)] | None = Field(
+        default=None, description="Box size [length, width] in metres.")
     angle: float = Field(default=0.0, description="Box rotation in degrees, counter-clockwise.")
     radius: float | None = Field(default=None, gt=0, description="Circle radius in metres.")
     points: list[Point] | None = Field(default=None, min_length=3, description="Polygon corners in metres.")
@@ -115,7 +116,8 @@ class Gate(WorldModel):
     """An ArUco gate: two markers beside each other in the hallway (used by the camera states)."""
 
     name: str | None = Field(default=None, description="Name of the gate, for traces.")
-    markers: Annotated[tuple[int, int], BeforeValidator(_pair)] = Field(description="ArUco ids of the left and right marker (DICT_4X4_50).")
+    markers: Annotated[tuple[int, int], BeforeValidator(_pair)] = Field(
+        description="ArUco ids of the left and right marker (DICT_4X4_50).")
     center: Point = Field(description="Midpoint between the two markers [x, y] in metres.")
     heading: float = Field(default=0.0, description="Direction to drive through the gate, degrees.")
     width: float = Field(default=0.6, gt=0, le=5, description="Distance between the marker centres, m.")
@@ -168,7 +170,8 @@ class Ultrasonic(WorldModel):
     min_range: float = Field(default=0.05, ge=0, description="Nearer echoes read as this, m.")
     max_range: float = Field(default=3.0, gt=0, le=10, description="No echo (or farther) reads as this, m.")
     rays: int = Field(default=5, ge=1, le=31, description="Rays per cone.")
-    cone: float = Field(default=15.0, ge=0, lt=180, description="Full opening angle of the cone, degrees (HC-SR04: 15).")
+    cone: float = Field(default=15.0, ge=0, lt=180,
+                        description="Full opening angle of the cone, degrees (HC-SR04: 15).")
     max_incidence: float = Field(
         default=70.0, gt=0, le=90,
         description="Echoes hitting a surface more obliquely than this (degrees from its normal) are lost.")
@@ -254,7 +257,8 @@ class Car(WorldModel):
     max_speed: float = Field(default=2.5, gt=0, le=20, description="Speed commands are clamped to this, m/s.")
     acceleration: float = Field(default=1.5, gt=0, description="Acceleration limit, m/s^2.")
     deceleration: float = Field(default=3.0, gt=0, description="Braking limit, m/s^2.")
-    hall_units_per_m: float = Field(default=HALL_UNITS_PER_M, gt=0, description="Hall units per metre (1500 per 1.60 m).")
+    hall_units_per_m: float = Field(default=HALL_UNITS_PER_M, gt=0,
+                                    description="Hall units per metre (1500 per 1.60 m).")
     ultrasonic: Ultrasonic = Field(default_factory=Ultrasonic, description="The ultrasonic sensors.")
     camera: Camera = Field(default_factory=Camera, description="The camera (ArUco markers).")
     odometry_noise: float = Field(
@@ -339,7 +343,8 @@ def wall_segments(wall: Wall, doors: bool = True) -> list[Segment]:
             s0, s1 = d.at - d.width / 2, d.at + d.width / 2
             p0 = (a[0] + ux * s0, a[1] + uy * s0)
             p1 = (a[0] + ux * s1, a[1] + uy * s1)
-            chain += [p0, (p0[0] + nx * d.depth, p0[1] + ny * d.depth), (p1[0] + nx * d.depth, p1[1] + ny * d.depth), p1]
+            chain += [p0, (p0[0] + nx * d.depth, p0[1] + ny * d.depth),
+                      (p1[0] + nx * d.depth, p1[1] + ny * d.depth), p1]
         chain.append(b)
         out.extend((chain[k], chain[k + 1]) for k in range(len(chain) - 1))
     return out

@@ -17,7 +17,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("file", metavar="FILE.json|TRACE.jsonl", help="the machine document (checked first), or the trace "
                                                                  "with --mcap")
     p.add_argument("-o", "--output", metavar="OUT.uxf",
-                   help="where to write (default: FILE with the suffix .uxf, never FILE itself; '-' for standard output)")
+                   help="where to write (default: FILE with the suffix .uxf, never FILE itself; '-' for standard "
+                        "output)")
     p.add_argument("--mcap", metavar="OUT.mcap", help="FILE is a trace: write it as MCAP to OUT.mcap")
     p.set_defaults(func=cmd_export)
 

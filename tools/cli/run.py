@@ -81,7 +81,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                      help=f"world file (default: {DEFAULT_WORLD} from the worlds folder next to the machine, "
                           "or diagrams/worlds/)")
     car.add_argument("--car", metavar="CAR.json", help="car file replacing the world's car parameters")
-    car.add_argument("--seed", type=whole_number(0, 2**63 - 1, "2**63-1"), default=0, metavar="N", help="seed of the sensor noise (default 0)")
+    car.add_argument("--seed", type=whole_number(0, 2**63 - 1, "2**63-1"), default=0, metavar="N",
+                     help="seed of the sensor noise (default 0)")
     car.add_argument("--no-noise", action="store_true", help="turn the ultrasonic noise off")
     car.add_argument("--video", metavar="OUT.mp4",
                      help="write a top-down video (.mp4 H.264, or .avi MJPEG; '-' writes MP4 to standard output "

@@ -153,7 +153,8 @@ def github_annotation(p: Problem) -> str:
     """A GitHub Actions workflow command (``::error file=...,line=...::message``)."""
 
     def prop(text: str) -> str:
-        return text.replace("%", "%25").replace("\r", "%0D").replace("\n", "%0A").replace(":", "%3A").replace(",", "%2C")
+        return (text.replace("%", "%25").replace("\r", "%0D").replace("\n", "%0A").replace(":", "%3A")
+                .replace(",", "%2C"))
 
     def data(text: str) -> str:
         return text.replace("%", "%25").replace("\r", "%0D").replace("\n", "%0A")

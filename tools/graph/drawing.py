@@ -438,8 +438,8 @@ def _draw(level: LevelLayout, body: list[str], prefix: str = "", where: dict[int
                 colour = "#a33" if n.note_error else "#666"
                 body.append(_text(n.x + n.w / 2, top + 32, note, nsize, extra=f' font-style="italic" fill="{colour}"'))
             if n.parts:
-                body.append(f'<line x1="{n.x:.0f}" y1="{n.y + n.head:.0f}" x2="{n.x + n.w:.0f}" y2="{n.y + n.head:.0f}" '
-                            'stroke="#4a6d94"/>')
+                body.append(f'<line x1="{n.x:.0f}" y1="{n.y + n.head:.0f}" x2="{n.x + n.w:.0f}" '
+                            f'y2="{n.y + n.head:.0f}" stroke="#4a6d94"/>')
             for i, p in enumerate(n.parts):
                 if i:
                     body.append(f'<line x1="{p.x:.0f}" y1="{p.y:.0f}" x2="{p.x:.0f}" y2="{p.y + p.h:.0f}" '
@@ -481,8 +481,8 @@ def _draw(level: LevelLayout, body: list[str], prefix: str = "", where: dict[int
                 body.append("</g>")
         else:
             body.append(f'<g class="node" data-id={quoteattr(str(st.get("id")))}{dpath}>')
-            body.append(f'<rect x="{n.x:.0f}" y="{n.y:.0f}" width="{n.w:.0f}" height="{n.h:.0f}" rx="10" fill="#fffbe6" '
-                        'stroke="#333" stroke-width="1.2"/>')
+            body.append(f'<rect x="{n.x:.0f}" y="{n.y:.0f}" width="{n.w:.0f}" height="{n.h:.0f}" rx="10" '
+                        'fill="#fffbe6" stroke="#333" stroke-width="1.2"/>')
             name, sub = _state_lines(st)
             avail = n.w - 2 * BOX_MARGIN
             cx, cy = n.x + n.w / 2, n.y + n.h / 2

@@ -197,7 +197,8 @@ def text_size(lines: list[str]) -> tuple[float, float]:
 
 def inline_machine(state: dict[str, Any]) -> dict[str, Any] | None:
     m = state.get("machine")
-    if state.get("type") == "FSMState" and isinstance(m, dict) and "file" not in m and isinstance(m.get("states"), list):
+    if (state.get("type") == "FSMState" and isinstance(m, dict) and "file" not in m
+            and isinstance(m.get("states"), list)):
         return m
     return None
 
@@ -569,8 +570,8 @@ def _route(level: LevelLayout, drawing: bool = False) -> None:
     for e in level.edges:
         lay = e.doc.get("layout") if isinstance(e.doc.get("layout"), dict) else {}
         pts = lay.get("points")
-        if e.src.placed and e.dst.placed and isinstance(pts, list) and len(pts) >= 2 and all(_is_point(p) for p in pts) \
-                and _stored(e.src) and _stored(e.dst):
+        if (e.src.placed and e.dst.placed and isinstance(pts, list) and len(pts) >= 2
+                and all(_is_point(p) for p in pts) and _stored(e.src) and _stored(e.dst)):
             e.points = [[float(p[0]), float(p[1])] for p in pts]
             if level.inserted:  # room was made for grown composites: the ends stay on their boxes
                 e.points = [_attach(e.points[0], e.src)] + [_spread(p, level.inserted) for p in e.points[1:-1]] \
@@ -666,7 +667,8 @@ def _connect(a: tuple[float, float, float, float], b: tuple[float, float, float,
     return [[round(p[0]), round(p[1])], [round(q[0]), round(q[1])]]
 
 
-def _exit_point(box: tuple[float, float, float, float], x: float, y: float, tx: float, ty: float) -> tuple[float, float]:
+def _exit_point(box: tuple[float, float, float, float], x: float, y: float, tx: float,
+                ty: float) -> tuple[float, float]:
     """Where the segment from (x, y) inside ``box`` towards (tx, ty) leaves the box."""
     bx, by, bw, bh = box
     dx, dy = tx - x, ty - y

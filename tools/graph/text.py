@@ -53,8 +53,8 @@ def mermaid(doc: dict[str, Any]) -> str:
 
 # -- DOT -------------------------------------------------------------------------------------------------------
 def dot(doc: dict[str, Any]) -> str:
-    out = ["digraph machine {", "  compound=true;", '  rankdir=TB;', '  node [shape=box, style=rounded, fontname="Helvetica"];',
-           '  edge [fontname="Helvetica", fontsize=10];']
+    out = ["digraph machine {", "  compound=true;", '  rankdir=TB;',
+           '  node [shape=box, style=rounded, fontname="Helvetica"];', '  edge [fontname="Helvetica", fontsize=10];']
     counter = [0]
 
     def q(text: str) -> str:

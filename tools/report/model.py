@@ -265,7 +265,8 @@ def _samples(trace: Trace) -> tuple[dict[str, list[Any]] | None, list[dict[str, 
 
 def _frame(f: dict[str, Any]) -> dict[str, Any]:
     return {"t": f.get("time"), "jpeg": f.get("jpeg"), "w": f.get("width"), "h": f.get("height"),
-            "det": [{"id": d.get("id"), "c": d.get("corners"), "d": d.get("distance")} for d in f.get("detections", ())],
+            "det": [{"id": d.get("id"), "c": d.get("corners"), "d": d.get("distance")}
+                    for d in f.get("detections", ())],
             "gates": f.get("gates", [])}
 
 

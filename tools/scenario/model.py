@@ -144,7 +144,8 @@ class TransitionsExpect(ScenarioModel):
 class MonitorFired(ScenarioModel):
     """Which monitor firings count, and how many there must be (at least one when no count is given)."""
 
-    owner: str = Field(min_length=1, description="The monitor's owner: a state id or path ('w2' matches 'main/sub/w2').")
+    owner: str = Field(min_length=1,
+                       description="The monitor's owner: a state id or path ('w2' matches 'main/sub/w2').")
     behavior: str | None = Field(default=None, min_length=1, description="Only firings with this behaviour.")
     kind: Literal["monitor", "timeout"] | None = Field(default=None, description="Only monitors, or only timeouts.")
     count: Int | None = Field(default=None, ge=0, description="Exactly this many.")

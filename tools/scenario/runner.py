@@ -356,7 +356,8 @@ class _Checker:
             wanted = [tick_at(t, self.dt) for t in c.at]
             got = [f[0] for f in fired]
             if got != wanted:
-                first = next((k for k, (a, b) in enumerate(zip(got, wanted, strict=False)) if a != b), min(len(got), len(wanted)))
+                first = next((k for k, (a, b) in enumerate(zip(got, wanted, strict=False)) if a != b),
+                             min(len(got), len(wanted)))
                 tick = got[first] if first < len(got) else (wanted[first] if first < len(wanted) else self.last_tick)
                 return self.failure(i, "monitors", f"expected the monitor of '{c.owner}' to fire at "
                                                    f"{', '.join(f'{t:g}' for t in c.at)} s, it fired at "

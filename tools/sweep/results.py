@@ -85,7 +85,8 @@ def html_page(title: str, records: list[dict[str, Any]], param_names: list[str],
 <style>
 body{{font:14px/1.45 system-ui,sans-serif;margin:24px;color:#222;max-width:1400px}}
 h1{{font-size:22px;margin:0 0 6px}} h2{{font-size:16px;margin:26px 0 8px}}
-table{{border-collapse:collapse;font-size:13px}} th,td{{padding:3px 8px;border-bottom:1px solid #e4e4e4;text-align:right}}
+table{{border-collapse:collapse;font-size:13px}}
+th,td{{padding:3px 8px;border-bottom:1px solid #e4e4e4;text-align:right}}
 th{{cursor:pointer;background:#f3f4f7;position:sticky;top:0}} td.l,th.l{{text-align:left}}
 tr.fail td{{background:#fff1f0}} .bar{{display:inline-block;height:10px;background:#4a7;vertical-align:middle}}
 .multiples{{display:flex;flex-wrap:wrap;gap:14px}} .multiples figure{{margin:0}} figcaption{{font-size:12px;color:#555}}
@@ -99,7 +100,8 @@ document.querySelectorAll("table.sortable th").forEach(function(th, col) {{
     var table = th.closest("table"), body = table.tBodies[0], rows = Array.from(body.rows);
     var asc = th.dataset.dir !== "asc"; th.dataset.dir = asc ? "asc" : "desc";
     rows.sort(function(a, b) {{
-      var x = a.cells[col].dataset.v || a.cells[col].textContent, y = b.cells[col].dataset.v || b.cells[col].textContent;
+      var x = a.cells[col].dataset.v || a.cells[col].textContent;
+      var y = b.cells[col].dataset.v || b.cells[col].textContent;
       var nx = parseFloat(x), ny = parseFloat(y);
       var c = (!isNaN(nx) && !isNaN(ny)) ? nx - ny : x.localeCompare(y);
       return asc ? c : -c;
@@ -124,7 +126,8 @@ def _rates(records: list[dict[str, Any]], params: list[str]) -> str:
         for value, flags in sorted(groups.items()):
             rate = sum(flags) / len(flags)
             out.append(f"<tr><td class=l>{_e(p)}</td><td class=l>{_e(value)}</td><td>{len(flags)}</td>"
-                       f"<td>{rate:.0%}</td><td class=l><span class=bar style='width:{int(rate * 160)}px'></span></td></tr>")
+                       f"<td>{rate:.0%}</td>"
+                       f"<td class=l><span class=bar style='width:{int(rate * 160)}px'></span></td></tr>")
     out.append("</table>")
     return "".join(out)
 
@@ -217,13 +220,15 @@ def _table(records: list[dict[str, Any]], params: list[str], runs_dir: str) -> s
         s = r.get("summary") or {}
         files = [f"<a href='{_e(runs_dir)}/{_e(r['id'])}/{_e(f)}'>{_e(f)}</a>" for f in r.get("files", [])]
         cls = "" if success(r) else " class=fail"
-        cells = [f"<td class=l>{_e(r['id'])}</td>", f"<td>{_e(r.get('ok'))}</td>", f"<td class=l>{_e(s.get('outcome'))}</td>",
+        cells = [f"<td class=l>{_e(r['id'])}</td>", f"<td>{_e(r.get('ok'))}</td>",
+                 f"<td class=l>{_e(s.get('outcome'))}</td>",
                  f"<td class=l>{_e(Path(r['world']).name if r.get('world') else '')}</td>", f"<td>{_e(r['seed'])}</td>"]
         cells += [f"<td>{_e(r['params'].get(p))}</td>" for p in params]
         rms = s.get("wall_error_rms_m")
         cells += [f"<td>{_e(s.get('sim_time'))}</td>", f"<td>{_e(s.get('distance_m'))}</td>",
                   f"<td>{_e(s.get('collisions'))}</td>",
-                  f"<td>{'' if rms is None or (isinstance(rms, float) and math.isnan(rms)) else f'{rms * 100:.1f} cm'}</td>",
+                  f"<td>{'' if rms is None or (isinstance(rms, float) and math.isnan(rms)) else f'{rms * 100:.1f} cm'}"
+                  "</td>",
                   f"<td>{_e(r.get('seconds'))}</td>", f"<td class=l>{' '.join(files)}</td>",
                   f"<td class=l title='{_e(r.get('traceback', ''))}'>{_e(r.get('error', ''))}</td>"]
         out.append(f"<tr{cls}>{''.join(cells)}</tr>")

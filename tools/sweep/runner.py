@@ -215,7 +215,8 @@ def _job(run: Run, spec: SweepSpec, machine: Path, plugins: list[str], out_dir: 
             "sets": [list(s) for s in run.sets], "overrides": overrides, "vars": run.variables, "params": run.params,
             "duration": spec.duration, "noise": spec.noise,
             "out": str(out_dir / "runs" / run.id) if wants else None,
-            "trace": spec.outputs.trace, "report": spec.outputs.report, "plot": spec.outputs.plot, "video": spec.outputs.video,
+            "trace": spec.outputs.trace, "report": spec.outputs.report, "plot": spec.outputs.plot,
+            "video": spec.outputs.video,
             "command": shlex.join(cmd)}
 
 

@@ -5,9 +5,10 @@ lines, see :mod:`~fsm.tools.umlet.text`), ``UMLSpecialState`` ``type=initial``/`
 and final states, ``Relation`` with an arrowhead the transitions (a dashed arrow from a ``UMLNote`` is the
 note's anchor); boxes drawn inside a state box or a ``UMLFrame`` form its sub-machine. A diagram without any
 ``UMLState`` takes its ``UMLClass`` boxes as the states (students draw machines so); other boxes (class boxes
-among state boxes, generic boxes, boxes of zero size) are ignored, and an arrow ending at one names it. Endpoints attach geometrically (:mod:`fsm.tools.umlet.geometry`). Every
-element that cannot be placed is reported with its kind, label, file line:column and diagram
-coordinates, all at once. Importing this module registers the reader for ``.uxf`` files with the loader.
+among state boxes, generic boxes, boxes of zero size) are ignored, and an arrow ending at one names it. Endpoints
+attach geometrically (:mod:`fsm.tools.umlet.geometry`). Every element that cannot be placed is reported with its
+kind, label, file line:column and diagram coordinates, all at once. Importing this module registers the reader for
+``.uxf`` files with the loader.
 
 The work is done in three steps, one module each: :mod:`~fsm.tools.umlet.scene` (what each box is and which
 machine level it is drawn in), :mod:`~fsm.tools.umlet.relations` (arrows -> transitions and initial states),

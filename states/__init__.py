@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from .composites import FSMState, Parallel
 from .driving import ApproachPoint, BasicFollowWall, FollowWall, FollowWallRamp, Motor, Stop
+from .gate_driving import AlignHeading, ArucoGateCenter
 from .generic import Final, Idle
 from .sequence import Join, ResetTimeout, Sequence, SetVar, Step, Wait
-from .vision import AlignHeading, ArucoGateCenter
 
 __all__ = [
     "AlignHeading",

@@ -23,7 +23,7 @@ from pydantic import Field, model_validator
 from fsm.params import StateParams
 from fsm.registry import register_state
 from fsm.state import State
-from fsm.transitions.vision import snap_heading  # the corridor's direction, as the gate states take it
+from fsm.transitions.markers import snap_heading  # the corridor's direction, as the gate states take it
 
 if TYPE_CHECKING:
     from fsm.context import Context

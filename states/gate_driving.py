@@ -11,7 +11,7 @@ from pydantic import Field
 
 from fsm.params import StateParams
 from fsm.registry import register_state
-from fsm.transitions.vision import (
+from fsm.transitions.markers import (
     APPROACH_BEFORE,
     GATE_VAR,
     WALL_MARGIN,

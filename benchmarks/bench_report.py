@@ -35,7 +35,7 @@ def closed_loop(trace: Path | None) -> float:
     from fsm.sim.car import SimCar
     from fsm.sim.loop import Simulation
     from fsm.sim.world import default_world, load_world
-    from fsm.tools.trace import run_recorder
+    from fsm.tools.recording import run_recorder
 
     car = SimCar(load_world(default_world(str(LAP))), seed=0)
     m = fsm.load(LAP, car=car)

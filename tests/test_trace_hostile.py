@@ -45,8 +45,8 @@ def _number(kind: str) -> int:
 def _reads_and_renders(trace: Trace, page: bool = True) -> None:
     """What report and export do with a trace the reader accepted: neither may fail (``page``: the whole page,
     else the data it embeds)."""
+    from fsm.tools.recording.mcap import write_mcap
     from fsm.tools.report import build_model, report_html
-    from fsm.tools.trace.mcap import write_mcap
 
     if page:
         report_html(trace)

@@ -45,7 +45,7 @@ def _mission_trace(pause: bool = True) -> tuple[str, list[tuple[int, list[str], 
         m.schedule_signal("pause", 5.1, False)
         m.schedule_signal("pause", 8.0)
         m.schedule_signal("pause", 8.1, False)
-    from fsm.tools.trace import header_document
+    from fsm.tools.recording import header_document
 
     out = io.StringIO()
     header = {"source": str(MISSION), "machine": header_document(str(MISSION)),

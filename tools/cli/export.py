@@ -56,7 +56,7 @@ def _export_mcap(args: argparse.Namespace) -> int:
 
     from fsm.errors import UsageError
 
-    from ..trace.mcap import write_mcap
+    from ..recording.mcap import write_mcap
     from .report import write_from_trace
 
     if args.output is not None:

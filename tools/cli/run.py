@@ -386,7 +386,7 @@ class _Tee:
 def _recorder(args: argparse.Namespace, file: str, car: Any, world_path: Path | None, trace_out: Any,
               report_out: Any) -> Any:
     """The trace recorder (to the --trace file, and kept in memory for --report)."""
-    from ..trace import run_recorder
+    from ..recording import run_recorder
 
     stream = trace_out.stream() if trace_out is not None else None
     if report_out is not None:

@@ -101,7 +101,7 @@ def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], d
     from fsm.registry import default_registry
     from fsm.session import Session, StopRules
 
-    from ..trace import header_document, run_recorder  # the same trace as `fsmctl run --trace`
+    from ..recording import header_document, run_recorder  # the same trace as `fsmctl run --trace`
     from .folder import OutFile, write_file
     from .overrides import apply
 

@@ -1,6 +1,7 @@
-"""Traces outside the core: the machine document a trace's header carries (includes inlined, layout kept), and
-the MCAP export (:mod:`~fsm.tools.trace.mcap`, imported only when asked for). Reading traces is
-:mod:`fsm.replay`; the HTML report is :mod:`fsm.tools.report`."""
+"""Recording runs outside the core: the recorder of a run's trace with its header (the machine document, includes
+inlined, layout kept), and the MCAP export of a trace (:mod:`~fsm.tools.recording.mcap`, imported only when asked
+for). The trace format and its recorder are :mod:`fsm.trace`, reading traces is :mod:`fsm.replay`; the HTML report
+is :mod:`fsm.tools.report`."""
 
 from typing import IO, Any
 

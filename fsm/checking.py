@@ -329,8 +329,8 @@ class _Expressions:
         want = self.kinds.get(a.target, E.ANY)
         if want != E.ANY and c.kind not in (want, E.ANY):
             origin = "its initial value in 'vars'" if a.target in self.declared else "another set assigns it"
-            self.problems.add(f"assigns {E._a(c.kind)} to variable '{a.target}', which holds {E._a(want)} ({origin})",
-                              a.source, a.pointer, element=a.element,
+            self.problems.add(f"assigns {E.kind_phrase(c.kind)} to variable '{a.target}', which holds "
+                              f"{E.kind_phrase(want)} ({origin})", a.source, a.pointer, element=a.element,
                               hint="a variable keeps one kind: true/false, number or text")
             del self.compiled[(a.source.name, a.pointer)]
 

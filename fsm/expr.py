@@ -330,7 +330,8 @@ def kind_of(value: Any) -> str:
     return ANY
 
 
-def _a(kind: str) -> str:
+def kind_phrase(kind: str) -> str:
+    """A value kind as messages name it: "a number", "true/false", "text"."""
     return {NUMBER: "a number", BOOL: "true/false", TEXT: "text"}.get(kind, kind)
 
 
@@ -392,7 +393,7 @@ def compile_expr(text: str, kinds: dict[str, str], want: str | None = None) -> C
     node = parse(text)
     fn, kind, const, value = _compile(node, kinds)
     if want is not None and kind not in (want, ANY):
-        raise ExprError(f"the expression gives {_a(kind)}, {_a(want)} is needed here", node.column)
+        raise ExprError(f"the expression gives {kind_phrase(kind)}, {kind_phrase(want)} is needed here", node.column)
     if want == BOOL and kind == ANY:
         fn = _checked_bool(fn, text)
     return Compiled(fn, kind, text, const, value, None if const else _var_op(node, kinds))
@@ -456,22 +457,22 @@ def _compile(node: Node, kinds: dict[str, str]) -> tuple[Fn, str, bool, Any]:
         return _fold(fn, BOOL, [left, right])
     if op in ("==", "!="):
         if ANY not in (lk, rk) and lk != rk:
-            raise ExprError(f"cannot compare {_a(lk)} with {_a(rk)} (true/false is not a number, '5' is not 5)",
-                            node.column)
+            raise ExprError(f"cannot compare {kind_phrase(lk)} with {kind_phrase(rk)} (true/false is not a number, "
+                            "'5' is not 5)", node.column)
         fn = (lambda v: lf(v) == rf(v)) if op == "==" else (lambda v: lf(v) != rf(v))
         return _fold(_fused(op, node, kinds) or fn, BOOL, [left, right])
     if op in ("<", "<=", ">", ">="):
         if BOOL in (lk, rk):
             raise ExprError(f"'{op}' on true/false: true/false values are only equal or not", node.column)
         if ANY not in (lk, rk) and lk != rk:
-            raise ExprError(f"cannot compare {_a(lk)} with {_a(rk)}", node.column)
+            raise ExprError(f"cannot compare {kind_phrase(lk)} with {kind_phrase(rk)}", node.column)
         fn = {"<": lambda v: lf(v) < rf(v), "<=": lambda v: lf(v) <= rf(v),
               ">": lambda v: lf(v) > rf(v), ">=": lambda v: lf(v) >= rf(v)}[op]
         return _fold(_fused(op, node, kinds) or fn, BOOL, [left, right])
     # arithmetic
     if op == "+" and TEXT in (lk, rk):
         if {lk, rk} - {TEXT, ANY}:
-            raise ExprError(f"cannot add {_a(lk)} and {_a(rk)}", node.column)
+            raise ExprError(f"cannot add {kind_phrase(lk)} and {kind_phrase(rk)}", node.column)
         return _fold(lambda v: _join_text(lf(v), rf(v)), TEXT, [left, right])
     _need(lk, NUMBER, f"'{op}'", node.args[0].column)
     _need(rk, NUMBER, f"'{op}'", node.args[1].column)
@@ -582,7 +583,7 @@ def _fold(fn: Fn, kind: str, parts: list[tuple[Fn, str, bool, Any]]) -> tuple[Fn
 
 def _need(kind: str, want: str, what: str, column: int) -> None:
     if kind not in (want, ANY):
-        raise ExprError(f"{what} needs {_a(want)}, got {_a(kind)}", column)
+        raise ExprError(f"{what} needs {kind_phrase(want)}, got {kind_phrase(kind)}", column)
 
 
 _NUMERIC = (int, float)
@@ -626,7 +627,8 @@ def _wrong(name: str, x: Any, kind: str, missing: Any) -> Any:
         missing()
     if kind == NUMBER and isinstance(x, (int, float)) and not isinstance(x, bool):
         return x  # a subclass of int/float
-    raise ExprRuntimeError(f"variable '{name}' holds {x!r} ({_a(kind_of(x))}), expressions use it as {_a(kind)}")
+    raise ExprRuntimeError(f"variable '{name}' holds {x!r} ({kind_phrase(kind_of(x))}), expressions use it as "
+                           f"{kind_phrase(kind)}")
 
 
 def assigner(targets: list[tuple[str, Compiled]]) -> Callable[[Any], None]:
@@ -665,4 +667,5 @@ def assigner(targets: list[tuple[str, Compiled]]) -> Callable[[Any], None]:
 
 
 __all__ = ["ANY", "BOOL", "NUMBER", "TEXT", "Compiled", "VarOp", "constant", "ExprError", "ExprRuntimeError", "Node",
-           "assigner", "compile_expr", "kind_of", "on_context", "parse", "parse_assignments", "tokenize", "unparse"]
+           "assigner", "compile_expr", "kind_of", "kind_phrase", "on_context", "parse", "parse_assignments", "tokenize",
+           "unparse"]

@@ -40,10 +40,12 @@ RELATION_FACET_KEYS = _STYLE_KEYS | _RELATION_KEYS | _LATER_KEYS
 #: upper-cases the value, ``StateTypeFacet``).
 _UMLET_STATE_SHAPES = {"state", "sender", "receiver"}
 SEPARATOR = re.compile(r"^\s*(?:--?|-\.\.?)\s*$")
-_KEY_VALUE = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*=(.*)$")
+#: A ``key=value`` line (a parameter of a state or transition): the key and the raw value.
+KEY_VALUE = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*=(.*)$")
 #: A parameter name the ``key=value`` syntax can carry.
 KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
-_JSON_TYPE = re.compile(r'"type"\s*:')
+#: The start of a JSON ``"type":`` member: a label written as JSON parameters.
+JSON_TYPE = re.compile(r'"type"\s*:')
 
 
 class TextError(ValueError):
@@ -54,7 +56,7 @@ def is_style(line: str, keys: set[str] = _STYLE_KEYS) -> bool:
     stripped = line.strip()
     if stripped.startswith("//"):
         return True
-    m = _KEY_VALUE.match(stripped)
+    m = KEY_VALUE.match(stripped)
     return bool(m and m.group(1) in keys)
 
 
@@ -86,7 +88,7 @@ def split_state(text: str) -> tuple[list[str], list[list[str]]]:
             current = []
             compartments.append(current)
             continue
-        m = _KEY_VALUE.match(ln)
+        m = KEY_VALUE.match(ln)
         if m and m.group(1) == "type" and m.group(2).strip().lower() in _UMLET_STATE_SHAPES:
             continue
         current.append(ln)
@@ -125,7 +127,7 @@ def parse_state(text: str) -> StateText:
 
 def _has_kv_type(lines: list[str]) -> bool:
     for ln in lines:
-        m = _KEY_VALUE.match(ln)
+        m = KEY_VALUE.match(ln)
         if m and m.group(1) == "type":
             return True
     return False
@@ -133,7 +135,7 @@ def _has_kv_type(lines: list[str]) -> bool:
 
 def is_param_block(lines: list[str]) -> bool:
     """Whether these lines give a type (``type=X`` or ``"type": "X"``), so they are parameters, not free text."""
-    return _has_kv_type(lines) or bool(_JSON_TYPE.search("\n".join(lines)))
+    return _has_kv_type(lines) or bool(JSON_TYPE.search("\n".join(lines)))
 
 
 def parse_params(lines: list[str]) -> tuple[dict[str, Any], set[str]]:
@@ -146,14 +148,14 @@ def parse_params(lines: list[str]) -> tuple[dict[str, Any], set[str]]:
     json_lines: list[str] = []
     kv_lines: list[str] = []
     for ln in lines:
-        if kv_lines or _KEY_VALUE.match(ln):
+        if kv_lines or KEY_VALUE.match(ln):
             kv_lines.append(ln)
         else:
             json_lines.append(ln)
     out: dict[str, Any] = {}
     if any(ln.strip() for ln in json_lines):
         fragment = "\n".join(json_lines)
-        if not _JSON_TYPE.search(fragment) and _has_kv_type(kv_lines):
+        if not JSON_TYPE.search(fragment) and _has_kv_type(kv_lines):
             first = next(ln for ln in json_lines if ln.strip())
             raise TextError(f"line {first.strip()[:40]!r} is not key=value (a text with type=... holds only "
                             "key=value lines, after JSON lines if any)")
@@ -172,7 +174,7 @@ def parse_key_values(lines: list[str]) -> dict[str, Any]:
     for ln in lines:
         if not ln.strip():
             continue
-        m = _KEY_VALUE.match(ln)
+        m = KEY_VALUE.match(ln)
         if not m:
             raise TextError(f"line {ln.strip()[:40]!r} is not key=value (after the first key=value line of "
                             "the parameters, every line is key=value)")
@@ -241,7 +243,7 @@ def special_kind(text: str) -> tuple[str, str]:
     for ln in text.split("\n"):
         if is_style(ln, BOX_STYLE_KEYS):
             continue
-        m = _KEY_VALUE.match(ln)
+        m = KEY_VALUE.match(ln)
         if m and m.group(1) == "type":  # SpecialStateTypeFacet: valueOf(value.toUpperCase(ENGLISH))
             kind = m.group(2).strip().lower()
             continue
@@ -271,7 +273,7 @@ def parse_relation(text: str) -> RelationText:
     for ln in text.split("\n"):
         if is_style(ln) or is_style(ln, _RELATION_KEYS - {"lt"}):
             continue
-        m = _KEY_VALUE.match(ln)
+        m = KEY_VALUE.match(ln)
         if m and m.group(1) == "lt":
             lt = m.group(2).strip()
             continue

@@ -91,20 +91,20 @@ def param_lines(typ: str, params: dict[str, Any], reserved: set[str], type_as_js
 
 def _facet_line(line: str) -> bool:
     """Whether UMLet (in a state or a note) or the reader would take ``line`` for a facet, not text."""
-    m = T._KEY_VALUE.match(line)
+    m = T.KEY_VALUE.match(line)
     return T.is_style(line, T.BOX_STYLE_KEYS) or bool(m and m.group(1) in T.STATE_FACET_KEYS)
 
 
 def _relation_facet_line(line: str) -> bool:
     """Whether UMLet or the reader would take ``line`` of a relation's text for a facet, not label text."""
-    m = T._KEY_VALUE.match(line)
+    m = T.KEY_VALUE.match(line)
     return line.lstrip().startswith("//") or bool(m and m.group(1) in T.RELATION_FACET_KEYS)
 
 
 def _safe_name(name: str) -> bool:
     if not name or name != name.strip() or "\n" in name or "  " in name:
         return False
-    return not (_facet_line(name) or T.SEPARATOR.match(name) or T._JSON_TYPE.search(name))
+    return not (_facet_line(name) or T.SEPARATOR.match(name) or T.JSON_TYPE.search(name))
 
 
 def _safe_free_text(text: str) -> bool:
@@ -222,7 +222,7 @@ def region_title(region: dict[str, Any]) -> str:
 
 
 def _safe_title(name: str) -> bool:
-    return _safe_name(name) and T.include_title(name) is None and not T._KEY_VALUE.match(name)
+    return _safe_name(name) and T.include_title(name) is None and not T.KEY_VALUE.match(name)
 
 
 def note_text(machine: dict[str, Any], role: str) -> str | None:

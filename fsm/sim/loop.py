@@ -122,7 +122,8 @@ class Simulation:
         self.states_seen: list[str] = []
         #: Trajectory: (time, x, y, index into states_seen).
         self.track: list[tuple[float, float, float, int]] = []
-        self._path_index = 0
+        #: Index into states_seen of the active configuration (the colour of the track, in the plot and video).
+        self.path_index = 0
         self.wall_errors: list[float] = []
         self._err_sample = -1
         self._leaf_d0 = 0.0
@@ -156,7 +157,7 @@ class Simulation:
             self.gate_log.update(ctx.now, x, y)
         if ctx.tick % self.track_every == 0:
             x, y, _ = car.true_pose()
-            self.track.append((ctx.now, x, y, self._path_index))
+            self.track.append((ctx.now, x, y, self.path_index))
 
     def should_stop(self) -> str | None:
         limit = self.max_collisions
@@ -184,9 +185,9 @@ class Simulation:
             self.leaf = state
             self._leaf_d0 = self.car.distance
         try:
-            self._path_index = self.states_seen.index(self.active_path)
+            self.path_index = self.states_seen.index(self.active_path)
         except ValueError:
-            self._path_index = len(self.states_seen)
+            self.path_index = len(self.states_seen)
             self.states_seen.append(self.active_path)
         self._flag.changed = False
 
@@ -324,7 +325,7 @@ def car_trace_frames(car: SimCar, width: int = THUMB_WIDTH) -> Callable[[], dict
         if view is None or view.frame == last[0]:
             return None
         last[0] = view.frame
-        image = car._frame
+        image = car.camera_frame()
         if image is None and not view.detections:
             return None  # nothing in view: no frame was rendered
         line: dict[str, Any] = {"camera_time": round(view.time, 6), "frame": view.frame}

@@ -164,7 +164,7 @@ class VideoRecorder:
         car = sim.car
         x, y, th = car.true_pose()
         p = view.px(x, y)
-        color = self.colors[sim._path_index % len(self.colors)]
+        color = self.colors[sim.path_index % len(self.colors)]
         if self._last_px is not None:
             cv2.line(self.trail, self._last_px, p, color, 2, cv2.LINE_AA)
         self._last_px = p

@@ -80,8 +80,9 @@ class Context:
             self._pending[name] = old
         self._signals[name] = value
 
-    def _tick_boundary(self) -> None:
-        """At the start of a tick: the signals whose level differs from the last boundary have an edge now."""
+    def begin_tick(self) -> None:
+        """At the start of a tick (the machine calls it when signals changed since the last one): the signals whose
+        level differs from the last boundary have an edge now."""
         history = self._history
         for name, old in self._pending.items():
             level = self._signals.get(name, False)

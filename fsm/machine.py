@@ -143,7 +143,7 @@ class Machine:
         if self._schedule:
             self._apply_schedule(now)
         if ctx._pending:
-            ctx._tick_boundary()
+            ctx.begin_tick()
         if self._toggles:
             self._check_toggles(ctx)
         try:

@@ -163,7 +163,7 @@ class Recorder(Listener):
         ctx = machine.ctx
         tick = ctx.tick
         if not self._sample_every:
-            s_every, k_every, f_every = (max(1, round(p / machine._dt)) for p in self.periods)
+            s_every, k_every, f_every = (max(1, round(p / machine.dt)) for p in self.periods)
             self._every = (s_every, k_every, f_every)
             self._sample_every = s_every
             out.write(_dumps(self._header_line(machine)))
@@ -219,7 +219,7 @@ class Recorder(Listener):
         self._rows = []
         values = [v for _, v in rows]
         tick = rows[0][0]
-        time = round(tick * machine._dt, 9)
+        time = round(tick * machine.dt, 9)
         every = self._sample_every or 1
         digits = self.sample_digits
         packed = _packed_rows(values)
@@ -267,7 +267,7 @@ class Recorder(Listener):
         from . import __version__
 
         s_every, k_every, f_every = self._every
-        dt = machine._dt
+        dt = machine.dt
         line: dict[str, Any] = {
             "type": "header", "format": TRACE_FORMAT, "version": TRACE_VERSION,
             "tral_fsm": __version__, "python": platform.python_version(),

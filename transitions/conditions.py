@@ -23,6 +23,9 @@ if TYPE_CHECKING:
 #: Half a nanosecond of slack for times computed from ticks (80 ticks of 0.0125 s are 1 s).
 _EPS = 5e-10
 
+# The checks made every tick (holds) read the machine's time slot ctx._now, not the property ctx.now: a property
+# costs a call per condition and tick (docs/architecture.md, "Layering": the documented exceptions).
+
 
 class SignalParams(ConditionParams):
     signal: str = Field(min_length=1, description="Name of the input signal (a button, a switch).")
@@ -96,8 +99,8 @@ class SignalEdge(_SignalCondition[SignalEdgeParams]):
 
     def reset(self, ctx: Context) -> None:
         if self.filter is not None:
-            self.filter.advance(ctx._now)
-        self.seen = ctx._now
+            self.filter.advance(ctx.now)
+        self.seen = ctx.now
 
     def holds(self, ctx: Context) -> bool:
         f = self.filter

@@ -65,4 +65,4 @@ class Timeout(Transition[TimeoutParams]):
         self.seconds = params.seconds - 5e-10
 
     def check(self, ctx: Context) -> bool:
-        return ctx._now - self.source.entered_at >= self.seconds
+        return ctx._now - self.source.entered_at >= self.seconds  # the time slot: ctx.now costs a call per tick

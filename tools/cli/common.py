@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 from fsm.errors import UsageError
 
@@ -201,3 +201,10 @@ class Interrupts:
     @property
     def interrupted(self) -> bool:
         return self.received is not None
+
+
+class Subcommands(Protocol):
+    """What ``ArgumentParser.add_subparsers()`` returns, as each command's ``register(sub)`` adds its parser to it
+    (argparse keeps its class private)."""
+
+    def add_parser(self, name: str, **kwargs: Any) -> argparse.ArgumentParser: ...

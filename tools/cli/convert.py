@@ -9,10 +9,10 @@ from pathlib import Path
 
 from fsm.errors import DiagramError, Problem
 
-from .common import EXIT_FAIL, EXIT_OK, default_output, registry_from
+from .common import EXIT_FAIL, EXIT_OK, Subcommands, default_output, registry_from
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("convert", help="convert a UMLet diagram (.uxf) to a machine document (.json)")
     p.add_argument("file", metavar="IN.uxf", help="the diagram (.uxf, or the JSON xml2json made of one)")
     p.add_argument("-o", "--output", metavar="OUT.json",

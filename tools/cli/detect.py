@@ -17,7 +17,7 @@ from typing import Any
 
 from fsm.errors import DiagramError, Problem, UsageError
 
-from .common import EXIT_OK, input_name
+from .common import EXIT_OK, Subcommands, input_name
 
 #: The side of a marker, metres: above 1 mm (a speck no camera resolves) and at most 10 m.
 MARKER_SIZE_RANGE = (0.001, 10.0)
@@ -61,7 +61,7 @@ def marker_size(text: str) -> float:
     return value
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("detect", help="find ArUco markers and gates in images and print their poses")
     p.add_argument("images", nargs="+", metavar="IMAGE",
                    help="PNG, JPEG, BMP, TIFF, WebP or PGM/PPM file ('-': one image from standard input); at most "

@@ -6,10 +6,10 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from .common import EXIT_OK, default_output, read_checked, registry_from
+from .common import EXIT_OK, Subcommands, default_output, read_checked, registry_from
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("export", help="write a machine document as a UMLet diagram (.uxf), or a trace as MCAP",
                        description="Write a machine document as a laid-out UMLet diagram; with --mcap, write a run's "
                                    "trace (fsmctl run --trace) as an MCAP file for Foxglove, Lichtblick, PlotJuggler "

@@ -5,10 +5,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .common import EXIT_OK, read_checked, registry_from
+from .common import EXIT_OK, Subcommands, read_checked, registry_from
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("graph", help="draw a machine (.json or .uxf) as mermaid, dot or svg")
     p.add_argument("file", metavar="FILE")
     p.add_argument("--format", choices=("mermaid", "dot", "svg"), default="mermaid")

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import argparse
 
-from .common import emit_generated, registry_from
+from .common import Subcommands, emit_generated, registry_from
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("palette", help="write the UMLet palette of every registered state and transition type")
     p.add_argument("-o", "--output", metavar="OUT.uxf", default="-",
                    help="where to write (default: standard output); UMLet reads palettes from its palettes/ folder")

@@ -7,10 +7,10 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from .common import EXIT_OK, default_output
+from .common import EXIT_OK, Subcommands, default_output
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("report", help="write the HTML report of a run's trace (statechart, lanes, map, plots)",
                        description="Write one self-contained HTML file that replays a trace written by "
                                    "`fsmctl run --trace`: the statechart with the active path, state lanes, the map, "

@@ -25,6 +25,7 @@ from .common import (
     EXIT_INTERRUPTED,
     EXIT_OK,
     Interrupts,
+    Subcommands,
     bounded_float,
     input_name,
     positive_float,
@@ -39,7 +40,7 @@ MAX_TICKS = 10_000_000
 VIDEO_SUFFIXES = (".mp4", ".m4v", ".mov", ".avi")
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("run", help="run a machine until it finishes (or a limit) and print what it did",
                        description="Run a machine. Machines that drive (car states or transitions) run on the "
                                    "simulated TRAL car in a world file; others run on the simulated clock alone.")

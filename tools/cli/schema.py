@@ -6,10 +6,10 @@ import argparse
 import json
 from typing import Any
 
-from .common import emit_generated, registry_from
+from .common import Subcommands, emit_generated, registry_from
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("schema", help="print the JSON Schema of machine documents")
     p.add_argument("-o", "--output", metavar="FILE", help="write it to FILE instead of standard output")
     p.add_argument("--check", metavar="FILE", help="exit 1 if FILE differs from the generated schema")

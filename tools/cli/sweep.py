@@ -19,10 +19,19 @@ from typing import Any
 from fsm.errors import DiagramError, Problem, UsageError
 
 from ..sweep.spec import MAX_RUNS, check_duration
-from .common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, Interrupts, positive_float, registry_from, whole_number
+from .common import (
+    EXIT_FAIL,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    Interrupts,
+    Subcommands,
+    positive_float,
+    registry_from,
+    whole_number,
+)
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("sweep", help="run a machine over seeds, worlds and parameter values (process pool or Ray)",
                        description="Run one machine many times: the product of worlds x seeds x the values of each "
                                    "--set and --var. Writes OUT/sweep.jsonl (one record per run, as runs finish), "

@@ -16,14 +16,14 @@ from typing import TYPE_CHECKING, NamedTuple, TextIO
 
 from fsm.errors import Problem, printable
 
-from .common import EXIT_FAIL, EXIT_OK, registry_from
+from .common import EXIT_FAIL, EXIT_OK, Subcommands, registry_from
 
 if TYPE_CHECKING:
     from ..scenario.model import LoadedScenario
     from ..scenario.runner import ScenarioResult
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("test", help="run scenario tests (*.scenario.json) and report like a test runner",
                        description="Run each scenario: its machine on a timeline of inputs (signal pulses, button "
                                    "presses with bounce, variable changes), then check its expectations (states "

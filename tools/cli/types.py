@@ -8,10 +8,10 @@ import sys
 
 from fsm.errors import printable
 
-from .common import EXIT_FAIL, EXIT_OK, registry_from
+from .common import EXIT_FAIL, EXIT_OK, Subcommands, registry_from
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("types", help="list the registered state, transition and condition types with their parameters")
     p.add_argument("names", nargs="*", metavar="TYPE", help="only these types")
     p.add_argument("--format", choices=("text", "json"), default="text")

@@ -10,10 +10,10 @@ from typing import Any
 
 from fsm.errors import Problem, printable
 
-from .common import EXIT_FAIL, EXIT_OK, input_name, read_inputs, registry_from
+from .common import EXIT_FAIL, EXIT_OK, Subcommands, input_name, read_inputs, registry_from
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("validate", help="check machine documents and world files (exit 1 if any is invalid)")
     p.add_argument("files", nargs="+", metavar="FILE",
                    help="machines (.json, .uxf), world files, or the UMLet palette (valid when it is what "

@@ -255,3 +255,67 @@ def test_umlet_and_graph_source_names_no_cli(package: str) -> None:
     pattern = re.compile(rf"^\s*(from\s+(\.\.|fsm\.tools\.)({names})\b|import\s+fsm\.tools\.({names})\b)", re.M)
     offenders = [p.name for p in folder.rglob("*.py") if pattern.search(p.read_text(encoding="utf-8"))]
     assert offenders == []
+
+
+# -- private names: no module reads another module's ---------------------------------------------------------------
+
+
+REPO = Path(__file__).resolve().parents[1]
+#: The documented exceptions (docs/architecture.md, "Layering rules"), where a property would cost a call per tick:
+#: the Context's time slots, and pymunk's cffi handle for the car's ray queries. File -> attributes it may read.
+PRIVATE_READS = {"fsm/machine.py": {"_now", "_tick", "_dt", "_pending"}, "fsm/region.py": {"_now"},
+                 "fsm/trace.py": {"_tick"}, "transitions/generic.py": {"_now"}, "transitions/conditions.py": {"_now"},
+                 "fsm/sim/car.py": {"_space"}}
+#: The public API of named tuples, underscored so as not to clash with field names.
+NAMEDTUPLE_API = {"_replace", "_asdict", "_fields", "_make"}
+
+
+def foreign_private_reads(source: str) -> list[tuple[int, str]]:
+    """``(line, expression)`` of each ``x._name`` in ``source`` where ``x`` is not ``self``, ``cls`` or
+    ``type(self)`` and ``_name`` is not defined in ``source`` itself (the classes of one module may share theirs)."""
+    import ast
+
+    tree = ast.parse(source)
+    own = {n.name for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef))}
+    own |= {t.attr for n in ast.walk(tree) if isinstance(n, (ast.Assign, ast.AnnAssign, ast.AugAssign))
+            for t in (n.targets if isinstance(n, ast.Assign) else [n.target])
+            if isinstance(t, ast.Attribute) and isinstance(t.value, ast.Name) and t.value.id in ("self", "cls")}
+    own |= {t.id for n in ast.walk(tree) if isinstance(n, (ast.Assign, ast.AnnAssign))
+            for t in (n.targets if isinstance(n, ast.Assign) else [n.target]) if isinstance(t, ast.Name)}
+    found = []
+    for node in ast.walk(tree):
+        if not (isinstance(node, ast.Attribute) and node.attr.startswith("_") and not node.attr.startswith("__")):
+            continue
+        owner = node.value
+        if isinstance(owner, ast.Name) and owner.id in ("self", "cls"):
+            continue
+        if isinstance(owner, ast.Call) and isinstance(owner.func, ast.Name) and owner.func.id == "type":
+            continue
+        if node.attr in own or node.attr in NAMEDTUPLE_API:
+            continue
+        found.append((node.lineno, ast.unparse(node)))
+    return found
+
+
+def test_no_module_reads_another_modules_private_names() -> None:
+    offenders = []
+    for folder in ("fsm", "states", "transitions", "tools"):
+        for path in sorted((REPO / folder).rglob("*.py")):
+            name = path.relative_to(REPO).as_posix()
+            allowed = PRIVATE_READS.get(name, set())
+            offenders += [f"{name}:{line}: {expr}" for line, expr in foreign_private_reads(path.read_text("utf-8"))
+                          if expr.rsplit(".", 1)[1] not in allowed]
+    assert offenders == [], "give these a public, documented name:\n" + "\n".join(offenders)
+
+
+def test_the_private_name_check_finds_a_foreign_read() -> None:
+    source = textwrap.dedent('''
+        class A:
+            def __init__(self) -> None:
+                self._mine = 1
+
+            def peek(self, other: "A", machine: object) -> object:
+                machine._now = 0.0
+                return self._mine, other._mine, type(self)._mine, machine._dt, other._replace
+    ''')
+    assert sorted(foreign_private_reads(source)) == [(7, "machine._now"), (8, "machine._dt")]

@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from fsm.errors import StateRuntimeError
 from fsm.jsonpos import pointer
@@ -50,28 +50,70 @@ class Entry:
     kind: str
 
 
+class ActiveChange(NamedTuple):
+    """The active leaf paths from ``tick`` on."""
+
+    tick: int
+    paths: tuple[str, ...]
+
+
+class VarChange(NamedTuple):
+    """A blackboard variable that changed at ``tick`` (``old`` or ``new`` is ``_UNSET`` when it had no value)."""
+
+    tick: int
+    name: str
+    old: Any
+    new: Any
+
+
+class MonitorFiring(NamedTuple):
+    """A monitor or timeout that fired at ``tick``: its owner's path, its label, ``kind`` (monitor or timeout) and
+    behaviour."""
+
+    tick: int
+    owner: str
+    label: str
+    kind: str
+    behavior: str
+
+
+class PauseChange(NamedTuple):
+    """A state paused (``paused``) or resumed at ``tick``."""
+
+    tick: int
+    path: str
+    paused: bool
+
+
+class Event(NamedTuple):
+    """A line of a failure's trace: at ``tick``, sorted by ``order`` within it (inputs, then entries, firings and
+    pauses, then variable changes)."""
+
+    tick: int
+    order: int
+    text: str
+
+
 class Recording(Listener):
     """What the run did, tick by tick: states entered, active leaf paths when they change, variable changes,
     and a snapshot (active paths, variables) at each tick an ``at`` expectation looks at."""
 
     def __init__(self, snapshot_ticks: set[int]) -> None:
         self.entries: list[Entry] = []
-        self.active: list[tuple[int, tuple[str, ...]]] = []
-        self.var_changes: list[tuple[int, str, Any, Any]] = []
+        self.active: list[ActiveChange] = []
+        self.var_changes: list[VarChange] = []
         self.snapshots: dict[int, tuple[tuple[str, ...], dict[str, Any]]] = {}
         self._want = snapshot_ticks
         self._vars: dict[str, Any] = {}
         self._moved = True
-        #: (tick, owner path, monitor label, kind, behavior) per monitor or timeout firing
-        self.monitors: list[tuple[int, str, str, str, str]] = []
-        #: (tick, state path, paused) per pause and resume
-        self.pauses: list[tuple[int, str, bool]] = []
+        self.monitors: list[MonitorFiring] = []
+        self.pauses: list[PauseChange] = []
 
     def on_monitor(self, ctx: Context, owner: State, monitor: Any) -> None:
-        self.monitors.append((ctx.tick, owner.path, monitor.label, monitor.kind, monitor.behavior))
+        self.monitors.append(MonitorFiring(ctx.tick, owner.path, monitor.label, monitor.kind, monitor.behavior))
 
     def on_pause(self, ctx: Context, state: State, paused: bool) -> None:
-        self.pauses.append((ctx.tick, state.path, paused))
+        self.pauses.append(PauseChange(ctx.tick, state.path, paused))
 
     def on_transition(self, ctx: Context, source: State | None, target: State, transition: Transition | None) -> None:
         self.entries.append(Entry(ctx.tick, ctx.now, target.path, source.path if source is not None else None,
@@ -82,16 +124,16 @@ class Recording(Listener):
         tick = machine.ctx.tick
         if self._moved:
             self._moved = False
-            self.active.append((tick, tuple(machine.active_paths)))
+            self.active.append(ActiveChange(tick, tuple(machine.active_paths)))
         current = machine.ctx.vars
         if current != self._vars or any(type(v) is not type(self._vars.get(k)) for k, v in current.items()):
             for name in sorted(set(current) | set(self._vars)):
                 old, new = self._vars.get(name, _UNSET), current.get(name, _UNSET)
                 if old is not new and (old != new or type(old) is not type(new)):
-                    self.var_changes.append((tick, name, old, new))
+                    self.var_changes.append(VarChange(tick, name, old, new))
             self._vars = dict(current)
         if tick in self._want:
-            self.snapshots[tick] = (self.active[-1][1], dict(current))
+            self.snapshots[tick] = (self.active[-1].paths, dict(current))
 
     def final(self, machine: Machine) -> tuple[tuple[str, ...], dict[str, Any]]:
         return tuple(machine.active_paths), dict(machine.ctx.vars)
@@ -254,39 +296,39 @@ class _Checker:
                        self.trace(tick) if tick is not None else [])
 
     # -- the trace ----------------------------------------------------------------------------------------
-    def events(self) -> list[tuple[int, int, str]]:
-        out: list[tuple[int, int, str]] = []
+    def events(self) -> list[Event]:
+        out: list[Event] = []
         for e in self.rec.entries:
             how = "initial" if e.kind == "initial" else f"{e.kind} from {e.source}"
-            out.append((e.tick, 1, f"enter {e.path} ({how})"))
+            out.append(Event(e.tick, 1, f"enter {e.path} ({how})"))
         for c in self.signals:
             if c.tick <= self.last_tick:
-                out.append((c.tick, 0, f"signal {c.name} {'high' if c.level else 'low'} (at {c.time:g} s, "
-                                       f"input {c.index})"))
+                out.append(Event(c.tick, 0, f"signal {c.name} {'high' if c.level else 'low'} (at {c.time:g} s, "
+                                            f"input {c.index})"))
         for s in self.sets:
             if s.tick <= self.last_tick:
                 text = ", ".join(f"{k} = {_shown(v)}" for k, v in s.values.items())
-                out.append((s.tick, 0, f"set {text} (input {s.index})"))
+                out.append(Event(s.tick, 0, f"set {text} (input {s.index})"))
         for tick, name, old, new in self.rec.var_changes:
-            out.append((tick, 2, f"var {name}: {_shown(old)} -> {_shown(new)}"))
+            out.append(Event(tick, 2, f"var {name}: {_shown(old)} -> {_shown(new)}"))
         for tick, owner, label, kind, behavior in self.rec.monitors:
-            out.append((tick, 1, f"{kind} of {owner} fired ({label}): {behavior}"))
+            out.append(Event(tick, 1, f"{kind} of {owner} fired ({label}): {behavior}"))
         for tick, path, paused in self.rec.pauses:
-            out.append((tick, 1, f"{'pause' if paused else 'resume'} {path}"))
-        out.sort(key=lambda e: (e[0], e[1]))
+            out.append(Event(tick, 1, f"{'pause' if paused else 'resume'} {path}"))
+        out.sort(key=lambda e: (e.tick, e.order))
         return out
 
     def trace(self, tick: int) -> list[str]:
         """The trace lines around ``tick`` (marked ``>``) and the active states at that tick."""
         events = self.events()
-        before = [e for e in events if e[0] < tick][-CONTEXT_BEFORE:]
-        at = [e for e in events if e[0] == tick]
-        after = [e for e in events if e[0] > tick][:CONTEXT_AFTER]
-        lines = [f"  tick {e[0]:>6} t={self.t(e[0]):<9g} {e[2]}" for e in before]
-        lines += [f"> tick {e[0]:>6} t={self.t(e[0]):<9g} {e[2]}" for e in at]
+        before = [e for e in events if e.tick < tick][-CONTEXT_BEFORE:]
+        at = [e for e in events if e.tick == tick]
+        after = [e for e in events if e.tick > tick][:CONTEXT_AFTER]
+        lines = [f"  tick {e.tick:>6} t={self.t(e.tick):<9g} {e.text}" for e in before]
+        lines += [f"> tick {e.tick:>6} t={self.t(e.tick):<9g} {e.text}" for e in at]
         if not at:
             lines.append(f"> tick {tick:>6} t={self.t(tick):<9g} (nothing happened)")
-        lines += [f"  tick {e[0]:>6} t={self.t(e[0]):<9g} {e[2]}" for e in after]
+        lines += [f"  tick {e.tick:>6} t={self.t(e.tick):<9g} {e.text}" for e in after]
         active = self.rec.active_at(tick)
         lines.append(f"  active at tick {tick}: {', '.join(active) or '(none)'}")
         return lines
@@ -341,8 +383,8 @@ class _Checker:
         return None  # pragma: no cover - the model admits nothing else
 
     def monitor_check(self, i: int, c: Any) -> Failure | None:
-        fired = [f for f in self.rec.monitors if state_matches(c.owner, f[1])
-                 and (c.behavior is None or f[4] == c.behavior) and (c.kind is None or f[3] == c.kind)]
+        fired = [f for f in self.rec.monitors if state_matches(c.owner, f.owner)
+                 and (c.behavior is None or f.behavior == c.behavior) and (c.kind is None or f.kind == c.kind)]
         n = len(fired)
         if c.count is None and c.min is None and c.max is None:
             ok, want = n >= 1, "at least once"
@@ -352,9 +394,9 @@ class _Checker:
                     " and ".join(x for x in (f"at least {_times(c.min)}" if c.min is not None else "",
                                              f"at most {_times(c.max)}" if c.max is not None else "") if x))
         if ok and c.at is not None:
-            times = [round(f[0] * self.dt, 9) for f in fired]
+            times = [round(f.tick * self.dt, 9) for f in fired]
             wanted = [tick_at(t, self.dt) for t in c.at]
-            got = [f[0] for f in fired]
+            got = [f.tick for f in fired]
             if got != wanted:
                 first = next((k for k, (a, b) in enumerate(zip(got, wanted, strict=False)) if a != b),
                              min(len(got), len(wanted)))
@@ -367,7 +409,7 @@ class _Checker:
             return None
         what = "" if c.behavior is None else f" with {c.behavior}"
         limit = c.count if c.count is not None else c.max
-        tick = fired[limit][0] if limit is not None and n > limit else self.last_tick
+        tick = fired[limit].tick if limit is not None and n > limit else self.last_tick
         return self.failure(i, "monitors", f"expected a monitor of '{c.owner}'{what} to fire {want}, it fired "
                                            f"{_times(n)}", tick)
 
@@ -415,8 +457,8 @@ class _Checker:
             for name, want in exp.vars.items():
                 got = values.get(name, _UNSET)
                 if not _same(want, got):
-                    changed = [c for c in self.rec.var_changes if c[1] == name and c[0] <= tick]
-                    since = f" (since {self.at(changed[-1][0])})" if changed else ""
+                    changed = [c for c in self.rec.var_changes if c.name == name and c.tick <= tick]
+                    since = f" (since {self.at(changed[-1].tick)})" if changed else ""
                     problems.append(f"expected {name} = {_shown(want)}, got {_shown(got)}{since}")
         if not problems:
             return None

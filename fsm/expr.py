@@ -412,23 +412,32 @@ def _const(value: Any) -> Fn:
     return lambda v: value
 
 
-def _compile(node: Node, kinds: dict[str, str]) -> tuple[Fn, str, bool, Any]:
-    """``(closure, kind, is constant, constant value)``; constants are folded."""
+class _Part(NamedTuple):
+    """A compiled subexpression: its function, kind, whether it is constant and then its value."""
+
+    fn: Fn
+    kind: str
+    const: bool
+    value: Any
+
+
+def _compile(node: Node, kinds: dict[str, str]) -> _Part:
+    """The compiled node; constants are folded."""
     op = node.op
     if op == "const":
         value = node.args[0]
-        return _const(value), kind_of(value), True, value
+        return _Part(_const(value), kind_of(value), True, value)
     if op == "var":
         name = node.args[0]
         if name not in kinds:
             raise ExprError(f"unknown variable '{name}'", node.column)
-        return _var(name, kinds[name]), kinds[name], False, None
+        return _Part(_var(name, kinds[name]), kinds[name], False, None)
     if op == "call":
         fname = node.args[0]
         parts = [_compile(a, kinds) for a in node.args[1:]]
-        for a, (_, kind, _, _) in zip(node.args[1:], parts, strict=True):
-            _need(kind, NUMBER, f"{fname}()", a.column)
-        fns = [p[0] for p in parts]
+        for a, part in zip(node.args[1:], parts, strict=True):
+            _need(part.kind, NUMBER, f"{fname}()", a.column)
+        fns = [p.fn for p in parts]
         impls: dict[str, Callable[..., Any]] = {"abs": abs, "min": min, "max": max}
         impl = impls[fname]
         if fname == "abs":
@@ -441,15 +450,16 @@ def _compile(node: Node, kinds: dict[str, str]) -> tuple[Fn, str, bool, Any]:
             fn = lambda v: impl(f(v) for f in fns)  # noqa: E731
         return _fold(fn, NUMBER, parts)
     if op in ("neg", "not"):
-        inner, kind, const, value = _compile(node.args[0], kinds)
+        part = _compile(node.args[0], kinds)
+        inner = part.fn
         if op == "neg":
-            _need(kind, NUMBER, "'-'", node.column)
-            return _fold(lambda v: -inner(v), NUMBER, [(inner, kind, const, value)])
-        _need(kind, BOOL, "'not'", node.column)
-        return _fold(lambda v: not inner(v), BOOL, [(inner, kind, const, value)])
+            _need(part.kind, NUMBER, "'-'", node.column)
+            return _fold(lambda v: -inner(v), NUMBER, [part])
+        _need(part.kind, BOOL, "'not'", node.column)
+        return _fold(lambda v: not inner(v), BOOL, [part])
     left, right = (_compile(a, kinds) for a in node.args)
-    lf, rf = left[0], right[0]
-    lk, rk = left[1], right[1]
+    lf, rf = left.fn, right.fn
+    lk, rk = left.kind, right.kind
     if op in ("and", "or"):
         _need(lk, BOOL, f"'{op}'", node.args[0].column)
         _need(rk, BOOL, f"'{op}'", node.args[1].column)
@@ -476,7 +486,7 @@ def _compile(node: Node, kinds: dict[str, str]) -> tuple[Fn, str, bool, Any]:
         return _fold(lambda v: _join_text(lf(v), rf(v)), TEXT, [left, right])
     _need(lk, NUMBER, f"'{op}'", node.args[0].column)
     _need(rk, NUMBER, f"'{op}'", node.args[1].column)
-    if op in ("/", "%") and right[2] and right[3] == 0:
+    if op in ("/", "%") and right.const and right.value == 0:
         raise ExprError("division by zero", node.column)
     kind = NUMBER if ANY not in (lk, rk) else ANY
     if op == "+":
@@ -572,13 +582,14 @@ def _mod(a: Any, b: Any) -> Any:
     return a % b
 
 
-def _fold(fn: Fn, kind: str, parts: list[tuple[Fn, str, bool, Any]]) -> tuple[Fn, str, bool, Any]:
-    if all(p[2] for p in parts):
+def _fold(fn: Fn, kind: str, parts: list[_Part]) -> _Part:
+    """``fn`` of ``parts``, computed now when they all are constant."""
+    if all(p.const for p in parts):
         value = fn({})
         if isinstance(value, float) and not math.isfinite(value):
             raise ExprError("the constant part of the expression overflows", 1)
-        return _const(value), kind_of(value), True, value
-    return fn, kind, False, None
+        return _Part(_const(value), kind_of(value), True, value)
+    return _Part(fn, kind, False, None)
 
 
 def _need(kind: str, want: str, what: str, column: int) -> None:

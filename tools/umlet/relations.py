@@ -10,14 +10,23 @@ not cross the frame of a ``Parallel`` state's region: a region is left through a
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 from . import text as T
 from .geometry import LENIENT, Attacher, Box
 from .scene import Level, Marker, Scene, StateBox, describe, num, where
 from .source import RawElement
 
-Attached = tuple[RawElement, T.RelationText, Any, Any, list[list[Any]]]
+
+class Attached(NamedTuple):
+    """An arrow with its ends attached: the element, its label, the source and target (a box, ``None`` when
+    attached to nothing, ``False`` when ambiguous) and its points."""
+
+    elem: RawElement
+    rel: T.RelationText
+    src: Any
+    dst: Any
+    points: list[list[Any]]
 
 
 class Relations:
@@ -78,7 +87,7 @@ class Relations:
                 continue
             src_box = self.check_end(elem, ends[0], "source")
             dst_box = self.check_end(elem, ends[1], "target")
-            out.append((elem, rel, src_box, dst_box, [[num(x), num(y)] for x, y in absolute]))
+            out.append(Attached(elem, rel, src_box, dst_box, [[num(x), num(y)] for x, y in absolute]))
         return out
 
     def at_note(self, elem: RawElement, rel: T.RelationText, ends: list[Any], probes: Any) -> bool:
@@ -159,8 +168,8 @@ class Relations:
             if box.role == "frame" and box.parent is None and id(box) not in touched:
                 scene.machine_frames.add(id(box))
         # initial markers first: entering a composite checks which state each level starts in
-        first = [r for r in attached if isinstance(r[2], Box) and r[2].role == "initial"]
-        rest = [r for r in attached if not (isinstance(r[2], Box) and r[2].role == "initial")]
+        first = [r for r in attached if isinstance(r.src, Box) and r.src.role == "initial"]
+        rest = [r for r in attached if not (isinstance(r.src, Box) and r.src.role == "initial")]
         for elem, rel, src, dst, points in first + rest:
             self.relation(elem, rel, src, dst, points)
         for box in scene.boxes:

@@ -70,7 +70,8 @@ def check(root: MachineSpec, problems: Problems) -> Analysis:
     for tr in [tr for tr, _scope in transitions if tr.cls.checks_document]:
         found = tr.cls.check_document(tr.params, variables)
         if found is not None:
-            problems.add(found[1], tr.source, tr.pointer + found[0], element=tr.label,
+            suffix, message = found
+            problems.add(message, tr.source, tr.pointer + suffix, element=tr.label,
                          hint="change the value or the variable's initial value in 'vars'")
     check_variable_kinds([tr for tr, _scope in transitions if tr.cls.tests_variables], variables, problems)
     for tr, scope in transitions:
@@ -233,10 +234,11 @@ def check_variable_kinds(transitions: list[TransitionSpec], variables: dict[str,
         if known is None:
             first[name] = (kind, f"{tr.label} at {tr.pointer or '/'} compares it with {json.dumps(value)}")
             continue
-        if known[0] != kind:
+        held, origin = known
+        if held != kind:
             problems.add(f"cannot compare variable '{name}' with {json.dumps(value)} ({_a(kind)}): it holds "
-                         f"{_a(known[0])} ({known[1]})", tr.source, tr.pointer + "/value", element=tr.label,
-                         hint=f"compare with {_a(known[0])} (true/false is not a number, \"5\" is not 5), "
+                         f"{_a(held)} ({origin})", tr.source, tr.pointer + "/value", element=tr.label,
+                         hint=f"compare with {_a(held)} (true/false is not a number, \"5\" is not 5), "
                               "or change the variable's initial value")
 
 

@@ -147,7 +147,8 @@ def _read_only(name: str) -> None:
 
 
 # -- argument checks (Context.set_signal and Machine.schedule_signal) ---------------------------------
-def _shown(value: Any) -> str:
+def shown_value(value: Any) -> str:
+    """A value as error messages show it: its repr (cut at 60 characters) and its type."""
     text = repr(value)
     text = text if len(text) <= 60 else text[:57] + "..."
     return f"{text} ({type(value).__name__})"
@@ -156,7 +157,7 @@ def _shown(value: Any) -> str:
 def check_signal_name(name: Any) -> None:
     """A signal name is a non-empty string (``TypeError``/``ValueError`` otherwise)."""
     if not isinstance(name, str):
-        raise TypeError(f"a signal name is a string, got {_shown(name)}")
+        raise TypeError(f"a signal name is a string, got {shown_value(name)}")
     if not name:
         raise ValueError("a signal name may not be empty")
 
@@ -169,4 +170,4 @@ def signal_level(value: Any) -> bool:
         if value in (0, 1):
             return bool(value)
         raise ValueError(f"a signal's value is True/False or 1/0, got {value!r}")
-    raise TypeError(f"a signal's value is True/False or 1/0, got {_shown(value)}")
+    raise TypeError(f"a signal's value is True/False or 1/0, got {shown_value(value)}")

@@ -10,7 +10,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, Protocol, TypeAlias, TypeVar, runtime_checkable
 
 from .clock import DEFAULT_DURATION, Clock, SimulatedClock
-from .context import Context, _shown, check_signal_name, signal_level
+from .context import Context, check_signal_name, shown_value, signal_level
 from .debounce import Debounced
 from .errors import StateRuntimeError
 from .paths import resolve_path
@@ -178,10 +178,10 @@ class Machine:
 
         if until is not None and not callable(until):
             raise TypeError(f"until must be a function of the machine returning a bool, or None; "
-                            f"got {_shown(until)}")
+                            f"got {shown_value(until)}")
         if max_ticks is not None:
             if isinstance(max_ticks, bool) or not isinstance(max_ticks, numbers.Integral):
-                raise TypeError(f"max_ticks must be an int or None, got {_shown(max_ticks)}")
+                raise TypeError(f"max_ticks must be an int or None, got {shown_value(max_ticks)}")
             if max_ticks < 0:
                 raise ValueError(f"max_ticks must be >= 0, got {max_ticks}")
             max_ticks = int(max_ticks)
@@ -263,7 +263,7 @@ class Machine:
         Raises ``KeyError`` (with close matches) for a path that names no state, ``TypeError`` for a non-string.
         """
         if not isinstance(path, str):
-            raise TypeError(f"a state path is a string like 'drive/turn', got {_shown(path)}")
+            raise TypeError(f"a state path is a string like 'drive/turn', got {shown_value(path)}")
         try:
             return self.states_by_path[path.strip("/")]
         except KeyError:
@@ -396,7 +396,7 @@ class Machine:
         missing = [m for m in ("on_transition", "on_tick") if not callable(getattr(listener, m, None))]
         if missing:
             raise TypeError(f"a listener needs the methods on_transition(ctx, source, target, transition) and "
-                            f"on_tick(machine); {_shown(listener)} lacks {' and '.join(missing)} "
+                            f"on_tick(machine); {shown_value(listener)} lacks {' and '.join(missing)} "
                             "(subclass fsm.Listener and override what you need)")
         self.listeners.append(listener)
         return listener
@@ -406,7 +406,7 @@ class Machine:
         try:
             self.listeners.remove(listener)
         except ValueError:
-            raise ValueError(f"{_shown(listener)} is not a listener of this machine") from None
+            raise ValueError(f"{shown_value(listener)} is not a listener of this machine") from None
 
     # -- errors ---------------------------------------------------------------------------------
     def _emergency_stop(self) -> None:
@@ -435,7 +435,7 @@ def _inner_regions(state: State[Any]) -> tuple[Region, ...]:
 def _seconds(name: str, value: Any) -> float:
     """A time argument: a real number (not a bool, not a string), finite and >= 0."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise TypeError(f"{name} must be a number of seconds, got {_shown(value)}")
+        raise TypeError(f"{name} must be a number of seconds, got {shown_value(value)}")
     seconds = float(value)
     if not math.isfinite(seconds) or seconds < 0:
         raise ValueError(f"{name} must be a finite number of seconds >= 0, got {value!r}")
@@ -445,4 +445,4 @@ def _seconds(name: str, value: Any) -> float:
 def _check_path(path: Any) -> None:
     if path is not None and not isinstance(path, str):
         raise TypeError(f"a state path is a string like 'drive/turn' (or None for the whole machine), "
-                        f"got {_shown(path)}")
+                        f"got {shown_value(path)}")

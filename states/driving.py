@@ -37,7 +37,8 @@ ANGLE_MARGIN = math.radians(3.0)
 ANGLE_GAIN = 4.0
 
 
-def _clamp(x: float, lo: float = -1.0, hi: float = 1.0) -> float:
+def clamp(x: float, lo: float = -1.0, hi: float = 1.0) -> float:
+    """``x`` limited to [``lo``, ``hi``] (by default the steering range, [-1, 1])."""
     return lo if x < lo else hi if x > hi else x
 
 
@@ -167,10 +168,10 @@ class BasicFollowWall(CarState[WP]):
                     self._esum += e
                 self._y = self._p * e + self._esum * self._i * dt + self._d * (e - self._eold) / dt
             self._eold = e
-            steering = _clamp(self._sign * self._y)
+            steering = clamp(self._sign * self._y)
             # at the limit: turn no further towards the wall (limited implies a max_angle)
             if limited and self._sign * steering > 0 and self._max_angle is not None:
-                steering = -self._sign * _clamp(ANGLE_GAIN * (toward - self._max_angle + ANGLE_MARGIN), 0.0, 1.0)
+                steering = -self._sign * clamp(ANGLE_GAIN * (toward - self._max_angle + ANGLE_MARGIN), 0.0, 1.0)
             car.set_steering(steering)
         car.set_speed(self._speed)
 
@@ -360,7 +361,7 @@ class ApproachPoint(CarState[AP]):
             return
         alpha = math.atan2(fy, fx)
         delta = math.atan2(2.0 * car.wheelbase * math.sin(alpha), dist)  # pure pursuit, look-ahead = dist
-        car.set_steering(_clamp(delta / car.max_steering_angle))
+        car.set_steering(clamp(delta / car.max_steering_angle))
         car.set_speed(p.speed)
 
 

@@ -23,7 +23,7 @@ from fsm.transitions.markers import (
     snap_heading,
 )
 
-from .driving import ApproachParams, ApproachPoint, CarState, _clamp
+from .driving import ApproachParams, ApproachPoint, CarState, clamp
 
 if TYPE_CHECKING:
     from fsm.context import Context
@@ -203,7 +203,7 @@ class ArucoGateCenter(CarState[GateCenterParams]):
         dist = math.hypot(fx, fy)
         alpha = math.atan2(fy, fx)
         delta = math.atan2(2.0 * car.wheelbase * math.sin(alpha), dist)
-        car.set_steering(_clamp(delta / car.max_steering_angle))
+        car.set_steering(clamp(delta / car.max_steering_angle))
         car.set_speed(p.speed)
 
 
@@ -252,5 +252,5 @@ class AlignHeading(CarState[AlignHeadingParams]):
         err = math.atan2(math.sin(self._target - th), math.cos(self._target - th))
         if not self.finished and abs(err) <= math.radians(p.tolerance):
             self.finish()
-        car.set_steering(_clamp(p.gain * err))
+        car.set_steering(clamp(p.gain * err))
         car.set_speed(p.speed)

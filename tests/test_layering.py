@@ -271,8 +271,9 @@ NAMEDTUPLE_API = {"_replace", "_asdict", "_fields", "_make"}
 
 
 def foreign_private_reads(source: str) -> list[tuple[int, str]]:
-    """``(line, expression)`` of each ``x._name`` in ``source`` where ``x`` is not ``self``, ``cls`` or
-    ``type(self)`` and ``_name`` is not defined in ``source`` itself (the classes of one module may share theirs)."""
+    """``(line, expression)`` of each ``from m import _name``, and of each ``x._name`` in ``source`` where ``x`` is
+    not ``self``, ``cls`` or ``type(self)`` and ``_name`` is not defined in ``source`` itself (the classes of one
+    module may share theirs)."""
     import ast
 
     tree = ast.parse(source)
@@ -282,7 +283,9 @@ def foreign_private_reads(source: str) -> list[tuple[int, str]]:
             if isinstance(t, ast.Attribute) and isinstance(t.value, ast.Name) and t.value.id in ("self", "cls")}
     own |= {t.id for n in ast.walk(tree) if isinstance(n, (ast.Assign, ast.AnnAssign))
             for t in (n.targets if isinstance(n, ast.Assign) else [n.target]) if isinstance(t, ast.Name)}
-    found = []
+    found = [(node.lineno, f"from {'.' * node.level}{node.module or ''} import {alias.name}")
+             for node in ast.walk(tree) if isinstance(node, ast.ImportFrom) and node.module != "__future__"
+             for alias in node.names if alias.name.startswith("_") and not alias.name.startswith("__")]
     for node in ast.walk(tree):
         if not (isinstance(node, ast.Attribute) and node.attr.startswith("_") and not node.attr.startswith("__")):
             continue
@@ -304,7 +307,7 @@ def test_no_module_reads_another_modules_private_names() -> None:
             name = path.relative_to(REPO).as_posix()
             allowed = PRIVATE_READS.get(name, set())
             offenders += [f"{name}:{line}: {expr}" for line, expr in foreign_private_reads(path.read_text("utf-8"))
-                          if expr.rsplit(".", 1)[1] not in allowed]
+                          if expr.startswith("from ") or expr.rsplit(".", 1)[1] not in allowed]
     assert offenders == [], "give these a public, documented name:\n" + "\n".join(offenders)
 
 
@@ -317,5 +320,8 @@ def test_the_private_name_check_finds_a_foreign_read() -> None:
             def peek(self, other: "A", machine: object) -> object:
                 machine._now = 0.0
                 return self._mine, other._mine, type(self)._mine, machine._dt, other._replace
+
+        from .driving import _clamp, clamp
     ''')
-    assert sorted(foreign_private_reads(source)) == [(7, "machine._now"), (8, "machine._dt")]
+    assert sorted(foreign_private_reads(source)) == [(7, "machine._now"), (8, "machine._dt"),
+                                                     (10, "from .driving import _clamp")]

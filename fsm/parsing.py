@@ -242,7 +242,8 @@ class Parser:
         parsed = self.element("transition", raw, source, ptr)
         if parsed is None:
             return None
-        spec = TransitionSpec(parsed[0], parsed[1], ptr, source)
+        cls, params = parsed
+        spec = TransitionSpec(cls, params, ptr, source)
         fields = spec.cls.condition_fields
         if fields or type(spec.params.guard) is dict:
             conditions = {}

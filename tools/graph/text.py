@@ -85,8 +85,9 @@ def dot(doc: dict[str, Any]) -> str:
                 nodes[str(st.get("id"))] = (n, None)
         init = nodes.get(str(machine.get("initial")))
         if init:
-            extra = f" [lhead={init[1]}]" if init[1] else ""
-            out.append(f"{indent}{start} -> {init[0]}{extra};")
+            node, cluster = init
+            extra = f" [lhead={cluster}]" if cluster else ""
+            out.append(f"{indent}{start} -> {node}{extra};")
         for tr in machine.get("transitions", []):
             a, b = nodes.get(str(tr.get("from"))), nodes.get(str(tr.get("to")))
             if not (a and b):

@@ -13,7 +13,7 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any, Literal, Union
+from typing import Annotated, Any, Literal, NamedTuple, Union
 
 from pydantic import Discriminator, Field, Tag, ValidationError
 
@@ -445,7 +445,14 @@ def _partial_problems(data: dict[str, Any], path: Path, name: str) -> list[Probl
     return problems
 
 
-def limits(scenario: Scenario) -> tuple[float, int]:
+class Limits(NamedTuple):
+    """The tick period of a scenario's run and the tick at which it ends."""
+
+    dt: float
+    end_tick: int
+
+
+def limits(scenario: Scenario) -> Limits:
     """The tick period and the tick at which the run ends (``duration`` and ``max_ticks``, the tighter)."""
     dt = scenario.dt or DEFAULT_DT
     ends = []
@@ -454,7 +461,7 @@ def limits(scenario: Scenario) -> tuple[float, int]:
         ends.append(ticks_for(duration, dt))
     if scenario.max_ticks is not None:
         ends.append(scenario.max_ticks)
-    return dt, min(ends)
+    return Limits(dt, min(ends))
 
 
 def timeline_problems(scenario: Scenario, name: str) -> list[Problem]:
@@ -470,7 +477,7 @@ def timeline_problems(scenario: Scenario, name: str) -> list[Problem]:
         problems.append(Problem(f"dt {dt:g} s over {duration:g} s makes {shown} ticks, more than {MAX_TICKS:,}",
                                 name, where,
                                 hint="give max_ticks to allow a run that long, or a larger dt / shorter duration"))
-    elif limits(scenario)[1] < 1:
+    elif limits(scenario).end_tick < 1:
         problems.append(Problem(f"dt {dt:g} s is longer than the run ({duration:g} s): not one tick would run",
                                 name, where, hint="make dt shorter than the duration"))
     return problems + element_problems(list(scenario.inputs), list(scenario.expect), scenario, name)

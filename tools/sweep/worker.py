@@ -105,10 +105,11 @@ def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], d
     from .folder import OutFile, write_file
     from .overrides import apply
 
-    key = (job["machine"], tuple(job.get("plugins") or ()))
+    plugins = tuple(job.get("plugins") or ())
+    key = (job["machine"], plugins)
     spec = _CHECKED.get(key)
     if spec is None:  # each worker reads and checks the machine once (the files do not change during a sweep)
-        registry = default_registry(key[1])
+        registry = default_registry(plugins)
         spec, problems = check(job["machine"], registry=registry)
         errors = [p for p in problems if p.severity == "error"]
         if spec is None or errors:

@@ -341,7 +341,7 @@ def _existing_prefix(data: Any, loc: list[Any]) -> list[Any]:
 
 
 _COMMON_FIELDS = {"id", "type", "description", "layout", "from", "to", "priority", "preempt", "guard", "set",
-                  "precondition", "until", "monitors", "timeout", "timeout_behavior", "timeout_exception"}
+                  "precondition", "until", "monitors", "timeout", "timeout_behavior", "timeout_exception", "endless"}
 
 
 def _field_hint(model: type[ParamsBase], name: str) -> str | None:

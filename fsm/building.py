@@ -90,10 +90,12 @@ class _Builder:
         obj.complete_action = plan.on_complete
         if plan.checks:
             resets: list[Condition[Any]] = []
+            checks = {}
             for key, check in plan.checks.items():
                 holds, conditions = self.check(check, obj)
-                obj.checks[key] = holds
+                checks[key] = holds
                 resets.extend(conditions)
+            obj.checks = checks
             obj.resets = tuple(resets)
         sup = plan.supervision
         if sup is not None:

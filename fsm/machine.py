@@ -289,7 +289,12 @@ class Machine:
             raise KeyError(f"no state at path '{path}'{hint}") from None
 
     def resolve(self, path: str, scope: str = "") -> State[Any]:
-        """The state ``path`` names when written in the level at ``scope`` (see :func:`fsm.paths.resolve_path`)."""
+        """The state ``path`` names when written in the level at ``scope`` (see :func:`fsm.paths.resolve_path`).
+
+        Raises ``TypeError`` for a path or scope that is not a string, ``KeyError`` for a path that names no state.
+        """
+        if not isinstance(path, str) or not isinstance(scope, str):
+            raise TypeError(f"path and scope are strings like 'drive/turn', got {_shown(path)} and {_shown(scope)}")
         full = resolve_path(path, scope, self.states_by_path)
         if full is None:
             raise KeyError(f"no state '{path}' seen from '{scope or '/'}'")

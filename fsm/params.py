@@ -6,6 +6,17 @@ from typing import Annotated, Any, ClassVar, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, WithJsonSchema, field_validator
 
+def _finite(value: Any, depth: int = 0) -> bool:
+    """No NaN or infinity anywhere in ``value`` (nested lists and objects, to a sane depth)."""
+    if isinstance(value, float):
+        return value - value == 0
+    if depth < 64 and isinstance(value, dict):
+        return all(_finite(v, depth + 1) for v in value.values())
+    if depth < 64 and isinstance(value, list):
+        return all(_finite(v, depth + 1) for v in value)
+    return True
+
+
 #: An element id: any non-empty text without "/" (the path separator); UMLet names may contain spaces.
 ID_PATTERN = r"^[^/]+$"
 
@@ -35,6 +46,15 @@ class ParamsBase(BaseModel):
         # all cost every process (each sweep worker, each fsmctl command) about 0.1 s at import.
         defer_build=True,
     )
+
+    @field_validator("layout", mode="after", check_fields=False)
+    @classmethod
+    def _finite_layout(cls, value: Any) -> Any:
+        """A drawing's coordinates are numbers: NaN or infinity (which Python's JSON reader lets through) would
+        break the layout of every graph drawn from the document."""
+        if not _finite(value):
+            raise ValueError("the layout holds NaN or infinity; coordinates are finite numbers")
+        return value
 
     @field_validator("*", mode="before")
     @classmethod

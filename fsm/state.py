@@ -17,6 +17,8 @@ if TYPE_CHECKING:
     from .transition import Transition
 
 P = TypeVar("P", bound=StateParams)
+#: The checks of a state whose type has no condition parameters (shared; the builder gives others their own).
+_NO_CHECKS: dict[str, Any] = {}
 
 #: A hook the runtime calls with the context (``None`` where there is nothing to do).
 Hook = Callable[["Context"], None]
@@ -135,7 +137,7 @@ class State(Generic[P]):
         #: Whether anything is checked before the tick: a supervisor or preemptive transitions (fixed by seal).
         self.watched = False
         #: The type's condition parameters, built: ``checks[name](ctx) -> bool``.
-        self.checks: dict[str, Callable[[Context], bool]] = {}
+        self.checks: dict[str, Callable[[Context], bool]] = _NO_CHECKS
         #: Condition objects of ``checks`` to reset on each entry.
         self.resets: tuple[Condition[Any], ...] = ()
         #: The document's ``set.on_complete``, compiled, or None; run when the state is left after it finished

@@ -223,3 +223,23 @@ def test_a_problem_inside_a_sequence_called_twice_is_reported_once_at_its_declar
     found = errors(doc(seq("main", {"id": "g1", "type": "Call", "sequence": "grip"},
                            {"id": "g2", "type": "Call", "sequence": "grip"}, sequences=[bad]), grips=0))
     assert len([e for e in found if e.startswith("/states/0/sequences/0/steps/0/assign/grips")]) == 1, found
+
+
+# -- hostile documents and the Python API (issue 22) -------------------------------------------------------------
+def test_nan_in_a_layout_and_a_number_too_long_are_located_errors(tmp_path: Any) -> None:
+    bad = tmp_path / "nan.json"
+    bad.write_text('{"initial": "a", "states": [{"id": "a", "type": "Idle", "layout": {"x": NaN}}]}')
+    _spec, problems = fsm.check(str(bad))
+    assert [(p.pointer, p.line) for p in problems] == [("/states/0/layout", 1)], problems
+    long = tmp_path / "long.json"
+    long.write_text('{"initial": "a", "vars": {"n": ' + "9" * 5000 + '}, "states": [{"id": "a", "type": "Idle"}]}')
+    _spec, problems = fsm.check(str(long))
+    assert len(problems) == 1 and "is too long to read" in problems[0].message and problems[0].column == 32
+
+
+def test_machine_resolve_checks_its_arguments() -> None:
+    m = fsm.load(doc({"id": "a", "type": "Idle"}))
+    with pytest.raises(TypeError, match="path and scope are strings"):
+        m.resolve(None)  # type: ignore[arg-type]
+    with pytest.raises(KeyError):
+        m.resolve("nope")

@@ -12,8 +12,8 @@ import itertools
 import json
 import os
 import re
-import sys
 import stat
+import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar

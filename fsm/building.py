@@ -87,6 +87,16 @@ class _Builder:
             obj.attach_regions(regions, plan)
         obj.entry_action = plan.on_enter
         obj.exit_action = plan.on_exit
+        obj.complete_action = plan.on_complete
+        if plan.checks:
+            resets: list[Condition[Any]] = []
+            checks = {}
+            for key, check in plan.checks.items():
+                holds, conditions = self.check(check, obj)
+                checks[key] = holds
+                resets.extend(conditions)
+            obj.checks = checks
+            obj.resets = tuple(resets)
         sup = plan.supervision
         if sup is not None:
             if sup.until is not None:
@@ -105,7 +115,9 @@ class _Builder:
             holds, conditions = self.check(mp.condition, obj) if mp.condition is not None else (_never, ())
             monitors.append(Monitor(holds, mp.behavior, mp.exception, mp.label, kind=mp.kind, conditions=conditions))
         pre, pre_conditions = self.check(sup.precondition, obj) if sup.precondition is not None else (None, ())
-        supervisor = Supervisor(obj, monitors, pre, pre_conditions, sup.timeout)
+        timeout = sup.timeout
+        supervisor = Supervisor(obj, monitors, pre, pre_conditions,
+                                E.on_context(timeout) if isinstance(timeout, E.Compiled) else timeout)
         for m in monitors:
             if m.kind == "timeout":
                 m.holds = supervisor.timed_out

@@ -265,8 +265,11 @@ class _Expressions:
             self.assignment(a)
         for st, scope in self.states:
             p = st.params
-            if p.precondition is not None or p.until is not None or p.monitors is not None:
+            if p.precondition is not None or p.until is not None or p.monitors is not None \
+                    or st.cls.condition_fields:
                 self.step_conditions(st, scope)
+            if isinstance(p.timeout, str):
+                self.compile(p.timeout, st.source, st.pointer + "/timeout", st.label, E.NUMBER)
         for tr, scope in self.transitions:
             guard = tr.params.guard
             if guard is None and not tr.conditions:
@@ -287,7 +290,7 @@ class _Expressions:
             sets = st.params.set
             if sets is None:
                 continue
-            for hook in ("on_enter", "on_exit"):
+            for hook in ("on_enter", "on_exit", "on_complete"):
                 for name, value in (getattr(sets, hook) or {}).items():
                     yield Assignment(name, value, st.source, f"{st.pointer}/set/{hook}/{escape(name)}", st.label)
         for st, _ in self.states:
@@ -341,6 +344,7 @@ class _Expressions:
         p = st.params
         keys: list[tuple[str, Any]] = [("precondition", p.precondition), ("until", p.until)]
         keys += [(f"monitors/{i}/condition", m.condition) for i, m in enumerate(p.monitors or ())]
+        keys += [(key, getattr(p, key, None)) for key in st.cls.condition_fields]
         for key, raw in keys:
             ptr = f"{st.pointer}/{key}"
             if isinstance(raw, str):

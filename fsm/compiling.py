@@ -16,6 +16,7 @@ from .checking import Analysis, conditions_of, signal_names
 from .document import ConditionSpec, MachineSpec, Source, StateSpec, TransitionSpec
 from .jsonpos import escape
 from .plan import (
+    NOTHING,
     Action,
     Check,
     ConditionPlan,
@@ -78,17 +79,25 @@ class _Compiler:
         if ordered:  # by priority, higher first; stable: declaration order within a priority
             regular = sorted(regular, key=_priority)
             preempt = sorted(preempt, key=_priority)
-        on_enter = on_exit = None
+        on_enter = on_exit = on_complete = None
         if params.set is not None or cls.assignment_fields:
             on_enter = self.assigner(st.source, self.entry_assignments(st))
-            on_exit = self.assigner(st.source, [(name, f"{st.pointer}/set/on_exit/{escape(name)}")
-                                                for name in ((params.set.on_exit or {}) if params.set else {})])
+            on_exit = self.assigner(st.source, self.set_assignments(st, "on_exit"))
+            on_complete = self.assigner(st.source, self.set_assignments(st, "on_complete"))
+        checks = {key: self.check(st, key, getattr(params, key)) for key in cls.condition_fields
+                  if getattr(params, key, None) is not None} if cls.condition_fields else NOTHING
         supervision = None
         if params.precondition is not None or params.until is not None or params.monitors is not None \
                 or params.timeout is not None:
             supervision = self.supervision(st)
         return StatePlan(cls, params, st.id, path, on_enter, on_exit, supervision, regions, st.sequence,
-                         tuple(preempt), tuple(regular))
+                         tuple(preempt), tuple(regular), on_complete, checks)
+
+    def set_assignments(self, st: StateSpec, hook: str) -> list[tuple[str, str]]:
+        """``(variable, pointer)`` of the state's ``set.<hook>``."""
+        sets = st.params.set
+        items = (getattr(sets, hook) or {}) if sets is not None else {}
+        return [(name, f"{st.pointer}/set/{hook}/{escape(name)}") for name in items]
 
     def entry_assignments(self, st: StateSpec) -> list[tuple[str, str]]:
         """``(variable, pointer)`` of what runs on entry: ``set.on_enter``, then the type's assignment parameters."""
@@ -145,9 +154,15 @@ class _Compiler:
         if p.precondition is None and p.until is None and p.monitors is None and p.timeout is None:
             return None
         monitors: list[MonitorPlan] = []
-        if p.timeout is not None:
-            monitors.append(MonitorPlan(None, p.timeout_behavior, p.timeout_exception, f"timeout {p.timeout:g} s",
-                                        kind="timeout"))
+        timeout: float | E.Compiled | None = None
+        if isinstance(p.timeout, str):
+            timeout = self.analysis.expression(st.source, st.pointer + "/timeout")
+            label = f"timeout {p.timeout} s"
+        elif p.timeout is not None:
+            timeout = p.timeout
+            label = f"timeout {p.timeout:g} s"
+        if timeout is not None:
+            monitors.append(MonitorPlan(None, p.timeout_behavior, p.timeout_exception, label, kind="timeout"))
         for i, m in enumerate(p.monitors or ()):
             label = m.description or (m.condition if isinstance(m.condition, str) else
                                       str(m.condition.get("type", "condition")))
@@ -157,7 +172,7 @@ class _Compiler:
             precondition=None if p.precondition is None else self.check(st, "precondition", p.precondition),
             until=None if p.until is None else self.check(st, "until", p.until),
             monitors=tuple(monitors),
-            timeout=p.timeout,
+            timeout=timeout,
         )
 
     def _car_conditions(self, conditions: Iterable[ConditionSpec], where: str) -> None:

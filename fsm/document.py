@@ -71,7 +71,7 @@ class MachineEnvelope(ParamsBase):
 
     @field_validator("vars")
     @classmethod
-    def _finite(cls, value: dict[str, Any]) -> dict[str, Any]:
+    def _finite_vars(cls, value: dict[str, Any]) -> dict[str, Any]:
         for key, item in value.items():
             if isinstance(item, float) and not math.isfinite(item):
                 raise ValueError(f"variable '{key}' must be a finite number, not {item}")
@@ -311,6 +311,9 @@ def problems_from_validation(
                 message = f"'{where}' may not contain '/' (it separates the steps of a state path), got {got}"
             elif not loc:  # a check of the whole element (a type's model validator): its own words say it all
                 message = str(e["msg"]).removeprefix("Value error, ").removeprefix("Assertion failed, ")
+            elif typ == "value_error":  # a validator's own words; a whole object or list is not worth showing
+                shown = "" if isinstance(e.get("input"), (dict, list)) else f", got {got}"
+                message = f"'{where}': {str(e['msg']).removeprefix('Value error, ')}{shown}"
             else:
                 message = f"'{where}': {e['msg']}, got {got}"
             earlier = at_pointer.get(ptr)
@@ -341,7 +344,7 @@ def _existing_prefix(data: Any, loc: list[Any]) -> list[Any]:
 
 
 _COMMON_FIELDS = {"id", "type", "description", "layout", "from", "to", "priority", "preempt", "guard", "set",
-                  "precondition", "until", "monitors", "timeout", "timeout_behavior", "timeout_exception"}
+                  "precondition", "until", "monitors", "timeout", "timeout_behavior", "timeout_exception", "endless"}
 
 
 def _field_hint(model: type[ParamsBase], name: str) -> str | None:

@@ -60,6 +60,16 @@ class MonitorListener(Listener, Protocol):
 
 
 @runtime_checkable
+class SkipListener(Listener, Protocol):
+    """A listener that is also told when a state just entered is skipped because its precondition is false."""
+
+    def on_skipped(self, ctx: Context, state: State[Any]) -> None:
+        """``state`` was entered (``on_transition`` told so) and skipped: nothing of it ran, its outcome is
+        ``precondition_failed``."""
+        return None
+
+
+@runtime_checkable
 class PauseListener(Listener, Protocol):
     """A listener that is also told when a state is paused or resumed."""
 
@@ -115,6 +125,8 @@ class Machine:
         self._toggles: list[tuple[Callable[[Context], bool], State[Any]]] = []
         for region in self.regions:
             region.listeners = self.listeners
+        #: Top-level states without outgoing transitions: one that finishes ends the machine.
+        self._terminal = frozenset(s for s in root.states.values() if not s.transitions and not s.is_final)
 
     # -- running --------------------------------------------------------------------------------
     def start(self) -> None:
@@ -218,12 +230,17 @@ class Machine:
     # -- state of the machine -------------------------------------------------------------------
     @property
     def finished(self) -> bool:
-        """True once the root level has reached a ``Final`` state."""
-        return self.started and self.root.active.is_final
+        """True once the root level has reached a ``Final`` state, or a top-level state without outgoing transitions
+        has finished (a root ``Sequence`` ends the machine with its outcome)."""
+        if not self.started:
+            return False
+        active = self.root.active
+        return active.is_final or (active.finished and active in self._terminal)
 
     @property
     def outcome(self) -> str | None:
-        """The outcome of the ``Final`` state reached, or ``None`` while unfinished."""
+        """The outcome of the ``Final`` state reached (or of the finished top-level state), or ``None`` while
+        unfinished."""
         if self.finished:
             return self.root.active.outcome or "succeeded"
         return None
@@ -272,7 +289,12 @@ class Machine:
             raise KeyError(f"no state at path '{path}'{hint}") from None
 
     def resolve(self, path: str, scope: str = "") -> State[Any]:
-        """The state ``path`` names when written in the level at ``scope`` (see :func:`fsm.paths.resolve_path`)."""
+        """The state ``path`` names when written in the level at ``scope`` (see :func:`fsm.paths.resolve_path`).
+
+        Raises ``TypeError`` for a path or scope that is not a string, ``KeyError`` for a path that names no state.
+        """
+        if not isinstance(path, str) or not isinstance(scope, str):
+            raise TypeError(f"path and scope are strings like 'drive/turn', got {_shown(path)} and {_shown(scope)}")
         full = resolve_path(path, scope, self.states_by_path)
         if full is None:
             raise KeyError(f"no state '{path}' seen from '{scope or '/'}'")
@@ -379,6 +401,13 @@ class Machine:
             hook = getattr(listener, "on_monitor", None)
             if hook is not None:
                 hook(self.ctx, owner, monitor)
+
+    def notify_skipped(self, state: State[Any]) -> None:
+        """Tell the listeners that ``state``, just entered, was skipped by its precondition."""
+        for listener in self.listeners:
+            hook = getattr(listener, "on_skipped", None)
+            if hook is not None:
+                hook(self.ctx, state)
 
     def _notify_pause(self, state: State[Any], paused: bool) -> None:
         for listener in self.listeners:

@@ -6,6 +6,17 @@ from typing import Annotated, Any, ClassVar, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, WithJsonSchema, field_validator
 
+def _finite(value: Any, depth: int = 0) -> bool:
+    """No NaN or infinity anywhere in ``value`` (nested lists and objects, to a sane depth)."""
+    if isinstance(value, float):
+        return value - value == 0
+    if depth < 64 and isinstance(value, dict):
+        return all(_finite(v, depth + 1) for v in value.values())
+    if depth < 64 and isinstance(value, list):
+        return all(_finite(v, depth + 1) for v in value)
+    return True
+
+
 #: An element id: any non-empty text without "/" (the path separator); UMLet names may contain spaces.
 ID_PATTERN = r"^[^/]+$"
 
@@ -36,6 +47,15 @@ class ParamsBase(BaseModel):
         defer_build=True,
     )
 
+    @field_validator("layout", mode="after", check_fields=False)
+    @classmethod
+    def _finite_layout(cls, value: Any) -> Any:
+        """A drawing's coordinates are numbers: NaN or infinity (which Python's JSON reader lets through) would
+        break the layout of every graph drawn from the document."""
+        if not _finite(value):
+            raise ValueError("the layout holds NaN or infinity; coordinates are finite numbers")
+        return value
+
     @field_validator("*", mode="before")
     @classmethod
     def _no_null(cls, value: Any) -> Any:
@@ -64,6 +84,9 @@ class StateSet(ParamsBase):
         default=None, description="Assigned on entry, before the state's own on_enter: {\"var\": \"expression\"}.")
     on_exit: Assignments | None = Field(
         default=None, description="Assigned on exit, after the state's own on_exit: {\"var\": \"expression\"}.")
+    on_complete: Assignments | None = Field(
+        default=None, description="Assigned in the tick the state finishes by itself (not when it is aborted, "
+                                  "times out, is skipped or restarted), once per entry.")
 
 
 #: What a monitor (or a timeout) does to its owner when it fires (EEROS thesis, five behaviours).
@@ -104,17 +127,21 @@ class StateParams(ParamsBase):
     monitors: list[MonitorParams] | None = Field(
         default=None, min_length=1, description="Conditions watched each tick before this state is ticked, while "
                                                 "it or anything inside it is active.")
-    timeout: float | None = Field(
-        default=None, gt=0, description="Seconds (paused and suspended time excluded) after which the timeout "
-                                        "monitor fires with timeout_behavior.")
+    timeout: Annotated[float, Field(gt=0)] | Annotated[str, Field(min_length=1)] | None = Field(
+        default=None, description="Seconds (paused and suspended time excluded) after which the timeout monitor "
+                                  "fires with timeout_behavior: a number, or an expression read when the state is "
+                                  "entered (\"t_grip\", \"2 * t\").")
     timeout_behavior: Behavior = Field(
         default="abortOwner", description="What the timeout does (abortOwner: outcome 'timeout').")
     timeout_exception: str | None = Field(
         default=None, min_length=1, description="Exception sequence run when the timeout fires.")
+    endless: bool = Field(
+        default=False, description="As a step of a sequence: it never finishes by itself, something outside ends it "
+                                   "(a monitor of an enclosing sequence, a pause button, an outer transition).")
 
     #: The step-common keys (EEROS): allowed on every state, compiled by the loader into the state's supervisor.
     STEP_KEYS: ClassVar[tuple[str, ...]] = ("precondition", "until", "monitors", "timeout", "timeout_behavior",
-                                            "timeout_exception")
+                                            "timeout_exception", "endless")
 
 
 class TransitionParams(ParamsBase):

@@ -50,6 +50,8 @@ class Parser:
         self.base_dir = Path(base_dir) if base_dir is not None else None
         self._cache: dict[Path, MachineSpec | None] = {}
         self._stack: list[Path] = []
+        #: Scoped bookkeeping of the types that parse their own children (a Sequence's declared sequences), by name.
+        self.scopes: dict[str, Any] = {}
         self._tables: dict[str, dict[str, type[Any]]] = {"state": registry.states, "transition": registry.transitions,
                         "condition": registry.conditions}
 
@@ -222,12 +224,15 @@ class Parser:
         return spec
 
     def _step_conditions(self, spec: StateSpec) -> None:
-        """The condition objects of a state's precondition, until and monitors (expressions stay text)."""
+        """The condition objects of a state's precondition, until, monitors and its type's condition parameters
+        (expressions stay text)."""
         p = spec.params
-        if p.precondition is None and p.until is None and p.monitors is None:
+        fields = spec.cls.condition_fields
+        if p.precondition is None and p.until is None and p.monitors is None and not fields:
             return
         keys: list[tuple[str, Any]] = [("precondition", p.precondition), ("until", p.until)]
         keys += [(f"monitors/{i}/condition", m.condition) for i, m in enumerate(p.monitors or ())]
+        keys += [(key, getattr(p, key, None)) for key in fields]
         conditions = {}
         for key, raw in keys:
             if isinstance(raw, dict):

@@ -120,7 +120,8 @@ class SupervisionPlan(NamedTuple):
     precondition: Check | None = None
     until: Check | None = None
     monitors: tuple[MonitorPlan, ...] = ()
-    timeout: float | None = None
+    #: seconds, or an expression read each time the state is entered
+    timeout: float | Compiled | None = None
 
     @property
     def watches(self) -> bool:
@@ -144,6 +145,10 @@ class StatePlan(NamedTuple):
     sequence: SequenceLayout | None = None
     preempt: tuple[TransitionPlan, ...] = ()
     regular: tuple[TransitionPlan, ...] = ()
+    #: ``set.on_complete``, compiled: run when the state is left after it finished by itself
+    on_complete: Action | None = None
+    #: the type's condition parameters (``Sequence.repeat_while``), compiled
+    checks: Mapping[str, Check] = NOTHING
 
 
 class RegionPlan(NamedTuple):

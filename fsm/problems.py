@@ -21,11 +21,12 @@ if TYPE_CHECKING:
 class Problems:
     """The problems found so far, each with the source (file) it belongs to."""
 
-    __slots__ = ("items", "_sources")
+    __slots__ = ("items", "_sources", "_seen")
 
     def __init__(self) -> None:
         self.items: list[Problem] = []
         self._sources: dict[int, Source] = {}
+        self._seen: set[tuple[object, ...]] = set()
 
     def add(self, message: str, source: Source, pointer: str, *, element: str | None = None,
             hint: str | None = None, severity: str = "error", expr_column: int | None = None) -> Problem:
@@ -36,8 +37,14 @@ class Problems:
         return problem
 
     def extend(self, problems: list[Problem], source: Source | None = None) -> None:
-        """Take problems made elsewhere (a reader, pydantic's errors); ``source`` locates them later."""
+        """Take problems made elsewhere (a reader, pydantic's errors); ``source`` locates them later. A problem
+        already reported (the same file, place and message: a part of the document parsed twice, as a sequence
+        called twice is) is reported once."""
         for problem in problems:
+            key = (problem.file, problem.pointer, problem.line, problem.column, problem.message, problem.severity)
+            if key in self._seen:
+                continue
+            self._seen.add(key)
             if source is not None:
                 self._sources[id(problem)] = source
             self.items.append(problem)

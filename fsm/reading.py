@@ -13,6 +13,7 @@ import json
 import os
 import re
 import stat
+import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
@@ -21,7 +22,7 @@ from typing import Any
 
 from .document import Source
 from .errors import DiagramError, Problem
-from .jsonpos import depth_exceeded_at, duplicate_keys, escape, locate
+from .jsonpos import LineIndex, depth_exceeded_at, duplicate_keys, escape, locate
 
 #: Where a too-deep JSON text is reported (Python's parser gives up somewhat deeper than this).
 MAX_JSON_DEPTH = 400
@@ -213,6 +214,11 @@ def parse_json_bytes(raw: bytes, name: str | None, directory: Any = None,
         data = json.loads(text, object_pairs_hook=pairs_to_dict)
     except json.JSONDecodeError as exc:
         raise DiagramError([Problem(f"invalid JSON: {exc.msg}", name, line=exc.lineno, column=exc.colno)]) from None
+    except ValueError as exc:  # an integer of more digits than Python converts (sys.get_int_max_str_digits)
+        limit = sys.get_int_max_str_digits()
+        raise DiagramError([_at_first(text, name, r"-?\d{%d,}" % (limit + 1),
+                                      f"a number of more than {limit} digits is too long to read",
+                                      "no document needs a number of this many digits")]) from None
     except RecursionError:
         deep = depth_exceeded_at(text, MAX_JSON_DEPTH)
         at_line, at_column = deep if deep is not None else (None, None)
@@ -225,6 +231,15 @@ def parse_json_bytes(raw: bytes, name: str | None, directory: Any = None,
         duplicates.extend(duplicate_key_problems(text, name))
     source = Source(name=name, directory=directory, text=text, locator=lambda ptrs: locate(text, ptrs))
     return data, source
+
+
+def _at_first(text: str, name: str | None, pattern: str, message: str, hint: str) -> Problem:
+    """A problem at the first place ``pattern`` matches outside a string of ``text`` (else without a place)."""
+    for match in re.finditer(r'"(?:[^"\\]|\\.)*"|(' + pattern + ")", text):
+        if match.group(1) is not None:
+            line, column = LineIndex(text).position(match.start(1))
+            return Problem(message, name, line=line, column=column, hint=hint)
+    return Problem(message, name, hint=hint)
 
 
 def duplicate_key_problems(text: str, name: str | None) -> list[Problem]:

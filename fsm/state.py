@@ -17,6 +17,8 @@ if TYPE_CHECKING:
     from .transition import Transition
 
 P = TypeVar("P", bound=StateParams)
+#: The checks of a state whose type has no condition parameters (shared; the builder gives others their own).
+_NO_CHECKS: dict[str, Any] = {}
 
 #: A hook the runtime calls with the context (``None`` where there is nothing to do).
 Hook = Callable[["Context"], None]
@@ -64,6 +66,11 @@ class State(Generic[P]):
         "exit_hook",
         "arms",
         "watched",
+        "checks",
+        "resets",
+        "complete_action",
+        "completed",
+        "completion_ran",
     )
 
     Params: ClassVar[type[StateParams]] = StateParams
@@ -82,6 +89,9 @@ class State(Generic[P]):
     signal_refs: ClassVar[tuple[str, ...]] = ()
     #: Names of parameters that hold assignments (``{"var": "expression"}``) run on entry, like ``set.on_enter``.
     assignment_fields: ClassVar[tuple[str, ...]] = ()
+    #: Names of parameters that hold conditions (an expression or a condition object, like ``until``); the built
+    #: state finds each as ``self.checks[name](ctx)``.
+    condition_fields: ClassVar[tuple[str, ...]] = ()
     # Which hooks a class overrides, found once per class (``__init_subclass__``) rather than per state built.
     _overrides_enter: ClassVar[bool] = False
     _overrides_exit: ClassVar[bool] = False
@@ -126,6 +136,15 @@ class State(Generic[P]):
         self.arms: tuple[Hook, ...] = ()
         #: Whether anything is checked before the tick: a supervisor or preemptive transitions (fixed by seal).
         self.watched = False
+        #: The type's condition parameters, built: ``checks[name](ctx) -> bool``.
+        self.checks: dict[str, Callable[[Context], bool]] = _NO_CHECKS
+        #: Condition objects of ``checks`` to reset on each entry.
+        self.resets: tuple[Condition[Any], ...] = ()
+        #: The document's ``set.on_complete``, compiled, or None; run when the state is left after it finished
+        #: by itself (``completed``: it called :meth:`finish`), not when aborted, timed out, skipped or restarted.
+        self.complete_action: Hook | None = None
+        self.completed = False
+        self.completion_ran = False
 
     @property
     def type_name(self) -> str:
@@ -164,6 +183,7 @@ class State(Generic[P]):
         """Mark the state finished with ``outcome``; ``Finished`` transitions out of it can now fire."""
         self.finished = True
         self.outcome = outcome
+        self.completed = True
 
     def time_in_state(self, ctx: Context) -> float:
         """Seconds on the machine's clock since the state was entered, paused time excluded."""
@@ -194,7 +214,9 @@ class State(Generic[P]):
         self.watched = supervised or bool(self.preempt)
         tick = self.tick_method() if cls._overrides_tick or self.regions else None
         self.tick_hook = tick if self.until is None else self._until_tick(tick, self.until.holds)
-        plain_enter = not (cls._overrides_enter or self.regions or self.arms or self.can_finish
+        if self.complete_action is not None:
+            self.tick_hook = self._completing_tick(self.tick_hook, self.complete_action)
+        plain_enter = not (cls._overrides_enter or self.regions or self.arms or self.can_finish or self.resets
                            or self.entry_action is not None or supervised or self.until is not None)
         self.enter_hook = None if plain_enter else self._enter
         self.exit_hook = self._exit if (cls._overrides_exit or self.regions or self.exit_action is not None) else None
@@ -218,8 +240,11 @@ class State(Generic[P]):
         """Enter: reset finishing, arm the outgoing transitions, ``on_enter``, then the sub-machines."""
         self.finished = False
         self.outcome = None
+        self.completed = self.completion_ran = False
         phase = "set on_enter"
         try:
+            for condition in self.resets:
+                condition.reset(ctx)
             if self.until is not None:
                 phase = "until"
                 for condition in self.until.conditions:
@@ -229,6 +254,9 @@ class State(Generic[P]):
                 if not self.supervisor.arm(ctx):
                     self.finished = True
                     self.outcome = "precondition_failed"
+                    machine = ctx.machine
+                    if machine is not None and machine.listeners:
+                        machine.notify_skipped(self)
                     return
                 phase = "set on_enter"
             if self.entry_action is not None:
@@ -238,6 +266,10 @@ class State(Generic[P]):
                 arm(ctx)
             phase = "on_enter"
             self.on_enter(ctx)
+            if self.completed and self.complete_action is not None:  # finished on entry (a Final, a SetVar)
+                phase = "set on_complete"
+                self.completion_ran = True
+                self.complete_action(ctx)
         except StateRuntimeError:
             raise
         except Exception as exc:
@@ -258,6 +290,21 @@ class State(Generic[P]):
             if not self.finished and until(ctx):
                 self.finish("succeeded")
         return tick_then_check
+
+    def _completing_tick(self, tick: Hook | None, complete: Hook) -> Hook:
+        """The tick followed by ``set.on_complete`` in the tick the state finishes by itself (once per entry)."""
+        def tick_then_complete(ctx: Context) -> None:
+            if tick is not None:
+                tick(ctx)
+            if self.completed and not self.completion_ran:
+                self.completion_ran = True
+                try:
+                    complete(ctx)
+                except StateRuntimeError:
+                    raise
+                except Exception as exc:
+                    raise StateRuntimeError.of(self, "set on_complete", ctx, exc) from exc
+        return tick_then_complete
 
     def _exit(self, ctx: Context) -> None:
         """Exit: sub-machines first (innermost first; parallel regions in reverse order), then ``on_exit``."""

@@ -3,9 +3,9 @@ and ``Join`` (docs/semantics.md, "Sequences"). The classes live in the core (:mo
 the sequencer lays them out, checks and binds them; they are registered here like every other state type."""
 
 from fsm.registry import register_state
-from fsm.sequencer.steps import Join, ResetTimeout, Sequence, SetVar, Step, Wait
+from fsm.sequencer.steps import Call, Join, ResetTimeout, Sequence, SetVar, Step, Wait
 
-for _cls in (Sequence, Step, Wait, SetVar, ResetTimeout, Join):
+for _cls in (Sequence, Step, Wait, SetVar, ResetTimeout, Join, Call):
     register_state(_cls)
 
-__all__ = ["Join", "ResetTimeout", "Sequence", "SetVar", "Step", "Wait"]
+__all__ = ["Call", "Join", "ResetTimeout", "Sequence", "SetVar", "Step", "Wait"]

@@ -13,7 +13,7 @@ from fsm.outcomes import can_finish
 from fsm.problems import Problems
 
 from .parsing import SequenceLayout, is_detached
-from .steps import Join, JoinParams, ResetTimeout, ResetTimeoutParams
+from .steps import Call, Join, JoinParams, ResetTimeout, ResetTimeoutParams
 
 #: Behaviours that act on the owner's caller (the state that contains it).
 CALLER_BEHAVIORS = ("abortCallerOfOwner", "restartCallerOfOwner")
@@ -39,8 +39,12 @@ def check_sequences(root: MachineSpec, problems: Problems) -> None:
     def walk(level: MachineSpec, prefix: str, caller: StateSpec | None, seqs: tuple[Enclosing, ...],
              using: tuple[str, ...]) -> None:
         for st in level.states:
+            if issubclass(st.cls, Call):
+                problems.add("a Call is a step of a Sequence: it runs a sequence declared in 'sequences'", st.source,
+                             st.pointer, element=st.label, hint="put it in the steps of a Sequence")
             p = st.params
-            if p.monitors is not None or p.timeout is not None or p.timeout_exception is not None:
+            if p.monitors is not None or p.timeout is not None or p.timeout_exception is not None \
+                    or "timeout_behavior" in p.model_fields_set:
                 _check_state(problems, st, caller, seqs, using)
             if not st.subs:
                 continue
@@ -66,17 +70,22 @@ def _check_state(problems: Problems, st: StateSpec, caller: StateSpec | None, se
     p = st.params
     own = (Enclosing(st, ""),) if st.sequence is not None else ()
     known = [eid for s in seqs + own for eid in s.layout.exception_ids]
+    broken = {eid for s in seqs + own for eid in s.layout.broken_exception_ids}
     refs: list[tuple[str | None, str, str, bool]] = []  # (exception id, behavior, pointer, is the timeout)
     for i, m in enumerate(p.monitors or ()):
         refs.append((m.exception, m.behavior, f"{st.pointer}/monitors/{i}", False))
     if p.timeout is not None:
         refs.append((p.timeout_exception, p.timeout_behavior, st.pointer, True))
-    elif p.timeout_exception is not None:
-        problems.add("timeout_exception without a timeout", st.source, st.pointer + "/timeout_exception",
-                     element=st.label, hint="add \"timeout\": SECONDS or remove timeout_exception")
+    else:
+        for key in ("timeout_exception", "timeout_behavior"):
+            if key in p.model_fields_set:
+                problems.add(f"{key} without a timeout", st.source, f"{st.pointer}/{key}", element=st.label,
+                             hint=f"add \"timeout\": SECONDS or remove {key}")
     for exc, behavior, ptr, is_timeout in refs:
         if exc is not None:
             key = "/timeout_exception" if is_timeout else "/exception"
+            if exc in broken and exc not in known:
+                continue  # declared, but it did not load: its own problems say why
             if exc not in known:
                 close = difflib.get_close_matches(exc, known, n=2)
                 hint = ("did you mean " + " or ".join(f"'{c}'" for c in close) + "?" if close else
@@ -103,13 +112,15 @@ def _check_steps(problems: Problems, st: StateSpec, seqs: tuple[Enclosing, ...])
         for step in holder.layout.steps:
             if is_detached(step):
                 started.setdefault(step.id, True)
-    blocking_ids = {s.id for holder in seqs for s in holder.layout.steps} | {s.id for s in layout.steps}
+    blocking_ids = {s.id for holder in seqs for s in holder.layout.steps if not is_detached(s)}
+    blocking_ids |= {s.id for s in layout.steps if not is_detached(s)}
+    later = {s.id for s in layout.steps if is_detached(s)}
     for step in layout.steps:
         if is_detached(step):
             started[step.id] = True
             continue
         if issubclass(step.cls, Join):
-            _check_join(problems, step, started, blocking_ids)
+            _check_join(problems, step, started, blocking_ids, later)
         if issubclass(step.cls, ResetTimeout):
             owner = cast(ResetTimeoutParams, step.params).owner  # a ResetTimeout's parameters are its Params
             target = _reset_target(owner, seqs, st)
@@ -119,18 +130,41 @@ def _check_steps(problems: Problems, st: StateSpec, seqs: tuple[Enclosing, ...])
             elif target.params.timeout is None:
                 problems.add(f"'{target.id}' has no timeout to reset", step.source, step.pointer + "/owner",
                              element=step.label, hint=f"give '{target.id}' a \"timeout\"")
-        if not can_finish(step):
+        if not can_finish(step) and not step.params.endless and not _ended_from_outside(step, st, seqs):
             problems.add(f"step '{step.id}' ({step.type}) can never finish, so the sequence would stop there",
                          step.source, step.pointer, element=step.label,
-                         hint="give it an \"until\" condition or a \"timeout\", or use a type that finishes")
+                         hint="give it an \"until\" condition or a \"timeout\", a monitor that aborts or restarts "
+                              "it, or say \"endless\": true when something outside ends it; or use a type that "
+                              "finishes")
 
 
-def _check_join(problems: Problems, step: StateSpec, started: dict[str, bool], blocking_ids: set[str]) -> None:
+#: Behaviours by which a supervisor ends (or starts over) a state that would not finish by itself.
+_ENDING = ("abortOwner", "restartOwner", "abortCallerOfOwner", "restartCallerOfOwner")
+
+
+def _ended_from_outside(step: StateSpec, here: StateSpec, seqs: tuple[Enclosing, ...]) -> bool:
+    """Whether a monitor or timeout with an ending behaviour watches the step, its sequence or an enclosing one
+    (an Idle step watched by monitors, as in the thesis's delta-mouse and menu cases)."""
+    for owner in (step, here, *(s.spec for s in seqs)):
+        p = owner.params
+        if p.timeout is not None and p.timeout_behavior in _ENDING:
+            return True
+        if any(m.behavior in _ENDING for m in p.monitors or ()):
+            return True
+    return False
+
+
+def _check_join(problems: Problems, step: StateSpec, started: dict[str, bool], blocking_ids: set[str],
+                later: set[str]) -> None:
     for i, name in enumerate(cast(JoinParams, step.params).sequences):  # a Join's parameters are its Params
         ptr = f"{step.pointer}/sequences/{i}"
         if name in started:
             continue
-        if name in blocking_ids:
+        if name in later:
+            problems.add(f"the non-blocking sequence '{name}' starts after this Join, so the Join would wait for a "
+                         "sequence that has not started", step.source, ptr, element=step.label,
+                         hint=f"place the Join after '{name}' in the steps")
+        elif name in blocking_ids:
             problems.add(f"'{name}' is a blocking step: it has finished before the Join is reached, so there is "
                          "nothing to wait for", step.source, ptr, element=step.label,
                          hint="Join names non-blocking sequences (\"blocking\": false)")

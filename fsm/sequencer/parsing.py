@@ -6,6 +6,7 @@ compile, build) treat it like any drawn machine.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from itertools import pairwise
 from typing import TYPE_CHECKING, Any, cast
@@ -29,6 +30,8 @@ class SequenceLayout:
     detached_after: tuple[int, ...] = ()
     detached_ids: tuple[str, ...] = ()
     exception_ids: tuple[str, ...] = ()
+    #: ids of exception sequences declared here that did not parse (monitors naming them get no second error)
+    broken_exception_ids: tuple[str, ...] = ()
     #: every step spec in document order (blocking or not)
     steps: tuple[StateSpec, ...] = ()
     exceptions: tuple[StateSpec, ...] = ()
@@ -42,6 +45,7 @@ class _Steps:
     detached: list[tuple[int, StateSpec]] = field(default_factory=list)
     steps: list[StateSpec] = field(default_factory=list)
     exceptions: list[StateSpec] = field(default_factory=list)
+    broken_exceptions: list[str] = field(default_factory=list)
     complete: bool = True
 
 
@@ -71,6 +75,27 @@ def parse_sequence(parser: Parser, spec: StateSpec, depth: int) -> None:
         else:
             first_at[st_id] = p
 
+    library = {raw["id"]: (raw, f"{ptr}/sequences/{i}") for i, raw in enumerate(params.sequences or ())
+               if isinstance(raw, dict) and isinstance(raw.get("id"), str)}
+    libraries: list[dict[str, tuple[dict[str, Any], str]]] = parser.scopes.setdefault("sequences", [])
+    libraries.append(library)
+    try:
+        _parse_steps(parser, spec, params, found, unique, depth, libraries)
+        for name, (raw, p) in library.items():  # a declared sequence is checked even when no Call uses it
+            if not any(st.pointer == p for st in found.steps):
+                declared = parser.state(raw, source, p, depth + 1)
+                if declared is not None and not is_sequence(declared.cls):
+                    add(f"'sequences' holds Sequence elements, not {declared.type}", source, p + "/type",
+                        element=f"state '{name}'")
+    finally:
+        libraries.pop()
+    _lay_out(parser, spec, found)
+
+
+def _parse_steps(parser: Parser, spec: StateSpec, params: steps.SequenceParams, found: _Steps,
+                 unique: Callable[[Any, str], None], depth: int,
+                 libraries: list[dict[str, tuple[dict[str, Any], str]]]) -> None:
+    source, ptr, add = spec.source, spec.pointer, parser.problems.add
     for i, raw in enumerate(params.steps):
         p = f"{ptr}/steps/{i}"
         if not isinstance(raw, dict):
@@ -79,7 +104,20 @@ def parse_sequence(parser: Parser, spec: StateSpec, depth: int) -> None:
             found.complete = False
             continue
         unique(raw.get("id"), p)
-        st = parser.state(raw, source, p, depth + 1)
+        calling: list[str] = parser.scopes.setdefault("calling", [])
+        name = None
+        if raw.get("type") == CALL_TYPE:
+            called = _called(parser, raw, source, p, libraries)
+            if called is None:
+                found.complete = False
+                continue
+            raw, p, name = called
+            calling.append(name)
+        try:
+            st = parser.state(raw, source, p, depth + 1)
+        finally:
+            if name is not None:
+                calling.pop()
         if st is None:
             found.complete = False
             continue
@@ -96,6 +134,8 @@ def parse_sequence(parser: Parser, spec: StateSpec, depth: int) -> None:
         unique(raw.get("id"), p)
         st = parser.state(raw, source, p, depth + 1)
         if st is None:
+            if isinstance(raw.get("id"), str):
+                found.broken_exceptions.append(raw["id"])
             continue
         if not is_sequence(st.cls):
             add(f"an exception sequence must be a Sequence, not {st.type}", source, p + "/type",
@@ -105,6 +145,11 @@ def parse_sequence(parser: Parser, spec: StateSpec, depth: int) -> None:
             add("an exception sequence runs while its owner waits: it cannot be non-blocking", source,
                 p + "/blocking", element=f"state '{st.id}'", hint="remove \"blocking\": false")
         found.exceptions.append(st)
+
+
+def _lay_out(parser: Parser, spec: StateSpec, found: _Steps) -> None:
+    """The chain, the non-blocking sequences and the exception sequences as the Sequence's regions."""
+    source, ptr, add = spec.source, spec.pointer, parser.problems.add
     if not found.chain:
         if found.complete:
             add("a sequence needs at least one blocking step", source, ptr + "/steps", element=f"sequence '{spec.id}'",
@@ -125,9 +170,43 @@ def parse_sequence(parser: Parser, spec: StateSpec, depth: int) -> None:
         detached_after=tuple(after for after, _ in found.detached),
         detached_ids=tuple(st.id for _, st in found.detached),
         exception_ids=tuple(st.id for st in found.exceptions),
+        broken_exception_ids=tuple(found.broken_exceptions),
         steps=tuple(found.steps),
         exceptions=tuple(found.exceptions),
     )
+
+
+#: A step that runs a sequence declared in ``sequences`` (of its Sequence or an enclosing one) under its own id.
+CALL_TYPE = "Call"
+#: A Call's keys that apply to the called instance (besides its id): the step-common keys and the drawing's.
+_CALL_KEYS = ("description", "layout", "set", "precondition", "until", "monitors", "timeout", "timeout_behavior",
+              "timeout_exception", "endless", "blocking")
+
+
+def _called(parser: Parser, raw: dict[str, Any], source: Source, ptr: str,
+            libraries: list[dict[str, tuple[dict[str, Any], str]]]) -> tuple[dict[str, Any], str, str] | None:
+    """The element a Call step stands for: the declared sequence it names, under the Call's id (with the Call's
+    own step keys on top), parsed at the declaration's place so that its problems point there."""
+    parsed = parser.element("state", raw, source, ptr)
+    if parsed is None:
+        return None
+    name = parsed[1].sequence
+    expanding: list[str] = parser.scopes.setdefault("calling", [])
+    for library in reversed(libraries):
+        if name in library:
+            if name in expanding:
+                parser.problems.add(f"sequence '{name}' calls itself (through {' -> '.join(expanding + [name])})",
+                                    source, ptr + "/sequence", element=f"state '{raw.get('id')}'",
+                                    hint="a sequence may call others, not itself")
+                return None
+            definition, where = library[name]
+            return {**definition, "id": raw["id"], **{k: raw[k] for k in _CALL_KEYS if k in raw}}, where, name
+    known = sorted({n for library in libraries for n in library})
+    parser.problems.add(f"no sequence '{name}' is declared for Call", source, ptr + "/sequence",
+                        element=f"state '{raw.get('id')}'",
+                        hint=("declared here: " + ", ".join(known)) if known else
+                        'declare it in "sequences" of this Sequence or an enclosing one')
+    return None
 
 
 def _links(parser: Parser, spec: StateSpec, chain: list[StateSpec]) -> list[TransitionSpec]:

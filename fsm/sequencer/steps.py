@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 from pydantic import Field
 
 from fsm.composite import Composite
-from fsm.params import Assignments, Int, StateParams
+from fsm.params import Assignments, ConditionField, Int, StateParams
 from fsm.state import State
 
 from . import parsing as sequence_parsing
@@ -41,7 +41,10 @@ class SequenceParams(StateParams):
         default=True, description="false: when its caller reaches it, it starts beside the caller's next "
                                   "steps (a parallel region) and the caller goes on at once.")
     repeat: Int = Field(default=1, ge=0, description="Times the steps run; 0: again and again until "
-                                                     "stopped from outside.")
+                                                     "stopped from outside (or while repeat_while holds).")
+    repeat_while: str | ConditionField | None = Field(
+        default=None, description="Checked each time the steps have run: while it holds they run again (at most "
+                                  "'repeat' times in all, unless repeat is 0).")
     pause_signal: str | None = Field(
         default=None, min_length=1, description="Input signal whose rising edges pause and resume this "
                                                 "sequence (one push button).")
@@ -50,6 +53,9 @@ class SequenceParams(StateParams):
     exceptions: list[dict[str, Any]] | None = Field(
         default=None, min_length=1, description="Exception sequences (Sequence elements), named by monitors "
                                                 "and timeouts of this sequence and of everything inside it.")
+    sequences: list[dict[str, Any]] | None = Field(
+        default=None, min_length=1, description="Sequences declared for Call steps of this sequence and of the "
+                                                "sequences inside it (Sequence elements); not run by themselves.")
 
 
 class Sequence(Composite[SequenceParams]):
@@ -61,6 +67,7 @@ class Sequence(Composite[SequenceParams]):
                  "tail")
 
     signal_refs = ("pause_signal",)
+    condition_fields = ("repeat_while",)
     outcomes = None
     Params = SequenceParams
 
@@ -162,7 +169,12 @@ class Sequence(Composite[SequenceParams]):
         if self.running:
             return  # the last step is done; waiting for the non-blocking sequences (implicit join)
         self.iteration += 1
-        if self.repeat == 0 or self.iteration < self.repeat:
+        again = self.repeat == 0 or self.iteration < self.repeat
+        repeat_while = self.checks.get("repeat_while")
+        if repeat_while is not None:
+            again = (self.repeat == 0 or self.iteration < self.repeat or "repeat" not in self.params.model_fields_set) \
+                and repeat_while(ctx)
+        if again:
             chain.stop(ctx)
             self._begin()
             for region in self.running:
@@ -320,4 +332,19 @@ def enclosing_sequence(state: State[Any]) -> Sequence | None:
     return None
 
 
-__all__ = ["Join", "ResetTimeout", "Sequence", "SetVar", "Step", "Wait", "enclosing_sequence"]
+class CallParams(StateParams):
+    sequence: str = Field(min_length=1, description="The id of a sequence declared in 'sequences' of this Sequence "
+                                                    "or an enclosing one.")
+
+
+class Call(State[CallParams]):
+    """A step that runs a declared sequence under its own id (the same sequence may be called several times).
+
+    The parser puts the declared sequence in its place; a Call is never built, and one outside a Sequence's
+    steps is a load error."""
+
+    __slots__ = ()
+    Params = CallParams
+
+
+__all__ = ["Call", "Join", "ResetTimeout", "Sequence", "SetVar", "Step", "Wait", "enclosing_sequence"]

@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, NamedTuple
 
+from fsm.expr import ExprRuntimeError
 from fsm.state import State
 
 from .verdict import Verdict
@@ -46,6 +47,13 @@ class Monitor:
         self.fired = 0
 
 
+def _seconds(value: Any) -> float:
+    """A timeout read from an expression: a finite number of seconds > 0, else a run-time error of the state."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (0 < value < float("inf")):
+        raise ExprRuntimeError(f"the timeout's expression gave {value!r}; a timeout is a number of seconds > 0")
+    return float(value)
+
+
 class Restart:
     """What a listener sees as the transition when a monitor restarts a state (source and target are the state)."""
 
@@ -71,17 +79,25 @@ class Running(NamedTuple):
 class Supervisor:
     """Monitors, timeout and precondition of one state (its *owner*)."""
 
-    __slots__ = ("owner", "monitors", "precondition", "pre_conditions", "timeout", "reset_at", "running",
-                 "machine", "halted")
+    __slots__ = ("owner", "monitors", "precondition", "pre_conditions", "timeout", "timeout_at_entry", "reset_at",
+                 "running", "machine", "halted")
 
     def __init__(self, owner: State[Any], monitors: list[Monitor],
                  precondition: Callable[[Context], bool] | None = None,
-                 pre_conditions: tuple[Condition[Any], ...] = (), timeout: float | None = None) -> None:
+                 pre_conditions: tuple[Condition[Any], ...] = (),
+                 timeout: float | Callable[[Context], Any] | None = None) -> None:
         self.owner = owner
         self.monitors = tuple(monitors)
         self.precondition = precondition
         self.pre_conditions = pre_conditions
-        self.timeout = timeout
+        #: the timeout in seconds (read at each entry when it comes from an expression)
+        self.timeout: float | None = None
+        #: the timeout's expression (``"t_grip"``), read at each entry, or None for a fixed number
+        self.timeout_at_entry: Callable[[Context], Any] | None = None
+        if callable(timeout):
+            self.timeout_at_entry = timeout
+        else:
+            self.timeout = timeout
         #: the owner's time in state at which its timeout clock was last (re)started
         self.reset_at = 0.0
         #: the exception sequence running for this owner, if any
@@ -96,6 +112,8 @@ class Supervisor:
         self.halted = False
         self.running = None
         self.reset_at = 0.0
+        if self.timeout_at_entry is not None:
+            self.timeout = _seconds(self.timeout_at_entry(ctx))
         for m in self.monitors:
             for c in m.conditions:
                 c.reset(ctx)

@@ -294,7 +294,8 @@ class Machine:
         Raises ``TypeError`` for a path or scope that is not a string, ``KeyError`` for a path that names no state.
         """
         if not isinstance(path, str) or not isinstance(scope, str):
-            raise TypeError(f"path and scope are strings like 'drive/turn', got {_shown(path)} and {_shown(scope)}")
+            raise TypeError("path and scope are strings like 'drive/turn', "
+                            f"got {shown_value(path)} and {shown_value(scope)}")
         full = resolve_path(path, scope, self.states_by_path)
         if full is None:
             raise KeyError(f"no state '{path}' seen from '{scope or '/'}'")

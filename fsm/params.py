@@ -6,6 +6,7 @@ from typing import Annotated, Any, ClassVar, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, WithJsonSchema, field_validator
 
+
 def _finite(value: Any, depth: int = 0) -> bool:
     """No NaN or infinity anywhere in ``value`` (nested lists and objects, to a sane depth)."""
     if isinstance(value, float):

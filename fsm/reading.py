@@ -214,7 +214,7 @@ def parse_json_bytes(raw: bytes, name: str | None, directory: Any = None,
         data = json.loads(text, object_pairs_hook=pairs_to_dict)
     except json.JSONDecodeError as exc:
         raise DiagramError([Problem(f"invalid JSON: {exc.msg}", name, line=exc.lineno, column=exc.colno)]) from None
-    except ValueError as exc:  # an integer of more digits than Python converts (sys.get_int_max_str_digits)
+    except ValueError:  # an integer of more digits than Python converts (sys.get_int_max_str_digits)
         limit = sys.get_int_max_str_digits()
         raise DiagramError([_at_first(text, name, r"-?\d{%d,}" % (limit + 1),
                                       f"a number of more than {limit} digits is too long to read",

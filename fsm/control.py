@@ -50,6 +50,8 @@ MIN_SPEED, MAX_SPEED = 0.01, 10_000.0
 #: Behind real time by more than this (seconds of machine time at the chosen speed), the pace starts afresh
 #: instead of running the backlog at full speed.
 MAX_BACKLOG = 0.25
+#: How often (s) a running run's trace gets the samples kept for its current block, so a page shows the car moving.
+FLUSH = 0.1
 #: How long the loop sleeps at most while paused or ended before it looks at the commands again (s).
 IDLE = 0.1
 
@@ -90,6 +92,7 @@ class Controller:
         self._anchor: tuple[float, int] | None = None
         self._next_id = 1
         self._seq = 0
+        self._flushed = 0.0
         self._watch = Watch()
         self._active: set[str] = set()
         self._end = session.stop_rules.end_tick(0, session.dt)
@@ -411,6 +414,11 @@ class Controller:
             "inputs": [[t, item.describe()] for t, item in self.log[-200:]],
             "can_rewind": self.factory is not None,
         }
+        recorder = session.recorder
+        now = self.clock()
+        if recorder is not None and (state != "running" or now - self._flushed > FLUSH):
+            self._flushed = now
+            recorder.flush_samples(machine)  # the car where it is, not up to a keyframe period ago
         notify = self.notify
         if notify is not None:
             notify()

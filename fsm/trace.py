@@ -227,6 +227,11 @@ class Recorder(Listener):
                 out.write(_dumps({"type": "frame", "tick": tick, "time": time, **frame}))
         self._schedule(tick)
 
+    def flush_samples(self, machine: Machine) -> None:
+        """Write the samples kept for the current block now (a debugger that pauses shows the car where it is; the
+        next block starts at the next sample)."""
+        self._write_samples(machine)
+
     def _write_samples(self, machine: Machine) -> None:
         """The samples kept since the last block, as one ``samples`` line (first tick, tick step, and the rows).
         Rows of numbers are packed (:data:`PACKED_SAMPLES`: float32, base64; a reader rounds them to ``digits``

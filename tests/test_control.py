@@ -232,9 +232,10 @@ def test_an_injected_variable_is_applied_before_the_next_tick_and_rewind_forks(l
 
 def test_commands_that_make_no_sense_are_answered_not_obeyed(lap: Any) -> None:
     controller, _ = lap
-    for number, (name, args) in enumerate([("step", {"n": 0}), ("speed", {"x": -1}), ("rewind", {"tick": 5}),
-                                           ("unbreak", {"id": 9}), ("fly", {}), ("input", {"input": {"kind": "finish",
-                                                                                                      "path": "lap2"}})]):
+    commands: list[tuple[str, dict[str, Any]]] = [
+        ("step", {"n": 0}), ("speed", {"x": -1}), ("rewind", {"tick": 5}), ("unbreak", {"id": 9}), ("fly", {}),
+        ("input", {"input": {"kind": "finish", "path": "lap2"}})]
+    for number, (name, args) in enumerate(commands):
         controller.send(name, args, number)
     wait(controller, lambda s: len(replies(controller)) >= 6)
     answers = {r["id"]: r for r in replies(controller)}

@@ -22,11 +22,12 @@ COUNTER = """{"name": "counter", "initial": "count", "vars": {"n": 0},
 
 
 class Live:
-    """``fsmctl run ARGS --live --port 0`` in a process of its own; ``url`` is what it printed."""
+    """``fsmctl COMMAND ARGS --live --port 0`` (``run``, or ``report`` for a finished trace) in a process of its own;
+    ``url`` is what it printed."""
 
-    def __init__(self, *args: str, cwd: Path = REPO) -> None:
+    def __init__(self, *args: str, command: str = "run", cwd: Path = REPO) -> None:
         exe = Path(sys.executable).with_name("fsmctl")
-        self.proc = subprocess.Popen([str(exe), "run", *args, "--live", "--port", "0"], cwd=cwd,
+        self.proc = subprocess.Popen([str(exe), command, *args, "--live", "--port", "0"], cwd=cwd,
                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                      env={**os.environ, "PYTHONUNBUFFERED": "1"})
         assert self.proc.stdout is not None

@@ -117,19 +117,19 @@ class LiveRun:
         return session
 
 
-def serve(run: LiveRun, page: Callable[[dict[str, Any]], str], *, host: str, port: int, token: str | None,
+def serve(source: Any, page: Callable[[dict[str, Any]], str], *, host: str, port: int, token: str | None,
           stop: Callable[[], bool], out: Any) -> None:
-    """Serve the live page of ``run`` until the page's Stop or ``stop()`` (Ctrl-C): listen first (a port in use is
-    an error before the run starts), print the URL to ``out``, run the controller's loop in its own thread."""
-    controller = run.source.controller
-    assert controller is not None
-    header = json.loads(run.source.buffer.chunks[0])
+    """Serve the live page of ``source`` until the page's Stop or ``stop()`` (Ctrl-C): listen first (a port in use
+    is an error before the run starts), print the URL to ``out``, run the controller's loop (if any: a finished
+    trace has none) in its own thread."""
+    controller = source.controller
+    header = json.loads(source.buffer.chunks[0].split("\n", 1)[0])
     html = page(header)
 
     async def main() -> None:
         from .server import LiveServer
 
-        server = LiveServer(run.source, html, token)
+        server = LiveServer(source, html, token)
         try:
             bound = await server.start(host, port)
         except OSError as exc:
@@ -137,20 +137,50 @@ def serve(run: LiveRun, page: Callable[[dict[str, Any]], str], *, host: str, por
         shown = f"[{host}]" if ":" in host else host
         url = f"http://{shown}:{bound}/" + (f"?token={token}" if token else "")
         print(f"live: {url}", file=out, flush=True)
-        print("live: the run goes on until Stop in the page or Ctrl-C here", file=out, flush=True)
+        until = "the run goes on until Stop in the page or Ctrl-C here" if controller else "serving the trace " \
+                "until Ctrl-C here"
+        print(f"live: {until}", file=out, flush=True)
         halt = threading.Event()
-        thread = threading.Thread(target=controller.loop, kwargs={"stop": lambda: halt.is_set() or stop()},
-                                  name="fsm-live-run", daemon=True)
-        thread.start()
+        thread = None
+        if controller is not None:
+            thread = threading.Thread(target=controller.loop, kwargs={"stop": lambda: halt.is_set() or stop()},
+                                      name="fsm-live-run", daemon=True)
+            thread.start()
         try:
-            while thread.is_alive() and not stop():
+            while (thread is None or thread.is_alive()) and not stop():
                 await asyncio.sleep(0.05)
         finally:
             halt.set()
-            await asyncio.get_running_loop().run_in_executor(None, thread.join)
+            if thread is not None:
+                await asyncio.get_running_loop().run_in_executor(None, thread.join)
             await server.close()
 
     asyncio.run(main())
+
+
+def serve_trace(name: str, args: argparse.Namespace) -> int:
+    """``fsmctl report TRACE --live``: a finished run's trace in the live page (the same page, nothing to steer),
+    until Ctrl-C. What is served is what the trace reader accepted (a damaged tail is left out, with its warning)."""
+    from ..cli.common import EXIT_INTERRUPTED, EXIT_OK, Interrupts
+    from ..cli.report import read_trace_arg
+    from .page import live_page
+    from .server import Source, new_token
+
+    if args.no_token and not _loopback(args.host or "127.0.0.1"):
+        raise UsageError(f"--no-token with --host {args.host}: a page other machines can reach needs its token")
+    trace = read_trace_arg(name)
+    for warning in trace.warnings:
+        print(printable(f"fsmctl report: warning: {warning}"), file=sys.stderr)
+    buffer = LineBuffer()
+    for line in [trace.header, *trace.inputs, *trace.events, *trace.keyframes, *trace.samples, *trace.frames,
+                 *([trace.end] if trace.end else [])]:
+        buffer.write(json.dumps(line, separators=(",", ":")) + "\n")
+    interrupts = Interrupts()
+    with interrupts:
+        serve(Source(buffer), lambda header: live_page(header, Path(name).name), host=args.host or "127.0.0.1",
+              port=args.port if args.port is not None else DEFAULT_PORT, token=None if args.no_token else new_token(),
+              stop=interrupts.stop, out=sys.stdout)
+    return EXIT_INTERRUPTED if interrupts.interrupted else EXIT_OK
 
 
 def _listen_error(exc: OSError, host: str, port: int) -> FsmError:
@@ -196,7 +226,7 @@ def run_live(args: argparse.Namespace, file: str, make_session: Callable[[], Any
     token = None if args.no_token else new_token()
     interrupts = Interrupts()
     with interrupts:
-        serve(run, lambda header: live_page(header, Path(file).name), host=host, port=port, token=token,
+        serve(run.source, lambda header: live_page(header, Path(file).name), host=host, port=port, token=token,
               stop=interrupts.stop, out=out)
         interrupts.writing = True
         session = controller.session

@@ -52,7 +52,7 @@
       }
       var m = JSON.parse(ev.data);
       if (m.kind === "hello") { live = m.live; if (!live) { setControls(false); $("live-bar").classList.add("static"); } }
-      else if (m.kind === "reset") { model.reset(); dirty = true; }
+      else if (m.kind === "reset") { model.reset(); status = null; followEnd = null; dirty = true; }
       else if (m.kind === "status") { status = m; raise(m); showStatus(); dirty = true; schedule(); }
       else if (m.kind === "reply") { var done = pending[m.id]; delete pending[m.id]; if (done) done(m); else if (!m.ok) notice(m.error); }
       else if (m.kind === "rewound") notice("Rewound to tick " + m.tick + (m.dropped ? "; " + m.dropped + " later input(s) dropped" : "") + ".");
@@ -137,7 +137,7 @@
   $("run-speed").addEventListener("change", function () { var v = this.value; send("speed", { x: v === "max" ? null : parseFloat(v) }, reply); });
   $("run-stop").addEventListener("click", function () { send("stop"); });
   $("run-rewind").addEventListener("click", function () { send("rewind", { tick: R.current().tick }, reply); });
-  function reply(m) { notice(m.ok ? "" : m.error); }
+  function reply(m) { if (!m.ok) notice(m.error); }
 
   var BREAK_HINTS = {
     enter: ["state path or glob, e.g. lap1/*", null], leave: ["state path or glob", null],

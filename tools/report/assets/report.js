@@ -53,6 +53,7 @@
     }
     add(M.source);
     if (M.outcome !== null && M.outcome !== undefined) add("outcome " + M.outcome, M.outcome === "succeeded" ? "good" : "bad");
+    else if (M.live) add("live run", "good");
     else add(M.cut_off ? "cut off (no end line)" : "not finished", "bad");
     if (M.interrupted) add("interrupted", "bad");
     if (M.error) add("error: " + M.error, "bad");

@@ -50,6 +50,8 @@ class Trace:
     frames: list[dict[str, Any]] = field(default_factory=list)
     end: dict[str, Any] | None = None
     warnings: list[str] = field(default_factory=list)
+    #: the inputs applied between ticks (a variable set, a signal, an injected fault), in order (:mod:`fsm.inputs`)
+    inputs: list[dict[str, Any]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         self._event_ticks: list[int] = []
@@ -63,7 +65,7 @@ class Trace:
     @property
     def last_tick(self) -> int:
         ticks = [self.end["tick"]] if self.end else []
-        for lines in (self.events, self.keyframes, self.samples, self.frames):
+        for lines in (self.events, self.keyframes, self.samples, self.frames, self.inputs):
             if lines:
                 ticks.append(lines[-1]["tick"])
         return max(ticks, default=0)
@@ -275,9 +277,9 @@ def _header_version(header: dict[str, Any], where: str) -> int:
 
 
 #: Where each line type goes in a :class:`Trace`.
-_KINDS = {"event": "events", "keyframe": "keyframes", "sample": "samples", "frame": "frames"}
+_KINDS = {"event": "events", "keyframe": "keyframes", "sample": "samples", "frame": "frames", "input": "inputs"}
 #: The line types after the header (``event_v1``: a version-1 line, which has no type).
-_LINE_TYPES = ("event", "keyframe", "sample", "samples", "frame", "end")
+_LINE_TYPES = ("event", "keyframe", "sample", "samples", "frame", "input", "end")
 
 
 @functools.cache

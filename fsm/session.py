@@ -247,6 +247,14 @@ class Session:
         bisect.insort(self._inputs, Scheduled(self.machine.ticks + (1 if self.machine.started else 0), self._order,
                                               item))
 
+    def schedule_tick(self, tick: int, item: Input) -> None:
+        """Apply ``item`` before tick ``tick`` (0: before the initial states are entered; a tick already past: before
+        the next one): how a run is replayed from the ticks its trace recorded inputs at."""
+        if isinstance(tick, bool) or not isinstance(tick, int) or tick < 0:
+            raise ValueError(f"tick must be an int >= 0, got {tick!r}")
+        self._order += 1
+        bisect.insort(self._inputs, Scheduled(tick, self._order, item))
+
     @property
     def applied(self) -> list[tuple[int, Input]]:
         """Every input applied so far, with the tick before which it was applied."""
@@ -361,6 +369,8 @@ class Session:
             item = inputs.pop(0).input
             item.apply(self.machine)
             self._applied.append((tick, item))
+            if self.recorder is not None:  # the trace's input line: a steered run replays from it
+                self.recorder.on_input(tick, round(tick * self.dt, 9), item)
 
     def _observe(self) -> None:
         now = self.machine.now

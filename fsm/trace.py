@@ -13,6 +13,8 @@ object with a ``"type"``:
   variable, so a reader seeks to any tick by reading one keyframe and the events after it.
 - ``sample``: every ``sample_period`` seconds, continuous values (the car's pose, sensors and commands).
 - ``frame``: every ``frame_period`` seconds, what ``frames`` returns (camera thumbnails and detections).
+- ``input``: an input applied between two ticks (a variable set, a signal, a fault a debugger injected), with
+  the tick before which it applied, so a steered run replays from its trace (:mod:`fsm.inputs`).
 - ``end`` (last line, when the run ended normally or was stopped): outcome, ticks, time. A trace without it was
   cut off (the process was killed); its whole lines still read.
 
@@ -96,6 +98,7 @@ class Recorder(Listener):
         self._special = 0  # the next tick with a keyframe or frame line
         self._sample_only = False
         self.ended = False
+        self._input_lines: list[str] = []  # input lines applied before the header was written
 
     def on_transition(self, ctx: Context, source: State[Any] | None, target: State[Any],
                       transition: Fired | None) -> None:
@@ -122,6 +125,19 @@ class Recorder(Listener):
 
     def on_pause(self, ctx: Context, state: State[Any], paused: bool) -> None:
         self._events.setdefault("paused" if paused else "resumed", []).append(state.path)
+
+    def on_input(self, tick: int, time: float, item: Any) -> None:
+        """An input applied before ``tick`` (:mod:`fsm.session`): an ``input`` line, what it was and its text."""
+        if self.out is None:
+            return
+        from .inputs import input_to_json
+
+        line = _dumps({"type": "input", "tick": tick, "time": time, "input": input_to_json(item),
+                       "text": item.describe()})
+        if self._sample_every:
+            self.out.write(line)
+        else:
+            self._input_lines.append(line)
 
     def on_tick(self, machine: Machine) -> None:
         # Called every tick: the common case (nothing happened, no line due) returns after a few comparisons.
@@ -167,6 +183,9 @@ class Recorder(Listener):
             self._every = (s_every, k_every, f_every)
             self._sample_every = s_every
             out.write(_dumps(self._header_line(machine)))
+            for input_line in self._input_lines:
+                out.write(input_line)
+            self._input_lines = []
         time = round(ctx.now, 9)
         if self._pending or changed is not None or self._events:
             line: dict[str, Any] = {"type": "event", "tick": tick, "time": time, "active": machine.active_paths,
@@ -207,6 +226,11 @@ class Recorder(Listener):
             if frame:
                 out.write(_dumps({"type": "frame", "tick": tick, "time": time, **frame}))
         self._schedule(tick)
+
+    def flush_samples(self, machine: Machine) -> None:
+        """Write the samples kept for the current block now (a debugger that pauses shows the car where it is; the
+        next block starts at the next sample)."""
+        self._write_samples(machine)
 
     def _write_samples(self, machine: Machine) -> None:
         """The samples kept since the last block, as one ``samples`` line (first tick, tick step, and the rows).

@@ -45,9 +45,9 @@ def test_every_line_type_passes_both() -> None:
             assert CHECKS[name](base) is None, name
             assert REFERENCES[name].is_valid(base), name
     whole = compile_schema(SCHEMA)
-    for kind in ("header", "event", "keyframe", "samples", "rows", "sample", "frame", "end"):
+    for kind in ("header", "event", "keyframe", "samples", "rows", "sample", "frame", "input", "end"):
         assert whole(LINES[kind]) is None
-    assert "fits none of its 7 allowed forms" in str(whole({"type": "nothing"}))
+    assert "fits none of its 8 allowed forms" in str(whole({"type": "nothing"}))
 
 
 def _paths(value: Any, here: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:

@@ -45,6 +45,8 @@ LINES: dict[str, dict[str, Any]] = {
     "frame": {"type": "frame", "tick": 80, "time": 1.0, "camera_time": 0.98, "frame": 3, "jpeg": "/9j/AA==",
               "width": 160, "height": 120, "gates": [[1, 2]],
               "detections": [{"id": 1, "corners": [[1, 2], [3, 2], [3, 4], [1, 4]], "distance": 1.2, "bearing": 0.1}]},
+    "input": {"type": "input", "tick": 40, "time": 0.5, "input": {"kind": "set", "values": {"n": 2}},
+              "text": "set n = 2"},
     "event2": {"type": "event", "tick": 88, "time": 1.1, "active": ["b"],
                "transitions": [{"tick": 88, "time": 1.1, "from": "a", "to": "b", "type": "Timeout"}]},
     "end": {"type": "end", "tick": 90, "time": 1.125, "outcome": "done", "finished": True, "transitions": 1,

@@ -7,6 +7,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from fsm.errors import UsageError
+
 from .common import EXIT_OK, Subcommands, default_output
 
 
@@ -18,6 +20,13 @@ def register(sub: Subcommands) -> None:
     p.add_argument("trace", metavar="TRACE.jsonl", help="the trace")
     p.add_argument("-o", "--output", metavar="OUT.html",
                    help="where to write (default: TRACE with the suffix .html; '-' for standard output)")
+    live = p.add_argument_group("the live page")
+    live.add_argument("--live", action="store_true",
+                      help="serve the trace in the live debugger's page (as `fsmctl run --live` shows a run) and print "
+                           "its URL, until Ctrl-C; needs the 'live' extra")
+    live.add_argument("--port", type=int, default=None, metavar="N", help="port of the page (default 8765; 0: any)")
+    live.add_argument("--host", default=None, metavar="HOST", help="address to listen on (default 127.0.0.1)")
+    live.add_argument("--no-token", action="store_true", help="no token in the URL (this machine only)")
     p.set_defaults(func=cmd_report)
 
 
@@ -56,6 +65,13 @@ def write_from_trace(name: str, out: str, option: str, suffix: str, command: str
 
 def cmd_report(args: argparse.Namespace) -> int:
     from ..report import report_html
+
+    if args.live:
+        from ..live.runner import serve_trace
+
+        if args.output:
+            raise UsageError("-o writes the offline report; --live serves the trace instead: choose one")
+        return serve_trace(args.trace, args)
 
     out = args.output or default_output(Path(args.trace), ".html")
     return write_from_trace(args.trace, out, "-o", ".html", "report", report_html)

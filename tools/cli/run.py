@@ -98,6 +98,9 @@ def register(sub: Subcommands) -> None:
     bar.add_argument("--progress", dest="progress", action="store_true", default=None,
                      help="show a progress bar (default: only when standard error is a terminal)")
     bar.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
+    from ..live.runner import add_arguments as add_live_arguments
+
+    add_live_arguments(p)
     p.set_defaults(func=cmd_run)
 
 
@@ -200,6 +203,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     from ..files import Outputs, check_distinct
 
     _check_usage(args)
+    from ..live.runner import check_usage as check_live_usage
+
+    check_live_usage(args)
     dt = args.dt or DEFAULT_DT
     duration, max_ticks = _tick_limit(args, dt)
     outputs = Outputs()
@@ -239,6 +245,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     outputs.open(inputs)  # same-as-input, unwritable folders: refused here, before the run
     try:
         args.pre = pre
+        if args.live:
+            return _run_live(args, spec, file, drive, world_path, duration, max_ticks, outputs, trace_out,
+                             summary_out, plot_out, report_out)
         return _run(args, spec, file, drive, world_path, duration, max_ticks, outputs,
                     trace_out, summary_out, video_out, plot_out, report_out)
     finally:
@@ -249,9 +258,10 @@ def _session(args: argparse.Namespace, spec: Any, drive: bool, world_path: Path 
              max_ticks: int | None) -> Any:
     """The run's session: the machine on the simulated car in its world, or on the simulated clock alone."""
     from fsm.loader import compile as compile_spec
+    from fsm.plan import MachinePlan
     from fsm.session import Session, SetSignal, StopRules
 
-    plan = compile_spec(spec)
+    plan = spec if isinstance(spec, MachinePlan) else compile_spec(spec)
     stop = StopRules(duration, max_ticks)
     if drive:
         from fsm.sim import simulate
@@ -368,6 +378,29 @@ def _run(args: argparse.Namespace, spec: Any, file: str, drive: bool, world_path
               f"{limit} allowed ({why})", file=sys.stderr)
         failed = True
     return EXIT_FAIL if failed else EXIT_OK
+
+
+def _run_live(args: argparse.Namespace, spec: Any, file: str, drive: bool, world_path: Path | None,
+              duration: float | None, max_ticks: int | None, outputs: Any, trace_out: Any, summary_out: Any,
+              plot_out: Any, report_out: Any) -> int:
+    """``--live``: the run under the live debugger (:mod:`fsm.tools.live`), built again from the same plan for
+    each rewind."""
+    from fsm.loader import compile as compile_spec
+    from fsm.loader import signal_names
+
+    from ..live.runner import run_live
+    from ..recording import header_document, run_recorder
+
+    plan = compile_spec(spec)
+    document = header_document(file, args.pre)
+
+    def make_recorder(session: Any, stream: Any) -> Any:
+        return run_recorder(stream, file, session.car, world_file=world_path, seed=args.seed, noise=not args.no_noise,
+                            overrides=args.overrides, initial_vars=args.initial_vars, sample_rate=args.sample_rate,
+                            document=document)
+
+    return run_live(args, file, lambda: _session(args, plan, drive, world_path, duration, max_ticks), make_recorder,
+                    sorted(signal_names(spec)), outputs, trace_out, summary_out, plot_out, report_out)
 
 
 class _Tee:

@@ -2,8 +2,19 @@
    plots. Every string from the trace goes through textContent, never innerHTML. */
 (function () {
   "use strict";
+  // D: the model (embedded; a live page loads new ones with tralReport.load), and what is derived from it
   var D = JSON.parse(document.getElementById("data").textContent);
-  var M = D.meta, S = D.states, dt = M.dt || 0.0125, T = Math.max(M.t_end, dt);
+  var M, S, dt, T, keyTicks, eventTicks, Sm, hasTrack, frames, frameTimes, stops;
+  function derive() {
+    M = D.meta; S = D.states; dt = M.dt || 0.0125; T = Math.max(M.t_end, dt);
+    keyTicks = D.keyframes.map(function (k) { return k[0]; });
+    eventTicks = D.events.map(function (e) { return e[0]; });
+    Sm = D.samples; hasTrack = !!(Sm && Sm["car.x"] && Sm["car.y"]);
+    frames = D.frames.filter(function (f) { return f.jpeg || f.det.length; });
+    frameTimes = frames.map(function (f) { return f.t; });
+    stops = D.transitions.filter(function (tr) { return tr[2] >= 0; }).map(function (tr) { return tr[0]; });
+  }
+  derive();
   var $ = function (id) { return document.getElementById(id); };
   var cursor = 0, playing = false, lastFrame = 0, selected = -1, lastLeaf = null;
 
@@ -14,8 +25,6 @@
   }
 
   // -- replay: the configuration and variables after tick k (nearest keyframe, then the events) -------------
-  var keyTicks = D.keyframes.map(function (k) { return k[0]; });
-  var eventTicks = D.events.map(function (e) { return e[0]; });
   function upper(arr, x) { var lo = 0, hi = arr.length; while (lo < hi) { var m = (lo + hi) >> 1; if (arr[m] <= x) lo = m + 1; else hi = m; } return lo; }
   function stateAt(tick) {
     var k = upper(keyTicks, tick) - 1, active = [], vars = {}, since = -1;
@@ -32,17 +41,19 @@
   function tickAt(t) { return Math.floor(t / dt + 1e-6); }
 
   // -- header -------------------------------------------------------------------------------------------------
-  $("title").textContent = M.name;
-  $("trace-name").textContent = M.trace;
-  document.title = M.name + " — tral-fsm report";
-  (function () {
+  function showHeader() {
+    $("title").textContent = M.name;
+    $("trace-name").textContent = M.trace;
+    if (!window.tralLive) document.title = M.name + " — tral-fsm report";
     var meta = $("meta");
+    meta.textContent = "";
     function add(text, cls) {
       if (meta.childNodes.length) meta.appendChild(document.createTextNode("  ·  "));
       var s = document.createElement("span"); s.textContent = text; if (cls) s.className = cls; meta.appendChild(s);
     }
     add(M.source);
     if (M.outcome !== null && M.outcome !== undefined) add("outcome " + M.outcome, M.outcome === "succeeded" ? "good" : "bad");
+    else if (M.live) add("live run", "good");
     else add(M.cut_off ? "cut off (no end line)" : "not finished", "bad");
     if (M.interrupted) add("interrupted", "bad");
     if (M.error) add("error: " + M.error, "bad");
@@ -51,8 +62,10 @@
     if (M.world_file) add("world " + M.world_file);
     if (M.overrides.length) add("--set " + M.overrides.join(" "));
     var ul = $("warnings");
+    ul.textContent = "";
     M.warnings.forEach(function (w) { var li = document.createElement("li"); li.textContent = w; ul.appendChild(li); });
-  })();
+  }
+  showHeader();
 
   // -- statechart -------------------------------------------------------------------------------------------
   var svg = document.querySelector("#chart svg");
@@ -232,10 +245,9 @@
   window.addEventListener("mouseup", function () { dragging = false; });
 
   // -- map -------------------------------------------------------------------------------------------------
-  var map = $("map"), mapBg = document.createElement("canvas"), view = null, Sm = D.samples;
-  var hasTrack = Sm && Sm["car.x"] && Sm["car.y"];
-  if (!D.map && !hasTrack) $("map-box").style.display = "none";
+  var map = $("map"), mapBg = document.createElement("canvas"), view = null;
   function drawMapBg() {
+    $("map-box").style.display = !D.map && !hasTrack ? "none" : "";
     if (!D.map && !hasTrack) return;
     var ratio = window.devicePixelRatio || 1, w = map.clientWidth || 400;
     var x0, y0, x1, y1;
@@ -302,9 +314,9 @@
   }
 
   // -- camera ---------------------------------------------------------------------------------------------
-  var frames = D.frames.filter(function (f) { return f.jpeg || f.det.length; }), frameTimes = frames.map(function (f) { return f.t; }), shownFrame = -2;
-  if (!frames.length) $("camera-box").style.display = "none";
+  var shownFrame = -2;
   function drawCamera() {
+    $("camera-box").style.display = frames.length ? "" : "none";
     if (!frames.length) return;
     var k = upper(frameTimes, cursor + 1e-9) - 1;
     if (k === shownFrame) return;
@@ -346,6 +358,10 @@
       plots.push({ u: u, line: line, div: div });
     });
   }
+  function updatePlots() {  // new data in the plots there are (a live page), else new plots
+    if (!Sm || plots.length !== D.plots.length) { makePlots(); return; }
+    D.plots.forEach(function (p, i) { plots[i].u.setData([Sm.t].concat(p.series.map(function (s) { return Sm[s.field]; }))); });
+  }
   function drawPlots() {
     plots.forEach(function (p) {
       var o = p.u.over, x = p.u.valToPos(cursor, "x");
@@ -366,7 +382,6 @@
     markVisit();
     drawLanes(); drawMap(); drawCamera(); drawPlots();
   }
-  var stops = D.transitions.filter(function (tr) { return tr[2] >= 0; }).map(function (tr) { return tr[0]; });
   function jump(dir) {
     var t = null;
     if (dir > 0) { for (var i = 0; i < stops.length; i++) if (stops[i] > cursor + dt / 2) { t = stops[i]; break; } }
@@ -400,6 +415,14 @@
   var resizeTimer = null;
   window.addEventListener("resize", function () { clearTimeout(resizeTimer); resizeTimer = setTimeout(layout, 150); });
   layout();
+  // a new model (a live page's, as the trace grows): redrawn, the cursor kept or put at the end (``follow``)
+  function load(data, follow) {
+    D = data; derive(); showHeader(); shownFrame = -2;
+    drawLanesBg(); drawMapBg(); updatePlots();
+    if (selected >= 0 && selected < S.length) showVisits(selected);
+    setTime(follow ? T : cursor);
+  }
   // for tests and the console: the state at the cursor, and moving it
-  window.tralReport = { setTime: setTime, current: function () { return current; }, stateAt: stateAt, duration: T, dt: dt };
+  window.tralReport = { setTime: setTime, current: function () { return current; }, stateAt: stateAt, duration: T, dt: dt,
+    load: load, end: function () { return T; }, cursor: function () { return cursor; } };
 })();

@@ -1,0 +1,257 @@
+"""The live debugger's core (issue 24): inputs recorded in the trace and replayed from it, the faults a debugger
+injects (fsm.inputs), breakpoints (fsm.breakpoints) and the controller that applies commands between ticks only
+(fsm.control): pause, steps, speed, rewind."""
+
+from __future__ import annotations
+
+import io
+import json
+import threading
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from fsm.breakpoints import BreakpointError, make_breakpoint
+from fsm.control import Controller
+from fsm.inputs import (
+    FinishState,
+    FireMonitor,
+    ForceSensor,
+    InputError,
+    check_input,
+    input_from_json,
+    input_to_json,
+    recorded_inputs,
+)
+from fsm.replay import parse_trace
+from fsm.session import PauseState, Session, SetSignal, SetVars
+from fsm.trace import Recorder
+
+REPO = Path(__file__).resolve().parents[1]
+SORTER = REPO / "diagrams" / "examples" / "sorter.json"
+LAP = REPO / "diagrams" / "hallway_lap.json"
+
+
+def sorter_run() -> tuple[Session, io.StringIO]:
+    session = Session.open(str(SORTER))
+    out = io.StringIO()
+    session.record(Recorder(out))
+    return session, out
+
+
+def lap_run() -> tuple[Session, io.StringIO]:
+    from fsm.sim import simulate
+
+    session = simulate(str(LAP), world=REPO / "diagrams" / "worlds" / "hallway.json")
+    out = io.StringIO()
+    session.record(Recorder(out))
+    return session, out
+
+
+def lines(text: str, kind: str | None = None) -> list[dict[str, Any]]:
+    found = [json.loads(line) for line in text.splitlines()]
+    return [line for line in found if kind is None or line["type"] == kind]
+
+
+# -- inputs in the trace ---------------------------------------------------------------------------------------------
+def test_every_input_is_a_line_of_the_trace_and_the_run_replays_from_it() -> None:
+    session, out = sorter_run()
+    session.schedule(0.0, SetVars({"parts": 5}))
+    session.schedule(0.6, SetSignal("gripped"))
+    session.schedule(1.3, SetVars({"jams": 2}))
+    session.run(stop_rules=None)
+    session.finish()
+    first = out.getvalue()
+    inputs = lines(first, "input")
+    assert [(i["tick"], i["input"]["kind"]) for i in inputs] == [(0, "set"), (48, "signal"), (104, "set")]
+    assert inputs[1]["text"] == "signal gripped high"
+    trace = parse_trace(first.encode())
+    assert [i["tick"] for i in trace.inputs] == [0, 48, 104]
+    assert trace.at(104)[1]["jams"] == 2 and trace.at(103)[1]["jams"] == 0
+    again, out2 = sorter_run()
+    replayed, warnings = recorded_inputs(trace.inputs)
+    assert not warnings
+    for tick, item in replayed:
+        again.schedule_tick(tick, item)
+    again.run()
+    again.finish()
+    assert out2.getvalue() == first
+
+
+def test_inputs_go_to_json_and_back_and_bad_ones_say_what_is_wrong() -> None:
+    for item in (SetVars({"n": 1, "s": "x"}), SetSignal("go", False), PauseState("a/b"), ForceSensor("front", 0.2, 40),
+                 FireMonitor("cycle", "jam"), FinishState("grip", "failed")):
+        assert input_from_json(json.loads(json.dumps(input_to_json(item)))) == item
+    for bad, words in [(None, "JSON object"), ({"kind": "explode"}, "unknown input kind"),
+                       ({"kind": "set", "values": {"1x": 1}}, "not a name"),
+                       ({"kind": "set", "values": {"n": [1]}}, "a value is"),
+                       ({"kind": "force", "sensor": "roof", "value": 1, "ticks": 1}, "'sensor' must be"),
+                       ({"kind": "force", "sensor": "left", "value": float("nan"), "ticks": 1}, "finite"),
+                       ({"kind": "force", "sensor": "left", "value": 1, "ticks": 0}, "'ticks'"),
+                       ({"kind": "signal", "name": ""}, "'name'"), ({"kind": "pause", "path": 3}, "'path'")]:
+        with pytest.raises(InputError, match=words):
+            input_from_json(bad)
+
+
+def test_a_forced_reading_holds_for_its_ticks_and_then_the_car_is_the_car_again() -> None:
+    session, _ = lap_run()
+    session.step(10)
+    car = session.car
+    session.submit(ForceSensor("front", 0.123, 3))
+    seen = []
+    for _ in range(5):
+        session.step(1)
+        seen.append(session.machine.ctx.car.front)
+    assert seen[:3] == [0.123] * 3 and seen[3] != 0.123
+    assert session.machine.ctx.car is car  # the stand-in took itself out
+    assert check_input(ForceSensor("front", 1, 1), Session.open(str(SORTER)).machine) is not None
+
+
+def test_a_forced_front_reading_makes_the_lap_turn_early() -> None:
+    plain, _ = lap_run()
+    plain.run(until=lambda s: s.active_path != "lap1/bottom")
+    forced, _ = lap_run()
+    forced.step(100)
+    forced.submit(ForceSensor("front", 0.5, 20))
+    forced.run(until=lambda s: s.active_path != "lap1/bottom")
+    assert forced.ticks < plain.ticks and forced.active_path == plain.active_path == "lap1/bottom_slow"
+
+
+def test_a_fired_monitor_runs_its_exception_sequence_and_finish_ends_a_state() -> None:
+    session, out = sorter_run()
+    session.step(10)
+    assert check_input(FireMonitor("cycle", "nope"), session.machine) is not None
+    assert check_input(FireMonitor("cycle", "jam"), session.machine) is None
+    session.submit(FireMonitor("cycle", "jam"))
+    session.step(1)
+    assert any("clear_jam" in p for p in session.machine.active_paths)
+    session.step(200)
+    grip = next(p for p in session.machine.states_by_path if p.endswith("grip"))
+    session.run(until=lambda s: grip in s.machine.active_paths)
+    assert check_input(FinishState(grip, "explode"), session.machine) is not None
+    session.submit(FinishState(grip))
+    session.step(2)
+    assert grip not in session.machine.active_paths
+    assert [i["input"]["kind"] for i in lines(out.getvalue(), "input")] == ["monitor", "finish"]
+
+
+# -- breakpoints ------------------------------------------------------------------------------------------------------
+def test_breakpoints_are_checked_against_the_machine_and_expressions_say_where_they_are_wrong() -> None:
+    machine = Session.open(str(SORTER)).machine
+    assert make_breakpoint(1, {"kind": "enter", "state": "cycle/*"}, machine).text == "entering cycle/*"
+    for spec, words, column in [({"kind": "enter", "state": "cycel"}, "matches no state", None),
+                                ({"kind": "teleport"}, "unknown breakpoint kind", None),
+                                ({"kind": "expr", "expr": "parts >"}, "expected a value", 8),
+                                ({"kind": "expr", "expr": "prats > 1"}, "did you mean parts", 1),
+                                ({"kind": "expr", "expr": "parts + 1"}, "true/false is needed", 7),
+                                ({"kind": "monitor", "owner": "cycle", "monitor": "fire"}, "matches no monitor", None)]:
+        with pytest.raises(BreakpointError, match=words) as info:
+            make_breakpoint(1, spec, machine, ["gripped"])
+        assert info.value.column == column
+
+
+# -- the controller ---------------------------------------------------------------------------------------------------
+@pytest.fixture
+def lap() -> Iterator[tuple[Controller, list[io.StringIO]]]:
+    outs: list[io.StringIO] = []
+
+    def factory() -> Session:
+        session, out = lap_run()
+        outs.append(out)
+        return session
+
+    controller = Controller(factory(), factory=factory, speed=None, paused=True)
+    thread = threading.Thread(target=controller.loop, daemon=True)
+    thread.start()
+    yield controller, outs
+    controller.send("stop")
+    thread.join(10)
+    assert not thread.is_alive()
+
+
+def wait(controller: Controller, pred: Callable[[dict[str, Any]], bool], seconds: float = 20) -> dict[str, Any]:
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        snap = controller.snapshot
+        if snap and pred(snap):
+            return snap
+        time.sleep(0.002)
+    raise AssertionError(f"not reached: {controller.snapshot}")
+
+
+def replies(controller: Controller) -> list[dict[str, Any]]:
+    return [m for m in list(controller.messages) if m["kind"] == "reply"]
+
+
+def test_steps_pause_exactly_and_a_breakpoint_stops_at_the_tick_the_trace_says(lap: Any) -> None:
+    controller, outs = lap
+    controller.send("step", {"n": 3})
+    snap = wait(controller, lambda s: s["tick"] == 3 and s["state"] == "paused")
+    assert snap["active"] == ["lap1/bottom"]
+    controller.send("break", {"spec": {"kind": "enter", "state": "lap1/bottom_turn/settle"}}, 7)
+    controller.send("break", {"spec": {"kind": "expr", "expr": "car_front <"}}, 8)
+    controller.send("resume")
+    snap = wait(controller, lambda s: s["hit"] is not None)
+    assert snap["state"] == "paused" and snap["active"] == ["lap1/bottom_turn/settle"]
+    entered = [e["tick"] for e in lines(outs[0].getvalue(), "event")
+               if any(t["to"] == "lap1/bottom_turn/settle" for t in e["transitions"])]
+    assert snap["hit"]["tick"] == snap["tick"] == entered[0]
+    assert snap["hit"]["why"] == "entered lap1/bottom_turn/settle"
+    bad = next(r for r in replies(controller) if r["id"] == 8)
+    assert not bad["ok"] and bad["column"] == 12
+    controller.send("step_transition")
+    snap = wait(controller, lambda s: s["hit"] is not None and s["hit"]["breakpoint"] is None)
+    assert "lap1/bottom_turn/settle -> lap1/bottom_turn/done" in snap["hit"]["why"]
+
+
+def test_an_injected_variable_is_applied_before_the_next_tick_and_rewind_forks(lap: Any) -> None:
+    controller, outs = lap
+    controller.send("step", {"n": 50})
+    wait(controller, lambda s: s["tick"] == 50 and s["state"] == "paused")
+    controller.send("input", {"input": {"kind": "set", "values": {"probe": 7}}}, 1)
+    controller.send("step", {"n": 10})
+    snap = wait(controller, lambda s: s["tick"] == 60 and s["state"] == "paused")
+    assert snap["inputs"] == [[51, "set probe = 7"]]
+    assert next(r for r in replies(controller) if r["id"] == 1)["tick"] == 51
+    trace = parse_trace(outs[0].getvalue().encode())
+    assert trace.at(50)[1] == {} and trace.at(51)[1] == {"probe": 7}
+    controller.send("rewind", {"tick": 40}, 2)
+    snap = wait(controller, lambda s: s["tick"] == 40)
+    assert snap["inputs"] == [] and len(outs) == 2
+    assert next(r for r in replies(controller) if r["id"] == 2)["dropped"] == 1
+    first, second = lines(outs[0].getvalue()), lines(outs[1].getvalue())
+    upto = [line for line in first if line["type"] in ("event", "keyframe") and line["tick"] <= 40]
+    assert [line for line in second if line["type"] in ("event", "keyframe")] == upto
+    controller.send("rewind", {"tick": 41}, 3)  # only back: the future is not known yet
+    wait(controller, lambda s: any(r["id"] == 3 for r in replies(controller)))
+    assert "from 0 to the current 40" in next(r for r in replies(controller) if r["id"] == 3)["error"]
+
+
+def test_commands_that_make_no_sense_are_answered_not_obeyed(lap: Any) -> None:
+    controller, _ = lap
+    commands: list[tuple[str, dict[str, Any]]] = [
+        ("step", {"n": 0}), ("speed", {"x": -1}), ("rewind", {"tick": 5}), ("unbreak", {"id": 9}), ("fly", {}),
+        ("input", {"input": {"kind": "finish", "path": "lap2"}})]
+    for number, (name, args) in enumerate(commands):
+        controller.send(name, args, number)
+    wait(controller, lambda s: len(replies(controller)) >= 6)
+    answers = {r["id"]: r for r in replies(controller)}
+    assert all(not answers[n]["ok"] for n in range(6)), answers
+    assert "not active" in answers[5]["error"]
+    assert controller.snapshot["tick"] == 0
+
+
+def test_the_pace_follows_real_time() -> None:
+    session, _ = sorter_run()
+    controller = Controller(session, speed=4.0)
+    thread = threading.Thread(target=controller.loop, daemon=True)
+    t0 = time.monotonic()
+    thread.start()
+    wait(controller, lambda s: s["tick"] >= 80)
+    elapsed = time.monotonic() - t0
+    controller.send("stop")
+    thread.join(5)
+    assert 0.2 <= elapsed < 1.0  # 1 s of machine time at 4x real time

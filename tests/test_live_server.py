@@ -1,0 +1,150 @@
+"""``fsmctl run --live``'s server and command line (issue 24, "Security and bad input"): the token on every request,
+nothing served but the page, a foreign page's WebSocket refused, a port in use, options that do not go together,
+Ctrl-C and the page's Stop keeping the trace and the outputs."""
+
+from __future__ import annotations
+
+import asyncio
+import http.client
+import json
+import socket
+from pathlib import Path
+from typing import Any
+from urllib.parse import urlsplit
+
+import pytest
+from helpers import cli
+from live_helpers import COUNTER, REPO, Live
+
+from fsm.replay import read_trace
+
+pytest.importorskip("aiohttp")
+
+
+@pytest.fixture
+def counter(tmp_path: Path) -> Path:
+    path = tmp_path / "counter.json"
+    path.write_text(COUNTER)
+    return path
+
+
+def get(live: Live, path: str, method: str = "GET") -> tuple[int, str, dict[str, str]]:
+    where = urlsplit(live.base)
+    conn = http.client.HTTPConnection(where.hostname or "", where.port, timeout=10)
+    conn.request(method, path)
+    response = conn.getresponse()
+    body = response.read().decode("utf-8", "replace")
+    return response.status, body, dict(response.getheaders())
+
+
+async def socket_talk(url: str, commands: list[dict[str, Any]], headers: dict[str, str] | None = None,
+                      until: Any = None) -> list[Any]:
+    import aiohttp
+
+    got: list[Any] = []
+    async with aiohttp.ClientSession() as session:
+        async with session.ws_connect(url, headers=headers or {}) as ws:
+            for command in commands:
+                await ws.send_str(json.dumps(command))
+            async for msg in ws:
+                got.append(msg.data if msg.type == aiohttp.WSMsgType.TEXT else bytes(msg.data))
+                if until is not None and until(got):
+                    break
+    return got
+
+
+def test_the_page_needs_its_token_and_nothing_else_is_served(counter: Path, tmp_path: Path) -> None:
+    live = Live(str(counter), "--paused")
+    try:
+        status, body, headers = get(live, f"/?token={live.token}")
+        assert status == 200 and "connect-src 'self'" in body and "<img src=x onerror" not in body
+        assert headers["X-Content-Type-Options"] == "nosniff" and headers["Cache-Control"] == "no-store"
+        for path in ("/", "/?token=", "/?token=x" + live.token, "/ws", "/../../etc/passwd"):
+            assert get(live, path)[0] == 403, path
+        for path in ("/../../etc/passwd", "/%2e%2e/%2e%2e/etc/passwd", "/assets/../pyproject.toml", "//etc/passwd",
+                     "/fsm/session.py", "/report.js", "/..%2f..%2fpyproject.toml", "/index.html"):
+            status, body, _ = get(live, f"{path}?token={live.token}")
+            assert status in (403, 404), path
+            assert "tral" not in body and "root:" not in body, path
+        assert get(live, f"/?token={live.token}", "POST")[0] == 405
+        ws = live.base.replace("http", "ws") + "/ws"
+        import aiohttp
+
+        for url, headers_ in ((ws, None), (f"{ws}?token={live.token}", {"Origin": "http://evil.example"})):
+            with pytest.raises(aiohttp.WSServerHandshakeError) as info:
+                asyncio.run(socket_talk(url, [], headers_))
+            assert info.value.status == 403
+    finally:
+        live.close()
+
+
+def test_the_stream_is_the_trace_and_stop_writes_the_outputs(counter: Path, tmp_path: Path) -> None:
+    trace, summary = tmp_path / "t.jsonl", tmp_path / "s.json"
+    live = Live(str(counter), "--paused", "--trace", str(trace), "--summary", str(summary))
+    try:
+        url = live.base.replace("http", "ws") + f"/ws?token={live.token}"
+        got = asyncio.run(socket_talk(url, [{"cmd": "step", "id": 1, "n": 5}, {"cmd": "fly", "id": 2}],
+                                      until=lambda g: any('"tick": 5' in m and '"paused"' in m for m in g
+                                                          if isinstance(m, str))))
+        got += asyncio.run(socket_talk(url, [{"cmd": "input", "id": 3, "input": {"kind": "set", "values": {"n": 60}}},
+                                             {"cmd": "step", "id": 4, "n": 3}, "not json"],  # type: ignore[list-item]
+                                       until=lambda g: all(any(f'"id": {k}' in m for m in g if isinstance(m, str))
+                                                           for k in (4, "null"))))
+        texts = [json.loads(m) for m in got if isinstance(m, str)]
+        assert texts[0] == {"kind": "hello", "live": True}
+        header = json.loads(next(m for m in got if isinstance(m, bytes)).decode().splitlines()[0])
+        assert header["type"] == "header" and header["name"] == "counter"
+        answers = {t["id"]: t for t in texts if t["kind"] == "reply"}
+        assert answers[1]["ok"] and not answers[2]["ok"] and "unknown command" in answers[2]["error"]
+        assert not answers[None]["ok"] and "a command is a JSON object" in answers[None]["error"]
+        assert answers[4]["ok"]  # taken at the same tick boundary as the input, before the run ended
+        assert answers[3] == {"kind": "reply", "id": 3, "command": "input", "ok": True, "tick": 6, "text": "set n = 60"}
+        asyncio.run(socket_talk(url, [{"cmd": "stop"}]))
+        code, out, err = live.wait()
+    finally:
+        live.close()
+    assert code == 0, err
+    assert "outcome over after 6 ticks" in out  # the injection made the run take the other way
+    read = read_trace(trace)
+    assert read.end is not None and read.end["outcome"] == "over"
+    assert [(i["tick"], i["text"]) for i in read.inputs] == [(6, "set n = 60")]
+    assert json.loads(summary.read_text())["outcome"] == "over"
+
+
+def test_ctrl_c_ends_the_server_and_keeps_the_trace(counter: Path, tmp_path: Path) -> None:
+    trace = tmp_path / "t.jsonl"
+    live = Live(str(counter), "--trace", str(trace), "--speed", "max")
+    try:
+        code, out, _err = live.interrupt()
+    finally:
+        live.close()
+    assert code == 130
+    assert read_trace(trace).end["interrupted"] is True  # type: ignore[index]
+
+
+def test_a_port_in_use_is_one_message_naming_it(counter: Path, tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        code, _out, err = cli(capsys, "run", str(counter), "--live", "--port", str(port), "--trace",
+                              str(tmp_path / "t.jsonl"))
+    assert code == 1
+    assert err.strip() == (f"fsmctl: error: --port {port}: port {port} on 127.0.0.1 is in use (another program "
+                                "listens there); choose another with --port N, or --port 0 for any free one")
+    assert not (tmp_path / "t.jsonl").exists()
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--live", "--host", "0.0.0.0", "--no-token"], "needs its token"),
+    (["--port", "9000"], "--port is an option of the live debugger: add --live"),
+    (["--live", "--video", "v.mp4"], "--video cannot be combined with --live"),
+    (["--live", "--trace", "-"], "name a file for --trace"),
+    (["--live", "--speed", "0"], "a speed is 0.01 to 10000"),
+    (["--live", "--port", "70000"], "a port is 0 to 65535"),
+])
+def test_options_that_do_not_go_together_are_usage_errors(args: list[str], words: str,
+                                                          capsys: pytest.CaptureFixture[str]) -> None:
+    code, _out, err = cli(capsys, "run", str(REPO / "diagrams" / "hallway_lap.json"), *args)
+    assert code == 2 and words in err

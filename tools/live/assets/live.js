@@ -1,0 +1,210 @@
+/* tral-fsm live: the stream (the trace's lines, and the run's status) from the server's WebSocket into the report's
+   front end, and the controls that steer the run. Every string from the run goes through textContent. */
+(function () {
+  "use strict";
+  var $ = function (id) { return document.getElementById(id); };
+  var R = window.tralReport, model = new window.TraceModel(JSON.parse($("base").textContent));
+  var token = new URLSearchParams(location.search).get("token") || "";
+  var decoder = new TextDecoder("utf-8");
+  var ws = null, status = null, nextId = 1, pending = {}, dirty = false, drawing = false, lastDraw = 0, cost = 0;
+  var live = true, followEnd = null;
+
+  // -- drawing: the model rebuilt from the lines so far, at most about 30 times a second ---------------------------
+  function schedule() {
+    if (drawing) return;
+    drawing = true;
+    var wait = Math.max(0, Math.max(33, 3 * cost) - (performance.now() - lastDraw));
+    setTimeout(function () { requestAnimationFrame(draw); }, wait);
+  }
+  function draw() {
+    drawing = false;
+    if (!dirty) return;
+    dirty = false;
+    var t0 = performance.now(), dt = R.dt || 0.0125;
+    var atEnd = followEnd === null || Math.abs(R.cursor() - followEnd) < dt / 2;  // the cursor follows the run
+    R.load(model.build(), atEnd);
+    if (atEnd) followEnd = R.end();
+    showInputs();
+    lastDraw = performance.now();
+    cost = lastDraw - t0;
+    document.body.dataset.drawn = String((document.body.dataset.drawn | 0) + 1);
+    document.body.dataset.tick = String(R.current().tick);
+  }
+
+  // -- the stream ---------------------------------------------------------------------------------------------------
+  function connect() {
+    var url = (location.protocol === "https:" ? "wss://" : "ws://") + location.host + "/ws" +
+      (token ? "?token=" + encodeURIComponent(token) : "");
+    ws = new WebSocket(url);
+    ws.binaryType = "arraybuffer";
+    ws.onopen = function () { $("conn").textContent = "connected"; $("conn").className = "conn up"; };
+    ws.onclose = function () {
+      $("conn").textContent = "disconnected"; $("conn").className = "conn down";
+      setControls(false);
+      notice("The server has ended (the run was stopped); what was received stays on this page.");
+    };
+    ws.onmessage = function (ev) {
+      if (typeof ev.data !== "string") {
+        model.addText(decoder.decode(ev.data));
+        if (status) raise(status);
+        dirty = true; schedule();
+        return;
+      }
+      var m = JSON.parse(ev.data);
+      if (m.kind === "hello") { live = m.live; if (!live) { setControls(false); $("live-bar").classList.add("static"); } }
+      else if (m.kind === "reset") { model.reset(); status = null; followEnd = null; dirty = true; }
+      else if (m.kind === "status") { status = m; raise(m); showStatus(); dirty = true; schedule(); }
+      else if (m.kind === "reply") { var done = pending[m.id]; delete pending[m.id]; if (done) done(m); else if (!m.ok) notice(m.error); }
+      else if (m.kind === "rewound") notice("Rewound to tick " + m.tick + (m.dropped ? "; " + m.dropped + " later input(s) dropped" : "") + ".");
+    };
+  }
+  function raise(st) {  // the run is at this tick, even if no line of it was written (nothing happened)
+    var dt = (model.header && model.header.dt) || 0.0125;
+    if (st.tick >= model.lastTick) { model.lastTick = st.tick; model.lastTime = Math.max(model.lastTime, Math.round(st.tick * dt * 1e9) / 1e9); }
+  }
+  function send(cmd, args, done) {
+    if (!ws || ws.readyState !== 1) return;
+    var id = nextId++;
+    if (done) pending[id] = done;
+    var msg = { cmd: cmd, id: id };
+    for (var k in args || {}) msg[k] = args[k];
+    ws.send(JSON.stringify(msg));
+  }
+  function notice(text) { var n = $("notice"); n.hidden = !text; n.textContent = text || ""; }
+
+  // -- status ---------------------------------------------------------------------------------------------------------
+  function showStatus() {
+    var st = status, el = $("run-state");
+    el.className = st.state;
+    var text = st.state;
+    if (st.state === "ended") text += ": " + (st.ended === "finished" ? "finished with " + st.outcome : st.ended) + (st.error ? " (" + st.error + ")" : "");
+    el.textContent = text;
+    var tick = $("run-tick");
+    tick.textContent = "tick " + st.tick + " (" + st.time.toFixed(3) + " s)" + (st.active.length ? "  " + st.active.join(", ") : "");
+    tick.dataset.tick = st.tick; tick.dataset.state = st.state;
+    var hit = $("hit");
+    hit.hidden = !st.hit;
+    if (st.hit) hit.textContent = (st.hit.breakpoint !== null ? "Breakpoint " + st.hit.breakpoint + " (" + st.hit.text + "): " : st.hit.text + ": ") +
+      st.hit.why + " at tick " + st.hit.tick + " (" + st.hit.time.toFixed(3) + " s)";
+    var sp = $("run-speed"), want = st.speed === null ? "max" : String(st.speed);
+    if (document.activeElement !== sp) {
+      if (!Array.prototype.some.call(sp.options, function (o) { return o.value === want; })) {
+        var o = document.createElement("option"); o.value = want; o.textContent = want + "\u00d7"; sp.appendChild(o);
+      }
+      sp.value = want;
+    }
+    $("run-pause").disabled = st.state !== "running";
+    $("run-resume").disabled = st.state !== "paused";
+    ["run-step", "run-step-n", "run-step-tr"].forEach(function (id) { $(id).disabled = st.state === "ended"; });
+    $("run-rewind").disabled = !st.can_rewind;
+    showBreakpoints(st.breakpoints);
+  }
+  function showBreakpoints(list) {
+    var body = $("breaks").tBodies[0];
+    body.textContent = "";
+    list.forEach(function (bp) {
+      var row = body.insertRow();
+      row.dataset.id = bp.id;
+      if (!bp.enabled) row.className = "off";
+      row.insertCell().textContent = bp.id;
+      row.insertCell().textContent = bp.text + (bp.error ? " — " + bp.error : "");
+      var hits = row.insertCell(); hits.className = "hits"; hits.textContent = bp.hits + " hit" + (bp.hits === 1 ? "" : "s");
+      var b = document.createElement("button"); b.type = "button"; b.textContent = "remove";
+      b.addEventListener("click", function () { send("unbreak", { id: bp.id }); });
+      row.insertCell().appendChild(b);
+    });
+  }
+  function showInputs() {
+    var body = $("inputs").tBodies[0];
+    body.textContent = "";
+    model.inputs.slice(-50).forEach(function (line) {
+      var row = body.insertRow();
+      row.insertCell().textContent = line.tick;
+      row.insertCell().textContent = line.text || line.input.kind;
+    });
+  }
+  function setControls(on) {
+    Array.prototype.forEach.call(document.querySelectorAll("#live-bar button, #live-bar select, #live-bar input, #break-form *, #inject-form *"),
+      function (el) { el.disabled = !on; });
+  }
+
+  // -- controls ---------------------------------------------------------------------------------------------------
+  $("run-pause").addEventListener("click", function () { send("pause"); });
+  $("run-resume").addEventListener("click", function () { send("resume"); });
+  $("run-step").addEventListener("click", function () { send("step", { n: 1 }); });
+  $("run-step-n").addEventListener("click", function () { send("step", { n: parseInt($("step-n").value, 10) }, reply); });
+  $("run-step-tr").addEventListener("click", function () { send("step_transition"); });
+  $("run-speed").addEventListener("change", function () { var v = this.value; send("speed", { x: v === "max" ? null : parseFloat(v) }, reply); });
+  $("run-stop").addEventListener("click", function () { send("stop"); });
+  $("run-rewind").addEventListener("click", function () { send("rewind", { tick: R.current().tick }, reply); });
+  function reply(m) { if (!m.ok) notice(m.error); }
+
+  var BREAK_HINTS = {
+    enter: ["state path or glob, e.g. lap1/*", null], leave: ["state path or glob", null],
+    transition: ["from (glob)", "to (glob)"], monitor: ["owner (glob)", "monitor (glob)"],
+    exception: ["owner (glob)", null], timeout: ["owner (glob)", null],
+    expr: ["expression, e.g. car_front < 0.5 or n > 3", null]
+  };
+  function breakHints() {
+    var h = BREAK_HINTS[$("break-kind").value];
+    $("break-a").placeholder = h[0]; $("break-a").size = $("break-kind").value === "expr" ? 36 : 22;
+    $("break-b").hidden = !h[1]; if (h[1]) $("break-b").placeholder = h[1];
+  }
+  $("break-kind").addEventListener("change", breakHints);
+  breakHints();
+  $("break-form").addEventListener("submit", function (ev) {
+    ev.preventDefault();
+    var kind = $("break-kind").value, a = $("break-a").value.trim(), b = $("break-b").value.trim(), spec = { kind: kind };
+    if (kind === "enter" || kind === "leave") spec.state = a || "*";
+    else if (kind === "transition") { spec.from = a || "*"; spec.to = b || "*"; }
+    else if (kind === "monitor") { spec.owner = a || "*"; spec.monitor = b || "*"; }
+    else if (kind === "exception" || kind === "timeout") spec.owner = a || "*";
+    else spec.expr = $("break-a").value;
+    send("break", { spec: spec }, function (m) {
+      var box = $("break-error");
+      box.hidden = m.ok;
+      if (m.ok) { $("break-a").value = ""; $("break-b").value = ""; return; }
+      box.textContent = m.column ? spec.expr + "\n" + " ".repeat(m.column - 1) + "^ " + m.error + " (column " + m.column + ")" : m.error;
+      box.dataset.column = m.column || "";
+    });
+  });
+
+  var INJECT_HINTS = {
+    set: ["variable", "value"], signal: ["signal", "1 or 0"], force: ["left/right/front/distance/speed", "value", "ticks"],
+    monitor: ["owner state", "monitor label"], finish: ["state path", "outcome (succeeded)"], pause: ["state path ('' = machine)"],
+    resume: ["state path ('' = machine)"]
+  };
+  function injectHints() {
+    var h = INJECT_HINTS[$("inject-kind").value];
+    ["inject-a", "inject-b", "inject-c"].forEach(function (id, i) { $(id).hidden = !h[i]; if (h[i]) $(id).placeholder = h[i]; });
+  }
+  $("inject-kind").addEventListener("change", injectHints);
+  injectHints();
+  function value(text) {
+    var t = text.trim();
+    if (t === "true") return true;
+    if (t === "false") return false;
+    if (t !== "" && isFinite(Number(t))) return Number(t);
+    return text;
+  }
+  $("inject-form").addEventListener("submit", function (ev) {
+    ev.preventDefault();
+    var kind = $("inject-kind").value, a = $("inject-a").value.trim(), b = $("inject-b").value, c = $("inject-c").value, input;
+    if (kind === "set") { input = { kind: "set", values: {} }; input.values[a] = value(b); }
+    else if (kind === "signal") input = { kind: "signal", name: a, value: !/^(0|false|low|off)$/i.test(b.trim()) };
+    else if (kind === "force") input = { kind: "force", sensor: a, value: Number(b), ticks: parseInt(c, 10) };
+    else if (kind === "monitor") input = { kind: "monitor", owner: a, monitor: b.trim() };
+    else if (kind === "finish") input = { kind: "finish", path: a, outcome: b.trim() || "succeeded" };
+    else input = { kind: "pause", path: a, paused: kind === "pause" };
+    send("input", { input: input }, function (m) {
+      var box = $("inject-error");
+      box.hidden = m.ok;
+      box.textContent = m.ok ? "" : m.error;
+    });
+  });
+
+  // for tests and the console
+  window.tralLive = { model: model, status: function () { return status; }, send: send,
+                      drawn: function () { return document.body.dataset.drawn | 0; } };
+  connect();
+})();

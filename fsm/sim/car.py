@@ -261,6 +261,11 @@ class SimCar:
         """The latest camera detections (``None`` when the car has no camera)."""
         return self._view
 
+    def camera_frame(self) -> Any:
+        """The latest rendered camera frame (BGR, not annotated), or ``None`` (no camera, or no marker was in view:
+        nothing rendered). For publishing the camera as a ROS 2 robot (:mod:`fsm.ros.robot`)."""
+        return self._frame
+
     def camera_image(self) -> Any:
         """The latest rendered frame annotated with what was detected (BGR), or ``None`` (no camera, or no marker
         was in view: nothing rendered). For the video."""

@@ -92,6 +92,14 @@ def register(sub: argparse._SubParsersAction) -> None:
                      help="video frames per second (1 to 240, default 25)")
     car.add_argument("--plot", metavar="OUT.png",
                      help="write a PNG of the trajectory coloured by active state ('-' for standard output)")
+    ros = p.add_argument_group("a car on ROS 2 topics (the ros2 extra; docs/ros.md)")
+    ros.add_argument("--ros", metavar="PROFILE.json",
+                     help="drive the car the I/O profile binds to ROS 2 topics, over Zenoh, on the wall clock at the "
+                          "profile's rate (a real car, or `fsmctl sim --ros` in another process)")
+    ros.add_argument("--bag", metavar="DIR", help="with --ros: also record the run as rosbag2 (MCAP) in the new folder DIR")
+    from ..ros.common import add_endpoint_options
+
+    add_endpoint_options(p)
     bar = car.add_mutually_exclusive_group()
     bar.add_argument("--progress", dest="progress", action="store_true", default=None,
                      help="show a progress bar (default: only when standard error is a terminal)")
@@ -141,6 +149,9 @@ def parse_vars(texts: list[str]) -> dict[str, Any]:
 
 
 def _check_usage(args: argparse.Namespace) -> None:
+    from ..ros.run import check_usage
+
+    check_usage(args)
     if not _suffix_ok(args.plot, (".png",)):
         raise UsageError(f"--plot {args.plot}: the plot is a PNG; name it with the suffix .png")
     if not _suffix_ok(args.video, VIDEO_SUFFIXES):
@@ -223,6 +234,15 @@ def cmd_run(args: argparse.Namespace) -> int:
     args.initial_vars = parse_vars(args.variables)
     for warning in signal_warnings(args.signal, spec, file, duration, max_ticks, dt):
         print(printable(f"fsmctl run: warning: {warning}"), file=sys.stderr)
+
+    if args.ros:
+        from ..ros.run import run_ros
+
+        args.pre = pre
+        try:
+            return run_ros(args, spec, file, outputs, trace_out, summary_out, report_out, duration, max_ticks)
+        finally:
+            outputs.discard()
 
     from fsm.sim.world import default_world
 

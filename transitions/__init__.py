@@ -6,7 +6,8 @@ from .car import Distance, PassPoint, SensorLevel
 from .conditions import ConditionTransition
 from .generic import Always, Finished, Timeout
 from .inputs import InState, Signal, Var
+from .topics import TopicQuiet
 from .vision import ArucoGateFound, ArucoMarkerFound, ArucoMarkerUnpaired
 
 __all__ = ["Always", "ArucoGateFound", "ArucoMarkerFound", "ArucoMarkerUnpaired", "ConditionTransition", "Distance",
-           "Finished", "InState", "PassPoint", "SensorLevel", "Signal", "Timeout", "Var"]
+           "Finished", "InState", "PassPoint", "SensorLevel", "Signal", "Timeout", "TopicQuiet", "Var"]

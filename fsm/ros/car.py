@@ -194,8 +194,11 @@ class RosCar:
 
     # -- silence ----------------------------------------------------------------------------------------------
     def input_time(self, name: str) -> float | None:
-        """Machine time at which input ``name`` was last latched (None: never, or it is not bound)."""
-        return self._times.get(name)
+        """Machine time at which input ``name`` was last latched: 0 when it never was (silence counts from the
+        start), None when the profile does not bind it."""
+        if name not in self.slots:
+            return None
+        return self._times.get(name, 0.0)
 
     def silent_inputs(self, now: float) -> list[str]:
         """The inputs silent longer than the profile allows at machine time ``now`` (never heard counts from 0)."""

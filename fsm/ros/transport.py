@@ -20,6 +20,9 @@ from fsm.errors import FsmError
 
 from .profile import Binding, Profile, normalise_type
 
+#: How often an endpoint that did not answer is tried again (ms).
+RETRY = {"period_init_ms": 100, "period_max_ms": 500, "period_increase_factor": 1.5}
+
 
 class PeerTimeout(FsmError):
     """No robot (or simulator) answered on the profile's endpoints in time."""
@@ -110,6 +113,8 @@ class Link:
         conf.insert_json5("scouting/multicast/enabled", json.dumps(t.multicast))
         conf.insert_json5("connect/endpoints", json.dumps(self.connect))
         conf.insert_json5("listen/endpoints", json.dumps(self.listen))
+        # a robot that comes up after us is found within a fraction of a second (Zenoh's default waits seconds)
+        conf.insert_json5("connect/retry", json.dumps(RETRY))
         return conf
 
     def open(self) -> Link:

@@ -92,6 +92,9 @@ def _drive(args: argparse.Namespace, session: Any, profile: Any, file: str, outp
     with interrupts:
         try:
             driver.prime()
+            if not args.quiet:
+                print(printable(f"fsmctl run: {driver.profile.name} answered ({driver.link.describe()}); driving"),
+                      file=sys.stderr, flush=True)
             if not interrupts.stop():
                 session.run(stop=interrupts.stop)
         except StateRuntimeError as exc:

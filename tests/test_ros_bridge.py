@@ -209,3 +209,34 @@ def test_ctrl_c_sends_the_stop_first_then_writes_the_outputs_and_exits_130(tmp_p
                 for t, typ, ns, raw in read_bag(tmp_path / "bag") if t == "/tral/cmd"]
     assert commands[-1] == 0.0 and max(commands) == pytest.approx(0.3)
     assert sim_code == 130, sim_err
+
+
+def test_replay_of_the_recorded_lap_decides_the_same_at_every_tick(lap: dict[str, Any]) -> None:
+    folder = lap["folder"]
+    code, out, err = finish(start("replay", str(folder / "bag"), "--machine", str(LAP), "--profile", str(PROFILE),
+                                  "--summary", str(folder / "replay.json"), "--trace", str(folder / "replay.jsonl"),
+                                  "--expect-same"))
+    assert code == 0, err
+    summary = json.loads((folder / "replay.json").read_text())
+    run = json.loads((folder / "run.json").read_text())
+    assert summary["replay"]["divergence"] is None
+    assert summary["replay"]["compared"] == summary["replay"]["ticks"] == run["ticks"] + 1  # tick 0 too
+    assert summary["outcome"] == "succeeded" and summary["ticks"] == run["ticks"]
+    assert f"the same decisions as the recorded drive at all {run['ticks'] + 1} ticks compared" in out
+
+
+def test_replay_with_a_changed_machine_names_the_first_divergence(lap: dict[str, Any]) -> None:
+    from fsm.replay import read_trace
+
+    folder = lap["folder"]
+    code, out, err = finish(start("replay", str(folder / "bag"), "--machine", str(LAP), "--profile", str(PROFILE),
+                                  "--set", "right_slow.speed=0.3", "--summary", str(folder / "changed.json"),
+                                  "--expect-same"))
+    assert code == 1, err
+    trace = read_trace(folder / "trace.jsonl")
+    entered = next(e["tick"] for e in trace.events if "right_slow" in json.dumps(e.get("active")))
+    divergence = json.loads((folder / "changed.json").read_text())["replay"]["divergence"]
+    assert divergence["tick"] == entered
+    assert divergence["recorded"]["active"] == divergence["replayed"]["active"] == "right_slow"
+    assert divergence["replayed"]["speed"] == pytest.approx(0.3)
+    assert f"first divergence at tick {entered} (" in out

@@ -22,7 +22,7 @@ from fsm.machine import Listener
 from . import messages as M
 from .car import Log, RosCar
 from .profile import Profile
-from .transport import Link, PeerTimeout
+from .transport import Link, PeerTimeout, Publisher
 
 if TYPE_CHECKING:
     from fsm.context import Context
@@ -69,8 +69,8 @@ class _Watch(Listener):
 class RosDriver:
     """The session's driver for a car on ROS 2 topics (see the module's docstring)."""
 
-    def __init__(self, profile: Profile, link: Link, *, lockstep: bool = False, bag: BagRecorder | None = None,
-                 log: Log | None = None) -> None:
+    def __init__(self, profile: Profile, link: Link | None, *, lockstep: bool = False,
+                 bag: BagRecorder | None = None, log: Log | None = None) -> None:
         self.profile = profile
         self.link = link
         self.lockstep = lockstep
@@ -80,17 +80,23 @@ class RosDriver:
         self.session: Session | None = None
         self.machine: Machine | None = None
         self._watch = _Watch()
-        self._command = link.publisher(profile.outputs.command)
         status = profile.outputs.status
-        self._status = link.publisher(status) if status is not None else None
         self._status_every = 1.0 / status.rate if status is not None else 0.0
         self._next_status = 0.0
-        for name, binding in profile.inputs_bound().items():
-            link.subscribe(binding, self.car.subscriber(name))
+        #: what was published, (machine time, CDR bytes), kept without a link (replay)
+        self.sent: list[tuple[float, bytes]] = []
+        self.statuses: list[tuple[float, dict[str, Any]]] = []
         self._clock = -1.0
         self._clock_cond = threading.Condition()
-        if lockstep:  # subscribed last: once the simulator sees it, it sees the inputs' subscriptions too
-            link.subscribe(profile.clock, self._on_clock)
+        self._command: Publisher | None = None
+        self._status: Publisher | None = None
+        if link is not None:
+            self._command = link.publisher(profile.outputs.command)
+            self._status = link.publisher(status) if status is not None else None
+            for name, binding in profile.inputs_bound().items():
+                link.subscribe(binding, self.car.subscriber(name))
+            if lockstep:  # subscribed last: once the simulator sees it, it sees the inputs' subscriptions too
+                link.subscribe(profile.clock, self._on_clock)
         self.clock_lost = False
         #: the inputs silent now, and since when (machine time)
         self.silent: list[str] = []
@@ -131,17 +137,19 @@ class RosDriver:
         endpoints when nothing comes within the profile's ``peer_timeout``."""
         timeout = self.profile.transport.peer_timeout if timeout is None else timeout
         end = time.monotonic() + timeout
-        self.link.wait_for_peer(timeout)
+        link = self.link
+        assert link is not None
+        link.wait_for_peer(timeout)
         if self.lockstep and not self._wait_clock(0.0, max(0.0, end - time.monotonic())):
             raise PeerTimeout(f"no clock on {self.profile.clock.topic} within {timeout:g} s "
-                              f"({self.link.describe()}): is `fsmctl sim --ros ... --lockstep` running there?")
+                              f"({link.describe()}): is `fsmctl sim --ros ... --lockstep` running there?")
         while True:
             missing = [name for name, n in self.car.received().items() if n == 0 and name != "camera"]
             if not missing:
                 break
             if time.monotonic() >= end:
                 topics = ", ".join(self.profile.inputs_bound()[m].topic for m in missing)
-                raise PeerTimeout(f"a peer answered ({self.link.describe()}) but nothing came on {topics} "
+                raise PeerTimeout(f"a peer answered ({link.describe()}) but nothing came on {topics} "
                                   f"within {timeout:g} s: check the topic names and types in the profile")
             time.sleep(0.005)
         self._latch(0.0)
@@ -184,7 +192,7 @@ class RosDriver:
         held = "silence" if silent else "pause" if self._watch.paused else "stopped" if car.stopped else None
         self.held_by = held
         self._publish_command(now, 0.0 if held else car.speed_command)
-        if self._status is not None and (self._watch.changed or now + EPS >= self._next_status):
+        if self.profile.outputs.status is not None and (self._watch.changed or now + EPS >= self._next_status):
             self._publish_status(machine, now)
 
     def _publish_command(self, now: float, speed: float) -> None:
@@ -192,7 +200,10 @@ class RosDriver:
         angle = car.steering * car.max_steering_angle
         message = M.command_message(self.profile.outputs.command.type, now, speed, angle, car.wheelbase)
         raw = M.encode(message)
-        self._command.put(raw)
+        if self._command is not None:
+            self._command.put(raw)
+        else:
+            self.sent.append((now, raw))
         self.commands += 1
         if speed == 0.0:
             self.zero_commands += 1
@@ -209,9 +220,12 @@ class RosDriver:
                             "steering": self.car.steering}}
 
     def _publish_status(self, machine: Machine, now: float) -> None:
-        assert self._status is not None
-        raw = M.encode(M.status_message(json.dumps(self.status(machine, now), separators=(",", ":"))))
-        self._status.put(raw)
+        status = self.status(machine, now)
+        raw = M.encode(M.status_message(json.dumps(status, separators=(",", ":"))))
+        if self._status is not None:
+            self._status.put(raw)
+        else:
+            self.statuses.append((now, status))
         self._watch.changed = False
         self._next_status = now + self._status_every
         if self.bag is not None:

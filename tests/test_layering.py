@@ -38,7 +38,7 @@ def core_modules() -> list[str]:
     fsm/vision/."""
     names = ["fsm"]
     for info in pkgutil.walk_packages([str(CORE_DIR)], prefix="fsm.", onerror=lambda name: None):
-        if any(info.name == p or info.name.startswith(p + ".") for p in ("fsm.sim", "fsm.vision")):
+        if any(info.name == p or info.name.startswith(p + ".") for p in ("fsm.sim", "fsm.vision", "fsm.ros")):
             continue
         names.append(info.name)
     return sorted(names)
@@ -65,7 +65,7 @@ def test_core_modules_are_found() -> None:
     for name in ("fsm", "fsm.loader", "fsm.machine", "fsm.document", "fsm.registry", "fsm.jsonpos", "fsm.errors",
                  "fsm.schema"):
         assert name in modules
-    assert not any(m.startswith(("fsm.sim", "fsm.vision")) for m in modules)
+    assert not any(m.startswith(("fsm.sim", "fsm.vision", "fsm.ros")) for m in modules)
 
 
 def test_no_core_module_imports_the_car_umlet_or_tools() -> None:
@@ -145,7 +145,7 @@ def test_core_source_names_no_tools_or_car_module() -> None:
     pattern = re.compile(
         r"(import_module\(\s*['\"]|^\s*(from|import)\s+)(fsm\.tools|fsm\.sim|fsm\.vision|cv2|pymunk|lxml)\b", re.M)
     offenders = [str(p.relative_to(core)) for p in core.rglob("*.py")
-                 if not {"sim", "vision"} & set(p.relative_to(core).parts[:1])
+                 if not {"sim", "vision", "ros"} & set(p.relative_to(core).parts[:1])
                  and pattern.search(p.read_text(encoding="utf-8"))]
     assert offenders == []
 
@@ -182,6 +182,27 @@ def test_vision_source_names_no_simulator() -> None:
 def test_the_vision_probe_detects_a_forbidden_import() -> None:
     script = PROBE_TEMPLATE.format(forbidden=VISION_FORBIDDEN)
     assert "fsm.sim" in probe(["fsm.sim.camera"], script)["fsm.sim.camera"]
+
+
+# -- fsm/ros/: the car over ROS 2 ------------------------------------------------------------------------------
+
+
+#: What the ROS 2 layer must not import: the tools, UMLet; pymunk only in fsm.ros.robot (the simulated robot).
+ROS_FORBIDDEN = ("lxml", "fsm.tools", "pymunk", "fsm.sim.car", "fsm.sim.loop")
+
+
+def test_ros_layer_imports_neither_the_tools_nor_the_simulator_but_in_its_robot() -> None:
+    folder = CORE_DIR / "ros"
+    modules = ["fsm.ros"] + sorted(info.name for info in pkgutil.walk_packages([str(folder)], prefix="fsm.ros.",
+                                                                               onerror=lambda name: None))
+    assert {"fsm.ros.profile", "fsm.ros.car", "fsm.ros.driver", "fsm.ros.robot"} <= set(modules)
+    results = probe([m for m in modules if m != "fsm.ros.robot"], PROBE_TEMPLATE.format(forbidden=ROS_FORBIDDEN))
+    offenders = {m: r for m, r in results.items() if r}
+    assert not offenders, "fsm.ros modules importing what they must not:\n" + "\n".join(
+        f"  {m}: {r}" for m, r in sorted(offenders.items()))
+    # and the profile needs neither rosbags nor Zenoh: checking one works without the extra
+    light = probe(["fsm.ros.profile"], PROBE_TEMPLATE.format(forbidden=("rosbags", "zenoh", "cv2", "numpy")))
+    assert light["fsm.ros.profile"] == []
 
 
 # -- tools/: one subpackage per concern ------------------------------------------------------------------------

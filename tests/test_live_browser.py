@@ -16,11 +16,11 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from live_helpers import COUNTER, REPO, Live
 
 from fsm.inputs import recorded_inputs
 from fsm.replay import read_trace
 from fsm.session import Session
+from live_helpers import COUNTER, REPO, Live
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 LAP = str(REPO / "diagrams" / "hallway_lap.json")

@@ -13,10 +13,10 @@ from typing import Any
 from urllib.parse import urlsplit
 
 import pytest
-from helpers import cli
-from live_helpers import COUNTER, REPO, Live
 
 from fsm.replay import read_trace
+from helpers import cli
+from live_helpers import COUNTER, REPO, Live
 
 pytest.importorskip("aiohttp")
 

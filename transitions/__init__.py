@@ -7,6 +7,7 @@ from .conditions import ConditionTransition
 from .generic import Always, Finished, Timeout
 from .inputs import InState, Signal, Var
 from .markers import ArucoGateFound, ArucoMarkerFound, ArucoMarkerUnpaired
+from .topics import TopicQuiet
 
 __all__ = ["Always", "ArucoGateFound", "ArucoMarkerFound", "ArucoMarkerUnpaired", "ConditionTransition", "Distance",
-           "Finished", "InState", "PassPoint", "SensorLevel", "Signal", "Timeout", "Var"]
+           "Finished", "InState", "PassPoint", "SensorLevel", "Signal", "Timeout", "TopicQuiet", "Var"]

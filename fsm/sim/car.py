@@ -263,7 +263,7 @@ class SimCar:
 
     def camera_frame(self) -> Any:
         """The latest rendered camera frame as the detector saw it (grey, not annotated), or ``None`` (no camera, or
-        no marker was in view: nothing rendered). For the trace's thumbnails."""
+        no marker was in view: nothing rendered). For the trace's thumbnails and the camera of a ROS 2 robot."""
         return self._frame
 
     def camera_image(self) -> Any:

@@ -94,6 +94,15 @@ def register(sub: Subcommands) -> None:
                      help="video frames per second (1 to 240, default 25)")
     car.add_argument("--plot", metavar="OUT.png",
                      help="write a PNG of the trajectory coloured by active state ('-' for standard output)")
+    ros = p.add_argument_group("a car on ROS 2 topics (the ros2 extra; docs/ros.md)")
+    ros.add_argument("--ros", metavar="PROFILE.json",
+                     help="drive the car the I/O profile binds to ROS 2 topics, over Zenoh, on the wall clock at the "
+                          "profile's rate (a real car, or `fsmctl sim --ros` in another process)")
+    ros.add_argument("--bag", metavar="DIR",
+                     help="with --ros: also record the run as rosbag2 (MCAP) in the new folder DIR")
+    from ..ros.common import add_endpoint_options
+
+    add_endpoint_options(p)
     bar = car.add_mutually_exclusive_group()
     bar.add_argument("--progress", dest="progress", action="store_true", default=None,
                      help="show a progress bar (default: only when standard error is a terminal)")
@@ -146,6 +155,9 @@ def parse_vars(texts: list[str]) -> dict[str, Any]:
 
 
 def _check_usage(args: argparse.Namespace) -> None:
+    from ..ros.run import check_usage
+
+    check_usage(args)
     if not _suffix_ok(args.plot, (".png",)):
         raise UsageError(f"--plot {args.plot}: the plot is a PNG; name it with the suffix .png")
     if not _suffix_ok(args.video, VIDEO_SUFFIXES):
@@ -231,6 +243,15 @@ def cmd_run(args: argparse.Namespace) -> int:
     args.initial_vars = parse_vars(args.variables)
     for warning in signal_warnings(args.signal, spec, file, duration, max_ticks, dt):
         print(printable(f"fsmctl run: warning: {warning}"), file=sys.stderr)
+
+    if args.ros:
+        from ..ros.run import run_ros
+
+        args.pre = pre
+        try:
+            return run_ros(args, spec, file, outputs, trace_out, summary_out, report_out, duration, max_ticks)
+        finally:
+            outputs.discard()
 
     from fsm.sim.world import default_world
 
@@ -331,7 +352,7 @@ def _run(args: argparse.Namespace, spec: Any, file: str, drive: bool, world_path
             end["error"] = result["error"]
         session.finish(**end)
         if report_out is not None:
-            _write_report(recorder.out, report_out, args.trace if args.trace not in (None, "-") else file)
+            write_report(recorder.out, report_out, args.trace if args.trace not in (None, "-") else file)
         if video is not None:
             video.close()
             result["video"] = {"file": args.video, "frames": video.frames, "codec": video.codec}
@@ -403,7 +424,7 @@ def _run_live(args: argparse.Namespace, spec: Any, file: str, drive: bool, world
                     sorted(signal_names(spec)), outputs, trace_out, summary_out, plot_out, report_out)
 
 
-class _Tee:
+class Tee:
     """The trace written to the user's file and kept in memory for the report."""
 
     def __init__(self, *streams: Any) -> None:
@@ -424,13 +445,14 @@ def _recorder(args: argparse.Namespace, file: str, car: Any, world_path: Path | 
 
     stream = trace_out.stream() if trace_out is not None else None
     if report_out is not None:
-        stream = _Tee(stream)
+        stream = Tee(stream)
     return run_recorder(stream, file, car, world_file=world_path, seed=args.seed, noise=not args.no_noise,
                         preloaded=args.pre, overrides=args.overrides, initial_vars=args.initial_vars,
                         sample_rate=args.sample_rate)
 
 
-def _write_report(stream: Any, report_out: Any, name: str) -> None:
+def write_report(stream: Any, report_out: Any, name: str) -> None:
+    """Write the HTML report of the trace a :class:`Tee` kept in memory to ``report_out``."""
     from fsm.replay import parse_trace
 
     from ..report import report_html

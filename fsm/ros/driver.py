@@ -1,0 +1,278 @@
+"""RosDriver: a real car (or the simulated one in another process) as a session's driver, over Zenoh.
+
+Each tick: ``before_tick`` latches the newest message of every input into the :class:`~fsm.ros.car.RosCar` (in
+lock-step, first waiting for the simulator's clock to reach the tick); the machine ticks; ``after_tick`` publishes
+one drive command and, at the status rate or when something changed, the machine's status.
+
+The safety rule: the command's speed is 0 while an input has been silent longer than the profile allows, while a
+state of the machine is paused, and after a state failed; :meth:`RosDriver.stop` sends the same zero command at
+once (Ctrl-C, an exception). Steering is kept, so a car rolling out does not swerve.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import threading
+import time
+from typing import TYPE_CHECKING, Any
+
+from fsm.machine import Listener
+
+from . import messages as M
+from .car import Log, RosCar
+from .profile import Profile
+from .transport import Link, PeerTimeout, Publisher
+
+if TYPE_CHECKING:
+    from fsm.context import Context
+    from fsm.machine import Fired, Machine
+    from fsm.sequencer.supervisor import Monitor
+    from fsm.session import Session
+    from fsm.state import State
+
+    from .bag import BagRecorder
+
+#: Slack when comparing the simulator's clock with a tick's time.
+EPS = 1e-9
+
+
+def stderr_log(text: str) -> None:
+    print(f"fsmctl: {text}", file=sys.stderr, flush=True)
+
+
+class _Watch(Listener):
+    """What the status topic reports besides the active path: monitor firings and paused states."""
+
+    def __init__(self) -> None:
+        self.changed = True
+        self.paused: set[str] = set()
+        self.monitors: list[dict[str, Any]] = []
+        self.fired = 0
+
+    def on_transition(self, ctx: Context, source: State[Any] | None, target: State[Any],
+                      transition: Fired | None) -> None:
+        self.changed = True
+
+    def on_monitor(self, ctx: Context, owner: State[Any], monitor: Monitor) -> None:
+        self.fired += 1
+        self.monitors.append({"state": owner.path, "monitor": monitor.label, "kind": monitor.kind,
+                              "time": round(ctx.now, 6)})
+        del self.monitors[:-20]
+        self.changed = True
+
+    def on_pause(self, ctx: Context, state: State[Any], paused: bool) -> None:
+        (self.paused.add if paused else self.paused.discard)(state.path)
+        self.changed = True
+
+
+class RosDriver:
+    """The session's driver for a car on ROS 2 topics (see the module's docstring)."""
+
+    def __init__(self, profile: Profile, link: Link | None, *, lockstep: bool = False,
+                 bag: BagRecorder | None = None, log: Log | None = None) -> None:
+        self.profile = profile
+        self.link = link
+        self.lockstep = lockstep
+        self.bag = bag
+        self.log = log or stderr_log
+        self.car = RosCar(profile, log=self.log, on_stop=self.stop)
+        self.session: Session | None = None
+        self.machine: Machine | None = None
+        self._watch = _Watch()
+        status = profile.outputs.status
+        self._status_every = 1.0 / status.rate if status is not None else 0.0
+        self._next_status = 0.0
+        #: what was published, (machine time, CDR bytes), kept without a link (replay)
+        self.sent: list[tuple[float, bytes]] = []
+        self.statuses: list[tuple[float, dict[str, Any]]] = []
+        self._clock = -1.0
+        self._clock_cond = threading.Condition()
+        self._command: Publisher | None = None
+        self._status: Publisher | None = None
+        if link is not None:
+            self._command = link.publisher(profile.outputs.command)
+            self._status = link.publisher(status) if status is not None else None
+            for name, binding in profile.inputs_bound().items():
+                link.subscribe(binding, self.car.subscriber(name))
+            if lockstep:  # subscribed last: once the simulator sees it, it sees the inputs' subscriptions too
+                link.subscribe(profile.clock, self._on_clock)
+        self.clock_lost = False
+        #: the inputs silent now, and since when (machine time)
+        self.silent: list[str] = []
+        self._silent_since: float | None = None
+        self.silences = 0
+        self.commands = 0
+        self.zero_commands = 0
+        self.held_by: str | None = None
+        self.stop_sent = 0
+
+    # -- the simulator's clock (lock-step) -----------------------------------------------------------------------
+    def _on_clock(self, raw: bytes) -> None:
+        try:
+            t = M.stamp_of_clock(M.decode(raw, self.profile.clock.type))
+        except M.DecodeError:
+            return
+        with self._clock_cond:
+            self._clock = t
+            self._clock_cond.notify_all()
+
+    def _wait_clock(self, time_s: float, timeout: float) -> bool:
+        end = time.monotonic() + timeout
+        with self._clock_cond:
+            while self._clock < time_s - EPS:
+                left = end - time.monotonic()
+                if left <= 0:
+                    return False
+                self._clock_cond.wait(left)
+        return True
+
+    def _silence_timeout(self) -> float:
+        return max(b.max_silence for b in self.profile.inputs_bound().values())
+
+    # -- starting ------------------------------------------------------------------------------------------------
+    def prime(self, timeout: float | None = None) -> None:
+        """Before the machine starts: wait for a peer, then for a message of every input (and in lock-step for the
+        simulator's clock at 0), and latch them as the car's values at time 0. :class:`PeerTimeout` naming the
+        endpoints when nothing comes within the profile's ``peer_timeout``."""
+        timeout = self.profile.transport.peer_timeout if timeout is None else timeout
+        end = time.monotonic() + timeout
+        link = self.link
+        assert link is not None
+        link.wait_for_peer(timeout)
+        if self.lockstep and not self._wait_clock(0.0, max(0.0, end - time.monotonic())):
+            raise PeerTimeout(f"no clock on {self.profile.clock.topic} within {timeout:g} s "
+                              f"({link.describe()}): is `fsmctl sim --ros ... --lockstep` running there?")
+        while True:
+            missing = [name for name, n in self.car.received().items() if n == 0 and name != "camera"]
+            if not missing:
+                break
+            if time.monotonic() >= end:
+                topics = ", ".join(self.profile.inputs_bound()[m].topic for m in missing)
+                raise PeerTimeout(f"a peer answered ({link.describe()}) but nothing came on {topics} "
+                                  f"within {timeout:g} s: check the topic names and types in the profile")
+            time.sleep(0.005)
+        self._latch(0.0)
+
+    # -- the driver ------------------------------------------------------------------------------------------------
+    def attach(self, session: Session) -> None:
+        self.session = session
+        self.machine = session.machine
+        session.machine.add_listener(self._watch)
+
+    def before_tick(self, time_s: float) -> None:
+        if self.lockstep and not self.clock_lost and not self._wait_clock(time_s, self._silence_timeout()):
+            self.clock_lost = True
+            self.log(f"the simulator's clock on {self.profile.clock.topic} stopped before {time_s:.3f} s")
+        self._latch(time_s)
+
+    def _latch(self, time_s: float) -> None:
+        taken = self.car.latch(time_s)
+        if self.bag is not None:
+            for name, raw in taken:
+                self.bag.write(name, raw, time_s)
+
+    def after_tick(self) -> None:
+        machine = self.machine
+        assert machine is not None
+        now = machine.now
+        car = self.car
+        silent = car.silent_inputs(now)
+        if silent != self.silent:
+            if silent and not self.silent:
+                self.silences += 1
+                self._silent_since = now
+                self.log(f"at {now:.3f} s: silent longer than the profile allows: {', '.join(silent)}; "
+                         "the car gets zero speed")
+            elif not silent:
+                self.log(f"at {now:.3f} s: every input is back")
+                self._silent_since = None
+            self.silent = silent
+            self._watch.changed = True
+        held = "silence" if silent else "pause" if self._watch.paused else "stopped" if car.stopped else None
+        self.held_by = held
+        self._publish_command(now, 0.0 if held else car.speed_command)
+        if self.profile.outputs.status is not None and (self._watch.changed or now + EPS >= self._next_status):
+            self._publish_status(machine, now)
+
+    def _publish_command(self, now: float, speed: float) -> None:
+        car = self.car
+        angle = car.steering * car.max_steering_angle
+        message = M.command_message(self.profile.outputs.command.type, now, speed, angle, car.wheelbase)
+        raw = M.encode(message)
+        if self._command is not None:
+            self._command.put(raw)
+        else:
+            self.sent.append((now, raw))
+        self.commands += 1
+        if speed == 0.0:
+            self.zero_commands += 1
+        if self.bag is not None:
+            self.bag.write("command", raw, now)
+
+    def status(self, machine: Machine, now: float) -> dict[str, Any]:
+        """The status topic's JSON: active path, outcome, monitor firings, what holds the car."""
+        return {"profile": self.profile.name, "tick": machine.ticks, "time": round(now, 6),
+                "active": machine.active_path, "finished": machine.finished, "outcome": machine.outcome,
+                "paused": sorted(self._watch.paused), "monitors_fired": self._watch.fired, "commands": self.commands,
+                "monitors": list(self._watch.monitors), "silent": list(self.silent), "held_by": self.held_by,
+                "command": {"speed": 0.0 if self.held_by else self.car.speed_command,
+                            "steering": self.car.steering}}
+
+    def _publish_status(self, machine: Machine, now: float) -> None:
+        status = self.status(machine, now)
+        raw = M.encode(M.status_message(json.dumps(status, separators=(",", ":"))))
+        if self._status is not None:
+            self._status.put(raw)
+        else:
+            self.statuses.append((now, status))
+        self._watch.changed = False
+        self._next_status = now + self._status_every
+        if self.bag is not None:
+            self.bag.write("status", raw, now)
+
+    def should_stop(self) -> str | None:
+        if self.clock_lost:
+            return "silence"
+        stop_after = self.profile.safety.stop_after
+        if stop_after is not None and self._silent_since is not None and self.machine is not None:
+            if self.machine.now - self._silent_since >= stop_after - EPS:
+                return "silence"
+        return None
+
+    def stop(self) -> None:
+        """Send a zero-speed command now (Ctrl-C, an exception, a state that failed); safe to call from anywhere,
+        several times."""
+        try:
+            now = self.machine.now if self.machine is not None else 0.0
+            self.car.speed_command = 0.0
+            self.held_by = self.held_by or "stopped"
+            self._publish_command(now, 0.0)
+            self.stop_sent += 1
+        except Exception:  # the session may be closing: the robot's own command timeout stops it then
+            pass
+
+    def metrics(self) -> dict[str, Any]:
+        car = self.car
+        return {"ros": {"profile": self.profile.name, "lockstep": self.lockstep, "received": car.received(),
+                        "decode_failures": car.failures(), "silences": self.silences,
+                        "silent_at_end": list(self.silent), "commands": self.commands,
+                        "zero_speed_commands": self.zero_commands, "stop_commands": self.stop_sent,
+                        "monitors_fired": self._watch.fired},
+                "distance_m": round(car.distance, 4), "collisions": 0}
+
+
+def ros_session(plan: Any, profile: Profile, link: Link, *, lockstep: bool = False, bag: BagRecorder | None = None,
+                log: Log | None = None, stop: Any = None, variables: dict[str, Any] | None = None) -> Session:
+    """A session that runs the machine of ``plan`` (a compiled :class:`fsm.plan.MachinePlan`) on the car behind
+    ``link``: on the wall clock at the profile's rate, or in lock-step with a simulator's clock."""
+    from fsm.building import build
+    from fsm.clock import RealTimeClock, SimulatedClock
+    from fsm.session import Session
+
+    driver = RosDriver(profile, link, lockstep=lockstep, bag=bag, log=log)
+    clock = SimulatedClock(profile.dt) if lockstep else RealTimeClock(profile.dt)
+    machine = build(plan, clock=clock, car=driver.car)
+    if variables:
+        machine.ctx.vars.update(variables)
+    return Session(machine, driver=driver, stop=stop)

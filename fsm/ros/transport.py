@@ -1,0 +1,171 @@
+"""Zenoh for ROS 2 topics: one session (peer mode on explicit endpoints, or a client of a router), topic keys named
+as rmw_zenoh or zenoh-bridge-ros2dds name them, messages as CDR bytes.
+
+rmw_zenoh keys are ``<domain>/<topic>/<pkg>::msg::dds_::<Type>_/<RIHS01 hash>`` and each sample carries an
+attachment (sequence number, source timestamp in ns, a 16-byte publisher id); subscriptions here match any hash,
+so a robot of another distribution still talks. The bridge names a topic by its name alone.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import struct
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+from fsm.errors import FsmError
+
+from .profile import Binding, Profile, normalise_type
+
+#: How often an endpoint that did not answer is tried again (ms).
+RETRY = {"period_init_ms": 100, "period_max_ms": 500, "period_increase_factor": 1.5}
+
+
+class PeerTimeout(FsmError):
+    """No robot (or simulator) answered on the profile's endpoints in time."""
+
+
+class TransportError(FsmError):
+    """The Zenoh session could not be opened (an endpoint in use, a malformed endpoint)."""
+
+
+def dds_type(type_name: str) -> str:
+    """``sensor_msgs/msg/Range`` as rmw_zenoh writes it in keys: ``sensor_msgs::msg::dds_::Range_``."""
+    pkg, _msg, name = normalise_type(type_name).split("/")
+    return f"{pkg}::msg::dds_::{name}_"
+
+
+def topic_key(profile: Profile, binding: Binding, subscriber: bool = False) -> str:
+    """The Zenoh key of a topic (a subscriber's matches every type hash)."""
+    topic = binding.topic.strip("/")
+    if profile.transport.keys == "bridge":
+        return topic
+    if subscriber:
+        digest = "*"
+    else:
+        from .messages import type_hash
+
+        digest = type_hash(binding.type)
+    return f"{profile.transport.domain}/{topic}/{dds_type(binding.type)}/{digest}"
+
+
+class Publisher:
+    """Publishes one topic's messages (already encoded CDR bytes) with its QoS."""
+
+    def __init__(self, link: Link, binding: Binding) -> None:
+        import zenoh
+
+        qos = binding.qos
+        self.link = link
+        self.key = topic_key(link.profile, binding)
+        self._rmw = link.profile.transport.keys == "rmw_zenoh"
+        self._seq = 0
+        self._gid = os.urandom(16)
+        priority = {"real_time": zenoh.Priority.REAL_TIME, "interactive_high": zenoh.Priority.INTERACTIVE_HIGH,
+                    "data": zenoh.Priority.DATA, "background": zenoh.Priority.BACKGROUND}[qos.priority]
+        congestion = zenoh.CongestionControl.BLOCK if qos.reliability == "reliable" else zenoh.CongestionControl.DROP
+        self._pub = link.session.declare_publisher(self.key, congestion_control=congestion, priority=priority,
+                                                   express=qos.express)
+
+    def matched(self) -> bool:
+        """True once a subscriber of the topic is known to this session."""
+        return bool(self._pub.matching_status.matching)
+
+    def put(self, payload: bytes) -> None:
+        if self._rmw:
+            self._seq += 1
+            attachment = struct.pack("<qq", self._seq, time.time_ns()) + self._gid
+            self._pub.put(payload, attachment=attachment)
+        else:
+            self._pub.put(payload)
+
+
+class Link:
+    """A Zenoh session for a profile; ``connect`` / ``listen`` replace the profile's endpoints (``--connect``)."""
+
+    def __init__(self, profile: Profile, *, connect: list[str] | None = None, listen: list[str] | None = None) -> None:
+        self.profile = profile
+        t = profile.transport
+        self.connect = list(t.connect if connect is None else connect)
+        self.listen = list(t.listen if listen is None else listen)
+        self.session: Any = None
+        self._subscribers: list[Any] = []
+        self._lock = threading.Lock()
+
+    def describe(self) -> str:
+        """The endpoints in words, for messages."""
+        parts = []
+        if self.connect:
+            parts.append("connecting to " + ", ".join(self.connect))
+        if self.listen:
+            parts.append("listening on " + ", ".join(self.listen))
+        return " and ".join(parts) or "with no endpoint (multicast scouting only)"
+
+    def config(self) -> Any:
+        import zenoh
+
+        t = self.profile.transport
+        conf = zenoh.Config()
+        conf.insert_json5("mode", json.dumps(t.mode))
+        conf.insert_json5("scouting/multicast/enabled", json.dumps(t.multicast))
+        conf.insert_json5("connect/endpoints", json.dumps(self.connect))
+        conf.insert_json5("listen/endpoints", json.dumps(self.listen))
+        # a robot that comes up after us is found within a fraction of a second (Zenoh's default waits seconds)
+        conf.insert_json5("connect/retry", json.dumps(RETRY))
+        return conf
+
+    def open(self) -> Link:
+        import zenoh
+
+        try:
+            self.session = zenoh.open(self.config())
+        except Exception as exc:  # zenoh.ZError: a port in use, an endpoint it cannot parse
+            raise TransportError(f"cannot open the Zenoh session {self.describe()}: {exc}") from None
+        return self
+
+    def peers(self) -> int:
+        info = self.session.info
+        return len(info.peers_zid()) + len(info.routers_zid())
+
+    def wait_for_peer(self, timeout: float, what: str = "the robot") -> None:
+        """Return once another Zenoh session is connected; :class:`PeerTimeout` naming the endpoints after
+        ``timeout`` seconds."""
+        end = time.monotonic() + timeout
+        while self.peers() == 0:
+            if time.monotonic() >= end:
+                raise PeerTimeout(f"no peer reached within {timeout:g} s {self.describe()}: is {what} running "
+                                  "there (rmw_zenoh, the Zenoh bridge, or `fsmctl sim --ros`)?")
+            time.sleep(0.02)
+
+    def publisher(self, binding: Binding) -> Publisher:
+        return Publisher(self, binding)
+
+    def subscribe(self, binding: Binding, callback: Callable[[bytes], None]) -> None:
+        """Call ``callback(cdr_bytes)`` (on a Zenoh thread) for each message of the topic."""
+        key = topic_key(self.profile, binding, subscriber=True)
+
+        def handler(sample: Any) -> None:
+            callback(sample.payload.to_bytes())
+
+        self._subscribers.append(self.session.declare_subscriber(key, handler))
+
+    def close(self) -> None:
+        with self._lock:
+            session, self.session = self.session, None
+        if session is not None:
+            for sub in self._subscribers:
+                try:
+                    sub.undeclare()
+                except Exception:  # closing anyway
+                    pass
+            self._subscribers.clear()
+            session.close()
+
+    def __enter__(self) -> Link:
+        return self.open() if self.session is None else self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -1,0 +1,109 @@
+"""What the ROS 2 commands share: the extra's presence, the profile with the command line's endpoints, the bag
+folder's checks, the trace recorder of a car on topics."""
+
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+from typing import IO, Any
+
+from fsm.errors import FsmError, UsageError
+
+#: What to install when the extra is missing.
+EXTRA_HINT = "pip install 'tral-fsm[ros2]' (rosbags and eclipse-zenoh)"
+
+
+def require_extra(what: str) -> None:
+    """The ``ros2`` extra must be installed: one message saying how, exit 1."""
+    missing = []
+    for module in ("zenoh", "rosbags"):
+        try:
+            __import__(module)
+        except ImportError:
+            missing.append(module)
+    if missing:
+        raise FsmError(f"{what} needs {' and '.join(missing)}: {EXTRA_HINT}")
+
+
+def add_endpoint_options(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("the Zenoh session (replacing the profile's endpoints)")
+    g.add_argument("--connect", action="append", metavar="ENDPOINT",
+                   help="connect to ENDPOINT, e.g. tcp/127.0.0.1:7447 (repeatable)")
+    g.add_argument("--listen", action="append", metavar="ENDPOINT",
+                   help="listen on ENDPOINT, e.g. tcp/127.0.0.1:7447 (repeatable)")
+    g.add_argument("--lockstep", action="store_true",
+                   help="advance in lock-step with `fsmctl sim --ros --lockstep` on the profile's clock topic "
+                        "instead of the wall clock (fast, reproducible runs against the simulator)")
+
+
+def check_endpoints(args: argparse.Namespace) -> None:
+    import re
+
+    from fsm.ros.profile import ENDPOINT_PATTERN
+
+    for option in ("connect", "listen"):
+        for endpoint in getattr(args, option) or []:
+            if not re.match(ENDPOINT_PATTERN, endpoint):
+                raise UsageError(f"--{option} {endpoint}: not a Zenoh endpoint; write PROTOCOL/ADDRESS, "
+                                 "e.g. tcp/127.0.0.1:7447")
+
+
+def load(path: str) -> Any:
+    """The profile (located errors before anything starts), its camera calibration checked too."""
+    from fsm.ros.profile import check_camera, load_profile
+
+    profile = load_profile(path)
+    check_camera(profile)
+    return profile
+
+
+def check_bag_folder(name: str | None) -> None:
+    """``--bag DIR``: a folder that does not exist yet, in a folder that does and can be written."""
+    if name is None:
+        return
+    path = Path(name)
+    if name in ("", "-"):
+        raise UsageError(f"--bag {name!r}: name a folder for the bag, e.g. --bag runs/lap1")
+    if os.path.lexists(path):
+        raise UsageError(f"--bag {name}: already exists; a bag is a new folder (remove it or name another)")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise UsageError(f"--bag {name}: the folder {parent} does not exist; create it first")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise UsageError(f"--bag {name}: the folder {parent} cannot be written")
+
+
+def car_recorder(stream: IO[str] | None, file: str, car: Any, profile: Any, document: Any = None,
+                 preloaded: dict[str, Any] | None = None, sample_rate: float = 20.0,
+                 extra_header: dict[str, Any] | None = None) -> Any:
+    """The trace of a run on topics: the machine's header, the profile, the car's readings and commands as the
+    machine saw them (the odometry pose stands where the simulator has ground truth)."""
+    from fsm.trace import Recorder
+
+    from ..recording import header_document
+
+    if stream is None:
+        return Recorder()
+    header: dict[str, Any] = {"source": file,
+                              "machine": document if document is not None else header_document(file, preloaded),
+                              "ros": {"profile": profile.name, "rate": profile.rate,
+                                      "topics": {name: b.topic for name, b in profile.inputs_bound().items()}
+                                      | {"command": profile.outputs.command.topic}},
+                              **(extra_header or {})}
+    fields = ["car.odometry[0]", "car.odometry[1]", "car.odometry[2]", "car.left", "car.right", "car.front",
+              "car.distance", "car.speed", "car.speed_command", "car.steering"]
+
+    def sample() -> tuple[Any, ...]:
+        x, y, th = car.pose()
+        return (x, y, th, car.left, car.right, car.front, car.distance, car.speed, car.speed_command, car.steering)
+
+    def extra() -> dict[str, Any]:
+        x, y, th = car.pose()
+        return {"car": {"odometry": [round(x, 4), round(y, 4), round(th, 4)], "left": round(car.left, 4),
+                        "right": round(car.right, 4), "front": round(car.front, 4),
+                        "distance": round(car.distance, 4), "speed": round(car.speed, 4),
+                        "speed_command": round(car.speed_command, 4), "steering": round(car.steering, 4)}}
+
+    return Recorder(stream, extra=extra, header=header, sample=sample, sample_period=1.0 / sample_rate,
+                    sample_fields=fields)

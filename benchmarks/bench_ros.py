@@ -83,7 +83,8 @@ def source(endpoint: str, ticks: int, rate: float) -> dict[str, Any]:
         t = n * dt
         batch = []
         if n % 4 == 0:  # the ultrasonic sensors at 20 Hz
-            batch += [("left", M.range_message(t, "us_left", 1.5, 4.0)), ("right", M.range_message(t, "us_right", 0.4, 4.0)),
+            batch += [("left", M.range_message(t, "us_left", 1.5, 4.0)),
+                      ("right", M.range_message(t, "us_right", 0.4, 4.0)),
                       ("front", M.range_message(t, "us_front", 3.0, 4.0))]
         batch.append(("odometry", M.odometry_message(t, n * 0.01, 0.0, 0.0, 0.8, 0.0)))
         batch.append(("hall", M.counter_message(hall_type, n * 7)))
@@ -136,7 +137,8 @@ def simulator(repeat: int) -> dict[str, Any]:
         session.run()
         m = session.summary()
         factors.append(m["sim_time"] / session.wall_time)
-    return {"realtime_factor_best": round(max(factors), 1), "realtime_factor_median": round(statistics.median(factors), 1)}
+    return {"realtime_factor_best": round(max(factors), 1),
+            "realtime_factor_median": round(statistics.median(factors), 1)}
 
 
 def main() -> int:

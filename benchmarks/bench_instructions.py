@@ -4,7 +4,8 @@ with valgrind (callgrind), so that a shared, busy machine gives the same figures
 
 Each workload runs in a fresh interpreter under ``valgrind --tool=callgrind`` twice, once with 0 repetitions and
 once with N; the difference divided by N is the cost of one repetition, with start-up, imports and warm-up
-cancelled out. The earlier commit is checked out into a temporary git worktree (as in ``bench_baseline.py``).
+cancelled out (with ``PYTHONHASHSEED=0``: string hashes move the counts by about 1 % between processes
+otherwise). The earlier commit is checked out into a temporary git worktree (as in ``bench_baseline.py``).
 
   flat        one tick of the flat ring of 100 states (Always)
   nested      one tick of the 10 x 10 x 10 nested composites
@@ -68,7 +69,7 @@ else:
 
 
 def instructions(workload: str, n: int, tree: Path | None) -> int:
-    env = dict(os.environ)
+    env = dict(os.environ, PYTHONHASHSEED="0")  # string hashes decide dict probing: the same on every run
     code = f"BENCH = {str(BENCH)!r}\n" + PROBE
     if tree is not None:  # the base's fsm must win over this checkout's editable install
         env["PYTHONPATH"] = str(tree)

@@ -549,7 +549,7 @@ class _Checker:
             return self.state_outcome(i, exp)
         if isinstance(exp, OutcomeExpect):
             if m.outcome == exp.outcome and exp.within is not None:
-                fin = self.rec.entries[-1].tick if self.rec.entries else end
+                fin = end  # the run stops in the tick the machine finishes
                 if not self.inside(fin, exp.within):
                     return self.failure(i, "outcome", f"expected outcome '{exp.outcome}' {self.window(exp.within)}, "
                                                       f"the machine finished with it at {self.at(fin)}", fin)
@@ -558,7 +558,7 @@ class _Checker:
             if m.outcome is None:
                 return self.failure(i, "outcome", f"expected outcome '{exp.outcome}', but the machine had not "
                                                   f"finished when the run ended at {self.at(end)}", end)
-            fin = self.rec.entries[-1].tick if self.rec.entries else end
+            fin = end  # the run stops in the tick the machine finishes
             return self.failure(i, "outcome", f"expected outcome '{exp.outcome}', got '{m.outcome}' "
                                               f"(finished in {m.root.active.path} at {self.at(fin)})", fin)
         if isinstance(exp, FinishedExpect):
@@ -567,7 +567,7 @@ class _Checker:
             if exp.finished:
                 return self.failure(i, "finished", f"expected the machine to finish, but it was still in "
                                                    f"{m.active_path} when the run ended at {self.at(end)}", end)
-            fin = self.rec.entries[-1].tick if self.rec.entries else end
+            fin = end  # the run stops in the tick the machine finishes
             return self.failure(i, "finished", f"expected the machine not to finish, but it finished with "
                                                f"'{m.outcome}' at {self.at(fin)}", fin)
         if isinstance(exp, VisitsExpect):

@@ -229,3 +229,29 @@ def test_plants_are_stepped_after_every_tick_from_tick_1_on() -> None:
     assert plant.ticks == []  # starting (tick 0) is no tick of the machine: reset set what tick 1 sees
     session.step(3)
     assert plant.ticks == [1, 2, 3]
+
+
+# -- coverage --------------------------------------------------------------------------------------------------
+def test_coverage_lists_what_was_never_entered_or_fired(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "m.json").write_text(json.dumps(MACHINE), encoding="utf-8")
+    sc = tmp_path / "t.scenario.json"
+    sc.write_text(json.dumps({"machine": "m.json", "duration": 3, "expect": [{"outcome": "succeeded"}]}),
+                  encoding="utf-8")
+    out_json = tmp_path / "cov.json"
+    assert main(["test", "--coverage", "--coverage-json", str(out_json), str(sc)]) == 0
+    out = capsys.readouterr().out
+    assert "states 4/7, transitions 3/3, monitors 0/1" in out
+    assert "never entered: main/clear, main/clear/wait_clear" in out and "only skipped: main/b" in out
+    assert "monitors never fired: main: monitor" in out
+    data = json.loads(out_json.read_text(encoding="utf-8"))
+    assert data["totals"]["states"] == {"covered": 4, "total": 7}
+    assert {"path": "main/b", "status": "skipped"} in data["machines"][0]["states"]
+    assert main(["test", "--fail-under", "70", str(sc)]) == 1
+    assert "FAIL coverage 63.6% is under --fail-under 70%" in capsys.readouterr().out
+    # a second scenario that jams adds to the same machine's coverage
+    sc2 = tmp_path / "jam.scenario.json"
+    sc2.write_text(json.dumps({"machine": "m.json", "duration": 3, "inputs": [
+        {"at": 0.2, "signal": "jam", "value": True}, {"at": 0.3, "signal": "jam", "value": False}],
+        "expect": [{"outcome": "succeeded"}]}), encoding="utf-8")
+    assert main(["test", "--fail-under", "75", str(sc), str(sc2)]) == 0
+    assert "(2 run(s)): states 6/7, transitions 3/3, monitors 1/1" in capsys.readouterr().out

@@ -436,8 +436,10 @@ def run_scenario(loaded: LoadedScenario, coverage: Any = None) -> ScenarioResult
     result.sim_time = round(machine.now, 9)
     result.outcome = machine.outcome
     if coverage is not None:
-        coverage.add(machine, rec)
-    check = _Checker(loaded, machine, rec, signals, sets, pauses)
+        import os
+
+        coverage.add(machine, rec, key=os.path.normpath(os.path.join(os.path.dirname(loaded.file), sc.machine)))
+    check = Checker(loaded, machine, rec, signals, sets, pauses)
     if error is not None:
         result.failures.append(Failure(-1, loaded.file, "error", f"the machine failed: {error}", error.tick,
                                        error.time, check.trace(error.tick)))
@@ -469,7 +471,9 @@ def _same(expected: Any, got: Any) -> bool:
     return type(expected) is type(got) and expected == got
 
 
-class _Checker:
+class Checker:
+    """Checks expectations against a run's record (``rec``) and the machine as it ended; a failure keeps the
+    trace around its first diverging tick."""
     def __init__(self, loaded: LoadedScenario, machine: Machine, rec: Recording, signals: list[Any],
                  sets: list[Any], pauses: list[Any] | None = None) -> None:
         self.loaded = loaded

@@ -708,7 +708,7 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
         return None, problems
     dt, end_tick = limits(scenario)
     paths = [sp.path for sp in compile_spec(spec).states()]
-    problems += _name_problems(scenario, paths, name)
+    problems += name_problems(scenario, paths, name)
     plants, more = _plants(scenario, registry, name)
     problems += more
     known = signal_names(spec)
@@ -877,7 +877,8 @@ def _plants(scenario: Scenario, registry: Any, name: str) -> tuple[list[tuple[ty
     return out, problems
 
 
-def _name_problems(scenario: Scenario, paths: list[str], name: str) -> list[Problem]:
+def name_problems(scenario: Scenario, paths: list[str], name: str) -> list[Problem]:
+    """The state names and paths of the scenario's expectations and pause inputs that name no state of ``paths``."""
     problems = []
     ids = sorted({p.rsplit("/", 1)[-1] for p in paths} | set(paths))
     prefixes = {"/".join(p.split("/")[:k]) for p in paths for k in range(1, p.count("/") + 2)}

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Container
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -152,6 +153,8 @@ class InvariantWatch:
         self.last = last
         self.signals = signals
         self.failed: int | None = None
+        #: the failure was reported already (a test by hand raises it once)
+        self.reported = False
         self.values: dict[str, Any] = {}
         self.error: str | None = None
         self.checked = 0
@@ -176,7 +179,7 @@ class Recording(Listener):
     active leaf paths when they change, variable changes, monitor firings, pauses, the transitions fired, the
     outcomes of watched states, the invariants, and a snapshot at each tick an ``at`` expectation looks at."""
 
-    def __init__(self, snapshot_ticks: set[int], watched: list[State] | None = None,
+    def __init__(self, snapshot_ticks: Container[int], watched: list[State] | None = None,
                  invariants: list[InvariantWatch] | None = None) -> None:
         self.entries: list[Entry] = []
         #: indices into ``entries`` of the entries skipped by a precondition
@@ -516,8 +519,10 @@ class Checker:
         for k in sorted(self.rec.skipped):
             e = self.rec.entries[k]
             out.append(Event(e.tick, 1, f"skip {e.path} (precondition false)"))
+        named = [e.state for e in self.loaded.scenario.expect if isinstance(e, OutcomeExpect) and e.state]
         for fin in self.rec.finishes:
-            out.append(Event(fin.tick, 1, f"finished {fin.path}: {fin.outcome}"))
+            if any(state_matches(n, fin.path) for n in named):
+                out.append(Event(fin.tick, 1, f"finished {fin.path}: {fin.outcome}"))
         for inv in self.rec.invariants:
             if inv.failed is not None:
                 out.append(Event(inv.failed, 3, f"invariant {inv.text} false"))

@@ -255,3 +255,54 @@ def test_coverage_lists_what_was_never_entered_or_fired(tmp_path: Path, capsys: 
         "expect": [{"outcome": "succeeded"}]}), encoding="utf-8")
     assert main(["test", "--fail-under", "75", str(sc), str(sc2)]) == 0
     assert "(2 run(s)): states 6/7, transitions 3/3, monitors 1/1" in capsys.readouterr().out
+
+
+# -- substitution ----------------------------------------------------------------------------------------------
+def test_a_substituted_state_runs_its_replacement_and_keeps_its_step_keys(tmp_path: Path) -> None:
+    sub = [{"state": "d", "with": {"type": "Wait", "seconds": 0.1}}]
+    (tmp_path / "m.json").write_text(json.dumps(MACHINE), encoding="utf-8")
+    sc = tmp_path / "t.scenario.json"
+    sc.write_text(json.dumps({"machine": "m.json", "duration": 3, "substitute": sub,
+                              "expect": [{"outcome": "succeeded", "within": [0.6, 0.65]}]}), encoding="utf-8")
+    assert run_scenario(load_scenario(sc)).passed
+    # by type, and a transition's type: the level's transition a -> b becomes a Timeout of 0.2 s
+    doc = {"initial": "a", "states": [{"id": "a", "type": "Idle"}, {"id": "b", "type": "Final"}],
+           "transitions": [{"type": "Signal", "from": "a", "to": "b", "signal": "go"}]}
+    (tmp_path / "m.json").write_text(json.dumps(doc), encoding="utf-8")
+    sc.write_text(json.dumps({"machine": "m.json", "duration": 1, "substitute": [
+        {"transition": {"from": "a", "to": "b"}, "with": {"type": "Timeout", "seconds": 0.2}}],
+        "expect": [{"outcome": "succeeded", "within": [0.2, 0.2]}]}), encoding="utf-8")
+    assert run_scenario(load_scenario(sc)).passed
+    sc.write_text(json.dumps({"machine": "m.json", "duration": 1, "substitute": [
+        {"type": "Idle", "with": {"type": "Wait", "seconds": 0.3}}],
+        "expect": [{"exited": "a", "within": [0.3, 0.3]}]}), encoding="utf-8")
+    assert run_scenario(load_scenario(sc)).failures  # a Wait finishes, but no transition leaves on Finished
+    sc.write_text(json.dumps({"machine": "m.json", "duration": 1, "substitute": [
+        {"type": "Idle", "with": {"type": "Wait", "seconds": 0.3}},
+        {"transition": {"from": "a", "to": "b"}, "with": {"type": "Finished"}}],
+        "expect": [{"exited": "a", "within": [0.3, 0.3]}]}), encoding="utf-8")
+    assert run_scenario(load_scenario(sc)).passed
+
+
+def test_bad_substitutions_are_located_in_the_scenario(tmp_path: Path) -> None:
+    (tmp_path / "m.json").write_text(json.dumps(MACHINE), encoding="utf-8")
+    sc = tmp_path / "t.scenario.json"
+    sc.write_text(json.dumps({"machine": "m.json", "duration": 3, "substitute": [
+        {"state": "d", "with": {"type": "Wiat", "seconds": 1}},
+        {"state": "zz", "with": {"type": "Wait", "seconds": 1}},
+        {"state": "a", "type": "Wait", "with": {"type": "Wait", "seconds": 1}},
+    ], "expect": [{"outcome": "succeeded"}]}, indent=1), encoding="utf-8")
+    with pytest.raises(DiagramError) as info:
+        load_scenario(sc)
+    text = "\n".join(str(p) for p in info.value.problems)
+    assert "at /substitute/0/with/type: error: unknown state type 'Wiat' (did you mean 'Wait'?)" in text
+    assert "at /substitute/1: error: the machine has no state 'zz' to substitute" in text
+    assert "at /substitute/2: error: a substitution names one of 'state', 'type' or 'transition'" in text
+    sc.write_text(json.dumps({"machine": "m.json", "duration": 3, "substitute": [
+        {"state": "d", "with": {"type": "Wait", "secs": 1}}], "expect": [{"outcome": "succeeded"}]}, indent=1),
+        encoding="utf-8")
+    with pytest.raises(DiagramError) as info:
+        load_scenario(sc)
+    text = "\n".join(str(p) for p in info.value.problems)
+    assert "at /substitute/0/with/secs: error: with this substitution the machine is invalid: unknown parameter " \
+           "'secs' (did you mean 'seconds'?)" in text

@@ -274,6 +274,25 @@ _MODELS: dict[str, type[ScenarioModel]] = {
 }
 
 
+class TransitionRef(ScenarioModel):
+    """Transitions of the machine: by source and target ids (at any level), optionally by type."""
+
+    from_: str = Field(alias="from", min_length=1, description="The source state's id.")
+    to: str = Field(min_length=1, description="The target state's id.")
+    type: str | None = Field(default=None, min_length=1, description="Only transitions of this type.")
+
+
+class Substitution(ScenarioModel):
+    """For this test, states (by id or path, or every state of a type) or transitions are replaced: the element
+    keeps its id (a transition its from and to) and its step keys; ``with`` gives the new type and parameters."""
+
+    state: str | None = Field(default=None, min_length=1, description="A state id or path ('grip', 'main/grip').")
+    type: str | None = Field(default=None, min_length=1, description="Every state of this type.")
+    transition: TransitionRef | None = Field(default=None, description="Transitions from one state to another.")
+    with_: dict[str, Any] = Field(alias="with", description="The replacement: {\"type\": \"Wait\", \"seconds\": 1} "
+                                                            "and its parameters (step keys may be overridden).")
+
+
 class Scenario(ScenarioModel):
     """A scenario test: a machine, a timeline of inputs and what the run must show."""
 
@@ -296,6 +315,9 @@ class Scenario(ScenarioModel):
     plants: list[dict[str, Any]] = Field(
         default_factory=list, description="Simulated plants behind the machine (registered plant types): "
                                           "{\"name\": \"axis\", \"type\": \"Axis\", ...parameters}.")
+    substitute: list[Substitution] = Field(
+        default_factory=list, description="States or transitions replaced for this test (a long step by a Wait); "
+                                          "the machine so changed is checked like any document.")
     inputs: list[Input] = Field(default_factory=list, description="The timeline of inputs.")
     expect: list[Expectation] = Field(min_length=1, description="What the run must show; all are checked.")
 
@@ -461,6 +483,8 @@ def problems_from_errors(err: ValidationError, data: Any, name: str) -> list[Pro
             model = TransitionCount if len(loc) > 3 else model
         if model is PressInput and "bounce" in loc[2:3] and len(loc) > 3:
             model = Bounce
+        if loc[:1] == ["substitute"] and len(loc) > 2:
+            model = TransitionRef if "transition" in loc[2:3] and len(loc) > 3 else Substitution
         typ = e["type"]
         hint = None
         if typ == "missing":
@@ -706,6 +730,11 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
             problems += exc.problems
     if problems:
         return None, problems
+    files = machine_files(spec)
+    if scenario.substitute:
+        spec, problems = substituted(scenario, machine_path, registry, name)
+        if spec is None:
+            return None, problems
     dt, end_tick = limits(scenario)
     paths = [sp.path for sp in compile_spec(spec).states()]
     problems += name_problems(scenario, paths, name)
@@ -732,7 +761,7 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
                                     hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close
                                     else "signals it reads: " + (", ".join(sorted(known)) or "none")))
     return LoadedScenario(file=name, scenario=scenario, spec=spec, registry=registry, dt=dt, end_tick=end_tick,
-                          world_path=world_path, machine_files=machine_files(spec), plugin_files=plugin_files,
+                          world_path=world_path, machine_files=files, plugin_files=plugin_files,
                           state_paths=paths, plants=plants), problems
 
 
@@ -772,6 +801,107 @@ def _invariant_problems(scenario: Scenario, spec: Any, signals: set[str], car: b
             problems.append(Problem(f"invariant: {exc}", name, pointer("expect", i, "invariant"),
                                     element=f"expectation {i}", hint=hint))
     return problems
+
+
+# -- substitution ------------------------------------------------------------------------------------------
+_STEP_KEYS: tuple[str, ...] = ("id", "description", "set", "layout", "precondition", "until", "monitors", "timeout",
+                               "timeout_behavior", "timeout_exception", "endless")
+
+
+def _elements(node: Any, prefix: str, ptr: str) -> Any:
+    """Every state element of a document (inline sub-machines, regions, steps, exceptions included): (path, JSON
+    pointer, element), and every transition list: (None, pointer, list)."""
+    if not isinstance(node, dict):
+        return
+    if isinstance(node.get("transitions"), list):
+        yield None, ptr + "/transitions", node["transitions"]
+    for key in ("states", "steps", "exceptions", "sequences"):
+        items = node.get(key)
+        for i, el in enumerate(items if isinstance(items, list) else ()):
+            if isinstance(el, dict) and isinstance(el.get("id"), str):
+                path = prefix + el["id"]
+                yield path, f"{ptr}/{key}/{i}", el
+                yield from _elements(el, path + "/", f"{ptr}/{key}/{i}")
+    regions = node.get("regions")
+    for i, r in enumerate(regions if isinstance(regions, list) else ()):
+        if isinstance(r, dict):
+            yield from _elements(r, prefix + str(r.get("name", "")) + "/", f"{ptr}/regions/{i}")
+    inline = node.get("machine")
+    if isinstance(inline, dict) and "file" not in inline:
+        yield from _elements(inline, prefix, ptr + "/machine")
+
+
+def substituted(scenario: Scenario, machine_path: Path, registry: Any, name: str) -> tuple[Any, list[Problem]]:
+    """The machine with the scenario's substitutions applied and checked: (spec, problems); ``None`` for the
+    spec when a substitution matches nothing, names an unknown type or makes the machine invalid."""
+    import copy
+
+    from fsm.loader import check
+    from fsm.reading import reader_for
+
+    data, _source = reader_for(machine_path)(machine_path)
+    doc = copy.deepcopy(data)
+    problems: list[Problem] = []
+    touched: list[tuple[str, int]] = []  # (document pointer, substitution index)
+    for k, sub in enumerate(scenario.substitute):
+        ptr = pointer("substitute", k)
+        given = [key for key in ("state", "type", "transition") if getattr(sub, key) is not None]
+        if len(given) != 1:
+            problems.append(Problem("a substitution names one of 'state', 'type' or 'transition'", name, ptr,
+                                    hint='{"state": "grip", "with": {"type": "Wait", "seconds": 1}}'))
+            continue
+        kind = sub.with_.get("type")
+        table = registry.transitions if sub.transition is not None else registry.states
+        if not isinstance(kind, str) or kind not in table:
+            known = sorted(table)
+            close = difflib.get_close_matches(str(kind), known, n=2)
+            what = "transition" if sub.transition is not None else "state"
+            problems.append(Problem(f"unknown {what} type {kind!r}" if kind is not None else
+                                    "the replacement needs a 'type'", name, ptr + "/with" + ("/type" if kind else ""),
+                                    hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close else
+                                    f"{what} types: " + ", ".join(known[:15])))
+            continue
+        hits = 0
+        for path, at, el in list(_elements(doc, "", "")):
+            if path is None:
+                if sub.transition is None:
+                    continue
+                ref = sub.transition
+                for j, tr in enumerate(el):
+                    if isinstance(tr, dict) and tr.get("from") == ref.from_ and tr.get("to") == ref.to and \
+                            (ref.type is None or tr.get("type") == ref.type):
+                        el[j] = {"from": tr["from"], "to": tr["to"], **sub.with_}
+                        touched.append((f"{at}/{j}", k))
+                        hits += 1
+                continue
+            if (sub.state is not None and state_matches(sub.state, path)) or \
+                    (sub.type is not None and el.get("type") == sub.type):
+                kept = {key: v for key, v in el.items() if key in _STEP_KEYS}
+                el.clear()
+                el.update({**kept, **sub.with_, "id": kept["id"]})
+                touched.append((at, k))
+                hits += 1
+        if not hits:
+            ref = sub.transition
+            what = (f"state '{sub.state}'" if sub.state is not None else f"state of type '{sub.type}'"
+                    if sub.type is not None or ref is None else f"transition from '{ref.from_}' to '{ref.to}'")
+            problems.append(Problem(f"the machine has no {what} to substitute", name, ptr,
+                                    hint="states inside an included machine file cannot be substituted"))
+    if problems:
+        return None, problems
+    spec, found = check(doc, registry=registry, base_dir=machine_path.parent)
+    errors = [p for p in found if p.severity == "error"]
+    if spec is not None and not errors:
+        return spec, []
+    out = []
+    for p in errors or found:
+        where = next(((at, k) for at, k in touched
+                      if p.pointer and (p.pointer == at or p.pointer.startswith(at + "/"))), None)
+        k = where[1] if where else 0
+        inner = p.pointer[len(where[0]):] if where and p.pointer else ""
+        out.append(Problem(f"with this substitution the machine is invalid: {p.message}", name,
+                           pointer("substitute", k) + ("/with" + inner if where else ""), hint=p.hint))
+    return None, out
 
 
 def _load_plugins(scenario: Scenario, base: Path, name: str, registry: Any) -> tuple[list[str], list[Problem]]:

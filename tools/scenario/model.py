@@ -790,6 +790,15 @@ def _invariant_problems(scenario: Scenario, spec: Any, signals: set[str], car: b
         if not isinstance(exp, InvariantExpect):
             continue
         kinds = kinds if kinds is not None else invariant_kinds(spec, signals, car, scenario)
+        if scenario.plants:  # a plant may write any variable: other names are read when the run starts
+            from .runner import expression_names
+
+            try:
+                extra = [n for n in expression_names(exp.invariant) if n not in kinds
+                         and not n.startswith(("signal_", "car_"))]
+            except ExprError:
+                extra = []
+            kinds = {**kinds, **{n: "any" for n in extra}}
         try:
             compile_expr(exp.invariant, kinds, want=BOOL)
         except ExprError as exc:

@@ -370,6 +370,8 @@ def make_invariants(loaded: LoadedScenario, signals: tuple[str, ...]) -> list[In
     for i, exp in enumerate(loaded.scenario.expect):
         if isinstance(exp, InvariantExpect):
             names = expression_names(exp.invariant)
+            if loaded.plants:  # variables a plant writes (checked when the scenario was loaded)
+                kinds.update({n: "any" for n in names if n not in kinds and not n.startswith(("signal_", "car_"))})
             set_vars = {k for k, kind in kinds.items() if not k.startswith(("signal_", "car_"))}
             vars_only = all(n in spec_vars or n in set_vars for n in names)
             first, last = (0, loaded.end_tick) if exp.within is None else \

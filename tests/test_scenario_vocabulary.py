@@ -190,7 +190,7 @@ def test_bad_vocabulary_is_one_located_message_each(tmp_path: Path) -> None:
     text = "\n".join(got)
     assert len(got) == 3
     assert "at /expect/0/invariant" in text and "unknown variable 'm'" in text
-    assert "(names: go, level, n, signal_jam)" in text
+    assert "(names: go, level, n, signal_estop, signal_jam)" in text
     assert "at /expect/1/state" in text and "the machine has no state 'zz'" in text
     assert "at /inputs/0/pause" in text and "a path from the top: 'main/a'" in text
 

@@ -767,11 +767,12 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
 
 def invariant_kinds(spec: Any, signals: set[str], car: bool, scenario: Scenario) -> dict[str, str]:
     """The names an invariant may use and their kinds: the machine's variables (and those the scenario sets),
-    ``signal_NAME`` for every signal the machine reads or the scenario drives, ``car_NAME`` with a world."""
+    ``signal_NAME`` for every signal the machine reads or declares (``inputs``) or the scenario drives,
+    ``car_NAME`` with a world."""
     from fsm.breakpoints import CAR_READINGS
     from fsm.expr import ANY, BOOL, NUMBER, kind_of
 
-    kinds = {f"signal_{s}": BOOL for s in signals}
+    kinds = {f"signal_{s}": BOOL for s in (*signals, *(getattr(spec, "inputs", None) or ()))}
     if car:
         kinds.update({f"car_{n}": NUMBER for n in CAR_READINGS})
     for item in scenario.inputs:

@@ -144,6 +144,8 @@ class InvariantWatch:
 
     def __init__(self, index: int, text: str, fn: Any, names: list[str], vars_only: bool, first: int, last: int,
                  signals: tuple[str, ...]) -> None:
+        from fsm.expr import ExprRuntimeError
+
         self.index = index
         self.text = text
         self.fn = fn
@@ -157,21 +159,37 @@ class InvariantWatch:
         self.reported = False
         self.values: dict[str, Any] = {}
         self.error: str | None = None
-        self.checked = 0
+        self._errors = (ExprRuntimeError, TypeError, ValueError, ArithmeticError, KeyError)
+        #: (name, signal, car reading) for the names read from outside the variables
+        self._outside = [(n, n[len("signal_"):] if n.startswith("signal_") else None,
+                          n[len("car_"):] if n.startswith("car_") else None) for n in names
+                         if n.startswith(("signal_", "car_"))]
+
+    def _values(self, machine: Machine) -> dict[str, Any]:
+        """What the expression reads: the variables, and only the signals and car readings it names."""
+        ctx = machine.ctx
+        if self.vars_only:
+            return ctx.vars
+        values = dict(ctx.vars)
+        signals = ctx.signals
+        for name, signal, reading in self._outside:
+            if signal is not None:
+                values[name] = signals.get(signal, False)
+            elif reading is not None and ctx.car is not None:
+                value = getattr(ctx.car, reading, None)
+                if isinstance(value, (int, float)):
+                    values[name] = value
+        return values
 
     def check(self, machine: Machine, tick: int) -> None:
-        from fsm.breakpoints import expression_values
-        from fsm.expr import ExprRuntimeError
-
-        values = machine.ctx.vars if self.vars_only else expression_values(machine, self.signals)
-        self.checked += 1
+        values = self._values(machine)
         try:
-            ok = self.fn(values) is True
-        except (ExprRuntimeError, TypeError, ValueError, ArithmeticError) as exc:
-            ok, self.error = False, str(exc)
-        if not ok:
-            self.failed = tick
-            self.values = {n: values.get(n, _UNSET) for n in self.names}
+            if self.fn(values) is True:
+                return
+        except self._errors as exc:
+            self.error = str(exc)
+        self.failed = tick
+        self.values = {n: values.get(n, _UNSET) for n in self.names}
 
 
 class Recording(Listener):
@@ -426,7 +444,10 @@ def run_scenario(loaded: LoadedScenario, coverage: Any = None) -> ScenarioResult
     watched_names = [e.state for e in sc.expect if isinstance(e, OutcomeExpect) and e.state is not None]
     watched = [st for path, st in machine.states_by_path.items()
                if any(state_matches(n, path) for n in watched_names)]
-    names = tuple(sorted({c.name for c in signals} | set(plant_signals)))
+    from fsm.loader import signal_names
+
+    read = signal_names(loaded.spec) | set(getattr(loaded.spec, "inputs", None) or ())
+    names = tuple(sorted({c.name for c in signals} | set(plant_signals) | read))
     rec = machine.add_listener(Recording(at_ticks, watched, make_invariants(loaded, names)))
     error: StateRuntimeError | None = None
     t0 = time.perf_counter()

@@ -26,9 +26,12 @@ if TYPE_CHECKING:
 def register(sub: Subcommands) -> None:
     p = sub.add_parser("test", help="run scenario tests (*.scenario.json) and report like a test runner",
                        description="Run each scenario: its machine on a timeline of inputs (signal pulses, button "
-                                   "presses with bounce, variable changes), then check its expectations (states "
-                                   "visited in order, never visited, active states and variables at given times, "
-                                   "the outcome). Exit 1 if any scenario failed or is invalid.")
+                                   "presses with bounce, variable changes, pausing and resuming a subtree), then "
+                                   "check its expectations (states visited in order or never, entered, skipped "
+                                   "and left how often and in which time windows, active, paused and suspended "
+                                   "states and variables (with tolerances) at given times, monitor firings, "
+                                   "invariants at every tick, the outcome of the machine or an inner state). "
+                                   "Exit 1 if any scenario failed or is invalid.")
     p.add_argument("scenarios", nargs="+", metavar="SCENARIO", help="scenario files (*.scenario.json)")
     p.add_argument("-q", "--quiet", action="store_true",
                    help="print only failures (with their trace) and the summary line")

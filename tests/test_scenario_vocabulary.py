@@ -306,3 +306,16 @@ def test_bad_substitutions_are_located_in_the_scenario(tmp_path: Path) -> None:
     text = "\n".join(str(p) for p in info.value.problems)
     assert "at /substitute/0/with/secs: error: with this substitution the machine is invalid: unknown parameter " \
            "'secs' (did you mean 'seconds'?)" in text
+
+
+def test_an_invariant_over_the_cars_readings(tmp_path: Path) -> None:
+    repo = Path(__file__).resolve().parents[1] / "diagrams"
+    doc = json.loads((repo / "corner_turn.scenario.json").read_text(encoding="utf-8"))
+    doc.pop("$schema", None)
+    doc.update(machine=str(repo / doc["machine"]), world=str(repo / doc["world"]), duration=10.5,
+               expect=[{"invariant": "car_front > 0.05"}, {"invariant": "car_front > 1.0"}])
+    sc = tmp_path / "car.scenario.json"
+    sc.write_text(json.dumps(doc), encoding="utf-8")
+    result = run_scenario(load_scenario(sc))
+    assert [f.index for f in result.failures] == [1]
+    assert "'car_front > 1.0' is false at tick 812 (t=10.15 s) (car_front = 0.999" in result.failures[0].message

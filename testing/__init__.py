@@ -51,11 +51,14 @@ class MachineTest:
     ``source``: a machine file (``.json`` or ``.uxf``) or a document dict. ``state``: a state path from the top
     to start in instead of the initial states (each level on the way starts at the state the path names).
     ``vars``: variables set before the start. ``dt``: the tick period (default 80 Hz). ``plugins``: modules or
-    ``.py`` files registering types.
+    ``.py`` files registering types. ``plants``: simulated parts behind the machine, as a scenario's ``plants``
+    (``[{"name": "axis", "type": "Axis", "speed": 0.25}]``). A machine that drives the car cannot be tested here
+    (run it in a scenario with a world).
     """
 
     def __init__(self, source: str | os.PathLike[str] | Mapping[str, Any], *, state: str | None = None,
                  vars: Mapping[str, Any] | None = None, dt: float | None = None, plugins: tuple[str, ...] = (),
+                 plants: list[Mapping[str, Any]] | None = None,
                  base_dir: str | os.PathLike[str] | None = None) -> None:
         from fsm.loader import check
         from fsm.loader import compile as compile_spec
@@ -80,6 +83,13 @@ class MachineTest:
                                       state_paths=self.paths)
         # every tick's snapshot and every state's outcome: a test may look back at any of them
         self.record = self.machine.add_listener(Recording(_Every(), list(self.machine.states_by_path.values())))
+        for raw in plants or ():
+            kind = raw.get("type")
+            cls = registry.plants.get(kind) if isinstance(kind, str) else None
+            if cls is None:
+                raise ValueError(f"unknown plant type {kind!r}; plant types: "
+                                 + (", ".join(sorted(registry.plants)) or "none (load the plugin that registers it)"))
+            cls(cls.Params.model_validate(dict(raw))).attach(self.machine)
         if vars:
             self.machine.ctx.vars.update(vars)
         self._start(state)

@@ -51,6 +51,19 @@ def test_inputs_tick_by_tick_and_an_invariant_that_fails_raises_at_its_tick() ->
     assert "invariant: 'parts <= 3' is false at tick 7 (t=0.0875 s) (parts = 7)" in str(info.value)
 
 
+def test_a_machine_with_a_plant() -> None:
+    cases = REPO / "diagrams" / "eeros"
+    plugin = str(REPO / "examples" / "eeros" / "eeros_plant.py")
+    m = MachineTest(cases / "case1_axis.json", plugins=(plugin,), state="right",
+                    plants=[{"name": "axis", "type": "Axis", "length": 1.0, "speed": 0.25, "start": 0.5}])
+    m.always("axis_crashes == 0")
+    m.signal("right").run_for(2.5)
+    m.expect({"monitors": {"owner": "right", "count": 1, "within": [2.0, 2.05]}}, {"active": "hold"},
+             {"vars": {"axis_x": {"value": 1.0, "tolerance": 0.001}}})
+    with pytest.raises(ValueError, match="unknown plant type 'Axle'"):
+        MachineTest(cases / "case1_axis.json", plugins=(plugin,), plants=[{"name": "a", "type": "Axle"}])
+
+
 def test_bad_arguments_are_clear_errors() -> None:
     with pytest.raises(ValueError, match="no state at the path 'grip'; did you mean 'cycle/grip'"):
         MachineTest(SORTER, state="grip")

@@ -49,14 +49,19 @@ class Coverage:
 
     def add(self, machine: Machine, rec: Recording, key: str | None = None) -> None:
         """Add one run of ``machine`` whose record is ``rec``."""
+        ran = {e.path for k, e in enumerate(rec.entries) if k not in rec.skipped}
+        skipped = {rec.entries[k].path for k in rec.skipped}
+        self.add_reached(machine, ran, skipped, rec.fired, {(f.owner, f.label, f.kind) for f in rec.monitors}, key)
+
+    def add_reached(self, machine: Machine, ran: set[str], skipped: set[str], fired: set[tuple[str, int]],
+                    fired_monitors: set[tuple[str, str, str]], key: str | None = None) -> None:
+        """Add one run of ``machine`` that entered and ran the states ``ran``, skipped ``skipped``, fired the
+        transitions ``fired`` ((source path, index)) and the monitors ``fired_monitors`` ((owner, label, kind))."""
         key = key or machine.name or "machine"
         cov = self.machines.get(key)
         if cov is None:
             cov = self.machines[key] = MachineCoverage(key)
         cov.scenarios += 1
-        ran = {e.path for k, e in enumerate(rec.entries) if k not in rec.skipped}
-        skipped = {rec.entries[k].path for k in rec.skipped}
-        fired_monitors = {(f.owner, f.label, f.kind) for f in rec.monitors}
         for path, state in machine.states_by_path.items():
             now = "ran" if path in ran else "skipped" if path in skipped else "never"
             before = cov.states.get(path, "never")
@@ -64,7 +69,7 @@ class Coverage:
                 "never"
             for tr in state.transitions:
                 label = _transition_label(tr)
-                cov.transitions[label] = cov.transitions.get(label, False) or (path, tr.index) in rec.fired
+                cov.transitions[label] = cov.transitions.get(label, False) or (path, tr.index) in fired
             supervisor = state.supervisor
             for m in supervisor.monitors if supervisor is not None else ():
                 label = f"{path}: {m.kind} {m.label} ({m.behavior})"

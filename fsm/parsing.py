@@ -95,6 +95,11 @@ class Parser:
             self.problems.add(f"a machine must be a JSON object with 'initial' and 'states', got {kind}", source,
                               base, hint='{"initial": "a", "states": [{"id": "a", "type": "Idle"}]}')
             return None
+        if depth == 0 and "expect" in data and not {"states", "initial", "root"} & data.keys():
+            self.problems.add("this is a scenario test (it has 'expect' and no 'states'), not a machine document",
+                              source, base, hint="run a scenario with `fsmctl test FILE`; `fsmctl run` takes the "
+                                                 "machine it names ('machine')")
+            return None
         data, legacy = normalize_legacy(data)
         envelope: MachineEnvelope | None
         try:

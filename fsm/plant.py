@@ -1,7 +1,8 @@
 """Plant: a small simulated machine part behind a machine (an axis with limit switches, a gripper, a
 conveyor, a bouncing button) for scenario tests and runs without the car.
 
-A plant is stepped after every tick of the machine: it reads what the machine commanded (blackboard
+A plant is stepped after every tick of the machine, the first time after tick 1 (starting the machine is no
+tick; :meth:`Plant.reset` sets what tick 1 sees): it reads what the machine commanded (blackboard
 variables, or calls its steps made on it through ``ctx.plant(name)``), advances its model by the tick's
 ``dt``, and writes what its sensors see as input signals (``ctx.set_signal``: the machine sees them from
 the next tick on, as a real input read once per cycle) or variables. Register a plant type with

@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parent.parent
 #: Where the installed layout is linked (the configuration's ``mypy_path``); beside mypy's own cache.
 LAYOUT = ROOT / ".mypy_cache" / "layout"
 #: Subpackages that live outside ``fsm/`` in the repository: installed name under fsm -> folder.
-MAPPED = {"states": "states", "transitions": "transitions"}
+MAPPED = {"states": "states", "transitions": "transitions", "testing": "testing"}
 
 
 def link_layout(root: Path = ROOT, layout: Path = LAYOUT) -> Path:

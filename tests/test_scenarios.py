@@ -177,7 +177,8 @@ def test_bad_scenarios_give_every_located_error_at_once(capsys: pytest.CaptureFi
         f"{file}:3:3 at /dtt: error: unknown key 'dtt' (did you mean 'dt'?)",
         f"{file}:5:6 at /inputs/0/at: error: input 0: 'at' should be greater than or equal to 0, got -1",
         f"{file}:6:51 at /inputs/1/bounce: error: input 1: the bounce lasts 0.24 s",
-        f"{file}:7:5 at /inputs/2: error: input 2: an input is an object with 'signal', 'press' or 'set'",
+        f"{file}:7:5 at /inputs/2: error: input 2: an input is an object with 'signal', 'press', 'set', 'pause' or "
+        "'resume'",
         f"{file}:10:6 at /expect/0/outcome: error: expectation 0: 'outcome' should be a valid string, got 3",
         f"{file}:11:5 at /expect/1: error: expectation 1: an expectation is an object with one of",
     ]

@@ -384,3 +384,33 @@ def test_every_package_folder_is_installed() -> None:
                 continue
             name = ".".join([package, *rel.parts])
             assert name in listed, f"{path.relative_to(REPO)}: package {name} is not in pyproject.toml's packages"
+
+
+def test_the_report_shows_the_runs_coverage(mission: Any, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """States never entered, transitions and monitors never fired, of the machine in the trace's header (the
+    mission drives the car: its structure is built on a car with nothing behind it)."""
+    f = tmp_path / "m.jsonl"
+    f.write_text(mission[0])
+    code, _, err = cli(capsys, "report", str(f), "-o", str(tmp_path / "m.html"))
+    assert code == 0, err
+    html = (tmp_path / "m.html").read_text()
+    start = html.index('<section id="coverage-box">')
+    section = html[start:html.index("</section>", start)]
+    assert "<h2>Coverage of this run</h2>" in section
+    assert "states 15/15, transitions 10/10, monitors 2/2 (100.0&#8201;%)" in section  # the whole mission ran
+    lines = mission[0].splitlines()
+    f.write_text("\n".join(lines[:len(lines) // 4]) + "\n")  # the trace cut off early in the run
+    code, _, err = cli(capsys, "report", str(f), "-o", str(tmp_path / "m.html"))
+    assert code == 0, err
+    html = (tmp_path / "m.html").read_text()
+    start = html.index('<section id="coverage-box">')
+    section = html[start:html.index("</section>", start)]
+    assert "<tr><th>never entered</th><td>" in section and "mission/halt" in section
+    assert "mission/approach -&gt; mission/halt (Finished #2)" in section
+    header = json.loads(lines[0])
+    header["machine"] = {"initial": "a", "states": [{"id": "a", "type": "NoSuchType"}]}
+    f.write_text("\n".join([json.dumps(header)] + lines[1:]) + "\n")
+    code, _, err = cli(capsys, "report", str(f), "-o", str(tmp_path / "b.html"))
+    assert code == 0, err
+    html = (tmp_path / "b.html").read_text()
+    assert 'id="coverage-box"' not in html and "cannot be built (DiagramError): no coverage" in html

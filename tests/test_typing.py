@@ -192,14 +192,14 @@ def test_messages_name_files_in_the_repository(tmp_path: Path) -> None:
     mod = script()
     layout = tmp_path / "layout"
     root = tmp_path / "repo"
-    for folder in ("fsm", "states", "transitions"):
+    for folder in ("fsm", "states", "transitions", "testing"):
         (root / folder).mkdir(parents=True)
     (root / "fsm" / "state.py").write_text("")
     (root / "fsm" / "stale.py").write_text("")
     mod.link_layout(root, layout)
     (root / "fsm" / "stale.py").unlink()
     mod.link_layout(root, layout)
-    assert sorted(p.name for p in (layout / "fsm").iterdir()) == ["state.py", "states", "transitions"]
+    assert sorted(p.name for p in (layout / "fsm").iterdir()) == ["state.py", "states", "testing", "transitions"]
     assert (layout / "fsm" / "states").resolve() == (root / "states").resolve()
     sep = "/" if sys.platform != "win32" else "\\"
     for line, want in ((f"{layout}{sep}fsm{sep}states{sep}driving.py:3: error: x",

@@ -75,9 +75,25 @@ class SetInput(ScenarioModel):
     set: dict[str, Value] = Field(min_length=1, description="Variable names and their new values.")
 
 
+class PauseInput(ScenarioModel):
+    """Pause the active state at a path and its subtree (as ``Machine.pause``), before the tick at or after
+    ``at``."""
+
+    at: float = Field(ge=0, description="Simulated time in seconds.")
+    pause: str = Field(min_length=1, description="The state's path from the top ('run/work'); it must be active "
+                                                 "then (a state that is not active is left alone).")
+
+
+class ResumeInput(ScenarioModel):
+    """Resume a paused state (as ``Machine.resume``), before the tick at or after ``at``."""
+
+    at: float = Field(ge=0, description="Simulated time in seconds.")
+    resume: str = Field(min_length=1, description="The paused state's path from the top.")
+
+
 def _input_kind(value: Any) -> str | None:
     if isinstance(value, dict):
-        for key in ("signal", "press", "set"):
+        for key in ("signal", "press", "set", "pause", "resume"):
             if key in value:
                 return f"<{key}>"
     return None
@@ -85,17 +101,70 @@ def _input_kind(value: Any) -> str | None:
 
 Input = Annotated[
     Union[Annotated[SignalInput, Tag("<signal>")], Annotated[PressInput, Tag("<press>")],  # noqa: UP007
-          Annotated[SetInput, Tag("<set>")]],
+          Annotated[SetInput, Tag("<set>")], Annotated[PauseInput, Tag("<pause>")],
+          Annotated[ResumeInput, Tag("<resume>")]],
     Discriminator(_input_kind, custom_error_type="input_kind",
-                  custom_error_message="an input is an object with 'signal', 'press' or 'set' (and 'at')"),
+                  custom_error_message="an input is an object with 'signal', 'press', 'set', 'pause' or 'resume' "
+                                       "(and 'at')"),
 ]
 
 
 # -- expectations --------------------------------------------------------------------------------------
-class OutcomeExpect(ScenarioModel):
-    """The machine finishes with this outcome (within the run's limits)."""
+#: A time window ``[start, end]`` in simulated seconds: an event at tick n counts when start <= n*dt <= end.
+Window = Annotated[list[Annotated[float, Field(ge=0)]], Field(min_length=2, max_length=2)]
+_WINDOW = "A time window [start, end] in simulated seconds: only events at a tick whose time lies in it count."
 
-    outcome: str = Field(min_length=1, description="Expected outcome of the top-level Final state.")
+
+class Approx(ScenarioModel):
+    """A number with a tolerance: the value holds when it is within ``tolerance`` of ``value``."""
+
+    value: float = Field(description="The expected number.")
+    tolerance: float = Field(ge=0, description="The largest difference allowed (absolute).")
+
+
+class OutcomeExpect(ScenarioModel):
+    """The machine (or, with ``state``, an inner state) finishes with this outcome (within the run's limits)."""
+
+    outcome: str = Field(min_length=1, description="Expected outcome of the top-level Final state, or of 'state'.")
+    state: str | None = Field(default=None, min_length=1,
+                              description="An inner state (id or path): one of its runs finishes with this outcome "
+                                          "('precondition_failed' for a step skipped by its precondition).")
+    within: Window | None = Field(default=None, description=_WINDOW)
+
+
+class _Counted(ScenarioModel):
+    """How often an event happens: exactly ``count``, or ``min`` and/or ``max``; at least once without them."""
+
+    within: Window | None = Field(default=None, description=_WINDOW)
+    count: Int | None = Field(default=None, ge=0, description="Exactly this many times.")
+    min: Int | None = Field(default=None, ge=0, description="At least this many times.")
+    max: Int | None = Field(default=None, ge=0, description="At most this many times.")
+
+
+class EnteredExpect(_Counted):
+    """A state is entered and runs (an entry skipped by its precondition does not count: see ``skipped``)."""
+
+    entered: str = Field(min_length=1, description="State id or path ('grip/closing' matches 'run/work/grip/closing').")
+
+
+class SkippedExpect(_Counted):
+    """A state is entered and at once skipped because its precondition is false."""
+
+    skipped: str = Field(min_length=1, description="State id or path.")
+
+
+class ExitedExpect(_Counted):
+    """A state is left (by a transition of its own level, with its parent, or by a restart)."""
+
+    exited: str = Field(min_length=1, description="State id or path.")
+
+
+class InvariantExpect(ScenarioModel):
+    """An expression that holds after every tick (within ``within``, if given)."""
+
+    invariant: str = Field(min_length=1, description="An expression of the document language over the variables, "
+                                                     "signal_NAME (true/false) and, with a world, car_NAME readings.")
+    within: Window | None = Field(default=None, description="Only the ticks in this window are checked.")
 
 
 class FinishedExpect(ScenarioModel):
@@ -124,7 +193,15 @@ class AtExpect(ScenarioModel):
     active: str | list[Annotated[str, Field(min_length=1)]] | None = Field(
         default=None, description="A state path (or a list of them) that is active: an active leaf's path equals it "
                                   "or starts with it and '/'.")
-    vars: dict[str, Value] | None = Field(default=None, description="Blackboard variables and their expected values.")
+    vars: dict[str, Value | Approx] | None = Field(
+        default=None, description="Blackboard variables and their expected values; a number may be given as "
+                                  "{\"value\": 1.5, \"tolerance\": 0.01}.")
+    paused: dict[str, bool] | None = Field(
+        default=None, description="State id or path -> whether it is active and held by a pause (its own or an "
+                                  "ancestor's).")
+    suspended: dict[str, bool] | None = Field(
+        default=None, description="State id or path -> whether it is active and suspended while a monitor's "
+                                  "exception sequence runs (not by a pause).")
 
 
 class TransitionCount(ScenarioModel):
@@ -154,6 +231,7 @@ class MonitorFired(ScenarioModel):
     at: list[Annotated[float, Field(ge=0)]] | None = Field(
         default=None, description="The simulated times (s) at which it fires, in order (each at the first tick at "
                                   "or after it).")
+    within: Window | None = Field(default=None, description=_WINDOW)
 
 
 class MonitorsExpect(ScenarioModel):
@@ -162,7 +240,8 @@ class MonitorsExpect(ScenarioModel):
     monitors: MonitorFired
 
 
-_EXPECT_KEYS = ("outcome", "finished", "visits", "never", "transitions", "at", "monitors")
+_EXPECT_KEYS = ("outcome", "finished", "visits", "never", "transitions", "entered", "skipped", "exited", "invariant",
+                "at", "monitors")
 
 
 def _expect_kind(value: Any) -> str | None:
@@ -177,17 +256,41 @@ Expectation = Annotated[
     Union[Annotated[OutcomeExpect, Tag("<outcome>")], Annotated[FinishedExpect, Tag("<finished>")],  # noqa: UP007
           Annotated[VisitsExpect, Tag("<visits>")], Annotated[NeverExpect, Tag("<never>")],
           Annotated[TransitionsExpect, Tag("<transitions>")], Annotated[AtExpect, Tag("<at>")],
-          Annotated[MonitorsExpect, Tag("<monitors>")]],
+          Annotated[MonitorsExpect, Tag("<monitors>")], Annotated[EnteredExpect, Tag("<entered>")],
+          Annotated[SkippedExpect, Tag("<skipped>")], Annotated[ExitedExpect, Tag("<exited>")],
+          Annotated[InvariantExpect, Tag("<invariant>")]],
     Discriminator(_expect_kind, custom_error_type="expect_kind",
                   custom_error_message="an expectation is an object with one of 'outcome', 'finished', 'visits', "
-                                       "'never', 'transitions', 'monitors', or 'at' (with 'active' and/or 'vars')"),
+                                       "'never', 'transitions', 'monitors', 'entered', 'skipped', 'exited', "
+                                       "'invariant', or 'at' (with 'active', 'vars', 'paused' and/or 'suspended')"),
 ]
 
 _MODELS: dict[str, type[ScenarioModel]] = {
     "<signal>": SignalInput, "<press>": PressInput, "<set>": SetInput, "<outcome>": OutcomeExpect,
     "<finished>": FinishedExpect, "<visits>": VisitsExpect, "<never>": NeverExpect,
-    "<transitions>": TransitionsExpect, "<at>": AtExpect, "<monitors>": MonitorsExpect,
+    "<transitions>": TransitionsExpect, "<at>": AtExpect, "<monitors>": MonitorsExpect, "<pause>": PauseInput,
+    "<resume>": ResumeInput, "<entered>": EnteredExpect, "<skipped>": SkippedExpect, "<exited>": ExitedExpect,
+    "<invariant>": InvariantExpect,
 }
+
+
+class TransitionRef(ScenarioModel):
+    """Transitions of the machine: by source and target ids (at any level), optionally by type."""
+
+    from_: str = Field(alias="from", min_length=1, description="The source state's id.")
+    to: str = Field(min_length=1, description="The target state's id.")
+    type: str | None = Field(default=None, min_length=1, description="Only transitions of this type.")
+
+
+class Substitution(ScenarioModel):
+    """For this test, states (by id or path, or every state of a type) or transitions are replaced: the element
+    keeps its id (a transition its from and to) and its step keys; ``with`` gives the new type and parameters."""
+
+    state: str | None = Field(default=None, min_length=1, description="A state id or path ('grip', 'main/grip').")
+    type: str | None = Field(default=None, min_length=1, description="Every state of this type.")
+    transition: TransitionRef | None = Field(default=None, description="Transitions from one state to another.")
+    with_: dict[str, Any] = Field(alias="with", description="The replacement: {\"type\": \"Wait\", \"seconds\": 1} "
+                                                            "and its parameters (step keys may be overridden).")
 
 
 class Scenario(ScenarioModel):
@@ -212,6 +315,9 @@ class Scenario(ScenarioModel):
     plants: list[dict[str, Any]] = Field(
         default_factory=list, description="Simulated plants behind the machine (registered plant types): "
                                           "{\"name\": \"axis\", \"type\": \"Axis\", ...parameters}.")
+    substitute: list[Substitution] = Field(
+        default_factory=list, description="States or transitions replaced for this test (a long step by a Wait); "
+                                          "the machine so changed is checked like any document.")
     inputs: list[Input] = Field(default_factory=list, description="The timeline of inputs.")
     expect: list[Expectation] = Field(min_length=1, description="What the run must show; all are checked.")
 
@@ -300,6 +406,10 @@ def load_scenario(file: str | Path, plugins: tuple[str, ...] = ()) -> LoadedScen
         kind = "array" if isinstance(data, list) else type(data).__name__
         problems.append(Problem(f"a scenario must be a JSON object, got {kind}", name,
                                 hint='{"machine": "m.json", "expect": [{"outcome": "succeeded"}]}'))
+    elif {"states", "initial", "root"} & data.keys() and "expect" not in data:
+        problems.append(Problem("this is a machine document (it has 'states' or 'initial'), not a scenario test",
+                                name, hint="run a machine with `fsmctl run FILE`; a scenario names it: "
+                                           f'{{"machine": "{path.name}", "expect": [{{"outcome": "succeeded"}}]}}'))
     else:
         try:
             scenario = Scenario.model_validate(data)
@@ -373,6 +483,8 @@ def problems_from_errors(err: ValidationError, data: Any, name: str) -> list[Pro
             model = TransitionCount if len(loc) > 3 else model
         if model is PressInput and "bounce" in loc[2:3] and len(loc) > 3:
             model = Bounce
+        if loc[:1] == ["substitute"] and len(loc) > 2:
+            model = TransitionRef if "transition" in loc[2:3] and len(loc) > 3 else Substitution
         typ = e["type"]
         hint = None
         if typ == "missing":
@@ -515,10 +627,27 @@ def element_problems(inputs: list[Any], expect: list[Any], lim: Scenario | None,
     for i, exp in enumerate(expect):
         ptr = pointer("expect", i)
         label = f"expectation {i}"
+        within = getattr(exp, "within", None)
+        if within is None and isinstance(exp, MonitorsExpect):
+            within = exp.monitors.within
+        if within is not None and within[1] < within[0]:
+            where = ptr + ("/monitors" if isinstance(exp, MonitorsExpect) else "") + "/within"
+            problems.append(Problem(f"the window ends ({within[1]:g} s) before it starts ({within[0]:g} s)", name,
+                                    where, element=label, hint="a window is [start, end] with start <= end"))
+        if isinstance(exp, _Counted):
+            problems += _count_problems(exp, name, ptr, label)
+        if isinstance(exp, InvariantExpect):
+            from fsm.expr import ExprError, parse
+
+            try:
+                parse(exp.invariant)
+            except ExprError as exc:
+                problems.append(Problem(f"the invariant does not parse: {exc}", name, ptr + "/invariant",
+                                        element=label, hint="e.g. \"x >= 0 and not signal_estop\""))
         if isinstance(exp, AtExpect):
-            if exp.active is None and exp.vars is None:
-                problems.append(Problem("an 'at' expectation needs 'active' or 'vars' (or both)", name, ptr,
-                                        element=label, hint='{"at": 2.0, "active": "run/work"}'))
+            if exp.active is None and exp.vars is None and exp.paused is None and exp.suspended is None:
+                problems.append(Problem("an 'at' expectation needs 'active', 'vars', 'paused' or 'suspended'", name,
+                                        ptr, element=label, hint='{"at": 2.0, "active": "run/work"}'))
             if exp.at > end_time + EPS:
                 problems.append(Problem(f"at {exp.at:g} s is after the end of the run ({end_time:g} s)", name,
                                         ptr + "/at", element=label, hint="raise 'duration' (or 'max_ticks')"))
@@ -533,12 +662,21 @@ def element_problems(inputs: list[Any], expect: list[Any], lim: Scenario | None,
                 problems.append(Problem(f"'min' {c.min} is greater than 'max' {c.max}", name, ptr + "/transitions",
                                         element=label))
         if isinstance(exp, MonitorsExpect):
+            problems += _count_problems(exp.monitors, name, ptr + "/monitors", label)
             for k, at in enumerate(exp.monitors.at or ()):
                 if at > end_time + EPS:
                     problems.append(Problem(f"at {at:g} s is after the end of the run ({end_time:g} s)", name,
                                             f"{ptr}/monitors/at/{k}", element=label,
                                             hint="raise 'duration' (or 'max_ticks')"))
     return problems
+
+
+def _count_problems(c: Any, name: str, ptr: str, label: str) -> list[Problem]:
+    if c.count is not None and (c.min is not None or c.max is not None):
+        return [Problem("'count' is exact; give it alone, or 'min' and/or 'max'", name, ptr, element=label)]
+    if c.min is not None and c.max is not None and c.min > c.max:
+        return [Problem(f"'min' {c.min} is greater than 'max' {c.max}", name, ptr, element=label)]
+    return []
 
 
 def state_matches(item: str, path: str) -> bool:
@@ -592,9 +730,14 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
             problems += exc.problems
     if problems:
         return None, problems
+    files = machine_files(spec)
+    if scenario.substitute:
+        spec, problems = substituted(scenario, machine_path, registry, name)
+        if spec is None:
+            return None, problems
     dt, end_tick = limits(scenario)
     paths = [sp.path for sp in compile_spec(spec).states()]
-    problems += _name_problems(scenario, paths, name)
+    problems += name_problems(scenario, paths, name)
     plants, more = _plants(scenario, registry, name)
     problems += more
     known = signal_names(spec)
@@ -608,6 +751,7 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
                 problems.append(Problem(f"the pause button '{pause}' of '{st.id}' is never pressed by this scenario",
                                         name, "/inputs", severity="warning",
                                         hint=f'add {{"at": 1.0, "press": "{pause}"}} to test the pause'))
+    problems += _invariant_problems(scenario, spec, known | given, world_path is not None, name)
     for i, item in enumerate(scenario.inputs):
         sig = item.signal if isinstance(item, SignalInput) else item.press if isinstance(item, PressInput) else None
         if sig is not None and sig not in known:
@@ -617,8 +761,157 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
                                     hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close
                                     else "signals it reads: " + (", ".join(sorted(known)) or "none")))
     return LoadedScenario(file=name, scenario=scenario, spec=spec, registry=registry, dt=dt, end_tick=end_tick,
-                          world_path=world_path, machine_files=machine_files(spec), plugin_files=plugin_files,
+                          world_path=world_path, machine_files=files, plugin_files=plugin_files,
                           state_paths=paths, plants=plants), problems
+
+
+def invariant_kinds(spec: Any, signals: set[str], car: bool, scenario: Scenario) -> dict[str, str]:
+    """The names an invariant may use and their kinds: the machine's variables (and those the scenario sets),
+    ``signal_NAME`` for every signal the machine reads or declares (``inputs``) or the scenario drives,
+    ``car_NAME`` with a world."""
+    from fsm.breakpoints import CAR_READINGS
+    from fsm.expr import ANY, BOOL, NUMBER, kind_of
+
+    kinds = {f"signal_{s}": BOOL for s in (*signals, *(getattr(spec, "inputs", None) or ()))}
+    if car:
+        kinds.update({f"car_{n}": NUMBER for n in CAR_READINGS})
+    for item in scenario.inputs:
+        if isinstance(item, SetInput):
+            kinds.update({k: ANY for k in item.set})
+    kinds.update({k: kind_of(v) for k, v in getattr(spec, "vars", {}).items()})
+    return kinds
+
+
+def _invariant_problems(scenario: Scenario, spec: Any, signals: set[str], car: bool, name: str) -> list[Problem]:
+    from fsm.expr import BOOL, ExprError, compile_expr
+
+    problems: list[Problem] = []
+    kinds: dict[str, str] | None = None
+    for i, exp in enumerate(scenario.expect):
+        if not isinstance(exp, InvariantExpect):
+            continue
+        kinds = kinds if kinds is not None else invariant_kinds(spec, signals, car, scenario)
+        if scenario.plants:  # a plant may write any variable: other names are read when the run starts
+            from .runner import expression_names
+
+            try:
+                extra = [n for n in expression_names(exp.invariant) if n not in kinds
+                         and not n.startswith(("signal_", "car_"))]
+            except ExprError:
+                extra = []
+            kinds = {**kinds, **{n: "any" for n in extra}}
+        try:
+            compile_expr(exp.invariant, kinds, want=BOOL)
+        except ExprError as exc:
+            hint = None
+            if exc.message.startswith("unknown variable"):
+                close = difflib.get_close_matches(exc.message.split("'")[1], sorted(kinds), n=3)
+                hint = ("did you mean " + " or ".join(close) + "?") if close else \
+                    "names: " + (", ".join(sorted(kinds)[:12]) or "none")
+            problems.append(Problem(f"invariant: {exc}", name, pointer("expect", i, "invariant"),
+                                    element=f"expectation {i}", hint=hint))
+    return problems
+
+
+# -- substitution ------------------------------------------------------------------------------------------
+_STEP_KEYS: tuple[str, ...] = ("id", "description", "set", "layout", "precondition", "until", "monitors", "timeout",
+                               "timeout_behavior", "timeout_exception", "endless")
+
+
+def _elements(node: Any, prefix: str, ptr: str) -> Any:
+    """Every state element of a document (inline sub-machines, regions, steps, exceptions included): (path, JSON
+    pointer, element), and every transition list: (None, pointer, list)."""
+    if not isinstance(node, dict):
+        return
+    if isinstance(node.get("transitions"), list):
+        yield None, ptr + "/transitions", node["transitions"]
+    for key in ("states", "steps", "exceptions", "sequences"):
+        items = node.get(key)
+        for i, el in enumerate(items if isinstance(items, list) else ()):
+            if isinstance(el, dict) and isinstance(el.get("id"), str):
+                path = prefix + el["id"]
+                yield path, f"{ptr}/{key}/{i}", el
+                yield from _elements(el, path + "/", f"{ptr}/{key}/{i}")
+    regions = node.get("regions")
+    for i, r in enumerate(regions if isinstance(regions, list) else ()):
+        if isinstance(r, dict):
+            yield from _elements(r, prefix + str(r.get("name", "")) + "/", f"{ptr}/regions/{i}")
+    inline = node.get("machine")
+    if isinstance(inline, dict) and "file" not in inline:
+        yield from _elements(inline, prefix, ptr + "/machine")
+
+
+def substituted(scenario: Scenario, machine_path: Path, registry: Any, name: str) -> tuple[Any, list[Problem]]:
+    """The machine with the scenario's substitutions applied and checked: (spec, problems); ``None`` for the
+    spec when a substitution matches nothing, names an unknown type or makes the machine invalid."""
+    import copy
+
+    from fsm.loader import check
+    from fsm.reading import reader_for
+
+    data, _source = reader_for(machine_path)(machine_path)
+    doc = copy.deepcopy(data)
+    problems: list[Problem] = []
+    touched: list[tuple[str, int]] = []  # (document pointer, substitution index)
+    for k, sub in enumerate(scenario.substitute):
+        ptr = pointer("substitute", k)
+        given = [key for key in ("state", "type", "transition") if getattr(sub, key) is not None]
+        if len(given) != 1:
+            problems.append(Problem("a substitution names one of 'state', 'type' or 'transition'", name, ptr,
+                                    hint='{"state": "grip", "with": {"type": "Wait", "seconds": 1}}'))
+            continue
+        kind = sub.with_.get("type")
+        table = registry.transitions if sub.transition is not None else registry.states
+        if not isinstance(kind, str) or kind not in table:
+            known = sorted(table)
+            close = difflib.get_close_matches(str(kind), known, n=2)
+            what = "transition" if sub.transition is not None else "state"
+            problems.append(Problem(f"unknown {what} type {kind!r}" if kind is not None else
+                                    "the replacement needs a 'type'", name, ptr + "/with" + ("/type" if kind else ""),
+                                    hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close else
+                                    f"{what} types: " + ", ".join(known[:15])))
+            continue
+        hits = 0
+        for path, at, el in list(_elements(doc, "", "")):
+            if path is None:
+                if sub.transition is None:
+                    continue
+                ref = sub.transition
+                for j, tr in enumerate(el):
+                    if isinstance(tr, dict) and tr.get("from") == ref.from_ and tr.get("to") == ref.to and \
+                            (ref.type is None or tr.get("type") == ref.type):
+                        el[j] = {"from": tr["from"], "to": tr["to"], **sub.with_}
+                        touched.append((f"{at}/{j}", k))
+                        hits += 1
+                continue
+            if (sub.state is not None and state_matches(sub.state, path)) or \
+                    (sub.type is not None and el.get("type") == sub.type):
+                kept = {key: v for key, v in el.items() if key in _STEP_KEYS}
+                el.clear()
+                el.update({**kept, **sub.with_, "id": kept["id"]})
+                touched.append((at, k))
+                hits += 1
+        if not hits:
+            ref = sub.transition
+            what = (f"state '{sub.state}'" if sub.state is not None else f"state of type '{sub.type}'"
+                    if sub.type is not None or ref is None else f"transition from '{ref.from_}' to '{ref.to}'")
+            problems.append(Problem(f"the machine has no {what} to substitute", name, ptr,
+                                    hint="states inside an included machine file cannot be substituted"))
+    if problems:
+        return None, problems
+    spec, found = check(doc, registry=registry, base_dir=machine_path.parent)
+    errors = [p for p in found if p.severity == "error"]
+    if spec is not None and not errors:
+        return spec, []
+    out = []
+    for p in errors or found:
+        where = next(((at, k) for at, k in touched
+                      if p.pointer and (p.pointer == at or p.pointer.startswith(at + "/"))), None)
+        k = where[1] if where else 0
+        inner = p.pointer[len(where[0]):] if where and p.pointer else ""
+        out.append(Problem(f"with this substitution the machine is invalid: {p.message}", name,
+                           pointer("substitute", k) + ("/with" + inner if where else ""), hint=p.hint))
+    return None, out
 
 
 def _load_plugins(scenario: Scenario, base: Path, name: str, registry: Any) -> tuple[list[str], list[Problem]]:
@@ -724,7 +1017,8 @@ def _plants(scenario: Scenario, registry: Any, name: str) -> tuple[list[tuple[ty
     return out, problems
 
 
-def _name_problems(scenario: Scenario, paths: list[str], name: str) -> list[Problem]:
+def name_problems(scenario: Scenario, paths: list[str], name: str) -> list[Problem]:
+    """The state names and paths of the scenario's expectations and pause inputs that name no state of ``paths``."""
     problems = []
     ids = sorted({p.rsplit("/", 1)[-1] for p in paths} | set(paths))
     prefixes = {"/".join(p.split("/")[:k]) for p in paths for k in range(1, p.count("/") + 2)}
@@ -737,10 +1031,19 @@ def _name_problems(scenario: Scenario, paths: list[str], name: str) -> list[Prob
             names = [(s, pointer("expect", i, "never", k), False) for k, s in enumerate(exp.never)]
         elif isinstance(exp, MonitorsExpect):
             names = [(exp.monitors.owner, pointer("expect", i, "monitors", "owner"), False)]
-        elif isinstance(exp, AtExpect) and exp.active is not None:
-            items = [exp.active] if isinstance(exp.active, str) else exp.active
-            names = [(s, ptr + "/active" + ("" if isinstance(exp.active, str) else f"/{k}"), True)
-                     for k, s in enumerate(items)]
+        elif isinstance(exp, (EnteredExpect, SkippedExpect, ExitedExpect)):
+            key = "entered" if isinstance(exp, EnteredExpect) else "skipped" if isinstance(exp, SkippedExpect) \
+                else "exited"
+            names = [(getattr(exp, key), pointer("expect", i, key), False)]
+        elif isinstance(exp, OutcomeExpect) and exp.state is not None:
+            names = [(exp.state, pointer("expect", i, "state"), False)]
+        elif isinstance(exp, AtExpect):
+            if exp.active is not None:
+                items = [exp.active] if isinstance(exp.active, str) else exp.active
+                names = [(s, ptr + "/active" + ("" if isinstance(exp.active, str) else f"/{k}"), True)
+                         for k, s in enumerate(items)]
+            for key in ("paused", "suspended"):
+                names += [(s, pointer("expect", i, key, s), False) for s in getattr(exp, key) or {}]
         for item, at, prefix in names:
             ok = item.strip("/") in prefixes if prefix else any(state_matches(item, p) for p in paths)
             if not ok:
@@ -749,4 +1052,16 @@ def _name_problems(scenario: Scenario, paths: list[str], name: str) -> list[Prob
                     "states: " + ", ".join(paths[:12]) + (", ..." if len(paths) > 12 else "")
                 what = "no state path starts with" if prefix else "the machine has no state"
                 problems.append(Problem(f"{what} '{item}'", name, at, element=f"expectation {i}", hint=hint))
+    for i, item in enumerate(scenario.inputs):
+        if isinstance(item, (PauseInput, ResumeInput)):
+            key = "pause" if isinstance(item, PauseInput) else "resume"
+            target = getattr(item, key).strip("/")
+            if target not in paths:
+                close = difflib.get_close_matches(target, paths, n=3)
+                suffix = [p for p in paths if state_matches(target, p)]
+                hint = (f"a path from the top: {suffix[0]!r}" if len(suffix) == 1 else
+                        ("did you mean " + " or ".join(repr(c) for c in close) + "?") if close else
+                        "states: " + ", ".join(paths[:12]) + (", ..." if len(paths) > 12 else ""))
+                problems.append(Problem(f"the machine has no state at the path '{target}'", name,
+                                        pointer("inputs", i, key), element=f"input {i}", hint=hint))
     return problems

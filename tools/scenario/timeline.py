@@ -18,7 +18,7 @@ from typing import Any
 
 from fsm.session import tick_at
 
-from .model import Bounce, PressInput, Scenario, SetInput, SignalInput
+from .model import Bounce, PauseInput, PressInput, ResumeInput, Scenario, SetInput, SignalInput
 
 
 def press_changes(at: float, duration: float, bounce: Bounce | None = None) -> list[tuple[float, bool]]:
@@ -89,4 +89,27 @@ def seen_levels(changes: list[tuple[float, bool]], dt: float, ticks: int, initia
             level = todo[k][1]
             k += 1
         out.append(level)
+    return out
+
+
+@dataclass(frozen=True)
+class PauseChange:
+    """A state paused (``paused`` True) or resumed by the scenario, before ``tick``."""
+
+    time: float
+    tick: int
+    path: str
+    paused: bool
+    index: int
+
+
+def pause_changes(scenario: Scenario, dt: float) -> list[PauseChange]:
+    """The scenario's ``pause`` and ``resume`` inputs, in time order (ties: scenario order)."""
+    out = []
+    for i, item in enumerate(scenario.inputs):
+        if isinstance(item, PauseInput):
+            out.append(PauseChange(item.at, tick_at(item.at, dt), item.pause.strip("/"), True, i))
+        elif isinstance(item, ResumeInput):
+            out.append(PauseChange(item.at, tick_at(item.at, dt), item.resume.strip("/"), False, i))
+    out.sort(key=lambda c: (c.time, c.index))
     return out

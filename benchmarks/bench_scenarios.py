@@ -1,0 +1,117 @@
+"""Scenario testing speed (issue 23): the eight EEROS thesis scenarios plus the sorter in one process (target
+< 1 s), what an invariant checked at every tick costs on a 1,000-step sequence (target <= 20 % of its tick rate)
+and what coverage adds (target <= 10 %).
+
+Everything runs in this process through the scenario runner (``load_scenario`` + ``run_scenario``), as
+``fsmctl test`` and the pytest plugin do. The sequence is the one of ``bench_sequencer.py``: 1,000 ``Step``\\ s
+that each finish at their first tick, repeated, under three sequences whose monitors stay false, so every tick
+checks three monitors, ticks one step and fires one link; its scenario runs 40,000 ticks. Rates are the best of
+``--repeat`` runs, the variants round-robin so outside load spreads over all of them.
+
+Run: ``.venv/bin/python benchmarks/bench_scenarios.py`` (``--quick`` for fewer repeats).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+REPO = Path(__file__).resolve().parents[1]
+THESIS = sorted((REPO / "diagrams" / "eeros").glob("case*.scenario.json"))
+SORTER = REPO / "diagrams" / "examples" / "sorter.scenario.json"
+TICKS = 40_000
+DT = 0.0125
+
+
+def sequence_doc(steps: int) -> dict[str, Any]:
+    chain = [{"id": f"s{i}", "type": "Step"} for i in range(steps)]
+    inner = {"id": "c", "type": "Sequence", "steps": chain,
+             "monitors": [{"condition": "stop > 2", "behavior": "abortOwner"}]}
+    middle = {"id": "b", "type": "Sequence", "steps": [inner],
+              "monitors": [{"condition": "stop > 1", "behavior": "abortOwner"}]}
+    outer = {"id": "a", "type": "Sequence", "steps": [middle], "repeat": 0,
+             "monitors": [{"condition": "stop > 0", "behavior": "abortOwner"}]}
+    return {"name": "bench", "initial": "a", "vars": {"stop": 0, "n": 0}, "inputs": ["halt"], "states": [outer]}
+
+
+def suite_time(repeat: int) -> tuple[float, int]:
+    """Seconds to load and run the nine scenarios in this process (best of ``repeat``), and their ticks."""
+    from fsm.tools.scenario import load_scenario, run_scenario
+
+    best, ticks = float("inf"), 0
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        results = [run_scenario(load_scenario(p)) for p in [*THESIS, SORTER]]
+        best = min(best, time.perf_counter() - t0)
+        assert all(r.passed for r in results), [r.summary_line() for r in results if not r.passed]
+        ticks = sum(r.ticks for r in results)
+    return best, ticks
+
+
+def sequence_rates(folder: Path, repeat: int) -> dict[str, float]:
+    """Ticks per second of the 1,000-step sequence's scenario: plain, with an invariant over a variable, with one
+    over a variable and a signal, with coverage."""
+    from fsm.tools.scenario import load_scenario, run_scenario
+    from fsm.tools.scenario.coverage import Coverage
+
+    (folder / "seq.json").write_text(json.dumps(sequence_doc(1000)), encoding="utf-8")
+    base = {"machine": "seq.json", "dt": DT, "max_ticks": TICKS, "expect": [{"finished": False}]}
+    variants = {
+        "none": base,
+        "invariant (variable)": {**base, "expect": [{"finished": False}, {"invariant": "stop == 0"}]},
+        "invariant (variable, signal)": {**base, "expect": [{"finished": False},
+                                                             {"invariant": "stop == 0 and not signal_halt"}]},
+        "coverage": base,
+    }
+    loaded = {}
+    for name, doc in variants.items():
+        path = folder / f"{name.split()[0]}{len(loaded)}.scenario.json"
+        path.write_text(json.dumps(doc), encoding="utf-8")
+        loaded[name] = load_scenario(path)
+    best = dict.fromkeys(variants, float("inf"))
+    for _ in range(repeat):
+        for name, ld in loaded.items():
+            cov = Coverage() if name == "coverage" else None
+            t0 = time.perf_counter()
+            result = run_scenario(ld, cov)
+            best[name] = min(best[name], time.perf_counter() - t0)
+            assert result.passed and result.ticks == TICKS, result.summary_line()
+    return {name: TICKS / t for name, t in best.items()}
+
+
+def main(argv: list[str]) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="fewer repeats")
+    ap.add_argument("--repeat", type=int, default=None, help="timed repeats (default 5, 2 with --quick)")
+    args = ap.parse_args(argv)
+    repeat = args.repeat or (2 if args.quick else 5)
+    seconds, ticks = suite_time(repeat)
+    with tempfile.TemporaryDirectory() as tmp:
+        rates = sequence_rates(Path(tmp), repeat)
+    ok = True
+    print("| workload | result | target |")
+    print("|---|---|---|")
+    verdict = seconds < 1.0
+    ok &= verdict
+    print(f"| 8 thesis scenarios + sorter, load and run ({ticks:,} ticks) | {seconds:.3f} s | < 1 s "
+          f"{'ok' if verdict else 'MISSED'} |")
+    plain = rates["none"]
+    print(f"| 1,000-step sequence, no invariant | {plain:,.0f} ticks/s | |")
+    for name in ("invariant (variable)", "invariant (variable, signal)", "coverage"):
+        loss = 1 - rates[name] / plain
+        limit = 0.10 if name == "coverage" else 0.20
+        verdict = loss <= limit
+        ok &= verdict if name != "invariant (variable, signal)" else True
+        target = f"<= {limit:.0%} loss {'ok' if verdict else 'MISSED'}" if name != "invariant (variable, signal)" \
+            else "(reported)"
+        print(f"| 1,000-step sequence, {name} | {rates[name]:,.0f} ticks/s ({loss:+.1%} loss) | {target} |")
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -230,6 +230,19 @@ class Session:
         self.machine.add_listener(recorder)
         return recorder
 
+    def replace_machine(self, machine: Machine) -> None:
+        """Run ``machine`` from now on in place of the current one (a hot reload, :mod:`fsm.reload`, between two
+        ticks): it gets the current machine's listeners (the recorder among them) and the world's driver."""
+        old = self.machine
+        self.machine = machine
+        for listener in old.listeners:
+            machine.add_listener(listener)
+        if self.driver is not None:
+            self.driver.attach(self)
+        seen: set[int] = set()
+        kept = [x for x in machine.listeners if not (id(x) in seen or seen.add(id(x)))]  # type: ignore[func-returns-value]
+        machine.listeners[:] = kept
+
     def every(self, period: float, observer: Callable[[Session], None]) -> None:
         """Call ``observer(session)`` every ``period`` seconds of machine time (after a tick; first at the start)."""
         self._observers.append((period, observer))

@@ -54,6 +54,8 @@
       if (m.kind === "hello") { live = m.live; if (!live) { setControls(false); $("live-bar").classList.add("static"); } }
       else if (m.kind === "reset") { model.reset(); status = null; followEnd = null; dirty = true; }
       else if (m.kind === "status") { status = m; raise(m); showStatus(); dirty = true; schedule(); }
+      else if (m.kind === "reload") showReload(m);
+      else if (m.kind === "reply" && m.command === "reload") { if (!m.ok) showReload({ ok: false, file: "", errors: [m.error] }); }
       else if (m.kind === "reply") { var done = pending[m.id]; delete pending[m.id]; if (done) done(m); else if (!m.ok) notice(m.error); }
       else if (m.kind === "rewound") notice("Rewound to tick " + m.tick + (m.dropped ? "; " + m.dropped + " later input(s) dropped" : "") + ".");
     };
@@ -69,6 +71,16 @@
     var msg = { cmd: cmd, id: id };
     for (var k in args || {}) msg[k] = args[k];
     ws.send(JSON.stringify(msg));
+  }
+  function showReload(m) {  // a hot reload: the edited file's located errors, or what the swap kept
+    var box = $("reload");
+    box.hidden = false;
+    box.className = m.ok ? "ok" : "error";
+    box.dataset.ok = m.ok ? "1" : "0";
+    box.dataset.tick = m.ok ? m.tick : "";
+    box.textContent = m.ok
+      ? "Reloaded " + m.file + " before tick " + m.tick + ": " + m.text + ". Reload this page to redraw the statechart."
+      : "The edited " + (m.file || "machine") + " was not loaded; the run goes on with the machine it has:\n" + m.errors.join("\n");
   }
   function notice(text) { var n = $("notice"); n.hidden = !text; n.textContent = text || ""; }
 

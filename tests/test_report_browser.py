@@ -191,3 +191,55 @@ def test_machine_strings_render_as_text_in_the_browser(capsys: pytest.CaptureFix
             assert p.dialogs == [] and p.errors == [] and p.requests == [p.url]
         finally:
             p.close()
+
+
+def test_the_report_at_800_px_keys_values_steering_and_lane_names(mission_report: tuple[Path, Path],
+                                                                  capsys: pytest.CaptureFixture[str],
+                                                                  tmp_path: Path) -> None:
+    """The report fixes of issue 24 item 7: at 800 px nothing overflows (the camera box included), End moves the
+    cursor and not the page, the steering plot shows the command as recorded (-1 to 1, not converted as radians),
+    long floats print short (the full value in the cell's title), lanes are named by their composites."""
+    _need_browser()
+    from playwright.sync_api import sync_playwright
+
+    trace_file, html = mission_report
+    trace = read_trace(trace_file)
+    doc = {"name": "floats", "initial": "a", "vars": {"x": 0.1},
+           "states": [{"id": "a", "type": "Idle", "set": {"on_enter": {"x": "x + 0.2"}}}, {"id": "b", "type": "Final"}],
+           "transitions": [{"type": "Timeout", "from": "a", "to": "b", "seconds": 0.1}]}
+    (tmp_path / "floats.json").write_text(json.dumps(doc))
+    code, _, err = cli(capsys, "run", str(tmp_path / "floats.json"), "--report", str(tmp_path / "f.html"), "-q")
+    assert code == 0, err
+    with sync_playwright() as pw:
+        p = Page(pw, html)
+        try:
+            p.page.set_viewport_size({"width": 800, "height": 900})
+            p.page.reload()
+            p.page.wait_for_function("window.tralReport !== undefined")
+            p.page.evaluate("document.getElementById('camera-box').style.display = ''")
+            width = p.page.evaluate("document.documentElement.scrollWidth")
+            camera = p.page.evaluate("document.getElementById('camera').getBoundingClientRect().right")
+            assert width <= 800 and camera <= 800
+            p.page.screenshot(path=str(tmp_path / "report-800.png"), full_page=True)
+            p.page.evaluate("window.scrollTo(0, 0)")
+            p.page.focus("#lanes")
+            p.page.keyboard.press("End")
+            assert p.page.evaluate("window.scrollY") == 0
+            assert p.current()["time"] == pytest.approx(p.page.evaluate("window.tralReport.end()"))
+            steering = [s["car"]["steering"] for s in trace.samples if "car" in s]
+            shown = p.page.evaluate("JSON.parse(document.getElementById('data').textContent).samples['car.steering']")
+            assert shown == pytest.approx(steering, abs=6e-4) and max(abs(v) for v in shown) <= 1
+            titles = p.page.eval_on_selector_all(".plot .u-title", "els => els.map(e => e.textContent)")
+            assert "Steering (-1 to 1)" in titles
+            labels = p.page.evaluate("JSON.parse(document.getElementById('data').textContent).lanes.map(l => l.label)")
+            assert labels and not [label for label in labels if label.startswith("level ")], labels
+            assert p.errors == [] and p.dialogs == []
+        finally:
+            p.close()
+        p = Page(pw, tmp_path / "f.html")
+        try:
+            p.page.evaluate("window.tralReport.setTime(0.05)")
+            cell = p.page.locator("#vars tr[data-name='x'] td").nth(1)
+            assert cell.text_content() == "0.3" and cell.get_attribute("title") == "0.30000000000000004"
+        finally:
+            p.close()

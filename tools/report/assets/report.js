@@ -166,6 +166,11 @@
   }
 
   // -- variables ----------------------------------------------------------------------------------------------
+  // a value as JSON with its numbers to 6 significant digits (the full value is the cell's title): 0.30000000000000004
+  // and 16-digit floats would overflow the panel
+  function shownValue(v) {
+    return JSON.stringify(v, function (k, x) { return typeof x === "number" && isFinite(x) && !Number.isInteger(x) ? Number(x.toPrecision(6)) : x; });
+  }
   function showVars(vars, changed) {
     var body = $("vars").tBodies[0];
     body.textContent = "";
@@ -175,15 +180,15 @@
       row.dataset.name = name;
       row.insertCell().textContent = name;
       var cell = row.insertCell();
-      cell.textContent = JSON.stringify(vars[name]);
-      cell.dataset.value = JSON.stringify(vars[name]);
+      cell.textContent = shownValue(vars[name]);
+      cell.title = cell.dataset.value = JSON.stringify(vars[name]);
       if (changed[name]) row.classList.add("changed");
     });
     if (!names.length) { var row = body.insertRow(); row.insertCell().textContent = "(no variables)"; }
   }
 
   // -- timeline lanes ---------------------------------------------------------------------------------------
-  var LANE_H = 18, LABEL_W = 170, lanes = $("lanes"), lanesBg = document.createElement("canvas");
+  var LANE_H = 18, LABEL_W = 220, lanes = $("lanes"), lanesBg = document.createElement("canvas");
   function laneX(t, w) { return LABEL_W + (w - LABEL_W - 8) * (t / T); }
   function laneT(x, w) { return Math.min(T, Math.max(0, (x - LABEL_W) / (w - LABEL_W - 8) * T)); }
   function drawLanesBg() {
@@ -204,7 +209,7 @@
     D.lanes.forEach(function (lane, row) {
       var y = row * LANE_H;
       c.fillStyle = "#345";
-      c.fillText(lane.label.length > 28 ? lane.label.slice(0, 27) + "…" : lane.label, 4 + 6 * Math.min(lane.depth, 4), y + LANE_H / 2);
+      c.fillText(lane.label.length > 36 ? lane.label.slice(0, 35) + "…" : lane.label, 4 + 6 * Math.min(lane.depth, 4), y + LANE_H / 2);
       var seg = lane.seg;
       for (var k = 0; k < seg.length; k += 3) {
         var x0 = laneX(seg[k], w), x1 = Math.max(laneX(seg[k + 1], w), x0 + 1);
@@ -264,6 +269,10 @@
     c.setTransform(ratio, 0, 0, ratio, 0, 0);
     c.fillStyle = "#fff"; c.fillRect(0, 0, w, h);
     function X(x) { return (x - x0) * s; } function Y(y) { return (y1 - y) * s; }
+    function label(text, x, y) {  // kept inside the map: a marker or gate at its edge has its name drawn inwards
+      var tw = c.measureText(text).width;
+      c.fillText(text, Math.max(2, Math.min(x, w - tw - 2)), Math.max(10, Math.min(y, h - 3)));
+    }
     view.X = X; view.Y = Y;
     if (D.map) {
       c.strokeStyle = "#333"; c.lineWidth = 2;
@@ -278,10 +287,10 @@
       c.strokeStyle = "#0a7"; c.lineWidth = 3; c.font = "10px Helvetica, Arial, sans-serif"; c.fillStyle = "#0a7";
       D.map.gates.forEach(function (g) {
         c.beginPath(); c.moveTo(X(g.a[0]), Y(g.a[1])); c.lineTo(X(g.b[0]), Y(g.b[1])); c.stroke();
-        c.fillText(g.name, X((g.a[0] + g.b[0]) / 2) + 4, Y((g.a[1] + g.b[1]) / 2) - 4);
+        label(g.name, X((g.a[0] + g.b[0]) / 2) + 4, Y((g.a[1] + g.b[1]) / 2) - 4);
       });
       c.fillStyle = "#07a";
-      D.map.markers.forEach(function (m) { c.fillRect(X(m.p[0]) - 3, Y(m.p[1]) - 3, 6, 6); c.fillText("#" + m.id, X(m.p[0]) + 4, Y(m.p[1]) - 4); });
+      D.map.markers.forEach(function (m) { c.fillRect(X(m.p[0]) - 3, Y(m.p[1]) - 3, 6, 6); label("#" + m.id, X(m.p[0]) + 4, Y(m.p[1]) - 4); });
     }
     if (hasTrack) {  // the trajectory, coloured by the active leaf at each sample
       c.lineWidth = 2.5;
@@ -408,8 +417,8 @@
     if (ev.key === " ") { play(); ev.preventDefault(); }
     else if (ev.key === "ArrowLeft") { jump(-1); ev.preventDefault(); }
     else if (ev.key === "ArrowRight") { jump(1); ev.preventDefault(); }
-    else if (ev.key === "Home") setTime(0);
-    else if (ev.key === "End") setTime(T);
+    else if (ev.key === "Home") { setTime(0); ev.preventDefault(); }  // the cursor, not the page's scroll
+    else if (ev.key === "End") { setTime(T); ev.preventDefault(); }
   });
   function layout() { drawLanesBg(); drawMapBg(); makePlots(); setTime(cursor); }
   var resizeTimer = null;

@@ -110,6 +110,7 @@ class LiveServer:
             controller.notify = None
         if self._pump is not None:
             self._pump.cancel()
+            await asyncio.gather(self._pump, return_exceptions=True)
         for client in list(self.clients.values()):
             await client.ws.close(message=b"the run has ended")
         if self.runner is not None:

@@ -13,7 +13,10 @@
   function schedule() {
     if (drawing) return;
     drawing = true;
-    var wait = Math.max(0, Math.max(33, 3 * cost) - (performance.now() - lastDraw));
+    // while the run runs, at most about 30 redraws a second (fewer when a redraw is slow); paused (a step, a
+    // breakpoint), at once: the page answers a click
+    var running = !status || status.state === "running";
+    var wait = running ? Math.max(0, Math.max(33, 3 * cost) - (performance.now() - lastDraw)) : 0;
     setTimeout(function () { requestAnimationFrame(draw); }, wait);
   }
   function draw() {

@@ -7,6 +7,8 @@
   slower);
 - **live, one page**: the same with one headless Chromium page connected and redrawing (target: at most 15 %
   slower; the page gets at most 30 messages a second, the server drops what a slow page cannot take);
+- **rewind**: after the run, back to tick 10,000 (a fresh session re-simulated to it, its trace written again;
+  target under 1 s);
 - **step to redrawn page**: with the run paused and the page connected, the time from a click on "Step 1" to the
   page showing the new tick (the page's own clock, ``performance.now``; target under 100 ms).
 
@@ -34,18 +36,23 @@ LAP = ROOT / "diagrams" / "hallway_lap.json"
 WORLD = ROOT / "diagrams" / "worlds" / "hallway.json"
 
 
+_PLAN: list[Any] = []
+
+
 def make_session() -> tuple[Any, Any]:
-    """The lap's session recording into a live line buffer, as ``fsmctl run --live`` builds it."""
+    """The lap's session recording into a live line buffer, as ``fsmctl run --live`` builds it (the plan compiled
+    once, as there)."""
     from fsm.loader import compile as compile_plan
     from fsm.sim import simulate
     from tools.live.stream import LineBuffer
     from tools.recording import run_recorder
     from tools.recording.document import header_document
 
-    plan = compile_plan(str(LAP))
-    session = simulate(plan, world=WORLD)
+    if not _PLAN:
+        _PLAN.extend([compile_plan(str(LAP)), header_document(str(LAP))])
+    session = simulate(_PLAN[0], world=WORLD)
     buffer = LineBuffer()
-    session.record(run_recorder(buffer, str(LAP), session.car, world_file=WORLD, document=header_document(str(LAP))))
+    session.record(run_recorder(buffer, str(LAP), session.car, world_file=WORLD, document=_PLAN[1]))
     return session, buffer
 
 
@@ -68,8 +75,14 @@ class LiveRun:
 
         session, buffer = make_session()
         session.start()
-        self.controller = Controller(session, speed=None, paused=True)
-        source = Source(buffer, self.controller)
+        source = Source(buffer)
+
+        def factory() -> Any:  # a rewind's session, its trace the one the pages switch to
+            fresh, source.buffer = make_session()
+            return fresh
+
+        self.controller = Controller(session, factory=factory, speed=None, paused=True)
+        source.controller = self.controller
         header = json.loads(buffer.chunks[0].split("\n", 1)[0])
         self.server = LiveServer(source, live_page(header, LAP.name), None)
         self.loop = asyncio.new_event_loop()
@@ -102,6 +115,15 @@ class LiveRun:
         while controller.ended is None:
             time.sleep(0.02)
         return (controller.session.ticks - ticks0) / (time.perf_counter() - t0)
+
+    def rewind(self, tick: int) -> float:
+        """Seconds from the rewind command to the controller's notice that it is there."""
+        controller = self.controller
+        t0 = time.perf_counter()
+        controller.send("rewind", {"tick": tick})
+        while controller.snapshot.get("tick") != tick or controller.session.ticks != tick:
+            time.sleep(0.002)
+        return time.perf_counter() - t0
 
     def close(self) -> None:
         self.controller.send("stop")
@@ -163,6 +185,7 @@ def main() -> int:
             live = LiveRun()
             try:
                 results["live_no_page"].append(live.run())
+                results.setdefault("rewind_10000_s", []).append(live.rewind(10_000))
             finally:
                 live.close()
             if browser is None:
@@ -197,6 +220,9 @@ def main() -> int:
     print("|---|---:|---:|---:|")
     print(f"| plain (session.run) | {statistics.median(base):,.0f} | {max(base):,.0f} | |")
     row("live, no page", alone)
+    rw = results["rewind_10000_s"]
+    print(f"\nrewind from the end (16,176) to tick 10,000: median {statistics.median(rw):.2f} s, best {min(rw):.2f} s "
+          f"over {len(rw)}")
     if results["live_one_page"]:
         row("live, one Chromium page", results["live_one_page"])
         for key, where in (("step_ms_tick0", "at tick 0"), ("step_ms_tick8000", "at tick 8,000 (half the lap shown)")):

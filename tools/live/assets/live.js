@@ -50,7 +50,9 @@
       if (typeof ev.data !== "string") {
         model.addText(decoder.decode(ev.data));
         if (status) raise(status);
-        dirty = true; schedule();
+        dirty = true;
+        // a paused run's new lines (a step's) come right before its status: one redraw, on the status
+        if (!status || status.state === "running") schedule();
         return;
       }
       var m = JSON.parse(ev.data);

@@ -546,9 +546,14 @@
   window.addEventListener("resize", function () { clearTimeout(resizeTimer); resizeTimer = setTimeout(layout, 150); });
   layout();
   // a new model (a live page's, as the trace grows): redrawn, the cursor kept or put at the end (``follow``)
+  var lastMapKey = null;
   function load(data, follow) {
     D = data; derive(); showHeader(); shownFrame = -2;
-    drawLanesBg(); drawMapBg(); updatePlots();
+    // the map's background (walls, the whole track) again only when the track or the states along it changed
+    var mapKey = (Sm ? Sm.t.length : 0) + "|" + D.events.length + "|" + D.keyframes.length + "|" + map.clientWidth;
+    drawLanesBg();
+    if (mapKey !== lastMapKey) { lastMapKey = mapKey; drawMapBg(); }
+    updatePlots();
     if (selected >= 0 && selected < S.length) showVisits(selected);
     setTime(follow ? T : cursor);
   }

@@ -44,9 +44,9 @@ def make_session() -> tuple[Any, Any]:
     once, as there)."""
     from fsm.loader import compile as compile_plan
     from fsm.sim import simulate
-    from tools.live.stream import LineBuffer
-    from tools.recording import run_recorder
-    from tools.recording.document import header_document
+    from fsm.tools.live.stream import LineBuffer
+    from fsm.tools.recording import run_recorder
+    from fsm.tools.recording.document import header_document
 
     if not _PLAN:
         _PLAN.extend([compile_plan(str(LAP)), header_document(str(LAP))])
@@ -70,8 +70,8 @@ class LiveRun:
         import asyncio
 
         from fsm.control import Controller
-        from tools.live.page import live_page
-        from tools.live.server import LiveServer, Source
+        from fsm.tools.live.page import live_page
+        from fsm.tools.live.server import LiveServer, Source
 
         session, buffer = make_session()
         session.start()

@@ -21,8 +21,8 @@ from fsm.loader import check
 from fsm.loader import compile as compile_plan
 from fsm.replay import parse_trace
 from fsm.session import Session
+from fsm.tools.live.reload import Watcher, loader
 from fsm.trace import Recorder
-from tools.live.reload import Watcher, loader
 
 #: n counts up every 0.1 s (8 ticks); 'done' when n reaches 20.
 COUNTER: dict[str, Any] = {

@@ -259,7 +259,14 @@ def test_a_hot_reload_shows_a_broken_file_located_and_swaps_a_fixed_one(browser:
     page.page.click("#run-resume")
     page.until("(window.tralLive.status() || {}).state === 'ended'")
     assert page.page.text_content("#run-state") == "ended: finished with done"
+    assert page.page.eval_on_selector_all("#inputs tbody tr", "rows => rows.map(r => r.textContent)") == \
+        [f"42reload of {machine}: kept count"]
     page.page.screenshot(path=str(tmp_path / "reload-swapped.png"))
+    # the page opened again draws the new machine
+    page.page.reload()
+    page.until("window.tralLive && window.tralLive.drawn && window.tralLive.drawn() > 0")
+    chart = page.page.text_content("#chart") or ""
+    assert "n >= 7" in chart and "n >= 20" not in chart
     stop(live, page)
     trace = read_trace(tmp_path / "t.jsonl")
     assert [r["tick"] for r in trace.reloads] == [42] and trace.end is not None and trace.end["outcome"] == "done"

@@ -150,7 +150,7 @@ def serve(source: Any, page: Callable[[dict[str, Any]], str], *, host: str, port
         watching = None
         if watcher is not None and controller is not None:
             def redraw(loaded: Any) -> None:  # the page served from now on draws the new machine
-                server.page = page({**header, "document": loaded.info.get("document")})
+                server.page = page({**header, "machine": loaded.info.get("document")})
 
             watching = asyncio.create_task(watcher.run(controller, redraw))
             print(f"live: watching {', '.join(watcher.files)} (hot reload; --no-reload to turn it off)", file=out,

@@ -22,6 +22,8 @@
     else if (kind === "keyframe") this.keyframes.push(line);
     else if (kind === "frame") this.frames.push(line);
     else if (kind === "input") this.inputs.push(line);
+    else if (kind === "reload") this.inputs.push({ tick: line.tick, time: line.time, input: { kind: "reload" },  // listed with the inputs
+                                                   text: "reload of " + line.file + ": " + line.text });
     else if (kind === "end") this.end = line;
     else if (kind === "sample") this.addSample(line);
     else if (kind === "samples") this.addBlock(line);

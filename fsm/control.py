@@ -40,7 +40,7 @@ from .breakpoints import (
     hits,
     make_breakpoint,
 )
-from .errors import StateRuntimeError
+from .errors import DiagramError, StateRuntimeError
 from .inputs import InputError, check_input, input_from_json
 from .reload import ReloadRefused, swap_machine
 from .session import Input, Session, StopRules
@@ -362,6 +362,8 @@ class Controller:
         info = dict(args.get("info") or {})
         try:
             swap = self._swap(args["plan"], info)
+        except DiagramError as exc:  # it cannot be built here (it drives a car and this run has none): not swapped
+            raise ValueError(f"the edited machine cannot run here: {exc}") from None
         except StateRuntimeError as exc:
             self._failed(exc)
             raise ValueError(f"the reloaded machine failed: {exc}") from None

@@ -154,3 +154,22 @@ def test_the_watcher_tells_the_pages_of_errors_and_queues_a_good_edit(tmp_path: 
     asyncio.run(asyncio.wait_for(main(), 20))
     assert seen.messages[0]["ok"] is False and "Idel" in seen.messages[0]["errors"][0]
     assert [name for name, _ in seen.sent] == ["reload"] and len(redrawn) == 1
+
+
+def test_an_edit_that_cannot_run_here_is_answered_and_the_run_goes_on(counter: Any) -> None:
+    from test_control import replies, wait
+
+    controller, outs = counter
+    controller.send("step", {"n": 10})
+    wait(controller, lambda s: s["tick"] == 10 and s["state"] == "paused")
+    doc = copy.deepcopy(COUNTER)
+    doc["states"].append({"id": "halt", "type": "Stop"})  # drives a car: this run has none
+    doc["transitions"].append({"type": "Always", "from": "done", "to": "halt"})
+    doc["states"][1] = {"id": "done", "type": "Idle"}
+    controller.send("reload", {"plan": compile_plan(doc), "info": {"file": "counter.json"}}, 5)
+    controller.send("step", {"n": 5})
+    snap = wait(controller, lambda s: s["tick"] == 15 and s["state"] == "paused")
+    [answer] = [r for r in replies(controller) if r["id"] == 5]
+    assert not answer["ok"] and "cannot run here" in answer["error"] and "drives a car" in answer["error"]
+    assert snap["active"] == ["count"] and not parse_trace(outs[0].getvalue().encode()).reloads
+    assert controller.session.machine.ctx.machine is controller.session.machine

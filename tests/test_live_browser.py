@@ -275,3 +275,7 @@ def test_a_hot_reload_shows_a_broken_file_located_and_swaps_a_fixed_one(browser:
     again = Session.open(str(fresh))
     again.run()
     assert trace.end["tick"] == again.ticks  # the count state's clock went on through the swap
+    # the finished trace in the same page (fsmctl report --live) lists the reload too
+    view = browser(str(tmp_path / "t.jsonl"), command="report")[1]
+    view.until("document.querySelectorAll('#inputs tbody tr').length === 1")
+    assert view.page.text_content("#inputs tbody tr") == f"42reload of {machine}: kept count"

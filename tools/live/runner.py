@@ -187,8 +187,8 @@ def serve_trace(name: str, args: argparse.Namespace) -> int:
     for warning in trace.warnings:
         print(printable(f"fsmctl report: warning: {warning}"), file=sys.stderr)
     buffer = LineBuffer()
-    for line in [trace.header, *trace.inputs, *trace.events, *trace.keyframes, *trace.samples, *trace.frames,
-                 *([trace.end] if trace.end else [])]:
+    for line in [trace.header, *trace.inputs, *trace.reloads, *trace.events, *trace.keyframes, *trace.samples,
+                 *trace.frames, *([trace.end] if trace.end else [])]:
         buffer.write(json.dumps(line, separators=(",", ":")) + "\n")
     interrupts = Interrupts()
     with interrupts:

@@ -239,9 +239,11 @@ class Session:
             machine.add_listener(listener)
         if self.driver is not None:
             self.driver.attach(self)
-        seen: set[int] = set()
-        kept = [x for x in machine.listeners if not (id(x) in seen or seen.add(id(x)))]  # type: ignore[func-returns-value]
-        machine.listeners[:] = kept
+        kept: list[Any] = []  # the driver's own listener came over and was added again: once each
+        for listener in machine.listeners:
+            if not any(listener is other for other in kept):
+                kept.append(listener)
+        machine.listeners[:] = kept  # the same list: the regions hold it
 
     def every(self, period: float, observer: Callable[[Session], None]) -> None:
         """Call ``observer(session)`` every ``period`` seconds of machine time (after a tick; first at the start)."""

@@ -173,3 +173,37 @@ def test_an_edit_that_cannot_run_here_is_answered_and_the_run_goes_on(counter: A
     assert not answer["ok"] and "cannot run here" in answer["error"] and "drives a car" in answer["error"]
     assert snap["active"] == ["count"] and not parse_trace(outs[0].getvalue().encode()).reloads
     assert controller.session.machine.ctx.machine is controller.session.machine
+
+
+def test_a_reload_on_the_car_takes_new_parameters_and_keeps_one_of_each_listener() -> None:
+    """The lap on the simulated car: the active FollowWall's speed edited; after the swap the car is commanded the
+    new speed, the driver and the recorder listen once each, and the trace says when."""
+    from fsm.sim import simulate
+    from test_control import wait
+
+    repo = Path(__file__).resolve().parents[1]
+    lap = repo / "diagrams" / "lap.json"
+    session = simulate(str(lap), world=repo / "diagrams" / "worlds" / "hallway.json")
+    out = io.StringIO()
+    session.record(Recorder(out))
+    controller = Controller(session, speed=None, paused=True)
+    thread = threading.Thread(target=controller.loop, daemon=True)
+    thread.start()
+    try:
+        controller.send("step", {"n": 200})
+        snap = wait(controller, lambda s: s["tick"] == 200 and s["state"] == "paused")
+        assert snap["active"] == ["bottom"] and session.car.speed_command != 0.3
+        doc = json.loads(lap.read_text())
+        for state in doc["states"]:
+            if state["id"] == "bottom":
+                state["speed"] = 0.3
+        controller.send("reload", {"plan": compile_plan(doc, base_dir=lap.parent), "info": {"file": str(lap)}})
+        controller.send("step", {"n": 20})
+        snap = wait(controller, lambda s: s["tick"] == 220 and s["state"] == "paused")
+    finally:
+        controller.send("stop")
+        thread.join(10)
+    assert snap["active"] == ["bottom"] and session.car.speed_command == 0.3
+    listeners = session.machine.listeners
+    assert len(listeners) == len({id(x) for x in listeners}) and session.driver.machine is session.machine
+    assert [r["tick"] for r in parse_trace(out.getvalue().encode()).reloads] == [201]

@@ -11,6 +11,9 @@ commands that arrived meanwhile, so debugging never changes what a tick does:
 - ``break`` / ``unbreak``: breakpoints (:mod:`fsm.breakpoints`); a hit pauses after the tick it happened in;
 - ``input``: an input (:mod:`fsm.inputs`: a variable, a signal, a forced reading, a monitor fired, a state
   finished), submitted for the next tick and recorded in the trace by the session;
+- ``reload``: a hot reload (:mod:`fsm.reload`, from the file watcher, never from a page: its argument is a compiled
+  plan): the machine replaced between two ticks, keeping the variables and the active states by path; an active
+  state that no longer exists pauses the run there; a ``reload`` line in the trace and a rewind does it again;
 - ``rewind``: back to an earlier tick by building the run afresh (``factory``) and re-running it to that tick with
   the inputs given so far up to it (the run is deterministic, so it is the same run); later inputs are dropped,
   so the run forks from there.
@@ -37,8 +40,9 @@ from .breakpoints import (
     hits,
     make_breakpoint,
 )
-from .errors import StateRuntimeError
+from .errors import DiagramError, StateRuntimeError
 from .inputs import InputError, check_input, input_from_json
+from .reload import ReloadRefused, swap_machine
 from .session import Input, Session, StopRules
 
 #: Most ticks run between two looks at the commands (a few milliseconds of the hallway lap).
@@ -73,6 +77,8 @@ class Controller:
         self.breakpoints: list[Breakpoint] = []
         #: the inputs given through the controller, each with the tick before which it applied
         self.log: list[tuple[int, Input]] = []
+        #: the hot reloads so far: the tick before which each applied, its plan, its trace line's details
+        self.reloads: list[tuple[int, Any, dict[str, Any]]] = []
         #: why the run ended (``finished``, ``limit``, ``error``, a world's reason), or None while it can go on
         self.ended: str | None = None
         self.error: str | None = None
@@ -253,7 +259,7 @@ class Controller:
                 name, args, reply = self._commands.popleft()
             try:
                 answer = self._apply(name, args)
-            except (BreakpointError, InputError, ValueError, TypeError) as exc:
+            except (BreakpointError, InputError, ReloadRefused, ValueError, TypeError) as exc:
                 message: dict[str, Any] = {"kind": "reply", "id": reply, "command": name, "ok": False,
                                            "error": getattr(exc, "message", None) or str(exc)}
                 column = getattr(exc, "column", None)
@@ -349,6 +355,48 @@ class Controller:
         self.log.append((tick, item))
         return {"tick": tick, "text": item.describe()}
 
+    def _cmd_reload(self, args: dict[str, Any]) -> dict[str, Any]:
+        """``plan``: the compiled plan of the edited document; ``info``: what its trace line says besides (the
+        file, the new regions, the document); ``signals``: the signal names the new machine reads."""
+        self._going_on()
+        info = dict(args.get("info") or {})
+        try:
+            swap = self._swap(args["plan"], info)
+        except DiagramError as exc:  # it cannot be built here (it drives a car and this run has none): not swapped
+            raise ValueError(f"the edited machine cannot run here: {exc}") from None
+        except StateRuntimeError as exc:
+            self._failed(exc)
+            raise ValueError(f"the reloaded machine failed: {exc}") from None
+        self.signals = tuple(sorted(set(args.get("signals") or self.signals)))
+        text = swap.describe()
+        self.messages.append({"kind": "reload", "ok": True, "tick": self.reloads[-1][0],
+                              "file": info.get("file"), "text": text, "kept": swap.kept,
+                              "missing": [list(m) for m in swap.missing]})
+        if swap.missing:
+            self._pause_at({"breakpoint": None, "text": "hot reload",
+                            "why": "; ".join(f"{old} no longer exists, entered {new}" for old, new in swap.missing)})
+        return {"text": text}
+
+    def _swap(self, plan: Any, info: dict[str, Any]) -> Any:
+        """Replace the machine by ``plan``'s (the loop's thread, between ticks), record it and remember it."""
+        session = self.session
+        machine = session.machine
+        tick = session.ticks + (1 if machine.started else 0)
+        swap = swap_machine(machine, plan)
+        session.replace_machine(swap.machine)
+        details = {key: value for key, value in info.items() if key in ("file", "regions", "document")}
+        details.setdefault("file", "")
+        details["regions"] = [{"path": r.path, "name": r.name, "states": [s.path for s in r.states.values()]}
+                              for r in swap.machine.regions]
+        details.update(kept=swap.kept, missing=[{"path": o, "entered": n} for o, n in swap.missing],
+                       started=[{"path": o, "entered": n} for o, n in swap.started], text=swap.describe())
+        if session.recorder is not None:
+            session.recorder.on_reload(tick, round(tick * session.dt, 9), details)
+        self.reloads.append((tick, plan, info))
+        self._watch.clear()
+        self._active = active_set(swap.machine)
+        return swap
+
     def _cmd_rewind(self, args: dict[str, Any]) -> dict[str, Any]:
         tick = args.get("tick")
         now = self.session.ticks
@@ -367,8 +415,11 @@ class Controller:
         for t, item in keep:
             session.schedule_tick(t, item)
         dropped = len(self.log) - len(keep)
+        reloads = [r for r in self.reloads if r[0] <= tick]
+        dropped += len(self.reloads) - len(reloads)
         self.session = session
         self.log = keep
+        self.reloads = []
         self.ended = self.error = self.hit = None
         self.paused = True
         self._budget = 0
@@ -376,11 +427,17 @@ class Controller:
         self._anchor = None
         self._attach(session)
         self._start()
-        if tick > 0 and self.ended is None:
-            try:  # no breakpoint looks at the ticks replayed: they were looked at the first time
-                self._ended_by(session.run(stop_rules=StopRules(max_ticks=tick)).stopped)
-            except StateRuntimeError as exc:
-                self._failed(exc)
+        try:  # no breakpoint looks at the ticks replayed: they were looked at the first time
+            for at, plan, info in reloads:  # each reload again, before the tick it applied before
+                if self.ended is None and session.ticks < at - 1:
+                    self._ended_by(session.run(stop_rules=StopRules(max_ticks=at - 1 - session.ticks)).stopped)
+                if self.ended is None:
+                    self._swap(plan, info)
+            session = self.session
+            if tick > session.ticks and self.ended is None:
+                self._ended_by(session.run(stop_rules=StopRules(max_ticks=tick - session.ticks)).stopped)
+        except StateRuntimeError as exc:
+            self._failed(exc)
         self._watch.clear()
         self._active = active_set(session.machine)
         values = expression_values(session.machine, self.signals)

@@ -52,6 +52,8 @@ class Trace:
     warnings: list[str] = field(default_factory=list)
     #: the inputs applied between ticks (a variable set, a signal, an injected fault), in order (:mod:`fsm.inputs`)
     inputs: list[dict[str, Any]] = field(default_factory=list)
+    #: the hot reloads of a live run (:mod:`fsm.reload`): before which tick, the file, what was kept and missing
+    reloads: list[dict[str, Any]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         self._event_ticks: list[int] = []
@@ -65,7 +67,7 @@ class Trace:
     @property
     def last_tick(self) -> int:
         ticks = [self.end["tick"]] if self.end else []
-        for lines in (self.events, self.keyframes, self.samples, self.frames, self.inputs):
+        for lines in (self.events, self.keyframes, self.samples, self.frames, self.inputs, self.reloads):
             if lines:
                 ticks.append(lines[-1]["tick"])
         return max(ticks, default=0)
@@ -277,9 +279,10 @@ def _header_version(header: dict[str, Any], where: str) -> int:
 
 
 #: Where each line type goes in a :class:`Trace`.
-_KINDS = {"event": "events", "keyframe": "keyframes", "sample": "samples", "frame": "frames", "input": "inputs"}
+_KINDS = {"event": "events", "keyframe": "keyframes", "sample": "samples", "frame": "frames", "input": "inputs",
+          "reload": "reloads"}
 #: The line types after the header (``event_v1``: a version-1 line, which has no type).
-_LINE_TYPES = ("event", "keyframe", "sample", "samples", "frame", "input", "end")
+_LINE_TYPES = ("event", "keyframe", "sample", "samples", "frame", "input", "reload", "end")
 
 
 @functools.cache

@@ -230,6 +230,21 @@ class Session:
         self.machine.add_listener(recorder)
         return recorder
 
+    def replace_machine(self, machine: Machine) -> None:
+        """Run ``machine`` from now on in place of the current one (a hot reload, :mod:`fsm.reload`, between two
+        ticks): it gets the current machine's listeners (the recorder among them) and the world's driver."""
+        old = self.machine
+        self.machine = machine
+        for listener in old.listeners:
+            machine.add_listener(listener)
+        if self.driver is not None:
+            self.driver.attach(self)
+        kept: list[Any] = []  # the driver's own listener came over and was added again: once each
+        for listener in machine.listeners:
+            if not any(listener is other for other in kept):
+                kept.append(listener)
+        machine.listeners[:] = kept  # the same list: the regions hold it
+
     def every(self, period: float, observer: Callable[[Session], None]) -> None:
         """Call ``observer(session)`` every ``period`` seconds of machine time (after a tick; first at the start)."""
         self._observers.append((period, observer))

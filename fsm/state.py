@@ -236,6 +236,42 @@ class State(Generic[P]):
         self.paused = False
         self.frozen_since = None
 
+    def take_over(self, ctx: Context, old: State[Any]) -> None:
+        """Become active in place of ``old``, the state at the same path in the machine a hot reload replaces
+        (:mod:`fsm.reload`), between two ticks. Carried over: its clock (entry time, pause, freeze), whether it
+        finished and with which outcome, its timeout's reset; armed afresh: its outgoing transitions and its
+        conditions; run: the type's ``on_enter`` with the new parameters, unless it had finished. The document's
+        ``set`` actions are not run (the variables stay as they are). Its sub-levels are the caller's."""
+        self.entered_at = old.entered_at
+        self.paused = old.paused
+        self.frozen_since = old.frozen_since
+        self.finished, self.outcome = old.finished, old.outcome
+        self.completed, self.completion_ran = old.completed, old.completion_ran
+        phase = "until"
+        try:
+            for condition in self.resets:
+                condition.reset(ctx)
+            if self.until is not None:
+                for condition in self.until.conditions:
+                    condition.reset(ctx)
+            supervisor = self.supervisor
+            if supervisor is not None:
+                phase = "precondition"
+                supervisor.arm(ctx)
+                before = old.supervisor
+                supervisor.halted = before.halted if before is not None else False
+                supervisor.reset_at = before.reset_at if before is not None else 0.0
+            phase = "on_source_enter"
+            for arm in self.arms:
+                arm(ctx)
+            if not old.finished:
+                phase = "on_enter"
+                self.on_enter(ctx)
+        except StateRuntimeError:
+            raise
+        except Exception as exc:
+            raise StateRuntimeError.of(self, phase, ctx, exc) from exc
+
     def _enter(self, ctx: Context) -> None:
         """Enter: reset finishing, arm the outgoing transitions, ``on_enter``, then the sub-machines."""
         self.finished = False

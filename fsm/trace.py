@@ -139,6 +139,14 @@ class Recorder(Listener):
         else:
             self._input_lines.append(line)
 
+    def on_reload(self, tick: int, time: float, info: dict[str, Any]) -> None:
+        """A hot reload applied before ``tick`` (:mod:`fsm.reload`): a ``reload`` line with ``info`` (the file, the
+        states kept and missing, the new regions)."""
+        self._active_json = None
+        if self.out is None:
+            return
+        self.out.write(_dumps({"type": "reload", "tick": tick, "time": time, **info}))
+
     def on_tick(self, machine: Machine) -> None:
         # Called every tick: the common case (nothing happened, no line due) returns after a few comparisons.
         if self._pending or self._events:

@@ -234,3 +234,48 @@ def test_an_injected_variable_makes_the_run_diverge_and_the_trace_replays_it(bro
         again.schedule_tick(tick, item)
     again.run()
     assert (again.outcome, again.ticks, again.machine.ctx.vars) == ("over", 41, {"n": 60})
+
+
+def test_a_hot_reload_shows_a_broken_file_located_and_swaps_a_fixed_one(browser: Any, tmp_path: Path) -> None:
+    machine = tmp_path / "counter.json"
+    machine.write_text(COUNTER)
+    live, page = browser(str(machine), "--paused", "--trace", str(tmp_path / "t.jsonl"))
+    page.page.fill("#step-n", "40")
+    page.page.click("#run-step-n")
+    page.drawn_at(40)
+    # broken: the located error in the page, and the run goes on with the machine it has
+    machine.write_text(COUNTER.replace('"Idle"', '"Idel"'))
+    shown = page.until("!document.getElementById('reload').hidden && document.getElementById('reload').textContent")
+    assert f"{machine}:2:29 at /states/0/type: error: state 'count': unknown state type 'Idel'" in shown
+    page.page.screenshot(path=str(tmp_path / "reload-broken.png"))
+    page.page.click("#run-step")
+    assert page.drawn_at(41)["active"] == ["count"]
+    # fixed (and edited: done at 7): swapped before the next tick, n kept, the run ends as the new document says
+    machine.write_text(COUNTER.replace('"n >= 20"', '"n >= 7"'))
+    page.until("document.getElementById('reload').dataset.ok === '1'")
+    assert page.page.text_content("#reload") == (
+        f"Reloaded {machine} before tick 42: kept count. Reload this page to redraw the statechart.")
+    page.page.select_option("#run-speed", "max")
+    page.page.click("#run-resume")
+    page.until("(window.tralLive.status() || {}).state === 'ended'")
+    assert page.page.text_content("#run-state") == "ended: finished with done"
+    assert page.page.eval_on_selector_all("#inputs tbody tr", "rows => rows.map(r => r.textContent)") == \
+        [f"42reload of {machine}: kept count"]
+    page.page.screenshot(path=str(tmp_path / "reload-swapped.png"))
+    # the page opened again draws the new machine
+    page.page.reload()
+    page.until("window.tralLive && window.tralLive.drawn && window.tralLive.drawn() > 0")
+    chart = page.page.text_content("#chart") or ""
+    assert "n >= 7" in chart and "n >= 20" not in chart
+    stop(live, page)
+    trace = read_trace(tmp_path / "t.jsonl")
+    assert [r["tick"] for r in trace.reloads] == [42] and trace.end is not None and trace.end["outcome"] == "done"
+    fresh = tmp_path / "fresh.json"
+    fresh.write_text(COUNTER.replace('"n >= 20"', '"n >= 7"'))
+    again = Session.open(str(fresh))
+    again.run()
+    assert trace.end["tick"] == again.ticks  # the count state's clock went on through the swap
+    # the finished trace in the same page (fsmctl report --live) lists the reload too
+    view = browser(str(tmp_path / "t.jsonl"), command="report")[1]
+    view.until("document.querySelectorAll('#inputs tbody tr').length === 1")
+    assert view.page.text_content("#inputs tbody tr") == f"42reload of {machine}: kept count"

@@ -139,6 +139,7 @@ def test_a_port_in_use_is_one_message_naming_it(counter: Path, tmp_path: Path,
 @pytest.mark.parametrize("args, words", [
     (["--live", "--host", "0.0.0.0", "--no-token"], "needs its token"),
     (["--port", "9000"], "--port is an option of the live debugger: add --live"),
+    (["--no-reload"], "--no-reload is an option of the live debugger: add --live"),
     (["--live", "--video", "v.mp4"], "--video cannot be combined with --live"),
     (["--live", "--trace", "-"], "name a file for --trace"),
     (["--live", "--speed", "0"], "a speed is 0.01 to 10000"),

@@ -148,7 +148,9 @@ def test_the_report_replays_the_trace_at_the_dragged_cursor(mission_report: tupl
             p.page.wait_for_timeout(200)
             assert later > start and p.current()["time"] == later
 
-            # a state's visits; folding a composite hides what is inside it
+            # a state's visits; folding a composite hides what is inside it (the whole drawing in view first: the
+            # chart is seen through a zoomable window, which a click cannot scroll)
+            p.page.check("#fit")
             p.page.locator('#chart g[data-path="mission/drive"] > rect').first.click(position={"x": 5, "y": 40})
             visits = p.page.eval_on_selector_all("#visits tbody tr", "rows => rows.length")
             lanes = json.loads(p.page.evaluate("JSON.stringify(window.tralReport.stateAt(0))"))
@@ -189,5 +191,119 @@ def test_machine_strings_render_as_text_in_the_browser(capsys: pytest.CaptureFix
             assert p.page.inner_text("#active") == doc["initial"]
             assert p.page.locator("img[src='x']").count() == 0
             assert p.dialogs == [] and p.errors == [] and p.requests == [p.url]
+        finally:
+            p.close()
+
+
+def test_the_report_at_800_px_keys_values_steering_and_lane_names(mission_report: tuple[Path, Path],
+                                                                  capsys: pytest.CaptureFixture[str],
+                                                                  tmp_path: Path) -> None:
+    """The report fixes of issue 24 item 7: at 800 px nothing overflows (the camera box included), End moves the
+    cursor and not the page, the steering plot shows the command as recorded (-1 to 1, not converted as radians),
+    long floats print short (the full value in the cell's title), lanes are named by their composites."""
+    _need_browser()
+    from playwright.sync_api import sync_playwright
+
+    trace_file, html = mission_report
+    trace = read_trace(trace_file)
+    doc = {"name": "floats", "initial": "a", "vars": {"x": 0.1},
+           "states": [{"id": "a", "type": "Idle", "set": {"on_enter": {"x": "x + 0.2"}}}, {"id": "b", "type": "Final"}],
+           "transitions": [{"type": "Timeout", "from": "a", "to": "b", "seconds": 0.1}]}
+    (tmp_path / "floats.json").write_text(json.dumps(doc))
+    code, _, err = cli(capsys, "run", str(tmp_path / "floats.json"), "--report", str(tmp_path / "f.html"), "-q")
+    assert code == 0, err
+    with sync_playwright() as pw:
+        p = Page(pw, html)
+        try:
+            p.page.set_viewport_size({"width": 800, "height": 900})
+            p.page.reload()
+            p.page.wait_for_function("window.tralReport !== undefined")
+            p.page.evaluate("document.getElementById('camera-box').style.display = ''")
+            width = p.page.evaluate("document.documentElement.scrollWidth")
+            camera = p.page.evaluate("document.getElementById('camera').getBoundingClientRect().right")
+            assert width <= 800 and camera <= 800
+            p.page.screenshot(path=str(tmp_path / "report-800.png"), full_page=True)
+            p.page.evaluate("window.scrollTo(0, 0)")
+            p.page.focus("#lanes")
+            p.page.keyboard.press("End")
+            assert p.page.evaluate("window.scrollY") == 0
+            assert p.current()["time"] == pytest.approx(p.page.evaluate("window.tralReport.end()"))
+            steering = [s["car"]["steering"] for s in trace.samples if "car" in s]
+            shown = p.page.evaluate("JSON.parse(document.getElementById('data').textContent).samples['car.steering']")
+            assert shown == pytest.approx(steering, abs=6e-4) and max(abs(v) for v in shown) <= 1
+            titles = p.page.eval_on_selector_all(".plot .u-title", "els => els.map(e => e.textContent)")
+            assert "Steering (-1 to 1)" in titles
+            labels = p.page.evaluate("JSON.parse(document.getElementById('data').textContent).lanes.map(l => l.label)")
+            assert labels and not [label for label in labels if label.startswith("level ")], labels
+            assert p.errors == [] and p.dialogs == []
+        finally:
+            p.close()
+        p = Page(pw, tmp_path / "f.html")
+        try:
+            p.page.evaluate("window.tralReport.setTime(0.05)")
+            cell = p.page.locator("#vars tr[data-name='x'] td").nth(1)
+            assert cell.text_content() == "0.3" and cell.get_attribute("title") == "0.30000000000000004"
+        finally:
+            p.close()
+
+
+def test_the_statechart_folds_all_but_the_active_path_zooms_pans_and_finds(capsys: pytest.CaptureFixture[str],
+                                                                          tmp_path: Path) -> None:
+    """Issue 24 item 7: the hallway lap's tall drawing seen through a window: the wheel zooms, a drag pans (and is no
+    click on a state), "fold all but the active path" folds every other composite, a search finds states by name
+    and Enter shows the next; the wheel over the lanes zooms time, a double click shows the whole run."""
+    _need_browser()
+    from playwright.sync_api import sync_playwright
+
+    code, _, err = cli(capsys, "run", str(REPO / "diagrams" / "hallway_lap.json"), "--duration", "80",
+                       "--report", str(tmp_path / "r.html"), "-q")
+    assert code in (0, 1), err
+    view = "(() => { const v = document.querySelector('#chart svg').viewBox.baseVal; return [v.x, v.y, v.width]; })()"
+    with sync_playwright() as pw:
+        p = Page(pw, tmp_path / "r.html")
+        try:
+            p.page.evaluate("window.tralReport.setTime(70)")
+            active = p.current()["active"]
+            assert active and active[0].startswith("lap2/")
+            p.page.check("#fold-rest")
+            folded = set(p.page.eval_on_selector_all("#chart g.composite.folded",
+                                                     "els => els.map(e => e.dataset.path)"))
+            assert "lap1" in folded and "lap3" in folded and "lap2" not in folded
+            assert p.page.locator('#chart g[data-path="lap1/bottom"]').first.get_attribute("class").count("hidden") == 1
+            assert p.page.locator('#chart g[data-path="lap2/bottom"]').first.get_attribute("class").count("hidden") == 0
+            # wheel: zoom in about the pointer; drag: pan, and no state's visits open
+            box = p.page.locator("#chart").bounding_box()
+            x0, y0, w0 = p.page.evaluate(view)
+            p.page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2)
+            p.page.mouse.wheel(0, -400)
+            x1, y1, w1 = p.page.evaluate(view)
+            assert w1 < w0 * 0.7
+            p.page.mouse.down()
+            p.page.mouse.move(box["x"] + box["width"] / 2 + 120, box["y"] + box["height"] / 2 + 80, steps=4)
+            p.page.mouse.up()
+            x2, y2, w2 = p.page.evaluate(view)
+            assert w2 == w1 and x2 < x1 and y2 < y1
+            assert p.page.text_content("#visits-of") == ""
+            # search: the matches marked, Enter brings the next into view
+            p.page.fill("#chart-search", "bottom_turn/arc")
+            assert p.page.text_content("#chart-found") == "3 found"
+            p.page.press("#chart-search", "Enter")
+            assert p.page.text_content("#chart-found") == "1 of 3: lap1/bottom_turn/arc"
+            inside = p.page.evaluate("""(() => {
+                const g = document.querySelector('#chart g[data-path="lap1/bottom_turn/arc"]'), r = g.getBBox();
+                const v = document.querySelector('#chart svg').viewBox.baseVal;
+                return r.x >= v.x && r.y >= v.y && r.x + r.width <= v.x + v.width && r.y + r.height <= v.y + v.height;
+            })()""")
+            assert inside
+            p.page.screenshot(path=str(tmp_path / "chart.png"))
+            # time zoom on the lanes; a double click shows the whole run again
+            lanes = p.page.locator("#lanes").bounding_box()
+            p.page.mouse.move(lanes["x"] + lanes["width"] * 0.6, lanes["y"] + 10)
+            p.page.mouse.wheel(0, -600)
+            window = p.page.evaluate("document.getElementById('lanes').dataset.window").split()
+            assert 0 < float(window[0]) < float(window[1]) < 80 and float(window[1]) - float(window[0]) < 40
+            p.page.mouse.dblclick(lanes["x"] + lanes["width"] * 0.6, lanes["y"] + 10)
+            assert p.page.evaluate("document.getElementById('lanes').dataset.window") == ""
+            assert p.errors == [] and p.dialogs == []
         finally:
             p.close()

@@ -414,6 +414,18 @@ def _run_live(args: argparse.Namespace, spec: Any, file: str, drive: bool, world
 
     plan = compile_spec(spec)
     document = header_document(file, args.pre)
+    watcher = None
+    if args.reload is not False and file != "<stdin>":
+        from fsm.loader import check, machine_files
+
+        from ..live.reload import Watcher, loader
+
+        registry = registry_from(args)
+        load = loader(file, lambda: check(file, registry=registry),
+                      lambda checked: compile_spec(apply_overrides(checked, args.overrides, file)),
+                      lambda checked: {"document": header_document(file), "signals": sorted(signal_names(checked)),
+                                       "files": machine_files(checked)})
+        watcher = Watcher(machine_files(spec) or [file], load)
 
     def make_recorder(session: Any, stream: Any) -> Any:
         return run_recorder(stream, file, session.car, world_file=world_path, seed=args.seed, noise=not args.no_noise,
@@ -421,7 +433,7 @@ def _run_live(args: argparse.Namespace, spec: Any, file: str, drive: bool, world
                             document=document)
 
     return run_live(args, file, lambda: _session(args, plan, drive, world_path, duration, max_ticks), make_recorder,
-                    sorted(signal_names(spec)), outputs, trace_out, summary_out, plot_out, report_out)
+                    sorted(signal_names(spec)), outputs, trace_out, summary_out, plot_out, report_out, watcher)
 
 
 class Tee:

@@ -40,6 +40,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     live.add_argument("--speed", type=_speed, default=1.0, metavar="X|max",
                       help="pace of the live run: X times real time (0.01 to 10000, default 1) or 'max'")
     live.add_argument("--paused", action="store_true", help="start the live run paused at tick 0")
+    live.add_argument("--reload", action=argparse.BooleanOptionalAction, default=None,
+                      help="hot reload: when the machine's file (or an include) changes on disk, check it; show its "
+                           "errors in the page, or swap the machine at the next tick keeping the variables and the "
+                           "active states (default on: a live run drives the simulated car)")
 
 
 def _port(text: str) -> int:
@@ -68,7 +72,8 @@ def check_usage(args: argparse.Namespace) -> None:
     """What ``--live`` cannot be combined with, and the live options without ``--live`` (usage errors)."""
     if not args.live:
         given = [o for o, v in (("--port", args.port), ("--host", args.host), ("--no-token", args.no_token or None),
-                                ("--paused", args.paused or None)) if v is not None]
+                                ("--paused", args.paused or None),
+                                ("--reload" if args.reload else "--no-reload", args.reload)) if v is not None]
         if given:
             raise UsageError(f"{given[0]} is an option of the live debugger: add --live")
         return
@@ -118,7 +123,7 @@ class LiveRun:
 
 
 def serve(source: Any, page: Callable[[dict[str, Any]], str], *, host: str, port: int, token: str | None,
-          stop: Callable[[], bool], out: Any) -> None:
+          stop: Callable[[], bool], out: Any, watcher: Any = None) -> None:
     """Serve the live page of ``source`` until the page's Stop or ``stop()`` (Ctrl-C): listen first (a port in use
     is an error before the run starts), print the URL to ``out``, run the controller's loop (if any: a finished
     trace has none) in its own thread."""
@@ -142,6 +147,14 @@ def serve(source: Any, page: Callable[[dict[str, Any]], str], *, host: str, port
         print(f"live: {until}", file=out, flush=True)
         halt = threading.Event()
         thread = None
+        watching = None
+        if watcher is not None and controller is not None:
+            def redraw(loaded: Any) -> None:  # the page served from now on draws the new machine
+                server.page = page({**header, "machine": loaded.info.get("document")})
+
+            watching = asyncio.create_task(watcher.run(controller, redraw))
+            print(f"live: watching {', '.join(watcher.files)} (hot reload; --no-reload to turn it off)", file=out,
+                  flush=True)
         if controller is not None:
             thread = threading.Thread(target=controller.loop, kwargs={"stop": lambda: halt.is_set() or stop()},
                                       name="fsm-live-run", daemon=True)
@@ -150,6 +163,8 @@ def serve(source: Any, page: Callable[[dict[str, Any]], str], *, host: str, port
             while (thread is None or thread.is_alive()) and not stop():
                 await asyncio.sleep(0.05)
         finally:
+            if watching is not None:
+                watching.cancel()
             halt.set()
             if thread is not None:
                 await asyncio.get_running_loop().run_in_executor(None, thread.join)
@@ -172,8 +187,8 @@ def serve_trace(name: str, args: argparse.Namespace) -> int:
     for warning in trace.warnings:
         print(printable(f"fsmctl report: warning: {warning}"), file=sys.stderr)
     buffer = LineBuffer()
-    for line in [trace.header, *trace.inputs, *trace.events, *trace.keyframes, *trace.samples, *trace.frames,
-                 *([trace.end] if trace.end else [])]:
+    for line in [trace.header, *trace.inputs, *trace.reloads, *trace.events, *trace.keyframes, *trace.samples,
+                 *trace.frames, *([trace.end] if trace.end else [])]:
         buffer.write(json.dumps(line, separators=(",", ":")) + "\n")
     interrupts = Interrupts()
     with interrupts:
@@ -204,7 +219,7 @@ def describe_end(session: Any, file: str) -> str:
 
 def run_live(args: argparse.Namespace, file: str, make_session: Callable[[], Any],
              make_recorder: Callable[[Any, LineBuffer], Any], signals: list[str], outputs: Any, trace_out: Any,
-             summary_out: Any, plot_out: Any, report_out: Any) -> int:
+             summary_out: Any, plot_out: Any, report_out: Any, watcher: Any = None) -> int:
     """The live run of ``fsmctl run --live`` (see the module docstring); its exit status."""
     from fsm.control import Controller
     from fsm.errors import StateRuntimeError
@@ -227,7 +242,7 @@ def run_live(args: argparse.Namespace, file: str, make_session: Callable[[], Any
     interrupts = Interrupts()
     with interrupts:
         serve(run.source, lambda header: live_page(header, Path(file).name), host=host, port=port, token=token,
-              stop=interrupts.stop, out=out)
+              stop=interrupts.stop, out=out, watcher=watcher)
         interrupts.writing = True
         session = controller.session
         interrupted = interrupts.interrupted

@@ -81,6 +81,7 @@ class LiveServer:
         self._waking = False
         self._numbers = 0
         self._pump: asyncio.Task[None] | None = None
+        self._closing = False
 
     # -- starting and stopping ----------------------------------------------------------------------------------------
     async def start(self, host: str, port: int) -> int:
@@ -108,8 +109,10 @@ class LiveServer:
         controller = self.source.controller
         if controller is not None:
             controller.notify = None
-        if self._pump is not None:
+        self._closing = True
+        if self._pump is not None:  # ended (a cancel that wait_for swallows still ends it: the flag)
             self._pump.cancel()
+            await asyncio.wait({self._pump}, timeout=1.0)
         for client in list(self.clients.values()):
             await client.ws.close(message=b"the run has ended")
         if self.runner is not None:
@@ -202,7 +205,7 @@ class LiveServer:
     async def _pump_loop(self) -> None:
         """Hand the controller's messages to the pages they are for, and wake the pages' senders."""
         assert self._wake is not None
-        while True:
+        while not self._closing:
             try:
                 await asyncio.wait_for(self._wake.wait(), 1 / MAX_RATE)
             except asyncio.TimeoutError:

@@ -18,7 +18,7 @@ from fsm.replay import Trace, event_active
 PLOTS = [
     ("Ultrasonic sensors", "m", [("car.left", "left"), ("car.front", "front"), ("car.right", "right")]),
     ("Speed", "m/s", [("car.speed", "speed"), ("car.speed_command", "command")]),
-    ("Steering", "°", [("car.steering", "steering")]),
+    ("Steering", "-1 to 1", [("car.steering", "steering")]),
 ]
 #: Digits kept per sample value (millimetres, milliradians): the page's size, not the trace's precision.
 DIGITS = 3
@@ -211,12 +211,22 @@ def _lanes(trace: Trace, regions: list[dict[str, Any]], states: list[str], index
     out = []
     for lane in lanes:
         branch = lane["key"][1]
-        label = lane["regions"][0] if len(lane["regions"]) == 1 else f"level {lane['depth']}"
-        if len(lane["regions"]) > 1 and branch:
-            label += " in " + branch[-1]
+        label = lane_label(lane["regions"])
         out.append({"label": label, "depth": lane["depth"], "regions": lane["regions"],
                     "seg": [v for seg in lane["seg"] for v in seg]})
     return out
+
+
+def lane_label(regions: list[str]) -> str:
+    """What a lane shows, named by its regions: the one region's label, or the composites whose sub-states share
+    the lane (``lap1/{bottom_turn, right_turn, top_turn +1}``; without a common parent, the composites' names)."""
+    if len(regions) == 1:
+        return regions[0]
+    parents = {r.rpartition("/")[0] for r in regions}
+    names = list(dict.fromkeys(r.rpartition("/")[2] for r in regions))
+    shown = ", ".join(names[:3]) + (f" +{len(names) - 3}" if len(names) > 3 else "")
+    parent = parents.pop() if len(parents) == 1 else ""
+    return f"{parent}/{{{shown}}}" if parent else f"in {shown}"
 
 
 def _overlap(a: list[list[float]], b: list[list[float]]) -> bool:
@@ -253,8 +263,6 @@ def _samples(trace: Trace) -> tuple[dict[str, list[Any]] | None, list[dict[str, 
     columns: dict[str, list[Any]] = {"t": [round(t, 4) for t, _ in rows]}
     for name in names:
         columns[name] = [None if (v := flat.get(name)) is None else round(v, DIGITS) for _, flat in rows]
-    if "car.steering" in columns:  # radians in the trace, degrees on the plot
-        columns["car.steering"] = [None if v is None else round(math.degrees(v), 2) for v in columns["car.steering"]]
     plots = []
     for title, unit, series in PLOTS:
         got = [{"field": f, "label": label} for f, label in series if f in columns]

@@ -13,7 +13,11 @@
   function schedule() {
     if (drawing) return;
     drawing = true;
-    var wait = Math.max(0, Math.max(33, 3 * cost) - (performance.now() - lastDraw));
+    // while the run runs, at most about 30 redraws a second (fewer when a redraw is slow); paused (a step, a
+    // breakpoint), at once: the page answers a click
+    // (as fast as possible: at most 10 a second, a page that redraws more takes the run's processor)
+    var running = !status || status.state === "running", fastest = !!status && status.speed === null;
+    var wait = running ? Math.max(0, Math.max(fastest ? 100 : 33, (fastest ? 5 : 3) * cost) - (performance.now() - lastDraw)) : 0;
     setTimeout(function () { requestAnimationFrame(draw); }, wait);
   }
   function draw() {
@@ -47,13 +51,17 @@
       if (typeof ev.data !== "string") {
         model.addText(decoder.decode(ev.data));
         if (status) raise(status);
-        dirty = true; schedule();
+        dirty = true;
+        // a paused run's new lines (a step's) come right before its status: one redraw, on the status
+        if (!status || status.state === "running") schedule();
         return;
       }
       var m = JSON.parse(ev.data);
       if (m.kind === "hello") { live = m.live; if (!live) { setControls(false); $("live-bar").classList.add("static"); } }
       else if (m.kind === "reset") { model.reset(); status = null; followEnd = null; dirty = true; }
       else if (m.kind === "status") { status = m; raise(m); showStatus(); dirty = true; schedule(); }
+      else if (m.kind === "reload") showReload(m);
+      else if (m.kind === "reply" && m.command === "reload") { if (!m.ok) showReload({ ok: false, file: "", errors: [m.error] }); }
       else if (m.kind === "reply") { var done = pending[m.id]; delete pending[m.id]; if (done) done(m); else if (!m.ok) notice(m.error); }
       else if (m.kind === "rewound") notice("Rewound to tick " + m.tick + (m.dropped ? "; " + m.dropped + " later input(s) dropped" : "") + ".");
     };
@@ -69,6 +77,16 @@
     var msg = { cmd: cmd, id: id };
     for (var k in args || {}) msg[k] = args[k];
     ws.send(JSON.stringify(msg));
+  }
+  function showReload(m) {  // a hot reload: the edited file's located errors, or what the swap kept
+    var box = $("reload");
+    box.hidden = false;
+    box.className = m.ok ? "ok" : "error";
+    box.dataset.ok = m.ok ? "1" : "0";
+    box.dataset.tick = m.ok ? m.tick : "";
+    box.textContent = m.ok
+      ? "Reloaded " + m.file + " before tick " + m.tick + ": " + m.text + ". Reload this page to redraw the statechart."
+      : "The edited " + (m.file || "machine") + " was not loaded; the run goes on with the machine it has:\n" + m.errors.join("\n");
   }
   function notice(text) { var n = $("notice"); n.hidden = !text; n.textContent = text || ""; }
 

@@ -4,7 +4,7 @@
   "use strict";
   var PLOTS = [["Ultrasonic sensors", "m", [["car.left", "left"], ["car.front", "front"], ["car.right", "right"]]],
                ["Speed", "m/s", [["car.speed", "speed"], ["car.speed_command", "command"]]],
-               ["Steering", "°", [["car.steering", "steering"]]]];
+               ["Steering", "-1 to 1", [["car.steering", "steering"]]]];
   var DIGITS = 1000;
 
   function TraceModel(base) { this.base = base || {}; this.reset(); }
@@ -22,6 +22,8 @@
     else if (kind === "keyframe") this.keyframes.push(line);
     else if (kind === "frame") this.frames.push(line);
     else if (kind === "input") this.inputs.push(line);
+    else if (kind === "reload") this.inputs.push({ tick: line.tick, time: line.time, input: { kind: "reload" },  // listed with the inputs
+                                                   text: "reload of " + line.file + ": " + line.text });
     else if (kind === "end") this.end = line;
     else if (kind === "sample") this.addSample(line);
     else if (kind === "samples") this.addBlock(line);
@@ -47,8 +49,7 @@
     for (var name in flat) {
       if (!cols[name]) { cols[name] = new Array(n).fill(null); this.names.push(name); }
       var v = flat[name];
-      if (v !== null && name === "car.steering") v = Math.round(v * 180 / Math.PI * 100) / 100;  // as the report
-      else if (v !== null) v = Math.round(v * DIGITS) / DIGITS;
+      if (v !== null) v = Math.round(v * DIGITS) / DIGITS;
       cols[name].push(v);
     }
     this.rows = n + 1;
@@ -172,6 +173,18 @@
     return regions;
   };
 
+  function laneLabel(regions) {  // model.py lane_label
+    if (regions.length === 1) return regions[0];
+    var parents = {}, names = [];
+    regions.forEach(function (r) {
+      var at = r.lastIndexOf("/"), name = at >= 0 ? r.slice(at + 1) : r;
+      parents[at >= 0 ? r.slice(0, at) : ""] = true;
+      if (names.indexOf(name) < 0) names.push(name);
+    });
+    var shown = names.slice(0, 3).join(", ") + (names.length > 3 ? " +" + (names.length - 3) : "");
+    var keys = Object.keys(parents);
+    return keys.length === 1 && keys[0] ? keys[0] + "/{" + shown + "}" : "in " + shown;
+  }
   TraceModel.prototype.lanes = function (regions, states, index, tEnd) {  // model.py _lanes
     var regionOf = {};
     regions.forEach(function (r, ri) { r.states.forEach(function (s) { if (!(s in regionOf)) regionOf[s] = ri; }); });
@@ -211,8 +224,7 @@
     });
     lanes.sort(function (a, b) { return a.depth - b.depth || (a.branch.join("/") < b.branch.join("/") ? -1 : a.branch.join("/") > b.branch.join("/") ? 1 : 0) || a.seg[0][0] - b.seg[0][0]; });
     return lanes.map(function (lane) {
-      var label = lane.regions.length === 1 ? lane.regions[0] : "level " + lane.depth;
-      if (lane.regions.length > 1 && lane.branch.length) label += " in " + lane.branch[lane.branch.length - 1];
+      var label = laneLabel(lane.regions);
       var flat = [];
       lane.seg.forEach(function (s) { flat.push(s[0], s[1], s[2]); });
       return { label: label, depth: lane.depth, regions: lane.regions, seg: flat };

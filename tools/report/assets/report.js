@@ -83,15 +83,92 @@
   } else {
     $("chart").textContent = "No drawing: the trace carries no machine document that can be drawn.";
   }
-  $("fit").addEventListener("change", function () { $("chart").classList.toggle("fit", this.checked); lastLeaf = null; setTime(cursor); });
-  if (svg) {  // fit the drawing into the box when it stays readable (at least half its size), else scroll and follow
-    var cw = $("chart").clientWidth, ch = 0.66 * window.innerHeight;
-    if (Math.min(cw / svg.width.baseVal.value, ch / svg.height.baseVal.value) >= 0.45) { $("fit").checked = true; $("chart").classList.add("fit"); }
+  // The drawing is seen through its viewBox: the wheel zooms about the pointer, a drag pans, "fit" shows it all;
+  // following the active state moves the view to it (at a readable scale when the whole drawing is not).
+  var full = null, vb = null, box = $("chart");
+  function applyView() { if (svg && vb) svg.setAttribute("viewBox", vb.x + " " + vb.y + " " + vb.w + " " + vb.h); }
+  function boxAspect() { return (box.clientHeight || 400) / (box.clientWidth || 600); }
+  function fitAll() {
+    var a = boxAspect(), w = full.w, h = full.h;
+    if (h / w > a) w = h / a; else h = w * a;
+    vb = { x: full.x - (w - full.w) / 2, y: full.y - (h - full.h) / 2, w: w, h: h };
+    applyView();
   }
+  function scale() { return (box.clientWidth || 600) / vb.w; }  // screen px per drawing unit
+  function centreOn(r, zoomTo) {  // r: a drawing-space box
+    var w = vb.w, h = vb.h;
+    if (zoomTo) { var k = scale() / zoomTo; w *= k; h *= k; }
+    vb = { x: r.x + r.width / 2 - w / 2, y: r.y + r.height / 2 - h / 2, w: w, h: h };
+    applyView();
+  }
+  if (svg) {
+    var v = svg.viewBox.baseVal;
+    full = { x: v.x, y: v.y, w: v.width || svg.width.baseVal.value, h: v.height || svg.height.baseVal.value };
+    svg.removeAttribute("width"); svg.removeAttribute("height");
+    svg.setAttribute("preserveAspectRatio", "xMidYMid meet");
+    box.classList.add("zoomable");
+    fitAll();
+    // fit when it stays readable (at least 0.45 of its size), else a readable scale that follows the active state
+    if (scale() >= 0.45) $("fit").checked = true;
+    else { vb.w = (box.clientWidth || 600); vb.h = vb.w * boxAspect(); vb.x = full.x; vb.y = full.y; applyView(); }
+    box.addEventListener("wheel", function (ev) {
+      ev.preventDefault();
+      var r = box.getBoundingClientRect(), fx = (ev.clientX - r.left) / r.width, fy = (ev.clientY - r.top) / r.height;
+      var k = Math.pow(1.0015, ev.deltaY), w = Math.min(Math.max(vb.w * k, 40), full.w * 4), h = w * boxAspect();
+      vb = { x: vb.x + (vb.w - w) * fx, y: vb.y + (vb.h - h) * fy, w: w, h: h };
+      $("fit").checked = false;
+      applyView();
+    }, { passive: false });
+    var pan = null;
+    box.addEventListener("mousedown", function (ev) { if (ev.button === 0) pan = { x: ev.clientX, y: ev.clientY, vb: vb, moved: false }; });
+    window.addEventListener("mousemove", function (ev) {
+      if (!pan) return;
+      var dx = ev.clientX - pan.x, dy = ev.clientY - pan.y;
+      if (!pan.moved && Math.abs(dx) + Math.abs(dy) < 4) return;
+      pan.moved = true; box.classList.add("panning");
+      var k = pan.vb.w / (box.clientWidth || 600);
+      vb = { x: pan.vb.x - dx * k, y: pan.vb.y - dy * k, w: pan.vb.w, h: pan.vb.h };
+      $("fit").checked = false;
+      applyView();
+    });
+    window.addEventListener("mouseup", function () { if (pan && pan.moved) box.dataset.dragged = "1"; pan = null; box.classList.remove("panning"); });
+    box.addEventListener("click", function (ev) {  // the click that ends a drag is no click on a state
+      if (box.dataset.dragged) { delete box.dataset.dragged; ev.stopPropagation(); }
+    }, true);
+  }
+  $("fit").addEventListener("change", function () { if (!svg) return; if (this.checked) fitAll(); lastLeaf = null; setTime(cursor); });
+  window.addEventListener("resize", function () { if (svg && $("fit").checked) fitAll(); else if (svg) { vb.h = vb.w * boxAspect(); applyView(); } });
+  // search by name: states whose path holds the text are marked; Enter shows the next one
+  var found = [], foundAt = -1;
+  $("chart-search").addEventListener("input", function () {
+    var q = this.value.trim().toLowerCase();
+    found = [];
+    foundAt = -1;
+    Object.keys(groups).forEach(function (p) {
+      var hit = q !== "" && p.toLowerCase().indexOf(q) >= 0;
+      groups[p].forEach(function (g) { g.classList.toggle("found", hit); });
+      if (hit) found.push(p);
+    });
+    $("chart-found").textContent = q ? found.length + " found" : "";
+  });
+  $("chart-search").addEventListener("keydown", function (ev) {
+    if (ev.key !== "Enter" || !found.length || !svg) return;
+    ev.preventDefault();
+    foundAt = (foundAt + 1) % found.length;
+    var p = found[foundAt], g = groups[p][0];
+    Object.keys(folded).forEach(function (f) { if (folded[f] && p.indexOf(f + "/") === 0) fold(f); });  // unfold to it
+    $("fit").checked = false;
+    $("follow").checked = false;  // looking elsewhere than the active state
+    centreOn(g.getBBox(), Math.max(scale(), 1));
+    $("chart-found").textContent = (foundAt + 1) + " of " + found.length + ": " + p;
+  });
   var folded = {};
-  function fold(path) {
-    folded[path] = !folded[path];
+  function fold(path, on) {
+    folded[path] = on === undefined ? !folded[path] : on;
     (groups[path] || []).forEach(function (g) { g.classList.toggle("folded", !!folded[path]); });
+    refold();
+  }
+  function refold() {
     var prefixes = Object.keys(folded).filter(function (p) { return folded[p]; });
     function inside(p) { return prefixes.some(function (f) { return p === f || p.indexOf(f + "/") === 0; }); }
     Array.prototype.forEach.call(svg.querySelectorAll("[data-path],[data-in]"), function (el) {
@@ -100,8 +177,25 @@
       el.classList.toggle("hidden", hide);
     });
   }
+  // "fold the rest": every composite not on an active path folded, again whenever the active states change
+  var composites = Object.keys(groups).filter(function (p) { return groups[p].some(function (g) { return g.classList.contains("composite"); }); });
+  var foldedFor = null;
+  function foldRest(active) {
+    var key = $("fold-rest").checked ? active.join(",") : "";
+    if (key === foldedFor) return;
+    foldedFor = key;
+    var on = {};
+    active.forEach(function (i) { var parts = S[i].split("/"); for (var n = 1; n <= parts.length; n++) on[parts.slice(0, n).join("/")] = true; });
+    composites.forEach(function (p) {
+      folded[p] = !!key && !on[p];
+      groups[p].forEach(function (g) { g.classList.toggle("folded", folded[p]); });
+    });
+    refold();
+  }
+  $("fold-rest").addEventListener("change", function () { lastLeaf = null; setTime(cursor); });
   var shown = [];
   function highlight(active) {
+    if (svg) foldRest(active);
     shown.forEach(function (g) { g.classList.remove("active"); });
     shown = [];
     var leaf = null;
@@ -112,12 +206,9 @@
         if (gs) gs.forEach(function (g) { g.classList.add("active"); shown.push(g); if (n === parts.length && !leaf) leaf = g; });
       }
     });
-    if ($("follow").checked && leaf && leaf !== lastLeaf && !leaf.classList.contains("hidden")) {
-      var box = $("chart"), r = leaf.getBoundingClientRect(), b = box.getBoundingClientRect();
-      if (r.left < b.left || r.right > b.right || r.top < b.top || r.bottom > b.bottom) {
-        box.scrollLeft += (r.left + r.width / 2) - (b.left + b.width / 2);
-        box.scrollTop += (r.top + r.height / 2) - (b.top + b.height / 2);
-      }
+    if ($("follow").checked && leaf && leaf !== lastLeaf && !leaf.classList.contains("hidden") && svg && !$("fit").checked) {
+      var r = leaf.getBBox();  // moved to it when it is not wholly in view
+      if (r.x < vb.x || r.x + r.width > vb.x + vb.w || r.y < vb.y || r.y + r.height > vb.y + vb.h) centreOn(r, null);
     }
     lastLeaf = leaf;
   }
@@ -166,6 +257,11 @@
   }
 
   // -- variables ----------------------------------------------------------------------------------------------
+  // a value as JSON with its numbers to 6 significant digits (the full value is the cell's title): 0.30000000000000004
+  // and 16-digit floats would overflow the panel
+  function shownValue(v) {
+    return JSON.stringify(v, function (k, x) { return typeof x === "number" && isFinite(x) && !Number.isInteger(x) ? Number(x.toPrecision(6)) : x; });
+  }
   function showVars(vars, changed) {
     var body = $("vars").tBodies[0];
     body.textContent = "";
@@ -175,17 +271,34 @@
       row.dataset.name = name;
       row.insertCell().textContent = name;
       var cell = row.insertCell();
-      cell.textContent = JSON.stringify(vars[name]);
-      cell.dataset.value = JSON.stringify(vars[name]);
+      cell.textContent = shownValue(vars[name]);
+      cell.title = cell.dataset.value = JSON.stringify(vars[name]);
       if (changed[name]) row.classList.add("changed");
     });
     if (!names.length) { var row = body.insertRow(); row.insertCell().textContent = "(no variables)"; }
   }
 
   // -- timeline lanes ---------------------------------------------------------------------------------------
-  var LANE_H = 18, LABEL_W = 170, lanes = $("lanes"), lanesBg = document.createElement("canvas");
-  function laneX(t, w) { return LABEL_W + (w - LABEL_W - 8) * (t / T); }
-  function laneT(x, w) { return Math.min(T, Math.max(0, (x - LABEL_W) / (w - LABEL_W - 8) * T)); }
+  var LANE_H = 18, LABEL_W = 220, lanes = $("lanes"), lanesBg = document.createElement("canvas");
+  // the time window the lanes and plots show (the wheel over the lanes zooms it, a double click shows the whole run)
+  var win = null;
+  function w0() { return win ? win[0] : 0; }
+  function w1() { return win ? Math.min(win[1], T) : T; }
+  function laneX(t, w) { return LABEL_W + (w - LABEL_W - 8) * ((t - w0()) / (w1() - w0() || 1)); }
+  function laneT(x, w) { return Math.min(T, Math.max(0, w0() + (x - LABEL_W) / (w - LABEL_W - 8) * (w1() - w0()))); }
+  function setWindow(a, b) {
+    var span = Math.max(b - a, Math.min(T, 20 * dt));
+    if (span >= T) win = null;
+    else { a = Math.min(Math.max(0, a), T - span); win = [a, a + span]; }
+    lanes.dataset.window = win ? win[0].toFixed(3) + " " + win[1].toFixed(3) : "";
+    drawLanesBg(); plotWindow(); drawLanes(); drawPlots();
+  }
+  lanes.addEventListener("wheel", function (ev) {
+    ev.preventDefault();
+    var r = lanes.getBoundingClientRect(), at = laneT(ev.clientX - r.left, r.width), k = Math.pow(1.0015, ev.deltaY);
+    setWindow(at - (at - w0()) * k, at + (w1() - at) * k);
+  }, { passive: false });
+  lanes.addEventListener("dblclick", function () { setWindow(0, T); });
   function drawLanesBg() {
     var ratio = window.devicePixelRatio || 1, w = lanes.clientWidth || 800;
     var h = D.lanes.length * LANE_H + 22;
@@ -196,25 +309,30 @@
     c.setTransform(ratio, 0, 0, ratio, 0, 0);
     c.fillStyle = "#fff"; c.fillRect(0, 0, w, h);
     c.font = "11px Helvetica, Arial, sans-serif"; c.textBaseline = "middle";
-    var base = D.lanes.length * LANE_H;
-    var step = Math.pow(10, Math.floor(Math.log10(T / 5 || 1)));
-    if (T / step > 12) step *= 5; else if (T / step > 6) step *= 2;
+    var base = D.lanes.length * LANE_H, span = w1() - w0();
+    var step = Math.pow(10, Math.floor(Math.log10(span / 5 || 1)));
+    if (span / step > 12) step *= 5; else if (span / step > 6) step *= 2;
+    var first = Math.ceil(w0() / step - 1e-9) * step;
+    D.lanes.forEach(function (lane, row) {
+      c.fillStyle = "#345";
+      c.fillText(lane.label.length > 36 ? lane.label.slice(0, 35) + "…" : lane.label, 4 + 6 * Math.min(lane.depth, 4), row * LANE_H + LANE_H / 2);
+    });
+    c.save(); c.beginPath(); c.rect(LABEL_W, 0, w - LABEL_W, h); c.clip();  // the window's part of the run only
     c.fillStyle = "#e4e4e4";
-    for (var g = 0; g <= T + 1e-9; g += step) c.fillRect(laneX(g, w), 0, 1, base + 4);
+    for (var g = first; g <= w1() + 1e-9; g += step) c.fillRect(laneX(g, w), 0, 1, base + 4);
     D.lanes.forEach(function (lane, row) {
       var y = row * LANE_H;
-      c.fillStyle = "#345";
-      c.fillText(lane.label.length > 28 ? lane.label.slice(0, 27) + "…" : lane.label, 4 + 6 * Math.min(lane.depth, 4), y + LANE_H / 2);
       var seg = lane.seg;
       for (var k = 0; k < seg.length; k += 3) {
         var x0 = laneX(seg[k], w), x1 = Math.max(laneX(seg[k + 1], w), x0 + 1);
         c.fillStyle = colour(seg[k + 2]);
         c.fillRect(x0, y + 2, x1 - x0, LANE_H - 4);
-        if (x1 - x0 > 40) {
+        var xs = Math.max(x0, LABEL_W), xe = Math.min(x1, w);  // the part in the window
+        if (xe - xs > 40) {
           c.fillStyle = "#222";
           var name = S[seg[k + 2]].split("/").pop();
-          c.save(); c.beginPath(); c.rect(x0, y, x1 - x0 - 2, LANE_H); c.clip();
-          c.fillText(name, x0 + 3, y + LANE_H / 2); c.restore();
+          c.save(); c.beginPath(); c.rect(xs, y, xe - xs - 2, LANE_H); c.clip();
+          c.fillText(name, xs + 3, y + LANE_H / 2); c.restore();
         }
       }
     });
@@ -227,7 +345,9 @@
     c.fillStyle = "#c00";
     D.monitors.forEach(function (m) { var x = laneX(m[0], w); c.fillRect(x - 2, base + 6, 4, 4); });
     c.fillStyle = "#555"; c.textBaseline = "top";
-    for (var t = 0; t <= T + 1e-9; t += step) c.fillText(+t.toFixed(3) + " s", laneX(t, w) + 2, base + 10);
+    for (var t = first; t <= w1() + 1e-9; t += step) c.fillText(+t.toFixed(3) + " s", laneX(t, w) + 2, base + 10);
+    c.restore();
+    if (win) { c.fillStyle = "#a60"; c.fillText("zoomed: double-click for the whole run", 4, base + 10); }
   }
   function drawLanes() {
     var ratio = window.devicePixelRatio || 1, w = lanes.clientWidth || 800;
@@ -236,7 +356,7 @@
     c.drawImage(lanesBg, 0, 0);
     c.setTransform(ratio, 0, 0, ratio, 0, 0);
     var x = laneX(cursor, w);
-    c.fillStyle = "#c00"; c.fillRect(x - 1, 0, 2, lanes.height / ratio);
+    if (x >= LABEL_W - 1 && x <= w) { c.fillStyle = "#c00"; c.fillRect(x - 1, 0, 2, lanes.height / ratio); }
   }
   var dragging = false;
   function fromMouse(ev) { var r = lanes.getBoundingClientRect(); setTime(laneT(ev.clientX - r.left, r.width)); }
@@ -264,6 +384,10 @@
     c.setTransform(ratio, 0, 0, ratio, 0, 0);
     c.fillStyle = "#fff"; c.fillRect(0, 0, w, h);
     function X(x) { return (x - x0) * s; } function Y(y) { return (y1 - y) * s; }
+    function label(text, x, y) {  // kept inside the map: a marker or gate at its edge has its name drawn inwards
+      var tw = c.measureText(text).width;
+      c.fillText(text, Math.max(2, Math.min(x, w - tw - 2)), Math.max(10, Math.min(y, h - 3)));
+    }
     view.X = X; view.Y = Y;
     if (D.map) {
       c.strokeStyle = "#333"; c.lineWidth = 2;
@@ -278,10 +402,10 @@
       c.strokeStyle = "#0a7"; c.lineWidth = 3; c.font = "10px Helvetica, Arial, sans-serif"; c.fillStyle = "#0a7";
       D.map.gates.forEach(function (g) {
         c.beginPath(); c.moveTo(X(g.a[0]), Y(g.a[1])); c.lineTo(X(g.b[0]), Y(g.b[1])); c.stroke();
-        c.fillText(g.name, X((g.a[0] + g.b[0]) / 2) + 4, Y((g.a[1] + g.b[1]) / 2) - 4);
+        label(g.name, X((g.a[0] + g.b[0]) / 2) + 4, Y((g.a[1] + g.b[1]) / 2) - 4);
       });
       c.fillStyle = "#07a";
-      D.map.markers.forEach(function (m) { c.fillRect(X(m.p[0]) - 3, Y(m.p[1]) - 3, 6, 6); c.fillText("#" + m.id, X(m.p[0]) + 4, Y(m.p[1]) - 4); });
+      D.map.markers.forEach(function (m) { c.fillRect(X(m.p[0]) - 3, Y(m.p[1]) - 3, 6, 6); label("#" + m.id, X(m.p[0]) + 4, Y(m.p[1]) - 4); });
     }
     if (hasTrack) {  // the trajectory, coloured by the active leaf at each sample
       c.lineWidth = 2.5;
@@ -357,14 +481,20 @@
       u.over.addEventListener("click", function (ev) { setTime(u.posToVal(ev.offsetX, "x")); });
       plots.push({ u: u, line: line, div: div });
     });
+    if (win) plotWindow();
+  }
+  function plotWindow() {  // the plots show the lanes' window
+    plots.forEach(function (p) { p.u.setScale("x", { min: w0(), max: w1() }); });
   }
   function updatePlots() {  // new data in the plots there are (a live page), else new plots
     if (!Sm || plots.length !== D.plots.length) { makePlots(); return; }
     D.plots.forEach(function (p, i) { plots[i].u.setData([Sm.t].concat(p.series.map(function (s) { return Sm[s.field]; }))); });
+    if (win) plotWindow();
   }
   function drawPlots() {
     plots.forEach(function (p) {
       var o = p.u.over, x = p.u.valToPos(cursor, "x");
+      p.line.style.display = cursor < w0() || cursor > w1() ? "none" : "";
       p.line.style.left = (o.offsetLeft + x) + "px"; p.line.style.top = o.offsetTop + "px"; p.line.style.height = o.clientHeight + "px";
     });
   }
@@ -408,17 +538,22 @@
     if (ev.key === " ") { play(); ev.preventDefault(); }
     else if (ev.key === "ArrowLeft") { jump(-1); ev.preventDefault(); }
     else if (ev.key === "ArrowRight") { jump(1); ev.preventDefault(); }
-    else if (ev.key === "Home") setTime(0);
-    else if (ev.key === "End") setTime(T);
+    else if (ev.key === "Home") { setTime(0); ev.preventDefault(); }  // the cursor, not the page's scroll
+    else if (ev.key === "End") { setTime(T); ev.preventDefault(); }
   });
   function layout() { drawLanesBg(); drawMapBg(); makePlots(); setTime(cursor); }
   var resizeTimer = null;
   window.addEventListener("resize", function () { clearTimeout(resizeTimer); resizeTimer = setTimeout(layout, 150); });
   layout();
   // a new model (a live page's, as the trace grows): redrawn, the cursor kept or put at the end (``follow``)
+  var lastMapKey = null;
   function load(data, follow) {
     D = data; derive(); showHeader(); shownFrame = -2;
-    drawLanesBg(); drawMapBg(); updatePlots();
+    // the map's background (walls, the whole track) again only when the track or the states along it changed
+    var mapKey = (Sm ? Sm.t.length : 0) + "|" + D.events.length + "|" + D.keyframes.length + "|" + map.clientWidth;
+    drawLanesBg();
+    if (mapKey !== lastMapKey) { lastMapKey = mapKey; drawMapBg(); }
+    updatePlots();
     if (selected >= 0 && selected < S.length) showVisits(selected);
     setTime(follow ? T : cursor);
   }

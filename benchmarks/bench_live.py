@@ -1,0 +1,240 @@
+"""Benchmark: what the live debugger costs (issue 24). The hallway lap (16,176 ticks, trace recorded in memory as
+``fsmctl run --live`` records it) at full speed:
+
+- **plain**: the session run to its end, no controller, no server;
+- **live, no page**: the same run under the controller (commands looked at between chunks of ticks, a snapshot
+  after each) with the live server listening in the same process and no page connected (target: at most 5 %
+  slower);
+- **live, one page**: the same with one headless Chromium page connected and redrawing (target: at most 15 %
+  slower; the page gets at most 30 messages a second, the server drops what a slow page cannot take);
+- **rewind**: after the run, back to tick 10,000 (a fresh session re-simulated to it, its trace written again;
+  target under 1 s);
+- **step to redrawn page**: with the run paused and the page connected, the time from a click on "Step 1" to the
+  page showing the new tick (the page's own clock, ``performance.now``; target under 100 ms).
+
+Each run starts paused; the clock starts at "resume" and stops when the controller says the run has ended (looked
+at every 20 ms from the main thread: at most 20 ms on a run of seconds). Two cores shared with Chromium: the page
+figures include the browser's own work. Not a timed test: CI does not run it.
+
+    .venv/bin/python benchmarks/bench_live.py [--repeat 3] [--steps 30] [--no-browser] [--json FILE]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import statistics
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parent.parent
+LAP = ROOT / "diagrams" / "hallway_lap.json"
+WORLD = ROOT / "diagrams" / "worlds" / "hallway.json"
+
+
+_PLAN: list[Any] = []
+
+
+def make_session() -> tuple[Any, Any]:
+    """The lap's session recording into a live line buffer, as ``fsmctl run --live`` builds it (the plan compiled
+    once, as there)."""
+    from fsm.loader import compile as compile_plan
+    from fsm.sim import simulate
+    from fsm.tools.live.stream import LineBuffer
+    from fsm.tools.recording import run_recorder
+    from fsm.tools.recording.document import header_document
+
+    if not _PLAN:
+        _PLAN.extend([compile_plan(str(LAP)), header_document(str(LAP))])
+    session = simulate(_PLAN[0], world=WORLD)
+    buffer = LineBuffer()
+    session.record(run_recorder(buffer, str(LAP), session.car, world_file=WORLD, document=_PLAN[1]))
+    return session, buffer
+
+
+def plain() -> float:
+    session, _ = make_session()
+    t0 = time.perf_counter()
+    session.run()
+    return session.ticks / (time.perf_counter() - t0)
+
+
+class LiveRun:
+    """The lap under the controller, served on a free port from a thread of its own (as ``serve`` does)."""
+
+    def __init__(self) -> None:
+        import asyncio
+
+        from fsm.control import Controller
+        from fsm.tools.live.page import live_page
+        from fsm.tools.live.server import LiveServer, Source
+
+        session, buffer = make_session()
+        session.start()
+        source = Source(buffer)
+
+        def factory() -> Any:  # a rewind's session, its trace the one the pages switch to
+            fresh, source.buffer = make_session()
+            return fresh
+
+        self.controller = Controller(session, factory=factory, speed=None, paused=True)
+        source.controller = self.controller
+        header = json.loads(buffer.chunks[0].split("\n", 1)[0])
+        self.server = LiveServer(source, live_page(header, LAP.name), None)
+        self.loop = asyncio.new_event_loop()
+        started = threading.Event()
+        self.port = 0
+
+        def serve() -> None:
+            asyncio.set_event_loop(self.loop)
+
+            async def start() -> None:
+                self.port = await self.server.start("127.0.0.1", 0)
+                started.set()
+
+            self.loop.run_until_complete(start())
+            self.loop.run_forever()
+
+        self.thread = threading.Thread(target=serve, daemon=True)
+        self.thread.start()
+        started.wait(10)
+        self.runner = threading.Thread(target=self.controller.loop, daemon=True)
+        self.runner.start()
+        self.url = f"http://127.0.0.1:{self.port}/"
+
+    def run(self) -> float:
+        """Resume, wait for the end: ticks per second."""
+        controller = self.controller
+        ticks0 = controller.session.ticks
+        t0 = time.perf_counter()
+        controller.send("resume")
+        while controller.ended is None:
+            time.sleep(0.02)
+        return (controller.session.ticks - ticks0) / (time.perf_counter() - t0)
+
+    def rewind(self, tick: int) -> float:
+        """Seconds from the rewind command to the controller's notice that it is there."""
+        controller = self.controller
+        t0 = time.perf_counter()
+        controller.send("rewind", {"tick": tick})
+        while controller.snapshot.get("tick") != tick or controller.session.ticks != tick:
+            time.sleep(0.002)
+        return time.perf_counter() - t0
+
+    def close(self) -> None:
+        self.controller.send("stop")
+        self.runner.join(10)
+        import asyncio
+
+        asyncio.run_coroutine_threadsafe(self.server.close(), self.loop).result(60)
+        self.loop.call_soon_threadsafe(self.loop.stop)
+        self.thread.join(10)
+
+
+def step_latency(page: Any, steps: int) -> list[float]:
+    """Milliseconds from a click on "Step 1" to the page showing the next tick, ``steps`` times."""
+    out = []
+    for _ in range(steps):
+        ms = page.evaluate("""() => new Promise(done => {
+            const want = String(window.tralLive.status().tick + 1), t0 = performance.now();
+            document.getElementById('run-step').click();
+            (function look() {
+              if (document.body.dataset.tick === want) done(performance.now() - t0);
+              else requestAnimationFrame(look);
+            })();
+        })""")
+        out.append(float(ms))
+        time.sleep(0.05)
+    return out
+
+
+def wait_drawn(page: Any, script: str, seconds: float = 30) -> None:
+    """Poll ``script`` in the page (its CSP forbids Playwright's own polling, which evaluates strings)."""
+    end = time.monotonic() + seconds
+    while not page.evaluate(f"!!(window.tralLive && window.tralLive.drawn && window.tralLive.drawn() > 0 && "
+                            f"window.tralLive.status() && ({script}))"):
+        if time.monotonic() > end:
+            raise SystemExit(f"the live page did not get to {script} within {seconds} s")
+        time.sleep(0.05)
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--steps", type=int, default=30)
+    ap.add_argument("--no-browser", action="store_true")
+    ap.add_argument("--json", metavar="FILE")
+    args = ap.parse_args()
+    results: dict[str, Any] = {"plain": [], "live_no_page": [], "live_one_page": [], "step_ms_tick0": [],
+                               "step_ms_tick8000": []}
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    with_page = not args.no_browser and chromium is not None
+    pw = browser = None
+    if with_page:
+        from playwright.sync_api import sync_playwright
+
+        pw = sync_playwright().start()
+        browser = pw.chromium.launch(executable_path=chromium, args=["--no-sandbox"])
+    try:
+        for k in range(args.repeat):  # interleaved: a loaded machine's drift falls on all three alike
+            results["plain"].append(plain())
+            live = LiveRun()
+            try:
+                results["live_no_page"].append(live.run())
+                results.setdefault("rewind_10000_s", []).append(live.rewind(10_000))
+            finally:
+                live.close()
+            if browser is None:
+                continue
+            live = LiveRun()
+            page = browser.new_page(viewport={"width": 1400, "height": 1000})
+            try:
+                page.goto(live.url)
+                wait_drawn(page, "window.tralLive.status().tick === 0")
+                if k == 0:
+                    results["step_ms_tick0"] = step_latency(page, args.steps)
+                    live.controller.send("step", {"n": 8000 - live.controller.session.ticks})
+                    wait_drawn(page, "window.tralLive.status().tick === 8000 && document.body.dataset.tick === '8000'")
+                    results["step_ms_tick8000"] = step_latency(page, args.steps)
+                results["live_one_page"].append(live.run())
+            finally:
+                page.close()
+                live.close()
+    finally:
+        if browser is not None and pw is not None:
+            browser.close()
+            pw.stop()
+    base = results["plain"]
+    alone = results["live_no_page"]
+
+    def row(name: str, runs: list[float]) -> None:
+        best, median = max(runs), statistics.median(runs)
+        loss = 1 - median / statistics.median(base)
+        print(f"| {name} | {median:,.0f} | {best:,.0f} | {loss:+.1%} |")
+
+    print("| run of the hallway lap, full speed | ticks/s median | best | loss against plain (medians) |")
+    print("|---|---:|---:|---:|")
+    print(f"| plain (session.run) | {statistics.median(base):,.0f} | {max(base):,.0f} | |")
+    row("live, no page", alone)
+    rw = results["rewind_10000_s"]
+    print(f"\nrewind from the end (16,176) to tick 10,000: median {statistics.median(rw):.2f} s, best {min(rw):.2f} s "
+          f"over {len(rw)}")
+    if results["live_one_page"]:
+        row("live, one Chromium page", results["live_one_page"])
+        for key, where in (("step_ms_tick0", "at tick 0"), ("step_ms_tick8000", "at tick 8,000 (half the lap shown)")):
+            lat = sorted(results[key])
+            p90 = lat[min(len(lat) - 1, int(0.9 * len(lat)))]
+            print(f"\nclick on Step 1 to redrawn page {where}: median {statistics.median(lat):.1f} ms, "
+                  f"p90 {p90:.1f} ms, max {lat[-1]:.1f} ms over {len(lat)} steps")
+    if args.json:
+        Path(args.json).write_text(json.dumps(results, indent=1) + "\n", encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.path.insert(0, str(ROOT))
+    sys.exit(main())

@@ -22,7 +22,7 @@ from fsm.machine import Listener
 from . import messages as M
 from .car import Log, RosCar
 from .profile import Profile
-from .transport import Link, PeerTimeout, Publisher
+from .transport import Bus, PeerTimeout, TopicPublisher
 
 if TYPE_CHECKING:
     from fsm.context import Context
@@ -69,7 +69,7 @@ class _Watch(Listener):
 class RosDriver:
     """The session's driver for a car on ROS 2 topics (see the module's docstring)."""
 
-    def __init__(self, profile: Profile, link: Link | None, *, lockstep: bool = False,
+    def __init__(self, profile: Profile, link: Bus | None, *, lockstep: bool = False,
                  bag: BagRecorder | None = None, log: Log | None = None) -> None:
         self.profile = profile
         self.link = link
@@ -88,8 +88,8 @@ class RosDriver:
         self.statuses: list[tuple[float, dict[str, Any]]] = []
         self._clock = -1.0
         self._clock_cond = threading.Condition()
-        self._command: Publisher | None = None
-        self._status: Publisher | None = None
+        self._command: TopicPublisher | None = None
+        self._status: TopicPublisher | None = None
         if link is not None:
             self._command = link.publisher(profile.outputs.command)
             self._status = link.publisher(status) if status is not None else None
@@ -262,7 +262,7 @@ class RosDriver:
                 "distance_m": round(car.distance, 4), "collisions": 0}
 
 
-def ros_session(plan: Any, profile: Profile, link: Link, *, lockstep: bool = False, bag: BagRecorder | None = None,
+def ros_session(plan: Any, profile: Profile, link: Bus, *, lockstep: bool = False, bag: BagRecorder | None = None,
                 log: Log | None = None, stop: Any = None, variables: dict[str, Any] | None = None) -> Session:
     """A session that runs the machine of ``plan`` (a compiled :class:`fsm.plan.MachinePlan`) on the car behind
     ``link``: on the wall clock at the profile's rate, or in lock-step with a simulator's clock."""

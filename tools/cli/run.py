@@ -102,7 +102,8 @@ def register(sub: Subcommands) -> None:
                      help="with --ros: also record the run as rosbag2 (MCAP) in the new folder DIR")
     from ..ros.common import add_endpoint_options
 
-    add_endpoint_options(p)
+    add_endpoint_options(p, "advance in lock-step with `fsmctl sim --ros --lockstep` on the profile's clock topic "
+                            "instead of the wall clock (fast, reproducible runs against the simulator)")
     bar = car.add_mutually_exclusive_group()
     bar.add_argument("--progress", dest="progress", action="store_true", default=None,
                      help="show a progress bar (default: only when standard error is a terminal)")

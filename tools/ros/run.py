@@ -26,7 +26,7 @@ SIM_ONLY = ("world", "car", "video", "plot")
 def check_usage(args: argparse.Namespace) -> None:
     """--ros goes with neither the in-process simulator's options nor (without --ros) --bag and the endpoints."""
     if not args.ros:
-        for option in ("bag", "connect", "listen"):
+        for option in ("bag", "connect", "listen", "via"):
             if getattr(args, option, None):
                 raise UsageError(f"--{option} needs --ros PROFILE (it records or reaches a car on ROS 2 topics)")
         if getattr(args, "lockstep", False):
@@ -39,7 +39,7 @@ def check_usage(args: argparse.Namespace) -> None:
     if args.dt is not None:
         raise UsageError("--dt: with --ros the tick rate is the profile's 'rate'")
     check_endpoints(args)
-    check_bag_folder(args.bag)
+    check_bag_folder(args.bag, [args.ros] + ([args.file] if getattr(args, "file", None) else []))
 
 
 def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_out: Any, summary_out: Any,
@@ -48,14 +48,16 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
     from fsm.loader import machine_files
     from fsm.ros.bag import BagRecorder
     from fsm.ros.driver import ros_session
-    from fsm.ros.transport import Link
+    from fsm.ros.transport import open_bus, resolve_via
     from fsm.session import SetSignal, StopRules
 
-    require_extra("--ros")
     profile = load(args.ros)
-    outputs.open(machine_files(spec) + [args.ros])
+    require_extra("--ros", zenoh=resolve_via(profile, args.via) == "zenoh")
+    inputs = machine_files(spec) + [args.ros]
+    outputs.open(inputs)
+    check_bag_folder(args.bag, inputs, outputs.items)  # the input itself, another output's name: refused now
     plan = compile_spec(spec)
-    link = Link(profile, connect=args.connect, listen=args.listen)
+    link = open_bus(profile, connect=args.connect, listen=args.listen, via=args.via)
     bag = None
     try:
         link.open()

@@ -54,7 +54,7 @@ class FakeBus:
     def close(self) -> None:
         pass
 
-    def wait_for_peer(self, timeout: float, what: str = "the robot") -> None:
+    def wait_for_peer(self, timeout: float, what: str = "") -> None:
         pass
 
     def publisher(self, binding: Binding) -> FakePublisher:

@@ -18,7 +18,7 @@ from collections.abc import Callable
 from typing import Any
 
 from .profile import Binding, Profile, normalise_type
-from .transport import PeerTimeout, TransportError
+from .transport import ROBOT, PeerTimeout, TransportError
 
 
 def _module(name: str) -> Any:
@@ -98,7 +98,7 @@ class RclpyLink:
         except Exception:  # the context was shut down while spinning
             pass
 
-    def wait_for_peer(self, timeout: float, what: str = "the robot") -> None:
+    def wait_for_peer(self, timeout: float, what: str = ROBOT) -> None:
         end = time.monotonic() + timeout
         own = self.node.get_name()
         while not [n for n, _ns in self.node.get_node_names_and_namespaces() if n != own]:

@@ -54,6 +54,9 @@ def load_drive(path: str | os.PathLike[str], profile: Profile) -> Drive:
 
     folder = Path(path)
     name = str(path)
+    if not os.path.lexists(folder):
+        raise DiagramError([Problem("no such folder", name, hint="give the folder `fsmctl run --ros ... --bag DIR` "
+                                                                 "wrote")])
     if not folder.is_dir() or not (folder / "metadata.yaml").is_file():
         raise DiagramError([Problem("not a rosbag2 folder (no metadata.yaml in it)", name,
                                     hint="give the folder `fsmctl run --ros ... --bag DIR` wrote")])

@@ -23,6 +23,8 @@ from fsm.errors import FsmError
 
 from .profile import Binding, Profile, normalise_type
 
+#: Who is waited for, in messages, by default.
+ROBOT = "the robot (rmw_zenoh, the Zenoh bridge, or `fsmctl sim --ros`)"
 #: How often an endpoint that did not answer is tried again (ms).
 RETRY = {"period_init_ms": 100, "period_max_ms": 500, "period_increase_factor": 1.5}
 
@@ -53,7 +55,7 @@ class Bus(Protocol):
 
     def close(self) -> None: ...
 
-    def wait_for_peer(self, timeout: float, what: str = "the robot") -> None:
+    def wait_for_peer(self, timeout: float, what: str = ROBOT) -> None:
         """Return once another participant is there; :class:`PeerTimeout` naming where it was looked for."""
         ...
 
@@ -203,14 +205,14 @@ class Link:
         info = self.session.info
         return len(info.peers_zid()) + len(info.routers_zid())
 
-    def wait_for_peer(self, timeout: float, what: str = "the robot") -> None:
+    def wait_for_peer(self, timeout: float, what: str = ROBOT) -> None:
         """Return once another Zenoh session is connected; :class:`PeerTimeout` naming the endpoints after
         ``timeout`` seconds."""
         end = time.monotonic() + timeout
         while self.peers() == 0:
             if time.monotonic() >= end:
                 raise PeerTimeout(f"no peer reached within {timeout:g} s {self.describe()}: is {what} running "
-                                  "there (rmw_zenoh, the Zenoh bridge, or `fsmctl sim --ros`)?")
+                                  "there?")
             time.sleep(0.02)
 
     def publisher(self, binding: Binding) -> Publisher:

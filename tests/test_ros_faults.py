@@ -184,3 +184,41 @@ def test_the_profile_via_key_is_checked(tmp_path: Path) -> None:
         load_profile(path)
     (problem,) = err.value.problems
     assert problem.pointer == "/transport/via" and problem.line is not None
+
+
+# -- Ctrl-C while waiting for the robot ------------------------------------------------------------------------------
+def test_ctrl_c_while_waiting_for_the_robot_exits_130_with_the_outputs(tmp_path: Path) -> None:
+    """The robot never answers (a plain TCP listener stands at the endpoint); Ctrl-C ends the wait at once instead of
+    after the profile's 60 s peer timeout, and the summary is written."""
+    import json
+    import signal
+    import socket
+
+    data = json.loads(DEFAULT_PROFILE_PATH.read_text(encoding="utf-8"))
+    data.pop("$schema")
+    data["transport"]["peer_timeout"] = 60
+    profile = tmp_path / "p.json"
+    profile.write_text(json.dumps(data), encoding="utf-8")
+    with socket.socket() as server:
+        server.bind(("127.0.0.1", 0))
+        server.listen()
+        server.settimeout(60)
+        port = server.getsockname()[1]
+        env = dict(os.environ)
+        env.pop("PYTHONPATH", None)
+        command = [sys.executable, "-m", "fsm.tools.cli", "run", "diagrams/lap.json", "--ros", str(profile), "--via",
+                   "zenoh", "--connect", f"tcp/127.0.0.1:{port}", "--summary", str(tmp_path / "s.json")]
+        run = subprocess.Popen(command, cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        try:
+            conn, _addr = server.accept()  # the run is connecting: Ctrl-C is the run's to handle from here
+            conn.close()
+            run.send_signal(signal.SIGINT)
+            out, err = run.communicate(timeout=40)
+        finally:
+            if run.poll() is None:
+                run.kill()
+                run.communicate()
+    assert run.returncode == 130, err
+    assert "Traceback" not in err and "interrupted" in out
+    summary = json.loads((tmp_path / "s.json").read_text(encoding="utf-8"))
+    assert summary["interrupted"] is True and summary["stopped"] == "not started" and summary["ticks"] == 0

@@ -98,10 +98,12 @@ class RclpyLink:
         except Exception:  # the context was shut down while spinning
             pass
 
-    def wait_for_peer(self, timeout: float, what: str = ROBOT) -> None:
+    def wait_for_peer(self, timeout: float, what: str = ROBOT, stop: Callable[[], bool] | None = None) -> None:
         end = time.monotonic() + timeout
         own = self.node.get_name()
         while not [n for n, _ns in self.node.get_node_names_and_namespaces() if n != own]:
+            if stop is not None and stop():
+                return
             if time.monotonic() >= end:
                 raise PeerTimeout(f"no other ROS 2 node seen within {timeout:g} s {self.describe()}: is {what} "
                                   "running in this ROS domain?")

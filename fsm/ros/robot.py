@@ -171,13 +171,16 @@ class SimRobot:
         return M.image_message(t, frame)
 
     # -- running ------------------------------------------------------------------------------------------------
-    def wait_for_controller(self, timeout: float) -> None:
-        """Wait for the machine's side: a peer, and (lock-step) its subscription to the clock."""
-        self.link.wait_for_peer(timeout, what="`fsmctl run --ros`")
+    def wait_for_controller(self, timeout: float, stop: Any = None) -> None:
+        """Wait for the machine's side: a peer, and (lock-step) its subscription to the clock; return early once
+        ``stop()`` holds (Ctrl-C)."""
+        self.link.wait_for_peer(timeout, what="`fsmctl run --ros`", stop=stop)
         if self._clock_pub is None:
             return
         end = time.monotonic() + timeout
         while not (self._clock_pub.matched() and all(p.matched() for p in self._pubs.values())):
+            if stop is not None and stop():
+                return
             if time.monotonic() >= end:
                 raise PeerTimeout(f"a peer connected ({self.link.describe()}) but never subscribed to "
                                   f"{self.profile.clock.topic} and every input: run it with --lockstep and this "

@@ -55,8 +55,9 @@ class Bus(Protocol):
 
     def close(self) -> None: ...
 
-    def wait_for_peer(self, timeout: float, what: str = ROBOT) -> None:
-        """Return once another participant is there; :class:`PeerTimeout` naming where it was looked for."""
+    def wait_for_peer(self, timeout: float, what: str = ROBOT, stop: Callable[[], bool] | None = None) -> None:
+        """Return once another participant is there, or as soon as ``stop()`` holds (Ctrl-C); :class:`PeerTimeout`
+        naming where it was looked for."""
         ...
 
     def publisher(self, binding: Binding) -> TopicPublisher: ...
@@ -205,11 +206,13 @@ class Link:
         info = self.session.info
         return len(info.peers_zid()) + len(info.routers_zid())
 
-    def wait_for_peer(self, timeout: float, what: str = ROBOT) -> None:
-        """Return once another Zenoh session is connected; :class:`PeerTimeout` naming the endpoints after
-        ``timeout`` seconds."""
+    def wait_for_peer(self, timeout: float, what: str = ROBOT, stop: Callable[[], bool] | None = None) -> None:
+        """Return once another Zenoh session is connected, or as soon as ``stop()`` holds; :class:`PeerTimeout`
+        naming the endpoints after ``timeout`` seconds."""
         end = time.monotonic() + timeout
         while self.peers() == 0:
+            if stop is not None and stop():
+                return
             if time.monotonic() >= end:
                 raise PeerTimeout(f"no peer reached within {timeout:g} s {self.describe()}: is {what} running "
                                   "there?")

@@ -59,26 +59,29 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
     plan = compile_spec(spec)
     link = open_bus(profile, connect=args.connect, listen=args.listen, via=args.via)
     bag = None
-    try:
-        link.open()
-        bag = BagRecorder(args.bag, profile) if args.bag else None
-        session = ros_session(plan, profile, link, lockstep=args.lockstep, bag=bag, variables=args.initial_vars,
-                              stop=StopRules(duration, max_ticks))
-        for name, value, at in args.signal:
-            session.schedule(at, SetSignal(name, value))
-        code = _drive(args, session, profile, file, outputs, trace_out, summary_out, report_out)
-        if bag is not None:
-            bag.commit()
-            bag = None
-        return code
-    finally:
-        if bag is not None:
-            bag.discard()
-        link.close()
+    # from here on Ctrl-C asks the run to stop (connecting takes a while): the outputs are written, exit 130
+    interrupts = Interrupts()
+    with interrupts:
+        try:
+            link.open()
+            bag = BagRecorder(args.bag, profile) if args.bag else None
+            session = ros_session(plan, profile, link, lockstep=args.lockstep, bag=bag,
+                                  variables=args.initial_vars, stop=StopRules(duration, max_ticks))
+            for name, value, at in args.signal:
+                session.schedule(at, SetSignal(name, value))
+            code = _drive(args, session, profile, file, outputs, trace_out, summary_out, report_out, interrupts)
+            if bag is not None:
+                bag.commit()
+                bag = None
+            return code
+        finally:
+            if bag is not None:
+                bag.discard()
+            link.close()
 
 
 def _drive(args: argparse.Namespace, session: Any, profile: Any, file: str, outputs: Any, trace_out: Any,
-           summary_out: Any, report_out: Any) -> int:
+           summary_out: Any, report_out: Any, interrupts: Interrupts) -> int:
     from ..cli.run import Tee, write_report
 
     driver = session.driver
@@ -90,49 +93,47 @@ def _drive(args: argparse.Namespace, session: Any, profile: Any, file: str, outp
     recorder = session.record(car_recorder(stream, file, driver.car, profile, preloaded=args.pre,
                                            sample_rate=args.sample_rate))
     error: StateRuntimeError | None = None
-    interrupts = Interrupts()
-    with interrupts:
-        try:
-            driver.prime()
-            if not args.quiet:
-                print(printable(f"fsmctl run: {driver.profile.name} answered ({driver.link.describe()}); driving"),
-                      file=sys.stderr, flush=True)
-            if not interrupts.stop():
-                session.run(stop=interrupts.stop)
-        except StateRuntimeError as exc:
-            error = exc
-            driver.stop()
-            recorder.flush(machine)
-        except KeyboardInterrupt:  # a second Ctrl-C while a state did not return
-            driver.stop()
-            interrupts.received = interrupts.received or 2
-            recorder.flush(machine)
-        except BaseException:
-            driver.stop()  # before anything else: the car must not drive on
-            raise
-        finally:
-            interrupts.writing = True
-        driver.stop()  # the run is over, however: the car gets zero speed before the files are written
-        interrupted = interrupts.interrupted
-        result = session.summary()
-        stopped = session.result.stopped if session.result is not None else "not started"
-        result["stopped"] = stopped
-        if error is not None:
-            result["error"] = {"state": error.path, "phase": error.phase, "tick": error.tick, "time": error.time,
-                               "message": f"{type(error.cause).__name__}: {error.cause}"}
-        if interrupted:
-            result["interrupted"] = True
-        end: dict[str, Any] = {"stopped": stopped}
-        if interrupted:
-            end["interrupted"] = True
-        if "error" in result:
-            end["error"] = result["error"]
-        session.finish(**end)
-        if report_out is not None:
-            write_report(recorder.out, report_out, args.trace if args.trace not in (None, "-") else file)
-        if summary_out is not None:
-            summary_out.write(json.dumps(result, indent=2) + "\n")
-        outputs.commit()
+    try:
+        primed = driver.prime(stop=interrupts.stop)
+        if primed and not args.quiet:
+            print(printable(f"fsmctl run: {driver.profile.name} answered ({driver.link.describe()}); driving"),
+                  file=sys.stderr, flush=True)
+        if not interrupts.stop():
+            session.run(stop=interrupts.stop)
+    except StateRuntimeError as exc:
+        error = exc
+        driver.stop()
+        recorder.flush(machine)
+    except KeyboardInterrupt:  # a second Ctrl-C while a state did not return
+        driver.stop()
+        interrupts.received = interrupts.received or 2
+        recorder.flush(machine)
+    except BaseException:
+        driver.stop()  # before anything else: the car must not drive on
+        raise
+    finally:
+        interrupts.writing = True
+    driver.stop()  # the run is over, however: the car gets zero speed before the files are written
+    interrupted = interrupts.interrupted
+    result = session.summary()
+    stopped = session.result.stopped if session.result is not None else "not started"
+    result["stopped"] = stopped
+    if error is not None:
+        result["error"] = {"state": error.path, "phase": error.phase, "tick": error.tick, "time": error.time,
+                           "message": f"{type(error.cause).__name__}: {error.cause}"}
+    if interrupted:
+        result["interrupted"] = True
+    end: dict[str, Any] = {"stopped": stopped}
+    if interrupted:
+        end["interrupted"] = True
+    if "error" in result:
+        end["error"] = result["error"]
+    session.finish(**end)
+    if report_out is not None:
+        write_report(recorder.out, report_out, args.trace if args.trace not in (None, "-") else file)
+    if summary_out is not None:
+        summary_out.write(json.dumps(result, indent=2) + "\n")
+    outputs.commit()
     return _verdict(args, session, file, error, interrupted, stopped, report, recorder)
 
 

@@ -45,8 +45,10 @@ def run_sim(args: argparse.Namespace) -> int:
         interrupts = Interrupts()
         with interrupts:
             say(f"{profile.name} in {world}, {link.describe()}; waiting for the machine")
-            robot.wait_for_controller(args.wait)
-            if args.lockstep:
+            robot.wait_for_controller(args.wait, stop=interrupts.stop)
+            if interrupts.stop():
+                why = "stopped"
+            elif args.lockstep:
                 why = robot.run_lockstep(args.duration, args.wait, stop=interrupts.stop)
             else:
                 why = robot.run_realtime(args.duration, stop=interrupts.stop)

@@ -222,3 +222,12 @@ def test_ctrl_c_while_waiting_for_the_robot_exits_130_with_the_outputs(tmp_path:
     assert "Traceback" not in err and "interrupted" in out
     summary = json.loads((tmp_path / "s.json").read_text(encoding="utf-8"))
     assert summary["interrupted"] is True and summary["stopped"] == "not started" and summary["ticks"] == 0
+
+
+def test_a_folder_as_the_profile_is_one_plain_message(tmp_path: Path) -> None:
+    from fsm.errors import DiagramError
+
+    with pytest.raises(DiagramError) as err:
+        load_profile(tmp_path)
+    (problem,) = err.value.problems
+    assert problem.message == "is a directory, not an I/O profile file"

@@ -6,10 +6,13 @@ import re
 from dataclasses import dataclass, field
 from typing import Any
 
-#: What a terminal may act on: C0 controls, DEL, C1 controls (``\x9b`` starts a sequence as ``ESC [`` does) and
-#: lone surrogates (which cannot be encoded); the second form keeps line feeds and tabs of multi-line output.
-_CONTROL = re.compile("[\x00-\x1f\x7f-\x9f\ud800-\udfff]")
-_CONTROL_KEEP_LINES = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\ud800-\udfff]")
+#: What a terminal may act on: C0 controls, DEL, C1 controls (``\x9b`` starts a sequence as ``ESC [`` does), lone
+#: surrogates (which cannot be encoded), and the characters that reorder or break what follows them on screen
+#: (the bidirectional marks, embeddings, overrides and isolates of "Trojan Source", and the line and paragraph
+#: separators); the second form keeps line feeds and tabs of multi-line output.
+_REORDERING = "\u061c\u200e\u200f\u202a-\u202e\u2066-\u2069\u2028\u2029"
+_CONTROL = re.compile(f"[\x00-\x1f\x7f-\x9f\ud800-\udfff{_REORDERING}]")
+_CONTROL_KEEP_LINES = re.compile(f"[\x00-\x08\x0b-\x1f\x7f-\x9f\ud800-\udfff{_REORDERING}]")
 
 
 def escape_char(char: str) -> str:

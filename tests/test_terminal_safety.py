@@ -26,6 +26,9 @@ CLEAR, TITLE, CSI = "a\x1b[2J", "t\x1b]0;pwned\x07", "b\x9b31m"
     (CSI, "b\\x9b31m"),
     ("del\x7f nul\x00 cr\r lf\n tab\t", "del\\x7f nul\\x00 cr\\x0d lf\\x0a tab\\x09"),
     ("lone \ud800", "lone \\ud800"),
+    ("admin\u202e\u2066txt.exe\u2069", "admin\\u202e\\u2066txt.exe\\u2069"),
+    ("mark\u200f and\u2028line", "mark\\u200f and\\u2028line"),
+    ("joiner\u200d kept: it changes no order", "joiner\u200d kept: it changes no order"),
 ])
 def test_printable_escapes_what_a_terminal_acts_on(text: str, shown: str) -> None:
     assert printable(text) == shown

@@ -1,0 +1,139 @@
+#!/usr/bin/env python
+"""Instructions, not seconds: the cost per tick and per load of this checkout and of an earlier commit, counted
+with valgrind (callgrind), so that a shared, busy machine gives the same figures as an idle one.
+
+Each workload runs in a fresh interpreter under ``valgrind --tool=callgrind`` twice, once with 0 repetitions and
+once with N; the difference divided by N is the cost of one repetition, with start-up, imports and warm-up
+cancelled out. The earlier commit is checked out into a temporary git worktree (as in ``bench_baseline.py``).
+
+  flat        one tick of the flat ring of 100 states (Always)
+  nested      one tick of the 10 x 10 x 10 nested composites
+  plain       one tick of the sequencer benchmark's ring without guards (the reference of the next two)
+  guard       the same ring with a guard ``n >= 0`` on every transition; ``guard+set`` adds ``n = n + 1``
+  load        one load + validate + build of the 1000-state ring from disk
+
+Rate losses follow from the counts: a guard costing ``g`` instructions per tick against ``p`` plain loses
+``1 - p / g`` of the rate. Needs valgrind (``apt install valgrind``); slow (about 50x): a few minutes in all.
+
+    python benchmarks/bench_instructions.py [--base 2a4832e] [--only flat,load] [--no-base]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from bench_baseline import REPO, base_tree
+
+BENCH = Path(__file__).resolve().parent
+WORKLOADS = ("flat", "nested", "plain", "guard", "guard+set", "load")
+#: repetitions of the measured run (the other runs 0)
+REPEAT = {"load": 3}
+TICKS = 10000
+#: workloads only this checkout runs (the guard budget is against this checkout's plain ring)
+MAIN_ONLY = ("plain", "guard", "guard+set")
+
+PROBE = r'''
+import json, sys, tempfile
+from pathlib import Path
+sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(BENCH).resolve().parent]
+sys.path.insert(0, BENCH)
+import fsm
+from peers.tral_fsm import ring_doc, nested_doc
+workload, n = sys.argv[1], int(sys.argv[2])
+if workload == "load":
+    path = Path(tempfile.mkdtemp()) / "ring1000.json"
+    path.write_text(json.dumps(ring_doc(1000), indent=1))
+    fsm.load(path)
+    for _ in range(n):
+        fsm.load(path)
+else:
+    if workload in ("plain", "guard", "guard+set"):
+        from bench_sequencer import ring_doc as guard_ring
+        doc = guard_ring(workload)
+    else:
+        doc = nested_doc() if workload == "nested" else ring_doc(100)
+    m = fsm.load(doc)
+    m.start()
+    for _ in range(n):
+        m.tick()
+'''
+
+
+def instructions(workload: str, n: int, tree: Path | None) -> int:
+    env = dict(os.environ)
+    code = f"BENCH = {str(BENCH)!r}\n" + PROBE
+    if tree is not None:  # the base's fsm must win over this checkout's editable install
+        env["PYTHONPATH"] = str(tree)
+        code = ("import sys\nsys.meta_path[:] = [f for f in sys.meta_path if 'editable' not in "
+                "type(f).__module__.lower()]\n" + code)
+    else:
+        env.pop("PYTHONPATH", None)
+    done = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null", sys.executable, "-c",
+                           code, workload, str(n)], env=env, capture_output=True, text=True,
+                          cwd=str(tree or REPO), timeout=3600)
+    found = re.search(r"Collected\s*:\s*(\d+)", done.stderr)
+    if done.returncode != 0 or found is None:
+        raise RuntimeError(f"{workload} on {'base' if tree else 'this checkout'} failed:\n{done.stderr[-2000:]}")
+    return int(found.group(1))
+
+
+def per_repetition(workload: str, tree: Path | None) -> float:
+    n = REPEAT.get(workload, TICKS)
+    return (instructions(workload, n, tree) - instructions(workload, 0, tree)) / n
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--base", default="2a4832e", help="the commit to compare with (default 2a4832e)")
+    ap.add_argument("--no-base", action="store_true", help="count this checkout only")
+    ap.add_argument("--only", default=",".join(WORKLOADS), help="comma-separated workloads: " + ", ".join(WORKLOADS))
+    ap.add_argument("--json", metavar="FILE", help="also write the counts as JSON")
+    args = ap.parse_args(argv)
+    chosen = [w for w in args.only.split(",") if w]
+    unknown = [w for w in chosen if w not in WORKLOADS]
+    if unknown:
+        print(f"unknown workload(s): {', '.join(unknown)}", file=sys.stderr)
+        return 2
+    if shutil.which("valgrind") is None:
+        print("valgrind is not installed (apt install valgrind)", file=sys.stderr)
+        return 2
+    where = Path(tempfile.mkdtemp(prefix="tral-base-"))
+    counts: dict[str, dict[str, float]] = {}
+    try:
+        tree = None if args.no_base else base_tree(args.base, where)
+        for workload in chosen:
+            row = counts.setdefault(workload, {})
+            row["main"] = per_repetition(workload, None)
+            if tree is not None and workload not in MAIN_ONLY:
+                row["base"] = per_repetition(workload, tree)
+            print(f"{workload}: {json.dumps(row)}", file=sys.stderr, flush=True)
+    finally:
+        if not args.no_base:
+            subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(where / "base")],
+                           capture_output=True)
+        shutil.rmtree(where, ignore_errors=True)
+    unit = {"load": "per load"}
+    print(f"| workload | {args.base} | this checkout | ratio |")
+    print("|---|---:|---:|---:|")
+    for workload, row in counts.items():
+        base = row.get("base")
+        ratio = f"{row['main'] / base:.2f}" if base else ""
+        if workload in ("guard", "guard+set") and "plain" in counts:
+            ratio = f"rate {1 - counts['plain']['main'] / row['main']:.0%} below plain"
+        print(f"| {workload} ({unit.get(workload, 'per tick')}) | {f'{base:,.0f}' if base else ''} | "
+              f"{row['main']:,.0f} | {ratio} |")
+    if args.json:
+        Path(args.json).write_text(json.dumps(counts, indent=1) + "\n", encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

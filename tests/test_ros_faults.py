@@ -54,7 +54,7 @@ class FakeBus:
     def close(self) -> None:
         pass
 
-    def wait_for_peer(self, timeout: float, what: str = "") -> None:
+    def wait_for_peer(self, timeout: float, what: str = "", stop: Callable[[], bool] | None = None) -> None:
         pass
 
     def publisher(self, binding: Binding) -> FakePublisher:
@@ -231,3 +231,51 @@ def test_a_folder_as_the_profile_is_one_plain_message(tmp_path: Path) -> None:
         load_profile(tmp_path)
     (problem,) = err.value.problems
     assert problem.message == "is a directory, not an I/O profile file"
+
+
+# -- a message that does not decode, through the driver ----------------------------------------------------------------
+DRIVE = {"initial": "go", "states": [{"id": "go", "type": "Motor", "speed": 0.3, "distance": 50}]}
+
+
+def test_undecodable_messages_are_counted_logged_once_and_stop_the_car_as_silence(tmp_path: Path) -> None:
+    """Garbled bytes on the front range's topic from 0.4 s on: the driver counts them, logs one line for the topic
+    and, once the front input has been silent longer than its max_silence (0.25 s), commands zero speed."""
+    import json
+
+    from fsm.loader import compile as compile_plan
+    from fsm.ros import messages as M
+    from fsm.ros.driver import ros_session
+    from fsm.session import StopRules
+
+    machine = tmp_path / "drive.json"
+    machine.write_text(json.dumps(DRIVE), encoding="utf-8")
+    profile = load_profile(DEFAULT_PROFILE_PATH)
+    bus = FakeBus(profile)
+    sent: list[bytes] = []
+    logged: list[str] = []
+    session = ros_session(compile_plan(machine), profile, bus, lockstep=True, log=logged.append,
+                          stop=StopRules(max_ticks=80))
+    command = bus.pubs[profile.outputs.command.topic]
+    command.put = sent.append  # type: ignore[method-assign]
+    topics = {name: b.topic for name, b in profile.inputs_bound().items()}
+
+    def feed(t: float) -> None:
+        for name in ("left", "right", "front"):
+            raw = M.encode(M.range_message(t, name, 2.0, 4.0))
+            bus.subs[topics[name]](b"\x00\x01garbled" if name == "front" and t >= 0.4 else raw)
+        bus.subs[topics["odometry"]](M.encode(M.odometry_message(t, 0.3 * t, 0.0, 0.0, 0.3, 0.0)))
+        bus.subs[topics["hall"]](M.encode(M.counter_message("std_msgs/msg/Int32", int(t * 280))))
+
+    bus.subs[profile.clock.topic](M.encode(M.clock_message(1000.0)))  # lock-step never waits
+    feed(0.0)
+    assert session.driver.prime(5)
+    session.every(profile.dt, lambda s: feed(s.now + profile.dt))
+    session.run()
+    metrics = session.driver.metrics()["ros"]
+    assert metrics["decode_failures"]["front"] >= 30 and metrics["silences"] == 1
+    assert len([line for line in logged if "failed to decode" in line]) == 1
+    assert any("silent longer than the profile allows: front" in line for line in logged)
+    speeds = [(M.stamp_seconds(m), m.drive.speed) for m in (M.decode(raw, profile.outputs.command.type)
+                                                             for raw in sent)]
+    assert all(v == pytest.approx(0.3) for t, v in speeds if 0.1 < t < 0.6), "driving while front is fresh"
+    assert speeds[-1][1] == 0.0 and all(v == 0.0 for t, v in speeds if t > 0.4 + 0.25 + 2 * profile.dt)

@@ -82,7 +82,7 @@ class RclpyLink:
                                  "Zenoh (--via zenoh, or \"via\": \"zenoh\" in the profile's transport)") from None
         try:
             self._context = rclpy.Context()
-            rclpy.init(context=self._context, domain_id=self.profile.transport.domain)
+            self._init(rclpy)
             self.node = rclpy.create_node(f"fsmctl_{self.profile.name}".replace("-", "_"), context=self._context)
         except Exception as exc:  # an RMW that does not load, a bad domain
             raise TransportError(f"cannot start rclpy {self.describe()}: {exc}") from None
@@ -91,6 +91,24 @@ class RclpyLink:
         self._thread = threading.Thread(target=self._spin, name="rclpy", daemon=True)
         self._thread.start()
         return self
+
+    def _init(self, rclpy: Any) -> None:
+        """rclpy.init without rclpy's own signal handlers: Ctrl-C stays the command's (stop command first, outputs
+        written, exit 130). Older rclpy (before Humble) has no option for it: its handlers are replaced by the ones
+        that were there."""
+        import signal
+
+        before = {num: signal.getsignal(num) for num in (signal.SIGINT, signal.SIGTERM)}
+        domain = self.profile.transport.domain
+        try:
+            options = _module("rclpy.signals").SignalHandlerOptions.NO
+            rclpy.init(context=self._context, domain_id=domain, signal_handler_options=options)
+        except (ImportError, AttributeError, TypeError):
+            rclpy.init(context=self._context, domain_id=domain)
+            if threading.current_thread() is threading.main_thread():
+                for num, handler in before.items():
+                    if handler is not None and signal.getsignal(num) is not handler:
+                        signal.signal(num, handler)
 
     def _spin(self) -> None:
         try:

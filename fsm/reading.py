@@ -143,7 +143,7 @@ def read_file_bytes(path: Path, what: str | None = None) -> bytes:
     if isinstance(cached, bytes):
         return cached
     kind = what or "machine"
-    a_kind = ("an " if kind[:1] in "aeiou" else "a ") + kind  # "an image"
+    a_kind = ("an " if kind[:1].lower() in "aeiou" else "a ") + kind  # "an image"
     try:
         st = os.stat(path)
         if stat.S_ISDIR(st.st_mode):

@@ -205,6 +205,22 @@ def test_ros_layer_imports_neither_the_tools_nor_the_simulator_but_in_its_robot(
     assert light["fsm.ros.profile"] == []
 
 
+def test_the_in_process_simulator_loads_nothing_of_ros() -> None:
+    """The ROS 2 bridge costs the in-process simulator nothing: neither its modules nor the command line's
+    entry point load fsm.ros, Zenoh or rosbags (only --ros, `fsmctl sim --ros` and `fsmctl replay` do)."""
+    folder = CORE_DIR / "sim"
+    modules = ["fsm.sim"] + sorted(info.name for info in pkgutil.walk_packages([str(folder)], prefix="fsm.sim.",
+                                                                               onerror=lambda name: None))
+    modules += ["fsm.tools.cli", "fsm.tools.cli.run", "fsm.tools.cli.sim"]
+    results = probe(modules, PROBE_TEMPLATE.format(forbidden=("fsm.ros", "zenoh", "rosbags")))
+    offenders = {m: r for m, r in results.items() if r}
+    assert not offenders, "the simulator loading the ROS 2 bridge:\n" + "\n".join(
+        f"  {m}: {r}" for m, r in sorted(offenders.items()))
+    # the probe sees the bridge where it is loaded
+    assert "fsm.ros.driver" in probe(["fsm.ros.driver"], PROBE_TEMPLATE.format(forbidden=("fsm.ros",)))[
+        "fsm.ros.driver"]
+
+
 # -- tools/: one subpackage per concern ------------------------------------------------------------------------
 
 

@@ -128,7 +128,7 @@ def test_fsmctl_run_ros_usage_errors(tmp_path: Path) -> None:
     repo = Path(__file__).resolve().parent.parent
     cases = [(["--ros", str(DEFAULT_PROFILE_PATH), "--world", "x.json"], "--world is for the in-process simulator"),
              (["--bag", str(tmp_path / "b")], "--bag needs --ros"),
-             (["--ros", str(DEFAULT_PROFILE_PATH), "--bag", str(tmp_path)], "already exists"),
+             (["--ros", str(DEFAULT_PROFILE_PATH), "--bag", str(tmp_path)], "is an existing folder"),
              (["--ros", str(DEFAULT_PROFILE_PATH), "--connect", "127.0.0.1:7447"], "not a Zenoh endpoint")]
     for extra, words in cases:
         proc = subprocess.run([sys.executable, "-m", "fsm.tools.cli", "run", "diagrams/lap.json", *extra],

@@ -8,6 +8,8 @@
   writing it in place could leave it half-written).
 - Every check happens in :meth:`Output.open`, before a command does its work: a directory, a missing or
   unwritable folder, an output that is the same file as an input, two outputs naming one file.
+- An output that is a whole new folder (``--bag``): :func:`check_new_folder` refuses anything already there
+  (folder, file, symlink), an input, a missing or unwritable parent, a name another output took.
 """
 
 from __future__ import annotations
@@ -392,6 +394,51 @@ def check_distinct(outputs: list[Output], inputs: Iterable[str | os.PathLike[str
                 raise out._fail(f"standard output is already taken by {other.option}", "write one of them to a file")
             raise out._fail(f"names the same file as {other.option}", "give each output its own file")
         taken[key] = out
+
+
+def check_new_folder(name: str, option: str, inputs: Iterable[str | os.PathLike[str]] = (),
+                     outputs: Iterable[Output] = ()) -> str:
+    """Check ``name`` as an output that is a whole new folder (a rosbag2 bag): it must not exist yet (not as a
+    folder, a file, a symlink, even a dangling one, nor as one of the ``inputs``), its folder must exist and be
+    writable, and no other output (already classified) may name it. :class:`UsageError` saying which, before
+    anything is written; returns the absolute path. The writer builds the folder under a scratch name beside it
+    and renames it into place when done (never over something that appeared meanwhile)."""
+    def fail(reason: str, hint: str | None = None) -> UsageError:
+        return UsageError(f"{option} {name}: {reason}" + (f"; {hint}" if hint else ""))
+
+    if name in ("", STDOUT):
+        raise fail("a folder is needed here (not standard output)", f"name a new folder, e.g. {option} runs/lap1")
+    if "\0" in name:
+        raise fail("the folder name contains a NUL byte")
+    path = os.path.abspath(name)
+    ident = identity(path)
+    for p in inputs:
+        p = os.fspath(p)
+        if p != STDOUT and ident is not None and identity(p) == ident:
+            raise fail(f"is the input {p}", "name a new folder for the output")
+    try:
+        st = os.lstat(path)
+    except FileNotFoundError:
+        st = None
+    except OSError as exc:
+        if exc.errno == errno.ENOTDIR:
+            raise fail("a folder on the path is not a folder") from None
+        raise fail(os_reason(exc)) from None
+    if st is not None:
+        if stat.S_ISLNK(st.st_mode):
+            raise fail("is a symbolic link", "name a new folder; the output is never written through a link")
+        what = "an existing folder" if stat.S_ISDIR(st.st_mode) else f"an existing {_kind_of(st.st_mode)[2:]}"
+        raise fail(f"is {what}", "the output is a new folder: remove it or name another")
+    parent = os.path.dirname(path)
+    if not os.path.isdir(parent):
+        raise fail(f"the folder {os.path.dirname(name) or parent} does not exist", "create it first")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise fail(f"the folder {os.path.dirname(name) or parent} cannot be written", "choose another folder")
+    real = os.path.join(os.path.realpath(parent), os.path.basename(path))
+    for out in outputs:
+        if out.kind == "file" and os.path.realpath(out.target) == real:
+            raise fail(f"names the same file as {out.option}", "give each output its own name")
+    return path
 
 
 def write_output(name: str, data: str | bytes, option: str = "-o",

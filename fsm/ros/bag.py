@@ -18,6 +18,8 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from fsm.errors import FsmError
+
 from .messages import typestore
 from .profile import Binding, Profile, normalise_type
 
@@ -29,6 +31,10 @@ def roles(profile: Profile) -> dict[str, Binding]:
     if profile.outputs.status is not None:
         out["status"] = profile.outputs.status
     return out
+
+
+class BagError(FsmError):
+    """The finished bag could not be put under the name given."""
 
 
 class BagRecorder:
@@ -62,9 +68,19 @@ class BagRecorder:
             self._writer.close()
 
     def commit(self) -> None:
-        """Finish the bag and rename it to the name given (which must still not exist)."""
+        """Finish the bag and rename it to the name given, which must still not exist: should something have
+        appeared there during the run, :class:`BagError` says where the finished bag was kept instead."""
         self.close()
-        os.replace(self._inner, self.path)
+        if os.path.lexists(self.path):
+            kept = self._scratch.with_name(f"{self.path.name}.bag-{os.getpid()}")
+            try:
+                os.rename(self._inner, kept)
+                shutil.rmtree(self._scratch, ignore_errors=True)
+            except OSError:
+                kept = self._inner
+            raise BagError(f"--bag {self.path}: something was created there during the run; the bag was kept as "
+                           f"{kept}")
+        os.rename(self._inner, self.path)
         shutil.rmtree(self._scratch, ignore_errors=True)
 
     def discard(self) -> None:

@@ -15,6 +15,7 @@ import json
 import sys
 import threading
 import time
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from fsm.machine import Listener
@@ -22,7 +23,7 @@ from fsm.machine import Listener
 from . import messages as M
 from .car import Log, RosCar
 from .profile import Profile
-from .transport import Link, PeerTimeout, Publisher
+from .transport import Bus, PeerTimeout, TopicPublisher
 
 if TYPE_CHECKING:
     from fsm.context import Context
@@ -69,7 +70,7 @@ class _Watch(Listener):
 class RosDriver:
     """The session's driver for a car on ROS 2 topics (see the module's docstring)."""
 
-    def __init__(self, profile: Profile, link: Link | None, *, lockstep: bool = False,
+    def __init__(self, profile: Profile, link: Bus | None, *, lockstep: bool = False,
                  bag: BagRecorder | None = None, log: Log | None = None) -> None:
         self.profile = profile
         self.link = link
@@ -88,8 +89,8 @@ class RosDriver:
         self.statuses: list[tuple[float, dict[str, Any]]] = []
         self._clock = -1.0
         self._clock_cond = threading.Condition()
-        self._command: Publisher | None = None
-        self._status: Publisher | None = None
+        self._command: TopicPublisher | None = None
+        self._status: TopicPublisher | None = None
         if link is not None:
             self._command = link.publisher(profile.outputs.command)
             self._status = link.publisher(status) if status is not None else None
@@ -131,28 +132,41 @@ class RosDriver:
         return max(b.max_silence for b in self.profile.inputs_bound().values())
 
     # -- starting ------------------------------------------------------------------------------------------------
-    def prime(self, timeout: float | None = None) -> None:
+    def prime(self, timeout: float | None = None, stop: Callable[[], bool] | None = None) -> bool:
         """Before the machine starts: wait for a peer, then for a message of every input (and in lock-step for the
         simulator's clock at 0), and latch them as the car's values at time 0. :class:`PeerTimeout` naming the
-        endpoints when nothing comes within the profile's ``peer_timeout``."""
+        endpoints when nothing comes within the profile's ``peer_timeout``; False (nothing latched) as soon as
+        ``stop()`` holds (Ctrl-C while waiting for the robot)."""
         timeout = self.profile.transport.peer_timeout if timeout is None else timeout
         end = time.monotonic() + timeout
         link = self.link
         assert link is not None
-        link.wait_for_peer(timeout)
-        if self.lockstep and not self._wait_clock(0.0, max(0.0, end - time.monotonic())):
-            raise PeerTimeout(f"no clock on {self.profile.clock.topic} within {timeout:g} s "
-                              f"({link.describe()}): is `fsmctl sim --ros ... --lockstep` running there?")
+
+        def stopped() -> bool:
+            return stop is not None and stop()
+
+        link.wait_for_peer(timeout, stop=stop)
+        if stopped():
+            return False
+        while self.lockstep and not self._wait_clock(0.0, min(0.05, max(0.0, end - time.monotonic()))):
+            if stopped():
+                return False
+            if time.monotonic() >= end:
+                raise PeerTimeout(f"no clock on {self.profile.clock.topic} within {timeout:g} s "
+                                  f"({link.describe()}): is `fsmctl sim --ros ... --lockstep` running there?")
         while True:
             missing = [name for name, n in self.car.received().items() if n == 0 and name != "camera"]
             if not missing:
                 break
+            if stopped():
+                return False
             if time.monotonic() >= end:
                 topics = ", ".join(self.profile.inputs_bound()[m].topic for m in missing)
                 raise PeerTimeout(f"a peer answered ({link.describe()}) but nothing came on {topics} "
                                   f"within {timeout:g} s: check the topic names and types in the profile")
             time.sleep(0.005)
         self._latch(0.0)
+        return True
 
     # -- the driver ------------------------------------------------------------------------------------------------
     def attach(self, session: Session) -> None:
@@ -262,7 +276,7 @@ class RosDriver:
                 "distance_m": round(car.distance, 4), "collisions": 0}
 
 
-def ros_session(plan: Any, profile: Profile, link: Link, *, lockstep: bool = False, bag: BagRecorder | None = None,
+def ros_session(plan: Any, profile: Profile, link: Bus, *, lockstep: bool = False, bag: BagRecorder | None = None,
                 log: Log | None = None, stop: Any = None, variables: dict[str, Any] | None = None) -> Session:
     """A session that runs the machine of ``plan`` (a compiled :class:`fsm.plan.MachinePlan`) on the car behind
     ``link``: on the wall clock at the profile's rate, or in lock-step with a simulator's clock."""

@@ -168,7 +168,10 @@ class Transport(ProfileModel):
     keys: Literal["rmw_zenoh", "bridge"] = Field(
         default="rmw_zenoh", description="Key expressions as rmw_zenoh names topics (<domain>/<topic>/<type>/<hash>), "
                                          "or as zenoh-bridge-ros2dds does (the topic name).")
-    domain: int = Field(default=0, ge=0, le=232, description="ROS_DOMAIN_ID (rmw_zenoh keys).")
+    domain: int = Field(default=0, ge=0, le=232, description="ROS_DOMAIN_ID (rmw_zenoh keys; rclpy's domain).")
+    via: Literal["auto", "zenoh", "rclpy"] = Field(
+        default="auto", description="auto: rclpy when it can be imported (ROS 2 installed and sourced), Zenoh "
+                                    "otherwise; zenoh or rclpy: that one.")
 
 
 class Safety(ProfileModel):

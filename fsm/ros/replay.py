@@ -12,6 +12,7 @@ from __future__ import annotations
 import bisect
 import json
 import os
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -54,6 +55,9 @@ def load_drive(path: str | os.PathLike[str], profile: Profile) -> Drive:
 
     folder = Path(path)
     name = str(path)
+    if not os.path.lexists(folder):
+        raise DiagramError([Problem("no such folder", name, hint="give the folder `fsmctl run --ros ... --bag DIR` "
+                                                                 "wrote")])
     if not folder.is_dir() or not (folder / "metadata.yaml").is_file():
         raise DiagramError([Problem("not a rosbag2 folder (no metadata.yaml in it)", name,
                                     hint="give the folder `fsmctl run --ros ... --bag DIR` wrote")])
@@ -133,9 +137,10 @@ class ReplayDriver(RosDriver):
             k += 1
         self._next = k
 
-    def prime(self, timeout: float | None = None) -> None:
+    def prime(self, timeout: float | None = None, stop: Callable[[], bool] | None = None) -> bool:
         self._offer_until(self.drive.ticks[0])
         self._latch(self.drive.ticks[0])
+        return True
 
     def before_tick(self, time_s: float) -> None:
         self._offer_until(time_s)

@@ -27,16 +27,18 @@ from fsm.sim.world import load_world
 from . import messages as M
 from .car import Log
 from .profile import COMPRESSED, Profile
-from .transport import Link, PeerTimeout
+from .transport import Bus, PeerTimeout
 
 #: Seconds without a command after which the robot brakes by itself (real time).
 COMMAND_TIMEOUT = 0.5
+#: Lock-step: how often time 0's sensors and clock are sent again until the machine's first command (s).
+RESEND = 0.25
 
 
 class SimRobot:
     """The simulated car behind the profile's topics (see the module's docstring)."""
 
-    def __init__(self, profile: Profile, link: Link, world: str | os.PathLike[str], *, seed: int = 0,
+    def __init__(self, profile: Profile, link: Bus, world: str | os.PathLike[str], *, seed: int = 0,
                  noise: bool = True, lockstep: bool = False, log: Log | None = None) -> None:
         self.profile = profile
         self.link = link
@@ -127,10 +129,14 @@ class SimRobot:
         self._next_pub[name] = nxt + 1.0 / rate if nxt + 1.0 / rate > t else t + 1.0 / rate
         return True
 
-    def publish_sensors(self, t: float) -> None:
+    def publish_sensors(self, t: float, again: bool = False) -> None:
+        """What is due at time ``t``; ``again``: the ranges and the camera frame even if already sent."""
         car = self.car
         inputs = self.profile.inputs_bound()
         max_range = self.profile.car.max_range
+        if again:
+            self._sample = self._frame = -1
+            self._next_pub.clear()
         if car.sample != self._sample:
             self._sample = car.sample
             for name in ("left", "right", "front"):
@@ -165,13 +171,16 @@ class SimRobot:
         return M.image_message(t, frame)
 
     # -- running ------------------------------------------------------------------------------------------------
-    def wait_for_controller(self, timeout: float) -> None:
-        """Wait for the machine's side: a peer, and (lock-step) its subscription to the clock."""
-        self.link.wait_for_peer(timeout, what="`fsmctl run --ros`")
+    def wait_for_controller(self, timeout: float, stop: Any = None) -> None:
+        """Wait for the machine's side: a peer, and (lock-step) its subscription to the clock; return early once
+        ``stop()`` holds (Ctrl-C)."""
+        self.link.wait_for_peer(timeout, what="`fsmctl run --ros`", stop=stop)
         if self._clock_pub is None:
             return
         end = time.monotonic() + timeout
         while not (self._clock_pub.matched() and all(p.matched() for p in self._pubs.values())):
+            if stop is not None and stop():
+                return
             if time.monotonic() >= end:
                 raise PeerTimeout(f"a peer connected ({self.link.describe()}) but never subscribed to "
                                   f"{self.profile.clock.topic} and every input: run it with --lockstep and this "
@@ -197,7 +206,7 @@ class SimRobot:
             self.time = t
             self.publish_sensors(t)
             self._clock_pub.put(M.encode(M.clock_message(t)))
-            command = self._wait_command(t, wait)
+            command = self._first_command(wait) if n == 0 else self._wait_command(t, wait)
             if command is None:
                 if self.finished:
                     self._drain()
@@ -210,6 +219,19 @@ class SimRobot:
                 return "stopped"
             n += 1
             self._physics_to(n * dt)
+
+    def _first_command(self, wait: float) -> tuple[float, float, float | None] | None:
+        """The command of tick 0. A subscription the machine's side just declared may miss the first messages even
+        once it matched, and then its side would wait for them forever: until the first command comes, time 0's
+        sensors and clock are sent again every :data:`RESEND` s (the machine latches the newest; nothing moves)."""
+        assert self._clock_pub is not None
+        end = time.monotonic() + wait
+        while True:
+            command = self._wait_command(0.0, min(RESEND, max(0.0, end - time.monotonic())))
+            if command is not None or self.finished or time.monotonic() >= end:
+                return command
+            self.publish_sensors(0.0, again=True)
+            self._clock_pub.put(M.encode(M.clock_message(0.0)))
 
     def _wait_command(self, t: float, wait: float) -> tuple[float, float, float | None] | None:
         end = time.monotonic() + wait

@@ -1,4 +1,7 @@
-"""Zenoh for ROS 2 topics: one session (peer mode on explicit endpoints, or a client of a router), topic keys named
+"""The transport of ROS 2 topics: :class:`Bus` is what the driver and the simulated robot need of one; :class:`Link`
+is Zenoh's, :class:`fsm.ros.rclpy_link.RclpyLink` rclpy's; :func:`open_bus` picks one (``transport.via``).
+
+Zenoh for ROS 2 topics: one session (peer mode on explicit endpoints, or a client of a router), topic keys named
 as rmw_zenoh or zenoh-bridge-ros2dds name them, messages as CDR bytes.
 
 rmw_zenoh keys are ``<domain>/<topic>/<pkg>::msg::dds_::<Type>_/<RIHS01 hash>`` and each sample carries an
@@ -14,14 +17,87 @@ import struct
 import threading
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Protocol
 
 from fsm.errors import FsmError
 
 from .profile import Binding, Profile, normalise_type
 
+#: Who is waited for, in messages, by default.
+ROBOT = "the robot (rmw_zenoh, the Zenoh bridge, or `fsmctl sim --ros`)"
 #: How often an endpoint that did not answer is tried again (ms).
 RETRY = {"period_init_ms": 100, "period_max_ms": 500, "period_increase_factor": 1.5}
+
+
+class TopicPublisher(Protocol):
+    """One topic's publisher on any transport."""
+
+    def matched(self) -> bool:
+        """True once a subscriber of the topic is known."""
+        ...
+
+    def put(self, payload: bytes) -> None:
+        """Publish one message (CDR bytes)."""
+        ...
+
+
+class Bus(Protocol):
+    """What :class:`~fsm.ros.driver.RosDriver` and :class:`~fsm.ros.robot.SimRobot` need of a transport: topics
+    by :class:`~fsm.ros.profile.Binding`, messages as CDR bytes (the encoding of ROS 2 on every RMW)."""
+
+    profile: Profile
+
+    def describe(self) -> str:
+        """Where the robot is looked for, in words, for messages."""
+        ...
+
+    def open(self) -> Bus: ...
+
+    def close(self) -> None: ...
+
+    def wait_for_peer(self, timeout: float, what: str = ROBOT, stop: Callable[[], bool] | None = None) -> None:
+        """Return once another participant is there, or as soon as ``stop()`` holds (Ctrl-C); :class:`PeerTimeout`
+        naming where it was looked for."""
+        ...
+
+    def publisher(self, binding: Binding) -> TopicPublisher: ...
+
+    def subscribe(self, binding: Binding, callback: Callable[[bytes], None]) -> None:
+        """Call ``callback(cdr_bytes)`` (on the transport's thread) for each message of the topic."""
+        ...
+
+
+def rclpy_available() -> bool:
+    """rclpy can be imported (ROS 2 is installed and sourced)."""
+    import importlib.util
+
+    try:
+        return importlib.util.find_spec("rclpy") is not None
+    except (ImportError, ValueError):
+        return False
+
+
+def resolve_via(profile: Profile, via: str | None = None) -> str:
+    """``zenoh`` or ``rclpy``: ``via`` (the command line) or the profile's ``transport.via``; ``auto`` is rclpy
+    when it can be imported, Zenoh otherwise."""
+    chosen = via or profile.transport.via
+    if chosen == "auto":
+        return "rclpy" if rclpy_available() else "zenoh"
+    return chosen
+
+
+def open_bus(profile: Profile, *, connect: list[str] | None = None, listen: list[str] | None = None,
+             via: str | None = None) -> Bus:
+    """A transport for ``profile``, not yet open (see :func:`resolve_via`); rclpy takes no endpoints (its RMW
+    finds the robot: ``ROS_DOMAIN_ID``, ``RMW_IMPLEMENTATION``), so naming some with it is an error."""
+    if resolve_via(profile, via) == "rclpy":
+        if connect or listen:
+            raise TransportError("--connect/--listen are Zenoh endpoints; with rclpy the RMW finds the robot "
+                                 "(ROS_DOMAIN_ID, RMW_IMPLEMENTATION): leave them out, or use --via zenoh")
+        from .rclpy_link import RclpyLink
+
+        return RclpyLink(profile)
+    return Link(profile, connect=connect, listen=listen)
 
 
 class PeerTimeout(FsmError):
@@ -130,14 +206,16 @@ class Link:
         info = self.session.info
         return len(info.peers_zid()) + len(info.routers_zid())
 
-    def wait_for_peer(self, timeout: float, what: str = "the robot") -> None:
-        """Return once another Zenoh session is connected; :class:`PeerTimeout` naming the endpoints after
-        ``timeout`` seconds."""
+    def wait_for_peer(self, timeout: float, what: str = ROBOT, stop: Callable[[], bool] | None = None) -> None:
+        """Return once another Zenoh session is connected, or as soon as ``stop()`` holds; :class:`PeerTimeout`
+        naming the endpoints after ``timeout`` seconds."""
         end = time.monotonic() + timeout
         while self.peers() == 0:
+            if stop is not None and stop():
+                return
             if time.monotonic() >= end:
                 raise PeerTimeout(f"no peer reached within {timeout:g} s {self.describe()}: is {what} running "
-                                  "there (rmw_zenoh, the Zenoh bridge, or `fsmctl sim --ros`)?")
+                                  "there?")
             time.sleep(0.02)
 
     def publisher(self, binding: Binding) -> Publisher:

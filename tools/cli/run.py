@@ -96,13 +96,15 @@ def register(sub: Subcommands) -> None:
                      help="write a PNG of the trajectory coloured by active state ('-' for standard output)")
     ros = p.add_argument_group("a car on ROS 2 topics (the ros2 extra; docs/ros.md)")
     ros.add_argument("--ros", metavar="PROFILE.json",
-                     help="drive the car the I/O profile binds to ROS 2 topics, over Zenoh, on the wall clock at the "
-                          "profile's rate (a real car, or `fsmctl sim --ros` in another process)")
+                     help="drive the car the I/O profile binds to ROS 2 topics, over Zenoh (or rclpy where ROS 2 is "
+                          "installed), on the wall clock at the profile's rate (a real car, or `fsmctl sim --ros` "
+                          "in another process)")
     ros.add_argument("--bag", metavar="DIR",
                      help="with --ros: also record the run as rosbag2 (MCAP) in the new folder DIR")
     from ..ros.common import add_endpoint_options
 
-    add_endpoint_options(p)
+    add_endpoint_options(p, "advance in lock-step with `fsmctl sim --ros --lockstep` on the profile's clock topic "
+                            "instead of the wall clock (fast, reproducible runs against the simulator)")
     bar = car.add_mutually_exclusive_group()
     bar.add_argument("--progress", dest="progress", action="store_true", default=None,
                      help="show a progress bar (default: only when standard error is a terminal)")

@@ -27,7 +27,9 @@ def register(sub: Subcommands) -> None:
                         "(default 30)")
     p.add_argument("--summary", metavar="OUT.json", help="write the simulator's summary (distance, collisions, gates)")
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
-    add_endpoint_options(p)
+    add_endpoint_options(p, "publish the simulation's clock on the profile's clock topic and advance one tick per "
+                            "command of `fsmctl run --ros --lockstep` instead of on the wall clock (fast, "
+                            "reproducible runs)")
     p.set_defaults(func=cmd_sim)
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 import os
-from pathlib import Path
+from collections.abc import Iterable
 from typing import IO, Any
 
 from fsm.errors import FsmError, UsageError
@@ -14,10 +14,11 @@ from fsm.errors import FsmError, UsageError
 EXTRA_HINT = "pip install 'tral-fsm[ros2]' (rosbags and eclipse-zenoh)"
 
 
-def require_extra(what: str) -> None:
-    """The ``ros2`` extra must be installed: one message saying how, exit 1."""
+def require_extra(what: str, zenoh: bool = True) -> None:
+    """The ``ros2`` extra must be installed (without Zenoh when rclpy carries the topics): one message saying how,
+    exit 1."""
     missing = []
-    for module in ("zenoh", "rosbags"):
+    for module in ("zenoh", "rosbags") if zenoh else ("rosbags",):
         try:
             __import__(module)
         except ImportError:
@@ -26,15 +27,16 @@ def require_extra(what: str) -> None:
         raise FsmError(f"{what} needs {' and '.join(missing)}: {EXTRA_HINT}")
 
 
-def add_endpoint_options(p: argparse.ArgumentParser) -> None:
-    g = p.add_argument_group("the Zenoh session (replacing the profile's endpoints)")
+def add_endpoint_options(p: argparse.ArgumentParser, lockstep_help: str) -> None:
+    g = p.add_argument_group("the transport (replacing the profile's)")
     g.add_argument("--connect", action="append", metavar="ENDPOINT",
                    help="connect to ENDPOINT, e.g. tcp/127.0.0.1:7447 (repeatable)")
     g.add_argument("--listen", action="append", metavar="ENDPOINT",
                    help="listen on ENDPOINT, e.g. tcp/127.0.0.1:7447 (repeatable)")
-    g.add_argument("--lockstep", action="store_true",
-                   help="advance in lock-step with `fsmctl sim --ros --lockstep` on the profile's clock topic "
-                        "instead of the wall clock (fast, reproducible runs against the simulator)")
+    g.add_argument("--via", choices=("auto", "zenoh", "rclpy"),
+                   help="the transport (default: the profile's transport.via, auto: rclpy when it can be imported, "
+                        "Zenoh otherwise)")
+    g.add_argument("--lockstep", action="store_true", help=lockstep_help)
 
 
 def check_endpoints(args: argparse.Namespace) -> None:
@@ -58,20 +60,15 @@ def load(path: str) -> Any:
     return profile
 
 
-def check_bag_folder(name: str | None) -> None:
-    """``--bag DIR``: a folder that does not exist yet, in a folder that does and can be written."""
+def check_bag_folder(name: str | None, inputs: Iterable[str | os.PathLike[str]] = (),
+                     outputs: Iterable[Any] = ()) -> str | None:
+    """``--bag DIR``: a new folder (not there yet, not a symlink, not an input, not another output's name) in a
+    folder that exists and can be written; the rules of :func:`tools.files.check_new_folder`."""
+    from ..files import check_new_folder
+
     if name is None:
-        return
-    path = Path(name)
-    if name in ("", "-"):
-        raise UsageError(f"--bag {name!r}: name a folder for the bag, e.g. --bag runs/lap1")
-    if os.path.lexists(path):
-        raise UsageError(f"--bag {name}: already exists; a bag is a new folder (remove it or name another)")
-    parent = path.parent if str(path.parent) else Path(".")
-    if not parent.is_dir():
-        raise UsageError(f"--bag {name}: the folder {parent} does not exist; create it first")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise UsageError(f"--bag {name}: the folder {parent} cannot be written")
+        return None
+    return check_new_folder(name, "--bag", inputs, outputs)
 
 
 def car_recorder(stream: IO[str] | None, file: str, car: Any, profile: Any, document: Any = None,

@@ -26,7 +26,7 @@ SIM_ONLY = ("world", "car", "video", "plot")
 def check_usage(args: argparse.Namespace) -> None:
     """--ros goes with neither the in-process simulator's options nor (without --ros) --bag and the endpoints."""
     if not args.ros:
-        for option in ("bag", "connect", "listen"):
+        for option in ("bag", "connect", "listen", "via"):
             if getattr(args, option, None):
                 raise UsageError(f"--{option} needs --ros PROFILE (it records or reaches a car on ROS 2 topics)")
         if getattr(args, "lockstep", False):
@@ -39,7 +39,7 @@ def check_usage(args: argparse.Namespace) -> None:
     if args.dt is not None:
         raise UsageError("--dt: with --ros the tick rate is the profile's 'rate'")
     check_endpoints(args)
-    check_bag_folder(args.bag)
+    check_bag_folder(args.bag, [args.ros] + ([args.file] if getattr(args, "file", None) else []))
 
 
 def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_out: Any, summary_out: Any,
@@ -48,35 +48,40 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
     from fsm.loader import machine_files
     from fsm.ros.bag import BagRecorder
     from fsm.ros.driver import ros_session
-    from fsm.ros.transport import Link
+    from fsm.ros.transport import open_bus, resolve_via
     from fsm.session import SetSignal, StopRules
 
-    require_extra("--ros")
     profile = load(args.ros)
-    outputs.open(machine_files(spec) + [args.ros])
+    require_extra("--ros", zenoh=resolve_via(profile, args.via) == "zenoh")
+    inputs = machine_files(spec) + [args.ros]
+    outputs.open(inputs)
+    check_bag_folder(args.bag, inputs, outputs.items)  # the input itself, another output's name: refused now
     plan = compile_spec(spec)
-    link = Link(profile, connect=args.connect, listen=args.listen)
+    link = open_bus(profile, connect=args.connect, listen=args.listen, via=args.via)
     bag = None
-    try:
-        link.open()
-        bag = BagRecorder(args.bag, profile) if args.bag else None
-        session = ros_session(plan, profile, link, lockstep=args.lockstep, bag=bag, variables=args.initial_vars,
-                              stop=StopRules(duration, max_ticks))
-        for name, value, at in args.signal:
-            session.schedule(at, SetSignal(name, value))
-        code = _drive(args, session, profile, file, outputs, trace_out, summary_out, report_out)
-        if bag is not None:
-            bag.commit()
-            bag = None
-        return code
-    finally:
-        if bag is not None:
-            bag.discard()
-        link.close()
+    # from here on Ctrl-C asks the run to stop (connecting takes a while): the outputs are written, exit 130
+    interrupts = Interrupts()
+    with interrupts:
+        try:
+            link.open()
+            bag = BagRecorder(args.bag, profile) if args.bag else None
+            session = ros_session(plan, profile, link, lockstep=args.lockstep, bag=bag,
+                                  variables=args.initial_vars, stop=StopRules(duration, max_ticks))
+            for name, value, at in args.signal:
+                session.schedule(at, SetSignal(name, value))
+            code = _drive(args, session, profile, file, outputs, trace_out, summary_out, report_out, interrupts)
+            if bag is not None:
+                bag.commit()
+                bag = None
+            return code
+        finally:
+            if bag is not None:
+                bag.discard()
+            link.close()
 
 
 def _drive(args: argparse.Namespace, session: Any, profile: Any, file: str, outputs: Any, trace_out: Any,
-           summary_out: Any, report_out: Any) -> int:
+           summary_out: Any, report_out: Any, interrupts: Interrupts) -> int:
     from ..cli.run import Tee, write_report
 
     driver = session.driver
@@ -88,49 +93,47 @@ def _drive(args: argparse.Namespace, session: Any, profile: Any, file: str, outp
     recorder = session.record(car_recorder(stream, file, driver.car, profile, preloaded=args.pre,
                                            sample_rate=args.sample_rate))
     error: StateRuntimeError | None = None
-    interrupts = Interrupts()
-    with interrupts:
-        try:
-            driver.prime()
-            if not args.quiet:
-                print(printable(f"fsmctl run: {driver.profile.name} answered ({driver.link.describe()}); driving"),
-                      file=sys.stderr, flush=True)
-            if not interrupts.stop():
-                session.run(stop=interrupts.stop)
-        except StateRuntimeError as exc:
-            error = exc
-            driver.stop()
-            recorder.flush(machine)
-        except KeyboardInterrupt:  # a second Ctrl-C while a state did not return
-            driver.stop()
-            interrupts.received = interrupts.received or 2
-            recorder.flush(machine)
-        except BaseException:
-            driver.stop()  # before anything else: the car must not drive on
-            raise
-        finally:
-            interrupts.writing = True
-        driver.stop()  # the run is over, however: the car gets zero speed before the files are written
-        interrupted = interrupts.interrupted
-        result = session.summary()
-        stopped = session.result.stopped if session.result is not None else "not started"
-        result["stopped"] = stopped
-        if error is not None:
-            result["error"] = {"state": error.path, "phase": error.phase, "tick": error.tick, "time": error.time,
-                               "message": f"{type(error.cause).__name__}: {error.cause}"}
-        if interrupted:
-            result["interrupted"] = True
-        end: dict[str, Any] = {"stopped": stopped}
-        if interrupted:
-            end["interrupted"] = True
-        if "error" in result:
-            end["error"] = result["error"]
-        session.finish(**end)
-        if report_out is not None:
-            write_report(recorder.out, report_out, args.trace if args.trace not in (None, "-") else file)
-        if summary_out is not None:
-            summary_out.write(json.dumps(result, indent=2) + "\n")
-        outputs.commit()
+    try:
+        primed = driver.prime(stop=interrupts.stop)
+        if primed and not args.quiet:
+            print(printable(f"fsmctl run: {driver.profile.name} answered ({driver.link.describe()}); driving"),
+                  file=sys.stderr, flush=True)
+        if not interrupts.stop():
+            session.run(stop=interrupts.stop)
+    except StateRuntimeError as exc:
+        error = exc
+        driver.stop()
+        recorder.flush(machine)
+    except KeyboardInterrupt:  # a second Ctrl-C while a state did not return
+        driver.stop()
+        interrupts.received = interrupts.received or 2
+        recorder.flush(machine)
+    except BaseException:
+        driver.stop()  # before anything else: the car must not drive on
+        raise
+    finally:
+        interrupts.writing = True
+    driver.stop()  # the run is over, however: the car gets zero speed before the files are written
+    interrupted = interrupts.interrupted
+    result = session.summary()
+    stopped = session.result.stopped if session.result is not None else "not started"
+    result["stopped"] = stopped
+    if error is not None:
+        result["error"] = {"state": error.path, "phase": error.phase, "tick": error.tick, "time": error.time,
+                           "message": f"{type(error.cause).__name__}: {error.cause}"}
+    if interrupted:
+        result["interrupted"] = True
+    end: dict[str, Any] = {"stopped": stopped}
+    if interrupted:
+        end["interrupted"] = True
+    if "error" in result:
+        end["error"] = result["error"]
+    session.finish(**end)
+    if report_out is not None:
+        write_report(recorder.out, report_out, args.trace if args.trace not in (None, "-") else file)
+    if summary_out is not None:
+        summary_out.write(json.dumps(result, indent=2) + "\n")
+    outputs.commit()
     return _verdict(args, session, file, error, interrupted, stopped, report, recorder)
 
 

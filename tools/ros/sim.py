@@ -15,7 +15,7 @@ from .common import check_endpoints, load, require_extra
 
 def run_sim(args: argparse.Namespace) -> int:
     from fsm.ros.robot import SimRobot
-    from fsm.ros.transport import Link
+    from fsm.ros.transport import open_bus, resolve_via
     from fsm.sim.world import default_world, load_world
 
     from ..files import Outputs
@@ -28,13 +28,14 @@ def run_sim(args: argparse.Namespace) -> int:
     profile = load(args.ros)
     world = args.world or str(default_world("."))
     load_world(world)  # located errors before anything connects
-    require_extra("fsmctl sim --ros")
+    require_extra("fsmctl sim --ros", zenoh=resolve_via(profile, args.via) == "zenoh")
     outputs.open([args.ros, world])
     listen = args.listen
     connect = args.connect
-    if listen is None and connect is None:  # the robot's side of the profile: listen where the machine connects
+    zenoh = resolve_via(profile, args.via) == "zenoh"
+    if zenoh and listen is None and connect is None:  # the robot's side of the profile: listen where it connects
         listen, connect = list(profile.transport.connect) or ["tcp/127.0.0.1:7447"], []
-    link = Link(profile, connect=connect or [], listen=listen or [])
+    link = open_bus(profile, connect=connect or [], listen=listen or [], via=args.via)
     say = (lambda text: None) if args.quiet else (lambda text: print(printable(f"fsmctl sim: {text}"),
                                                                        file=sys.stderr, flush=True))
     try:
@@ -44,8 +45,10 @@ def run_sim(args: argparse.Namespace) -> int:
         interrupts = Interrupts()
         with interrupts:
             say(f"{profile.name} in {world}, {link.describe()}; waiting for the machine")
-            robot.wait_for_controller(args.wait)
-            if args.lockstep:
+            robot.wait_for_controller(args.wait, stop=interrupts.stop)
+            if interrupts.stop():
+                why = "stopped"
+            elif args.lockstep:
                 why = robot.run_lockstep(args.duration, args.wait, stop=interrupts.stop)
             else:
                 why = robot.run_realtime(args.duration, stop=interrupts.stop)

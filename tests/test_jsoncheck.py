@@ -47,7 +47,7 @@ def test_every_line_type_passes_both() -> None:
     whole = compile_schema(SCHEMA)
     for kind in ("header", "event", "keyframe", "samples", "rows", "sample", "frame", "input", "end"):
         assert whole(LINES[kind]) is None
-    assert "fits none of its 8 allowed forms" in str(whole({"type": "nothing"}))
+    assert "fits none of its 9 allowed forms" in str(whole({"type": "nothing"}))
 
 
 def _paths(value: Any, here: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:

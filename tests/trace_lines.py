@@ -47,6 +47,8 @@ LINES: dict[str, dict[str, Any]] = {
               "detections": [{"id": 1, "corners": [[1, 2], [3, 2], [3, 4], [1, 4]], "distance": 1.2, "bearing": 0.1}]},
     "input": {"type": "input", "tick": 40, "time": 0.5, "input": {"kind": "set", "values": {"n": 2}},
               "text": "set n = 2"},
+    "reload": {"type": "reload", "tick": 60, "time": 0.75, "file": "m.json", "kept": ["a"],
+               "missing": [{"path": "b", "entered": "c"}], "started": [{"path": "a/r", "entered": "x"}]},
     "event2": {"type": "event", "tick": 88, "time": 1.1, "active": ["b"],
                "transitions": [{"tick": 88, "time": 1.1, "from": "a", "to": "b", "type": "Timeout"}]},
     "end": {"type": "end", "tick": 90, "time": 1.125, "outcome": "done", "finished": True, "transitions": 1,

@@ -55,12 +55,41 @@ def test_speed_has_an_acceleration_limit_and_is_clamped() -> None:
 
 
 def test_servo_has_a_rate_limit() -> None:
-    car = SimCar(corridor(steering_rate=2.0, steering_offset=0.0))
+    car = SimCar(corridor(steering_rate=2.0, steering_offset=0.0, servo={"latency": 0}))
     car.set_steering(1.0)
     car.step()
-    assert car._servo == pytest.approx(0.02)
+    assert car.servo_position == pytest.approx(0.02)
     drive(car, 0.49)
-    assert car._servo == pytest.approx(1.0)
+    assert car.servo_position == pytest.approx(1.0)
+
+
+def test_servo_acts_after_its_latency_and_not_within_its_dead_band() -> None:
+    car = SimCar(corridor(steering_offset=0.0, servo={"seconds_per_60": 0.15, "travel": 45, "latency": 0.05,
+                                                       "dead_band": 0.02}))
+    assert car.params.servo_rate == pytest.approx(60 / (0.15 * 45))
+    car.set_steering(0.5)
+    drive(car, 0.05)
+    assert car.servo_position == 0.0  # the command is still on its way
+    car.step()
+    assert car.servo_position == pytest.approx(car.params.servo_rate * 0.01)
+    drive(car, 0.2)
+    assert car.servo_position == pytest.approx(0.5)
+    car.set_steering(0.509)  # within half the dead band: the servo stays
+    drive(car, 0.2)
+    assert car.servo_position == pytest.approx(0.5)
+    car.set_steering(0.52)  # outside it: the servo goes all the way to the command
+    drive(car, 0.2)
+    assert car.servo_position == pytest.approx(0.52)
+
+
+@pytest.mark.parametrize("servo", [{"seconds_per_60": 0}, {"travel": 100}, {"dead_band": -0.1}, {"latency": 2},
+                                   {"speed": 0.1}])
+def test_servo_parameters_out_of_range_are_refused_at_their_key(servo: dict[str, Any]) -> None:
+    from fsm.errors import DiagramError
+
+    with pytest.raises(DiagramError) as err:
+        corridor(servo=servo)
+    assert "servo" in str(err.value)
 
 
 def test_full_steering_drives_the_bicycle_model_circle() -> None:

@@ -1,17 +1,19 @@
 """The simulated TRAL car: a pymunk world, a bicycle model on a dynamic body, ultrasonic and hall sensors.
 
-Model (for users: docs/car.md): each physics step (0.01 s) the steering servo moves towards its command with a rate
-limit, the speed towards its command with acceleration limits; the bicycle model at the centre of gravity
-(mid-wheelbase) gives the body's velocity and yaw rate, which are set on a *dynamic* pymunk body, so walls push back
-through real contacts and every new contact counts as a collision. The ultrasonic sensors cast a cone of rays each
-at their own rate, take the nearest echo (echoes hitting a surface too obliquely are lost), add seeded Gaussian
-noise and round to the sensor's resolution. The hall sensor counts wheel travel.
+Model (for users: docs/car.md): each physics step (0.01 s) the steering servo moves towards its command (as it was
+``latency`` ago) with a rate limit once the command is outside its dead band, the speed towards its command with
+acceleration limits; the bicycle model at the centre of gravity (mid-wheelbase) gives the body's velocity and yaw
+rate, which are set on a *dynamic* pymunk body, so walls push back through real contacts and every new contact
+counts as a collision. The ultrasonic sensors cast a cone of rays each at their own rate, take the nearest echo
+(echoes hitting a surface too obliquely are lost), add seeded Gaussian noise and round to the sensor's resolution.
+The hall sensor counts wheel travel.
 """
 
 from __future__ import annotations
 
 import math
 import random
+from collections import deque
 from collections.abc import Callable
 from typing import Any
 
@@ -143,9 +145,15 @@ class SimCar:
         self._cmd_steer = 0.0
         self._cmd_speed = 0.0
         self._servo = 0.0
+        self._moving = False
         self._v = 0.0
         self._offset = p.steering_offset
-        self._rate_dt = p.steering_rate * PHYSICS_DT
+        self._rate_dt = p.servo_rate * PHYSICS_DT
+        self._half_band = p.servo.dead_band / 2
+        #: Commands wait this many physics steps before the servo acts on them (its latency).
+        self._lag = round(p.servo.latency / PHYSICS_DT)
+        self._pending: deque[tuple[int, float]] = deque()
+        self._servo_cmd = 0.0  # the command the servo acts on (the latest one at least `latency` old)
         self._acc_dt = p.acceleration * PHYSICS_DT
         self._dec_dt = p.deceleration * PHYSICS_DT
         self._max_speed = p.max_speed
@@ -184,7 +192,6 @@ class SimCar:
         odo = random.Random(f"odometry/{seed}")
         self._odo_scale = (1.0 + odo.gauss(0.0, p.odometry_noise)) / self._units if noise else 1.0 / self._units
         self._odo_offset = self._offset + (odo.gauss(0.0, p.odometry_steering_noise) if noise else 0.0)
-        self._odo_servo = 0.0
         self._odo_hall = 0
         self._odo_delta: float | None = None  # the model's steering angle, its tangent, slip angle and cosine
         self._odo_tan = self._odo_beta = self._odo_cos = 0.0
@@ -234,7 +241,15 @@ class SimCar:
         value = float(value)
         if not value == value:  # NaN: a controller bug must not steer the car somewhere random
             raise ValueError("steering command is NaN")
-        self.steering = self._cmd_steer = -1.0 if value < -1.0 else 1.0 if value > 1.0 else value
+        value = -1.0 if value < -1.0 else 1.0 if value > 1.0 else value
+        if value != self._cmd_steer and self._lag:
+            self._pending.append((self.steps + self._lag, value))
+        self.steering = self._cmd_steer = value
+
+    @property
+    def servo_position(self) -> float:
+        """Where the steering servo stands, steering units (ground truth; the command is ``steering``)."""
+        return self._servo
 
     @property
     def speed_command(self) -> float:
@@ -280,11 +295,21 @@ class SimCar:
     # -- physics ------------------------------------------------------------------------------------
     def step(self) -> None:
         """One physics step of 0.01 s: servo, speed controller, bicycle model, pymunk, hall, sensors."""
+        pending = self._pending
+        if self._lag:
+            while pending and pending[0][0] <= self.steps:
+                self._servo_cmd = pending.popleft()[1]
+            target = self._servo_cmd
+        else:
+            target = self._servo_cmd = self._cmd_steer
         s = self._servo
-        d = self._cmd_steer - s
-        lim = self._rate_dt
-        s = s + lim if d > lim else s - lim if d < -lim else self._cmd_steer
-        self._servo = s
+        d = target - s
+        if d > self._half_band or d < -self._half_band or (s != target and self._moving):
+            # outside the dead band the servo drives to the command at its rate limit, and on until it is there
+            lim = self._rate_dt
+            s = s + lim if d > lim else s - lim if d < -lim else target
+            self._servo = s
+            self._moving = s != target
         v = self._v
         d = self._cmd_speed - v
         lim = self._acc_dt if (v >= 0.0 and d > 0.0) or (v <= 0.0 and d < 0.0) else self._dec_dt
@@ -317,13 +342,10 @@ class SimCar:
             self.capture()
 
     def _odometry(self, hall: int) -> None:
-        """Dead reckoning for one step: hall units travelled and the steering servo as the car's model of it (rate
-        limit and its calibrated straight-ahead offset, which is a little off)."""
-        s = self._odo_servo
-        d = self._cmd_steer - s
-        lim = self._rate_dt
-        s = s + lim if d > lim else s - lim if d < -lim else self._cmd_steer
-        self._odo_servo = s
+        """Dead reckoning for one step: hall units travelled and the steering servo as the car's model of it (its
+        datasheet figures, which the simulated servo follows exactly, and its calibrated straight-ahead offset, which
+        is a little off)."""
+        s = self._servo
         dh = hall - self._odo_hall
         if not dh:
             return

@@ -192,6 +192,38 @@ def read_records(path: Path, keys: set[str] | None = None) -> Resume:
     return resume
 
 
+def jsonl_text(path: Path, records: list[dict[str, Any]]) -> str:
+    """sweep.jsonl as it is, with the line of each of ``records`` (by key) replaced by the record as it is now (its
+    ``flags`` added); lines of other sweeps' runs and lines that are no record stay as they were. Records without a
+    line yet are added at the end."""
+    by_key = {r["key"]: r for r in records}
+    done: set[str] = set()
+    out: list[str] = []
+    fh = _open_regular(path)
+    if fh is not None:
+        with fh:
+            try:
+                data = fh.read()
+            except OSError as exc:
+                raise DiagramError([Problem(f"cannot read: {_reason(exc)}", str(path))]) from None
+        for raw in data.split(b"\n"):
+            if not raw:
+                continue
+            text = raw.decode("utf-8", errors="replace")
+            try:
+                rec = json.loads(raw) if len(raw) <= MAX_LINE else None
+            except ValueError:
+                rec = None
+            key = rec.get("key") if isinstance(rec, dict) else None
+            if isinstance(key, str) and key in by_key and key not in done:
+                done.add(key)
+                out.append(json.dumps(by_key[key], separators=(",", ":")))
+            elif not (isinstance(key, str) and key in done):  # a repeated record of a run: only the first stays
+                out.append(text)
+    out += [json.dumps(r, separators=(",", ":")) for r in records if r["key"] not in done]
+    return "".join(line + "\n" for line in out)
+
+
 def _open_regular(path: Path) -> Any:
     """``path`` opened for reading when it is a regular file; ``None`` when there is none; else a DiagramError.
     Checked before and after opening, without blocking: a FIFO never hangs the sweep."""

@@ -22,9 +22,10 @@ OUTLIER_MADS = 3.0
 #: Figures are compared when at least this many runs have them.
 OUTLIER_MIN_RUNS = 5
 #: The MAD used is at least this fraction of the median and this many seconds: runs that agree to the tick (a fixed
-#: manoeuvre) would otherwise make a difference of one tick an outlier.
+#: manoeuvre) would otherwise make a difference of one tick an outlier; states end on 20 Hz sensor samples, and two
+#: samples (0.1 s) are no glitch.
 MAD_FLOOR_FRACTION = 0.005
-MAD_FLOOR_SECONDS = 0.05
+MAD_FLOOR_SECONDS = 0.1
 
 
 def figures(record: dict[str, Any]) -> dict[str, float]:

@@ -319,12 +319,14 @@ def write_reports(p: Plan, out_dir: Path, records: list[dict[str, Any]]) -> None
     from ..files import Outputs
 
     records = with_flags(records)
-    texts = {"sweep.jsonl": jsonl_text(out_dir / "sweep.jsonl", records),
-             "sweep.csv": csv_text(records, p.param_names),
-             "sweep.html": html_page(p.name, records, p.param_names, p.worlds)}
+    texts: dict[str, str | bytes] = {"sweep.csv": csv_text(records, p.param_names),
+                                     "sweep.html": html_page(p.name, records, p.param_names, p.worlds)}
+    jsonl = jsonl_text(out_dir / "sweep.jsonl", records)
+    if jsonl is not None:
+        texts["sweep.jsonl"] = jsonl
     outputs = Outputs()
-    for name in texts:
-        outputs.add(str(out_dir / name), f"sweep {name}")
+    for name, text in texts.items():
+        outputs.add(str(out_dir / name), f"sweep {name}", binary=isinstance(text, bytes))
     outputs.open(p.inputs)
     try:
         for out, text in zip(outputs.items, texts.values(), strict=True):

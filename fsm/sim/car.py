@@ -31,6 +31,8 @@ except ImportError:  # pragma: no cover - other pymunk builds: the public API (a
 #: Physics step, seconds (fixed, independent of the machine's tick).
 PHYSICS_DT = 0.01
 WALL, CAR = 1, 2
+#: Walls are this thick on each side of their lines (pymunk segments' radius), m.
+WALL_RADIUS = 0.005
 #: Radius of the posts markers stand on (physical obstacles), m.
 POST_RADIUS = 0.02
 #: Markers farther than this from the camera are never rendered (they would be a few pixels), m.
@@ -58,7 +60,7 @@ def build_space(world: World, doors: bool = True) -> pymunk.Space:
     static = space.static_body
     shapes: list[pymunk.Shape] = []
     for a, b in world.segments(doors=doors):
-        seg = pymunk.Segment(static, a, b, 0.005)
+        seg = pymunk.Segment(static, a, b, WALL_RADIUS)
         shapes.append(seg)
     for ob in world.obstacles:
         if ob.type == "circle":
@@ -172,6 +174,15 @@ class SimCar:
         self._sd0 = us.noise if noise else 0.0
         self._sd1 = us.noise_rel if noise else 0.0
         self._outliers = us.outliers if noise else 0.0
+        self._dropouts = us.dropouts if noise else 0.0
+        self._beam: tuple[list[tuple[float, float, float, float]], list[tuple[float, float, float]]] | None = None
+        if us.model == "beam":
+            self._half = math.radians(us.cone) / 2
+            self._tan_half = math.tan(self._half)
+            circles = [(ob.center[0], ob.center[1], ob.radius) for ob in world.obstacles
+                       if ob.type == "circle" and ob.center is not None and ob.radius is not None]
+            circles += [(mx, my, POST_RADIUS) for _id, mx, my, _z, _f, _s, post in world_markers(world) if post]
+            self._beam = ([(a[0], a[1], b[0], b[1]) for a, b in world.segments()], circles)
         self._res = us.resolution
         self.sensor_every = max(1, round(1.0 / (us.rate * PHYSICS_DT)))
         # public state (CarIO)
@@ -466,7 +477,10 @@ class SimCar:
             ox = x + c * sensor.mx - s * sensor.my
             oy = y + s * sensor.mx + c * sensor.my
             best = max_r
-            for lx, ly in sensor.rays:
+            if self._beam is not None:
+                lx, ly = sensor.rays[0]  # the centre ray: the beam's axis
+                best = self._beam_echo(ox, oy, c * lx - s * ly, s * lx + c * ly)
+            for lx, ly in () if self._beam is not None else sensor.rays:
                 dx = c * lx - s * ly
                 dy = s * lx + c * ly
                 # Start behind the mount, inside the body: a sensor pressed against a wall still sees it.
@@ -484,6 +498,8 @@ class SimCar:
                     best += rng.gauss(0.0, self._sd0 + self._sd1 * best)
                 if self._outliers and rng.random() < self._outliers:
                     best = rng.uniform(self._min_r, max_r)
+                if self._dropouts and rng.random() < self._dropouts:
+                    best = max_r  # the echo was missed
                 if best < self._min_r:
                     best = self._min_r
                 elif best > max_r:
@@ -502,6 +518,66 @@ class SimCar:
                 if d < clear:
                     clear = d
             self.min_clearance = clear
+
+    def _beam_echo(self, ox: float, oy: float, ux: float, uy: float) -> float:
+        """The ``beam`` model: the distance from a sensor at (ox, oy) looking along the unit vector (ux, uy) to the
+        nearest surface inside its cone (half-angle ``cone / 2``) within range; a flat surface (a wall segment) only
+        where the beam meets it within ``max_incidence`` of its normal (its nearest point in the cone is the one most
+        square to the beam), a round one (a post, a circular obstacle) anywhere in the beam. ``max_range`` when there
+        is none. Occlusion is implied: the nearest echo is never behind another surface."""
+        assert self._beam is not None
+        segments, circles = self._beam
+        best = self._max_r
+        tan_h = self._tan_half
+        cos_inc = self._cos_inc
+        half = self._half
+        for cx, cy, r in circles:
+            dx, dy = cx - ox, cy - oy
+            d = math.hypot(dx, dy)
+            if d - r >= best:
+                continue
+            if d <= r:
+                return self._min_r
+            cos_a = (dx * ux + dy * uy) / d
+            if math.acos(max(-1.0, min(1.0, cos_a))) <= half + math.asin(r / d):
+                best = d - r
+        for ax, ay, bx, by in segments:
+            # in the sensor's frame: x along the beam, y to its left
+            rx, ry = ax - ox, ay - oy
+            x0, y0 = rx * ux + ry * uy, -rx * uy + ry * ux
+            rx, ry = bx - ox, by - oy
+            x1, y1 = rx * ux + ry * uy, -rx * uy + ry * ux
+            if (x0 <= 0.0 and x1 <= 0.0) or (x0 >= best and x1 >= best):
+                continue  # behind the sensor, or every point farther along the beam than the nearest echo
+            # clip P(t) = P0 + t (P1 - P0), t in [0, 1], to the cone |y| <= x tan_h
+            t0, t1 = 0.0, 1.0
+            ex, ey = x1 - x0, y1 - y0
+            for f0, df in ((y0 - x0 * tan_h, ey - ex * tan_h), (-y0 - x0 * tan_h, -ey - ex * tan_h)):
+                # f0 + t df <= 0
+                if df == 0.0:
+                    if f0 > 0.0:
+                        t0, t1 = 1.0, 0.0
+                elif df > 0.0:
+                    t1 = min(t1, -f0 / df)
+                else:
+                    t0 = max(t0, -f0 / df)
+            if t0 > t1:
+                continue
+            ll = ex * ex + ey * ey
+            if ll == 0.0:
+                continue
+            t = -(x0 * ex + y0 * ey) / ll  # the foot of the perpendicular from the sensor
+            t = t0 if t < t0 else t1 if t > t1 else t
+            px, py = x0 + t * ex, y0 + t * ey
+            d = math.hypot(px, py) - WALL_RADIUS
+            if d >= best or d <= 0.0:
+                if d <= 0.0:
+                    return self._min_r
+                continue
+            if abs(x0 * ey - y0 * ex) / math.sqrt(ll) < cos_inc * (d + WALL_RADIUS):
+                continue  # too oblique: the echo is reflected away
+            best = d
+        return best
 
     def _make_queries(self) -> None:
         """Ray and nearest-point queries on this car's space (fast path through pymunk's cffi binding)."""

@@ -169,6 +169,11 @@ class Ultrasonic(WorldModel):
     rate: float = Field(default=20.0, gt=0, le=100, description="Samples per second (all three sensors together).")
     min_range: float = Field(default=0.05, ge=0, description="Nearer echoes read as this, m.")
     max_range: float = Field(default=3.0, gt=0, le=10, description="No echo (or farther) reads as this, m.")
+    model: Literal["rays", "beam"] = Field(
+        default="rays",
+        description="How an echo is found: \"rays\", the nearest hit of `rays` rays spread over the cone (a thin post "
+                    "can fall between them); \"beam\", the nearest surface anywhere inside the cone, posts and round "
+                    "obstacles included, flat surfaces only within max_incidence of their normal (docs/car.md).")
     rays: int = Field(default=5, ge=1, le=31, description="Rays per cone.")
     cone: float = Field(default=15.0, ge=0, lt=180,
                         description="Full opening angle of the cone, degrees (HC-SR04: 15).")
@@ -178,6 +183,8 @@ class Ultrasonic(WorldModel):
     noise: float = Field(default=0.002, ge=0, le=0.5, description="Noise standard deviation, m (constant part).")
     noise_rel: float = Field(default=0.004, ge=0, le=0.5, description="Noise standard deviation, fraction of range.")
     outliers: float = Field(default=0.0, ge=0, le=1, description="Probability that a sample is a random outlier.")
+    dropouts: float = Field(default=0.0, ge=0, le=1,
+                            description="Probability that an echo is missed (the sample reads max_range).")
     resolution: float = Field(default=0.001, ge=0, le=0.1, description="Readings are rounded to this, m (0: off).")
     mounts: dict[SensorName, Mount] = Field(
         default_factory=_default_mounts, description="Position and direction of each sensor on the car.")

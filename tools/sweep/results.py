@@ -137,9 +137,11 @@ def html_page(title: str, records: list[dict[str, Any]], param_names: list[str],
     records = sorted(records, key=lambda r: r["id"])
     n = len(records)
     ok = sum(success(r) for r in records)
+    odd = sum(bool(r.get("flags")) for r in records)
     parts = [f"<h1>{_e(title)}</h1>",
-             f"<p class=lead>{n} runs, {ok} succeeded ({(ok / n if n else 0):.0%}); a run succeeds when the machine "
-             "finishes with outcome <code>succeeded</code> and the car never collides. Click a column to sort.</p>"]
+             f"<p class=lead>{n} runs, {ok} succeeded ({(ok / n if n else 0):.0%}), {odd} stand out (below); a run "
+             "succeeds when the machine finishes with outcome <code>succeeded</code> and the car never collides. "
+             "Click a column to sort.</p>"]
     parts.append(_standouts(records))
     parts.append(_rates(records, param_names))
     if len(param_names) >= 2:

@@ -296,3 +296,36 @@ def test_wall_follower_far_from_its_wall_turns_into_it_unless_its_angle_is_limit
     assert min(headings) > -25 - 8 and car.collisions == 0
     x, y, th = car.true_pose()
     assert x > 8.0 and abs(car.true_distance("right") - 0.45) < 0.05 and abs(math.degrees(th)) < 5
+
+
+def beam_world(model: str, **extra: Any) -> Any:
+    """A corridor with a 2 cm post 1.5 m ahead of the front sensor, slightly off the beam's axis."""
+    doc: dict[str, Any] = {"walls": [{"points": [[0, 0], [30, 0], [30, 2], [0, 2]], "closed": True}],
+                           "obstacles": [{"type": "circle", "center": [3.72, 1.03], "radius": 0.02}],
+                           "start": {"x": 2.0, "y": 1.0, "heading": 0},
+                           "car": {"ultrasonic": {"model": model, **extra}}}
+    return parse_world(doc)
+
+
+def test_the_beam_echoes_from_a_thin_post_that_the_rays_miss() -> None:
+    assert SimCar(beam_world("rays"), noise=False).front == 3.0  # between two rays
+    car = SimCar(beam_world("beam"), noise=False)
+    assert car.front == pytest.approx(3.72 - 2.20 - 0.02, abs=0.002)
+    assert car.left == pytest.approx(0.9) and car.right == pytest.approx(0.9)  # the walls beside, as the rays see
+
+
+def test_the_beam_sees_a_flat_wall_only_within_max_incidence() -> None:
+    doc: dict[str, Any] = {"walls": [{"points": [[0, 0], [30, 0], [30, 2], [0, 2]], "closed": True}],
+                           "start": {"x": 28.0, "y": 1.0, "heading": 0},
+                           "car": {"ultrasonic": {"model": "beam", "max_incidence": 70}}}
+    car = SimCar(parse_world(doc), noise=False)
+    assert car.front == pytest.approx(30 - 28.2 - 0.005, abs=1e-3)  # the end wall, square ahead
+    doc["start"] = {"x": 10.0, "y": 1.0, "heading": 30}  # the top wall 1.16 m off at 30 degrees: 60 from its normal
+    assert SimCar(parse_world(doc), noise=False).front < 3.0
+    doc["start"]["heading"] = 12  # 78 degrees from the normal even at the cone's edge (12 + 7.5): no echo
+    assert SimCar(parse_world(doc), noise=False).front == 3.0
+
+
+def test_dropouts_read_max_range() -> None:
+    car = SimCar(beam_world("beam", dropouts=1.0))
+    assert car.front == 3.0 and car.left == 3.0

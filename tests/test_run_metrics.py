@@ -149,3 +149,17 @@ def test_bad_frames_options_are_one_message_and_write_nothing(capsys: pytest.Cap
     assert sorted(p.name for p in tmp_path.iterdir()) == before
     if how == "file":
         assert target.read_text() == "keep"
+
+
+def test_the_first_twenty_state_colours_are_told_apart_and_leaves_share_theirs() -> None:
+    import cv2
+    import numpy as np
+
+    from fsm.sim.render import leaf_name, palette
+
+    colours = palette(20)
+    lab = cv2.cvtColor(np.array([colours], np.float32) / 255, cv2.COLOR_BGR2LAB)[0]
+    nearest = min(float(np.linalg.norm(lab[i] - lab[j])) for i in range(20) for j in range(i))
+    assert nearest > 25  # CIELAB delta E: no two look alike at a glance (the golden-ratio hues: 13 at 20 colours)
+    assert len(set(palette(40))) == 40
+    assert leaf_name("lap2/right_turn/arc") == leaf_name("lap1/left_turn/arc") == "arc"

@@ -53,9 +53,10 @@ def _scratch_next_to(target: Path, suffix: str) -> Path:
 
 
 #: Colours told apart at a glance on the light floor and the white legend: Tableau 10 (Tableau's categorical palette,
-#: designed for this), then ten of Kelly's colours of maximum contrast that differ from those (hex RGB).
+#: designed for this), then ten of Kelly's and D3's colours, each picked for the largest CIELAB distance to those
+#: before it: any two of the twenty differ by a CIELAB distance (delta E) of at least 25 (hex RGB).
 DISTINCT = ("4e79a7", "f28e2b", "e15759", "76b7b2", "59a14f", "edc948", "b07aa1", "ff9da7", "9c755f", "bab0ac",
-            "1b1b1b", "8db600", "882d17", "0067a5", "e68fac", "2b3d26", "dcd300", "604e97", "f6a600", "654522")
+            "000080", "1b1b1b", "8db600", "800000", "808000", "604e97", "b3446c", "a1caf1", "e25822", "843c39")
 
 
 def palette(n: int) -> list[tuple[int, int, int]]:

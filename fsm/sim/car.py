@@ -175,14 +175,15 @@ class SimCar:
         self._sd1 = us.noise_rel if noise else 0.0
         self._outliers = us.outliers if noise else 0.0
         self._dropouts = us.dropouts if noise else 0.0
-        self._beam: tuple[list[tuple[float, float, float, float]], list[tuple[float, float, float]]] | None = None
+        self._beam: tuple[list[tuple[float, ...]], list[tuple[float, float, float]]] | None = None
         if us.model == "beam":
             self._half = math.radians(us.cone) / 2
             self._tan_half = math.tan(self._half)
             circles = [(ob.center[0], ob.center[1], ob.radius) for ob in world.obstacles
                        if ob.type == "circle" and ob.center is not None and ob.radius is not None]
             circles += [(mx, my, POST_RADIUS) for _id, mx, my, _z, _f, _s, post in world_markers(world) if post]
-            self._beam = ([(a[0], a[1], b[0], b[1]) for a, b in world.segments()], circles)
+            self._beam = ([(a[0], a[1], b[0], b[1], min(a[0], b[0]), max(a[0], b[0]), min(a[1], b[1]), max(a[1], b[1]))
+                           for a, b in world.segments()], circles)
         self._res = us.resolution
         self.sensor_every = max(1, round(1.0 / (us.rate * PHYSICS_DT)))
         # public state (CarIO)
@@ -541,7 +542,9 @@ class SimCar:
             cos_a = (dx * ux + dy * uy) / d
             if math.acos(max(-1.0, min(1.0, cos_a))) <= half + math.asin(r / d):
                 best = d - r
-        for ax, ay, bx, by in segments:
+        for ax, ay, bx, by, lox, hix, loy, hiy in segments:
+            if lox > ox + best or hix < ox - best or loy > oy + best or hiy < oy - best:
+                continue  # its bounding box is farther than the nearest echo so far
             # in the sensor's frame: x along the beam, y to its left
             rx, ry = ax - ox, ay - oy
             x0, y0 = rx * ux + ry * uy, -rx * uy + ry * ux

@@ -4,9 +4,9 @@ Model (for users: docs/car.md): each physics step (0.01 s) the steering servo mo
 ``latency`` ago) with a rate limit once the command is outside its dead band, the speed towards its command with
 acceleration limits; the bicycle model at the centre of gravity (mid-wheelbase) gives the body's velocity and yaw
 rate, which are set on a *dynamic* pymunk body, so walls push back through real contacts and every new contact
-counts as a collision. The ultrasonic sensors cast a cone of rays each at their own rate, take the nearest echo
-(echoes hitting a surface too obliquely are lost), add seeded Gaussian noise and round to the sensor's resolution.
-The hall sensor counts wheel travel.
+counts as a collision. The ultrasonic sensors take, at their own rate, the nearest echo inside their cone (the
+"beam" model; "rays" casts a few rays instead), lose echoes that meet a flat surface too obliquely, add seeded
+Gaussian noise, dropouts and outliers, and round to the sensor's resolution. The hall sensor counts wheel travel.
 """
 
 from __future__ import annotations
@@ -543,7 +543,8 @@ class SimCar:
             if math.acos(max(-1.0, min(1.0, cos_a))) <= half + math.asin(r / d):
                 best = d - r
         for ax, ay, bx, by, lox, hix, loy, hiy in segments:
-            if lox > ox + best or hix < ox - best or loy > oy + best or hiy < oy - best:
+            reach = best + WALL_RADIUS
+            if lox > ox + reach or hix < ox - reach or loy > oy + reach or hiy < oy - reach:
                 continue  # its bounding box is farther than the nearest echo so far
             # in the sensor's frame: x along the beam, y to its left
             rx, ry = ax - ox, ay - oy

@@ -170,10 +170,11 @@ class Ultrasonic(WorldModel):
     min_range: float = Field(default=0.05, ge=0, description="Nearer echoes read as this, m.")
     max_range: float = Field(default=3.0, gt=0, le=10, description="No echo (or farther) reads as this, m.")
     model: Literal["rays", "beam"] = Field(
-        default="rays",
-        description="How an echo is found: \"rays\", the nearest hit of `rays` rays spread over the cone (a thin post "
-                    "can fall between them); \"beam\", the nearest surface anywhere inside the cone, posts and round "
-                    "obstacles included, flat surfaces only within max_incidence of their normal (docs/car.md).")
+        default="beam",
+        description="How an echo is found: \"beam\" (as the hardware sees), the nearest surface anywhere inside the "
+                    "cone, posts and round obstacles included, flat surfaces only within max_incidence of their "
+                    "normal; \"rays\" (the model before), the nearest hit of `rays` rays spread over the cone (a "
+                    "thin post can fall between them). docs/car.md.")
     rays: int = Field(default=5, ge=1, le=31, description="Rays per cone.")
     cone: float = Field(default=15.0, ge=0, lt=180,
                         description="Full opening angle of the cone, degrees (HC-SR04: 15).")

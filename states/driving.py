@@ -10,7 +10,7 @@ TRAL car at 0.4-0.9 m from the wall and 0.5-1.2 m/s: with the car's lateral dyna
 derivative is the least-squares slope of the last 16 errors (0.8 s at 20 Hz), not the difference of
 the last two: the difference carried the ultrasonic noise into the command (a standard deviation of
 0.18 and 12 sign changes a second on straights, which makes a real servo buzz); the slope and the
-lower gains give 0.025 and 0.4 (docs/car.md), with a wall error of 1 cm RMS. The small i removes the
+lower gains give 0.026 and 0.35 (docs/car.md), with a wall error of 1.1 cm RMS. The small i removes the
 steady offset the steering servo's straight-ahead error would leave (offset / p, 3 cm). The report's
 gains (p=12, d=30) were in the real car's units and are not comparable.
 """

@@ -4,13 +4,15 @@ They see the car only through :class:`fsm.sim.io.CarIO` (``ctx.car``), so they r
 and on any bridge to a real car. Steering is normalised to [-1, 1], positive = left; speeds in m/s;
 distances in metres (the hall sensor's 1500 units per 1.60 m are converted by the car).
 
-Default gains (p=2, i=0.2, d=1.5; error in metres, derivative per second) are tuned for the simulated
+Default gains (p=1, i=0.2, d=1; error in metres, derivative per second) are tuned for the simulated
 TRAL car at 0.4-0.9 m from the wall and 0.5-1.2 m/s: with the car's lateral dynamics
-(e'' = -(v^2 * max_angle / wheelbase) * (p*e + d*e')) they give a damping ratio of about 0.7 independent
-of speed; larger d amplifies the ultrasonic noise (the law differentiates 20 Hz samples), smaller d
-lets the car swing after door frames and corners. The small i removes the steady offset the steering
-servo's straight-ahead error would leave (offset / p, 1.5 cm). The report's gains (p=12, d=30) were in
-the real car's units and are not comparable.
+(e'' = -(v^2 * max_angle / wheelbase) * (p*e + d*e')) they give a damping ratio of about 0.7. The
+derivative is the least-squares slope of the last 16 errors (0.8 s at 20 Hz), not the difference of
+the last two: the difference carried the ultrasonic noise into the command (a standard deviation of
+0.18 and 12 sign changes a second on straights, which makes a real servo buzz); the slope and the
+lower gains give 0.026 and 0.35 (docs/car.md), with a wall error of 1.1 cm RMS. The small i removes the
+steady offset the steering servo's straight-ahead error would leave (offset / p, 3 cm). The report's
+gains (p=12, d=30) were in the real car's units and are not comparable.
 """
 
 from __future__ import annotations
@@ -35,6 +37,9 @@ EPS = 1e-9
 #: and turns back with this gain (steering per radian beyond that point).
 ANGLE_MARGIN = math.radians(3.0)
 ANGLE_GAIN = 4.0
+#: The wall followers' derivative: the least-squares slope over this many sensor samples (0.8 s at 20 Hz, lagging
+#: by half of it).
+D_SAMPLES = 16
 
 
 def clamp(x: float, lo: float = -1.0, hi: float = 1.0) -> float:
@@ -72,9 +77,14 @@ class WallParams(StateParams):
                     "loop): the side reading is taken square to the wall (times the cosine of the car's angle to it, "
                     "odometry), so that a far wall read askew does not look farther than it is (default: the car is "
                     "taken to drive along the wall).")
-    p: float = Field(default=2.0, ge=0, le=1000, description="Proportional gain, steering per metre of error.")
+    p: float = Field(default=1.0, ge=0, le=1000, description="Proportional gain, steering per metre of error.")
     i: float = Field(default=0.2, ge=0, le=1000, description="Integral gain, steering per metre-second.")
-    d: float = Field(default=1.5, ge=0, le=1000, description="Derivative gain, steering per metre/second.")
+    d: float = Field(default=1.0, ge=0, le=1000, description="Derivative gain, steering per metre/second.")
+    d_samples: int = Field(
+        default=D_SAMPLES, ge=2, le=50,
+        description="The derivative is the least-squares slope of the error over this many sensor samples (2: the "
+                    "difference of the last two, the report's law): more samples, less of the sensor's noise in the "
+                    "steering (a real servo buzzes on a noisy command) and a little more lag.")
     max_angle: float | None = Field(
         default=None, gt=0, le=80,
         description="Never turn more than this towards the wall from the heading on entry (odometry), degrees: a car "
@@ -95,7 +105,7 @@ class BasicFollowWall(CarState[WP]):
     """
 
     __slots__ = ("target", "wall_target", "wall_side", "_sign", "_esum", "_eold", "_sample", "_t", "_y",
-                 "_p", "_i", "_d", "_speed", "_sensor", "_snap", "_max_angle", "_heading")
+                 "_p", "_i", "_d", "_hist", "_n", "_speed", "_sensor", "_snap", "_max_angle", "_heading")
     Params: ClassVar[type[WallParams]] = WallParams
     #: Samples of this state count towards the wall-distance error on straights (the sim's metric).
     straight_metric: ClassVar[bool] = True
@@ -109,6 +119,8 @@ class BasicFollowWall(CarState[WP]):
         self._sign = -1.0 if p.side == "right" else 1.0
         self._sensor = p.side
         self._p, self._i, self._d = p.p, p.i, p.d
+        self._n = p.d_samples
+        self._hist: list[tuple[float, float]] = []
         self._speed = p.speed
         self._snap = p.snap
         limit = p.max_angle
@@ -131,6 +143,7 @@ class BasicFollowWall(CarState[WP]):
             self.target = max(0.1, min(reading, 2.0))
         self._esum = 0.0
         self._eold = self.measure(ctx, self.reading(car)) - self.target
+        self._hist = [(ctx.now, self._eold)]
         self._sample = car.sample
         self._t = ctx.now
         self._y = 0.0
@@ -166,7 +179,7 @@ class BasicFollowWall(CarState[WP]):
             if dt > 0:
                 if not limited:  # no wind-up while the angle limit holds the car back
                     self._esum += e
-                self._y = self._p * e + self._esum * self._i * dt + self._d * (e - self._eold) / dt
+                self._y = self._p * e + self._esum * self._i * dt + self._d * self._slope(ctx.now, e)
             self._eold = e
             steering = clamp(self._sign * self._y)
             # at the limit: turn no further towards the wall (limited implies a max_angle)
@@ -174,6 +187,20 @@ class BasicFollowWall(CarState[WP]):
                 steering = -self._sign * clamp(ANGLE_GAIN * (toward - self._max_angle + ANGLE_MARGIN), 0.0, 1.0)
             car.set_steering(steering)
         car.set_speed(self._speed)
+
+    def _slope(self, now: float, e: float) -> float:
+        """The error's rate, m/s: the least-squares slope of the last `d_samples` errors over their times."""
+        hist = self._hist
+        hist.append((now, e))
+        if len(hist) > self._n:
+            del hist[0]
+        n = len(hist)
+        if n < 2:
+            return 0.0
+        mt = sum(t for t, _ in hist) / n
+        me = sum(v for _, v in hist) / n
+        stt = sum((t - mt) ** 2 for t, _ in hist)
+        return sum((t - mt) * (v - me) for t, v in hist) / stt if stt > 0 else 0.0
 
     def on_exit(self, ctx: Context) -> None:
         self.wall_target = None

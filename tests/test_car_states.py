@@ -26,11 +26,26 @@ def test_fake_car_implements_the_interface() -> None:
     assert isinstance(FakeCar(), CarIO)
 
 
+def test_follow_wall_derivative_is_the_slope_over_d_samples_so_noise_barely_steers() -> None:
+    m, car = machine([{"id": "f", "type": "BasicFollowWall", "side": "right", "distance": 0.4, "p": 0.0, "i": 0.0,
+                       "d": 1.0, "d_samples": 4}], car=FakeCar(right=0.40))
+    m.start()
+    for k in range(1, 8):  # the wall recedes at 0.1 m/s: the slope is exact from the second sample on
+        car.new_sample(right=0.40 + 0.1 * k * 0.05)
+        for _ in range(4):
+            m.tick()
+    assert car.steering == pytest.approx(-0.1, abs=1e-6)
+    car.new_sample(right=car.right + 0.01)  # one noisy sample: a quarter of the 2-sample law's kick (0.2)
+    for _ in range(4):
+        m.tick()
+    assert -0.1 - 0.12 < car.steering < -0.1
+
+
 # -- BasicFollowWall: the report's formula --------------------------------------------------------------
 def test_basic_follow_wall_is_the_reports_pd_formula_per_sample() -> None:
     p, i, d = 2.0, 0.5, 1.5
     m, car = machine([{"id": "f", "type": "BasicFollowWall", "side": "right", "distance": 0.4, "speed": 0.7,
-                       "p": p, "i": i, "d": d}], car=FakeCar(right=0.40))
+                       "p": p, "i": i, "d": d, "d_samples": 2}], car=FakeCar(right=0.40))
     m.start()
     assert car.speed_command == 0.7
     # Four ticks per ultrasonic sample (80 Hz machine, 20 Hz sensor): the law runs on new samples only.

@@ -182,15 +182,15 @@ def test_braking_uses_the_deceleration_limit_and_a_reversal_brakes_first() -> No
 
 
 def test_servo_goes_lock_to_lock_in_two_over_rate_seconds() -> None:
-    car = SimCar(corridor(y=1.0, steering_rate=5.0, steering_offset=0.0), noise=False)
+    car = SimCar(corridor(y=1.0, steering_rate=5.0, steering_offset=0.0, servo={"latency": 0}), noise=False)
     car.set_steering(1.0)
     drive(car, 0.2)
-    assert car._servo == pytest.approx(1.0)
+    assert car.servo_position == pytest.approx(1.0)
     car.set_steering(-1.0)
     drive(car, 0.2)
-    assert car._servo == pytest.approx(0.0, abs=1e-9)
+    assert car.servo_position == pytest.approx(0.0, abs=1e-9)
     drive(car, 0.2)
-    assert car._servo == pytest.approx(-1.0)
+    assert car.servo_position == pytest.approx(-1.0)
     assert car.steering == -1.0  # the CarIO attribute is the command, not the servo position
 
 
@@ -235,7 +235,7 @@ def test_driving_head_on_into_a_wall_at_top_speed_does_not_sink_into_it() -> Non
 
 
 def test_emergency_stop_holds_the_car_until_a_new_command() -> None:
-    car = SimCar(corridor(y=1.0), noise=False)
+    car = SimCar(corridor(y=1.0, steering_rate=4.0), noise=False)
     car.set_speed(2.0)
     car.set_steering(0.5)
     drive(car, 2.0)

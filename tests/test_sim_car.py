@@ -55,12 +55,41 @@ def test_speed_has_an_acceleration_limit_and_is_clamped() -> None:
 
 
 def test_servo_has_a_rate_limit() -> None:
-    car = SimCar(corridor(steering_rate=2.0, steering_offset=0.0))
+    car = SimCar(corridor(steering_rate=2.0, steering_offset=0.0, servo={"latency": 0}))
     car.set_steering(1.0)
     car.step()
-    assert car._servo == pytest.approx(0.02)
+    assert car.servo_position == pytest.approx(0.02)
     drive(car, 0.49)
-    assert car._servo == pytest.approx(1.0)
+    assert car.servo_position == pytest.approx(1.0)
+
+
+def test_servo_acts_after_its_latency_and_not_within_its_dead_band() -> None:
+    car = SimCar(corridor(steering_offset=0.0, servo={"seconds_per_60": 0.15, "travel": 45, "latency": 0.05,
+                                                       "dead_band": 0.02}))
+    assert car.params.servo_rate == pytest.approx(60 / (0.15 * 45))
+    car.set_steering(0.5)
+    drive(car, 0.05)
+    assert car.servo_position == 0.0  # the command is still on its way
+    car.step()
+    assert car.servo_position == pytest.approx(car.params.servo_rate * 0.01)
+    drive(car, 0.2)
+    assert car.servo_position == pytest.approx(0.5)
+    car.set_steering(0.509)  # within half the dead band: the servo stays
+    drive(car, 0.2)
+    assert car.servo_position == pytest.approx(0.5)
+    car.set_steering(0.52)  # outside it: the servo goes all the way to the command
+    drive(car, 0.2)
+    assert car.servo_position == pytest.approx(0.52)
+
+
+@pytest.mark.parametrize("servo", [{"seconds_per_60": 0}, {"travel": 100}, {"dead_band": -0.1}, {"latency": 2},
+                                   {"speed": 0.1}])
+def test_servo_parameters_out_of_range_are_refused_at_their_key(servo: dict[str, Any]) -> None:
+    from fsm.errors import DiagramError
+
+    with pytest.raises(DiagramError) as err:
+        corridor(servo=servo)
+    assert "servo" in str(err.value)
 
 
 def test_full_steering_drives_the_bicycle_model_circle() -> None:
@@ -267,3 +296,36 @@ def test_wall_follower_far_from_its_wall_turns_into_it_unless_its_angle_is_limit
     assert min(headings) > -25 - 8 and car.collisions == 0
     x, y, th = car.true_pose()
     assert x > 8.0 and abs(car.true_distance("right") - 0.45) < 0.05 and abs(math.degrees(th)) < 5
+
+
+def beam_world(model: str, **extra: Any) -> Any:
+    """A corridor with a 2 cm post 1.5 m ahead of the front sensor, slightly off the beam's axis."""
+    doc: dict[str, Any] = {"walls": [{"points": [[0, 0], [30, 0], [30, 2], [0, 2]], "closed": True}],
+                           "obstacles": [{"type": "circle", "center": [3.72, 1.03], "radius": 0.02}],
+                           "start": {"x": 2.0, "y": 1.0, "heading": 0},
+                           "car": {"ultrasonic": {"model": model, **extra}}}
+    return parse_world(doc)
+
+
+def test_the_beam_echoes_from_a_thin_post_that_the_rays_miss() -> None:
+    assert SimCar(beam_world("rays"), noise=False).front == 3.0  # between two rays
+    car = SimCar(beam_world("beam"), noise=False)
+    assert car.front == pytest.approx(3.72 - 2.20 - 0.02, abs=0.002)
+    assert car.left == pytest.approx(0.9) and car.right == pytest.approx(0.9)  # the walls beside, as the rays see
+
+
+def test_the_beam_sees_a_flat_wall_only_within_max_incidence() -> None:
+    doc: dict[str, Any] = {"walls": [{"points": [[0, 0], [30, 0], [30, 2], [0, 2]], "closed": True}],
+                           "start": {"x": 28.0, "y": 1.0, "heading": 0},
+                           "car": {"ultrasonic": {"model": "beam", "max_incidence": 70}}}
+    car = SimCar(parse_world(doc), noise=False)
+    assert car.front == pytest.approx(30 - 28.2 - 0.005, abs=1e-3)  # the end wall, square ahead
+    doc["start"] = {"x": 10.0, "y": 1.0, "heading": 30}  # the top wall 1.16 m off at 30 degrees: 60 from its normal
+    assert SimCar(parse_world(doc), noise=False).front < 3.0
+    doc["start"]["heading"] = 12  # 78 degrees from the normal even at the cone's edge (12 + 7.5): no echo
+    assert SimCar(parse_world(doc), noise=False).front == 3.0
+
+
+def test_dropouts_read_max_range() -> None:
+    car = SimCar(beam_world("beam", dropouts=1.0))
+    assert car.front == 3.0 and car.left == 3.0

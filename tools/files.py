@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import errno
 import os
+import pathlib
 import re
 import shutil
 import stat
@@ -517,7 +518,10 @@ def remove_temporary_files() -> None:
         return
     for path in list(_TEMPORARY):
         try:
-            os.unlink(path)
+            if os.path.isdir(path) and not os.path.islink(path):
+                shutil.rmtree(path, ignore_errors=True)  # a NewFolder's scratch folder
+            else:
+                os.unlink(path)
         except OSError:
             pass
     _TEMPORARY.clear()
@@ -534,3 +538,75 @@ def _end_by_signal(signum: int, frame: Any) -> None:
 
 __all__ = ["AtomicFile", "Output", "Outputs", "STDOUT", "check_distinct", "identity", "os_reason", "write_atomic",
            "write_output"]
+
+
+# -- a new folder of files (fsmctl run --frames) --------------------------------------------------------------
+class NewFolder:
+    """An output that is a new folder of files (``fsmctl run --frames DIR``): ``check`` refuses a name that exists
+    (a file, a folder, a link), a missing or unwritable parent; the files go into a hidden scratch folder beside it
+    (``write``, names without a path), and ``commit`` renames it into place; ``discard`` removes it, so a failed or
+    refused run leaves nothing behind."""
+
+    def __init__(self, name: str, option: str) -> None:
+        self.name = name
+        self.option = option
+        self.path = pathlib.Path(name)
+        self._scratch: pathlib.Path | None = None
+        self.files = 0
+
+    def _fail(self, reason: str) -> UsageError:
+        return UsageError(f"{self.option} {self.name}: {reason}")
+
+    def check(self) -> None:
+        if self.name in ("", "-") or self.name.startswith("/dev/"):
+            raise self._fail("name a new folder for the files, e.g. " + self.option + " frames/")
+        if os.path.lexists(self.path):
+            kind = "a folder" if self.path.is_dir() else "a file" if self.path.is_file() else "there"
+            raise self._fail(f"already exists ({kind}); the files go into a new folder: remove it or name another")
+        parent = self.path.parent
+        if not parent.is_dir():
+            raise self._fail(f"the folder {parent} does not exist; create it first")
+        if not os.access(parent, os.W_OK | os.X_OK):
+            raise self._fail(f"the folder {parent} cannot be written")
+
+    def open(self) -> None:
+        self.check()
+        try:
+            self._scratch = pathlib.Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", dir=self.path.parent))
+        except OSError as exc:
+            raise self._fail(f"cannot create a folder beside it: {os_reason(exc)}") from None
+        track_temporary(str(self._scratch))
+
+    def write(self, filename: str, data: bytes | str) -> None:
+        """One file of the folder (a plain name, no path)."""
+        if self._scratch is None or os.sep in filename or filename in ("", ".", ".."):
+            raise ValueError(f"not a file name of the folder: {filename!r}")
+        raw = data.encode("utf-8") if isinstance(data, str) else data
+        try:
+            flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0)
+            fd = os.open(self._scratch / filename, flags, 0o666)
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(raw)
+        except OSError as exc:
+            raise FsmError(f"{self.option} {self.name}: cannot write {filename}: {os_reason(exc)}") from None
+        self.files += 1
+
+    def commit(self) -> None:
+        """Put the folder in place (its name must still be free)."""
+        if self._scratch is None:
+            return
+        if os.path.lexists(self.path):
+            raise FsmError(f"{self.option} {self.name}: appeared while the run ran; the files stay in "
+                           f"{self._scratch}")
+        try:
+            os.rename(self._scratch, self.path)
+        except OSError as exc:
+            raise FsmError(f"{self.option} {self.name}: cannot put the folder in place: {os_reason(exc)}") from None
+        _TEMPORARY.discard(str(self._scratch))
+        self._scratch = None
+
+    def discard(self) -> None:
+        if self._scratch is not None:
+            shutil.rmtree(self._scratch, ignore_errors=True)
+            _TEMPORARY.discard(str(self._scratch))
+            self._scratch = None

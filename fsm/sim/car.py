@@ -1,17 +1,19 @@
 """The simulated TRAL car: a pymunk world, a bicycle model on a dynamic body, ultrasonic and hall sensors.
 
-Model (for users: docs/car.md): each physics step (0.01 s) the steering servo moves towards its command with a rate
-limit, the speed towards its command with acceleration limits; the bicycle model at the centre of gravity
-(mid-wheelbase) gives the body's velocity and yaw rate, which are set on a *dynamic* pymunk body, so walls push back
-through real contacts and every new contact counts as a collision. The ultrasonic sensors cast a cone of rays each
-at their own rate, take the nearest echo (echoes hitting a surface too obliquely are lost), add seeded Gaussian
-noise and round to the sensor's resolution. The hall sensor counts wheel travel.
+Model (for users: docs/car.md): each physics step (0.01 s) the steering servo moves towards its command (as it was
+``latency`` ago) with a rate limit once the command is outside its dead band, the speed towards its command with
+acceleration limits; the bicycle model at the centre of gravity (mid-wheelbase) gives the body's velocity and yaw
+rate, which are set on a *dynamic* pymunk body, so walls push back through real contacts and every new contact
+counts as a collision. The ultrasonic sensors take, at their own rate, the nearest echo inside their cone (the
+"beam" model; "rays" casts a few rays instead), lose echoes that meet a flat surface too obliquely, add seeded
+Gaussian noise, dropouts and outliers, and round to the sensor's resolution. The hall sensor counts wheel travel.
 """
 
 from __future__ import annotations
 
 import math
 import random
+from collections import deque
 from collections.abc import Callable
 from typing import Any
 
@@ -29,6 +31,8 @@ except ImportError:  # pragma: no cover - other pymunk builds: the public API (a
 #: Physics step, seconds (fixed, independent of the machine's tick).
 PHYSICS_DT = 0.01
 WALL, CAR = 1, 2
+#: Walls are this thick on each side of their lines (pymunk segments' radius), m.
+WALL_RADIUS = 0.005
 #: Radius of the posts markers stand on (physical obstacles), m.
 POST_RADIUS = 0.02
 #: Markers farther than this from the camera are never rendered (they would be a few pixels), m.
@@ -56,7 +60,7 @@ def build_space(world: World, doors: bool = True) -> pymunk.Space:
     static = space.static_body
     shapes: list[pymunk.Shape] = []
     for a, b in world.segments(doors=doors):
-        seg = pymunk.Segment(static, a, b, 0.005)
+        seg = pymunk.Segment(static, a, b, WALL_RADIUS)
         shapes.append(seg)
     for ob in world.obstacles:
         if ob.type == "circle":
@@ -143,9 +147,15 @@ class SimCar:
         self._cmd_steer = 0.0
         self._cmd_speed = 0.0
         self._servo = 0.0
+        self._moving = False
         self._v = 0.0
         self._offset = p.steering_offset
-        self._rate_dt = p.steering_rate * PHYSICS_DT
+        self._rate_dt = p.servo_rate * PHYSICS_DT
+        self._half_band = p.servo.dead_band / 2
+        #: Commands wait this many physics steps before the servo acts on them (its latency).
+        self._lag = round(p.servo.latency / PHYSICS_DT)
+        self._pending: deque[tuple[int, float]] = deque()
+        self._servo_cmd = 0.0  # the command the servo acts on (the latest one at least `latency` old)
         self._acc_dt = p.acceleration * PHYSICS_DT
         self._dec_dt = p.deceleration * PHYSICS_DT
         self._max_speed = p.max_speed
@@ -164,6 +174,16 @@ class SimCar:
         self._sd0 = us.noise if noise else 0.0
         self._sd1 = us.noise_rel if noise else 0.0
         self._outliers = us.outliers if noise else 0.0
+        self._dropouts = us.dropouts if noise else 0.0
+        self._beam: tuple[list[tuple[float, ...]], list[tuple[float, float, float]]] | None = None
+        if us.model == "beam":
+            self._half = math.radians(us.cone) / 2
+            self._tan_half = math.tan(self._half)
+            circles = [(ob.center[0], ob.center[1], ob.radius) for ob in world.obstacles
+                       if ob.type == "circle" and ob.center is not None and ob.radius is not None]
+            circles += [(mx, my, POST_RADIUS) for _id, mx, my, _z, _f, _s, post in world_markers(world) if post]
+            self._beam = ([(a[0], a[1], b[0], b[1], min(a[0], b[0]), max(a[0], b[0]), min(a[1], b[1]), max(a[1], b[1]))
+                           for a, b in world.segments()], circles)
         self._res = us.resolution
         self.sensor_every = max(1, round(1.0 / (us.rate * PHYSICS_DT)))
         # public state (CarIO)
@@ -184,7 +204,6 @@ class SimCar:
         odo = random.Random(f"odometry/{seed}")
         self._odo_scale = (1.0 + odo.gauss(0.0, p.odometry_noise)) / self._units if noise else 1.0 / self._units
         self._odo_offset = self._offset + (odo.gauss(0.0, p.odometry_steering_noise) if noise else 0.0)
-        self._odo_servo = 0.0
         self._odo_hall = 0
         self._odo_delta: float | None = None  # the model's steering angle, its tangent, slip angle and cosine
         self._odo_tan = self._odo_beta = self._odo_cos = 0.0
@@ -234,7 +253,15 @@ class SimCar:
         value = float(value)
         if not value == value:  # NaN: a controller bug must not steer the car somewhere random
             raise ValueError("steering command is NaN")
-        self.steering = self._cmd_steer = -1.0 if value < -1.0 else 1.0 if value > 1.0 else value
+        value = -1.0 if value < -1.0 else 1.0 if value > 1.0 else value
+        if value != self._cmd_steer and self._lag:
+            self._pending.append((self.steps + self._lag, value))
+        self.steering = self._cmd_steer = value
+
+    @property
+    def servo_position(self) -> float:
+        """Where the steering servo stands, steering units (ground truth; the command is ``steering``)."""
+        return self._servo
 
     @property
     def speed_command(self) -> float:
@@ -280,11 +307,21 @@ class SimCar:
     # -- physics ------------------------------------------------------------------------------------
     def step(self) -> None:
         """One physics step of 0.01 s: servo, speed controller, bicycle model, pymunk, hall, sensors."""
+        pending = self._pending
+        if self._lag:
+            while pending and pending[0][0] <= self.steps:
+                self._servo_cmd = pending.popleft()[1]
+            target = self._servo_cmd
+        else:
+            target = self._servo_cmd = self._cmd_steer
         s = self._servo
-        d = self._cmd_steer - s
-        lim = self._rate_dt
-        s = s + lim if d > lim else s - lim if d < -lim else self._cmd_steer
-        self._servo = s
+        d = target - s
+        if d > self._half_band or d < -self._half_band or (s != target and self._moving):
+            # outside the dead band the servo drives to the command at its rate limit, and on until it is there
+            lim = self._rate_dt
+            s = s + lim if d > lim else s - lim if d < -lim else target
+            self._servo = s
+            self._moving = s != target
         v = self._v
         d = self._cmd_speed - v
         lim = self._acc_dt if (v >= 0.0 and d > 0.0) or (v <= 0.0 and d < 0.0) else self._dec_dt
@@ -317,13 +354,10 @@ class SimCar:
             self.capture()
 
     def _odometry(self, hall: int) -> None:
-        """Dead reckoning for one step: hall units travelled and the steering servo as the car's model of it (rate
-        limit and its calibrated straight-ahead offset, which is a little off)."""
-        s = self._odo_servo
-        d = self._cmd_steer - s
-        lim = self._rate_dt
-        s = s + lim if d > lim else s - lim if d < -lim else self._cmd_steer
-        self._odo_servo = s
+        """Dead reckoning for one step: hall units travelled and the steering servo as the car's model of it (its
+        datasheet figures, which the simulated servo follows exactly, and its calibrated straight-ahead offset, which
+        is a little off)."""
+        s = self._servo
         dh = hall - self._odo_hall
         if not dh:
             return
@@ -444,7 +478,10 @@ class SimCar:
             ox = x + c * sensor.mx - s * sensor.my
             oy = y + s * sensor.mx + c * sensor.my
             best = max_r
-            for lx, ly in sensor.rays:
+            if self._beam is not None:
+                lx, ly = sensor.rays[0]  # the centre ray: the beam's axis
+                best = self._beam_echo(ox, oy, c * lx - s * ly, s * lx + c * ly)
+            for lx, ly in () if self._beam is not None else sensor.rays:
                 dx = c * lx - s * ly
                 dy = s * lx + c * ly
                 # Start behind the mount, inside the body: a sensor pressed against a wall still sees it.
@@ -462,6 +499,8 @@ class SimCar:
                     best += rng.gauss(0.0, self._sd0 + self._sd1 * best)
                 if self._outliers and rng.random() < self._outliers:
                     best = rng.uniform(self._min_r, max_r)
+                if self._dropouts and rng.random() < self._dropouts:
+                    best = max_r  # the echo was missed
                 if best < self._min_r:
                     best = self._min_r
                 elif best > max_r:
@@ -480,6 +519,69 @@ class SimCar:
                 if d < clear:
                     clear = d
             self.min_clearance = clear
+
+    def _beam_echo(self, ox: float, oy: float, ux: float, uy: float) -> float:
+        """The ``beam`` model: the distance from a sensor at (ox, oy) looking along the unit vector (ux, uy) to the
+        nearest surface inside its cone (half-angle ``cone / 2``) within range; a flat surface (a wall segment) only
+        where the beam meets it within ``max_incidence`` of its normal (its nearest point in the cone is the one most
+        square to the beam), a round one (a post, a circular obstacle) anywhere in the beam. ``max_range`` when there
+        is none. Occlusion is implied: the nearest echo is never behind another surface."""
+        assert self._beam is not None
+        segments, circles = self._beam
+        best = self._max_r
+        tan_h = self._tan_half
+        cos_inc = self._cos_inc
+        half = self._half
+        for cx, cy, r in circles:
+            dx, dy = cx - ox, cy - oy
+            d = math.hypot(dx, dy)
+            if d - r >= best:
+                continue
+            if d <= r:
+                return self._min_r
+            cos_a = (dx * ux + dy * uy) / d
+            if math.acos(max(-1.0, min(1.0, cos_a))) <= half + math.asin(r / d):
+                best = d - r
+        for ax, ay, bx, by, lox, hix, loy, hiy in segments:
+            reach = best + WALL_RADIUS
+            if lox > ox + reach or hix < ox - reach or loy > oy + reach or hiy < oy - reach:
+                continue  # its bounding box is farther than the nearest echo so far
+            # in the sensor's frame: x along the beam, y to its left
+            rx, ry = ax - ox, ay - oy
+            x0, y0 = rx * ux + ry * uy, -rx * uy + ry * ux
+            rx, ry = bx - ox, by - oy
+            x1, y1 = rx * ux + ry * uy, -rx * uy + ry * ux
+            if (x0 <= 0.0 and x1 <= 0.0) or (x0 >= best and x1 >= best):
+                continue  # behind the sensor, or every point farther along the beam than the nearest echo
+            # clip P(t) = P0 + t (P1 - P0), t in [0, 1], to the cone |y| <= x tan_h
+            t0, t1 = 0.0, 1.0
+            ex, ey = x1 - x0, y1 - y0
+            for f0, df in ((y0 - x0 * tan_h, ey - ex * tan_h), (-y0 - x0 * tan_h, -ey - ex * tan_h)):
+                # f0 + t df <= 0
+                if df == 0.0:
+                    if f0 > 0.0:
+                        t0, t1 = 1.0, 0.0
+                elif df > 0.0:
+                    t1 = min(t1, -f0 / df)
+                else:
+                    t0 = max(t0, -f0 / df)
+            if t0 > t1:
+                continue
+            ll = ex * ex + ey * ey
+            if ll == 0.0:
+                continue
+            t = -(x0 * ex + y0 * ey) / ll  # the foot of the perpendicular from the sensor
+            t = t0 if t < t0 else t1 if t > t1 else t
+            px, py = x0 + t * ex, y0 + t * ey
+            d = math.hypot(px, py) - WALL_RADIUS
+            if d >= best or d <= 0.0:
+                if d <= 0.0:
+                    return self._min_r
+                continue
+            if abs(x0 * ey - y0 * ex) / math.sqrt(ll) < cos_inc * (d + WALL_RADIUS):
+                continue  # too oblique: the echo is reflected away
+            best = d
+        return best
 
     def _make_queries(self) -> None:
         """Ray and nearest-point queries on this car's space (fast path through pymunk's cffi binding)."""

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import os
+import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, Protocol, cast
 
@@ -75,6 +76,35 @@ class GateLog:
         }
 
 
+def steering_metrics(samples: list[tuple[int, float]], period: float) -> dict[str, Any]:
+    """The steering command on straights: its standard deviation (steering units; the full range is 2) and how often
+    it changes sign per second. ``samples`` are (sensor sample number, command); consecutive sample numbers are one
+    stretch of straight, ``period`` seconds apart; a command of exactly 0 has no sign and changes none."""
+    if len(samples) < 2:
+        return {"steering_std": None, "steering_sign_changes_per_s": None, "straight_time_s": 0.0}
+    values = [v for _n, v in samples]
+    mean = sum(values) / len(values)
+    std = math.sqrt(sum((v - mean) ** 2 for v in values) / len(values))
+    changes = 0
+    intervals = 0
+    last_n, last_sign = samples[0][0], 0.0
+    for n, v in samples:
+        if n != last_n + 1:
+            last_sign = 0.0  # a new stretch of straight
+        else:
+            intervals += 1
+        sign = 1.0 if v > 0 else -1.0 if v < 0 else 0.0
+        if sign:
+            if last_sign and sign != last_sign:
+                changes += 1
+            last_sign = sign
+        last_n = n
+    seconds = intervals * period
+    return {"steering_std": round(std, 5),
+            "steering_sign_changes_per_s": round(changes / seconds, 3) if seconds > 0 else None,
+            "straight_time_s": round(seconds, 3)}
+
+
 def _crosses(px: float, py: float, qx: float, qy: float, a: tuple[float, float], b: tuple[float, float]) -> bool:
     def orient(ux: float, uy: float, vx: float, vy: float, wx: float, wy: float) -> float:
         return (vx - ux) * (wy - uy) - (vy - uy) * (wx - ux)
@@ -82,6 +112,61 @@ def _crosses(px: float, py: float, qx: float, qy: float, a: tuple[float, float],
     d1, d2 = orient(a[0], a[1], b[0], b[1], px, py), orient(a[0], a[1], b[0], b[1], qx, qy)
     d3, d4 = orient(px, py, qx, qy, a[0], a[1]), orient(px, py, qx, qy, b[0], b[1])
     return d1 * d2 <= 0 and d1 != d2 and d3 * d4 <= 0
+
+
+#: A lap ends where the car's centre crosses the start line (through the start pose, square to its heading) forwards
+#: within this distance of the start point, m.
+LAP_HALF_WIDTH = 3.0
+
+
+class LapLog:
+    """Ground truth for the summary: the laps (a lap ends when the car's centre crosses the start line forwards) and
+    the time spent in each active state (leaf path) in each lap."""
+
+    def __init__(self, world: World) -> None:
+        s = world.start
+        self.x0, self.y0 = s.x, s.y
+        h = math.radians(s.heading)
+        self.c, self.s = math.cos(h), math.sin(h)
+        self._ahead: float | None = None
+        self.laps: list[dict[str, Any]] = []
+        self._t0 = 0.0
+        self._states: dict[str, float] = {}
+        self._path = ""
+        self._since = 0.0
+
+    def state(self, now: float, path: str) -> None:
+        """The active path changed to ``path`` at ``now``."""
+        if self._path:
+            self._states[self._path] = self._states.get(self._path, 0.0) + now - self._since
+        self._path, self._since = path, now
+
+    def update(self, now: float, x: float, y: float) -> None:
+        dx, dy = x - self.x0, y - self.y0
+        ahead = dx * self.c + dy * self.s
+        before, self._ahead = self._ahead, ahead
+        if before is not None and before < 0.0 <= ahead and abs(-dx * self.s + dy * self.c) <= LAP_HALF_WIDTH:
+            self._close(now, True)
+
+    def _close(self, now: float, complete: bool) -> None:
+        self.state(now, self._path)
+        self.laps.append({"lap": len(self.laps) + 1, "start_s": round(self._t0, 4), "time_s": round(now - self._t0, 4),
+                          "complete": complete,
+                          "states": {k: round(v, 4) for k, v in sorted(self._states.items()) if v > 0}})
+        self._t0 = now
+        self._states = {}
+
+    def metrics(self, now: float) -> list[dict[str, Any]]:
+        """The laps so far: each complete one, then what the car drove since the last crossing (``complete``
+        false) unless that is nothing."""
+        out = list(self.laps)
+        if now > self._t0:
+            states = dict(self._states)
+            if self._path:
+                states[self._path] = states.get(self._path, 0.0) + now - self._since
+            out.append({"lap": len(self.laps) + 1, "start_s": round(self._t0, 4), "time_s": round(now - self._t0, 4),
+                        "complete": False, "states": {k: round(v, 4) for k, v in sorted(states.items()) if v > 0}})
+        return out
 
 
 class _TransitionFlag(Listener):
@@ -125,9 +210,15 @@ class Simulation:
         #: Index into states_seen of the active configuration (the colour of the track, in the plot and video).
         self.path_index = 0
         self.wall_errors: list[float] = []
+        #: The steering command at each sensor sample on a straight (where wall errors are measured): sample number,
+        #: command.
+        self.straight_steering: list[tuple[int, float]] = []
         self._err_sample = -1
         self._leaf_d0 = 0.0
         self.gate_log = GateLog(car.world) if car.world.gates else None
+        self.lap_log = LapLog(car.world)
+        #: Wall time spent in observers (outputs such as the video), seconds.
+        self.output_time = 0.0
         self.session = Session(machine, driver=self)
 
     # -- the driver -------------------------------------------------------------------------------------
@@ -152,9 +243,10 @@ class Simulation:
             self._err_sample = car.sample
             self._measure()
         ctx = self.machine.ctx
+        x, y, _ = car.true_pose()
         if self.gate_log is not None:
-            x, y, _ = car.true_pose()
             self.gate_log.update(ctx.now, x, y)
+        self.lap_log.update(ctx.now, x, y)
         if ctx.tick % self.track_every == 0:
             x, y, _ = car.true_pose()
             self.track.append((ctx.now, x, y, self.path_index))
@@ -164,8 +256,18 @@ class Simulation:
         return "collisions" if limit is not None and self.car.collisions > limit else None
 
     def add_observer(self, period: float, observer: Callable[[Simulation], None]) -> None:
-        """Call ``observer(sim)`` every ``period`` seconds of simulated time (first at the start)."""
-        self.session.every(period, lambda _session: observer(self))
+        """Call ``observer(sim)`` every ``period`` seconds of simulated time (first at the start). Observers write
+        outputs (the video, saved camera frames): the wall time they take is counted in ``output_time``, which the
+        summary's ``realtime_factor`` leaves out."""
+
+        def timed(_session: Session) -> None:
+            t0 = time.perf_counter()
+            try:
+                observer(self)
+            finally:
+                self.output_time += time.perf_counter() - t0
+
+        self.session.every(period, timed)
 
     @property
     def now(self) -> float:
@@ -178,6 +280,7 @@ class Simulation:
     def _update_active(self) -> None:
         m = self.machine
         self.active_path = m.active_path
+        self.lap_log.state(m.ctx.now, self.active_path)
         state = m.root.active
         while state.regions:
             state = state.regions[0].active
@@ -212,6 +315,7 @@ class Simulation:
         if true > target + 0.5:
             return  # no wall there (an opening): nothing to follow
         self.wall_errors.append(true - target)
+        self.straight_steering.append((self.car.sample, self.car.steering))
 
     # -- results ----------------------------------------------------------------------------------------
     def summary(self, recorder: Recorder | None = None, world: object = None, seed: int | None = None,
@@ -234,6 +338,7 @@ class Simulation:
         sim_time = self.machine.ctx.now
         clearance = car.min_clearance if car.min_clearance != math.inf else None
         wall_time = self.wall_time
+        run_time = wall_time - self.output_time
         out = {
             "distance_m": round(car.distance, 4),
             "hall_units": car.hall,
@@ -243,10 +348,13 @@ class Simulation:
             "wall_error_rms_m": None if rms is None else round(rms, 5),
             "wall_error_max_m": round(max(abs(e) for e in errs), 5) if errs else None,
             "wall_error_samples": len(errs),
+            **steering_metrics(self.straight_steering, 1.0 / car.params.ultrasonic.rate),
             "sim_time": round(sim_time, 6),
             "wall_time": round(wall_time, 4),
-            "realtime_factor": round(sim_time / wall_time, 1) if wall_time > 0 else None,
+            "realtime_factor": round(sim_time / run_time, 1) if run_time > 0 else None,
+            "realtime_factor_with_outputs": round(sim_time / wall_time, 1) if wall_time > 0 else None,
             **self._camera_metrics(),
+            "laps": self.lap_log.metrics(sim_time),
         }
         if self.world_file is not None:
             out.update({"world": str(self.world_file), "seed": self.seed, "noise": self.noise})

@@ -38,7 +38,7 @@ CAR_EDGE = (120, 50, 0)
 RAY = (40, 170, 40)
 RAY_FAR = (170, 200, 170)
 TEXT = (20, 20, 20)
-PANEL = 56  # px of text under the map
+PANEL = 56 + 2 * 22  # px under the map: two lines of text, two rows of the trail's legend
 FONT = cv2.FONT_HERSHEY_SIMPLEX
 #: Video file suffixes and the OpenCV fourcc each stands for (mp4v means H.264 when ffmpeg is available).
 VIDEO_FORMATS = {".avi": "MJPG", ".mp4": "mp4v", ".m4v": "mp4v", ".mov": "mp4v"}
@@ -52,14 +52,26 @@ def _scratch_next_to(target: Path, suffix: str) -> Path:
     return Path(name)
 
 
+#: Colours told apart at a glance on the light floor and the white legend: Tableau 10 (Tableau's categorical palette,
+#: designed for this), then ten of Kelly's and D3's colours, each picked for the largest CIELAB distance to those
+#: before it: any two of the twenty differ by a CIELAB distance (delta E) of at least 25 (hex RGB).
+DISTINCT = ("4e79a7", "f28e2b", "e15759", "76b7b2", "59a14f", "edc948", "b07aa1", "ff9da7", "9c755f", "bab0ac",
+            "000080", "1b1b1b", "8db600", "800000", "808000", "604e97", "b3446c", "a1caf1", "e25822", "843c39")
+
+
 def palette(n: int) -> list[tuple[int, int, int]]:
-    """``n`` distinct, saturated BGR colours (golden-ratio hues)."""
-    out = []
-    for k in range(n):
-        h = (0.02 + k / max(n, 1) * 0.9 + (0.5 / max(n, 1) if k % 2 else 0.0)) % 1.0
-        r, g, b = colorsys.hsv_to_rgb(h, 0.9, 0.85 if k % 2 else 0.6)
+    """``n`` BGR colours: :data:`DISTINCT` first, then golden-ratio hues (beyond 20 states, some look alike)."""
+    out = [(int(h[4:6], 16), int(h[2:4], 16), int(h[0:2], 16)) for h in DISTINCT[:n]]
+    for k in range(n - len(out)):
+        r, g, b = colorsys.hsv_to_rgb((0.07 + 0.618034 * k) % 1.0, 0.8, 0.75 if k % 2 else 0.55)
         out.append((int(b * 255), int(g * 255), int(r * 255)))
     return out
+
+
+def leaf_name(path: str) -> str:
+    """The state a trail is coloured by: the active path's leaf id (``lap2/right_turn/arc`` -> ``arc``), so that the
+    same state in each lap has one colour, in the plot and in the video."""
+    return path.rsplit("/", 1)[-1]
 
 
 class TopDown:
@@ -135,7 +147,9 @@ class VideoRecorder:
         self.view = TopDown(sim.car.world, width)
         self._inset_at: tuple[int, int] | None = None  # the camera inset's corner (it moves away from the car)
         self.trail = self.view.background.copy()
-        self.colors = palette(24)
+        self.colors = palette(40)
+        #: The trail's states in the order they appeared (their colour is ``colors`` at that index).
+        self.leaves: list[str] = []
         self._last_px: tuple[int, int] | None = None
         self.frames = 0
         self.period = speed / fps
@@ -164,7 +178,10 @@ class VideoRecorder:
         car = sim.car
         x, y, th = car.true_pose()
         p = view.px(x, y)
-        color = self.colors[sim.path_index % len(self.colors)]
+        leaf = leaf_name(sim.active_path)
+        if leaf not in self.leaves:
+            self.leaves.append(leaf)
+        color = self.colors[self.leaves.index(leaf) % len(self.colors)]
         if self._last_px is not None:
             cv2.line(self.trail, self._last_px, p, color, 2, cv2.LINE_AA)
         self._last_px = p
@@ -223,6 +240,25 @@ class VideoRecorder:
                  f"L {car.left:4.2f}  F {car.front:4.2f}  R {car.right:4.2f} m   collisions {car.collisions}")
         cv2.putText(img, line1, (10, y0 + 22), FONT, 0.6, TEXT, 1, cv2.LINE_AA)
         cv2.putText(img, line2, (10, y0 + 46), FONT, 0.5, TEXT, 1, cv2.LINE_AA)
+        self._legend(img, y0 + 72)
+
+    def _legend(self, img: np.ndarray, y: int) -> None:
+        """The trail's colours: a box and the state's name each, in two rows at most (then "+N more")."""
+        x, row = 10, 0
+        cv2.putText(img, "trail:", (x, y), FONT, 0.45, TEXT, 1, cv2.LINE_AA)
+        x0 = x = 10 + cv2.getTextSize("trail:", FONT, 0.45, 1)[0][0] + 8
+        for i, name in enumerate(self.leaves):
+            w = 20 + cv2.getTextSize(name, FONT, 0.45, 1)[0][0] + 14
+            if x + w > self.view.width - 70:
+                row, x = row + 1, x0
+                if row == 2:
+                    cv2.putText(img, f"+{len(self.leaves) - i} more", (x0, y + 22), FONT, 0.45, TEXT, 1,
+                                cv2.LINE_AA)
+                    return
+            yy = y + 22 * row
+            cv2.rectangle(img, (x, yy - 10), (x + 14, yy + 2), self.colors[i % len(self.colors)], -1)
+            cv2.putText(img, name, (x + 20, yy), FONT, 0.45, TEXT, 1, cv2.LINE_AA)
+            x += w
 
     def close(self) -> None:
         """Finish the file: render the last state, release the writer, move the file into place."""
@@ -319,7 +355,7 @@ def plot_png(sim: Simulation, width: int = 1600) -> bytes:
     leaf_names: list[str] = []
     index_of: dict[int, int] = {}
     for k, path_k in enumerate(sim.states_seen):
-        leaf = path_k.rsplit("/", 1)[-1]
+        leaf = leaf_name(path_k)
         if leaf not in leaf_names:
             leaf_names.append(leaf)
         index_of[k] = leaf_names.index(leaf)

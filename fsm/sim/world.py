@@ -169,6 +169,12 @@ class Ultrasonic(WorldModel):
     rate: float = Field(default=20.0, gt=0, le=100, description="Samples per second (all three sensors together).")
     min_range: float = Field(default=0.05, ge=0, description="Nearer echoes read as this, m.")
     max_range: float = Field(default=3.0, gt=0, le=10, description="No echo (or farther) reads as this, m.")
+    model: Literal["rays", "beam"] = Field(
+        default="beam",
+        description="How an echo is found: \"beam\" (as the hardware sees), the nearest surface anywhere inside the "
+                    "cone, posts and round obstacles included, flat surfaces only within max_incidence of their "
+                    "normal; \"rays\" (the model before), the nearest hit of `rays` rays spread over the cone (a "
+                    "thin post can fall between them). docs/car.md.")
     rays: int = Field(default=5, ge=1, le=31, description="Rays per cone.")
     cone: float = Field(default=15.0, ge=0, lt=180,
                         description="Full opening angle of the cone, degrees (HC-SR04: 15).")
@@ -178,6 +184,8 @@ class Ultrasonic(WorldModel):
     noise: float = Field(default=0.002, ge=0, le=0.5, description="Noise standard deviation, m (constant part).")
     noise_rel: float = Field(default=0.004, ge=0, le=0.5, description="Noise standard deviation, fraction of range.")
     outliers: float = Field(default=0.0, ge=0, le=1, description="Probability that a sample is a random outlier.")
+    dropouts: float = Field(default=0.0, ge=0, le=1,
+                            description="Probability that an echo is missed (the sample reads max_range).")
     resolution: float = Field(default=0.001, ge=0, le=0.1, description="Readings are rounded to this, m (0: off).")
     mounts: dict[SensorName, Mount] = Field(
         default_factory=_default_mounts, description="Position and direction of each sensor on the car.")
@@ -240,6 +248,30 @@ class Camera(WorldModel):
         return DICTIONARY_SIZES[self.dictionary]
 
 
+class Servo(WorldModel):
+    """The steering servo as a 1:10 RC car's: a speed from its datasheet, the horn travel that gives full steering,
+    a dead band, and the latency between a command and the servo acting on it (docs/car.md)."""
+
+    seconds_per_60: float = Field(
+        default=0.15, ge=0.02, le=2.0,
+        description="Servo speed, seconds per 60 degrees of horn rotation (datasheet; 1:10 RC servos: 0.08-0.22).")
+    travel: float = Field(
+        default=45.0, ge=5.0, le=90.0,
+        description="Horn rotation from centre to full steering (command 1), degrees (typically 35-50).")
+    dead_band: float = Field(
+        default=0.008, ge=0.0, le=0.2,
+        description="Dead band, steering units (full range 2): the servo does not move while its command is within "
+                    "half of it of where it stands (typically 2-8 us of the 1000 us pulse range: 0.004-0.016).")
+    latency: float = Field(
+        default=0.02, ge=0.0, le=0.5,
+        description="Delay from a steering command to the servo acting on it, s (one 50 Hz PWM frame: 0.02).")
+
+    @property
+    def rate(self) -> float:
+        """The rate limit this speed and travel give, steering units per second."""
+        return 60.0 / (self.seconds_per_60 * self.travel)
+
+
 class Car(WorldModel):
     """The TRAL car: body, bicycle-model steering with a servo, speed controller, hall sensor, ultrasonic sensors."""
 
@@ -249,8 +281,11 @@ class Car(WorldModel):
     wheelbase: float = Field(default=0.26, gt=0, le=5, description="Distance between the axles, m.")
     max_steering_angle: float = Field(
         default=24.0, gt=0, lt=60, description="Wheel angle at steering 1, degrees.")
-    steering_rate: float = Field(
-        default=4.0, gt=0, description="Servo rate limit in steering units per second (2 / rate = lock to lock).")
+    servo: Servo = Field(default_factory=Servo, description="The steering servo: speed, travel, dead band, latency.")
+    steering_rate: float | None = Field(
+        default=None, gt=0, le=1e6,
+        description="Servo rate limit in steering units per second (2 / rate = lock to lock); default: from the "
+                    "servo's seconds_per_60 and travel.")
     steering_offset: float = Field(
         default=0.03, ge=-0.5, le=0.5,
         description="Actual steering at command 0: the real car does not drive straight at steering 0.")
@@ -267,6 +302,11 @@ class Car(WorldModel):
     odometry_steering_noise: float = Field(
         default=0.001, ge=0, le=0.2,
         description="Odometry: error of the steering model's straight-ahead (seeded, per run), in steering units.")
+
+    @property
+    def servo_rate(self) -> float:
+        """The servo's rate limit, steering units per second: ``steering_rate`` when given, else the servo's."""
+        return self.steering_rate if self.steering_rate is not None else self.servo.rate
 
     @model_validator(mode="after")
     def _geometry(self) -> Car:

@@ -94,6 +94,11 @@ def register(sub: Subcommands) -> None:
                      help="video frames per second (1 to 240, default 25)")
     car.add_argument("--plot", metavar="OUT.png",
                      help="write a PNG of the trajectory coloured by active state ('-' for standard output)")
+    car.add_argument("--frames", metavar="DIR",
+                     help="save the camera's raw frames (PNG) into this new folder, with camera.yaml (the "
+                          "calibration) and frames.jsonl (the pose of each), for fsmctl detect")
+    car.add_argument("--frames-every", type=whole_number(1), default=10, metavar="N",
+                     help="with --frames, save every Nth rendered frame (default 10: 2 a second at 20 Hz)")
     ros = p.add_argument_group("a car on ROS 2 topics (the ros2 extra; docs/ros.md)")
     ros.add_argument("--ros", metavar="PROFILE.json",
                      help="drive the car the I/O profile binds to ROS 2 topics, over Zenoh (or rclpy where ROS 2 is "
@@ -162,6 +167,13 @@ def _check_usage(args: argparse.Namespace) -> None:
     check_usage(args)
     if not _suffix_ok(args.plot, (".png",)):
         raise UsageError(f"--plot {args.plot}: the plot is a PNG; name it with the suffix .png")
+    if args.frames is not None:
+        if args.ros or args.live:
+            raise UsageError(f"--frames {args.frames}: saves the simulated camera's frames; it goes with neither "
+                             "--ros nor --live")
+        from ..files import NewFolder
+
+        NewFolder(args.frames, "--frames").check()
     if not _suffix_ok(args.video, VIDEO_SUFFIXES):
         raise UsageError(f"--video {args.video}: unsupported video format "
                          f"'{Path(args.video).suffix or '(no suffix)'}'; use .mp4 (H.264) or .avi (MJPEG)")
@@ -263,8 +275,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     if drive:
         world_path = Path(args.world) if args.world else default_world(file if file != "<stdin>" else ".")
         inputs += [str(world_path)] + ([args.car] if args.car else [])
-    elif args.video or args.plot:
-        raise UsageError("--video and --plot need a car: this machine uses no car states; pass --world to drive")
+    elif args.video or args.plot or args.frames:
+        raise UsageError("--video, --plot and --frames need a car: this machine uses no car states; pass --world "
+                         "to drive")
     outputs.open(inputs)  # same-as-input, unwritable folders: refused here, before the run
     try:
         args.pre = pre
@@ -303,6 +316,40 @@ def _run(args: argparse.Namespace, spec: Any, file: str, drive: bool, world_path
          duration: float | None, max_ticks: int | None, outputs: Any, trace_out: Any, summary_out: Any,
          video_out: Any, plot_out: Any, report_out: Any) -> int:
     session = _session(args, spec, drive, world_path, duration, max_ticks)
+    frames = _frames(args, session, world_path)
+    try:
+        return _drive(args, session, file, duration, max_ticks, outputs, trace_out, summary_out, video_out,
+                      plot_out, report_out, world_path, frames)
+    finally:
+        if frames is not None:
+            frames.folder.discard()
+
+
+def _frames(args: argparse.Namespace, session: Any, world_path: Path | None) -> Any:
+    """``--frames DIR``: the saver of the camera's frames (its folder opened), or ``None``."""
+    if args.frames is None:
+        return None
+    from ..files import NewFolder
+    from ..recording.frames import FrameSaver
+
+    car = session.car
+    if car is None or car.camera() is None:
+        raise UsageError(f"--frames {args.frames}: the car in {world_path} has no camera (its car.camera.enabled "
+                         "is false); enable it or leave --frames out")
+    folder = NewFolder(args.frames, "--frames")
+    folder.open()
+    try:
+        saver = FrameSaver(car, folder, every=args.frames_every)
+    except BaseException:
+        folder.discard()
+        raise
+    session.driver.add_observer(session.machine.dt, saver)  # timed as an output, as the video is
+    return saver
+
+
+def _drive(args: argparse.Namespace, session: Any, file: str, duration: float | None, max_ticks: int | None,
+           outputs: Any, trace_out: Any, summary_out: Any, video_out: Any, plot_out: Any, report_out: Any,
+           world_path: Path | None, frames: Any) -> int:
     machine = session.machine
     car = session.car
     sim = session.driver  # the Simulation when the car drives
@@ -362,9 +409,14 @@ def _run(args: argparse.Namespace, spec: Any, file: str, drive: bool, world_path
             from fsm.sim.render import plot_png
 
             plot_out.write(plot_png(sim))
+        if frames is not None:
+            frames.finish()
+            result["frames"] = {"folder": args.frames, "saved": frames.saved, "every": frames.every}
         if summary_out is not None:
             summary_out.write(json.dumps(result, indent=2) + "\n")
         outputs.commit()
+        if frames is not None:
+            frames.folder.commit()
     if error is not None:
         stopped = " (the car was stopped)" if car is not None else ""
         print(printable(f"fsmctl run: {file}: {error}{stopped}"), file=sys.stderr)
@@ -400,6 +452,11 @@ def _run(args: argparse.Namespace, spec: Any, file: str, drive: bool, world_path
         print(f"fsmctl run: the car collided {car.collisions} time{'s' * (car.collisions != 1)}, more than the "
               f"{limit} allowed ({why})", file=sys.stderr)
         failed = True
+    elif limit is None and car is not None and car.collisions and not args.quiet:
+        # A run's status is its machine's; collisions fail it only when asked (a sweep or CI says how many it allows),
+        # but never silently.
+        print(f"fsmctl run: warning: the car collided {car.collisions} time{'s' * (car.collisions != 1)}; the exit "
+              "status does not count collisions unless --max-collisions N (or --expect) is given", file=sys.stderr)
     return EXIT_FAIL if failed else EXIT_OK
 
 

@@ -192,6 +192,46 @@ def read_records(path: Path, keys: set[str] | None = None) -> Resume:
     return resume
 
 
+def jsonl_text(path: Path, records: list[dict[str, Any]]) -> bytes | None:
+    """sweep.jsonl with the line of each flagged record (by key) replaced by the record with its ``flags``, and the
+    ``flags`` of an earlier sweep's line updated; every other line stays byte for byte (a record without ``flags``
+    has none). ``None`` when nothing changes."""
+    by_key = {r["key"]: r for r in records}
+    done: set[str] = set()
+    out: list[bytes] = []
+    changed = False
+    fh = _open_regular(path)
+    data = b""
+    if fh is not None:
+        with fh:
+            try:
+                data = fh.read()
+            except OSError as exc:
+                raise DiagramError([Problem(f"cannot read: {_reason(exc)}", str(path))]) from None
+    for raw in data.split(b"\n"):
+        if not raw:
+            continue
+        rec = None
+        if len(raw) <= MAX_LINE:
+            try:
+                rec = json.loads(raw)
+            except ValueError:
+                rec = None
+        key = rec.get("key") if isinstance(rec, dict) else None
+        if isinstance(rec, dict) and isinstance(key, str) and key in by_key and key not in done:
+            done.add(key)
+            flags = by_key[key].get("flags") or []
+            if flags != (rec.get("flags") or []):
+                raw = json.dumps(by_key[key], separators=(",", ":")).encode("utf-8")
+                changed = True
+        out.append(raw)
+    extra = [json.dumps(r, separators=(",", ":")).encode("utf-8") for r in records
+             if r["key"] not in done and r.get("flags")]
+    if not changed and not extra:
+        return None
+    return b"".join(line + b"\n" for line in out + extra)
+
+
 def _open_regular(path: Path) -> Any:
     """``path`` opened for reading when it is a regular file; ``None`` when there is none; else a DiagramError.
     Checked before and after opening, without blocking: a FIFO never hangs the sweep."""

@@ -15,7 +15,74 @@ from pathlib import Path
 from typing import Any
 
 COLUMNS = ["id", "ok", "outcome", "world", "seed", "run_seed", "sim_time", "distance_m", "collisions",
-           "wall_error_rms_m", "transitions", "seconds", "error"]
+           "wall_error_rms_m", "transitions", "seconds", "error", "flags"]
+#: A run stands out when one of its figures (a lap's time, the time in a state) lies more than this many median
+#: absolute deviations (MAD) from the median of the same figure over the runs in the same world.
+OUTLIER_MADS = 3.0
+#: Figures are compared when at least this many runs have them.
+OUTLIER_MIN_RUNS = 5
+#: The MAD used is at least this fraction of the median and this many seconds: runs that agree to the tick (a fixed
+#: manoeuvre) would otherwise make a difference of one tick an outlier; states end on 20 Hz sensor samples, and two
+#: samples (0.1 s) are no glitch.
+MAD_FLOOR_FRACTION = 0.005
+MAD_FLOOR_SECONDS = 0.1
+
+
+def figures(record: dict[str, Any]) -> dict[str, float]:
+    """The figures of a run that the sweep compares across runs: ``lap N time`` of each complete lap (the summary's
+    ``laps``) and ``time in PATH`` of each state (the record's dwell times), seconds."""
+    out: dict[str, float] = {}
+    for lap in (record.get("summary") or {}).get("laps") or []:
+        if isinstance(lap, dict) and lap.get("complete") and isinstance(lap.get("time_s"), (int, float)) \
+                and not isinstance(lap.get("time_s"), bool):
+            out[f"lap {lap.get('lap')} time"] = float(lap["time_s"])
+    for path, sec in (record.get("dwell") or {}).items():
+        out[f"time in {path}"] = float(sec)
+    return out
+
+
+def _median(values: list[float]) -> float:
+    v = sorted(values)
+    n = len(v)
+    return v[n // 2] if n % 2 else (v[n // 2 - 1] + v[n // 2]) / 2
+
+
+def outliers(records: list[dict[str, Any]]) -> dict[str, list[dict[str, Any]]]:
+    """The flags of each run (by run id) whose figures lie more than :data:`OUTLIER_MADS` MADs from the others' in
+    the same world: figure, value, median, MAD (with its floor) and the signed number of MADs, largest first."""
+    groups: dict[tuple[str, str], list[tuple[str, float]]] = defaultdict(list)
+    for r in records:
+        if not r.get("ok"):
+            continue
+        for name, value in figures(r).items():
+            if math.isfinite(value):
+                groups[(str(r.get("world")), name)].append((r["id"], value))
+    flags: dict[str, list[dict[str, Any]]] = defaultdict(list)
+    for (_world, name), runs in groups.items():
+        if len(runs) < OUTLIER_MIN_RUNS:
+            continue
+        values = [v for _id, v in runs]
+        med = _median(values)
+        mad = max(_median([abs(v - med) for v in values]), MAD_FLOOR_FRACTION * abs(med), MAD_FLOOR_SECONDS)
+        for run_id, v in runs:
+            k = (v - med) / mad
+            if abs(k) > OUTLIER_MADS:
+                flags[run_id].append({"figure": name, "value": round(v, 4), "median": round(med, 4),
+                                      "mad": round(mad, 4), "mads": round(k, 1)})
+    for fl in flags.values():
+        fl.sort(key=lambda f: -abs(f["mads"]))
+    return dict(flags)
+
+
+def flag_text(flag: dict[str, Any]) -> str:
+    """One flag in words: ``time in lap1/right_slow 12.3 s (median 2.3 s, +40.1 MAD)``."""
+    return f"{flag['figure']} {flag['value']:g} s (median {flag['median']:g} s, {flag['mads']:+g} MAD)"
+
+
+def with_flags(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The records, each with its ``flags`` (:func:`outliers`; an empty list for a run that does not stand out)."""
+    flags = outliers(records)
+    return [{**r, "flags": flags.get(r["id"], [])} for r in records]
 
 
 def success(record: dict[str, Any]) -> bool:
@@ -48,7 +115,8 @@ def csv_text(records: list[dict[str, Any]], param_names: list[str]) -> str:
         row = [r["id"], r.get("ok"), s.get("outcome"), Path(r["world"]).name if r.get("world") else "", r["seed"]]
         row += [r["params"].get(p) for p in param_names]
         row += [r["run_seed"], s.get("sim_time"), s.get("distance_m"), s.get("collisions"), s.get("wall_error_rms_m"),
-                s.get("transitions"), r.get("seconds"), r.get("error", "")]
+                s.get("transitions"), r.get("seconds"), r.get("error", ""),
+                "; ".join(flag_text(f) for f in r.get("flags") or [])]
         w.writerow(["" if v is None else v for v in row])
     return buf.getvalue()
 
@@ -69,9 +137,12 @@ def html_page(title: str, records: list[dict[str, Any]], param_names: list[str],
     records = sorted(records, key=lambda r: r["id"])
     n = len(records)
     ok = sum(success(r) for r in records)
+    odd = sum(bool(r.get("flags")) for r in records)
     parts = [f"<h1>{_e(title)}</h1>",
-             f"<p class=lead>{n} runs, {ok} succeeded ({(ok / n if n else 0):.0%}); a run succeeds when the machine "
-             "finishes with outcome <code>succeeded</code> and the car never collides. Click a column to sort.</p>"]
+             f"<p class=lead>{n} runs, {ok} succeeded ({(ok / n if n else 0):.0%}), {odd} stand out (below); a run "
+             "succeeds when the machine finishes with outcome <code>succeeded</code> and the car never collides. "
+             "Click a column to sort.</p>"]
+    parts.append(_standouts(records))
     parts.append(_rates(records, param_names))
     if len(param_names) >= 2:
         parts.append(_heatmap(records, param_names[0], param_names[1]))
@@ -112,6 +183,25 @@ document.querySelectorAll("table.sortable th").forEach(function(th, col) {{
 </script>
 </body></html>
 """
+
+
+def _standouts(records: list[dict[str, Any]]) -> str:
+    flagged = [r for r in records if r.get("flags")]
+    if not flagged:
+        return (f"<h2>Runs that stand out</h2><p>None: no run's lap time or time in a state lies more than "
+                f"{OUTLIER_MADS:g} median absolute deviations from the other runs' in its world.</p>")
+    out = [f"<h2>Runs that stand out ({len(flagged)})</h2><p class=lead>A lap's time or the time in a state more than "
+           f"{OUTLIER_MADS:g} median absolute deviations (MAD) from the other runs' in the same world, even when the "
+           "run succeeded; the command reproduces the run alone.</p><table><tr><th class=l>run</th><th class=l>figure"
+           "</th><th>value (s)</th><th>median (s)</th><th>MADs</th><th class=l>reproduce</th></tr>"]
+    for r in flagged:
+        for k, f in enumerate(r["flags"]):
+            cmd = f"<td class=l rowspan={len(r['flags'])}><code>{_e(r.get('command'))}</code></td>" if k == 0 else ""
+            run = f"<td class=l rowspan={len(r['flags'])}>{_e(r['id'])}</td>" if k == 0 else ""
+            out.append(f"<tr>{run}<td class=l>{_e(f['figure'])}</td><td>{_e(f['value'])}</td><td>{_e(f['median'])}"
+                       f"</td><td>{f['mads']:+.1f}</td>{cmd}</tr>")
+    out.append("</table>")
+    return "".join(out)
 
 
 def _rates(records: list[dict[str, Any]], params: list[str]) -> str:

@@ -22,8 +22,8 @@ from typing import Any
 from fsm.errors import DiagramError, FsmError, Problem, UsageError
 
 from . import overrides as O
-from .folder import Folder, RecordLog, Resume, write_file
-from .results import csv_text, html_page, success
+from .folder import Folder, RecordLog, Resume, jsonl_text, write_file
+from .results import csv_text, html_page, success, with_flags
 from .spec import (
     MAX_RUNS,
     Run,
@@ -314,14 +314,19 @@ def _write_run(folder: Folder, rec: dict[str, Any]) -> list[str]:
 
 
 def write_reports(p: Plan, out_dir: Path, records: list[dict[str, Any]]) -> None:
-    """sweep.csv and sweep.html, each whole or not at all (tools/files.py), neither of them an input."""
+    """sweep.csv and sweep.html, and sweep.jsonl again with each record's ``flags`` (the runs that stand out, known
+    only once every run finished), each whole or not at all (tools/files.py), none of them an input."""
     from ..files import Outputs
 
-    texts = {"sweep.csv": csv_text(records, p.param_names),
-             "sweep.html": html_page(p.name, records, p.param_names, p.worlds)}
+    records = with_flags(records)
+    texts: dict[str, str | bytes] = {"sweep.csv": csv_text(records, p.param_names),
+                                     "sweep.html": html_page(p.name, records, p.param_names, p.worlds)}
+    jsonl = jsonl_text(out_dir / "sweep.jsonl", records)
+    if jsonl is not None:
+        texts["sweep.jsonl"] = jsonl
     outputs = Outputs()
-    for name in texts:
-        outputs.add(str(out_dir / name), f"sweep {name}")
+    for name, text in texts.items():
+        outputs.add(str(out_dir / name), f"sweep {name}", binary=isinstance(text, bytes))
     outputs.open(p.inputs)
     try:
         for out, text in zip(outputs.items, texts.values(), strict=True):

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 #: Fields of a summary that depend on the machine the run ran on, not on the run: left out of comparisons.
-TIMING = ("wall_time", "realtime_factor")
+TIMING = ("wall_time", "realtime_factor", "realtime_factor_with_outputs")
 #: Trajectory points kept per run for the report's small multiples.
 TRACK_POINTS = 300
 #: The checked machine per (file, plugins), in this worker process.

@@ -33,6 +33,10 @@ PHYSICS_DT = 0.01
 WALL, CAR = 1, 2
 #: Walls are this thick on each side of their lines (pymunk segments' radius), m.
 WALL_RADIUS = 0.005
+#: the beam model files the walls by where the sensor is (square cells of this side, m) and where it looks (this
+#: many sectors of directions): see :class:`BeamIndex`
+BEAM_CELL = 1.0
+BEAM_SECTORS = 16
 #: Radius of the posts markers stand on (physical obstacles), m.
 POST_RADIUS = 0.02
 #: Markers farther than this from the camera are never rendered (they would be a few pixels), m.
@@ -176,14 +180,18 @@ class SimCar:
         self._outliers = us.outliers if noise else 0.0
         self._dropouts = us.dropouts if noise else 0.0
         self._beam: tuple[list[tuple[float, ...]], list[tuple[float, float, float]]] | None = None
+        self._beam_index: BeamIndex | None = None
         if us.model == "beam":
             self._half = math.radians(us.cone) / 2
             self._tan_half = math.tan(self._half)
             circles = [(ob.center[0], ob.center[1], ob.radius) for ob in world.obstacles
                        if ob.type == "circle" and ob.center is not None and ob.radius is not None]
             circles += [(mx, my, POST_RADIUS) for _id, mx, my, _z, _f, _s, post in world_markers(world) if post]
-            self._beam = ([(a[0], a[1], b[0], b[1], min(a[0], b[0]), max(a[0], b[0]), min(a[1], b[1]), max(a[1], b[1]))
-                           for a, b in world.segments()], circles)
+            segments: list[tuple[float, ...]] = [
+                (a[0], a[1], b[0], b[1], min(a[0], b[0]), max(a[0], b[0]), min(a[1], b[1]), max(a[1], b[1]))
+                for a, b in world.segments()]
+            self._beam = (segments, circles)
+            self._beam_index = BeamIndex(segments, us.max_range + WALL_RADIUS, self._half)
         self._res = us.resolution
         self.sensor_every = max(1, round(1.0 / (us.rate * PHYSICS_DT)))
         # public state (CarIO)
@@ -527,7 +535,9 @@ class SimCar:
         square to the beam), a round one (a post, a circular obstacle) anywhere in the beam. ``max_range`` when there
         is none. Occlusion is implied: the nearest echo is never behind another surface."""
         assert self._beam is not None
-        segments, circles = self._beam
+        assert self._beam_index is not None
+        circles = self._beam[1]
+        segments = self._beam_index.near(ox, oy, ux, uy)
         best = self._max_r
         tan_h = self._tan_half
         cos_inc = self._cos_inc
@@ -638,3 +648,38 @@ class SimCar:
         th = self.body.angle
         c, s = math.cos(th), math.sin(th)
         return self._nearest(self._nominal, x + c * sensor.mx - s * sensor.my, y + s * sensor.mx + c * sensor.my, 5.0)
+
+
+class BeamIndex:
+    """The wall segments a beam may echo from, filed by where the sensor is and where it looks: the plane in square
+    cells of :data:`BEAM_CELL`, the directions in :data:`BEAM_SECTORS` equal sectors. A (cell, sector) holds the
+    segments whose bounding box meets the cell grown by the box around every cone of the sector (radius ``reach``):
+    any segment with a point inside the beam within ``reach`` is among them, so the echoes are the ones a search of
+    every wall gives, in the same order. Filled lazily: a run visits a few hundred of them."""
+
+    def __init__(self, segments: list[tuple[float, ...]], reach: float, half: float) -> None:
+        self.segments = segments
+        self.width = 2.0 * math.pi / BEAM_SECTORS
+        margin = 0.01  # rounding at the boxes' edges must never drop a segment
+        self.wedges: list[tuple[float, float, float, float]] = []
+        for k in range(BEAM_SECTORS):
+            a0, a1 = k * self.width - half, (k + 1) * self.width + half
+            angles = [a0, a1] + [m * math.pi / 2 for m in range(-4, 9) if a0 < m * math.pi / 2 < a1]
+            xs = [0.0] + [reach * math.cos(a) for a in angles]
+            ys = [0.0] + [reach * math.sin(a) for a in angles]
+            self.wedges.append((min(xs) - margin, max(xs) + margin, min(ys) - margin, max(ys) + margin))
+        self.cells: dict[tuple[int, int, int], tuple[tuple[float, ...], ...]] = {}
+
+    def near(self, ox: float, oy: float, ux: float, uy: float) -> tuple[tuple[float, ...], ...]:
+        """The segments a sensor at (ox, oy) looking along (ux, uy) may echo from."""
+        key = (math.floor(ox / BEAM_CELL), math.floor(oy / BEAM_CELL),
+               int(math.atan2(uy, ux) // self.width) % BEAM_SECTORS)
+        found = self.cells.get(key)
+        if found is None:
+            i, j, k = key
+            wx0, wx1, wy0, wy1 = self.wedges[k]
+            x0, x1 = i * BEAM_CELL + wx0, (i + 1) * BEAM_CELL + wx1
+            y0, y1 = j * BEAM_CELL + wy0, (j + 1) * BEAM_CELL + wy1
+            found = self.cells[key] = tuple(seg for seg in self.segments
+                                            if seg[4] <= x1 and seg[5] >= x0 and seg[6] <= y1 and seg[7] >= y0)
+        return found

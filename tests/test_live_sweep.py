@@ -147,3 +147,70 @@ def test_a_click_opens_a_finished_run_in_the_live_page(tmp_path: Path) -> None:
         assert not foreign and not errors, (foreign, errors)
     finally:
         live.interrupt()
+
+
+def test_a_running_run_is_followed_line_by_line_until_its_end(tmp_path: Path) -> None:
+    """The page of a running run: the whole lines its worker has written, then each line as it comes (a line cut in
+    the middle by the worker's file buffer waits for its end), until the trace's end line."""
+    import asyncio
+    import subprocess
+    import sys
+
+    pytest.importorskip("aiohttp")
+    import aiohttp
+
+    from fsm.tools.live.sweep import Board, SweepServer
+
+    machine = tmp_path / "counter.json"
+    machine.write_text(COUNTER, encoding="utf-8")
+    whole = tmp_path / "whole.jsonl"
+    subprocess.run([str(Path(sys.executable).with_name("fsmctl")), "run", str(machine), "--trace", str(whole), "-q"],
+                   check=True, timeout=60)
+    lines = whole.read_text(encoding="utf-8").splitlines(keepends=True)
+    assert len(lines) > 3 and '"type":"end"' in lines[-1]
+    out = tmp_path / "out"
+    trace = out / "runs" / "0000" / "trace.jsonl"
+    trace.parent.mkdir(parents=True)
+    board = Board([{"id": "0000", "params": {}, "seed": 0, "world": None},
+                   {"id": "0001", "params": {}, "seed": 1, "world": None}], out, workers=1)
+    board.start()
+    assert [r["status"] for r in board.snapshot()["runs"]] == ["running", "queued"]
+    server = SweepServer(board, "counter", "secret")
+    port = server.start("127.0.0.1", 0)
+    base = f"http://127.0.0.1:{port}"
+    half = len(lines[1]) // 2
+
+    async def client() -> bytes:
+        got = b""
+        async with aiohttp.ClientSession() as http:
+            async with http.get(f"{base}/run/0000/?token=secret") as res:
+                assert res.status == 409  # no line yet
+            trace.write_text(lines[0] + lines[1][:half], encoding="utf-8")
+            async with http.get(f"{base}/run/0001/?token=secret") as res:
+                assert res.status == 409 and "queued" in await res.text()
+            async with http.get(f"{base}/run/0000/?token=secret") as res:
+                assert res.status == 200
+            async with http.ws_connect(f"{base}/run/0000/ws?token=secret", origin=base) as ws:
+                async def until(text: bytes) -> None:
+                    nonlocal got
+                    while text not in got:
+                        msg = await asyncio.wait_for(ws.receive(), 30)
+                        if msg.type == aiohttp.WSMsgType.BINARY:
+                            got += msg.data
+                        assert msg.type in (aiohttp.WSMsgType.BINARY, aiohttp.WSMsgType.TEXT), msg
+
+                await until(b'"type":"header"')
+                assert got.count(b"\n") == 1  # the cut line is not sent
+                with trace.open("a", encoding="utf-8") as f:
+                    f.write(lines[1][half:] + "".join(lines[2:]))
+                await until(b'"type":"end"')
+        return got
+
+    try:
+        got = asyncio.run(client())
+    finally:
+        server.close()
+    assert [json.loads(x) for x in got.decode("utf-8").splitlines()] == [json.loads(x) for x in lines]
+    board.record({"id": "0000", "ok": True, "summary": {"outcome": "done"}, "seconds": 0.1})
+    assert [(r["status"], r["outcome"], r["trace"]) for r in board.snapshot()["runs"]] == \
+        [("done", "done", True), ("running", None, False)]

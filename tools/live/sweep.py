@@ -6,11 +6,13 @@ served from an event loop in a thread of its own, on 127.0.0.1 with a random tok
 same rules as ``fsmctl run --live``). With ``--live`` every run writes its trace (``runs/<id>/trace.jsonl``): that is
 what a click opens. A run's status is ``queued``, ``running`` (handed to a worker: the pool hands runs out in
 order, one per free worker, so the runs after the finished ones, as many as there are workers, are the running
-ones), ``done`` (with its outcome) or ``failed`` (it raised). A running run cannot be watched yet: its trace is in
-a worker process (another machine with Ray); the page opens it once it has finished.
+ones), ``done`` (with its outcome) or ``failed`` (it raised). A running run's page shows its trace as its worker
+writes it (whole lines, read again four times a second, in chunks of the worker's file buffer), until it ends;
+nothing can be steered from there (the run is in a worker process). With Ray on other machines the trace is not
+here until the run has finished.
 
 Routes (every one with the token): ``/`` the list, ``/runs.json`` the statuses, ``/run/ID/`` and ``/run/ID/ws`` a
-finished run's page and stream (:class:`~fsm.tools.live.server.LiveServer`'s, built on the first visit).
+run's page and stream (:class:`~fsm.tools.live.server.LiveServer`'s, built on the first visit).
 """
 
 from __future__ import annotations
@@ -29,6 +31,8 @@ from fsm.errors import FsmError
 from .server import HEADERS, LiveServer, Source, token_guard
 from .stream import LineBuffer
 
+#: How often (seconds) a running run's trace is read again for its page.
+FOLLOW = 0.25
 #: The statuses a run goes through.
 STATUSES = ("queued", "running", "done", "failed")
 
@@ -113,6 +117,7 @@ class SweepServer:
         self.name = name
         self.token = token
         self.runs: dict[str, LiveServer] = {}
+        self.followers: list[asyncio.Task[None]] = []
         self.app = web.Application(client_max_size=64 * 1024)
         self.app.middlewares.append(token_guard(lambda: self.token))
         self.app.router.add_get("/", self._list)
@@ -148,6 +153,8 @@ class SweepServer:
             try:
                 await self._stopped.wait()
             finally:
+                for task in self.followers:
+                    task.cancel()
                 for server in self.runs.values():
                     await server.close()
                 await runner.cleanup()
@@ -177,22 +184,24 @@ class SweepServer:
                             content_type="application/json", headers=HEADERS)
 
     def _server(self, run_id: str) -> LiveServer | web.Response:
-        """The page of a finished run (built once), or why there is none."""
+        """The page of a run (built on the first visit), or why there is none yet. A finished run's trace is served
+        as the trace reader accepts it; a running one's as its worker has written it so far (whole lines), followed
+        until its end."""
         server = self.runs.get(run_id)
         if server is not None:
             return server
         row = self.board.snapshot_row(run_id)
         if row is None:
             raise web.HTTPNotFound()
-        if row["status"] in ("queued", "running"):
-            return _text(409, f"run {run_id} is {row['status']}: its page opens once it has finished")
+        if row["status"] == "queued":
+            return _text(409, f"run {run_id} is queued: its page opens once it runs")
         path = self.board.trace_path(run_id)
+        if row["status"] == "running":
+            return self._follow(run_id, path)
         if not path.is_file():
             return _text(404, f"run {run_id} has no trace ({path} is missing: it finished in an earlier sweep "
                               "without --live or --trace)")
         from fsm.replay import read_trace
-
-        from .page import live_page
 
         try:
             trace = read_trace(path)
@@ -202,9 +211,41 @@ class SweepServer:
         for line in [trace.header, *trace.inputs, *trace.reloads, *trace.events, *trace.keyframes, *trace.samples,
                      *trace.frames, *([trace.end] if trace.end else [])]:
             buffer.write(json.dumps(line, separators=(",", ":")) + "\n")
-        server = LiveServer(Source(buffer), live_page(trace.header, f"{self.name} run {run_id}"), self.token)
+        return self._open(run_id, trace.header, buffer)
+
+    def _open(self, run_id: str, header: dict[str, Any], buffer: LineBuffer) -> LiveServer:
+        from .page import live_page
+
+        server = LiveServer(Source(buffer), live_page(header, f"{self.name} run {run_id}"), self.token)
         server.begin()
         self.runs[run_id] = server
+        return server
+
+    def _follow(self, run_id: str, path: Path) -> LiveServer | web.Response:
+        """A running run's page: the whole lines of its trace so far, then what its worker adds (read again every
+        :data:`FOLLOW` s, by the reading rule) until the trace's end line, or the run is over and nothing more comes."""
+        follower = TraceFollower(path)
+        try:
+            follower.read()
+        except FsmError as exc:
+            return _text(409, f"run {run_id} is running; its trace cannot be read yet ({exc}): try again")
+        if follower.header is None:
+            return _text(409, f"run {run_id} is running and its trace has no line yet (a run on another machine "
+                              "with Ray is not seen here): try again in a moment")
+        server = self._open(run_id, follower.header, follower.buffer)
+
+        async def follow() -> None:
+            while not follower.ended:
+                await asyncio.sleep(FOLLOW)
+                over = (self.board.snapshot_row(run_id) or {}).get("status") not in ("queued", "running")
+                try:
+                    grew = follower.read()
+                except FsmError:
+                    return
+                if over and not grew:
+                    return
+
+        self.followers.append(asyncio.create_task(follow()))
         return server
 
     async def _run_page(self, request: web.Request) -> web.StreamResponse:
@@ -222,6 +263,44 @@ class SweepServer:
         if isinstance(server, web.Response):
             return server
         return await server.serve_socket(request)
+
+
+class TraceFollower:
+    """A trace a worker is writing, read again and again: its whole JSON lines go to ``buffer`` once each."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.buffer = LineBuffer()
+        self.header: dict[str, Any] | None = None
+        self.offset = 0
+        self.ended = False
+
+    def read(self) -> bool:
+        """Take the lines added since the last read; whether there were any (an ``FsmError`` if unreadable)."""
+        from fsm.reading import read_file_bytes
+
+        data = read_file_bytes(self.path, "trace")
+        cut = data.rfind(b"\n") + 1
+        if cut <= self.offset:
+            return False
+        lines = []
+        for raw in data[self.offset:cut].splitlines():
+            try:
+                line = json.loads(raw)
+            except ValueError:
+                self.ended = True  # a damaged trace: what came before it is shown
+                break
+            if not isinstance(line, dict):
+                self.ended = True
+                break
+            if self.header is None:
+                self.header = line
+            self.ended = self.ended or line.get("type") == "end"
+            lines.append(json.dumps(line, separators=(",", ":")) + "\n")
+        self.offset = cut
+        if lines:
+            self.buffer.write("".join(lines))
+        return bool(lines)
 
 
 def _text(status: int, text: str) -> web.Response:
@@ -273,8 +352,9 @@ tr:nth-child(even) { background: #f4f4f4; } .queued { color: #888; } .running { 
       cell(tr, r.world); cell(tr, r.seed); cell(tr, r.status + (r.before ? " (before)" : ""), r.status);
       cell(tr, r.status === "failed" ? r.error : r.outcome); cell(tr, r.seconds);
       var td = cell(tr, "");
-      if ((r.status === "done" || r.status === "failed") && r.trace) {
-        var a = document.createElement("a"); a.textContent = "open"; a.className = "open";
+      if (r.status === "running" || ((r.status === "done" || r.status === "failed") && r.trace)) {
+        var a = document.createElement("a"); a.className = "open";
+        a.textContent = r.status === "running" ? "watch" : "open";
         a.href = "run/" + encodeURIComponent(r.id) + "/" + query; td.appendChild(a);
       }
       body.appendChild(tr);

@@ -70,7 +70,8 @@ def register(sub: Subcommands) -> None:
     live = p.add_argument_group("the live page")
     live.add_argument("--live", action="store_true",
                       help="serve a page listing the runs with their status as they finish, and print its URL; a "
-                           "click opens a finished run in the live debugger's page. Every run then writes its trace "
+                           "click watches a running run or opens a finished one in the live debugger's page. Every run "
+                           "then writes its trace "
                            "(runs/<id>/trace.jsonl); after the sweep the page stays until Ctrl-C (needs the 'live' "
                            "extra)")
     live.add_argument("--port", type=_port, default=None, metavar="N", help="port of the page (default 8765; 0: any)")

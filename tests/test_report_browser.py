@@ -271,6 +271,16 @@ def test_the_statechart_folds_all_but_the_active_path_zooms_pans_and_finds(capsy
             assert "lap1" in folded and "lap3" in folded and "lap2" not in folded
             assert p.page.locator('#chart g[data-path="lap1/bottom"]').first.get_attribute("class").count("hidden") == 1
             assert p.page.locator('#chart g[data-path="lap2/bottom"]').first.get_attribute("class").count("hidden") == 0
+            # a folded composite is its title band and what is below it moves up; unfolded, the drawing as it was
+            lap2_y = 'document.querySelector(\'#chart g[data-path="lap2"] rect\').getAttribute("y")'
+            lap1_h = 'document.querySelector(\'#chart g[data-path="lap1"] rect\').getAttribute("height")'
+            assert float(p.page.evaluate(lap1_h)) == 34
+            assert float(p.page.evaluate("document.querySelector('#chart svg').dataset.height")) < 14790 / 3
+            folded_y = float(p.page.evaluate(lap2_y))
+            p.page.uncheck("#fold-rest")
+            assert float(p.page.evaluate("document.querySelector('#chart svg').dataset.height")) == 14790
+            assert float(p.page.evaluate(lap2_y)) > folded_y + 4000 and float(p.page.evaluate(lap1_h)) > 4000
+            p.page.check("#fold-rest")
             # wheel: zoom in about the pointer; drag: pan, and no state's visits open
             box = p.page.locator("#chart").bounding_box()
             x0, y0, w0 = p.page.evaluate(view)

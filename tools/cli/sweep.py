@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -66,7 +67,24 @@ def register(sub: Subcommands) -> None:
                    help=f"run a sweep of up to N runs (default {MAX_RUNS:,}; every finished run's record, about 70 KB, "
                         "stays in memory until the report is written)")
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+    live = p.add_argument_group("the live page")
+    live.add_argument("--live", action="store_true",
+                      help="serve a page listing the runs with their status as they finish, and print its URL; a "
+                           "click watches a running run or opens a finished one in the live debugger's page. Every run "
+                           "then writes its trace "
+                           "(runs/<id>/trace.jsonl); after the sweep the page stays until Ctrl-C (needs the 'live' "
+                           "extra)")
+    live.add_argument("--port", type=_port, default=None, metavar="N", help="port of the page (default 8765; 0: any)")
+    live.add_argument("--host", default=None, metavar="HOST",
+                      help="address to listen on (default 127.0.0.1; another address needs the URL's token)")
+    live.add_argument("--no-token", action="store_true", help="no token in the URL (this machine only)")
     p.set_defaults(func=cmd_sweep)
+
+
+def _port(text: str) -> int:
+    from ..live.runner import parse_port
+
+    return parse_port(text)
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
@@ -89,6 +107,7 @@ def _sweep(args: argparse.Namespace, interrupts: Interrupts) -> int:
         raise UsageError("-o: give the name of a folder")
     if args.duration is not None and (problem := check_duration(args.duration)) is not None:
         raise UsageError(f"--{problem}")
+    _check_live(args)
     spec, base, where, name, flags = _spec(args)
     out_dir = Path(args.out)
     if out_dir.exists() and not out_dir.is_dir():
@@ -110,6 +129,7 @@ def _sweep(args: argparse.Namespace, interrupts: Interrupts) -> int:
         folder.check_runs(job["id"] for job in todo)
         if interrupts.stop():
             raise KeyboardInterrupt
+        live = _start_live(args, p, todo, resume, out_dir.resolve(), jobs) if args.live else None
     except BaseException as exc:
         if pool is not None:
             pool.terminate()
@@ -125,12 +145,79 @@ def _sweep(args: argparse.Namespace, interrupts: Interrupts) -> int:
               f"{len(resume.records)} finished before", flush=True)
     show = args.progress if args.progress is not None else sys.stderr.isatty()
     try:
+        if live is not None:
+            live.board.start()
         result = execute(p, folder, todo, resume, interrupts, backend=args.backend, jobs=jobs, address=args.address,
-                         progress=show and not args.quiet, pool=pool)
+                         progress=show and not args.quiet, pool=pool,
+                         on_record=live.board.record if live is not None else None)
     except BackendError as exc:
         raise DiagramError([Problem(str(exc), where, hint="check --address (host:port of the Ray head) or leave "
                                                           "it out to start Ray here")]) from None
-    return _report(args, p, result, out_dir)
+    except BaseException:
+        if live is not None:
+            live.close()
+        raise
+    if live is None:
+        return _report(args, p, result, out_dir)
+    live.board.end()
+    try:
+        code = _report(args, p, result, out_dir)
+        if not result.interrupted:
+            print("live: the sweep has ended; its runs are served until Ctrl-C here", flush=True)
+            interrupts.writing = False
+            while not interrupts.stop():
+                time.sleep(0.1)
+    finally:
+        live.close()
+    return code
+
+
+def _check_live(args: argparse.Namespace) -> None:
+    """The live options without ``--live``, and what ``--live`` needs (usage errors)."""
+    if not args.live:
+        given = [o for o, v in (("--port", args.port), ("--host", args.host), ("--no-token", args.no_token or None))
+                 if v is not None]
+        if given:
+            raise UsageError(f"{given[0]} is an option of the live page: add --live")
+        return
+    from ..live.runner import is_loopback
+
+    if args.no_token and not is_loopback(args.host or "127.0.0.1"):
+        raise UsageError(f"--no-token with --host {args.host}: a page other machines can reach needs its token; "
+                         "drop --no-token (the URL printed carries it)")
+    try:
+        import aiohttp  # noqa: F401
+    except ImportError:
+        raise UsageError("--live needs aiohttp: pip install 'tral-fsm[live]'") from None
+
+
+def _start_live(args: argparse.Namespace, p: Any, todo: list[dict[str, Any]], resume: Any, out_dir: Path,
+                jobs: int) -> Any:
+    """Serve the sweep's page (a port in use is an error before any run starts) and print its URL; every run to
+    run writes its trace (what the page opens), which leaves the runs' keys as they are: a sweep run again without
+    --live skips them."""
+    from ..live.runner import DEFAULT_PORT, listen_error
+    from ..live.server import new_token
+    from ..live.sweep import Board, SweepServer
+
+    for job in todo:
+        job["trace"] = True
+        if job["out"] is None:
+            job["out"] = str(out_dir / "runs" / job["id"])
+    board = Board(p.jobs, out_dir, jobs)
+    for rec in resume.records.values():
+        board.record(rec, before=True)
+    host = args.host or "127.0.0.1"
+    port = args.port if args.port is not None else DEFAULT_PORT
+    token = None if args.no_token else new_token()
+    server = SweepServer(board, p.name, token)
+    try:
+        bound = server.start(host, port)
+    except OSError as exc:
+        raise listen_error(exc, host, port) from None
+    shown = f"[{host}]" if ":" in host else host
+    print(f"live: http://{shown}:{bound}/" + (f"?token={token}" if token else ""), flush=True)
+    return server
 
 
 def _spec(args: argparse.Namespace) -> tuple[Any, Path, str, str, set[str]]:

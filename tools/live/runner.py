@@ -30,7 +30,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     live.add_argument("--live", action="store_true",
                       help="serve the run's live page and print its URL; the run goes on until the page's Stop or "
                            "Ctrl-C (needs the 'live' extra: pip install 'tral-fsm[live]')")
-    live.add_argument("--port", type=_port, default=None, metavar="N",
+    live.add_argument("--port", type=parse_port, default=None, metavar="N",
                       help=f"port of the live page (default {DEFAULT_PORT}; 0: any free port)")
     live.add_argument("--host", default=None, metavar="HOST",
                       help="address to listen on (default 127.0.0.1, this machine only; another address lets other "
@@ -46,7 +46,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                            "active states (default on: a live run drives the simulated car)")
 
 
-def _port(text: str) -> int:
+def parse_port(text: str) -> int:
+    """A port given on the command line (0 to 65535), for argparse."""
     try:
         value = int(text)
     except ValueError:
@@ -82,7 +83,7 @@ def check_usage(args: argparse.Namespace) -> None:
                          "with --trace and make the video with a run without --live")
     if args.trace == "-" or args.summary == "-":
         raise UsageError("with --live, standard output shows the page's URL: name a file for --trace and --summary")
-    if args.no_token and not _loopback(args.host or "127.0.0.1"):
+    if args.no_token and not is_loopback(args.host or "127.0.0.1"):
         raise UsageError(f"--no-token with --host {args.host}: a page other machines can reach needs its token; "
                          "drop --no-token (the URL printed carries it)")
     try:
@@ -91,7 +92,8 @@ def check_usage(args: argparse.Namespace) -> None:
         raise UsageError("--live needs aiohttp: pip install 'tral-fsm[live]'") from None
 
 
-def _loopback(host: str) -> bool:
+def is_loopback(host: str) -> bool:
+    """Whether ``host`` is this machine only."""
     if host == "localhost":
         return True
     try:
@@ -138,7 +140,7 @@ def serve(source: Any, page: Callable[[dict[str, Any]], str], *, host: str, port
         try:
             bound = await server.start(host, port)
         except OSError as exc:
-            raise _listen_error(exc, host, port) from None
+            raise listen_error(exc, host, port) from None
         shown = f"[{host}]" if ":" in host else host
         url = f"http://{shown}:{bound}/" + (f"?token={token}" if token else "")
         print(f"live: {url}", file=out, flush=True)
@@ -181,7 +183,7 @@ def serve_trace(name: str, args: argparse.Namespace) -> int:
     from .page import live_page
     from .server import Source, new_token
 
-    if args.no_token and not _loopback(args.host or "127.0.0.1"):
+    if args.no_token and not is_loopback(args.host or "127.0.0.1"):
         raise UsageError(f"--no-token with --host {args.host}: a page other machines can reach needs its token")
     trace = read_trace_arg(name)
     for warning in trace.warnings:
@@ -198,7 +200,8 @@ def serve_trace(name: str, args: argparse.Namespace) -> int:
     return EXIT_INTERRUPTED if interrupts.interrupted else EXIT_OK
 
 
-def _listen_error(exc: OSError, host: str, port: int) -> FsmError:
+def listen_error(exc: OSError, host: str, port: int) -> FsmError:
+    """Why the page cannot be served on ``host``:``port``, said as the flag to change."""
     if exc.errno == errno.EADDRINUSE:
         return FsmError(f"--port {port}: port {port} on {host} is in use (another program listens there); choose "
                         "another with --port N, or --port 0 for any free one")

@@ -46,6 +46,30 @@ def new_token() -> str:
     return secrets.token_urlsafe(16)
 
 
+def token_guard(token: Callable[[], str | None]) -> Any:
+    """An aiohttp middleware: every request carries ``token()`` (``None``: none asked) in its query, or is refused
+    (403) before anything else is looked at; a path that is not served is a short 404, never aiohttp's page."""
+
+    @web.middleware
+    async def guard(request: web.Request, handler: Callable[[web.Request], Any]) -> web.StreamResponse:
+        expected = token()
+        if expected is not None:
+            given = request.query.get("token", "")
+            if not hmac.compare_digest(given.encode("utf-8", "replace"), expected.encode("utf-8")):
+                return web.Response(status=403, text="forbidden: open the URL fsmctl printed (it carries the token)\n",
+                                    headers=HEADERS)
+        try:
+            response: web.StreamResponse = await handler(request)
+        except web.HTTPNotFound:
+            return web.Response(status=404, text="not found: this server serves its pages and nothing else\n",
+                                headers=HEADERS)
+        except web.HTTPMethodNotAllowed:
+            return web.Response(status=405, text="method not allowed\n", headers=HEADERS)
+        return response
+
+    return guard
+
+
 @dataclass
 class Source:
     """What the pages watch: the trace being written (a rewind starts a new one) and the controller driving the
@@ -72,9 +96,9 @@ class LiveServer:
         self.token = token
         self.clients: dict[int, _Client] = {}
         self.app = web.Application(client_max_size=MAX_COMMAND)
-        self.app.router.add_get("/", self._page)
-        self.app.router.add_get("/ws", self._socket)
-        self.app.middlewares.append(self._guard)
+        self.app.router.add_get("/", self.serve_page)
+        self.app.router.add_get("/ws", self.serve_socket)
+        self.app.middlewares.append(token_guard(lambda: self.token))
         self.runner: web.AppRunner | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._wake: asyncio.Event | None = None
@@ -86,8 +110,6 @@ class LiveServer:
     # -- starting and stopping ----------------------------------------------------------------------------------------
     async def start(self, host: str, port: int) -> int:
         """Listen on ``host``:``port`` (0: any free port); the port listened on. ``OSError`` when it cannot."""
-        self._loop = asyncio.get_running_loop()
-        self._wake = asyncio.Event()
         self.runner = web.AppRunner(self.app, access_log=None, handle_signals=False)
         await self.runner.setup()
         site = web.TCPSite(self.runner, host, port, reuse_address=False)
@@ -98,11 +120,18 @@ class LiveServer:
             raise
         addresses = self.runner.addresses
         bound = addresses[0][1] if addresses else port
+        self.begin()
+        return int(bound)
+
+    def begin(self) -> None:
+        """Start streaming (called by :meth:`start`; alone when another app routes its requests here, as the
+        sweep's page does with :meth:`serve_page` and :meth:`serve_socket`). In the event loop that serves."""
+        self._loop = asyncio.get_running_loop()
+        self._wake = asyncio.Event()
         controller = self.source.controller
         if controller is not None:
             controller.notify = self._notify
         self._pump = asyncio.create_task(self._pump_loop())
-        return int(bound)
 
     async def close(self) -> None:
         """Close every page's socket and stop listening."""
@@ -119,27 +148,12 @@ class LiveServer:
             await self.runner.cleanup()
 
     # -- requests -----------------------------------------------------------------------------------------------------
-    @web.middleware
-    async def _guard(self, request: web.Request, handler: Callable[[web.Request], Any]) -> web.StreamResponse:
-        """Every request carries the token, or is refused (403) before anything else is looked at."""
-        if self.token is not None:
-            given = request.query.get("token", "")
-            if not hmac.compare_digest(given.encode("utf-8", "replace"), self.token.encode("utf-8")):
-                return web.Response(status=403, text="forbidden: open the URL fsmctl printed (it carries the token)\n",
-                                    headers=HEADERS)
-        try:
-            response: web.StreamResponse = await handler(request)
-        except web.HTTPNotFound:
-            return web.Response(status=404, text="not found: this server serves its page and nothing else\n",
-                                headers=HEADERS)
-        except web.HTTPMethodNotAllowed:
-            return web.Response(status=405, text="method not allowed\n", headers=HEADERS)
-        return response
-
-    async def _page(self, request: web.Request) -> web.StreamResponse:
+    async def serve_page(self, request: web.Request) -> web.StreamResponse:
+        """The page (its token already checked)."""
         return web.Response(text=self.page, content_type="text/html", charset="utf-8", headers=HEADERS)
 
-    async def _socket(self, request: web.Request) -> web.StreamResponse:
+    async def serve_socket(self, request: web.Request) -> web.StreamResponse:
+        """The page's stream (its token already checked; a page of another site is refused)."""
         origin = request.headers.get("Origin")
         if origin is not None and urlsplit(origin).netloc != request.host:
             return web.Response(status=403, text="forbidden: a page of another site\n", headers=HEADERS)

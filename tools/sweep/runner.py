@@ -14,7 +14,7 @@ import os
 import shlex
 import sys
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -235,10 +235,11 @@ POLL = 0.2
 
 def execute(p: Plan, folder: Folder, todo: list[dict[str, Any]], resume: Resume, interrupts: Any, *,
             backend: str = "process", jobs: int = 1, address: str | None = None, progress: bool = False,
-            pool: Any = None) -> Outcome:
+            pool: Any = None, on_record: Callable[[dict[str, Any]], None] | None = None) -> Outcome:
     """Run ``todo`` (the jobs of ``p`` that ``resume`` has no record of); append each record to sweep.jsonl as
     its run finishes, then write sweep.csv and sweep.html. ``interrupts.stop()`` (Ctrl-C, SIGTERM) stops the
-    pool: what finished is kept and written, and the outcome says it was interrupted."""
+    pool: what finished is kept and written, and the outcome says it was interrupted. ``on_record`` is told of
+    each record as it is logged (the live page's list of runs)."""
     from .backends import local_pool, ray_pool, shutdown_ray
 
     results = dict(resume.records)
@@ -256,7 +257,7 @@ def execute(p: Plan, folder: Folder, todo: list[dict[str, Any]], resume: Resume,
             folder.mkdir(folder.out)
             with RecordLog(folder.out / "sweep.jsonl", resume.cut_at) as log:
                 if todo:
-                    _collect(pool, todo, folder, log, results, bar, interrupts)
+                    _collect(pool, todo, folder, log, results, bar, interrupts, on_record)
         if pool is not None:
             if interrupts.stop():
                 pool.terminate()
@@ -280,7 +281,7 @@ def execute(p: Plan, folder: Folder, todo: list[dict[str, Any]], resume: Resume,
 
 
 def _collect(pool: Any, todo: list[dict[str, Any]], folder: Folder, log: RecordLog, results: dict[str, Any],
-             bar: Progress, interrupts: Any) -> None:
+             bar: Progress, interrupts: Any, on_record: Callable[[dict[str, Any]], None] | None = None) -> None:
     """Take the records as runs finish, until every run is done or Ctrl-C asks to stop."""
     import multiprocessing
 
@@ -299,6 +300,8 @@ def _collect(pool: Any, todo: list[dict[str, Any]], folder: Folder, log: RecordL
         log.append(json.dumps(rec, separators=(",", ":")) + "\n")
         results[rec["key"]] = rec
         bar.step(rec)
+        if on_record is not None:
+            on_record(rec)
 
 
 def _write_run(folder: Folder, rec: dict[str, Any]) -> list[str]:

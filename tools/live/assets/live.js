@@ -37,7 +37,9 @@
 
   // -- the stream ---------------------------------------------------------------------------------------------------
   function connect() {
-    var url = (location.protocol === "https:" ? "wss://" : "ws://") + location.host + "/ws" +
+    // the stream is next to the page: /ws for a run, /run/ID/ws for a run of a sweep's page
+    var url = (location.protocol === "https:" ? "wss://" : "ws://") + location.host +
+      location.pathname.replace(/\/+$/, "") + "/ws" +
       (token ? "?token=" + encodeURIComponent(token) : "");
     ws = new WebSocket(url);
     ws.binaryType = "arraybuffer";

@@ -176,6 +176,84 @@
       var hide = p !== null ? prefixes.some(function (f) { return p.indexOf(f + "/") === 0; }) : (within !== "" && inside(within));
       el.classList.toggle("hidden", hide);
     });
+    squeeze();
+  }
+  // A folded composite is drawn as its title band, and what is below it moves up: the heights inside it where
+  // nothing else is drawn beside it (its ancestors aside) are taken out of the drawing, every y mapped from the
+  // drawn ones (so unfolding gives the drawing back as it was).
+  var FOLDED_H = 34, drawn = null, drawnH = 0;
+  var Y_ATTRS = { rect: ["y", "height"], text: ["y"], line: ["y1", "y2"], circle: ["cy"], polyline: ["points"], polygon: ["points"] };
+  function squeeze() {
+    if (!drawn) {
+      drawn = [];
+      drawnH = full.h;
+      Array.prototype.forEach.call(svg.querySelectorAll("rect,text,line,circle,polyline,polygon"), function (el) {
+        if (el.closest("defs")) return;
+        var a = {};
+        Y_ATTRS[el.tagName].forEach(function (n) { a[n] = el.getAttribute(n); });
+        drawn.push([el, a]);
+      });
+    }
+    var at = new Map(drawn);
+    function box(p) {
+      var r = groups[p][0].querySelector("rect"), a = r && at.get(r);
+      return a ? { y: parseFloat(a.y), h: parseFloat(a.height) } : null;
+    }
+    var shut = Object.keys(folded).filter(function (f) {
+      return folded[f] && groups[f] && !groups[f][0].classList.contains("hidden") &&
+        groups[f].some(function (g) { return g.classList.contains("composite"); });
+    });
+    var cuts = [];
+    shut.forEach(function (f) {
+      var b = box(f);
+      if (!b || b.h <= FOLDED_H) return;
+      var free = [[b.y + FOLDED_H, b.y + b.h]];
+      Object.keys(groups).forEach(function (p) {
+        if (p === f || f.indexOf(p + "/") === 0 || p.indexOf(f + "/") === 0) return;
+        if (groups[p][0].classList.contains("hidden")) return;
+        var o = box(p);
+        if (!o) return;
+        var lo = o.y, hi = o.y + o.h, next = [];
+        free.forEach(function (c) {  // c minus [lo, hi]
+          if (hi <= c[0] || lo >= c[1]) { next.push(c); return; }
+          if (lo > c[0]) next.push([c[0], lo]);
+          if (hi < c[1]) next.push([hi, c[1]]);
+        });
+        free = next;
+      });
+      cuts = cuts.concat(free);
+    });
+    cuts.sort(function (a, b) { return a[0] - b[0]; });
+    var merged = [];
+    cuts.forEach(function (c) {
+      var last = merged[merged.length - 1];
+      if (last && c[0] <= last[1]) last[1] = Math.max(last[1], c[1]); else merged.push([c[0], c[1]]);
+    });
+    function map(y) {
+      var out = y;
+      for (var i = 0; i < merged.length; i++) out -= Math.min(Math.max(y - merged[i][0], 0), merged[i][1] - merged[i][0]);
+      return out;
+    }
+    drawn.forEach(function (d) {
+      var el = d[0], a = d[1];
+      Object.keys(a).forEach(function (n) {
+        var v = a[n];
+        if (v === null) return;
+        if (n === "points") {
+          el.setAttribute(n, merged.length ? v.trim().split(/\s+/).map(function (pt) {
+            var xy = pt.split(","); return xy[0] + "," + map(parseFloat(xy[1]));
+          }).join(" ") : v);
+        } else if (n === "height") {
+          var y = parseFloat(a.y);
+          el.setAttribute(n, merged.length ? String(map(y + parseFloat(v)) - map(y)) : v);
+        } else {
+          el.setAttribute(n, merged.length ? String(map(parseFloat(v))) : v);
+        }
+      });
+    });
+    full.h = map(full.y + drawnH) - full.y;
+    svg.dataset.height = String(full.h);
+    if ($("fit").checked) fitAll();
   }
   // "fold the rest": every composite not on an active path folded, again whenever the active states change
   var composites = Object.keys(groups).filter(function (p) { return groups[p].some(function (g) { return g.classList.contains("composite"); }); });

@@ -14,7 +14,7 @@ import pytest
 
 from fsm.errors import FsmError, UsageError
 from fsm.ros.profile import DEFAULT_PROFILE_PATH, Binding, Profile, load_profile
-from tools.files import Output, check_new_folder
+from fsm.tools.files import Output, check_new_folder
 
 pytest.importorskip("rosbags")
 

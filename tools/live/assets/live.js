@@ -54,8 +54,11 @@
         model.addText(decoder.decode(ev.data));
         if (status) raise(status);
         dirty = true;
-        // a paused run's new lines (a step's) come right before its status: one redraw, on the status
+        // a paused run's new lines (a step's) usually come right before its status: one redraw, on the status;
+        // lines that come after it (a rewind's last ones can) are drawn shortly after, or they would wait for the
+        // next status, which a paused run does not send
         if (!status || status.state === "running") schedule();
+        else setTimeout(function () { if (dirty) schedule(); }, 50);
         return;
       }
       var m = JSON.parse(ev.data);

@@ -4,6 +4,7 @@ for its token, serves nothing else, and opens a finished run's trace in the live
 from __future__ import annotations
 
 import json
+import time
 import urllib.error
 import urllib.request
 from pathlib import Path
@@ -136,7 +137,11 @@ def test_a_click_opens_a_finished_run_in_the_live_page(tmp_path: Path) -> None:
             page.wait_for_url(f"{live.base}/run/0001/?token={live.token}")
             trace = read_trace(tmp_path / "out" / "runs" / "0001" / "trace.jsonl")
             last = trace.end["tick"] if trace.end and "tick" in trace.end else None
-            page.wait_for_function("window.tralLive && window.tralLive.drawn && window.tralLive.drawn() > 0")
+            # polled from here: the page's CSP forbids the string evaluation Playwright's wait_for_function polls with
+            end = time.monotonic() + 30
+            while not page.evaluate("!!(window.tralLive && window.tralLive.drawn && window.tralLive.drawn() > 0)"):
+                assert time.monotonic() < end, "the run's page never drew"
+                time.sleep(0.05)
             shown = page.evaluate("window.tralReport.end()")
             assert shown > 0
             if last is not None:

@@ -101,6 +101,8 @@ class Controller:
         self._flushed = 0.0
         self._watch = Watch()
         self._active: set[str] = set()
+        #: ticks ran with no breakpoint and no step to a transition: ``_active`` is older than the machine
+        self._stale = False
         self._end = session.stop_rules.end_tick(0, session.dt)
         self._attach(session)
 
@@ -142,6 +144,7 @@ class Controller:
             self._failed(exc)
         self._watch.clear()
         self._active = active_set(session.machine)
+        self._stale = False
         self._publish()
 
     def _idle(self, seconds: float) -> None:
@@ -207,6 +210,13 @@ class Controller:
     def _until(self, session: Session) -> bool:
         """After each tick: a breakpoint hit, the end of a step to a transition, or a command waiting."""
         watch = self._watch
+        if not self.breakpoints and not self._to_transition:  # nothing looks: keep the tick cheap
+            if watch.moved:
+                watch.clear()
+                self._stale = True
+            return self._interrupt
+        if self._stale:  # what is active now is where the next tick starts from
+            self._resync()
         happened = None
         if watch.moved:
             happened = self._happened()
@@ -226,6 +236,11 @@ class Controller:
             self._pause_at({"breakpoint": None, "text": "step to the next transition", "why": "; ".join(what)})
             return True
         return self._interrupt
+
+    def _resync(self) -> None:
+        """Take the active states as they are between two ticks (after ticks nothing looked at)."""
+        self._active = active_set(self.session.machine)
+        self._stale = False
 
     def _happened(self) -> Happened:
         watch = self._watch
@@ -313,6 +328,8 @@ class Controller:
         self.hit = None
         self._budget = MAX_STEP
         self._to_transition = True
+        self._watch.clear()
+        self._resync()
         return {}
 
     def _cmd_speed(self, args: dict[str, Any]) -> dict[str, Any]:
@@ -332,6 +349,9 @@ class Controller:
     def _cmd_break(self, args: dict[str, Any]) -> dict[str, Any]:
         bp = make_breakpoint(self._next_id, args.get("spec"), self.session.machine, self.signals)
         self._next_id += 1
+        if not self.breakpoints:  # ticks ran unlooked at: start from the states active now
+            self._watch.clear()
+            self._resync()
         self.breakpoints.append(bp)
         return {"breakpoint": bp.to_json()}
 
@@ -395,6 +415,7 @@ class Controller:
         self.reloads.append((tick, plan, info))
         self._watch.clear()
         self._active = active_set(swap.machine)
+        self._stale = False
         return swap
 
     def _cmd_rewind(self, args: dict[str, Any]) -> dict[str, Any]:
@@ -440,6 +461,7 @@ class Controller:
             self._failed(exc)
         self._watch.clear()
         self._active = active_set(session.machine)
+        self._stale = False
         values = expression_values(session.machine, self.signals)
         for bp in self.breakpoints:
             if bp.test is not None and bp.enabled:  # "becomes true" counts from here

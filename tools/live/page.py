@@ -11,7 +11,7 @@ from typing import Any
 
 from fsm.replay import Trace
 
-from ..report import build_model, chart_svg
+from ..report import build_model, chart_svg, fill_template
 
 
 def _asset(package: str, name: str) -> str:
@@ -50,20 +50,5 @@ def live_page(header: dict[str, Any], name: str) -> str:
         "__MODEL_JS__": _asset(__package__, "model.js"),
         "__LIVE_JS__": _asset(__package__, "live.js"),
     }
-    return _fill(_asset(__package__, "live.html"), parts)
+    return fill_template(_asset(__package__, "live.html"), parts)
 
-
-def _fill(page: str, parts: dict[str, str]) -> str:
-    """``page`` with each key replaced, in one pass in the template's order (text put in is never searched)."""
-    out = []
-    rest = page
-    while True:
-        hits = [(rest.find(k), k) for k in parts if rest.find(k) >= 0]
-        if not hits:
-            out.append(rest)
-            break
-        at, key = min(hits)
-        out.append(rest[:at])
-        out.append(parts[key])
-        rest = rest[at + len(key):]
-    return "".join(out)

@@ -120,9 +120,14 @@ def report_html(trace: Trace) -> str:
         "__UPLOT_JS__": _asset("uPlot.iife.min.js").replace("</script", "<\\/script"),
         "__JS__": _asset("report.js"),
     }
+    return fill_template(page, parts)
+
+
+def fill_template(page: str, parts: dict[str, str]) -> str:
+    """``page`` with each key of ``parts`` replaced, in one pass in the template's order, so text put in by one
+    part is never searched for the next (the report's and the live page's templates)."""
     out = []
     rest = page
-    # one pass, in the template's order, so text put in by one part is never searched for the next
     while True:
         hits = [(rest.find(k), k) for k in parts if rest.find(k) >= 0]
         if not hits:

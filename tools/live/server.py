@@ -256,8 +256,9 @@ class LiveServer:
                 snapshot = controller.snapshot if controller is not None else None
                 current = self.source.buffer
                 if current is not buffer:
-                    if buffer is not None:
+                    if buffer is not None:  # a rewind: the page starts again, and is told the status again after
                         await ws.send_str('{"kind":"reset"}')
+                        seq = -1
                     buffer, cursor = current, 0
                 text, cursor = current.since(cursor)
                 if text:

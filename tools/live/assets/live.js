@@ -71,10 +71,9 @@
       else if (m.kind === "rewound") notice("Rewound to tick " + m.tick + (m.dropped ? "; " + m.dropped + " later input(s) dropped" : "") + ".");
     };
   }
-  function raise(st) {  // the run is at this tick, even if no line of it was written (nothing happened)
-    var dt = (model.header && model.header.dt) || 0.0125;
-    if (st.tick >= model.lastTick) { model.lastTick = st.tick; model.lastTime = Math.max(model.lastTime, Math.round(st.tick * dt * 1e9) / 1e9); }
-  }
+  // the run is at this tick, even if no line of it was written (nothing happened). The latest status says so, not
+  // the highest: a status of the run before a rewind can still arrive after the reset, and the next one corrects it
+  function raise(st) { model.runTick = st.tick; }
   function send(cmd, args, done) {
     if (!ws || ws.readyState !== 1) return;
     var id = nextId++;

@@ -12,6 +12,7 @@
   TraceModel.prototype.reset = function () {
     this.header = null; this.events = []; this.keyframes = []; this.frames = []; this.inputs = []; this.end = null;
     this.columns = { t: [] }; this.names = []; this.rows = 0; this.lastTick = 0; this.lastTime = 0;
+    this.runTick = 0;  // where the run's last status says it is (lines stop at the last tick something happened)
   };
 
   // -- lines ------------------------------------------------------------------------------------------------------
@@ -96,7 +97,8 @@
 
   TraceModel.prototype.build = function () {
     var h = this.header || {}, base = this.base, dt = h.dt || 0.0125;
-    var tEnd = Math.max(this.lastTime, this.lastTick * dt, this.end ? this.end.time : 0);
+    var ticks = Math.max(this.lastTick, this.runTick);
+    var tEnd = Math.max(this.lastTime, Math.round(ticks * dt * 1e9) / 1e9, this.end ? this.end.time : 0);
     var states = [], index = {};
     function add(p) { if (typeof p === "string" && !(p in index)) { index[p] = states.length; states.push(p); } }
     (h.regions || []).forEach(function (r) { (r.states || []).forEach(add); });
@@ -127,7 +129,7 @@
     });
     return {
       meta: { name: h.name || base.name || "run", source: h.source || base.trace || "", trace: base.trace || "", version: h.version,
-              tral_fsm: h.tral_fsm, dt: dt, t_end: tEnd, ticks: this.lastTick, outcome: end.outcome === undefined ? null : end.outcome,
+              tral_fsm: h.tral_fsm, dt: dt, t_end: tEnd, ticks: ticks, outcome: end.outcome === undefined ? null : end.outcome,
               finished: end.finished, interrupted: !!end.interrupted, error: end.error && end.error.message || null,
               cut_off: false, live: !this.end, seed: h.seed === undefined ? null : h.seed, world_file: h.world_file || null,
               overrides: h.overrides || [], warnings: warnings },

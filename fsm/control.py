@@ -73,6 +73,7 @@ class Controller:
         self.speed = speed
         self.paused = paused
         self.signals = tuple(sorted(set(signals)))
+        self._first_signals = self.signals  # a rewind to before every reload reads these again
         self.clock = clock
         self.breakpoints: list[Breakpoint] = []
         #: the inputs given through the controller, each with the tick before which it applied
@@ -380,6 +381,8 @@ class Controller:
         file, the new regions, the document); ``signals``: the signal names the new machine reads."""
         self._going_on()
         info = dict(args.get("info") or {})
+        signals = tuple(sorted(set(args.get("signals") or self.signals)))
+        info["signals"] = signals  # kept with the reload: a rewind past it reads them again, one before it not
         try:
             swap = self._swap(args["plan"], info)
         except DiagramError as exc:  # it cannot be built here (it drives a car and this run has none): not swapped
@@ -387,7 +390,7 @@ class Controller:
         except StateRuntimeError as exc:
             self._failed(exc)
             raise ValueError(f"the reloaded machine failed: {exc}") from None
-        self.signals = tuple(sorted(set(args.get("signals") or self.signals)))
+        self.signals = signals
         text = swap.describe()
         self.messages.append({"kind": "reload", "ok": True, "tick": self.reloads[-1][0],
                               "file": info.get("file"), "text": text, "kept": swap.kept,
@@ -446,6 +449,7 @@ class Controller:
         self._budget = 0
         self._to_transition = False
         self._anchor = None
+        self.signals = self._first_signals
         self._attach(session)
         self._start()
         try:  # no breakpoint looks at the ticks replayed: they were looked at the first time
@@ -454,6 +458,7 @@ class Controller:
                     self._ended_by(session.run(stop_rules=StopRules(max_ticks=at - 1 - session.ticks)).stopped)
                 if self.ended is None:
                     self._swap(plan, info)
+                    self.signals = info.get("signals", self.signals)
             session = self.session
             if tick > session.ticks and self.ended is None:
                 self._ended_by(session.run(stop_rules=StopRules(max_ticks=tick - session.ticks)).stopped)

@@ -66,7 +66,8 @@ def test_a_reload_keeps_variables_active_states_and_their_clocks(counter: Any) -
     controller, outs = counter
     controller.send("step", {"n": 40})
     wait(controller, lambda s: s["tick"] == 40 and s["state"] == "paused")
-    controller.send("reload", {"plan": compile_plan(edited(7, m=3)), "info": {"file": "counter.json"}})
+    controller.send("reload", {"plan": compile_plan(edited(7, m=3)), "info": {"file": "counter.json"},
+                               "signals": ["go"]})
     controller.send("resume")
     snap = wait(controller, lambda s: s["state"] == "ended")
     session = controller.session
@@ -83,10 +84,11 @@ def test_a_reload_keeps_variables_active_states_and_their_clocks(counter: Any) -
     controller.send("rewind", {"tick": 45})
     wait(controller, lambda s: s["tick"] == 45)
     assert len(parse_trace(outs[1].getvalue().encode()).reloads) == 1
-    assert controller.session.machine.ctx.vars["m"] == 3
+    assert controller.session.machine.ctx.vars["m"] == 3 and controller.signals == ("go",)
     controller.send("rewind", {"tick": 30})
     wait(controller, lambda s: s["tick"] == 30)
     assert not parse_trace(outs[2].getvalue().encode()).reloads and "m" not in controller.session.machine.ctx.vars
+    assert controller.signals == ()  # the signal names breakpoint expressions read are the old machine's again
 
 
 def test_an_active_state_the_new_document_lacks_pauses_the_run_and_says_so(counter: Any) -> None:

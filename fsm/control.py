@@ -99,6 +99,8 @@ class Controller:
         self._anchor: tuple[float, int] | None = None
         self._next_id = 1
         self._seq = 0
+        self._shown: dict[str, Any] = {}  # the last snapshot published, without its seq
+        self._replied = False  # a command was answered since (its reply is news even if the status is not)
         self._flushed = 0.0
         self._watch = Watch()
         self._active: set[str] = set()
@@ -284,6 +286,7 @@ class Controller:
                 self.messages.append(message)
             else:
                 self.messages.append({"kind": "reply", "id": reply, "command": name, "ok": True, **answer})
+            self._replied = True
 
     def _apply(self, name: str, args: dict[str, Any]) -> dict[str, Any]:
         """Apply one command; raises ValueError (or a more precise error) with what is wrong with it."""
@@ -450,6 +453,7 @@ class Controller:
         self._to_transition = False
         self._anchor = None
         self.signals = self._first_signals
+        self._shown = {}  # a new trace: its status is published even if it reads as the last one did
         self._attach(session)
         self._start()
         try:  # no breakpoint looks at the ticks replayed: they were looked at the first time
@@ -482,15 +486,14 @@ class Controller:
     def _publish(self) -> None:
         session = self.session
         machine = session.machine
-        self._seq += 1
         if self.ended is not None:
             state = "ended"
         elif self.paused and not self._budget:
             state = "paused"
         else:
             state = "running"
-        self.snapshot = {
-            "seq": self._seq, "tick": session.ticks, "time": round(session.now, 9), "state": state,
+        snapshot = {
+            "tick": session.ticks, "time": round(session.now, 9), "state": state,
             "ended": self.ended, "error": self.error, "outcome": machine.outcome,
             "speed": self.speed, "active": machine.active_paths if machine.started else [],
             "hit": self.hit, "end_tick": self._end if self._end < 2**62 else None,
@@ -498,6 +501,12 @@ class Controller:
             "inputs": [[t, item.describe()] for t, item in self.log[-200:]],
             "can_rewind": self.factory is not None,
         }
+        if snapshot == self._shown and not self._replied:  # a paused run looks every IDLE seconds: nothing new
+            return
+        self._replied = False
+        self._shown = snapshot
+        self._seq += 1
+        self.snapshot = {"seq": self._seq, **snapshot}
         recorder = session.recorder
         now = self.clock()
         if recorder is not None and (state != "running" or now - self._flushed > FLUSH):

@@ -207,6 +207,23 @@ def test_steps_pause_exactly_and_a_breakpoint_stops_at_the_tick_the_trace_says(l
     assert "lap1/bottom_turn/settle -> lap1/bottom_turn/done" in snap["hit"]["why"]
 
 
+def test_a_paused_run_tells_its_watchers_only_what_changed(lap: Any) -> None:
+    """A paused run looks for commands every IDLE seconds; it publishes (and wakes the pages, which redraw) only when
+    its status changed: an idle page costs the browser nothing."""
+    import fsm.control
+
+    controller, _ = lap
+    woken: list[int] = []
+    controller.notify = lambda: woken.append(controller.snapshot["seq"])
+    controller.send("step", {"n": 2})
+    snap = wait(controller, lambda s: s["tick"] == 2 and s["state"] == "paused")
+    time.sleep(5 * fsm.control.IDLE)  # five looks of the paused loop
+    assert controller.snapshot["seq"] == snap["seq"] and woken[-1] == snap["seq"]
+    controller.send("speed", {"x": 2.0})
+    snap = wait(controller, lambda s: s["speed"] == 2.0)
+    assert snap["seq"] > woken[0] and woken[-1] == snap["seq"] and snap["tick"] == 2
+
+
 def test_an_injected_variable_is_applied_before_the_next_tick_and_rewind_forks(lap: Any) -> None:
     controller, outs = lap
     controller.send("step", {"n": 50})

@@ -7,7 +7,7 @@
   var token = new URLSearchParams(location.search).get("token") || "";
   var decoder = new TextDecoder("utf-8");
   var ws = null, status = null, nextId = 1, pending = {}, dirty = false, drawing = false, lastDraw = 0, cost = 0;
-  var live = true, followEnd = null;
+  var live = true, followEnd = null, statusShown = true, breaksShown = "";
 
   // -- drawing: the model rebuilt from the lines so far, at most about 30 times a second ---------------------------
   function schedule() {
@@ -22,6 +22,7 @@
   }
   function draw() {
     drawing = false;
+    if (!statusShown) { statusShown = true; showStatus(); }  // the latest status only: a fast run sends 30 a second
     if (!dirty) return;
     dirty = false;
     var t0 = performance.now(), dt = R.dt || 0.0125;
@@ -64,7 +65,10 @@
       var m = JSON.parse(ev.data);
       if (m.kind === "hello") { live = m.live; if (!live) { setControls(false); $("live-bar").classList.add("static"); } }
       else if (m.kind === "reset") { model.reset(); status = null; followEnd = null; dirty = true; }
-      else if (m.kind === "status") { status = m; raise(m); showStatus(); dirty = true; schedule(); }
+      else if (m.kind === "status") {  // redrawn when the run moved on or changed state, not for a breakpoint's count
+        if (!status || m.tick !== status.tick || m.state !== status.state) dirty = true;
+        status = m; raise(m); statusShown = false; schedule();
+      }
       else if (m.kind === "reload") showReload(m);
       else if (m.kind === "reply" && m.command === "reload") { if (!m.ok) showReload({ ok: false, file: "", errors: [m.error] }); }
       else if (m.kind === "reply") { var done = pending[m.id]; delete pending[m.id]; if (done) done(m); else if (!m.ok) notice(m.error); }
@@ -122,6 +126,9 @@
     showBreakpoints(st.breakpoints);
   }
   function showBreakpoints(list) {
+    var key = JSON.stringify(list);
+    if (key === breaksShown) return;  // the table is rebuilt only when a breakpoint changed
+    breaksShown = key;
     var body = $("breaks").tBodies[0];
     body.textContent = "";
     list.forEach(function (bp) {
@@ -227,6 +234,6 @@
 
   // for tests and the console
   window.tralLive = { model: model, status: function () { return status; }, send: send,
-                      drawn: function () { return document.body.dataset.drawn | 0; } };
+                      drawn: function () { return document.body.dataset.drawn | 0; }, cost: function () { return cost; } };
   connect();
 })();

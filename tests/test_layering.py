@@ -23,14 +23,69 @@ FORBIDDEN = ("cv2", "pymunk", "lxml", "fsm.sim", "fsm.vision", "fsm.tools")
 VISION_FORBIDDEN = ("pymunk", "lxml", "fsm.sim", "fsm.tools")
 CORE_DIR = Path(fsm.__file__).resolve().parent
 
-PROBE_TEMPLATE = textwrap.dedent('''
-    import importlib, json, sys
-    forbidden = {forbidden!r}
-    importlib.import_module(sys.argv[1])
-    bad = sorted(m for m in sys.modules if any(m == f or m.startswith(f + ".") for f in forbidden))
-    print(json.dumps(bad))
+#: One fresh interpreter that imports each module in a child of its own (``os.fork``), so one module's imports cannot
+#: hide another's. What the modules need besides ``fsm`` and the forbidden modules (the standard library, pydantic,
+#: jsonschema, ...) is imported once by the parent first, found by a child that imports them all: the children then
+#: import only the project's modules, fresh. Should that warm-up bring in a forbidden module, every module is
+#: probed without it (still one child each, from a parent with nothing imported).
+PROBE_SERVER = textwrap.dedent('''
+    import importlib, json, os, sys
+
+    job = json.loads(sys.stdin.read())
+    modules, forbidden = job["modules"], tuple(job["forbidden"])
+
+    def banned(name):
+        return any(name == f or name.startswith(f + ".") for f in forbidden)
+
+    def in_child(work):
+        read, write = os.pipe()
+        pid = os.fork()
+        if pid == 0:
+            os.close(read)
+            try:
+                out = work()
+            except BaseException as exc:
+                text = str(exc).strip().splitlines()
+                out = "import failed: " + (type(exc).__name__ + ": " + text[-1] if text else type(exc).__name__)
+            os.write(write, json.dumps(out).encode())
+            os._exit(0)
+        os.close(write)
+        chunks = []
+        while True:
+            chunk = os.read(read, 65536)
+            if not chunk:
+                break
+            chunks.append(chunk)
+        os.close(read)
+        os.waitpid(pid, 0)
+        return json.loads(b"".join(chunks) or b'"import failed: the child died"')
+
+    def everything():
+        for m in modules:
+            try:
+                importlib.import_module(m)
+            except BaseException:
+                pass
+        return [m for m in sys.modules if not (m == "fsm" or m.startswith("fsm.") or banned(m) or m == "__main__")]
+
+    needed = in_child(everything)
+    for name in needed if isinstance(needed, list) else []:
+        try:
+            importlib.import_module(name)
+        except BaseException:
+            pass
+    warm = not any(banned(m) for m in sys.modules) and not any(m == "fsm" or m.startswith("fsm.") for m in sys.modules)
+    if not warm:  # start again from an interpreter with nothing of that imported
+        os.execv(sys.executable, [sys.executable, "-c", job["cold"]])
+
+    def one(m):
+        def work():
+            importlib.import_module(m)
+            return sorted(n for n in sys.modules if banned(n))
+        return work
+
+    print(json.dumps({m: in_child(one(m)) for m in modules}))
 ''')
-PROBE = PROBE_TEMPLATE.format(forbidden=FORBIDDEN)
 
 
 def core_modules() -> list[str]:
@@ -44,19 +99,18 @@ def core_modules() -> list[str]:
     return sorted(names)
 
 
-def probe(modules: list[str], script: str = PROBE) -> dict[str, list[str] | str]:
-    """Import each module in its own interpreter (all at once, in parallel): forbidden modules it pulled in."""
+def probe(modules: list[str], forbidden: tuple[str, ...] = FORBIDDEN) -> dict[str, list[str] | str]:
+    """Import each module in a fresh child interpreter (:data:`PROBE_SERVER`): the forbidden modules it pulled in, or
+    why it failed to import."""
     env = dict(os.environ)
     env.pop("PYTHONPATH", None)
-    procs = {m: subprocess.Popen([sys.executable, "-c", script, m], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                 text=True, env=env) for m in modules}
-    result: dict[str, list[str] | str] = {}
-    for module, proc in procs.items():
-        out, err = proc.communicate(timeout=120)
-        if proc.returncode != 0:
-            result[module] = f"import failed: {err.strip().splitlines()[-1] if err.strip() else proc.returncode}"
-        else:
-            result[module] = json.loads(out.strip().splitlines()[-1])
+    job = {"modules": modules, "forbidden": list(forbidden)}
+    job["cold"] = PROBE_SERVER.replace("job = json.loads(sys.stdin.read())", f"job = {json.dumps(job)!r}; "
+                                       "job = json.loads(job)").replace("needed = in_child(everything)", "needed = 0")
+    proc = subprocess.run([sys.executable, "-c", PROBE_SERVER], input=json.dumps(job), capture_output=True, text=True,
+                          env=env, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    result: dict[str, list[str] | str] = json.loads(proc.stdout.strip().splitlines()[-1])
     return result
 
 
@@ -162,7 +216,7 @@ def vision_modules() -> list[str]:
 def test_vision_imports_neither_the_simulator_nor_pymunk_nor_the_tools() -> None:
     modules = vision_modules()
     assert {"fsm.vision.detector", "fsm.vision.calibration", "fsm.vision.gates", "fsm.vision.camera"} <= set(modules)
-    results = probe(modules, PROBE_TEMPLATE.format(forbidden=VISION_FORBIDDEN))
+    results = probe(modules, VISION_FORBIDDEN)
     offenders = {m: r for m, r in results.items() if r}
     assert not offenders, "fsm.vision modules importing what they must not:\n" + "\n".join(
         f"  {m}: {r}" for m, r in sorted(offenders.items()))
@@ -180,8 +234,7 @@ def test_vision_source_names_no_simulator() -> None:
 
 
 def test_the_vision_probe_detects_a_forbidden_import() -> None:
-    script = PROBE_TEMPLATE.format(forbidden=VISION_FORBIDDEN)
-    assert "fsm.sim" in probe(["fsm.sim.camera"], script)["fsm.sim.camera"]
+    assert "fsm.sim" in probe(["fsm.sim.camera"], VISION_FORBIDDEN)["fsm.sim.camera"]
 
 
 # -- fsm/ros/: the car over ROS 2 ------------------------------------------------------------------------------
@@ -196,12 +249,12 @@ def test_ros_layer_imports_neither_the_tools_nor_the_simulator_but_in_its_robot(
     modules = ["fsm.ros"] + sorted(info.name for info in pkgutil.walk_packages([str(folder)], prefix="fsm.ros.",
                                                                                onerror=lambda name: None))
     assert {"fsm.ros.profile", "fsm.ros.car", "fsm.ros.driver", "fsm.ros.robot"} <= set(modules)
-    results = probe([m for m in modules if m != "fsm.ros.robot"], PROBE_TEMPLATE.format(forbidden=ROS_FORBIDDEN))
+    results = probe([m for m in modules if m != "fsm.ros.robot"], ROS_FORBIDDEN)
     offenders = {m: r for m, r in results.items() if r}
     assert not offenders, "fsm.ros modules importing what they must not:\n" + "\n".join(
         f"  {m}: {r}" for m, r in sorted(offenders.items()))
     # and the profile needs neither rosbags nor Zenoh: checking one works without the extra
-    light = probe(["fsm.ros.profile"], PROBE_TEMPLATE.format(forbidden=("rosbags", "zenoh", "cv2", "numpy")))
+    light = probe(["fsm.ros.profile"], ("rosbags", "zenoh", "cv2", "numpy"))
     assert light["fsm.ros.profile"] == []
 
 
@@ -212,12 +265,12 @@ def test_the_in_process_simulator_loads_nothing_of_ros() -> None:
     modules = ["fsm.sim"] + sorted(info.name for info in pkgutil.walk_packages([str(folder)], prefix="fsm.sim.",
                                                                                onerror=lambda name: None))
     modules += ["fsm.tools.cli", "fsm.tools.cli.run", "fsm.tools.cli.sim"]
-    results = probe(modules, PROBE_TEMPLATE.format(forbidden=("fsm.ros", "zenoh", "rosbags")))
+    results = probe(modules, ("fsm.ros", "zenoh", "rosbags"))
     offenders = {m: r for m, r in results.items() if r}
     assert not offenders, "the simulator loading the ROS 2 bridge:\n" + "\n".join(
         f"  {m}: {r}" for m, r in sorted(offenders.items()))
     # the probe sees the bridge where it is loaded
-    assert "fsm.ros.driver" in probe(["fsm.ros.driver"], PROBE_TEMPLATE.format(forbidden=("fsm.ros",)))[
+    assert "fsm.ros.driver" in probe(["fsm.ros.driver"], ("fsm.ros",))[
         "fsm.ros.driver"]
 
 
@@ -261,22 +314,8 @@ def test_umlet_and_graph_never_import_the_cli(package: str) -> None:
     """Each module of the package, imported alone, pulls in none of what sits above it."""
     modules = tools_modules(package)
     assert len(modules) >= 4
-    env = dict(os.environ)
-    env.pop("PYTHONPATH", None)
-    code = textwrap.dedent('''
-        import importlib, json, sys
-        importlib.import_module(sys.argv[1])
-        print(json.dumps(sorted(sys.modules)))
-    ''')
-    offenders = {}
-    for module in modules:
-        proc = subprocess.run([sys.executable, "-c", code, module], capture_output=True, text=True, timeout=120,
-                              env=env)
-        assert proc.returncode == 0, proc.stderr
-        loaded = json.loads(proc.stdout.strip().splitlines()[-1])
-        bad = [m for m in loaded if any(m == f or m.startswith(f + ".") for f in TOOLS_RULES[package])]
-        if bad:
-            offenders[module] = bad
+    results = probe(modules, TOOLS_RULES[package])
+    offenders = {m: r for m, r in results.items() if r}
     assert offenders == {}
 
 

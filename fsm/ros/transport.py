@@ -27,6 +27,9 @@ from .profile import Binding, Profile, normalise_type
 ROBOT = "the robot (rmw_zenoh, the Zenoh bridge, or `fsmctl sim --ros`)"
 #: How often an endpoint that did not answer is tried again (ms).
 RETRY = {"period_init_ms": 100, "period_max_ms": 500, "period_increase_factor": 1.5}
+#: How long closing a session may take, s. Zenoh's close waits for a connection attempt still in its handshake (up
+#: to 10 s against a peer that accepted the TCP connection and never answered): the run does not wait for that.
+CLOSE_WAIT = 1.0
 
 
 class TopicPublisher(Protocol):
@@ -240,7 +243,10 @@ class Link:
                 except Exception:  # closing anyway
                     pass
             self._subscribers.clear()
-            session.close()
+            # in a thread of its own, waited for at most CLOSE_WAIT: the sockets go with the process otherwise
+            closing = threading.Thread(target=session.close, name="zenoh-close", daemon=True)
+            closing.start()
+            closing.join(CLOSE_WAIT)
 
     def __enter__(self) -> Link:
         return self.open() if self.session is None else self

@@ -140,8 +140,10 @@ def test_pause_step_rewind_and_a_state_breakpoint_on_the_lap(browser: Any, tmp_p
     page.until("(window.tralLive.status() || {}).tick > 20")
     page.page.click("#run-pause")
     tick = page.until("(window.tralLive.status() || {}).state === 'paused' && window.tralLive.status().tick")
-    for _ in range(3):
+    for _ in range(2):
         page.page.click("#run-step")
+    page.drawn_at(tick + 2)
+    page.page.keyboard.press("s")  # the key the button's title names
     shown = page.drawn_at(tick + 3)
     status = page.status()
     assert status["state"] == "paused" and shown["active"] == status["active"] == ["lap1/bottom"]

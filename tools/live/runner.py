@@ -155,8 +155,8 @@ def serve(source: Any, page: Callable[[dict[str, Any]], str], *, host: str, port
                 server.page = page({**header, "machine": loaded.info.get("document")})
 
             watching = asyncio.create_task(watcher.run(controller, redraw))
-            print(f"live: watching {', '.join(watcher.files)} (hot reload; --no-reload to turn it off)", file=out,
-                  flush=True)
+            print(f"live: watching {', '.join(_shown_path(f) for f in watcher.files)} (hot reload; --no-reload to "
+                  "turn it off)", file=out, flush=True)
         if controller is not None:
             thread = threading.Thread(target=controller.loop, kwargs={"stop": lambda: halt.is_set() or stop()},
                                       name="fsm-live-run", daemon=True)
@@ -173,6 +173,14 @@ def serve(source: Any, page: Callable[[dict[str, Any]], str], *, host: str, port
             await server.close()
 
     asyncio.run(main())
+
+
+def _shown_path(name: str) -> str:
+    """A watched file as the user would name it: relative to the current folder when it is under it."""
+    try:
+        return str(Path(name).resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return name
 
 
 def serve_trace(name: str, args: argparse.Namespace) -> int:

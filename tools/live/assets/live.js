@@ -167,6 +167,14 @@
   $("run-stop").addEventListener("click", function () { send("stop"); });
   $("run-rewind").addEventListener("click", function () { send("rewind", { tick: R.current().tick }, reply); });
   function reply(m) { if (!m.ok) notice(m.error); }
+  // the keys the buttons' titles name (not while typing in a form; the report's own keys move the cursor)
+  var KEYS = { p: "run-pause", r: "run-resume", s: "run-step", t: "run-step-tr" };
+  document.addEventListener("keydown", function (ev) {
+    var t = ev.target && ev.target.tagName;
+    if (t === "INPUT" || t === "SELECT" || t === "TEXTAREA" || ev.ctrlKey || ev.metaKey || ev.altKey) return;
+    var button = KEYS[ev.key] && $(KEYS[ev.key]);
+    if (button && !button.disabled) { button.click(); ev.preventDefault(); }
+  });
 
   var BREAK_HINTS = {
     enter: ["state path or glob, e.g. lap1/*", null], leave: ["state path or glob", null],

@@ -422,14 +422,9 @@ def _drive(args: argparse.Namespace, session: Any, file: str, duration: float | 
         print(printable(f"fsmctl run: {file}: {error}{stopped}"), file=sys.stderr)
         return EXIT_FAIL
     if not args.quiet:
-        status = f"outcome {machine.outcome}" if machine.finished else "not finished"
-        if interrupted:
-            status += " (interrupted)"
-        print(printable(f"{file}: {status} after {machine.ticks} ticks ({machine.now:.3f} s), "
-                        f"{machine.transition_count} transitions"), file=report)
-        print(printable("visited: " + " -> ".join(recorder.visited)), file=report)
-        if not machine.finished:
-            print(printable(f"active: {machine.active_path}"), file=report)
+        from ..recording import end_lines
+
+        print("\n".join(end_lines(file, machine, recorder, interrupted=interrupted)), file=report)
         if sim is not None:
             m = sim.metrics()
             rms, near = m["wall_error_rms_m"], m["min_wall_distance_m"]

@@ -221,13 +221,6 @@ def listen_error(exc: OSError, host: str, port: int) -> FsmError:
     return FsmError(f"--host {host} --port {port}: cannot listen there ({printable(exc.strerror or str(exc))})")
 
 
-def describe_end(session: Any, file: str) -> str:
-    machine = session.machine
-    status = f"outcome {machine.outcome}" if machine.finished else "not finished"
-    return printable(f"{file}: {status} after {machine.ticks} ticks ({machine.now:.3f} s), "
-                     f"{machine.transition_count} transitions")
-
-
 def run_live(args: argparse.Namespace, file: str, make_session: Callable[[], Any],
              make_recorder: Callable[[Any, LineBuffer], Any], signals: list[str], outputs: Any, trace_out: Any,
              summary_out: Any, plot_out: Any, report_out: Any, watcher: Any = None) -> int:
@@ -281,7 +274,10 @@ def run_live(args: argparse.Namespace, file: str, make_session: Callable[[], Any
             summary_out.write(json.dumps(result, indent=2) + "\n")
         outputs.commit()
     if not args.quiet:
-        print(describe_end(session, file), file=out)
+        from ..recording import end_lines
+
+        recorder = session.recorder
+        print("\n".join(end_lines(file, session.machine, recorder, interrupted=interrupted)), file=out)
     if interrupted:
         return EXIT_INTERRUPTED
     return EXIT_FAIL if controller.error is not None else EXIT_OK

@@ -7,7 +7,7 @@ from typing import IO, Any
 
 from .document import header_document
 
-__all__ = ["header_document", "run_recorder"]
+__all__ = ["end_lines", "header_document", "run_recorder"]
 
 
 def run_recorder(stream: IO[str] | None, file: str, car: Any = None, *, world_file: Any = None, seed: int = 0,
@@ -45,3 +45,20 @@ def run_recorder(stream: IO[str] | None, file: str, car: Any = None, *, world_fi
         fields = CAR_SAMPLE_FIELDS
     return Recorder(stream, extra=extra, header=header, sample=sample, sample_period=1.0 / sample_rate, frames=frames,
                     sample_fields=fields)
+
+
+def end_lines(file: str, machine: Any, recorder: Any, *, interrupted: bool = False, note: str = "",
+              where: str = "") -> list[str]:
+    """What a command says when a run ended (``fsmctl run``, with ``--live`` and ``--ros``): the outcome, the ticks,
+    the time and the transitions (``where``: on what it ran, after the time; ``note``: said with "interrupted"), the
+    states visited, and the active one when it did not finish. Terminal-safe (control characters escaped)."""
+    from fsm.errors import printable
+
+    status = f"outcome {machine.outcome}" if machine.finished else "not finished"
+    if interrupted:
+        status += f" (interrupted{note})"
+    lines = [f"{file}: {status} after {machine.ticks} ticks ({machine.now:.3f} s){where}, "
+             f"{machine.transition_count} transitions", "visited: " + " -> ".join(recorder.visited)]
+    if not machine.finished:
+        lines.append(f"active: {machine.active_path}")
+    return [printable(line) for line in lines]

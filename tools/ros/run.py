@@ -145,12 +145,11 @@ def _verdict(args: argparse.Namespace, session: Any, file: str, error: StateRunt
         print(printable(f"fsmctl run: {file}: {error} (the car was sent zero speed)"), file=sys.stderr)
         return EXIT_FAIL
     if not args.quiet:
-        status = f"outcome {machine.outcome}" if machine.finished else "not finished"
-        if interrupted:
-            status += " (interrupted; the car was sent zero speed)"
-        print(printable(f"{file}: {status} after {machine.ticks} ticks ({machine.now:.3f} s) on "
-                        f"{driver.profile.name} over ROS 2, {machine.transition_count} transitions"), file=report)
-        print(printable("visited: " + " -> ".join(recorder.visited)), file=report)
+        from ..recording import end_lines
+
+        print("\n".join(end_lines(file, machine, recorder, interrupted=interrupted,
+                                  note="; the car was sent zero speed", where=f" on {driver.profile.name} over ROS 2")),
+              file=report)
         m = driver.metrics()["ros"]
         print(f"ros: {m['commands']} commands ({m['zero_speed_commands']} at zero speed), "
               f"{sum(m['received'].values())} messages in, {m['silences']} silences, "

@@ -25,6 +25,7 @@ from .labels import (
     edge_label,
     final_text,
     fit,
+    short_edge_label,
     state_label,
     text_width,
 )
@@ -66,7 +67,7 @@ def svg(doc: dict[str, Any], base: str | Path | None = None) -> str:
 
     folder = None if base is None else Path(base).parent if Path(base).is_file() else Path(base)
     level = lay_out(doc, lines_of, expand=expander(folder), size=_box_size,
-                    label_width=lambda tr: text_width(edge_label(tr), LABEL_FONT) + 4, drawing=True)
+                    label_width=lambda tr: text_width(short_edge_label(tr), LABEL_FONT) + 4, drawing=True)
     scene = _Scene()
     scene.collect(level, None, ())
     scene.index()
@@ -81,6 +82,9 @@ def svg(doc: dict[str, Any], base: str | Path | None = None) -> str:
     _draw(level, body, "", where)
     for e, (rx, ry, rw, rh), lines in labels:
         body.append(f'<g class="label" data-in={quoteattr(where.get(id(e), ""))}>')
+        full = edge_label(e.doc)
+        if lines != [full]:  # shortened or wrapped: the whole label on hover
+            body.append(f"<title>{escape(full)}</title>")
         body.append(f'<rect class="label" x="{rx:.1f}" y="{ry:.1f}" width="{rw:.1f}" height="{rh:.1f}" fill="white" '
                     'fill-opacity="0.85"/>')
         for i, line in enumerate(lines):
@@ -226,11 +230,14 @@ _ALONG = (0.5, 0.4, 0.6, 0.3, 0.7, 0.2, 0.8, 0.12, 0.88)
 
 
 def _label_shapes(text: str) -> list[tuple[list[str], float, float, float]]:
-    """The ways to write a label: (lines, width, height, how much less good than one line)."""
+    """The ways to write a label: (lines, width, height, how much less good than one line); last, when there is
+    no room for the others, its first word (the event type) and an ellipsis."""
     out = [([text], text_width(text, LABEL_FONT) + 4, LINE_H + 1, 0.0)]
     two = _wrapped(text)
     if two is not None:
         out.append((two, max(text_width(t, LABEL_FONT) for t in two) + 4, 2 * LINE_H + 1, 200.0))
+        short = text.split(" ", 1)[0].rstrip(",") + " …"
+        out.append(([short], text_width(short, LABEL_FONT) + 4, LINE_H + 1, 1000.0))
     return out
 
 
@@ -270,7 +277,7 @@ def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
     placed = _Placed()
     out: list[tuple[Edge, Rect, list[str]]] = []
     for e, container, ancestors in scene.edges:
-        text = edge_label(e.doc)
+        text = short_edge_label(e.doc)
         if not text or len(e.points) < 2:
             continue
         shapes = _label_shapes(text)

@@ -15,10 +15,12 @@ right of its content, or where its ``layout.note`` puts it.
 
 from __future__ import annotations
 
+import heapq
 import math
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from itertools import pairwise
 from typing import Any
 
 GRID = 10
@@ -84,6 +86,8 @@ class Node:
     inset: bool = False
     head_override: float | None = None
     placed: bool = False
+    #: Moved less than the rest when a composite grew (drawing only, :func:`_insert_space`).
+    detached: bool = False
     #: The stored box, before room was made for grown composites (where stored arrow ends are attached).
     stored: tuple[float, float, float, float] | None = None
 
@@ -275,7 +279,8 @@ def lay_out(machine: dict[str, Any], label_lines: Any, *, expand: Callable[..., 
         pts = level.marker_points
         first = [pts[0][0] + level.marker[0] - marker[0], pts[0][1] + level.marker[1] - marker[1]]
         last = _attach(pts[-1], level.initial) if level.initial.stored is not None else pts[-1]
-        level.marker_points = [first] + [_spread(p, level.inserted) for p in pts[1:-1]] + [last]
+        middle = [] if level.initial.detached else [_spread(p, level.inserted) for p in pts[1:-1]]
+        level.marker_points = [first] + middle + [last]
     for tr in _items(machine, "transitions"):
         if not isinstance(tr, dict):
             continue
@@ -508,17 +513,49 @@ def _grow(level: LevelLayout, n: Node, w: float, h: float, drawing: bool) -> Non
 
 
 def _insert_space(level: LevelLayout, n: Node, dw: float, dh: float) -> None:
-    """Move every node of ``level`` that lies right of ``n`` by ``dw`` and below it by ``dh`` (so ``n`` can grow
-    without covering them), and remember it for the stored arrow points (:func:`_route`)."""
+    """Make room for ``n`` growing by ``dw`` x ``dh`` (drawing only): every node of ``level`` right of ``n`` moves
+    right by ``dw`` and every node below it moves down by ``dh``, remembered for the stored arrow points (see
+    :func:`_route`); except that a node moves less (only right, only down, or not at all) when it is clear of the
+    grown box and of every other node there, so that growing a composite does not push what stands beside it
+    far away. A node that moved so is ``detached``: its arrows lose their stored bends."""
     right, bottom = n.x + n.w, n.y + n.h
+    grown = (n.x, n.y, n.w + dw, n.h + dh)
+    moves: dict[int, tuple[float, float]] = {}
     for m in level.nodes:
         if m is not n:
-            m.move(dw if m.x >= right - 0.5 else 0, dh if m.y >= bottom - 0.5 else 0)
+            moves[id(m)] = (dw if m.x >= right - 0.5 else 0, dh if m.y >= bottom - 0.5 else 0)
+    clear = GAP_X / 2
+    for m in level.nodes:
+        if m is n or moves[id(m)] == (0, 0):
+            continue
+        mx, my = moves[id(m)]
+        options = sorted({(0.0, 0.0), (mx, 0.0), (0.0, my)} - {(mx, my)}, key=lambda o: (abs(o[0]) + abs(o[1]), o))
+        for ox, oy in options:
+            box = (m.x + ox, m.y + oy, m.w, m.h)
+            if _apart(box, grown, clear) and all(
+                    o is m or o is n or _apart(box, (o.x + moves[id(o)][0], o.y + moves[id(o)][1], o.w, o.h), clear)
+                    for o in level.nodes):
+                moves[id(m)] = (ox, oy)
+                m.detached = True
+                break
+    for m in level.nodes:
+        if m is not n:
+            m.move(*moves[id(m)])
     op = (right, dw, bottom, dh)
     level.inserted.append(op)
     if level.marker is not None:
-        mx, my = _spread(list(level.marker), [op])
-        level.marker = (mx, my)
+        if level.initial is not None and level.initial is not n:
+            dx, dy = moves[id(level.initial)]
+            level.marker = (level.marker[0] + dx, level.marker[1] + dy)
+        else:
+            mx, my = _spread(list(level.marker), [op])
+            level.marker = (mx, my)
+
+
+def _apart(a: tuple[float, float, float, float], b: tuple[float, float, float, float], gap: float) -> bool:
+    """Whether boxes ``a`` and ``b`` are at least ``gap`` apart (in x or in y)."""
+    return (a[0] + a[2] + gap <= b[0] or b[0] + b[2] + gap <= a[0] or a[1] + a[3] + gap <= b[1]
+            or b[1] + b[3] + gap <= a[1])
 
 
 def _spread(p: list[float], ops: list[tuple[float, float, float, float]]) -> list[float]:
@@ -574,8 +611,9 @@ def _route(level: LevelLayout, drawing: bool = False) -> None:
                 and all(_is_point(p) for p in pts) and _stored(e.src) and _stored(e.dst)):
             e.points = [[float(p[0]), float(p[1])] for p in pts]
             if level.inserted:  # room was made for grown composites: the ends stay on their boxes
-                e.points = [_attach(e.points[0], e.src)] + [_spread(p, level.inserted) for p in e.points[1:-1]] \
-                    + [_attach(e.points[-1], e.dst)]
+                middle = [] if e.src.detached or e.dst.detached else \
+                    [_spread(p, level.inserted) for p in e.points[1:-1]]
+                e.points = [_attach(e.points[0], e.src)] + middle + [_attach(e.points[-1], e.dst)]
             continue
         key = (min(id(e.src), id(e.dst)), max(id(e.src), id(e.dst)))
         k = pair_count.get(key, 0)
@@ -594,6 +632,7 @@ def _route(level: LevelLayout, drawing: bool = False) -> None:
             e.points = _connect(a, (e.dst.x, e.dst.y, e.dst.w, e.dst.h), k)
     if drawing:
         _separate_duplicates(level)
+        _reroute(level)
 
 
 def _separate_duplicates(level: LevelLayout) -> None:
@@ -616,6 +655,166 @@ def _separate_duplicates(level: LevelLayout) -> None:
         p, q = e.points[i], e.points[i + 1]
         bend = [round((p[0] + q[0]) / 2 + nx * off), round((p[1] + q[1]) / 2 + ny * off)]
         e.points = e.points[:i + 1] + [bend] + e.points[i + 1:]
+
+
+#: Routing around boxes (drawing only): how far a detour keeps from a box, what a bend costs (in drawing
+#: units of length), and the most boxes a level may have for its arrows to be routed (the grid grows with the
+#: square of it).
+CLEARANCE, BEND, ROUTE_MAX = 12, 60.0, 80
+#: What crossing another arrow costs a routed arrow, in drawing units of length.
+CROSS = 120.0
+
+
+def _reroute(level: LevelLayout) -> None:
+    """Arrows that run through a box of their level other than their ends get a new path: horizontal and vertical
+    runs along the free channels between the boxes (a shortest path with few bends on the grid of lines
+    ``CLEARANCE`` off every box's sides and through the ends' middles), from the side of the source that faces
+    the way to go to the side of the target it comes from. Stored bends are kept for every arrow that is clear."""
+    boxes = [(n.x, n.y, n.w, n.h) for n in level.nodes]
+    if len(boxes) > ROUTE_MAX:
+        return
+    index = {id(n): i for i, n in enumerate(level.nodes)}
+    bad = []
+    for e in level.edges:
+        if e.src is e.dst or len(e.points) < 2:
+            continue
+        ends = (index[id(e.src)], index[id(e.dst)])
+        if any(i not in ends and _segment_hits(a, b, boxes[i], 1.0) for a, b in pairwise(e.points)
+               for i in range(len(boxes))):
+            bad.append(e)
+    used: dict[tuple[float, float, float, float], int] = {}
+    kept = [(a[0], a[1], b[0], b[1]) for e in level.edges if e not in bad for a, b in pairwise(e.points)]
+    kept += [(a[0], a[1], b[0], b[1]) for a, b in pairwise(level.marker_points)]
+    crossings: dict[tuple[float, float, float, float], int] = {}
+    for k, e in enumerate(bad):
+        path = _grid_path(boxes, index[id(e.src)], index[id(e.dst)], used, k, kept, crossings)
+        if path is not None:
+            e.points = path
+            for a, b in pairwise(path):
+                key = (min(a[0], b[0]), min(a[1], b[1]), max(a[0], b[0]), max(a[1], b[1]))
+                used[key] = used.get(key, 0) + 1
+                kept.append((a[0], a[1], b[0], b[1]))
+            crossings.clear()
+
+
+def _segment_hits(a: list[float], b: list[float], r: tuple[float, float, float, float], shrink: float) -> bool:
+    """Whether the segment ``a``-``b`` passes through the inside of ``r`` shrunk by ``shrink`` (Liang-Barsky)."""
+    x, y, w, h = r[0] + shrink, r[1] + shrink, r[2] - 2 * shrink, r[3] - 2 * shrink
+    if w <= 0 or h <= 0:
+        return False
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    lo, hi = 0.0, 1.0
+    for p, q in ((-dx, a[0] - x), (dx, x + w - a[0]), (-dy, a[1] - y), (dy, y + h - a[1])):
+        if p == 0:
+            if q <= 0:
+                return False
+            continue
+        t = q / p
+        if p < 0:
+            lo = max(lo, t)
+        else:
+            hi = min(hi, t)
+        if lo >= hi:
+            return False
+    return True
+
+
+def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
+               used: dict[tuple[float, float, float, float], int], k: int,
+               kept: list[tuple[float, float, float, float]],
+               crossings: dict[tuple[float, float, float, float], int]) -> list[list[float]] | None:
+    """The orthogonal path (Dijkstra over (grid point, direction)) from the middle of box ``si`` to the middle of
+    box ``ti`` that passes through no other box, cut at the two boxes' borders; None when there is none. A run
+    that another routed arrow already takes costs more, so does crossing one of the ``kept`` arrows' segments
+    (counted once per run in ``crossings``), and the ends are set off by ``k`` (mod 3) so that arrows sharing a
+    box do not share their last run."""
+    c = CLEARANCE
+    s, t = boxes[si], boxes[ti]
+    off = (k % 3 - 1) * 8
+    start = (s[0] + s[2] / 2 + off, s[1] + s[3] / 2 + off)
+    goal = (t[0] + t[2] / 2 + off, t[1] + t[3] / 2 + off)
+    xs = sorted({v for x, _, w, _ in boxes for v in (x - c, x + w + c)} | {start[0], goal[0]})
+    ys = sorted({v for _, y, _, h in boxes for v in (y - c, y + h + c)} | {start[1], goal[1]})
+    others = [b for i, b in enumerate(boxes) if i not in (si, ti)]
+
+    def free(a: tuple[float, float], b: tuple[float, float]) -> bool:
+        lo_x, hi_x, lo_y, hi_y = min(a[0], b[0]), max(a[0], b[0]), min(a[1], b[1]), max(a[1], b[1])
+        return not any(lo_x < r[0] + r[2] - 1 and hi_x > r[0] + 1 and lo_y < r[1] + r[3] - 1 and hi_y > r[1] + 1
+                       for r in others)
+
+    xi, yi = {v: i for i, v in enumerate(xs)}, {v: i for i, v in enumerate(ys)}
+    steps = ((1, 0), (-1, 0), (0, 1), (0, -1))
+    origin = (xi[start[0]], yi[start[1]])
+    target = (xi[goal[0]], yi[goal[1]])
+    best: dict[tuple[int, int, int], float] = {}
+    came: dict[tuple[int, int, int], tuple[int, int, int] | None] = {}
+    heap: list[tuple[float, int, int, int, int]] = []
+    for d in range(4):
+        best[(origin[0], origin[1], d)] = 0.0
+        came[(origin[0], origin[1], d)] = None
+        heapq.heappush(heap, (0.0, origin[0], origin[1], d, -1))
+    end: tuple[int, int, int] | None = None
+    while heap:
+        cost, i, j, d, _ = heapq.heappop(heap)
+        if cost > best.get((i, j, d), math.inf):
+            continue
+        if (i, j) == target:
+            end = (i, j, d)
+            break
+        a = (xs[i], ys[j])
+        for nd, (di, dj) in enumerate(steps):
+            ni, nj = i + di, j + dj
+            if not (0 <= ni < len(xs) and 0 <= nj < len(ys)):
+                continue
+            b = (xs[ni], ys[nj])
+            if not free(a, b):
+                continue
+            key = (min(a[0], b[0]), min(a[1], b[1]), max(a[0], b[0]), max(a[1], b[1]))
+            length = abs(b[0] - a[0]) + abs(b[1] - a[1])
+            crossed = crossings.get(key)
+            if crossed is None:
+                crossed = crossings[key] = sum(_segments_cross(key, seg) for seg in kept)
+            step = length * (1 + 0.5 * used.get(key, 0)) + (BEND if nd != d and (i, j) != origin else 0) \
+                + CROSS * crossed
+            new = cost + step
+            if new < best.get((ni, nj, nd), math.inf):
+                best[(ni, nj, nd)] = new
+                came[(ni, nj, nd)] = (i, j, d)
+                heapq.heappush(heap, (new, ni, nj, nd, 0))
+    if end is None:
+        return None
+    cells: list[tuple[int, int, int]] = []
+    cur: tuple[int, int, int] | None = end
+    while cur is not None:
+        cells.append(cur)
+        cur = came[cur]
+    pts = [(xs[i], ys[j]) for i, j, _ in reversed(cells)]
+    corners = [pts[0]]
+    for p, q in pairwise(pts[1:]):
+        last = corners[-1]
+        if not ((last[0] == p[0] == q[0]) or (last[1] == p[1] == q[1])):
+            corners.append(p)
+    corners.append(pts[-1])
+    # cut at the borders: leave the source where the path first leaves it, enter the target where it last enters
+    first = next(i for i in range(1, len(corners)) if not _inside_box(corners[i], s))
+    last = max(i for i in range(len(corners) - 1) if not _inside_box(corners[i], t))
+    p0 = _exit_point(s, *corners[first - 1], *corners[first])
+    p1 = _exit_point(t, *corners[last + 1], *corners[last])
+    path = [p0] + corners[first:last + 1] + [p1]
+    return [[round(x), round(y)] for x, y in path]
+
+
+def _segments_cross(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
+    """Whether two segments cross (touching ends do not count)."""
+    def orient(px: float, py: float, qx: float, qy: float, rx: float, ry: float) -> float:
+        return (qx - px) * (ry - py) - (qy - py) * (rx - px)
+
+    return (orient(b[0], b[1], b[2], b[3], a[0], a[1]) * orient(b[0], b[1], b[2], b[3], a[2], a[3]) < 0
+            and orient(a[0], a[1], a[2], a[3], b[0], b[1]) * orient(a[0], a[1], a[2], a[3], b[2], b[3]) < 0)
+
+
+def _inside_box(p: tuple[float, float], r: tuple[float, float, float, float]) -> bool:
+    return r[0] < p[0] < r[0] + r[2] and r[1] < p[1] < r[1] + r[3]
 
 
 def _stored(n: Node) -> bool:

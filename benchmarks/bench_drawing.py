@@ -3,7 +3,8 @@
 For every diagram in ``diagrams/`` (the ``.uxf`` where there is one, else the ``.json``) and every real UMLet
 file of ``../shared/corpus/uxf/`` (``$TRAL_UXF_CORPUS``) that converts, draws it with ``fsmctl graph --format
 svg`` and counts what :mod:`fsm.tools.graph.quality` counts: box/box overlaps, arrows through boxes (not their
-ends nor a composite they are drawn in), labels over boxes, labels over labels, arrow crossings. Prints a
+ends nor a composite they are drawn in), labels over boxes, labels over labels, arrow crossings, arrows
+running on top of each other. Prints a
 Markdown table and the totals.
 
 Run: ``.venv/bin/python benchmarks/bench_drawing.py`` (``--fsmctl PATH``: draw with another checkout's
@@ -59,7 +60,8 @@ def main() -> int:
                 continue  # a corpus file the converter refuses: nothing drawn
             q = measure(text)
             rows.append((name, q))
-            for k in ("boxes", "edges", "box_overlaps", "edge_through_box", "label_box", "label_label", "crossings"):
+            for k in ("boxes", "edges", "box_overlaps", "edge_through_box", "label_box", "label_label", "crossings",
+                      "along"):
                 setattr(total, k, getattr(total, k) + getattr(q, k))
     rows.append(("**total**", total))
     print(table(rows))

@@ -662,7 +662,7 @@ def _separate_duplicates(level: LevelLayout) -> None:
 #: square of it).
 CLEARANCE, BEND, ROUTE_MAX = 12, 60.0, 80
 #: What crossing another arrow costs a routed arrow, in drawing units of length.
-CROSS = 120.0
+CROSS = 600.0
 
 
 def _reroute(level: LevelLayout) -> None:
@@ -682,7 +682,7 @@ def _reroute(level: LevelLayout) -> None:
         if any(i not in ends and _segment_hits(a, b, boxes[i], 1.0) for a, b in pairwise(e.points)
                for i in range(len(boxes))):
             bad.append(e)
-    used: dict[tuple[float, float, float, float], int] = {}
+    used: dict[tuple[int, float], list[tuple[float, float]]] = {}  # routed runs: (0, y) | (1, x) -> spans
     kept = [(a[0], a[1], b[0], b[1]) for e in level.edges if e not in bad for a, b in pairwise(e.points)]
     kept += [(a[0], a[1], b[0], b[1]) for a, b in pairwise(level.marker_points)]
     crossings: dict[tuple[float, float, float, float], int] = {}
@@ -691,8 +691,10 @@ def _reroute(level: LevelLayout) -> None:
         if path is not None:
             e.points = path
             for a, b in pairwise(path):
-                key = (min(a[0], b[0]), min(a[1], b[1]), max(a[0], b[0]), max(a[1], b[1]))
-                used[key] = used.get(key, 0) + 1
+                if a[1] == b[1]:
+                    used.setdefault((0, a[1]), []).append((min(a[0], b[0]), max(a[0], b[0])))
+                elif a[0] == b[0]:
+                    used.setdefault((1, a[0]), []).append((min(a[1], b[1]), max(a[1], b[1])))
                 kept.append((a[0], a[1], b[0], b[1]))
             crossings.clear()
 
@@ -720,27 +722,37 @@ def _segment_hits(a: list[float], b: list[float], r: tuple[float, float, float, 
 
 
 def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
-               used: dict[tuple[float, float, float, float], int], k: int,
+               used: dict[tuple[int, float], list[tuple[float, float]]], k: int,
                kept: list[tuple[float, float, float, float]],
                crossings: dict[tuple[float, float, float, float], int]) -> list[list[float]] | None:
     """The orthogonal path (Dijkstra over (grid point, direction)) from the middle of box ``si`` to the middle of
-    box ``ti`` that passes through no other box, cut at the two boxes' borders; None when there is none. A run
-    that another routed arrow already takes costs more, so does crossing one of the ``kept`` arrows' segments
-    (counted once per run in ``crossings``), and the ends are set off by ``k`` (mod 3) so that arrows sharing a
-    box do not share their last run."""
+    box ``ti`` that passes through no other box, cut at the two boxes' borders; None when there is none. Each
+    crossing of one of the ``kept`` arrows' segments (counted once per grid run in ``crossings``) and each
+    stretch along an arrow routed before (``used``) costs ``CROSS``; the ends are set off by ``k`` (mod 3) so
+    that arrows sharing a box do not share their last run."""
     c = CLEARANCE
     s, t = boxes[si], boxes[ti]
     off = (k % 3 - 1) * 8
     start = (s[0] + s[2] / 2 + off, s[1] + s[3] / 2 + off)
     goal = (t[0] + t[2] / 2 + off, t[1] + t[3] / 2 + off)
-    xs = sorted({v for x, _, w, _ in boxes for v in (x - c, x + w + c)} | {start[0], goal[0]})
-    ys = sorted({v for _, y, _, h in boxes for v in (y - c, y + h + c)} | {start[1], goal[1]})
+    # two lanes beside every side, so that a second arrow along a box need not run on top of the first
+    xs = sorted({v for x, _, w, _ in boxes for v in (x - c, x - 2 * c, x + w + c, x + w + 2 * c)}
+                | {start[0], goal[0]})
+    ys = sorted({v for _, y, _, h in boxes for v in (y - c, y - 2 * c, y + h + c, y + h + 2 * c)}
+                | {start[1], goal[1]})
     others = [b for i, b in enumerate(boxes) if i not in (si, ti)]
 
     def free(a: tuple[float, float], b: tuple[float, float]) -> bool:
+        """No box in the way; the ends' own boxes only left (entered) straight from (to) their middle."""
         lo_x, hi_x, lo_y, hi_y = min(a[0], b[0]), max(a[0], b[0]), min(a[1], b[1]), max(a[1], b[1])
-        return not any(lo_x < r[0] + r[2] - 1 and hi_x > r[0] + 1 and lo_y < r[1] + r[3] - 1 and hi_y > r[1] + 1
-                       for r in others)
+        if any(lo_x < r[0] + r[2] - 1 and hi_x > r[0] + 1 and lo_y < r[1] + r[3] - 1 and hi_y > r[1] + 1
+               for r in others):
+            return False
+        for r, (px, py) in ((s, start), (t, goal)):
+            if lo_x < r[0] + r[2] + c - 1 and hi_x > r[0] - c + 1 and lo_y < r[1] + r[3] + c - 1 \
+                    and hi_y > r[1] - c + 1 and not (lo_x == hi_x == px or lo_y == hi_y == py):
+                return False
+        return True
 
     xi, yi = {v: i for i, v in enumerate(xs)}, {v: i for i, v in enumerate(ys)}
     steps = ((1, 0), (-1, 0), (0, 1), (0, -1))
@@ -774,7 +786,7 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
             crossed = crossings.get(key)
             if crossed is None:
                 crossed = crossings[key] = sum(_segments_cross(key, seg) for seg in kept)
-            step = length * (1 + 0.5 * used.get(key, 0)) + (BEND if nd != d and (i, j) != origin else 0) \
+            step = length + CROSS * _shared(used, a, b) + (BEND if nd != d and (i, j) != origin else 0) \
                 + CROSS * crossed
             new = cost + step
             if new < best.get((ni, nj, nd), math.inf):
@@ -802,6 +814,14 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
     p1 = _exit_point(t, *corners[last + 1], *corners[last])
     path = [p0] + corners[first:last + 1] + [p1]
     return [[round(x), round(y)] for x, y in path]
+
+
+def _shared(used: dict[tuple[int, float], list[tuple[float, float]]], a: tuple[float, float],
+            b: tuple[float, float]) -> int:
+    """How many routed runs the run ``a``-``b`` would lie on (for some length)."""
+    line, lo, hi = ((0, a[1]), a[0], b[0]) if a[1] == b[1] else ((1, a[0]), a[1], b[1])
+    lo, hi = min(lo, hi), max(lo, hi)
+    return sum(1 for s0, s1 in used.get(line, ()) if min(hi, s1) - max(lo, s0) > 1)
 
 
 def _segments_cross(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:

@@ -9,7 +9,8 @@ measures any version of the drawing code the same way. Counted:
   its ends (the boxes its first and last points lie on) nor a composite it is drawn in;
 * ``label_box``: arrow labels over a state box, a composite's title band, or a composite they are not drawn in;
 * ``label_label``: pairs of labels that overlap;
-* ``crossings``: points where two arrows cross.
+* ``crossings``: points where two arrows cross;
+* ``along``: pairs of segments of two arrows that run on top of each other for some length.
 """
 
 from __future__ import annotations
@@ -33,13 +34,14 @@ class Quality:
     label_box: int = 0
     label_label: int = 0
     crossings: int = 0
+    along: int = 0
     boxes: int = 0
     edges: int = 0
     labels: int = 0
 
     def row(self) -> tuple[int, ...]:
         return (self.boxes, self.edges, self.box_overlaps, self.edge_through_box, self.label_box, self.label_label,
-                self.crossings)
+                self.crossings, self.along)
 
 
 @dataclass
@@ -110,6 +112,21 @@ def _cross(a: tuple[float, float, float, float], b: tuple[float, float, float, f
     return d1 * d2 < 0 and d3 * d4 < 0
 
 
+def _along(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
+    """Whether two segments lie on one line and share more than a few units of it."""
+    ax, ay, bx, by = a
+    dx, dy = bx - ax, by - ay
+    length = (dx * dx + dy * dy) ** 0.5
+    if length < 1e-9:
+        return False
+    for px, py in ((b[0], b[1]), (b[2], b[3])):
+        if abs(dx * (py - ay) - dy * (px - ax)) / length > 0.5:
+            return False  # an end of b is off a's line
+    t0 = ((b[0] - ax) * dx + (b[1] - ay) * dy) / length
+    t1 = ((b[2] - ax) * dx + (b[3] - ay) * dy) / length
+    return min(length, max(t0, t1)) - max(0.0, min(t0, t1)) > 4
+
+
 def measure(svg_text: str) -> Quality:
     """The counts for one drawing."""
     root = ElementTree.fromstring(svg_text)
@@ -177,6 +194,8 @@ def measure(svg_text: str) -> Quality:
             k2, seg2 = all_segs[j]
             if j > i and k2 != k and _cross(seg, seg2):
                 q.crossings += 1
+            elif j > i and k2 != k and _along(seg, seg2):
+                q.along += 1
     for within, r in labels:
         for j in grid.near(r[0], r[1], r[0] + r[2], r[1] + r[3]):
             b = boxes[j]
@@ -197,7 +216,7 @@ def measure(svg_text: str) -> Quality:
     return q
 
 
-HEADER = ("boxes", "arrows", "box/box", "arrow/box", "label/box", "label/label", "crossings")
+HEADER = ("boxes", "arrows", "box/box", "arrow/box", "label/box", "label/label", "crossings", "arrow along arrow")
 
 
 def table(rows: list[tuple[str, Quality | str]]) -> str:

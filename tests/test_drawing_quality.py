@@ -23,7 +23,7 @@ OURS = [p for p in sorted((ROOT / "diagrams").rglob("*.json"))
 def test_our_diagrams_draw_without_overlaps_or_arrows_through_boxes(path):
     q = measure(graph.svg(json.loads(path.read_text()), base=path))
     assert q.boxes > 0
-    assert (q.box_overlaps, q.label_box, q.label_label, q.edge_through_box) == (0, 0, 0, 0), q
+    assert (q.box_overlaps, q.label_box, q.label_label, q.edge_through_box, q.along) == (0, 0, 0, 0, 0), q
 
 
 def _svg(body: str) -> str:
@@ -35,11 +35,12 @@ def test_the_metric_counts_each_kind_of_fault():
     body = box.format(p="a", x=0, y=0) + box.format(p="b", x=50, y=20) + box.format(p="c", x=300, y=0) \
         + box.format(p="d", x=600, y=0)
     body += ('<g class="level" data-in=""><polyline class="edge" points="100,10 600,10"/>'  # a -> d through c
-             '<polyline class="edge" points="350,-50 350,100"/></g>')  # crosses it (and runs through c)
+             '<polyline class="edge" points="350,-50 350,100"/>'  # crosses it (and runs through c)
+             '<polyline class="edge" points="900,0 900,300"/><polyline class="edge" points="900,100 900,200"/></g>')
     label = '<g class="label" data-in=""><rect class="label" x="{x}" y="{y}" width="60" height="15"/></g>'
     body += label.format(x=420, y=100) + label.format(x=440, y=105) + label.format(x=90, y=30)
     q = measure(_svg(body))
-    assert (q.box_overlaps, q.edge_through_box, q.label_label, q.label_box, q.crossings) == (1, 2, 1, 1, 1)
+    assert (q.box_overlaps, q.edge_through_box, q.label_label, q.label_box, q.crossings, q.along) == (1, 2, 1, 1, 1, 1)
 
 
 def test_a_composite_and_its_content_are_not_an_overlap_but_its_title_band_is_no_place_for_a_label():

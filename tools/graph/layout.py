@@ -661,6 +661,7 @@ def _separate_duplicates(level: LevelLayout) -> None:
 #: units of length), and the most boxes a level may have for its arrows to be routed (the grid grows with the
 #: square of it).
 CLEARANCE, BEND, ROUTE_MAX = 12, 60.0, 80
+Seg = tuple[float, float, float, float]
 #: What crossing another arrow costs a routed arrow, in drawing units of length.
 CROSS = 600.0
 
@@ -685,9 +686,11 @@ def _reroute(level: LevelLayout) -> None:
     used: dict[tuple[int, float], list[tuple[float, float]]] = {}  # routed runs: (0, y) | (1, x) -> spans
     kept = [(a[0], a[1], b[0], b[1]) for e in level.edges if e not in bad for a, b in pairwise(e.points)]
     kept += [(a[0], a[1], b[0], b[1]) for a, b in pairwise(level.marker_points)]
-    crossings: dict[tuple[float, float, float, float], int] = {}
+    crossings: dict[tuple[float, float, float, float], tuple[int, int]] = {}
+    hits: dict[tuple[float, float, float, float], tuple[int, ...]] = {}
+    routed: list[tuple[float, float, float, float]] = []
     for k, e in enumerate(bad):
-        path = _grid_path(boxes, index[id(e.src)], index[id(e.dst)], used, k, kept, crossings)
+        path = _grid_path(boxes, index[id(e.src)], index[id(e.dst)], used, k, (kept, routed, crossings, hits))
         if path is not None:
             e.points = path
             for a, b in pairwise(path):
@@ -695,8 +698,7 @@ def _reroute(level: LevelLayout) -> None:
                     used.setdefault((0, a[1]), []).append((min(a[0], b[0]), max(a[0], b[0])))
                 elif a[0] == b[0]:
                     used.setdefault((1, a[0]), []).append((min(a[1], b[1]), max(a[1], b[1])))
-                kept.append((a[0], a[1], b[0], b[1]))
-            crossings.clear()
+                routed.append((a[0], a[1], b[0], b[1]))
 
 
 def _segment_hits(a: list[float], b: list[float], r: tuple[float, float, float, float], shrink: float) -> bool:
@@ -723,13 +725,15 @@ def _segment_hits(a: list[float], b: list[float], r: tuple[float, float, float, 
 
 def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
                used: dict[tuple[int, float], list[tuple[float, float]]], k: int,
-               kept: list[tuple[float, float, float, float]],
-               crossings: dict[tuple[float, float, float, float], int]) -> list[list[float]] | None:
+               seen: tuple[list[Seg], list[Seg], dict[Seg, tuple[int, int]], dict[Seg, tuple[int, ...]]],
+               ) -> list[list[float]] | None:
     """The orthogonal path (Dijkstra over (grid point, direction)) from the middle of box ``si`` to the middle of
     box ``ti`` that passes through no other box, cut at the two boxes' borders; None when there is none. Each
-    crossing of one of the ``kept`` arrows' segments (counted once per grid run in ``crossings``) and each
+    crossing of an arrow (``seen``: the level's arrows that keep their path, the arrows routed before, and
+    what is known of each grid run: how many of the first it crosses, which boxes it touches) and each
     stretch along an arrow routed before (``used``) costs ``CROSS``; the ends are set off by ``k`` (mod 3) so
-    that arrows sharing a box do not share their last run."""
+    that arrows sharing a box do not share their last run. A* with the Manhattan distance to the goal."""
+    kept, routed, crossings, hits = seen
     c = CLEARANCE
     s, t = boxes[si], boxes[ti]
     off = (k % 3 - 1) * 8
@@ -740,13 +744,15 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
                 | {start[0], goal[0]})
     ys = sorted({v for _, y, _, h in boxes for v in (y - c, y - 2 * c, y + h + c, y + h + 2 * c)}
                 | {start[1], goal[1]})
-    others = [b for i, b in enumerate(boxes) if i not in (si, ti)]
 
-    def free(a: tuple[float, float], b: tuple[float, float]) -> bool:
+    def free(a: tuple[float, float], b: tuple[float, float], key: Seg) -> bool:
         """No box in the way; the ends' own boxes only left (entered) straight from (to) their middle."""
-        lo_x, hi_x, lo_y, hi_y = min(a[0], b[0]), max(a[0], b[0]), min(a[1], b[1]), max(a[1], b[1])
-        if any(lo_x < r[0] + r[2] - 1 and hi_x > r[0] + 1 and lo_y < r[1] + r[3] - 1 and hi_y > r[1] + 1
-               for r in others):
+        lo_x, lo_y, hi_x, hi_y = key
+        inside = hits.get(key)
+        if inside is None:
+            inside = hits[key] = tuple(i for i, r in enumerate(boxes) if lo_x < r[0] + r[2] - 1 and hi_x > r[0] + 1
+                                       and lo_y < r[1] + r[3] - 1 and hi_y > r[1] + 1)
+        if any(i != si and i != ti for i in inside):
             return False
         for r, (px, py) in ((s, start), (t, goal)):
             if lo_x < r[0] + r[2] + c - 1 and hi_x > r[0] - c + 1 and lo_y < r[1] + r[3] + c - 1 \
@@ -758,20 +764,19 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
     steps = ((1, 0), (-1, 0), (0, 1), (0, -1))
     origin = (xi[start[0]], yi[start[1]])
     target = (xi[goal[0]], yi[goal[1]])
-    best: dict[tuple[int, int, int], float] = {}
-    came: dict[tuple[int, int, int], tuple[int, int, int] | None] = {}
-    heap: list[tuple[float, int, int, int, int]] = []
-    for d in range(4):
-        best[(origin[0], origin[1], d)] = 0.0
-        came[(origin[0], origin[1], d)] = None
-        heapq.heappush(heap, (0.0, origin[0], origin[1], d, -1))
-    end: tuple[int, int, int] | None = None
+    # one state per grid point (the direction it is reached in rides along): a bend is charged against the
+    # cheapest way in, which is not always the cheapest path with bends counted, but four times less to search
+    best: dict[tuple[int, int], float] = {origin: 0.0}
+    came: dict[tuple[int, int], tuple[int, int] | None] = {origin: None}
+    heap: list[tuple[float, float, int, int, int]] = [(0.0, 0.0, origin[0], origin[1], -1)]
+    gx, gy = goal
+    end: tuple[int, int] | None = None
     while heap:
-        cost, i, j, d, _ = heapq.heappop(heap)
-        if cost > best.get((i, j, d), math.inf):
+        _, cost, i, j, d = heapq.heappop(heap)
+        if cost > best.get((i, j), math.inf):
             continue
         if (i, j) == target:
-            end = (i, j, d)
+            end = (i, j)
             break
         a = (xs[i], ys[j])
         for nd, (di, dj) in enumerate(steps):
@@ -779,28 +784,33 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
             if not (0 <= ni < len(xs) and 0 <= nj < len(ys)):
                 continue
             b = (xs[ni], ys[nj])
-            if not free(a, b):
-                continue
             key = (min(a[0], b[0]), min(a[1], b[1]), max(a[0], b[0]), max(a[1], b[1]))
+            if not free(a, b, key):
+                continue
             length = abs(b[0] - a[0]) + abs(b[1] - a[1])
-            crossed = crossings.get(key)
-            if crossed is None:
-                crossed = crossings[key] = sum(_segments_cross(key, seg) for seg in kept)
-            step = length + CROSS * _shared(used, a, b) + (BEND if nd != d and (i, j) != origin else 0) \
-                + CROSS * crossed
+            known = crossings.get(key)  # (how many it crosses, of the first how many routed segments)
+            if known is None:
+                known = (sum(_segments_cross(key, seg) for seg in kept), 0)
+            if known[1] < len(routed):
+                known = (known[0] + sum(_segments_cross(key, seg) for seg in routed[known[1]:]), len(routed))
+                crossings[key] = known
+            elif key not in crossings:
+                crossings[key] = known
+            crossed = known[0]
+            step = length + CROSS * _shared(used, a, b) + (BEND if nd != d and d >= 0 else 0) + CROSS * crossed
             new = cost + step
-            if new < best.get((ni, nj, nd), math.inf):
-                best[(ni, nj, nd)] = new
-                came[(ni, nj, nd)] = (i, j, d)
-                heapq.heappush(heap, (new, ni, nj, nd, 0))
+            if new < best.get((ni, nj), math.inf):
+                best[(ni, nj)] = new
+                came[(ni, nj)] = (i, j)
+                heapq.heappush(heap, (new + abs(b[0] - gx) + abs(b[1] - gy), new, ni, nj, nd))
     if end is None:
         return None
-    cells: list[tuple[int, int, int]] = []
-    cur: tuple[int, int, int] | None = end
+    cells: list[tuple[int, int]] = []
+    cur: tuple[int, int] | None = end
     while cur is not None:
         cells.append(cur)
         cur = came[cur]
-    pts = [(xs[i], ys[j]) for i, j, _ in reversed(cells)]
+    pts = [(xs[i], ys[j]) for i, j in reversed(cells)]
     corners = [pts[0]]
     for p, q in pairwise(pts[1:]):
         last = corners[-1]
@@ -826,6 +836,9 @@ def _shared(used: dict[tuple[int, float], list[tuple[float, float]]], a: tuple[f
 
 def _segments_cross(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
     """Whether two segments cross (touching ends do not count)."""
+    if max(a[0], a[2]) < min(b[0], b[2]) or max(b[0], b[2]) < min(a[0], a[2]) \
+            or max(a[1], a[3]) < min(b[1], b[3]) or max(b[1], b[3]) < min(a[1], a[3]):
+        return False
     def orient(px: float, py: float, qx: float, qy: float, rx: float, ry: float) -> float:
         return (qx - px) * (ry - py) - (qy - py) * (rx - px)
 

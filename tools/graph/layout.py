@@ -662,6 +662,8 @@ def _separate_duplicates(level: LevelLayout) -> None:
 #: square of it).
 CLEARANCE, BEND, ROUTE_MAX = 12, 60.0, 80
 Seg = tuple[float, float, float, float]
+#: Routing passes: after the first, each routed arrow is routed again with all the others in place.
+ROUTE_PASSES = 2
 #: What crossing another arrow costs a routed arrow, in drawing units of length.
 CROSS = 600.0
 
@@ -683,22 +685,27 @@ def _reroute(level: LevelLayout) -> None:
         if any(i not in ends and _segment_hits(a, b, boxes[i], 1.0) for a, b in pairwise(e.points)
                for i in range(len(boxes))):
             bad.append(e)
-    used: dict[tuple[int, float], list[tuple[float, float]]] = {}  # routed runs: (0, y) | (1, x) -> spans
     kept = [(a[0], a[1], b[0], b[1]) for e in level.edges if e not in bad for a, b in pairwise(e.points)]
     kept += [(a[0], a[1], b[0], b[1]) for a, b in pairwise(level.marker_points)]
-    crossings: dict[tuple[float, float, float, float], tuple[int, int]] = {}
+    crossings: dict[tuple[float, float, float, float], int] = {}
     hits: dict[tuple[float, float, float, float], tuple[int, ...]] = {}
-    routed: list[tuple[float, float, float, float]] = []
-    for k, e in enumerate(bad):
-        path = _grid_path(boxes, index[id(e.src)], index[id(e.dst)], used, k, (kept, routed, crossings, hits))
-        if path is not None:
-            e.points = path
-            for a, b in pairwise(path):
-                if a[1] == b[1]:
-                    used.setdefault((0, a[1]), []).append((min(a[0], b[0]), max(a[0], b[0])))
-                elif a[0] == b[0]:
-                    used.setdefault((1, a[0]), []).append((min(a[1], b[1]), max(a[1], b[1])))
-                routed.append((a[0], a[1], b[0], b[1]))
+    paths: dict[int, list[list[float]]] = {}
+    for _ in range(ROUTE_PASSES):  # the first pass sees the arrows routed before; the next ones all the others
+        for k, e in enumerate(bad):
+            used: dict[tuple[int, float], list[tuple[float, float]]] = {}  # runs of the others: (0, y)|(1, x) -> spans
+            routed: list[tuple[float, float, float, float]] = []
+            for o, path in paths.items():
+                if o == k:
+                    continue
+                for a, b in pairwise(path):
+                    if a[1] == b[1]:
+                        used.setdefault((0, a[1]), []).append((min(a[0], b[0]), max(a[0], b[0])))
+                    elif a[0] == b[0]:
+                        used.setdefault((1, a[0]), []).append((min(a[1], b[1]), max(a[1], b[1])))
+                    routed.append((a[0], a[1], b[0], b[1]))
+            found = _grid_path(boxes, index[id(e.src)], index[id(e.dst)], used, k, (kept, routed, crossings, hits))
+            if found is not None:
+                paths[k] = e.points = found
 
 
 def _segment_hits(a: list[float], b: list[float], r: tuple[float, float, float, float], shrink: float) -> bool:
@@ -725,7 +732,7 @@ def _segment_hits(a: list[float], b: list[float], r: tuple[float, float, float, 
 
 def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
                used: dict[tuple[int, float], list[tuple[float, float]]], k: int,
-               seen: tuple[list[Seg], list[Seg], dict[Seg, tuple[int, int]], dict[Seg, tuple[int, ...]]],
+               seen: tuple[list[Seg], list[Seg], dict[Seg, int], dict[Seg, tuple[int, ...]]],
                ) -> list[list[float]] | None:
     """The orthogonal path (Dijkstra over (grid point, direction)) from the middle of box ``si`` to the middle of
     box ``ti`` that passes through no other box, cut at the two boxes' borders; None when there is none. Each
@@ -734,6 +741,8 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
     stretch along an arrow routed before (``used``) costs ``CROSS``; the ends are set off by ``k`` (mod 3) so
     that arrows sharing a box do not share their last run. A* with the Manhattan distance to the goal."""
     kept, routed, crossings, hits = seen
+    across_h = [(a[1], min(a[0], a[2]), max(a[0], a[2])) for a in routed if a[1] == a[3] and a[0] != a[2]]
+    across_v = [(a[0], min(a[1], a[3]), max(a[1], a[3])) for a in routed if a[0] == a[2] and a[1] != a[3]]
     c = CLEARANCE
     s, t = boxes[si], boxes[ti]
     off = (k % 3 - 1) * 8
@@ -788,15 +797,15 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
             if not free(a, b, key):
                 continue
             length = abs(b[0] - a[0]) + abs(b[1] - a[1])
-            known = crossings.get(key)  # (how many it crosses, of the first how many routed segments)
-            if known is None:
-                known = (sum(_segments_cross(key, seg) for seg in kept), 0)
-            if known[1] < len(routed):
-                known = (known[0] + sum(_segments_cross(key, seg) for seg in routed[known[1]:]), len(routed))
-                crossings[key] = known
-            elif key not in crossings:
-                crossings[key] = known
-            crossed = known[0]
+            crossed = crossings.get(key)
+            if crossed is None:
+                crossed = crossings[key] = sum(_segments_cross(key, seg) for seg in kept)
+            if key[1] == key[3]:  # routed arrows are horizontal and vertical runs: only the crosswise ones cross
+                y = key[1]
+                crossed += sum(1 for x, y0, y1 in across_v if key[0] < x < key[2] and y0 < y < y1)
+            else:
+                x = key[0]
+                crossed += sum(1 for y, x0, x1 in across_h if key[1] < y < key[3] and x0 < x < x1)
             step = length + CROSS * _shared(used, a, b) + (BEND if nd != d and d >= 0 else 0) + CROSS * crossed
             new = cost + step
             if new < best.get((ni, nj), math.inf):

@@ -21,7 +21,7 @@ def edge_label(tr: dict[str, Any]) -> str:
 
 
 #: The widest an arrow's label is drawn (at ``LABEL_FONT``); a longer one is shortened (:func:`short_edge_label`).
-LABEL_MAX_W = 200.0
+LABEL_MAX_W = 240.0
 
 
 def short_edge_label(tr: dict[str, Any], max_w: float = LABEL_MAX_W) -> str:

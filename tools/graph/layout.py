@@ -15,10 +15,11 @@ right of its content, or where its ``layout.note`` puts it.
 
 from __future__ import annotations
 
+import functools
 import heapq
 import math
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from itertools import pairwise
 from typing import Any
@@ -672,28 +673,43 @@ def _reroute(level: LevelLayout) -> None:
     """Arrows that run through a box of their level other than their ends get a new path: horizontal and vertical
     runs along the free channels between the boxes (a shortest path with few bends on the grid of lines
     ``CLEARANCE`` off every box's sides and through the ends' middles), from the side of the source that faces
-    the way to go to the side of the target it comes from. Stored bends are kept for every arrow that is clear."""
-    boxes = [(n.x, n.y, n.w, n.h) for n in level.nodes]
-    if len(boxes) > ROUTE_MAX:
+    the way to go to the side of the target it comes from. Stored bends are kept for every arrow that is clear.
+    A machine included several times is routed once (:func:`_routes` remembers the answer)."""
+    if len(level.nodes) > ROUTE_MAX:
         return
     index = {id(n): i for i, n in enumerate(level.nodes)}
+    arrows = tuple((index[id(e.src)], index[id(e.dst)], tuple((p[0], p[1]) for p in e.points)) for e in level.edges)
+    boxes = tuple((n.x, n.y, n.w, n.h) for n in level.nodes)
+    marker = tuple((p[0], p[1]) for p in level.marker_points)
+    for e, path in zip(level.edges, _routes(boxes, arrows, marker), strict=True):
+        if path is not None:
+            e.points = [list(p) for p in path]
+
+
+Point = tuple[float, float]
+
+
+@functools.lru_cache(maxsize=64)
+def _routes(boxes: tuple[Seg, ...], arrows: tuple[tuple[int, int, tuple[Point, ...]], ...],
+            marker: tuple[Point, ...]) -> tuple[tuple[Point, ...] | None, ...]:
+    """For each arrow ``(source, target, points)`` among ``boxes``, its new path, or None to keep its own."""
     bad = []
-    for e in level.edges:
-        if e.src is e.dst or len(e.points) < 2:
+    for k, (si, ti, pts) in enumerate(arrows):
+        if si == ti or len(pts) < 2:
             continue
-        ends = (index[id(e.src)], index[id(e.dst)])
-        if any(i not in ends and _segment_hits(a, b, boxes[i], 1.0) for a, b in pairwise(e.points)
+        if any(i not in (si, ti) and _segment_hits(a, b, boxes[i], 1.0) for a, b in pairwise(pts)
                for i in range(len(boxes))):
-            bad.append(e)
-    kept = [(a[0], a[1], b[0], b[1]) for e in level.edges if e not in bad for a, b in pairwise(e.points)]
-    kept += [(a[0], a[1], b[0], b[1]) for a, b in pairwise(level.marker_points)]
-    crossings: dict[tuple[float, float, float, float], int] = {}
-    hits: dict[tuple[float, float, float, float], tuple[int, ...]] = {}
+            bad.append(k)
+    kept = [(a[0], a[1], b[0], b[1]) for k, (_, _, pts) in enumerate(arrows) if k not in bad
+            for a, b in pairwise(pts)]
+    kept += [(a[0], a[1], b[0], b[1]) for a, b in pairwise(marker)]
+    crossings: dict[Seg, int] = {}
+    hits: dict[Seg, tuple[int, ...]] = {}
     paths: dict[int, list[list[float]]] = {}
     for _ in range(ROUTE_PASSES):  # the first pass sees the arrows routed before; the next ones all the others
-        for k, e in enumerate(bad):
+        for n, k in enumerate(bad):
             used: dict[tuple[int, float], list[tuple[float, float]]] = {}  # runs of the others: (0, y)|(1, x) -> spans
-            routed: list[tuple[float, float, float, float]] = []
+            routed: list[Seg] = []
             for o, path in paths.items():
                 if o == k:
                     continue
@@ -703,12 +719,13 @@ def _reroute(level: LevelLayout) -> None:
                     elif a[0] == b[0]:
                         used.setdefault((1, a[0]), []).append((min(a[1], b[1]), max(a[1], b[1])))
                     routed.append((a[0], a[1], b[0], b[1]))
-            found = _grid_path(boxes, index[id(e.src)], index[id(e.dst)], used, k, (kept, routed, crossings, hits))
+            found = _grid_path(list(boxes), arrows[k][0], arrows[k][1], used, n, (kept, routed, crossings, hits))
             if found is not None:
-                paths[k] = e.points = found
+                paths[k] = found
+    return tuple(tuple((p[0], p[1]) for p in paths[k]) if k in paths else None for k in range(len(arrows)))
 
 
-def _segment_hits(a: list[float], b: list[float], r: tuple[float, float, float, float], shrink: float) -> bool:
+def _segment_hits(a: Sequence[float], b: Sequence[float], r: tuple[float, float, float, float], shrink: float) -> bool:
     """Whether the segment ``a``-``b`` passes through the inside of ``r`` shrunk by ``shrink`` (Liang-Barsky)."""
     x, y, w, h = r[0] + shrink, r[1] + shrink, r[2] - 2 * shrink, r[3] - 2 * shrink
     if w <= 0 or h <= 0:

@@ -8,9 +8,11 @@ A composite box holds *parts*: the one sub-machine of an ``FSMState``, or one co
 regions of a ``Parallel`` state, as frames set in from the box's border (``Expansion.inset``) that keep where
 the diagram had them (the state's ``layout.frames``). The drawing passes an ``expand`` hook that also
 opens includes (see :class:`Expansion`), and ``drawing=True``, which makes room for such content in a stored
-layout by moving what lies right of and below the grown box (the diagram's arrangement is kept), and bends
-parallel arrows apart. With a ``note_size`` hook, a machine level gets a note box (its machine's own keys)
-right of its content, or where its ``layout.note`` puts it.
+layout by moving what lies right of and below the grown box (only as far as needed: see
+:func:`_insert_space`), bends parallel arrows apart, and routes arrows that run through a box around it
+(:func:`_reroute`). The UMLet writer never passes ``drawing``: what it writes keeps the diagram's geometry.
+With a ``note_size`` hook, a machine level gets a note box (its machine's own keys) right of its content, or
+where its ``layout.note`` puts it.
 """
 
 from __future__ import annotations

@@ -82,6 +82,15 @@ def test_an_arrow_drawn_through_a_box_is_routed_around_it_and_a_clear_one_keeps_
     assert "60,40 60,100 460,100 460,40" in lines
 
 
+def test_an_arrow_between_boxes_that_overlap_is_drawn_as_it_is():
+    doc = _row([[60, 20], [460, 20]])
+    doc["states"][2]["layout"] = {"x": 0, "y": 0, "w": 120, "h": 40}  # c on top of a, b between them
+    doc["states"][1]["layout"] = {"x": 40, "y": 10, "w": 30, "h": 20}
+    doc["transitions"][0]["layout"]["points"] = [[0, 20], [120, 20]]
+    q = measure(graph.svg(doc))
+    assert q.boxes == 3 and q.box_overlaps == 3  # drawn as the diagram has it, without a route
+
+
 def test_the_umlet_placement_keeps_stored_points_even_through_a_box():
     through = [[120, 20], [400, 20]]
     level = lay_out(_row(through), lambda st: [str(st["id"])])  # what the UMLet writer uses (not drawing)

@@ -846,8 +846,10 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
             corners.append(p)
     corners.append(pts[-1])
     # cut at the borders: leave the source where the path first leaves it, enter the target where it last enters
-    first = next(i for i in range(1, len(corners)) if not _inside_box(corners[i], s))
-    last = max(i for i in range(len(corners) - 1) if not _inside_box(corners[i], t))
+    first = next((i for i in range(1, len(corners)) if not _inside_box(corners[i], s)), None)
+    last = max((i for i in range(len(corners) - 1) if not _inside_box(corners[i], t)), default=None)
+    if first is None or last is None or first > last + 1:
+        return None  # the two boxes overlap: no path between their borders
     p0 = _exit_point(s, *corners[first - 1], *corners[first])
     p1 = _exit_point(t, *corners[last + 1], *corners[last])
     path = [p0] + corners[first:last + 1] + [p1]

@@ -25,6 +25,7 @@ from .labels import (
     edge_label,
     final_text,
     fit,
+    short_edge_label,
     state_label,
     text_width,
 )
@@ -66,7 +67,7 @@ def svg(doc: dict[str, Any], base: str | Path | None = None) -> str:
 
     folder = None if base is None else Path(base).parent if Path(base).is_file() else Path(base)
     level = lay_out(doc, lines_of, expand=expander(folder), size=_box_size,
-                    label_width=lambda tr: text_width(edge_label(tr), LABEL_FONT) + 4, drawing=True)
+                    label_width=lambda tr: text_width(short_edge_label(tr), LABEL_FONT) + 4, drawing=True)
     scene = _Scene()
     scene.collect(level, None, ())
     scene.index()
@@ -81,6 +82,9 @@ def svg(doc: dict[str, Any], base: str | Path | None = None) -> str:
     _draw(level, body, "", where)
     for e, (rx, ry, rw, rh), lines in labels:
         body.append(f'<g class="label" data-in={quoteattr(where.get(id(e), ""))}>')
+        full = edge_label(e.doc)
+        if lines != [full]:  # shortened or wrapped: the whole label on hover
+            body.append(f"<title>{escape(full)}</title>")
         body.append(f'<rect class="label" x="{rx:.1f}" y="{ry:.1f}" width="{rw:.1f}" height="{rh:.1f}" fill="white" '
                     'fill-opacity="0.85"/>')
         for i, line in enumerate(lines):
@@ -226,11 +230,14 @@ _ALONG = (0.5, 0.4, 0.6, 0.3, 0.7, 0.2, 0.8, 0.12, 0.88)
 
 
 def _label_shapes(text: str) -> list[tuple[list[str], float, float, float]]:
-    """The ways to write a label: (lines, width, height, how much less good than one line)."""
+    """The ways to write a label: (lines, width, height, how much less good than one line); last, when there is
+    no room for the others, its first word (the event type) and an ellipsis."""
     out = [([text], text_width(text, LABEL_FONT) + 4, LINE_H + 1, 0.0)]
     two = _wrapped(text)
     if two is not None:
         out.append((two, max(text_width(t, LABEL_FONT) for t in two) + 4, 2 * LINE_H + 1, 200.0))
+        short = text.split(" ", 1)[0].rstrip(",") + " …"
+        out.append(([short], text_width(short, LABEL_FONT) + 4, LINE_H + 1, 1000.0))
     return out
 
 
@@ -270,7 +277,7 @@ def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
     placed = _Placed()
     out: list[tuple[Edge, Rect, list[str]]] = []
     for e, container, ancestors in scene.edges:
-        text = edge_label(e.doc)
+        text = short_edge_label(e.doc)
         if not text or len(e.points) < 2:
             continue
         shapes = _label_shapes(text)
@@ -284,31 +291,44 @@ def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
                 nx, ny = -nx, -ny
             anchors.append((px, py, nx, ny))
         own = [(a[0], a[1], b[0], b[1]) for a, b in pairwise(e.points)]
-        best_cost, best_idx = math.inf, -1
-        best_r: Rect | None = None
-        best_lines: list[str] = []
-        for group in _candidates(tuple(worse for *_, worse in shapes)):
-            for base, idx, ring, ti, si, side in group:
-                if base > best_cost or base == best_cost and idx > best_idx:
-                    break  # this place and all after it cost at least as much as the best one
-                px, py, nx, ny = anchors[ti]
-                lines, w, h, _ = shapes[si]
-                sx, sy = nx * side, ny * side
-                d = 0.0 if ring < 0 else 4 + abs(sx) * w / 2 + abs(sy) * h / 2 + ring * (LINE_H + 2) * 0.75
-                cx, cy = px + sx * d, py + sy * d
-                r = (round(cx - w / 2, 1), round(cy - h / 2, 1), w, h)
-                if ring < 0:  # on its own arrow, which costs 600 more: no better than the best one?
-                    low = base + 600
-                    if (low > best_cost or low == best_cost and idx > best_idx) and any(_hits(sg, r) for sg in own):
-                        continue
-                limit = best_cost - base
-                if idx < best_idx:  # as good as the best one would do: it comes first
-                    limit = math.nextafter(limit, math.inf)
-                cost = base + near.cost(r, (px, py), limit)
-                if cost < best_cost or cost == best_cost and idx < best_idx:
-                    best_cost, best_idx, best_r, best_lines = cost, idx, r, lines
-            if best_cost < 1e5:
-                break
+        best: list[Any] = [math.inf, -1, None, []]  # cost, candidate number, place, lines
+
+        def search(shapes: list[tuple[list[str], float, float, float]], groups: tuple[tuple[Candidate, ...], ...],
+                   best: list[Any], near: _Near, anchors: list[tuple[float, float, float, float]],
+                   own: list[tuple[float, float, float, float]]) -> None:
+            for group in groups:
+                for base, idx, ring, ti, si, side in group:
+                    best_cost, best_idx = best[0], best[1]
+                    if base > best_cost or base == best_cost and idx > best_idx:
+                        break  # this place and all after it cost at least as much as the best one
+                    px, py, nx, ny = anchors[ti]
+                    lines, w, h, _ = shapes[si]
+                    sx, sy = nx * side, ny * side
+                    d = 0.0 if ring < 0 else 4 + abs(sx) * w / 2 + abs(sy) * h / 2 + ring * (LINE_H + 2) * 0.75
+                    cx, cy = px + sx * d, py + sy * d
+                    r = (round(cx - w / 2, 1), round(cy - h / 2, 1), w, h)
+                    if ring < 0:  # on its own arrow, which costs 600 more: no better than the best one?
+                        low = base + 600
+                        if (low > best_cost or low == best_cost and idx > best_idx) and \
+                                any(_hits(sg, r) for sg in own):
+                            continue
+                    limit = best_cost - base
+                    if idx < best_idx:  # as good as the best one would do: it comes first
+                        limit = math.nextafter(limit, math.inf)
+                    cost = base + near.cost(r, (px, py), limit)
+                    if cost < best_cost or cost == best_cost and idx < best_idx:
+                        best[:] = [cost, idx, r, lines]
+                if best[0] < 1e5:
+                    break
+
+        search(shapes[:2], _candidates(tuple(worse for *_, worse in shapes[:2])), best, near, anchors, own)
+        if best[0] >= 1e5 and len(shapes) > 2:  # nowhere free: the short form, near its arrow
+            short: list[Any] = [best[0], -1, None, []]
+            search(shapes[2:], _candidates((shapes[2][3],))[:1], short, near, anchors, own)
+            if short[2] is not None and short[0] < best[0]:
+                best = short
+        best_r: Rect | None = best[2]
+        best_lines: list[str] = best[3]
         assert best_r is not None
         placed.add(best_r)
         out.append((e, best_r, best_lines))

@@ -20,6 +20,41 @@ def edge_label(tr: dict[str, Any]) -> str:
     return typ + (" " + ", ".join(params) if params else "")
 
 
+#: The widest an arrow's label is drawn (at ``LABEL_FONT``); a longer one is shortened (:func:`short_edge_label`).
+LABEL_MAX_W = 240.0
+
+
+def short_edge_label(tr: dict[str, Any], max_w: float = LABEL_MAX_W) -> str:
+    """An arrow's label as the drawing writes it: :func:`edge_label` when it is at most ``max_w`` wide, else the
+    event type with as many of its plain (not list or object) parameters as fit, in order, and an ellipsis; a
+    UML label or a type too long for that is cut with an ellipsis. The full text goes into the label's hover
+    title."""
+    full = edge_label(tr)
+    if text_width(full, LABEL_FONT) <= max_w:
+        return full
+    if not (isinstance(tr.get("label"), str) and tr["label"]):
+        typ = str(tr.get("type", ""))
+        plain = [f"{k}={v if isinstance(v, str) else json.dumps(v)}" for k, v in tr.items()
+                 if k not in _SKIP and not isinstance(v, (dict, list))]
+        text = typ
+        for i in range(len(plain)):
+            longer = f"{typ} " + ", ".join(plain[:i + 1])
+            if text_width(longer + ", …", LABEL_FONT) > max_w:
+                break
+            text = longer
+        text += ", …" if text != typ else " …"
+        if text_width(text, LABEL_FONT) <= max_w:
+            return text
+    return _cut(full, max_w)
+
+
+def _cut(text: str, max_w: float) -> str:
+    k = len(text)
+    while k > 0 and text_width(text[:k] + "…", LABEL_FONT) > max_w:
+        k -= 1
+    return text[:k].rstrip() + "…"
+
+
 def state_label(st: dict[str, Any]) -> str:
     typ = st.get("type")
     if typ in (None, "Idle", "FSMState") and inline_machine(st) is not None or typ == "Idle":

@@ -8,17 +8,22 @@ A composite box holds *parts*: the one sub-machine of an ``FSMState``, or one co
 regions of a ``Parallel`` state, as frames set in from the box's border (``Expansion.inset``) that keep where
 the diagram had them (the state's ``layout.frames``). The drawing passes an ``expand`` hook that also
 opens includes (see :class:`Expansion`), and ``drawing=True``, which makes room for such content in a stored
-layout by moving what lies right of and below the grown box (the diagram's arrangement is kept), and bends
-parallel arrows apart. With a ``note_size`` hook, a machine level gets a note box (its machine's own keys)
-right of its content, or where its ``layout.note`` puts it.
+layout by moving what lies right of and below the grown box (only as far as needed: see
+:func:`_insert_space`), bends parallel arrows apart, and routes arrows that run through a box around it
+(:func:`_reroute`). The UMLet writer never passes ``drawing``: what it writes keeps the diagram's geometry.
+With a ``note_size`` hook, a machine level gets a note box (its machine's own keys) right of its content, or
+where its ``layout.note`` puts it.
 """
 
 from __future__ import annotations
 
+import functools
+import heapq
 import math
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from itertools import pairwise
 from typing import Any
 
 GRID = 10
@@ -84,6 +89,8 @@ class Node:
     inset: bool = False
     head_override: float | None = None
     placed: bool = False
+    #: Moved less than the rest when a composite grew (drawing only, :func:`_insert_space`).
+    detached: bool = False
     #: The stored box, before room was made for grown composites (where stored arrow ends are attached).
     stored: tuple[float, float, float, float] | None = None
 
@@ -275,7 +282,8 @@ def lay_out(machine: dict[str, Any], label_lines: Any, *, expand: Callable[..., 
         pts = level.marker_points
         first = [pts[0][0] + level.marker[0] - marker[0], pts[0][1] + level.marker[1] - marker[1]]
         last = _attach(pts[-1], level.initial) if level.initial.stored is not None else pts[-1]
-        level.marker_points = [first] + [_spread(p, level.inserted) for p in pts[1:-1]] + [last]
+        middle = [] if level.initial.detached else [_spread(p, level.inserted) for p in pts[1:-1]]
+        level.marker_points = [first] + middle + [last]
     for tr in _items(machine, "transitions"):
         if not isinstance(tr, dict):
             continue
@@ -508,17 +516,49 @@ def _grow(level: LevelLayout, n: Node, w: float, h: float, drawing: bool) -> Non
 
 
 def _insert_space(level: LevelLayout, n: Node, dw: float, dh: float) -> None:
-    """Move every node of ``level`` that lies right of ``n`` by ``dw`` and below it by ``dh`` (so ``n`` can grow
-    without covering them), and remember it for the stored arrow points (:func:`_route`)."""
+    """Make room for ``n`` growing by ``dw`` x ``dh`` (drawing only): every node of ``level`` right of ``n`` moves
+    right by ``dw`` and every node below it moves down by ``dh``, remembered for the stored arrow points (see
+    :func:`_route`); except that a node moves less (only right, only down, or not at all) when it is clear of the
+    grown box and of every other node there, so that growing a composite does not push what stands beside it
+    far away. A node that moved so is ``detached``: its arrows lose their stored bends."""
     right, bottom = n.x + n.w, n.y + n.h
+    grown = (n.x, n.y, n.w + dw, n.h + dh)
+    moves: dict[int, tuple[float, float]] = {}
     for m in level.nodes:
         if m is not n:
-            m.move(dw if m.x >= right - 0.5 else 0, dh if m.y >= bottom - 0.5 else 0)
+            moves[id(m)] = (dw if m.x >= right - 0.5 else 0, dh if m.y >= bottom - 0.5 else 0)
+    clear = GAP_X / 2
+    for m in level.nodes:
+        if m is n or moves[id(m)] == (0, 0):
+            continue
+        mx, my = moves[id(m)]
+        options = sorted({(0.0, 0.0), (mx, 0.0), (0.0, my)} - {(mx, my)}, key=lambda o: (abs(o[0]) + abs(o[1]), o))
+        for ox, oy in options:
+            box = (m.x + ox, m.y + oy, m.w, m.h)
+            if _apart(box, grown, clear) and all(
+                    o is m or o is n or _apart(box, (o.x + moves[id(o)][0], o.y + moves[id(o)][1], o.w, o.h), clear)
+                    for o in level.nodes):
+                moves[id(m)] = (ox, oy)
+                m.detached = True
+                break
+    for m in level.nodes:
+        if m is not n:
+            m.move(*moves[id(m)])
     op = (right, dw, bottom, dh)
     level.inserted.append(op)
     if level.marker is not None:
-        mx, my = _spread(list(level.marker), [op])
-        level.marker = (mx, my)
+        if level.initial is not None and level.initial is not n:
+            dx, dy = moves[id(level.initial)]
+            level.marker = (level.marker[0] + dx, level.marker[1] + dy)
+        else:
+            mx, my = _spread(list(level.marker), [op])
+            level.marker = (mx, my)
+
+
+def _apart(a: tuple[float, float, float, float], b: tuple[float, float, float, float], gap: float) -> bool:
+    """Whether boxes ``a`` and ``b`` are at least ``gap`` apart (in x or in y)."""
+    return (a[0] + a[2] + gap <= b[0] or b[0] + b[2] + gap <= a[0] or a[1] + a[3] + gap <= b[1]
+            or b[1] + b[3] + gap <= a[1])
 
 
 def _spread(p: list[float], ops: list[tuple[float, float, float, float]]) -> list[float]:
@@ -574,8 +614,9 @@ def _route(level: LevelLayout, drawing: bool = False) -> None:
                 and all(_is_point(p) for p in pts) and _stored(e.src) and _stored(e.dst)):
             e.points = [[float(p[0]), float(p[1])] for p in pts]
             if level.inserted:  # room was made for grown composites: the ends stay on their boxes
-                e.points = [_attach(e.points[0], e.src)] + [_spread(p, level.inserted) for p in e.points[1:-1]] \
-                    + [_attach(e.points[-1], e.dst)]
+                middle = [] if e.src.detached or e.dst.detached else \
+                    [_spread(p, level.inserted) for p in e.points[1:-1]]
+                e.points = [_attach(e.points[0], e.src)] + middle + [_attach(e.points[-1], e.dst)]
             continue
         key = (min(id(e.src), id(e.dst)), max(id(e.src), id(e.dst)))
         k = pair_count.get(key, 0)
@@ -594,6 +635,7 @@ def _route(level: LevelLayout, drawing: bool = False) -> None:
             e.points = _connect(a, (e.dst.x, e.dst.y, e.dst.w, e.dst.h), k)
     if drawing:
         _separate_duplicates(level)
+        _reroute(level)
 
 
 def _separate_duplicates(level: LevelLayout) -> None:
@@ -616,6 +658,226 @@ def _separate_duplicates(level: LevelLayout) -> None:
         p, q = e.points[i], e.points[i + 1]
         bend = [round((p[0] + q[0]) / 2 + nx * off), round((p[1] + q[1]) / 2 + ny * off)]
         e.points = e.points[:i + 1] + [bend] + e.points[i + 1:]
+
+
+#: Routing around boxes (drawing only): how far a detour keeps from a box, what a bend costs (in drawing
+#: units of length), and the most boxes a level may have for its arrows to be routed (the grid grows with the
+#: square of it).
+CLEARANCE, BEND, ROUTE_MAX = 12, 60.0, 80
+Seg = tuple[float, float, float, float]
+#: Routing passes: after the first, each routed arrow is routed again with all the others in place.
+ROUTE_PASSES = 2
+#: What crossing another arrow costs a routed arrow, in drawing units of length.
+CROSS = 600.0
+
+
+def _reroute(level: LevelLayout) -> None:
+    """Arrows that run through a box of their level other than their ends get a new path: horizontal and vertical
+    runs along the free channels between the boxes (a shortest path with few bends on the grid of lines
+    ``CLEARANCE`` off every box's sides and through the ends' middles), from the side of the source that faces
+    the way to go to the side of the target it comes from. Stored bends are kept for every arrow that is clear.
+    A machine included several times is routed once (:func:`_routes` remembers the answer)."""
+    if len(level.nodes) > ROUTE_MAX:
+        return
+    index = {id(n): i for i, n in enumerate(level.nodes)}
+    arrows = tuple((index[id(e.src)], index[id(e.dst)], tuple((p[0], p[1]) for p in e.points)) for e in level.edges)
+    boxes = tuple((n.x, n.y, n.w, n.h) for n in level.nodes)
+    marker = tuple((p[0], p[1]) for p in level.marker_points)
+    for e, path in zip(level.edges, _routes(boxes, arrows, marker), strict=True):
+        if path is not None:
+            e.points = [list(p) for p in path]
+
+
+Point = tuple[float, float]
+
+
+@functools.lru_cache(maxsize=64)
+def _routes(boxes: tuple[Seg, ...], arrows: tuple[tuple[int, int, tuple[Point, ...]], ...],
+            marker: tuple[Point, ...]) -> tuple[tuple[Point, ...] | None, ...]:
+    """For each arrow ``(source, target, points)`` among ``boxes``, its new path, or None to keep its own."""
+    bad = []
+    for k, (si, ti, pts) in enumerate(arrows):
+        if si == ti or len(pts) < 2:
+            continue
+        if any(i not in (si, ti) and _segment_hits(a, b, boxes[i], 1.0) for a, b in pairwise(pts)
+               for i in range(len(boxes))):
+            bad.append(k)
+    kept = [(a[0], a[1], b[0], b[1]) for k, (_, _, pts) in enumerate(arrows) if k not in bad
+            for a, b in pairwise(pts)]
+    kept += [(a[0], a[1], b[0], b[1]) for a, b in pairwise(marker)]
+    crossings: dict[Seg, int] = {}
+    hits: dict[Seg, tuple[int, ...]] = {}
+    paths: dict[int, list[list[float]]] = {}
+    for _ in range(ROUTE_PASSES):  # the first pass sees the arrows routed before; the next ones all the others
+        for n, k in enumerate(bad):
+            used: dict[tuple[int, float], list[tuple[float, float]]] = {}  # runs of the others: (0, y)|(1, x) -> spans
+            routed: list[Seg] = []
+            for o, path in paths.items():
+                if o == k:
+                    continue
+                for a, b in pairwise(path):
+                    if a[1] == b[1]:
+                        used.setdefault((0, a[1]), []).append((min(a[0], b[0]), max(a[0], b[0])))
+                    elif a[0] == b[0]:
+                        used.setdefault((1, a[0]), []).append((min(a[1], b[1]), max(a[1], b[1])))
+                    routed.append((a[0], a[1], b[0], b[1]))
+            found = _grid_path(list(boxes), arrows[k][0], arrows[k][1], used, n, (kept, routed, crossings, hits))
+            if found is not None:
+                paths[k] = found
+    return tuple(tuple((p[0], p[1]) for p in paths[k]) if k in paths else None for k in range(len(arrows)))
+
+
+def _segment_hits(a: Sequence[float], b: Sequence[float], r: tuple[float, float, float, float], shrink: float) -> bool:
+    """Whether the segment ``a``-``b`` passes through the inside of ``r`` shrunk by ``shrink`` (Liang-Barsky)."""
+    x, y, w, h = r[0] + shrink, r[1] + shrink, r[2] - 2 * shrink, r[3] - 2 * shrink
+    if w <= 0 or h <= 0:
+        return False
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    lo, hi = 0.0, 1.0
+    for p, q in ((-dx, a[0] - x), (dx, x + w - a[0]), (-dy, a[1] - y), (dy, y + h - a[1])):
+        if p == 0:
+            if q <= 0:
+                return False
+            continue
+        t = q / p
+        if p < 0:
+            lo = max(lo, t)
+        else:
+            hi = min(hi, t)
+        if lo >= hi:
+            return False
+    return True
+
+
+def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
+               used: dict[tuple[int, float], list[tuple[float, float]]], k: int,
+               seen: tuple[list[Seg], list[Seg], dict[Seg, int], dict[Seg, tuple[int, ...]]],
+               ) -> list[list[float]] | None:
+    """The orthogonal path (Dijkstra over (grid point, direction)) from the middle of box ``si`` to the middle of
+    box ``ti`` that passes through no other box, cut at the two boxes' borders; None when there is none. Each
+    crossing of an arrow (``seen``: the level's arrows that keep their path, the arrows routed before, and
+    what is known of each grid run: how many of the first it crosses, which boxes it touches) and each
+    stretch along an arrow routed before (``used``) costs ``CROSS``; the ends are set off by ``k`` (mod 3) so
+    that arrows sharing a box do not share their last run. A* with the Manhattan distance to the goal."""
+    kept, routed, crossings, hits = seen
+    across_h = [(a[1], min(a[0], a[2]), max(a[0], a[2])) for a in routed if a[1] == a[3] and a[0] != a[2]]
+    across_v = [(a[0], min(a[1], a[3]), max(a[1], a[3])) for a in routed if a[0] == a[2] and a[1] != a[3]]
+    c = CLEARANCE
+    s, t = boxes[si], boxes[ti]
+    off = (k % 3 - 1) * 8
+    start = (s[0] + s[2] / 2 + off, s[1] + s[3] / 2 + off)
+    goal = (t[0] + t[2] / 2 + off, t[1] + t[3] / 2 + off)
+    # two lanes beside every side, so that a second arrow along a box need not run on top of the first
+    xs = sorted({v for x, _, w, _ in boxes for v in (x - c, x - 2 * c, x + w + c, x + w + 2 * c)}
+                | {start[0], goal[0]})
+    ys = sorted({v for _, y, _, h in boxes for v in (y - c, y - 2 * c, y + h + c, y + h + 2 * c)}
+                | {start[1], goal[1]})
+
+    def free(a: tuple[float, float], b: tuple[float, float], key: Seg) -> bool:
+        """No box in the way; the ends' own boxes only left (entered) straight from (to) their middle."""
+        lo_x, lo_y, hi_x, hi_y = key
+        inside = hits.get(key)
+        if inside is None:
+            inside = hits[key] = tuple(i for i, r in enumerate(boxes) if lo_x < r[0] + r[2] - 1 and hi_x > r[0] + 1
+                                       and lo_y < r[1] + r[3] - 1 and hi_y > r[1] + 1)
+        if any(i != si and i != ti for i in inside):
+            return False
+        for r, (px, py) in ((s, start), (t, goal)):
+            if lo_x < r[0] + r[2] + c - 1 and hi_x > r[0] - c + 1 and lo_y < r[1] + r[3] + c - 1 \
+                    and hi_y > r[1] - c + 1 and not (lo_x == hi_x == px or lo_y == hi_y == py):
+                return False
+        return True
+
+    xi, yi = {v: i for i, v in enumerate(xs)}, {v: i for i, v in enumerate(ys)}
+    steps = ((1, 0), (-1, 0), (0, 1), (0, -1))
+    origin = (xi[start[0]], yi[start[1]])
+    target = (xi[goal[0]], yi[goal[1]])
+    # one state per grid point (the direction it is reached in rides along): a bend is charged against the
+    # cheapest way in, which is not always the cheapest path with bends counted, but four times less to search
+    best: dict[tuple[int, int], float] = {origin: 0.0}
+    came: dict[tuple[int, int], tuple[int, int] | None] = {origin: None}
+    heap: list[tuple[float, float, int, int, int]] = [(0.0, 0.0, origin[0], origin[1], -1)]
+    gx, gy = goal
+    end: tuple[int, int] | None = None
+    while heap:
+        _, cost, i, j, d = heapq.heappop(heap)
+        if cost > best.get((i, j), math.inf):
+            continue
+        if (i, j) == target:
+            end = (i, j)
+            break
+        a = (xs[i], ys[j])
+        for nd, (di, dj) in enumerate(steps):
+            ni, nj = i + di, j + dj
+            if not (0 <= ni < len(xs) and 0 <= nj < len(ys)):
+                continue
+            b = (xs[ni], ys[nj])
+            key = (min(a[0], b[0]), min(a[1], b[1]), max(a[0], b[0]), max(a[1], b[1]))
+            if not free(a, b, key):
+                continue
+            length = abs(b[0] - a[0]) + abs(b[1] - a[1])
+            crossed = crossings.get(key)
+            if crossed is None:
+                crossed = crossings[key] = sum(_segments_cross(key, seg) for seg in kept)
+            if key[1] == key[3]:  # routed arrows are horizontal and vertical runs: only the crosswise ones cross
+                y = key[1]
+                crossed += sum(1 for x, y0, y1 in across_v if key[0] < x < key[2] and y0 < y < y1)
+            else:
+                x = key[0]
+                crossed += sum(1 for y, x0, x1 in across_h if key[1] < y < key[3] and x0 < x < x1)
+            step = length + CROSS * _shared(used, a, b) + (BEND if nd != d and d >= 0 else 0) + CROSS * crossed
+            new = cost + step
+            if new < best.get((ni, nj), math.inf):
+                best[(ni, nj)] = new
+                came[(ni, nj)] = (i, j)
+                heapq.heappush(heap, (new + abs(b[0] - gx) + abs(b[1] - gy), new, ni, nj, nd))
+    if end is None:
+        return None
+    cells: list[tuple[int, int]] = []
+    cur: tuple[int, int] | None = end
+    while cur is not None:
+        cells.append(cur)
+        cur = came[cur]
+    pts = [(xs[i], ys[j]) for i, j in reversed(cells)]
+    corners = [pts[0]]
+    for p, q in pairwise(pts[1:]):
+        last = corners[-1]
+        if not ((last[0] == p[0] == q[0]) or (last[1] == p[1] == q[1])):
+            corners.append(p)
+    corners.append(pts[-1])
+    # cut at the borders: leave the source where the path first leaves it, enter the target where it last enters
+    first = next((i for i in range(1, len(corners)) if not _inside_box(corners[i], s)), None)
+    last = max((i for i in range(len(corners) - 1) if not _inside_box(corners[i], t)), default=None)
+    if first is None or last is None or first > last + 1:
+        return None  # the two boxes overlap: no path between their borders
+    p0 = _exit_point(s, *corners[first - 1], *corners[first])
+    p1 = _exit_point(t, *corners[last + 1], *corners[last])
+    path = [p0] + corners[first:last + 1] + [p1]
+    return [[round(x), round(y)] for x, y in path]
+
+
+def _shared(used: dict[tuple[int, float], list[tuple[float, float]]], a: tuple[float, float],
+            b: tuple[float, float]) -> int:
+    """How many routed runs the run ``a``-``b`` would lie on (for some length)."""
+    line, lo, hi = ((0, a[1]), a[0], b[0]) if a[1] == b[1] else ((1, a[0]), a[1], b[1])
+    lo, hi = min(lo, hi), max(lo, hi)
+    return sum(1 for s0, s1 in used.get(line, ()) if min(hi, s1) - max(lo, s0) > 1)
+
+
+def _segments_cross(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
+    """Whether two segments cross (touching ends do not count)."""
+    if max(a[0], a[2]) < min(b[0], b[2]) or max(b[0], b[2]) < min(a[0], a[2]) \
+            or max(a[1], a[3]) < min(b[1], b[3]) or max(b[1], b[3]) < min(a[1], a[3]):
+        return False
+    def orient(px: float, py: float, qx: float, qy: float, rx: float, ry: float) -> float:
+        return (qx - px) * (ry - py) - (qy - py) * (rx - px)
+
+    return (orient(b[0], b[1], b[2], b[3], a[0], a[1]) * orient(b[0], b[1], b[2], b[3], a[2], a[3]) < 0
+            and orient(a[0], a[1], a[2], a[3], b[0], b[1]) * orient(a[0], a[1], a[2], a[3], b[2], b[3]) < 0)
+
+
+def _inside_box(p: tuple[float, float], r: tuple[float, float, float, float]) -> bool:
+    return r[0] < p[0] < r[0] + r[2] and r[1] < p[1] < r[1] + r[3]
 
 
 def _stored(n: Node) -> bool:

@@ -3,8 +3,8 @@
 Holds the layered layout (:mod:`~fsm.tools.graph.layout`, also used by the UMLet writer to place boxes),
 labels and text measurement (:mod:`~fsm.tools.graph.labels`), the text formats
 (:mod:`~fsm.tools.graph.text`), include expansion (:mod:`~fsm.tools.graph.includes`), the SVG renderer
-(:mod:`~fsm.tools.graph.drawing`) and what overlaps in its drawings (:mod:`~fsm.tools.graph.quality`). May
-import the ``fsm`` core; never the CLI, UMLet or the car.
+(:mod:`~fsm.tools.graph.drawing`), what overlaps in its drawings (:mod:`~fsm.tools.graph.quality`) and the plane
+geometry these share (:mod:`~fsm.tools.graph.geometry`). May import the ``fsm`` core; never the CLI, UMLet or the car.
 """
 
 from __future__ import annotations

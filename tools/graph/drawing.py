@@ -15,6 +15,7 @@ from typing import Any
 from xml.sax.saxutils import escape, quoteattr
 
 from .buckets import Buckets
+from .geometry import segment_hits_box, segments_cross
 from .includes import expander
 from .labels import (
     BOX_MARGIN,
@@ -171,38 +172,6 @@ def _area(a: Rect, b: Rect) -> float:
     return w * h if w > 0 and h > 0 else 0.0
 
 
-def _hits(seg: tuple[float, float, float, float], r: Rect) -> bool:
-    """Whether the segment passes through the inside of ``r`` (Liang-Barsky clipping)."""
-    x0, y0, x1, y1 = seg
-    dx, dy = x1 - x0, y1 - y0
-    lo, hi = 0.0, 1.0
-    for p, q in ((-dx, x0 - r[0]), (dx, r[0] + r[2] - x0), (-dy, y0 - r[1]), (dy, r[1] + r[3] - y0)):
-        if p == 0:
-            if q <= 0:
-                return False
-            continue
-        t = q / p
-        if p < 0:
-            lo = max(lo, t)
-        else:
-            hi = min(hi, t)
-        if lo >= hi:
-            return False
-    return True
-
-
-def _crosses(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
-    """Whether two segments cross (touching ends do not count)."""
-    def orient(px: float, py: float, qx: float, qy: float, rx: float, ry: float) -> float:
-        return (qx - px) * (ry - py) - (qy - py) * (rx - px)
-
-    d1 = orient(b[0], b[1], b[2], b[3], a[0], a[1])
-    d2 = orient(b[0], b[1], b[2], b[3], a[2], a[3])
-    d3 = orient(a[0], a[1], a[2], a[3], b[0], b[1])
-    d4 = orient(a[0], a[1], a[2], a[3], b[2], b[3])
-    return d1 * d2 < 0 and d3 * d4 < 0
-
-
 def _point_at(pts: list[list[float]], s: float) -> tuple[float, float, float, float]:
     """The point at arc length ``s`` along ``pts`` and the unit direction there."""
     last = len(pts) - 2
@@ -310,7 +279,7 @@ def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
                     if ring < 0:  # on its own arrow, which costs 600 more: no better than the best one?
                         low = base + 600
                         if (low > best_cost or low == best_cost and idx > best_idx) and \
-                                any(_hits(sg, r) for sg in own):
+                                any(segment_hits_box(*sg, r) for sg in own):
                             continue
                     limit = best_cost - base
                     if idx < best_idx:  # as good as the best one would do: it comes first
@@ -412,9 +381,9 @@ class _Near:
         owner = self.owner
         for j in range(k, len(found)):
             seg, of, sx0, sy0, sx1, sy1 = segments[found[j] - n_obstacles]
-            if not (sx1 < rx or sx0 > rx1 or sy1 < ry or sy0 > ry1) and _hits(seg, r):
+            if not (sx1 < rx or sx0 > rx1 or sy1 < ry or sy0 > ry1) and segment_hits_box(*seg, r):
                 cost += 600 if of == owner else 3000
-            elif of != owner and not (sx1 < lx0 or sx0 > lx1 or sy1 < ly0 or sy0 > ly1) and _crosses(leader, seg):
+            elif of != owner and not (sx1 < lx0 or sx0 > lx1 or sy1 < ly0 or sy0 > ly1) and segments_cross(leader, seg):
                 cost += 3000  # another arrow runs between this label and its arrow
             if cost >= limit:
                 break

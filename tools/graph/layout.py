@@ -21,10 +21,12 @@ import functools
 import heapq
 import math
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from itertools import pairwise
 from typing import Any
+
+from .geometry import segment_hits_box, segments_cross
 
 GRID = 10
 GAP_X, GAP_Y = 80, 80
@@ -699,7 +701,7 @@ def _routes(boxes: tuple[Seg, ...], arrows: tuple[tuple[int, int, tuple[Point, .
     for k, (si, ti, pts) in enumerate(arrows):
         if si == ti or len(pts) < 2:
             continue
-        if any(i not in (si, ti) and _segment_hits(a, b, boxes[i], 1.0) for a, b in pairwise(pts)
+        if any(i not in (si, ti) and segment_hits_box(a[0], a[1], b[0], b[1], boxes[i], 1.0) for a, b in pairwise(pts)
                for i in range(len(boxes))):
             bad.append(k)
     kept = [(a[0], a[1], b[0], b[1]) for k, (_, _, pts) in enumerate(arrows) if k not in bad
@@ -725,28 +727,6 @@ def _routes(boxes: tuple[Seg, ...], arrows: tuple[tuple[int, int, tuple[Point, .
             if found is not None:
                 paths[k] = found
     return tuple(tuple((p[0], p[1]) for p in paths[k]) if k in paths else None for k in range(len(arrows)))
-
-
-def _segment_hits(a: Sequence[float], b: Sequence[float], r: tuple[float, float, float, float], shrink: float) -> bool:
-    """Whether the segment ``a``-``b`` passes through the inside of ``r`` shrunk by ``shrink`` (Liang-Barsky)."""
-    x, y, w, h = r[0] + shrink, r[1] + shrink, r[2] - 2 * shrink, r[3] - 2 * shrink
-    if w <= 0 or h <= 0:
-        return False
-    dx, dy = b[0] - a[0], b[1] - a[1]
-    lo, hi = 0.0, 1.0
-    for p, q in ((-dx, a[0] - x), (dx, x + w - a[0]), (-dy, a[1] - y), (dy, y + h - a[1])):
-        if p == 0:
-            if q <= 0:
-                return False
-            continue
-        t = q / p
-        if p < 0:
-            lo = max(lo, t)
-        else:
-            hi = min(hi, t)
-        if lo >= hi:
-            return False
-    return True
 
 
 def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
@@ -818,7 +798,7 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
             length = abs(b[0] - a[0]) + abs(b[1] - a[1])
             crossed = crossings.get(key)
             if crossed is None:
-                crossed = crossings[key] = sum(_segments_cross(key, seg) for seg in kept)
+                crossed = crossings[key] = sum(segments_cross(key, seg) for seg in kept)
             if key[1] == key[3]:  # routed arrows are horizontal and vertical runs: only the crosswise ones cross
                 y = key[1]
                 crossed += sum(1 for x, y0, y1 in across_v if key[0] < x < key[2] and y0 < y < y1)
@@ -862,18 +842,6 @@ def _shared(used: dict[tuple[int, float], list[tuple[float, float]]], a: tuple[f
     line, lo, hi = ((0, a[1]), a[0], b[0]) if a[1] == b[1] else ((1, a[0]), a[1], b[1])
     lo, hi = min(lo, hi), max(lo, hi)
     return sum(1 for s0, s1 in used.get(line, ()) if min(hi, s1) - max(lo, s0) > 1)
-
-
-def _segments_cross(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
-    """Whether two segments cross (touching ends do not count)."""
-    if max(a[0], a[2]) < min(b[0], b[2]) or max(b[0], b[2]) < min(a[0], a[2]) \
-            or max(a[1], a[3]) < min(b[1], b[3]) or max(b[1], b[3]) < min(a[1], a[3]):
-        return False
-    def orient(px: float, py: float, qx: float, qy: float, rx: float, ry: float) -> float:
-        return (qx - px) * (ry - py) - (qy - py) * (rx - px)
-
-    return (orient(b[0], b[1], b[2], b[3], a[0], a[1]) * orient(b[0], b[1], b[2], b[3], a[2], a[3]) < 0
-            and orient(a[0], a[1], a[2], a[3], b[0], b[1]) * orient(a[0], a[1], a[2], a[3], b[2], b[3]) < 0)
 
 
 def _inside_box(p: tuple[float, float], r: tuple[float, float, float, float]) -> bool:

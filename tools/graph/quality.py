@@ -20,6 +20,7 @@ from itertools import pairwise
 from xml.etree import ElementTree
 
 from .buckets import Buckets
+from .geometry import segment_hits_box, segments_cross
 
 NS = "{http://www.w3.org/2000/svg}"
 Rect = tuple[float, float, float, float]
@@ -74,42 +75,8 @@ def _overlap(a: Rect, b: Rect, tol: float = TOLERANCE) -> bool:
     return w > tol and h > tol
 
 
-def _through(seg: tuple[float, float, float, float], r: Rect) -> bool:
-    """Whether the segment passes through ``r`` shrunk by the tolerance (Liang-Barsky)."""
-    x, y, w, h = r[0] + TOLERANCE, r[1] + TOLERANCE, r[2] - 2 * TOLERANCE, r[3] - 2 * TOLERANCE
-    if w <= 0 or h <= 0:
-        return False
-    x0, y0, x1, y1 = seg
-    dx, dy = x1 - x0, y1 - y0
-    lo, hi = 0.0, 1.0
-    for p, q in ((-dx, x0 - x), (dx, x + w - x0), (-dy, y0 - y), (dy, y + h - y0)):
-        if p == 0:
-            if q <= 0:
-                return False
-            continue
-        t = q / p
-        if p < 0:
-            lo = max(lo, t)
-        else:
-            hi = min(hi, t)
-        if lo >= hi:
-            return False
-    return True
-
-
 def _touches(p: tuple[float, float], r: Rect, tol: float = 4.0) -> bool:
     return r[0] - tol <= p[0] <= r[0] + r[2] + tol and r[1] - tol <= p[1] <= r[1] + r[3] + tol
-
-
-def _cross(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
-    def orient(px: float, py: float, qx: float, qy: float, rx: float, ry: float) -> float:
-        return (qx - px) * (ry - py) - (qy - py) * (rx - px)
-
-    d1 = orient(b[0], b[1], b[2], b[3], a[0], a[1])
-    d2 = orient(b[0], b[1], b[2], b[3], a[2], a[3])
-    d3 = orient(a[0], a[1], a[2], a[3], b[0], b[1])
-    d4 = orient(a[0], a[1], a[2], a[3], b[2], b[3])
-    return d1 * d2 < 0 and d3 * d4 < 0
 
 
 def _along(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
@@ -186,13 +153,13 @@ def measure(svg_text: str) -> Quality:
                 b = boxes[j]
                 if j in hit or b.path in ends or (within and _inside(within, b.path)):
                     continue
-                if _through(seg, b.rect):
+                if segment_hits_box(*seg, b.rect, TOLERANCE):
                     hit.add(j)
         q.edge_through_box += len(hit)
     for i, (k, seg) in enumerate(all_segs):
         for j in segs.near(min(seg[0], seg[2]), min(seg[1], seg[3]), max(seg[0], seg[2]), max(seg[1], seg[3])):
             k2, seg2 = all_segs[j]
-            if j > i and k2 != k and _cross(seg, seg2):
+            if j > i and k2 != k and segments_cross(seg, seg2):
                 q.crossings += 1
             elif j > i and k2 != k and _along(seg, seg2):
                 q.along += 1

@@ -1,11 +1,10 @@
 """How legible the SVG drawings are (issue 24, item 7): overlaps and crossings counted on each picture.
 
-For every diagram in ``diagrams/`` (the ``.uxf`` where there is one, else the ``.json``) and every real UMLet
-file of ``../shared/corpus/uxf/`` (``$TRAL_UXF_CORPUS``) that converts, draws it with ``fsmctl graph --format
-svg`` and counts what :mod:`fsm.tools.graph.quality` counts: box/box overlaps, arrows through boxes (not their
-ends nor a composite they are drawn in), labels over boxes, labels over labels, arrow crossings, arrows
-running on top of each other. Prints a
-Markdown table and the totals.
+For every diagram in ``diagrams/`` (the ``.uxf`` where there is one, else the ``.json``) and every file of the
+real UMLet corpus that converts (found where ``tests/helpers.py`` finds it, or in ``$TRAL_UXF_CORPUS``), draws it
+with ``fsmctl graph --format svg`` and counts what :mod:`fsm.tools.graph.quality` counts: box/box overlaps, arrows
+through boxes (not their ends nor a composite they are drawn in), labels over boxes, labels over labels, arrow
+crossings, arrows running on top of each other. Prints a Markdown table and the totals.
 
 Run: ``.venv/bin/python benchmarks/bench_drawing.py`` (``--fsmctl PATH``: draw with another checkout's
 ``fsmctl``, e.g. to measure before a change; the counting is always this checkout's).

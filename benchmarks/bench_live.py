@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import shutil
 import statistics
 import sys
@@ -141,6 +142,35 @@ class LiveRun:
         self.thread.join(10)
 
 
+def browser_cpu() -> float:
+    """Processor seconds used so far by the Chromium processes this benchmark started (its descendants on Linux;
+    0 where /proc is missing): what the page costs the machine, however busy it is."""
+    proc = Path("/proc")
+    if not proc.is_dir():
+        return 0.0
+    parents: dict[int, int] = {}
+    stats: dict[int, tuple[str, float]] = {}
+    tick = os.sysconf("SC_CLK_TCK")
+    for entry in proc.iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            text = (entry / "stat").read_text()
+        except OSError:
+            continue
+        name, rest = text[text.index("(") + 1:text.rindex(")")], text[text.rindex(")") + 2:].split()
+        parents[int(entry.name)] = int(rest[1])
+        stats[int(entry.name)] = (name, (int(rest[11]) + int(rest[12])) / tick)
+    me, total = os.getpid(), 0.0
+    for pid, (name, cpu) in stats.items():
+        up, seen = pid, 0
+        while up in parents and up != me and seen < 64:
+            up, seen = parents[up], seen + 1
+        if up == me and "chrom" in name.lower():
+            total += cpu
+    return total
+
+
 def step_latency(page: Any, steps: int) -> list[float]:
     """Milliseconds from a click on "Step 1" to the page showing the next tick, ``steps`` times."""
     out = []
@@ -206,7 +236,10 @@ def main() -> int:
                     live.controller.send("step", {"n": 8000 - live.controller.session.ticks})
                     wait_drawn(page, "window.tralLive.status().tick === 8000 && document.body.dataset.tick === '8000'")
                     results["step_ms_tick8000"] = step_latency(page, args.steps)
+                b0, t0 = browser_cpu(), live.controller.session.ticks
                 results["live_one_page"].append(live.run())
+                results.setdefault("browser_ms_per_1000_ticks", []).append(
+                    (browser_cpu() - b0) * 1e6 / max(1, live.controller.session.ticks - t0))
             finally:
                 page.close()
                 live.close()
@@ -235,6 +268,10 @@ def main() -> int:
           f"over {len(rw)}")
     if results["live_one_page"]:
         row("live, one Chromium page", results["live_one_page"])
+        bc = results["browser_ms_per_1000_ticks"]
+        print(f"\nChromium's processor time while the page follows the run: median {statistics.median(bc):.0f} ms, "
+              f"least {min(bc):.0f} ms per 1,000 ticks (the run itself: {min(c for _, c in base):.0f} ms per 1,000 "
+              "ticks at its best)")
         for key, where in (("step_ms_tick0", "at tick 0"), ("step_ms_tick8000", "at tick 8,000 (half the lap shown)")):
             lat = sorted(results[key])
             p90 = lat[min(len(lat) - 1, int(0.9 * len(lat)))]

@@ -15,9 +15,9 @@
     drawing = true;
     // while the run runs, at most about 30 redraws a second (fewer when a redraw is slow); paused (a step, a
     // breakpoint), at once: the page answers a click
-    // (as fast as possible: at most 10 a second, a page that redraws more takes the run's processor)
+    // (as fast as possible: at most 2 a second, the server sends 5: a page that redraws more takes the run's processor)
     var running = !status || status.state === "running", fastest = !!status && status.speed === null;
-    var wait = running ? Math.max(0, Math.max(fastest ? 100 : 33, (fastest ? 5 : 3) * cost) - (performance.now() - lastDraw)) : 0;
+    var wait = running ? Math.max(0, Math.max(fastest ? 500 : 33, (fastest ? 10 : 3) * cost) - (performance.now() - lastDraw)) : 0;
     setTimeout(function () { requestAnimationFrame(draw); }, wait);
   }
   function draw() {

@@ -22,7 +22,8 @@
   }
   function draw() {
     drawing = false;
-    if (!statusShown) { statusShown = true; showStatus(); }  // the latest status only: a fast run sends 30 a second
+    // the latest status only (a fast run sends many); none after a reset until the rewound run's comes
+    if (!statusShown) { statusShown = true; if (status) showStatus(); }
     if (!dirty) return;
     dirty = false;
     var t0 = performance.now(), dt = R.dt || 0.0125;
@@ -64,7 +65,7 @@
       }
       var m = JSON.parse(ev.data);
       if (m.kind === "hello") { live = m.live; if (!live) { setControls(false); $("live-bar").classList.add("static"); } }
-      else if (m.kind === "reset") { model.reset(); status = null; followEnd = null; dirty = true; }
+      else if (m.kind === "reset") { model.reset(); status = null; statusShown = true; followEnd = null; dirty = true; }
       else if (m.kind === "status") {  // redrawn when the run moved on or changed state, not for a breakpoint's count
         if (!status || m.tick !== status.tick || m.state !== status.state) dirty = true;
         status = m; raise(m); statusShown = false; schedule();

@@ -485,18 +485,18 @@
       c.fillStyle = "#07a";
       D.map.markers.forEach(function (m) { c.fillRect(X(m.p[0]) - 3, Y(m.p[1]) - 3, 6, 6); label("#" + m.id, X(m.p[0]) + 4, Y(m.p[1]) - 4); });
     }
-    if (hasTrack) {  // the trajectory, coloured by the active leaf at each sample
-      c.lineWidth = 2.5;
-      var xs = Sm["car.x"], ys = Sm["car.y"], ts = Sm.t, prev = null, prevState = null;
+    if (hasTrack) {  // the trajectory, coloured by the active leaf at each sample: one path per run of a colour
+      c.lineWidth = 2.5; c.lineJoin = "round";
+      var xs = Sm["car.x"], ys = Sm["car.y"], ts = Sm.t, open = false, inkNow = null;
       for (var i = 0; i < ts.length; i++) {
-        if (xs[i] === null) { prev = null; continue; }
-        var st = stateAt(tickAt(ts[i])).active, leaf = st.length ? st[0] : -1;
-        if (prev) {
-          c.strokeStyle = leaf >= 0 ? colour(leaf) : "#888";
-          c.beginPath(); c.moveTo(X(prev[0]), Y(prev[1])); c.lineTo(X(xs[i]), Y(ys[i])); c.stroke();
-        }
-        prev = [xs[i], ys[i]]; prevState = leaf;
+        if (xs[i] === null) { if (open) c.stroke(); open = false; continue; }
+        var st = stateAt(tickAt(ts[i])).active, ink = st.length ? colour(st[0]) : "#888";
+        if (open && ink !== inkNow) { c.stroke(); open = false; }  // the next path starts where this one ended
+        if (!open && i > 0 && xs[i - 1] !== null) { c.beginPath(); c.moveTo(X(xs[i - 1]), Y(ys[i - 1])); open = true; }
+        if (open) c.lineTo(X(xs[i]), Y(ys[i]));
+        inkNow = ink; c.strokeStyle = ink;
       }
+      if (open) c.stroke();
     }
   }
   function sampleIndex(t) { return Sm ? Math.max(0, upper(Sm.t, t + 1e-9) - 1) : -1; }

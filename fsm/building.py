@@ -66,7 +66,10 @@ class _Builder:
             if not sp.regular and not sp.preempt:
                 continue
             source = states[sp.id]
-            source.regular = tuple([transition(tp, states) for tp in sp.regular])
+            regular = sp.regular
+            # one transition out of a state is the usual case: built without a comprehension's frame
+            source.regular = (transition(regular[0], states),) if len(regular) == 1 else \
+                tuple([transition(tp, states) for tp in regular])
             if sp.preempt:
                 source.preempt = tuple([transition(tp, states) for tp in sp.preempt])
                 source.transitions = sorted(source.preempt + source.regular, key=_position)
@@ -85,9 +88,10 @@ class _Builder:
             regions = [self.region(rp, obj) for rp in plan.regions]
             assert isinstance(obj, Composite)  # only composites have regions
             obj.attach_regions(regions, plan)
-        obj.entry_action = plan.on_enter
-        obj.exit_action = plan.on_exit
-        obj.complete_action = plan.on_complete
+        if plan.on_enter is not None or plan.on_exit is not None or plan.on_complete is not None:
+            obj.entry_action = plan.on_enter
+            obj.exit_action = plan.on_exit
+            obj.complete_action = plan.on_complete
         if plan.checks:
             resets: list[Condition[Any]] = []
             checks = {}

@@ -99,17 +99,16 @@ def check_level(spec: MachineSpec, problems: Problems) -> None:
     its other errors reported in the same run.
     """
     src, base, add = spec.source, spec.pointer, problems.add
-    first_at: dict[str, str] = {}
+    first_at: dict[str, int] = {}  # id -> index of the first state element that has it
     for i, raw in enumerate(spec.raw_states):
         sid = raw.get("id") if isinstance(raw, dict) else None
         if not isinstance(sid, str):
             continue
-        ptr = f"{base}/states/{i}"
         if sid in first_at:
-            add(f"duplicate id '{sid}' (first used at {first_at[sid]})", src, ptr + "/id", element=f"state '{sid}'",
-                hint="ids must be unique within one machine level")
+            add(f"duplicate id '{sid}' (first used at {base}/states/{first_at[sid]})", src, f"{base}/states/{i}/id",
+                element=f"state '{sid}'", hint="ids must be unique within one machine level")
         else:
-            first_at[sid] = ptr
+            first_at[sid] = i
     by_id: dict[str, StateSpec] = {}
     for st in spec.states:
         by_id.setdefault(st.id, st)
@@ -119,6 +118,9 @@ def check_level(spec: MachineSpec, problems: Problems) -> None:
     for i, raw in enumerate(spec.raw_transitions):
         if not isinstance(raw, dict):
             continue
+        ends = raw.get("from"), raw.get("to")
+        if type(ends[0]) is str and type(ends[1]) is str and ends[0] in first_at and ends[1] in first_at:
+            continue  # both ends known (the usual case, answered without the loop below)
         for key in ("from", "to"):
             ref = raw.get(key)
             if isinstance(ref, str) and ref and ref not in first_at:

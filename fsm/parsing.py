@@ -223,7 +223,9 @@ class Parser:
             return None
         cls, params = parsed
         spec = StateSpec(params.id, cls, params, ptr, source)
-        self._step_conditions(spec)
+        if params.precondition is not None or params.until is not None or params.monitors is not None \
+                or cls.condition_fields:
+            self._step_conditions(spec)
         if cls.is_composite:
             cls.parse_regions(self, spec, depth)
         return spec

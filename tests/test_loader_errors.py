@@ -8,6 +8,7 @@ the loader points anywhere but at the real place.
 
 from __future__ import annotations
 
+import gc
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -591,3 +592,22 @@ def test_a_types_own_validator_speaks_for_itself(tmp_path: Path) -> None:
     [p] = [p for p in problems if p.severity == "error"]
     assert p.pointer == "/states/0" and p.message == "high (15.0) must not be below low (20.0)", p.message
     assert "state 'a'" in str(p)
+
+
+# -- the cycle collector, paused while loading ------------------------------------------------------------
+def test_load_resumes_the_cycle_collector_after_a_load_and_after_a_refused_one() -> None:
+    assert gc.isenabled()
+    fsm.load({"initial": "a", "states": [{"id": "a", "type": "Idle"}]})
+    assert gc.isenabled()
+    with pytest.raises(DiagramError):
+        fsm.load({"initial": "a", "states": [{"id": "a", "type": "NoSuchType"}]})
+    assert gc.isenabled()
+
+
+def test_load_leaves_a_cycle_collector_that_was_off_off() -> None:
+    gc.disable()
+    try:
+        fsm.load({"initial": "a", "states": [{"id": "a", "type": "Idle"}]})
+        assert not gc.isenabled()
+    finally:
+        gc.enable()

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import gc
 import os
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
@@ -88,21 +89,32 @@ def load(src: Any, *, registry: Registry | None = None, plugins: tuple[str, ...]
         return build(plan, clock=clock, car=car, context=context)
 
 
+#: Loads in progress (in any thread) and whether the collector was on before the first of them.
+_PAUSE_LOCK = threading.Lock()
+_PAUSES = {"loads": 0, "was_on": False}
+
+
 @contextmanager
 def collection_paused() -> Iterator[None]:
     """Python's cycle collector paused while a machine loads, resumed afterwards (unless it was off already).
 
     A load makes tens of thousands of objects that all live on (specs, parameters, the plan, the machine): the
     collector, run every few hundred new objects, would walk them again and again, about a tenth of the load.
-    Nothing of a load is cyclic garbage; the collector's next run after the load sees them all once."""
-    if not gc.isenabled():
-        yield
-        return
-    gc.disable()
+    Nothing of a load is cyclic garbage; the collector's next run after the load sees them all once. The collector
+    is one per process: loads in several threads (a live run's reload beside a user's own) share one pause, and
+    the last to finish resumes it."""
+    with _PAUSE_LOCK:
+        if _PAUSES["loads"] == 0:
+            _PAUSES["was_on"] = gc.isenabled()
+            gc.disable()
+        _PAUSES["loads"] += 1
     try:
         yield
     finally:
-        gc.enable()
+        with _PAUSE_LOCK:
+            _PAUSES["loads"] -= 1
+            if _PAUSES["loads"] == 0 and _PAUSES["was_on"]:
+                gc.enable()
 
 
 def _plugins(plugins: Any) -> tuple[str, ...]:

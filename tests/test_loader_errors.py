@@ -611,3 +611,34 @@ def test_load_leaves_a_cycle_collector_that_was_off_off() -> None:
         assert not gc.isenabled()
     finally:
         gc.enable()
+
+
+def test_loads_that_overlap_in_two_threads_leave_the_collector_on() -> None:
+    """The collector is one per process: the first of two overlapping loads pauses it, and it stays paused until
+    the last of them ends, then it is on again."""
+    import threading
+
+    from fsm.loader import collection_paused
+
+    first_in, second_in, first_out = threading.Event(), threading.Event(), threading.Event()
+    seen: list[bool] = []
+
+    def first() -> None:
+        with collection_paused():
+            first_in.set()
+            second_in.wait(10)
+        first_out.set()
+
+    def second() -> None:
+        first_in.wait(10)
+        with collection_paused():
+            second_in.set()
+            first_out.wait(10)
+            seen.append(gc.isenabled())  # the first ended, this one still loads
+
+    threads = [threading.Thread(target=first), threading.Thread(target=second)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(10)
+    assert seen == [False] and gc.isenabled()

@@ -165,6 +165,8 @@ class LiveServer:
         self._numbers += 1
         client = _Client(ws, self._numbers)
         self.clients[client.number] = client
+        if self._wake is not None:
+            self._wake.set()  # the pump looks at the run at its page rate again
         sender = asyncio.create_task(self._send_loop(client))
         try:
             async for msg in ws:
@@ -224,7 +226,8 @@ class LiveServer:
         assert self._wake is not None
         while not self._closing:
             try:
-                await asyncio.wait_for(self._wake.wait(), 1 / MAX_RATE)
+                # no page: once a second (what the run said meanwhile is for nobody), not MAX_RATE times
+                await asyncio.wait_for(self._wake.wait(), 1 / MAX_RATE if self.clients else 1.0)
             except asyncio.TimeoutError:
                 pass
             self._wake.clear()

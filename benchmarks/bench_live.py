@@ -198,13 +198,63 @@ def wait_drawn(page: Any, script: str, seconds: float = 30) -> None:
         time.sleep(0.05)
 
 
+def count_instructions() -> int:
+    """The lap's instructions, plain and under the controller with the server up and no page: each counted in a
+    fresh process under callgrind with and without the run (``--probe MODE 0|1``), so that start-up, imports and
+    the setup cancel out (``PYTHONHASHSEED=0``: string hashes move counts by about 1 % otherwise). The server's
+    loop wakes on the wall clock, which valgrind slows about 50 times: its share is overcounted, not hidden."""
+    import os
+    import re
+    import subprocess
+
+    if shutil.which("valgrind") is None:
+        raise SystemExit("--instructions needs valgrind (apt install valgrind)")
+    env = dict(os.environ, PYTHONHASHSEED="0")
+
+    def count(mode: str, n: int) -> int:
+        done = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null", sys.executable,
+                               __file__, "--probe", mode, str(n)], env=env, capture_output=True, text=True,
+                              cwd=str(ROOT), timeout=3600)
+        found = re.search(r"Collected\s*:\s*(\d+)", done.stderr)
+        if done.returncode != 0 or found is None:
+            raise SystemExit(f"{mode} {n} failed:\n{done.stderr[-2000:]}")
+        return int(found.group(1))
+
+    runs = {mode: count(mode, 1) - count(mode, 0) for mode in ("plain", "live")}
+    print("| run of the hallway lap (16,176 ticks) | instructions | per tick |")
+    print("|---|---:|---:|")
+    for mode, label in (("plain", "plain (session.run)"), ("live", "live, no page")):
+        print(f"| {label} | {runs[mode] / 1e6:,.0f}M | {runs[mode] / 16176:,.0f} |")
+    print(f"\nunder the controller with the server up and no page: {runs['live'] / runs['plain'] - 1:+.1%} "
+          "instructions (target: at most 5 % slower)")
+    return 0
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--steps", type=int, default=30)
     ap.add_argument("--no-browser", action="store_true")
     ap.add_argument("--json", metavar="FILE")
+    ap.add_argument("--instructions", action="store_true",
+                    help="count instructions with valgrind instead (plain against live with no page): the same "
+                         "figures however busy the machine is; a few minutes")
+    ap.add_argument("--probe", nargs=2, metavar=("MODE", "N"), help=argparse.SUPPRESS)  # one counted process
     args = ap.parse_args()
+    if args.probe:
+        mode, n = args.probe[0], int(args.probe[1])
+        if mode == "plain":
+            session, _ = make_session()
+            if n:
+                session.run()
+        else:
+            live = LiveRun()
+            if n:
+                live.run()
+            live.close()
+        return 0
+    if args.instructions:
+        return count_instructions()
     results: dict[str, Any] = {"plain": [], "live_no_page": [], "live_one_page": [], "step_ms_tick0": [],
                                "step_ms_tick8000": []}
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -231,6 +281,7 @@ def main() -> int:
             try:
                 page.goto(live.url)
                 wait_drawn(page, "window.tralLive.status().tick === 0")
+                time.sleep(1.0)  # the page settled (its first layout, fonts, plots): a page that follows the run
                 if k == 0:
                     results["step_ms_tick0"] = step_latency(page, args.steps)
                     live.controller.send("step", {"n": 8000 - live.controller.session.ticks})

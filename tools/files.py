@@ -63,6 +63,15 @@ def os_reason(exc: OSError) -> str:
     return (exc.strerror or str(exc)).rstrip(".")
 
 
+def shown_path(path: str | os.PathLike[str]) -> str:
+    """A file the program found itself (a default world, an include), named as the user would: relative to the
+    current folder when it is under it, else as it is."""
+    try:
+        return str(pathlib.Path(path).resolve().relative_to(pathlib.Path.cwd().resolve()))
+    except (ValueError, OSError):
+        return str(path)
+
+
 def identity(path: str) -> tuple[int, int] | None:
     """``(st_dev, st_ino)`` of the file ``path`` names (through symlinks), or ``None`` if there is none."""
     try:
@@ -536,8 +545,8 @@ def _end_by_signal(signum: int, frame: Any) -> None:
     os.kill(os.getpid(), signum)
 
 
-__all__ = ["AtomicFile", "Output", "Outputs", "STDOUT", "check_distinct", "identity", "os_reason", "write_atomic",
-           "write_output"]
+__all__ = ["AtomicFile", "Output", "Outputs", "STDOUT", "check_distinct", "identity", "os_reason", "shown_path",
+           "write_atomic", "write_output"]
 
 
 # -- a new folder of files (fsmctl run --frames) --------------------------------------------------------------

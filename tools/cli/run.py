@@ -482,9 +482,9 @@ def _run_live(args: argparse.Namespace, spec: Any, file: str, drive: bool, world
         watcher = Watcher(machine_files(spec) or [file], load)
 
     def make_recorder(session: Any, stream: Any) -> Any:
-        return run_recorder(stream, file, session.car, world_file=world_path, seed=args.seed, noise=not args.no_noise,
-                            overrides=args.overrides, initial_vars=args.initial_vars, sample_rate=args.sample_rate,
-                            document=document)
+        return run_recorder(stream, file, session.car, world_file=_shown_world(world_path), seed=args.seed,
+                            noise=not args.no_noise, overrides=args.overrides, initial_vars=args.initial_vars,
+                            sample_rate=args.sample_rate, document=document)
 
     return run_live(args, file, lambda: _session(args, plan, drive, world_path, duration, max_ticks), make_recorder,
                     sorted(signal_names(spec)), outputs, trace_out, summary_out, plot_out, report_out, watcher)
@@ -504,6 +504,13 @@ class Tee:
             st.write(text)
 
 
+def _shown_world(path: Path | None) -> str | None:
+    """The world file as the trace's header names it (a default one relative to the current folder)."""
+    from ..files import shown_path
+
+    return None if path is None else shown_path(path)
+
+
 def _recorder(args: argparse.Namespace, file: str, car: Any, world_path: Path | None, trace_out: Any,
               report_out: Any) -> Any:
     """The trace recorder (to the --trace file, and kept in memory for --report)."""
@@ -512,9 +519,9 @@ def _recorder(args: argparse.Namespace, file: str, car: Any, world_path: Path | 
     stream = trace_out.stream() if trace_out is not None else None
     if report_out is not None:
         stream = Tee(stream)
-    return run_recorder(stream, file, car, world_file=world_path, seed=args.seed, noise=not args.no_noise,
-                        preloaded=args.pre, overrides=args.overrides, initial_vars=args.initial_vars,
-                        sample_rate=args.sample_rate)
+    return run_recorder(stream, file, car, world_file=_shown_world(world_path), seed=args.seed,
+                        noise=not args.no_noise, preloaded=args.pre, overrides=args.overrides,
+                        initial_vars=args.initial_vars, sample_rate=args.sample_rate)
 
 
 def write_report(stream: Any, report_out: Any, name: str) -> None:

@@ -17,6 +17,7 @@ from typing import Any
 
 from fsm.errors import FsmError, UsageError, printable
 
+from ..files import shown_path
 from .stream import LineBuffer
 
 #: The port the page is served on by default.
@@ -155,7 +156,7 @@ def serve(source: Any, page: Callable[[dict[str, Any]], str], *, host: str, port
                 server.page = page({**header, "machine": loaded.info.get("document")})
 
             watching = asyncio.create_task(watcher.run(controller, redraw))
-            print(f"live: watching {', '.join(_shown_path(f) for f in watcher.files)} (hot reload; --no-reload to "
+            print(f"live: watching {', '.join(shown_path(f) for f in watcher.files)} (hot reload; --no-reload to "
                   "turn it off)", file=out, flush=True)
         if controller is not None:
             thread = threading.Thread(target=controller.loop, kwargs={"stop": lambda: halt.is_set() or stop()},
@@ -173,14 +174,6 @@ def serve(source: Any, page: Callable[[dict[str, Any]], str], *, host: str, port
             await server.close()
 
     asyncio.run(main())
-
-
-def _shown_path(name: str) -> str:
-    """A watched file as the user would name it: relative to the current folder when it is under it."""
-    try:
-        return str(Path(name).resolve().relative_to(Path.cwd().resolve()))
-    except ValueError:
-        return name
 
 
 def serve_trace(name: str, args: argparse.Namespace) -> int:

@@ -48,6 +48,8 @@
     ws.onopen = function () { $("conn").textContent = "connected"; $("conn").className = "conn up"; };
     ws.onclose = function () {
       $("conn").textContent = "disconnected"; $("conn").className = "conn down";
+      if (!statusShown && status) showStatus();  // the last status, before the controls go off for good
+      statusShown = true;
       setControls(false);
       notice("The server has ended (the run was stopped); what was received stays on this page.");
     };
@@ -68,7 +70,10 @@
       else if (m.kind === "reset") { model.reset(); status = null; statusShown = true; followEnd = null; dirty = true; }
       else if (m.kind === "status") {  // redrawn when the run moved on or changed state, not for a breakpoint's count
         if (!status || m.tick !== status.tick || m.state !== status.state) dirty = true;
-        status = m; raise(m); statusShown = false; schedule();
+        status = m; raise(m);
+        // a running run's statuses are shown with the next redraw (a fast run sends many); any other at once
+        if (m.state === "running") statusShown = false; else { statusShown = true; showStatus(); }
+        schedule();
       }
       else if (m.kind === "reload") showReload(m);
       else if (m.kind === "reply" && m.command === "reload") { if (!m.ok) showReload({ ok: false, file: "", errors: [m.error] }); }

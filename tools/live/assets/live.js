@@ -56,7 +56,6 @@
     ws.onmessage = function (ev) {
       if (typeof ev.data !== "string") {
         model.addText(decoder.decode(ev.data));
-        if (status) raise(status);
         dirty = true;
         // a paused run's new lines (a step's) usually come right before its status: one redraw, on the status;
         // lines that come after it (a rewind's last ones can) are drawn shortly after, or they would wait for the
@@ -70,7 +69,10 @@
       else if (m.kind === "reset") { model.reset(); status = null; statusShown = true; followEnd = null; dirty = true; }
       else if (m.kind === "status") {  // redrawn when the run moved on or changed state, not for a breakpoint's count
         if (!status || m.tick !== status.tick || m.state !== status.state) dirty = true;
-        status = m; raise(m);
+        status = m;
+        // the run is at this tick even if no line of it was written (nothing happened). The latest status says
+        // so, not the highest: a status of the run before a rewind can still arrive after the reset
+        model.runTick = m.tick;
         // a running run's statuses are shown with the next redraw (a fast run sends many); any other at once
         if (m.state === "running") statusShown = false; else { statusShown = true; showStatus(); }
         schedule();
@@ -81,9 +83,6 @@
       else if (m.kind === "rewound") notice("Rewound to tick " + m.tick + (m.dropped ? "; " + m.dropped + " later input(s) dropped" : "") + ".");
     };
   }
-  // the run is at this tick, even if no line of it was written (nothing happened). The latest status says so, not
-  // the highest: a status of the run before a rewind can still arrive after the reset, and the next one corrects it
-  function raise(st) { model.runTick = st.tick; }
   function send(cmd, args, done) {
     if (!ws || ws.readyState !== 1) return;
     var id = nextId++;
@@ -248,6 +247,6 @@
 
   // for tests and the console
   window.tralLive = { model: model, status: function () { return status; }, send: send,
-                      drawn: function () { return document.body.dataset.drawn | 0; }, cost: function () { return cost; } };
+                      drawn: function () { return document.body.dataset.drawn | 0; } };
   connect();
 })();

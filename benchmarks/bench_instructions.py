@@ -77,12 +77,18 @@ def instructions(workload: str, n: int, tree: Path | None) -> int:
                 "type(f).__module__.lower()]\n" + code)
     else:
         env.pop("PYTHONPATH", None)
-    done = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null", sys.executable, "-c",
-                           code, workload, str(n)], env=env, capture_output=True, text=True,
-                          cwd=str(tree or REPO), timeout=3600)
+    return callgrind(["-c", code, workload, str(n)], env, tree or REPO,
+                     f"{workload} on {'base' if tree else 'this checkout'}")
+
+
+def callgrind(args: list[str], env: dict[str, str], cwd: Path, what: str) -> int:
+    """The instructions of ``python ARGS`` (run in ``cwd`` with ``env``) counted by callgrind; RuntimeError naming
+    ``what`` when it fails."""
+    done = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null", sys.executable, *args],
+                          env=env, capture_output=True, text=True, cwd=str(cwd), timeout=3600)
     found = re.search(r"Collected\s*:\s*(\d+)", done.stderr)
     if done.returncode != 0 or found is None:
-        raise RuntimeError(f"{workload} on {'base' if tree else 'this checkout'} failed:\n{done.stderr[-2000:]}")
+        raise RuntimeError(f"{what} failed:\n{done.stderr[-2000:]}")
     return int(found.group(1))
 
 

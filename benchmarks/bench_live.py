@@ -203,22 +203,14 @@ def count_instructions() -> int:
     fresh process under callgrind with and without the run (``--probe MODE 0|1``), so that start-up, imports and
     the setup cancel out (``PYTHONHASHSEED=0``: string hashes move counts by about 1 % otherwise). The server's
     loop wakes on the wall clock, which valgrind slows about 50 times: its share is overcounted, not hidden."""
-    import os
-    import re
-    import subprocess
+    from bench_instructions import callgrind
 
     if shutil.which("valgrind") is None:
         raise SystemExit("--instructions needs valgrind (apt install valgrind)")
     env = dict(os.environ, PYTHONHASHSEED="0")
 
     def count(mode: str, n: int) -> int:
-        done = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null", sys.executable,
-                               __file__, "--probe", mode, str(n)], env=env, capture_output=True, text=True,
-                              cwd=str(ROOT), timeout=3600)
-        found = re.search(r"Collected\s*:\s*(\d+)", done.stderr)
-        if done.returncode != 0 or found is None:
-            raise SystemExit(f"{mode} {n} failed:\n{done.stderr[-2000:]}")
-        return int(found.group(1))
+        return callgrind([__file__, "--probe", mode, str(n)], env, ROOT, f"{mode} {n}")
 
     runs = {mode: count(mode, 1) - count(mode, 0) for mode in ("plain", "live")}
     print("| run of the hallway lap (16,176 ticks) | instructions | per tick |")

@@ -1,6 +1,6 @@
 """The ``fsmctl`` console script. A Ctrl-C while Python still imports tral-fsm and builds the parser (the first
 few tenths of a second of every command) ends it quietly with exit status 130, as one does once the command runs
-(tools/cli/app.py); nothing of the package is imported before that guard is in place. Once the command has
+(fsm/tools/cli/app.py); nothing of the package is imported before that guard is in place. Once the command has
 returned, a late Ctrl-C no longer interrupts the interpreter's exit."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ from __future__ import annotations
 import signal
 import sys
 
-#: The exit status of a command stopped by Ctrl-C (``EXIT_INTERRUPTED`` of tools/cli/common.py).
+#: The exit status of a command stopped by Ctrl-C (``EXIT_INTERRUPTED`` of fsm/tools/cli/common.py).
 EXIT_INTERRUPTED = 130
 
 

@@ -47,7 +47,7 @@ _PLAN: list[Any] = []
 def make_session() -> tuple[Any, Any]:
     """The lap's session recording into a live line buffer, as ``fsmctl run --live`` builds it (the plan compiled
     once, as there)."""
-    from fsm.loader import compile as compile_plan
+    from fsm.loading.loader import compile as compile_plan
     from fsm.sim import simulate
     from fsm.tools.live.stream import LineBuffer
     from fsm.tools.recording import run_recorder
@@ -74,7 +74,7 @@ class LiveRun:
     def __init__(self) -> None:
         import asyncio
 
-        from fsm.control import Controller
+        from fsm.debug.control import Controller
         from fsm.tools.live.page import live_page
         from fsm.tools.live.server import LiveServer, Source
 

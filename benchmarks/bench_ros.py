@@ -116,10 +116,10 @@ def source(endpoint: str, ticks: int, rate: float) -> dict[str, Any]:
 
 # -- the machine's side ----------------------------------------------------------------------------------------
 def machine_side(endpoint: str, ticks: int) -> dict[str, Any]:
-    from fsm.loader import compile as compile_plan
+    from fsm.loading.loader import compile as compile_plan
     from fsm.ros.driver import ros_session
     from fsm.ros.transport import Link
-    from fsm.session import StopRules
+    from fsm.session.session import StopRules
 
     profile = bench_profile()
     link = Link(profile, connect=[endpoint], listen=[]).open()

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 import fsm
-from fsm.machine import Fired
+from fsm.runtime.machine import Fired
 
 MISSION = Path(__file__).resolve().parent.parent / "diagrams" / "examples" / "mission.json"
 

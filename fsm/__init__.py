@@ -9,16 +9,8 @@ Load a machine document (JSON, or a UMLet diagram) and tick it::
 
 from __future__ import annotations
 
-from .clock import DEFAULT_DT, Clock, RealTimeClock, SimulatedClock
-from .composite import Composite
-from .condition import Condition
-from .context import Context
-from .errors import DiagramError, FsmError, Problem, RegistrationError, StateRuntimeError
-from .loader import check, load
-from .machine import Listener, Machine
-from .params import ConditionParams, StateParams, TransitionParams
-from .plant import Plant, PlantParams
-from .registry import (
+from fsm.loading.loader import check, load
+from fsm.loading.registry import (
     Registry,
     default_registry,
     register_condition,
@@ -26,9 +18,17 @@ from .registry import (
     register_state,
     register_transition,
 )
-from .session import Session, StopRules
-from .state import State
-from .transition import Transition
+from fsm.model.errors import DiagramError, FsmError, Problem, RegistrationError, StateRuntimeError
+from fsm.model.params import ConditionParams, StateParams, TransitionParams
+from fsm.runtime.clock import DEFAULT_DT, Clock, RealTimeClock, SimulatedClock
+from fsm.runtime.composite import Composite
+from fsm.runtime.condition import Condition
+from fsm.runtime.context import Context
+from fsm.runtime.machine import Listener, Machine
+from fsm.runtime.plant import Plant, PlantParams
+from fsm.runtime.state import State
+from fsm.runtime.transition import Transition
+from fsm.session.session import Session, StopRules
 
 __version__ = "0.1.0"
 

@@ -20,7 +20,7 @@ def _no_plugin_leaks() -> Iterator[None]:
     """A test that loads a plugin (``--plugin``, a scenario's ``plugins``) registers its types into the process's
     registry, as a one-shot ``fsmctl`` process does; undo that after the test, so later tests (the committed
     schema and palette, ``fsmctl types``) see the built-in types only."""
-    from fsm.registry import default_registry
+    from fsm.loading.registry import default_registry
 
     registry = default_registry()
     tables = (registry.states, registry.transitions, registry.conditions, registry.plants)

@@ -67,7 +67,7 @@ def cli(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
 
 
 def trace_events(text: str) -> list[dict[str, Any]]:
-    """The event lines of a JSONL trace (``fsm.trace``): one per tick in which something happened."""
+    """The event lines of a JSONL trace (``fsm.trace.recorder``): one per tick in which something happened."""
     import json
 
     return [line for line in map(json.loads, text.splitlines()) if line.get("type") == "event"]

@@ -10,8 +10,8 @@ import pytest
 
 import fsm
 from fsm import State, StateParams, register_state
-from fsm.registry import Registry, default_registry, using
-from fsm.trace import Recorder, summary
+from fsm.loading.registry import Registry, default_registry, using
+from fsm.trace.recorder import Recorder, summary
 from helpers import trace_events
 
 REG = default_registry()
@@ -143,7 +143,7 @@ def test_trace_has_vars_where_they_changed_and_summary_has_final_values() -> Non
 def test_machine_without_guards_pays_nothing() -> None:
     m = machine([{"id": "a", "type": "Idle"}, {"id": "b", "type": "Idle"}],
                 [{"type": "Always", "from": "a", "to": "b"}, {"type": "Always", "from": "b", "to": "a"}])
-    from fsm.plan import ActionKind, GuardKind
+    from fsm.model.plan import ActionKind, GuardKind
 
     state = m.root.states["a"]
     assert state.enter_hook is None and state.exit_hook is None
@@ -155,7 +155,7 @@ def test_inline_guard_and_counter_agree_with_their_closures(op: str) -> None:
     """A guard ``var OP constant`` on an ``Always`` and a ``set`` ``x = var OP constant`` run inline in the region
     (GuardKind.COMPARE, ActionKind.COUNTER); written either way round, they fire and count exactly as the closures
     would."""
-    from fsm.plan import ActionKind, GuardKind
+    from fsm.model.plan import ActionKind, GuardKind
 
     for text in (f"n {op} 2", f"2 {op} n"):
         for n in (1, 2, 3, 2.5, -7):
@@ -171,7 +171,7 @@ def test_inline_guard_and_counter_agree_with_their_closures(op: str) -> None:
 
 
 def test_inline_guard_keeps_the_kind_check_and_an_added_action_ends_the_inline_counter() -> None:
-    from fsm.errors import StateRuntimeError
+    from fsm.model.errors import StateRuntimeError
 
     m = machine([{"id": "a", "type": "Idle"}, {"id": "b", "type": "Idle"}],
                 [{"type": "Always", "from": "a", "to": "b", "guard": "n >= 0", "set": {"k": "n + 1"}}], n=0, k=0)
@@ -246,7 +246,7 @@ def test_runtime_error_names_the_state_and_phase() -> None:
 
 
 def test_schema_has_set_guard_and_conditions() -> None:
-    from fsm.document import json_schema
+    from fsm.model.document import json_schema
 
     schema = json_schema(REG)
     base = schema["$defs"]["transition.Always"]["properties"]

@@ -13,9 +13,9 @@ from hypothesis import strategies as st
 
 import fsm
 from fsm import Listener, State
-from fsm.clock import RealTimeClock, SimulatedClock
-from fsm.machine import DEFAULT_RUN_DURATION
-from fsm.registry import Registry
+from fsm.loading.registry import Registry
+from fsm.runtime.clock import RealTimeClock, SimulatedClock
+from fsm.runtime.machine import DEFAULT_RUN_DURATION
 
 DOC = {
     "initial": "a",
@@ -205,7 +205,7 @@ def test_states_cannot_move_the_clock(kind: str) -> None:
     registry.add_state(ClockMover)
     registry.add_state(TickMover)
     m = fsm.load({"initial": "a", "states": [{"id": "a", "type": kind}]}, registry=registry)
-    with pytest.raises(fsm.errors.StateRuntimeError, match="read-only"):
+    with pytest.raises(fsm.model.errors.StateRuntimeError, match="read-only"):
         m.tick()
     assert m.now == pytest.approx(0.0125) and m.ticks == 1
 

@@ -8,7 +8,7 @@ from typing import Any
 import pytest
 
 import fsm
-from fsm.errors import DiagramError
+from fsm.model.errors import DiagramError
 from fsm.sim.fake import FakeCar
 from fsm.sim.io import CarIO
 

@@ -18,7 +18,7 @@ import pytest
 
 import fsm
 from fsm import RegistrationError, State, StateParams
-from fsm.registry import Registry, default_registry, register_state, using
+from fsm.loading.registry import Registry, default_registry, register_state, using
 from fsm.tools.cli import main
 from helpers import cli
 

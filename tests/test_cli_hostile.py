@@ -83,7 +83,7 @@ def test_size_cap(tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatc
 
 
 def test_default_cap_is_above_the_benchmarks_52_mb() -> None:
-    from fsm.reading import MAX_INPUT_BYTES
+    from fsm.loading.reading import MAX_INPUT_BYTES
 
     assert MAX_INPUT_BYTES >= 60 * 1024 * 1024
 
@@ -128,7 +128,7 @@ def test_standard_input_is_read_once(monkeypatch: pytest.MonkeyPatch, capsys: py
 
 # -- each file read once -------------------------------------------------------------------------------
 def _count_opens(monkeypatch: pytest.MonkeyPatch) -> dict[str, int]:
-    import fsm.reading
+    import fsm.loading.reading
 
     counts: dict[str, int] = {}
     real_open = os.open
@@ -142,7 +142,7 @@ def _count_opens(monkeypatch: pytest.MonkeyPatch) -> dict[str, int]:
         counts[self.name] = counts.get(self.name, 0) + 1
         return real_read_bytes(self)
 
-    monkeypatch.setattr(fsm.reading.os, "open", counting_open)
+    monkeypatch.setattr(fsm.loading.reading.os, "open", counting_open)
     monkeypatch.setattr(Path, "read_bytes", counting_read_bytes)
     return counts
 
@@ -218,7 +218,7 @@ def test_a_machine_is_not_taken_for_a_palette(tmp_path: Path, capsys: pytest.Cap
     for diagram in sorted((REPO / "diagrams").glob("*.uxf")) + sorted(EXAMPLES.glob("*.uxf")):
         if diagram.name == "TRAL_State-Machine.uxf":
             continue
-        from fsm.registry import default_registry
+        from fsm.loading.registry import default_registry
         from fsm.tools.umlet.palette import palette_problems
 
         assert palette_problems(diagram.read_bytes(), str(diagram), default_registry()) is None, diagram

@@ -9,9 +9,9 @@ import pytest
 from pydantic import Field
 
 import fsm
-from fsm.condition import Condition
-from fsm.params import ConditionParams
-from fsm.registry import Registry, default_registry, register_condition, using
+from fsm.loading.registry import Registry, default_registry, register_condition, using
+from fsm.model.params import ConditionParams
+from fsm.runtime.condition import Condition
 
 REG = default_registry()
 DT = 0.0125

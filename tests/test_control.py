@@ -1,6 +1,7 @@
 """The live debugger's core (issue 24): inputs recorded in the trace and replayed from it, the faults a debugger
-injects (fsm.inputs), breakpoints (fsm.breakpoints) and the controller that applies commands between ticks only
-(fsm.control): pause, steps, speed, rewind."""
+injects (fsm.session.inputs), breakpoints (fsm.debug.breakpoints) and the controller that applies commands between
+ticks only
+(fsm.debug.control): pause, steps, speed, rewind."""
 
 from __future__ import annotations
 
@@ -14,9 +15,9 @@ from typing import Any
 
 import pytest
 
-from fsm.breakpoints import BreakpointError, make_breakpoint
-from fsm.control import Controller
-from fsm.inputs import (
+from fsm.debug.breakpoints import BreakpointError, make_breakpoint
+from fsm.debug.control import Controller
+from fsm.session.inputs import (
     FinishState,
     FireMonitor,
     ForceSensor,
@@ -26,9 +27,9 @@ from fsm.inputs import (
     input_to_json,
     recorded_inputs,
 )
-from fsm.replay import parse_trace
-from fsm.session import PauseState, Session, SetSignal, SetVars
-from fsm.trace import Recorder
+from fsm.session.session import PauseState, Session, SetSignal, SetVars
+from fsm.trace.recorder import Recorder
+from fsm.trace.replay import parse_trace
 
 REPO = Path(__file__).resolve().parents[1]
 SORTER = REPO / "diagrams" / "examples" / "sorter.json"
@@ -210,14 +211,14 @@ def test_steps_pause_exactly_and_a_breakpoint_stops_at_the_tick_the_trace_says(l
 def test_a_paused_run_tells_its_watchers_only_what_changed(lap: Any) -> None:
     """A paused run looks for commands every IDLE seconds; it publishes (and wakes the pages, which redraw) only when
     its status changed: an idle page costs the browser nothing."""
-    import fsm.control
+    import fsm.debug.control
 
     controller, _ = lap
     woken: list[int] = []
     controller.notify = lambda: woken.append(controller.snapshot["seq"])
     controller.send("step", {"n": 2})
     snap = wait(controller, lambda s: s["tick"] == 2 and s["state"] == "paused")
-    time.sleep(5 * fsm.control.IDLE)  # five looks of the paused loop
+    time.sleep(5 * fsm.debug.control.IDLE)  # five looks of the paused loop
     assert controller.snapshot["seq"] == snap["seq"] and woken[-1] == snap["seq"]
     controller.send("speed", {"x": 2.0})
     snap = wait(controller, lambda s: s["speed"] == 2.0)

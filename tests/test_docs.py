@@ -64,7 +64,8 @@ def test_site_has_the_drawings_made_by_fsmctl_graph(site: Path) -> None:
 
 def test_site_has_the_api_reference(site: Path) -> None:
     text = (site / "api" / "running" / "index.html").read_text(encoding="utf-8")
-    for name in ("fsm.loader.load", "fsm.machine.Machine", "schedule_signal", "fsm.context.Context"):
+    for name in ("fsm.loading.loader.load", "fsm.runtime.machine.Machine", "schedule_signal",
+                 "fsm.runtime.context.Context"):
         assert name in text
     assert ":class:" not in text  # reStructuredText roles are turned into code by docs/hooks/rst_roles.py
 

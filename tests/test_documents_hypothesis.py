@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 
 import fsm
 from fsm import DiagramError, Problem, StateRuntimeError
-from fsm.registry import default_registry
+from fsm.loading.registry import default_registry
 from fsm.sim.fake import FakeCar
 
 SETTINGS = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])

@@ -201,7 +201,7 @@ def plugin(tmp_path_factory: pytest.TempPathFactory) -> Any:
     sys.path.insert(0, str(folder))
     yield name
     # Leave the process-wide registry as it was: other tests compare it with the committed schema.
-    from fsm.registry import default_registry
+    from fsm.loading.registry import default_registry
 
     registry = default_registry()
     for type_name in ("Explode", "Interrupt"):

@@ -1,4 +1,4 @@
-"""The expression language (fsm/expr.py): grammar, kinds, constant checks, evaluation equal to Python's."""
+"""The expression language (fsm/model/expr.py): grammar, kinds, constant checks, evaluation equal to Python's."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from fsm.expr import (
+from fsm.model.expr import (
     ANY,
     BOOL,
     NUMBER,
@@ -207,7 +207,7 @@ def test_garbage_gives_only_located_errors(text: str) -> None:
 
 def test_fused_number_comparisons_and_arithmetic_behave_like_the_generic_path() -> None:
     """``n < 3`` and ``n + 1`` run as one closure; results and errors stay those of the generic closures."""
-    from fsm.expr import ExprRuntimeError, compile_expr
+    from fsm.model.expr import ExprRuntimeError, compile_expr
 
     kinds = {"n": "number"}
     for text, n, want in [("n < 3", 2, True), ("3 < n", 2, False), ("n + 1", 2, 3), ("1 - n", 2, -1),
@@ -223,7 +223,7 @@ def test_the_one_closure_guard_and_counter_keep_the_run_time_errors() -> None:
     """The fused ``var OP constant`` guard and ``x = var OP constant`` set (one closure each) still name a missing
     value or a value of the wrong kind, as the generic path does."""
     import fsm
-    from fsm.errors import StateRuntimeError
+    from fsm.model.errors import StateRuntimeError
 
     doc = {"initial": "a", "vars": {"n": 0, "m": 0},
            "states": [{"id": "a", "type": "Idle"}, {"id": "b", "type": "Idle"}],

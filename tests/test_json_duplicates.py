@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 import fsm
 from fsm import DiagramError
-from fsm.jsonpos import duplicate_keys
+from fsm.model.jsonpos import duplicate_keys
 from fsm.sim.world import load_world
 
 
@@ -170,7 +170,7 @@ def documents_with_a_repeat(draw: st.DrawFn) -> tuple[str, str, str]:
 @given(documents_with_a_repeat())
 def test_random_documents_with_a_repeated_key_are_refused_with_both_places(case: tuple[str, str, str]) -> None:
     text, ptr, key = case
-    from fsm.reading import parse_json_bytes
+    from fsm.loading.reading import parse_json_bytes
 
     with pytest.raises(DiagramError) as info:
         parse_json_bytes(text.encode(), "doc.json")

@@ -1,4 +1,5 @@
-"""fsm.jsoncheck: the trace schema compiled into plain checks says what jsonschema says (stricter only in that 1.0 is
+"""fsm.trace.jsoncheck: the trace schema compiled into plain checks says what jsonschema says (stricter only in that
+1.0 is
 not a whole number), names where and what; a keyword it does not check is refused, never ignored."""
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from fsm.jsoncheck import compile_definition, compile_schema, describe
+from fsm.trace.jsoncheck import compile_definition, compile_schema, describe
 from trace_lines import LINES, V1, WILD
 
 SCHEMA = json.loads((Path(__file__).resolve().parents[1] / "fsm" / "schema" / "trace.schema.json").read_text())

@@ -22,6 +22,10 @@ FORBIDDEN = ("cv2", "pymunk", "lxml", "fsm.sim", "fsm.vision", "fsm.tools")
 #: What the perception layer must not import (it may import cv2, numpy and the core).
 VISION_FORBIDDEN = ("pymunk", "lxml", "fsm.sim", "fsm.tools")
 CORE_DIR = Path(fsm.__file__).resolve().parent
+#: Subpackages of fsm/ that are not the core: the adapters (car, camera, ROS 2), the libraries of state and
+#: transition types, the tools, the pytest plugin and the bundled worlds.
+NOT_CORE = ("fsm.sim", "fsm.vision", "fsm.ros", "fsm.states", "fsm.transitions", "fsm.tools", "fsm.testing",
+            "fsm.worlds")
 
 #: One fresh interpreter that imports each module in a child of its own (``os.fork``), so one module's imports cannot
 #: hide another's. What the modules need besides ``fsm`` and the forbidden modules (the standard library, pydantic,
@@ -93,7 +97,7 @@ def core_modules() -> list[str]:
     fsm/vision/."""
     names = ["fsm"]
     for info in pkgutil.walk_packages([str(CORE_DIR)], prefix="fsm.", onerror=lambda name: None):
-        if any(info.name == p or info.name.startswith(p + ".") for p in ("fsm.sim", "fsm.vision", "fsm.ros")):
+        if any(info.name == p or info.name.startswith(p + ".") for p in NOT_CORE):
             continue
         names.append(info.name)
     return sorted(names)
@@ -116,10 +120,11 @@ def probe(modules: list[str], forbidden: tuple[str, ...] = FORBIDDEN) -> dict[st
 
 def test_core_modules_are_found() -> None:
     modules = core_modules()
-    for name in ("fsm", "fsm.loader", "fsm.machine", "fsm.document", "fsm.registry", "fsm.jsonpos", "fsm.errors",
+    for name in ("fsm", "fsm.loading.loader", "fsm.runtime.machine", "fsm.model.document", "fsm.loading.registry",
+                 "fsm.model.jsonpos", "fsm.model.errors",
                  "fsm.schema"):
         assert name in modules
-    assert not any(m.startswith(("fsm.sim", "fsm.vision", "fsm.ros")) for m in modules)
+    assert not any(m.startswith(NOT_CORE) for m in modules)
 
 
 def test_no_core_module_imports_the_car_umlet_or_tools() -> None:
@@ -199,7 +204,7 @@ def test_core_source_names_no_tools_or_car_module() -> None:
     pattern = re.compile(
         r"(import_module\(\s*['\"]|^\s*(from|import)\s+)(fsm\.tools|fsm\.sim|fsm\.vision|cv2|pymunk|lxml)\b", re.M)
     offenders = [str(p.relative_to(core)) for p in core.rglob("*.py")
-                 if not {"sim", "vision", "ros"} & set(p.relative_to(core).parts[:1])
+                 if not {n.split(".")[1] for n in NOT_CORE} & set(p.relative_to(core).parts[:1])
                  and pattern.search(p.read_text(encoding="utf-8"))]
     assert offenders == []
 
@@ -339,8 +344,9 @@ def test_umlet_and_graph_source_names_no_cli(package: str) -> None:
 REPO = Path(__file__).resolve().parents[1]
 #: The documented exceptions (docs/architecture.md, "Layering rules"), where a property would cost a call per tick:
 #: the Context's time slots, and pymunk's cffi handle for the car's ray queries. File -> attributes it may read.
-PRIVATE_READS = {"fsm/machine.py": {"_now", "_tick", "_dt", "_pending"}, "fsm/region.py": {"_now"},
-                 "fsm/trace.py": {"_tick"}, "transitions/generic.py": {"_now"}, "transitions/conditions.py": {"_now"},
+PRIVATE_READS = {"fsm/runtime/machine.py": {"_now", "_tick", "_dt", "_pending"}, "fsm/runtime/region.py": {"_now"},
+                 "fsm/trace/recorder.py": {"_tick"}, "fsm/transitions/generic.py": {"_now"},
+                 "fsm/transitions/conditions.py": {"_now"},
                  "fsm/sim/car.py": {"_space"}}
 #: The public API of named tuples, underscored so as not to clash with field names.
 NAMEDTUPLE_API = {"_replace", "_asdict", "_fields", "_make"}
@@ -378,7 +384,7 @@ def foreign_private_reads(source: str) -> list[tuple[int, str]]:
 
 def test_no_module_reads_another_modules_private_names() -> None:
     offenders = []
-    for folder in ("fsm", "states", "transitions", "tools"):
+    for folder in ("fsm",):
         for path in sorted((REPO / folder).rglob("*.py")):
             name = path.relative_to(REPO).as_posix()
             allowed = PRIVATE_READS.get(name, set())

@@ -17,9 +17,9 @@ from typing import Any
 
 import pytest
 
-from fsm.inputs import recorded_inputs
-from fsm.replay import read_trace
-from fsm.session import Session
+from fsm.session.inputs import recorded_inputs
+from fsm.session.session import Session
+from fsm.trace.replay import read_trace
 from live_helpers import COUNTER, REPO, Live
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")

@@ -14,7 +14,7 @@ from urllib.parse import urlsplit
 
 import pytest
 
-from fsm.replay import read_trace
+from fsm.trace.replay import read_trace
 from helpers import cli
 from live_helpers import COUNTER, REPO, Live
 

@@ -12,7 +12,7 @@ from typing import Any
 
 import pytest
 
-from fsm.replay import read_trace
+from fsm.trace.replay import read_trace
 from live_helpers import COUNTER, Live
 from test_live_browser import CHROMIUM, _need_browser
 

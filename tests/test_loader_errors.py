@@ -17,7 +17,7 @@ import pytest
 
 import fsm
 from fsm import DiagramError, Problem
-from fsm.reading import MAX_JSON_DEPTH
+from fsm.loading.reading import MAX_JSON_DEPTH
 from fsm.tools.cli import main as fsmctl
 
 
@@ -566,11 +566,11 @@ def test_a_types_own_validator_speaks_for_itself(tmp_path: Path) -> None:
     from pydantic import Field, model_validator
 
     from fsm import State, StateParams
-    from fsm.registry import Registry, using
+    from fsm.loading.registry import Registry, using
 
     registry = Registry()
     with using(registry):
-        from fsm.registry import register_state
+        from fsm.loading.registry import register_state
 
         @register_state
         class Band(State):
@@ -618,7 +618,7 @@ def test_loads_that_overlap_in_two_threads_leave_the_collector_on() -> None:
     the last of them ends, then it is on again."""
     import threading
 
-    from fsm.loader import collection_paused
+    from fsm.loading.loader import collection_paused
 
     first_in, second_in, first_out = threading.Event(), threading.Event(), threading.Event()
     seen: list[bool] = []

@@ -8,8 +8,8 @@ import pytest
 
 import fsm
 from fsm import Registry, State, StateRuntimeError, Transition
-from fsm.params import StateParams, TransitionParams
-from fsm.registry import default_registry
+from fsm.loading.registry import default_registry
+from fsm.model.params import StateParams, TransitionParams
 
 LOG: list[str] = []
 
@@ -416,7 +416,7 @@ def test_listener_sees_every_transition(registry):
 def test_listener_is_a_protocol_and_a_base_class(registry):
     """Any object with on_transition and on_tick is a Listener; a subclass gets the methods it does not write
     (doing nothing), and the optional hooks only when it writes them."""
-    from fsm.machine import MonitorListener, PauseListener
+    from fsm.runtime.machine import MonitorListener, PauseListener
 
     class ByMethods:
         def on_transition(self, ctx, source, target, transition):
@@ -444,7 +444,7 @@ def test_listener_is_a_protocol_and_a_base_class(registry):
 
 
 def test_identical_runs_give_identical_traces(tmp_path, registry):
-    from fsm.trace import Recorder
+    from fsm.trace.recorder import Recorder
 
     d = parallel("all", 3, 7)
 

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from fsm.errors import FsmError, UsageError
+from fsm.model.errors import FsmError, UsageError
 from fsm.tools.files import Output, Outputs, write_output
 from helpers import cli
 

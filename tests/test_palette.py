@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from fsm.registry import default_registry
+from fsm.loading.registry import default_registry
 from fsm.tools.umlet.palette import palette
 from fsm.tools.umlet.source import parse_raw
 from fsm.tools.umlet.text import parse_label, parse_machine_note, parse_relation, parse_state
@@ -30,7 +30,7 @@ def test_every_type_has_a_template_with_every_parameter():
             if label.params:
                 transitions[label.params["type"]] = label.params
     assert set(states) == set(reg.states) and set(transitions) == set(reg.transitions)
-    from fsm.document import param_info
+    from fsm.model.document import param_info
 
     for name, cls in reg.states.items():
         # drawn inside the box: a Parallel's region frames, a Sequence's step boxes and exception sequences

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from fsm import RegistrationError, Registry, State, StateParams, Transition
-from fsm.registry import register_state, using
+from fsm.loading.registry import register_state, using
 
 
 def test_decorator_registers_into_the_active_registry_and_refuses_a_duplicate() -> None:

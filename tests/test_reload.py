@@ -1,6 +1,6 @@
 """Hot reload of a live run (issue 24, item 6): the machine swapped between two ticks for the edited document's,
-keeping the variables, the active states by path and their clocks (fsm.reload); an active state the new document
-lacks pauses the run and says so; the reload is a line of the trace, read back by fsm.replay and done again by a
+keeping the variables, the active states by path and their clocks (fsm.debug.reload); an active state the new document
+lacks pauses the run and says so; the reload is a line of the trace, read back by fsm.trace.replay and done again by a
 rewind; an edited file with errors gives located errors (tools.live.reload) and changes nothing."""
 
 from __future__ import annotations
@@ -16,13 +16,13 @@ from typing import Any
 
 import pytest
 
-from fsm.control import Controller
-from fsm.loader import check
-from fsm.loader import compile as compile_plan
-from fsm.replay import parse_trace
-from fsm.session import Session
+from fsm.debug.control import Controller
+from fsm.loading.loader import check
+from fsm.loading.loader import compile as compile_plan
+from fsm.session.session import Session
 from fsm.tools.live.reload import Watcher, loader
-from fsm.trace import Recorder
+from fsm.trace.recorder import Recorder
+from fsm.trace.replay import parse_trace
 
 #: n counts up every 0.1 s (8 ticks); 'done' when n reaches 20.
 COUNTER: dict[str, Any] = {

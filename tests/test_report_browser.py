@@ -16,7 +16,7 @@ from typing import Any
 
 import pytest
 
-from fsm.replay import read_trace
+from fsm.trace.replay import read_trace
 from helpers import cli
 
 REPO = Path(__file__).resolve().parents[1]

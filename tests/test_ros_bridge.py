@@ -105,9 +105,9 @@ def test_the_hallway_lap_succeeds_over_zenoh_with_no_collision(lap: dict[str, An
 
 
 def test_the_bag_and_the_trace_carry_the_same_times(lap: dict[str, Any]) -> None:
-    from fsm.replay import read_trace
     from fsm.ros import messages as M
     from fsm.ros.bag import read_bag
+    from fsm.trace.replay import read_trace
 
     bag = read_bag(lap["folder"] / "bag")
     topics = {t for t, *_ in bag}
@@ -226,7 +226,7 @@ def test_replay_of_the_recorded_lap_decides_the_same_at_every_tick(lap: dict[str
 
 
 def test_replay_with_a_changed_machine_names_the_first_divergence(lap: dict[str, Any]) -> None:
-    from fsm.replay import read_trace
+    from fsm.trace.replay import read_trace
 
     folder = lap["folder"]
     code, out, err = finish(start("replay", str(folder / "bag"), "--machine", str(LAP), "--profile", str(PROFILE),

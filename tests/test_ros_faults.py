@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from fsm.errors import FsmError, UsageError
+from fsm.model.errors import FsmError, UsageError
 from fsm.ros.profile import DEFAULT_PROFILE_PATH, Binding, Profile, load_profile
 from fsm.tools.files import Output, check_new_folder
 
@@ -175,7 +175,7 @@ def test_rclpy_missing_is_not_an_import_error_until_used() -> None:
 
 
 def test_the_profile_via_key_is_checked(tmp_path: Path) -> None:
-    from fsm.errors import DiagramError
+    from fsm.model.errors import DiagramError
 
     text = DEFAULT_PROFILE_PATH.read_text(encoding="utf-8").replace('"domain": 0', '"domain": 0, "via": "dds"')
     path = tmp_path / "p.json"
@@ -225,7 +225,7 @@ def test_ctrl_c_while_waiting_for_the_robot_exits_130_with_the_outputs(tmp_path:
 
 
 def test_a_folder_as_the_profile_is_one_plain_message(tmp_path: Path) -> None:
-    from fsm.errors import DiagramError
+    from fsm.model.errors import DiagramError
 
     with pytest.raises(DiagramError) as err:
         load_profile(tmp_path)
@@ -242,10 +242,10 @@ def test_undecodable_messages_are_counted_logged_once_and_stop_the_car_as_silenc
     and, once the front input has been silent longer than its max_silence (0.25 s), commands zero speed."""
     import json
 
-    from fsm.loader import compile as compile_plan
+    from fsm.loading.loader import compile as compile_plan
     from fsm.ros import messages as M
     from fsm.ros.driver import ros_session
-    from fsm.session import StopRules
+    from fsm.session.session import StopRules
 
     machine = tmp_path / "drive.json"
     machine.write_text(json.dumps(DRIVE), encoding="utf-8")

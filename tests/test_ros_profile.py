@@ -12,7 +12,7 @@ from typing import Any
 import jsonschema
 import pytest
 
-from fsm.errors import DiagramError
+from fsm.model.errors import DiagramError
 from fsm.ros.profile import (
     DEFAULT_PROFILE_PATH,
     PROFILE_SCHEMA_PATH,

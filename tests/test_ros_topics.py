@@ -1,4 +1,4 @@
-"""TopicQuiet (transitions/topics.py) on a car whose readings come from topics (fsm.ros.car.RosCar, fed by hand
+"""TopicQuiet (fsm/transitions/topics.py) on a car whose readings come from topics (fsm.ros.car.RosCar, fed by hand
 through ``offer`` as Zenoh would): a monitor watching silence fires, the car is commanded to stop, and a car without
 topics never goes quiet."""
 

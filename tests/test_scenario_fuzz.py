@@ -1,4 +1,4 @@
-"""Fuzzing the scenario reader (``tools/scenario/model.py``): random bytes, JSON of the right shape with wrong
+"""Fuzzing the scenario reader (``fsm/tools/scenario/model.py``): random bytes, JSON of the right shape with wrong
 values (huge, negative, non-numbers, control characters) and truncations of a real scenario file. Only our own
 error types may come out; a scenario that loads also expands to its timeline and, when short, runs."""
 
@@ -14,7 +14,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from fsm.errors import FsmError
+from fsm.model.errors import FsmError
 from fsm.tools.scenario.model import LoadedScenario, load_scenario
 from fsm.tools.scenario.runner import run_scenario
 from fsm.tools.scenario.timeline import expand

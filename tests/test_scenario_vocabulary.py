@@ -12,7 +12,7 @@ from typing import Any
 
 import pytest
 
-from fsm.errors import DiagramError
+from fsm.model.errors import DiagramError
 from fsm.tools.cli import main
 from fsm.tools.scenario import load_scenario, run_scenario
 
@@ -211,8 +211,8 @@ def test_a_machine_given_to_test_and_a_scenario_given_to_run(tmp_path: Path,
 
 # -- decided: plants are first stepped after tick 1 -----------------------------------------------------------
 def test_plants_are_stepped_after_every_tick_from_tick_1_on() -> None:
-    from fsm.plant import Plant, PlantParams
-    from fsm.session import Session
+    from fsm.runtime.plant import Plant, PlantParams
+    from fsm.session.session import Session
 
     class Counter(Plant):
         def reset(self, ctx: Any) -> None:

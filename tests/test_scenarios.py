@@ -341,7 +341,7 @@ def test_variable_sets_and_levels_apply_before_the_tick_at_their_time(capsys: py
 
 
 def test_the_scenario_package_imports_neither_the_cli_nor_the_car() -> None:
-    """tools/scenario may import the core and, lazily, the car; never the CLI (which imports it)."""
+    """fsm/tools/scenario may import the core and, lazily, the car; never the CLI (which imports it)."""
     import subprocess
     import sys
 

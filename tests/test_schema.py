@@ -12,8 +12,8 @@ import jsonschema
 import pytest
 
 import fsm
-from fsm.document import json_schema
-from fsm.registry import default_registry
+from fsm.loading.registry import default_registry
+from fsm.model.document import json_schema
 from fsm.tools.cli.schema import schema_text
 
 REPO = Path(__file__).resolve().parents[1]

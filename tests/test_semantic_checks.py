@@ -16,8 +16,8 @@ from hypothesis import strategies as st
 
 import fsm
 from fsm import DiagramError
-from fsm.errors import StateRuntimeError
-from fsm.loader import signal_names
+from fsm.loading.loader import signal_names
+from fsm.model.errors import StateRuntimeError
 
 SCHEMA = json.loads((Path(fsm.__file__).parent / "schema" / "machine.schema.json").read_text(encoding="utf-8"))
 
@@ -223,7 +223,7 @@ _outcome_names = st.sampled_from(["succeeded", "aborted", "timeout"])
 def test_outcome_analysis_is_exactly_what_runs_produce(regions: list[list[str]], join: str) -> None:
     spec, problems = fsm.check(parallel(regions, join, []))
     assert spec is not None
-    from fsm.outcomes import state_outcomes
+    from fsm.loading.outcomes import state_outcomes
 
     analysed = state_outcomes(spec.states[0])
     assert analysed == outcomes_by_running(regions, join)

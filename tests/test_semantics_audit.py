@@ -14,9 +14,9 @@ import pytest
 
 import fsm
 from fsm import DiagramError, Registry, State, StateRuntimeError, Transition
-from fsm.params import StateParams, TransitionParams
-from fsm.registry import default_registry
-from fsm.trace import Recorder
+from fsm.loading.registry import default_registry
+from fsm.model.params import StateParams, TransitionParams
+from fsm.trace.recorder import Recorder
 
 LOG: list[str] = []
 
@@ -432,8 +432,8 @@ def test_nested_pauses_freeze_time_once(registry):
     # paused), and resume() shifts entered_at by each pause's full length (0.25 for 'a' + 0.75 for 'x'),
     # giving -0.125 after both resumes; its Timeout then fires late. The sequencer pauses owners while
     # their steps may already be paused, so this will happen.
-    # Responsible: fsm/state.py State.time_in_state (last paused ancestor wins instead of the earliest
-    # paused_since) and fsm/machine.py Machine.resume (shifts every state of the subtree, even those that
+    # Responsible: fsm/runtime/state.py State.time_in_state (last paused ancestor wins instead of the earliest
+    # paused_since) and fsm/runtime/machine.py Machine.resume (shifts every state of the subtree, even those that
     # stay frozen by another paused state, and by the resumed state's pause length, not theirs).
     inner = doc("x", [spy("x"), spy("y")], [tr("Timeout", "x", "y", seconds=1.0)])
     m = fsm.load(doc("a", [fsmstate("a", inner)]), registry=registry, dt=0.125)
@@ -456,7 +456,7 @@ def test_pause_requested_during_a_tick_stops_the_paused_state_from_leaving(regis
     # `paused` before ticking, so after the tick it still checks the owner's regular transitions and
     # fires Always a->b: the "paused" subtree is exited in the very tick it was paused (docs/semantics.md: a
     # paused subtree has no exit/enter), and the exit silently clears the pause.
-    # Responsible: fsm/region.py Region.step; re-check `state.paused` after `state._tick(ctx)` and return.
+    # Responsible: fsm/runtime/region.py Region.step; re-check `state.paused` after `state._tick(ctx)` and return.
     inner = doc("x", [{"id": "x", "type": "PauseMyOwner"}])
     m = fsm.load(doc("a", [fsmstate("a", inner), spy("b")], [tr("Always", "a", "b")]), registry=registry)
     m.tick()
@@ -515,7 +515,7 @@ def test_signal_changed_and_restored_between_ticks_is_no_edge(registry):
     # edge in the next tick although the level was low at the previous tick too, and the rising edge
     # is lost. Expected: no edge (level low before and after), or both edges latched; never a falling
     # edge without the signal having been seen high.
-    # Responsible: fsm/context.py Context.set_signal records only "changed in tick k"; it should keep
+    # Responsible: fsm/runtime/context.py Context.set_signal records only "changed in tick k"; it should keep
     # the level the signal had at the last tick boundary and drop the edge when the value returns to it.
     m = fsm.load(doc("a", [spy("a"), spy("b")], [tr("Signal", "a", "b", signal="s", edge="falling")]),
                  registry=registry)
@@ -618,7 +618,7 @@ def test_run_duration_with_a_dt_that_does_not_divide_it(registry):
     # rounds to nearest. The real-time branch stops at the first tick with now >= end_time, so the same
     # call gives a different number of ticks on the two clocks. Expected: the first tick at or after the
     # duration (4 ticks, t=0.12), like the real-time branch.
-    # Responsible: fsm/machine.py Machine.run, `ticks_for_duration = int(round(duration / self._dt))`;
+    # Responsible: fsm/runtime/machine.py Machine.run, `ticks_for_duration = int(round(duration / self._dt))`;
     # use `math.ceil(duration / self._dt - 1e-9)`.
     m = fsm.load(doc("a", [spy("a")]), registry=registry, dt=0.03)
     m.run(duration=0.1)
@@ -692,7 +692,7 @@ def test_exception_in_a_transition_action_is_reported_as_action(registry):
     # Was a bug (fixed): StateRuntimeError's docstring promises the phase names on_enter, tick, on_exit, check,
     # action; an action that raises is reported as phase "firing of transition Gate a -> b", which does
     # not say that the action failed (on_source_enter hooks and listeners land in the same bucket).
-    # Responsible: fsm/region.py Region.step/fire: set phase = "action" around `tr._action(ctx)`.
+    # Responsible: fsm/runtime/region.py Region.step/fire: set phase = "action" around `tr._action(ctx)`.
     m = fsm.load(doc("a", [spy("a"), spy("b")], [tr("Gate", "a", "b", fail_in="action")]), registry=registry)
     m.ctx.vars["go"] = True
     with pytest.raises(StateRuntimeError) as info:
@@ -705,7 +705,7 @@ def test_exception_in_on_source_enter_of_the_initial_state_is_a_state_runtime_er
     # machine starts escapes as the raw KeyError: no state path, no tick, and the car is not stopped
     # (docs/semantics.md, "Errors at run time": the error names the state's path and the tick; the car gets an
     # emergency stop).
-    # Responsible: fsm/state.py State._enter_full calls the source hooks outside its try block, and
+    # Responsible: fsm/runtime/state.py State._enter_full calls the source hooks outside its try block, and
     # Machine.start only catches StateRuntimeError. Move the hooks into the try (phase "on_enter" or
     # "on_source_enter of <transition>").
     car = FakeCar()

@@ -10,7 +10,7 @@ import pytest
 
 import fsm
 from fsm import DiagramError
-from fsm.registry import Registry, default_registry
+from fsm.loading.registry import Registry, default_registry
 
 DT = 0.0125
 

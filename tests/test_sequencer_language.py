@@ -9,7 +9,7 @@ from typing import Any
 import pytest
 
 import fsm
-from fsm.errors import DiagramError, StateRuntimeError
+from fsm.model.errors import DiagramError, StateRuntimeError
 
 
 def doc(*states: dict[str, Any], transitions: list[dict[str, Any]] | None = None, **variables: Any) -> dict[str, Any]:

@@ -16,8 +16,8 @@ from typing import Any
 import pytest
 
 import fsm
-from fsm.errors import DiagramError
-from fsm.machine import Listener
+from fsm.model.errors import DiagramError
+from fsm.runtime.machine import Listener
 from fsm.sim.car import PHYSICS_DT, SimCar
 from fsm.sim.loop import Simulation
 from fsm.sim.world import car_footprint, load_world, parse_world

@@ -9,7 +9,7 @@ from typing import Any
 import pytest
 
 import fsm
-from fsm.errors import StateRuntimeError
+from fsm.model.errors import StateRuntimeError
 from fsm.sim.car import SimCar
 from fsm.sim.io import CarIO
 from fsm.sim.loop import Simulation
@@ -85,7 +85,7 @@ def test_servo_acts_after_its_latency_and_not_within_its_dead_band() -> None:
 @pytest.mark.parametrize("servo", [{"seconds_per_60": 0}, {"travel": 100}, {"dead_band": -0.1}, {"latency": 2},
                                    {"speed": 0.1}])
 def test_servo_parameters_out_of_range_are_refused_at_their_key(servo: dict[str, Any]) -> None:
-    from fsm.errors import DiagramError
+    from fsm.model.errors import DiagramError
 
     with pytest.raises(DiagramError) as err:
         corridor(servo=servo)
@@ -199,7 +199,7 @@ FOLLOW = {"initial": "f", "states": [{"id": "f", "type": "FollowWall", "distance
 
 
 def run(doc: Any, seed: int, trace: list[str] | None = None) -> Simulation:
-    from fsm.trace import Recorder
+    from fsm.trace.recorder import Recorder
 
     car = SimCar(corridor(), seed=seed)
     machine = fsm.load(doc, car=car)

@@ -10,7 +10,7 @@ from typing import Any
 
 import pytest
 
-from fsm.errors import DiagramError
+from fsm.model.errors import DiagramError
 from fsm.sim.car import SimCar
 from fsm.sim.world import parse_world
 
@@ -113,7 +113,7 @@ def test_states_and_transitions_never_read_ground_truth() -> None:
     pattern = re.compile(r"true_pose|true_distance|\.body\b|odometry_error|world\.")
     offenders = []
     for folder in ("states", "transitions"):
-        for path in (ROOT / folder).rglob("*.py"):
+        for path in (ROOT / "fsm" / folder).rglob("*.py"):
             for n, line in enumerate(path.read_text().splitlines(), 1):
                 if pattern.search(line):
                     offenders.append(f"{path.relative_to(ROOT)}:{n}: {line.strip()}")

@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 
-from fsm.errors import DiagramError
+from fsm.model.errors import DiagramError
 from fsm.sim.world import WORLD_SCHEMA_PATH, load_world, parse_world, wall_segments, world_schema_text
 
 ROOT = Path(__file__).resolve().parent.parent

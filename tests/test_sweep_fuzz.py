@@ -1,6 +1,6 @@
-"""Hypothesis fuzz of the two readers of ``fsmctl sweep`` (issue 22): the sweep file (tools/sweep/spec.py
+"""Hypothesis fuzz of the two readers of ``fsmctl sweep`` (issue 22): the sweep file (fsm/tools/sweep/spec.py
 ``read_spec_file``, then every check ``plan`` makes before a run) and the resume reader of ``sweep.jsonl``
-(tools/sweep/folder.py ``read_records``). From random bytes, JSON of the right shape with wrong values, and cut-off
+(fsm/tools/sweep/folder.py ``read_records``). From random bytes, JSON of the right shape with wrong values, and cut-off
 real files, only the project's own error type (``DiagramError``) comes out; and the records the resume reader
 keeps can always be written into sweep.csv and sweep.html."""
 
@@ -14,7 +14,7 @@ import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from fsm.errors import DiagramError
+from fsm.model.errors import DiagramError
 from fsm.tools.sweep.folder import read_records
 from fsm.tools.sweep.results import csv_text, html_page
 from fsm.tools.sweep.runner import plan

@@ -194,7 +194,7 @@ def test_a_duration_fsmctl_run_refuses_is_refused(machine: Path, tmp_path: Path,
 def test_the_longest_sweep_duration_is_one_fsmctl_run_accepts() -> None:
     import argparse
 
-    from fsm.clock import DEFAULT_DT
+    from fsm.runtime.clock import DEFAULT_DT
     from fsm.tools.cli import run
     from fsm.tools.sweep import spec
 
@@ -335,7 +335,7 @@ def test_ctrl_c_at_any_moment_of_the_first_second(tmp_path: Path) -> None:
 def test_the_console_script_ends_quietly_on_a_ctrl_c_before_the_command_runs(
         monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
     """fsmctl_entry.py: a KeyboardInterrupt while tral-fsm is imported or the parser is built (before
-    tools/cli/app.py catches it) is exit 130 and one line; afterwards a late Ctrl-C is ignored."""
+    fsm/tools/cli/app.py catches it) is exit 130 and one line; afterwards a late Ctrl-C is ignored."""
     import fsmctl_entry
     from fsm.tools.cli import app
 

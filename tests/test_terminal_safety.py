@@ -1,5 +1,5 @@
 """Ids and messages printed to a terminal cannot drive it: control characters (C0, DEL, C1, ESC sequences) are
-shown escaped by ``fsm.errors.printable``, which every printed problem and the run, validate, test and types lines
+shown escaped by ``fsm.model.errors.printable``, which every printed problem and the run, validate, test and types lines
 go through; files keep the real characters."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from fsm.errors import DiagramError, Problem, printable
+from fsm.model.errors import DiagramError, Problem, printable
 from helpers import cli
 
 #: Anything a terminal acts on, as it must never reach one.

@@ -21,8 +21,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from fsm.reading import MAX_JSON_DEPTH, parse_json_line
-from fsm.replay import MAX_TICK, Trace, TraceError, parse_trace
+from fsm.loading.reading import MAX_JSON_DEPTH, parse_json_line
+from fsm.trace.replay import MAX_TICK, Trace, TraceError, parse_trace
 from helpers import cli
 from trace_lines import CAR, LINES, V1, WILD
 

@@ -14,8 +14,8 @@ import jsonschema
 import pytest
 
 import fsm
-from fsm.replay import TraceError, parse_trace, read_trace
-from fsm.trace import Recorder, jsonable
+from fsm.trace.recorder import Recorder, jsonable
+from fsm.trace.replay import TraceError, parse_trace, read_trace
 from helpers import cli
 
 REPO = Path(__file__).resolve().parents[1]
@@ -372,18 +372,17 @@ def test_a_sweep_writes_each_runs_report_and_links_it(capsys: pytest.CaptureFixt
 
 
 def test_every_package_folder_is_installed() -> None:
-    """A wheel holds only the packages pyproject.toml lists: each folder of Python modules must be one of them."""
-    import tomllib
+    """A wheel holds only the packages setuptools finds (pyproject.toml: ``packages.find`` under fsm): each folder
+    of Python modules must be one of them, so it needs an ``__init__.py``."""
+    from setuptools import find_packages
 
-    conf = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]
-    listed, dirs = set(conf["packages"]), conf["package-dir"]
-    for package, folder in dirs.items():
-        for path in (REPO / folder).rglob("*.py"):
-            rel = path.parent.relative_to(REPO / folder)
-            if "__pycache__" in rel.parts or any(p.startswith(".") for p in rel.parts):
-                continue
-            name = ".".join([package, *rel.parts])
-            assert name in listed, f"{path.relative_to(REPO)}: package {name} is not in pyproject.toml's packages"
+    found = set(find_packages(str(REPO), include=["fsm", "fsm.*"]))
+    for path in (REPO / "fsm").rglob("*.py"):
+        rel = path.parent.relative_to(REPO)
+        if "__pycache__" in rel.parts or any(p.startswith(".") for p in rel.parts):
+            continue
+        name = ".".join(rel.parts)
+        assert name in found, f"{path.relative_to(REPO)}: package {name} is not found by setuptools"
 
 
 def test_the_report_shows_the_runs_coverage(mission: Any, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

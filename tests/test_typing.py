@@ -46,8 +46,8 @@ def test_parameters_are_typed_for_plugin_authors(tmp_path: Path) -> None:
     wrong type are mypy errors, the right ones are not; the built-in clocks are ``Clock``s."""
     source = textwrap.dedent('''
         from fsm import Clock, Context, RealTimeClock, SimulatedClock, State, StateParams
-        from fsm.condition import Condition
-        from fsm.params import ConditionParams
+        from fsm.runtime.condition import Condition
+        from fsm.model.params import ConditionParams
         from fsm.sequencer.steps import Wait
         from fsm.transitions.car import Distance
 
@@ -108,8 +108,8 @@ def test_listeners_and_clocks_are_typed(tmp_path: Path) -> None:
         from typing import Any
 
         from fsm import Context, Listener, Machine, State, Transition
-        from fsm.machine import Fired, MonitorListener
-        from fsm.sequencer.supervisor import Monitor, Restart
+        from fsm.runtime.machine import Fired, MonitorListener
+        from fsm.runtime.supervisor import Monitor, Restart
 
 
         class Ticks(Listener):
@@ -182,30 +182,6 @@ def test_examples_and_documented_types_pass_mypy_strict(tmp_path: Path) -> None:
 def test_no_type_ignore_in_states_and_transitions() -> None:
     """Parameter access needs no ``# type: ignore`` any more; the library of types has none at all."""
     found = [f"{path.relative_to(ROOT)}:{n}" for folder in ("states", "transitions")
-             for path in sorted((ROOT / folder).rglob("*.py"))
+             for path in sorted((ROOT / "fsm" / folder).rglob("*.py"))
              for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1) if "type: ignore" in line]
     assert found == []
-
-
-def test_messages_name_files_in_the_repository(tmp_path: Path) -> None:
-    """mypy checks the linked layout; its messages are printed with the paths of the checkout."""
-    mod = script()
-    layout = tmp_path / "layout"
-    root = tmp_path / "repo"
-    for folder in ("fsm", "states", "transitions", "testing"):
-        (root / folder).mkdir(parents=True)
-    (root / "fsm" / "state.py").write_text("")
-    (root / "fsm" / "stale.py").write_text("")
-    mod.link_layout(root, layout)
-    (root / "fsm" / "stale.py").unlink()
-    mod.link_layout(root, layout)
-    assert sorted(p.name for p in (layout / "fsm").iterdir()) == ["state.py", "states", "testing", "transitions"]
-    assert (layout / "fsm" / "states").resolve() == (root / "states").resolve()
-    sep = "/" if sys.platform != "win32" else "\\"
-    for line, want in ((f"{layout}{sep}fsm{sep}states{sep}driving.py:3: error: x",
-                        f"states{sep}driving.py:3: error: x"),
-                       (f"{layout}{sep}fsm{sep}sequencer{sep}steps.py:1: note",
-                        f"fsm{sep}sequencer{sep}steps.py:1: note"),
-                       (f"{layout}{sep}fsm{sep}state.py:9: error", f"fsm{sep}state.py:9: error"),
-                       ("Found 2 errors in 1 file", "Found 2 errors in 1 file")):
-        assert mod.repository_path(line, root, layout) == want

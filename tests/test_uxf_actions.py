@@ -8,8 +8,8 @@ from typing import Any
 import pytest
 
 import fsm
-from fsm.errors import DiagramError
-from fsm.registry import default_registry
+from fsm.loading.registry import default_registry
+from fsm.model.errors import DiagramError
 from fsm.tools.umlet.reader import convert_bytes
 from fsm.tools.umlet.writer import diagram, element, relation, transition_text
 from helpers import without_layout as strip

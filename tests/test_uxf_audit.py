@@ -19,7 +19,7 @@ import json
 
 import pytest
 
-from fsm.errors import DiagramError
+from fsm.model.errors import DiagramError
 from fsm.tools.umlet.reader import convert_bytes
 from fsm.tools.umlet.writer import diagram, element, relation
 from helpers import without_layout as strip

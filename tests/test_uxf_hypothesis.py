@@ -8,7 +8,7 @@ from pathlib import Path
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from fsm.errors import DiagramError
+from fsm.model.errors import DiagramError
 from fsm.tools.umlet.reader import convert_bytes
 from fsm.tools.umlet.writer import export
 from helpers import CORPUS

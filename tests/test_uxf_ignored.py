@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import fsm
-from fsm.errors import DiagramError
+from fsm.model.errors import DiagramError
 from fsm.tools.umlet.reader import convert_bytes
 from fsm.tools.umlet.writer import diagram, element, relation
 

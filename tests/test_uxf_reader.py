@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from fsm.errors import DiagramError
-from fsm.loader import check
+from fsm.loading.loader import check
+from fsm.model.errors import DiagramError
 from fsm.tools.umlet.reader import convert_bytes, convert_file
 from fsm.tools.umlet.writer import diagram, element, relation
 from helpers import CORPUS, needs_corpus

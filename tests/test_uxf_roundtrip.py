@@ -11,8 +11,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from fsm.errors import DiagramError
-from fsm.registry import default_registry
+from fsm.loading.registry import default_registry
+from fsm.model.errors import DiagramError
 from fsm.tools.umlet.reader import convert_bytes, convert_file
 from fsm.tools.umlet.source import parse_raw
 from fsm.tools.umlet.writer import export

@@ -21,8 +21,8 @@ from pathlib import Path
 
 import pytest
 
-from fsm.errors import DiagramError
-from fsm.registry import default_registry
+from fsm.loading.registry import default_registry
+from fsm.model.errors import DiagramError
 from fsm.tools.umlet.palette import palette
 from fsm.tools.umlet.reader import convert_bytes
 from fsm.tools.umlet.source import parse_raw

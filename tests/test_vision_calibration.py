@@ -17,7 +17,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from fsm.errors import DiagramError
+from fsm.model.errors import DiagramError
 from fsm.vision import load_calibration
 from fsm.vision.calibration import parse_calibration
 

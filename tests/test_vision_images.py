@@ -16,7 +16,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from fsm.errors import DiagramError
+from fsm.model.errors import DiagramError
 from fsm.vision import images
 from fsm.vision.images import MAX_PIXELS, ImageHeader, decode_image, image_header, max_pixels
 

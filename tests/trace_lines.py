@@ -8,7 +8,7 @@ from typing import Any
 
 from hypothesis import strategies as st
 
-from fsm.replay import MAX_TICK, MAX_TIME
+from fsm.trace.replay import MAX_TICK, MAX_TIME
 
 FIELDS = ["car.x", "car.y", "car.heading", "car.odometry[0]", "car.odometry[1]", "car.odometry[2]", "car.front",
           "car.steering", "car.collisions"]

@@ -11,7 +11,8 @@ _ROLE = re.compile(r":(?:class|func|meth|mod|attr|data|exc):`~?([^`]+)`")
 
 
 class RstRoles(griffe.Extension):
-    """``:class:`fsm.composite.Composite``` -> ```fsm.composite.Composite```; ``~`` keeps the last name."""
+    """``:class:`fsm.runtime.composite.Composite``` -> ```fsm.runtime.composite.Composite```; ``~`` keeps the last
+    name."""
 
     def on_instance(self, *, obj: Any, **kwargs: Any) -> None:
         if obj.docstring is not None:

@@ -18,10 +18,9 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from fsm.errors import FsmError
-
-from .messages import typestore
-from .profile import Binding, Profile, normalise_type
+from fsm.model.errors import FsmError
+from fsm.ros.messages import typestore
+from fsm.ros.profile import Binding, Profile, normalise_type
 
 
 def roles(profile: Profile) -> dict[str, Binding]:

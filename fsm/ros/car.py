@@ -18,10 +18,9 @@ import threading
 from collections.abc import Callable
 from typing import Any
 
+from fsm.ros import messages as M
+from fsm.ros.profile import ODOMETRY, RANGE, Profile
 from fsm.sim.io import NO_VIEW, CameraView, GateMemory
-
-from . import messages as M
-from .profile import ODOMETRY, RANGE, Profile
 
 #: Where problems of the inputs are reported (one line each): standard error unless the caller says otherwise.
 Log = Callable[[str], None]

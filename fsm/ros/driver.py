@@ -18,21 +18,19 @@ import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from fsm.machine import Listener
-
-from . import messages as M
-from .car import Log, RosCar
-from .profile import Profile
-from .transport import Bus, PeerTimeout, TopicPublisher
+from fsm.ros import messages as M
+from fsm.ros.car import Log, RosCar
+from fsm.ros.profile import Profile
+from fsm.ros.transport import Bus, PeerTimeout, TopicPublisher
+from fsm.runtime.machine import Listener
 
 if TYPE_CHECKING:
-    from fsm.context import Context
-    from fsm.machine import Fired, Machine
-    from fsm.sequencer.supervisor import Monitor
-    from fsm.session import Session
-    from fsm.state import State
-
-    from .bag import BagRecorder
+    from fsm.ros.bag import BagRecorder
+    from fsm.runtime.context import Context
+    from fsm.runtime.machine import Fired, Machine
+    from fsm.runtime.state import State
+    from fsm.runtime.supervisor import Monitor
+    from fsm.session.session import Session
 
 #: Slack when comparing the simulator's clock with a tick's time.
 EPS = 1e-9
@@ -278,11 +276,11 @@ class RosDriver:
 
 def ros_session(plan: Any, profile: Profile, link: Bus, *, lockstep: bool = False, bag: BagRecorder | None = None,
                 log: Log | None = None, stop: Any = None, variables: dict[str, Any] | None = None) -> Session:
-    """A session that runs the machine of ``plan`` (a compiled :class:`fsm.plan.MachinePlan`) on the car behind
+    """A session that runs the machine of ``plan`` (a compiled :class:`fsm.model.plan.MachinePlan`) on the car behind
     ``link``: on the wall clock at the profile's rate, or in lock-step with a simulator's clock."""
-    from fsm.building import build
-    from fsm.clock import RealTimeClock, SimulatedClock
-    from fsm.session import Session
+    from fsm.loading.building import build
+    from fsm.runtime.clock import RealTimeClock, SimulatedClock
+    from fsm.session.session import Session
 
     driver = RosDriver(profile, link, lockstep=lockstep, bag=bag, log=log)
     clock = SimulatedClock(profile.dt) if lockstep else RealTimeClock(profile.dt)

@@ -10,7 +10,7 @@ import math
 from functools import lru_cache
 from typing import Any
 
-from .profile import (
+from fsm.ros.profile import (
     ACKERMANN,
     ACKERMANN_PLAIN,
     CLOCK,

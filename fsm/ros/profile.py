@@ -1,6 +1,6 @@
 """The I/O profile: which ROS 2 topics carry the car interface, their message types, rates, QoS and silence limits.
 
-A profile is a JSON file checked like the project's other files: read through :mod:`fsm.reading` (regular files,
+A profile is a JSON file checked like the project's other files: read through :mod:`fsm.loading.reading` (regular files,
 size cap, strict JSON), its shape against the pydantic models below (the committed
 ``fsm/schema/ros_profile.schema.json`` is generated from them), then its meaning (a topic bound twice, a message type
 that does not fit its input, a field the message has not). Every problem is located (file, JSON pointer,
@@ -21,8 +21,8 @@ from typing import Any, Literal
 
 from pydantic import Field, PrivateAttr, ValidationError
 
-from fsm.errors import DiagramError, Problem
-from fsm.params import ParamsBase
+from fsm.model.errors import DiagramError, Problem
+from fsm.model.params import ParamsBase
 
 #: ROS 2 topic names: tokens of letters, digits and underscores (not starting with a digit), '/'-separated.
 TOPIC_PATTERN = r"^/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*$"
@@ -294,8 +294,8 @@ def _name_unknown_keys(problems: list[Problem]) -> None:
 
 def parse_profile(data: Any, name: str, locator: Any = None, base_dir: str | None = None) -> Profile:
     """A checked profile from parsed JSON; :class:`DiagramError` with every problem, located."""
-    from fsm.document import Source, problems_from_validation
-    from fsm.reading import place
+    from fsm.loading.reading import place
+    from fsm.model.document import Source, problems_from_validation
 
     problems: list[Problem] = []
     profile: Profile | None = None
@@ -321,7 +321,7 @@ def parse_profile(data: Any, name: str, locator: Any = None, base_dir: str | Non
 
 def load_profile(path: str | os.PathLike[str]) -> Profile:
     """Read and check a profile file (the project's reading rule: regular files, size cap, strict JSON)."""
-    from fsm.reading import parse_json_bytes, read_file_bytes
+    from fsm.loading.reading import parse_json_bytes, read_file_bytes
 
     p = Path(path)
     raw = read_file_bytes(p, "I/O profile")
@@ -359,7 +359,7 @@ PROFILE_SCHEMA_PATH = Path(__file__).resolve().parent.parent / "schema" / "ros_p
 
 def profile_schema() -> dict[str, Any]:
     """The JSON Schema of profiles (committed as ``fsm/schema/ros_profile.schema.json``)."""
-    from fsm.document import file_schema
+    from fsm.model.document import file_schema
 
     schema = file_schema(Profile, "ros_profile.schema.json", "tral-fsm ROS 2 I/O profile",
                          "Binds the car interface to ROS 2 topics; generated from fsm.ros.profile by "

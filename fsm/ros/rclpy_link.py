@@ -17,8 +17,8 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from .profile import Binding, Profile, normalise_type
-from .transport import ROBOT, PeerTimeout, TransportError
+from fsm.ros.profile import Binding, Profile, normalise_type
+from fsm.ros.transport import ROBOT, PeerTimeout, TransportError
 
 
 def _module(name: str) -> Any:

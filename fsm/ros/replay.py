@@ -17,15 +17,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from fsm.errors import DiagramError, FsmError, Problem
-
-from . import messages as M
-from .bag import roles
-from .driver import EPS, RosDriver
-from .profile import STRING, Profile
+from fsm.model.errors import DiagramError, FsmError, Problem
+from fsm.ros import messages as M
+from fsm.ros.bag import roles
+from fsm.ros.driver import EPS, RosDriver
+from fsm.ros.profile import STRING, Profile
 
 if TYPE_CHECKING:
-    from fsm.session import Session
+    from fsm.session.session import Session
 
 
 @dataclass
@@ -49,9 +48,8 @@ class Drive:
 def load_drive(path: str | os.PathLike[str], profile: Profile) -> Drive:
     """Read a rosbag2 folder recorded with ``profile``; located errors for a folder that is not one, or a bag
     without the profile's topics."""
-    from fsm.reading import max_input_bytes
-
-    from .bag import read_bag
+    from fsm.loading.reading import max_input_bytes
+    from fsm.ros.bag import read_bag
 
     folder = Path(path)
     name = str(path)
@@ -172,8 +170,8 @@ class Divergence:
 
 def replay_session(drive: Drive, plan: Any, profile: Profile) -> Session:
     """A session that runs ``plan`` open loop on ``drive`` (stops after its last recorded tick)."""
-    from fsm.building import build
-    from fsm.session import Session, StopRules
+    from fsm.loading.building import build
+    from fsm.session.session import Session, StopRules
 
     driver = ReplayDriver(profile, drive)
     machine = build(plan, clock=BagClock(drive.ticks, profile.dt), car=driver.car)

@@ -20,14 +20,13 @@ import threading
 import time
 from typing import Any
 
+from fsm.ros import messages as M
+from fsm.ros.car import Log
+from fsm.ros.profile import COMPRESSED, Profile
+from fsm.ros.transport import Bus, PeerTimeout
 from fsm.sim.car import PHYSICS_DT, SimCar
 from fsm.sim.loop import GateLog
 from fsm.sim.world import load_world
-
-from . import messages as M
-from .car import Log
-from .profile import COMPRESSED, Profile
-from .transport import Bus, PeerTimeout
 
 #: Seconds without a command after which the robot brakes by itself (real time).
 COMMAND_TIMEOUT = 0.5

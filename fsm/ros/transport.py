@@ -19,9 +19,8 @@ import time
 from collections.abc import Callable
 from typing import Any, Protocol
 
-from fsm.errors import FsmError
-
-from .profile import Binding, Profile, normalise_type
+from fsm.model.errors import FsmError
+from fsm.ros.profile import Binding, Profile, normalise_type
 
 #: Who is waited for, in messages, by default.
 ROBOT = "the robot (rmw_zenoh, the Zenoh bridge, or `fsmctl sim --ros`)"
@@ -97,7 +96,7 @@ def open_bus(profile: Profile, *, connect: list[str] | None = None, listen: list
         if connect or listen:
             raise TransportError("--connect/--listen are Zenoh endpoints; with rclpy the RMW finds the robot "
                                  "(ROS_DOMAIN_ID, RMW_IMPLEMENTATION): leave them out, or use --via zenoh")
-        from .rclpy_link import RclpyLink
+        from fsm.ros.rclpy_link import RclpyLink
 
         return RclpyLink(profile)
     return Link(profile, connect=connect, listen=listen)
@@ -125,7 +124,7 @@ def topic_key(profile: Profile, binding: Binding, subscriber: bool = False) -> s
     if subscriber:
         digest = "*"
     else:
-        from .messages import type_hash
+        from fsm.ros.messages import type_hash
 
         digest = type_hash(binding.type)
     return f"{profile.transport.domain}/{topic}/{dds_type(binding.type)}/{digest}"

@@ -15,19 +15,18 @@ from typing import TYPE_CHECKING, Any
 
 from pydantic import Field
 
-from fsm.composite import Composite
-from fsm.params import Assignments, ConditionField, Int, StateParams
-from fsm.state import State
-
-from . import parsing as sequence_parsing
+from fsm.model.params import Assignments, ConditionField, Int, StateParams
+from fsm.runtime.composite import Composite
+from fsm.runtime.state import State
+from fsm.sequencer import layout as sequence_parsing
 
 if TYPE_CHECKING:
-    from fsm.context import Context
-    from fsm.document import StateSpec
-    from fsm.machine import Machine
-    from fsm.parsing import Parser
-    from fsm.plan import StatePlan
-    from fsm.region import Region
+    from fsm.loading.parsing import Parser
+    from fsm.model.document import StateSpec
+    from fsm.model.plan import StatePlan
+    from fsm.runtime.context import Context
+    from fsm.runtime.machine import Machine
+    from fsm.runtime.region import Region
 
 #: Slack for times computed from ticks (80 ticks of 0.0125 s are 1 s).
 _EPS = 5e-10

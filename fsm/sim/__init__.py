@@ -11,11 +11,11 @@ import os
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
-from .io import SENSORS, CarIO
+from fsm.sim.io import SENSORS, CarIO
 
 if TYPE_CHECKING:
-    from fsm.registry import Registry
-    from fsm.session import Session, StopRules
+    from fsm.loading.registry import Registry
+    from fsm.session.session import Session, StopRules
 
 #: The world a machine that drives runs in when none is given (``fsm.sim.world.default_world`` finds it).
 DEFAULT_WORLD = "hallway.json"
@@ -37,14 +37,13 @@ def simulate(source: Any, *, world: str | os.PathLike[str] | None = None, car_fi
     ``car_file`` replaces the world's car parameters; ``seed`` and ``noise`` drive the sensor noise. The session's
     driver (``session.driver``) is the :class:`~fsm.sim.loop.Simulation`: trajectory, metrics, observers.
     """
-    from fsm.building import build
-    from fsm.clock import SimulatedClock
-    from fsm.loader import compile as compile_plan
-    from fsm.plan import MachinePlan
-
-    from .car import SimCar
-    from .loop import Simulation
-    from .world import default_world, load_world
+    from fsm.loading.building import build
+    from fsm.loading.loader import compile as compile_plan
+    from fsm.model.plan import MachinePlan
+    from fsm.runtime.clock import SimulatedClock
+    from fsm.sim.car import SimCar
+    from fsm.sim.loop import Simulation
+    from fsm.sim.world import default_world, load_world
 
     plan = source if isinstance(source, MachinePlan) else compile_plan(source, registry=registry, plugins=plugins)
     if world is None:

@@ -19,8 +19,8 @@ from typing import Any
 
 import pymunk
 
-from .io import NO_VIEW, CameraView, GateMemory
-from .world import World, world_markers
+from fsm.sim.io import NO_VIEW, CameraView, GateMemory
+from fsm.sim.world import World, world_markers
 
 try:  # pymunk's own cffi binding: the same C calls as Space.*_query_*, without building result objects
     from pymunk._chipmunk import ffi as _ffi
@@ -389,10 +389,9 @@ class SimCar:
     def _camera_setup(self) -> tuple[Any, Any]:
         """The renderer and the detector (built on the first frame: OpenCV loads only for cars that see markers)."""
 
+        from fsm.sim.camera import MarkerSpec, SimCamera
         from fsm.vision.camera import CameraModel, CameraMount
         from fsm.vision.detector import MarkerDetector
-
-        from .camera import MarkerSpec, SimCamera
 
         c = self.params.camera
         model = CameraModel.from_intrinsics(c.width, c.height, c.fx, c.fy)

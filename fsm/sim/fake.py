@@ -9,7 +9,7 @@ import math
 from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
-from .io import CameraView, GateMemory
+from fsm.sim.io import CameraView, GateMemory
 
 if TYPE_CHECKING:
     from fsm.vision.detector import Detection

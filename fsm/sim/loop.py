@@ -19,21 +19,20 @@ import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, Protocol, cast
 
-from fsm.machine import Listener
-from fsm.session import Session, StopRules
-from fsm.trace import Recorder, summary
-
-from .car import PHYSICS_DT, SimCar
-from .world import Gate, World
+from fsm.runtime.machine import Listener
+from fsm.session.session import Session, StopRules
+from fsm.sim.car import PHYSICS_DT, SimCar
+from fsm.sim.world import Gate, World
+from fsm.trace.recorder import Recorder, summary
 
 if TYPE_CHECKING:
-    from fsm.context import Context
-    from fsm.machine import Fired, Machine
-    from fsm.state import State
+    from fsm.runtime.context import Context
+    from fsm.runtime.machine import Fired, Machine
+    from fsm.runtime.state import State
 
 
 class WallFollowing(Protocol):
-    """What a wall-following state (states/driving.py) shows the loop, which measures the wall-distance error while
+    """What a wall-following state (fsm/states/driving.py) shows the loop, which measures the wall-distance error while
     ``wall_target`` is set and the state counts as a straight."""
 
     wall_target: float | None
@@ -181,7 +180,7 @@ class _TransitionFlag(Listener):
 
 
 class Simulation:
-    """The simulated car as the world around a machine (a session's :class:`~fsm.session.Driver`): physics up to
+    """The simulated car as the world around a machine (a session's :class:`~fsm.session.session.Driver`): physics up to
     each tick's time before it; metrics, gates passed and the trajectory after it.
 
     ``Simulation(machine, car)`` makes the session it drives (``sim.session``); ``sim.run(...)`` runs it.

@@ -22,13 +22,12 @@ from typing import TYPE_CHECKING, Any
 import cv2
 import numpy as np
 
-from fsm.errors import FsmError
-
-from .world import World, car_footprint, wall_segments
+from fsm.model.errors import FsmError
+from fsm.sim.world import World, car_footprint, wall_segments
 
 if TYPE_CHECKING:
-    from .car import SimCar
-    from .loop import Simulation
+    from fsm.sim.car import SimCar
+    from fsm.sim.loop import Simulation
 
 FLOOR = (245, 245, 245)
 WALL = (60, 60, 60)

@@ -17,10 +17,9 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BeforeValidator, Field, ValidationError, model_validator
 
-from fsm.errors import DiagramError, Problem, UsageError
-from fsm.params import ParamsBase
-
-from .io import SensorName
+from fsm.model.errors import DiagramError, Problem, UsageError
+from fsm.model.params import ParamsBase
+from fsm.sim.io import SensorName
 
 
 def _pair(value: Any) -> Any:
@@ -621,7 +620,7 @@ def world_markers(world: World) -> list[tuple[int, float, float, float, float, f
 # -- loading ------------------------------------------------------------------------------------------
 def parse_world(data: Any, name: str | None = None, locator: Any = None) -> World:
     """A checked world from a parsed JSON document; raises :class:`DiagramError` with every problem, located."""
-    from fsm.document import Source, problems_from_validation
+    from fsm.model.document import Source, problems_from_validation
 
     source = Source(name=name, locator=locator)
     problems: list[Problem] = []
@@ -647,7 +646,7 @@ def parse_world(data: Any, name: str | None = None, locator: Any = None) -> Worl
 
 
 def _locate(problems: list[Problem], locator: Any) -> None:
-    from fsm.reading import place
+    from fsm.loading.reading import place
 
     place(problems, locator)
 
@@ -656,7 +655,7 @@ def read_json_file(path: str | os.PathLike[str], what: str,
     """Parse a JSON file strictly (UTF-8, line:column on errors); returns the data and a pointer locator.
 
     Repeated keys raise, or are added to ``duplicates`` when it is given (see ``parse_json_bytes``)."""
-    from fsm.reading import parse_json_bytes, read_file_bytes
+    from fsm.loading.reading import parse_json_bytes, read_file_bytes
 
     p = Path(path)
     raw = read_file_bytes(p, what)
@@ -691,7 +690,7 @@ def load_world(path: str | os.PathLike[str], car: str | os.PathLike[str] | None 
 
 def load_car(path: str | os.PathLike[str]) -> Car:
     """Read and check a car file (the ``car`` object of a world, on its own)."""
-    from fsm.document import Source, problems_from_validation
+    from fsm.model.document import Source, problems_from_validation
 
     data, locator = read_json_file(path, "car")
     problems: list[Problem] = []
@@ -713,7 +712,7 @@ def load_car(path: str | os.PathLike[str]) -> Car:
 
 def world_schema() -> dict[str, Any]:
     """The JSON Schema of world files (committed as ``fsm/schema/world.schema.json``)."""
-    from fsm.document import file_schema
+    from fsm.model.document import file_schema
 
     return file_schema(World, "world.schema.json", "tral-fsm world",
                        "A world for the simulated TRAL car; generated from fsm.sim.world by "
@@ -748,7 +747,7 @@ if __name__ == "__main__":  # pragma: no cover - regenerate the committed schema
                 sys.exit(1)
 
 
-from . import DEFAULT_WORLD  # noqa: E402 - the name lives in the cheap package init for the CLI's help
+from fsm.sim import DEFAULT_WORLD  # noqa: E402 - the name lives in the cheap package init for the CLI's help
 
 
 def default_world(machine_file: str) -> Path:

@@ -21,10 +21,10 @@ Modules: :mod:`.camera` (intrinsics, mount, frame changes), :mod:`.calibration` 
 
 from __future__ import annotations
 
-from .calibration import load_calibration
-from .camera import CameraModel, CameraMount
-from .detector import DEFAULT_DICTIONARY, Detection, MarkerDetector, dictionary_names
-from .gates import Gate, GateRule, find_gates
+from fsm.vision.calibration import load_calibration
+from fsm.vision.camera import CameraModel, CameraMount
+from fsm.vision.detector import DEFAULT_DICTIONARY, Detection, MarkerDetector, dictionary_names
+from fsm.vision.gates import Gate, GateRule, find_gates
 
 __all__ = [
     "CameraModel", "CameraMount", "load_calibration", "Detection", "MarkerDetector", "DEFAULT_DICTIONARY",

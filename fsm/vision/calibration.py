@@ -7,7 +7,7 @@ YAML and XML are parsed with ``cv2.FileStorage`` (it reads YAML 1.0 with or with
 so no YAML library is needed; but FileStorage crashes on deep nesting and slows down on long lists, so the text
 is first checked to be small and simple (:func:`check_text`). Then the values must describe a camera: focal
 lengths > 0 giving a field of view in :data:`~fsm.vision.camera.FOV_RANGE`, the principal point inside the
-image, the image within the pixel limit. Every problem is a located :class:`fsm.errors.DiagramError`: the
+image, the image within the pixel limit. Every problem is a located :class:`fsm.model.errors.DiagramError`: the
 file, the line of the key, and what to fix.
 """
 
@@ -21,10 +21,9 @@ from typing import Any
 
 import numpy as np
 
-from fsm.errors import DiagramError, Problem
-
-from .camera import CameraModel, pinhole_problems
-from .images import PIXELS_ENV, max_pixels
+from fsm.model.errors import DiagramError, Problem
+from fsm.vision.camera import CameraModel, pinhole_problems
+from fsm.vision.images import PIXELS_ENV, max_pixels
 
 #: A calibration is a few hundred bytes (OpenCV's sample with every view's extrinsics and image points: 15-20 KB).
 MAX_BYTES = 64 * 1024
@@ -70,7 +69,7 @@ class _Bads(Exception):
 def load_calibration(path: str | Path, *, image_size: tuple[int, int] | None = None) -> CameraModel:
     """The camera described by a calibration file; ``image_size`` (width, height) is used when the file
     names none. Every problem raises a located :class:`DiagramError`."""
-    from fsm.reading import read_file_bytes
+    from fsm.loading.reading import read_file_bytes
 
     return parse_calibration(read_file_bytes(Path(path), "calibration"), str(path), image_size=image_size)
 
@@ -110,7 +109,7 @@ def _problem(bad: _Bad, name: str, where: _Where) -> Problem:
 def _read_json(raw: bytes, text: str, name: str) -> tuple[dict[str, Any], _Where]:
     """A JSON calibration through the strict reader; the text is checked first, as for YAML (a number of
     thousands of digits would otherwise stop Python's parser with an error of its own)."""
-    from fsm.reading import parse_json_bytes
+    from fsm.loading.reading import parse_json_bytes
 
     check_text(text, name)
     data, source = parse_json_bytes(raw, name)

@@ -22,7 +22,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from .camera import CameraModel, CameraMount
+from fsm.vision.camera import CameraModel, CameraMount
 
 DEFAULT_DICTIONARY = "DICT_4X4_50"
 #: Side of the black square of a marker when nothing else is said, metres.

@@ -8,9 +8,9 @@ from collections.abc import Iterable
 import cv2
 import numpy as np
 
-from .camera import CameraModel
-from .detector import Detection
-from .gates import Gate
+from fsm.vision.camera import CameraModel
+from fsm.vision.detector import Detection
+from fsm.vision.gates import Gate
 
 _FONT = cv2.FONT_HERSHEY_SIMPLEX
 _GATE = (0, 200, 255)

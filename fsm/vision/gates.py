@@ -20,7 +20,7 @@ from collections.abc import Collection, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from .detector import Detection
+from fsm.vision.detector import Detection
 
 
 @dataclass(frozen=True, slots=True)

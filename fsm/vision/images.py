@@ -18,7 +18,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from fsm.errors import DiagramError, Problem
+from fsm.model.errors import DiagramError, Problem
 
 #: Largest image decoded, pixels (width x height): a 50-megapixel photo; 16-bit RGBA at this size is 400 MB.
 MAX_PIXELS = 50_000_000

@@ -1,0 +1,522 @@
+"""Controller: a session run under commands from another thread (a debugger's page), applied between ticks.
+
+The controller owns the tick loop of one run: it runs the session in short chunks of ticks
+(:meth:`Session.run <fsm.session.session.Session.run>`, unchanged), and between two ticks (never inside one) it
+applies the
+commands that arrived meanwhile, so debugging never changes what a tick does:
+
+- ``pause`` / ``resume`` the run itself (the machine's own pause of a subtree is an input, ``PauseState``);
+- ``step`` 1 or N ticks, or ``step_transition`` to the next tick in which a transition fires or a monitor fires;
+- ``speed``: real time x k, or ``None`` for as fast as possible (steps always run as fast as possible);
+- ``stop``: end the loop (the caller writes the trace and the outputs);
+- ``break`` / ``unbreak``: breakpoints (:mod:`fsm.debug.breakpoints`); a hit pauses after the tick it happened in;
+- ``input``: an input (:mod:`fsm.session.inputs`: a variable, a signal, a forced reading, a monitor fired, a state
+  finished), submitted for the next tick and recorded in the trace by the session;
+- ``reload``: a hot reload (:mod:`fsm.debug.reload`, from the file watcher, never from a page: its argument is a
+compiled
+  plan): the machine replaced between two ticks, keeping the variables and the active states by path; an active
+  state that no longer exists pauses the run there; a ``reload`` line in the trace and a rewind does it again;
+- ``rewind``: back to an earlier tick by building the run afresh (``factory``) and re-running it to that tick with
+  the inputs given so far up to it (the run is deterministic, so it is the same run); later inputs are dropped,
+  so the run forks from there.
+
+Whoever watches reads :attr:`Controller.snapshot` (replaced, never changed, after each chunk: safe from another
+thread) and takes :attr:`Controller.messages` (replies to commands, notices).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import deque
+from collections.abc import Callable, Iterable
+from typing import Any
+
+from fsm.debug.breakpoints import (
+    Breakpoint,
+    BreakpointError,
+    Happened,
+    Watch,
+    active_set,
+    expression_values,
+    hits,
+    make_breakpoint,
+)
+from fsm.debug.reload import ReloadRefused, swap_machine
+from fsm.model.errors import DiagramError, StateRuntimeError
+from fsm.session.inputs import InputError, check_input, input_from_json
+from fsm.session.session import Input, Session, StopRules
+
+#: Most ticks run between two looks at the commands (a few milliseconds of the hallway lap).
+CHUNK = 256
+#: The longest step, in ticks.
+MAX_STEP = 10_000_000
+#: Speeds (x real time) a run may be paced at; ``None`` is as fast as possible.
+MIN_SPEED, MAX_SPEED = 0.01, 10_000.0
+#: Behind real time by more than this (seconds of machine time at the chosen speed), the pace starts afresh
+#: instead of running the backlog at full speed.
+MAX_BACKLOG = 0.25
+#: How often (s) a running run's trace gets the samples kept for its current block, so a page shows the car moving.
+FLUSH = 0.1
+#: How long the loop sleeps at most while paused or ended before it looks at the commands again (s).
+IDLE = 0.1
+
+
+class Controller:
+    """Runs ``session`` (see the module docstring). ``factory`` builds the same run afresh (for ``rewind``);
+    ``speed`` is x real time (``None``: as fast as possible); ``paused`` starts paused at tick 0; ``signals``: the
+    signal names the machine reads (for breakpoint expressions)."""
+
+    def __init__(self, session: Session, *, factory: Callable[[], Session] | None = None,
+                 speed: float | None = 1.0, paused: bool = False, signals: Iterable[str] = (),
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self.session = session
+        self.factory = factory
+        self.speed = speed
+        self.paused = paused
+        self.signals = tuple(sorted(set(signals)))
+        self._first_signals = self.signals  # a rewind to before every reload reads these again
+        self.clock = clock
+        self.breakpoints: list[Breakpoint] = []
+        #: the inputs given through the controller, each with the tick before which it applied
+        self.log: list[tuple[int, Input]] = []
+        #: the hot reloads so far: the tick before which each applied, its plan, its trace line's details
+        self.reloads: list[tuple[int, Any, dict[str, Any]]] = []
+        #: why the run ended (``finished``, ``limit``, ``error``, a world's reason), or None while it can go on
+        self.ended: str | None = None
+        self.error: str | None = None
+        #: the last breakpoint hit (or step that ended at a transition), shown until the run goes on
+        self.hit: dict[str, Any] | None = None
+        self.quit = False
+        #: replies to commands and notices, for whoever watches (taken from the left)
+        self.messages: deque[dict[str, Any]] = deque()
+        self.snapshot: dict[str, Any] = {}
+        #: called (from the loop's thread) after each new snapshot: a watcher's wake-up
+        self.notify: Callable[[], None] | None = None
+        self._commands: deque[tuple[str, dict[str, Any], Any]] = deque()
+        self._wake = threading.Condition()
+        self._interrupt = False
+        self._budget = 0
+        self._to_transition = False
+        self._anchor: tuple[float, int] | None = None
+        self._next_id = 1
+        self._seq = 0
+        self._shown: dict[str, Any] = {}  # the last snapshot published, without its seq
+        self._replied = False  # a command was answered since (its reply is news even if the status is not)
+        self._flushed = 0.0
+        self._watch = Watch()
+        self._active: set[str] = set()
+        #: ticks ran with no breakpoint and no step to a transition: ``_active`` is older than the machine
+        self._stale = False
+        self._end = session.stop_rules.end_tick(0, session.dt)
+        self._attach(session)
+
+    # -- from any thread ------------------------------------------------------------------------------------------
+    def send(self, name: str, args: dict[str, Any] | None = None, reply: Any = None) -> None:
+        """Queue command ``name`` with ``args``; its reply (``{"kind": "reply", "id": reply, ...}``) goes to
+        :attr:`messages`. Applied by the loop at the next tick boundary."""
+        with self._wake:
+            self._commands.append((name, dict(args or {}), reply))
+            self._interrupt = True
+            self._wake.notify()
+
+    # -- the loop ---------------------------------------------------------------------------------------------------
+    def loop(self, stop: Callable[[], bool] | None = None) -> None:
+        """Run until a ``stop`` command or ``stop()`` (checked between chunks: Ctrl-C); while paused or after the
+        run ended, wait for commands (a rewind makes an ended run go on)."""
+        self._start()
+        while True:
+            self._drain()
+            if self.quit or (stop is not None and stop()):
+                break
+            if self.ended is not None or (self.paused and not self._budget):
+                self._publish()
+                self._idle(IDLE)
+                continue
+            ticks, wait = self._chunk()
+            if not ticks:
+                self._idle(wait)
+                continue
+            self._run(ticks, stop)
+            self._publish()
+        self._publish()
+
+    def _start(self) -> None:
+        session = self.session
+        try:
+            session.start()
+        except StateRuntimeError as exc:
+            self._failed(exc)
+        self._watch.clear()
+        self._active = active_set(session.machine)
+        self._stale = False
+        self._publish()
+
+    def _idle(self, seconds: float) -> None:
+        with self._wake:
+            if not self._commands:
+                self._wake.wait(seconds)
+
+    def _chunk(self) -> tuple[int, float]:
+        """How many ticks to run now (a step's rest, or what the pace allows), or how long to wait for the next."""
+        session = self.session
+        left = self._end - session.ticks
+        if self._budget:
+            return min(self._budget, CHUNK, left), 0.0
+        if self.speed is None:
+            return min(CHUNK, left), 0.0
+        now = self.clock()
+        dt = session.dt
+        if self._anchor is None:
+            self._anchor = (now, session.ticks)
+        wall0, tick0 = self._anchor
+        due = tick0 + int((now - wall0) * self.speed / dt + 1e-9)
+        if (due - session.ticks) * dt > MAX_BACKLOG * self.speed:  # too slow for this pace: start it afresh
+            self._anchor = (now, session.ticks)
+            due = session.ticks + 1
+        n = due - session.ticks
+        if n <= 0:
+            return 0, max((session.ticks + 1 - tick0) * dt / self.speed - (now - wall0), 0.0005)
+        return min(n, CHUNK, left), 0.0
+
+    def _run(self, ticks: int, stop: Callable[[], bool] | None) -> None:
+        session = self.session
+        before = session.ticks
+        self._interrupt = False
+        try:
+            result = session.run(until=self._until, stop=stop, stop_rules=StopRules(max_ticks=ticks))
+        except StateRuntimeError as exc:
+            self._failed(exc)
+            return
+        if self._budget > 0:
+            self._budget = max(0, self._budget - (session.ticks - before))
+            if not self._budget:
+                self._to_transition = False
+        self._ended_by(result.stopped)
+
+    def _ended_by(self, stopped: str) -> None:
+        """Whether the chunk that stopped for ``stopped`` ended the run (finished, at its limit, a world's reason)."""
+        session = self.session
+        if stopped == "finished":
+            self.ended = "finished"
+        elif stopped == "limit":
+            if session.ticks >= self._end:
+                self.ended = "limit"
+        elif stopped not in ("until", "stopped"):
+            self.ended = stopped
+        if self.ended is not None:
+            self._budget = 0
+
+    def _failed(self, exc: StateRuntimeError) -> None:
+        self.ended = "error"
+        self.error = str(exc)
+        self._budget = 0
+
+    def _until(self, session: Session) -> bool:
+        """After each tick: a breakpoint hit, the end of a step to a transition, or a command waiting."""
+        watch = self._watch
+        if not self.breakpoints and not self._to_transition:  # nothing looks: keep the tick cheap
+            if watch.moved:
+                watch.clear()
+                self._stale = True
+            return self._interrupt
+        if self._stale:  # what is active now is where the next tick starts from
+            self._resync()
+        happened = None
+        if watch.moved:
+            happened = self._happened()
+        if self.breakpoints:
+            found = hits(self.breakpoints, happened, session.machine, self.signals)
+            if found:
+                for bp, _why in found:
+                    bp.hits += 1
+                bp, why = found[0]
+                self._pause_at({"breakpoint": bp.id, "text": bp.text, "why": why,
+                                "also": [b.id for b, _ in found[1:]]})
+                return True
+        if self._to_transition and happened is not None and (
+                any(src is not None for src, _dst, _type in happened.transitions) or happened.monitors):
+            what = [f"{s} -> {d}" for s, d, _t in happened.transitions if s is not None]
+            what += [f"monitor {label} of {owner}" for owner, label, _k, _e in happened.monitors]
+            self._pause_at({"breakpoint": None, "text": "step to the next transition", "why": "; ".join(what)})
+            return True
+        return self._interrupt
+
+    def _resync(self) -> None:
+        """Take the active states as they are between two ticks (after ticks nothing looked at)."""
+        self._active = active_set(self.session.machine)
+        self._stale = False
+
+    def _happened(self) -> Happened:
+        watch = self._watch
+        now = active_set(self.session.machine)
+        before = self._active
+        self._active = now
+        entered = sorted(now - before)
+        left = sorted(before - now)
+        for src, dst, _type in watch.transitions:  # a restart leaves and enters the same state
+            if src == dst:
+                entered.append(dst)
+                left.append(src)
+        happened = Happened(watch.transitions, watch.monitors, entered, left)
+        watch.clear()
+        return happened
+
+    def _pause_at(self, hit: dict[str, Any]) -> None:
+        session = self.session
+        self.hit = {**hit, "tick": session.ticks, "time": round(session.now, 9)}
+        self.paused = True
+        self._budget = 0
+        self._to_transition = False
+        self.messages.append({"kind": "hit", **self.hit})
+
+    # -- commands -----------------------------------------------------------------------------------------------------
+    def _drain(self) -> None:
+        while True:
+            with self._wake:
+                if not self._commands:
+                    return
+                name, args, reply = self._commands.popleft()
+            try:
+                answer = self._apply(name, args)
+            except (BreakpointError, InputError, ReloadRefused, ValueError, TypeError) as exc:
+                message: dict[str, Any] = {"kind": "reply", "id": reply, "command": name, "ok": False,
+                                           "error": getattr(exc, "message", None) or str(exc)}
+                column = getattr(exc, "column", None)
+                if column is not None:
+                    message["column"] = column
+                self.messages.append(message)
+            else:
+                self.messages.append({"kind": "reply", "id": reply, "command": name, "ok": True, **answer})
+            self._replied = True
+
+    def _apply(self, name: str, args: dict[str, Any]) -> dict[str, Any]:
+        """Apply one command; raises ValueError (or a more precise error) with what is wrong with it."""
+        handler = getattr(self, f"_cmd_{name}", None)
+        if handler is None or name.startswith("_"):
+            raise ValueError(f"unknown command {name!r}")
+        answer: dict[str, Any] = handler(args)
+        return answer
+
+    def _going_on(self) -> None:
+        if self.ended is not None:
+            raise ValueError(f"the run has ended ({self.ended}); rewind to an earlier tick to go on")
+
+    def _cmd_pause(self, args: dict[str, Any]) -> dict[str, Any]:
+        self.paused = True
+        self._budget = 0
+        self._to_transition = False
+        return {}
+
+    def _cmd_resume(self, args: dict[str, Any]) -> dict[str, Any]:
+        self._going_on()
+        self.paused = False
+        self._budget = 0
+        self._to_transition = False
+        self.hit = None
+        self._anchor = None
+        return {}
+
+    def _cmd_step(self, args: dict[str, Any]) -> dict[str, Any]:
+        self._going_on()
+        n = args.get("n", 1)
+        if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_STEP:
+            raise ValueError(f"a step is 1 to {MAX_STEP} ticks, got {n!r}")
+        self.paused = True
+        self.hit = None
+        self._budget = n
+        self._to_transition = False
+        return {}
+
+    def _cmd_step_transition(self, args: dict[str, Any]) -> dict[str, Any]:
+        self._going_on()
+        self.paused = True
+        self.hit = None
+        self._budget = MAX_STEP
+        self._to_transition = True
+        self._watch.clear()
+        self._resync()
+        return {}
+
+    def _cmd_speed(self, args: dict[str, Any]) -> dict[str, Any]:
+        x = args.get("x")
+        if x is not None and (isinstance(x, bool) or not isinstance(x, (int, float))
+                              or not MIN_SPEED <= x <= MAX_SPEED):
+            raise ValueError(f"a speed is {MIN_SPEED:g} to {MAX_SPEED:g} x real time, or null for as fast as "
+                             f"possible; got {x!r}")
+        self.speed = None if x is None else float(x)
+        self._anchor = None
+        return {}
+
+    def _cmd_stop(self, args: dict[str, Any]) -> dict[str, Any]:
+        self.quit = True
+        return {}
+
+    def _cmd_break(self, args: dict[str, Any]) -> dict[str, Any]:
+        bp = make_breakpoint(self._next_id, args.get("spec"), self.session.machine, self.signals)
+        self._next_id += 1
+        if not self.breakpoints:  # ticks ran unlooked at: start from the states active now
+            self._watch.clear()
+            self._resync()
+        self.breakpoints.append(bp)
+        return {"breakpoint": bp.to_json()}
+
+    def _cmd_unbreak(self, args: dict[str, Any]) -> dict[str, Any]:
+        number = args.get("id")
+        kept = [bp for bp in self.breakpoints if bp.id != number]
+        if len(kept) == len(self.breakpoints):
+            raise ValueError(f"no breakpoint {number!r}")
+        self.breakpoints = kept
+        return {}
+
+    def _cmd_input(self, args: dict[str, Any]) -> dict[str, Any]:
+        self._going_on()
+        item = input_from_json(args.get("input"))
+        session = self.session
+        why = check_input(item, session.machine)
+        if why is not None:
+            raise InputError(why)
+        tick = session.ticks + (1 if session.machine.started else 0)
+        session.submit(item)
+        self.log.append((tick, item))
+        return {"tick": tick, "text": item.describe()}
+
+    def _cmd_reload(self, args: dict[str, Any]) -> dict[str, Any]:
+        """``plan``: the compiled plan of the edited document; ``info``: what its trace line says besides (the
+        file, the new regions, the document); ``signals``: the signal names the new machine reads."""
+        self._going_on()
+        info = dict(args.get("info") or {})
+        signals = tuple(sorted(set(args.get("signals") or self.signals)))
+        info["signals"] = signals  # kept with the reload: a rewind past it reads them again, one before it not
+        try:
+            swap = self._swap(args["plan"], info)
+        except DiagramError as exc:  # it cannot be built here (it drives a car and this run has none): not swapped
+            raise ValueError(f"the edited machine cannot run here: {exc}") from None
+        except StateRuntimeError as exc:
+            self._failed(exc)
+            raise ValueError(f"the reloaded machine failed: {exc}") from None
+        self.signals = signals
+        text = swap.describe()
+        self.messages.append({"kind": "reload", "ok": True, "tick": self.reloads[-1][0],
+                              "file": info.get("file"), "text": text, "kept": swap.kept,
+                              "missing": [list(m) for m in swap.missing]})
+        if swap.missing:
+            self._pause_at({"breakpoint": None, "text": "hot reload",
+                            "why": "; ".join(f"{old} no longer exists, entered {new}" for old, new in swap.missing)})
+        return {"text": text}
+
+    def _swap(self, plan: Any, info: dict[str, Any]) -> Any:
+        """Replace the machine by ``plan``'s (the loop's thread, between ticks), record it and remember it."""
+        session = self.session
+        machine = session.machine
+        tick = session.ticks + (1 if machine.started else 0)
+        swap = swap_machine(machine, plan)
+        session.replace_machine(swap.machine)
+        details = {key: value for key, value in info.items() if key in ("file", "regions", "document")}
+        details.setdefault("file", "")
+        details["regions"] = [{"path": r.path, "name": r.name, "states": [s.path for s in r.states.values()]}
+                              for r in swap.machine.regions]
+        details.update(kept=swap.kept, missing=[{"path": o, "entered": n} for o, n in swap.missing],
+                       started=[{"path": o, "entered": n} for o, n in swap.started], text=swap.describe())
+        if session.recorder is not None:
+            session.recorder.on_reload(tick, round(tick * session.dt, 9), details)
+        self.reloads.append((tick, plan, info))
+        self._watch.clear()
+        self._active = active_set(swap.machine)
+        self._stale = False
+        return swap
+
+    def _cmd_rewind(self, args: dict[str, Any]) -> dict[str, Any]:
+        tick = args.get("tick")
+        now = self.session.ticks
+        if isinstance(tick, bool) or not isinstance(tick, int) or not 0 <= tick <= now:
+            raise ValueError(f"rewind to a tick from 0 to the current {now}, got {tick!r}")
+        dropped = self.rewind(tick)
+        return {"tick": tick, "dropped": dropped}
+
+    def rewind(self, tick: int) -> int:
+        """Build the run afresh and run it to ``tick`` with the inputs given up to it (the loop's thread only);
+        paused there. Returns how many later inputs were dropped."""
+        if self.factory is None:
+            raise ValueError("this run cannot be rewound (it was not started with a way to build it again)")
+        session = self.factory()
+        keep = [(t, item) for t, item in self.log if t <= tick]
+        for t, item in keep:
+            session.schedule_tick(t, item)
+        dropped = len(self.log) - len(keep)
+        reloads = [r for r in self.reloads if r[0] <= tick]
+        dropped += len(self.reloads) - len(reloads)
+        self.session = session
+        self.log = keep
+        self.reloads = []
+        self.ended = self.error = self.hit = None
+        self.paused = True
+        self._budget = 0
+        self._to_transition = False
+        self._anchor = None
+        self.signals = self._first_signals
+        self._shown = {}  # a new trace: its status is published even if it reads as the last one did
+        self._attach(session)
+        self._start()
+        try:  # no breakpoint looks at the ticks replayed: they were looked at the first time
+            for at, plan, info in reloads:  # each reload again, before the tick it applied before
+                if self.ended is None and session.ticks < at - 1:
+                    self._ended_by(session.run(stop_rules=StopRules(max_ticks=at - 1 - session.ticks)).stopped)
+                if self.ended is None:
+                    self._swap(plan, info)
+                    self.signals = info.get("signals", self.signals)
+            session = self.session
+            if tick > session.ticks and self.ended is None:
+                self._ended_by(session.run(stop_rules=StopRules(max_ticks=tick - session.ticks)).stopped)
+        except StateRuntimeError as exc:
+            self._failed(exc)
+        self._watch.clear()
+        self._active = active_set(session.machine)
+        self._stale = False
+        values = expression_values(session.machine, self.signals)
+        for bp in self.breakpoints:
+            if bp.test is not None and bp.enabled:  # "becomes true" counts from here
+                bp.last = bp.test(values) is True
+        self.messages.append({"kind": "rewound", "tick": session.ticks, "dropped": dropped})
+        return dropped
+
+    def _attach(self, session: Session) -> None:
+        self._watch = Watch()
+        session.add_listener(self._watch)
+
+    # -- what a watcher sees ----------------------------------------------------------------------------------------
+    def _publish(self) -> None:
+        session = self.session
+        machine = session.machine
+        if self.ended is not None:
+            state = "ended"
+        elif self.paused and not self._budget:
+            state = "paused"
+        else:
+            state = "running"
+        snapshot = {
+            "tick": session.ticks, "time": round(session.now, 9), "state": state,
+            "ended": self.ended, "error": self.error, "outcome": machine.outcome,
+            "speed": self.speed, "active": machine.active_paths if machine.started else [],
+            "hit": self.hit, "end_tick": self._end if self._end < 2**62 else None,
+            "breakpoints": [bp.to_json() for bp in self.breakpoints],
+            "inputs": [[t, item.describe()] for t, item in self.log[-200:]],
+            "can_rewind": self.factory is not None,
+        }
+        if snapshot == self._shown and not self._replied:  # a paused run looks every IDLE seconds: nothing new
+            return
+        self._replied = False
+        self._shown = snapshot
+        self._seq += 1
+        self.snapshot = {"seq": self._seq, **snapshot}
+        recorder = session.recorder
+        now = self.clock()
+        if recorder is not None and (state != "running" or now - self._flushed > FLUSH):
+            self._flushed = now
+            recorder.flush_samples(machine)  # the car where it is, not up to a keyframe period ago
+        notify = self.notify
+        if notify is not None:
+            notify()
+
+
+__all__ = ["CHUNK", "Controller"]

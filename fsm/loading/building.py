@@ -1,0 +1,211 @@
+"""Building, the last load stage: a :class:`~fsm.model.plan.MachinePlan` becomes a running
+:class:`~fsm.runtime.machine.Machine`.
+
+Every state, region and transition is instantiated from the plan; references between them (exception
+sequences, a Join's sequences, ``InState``'s state, conditions' owners) are bound once all exist; then each
+state's hooks are sealed. Nothing here reports a document problem, except a machine that drives a car built
+without one.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from fsm.model import expr as E
+from fsm.model.errors import DiagramError, Problem
+from fsm.model.plan import Check, ConditionPlan, MachinePlan, RegionPlan, StatePlan, TransitionPlan
+from fsm.runtime.composite import Composite
+from fsm.runtime.condition import Condition
+from fsm.runtime.context import Context
+from fsm.runtime.machine import Machine
+from fsm.runtime.region import Region
+from fsm.runtime.state import State, Until
+from fsm.runtime.supervisor import Monitor, Supervisor
+from fsm.runtime.transition import Transition
+from fsm.sequencer.checks import CALLER_BEHAVIORS
+
+
+def build(plan: MachinePlan, *, clock: Any = None, car: Any = None, context: Context | None = None) -> Machine:
+    """A fresh machine from ``plan`` (a plan builds any number of independent machines)."""
+    ctx = context if context is not None else Context(car=car)
+    for key, value in plan.variables.items():
+        ctx.vars.setdefault(key, value)
+    if ctx.car is None and plan.needs_car:
+        users = plan.car_users
+        names = ", ".join(users[:5]) + (" ..." if len(users) > 5 else "")
+        raise DiagramError([Problem(f"this machine drives a car ({names}) but no car was given",
+                                    plan.spec.source.name, hint="run it with `fsmctl run FILE --world WORLD`, "
+                                    "or in Python with fsm.Session.open(FILE) (it drives the simulated car)")])
+    builder = _Builder()
+    root = builder.region(plan.root, None)
+    machine = Machine(root, name=plan.name, clock=clock, context=ctx, all_regions=builder.regions,
+                      states_by_path=builder.states)
+    builder.bind(machine)
+    return machine
+
+
+class _Builder:
+    def __init__(self) -> None:
+        self.states: dict[str, State[Any]] = {}
+        self.regions: list[Region] = []
+        #: each state with its plan, in build order (for binding)
+        self.built: list[tuple[State[Any], StatePlan]] = []
+        #: the states with a supervisor
+        self.supervised: list[tuple[State[Any], StatePlan]] = []
+        #: each condition object with the state it belongs to
+        self.conditions: list[tuple[Condition[Any], State[Any]]] = []
+
+    def region(self, plan: RegionPlan, owner: State[Any] | None) -> Region:
+        states = {sp.id: self.state(sp) for sp in plan.states}
+        region = Region(plan.name, plan.path, states, states[plan.initial])
+        region.owner = owner
+        self.regions.append(region)
+        for obj in states.values():
+            obj.region = region
+        transition = self.transition
+        for sp in plan.states:
+            if not sp.regular and not sp.preempt:
+                continue
+            source = states[sp.id]
+            regular = sp.regular
+            # one transition out of a state is the usual case: built without a comprehension's frame
+            source.regular = (transition(regular[0], states),) if len(regular) == 1 else \
+                tuple([transition(tp, states) for tp in regular])
+            if sp.preempt:
+                source.preempt = tuple([transition(tp, states) for tp in sp.preempt])
+                source.transitions = sorted(source.preempt + source.regular, key=_position)
+            elif len(source.regular) > 1:
+                source.transitions = sorted(source.regular, key=_position)
+            else:
+                source.transitions = list(source.regular)
+        return region
+
+    def state(self, plan: StatePlan) -> State[Any]:
+        obj = plan.cls(plan.id, plan.params)
+        obj.path = plan.path
+        self.states[plan.path] = obj
+        self.built.append((obj, plan))
+        if plan.regions:
+            regions = [self.region(rp, obj) for rp in plan.regions]
+            assert isinstance(obj, Composite)  # only composites have regions
+            obj.attach_regions(regions, plan)
+        if plan.on_enter is not None or plan.on_exit is not None or plan.on_complete is not None:
+            obj.entry_action = plan.on_enter
+            obj.exit_action = plan.on_exit
+            obj.complete_action = plan.on_complete
+        if plan.checks:
+            resets: list[Condition[Any]] = []
+            checks = {}
+            for key, check in plan.checks.items():
+                holds, conditions = self.check(check, obj)
+                checks[key] = holds
+                resets.extend(conditions)
+            obj.checks = checks
+            obj.resets = tuple(resets)
+        sup = plan.supervision
+        if sup is not None:
+            if sup.until is not None:
+                holds, conditions = self.check(sup.until, obj)
+                obj.until = Until(holds, conditions)
+            if sup.watches:
+                self.supervise(obj, plan)
+                self.supervised.append((obj, plan))
+        return obj
+
+    def supervise(self, obj: State[Any], plan: StatePlan) -> None:
+        sup = plan.supervision
+        assert sup is not None
+        monitors: list[Monitor] = []
+        for mp in sup.monitors:
+            holds, conditions = self.check(mp.condition, obj) if mp.condition is not None else (_never, ())
+            monitors.append(Monitor(holds, mp.behavior, mp.exception, mp.label, kind=mp.kind, conditions=conditions))
+        pre, pre_conditions = self.check(sup.precondition, obj) if sup.precondition is not None else (None, ())
+        timeout = sup.timeout
+        supervisor = Supervisor(obj, monitors, pre, pre_conditions,
+                                E.on_context(timeout) if isinstance(timeout, E.Compiled) else timeout)
+        for m in monitors:
+            if m.kind == "timeout":
+                m.holds = supervisor.timed_out
+        obj.supervisor = supervisor
+
+    def check(self, check: Check, owner: State[Any]) -> tuple[Any, tuple[Condition[Any], ...]]:
+        """``(holds(ctx), condition objects)`` of a step condition: an expression, or a condition object."""
+        if isinstance(check, ConditionPlan):
+            condition = check.build()
+            self.conditions.append((condition, owner))
+            return condition.holds, (condition,)
+        return E.on_context(check), ()
+
+    def transition(self, plan: TransitionPlan, states: dict[str, State[Any]]) -> Transition[Any]:
+        source = states[plan.source]
+        t = plan.cls(plan.params, source, states[plan.target], plan.position)
+        guard = plan.guard
+        if not plan.conditions and guard.expression is None and guard.condition is None and plan.assign is None:
+            return t
+        conditions = {key: cp.build() for key, cp in plan.conditions.items()}
+        if guard.condition is not None:
+            conditions["guard"] = guard.condition.build()
+            t.apply_guard(conditions["guard"].holds)
+        elif guard.expression is not None:
+            t.apply_guard(E.on_context(guard.expression), guard.expression.comparison())
+        if conditions:
+            t.apply_conditions(conditions)
+            self.conditions.extend((c, source) for c in conditions.values())
+        if plan.assign is not None:
+            t.apply_set(plan.assign, plan.counter)
+        return t
+
+    def bind(self, machine: Machine) -> None:
+        """Once everything exists: references, supervisors (exception sequences, callers), conditions' owners;
+        then every state's hooks are sealed."""
+        for obj, _plan in self.supervised:
+            supervisor = obj.supervisor
+            if supervisor is not None:
+                supervisor.machine = machine
+                for m in supervisor.monitors:
+                    if m.exception_id is not None:
+                        m.exception = _exception_region(obj, m.exception_id)
+                    if m.behavior in CALLER_BEHAVIORS:
+                        _supervise_caller(obj, machine)
+        for condition, owner in self.conditions:
+            condition.bind(machine, owner)
+        for obj, _plan in self.built:
+            for t in obj.transitions:
+                if t.binds_references:
+                    t.bind(machine)
+            if obj.binds_references:
+                obj.bind(machine)
+        for obj, _plan in self.built:
+            obj.seal()
+
+
+def _position(t: Transition[Any]) -> int:
+    return t.index
+
+
+def _never(ctx: Context) -> bool:
+    return False
+
+
+def _supervise_caller(state: State[Any], machine: Machine) -> None:
+    """A ``...CallerOfOwner`` behaviour acts on the state that contains ``state``: it needs a supervisor too."""
+    caller = state.region.owner if state.region is not None else None
+    if caller is not None and caller.supervisor is None:
+        caller.supervisor = Supervisor(caller, [])
+        caller.supervisor.machine = machine
+
+
+def _exception_region(state: State[Any], name: str) -> Region | None:
+    """The region of the exception sequence ``name``, declared by the nearest sequence (this state or an
+    enclosing one) that declares it."""
+    from fsm.sequencer.steps import Sequence, enclosing_sequence
+
+    seq = state if isinstance(state, Sequence) else enclosing_sequence(state)
+    while seq is not None:
+        if name in seq.exceptions:
+            return seq.exceptions[name]
+        seq = enclosing_sequence(seq)
+    return None
+
+
+__all__ = ["build"]

@@ -1,0 +1,196 @@
+"""Compiling, the fourth load stage: a checked document and its analysis become a :class:`~fsm.model.plan.MachinePlan`.
+
+Nothing here reports a problem: checking has found them all, and a document with errors is never compiled. What
+this stage decides is how each part will run: the order in which a state's transitions are checked, each
+transition's guard kind, each state's hooks and supervision, the initial blackboard, and what a runner asks
+before building (does it need a car, which files and signals does it use).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from typing import Any
+
+from fsm.loading.checking import Analysis, conditions_of, signal_names
+from fsm.model import expr as E
+from fsm.model.document import ConditionSpec, MachineSpec, Source, StateSpec, TransitionSpec
+from fsm.model.jsonpos import escape
+from fsm.model.plan import (
+    NOTHING,
+    Action,
+    Check,
+    ConditionPlan,
+    GuardPlan,
+    MachinePlan,
+    MonitorPlan,
+    RegionPlan,
+    StatePlan,
+    SupervisionPlan,
+    TransitionPlan,
+)
+
+
+def compile_machine(spec: MachineSpec, analysis: Analysis) -> MachinePlan:
+    """The plan of a checked document without errors."""
+    compiler = _Compiler(analysis)
+    root = compiler.region(spec, spec.name or "", "")
+    return MachinePlan(
+        name=spec.name or "",
+        root=root,
+        variables=compiler.variables,
+        spec=spec,
+        car_users=tuple(compiler.car_users),
+        files=tuple(dict.fromkeys(level.source.name for level in spec.levels() if level.source.name)),
+        signals=frozenset(signal_names(spec)),
+    )
+
+
+class _Compiler:
+    def __init__(self, analysis: Analysis) -> None:
+        self.analysis = analysis
+        self.variables: dict[str, Any] = {}
+        self.car_users: list[str] = []
+
+    def region(self, spec: MachineSpec, name: str, prefix: str) -> RegionPlan:
+        for key, value in spec.vars.items():
+            self.variables.setdefault(key, value)
+        regular: dict[str, list[TransitionPlan]] = {}
+        preempt: dict[str, list[TransitionPlan]] = {}
+        ordered = False
+        for index, tr in enumerate(spec.transitions):
+            plan = self.transition(tr, index, prefix)
+            p = plan.params
+            (preempt if p.preempt else regular).setdefault(plan.source, []).append(plan)
+            ordered = ordered or p.priority != 0
+        states = tuple([self.state(st, prefix, regular.get(st.id, _NONE), preempt.get(st.id, _NONE), ordered)
+                        for st in spec.states])
+        return RegionPlan(name, prefix, states, spec.initial)
+
+    def state(self, st: StateSpec, prefix: str, regular: list[TransitionPlan], preempt: list[TransitionPlan],
+              ordered: bool) -> StatePlan:
+        path = f"{prefix}/{st.id}" if prefix else st.id
+        cls, params = st.cls, st.params
+        if cls.needs_car:
+            self.car_users.append(f"'{path}' ({st.type})")
+        if st.conditions:
+            self._car_conditions(conditions_of(st.conditions), f"'{path}'")
+        regions = tuple([self.region(sub.machine, sub.name or st.id, f"{path}/{sub.name}" if sub.name else path)
+                         for sub in st.subs if sub.machine is not None]) if st.subs else ()
+        if ordered:  # by priority, higher first; stable: declaration order within a priority
+            regular = sorted(regular, key=_priority)
+            preempt = sorted(preempt, key=_priority)
+        on_enter = on_exit = on_complete = None
+        if params.set is not None or cls.assignment_fields:
+            on_enter = self.assigner(st.source, self.entry_assignments(st))
+            on_exit = self.assigner(st.source, self.set_assignments(st, "on_exit"))
+            on_complete = self.assigner(st.source, self.set_assignments(st, "on_complete"))
+        checks = {key: self.check(st, key, getattr(params, key)) for key in cls.condition_fields
+                  if getattr(params, key, None) is not None} if cls.condition_fields else NOTHING
+        supervision = None
+        if params.precondition is not None or params.until is not None or params.monitors is not None \
+                or params.timeout is not None:
+            supervision = self.supervision(st)
+        return StatePlan(cls, params, st.id, path, on_enter, on_exit, supervision, regions, st.sequence,
+                         tuple(preempt), tuple(regular), on_complete, checks)
+
+    def set_assignments(self, st: StateSpec, hook: str) -> list[tuple[str, str]]:
+        """``(variable, pointer)`` of the state's ``set.<hook>``."""
+        sets = st.params.set
+        items = (getattr(sets, hook) or {}) if sets is not None else {}
+        return [(name, f"{st.pointer}/set/{hook}/{escape(name)}") for name in items]
+
+    def entry_assignments(self, st: StateSpec) -> list[tuple[str, str]]:
+        """``(variable, pointer)`` of what runs on entry: ``set.on_enter``, then the type's assignment parameters."""
+        sets = st.params.set
+        out = [(name, f"{st.pointer}/set/on_enter/{escape(name)}") for name in ((sets.on_enter or {}) if sets else {})]
+        for key in st.cls.assignment_fields:
+            out += [(name, f"{st.pointer}/{key}/{escape(name)}") for name in getattr(st.params, key)]
+        return out
+
+    def assigner(self, source: Source, targets: list[tuple[str, str]]) -> Action | None:
+        if not targets:
+            return None
+        return E.assigner([(name, self.analysis.expression(source, ptr)) for name, ptr in targets])
+
+    def transition(self, tr: TransitionSpec, index: int, prefix: str) -> TransitionPlan:
+        p = tr.params
+        if tr.cls.needs_car:
+            self.car_users.append(f"{_join(prefix, p.from_)} -> {_join(prefix, p.to)} ({tr.type})")
+        if tr.conditions:
+            self._car_conditions(conditions_of(tr.conditions), f"{_join(prefix, p.from_)} -> {_join(prefix, p.to)}")
+        guard = _NO_GUARD
+        if p.guard is not None:
+            if isinstance(p.guard, str):
+                guard = GuardPlan(expression=self.analysis.expression(tr.source, tr.pointer + "/guard"))
+            elif "guard" in tr.conditions:
+                guard = GuardPlan(condition=self.condition(tr.conditions["guard"], tr.source))
+        if p.set is None and not tr.conditions:
+            return TransitionPlan(tr.cls, p, p.from_, p.to, index, guard)
+        targets = [(name, f"{tr.pointer}/set/{escape(name)}") for name in (p.set or {})]
+        counter = None
+        if len(targets) == 1:
+            form = self.analysis.expression(tr.source, targets[0][1]).counter()
+            counter = None if form is None else (targets[0][0], form)
+        return TransitionPlan(
+            cls=tr.cls, params=p, source=p.from_, target=p.to, position=index, guard=guard,
+            assign=self.assigner(tr.source, targets), counter=counter,
+            conditions={key: self.condition(cs, tr.source) for key, cs in tr.conditions.items() if key != "guard"},
+        )
+
+    def condition(self, cs: ConditionSpec, source: Source) -> ConditionPlan:
+        return ConditionPlan(
+            cls=cs.cls, params=cs.params, children=tuple(self.condition(c, source) for c in cs.children),
+            exprs={key: self.analysis.expression(source, f"{cs.pointer}/{key}") for key in cs.cls.expr_fields})
+
+    def check(self, st: StateSpec, key: str, raw: Any) -> Check:
+        """A step condition: an expression, or a condition object."""
+        if isinstance(raw, str):
+            return self.analysis.expression(st.source, f"{st.pointer}/{key}")
+        return self.condition(st.conditions[key], st.source)
+
+    def supervision(self, st: StateSpec) -> SupervisionPlan | None:
+        """The step-common keys: precondition, exit condition, monitors (the timeout first)."""
+        p = st.params
+        if p.precondition is None and p.until is None and p.monitors is None and p.timeout is None:
+            return None
+        monitors: list[MonitorPlan] = []
+        timeout: float | E.Compiled | None = None
+        if isinstance(p.timeout, str):
+            timeout = self.analysis.expression(st.source, st.pointer + "/timeout")
+            label = f"timeout {p.timeout} s"
+        elif p.timeout is not None:
+            timeout = p.timeout
+            label = f"timeout {p.timeout:g} s"
+        if timeout is not None:
+            monitors.append(MonitorPlan(None, p.timeout_behavior, p.timeout_exception, label, kind="timeout"))
+        for i, m in enumerate(p.monitors or ()):
+            label = m.description or (m.condition if isinstance(m.condition, str) else
+                                      str(m.condition.get("type", "condition")))
+            monitors.append(MonitorPlan(self.check(st, f"monitors/{i}/condition", m.condition), m.behavior,
+                                        m.exception, label))
+        return SupervisionPlan(
+            precondition=None if p.precondition is None else self.check(st, "precondition", p.precondition),
+            until=None if p.until is None else self.check(st, "until", p.until),
+            monitors=tuple(monitors),
+            timeout=timeout,
+        )
+
+    def _car_conditions(self, conditions: Iterable[ConditionSpec], where: str) -> None:
+        for cs in conditions:
+            if getattr(cs.cls, "needs_car", False):
+                self.car_users.append(f"{where} (condition {cs.type})")
+
+
+_NO_GUARD = GuardPlan()
+_NONE: list[TransitionPlan] = []
+
+
+def _priority(t: TransitionPlan) -> int:
+    return -t.params.priority
+
+
+def _join(prefix: str, sid: str) -> str:
+    return f"{prefix}/{sid}" if prefix else sid
+
+
+__all__ = ["compile_machine"]

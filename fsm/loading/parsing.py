@@ -1,0 +1,309 @@
+"""Parsing, the second load stage: a document (a file by its reader, or a dict) becomes a tree of specs.
+
+Each element is looked up in the registry by its ``type`` and validated against that type's ``Params`` (the
+models the JSON Schema is generated from); includes are read relative to the including file, cycles refused;
+condition objects are parsed where they are written; a composite's regions come from the type itself
+(:meth:`fsm.runtime.composite.Composite.parse_regions`), so a Sequence's steps are laid out by the sequencer. What
+cannot
+be parsed becomes a located problem, and parsing goes on with the rest of the file.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import stat
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+
+from fsm.loading.reading import parse_json_bytes, read_file_bytes, read_json, reader_for
+from fsm.loading.registry import Registry
+from fsm.model.document import (
+    ConditionSpec,
+    Include,
+    MachineEnvelope,
+    MachineSpec,
+    Source,
+    StateSpec,
+    TransitionSpec,
+    check_type,
+    element_label,
+    normalize_legacy,
+    problems_from_validation,
+)
+from fsm.model.errors import DiagramError
+from fsm.model.params import ParamsBase
+from fsm.model.problems import Problems
+
+#: Machines nested deeper than this are refused (a recursion guard, far beyond any real diagram).
+MAX_MACHINE_DEPTH = 48
+
+
+class Parser:
+    """One parse: the registry, where problems go, and the include bookkeeping. Types call back into it
+    (``parse_regions``) for the elements and machines they hold."""
+
+    def __init__(self, registry: Registry, problems: Problems, base_dir: str | os.PathLike[str] | None = None) -> None:
+        self.registry = registry
+        self.problems = problems
+        self.base_dir = Path(base_dir) if base_dir is not None else None
+        self._cache: dict[Path, MachineSpec | None] = {}
+        self._stack: list[Path] = []
+        #: Scoped bookkeeping of the types that parse their own children (a Sequence's declared sequences), by name.
+        self.scopes: dict[str, Any] = {}
+        self._tables: dict[str, dict[str, type[Any]]] = {"state": registry.states, "transition": registry.transitions,
+                        "condition": registry.conditions}
+
+    # -- documents ------------------------------------------------------------------------------
+    def document(self, src: Any) -> MachineSpec | None:
+        """The spec of ``src`` (a path, or a document dict read relative to ``base_dir``), ``None`` when unusable."""
+        if isinstance(src, (str, os.PathLike)):
+            path = Path(src)
+            try:
+                data, source = self._read(path)
+            except DiagramError as exc:
+                self.problems.extend(exc.problems)
+                return None
+            self._stack.append(Path(os.path.realpath(path)))
+            try:
+                return self.machine(data, source, "", depth=0)
+            finally:
+                self._stack.pop()
+        source = Source(name=None, directory=self.base_dir or Path.cwd())
+        return self.machine(src, source, "", depth=0)
+
+    def _read(self, path: Path) -> tuple[Any, Source]:
+        """A file's document by its reader; a JSON file's repeated keys join the other problems of the load."""
+        reader = reader_for(path)
+        if reader is not read_json:
+            return reader(path)
+        if not str(path) or str(path) == ".":
+            return read_json(path)  # the "no file name" problem
+        repeated: list[Any] = []
+        data, source = parse_json_bytes(read_file_bytes(path), str(path), path.parent, duplicates=repeated)
+        self.problems.extend(repeated)
+        return data, source
+
+    def machine(self, data: Any, source: Source, base: str, depth: int) -> MachineSpec | None:
+        """One machine level and its sub-machines; ``None`` when its envelope is unusable."""
+        if depth > MAX_MACHINE_DEPTH:
+            self.problems.add(f"machines nested more than {MAX_MACHINE_DEPTH} levels deep", source, base)
+            return None
+        if not isinstance(data, dict):
+            kind = "array" if isinstance(data, list) else type(data).__name__
+            self.problems.add(f"a machine must be a JSON object with 'initial' and 'states', got {kind}", source,
+                              base, hint='{"initial": "a", "states": [{"id": "a", "type": "Idle"}]}')
+            return None
+        if depth == 0 and "expect" in data and not {"states", "initial", "root"} & data.keys():
+            self.problems.add("this is a scenario test (it has 'expect' and no 'states'), not a machine document",
+                              source, base, hint="run a scenario with `fsmctl test FILE`; `fsmctl run` takes the "
+                                                 "machine it names ('machine')")
+            return None
+        data, legacy = normalize_legacy(data)
+        envelope: MachineEnvelope | None
+        try:
+            envelope = MachineEnvelope.model_validate(data)
+        except ValidationError as err:
+            self.problems.extend(problems_from_validation(
+                err, source=source, base=base, element=None, model=MachineEnvelope, kind="key",
+                rename={"initial": "root"} if legacy else None, data=data), source)
+            envelope = None
+        states_raw = data.get("states") if isinstance(data.get("states"), list) else []
+        trans_raw = data.get("transitions") if isinstance(data.get("transitions"), list) else []
+        states = [st for i, raw in enumerate(states_raw)
+                  if (st := self.state(raw, source, f"{base}/states/{i}", depth)) is not None]
+        transitions = [tr for i, raw in enumerate(trans_raw)
+                       if (tr := self.transition(raw, source, f"{base}/transitions/{i}")) is not None]
+        initial = data.get("initial") if isinstance(data.get("initial"), str) else ""
+        edges = [(t["from"], t["to"]) for t in trans_raw
+                 if isinstance(t, dict) and isinstance(t.get("from"), str) and isinstance(t.get("to"), str)]
+        name = data.get("name") if isinstance(data.get("name"), str) else None
+        return MachineSpec(
+            source=source,
+            pointer=base,
+            name=envelope.name if envelope else name,
+            initial=initial,
+            initial_pointer=base + ("/root" if legacy else "/initial"),
+            states=states,
+            transitions=transitions,
+            vars=dict(envelope.vars) if envelope else {},
+            edges=edges,
+            complete=envelope is not None and len(states) == len(states_raw) and len(transitions) == len(trans_raw),
+            inputs=list(envelope.inputs) if envelope and envelope.inputs is not None else None,
+            envelope_ok=envelope is not None,
+            raw_states=states_raw,
+            raw_transitions=trans_raw,
+        )
+
+    def submachine(self, data: Any, source: Source, ptr: str, depth: int) -> MachineSpec | None:
+        """A sub-machine: inline, or ``{"file": ...}`` relative to the including file."""
+        if isinstance(data, dict) and "file" in data:
+            try:
+                inc = Include.model_validate(data)
+            except ValidationError as err:
+                self.problems.extend(problems_from_validation(
+                    err, source=source, base=ptr, element="include", model=Include, kind="key", data=data), source)
+                return None
+            return self.include(inc.file, source, ptr, depth)
+        return self.machine(data, source, ptr, depth)
+
+    def include(self, file: str, source: Source, ptr: str, depth: int) -> MachineSpec | None:
+        """The machine in ``file`` (relative to ``source``'s folder), read once per load; cycles are refused."""
+        directory = Path(source.directory) if source.directory is not None else (self.base_dir or Path.cwd())
+        add = self.problems.add
+        try:
+            # realpath, not Path.resolve: on a symlink loop the latter raises RuntimeError (Python 3.11)
+            path = Path(os.path.realpath(directory / file))
+            mode: int | None = os.stat(path).st_mode
+        except FileNotFoundError:
+            mode = None
+        except (OSError, ValueError) as exc:  # a symlink loop (ELOOP), no permission, a NUL byte, ...
+            reason = getattr(exc, "strerror", None) or str(exc)
+            hint = ("the path is a symlink that leads back to itself; point it at a machine file"
+                    if getattr(exc, "errno", None) == errno.ELOOP else "check the path and its permissions")
+            add(f"include file '{file}' cannot be read: {reason}", source, ptr + "/file", element="include",
+                hint=hint)
+            return None
+        if mode is not None and not stat.S_ISREG(mode):
+            what = "a directory" if stat.S_ISDIR(mode) else "not a regular file"
+            add(f"include file '{file}' is {what} ({path})", source, ptr + "/file", element="include",
+                hint="an include names a machine file (.json or .uxf), relative to the including file")
+            return None
+        if path in self._stack:
+            cycle = self._stack[self._stack.index(path):] + [path]
+            add("include cycle: " + " -> ".join(p.name for p in cycle), source, ptr + "/file", element="include",
+                hint="a machine may not include itself, directly or through others")
+            return None
+        if path in self._cache:
+            return self._cache[path]
+        if mode is None:
+            add(f"include file '{file}' not found (looked for {path})", source, ptr + "/file", element="include",
+                hint="include paths are relative to the including file")
+            return None
+        try:
+            data, inc_source = self._read(path)
+        except DiagramError as exc:
+            self.problems.extend(exc.problems)
+            self._cache[path] = None
+            return None
+        self._stack.append(path)
+        try:
+            spec = self.machine(data, inc_source, "", depth)
+        finally:
+            self._stack.pop()
+        self._cache[path] = spec
+        return spec
+
+    # -- elements -------------------------------------------------------------------------------
+    def element(self, kind: str, raw: Any, source: Source, ptr: str) -> tuple[type[Any], Any] | None:
+        """The class an element's ``type`` names and its validated parameters, or ``None`` (problems added)."""
+        if not isinstance(raw, dict):
+            return None  # the envelope reported it
+        name = raw.get("type")
+        cls = self._tables[kind].get(name) if isinstance(name, str) else None
+        if cls is None:
+            cls, problems = check_type(kind, raw, self.registry, source, ptr)
+            if cls is None:
+                self.problems.extend(problems, source)
+                return None
+        model: type[ParamsBase] = cls.Params
+        try:
+            return cls, model.model_validate(raw)
+        except ValidationError as err:
+            self.problems.extend(problems_from_validation(
+                err, source=source, base=ptr, element=element_label(kind, raw), model=model, kind="parameter",
+                data=raw), source)
+            return None
+
+    def state(self, raw: Any, source: Source, ptr: str, depth: int) -> StateSpec | None:
+        """A state element, its condition objects and (through its type) its regions."""
+        parsed = self.element("state", raw, source, ptr)
+        if parsed is None:
+            return None
+        cls, params = parsed
+        spec = StateSpec(params.id, cls, params, ptr, source)
+        if params.precondition is not None or params.until is not None or params.monitors is not None \
+                or cls.condition_fields:
+            self._step_conditions(spec)
+        if cls.is_composite:
+            cls.parse_regions(self, spec, depth)
+        return spec
+
+    def _step_conditions(self, spec: StateSpec) -> None:
+        """The condition objects of a state's precondition, until, monitors and its type's condition parameters
+        (expressions stay text)."""
+        p = spec.params
+        fields = spec.cls.condition_fields
+        if p.precondition is None and p.until is None and p.monitors is None and not fields:
+            return
+        keys: list[tuple[str, Any]] = [("precondition", p.precondition), ("until", p.until)]
+        keys += [(f"monitors/{i}/condition", m.condition) for i, m in enumerate(p.monitors or ())]
+        keys += [(key, getattr(p, key, None)) for key in fields]
+        conditions = {}
+        for key, raw in keys:
+            if isinstance(raw, dict):
+                cs = self.condition(raw, spec.source, f"{spec.pointer}/{key}", spec.label)
+                if cs is not None:
+                    conditions[key] = cs
+        if conditions:
+            spec.conditions = conditions
+
+    def transition(self, raw: Any, source: Source, ptr: str) -> TransitionSpec | None:
+        """A transition element and its condition objects (a condition guard, the type's condition parameters)."""
+        parsed = self.element("transition", raw, source, ptr)
+        if parsed is None:
+            return None
+        cls, params = parsed
+        spec = TransitionSpec(cls, params, ptr, source)
+        fields = spec.cls.condition_fields
+        if fields or type(spec.params.guard) is dict:
+            conditions = {}
+            for key in ("guard", *fields):
+                value = getattr(spec.params, key, None)
+                if isinstance(value, dict):
+                    cs = self.condition(value, source, f"{ptr}/{key}", spec.label)
+                    if cs is not None:
+                        conditions[key] = cs
+            if conditions:
+                spec.conditions = conditions
+        return spec
+
+    def condition(self, raw: Any, source: Source, ptr: str, element: str, depth: int = 0) -> ConditionSpec | None:
+        """A condition object and the conditions nested in it; ``None`` when it or a nested one does not parse."""
+        if depth > MAX_MACHINE_DEPTH:
+            self.problems.add("conditions nested too deeply", source, ptr, element=element)
+            return None
+        parsed = self.element("condition", raw, source, ptr)
+        if parsed is None:
+            return None
+        cls, params = parsed
+        spec = ConditionSpec(cls, params, ptr)
+        ok = True
+        for key in cls.condition_fields:
+            value = getattr(params, key)
+            items = list(enumerate(value)) if isinstance(value, list) else [(None, value)]
+            for i, item in items:
+                sub_ptr = f"{ptr}/{key}" + (f"/{i}" if i is not None else "")
+                child = self.condition(item, source, sub_ptr, element, depth + 1)
+                if child is None:
+                    ok = False
+                else:
+                    spec.children.append(child)
+        return spec if ok else None
+
+
+def parse(src: Any, registry: Registry, problems: Problems,
+          base_dir: str | os.PathLike[str] | None = None) -> MachineSpec | None:
+    """The spec of ``src`` (a path or a document dict); every problem found goes to ``problems``."""
+    parser = Parser(registry, problems, base_dir)
+    try:
+        return parser.document(src)
+    except RecursionError:
+        name = str(src) if isinstance(src, (str, os.PathLike)) else None
+        problems.add("document nested too deeply to check", Source(name), "")
+        return None
+
+
+__all__ = ["MAX_MACHINE_DEPTH", "Parser", "parse"]

@@ -1,0 +1,142 @@
+"""The pytest plugin of tral-fsm (entry point ``pytest11``: ``fsm``; switch it off with ``-p no:fsm``).
+
+- ``*.scenario.json`` files among the paths pytest collects are test items (``pytest diagrams/`` runs them all);
+  a failure is shown as ``fsmctl test`` shows it, the trace around the first diverging tick included;
+- the ``fsm_machine`` fixture makes :class:`fsm.testing.MachineTest` objects (a machine file is relative to the
+  test's file): start in a state with variables, feed inputs tick by tick, check with the scenario vocabulary;
+- ``--fsm-coverage`` reports state, transition and monitor coverage over the scenarios and machines tested,
+  ``--fsm-coverage-json FILE`` writes it, ``--fsm-fail-under N`` fails the run under N percent.
+
+Importing this module imports nothing of the runtime: a test run that collects no scenario pays nothing.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+COVERAGE_KEY = pytest.StashKey[Any]()
+NOTES_KEY = pytest.StashKey[list[str]]()
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    group = parser.getgroup("fsm", "tral-fsm machines and scenarios")
+    group.addoption("--fsm-coverage", action="store_true",
+                    help="report state, transition and monitor coverage of the machines tested")
+    group.addoption("--fsm-coverage-json", metavar="FILE", help="write the coverage as JSON (implies --fsm-coverage)")
+    group.addoption("--fsm-fail-under", metavar="PERCENT", type=float,
+                    help="fail the run when the coverage is under PERCENT (implies --fsm-coverage)")
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    opt = config.option
+    if getattr(opt, "fsm_coverage", False) or getattr(opt, "fsm_coverage_json", None) or \
+            getattr(opt, "fsm_fail_under", None) is not None:
+        under = getattr(opt, "fsm_fail_under", None)
+        if under is not None and not 0 <= under <= 100:
+            raise pytest.UsageError(f"--fsm-fail-under: expected a percentage from 0 to 100, got {under:g}")
+        from fsm.tools.scenario.coverage import Coverage
+
+        config.stash[COVERAGE_KEY] = Coverage()
+
+
+def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> pytest.Collector | None:
+    if file_path.name.endswith(".scenario.json"):
+        return ScenarioFile.from_parent(parent, path=file_path)
+    return None
+
+
+class ScenarioFile(pytest.File):
+    """A scenario file: one test item."""
+
+    def collect(self) -> Iterator[pytest.Item]:
+        name = self.path.name.removesuffix(".scenario.json") or self.path.name
+        yield ScenarioItem.from_parent(self, name=name)
+
+
+class ScenarioItem(pytest.Item):
+    """One scenario run with ``fsmctl test``'s checks and output."""
+
+    def runtest(self) -> None:
+        from . import ScenarioError, scenario_lines
+
+        passed, lines = scenario_lines(self.path, self.config.stash.get(COVERAGE_KEY, None))
+        if not passed:
+            raise ScenarioError(lines)
+
+    def repr_failure(self, excinfo: pytest.ExceptionInfo[BaseException],
+                     style: Any = None) -> str | Any:
+        from . import ScenarioError
+
+        if isinstance(excinfo.value, ScenarioError):
+            return "\n".join(excinfo.value.lines)
+        return super().repr_failure(excinfo)
+
+    def reportinfo(self) -> tuple[Path, int | None, str]:
+        return self.path, None, f"scenario {self.name}"
+
+
+@pytest.fixture
+def fsm_machine(request: pytest.FixtureRequest) -> Iterator[Callable[..., Any]]:
+    """Make a :class:`fsm.testing.MachineTest`: ``fsm_machine("m.json", state="main/grip", vars={"n": 2})``; a
+    relative file is found next to the test's file."""
+    from . import MachineTest
+
+    made: list[MachineTest] = []
+
+    def make(source: Any, **keys: Any) -> MachineTest:
+        if isinstance(source, (str, Path)) and not Path(source).is_absolute():
+            near = Path(request.path).parent / source
+            source = near if near.exists() else source
+        m = MachineTest(source, **keys)
+        made.append(m)
+        return m
+
+    yield make
+    coverage = request.config.stash.get(COVERAGE_KEY, None)
+    if coverage is not None:
+        for m in made:
+            coverage.add(m.machine, m.record, key=m.file)
+
+
+def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
+    """Write the coverage JSON and apply ``--fsm-fail-under`` (the terminal summary comes after this)."""
+    config = session.config
+    coverage = config.stash.get(COVERAGE_KEY, None)
+    if coverage is None:
+        return
+    notes: list[str] = []
+    path = config.option.fsm_coverage_json
+    failed = False
+    if path:
+        import json
+
+        from fsm.model.errors import FsmError
+        from fsm.tools.files import write_output
+
+        try:
+            write_output(path, json.dumps(coverage.to_json(), indent=2) + "\n", "--fsm-coverage-json")
+        except FsmError as exc:
+            notes.append(f"ERROR {exc}")
+            failed = True
+        else:
+            notes.append(f"coverage written to {path}")
+    under = config.option.fsm_fail_under
+    if under is not None and coverage.percent() < under:
+        notes.append(f"FAIL coverage {coverage.percent():.1f}% is under --fsm-fail-under {under:g}%")
+        failed = True
+    config.stash[NOTES_KEY] = notes
+    if failed and exitstatus == 0:
+        session.exitstatus = pytest.ExitCode.TESTS_FAILED
+
+
+def pytest_terminal_summary(terminalreporter: Any, exitstatus: int, config: pytest.Config) -> None:
+    coverage = config.stash.get(COVERAGE_KEY, None)
+    if coverage is None:
+        return
+    terminalreporter.section("tral-fsm coverage")
+    for line in coverage.text() + config.stash.get(NOTES_KEY, []):
+        terminalreporter.write_line(line)

@@ -1,0 +1,175 @@
+"""``fsmctl test``: run scenario files (``*.scenario.json``) and report like a test runner.
+
+One line per scenario (``PASS name (ticks, time)`` or ``FAIL name: ...`` followed by the failing expectations
+with the trace around their first diverging tick), then ``N passed, M failed``. Exit 0 when every scenario
+passed, 1 when any failed or is invalid (its problems printed as located error lines), 2 for usage errors.
+``--junit OUT.xml`` is written through :mod:`fsm.tools.files`, checked before any scenario runs against every
+file the scenarios name (their machines and includes, worlds, plugin files). Printed lines go through
+:func:`fsm.model.errors.printable`: ids from a file cannot drive the terminal.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import TYPE_CHECKING, Any, NamedTuple, TextIO
+
+from fsm.model.errors import Problem, UsageError, printable
+
+from .common import EXIT_FAIL, EXIT_OK, Subcommands, registry_from
+
+if TYPE_CHECKING:
+    from ..scenario.model import LoadedScenario
+    from ..scenario.runner import ScenarioResult
+
+
+def register(sub: Subcommands) -> None:
+    p = sub.add_parser("test", help="run scenario tests (*.scenario.json) and report like a test runner",
+                       description="Run each scenario: its machine on a timeline of inputs (signal pulses, button "
+                                   "presses with bounce, variable changes, pausing and resuming a subtree), then "
+                                   "check its expectations (states visited in order or never, entered, skipped "
+                                   "and left how often and in which time windows, active, paused and suspended "
+                                   "states and variables (with tolerances) at given times, monitor firings, "
+                                   "invariants at every tick, the outcome of the machine or an inner state). "
+                                   "Exit 1 if any scenario failed or is invalid.")
+    p.add_argument("scenarios", nargs="+", metavar="SCENARIO", help="scenario files (*.scenario.json)")
+    p.add_argument("-q", "--quiet", action="store_true",
+                   help="print only failures (with their trace) and the summary line")
+    p.add_argument("--junit", metavar="OUT.xml", help="write a JUnit XML report ('-' for standard output)")
+    p.add_argument("--coverage", action="store_true",
+                   help="report state, transition and monitor coverage over all scenarios run")
+    p.add_argument("--coverage-json", metavar="OUT.json",
+                   help="write the coverage as JSON ('-' for standard output); implies --coverage")
+    p.add_argument("--fail-under", metavar="PERCENT", type=_percent,
+                   help="exit 1 when the coverage is under PERCENT (0-100); implies --coverage")
+    p.set_defaults(func=cmd_test)
+
+
+class _Load(NamedTuple):
+    """One scenario file after loading: ready to run (``loaded``) or its ``problems``; the files it names."""
+
+    file: str
+    loaded: LoadedScenario | None
+    problems: list[Problem]
+    files: list[str]
+
+
+def cmd_test(args: argparse.Namespace) -> int:
+    from ..files import Outputs, check_distinct
+    from ..scenario.junit import Invalid, junit_xml
+    from ..scenario.runner import ScenarioResult
+
+    outputs = Outputs()
+    junit = outputs.add(args.junit, "--junit")
+    cov_out = outputs.add(args.coverage_json, "--coverage-json")
+    if args.junit == "-" and args.coverage_json == "-":
+        raise UsageError("--junit and --coverage-json cannot both write to standard output")
+    coverage = None
+    if args.coverage or args.coverage_json is not None or args.fail_under is not None:
+        from ..scenario.coverage import Coverage
+
+        coverage = Coverage()
+    for out in outputs.items:  # a directory, a missing folder, a scenario: said before any plugin is imported
+        out.classify()
+    check_distinct(outputs.items, args.scenarios)
+    registry_from(args)  # a --plugin that fails is a usage error, said once and not of a scenario
+    loads = [_load(file, tuple(args.plugin)) for file in args.scenarios]
+    # every file the inputs name (machines, includes, worlds, plugins): refused as --junit before any run
+    outputs.open([*args.scenarios, *args.plugin, *(f for ld in loads for f in ld.files)])
+    report = sys.stderr if outputs.to_stdout else sys.stdout
+    results: list[ScenarioResult | Invalid] = []
+    try:
+        for ld in loads:
+            if ld.loaded is None:
+                for problem in ld.problems:
+                    print(problem, file=sys.stderr)
+                name = _name(ld.file)
+                results.append(Invalid(name, ld.file, ld.problems))
+                errors = sum(1 for p in ld.problems if p.severity == "error")
+                _say(f"ERROR {name}: invalid scenario ({errors or len(ld.problems)} problem(s) above)", report)
+                continue
+            for warning in ld.loaded.warnings:
+                print(warning, file=sys.stderr)
+            result = _run(ld.loaded, coverage)
+            results.append(result)
+            if not result.passed or not args.quiet:
+                _say(result.summary_line(), report)
+            for failure in result.failures:
+                for line in failure.lines():
+                    _say(f"    {line}", report)
+        passed = sum(1 for r in results if isinstance(r, ScenarioResult) and r.passed)
+        failed = sum(1 for r in results if isinstance(r, ScenarioResult) and not r.passed)
+        invalid = sum(1 for r in results if isinstance(r, Invalid))
+        print(f"{passed} passed, {failed} failed" + (f", {invalid} invalid" if invalid else ""), file=report)
+        under = False
+        if coverage is not None:
+            for line in coverage.text():
+                _say(line, report)
+            if args.fail_under is not None and coverage.percent() < args.fail_under:
+                under = True
+                _say(f"FAIL coverage {coverage.percent():.1f}% is under --fail-under {args.fail_under:g}%", report)
+        if junit is not None:
+            junit.write(junit_xml(results))
+        if cov_out is not None and coverage is not None:
+            import json
+
+            cov_out.write(json.dumps(coverage.to_json(), indent=2) + "\n")
+        if junit is not None or cov_out is not None:
+            outputs.commit()
+    finally:
+        outputs.discard()
+    return EXIT_OK if passed == len(results) and not under else EXIT_FAIL
+
+
+def _percent(text: str) -> float:
+    """``--fail-under``: a number from 0 to 100."""
+    import math
+
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a percentage from 0 to 100, got {text!r}") from None
+    if not math.isfinite(value) or not 0 <= value <= 100:
+        raise argparse.ArgumentTypeError(f"expected a percentage from 0 to 100, got {text!r}")
+    return value
+
+
+def _load(file: str, plugins: tuple[str, ...]) -> _Load:
+    """Read and check one scenario (and its machine); an invalid one keeps its problems, not a run."""
+    from fsm.model.errors import DiagramError
+
+    from ..scenario.model import load_scenario, named_files
+
+    try:
+        loaded = load_scenario(file, plugins)
+    except DiagramError as exc:
+        return _Load(file, None, exc.problems, named_files(file))
+    return _Load(file, loaded, [], loaded.inputs_files)
+
+
+def _run(loaded: LoadedScenario, coverage: Any = None) -> ScenarioResult:
+    """Run one scenario; a plugin that calls ``sys.exit`` during the run fails that scenario instead of ending
+    ``fsmctl test`` with its status as if every scenario had passed."""
+    from ..scenario.runner import Failure, ScenarioResult, run_scenario
+
+    try:
+        return run_scenario(loaded, coverage)
+    except SystemExit as exc:
+        return ScenarioResult(loaded.name, loaded.file, failures=[Failure(
+            -1, loaded.file, "error", f"a plugin ended the process during the run (SystemExit: {exc.code!r}); "
+                                      "the scenario did not finish")])
+
+
+def _say(line: str, stream: TextIO) -> None:
+    """Print one report line; ids and messages from files cannot drive the terminal (see ``printable``)."""
+    print(printable(line), file=stream)
+
+
+def _name(file: str) -> str:
+    from pathlib import Path
+
+    base = Path(file).name
+    for suffix in (".scenario.json", ".json"):
+        if base.endswith(suffix) and len(base) > len(suffix):
+            return base[: -len(suffix)]
+    return base or file

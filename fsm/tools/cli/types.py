@@ -1,0 +1,63 @@
+"""``fsmctl types``: every registered type with its parameters, defaults and one-line doc."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from fsm.model.errors import printable
+
+from .common import EXIT_FAIL, EXIT_OK, Subcommands, registry_from
+
+
+def register(sub: Subcommands) -> None:
+    p = sub.add_parser("types", help="list the registered state, transition and condition types with their parameters")
+    p.add_argument("names", nargs="*", metavar="TYPE", help="only these types")
+    p.add_argument("--format", choices=("text", "json"), default="text")
+    p.set_defaults(func=cmd_types)
+
+
+def cmd_types(args: argparse.Namespace) -> int:
+    from fsm.model.document import param_info
+
+    registry = registry_from(args)
+    rows = []
+    for kind, name, cls in registry.every():
+        if args.names and name not in args.names:
+            continue
+        doc = (cls.__doc__ or "").strip().splitlines()
+        row = {"kind": kind, "name": name, "doc": doc[0] if doc else "", "params": param_info(cls.Params)}
+        if kind == "state":
+            row["can_finish"] = bool(cls.can_finish)
+        rows.append(row)
+    unknown = [n for n in args.names if n not in {r["name"] for r in rows}]
+    if unknown:
+        hints = []
+        for n in unknown:
+            close = registry.suggest(n, "state") + registry.suggest(n, "transition") + registry.suggest(n, "condition")
+            hints.append(f"{n!r}" + (f" (did you mean {', '.join(close)}?)" if close else ""))
+        print(printable("fsmctl types: unknown type " + ", ".join(hints)), file=sys.stderr)
+        return EXIT_FAIL
+    if args.format == "json":
+        print(json.dumps(rows, indent=2))
+        return EXIT_OK
+    for heading, kind in (("States", "state"), ("Transitions", "transition"), ("Conditions", "condition")):
+        group = [r for r in rows if r["kind"] == kind]
+        if not group:
+            continue
+        print(heading)
+        for r in group:
+            finish = " [finishes]" if r.get("can_finish") else ""
+            print(printable(f"  {r['name']}{finish}: {r['doc']}"))
+            for prm in r["params"]:
+                default = "required" if prm["required"] else f"default {json.dumps(prm.get('default'))}"
+                desc = f"  {prm['description']}" if prm["description"] else ""
+                print(printable(f"      {prm['name']}: {prm['type']} ({default}){desc}"))
+        print()
+    if not args.names:
+        print("Every transition also takes: from, to, priority (default 0), preempt (default false), guard, set.")
+        print("Every state also takes: set (on_enter, on_exit).")
+        print("Every element may carry: description, layout. A condition is written in a guard or a Condition "
+              "transition.")
+    return EXIT_OK

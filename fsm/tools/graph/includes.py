@@ -1,0 +1,116 @@
+"""What a composite box shows in a drawing: its inline machine, its included file, or its parallel regions.
+
+Included files are read relative to the including file, each drawn once; cycles and missing files become
+notes in the box instead of errors, so a drawing is made even of a broken machine.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from fsm.model.document import normalize_legacy
+from fsm.model.errors import DiagramError
+
+from .labels import BOX_MARGIN, LABEL_FONT, text_width
+from .layout import Expansion, sequence_machine
+
+MAX_INCLUDE_DEPTH = 16
+def parallel_note(st: dict[str, Any]) -> str:
+    join = st.get("join")
+    return "(Parallel" + (f", join={join}" if isinstance(join, str) else "") + ")"
+
+
+def sequence_note(st: dict[str, Any]) -> str:
+    keys = [f"repeat={st['repeat']}" for _ in [0] if isinstance(st.get("repeat"), int) and st["repeat"] != 1]
+    if st.get("blocking") is False:
+        keys.append("non-blocking")
+    if st.get("pause_signal"):
+        keys.append(f"pause={st['pause_signal']}")
+    return "(Sequence" + (", " + ", ".join(keys) if keys else "") + ")"
+
+
+def expander(directory: Path | None, where: str = "", stack: tuple[Path, ...] = (),
+              seen: dict[Path, Any] | None = None) -> Callable[[dict[str, Any]], Expansion | None]:
+    """What a composite shows: inline machines, ``{"file": ...}`` includes (read relative to ``directory``, the
+    including file's folder) and the regions of a ``Parallel`` state.
+
+    An included file is drawn where it is first included (in document order); a later include of the same file
+    is a box naming the file and that first place, so a machine reused many times is drawn once.
+    """
+    seen = {} if seen is None else seen  # file -> (document, folder) | "problem", and where it is drawn
+
+    def resolve(ref: dict[str, Any], here: str) -> tuple[dict[str, Any] | None, Any, str, bool]:
+        """(machine, expand hook for its states, note, whether the note is an error)."""
+        file = str(ref.get("file"))
+        if directory is None:
+            return None, None, f"{file} (not opened)", False
+        path = (directory / file).resolve()
+        if path in stack:
+            return None, None, f"{file}: include cycle", True
+        if len(stack) >= MAX_INCLUDE_DEPTH:
+            return None, None, f"{file}: nested too deep", True
+        if path not in seen:
+            seen[path] = (read_include(path), here)
+            got = seen[path][0]
+            if isinstance(got, str):
+                return None, None, f"{file}: {got}", True
+            data, folder = got
+            return data, expander(folder, here, stack + (path,), seen), file, False
+        got, first = seen[path]
+        if isinstance(got, str):
+            return None, None, f"{file}: {got}", True
+        return None, None, f"{file}, drawn in {first}", False
+
+    def part(ref: Any, here: str) -> tuple[dict[str, Any] | None, Any, str | None, bool]:
+        if isinstance(ref, dict) and "file" in ref:
+            return resolve(ref, here)
+        if isinstance(ref, dict) and isinstance(ref.get("states"), list):
+            return ref, expander(directory, here, stack, seen), None, False
+        return None, None, None, False
+
+    def expand(st: dict[str, Any]) -> Expansion | None:
+        here = f"{where}/{st.get('id')}" if where else str(st.get("id"))
+        if st.get("type") == "Parallel" and isinstance(st.get("regions"), list):
+            parts: list[tuple[str | None, dict[str, Any], Any]] = []
+            for i, ref in enumerate(st["regions"]):
+                inline = ref.get("name") if isinstance(ref, dict) and isinstance(ref.get("name"), str) else None
+                machine, hook, note, error = part(ref, f"{here}/{inline or f'region{i + 1}'}")
+                name = machine.get("name") if machine is not None else None
+                name = name if isinstance(name, str) and name else f"region{i + 1}"
+                if note:
+                    name += f" — {note}" if error else f" ({note})"
+                parts.append((name, machine if machine is not None else {"states": []}, hook))
+            widths = [text_width(name or "", LABEL_FONT) + 2 * BOX_MARGIN + 4 for name, _, _ in parts]
+            return Expansion(parts, parallel_note(st), foreign=True, min_widths=widths) if parts else None
+        if st.get("type") == "Sequence" and isinstance(st.get("steps"), list):
+            seq = sequence_machine(st)
+            return Expansion([(None, seq, expander(directory, here, stack, seen))], sequence_note(st))
+        m = st.get("machine")
+        if st.get("type") != "FSMState" or not isinstance(m, dict):
+            return None
+        machine, hook, note, error = part(m, here)
+        if "file" not in m:
+            return Expansion([(None, machine, hook)]) if machine is not None else None
+        return Expansion([(None, machine, hook)] if machine is not None else [], note, foreign=True, error=error)
+
+    return expand
+
+
+def read_include(path: Path) -> tuple[dict[str, Any], Path] | str:
+    """An included machine document and its folder, or what is wrong with it."""
+    from fsm.loading.reading import reader_for
+
+    try:
+        data, source = reader_for(path)(path)
+    except DiagramError as exc:
+        first = exc.problems[0].message if exc.problems else "cannot be read"
+        return "not found" if first == "file not found" else first
+    except (OSError, ValueError) as exc:
+        return f"cannot be read ({exc})"
+    if not isinstance(data, dict) or not isinstance(data.get("states"), list):
+        return "not a machine document"
+    data = normalize_legacy(data)[0]
+    folder = getattr(source, "directory", None)
+    return data, Path(folder) if folder is not None else path.parent

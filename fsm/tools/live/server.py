@@ -1,0 +1,283 @@
+"""The live server: one page and one WebSocket, on aiohttp, for a run the controller drives in its own thread.
+
+Routes: ``GET /`` (the page) and ``GET /ws`` (the stream), both only with the run's token (``?token=``); every
+other path is 404, so nothing but the page is ever served (no file is read from disk after the start). A
+WebSocket whose ``Origin`` is another site is refused (the token is the real lock; this keeps a page elsewhere
+from even trying).
+
+The stream to a page: the trace's lines as binary messages (UTF-8 JSON lines, exactly what the trace file gets),
+and text messages (JSON) for the rest: ``status`` (the controller's snapshot), ``reply`` (to the page's own
+commands), ``hit``, ``rewound``, ``reset`` (the trace starts again: after a rewind). A page that cannot keep up
+gets fewer, larger messages: each page is sent at most :data:`MAX_RATE` times a second whatever was written
+meanwhile, so a slow page never holds the run back. Commands from a page are JSON text messages
+``{"cmd": NAME, "id": N, ...arguments}`` (see :mod:`fsm.debug.control`).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import hmac
+import json
+import secrets
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+from urllib.parse import urlsplit
+
+from aiohttp import WSMsgType, web
+
+from fsm.debug.control import Controller
+
+from .stream import LineBuffer
+
+#: Messages a page gets per second at most (the page redraws at most as often).
+MAX_RATE = 30
+#: ... and while the run goes as fast as possible (the page redraws a few times a second then: every message it
+#: gets costs the browser processor time that the run's core shares)
+FAST_RATE = 5
+#: The largest command a page may send (bytes).
+MAX_COMMAND = 64 * 1024
+#: Commands a page may send.
+COMMANDS = ("pause", "resume", "step", "step_transition", "speed", "stop", "break", "unbreak", "input", "rewind")
+#: What every answer carries: no caching, no sniffing, no referrer, nothing loaded from elsewhere.
+HEADERS = {"Cache-Control": "no-store", "X-Content-Type-Options": "nosniff", "Referrer-Policy": "no-referrer",
+           "X-Frame-Options": "DENY"}
+
+
+def new_token() -> str:
+    """A random token for the page's URL (128 bits)."""
+    return secrets.token_urlsafe(16)
+
+
+def token_guard(token: Callable[[], str | None]) -> Any:
+    """An aiohttp middleware: every request carries ``token()`` (``None``: none asked) in its query, or is refused
+    (403) before anything else is looked at; a path that is not served is a short 404, never aiohttp's page."""
+
+    @web.middleware
+    async def guard(request: web.Request, handler: Callable[[web.Request], Any]) -> web.StreamResponse:
+        expected = token()
+        if expected is not None:
+            given = request.query.get("token", "")
+            if not hmac.compare_digest(given.encode("utf-8", "replace"), expected.encode("utf-8")):
+                return web.Response(status=403, text="forbidden: open the URL fsmctl printed (it carries the token)\n",
+                                    headers=HEADERS)
+        try:
+            response: web.StreamResponse = await handler(request)
+        except web.HTTPNotFound:
+            return web.Response(status=404, text="not found: this server serves its pages and nothing else\n",
+                                headers=HEADERS)
+        except web.HTTPMethodNotAllowed:
+            return web.Response(status=405, text="method not allowed\n", headers=HEADERS)
+        return response
+
+    return guard
+
+
+@dataclass
+class Source:
+    """What the pages watch: the trace being written (a rewind starts a new one) and the controller driving the
+    run (``None`` for a finished run's trace, shown as it is)."""
+
+    buffer: LineBuffer
+    controller: Controller | None = None
+
+
+@dataclass
+class _Client:
+    ws: web.WebSocketResponse
+    number: int
+    wake: asyncio.Event = field(default_factory=asyncio.Event)
+    outbox: list[dict[str, Any]] = field(default_factory=list)
+
+
+class LiveServer:
+    """Serves ``page`` and the stream of ``source`` with ``token`` (``None``: no token asked, loopback only)."""
+
+    def __init__(self, source: Source, page: str, token: str | None) -> None:
+        self.source = source
+        self.page = page
+        self.token = token
+        self.clients: dict[int, _Client] = {}
+        self.app = web.Application(client_max_size=MAX_COMMAND)
+        self.app.router.add_get("/", self.serve_page)
+        self.app.router.add_get("/ws", self.serve_socket)
+        self.app.middlewares.append(token_guard(lambda: self.token))
+        self.runner: web.AppRunner | None = None
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._wake: asyncio.Event | None = None
+        self._waking = False
+        self._numbers = 0
+        self._pump: asyncio.Task[None] | None = None
+        self._closing = False
+
+    # -- starting and stopping ----------------------------------------------------------------------------------------
+    async def start(self, host: str, port: int) -> int:
+        """Listen on ``host``:``port`` (0: any free port); the port listened on. ``OSError`` when it cannot."""
+        self.runner = web.AppRunner(self.app, access_log=None, handle_signals=False)
+        await self.runner.setup()
+        site = web.TCPSite(self.runner, host, port, reuse_address=False)
+        try:
+            await site.start()
+        except BaseException:
+            await self.runner.cleanup()
+            raise
+        addresses = self.runner.addresses
+        bound = addresses[0][1] if addresses else port
+        self.begin()
+        return int(bound)
+
+    def begin(self) -> None:
+        """Start streaming (called by :meth:`start`; alone when another app routes its requests here, as the
+        sweep's page does with :meth:`serve_page` and :meth:`serve_socket`). In the event loop that serves."""
+        self._loop = asyncio.get_running_loop()
+        self._wake = asyncio.Event()
+        controller = self.source.controller
+        if controller is not None:
+            controller.notify = self._notify
+        self._pump = asyncio.create_task(self._pump_loop())
+
+    async def close(self) -> None:
+        """Close every page's socket and stop listening."""
+        controller = self.source.controller
+        if controller is not None:
+            controller.notify = None
+        self._closing = True
+        if self._pump is not None:  # ended (a cancel that wait_for swallows still ends it: the flag)
+            self._pump.cancel()
+            await asyncio.wait({self._pump}, timeout=1.0)
+        for client in list(self.clients.values()):
+            await client.ws.close(message=b"the run has ended")
+        if self.runner is not None:
+            await self.runner.cleanup()
+
+    # -- requests -----------------------------------------------------------------------------------------------------
+    async def serve_page(self, request: web.Request) -> web.StreamResponse:
+        """The page (its token already checked)."""
+        return web.Response(text=self.page, content_type="text/html", charset="utf-8", headers=HEADERS)
+
+    async def serve_socket(self, request: web.Request) -> web.StreamResponse:
+        """The page's stream (its token already checked; a page of another site is refused)."""
+        origin = request.headers.get("Origin")
+        if origin is not None and urlsplit(origin).netloc != request.host:
+            return web.Response(status=403, text="forbidden: a page of another site\n", headers=HEADERS)
+        ws = web.WebSocketResponse(heartbeat=30, max_msg_size=MAX_COMMAND)
+        await ws.prepare(request)
+        self._numbers += 1
+        client = _Client(ws, self._numbers)
+        self.clients[client.number] = client
+        if self._wake is not None:
+            self._wake.set()  # the pump looks at the run at its page rate again
+        sender = asyncio.create_task(self._send_loop(client))
+        try:
+            async for msg in ws:
+                if msg.type == WSMsgType.TEXT:
+                    self._command(client, msg.data)
+                elif msg.type == WSMsgType.ERROR:
+                    break
+        finally:
+            self.clients.pop(client.number, None)
+            sender.cancel()
+        return ws
+
+    def _command(self, client: _Client, text: str) -> None:
+        """A page's command, checked for shape here and for sense by the controller (between ticks)."""
+        try:
+            data = json.loads(text)
+        except ValueError:
+            data = None
+        if not isinstance(data, dict) or not isinstance(data.get("cmd"), str):
+            self._tell(client, {"kind": "reply", "id": None, "ok": False,
+                                "error": 'a command is a JSON object {"cmd": NAME, ...}'})
+            return
+        name, number = data.pop("cmd"), data.pop("id", None)
+        controller = self.source.controller
+        if controller is None:
+            self._tell(client, {"kind": "reply", "id": number, "command": name, "ok": False,
+                                "error": "this page shows a finished run's trace: there is no run to steer"})
+            return
+        if name not in COMMANDS:
+            self._tell(client, {"kind": "reply", "id": number, "command": name, "ok": False,
+                                "error": f"unknown command (one of {', '.join(COMMANDS)})"})
+            return
+        controller.send(name, data, (client.number, number))
+
+    def _tell(self, client: _Client, message: dict[str, Any]) -> None:
+        client.outbox.append(message)
+        client.wake.set()
+
+    # -- the stream ---------------------------------------------------------------------------------------------------
+    def _notify(self) -> None:
+        """From the run's thread: something new to send (coalesced: one wake-up pending at a time)."""
+        if self._waking or not self.clients or self._loop is None:
+            return
+        self._waking = True
+        try:
+            self._loop.call_soon_threadsafe(self._woken)
+        except RuntimeError:  # the loop has closed: the server is stopping
+            pass
+
+    def _woken(self) -> None:
+        self._waking = False
+        if self._wake is not None:
+            self._wake.set()
+
+    async def _pump_loop(self) -> None:
+        """Hand the controller's messages to the pages they are for, and wake the pages' senders."""
+        assert self._wake is not None
+        while not self._closing:
+            try:
+                # no page: once a second (what the run said meanwhile is for nobody), not MAX_RATE times
+                await asyncio.wait_for(self._wake.wait(), 1 / MAX_RATE if self.clients else 1.0)
+            except asyncio.TimeoutError:
+                pass
+            self._wake.clear()
+            controller = self.source.controller
+            if controller is not None:
+                while controller.messages:
+                    message = controller.messages.popleft()
+                    target = message.get("id")
+                    if message.get("kind") == "reply" and isinstance(target, tuple):
+                        client = self.clients.get(target[0])
+                        if client is not None:
+                            client.outbox.append({**message, "id": target[1]})
+                    else:
+                        for client in self.clients.values():
+                            client.outbox.append(message)
+            for client in self.clients.values():
+                client.wake.set()
+
+    async def _send_loop(self, client: _Client) -> None:
+        """Send a page what is new, at most :data:`MAX_RATE` times a second: the trace's new lines, the messages
+        for it, the status when it changed."""
+        loop = asyncio.get_running_loop()
+        ws = client.ws
+        buffer: LineBuffer | None = None
+        cursor = 0
+        seq = -1
+        try:
+            await ws.send_str(json.dumps({"kind": "hello", "live": self.source.controller is not None}))
+            while not ws.closed:
+                started = loop.time()
+                controller = self.source.controller
+                snapshot = controller.snapshot if controller is not None else None
+                current = self.source.buffer
+                if current is not buffer:
+                    if buffer is not None:  # a rewind: the page starts again, and is told the status again after
+                        await ws.send_str('{"kind":"reset"}')
+                        seq = -1
+                    buffer, cursor = current, 0
+                text, cursor = current.since(cursor)
+                if text:
+                    await ws.send_bytes(text.encode("utf-8"))
+                outbox, client.outbox = client.outbox, []
+                for message in outbox:
+                    await ws.send_str(json.dumps(message, allow_nan=False, default=str))
+                if snapshot is not None and snapshot.get("seq") != seq:
+                    seq = snapshot["seq"]
+                    await ws.send_str(json.dumps({"kind": "status", **snapshot}, allow_nan=False, default=str))
+                fast = snapshot is not None and snapshot.get("speed") is None and snapshot.get("state") == "running"
+                await asyncio.sleep(max(0.0, 1 / (FAST_RATE if fast else MAX_RATE) - (loop.time() - started)))
+                await client.wake.wait()
+                client.wake.clear()
+        except (ConnectionError, asyncio.CancelledError, RuntimeError):
+            return

@@ -1,0 +1,140 @@
+"""The run report: one self-contained HTML file that replays a trace (statechart with the active path, state lanes,
+map, plots, camera, variables, visits). Works offline: the page makes no request (a Content-Security-Policy
+forbids any), its only library (uPlot, MIT) is vendored in ``assets/`` with its licence.
+
+:func:`report_html` builds the page from a :class:`fsm.trace.replay.Trace`; :mod:`~fsm.tools.report.model` computes
+what it shows. May import the core, the graph drawing and the simulator's world model; never the CLI.
+"""
+
+from __future__ import annotations
+
+import json
+from html import escape
+from importlib import resources
+from typing import Any
+
+from fsm.trace.replay import Trace
+
+from .model import build_model
+
+__all__ = ["build_model", "report_html"]
+
+
+def _asset(name: str) -> str:
+    return (resources.files(__package__) / "assets" / name).read_text(encoding="utf-8")
+
+
+def _embedded_json(data: Any) -> str:
+    """JSON that cannot end its ``<script>`` element (nor open a comment) whatever strings it holds."""
+    text = json.dumps(data, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+    return (text.replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
+            .replace("\u2028", "\\u2028").replace("\u2029", "\\u2029"))
+
+
+def chart_svg(trace: Trace, warnings: list[str]) -> str:
+    """The statechart as the user drew it (the header's document and its layout), or ``""`` with a warning."""
+    doc = trace.header.get("machine")
+    if not isinstance(doc, dict):
+        if trace.version >= 2:
+            warnings.append("the trace carries no machine document: no statechart")
+        return ""
+    from ..graph import svg
+
+    try:
+        return svg(doc)
+    except Exception as exc:  # a document that no longer draws: the rest of the report still stands
+        warnings.append(f"the machine in the trace cannot be drawn ({type(exc).__name__}: {exc}): no statechart")
+        return ""
+
+
+def coverage_of(trace: Trace, warnings: list[str]) -> Any:
+    """The run's coverage (:class:`fsm.tools.scenario.coverage.Coverage`) of the machine in the trace's header:
+    states entered, transitions and monitors fired; ``None`` with a warning when the machine cannot be built."""
+    doc = trace.header.get("machine")
+    if not isinstance(doc, dict):
+        return None
+    import fsm
+
+    from ..scenario.coverage import Coverage
+
+    try:
+        from fsm.loading.loader import uses_car
+
+        car = None
+        if uses_car(fsm.check(doc)[0]):  # only its structure is needed: a car with nothing behind it
+            from fsm.sim.fake import FakeCar
+
+            car = FakeCar()
+        machine = fsm.load(doc, car=car)
+    except Exception as exc:  # a type from a plugin this process does not have: the rest of the report stands
+        warnings.append(f"the machine in the trace cannot be built ({type(exc).__name__}): no coverage")
+        return None
+    entered: set[str] = set()
+    fired: set[tuple[str, int]] = set()
+    for e in trace.events:
+        for tr in e.get("transitions", ()):
+            entered.add(str(tr.get("to")))
+            src = tr.get("from")
+            state = machine.states_by_path.get(src) if isinstance(src, str) else None
+            for t in state.transitions if state is not None else ():
+                if t.target.path == tr.get("to") and t.type_name == tr.get("type"):
+                    fired.add((t.source.path, t.index))
+    monitors = {(str(m.get("owner")), str(m.get("monitor")), str(m.get("kind")))
+                for e in trace.events for m in e.get("monitors", ())}
+    cov = Coverage()
+    cov.add_reached(machine, entered, set(), fired, monitors, key=str(trace.name))
+    return cov
+
+
+def coverage_section(cov: Any) -> str:
+    """The report's coverage section (HTML; every name escaped), or ``""``."""
+    if cov is None or not cov.machines:
+        return ""
+    (m,) = cov.machines.values()
+    counts = ", ".join(f"{kind} {hit}/{total}" for kind, (hit, total) in m.counts().items())
+    rows = [("never entered", [p for p, v in m.states.items() if v != "ran"]),
+            ("transitions never fired", [t for t, v in m.transitions.items() if not v]),
+            ("monitors never fired", [t for t, v in m.monitors.items() if not v])]
+    body = "".join(f"<tr><th>{escape(title)}</th><td>{escape(', '.join(items)) or 'none'}</td></tr>"
+                   for title, items in rows)
+    return (f'<section id="coverage-box"><h2>Coverage of this run</h2><p id="coverage-sum">{escape(counts)} '
+            f"({cov.percent():.1f}&#8201;%)</p><table id=\"coverage\"><tbody>{body}</tbody></table></section>")
+
+
+def report_html(trace: Trace) -> str:
+    """The report page of ``trace``, as text (UTF-8 when written)."""
+    from fsm import __version__
+
+    model = build_model(trace)
+    chart = chart_svg(trace, model["meta"]["warnings"])
+    coverage = coverage_section(coverage_of(trace, model["meta"]["warnings"]))
+    page = _asset("report.html")
+    parts = {
+        "__TITLE__": escape(f"{model['meta']['name']} — tral-fsm report"),
+        "__VERSION__": escape(__version__),
+        "__UPLOT_CSS__": _asset("uPlot.min.css"),
+        "__CSS__": _asset("report.css"),
+        "__SVG__": chart,
+        "__COVERAGE__": coverage,
+        "__DATA__": _embedded_json(model),
+        "__UPLOT_JS__": _asset("uPlot.iife.min.js").replace("</script", "<\\/script"),
+        "__JS__": _asset("report.js"),
+    }
+    return fill_template(page, parts)
+
+
+def fill_template(page: str, parts: dict[str, str]) -> str:
+    """``page`` with each key of ``parts`` replaced, in one pass in the template's order, so text put in by one
+    part is never searched for the next (the report's and the live page's templates)."""
+    out = []
+    rest = page
+    while True:
+        hits = [(rest.find(k), k) for k in parts if rest.find(k) >= 0]
+        if not hits:
+            out.append(rest)
+            break
+        at, key = min(hits)
+        out.append(rest[:at])
+        out.append(parts[key])
+        rest = rest[at + len(key):]
+    return "".join(out)

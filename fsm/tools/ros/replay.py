@@ -1,0 +1,79 @@
+"""``fsmctl replay``: a machine open loop on a recorded drive; trace, report, summary and the first divergence."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+from fsm.model.errors import DiagramError, printable
+
+from ..cli.common import EXIT_FAIL, EXIT_OK, input_name, read_inputs, registry_from
+from .common import car_recorder, load, require_extra
+
+
+def run_replay(args: argparse.Namespace) -> int:
+    from fsm.loading.loader import check, machine_files
+    from fsm.loading.loader import compile as compile_spec
+    from fsm.loading.reading import preloaded
+    from fsm.ros.replay import compare, load_drive, replay_session
+
+    from ..cli.run import Tee, apply_overrides, write_report
+    from ..files import Outputs, check_distinct
+
+    outputs = Outputs()
+    trace_out = outputs.add(args.trace, "--trace")
+    report_out = outputs.add(args.report, "--report", suffix=".html")
+    summary_out = outputs.add(args.summary, "--summary")
+    for out in outputs.items:
+        out.classify()
+    check_distinct(outputs.items, [])
+    pre = read_inputs([args.machine])
+    file = input_name(args.machine)
+    with preloaded(pre):
+        spec, problems = check(file, registry=registry_from(args))
+    errors = [p for p in problems if p.severity == "error"]
+    if spec is None or errors:
+        raise DiagramError(errors or problems)
+    spec = apply_overrides(spec, args.overrides, file)
+    profile = load(args.profile)
+    require_extra("fsmctl replay")
+    drive = load_drive(args.bag, profile)
+    outputs.open(machine_files(spec) + [args.profile])
+    try:
+        session = replay_session(drive, compile_spec(spec), profile)
+        driver = session.driver
+        stream = trace_out.stream() if trace_out is not None else None
+        if report_out is not None:
+            stream = Tee(stream)
+        header = {"replay_of": args.bag, "overrides": args.overrides}
+        recorder = session.record(car_recorder(stream, file, driver.car, profile, preloaded=pre,
+                                               sample_rate=args.sample_rate, extra_header=header))
+        driver.prime()
+        session.run()
+        compared, divergence = compare(drive, driver, profile)
+        result: dict[str, Any] = session.summary()
+        result["replay"] = {"bag": args.bag, "ticks": len(drive.ticks), "compared": compared,
+                            "divergence": None if divergence is None else {
+                                "tick": divergence.tick, "time": divergence.time,
+                                "recorded": divergence.recorded, "replayed": divergence.replayed}}
+        session.finish()
+        if report_out is not None:
+            write_report(recorder.out, report_out, args.trace if args.trace not in (None, "-") else file)
+        if summary_out is not None:
+            summary_out.write(json.dumps(result, indent=2) + "\n")
+        outputs.commit()
+    finally:
+        outputs.discard()
+    report = sys.stderr if outputs.to_stdout else sys.stdout
+    machine = session.machine
+    if not args.quiet:
+        status = f"outcome {machine.outcome}" if machine.finished else "not finished"
+        print(printable(f"{file} on {args.bag}: {status} after {machine.ticks} ticks ({machine.now:.3f} s)"),
+              file=report)
+        if divergence is None:
+            print(f"the same decisions as the recorded drive at all {compared} ticks compared", file=report)
+        else:
+            print(printable(divergence.describe()), file=report)
+    return EXIT_FAIL if args.expect_same and divergence is not None else EXIT_OK

@@ -1,0 +1,169 @@
+"""``fsmctl run MACHINE --ros PROFILE``: the machine drives a car on ROS 2 topics over Zenoh.
+
+The order of things: the profile and every output are checked before anything connects; the session waits for
+the robot (a peer, then a message on every input: no peer within the profile's ``peer_timeout`` is one message
+naming the endpoints and exit 1); the machine runs on the wall clock at the profile's rate (or in lock-step with
+``fsmctl sim --lockstep``). However the run ends (finished, a limit, silence, Ctrl-C, a state that failed, any
+exception) a zero-speed command is sent first; then trace, report, summary and bag are written; Ctrl-C exits 130.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+from fsm.model.errors import FsmError, StateRuntimeError, UsageError, printable
+
+from ..cli.common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, Interrupts
+from .common import car_recorder, check_bag_folder, check_endpoints, load, require_extra
+
+#: Options of ``fsmctl run`` that drive the simulated car in-process, refused with --ros.
+SIM_ONLY = ("world", "car", "video", "plot")
+
+
+def check_usage(args: argparse.Namespace) -> None:
+    """--ros goes with neither the in-process simulator's options nor (without --ros) --bag and the endpoints."""
+    if not args.ros:
+        for option in ("bag", "connect", "listen", "via"):
+            if getattr(args, option, None):
+                raise UsageError(f"--{option} needs --ros PROFILE (it records or reaches a car on ROS 2 topics)")
+        if getattr(args, "lockstep", False):
+            raise UsageError("--lockstep needs --ros PROFILE")
+        return
+    for option in SIM_ONLY:
+        if getattr(args, option, None):
+            raise UsageError(f"--{option} is for the in-process simulator; with --ros the car is on the network "
+                             "(run `fsmctl sim --ros PROFILE --world ...` for a simulated one)")
+    if args.dt is not None:
+        raise UsageError("--dt: with --ros the tick rate is the profile's 'rate'")
+    check_endpoints(args)
+    check_bag_folder(args.bag, [args.ros] + ([args.file] if getattr(args, "file", None) else []))
+
+
+def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_out: Any, summary_out: Any,
+            report_out: Any, duration: float | None, max_ticks: int | None) -> int:
+    from fsm.loading.loader import compile as compile_spec
+    from fsm.loading.loader import machine_files
+    from fsm.ros.bag import BagRecorder
+    from fsm.ros.driver import ros_session
+    from fsm.ros.transport import open_bus, resolve_via
+    from fsm.session.session import SetSignal, StopRules
+
+    profile = load(args.ros)
+    require_extra("--ros", zenoh=resolve_via(profile, args.via) == "zenoh")
+    inputs = machine_files(spec) + [args.ros]
+    outputs.open(inputs)
+    check_bag_folder(args.bag, inputs, outputs.items)  # the input itself, another output's name: refused now
+    plan = compile_spec(spec)
+    link = open_bus(profile, connect=args.connect, listen=args.listen, via=args.via)
+    bag = None
+    # from here on Ctrl-C asks the run to stop (connecting takes a while): the outputs are written, exit 130
+    interrupts = Interrupts()
+    with interrupts:
+        try:
+            link.open()
+            bag = BagRecorder(args.bag, profile) if args.bag else None
+            session = ros_session(plan, profile, link, lockstep=args.lockstep, bag=bag,
+                                  variables=args.initial_vars, stop=StopRules(duration, max_ticks))
+            for name, value, at in args.signal:
+                session.schedule(at, SetSignal(name, value))
+            code = _drive(args, session, profile, file, outputs, trace_out, summary_out, report_out, interrupts)
+            if bag is not None:
+                bag.commit()
+                bag = None
+            return code
+        finally:
+            if bag is not None:
+                bag.discard()
+            link.close()
+
+
+def _drive(args: argparse.Namespace, session: Any, profile: Any, file: str, outputs: Any, trace_out: Any,
+           summary_out: Any, report_out: Any, interrupts: Interrupts) -> int:
+    from ..cli.run import Tee, write_report
+
+    driver = session.driver
+    machine = session.machine
+    report = sys.stderr if outputs.to_stdout else sys.stdout
+    stream = trace_out.stream() if trace_out is not None else None
+    if report_out is not None:
+        stream = Tee(stream)
+    recorder = session.record(car_recorder(stream, file, driver.car, profile, preloaded=args.pre,
+                                           sample_rate=args.sample_rate))
+    error: StateRuntimeError | None = None
+    try:
+        primed = driver.prime(stop=interrupts.stop)
+        if primed and not args.quiet:
+            print(printable(f"fsmctl run: {driver.profile.name} answered ({driver.link.describe()}); driving"),
+                  file=sys.stderr, flush=True)
+        if not interrupts.stop():
+            session.run(stop=interrupts.stop)
+    except StateRuntimeError as exc:
+        error = exc
+        driver.stop()
+        recorder.flush(machine)
+    except KeyboardInterrupt:  # a second Ctrl-C while a state did not return
+        driver.stop()
+        interrupts.received = interrupts.received or 2
+        recorder.flush(machine)
+    except BaseException:
+        driver.stop()  # before anything else: the car must not drive on
+        raise
+    finally:
+        interrupts.writing = True
+    driver.stop()  # the run is over, however: the car gets zero speed before the files are written
+    interrupted = interrupts.interrupted
+    result = session.summary()
+    stopped = session.result.stopped if session.result is not None else "not started"
+    result["stopped"] = stopped
+    if error is not None:
+        result["error"] = {"state": error.path, "phase": error.phase, "tick": error.tick, "time": error.time,
+                           "message": f"{type(error.cause).__name__}: {error.cause}"}
+    if interrupted:
+        result["interrupted"] = True
+    end: dict[str, Any] = {"stopped": stopped}
+    if interrupted:
+        end["interrupted"] = True
+    if "error" in result:
+        end["error"] = result["error"]
+    session.finish(**end)
+    if report_out is not None:
+        write_report(recorder.out, report_out, args.trace if args.trace not in (None, "-") else file)
+    if summary_out is not None:
+        summary_out.write(json.dumps(result, indent=2) + "\n")
+    outputs.commit()
+    return _verdict(args, session, file, error, interrupted, stopped, report, recorder)
+
+
+def _verdict(args: argparse.Namespace, session: Any, file: str, error: StateRuntimeError | None, interrupted: bool,
+             stopped: str, report: Any, recorder: Any) -> int:
+    machine = session.machine
+    driver = session.driver
+    if error is not None:
+        print(printable(f"fsmctl run: {file}: {error} (the car was sent zero speed)"), file=sys.stderr)
+        return EXIT_FAIL
+    if not args.quiet:
+        from ..recording import end_lines
+
+        print("\n".join(end_lines(file, machine, recorder, interrupted=interrupted,
+                                  note="; the car was sent zero speed", where=f" on {driver.profile.name} over ROS 2")),
+              file=report)
+        m = driver.metrics()["ros"]
+        print(f"ros: {m['commands']} commands ({m['zero_speed_commands']} at zero speed), "
+              f"{sum(m['received'].values())} messages in, {m['silences']} silences, "
+              f"{sum(m['decode_failures'].values())} undecodable", file=report)
+    if interrupted:
+        return EXIT_INTERRUPTED
+    if stopped == "silence":
+        print(printable(f"fsmctl run: stopped: {', '.join(driver.silent) or 'the clock'} silent longer than "
+                        f"{driver.profile.name} allows (the car was sent zero speed)"), file=sys.stderr)
+        return EXIT_FAIL
+    if args.expect is not None and machine.outcome != args.expect:
+        print(printable(f"fsmctl run: expected outcome {args.expect!r}, got {machine.outcome!r}"), file=sys.stderr)
+        return EXIT_FAIL
+    return EXIT_OK
+
+
+__all__ = ["FsmError", "check_usage", "run_ros"]

@@ -1,0 +1,119 @@
+"""Coverage over scenario runs: which states were entered (and ran), which transitions and which monitors (and
+timeouts) fired, per machine, over every scenario run with the same :class:`Coverage`.
+
+``fsmctl test --coverage`` and the pytest plugin (``--fsm-coverage``) print :meth:`Coverage.text`, write
+:meth:`Coverage.to_json` and compare :meth:`Coverage.percent` with ``--fail-under``. A state counts when a run
+entered it and ran it: a step only ever skipped by its precondition is listed as "only skipped".
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from fsm.runtime.machine import Machine
+
+    from .runner import Recording
+
+
+@dataclass
+class MachineCoverage:
+    """One machine's elements and which of them the runs reached."""
+
+    name: str
+    #: state path -> entered and ran / only skipped / never entered
+    states: dict[str, str] = field(default_factory=dict)
+    #: transition label -> fired
+    transitions: dict[str, bool] = field(default_factory=dict)
+    #: monitor label -> fired
+    monitors: dict[str, bool] = field(default_factory=dict)
+    scenarios: int = 0
+
+    def counts(self) -> dict[str, tuple[int, int]]:
+        """(covered, total) of states, transitions and monitors."""
+        return {"states": (sum(1 for v in self.states.values() if v == "ran"), len(self.states)),
+                "transitions": (sum(self.transitions.values()), len(self.transitions)),
+                "monitors": (sum(self.monitors.values()), len(self.monitors))}
+
+
+def _transition_label(tr: Any) -> str:
+    return f"{tr.source.path} -> {tr.target.path} ({tr.type_name} #{tr.index})"
+
+
+class Coverage:
+    """What the scenario runs reached, per machine (by the machine's file, or its name)."""
+
+    def __init__(self) -> None:
+        self.machines: dict[str, MachineCoverage] = {}
+
+    def add(self, machine: Machine, rec: Recording, key: str | None = None) -> None:
+        """Add one run of ``machine`` whose record is ``rec``."""
+        ran = {e.path for k, e in enumerate(rec.entries) if k not in rec.skipped}
+        skipped = {rec.entries[k].path for k in rec.skipped}
+        self.add_reached(machine, ran, skipped, rec.fired, {(f.owner, f.label, f.kind) for f in rec.monitors}, key)
+
+    def add_reached(self, machine: Machine, ran: set[str], skipped: set[str], fired: set[tuple[str, int]],
+                    fired_monitors: set[tuple[str, str, str]], key: str | None = None) -> None:
+        """Add one run of ``machine`` that entered and ran the states ``ran``, skipped ``skipped``, fired the
+        transitions ``fired`` ((source path, index)) and the monitors ``fired_monitors`` ((owner, label, kind))."""
+        key = key or machine.name or "machine"
+        cov = self.machines.get(key)
+        if cov is None:
+            cov = self.machines[key] = MachineCoverage(key)
+        cov.scenarios += 1
+        for path, state in machine.states_by_path.items():
+            now = "ran" if path in ran else "skipped" if path in skipped else "never"
+            before = cov.states.get(path, "never")
+            cov.states[path] = "ran" if "ran" in (now, before) else "skipped" if "skipped" in (now, before) else \
+                "never"
+            for tr in state.transitions:
+                label = _transition_label(tr)
+                cov.transitions[label] = cov.transitions.get(label, False) or (path, tr.index) in fired
+            supervisor = state.supervisor
+            for m in supervisor.monitors if supervisor is not None else ():
+                label = f"{path}: {m.kind} {m.label} ({m.behavior})"
+                cov.monitors[label] = cov.monitors.get(label, False) or (path, m.label, m.kind) in fired_monitors
+
+    def totals(self) -> dict[str, tuple[int, int]]:
+        out = {"states": (0, 0), "transitions": (0, 0), "monitors": (0, 0)}
+        for cov in self.machines.values():
+            for kind, (hit, total) in cov.counts().items():
+                out[kind] = (out[kind][0] + hit, out[kind][1] + total)
+        return out
+
+    def percent(self) -> float:
+        """Covered elements (states, transitions, monitors together) in percent of all; 100 when there are none."""
+        hit = sum(h for h, _t in self.totals().values())
+        total = sum(t for _h, t in self.totals().values())
+        return 100.0 * hit / total if total else 100.0
+
+    def text(self) -> list[str]:
+        """The report: per machine, the counts and what was never entered or never fired."""
+        lines = []
+        for cov in self.machines.values():
+            c = cov.counts()
+            lines.append(f"coverage of {cov.name} ({cov.scenarios} run(s)): " + ", ".join(
+                f"{kind} {hit}/{total}" for kind, (hit, total) in c.items()))
+            never = [p for p, v in cov.states.items() if v == "never"]
+            only = [p for p, v in cov.states.items() if v == "skipped"]
+            for title, items in (("never entered", never), ("only skipped", only),
+                                 ("never fired", [t for t, v in cov.transitions.items() if not v]),
+                                 ("monitors never fired", [m for m, v in cov.monitors.items() if not v])):
+                if items:
+                    lines.append(f"  {title}: " + ", ".join(items))
+        lines.append(f"coverage: {self.percent():.1f}% (" + ", ".join(
+            f"{kind} {hit}/{total}" for kind, (hit, total) in self.totals().items()) + ")")
+        return lines
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "percent": round(self.percent(), 3),
+            "totals": {k: {"covered": h, "total": t} for k, (h, t) in self.totals().items()},
+            "machines": [{
+                "machine": cov.name, "runs": cov.scenarios,
+                "states": [{"path": p, "status": v} for p, v in cov.states.items()],
+                "transitions": [{"transition": t, "fired": v} for t, v in cov.transitions.items()],
+                "monitors": [{"monitor": m, "fired": v} for m, v in cov.monitors.items()],
+            } for cov in self.machines.values()],
+        }

@@ -1,0 +1,68 @@
+"""The JUnit XML report of a scenario run (``fsmctl test --junit``), as CI systems read it: one ``testsuite``
+with one ``testcase`` per scenario; a failed expectation is a ``failure``, an invalid scenario an ``error``."""
+
+from __future__ import annotations
+
+import re
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+
+from fsm.model.errors import Problem, escape_char
+
+from .runner import ScenarioResult
+
+
+@dataclass
+class Invalid:
+    """A scenario file that could not be run: its name, file and problems."""
+
+    name: str
+    file: str
+    problems: list[Problem]
+
+
+def junit_xml(results: list[ScenarioResult | Invalid], suite: str = "fsmctl test") -> str:
+    """The report as text (UTF-8 XML declaration included)."""
+    failures = sum(1 for r in results if isinstance(r, ScenarioResult) and not r.passed)
+    errors = sum(1 for r in results if isinstance(r, Invalid))
+    total_time = sum(r.wall_time for r in results if isinstance(r, ScenarioResult))
+    root = ET.Element("testsuites", tests=str(len(results)), failures=str(failures), errors=str(errors),
+                      time=f"{total_time:.3f}")
+    ts = ET.SubElement(root, "testsuite", name=suite, tests=str(len(results)), failures=str(failures),
+                       errors=str(errors), skipped="0", time=f"{total_time:.3f}")
+    for r in results:
+        case = ET.SubElement(ts, "testcase", name=r.name, classname=_classname(r.file), file=r.file,
+                             time=f"{r.wall_time:.3f}" if isinstance(r, ScenarioResult) else "0")
+        if isinstance(r, Invalid):
+            err = ET.SubElement(case, "error", type="invalid scenario",
+                                message=f"{len([p for p in r.problems if p.severity == 'error'])} problem(s)")
+            err.text = "\n".join(p.text for p in r.problems)
+        elif not r.passed:
+            first = r.failures[0]
+            fail = ET.SubElement(case, "failure", type=first.kind, message=r.summary_line())
+            fail.text = "\n".join(line for f in r.failures for line in f.lines())
+        else:
+            out = ET.SubElement(case, "system-out")
+            out.text = r.summary_line()
+    ET.indent(root)
+    return '<?xml version="1.0" encoding="UTF-8"?>\n' + xml_safe(ET.tostring(root, encoding="unicode")) + "\n"
+
+
+#: Characters XML 1.0 does not allow anywhere, not even as character references (ElementTree writes them raw).
+_NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
+
+
+def xml_safe(text: str) -> str:
+    """``text`` with every character XML 1.0 forbids shown as ``\\x1b`` (``\\ud800``), so a state id or message
+    holding one still makes a report that parses; every other character stays as it was."""
+    return _NOT_XML.sub(lambda m: escape_char(m.group()), text)
+
+
+def _classname(file: str) -> str:
+    """``diagrams/examples/mission.scenario.json`` -> ``diagrams.examples.mission``."""
+    name = file.replace("\\", "/")
+    for suffix in (".scenario.json", ".json"):
+        if name.endswith(suffix):
+            name = name[: -len(suffix)]
+            break
+    return name.strip("./").replace("/", ".") or "scenario"

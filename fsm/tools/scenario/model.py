@@ -1,0 +1,1067 @@
+"""The scenario document: pydantic models (the committed ``fsm/schema/scenario.schema.json`` is generated from
+them), and reading a scenario file with every problem located (file:line:column and JSON pointer) at once.
+
+A scenario names a machine (and optionally a world to drive the simulated car in), a timeline of inputs and a
+list of expectations. Shape errors come from the models; the checks that need more (a bounce longer than its
+press, a state name the machine does not have, a time after the end of the run) follow in :func:`load_scenario`.
+"""
+
+from __future__ import annotations
+
+import difflib
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Annotated, Any, Literal, NamedTuple, Union
+
+from pydantic import Discriminator, Field, Tag, ValidationError
+
+from fsm.model.errors import DiagramError, Problem
+from fsm.model.jsonpos import pointer
+from fsm.model.params import Int, ParamsBase
+from fsm.session.session import NEVER, ticks_for
+
+#: Runs longer than this many ticks are refused (the limit of ``fsmctl run`` without ``--max-ticks``).
+MAX_TICKS = 10_000_000
+#: Length of a run whose scenario gives neither ``duration`` nor ``max_ticks`` (as ``fsmctl run``), seconds.
+DEFAULT_DURATION = 600.0
+#: Default tick period (the TRAL car's 80 Hz), as the core's simulated clock.
+DEFAULT_DT = 0.0125
+#: Tolerance when comparing simulated times (ticks happen at exact multiples of ``dt``; floats do not).
+EPS = 1e-9
+#: A tick no run reaches (``max_ticks`` is at most one less): the tick of a time too far to count in ticks.
+
+Value = Union[bool, int, float, str]  # noqa: UP007 - pydantic's strict union: true stays a bool, 1 an int
+
+
+class ScenarioModel(ParamsBase):
+    """Strict like machine documents: unknown keys, null, strings for numbers, NaN and infinity are errors."""
+
+
+# -- inputs --------------------------------------------------------------------------------------------
+class SignalInput(ScenarioModel):
+    """A signal at a time: a pulse (high, then low again after ``width``) or, with ``value``, a level."""
+
+    at: float = Field(ge=0, description="Simulated time in seconds.")
+    signal: str = Field(min_length=1, description="Name of the input signal.")
+    value: bool | None = Field(default=None, description="Set the signal to this level and leave it there "
+                                                         "(instead of a pulse).")
+    width: float | None = Field(default=None, gt=0, description="How long a pulse stays high, seconds "
+                                                                "(default: one tick, dt).")
+
+
+class Bounce(ScenarioModel):
+    """Contact bounce of a button: after the first contact it opens and closes again ``count`` times, each level
+    change ``interval`` seconds after the previous one, before it settles; the same on release."""
+
+    count: Int = Field(ge=1, le=1000, description="How many times the contact bounces (opens and closes again).")
+    interval: float = Field(gt=0, description="Seconds between two level changes while bouncing.")
+
+
+class PressInput(ScenarioModel):
+    """A button press: high at ``at``, low again ``duration`` seconds later, with optional contact bounce."""
+
+    at: float = Field(ge=0, description="Simulated time of the first contact, seconds.")
+    press: str = Field(min_length=1, description="Name of the button's signal.")
+    duration: float = Field(default=0.2, gt=0, description="Seconds from the first contact to the release.")
+    bounce: Bounce | None = Field(default=None, description="Contact bounce on press and on release.")
+
+
+class SetInput(ScenarioModel):
+    """Blackboard variables set at a time (before the tick at or after it)."""
+
+    at: float = Field(ge=0, description="Simulated time in seconds.")
+    set: dict[str, Value] = Field(min_length=1, description="Variable names and their new values.")
+
+
+class PauseInput(ScenarioModel):
+    """Pause the active state at a path and its subtree (as ``Machine.pause``), before the tick at or after
+    ``at``."""
+
+    at: float = Field(ge=0, description="Simulated time in seconds.")
+    pause: str = Field(min_length=1, description="The state's path from the top ('run/work'); it must be active "
+                                                 "then (a state that is not active is left alone).")
+
+
+class ResumeInput(ScenarioModel):
+    """Resume a paused state (as ``Machine.resume``), before the tick at or after ``at``."""
+
+    at: float = Field(ge=0, description="Simulated time in seconds.")
+    resume: str = Field(min_length=1, description="The paused state's path from the top.")
+
+
+def _input_kind(value: Any) -> str | None:
+    if isinstance(value, dict):
+        for key in ("signal", "press", "set", "pause", "resume"):
+            if key in value:
+                return f"<{key}>"
+    return None
+
+
+Input = Annotated[
+    Union[Annotated[SignalInput, Tag("<signal>")], Annotated[PressInput, Tag("<press>")],  # noqa: UP007
+          Annotated[SetInput, Tag("<set>")], Annotated[PauseInput, Tag("<pause>")],
+          Annotated[ResumeInput, Tag("<resume>")]],
+    Discriminator(_input_kind, custom_error_type="input_kind",
+                  custom_error_message="an input is an object with 'signal', 'press', 'set', 'pause' or 'resume' "
+                                       "(and 'at')"),
+]
+
+
+# -- expectations --------------------------------------------------------------------------------------
+#: A time window ``[start, end]`` in simulated seconds: an event at tick n counts when start <= n*dt <= end.
+Window = Annotated[list[Annotated[float, Field(ge=0)]], Field(min_length=2, max_length=2)]
+_WINDOW = "A time window [start, end] in simulated seconds: only events at a tick whose time lies in it count."
+
+
+class Approx(ScenarioModel):
+    """A number with a tolerance: the value holds when it is within ``tolerance`` of ``value``."""
+
+    value: float = Field(description="The expected number.")
+    tolerance: float = Field(ge=0, description="The largest difference allowed (absolute).")
+
+
+class OutcomeExpect(ScenarioModel):
+    """The machine (or, with ``state``, an inner state) finishes with this outcome (within the run's limits)."""
+
+    outcome: str = Field(min_length=1, description="Expected outcome of the top-level Final state, or of 'state'.")
+    state: str | None = Field(default=None, min_length=1,
+                              description="An inner state (id or path): one of its runs finishes with this outcome "
+                                          "('precondition_failed' for a step skipped by its precondition).")
+    within: Window | None = Field(default=None, description=_WINDOW)
+
+
+class _Counted(ScenarioModel):
+    """How often an event happens: exactly ``count``, or ``min`` and/or ``max``; at least once without them."""
+
+    within: Window | None = Field(default=None, description=_WINDOW)
+    count: Int | None = Field(default=None, ge=0, description="Exactly this many times.")
+    min: Int | None = Field(default=None, ge=0, description="At least this many times.")
+    max: Int | None = Field(default=None, ge=0, description="At most this many times.")
+
+
+class EnteredExpect(_Counted):
+    """A state is entered and runs (an entry skipped by its precondition does not count: see ``skipped``)."""
+
+    entered: str = Field(min_length=1, description="State id or path ('grip/closing' matches 'run/work/grip/closing').")
+
+
+class SkippedExpect(_Counted):
+    """A state is entered and at once skipped because its precondition is false."""
+
+    skipped: str = Field(min_length=1, description="State id or path.")
+
+
+class ExitedExpect(_Counted):
+    """A state is left (by a transition of its own level, with its parent, or by a restart)."""
+
+    exited: str = Field(min_length=1, description="State id or path.")
+
+
+class InvariantExpect(ScenarioModel):
+    """An expression that holds after every tick (within ``within``, if given)."""
+
+    invariant: str = Field(min_length=1, description="An expression of the document language over the variables, "
+                                                     "signal_NAME (true/false) and, with a world, car_NAME readings.")
+    within: Window | None = Field(default=None, description="Only the ticks in this window are checked.")
+
+
+class FinishedExpect(ScenarioModel):
+    """The machine has (``true``) or has not (``false``) finished when the run ends."""
+
+    finished: bool = Field(description="Whether the machine reached a top-level Final state.")
+
+
+class VisitsExpect(ScenarioModel):
+    """These states are entered in this order (other states may be entered in between)."""
+
+    visits: list[Annotated[str, Field(min_length=1)]] = Field(
+        min_length=1, description="State ids or paths ('grip/closing' matches 'run/work/grip/closing').")
+
+
+class NeverExpect(ScenarioModel):
+    """None of these states is ever entered."""
+
+    never: list[Annotated[str, Field(min_length=1)]] = Field(min_length=1, description="State ids or paths.")
+
+
+class AtExpect(ScenarioModel):
+    """At the first tick at or after ``at``: these states are active and these variables have these values."""
+
+    at: float = Field(ge=0, description="Simulated time in seconds.")
+    active: str | list[Annotated[str, Field(min_length=1)]] | None = Field(
+        default=None, description="A state path (or a list of them) that is active: an active leaf's path equals it "
+                                  "or starts with it and '/'.")
+    vars: dict[str, Value | Approx] | None = Field(
+        default=None, description="Blackboard variables and their expected values; a number may be given as "
+                                  "{\"value\": 1.5, \"tolerance\": 0.01}.")
+    paused: dict[str, bool] | None = Field(
+        default=None, description="State id or path -> whether it is active and held by a pause (its own or an "
+                                  "ancestor's).")
+    suspended: dict[str, bool] | None = Field(
+        default=None, description="State id or path -> whether it is active and suspended while a monitor's "
+                                  "exception sequence runs (not by a pause).")
+
+
+class TransitionCount(ScenarioModel):
+    """Bounds on the number of transitions fired in the whole run (all levels; initial entries not counted)."""
+
+    count: Int | None = Field(default=None, ge=0, description="Exactly this many.")
+    min: Int | None = Field(default=None, ge=0, description="At least this many.")
+    max: Int | None = Field(default=None, ge=0, description="At most this many.")
+
+
+class TransitionsExpect(ScenarioModel):
+    """How many transitions fire during the run."""
+
+    transitions: TransitionCount
+
+
+class MonitorFired(ScenarioModel):
+    """Which monitor firings count, and how many there must be (at least one when no count is given)."""
+
+    owner: str = Field(min_length=1,
+                       description="The monitor's owner: a state id or path ('w2' matches 'main/sub/w2').")
+    behavior: str | None = Field(default=None, min_length=1, description="Only firings with this behaviour.")
+    kind: Literal["monitor", "timeout"] | None = Field(default=None, description="Only monitors, or only timeouts.")
+    count: Int | None = Field(default=None, ge=0, description="Exactly this many.")
+    min: Int | None = Field(default=None, ge=0, description="At least this many.")
+    max: Int | None = Field(default=None, ge=0, description="At most this many.")
+    at: list[Annotated[float, Field(ge=0)]] | None = Field(
+        default=None, description="The simulated times (s) at which it fires, in order (each at the first tick at "
+                                  "or after it).")
+    within: Window | None = Field(default=None, description=_WINDOW)
+
+
+class MonitorsExpect(ScenarioModel):
+    """A monitor (or timeout) of a state fires during the run."""
+
+    monitors: MonitorFired
+
+
+_EXPECT_KEYS = ("outcome", "finished", "visits", "never", "transitions", "entered", "skipped", "exited", "invariant",
+                "at", "monitors")
+
+
+def _expect_kind(value: Any) -> str | None:
+    if isinstance(value, dict):
+        for key in _EXPECT_KEYS:
+            if key in value:
+                return f"<{key}>"
+    return None
+
+
+Expectation = Annotated[
+    Union[Annotated[OutcomeExpect, Tag("<outcome>")], Annotated[FinishedExpect, Tag("<finished>")],  # noqa: UP007
+          Annotated[VisitsExpect, Tag("<visits>")], Annotated[NeverExpect, Tag("<never>")],
+          Annotated[TransitionsExpect, Tag("<transitions>")], Annotated[AtExpect, Tag("<at>")],
+          Annotated[MonitorsExpect, Tag("<monitors>")], Annotated[EnteredExpect, Tag("<entered>")],
+          Annotated[SkippedExpect, Tag("<skipped>")], Annotated[ExitedExpect, Tag("<exited>")],
+          Annotated[InvariantExpect, Tag("<invariant>")]],
+    Discriminator(_expect_kind, custom_error_type="expect_kind",
+                  custom_error_message="an expectation is an object with one of 'outcome', 'finished', 'visits', "
+                                       "'never', 'transitions', 'monitors', 'entered', 'skipped', 'exited', "
+                                       "'invariant', or 'at' (with 'active', 'vars', 'paused' and/or 'suspended')"),
+]
+
+_MODELS: dict[str, type[ScenarioModel]] = {
+    "<signal>": SignalInput, "<press>": PressInput, "<set>": SetInput, "<outcome>": OutcomeExpect,
+    "<finished>": FinishedExpect, "<visits>": VisitsExpect, "<never>": NeverExpect,
+    "<transitions>": TransitionsExpect, "<at>": AtExpect, "<monitors>": MonitorsExpect, "<pause>": PauseInput,
+    "<resume>": ResumeInput, "<entered>": EnteredExpect, "<skipped>": SkippedExpect, "<exited>": ExitedExpect,
+    "<invariant>": InvariantExpect,
+}
+
+
+class TransitionRef(ScenarioModel):
+    """Transitions of the machine: by source and target ids (at any level), optionally by type."""
+
+    from_: str = Field(alias="from", min_length=1, description="The source state's id.")
+    to: str = Field(min_length=1, description="The target state's id.")
+    type: str | None = Field(default=None, min_length=1, description="Only transitions of this type.")
+
+
+class Substitution(ScenarioModel):
+    """For this test, states (by id or path, or every state of a type) or transitions are replaced: the element
+    keeps its id (a transition its from and to) and its step keys; ``with`` gives the new type and parameters."""
+
+    state: str | None = Field(default=None, min_length=1, description="A state id or path ('grip', 'main/grip').")
+    type: str | None = Field(default=None, min_length=1, description="Every state of this type.")
+    transition: TransitionRef | None = Field(default=None, description="Transitions from one state to another.")
+    with_: dict[str, Any] = Field(alias="with", description="The replacement: {\"type\": \"Wait\", \"seconds\": 1} "
+                                                            "and its parameters (step keys may be overridden).")
+
+
+class Scenario(ScenarioModel):
+    """A scenario test: a machine, a timeline of inputs and what the run must show."""
+
+    schema_: str | None = Field(default=None, alias="$schema", description="JSON Schema for editors.")
+    name: str | None = Field(default=None, min_length=1, description="Name in reports (default: the file's name).")
+    description: str | None = Field(default=None, description="Free text for people.")
+    machine: str = Field(min_length=1, description="The machine (.json or .uxf), relative to this file.")
+    world: str | None = Field(default=None, min_length=1,
+                              description="A world file, relative to this file: the machine drives the simulated "
+                                          "car in it (as `fsmctl run --world`).")
+    seed: Int = Field(default=0, ge=0, le=2**63 - 1, description="Seed of the car's sensor noise.")
+    noise: bool = Field(default=True, description="Ultrasonic noise of the simulated car on or off.")
+    plugins: list[Annotated[str, Field(min_length=1)]] = Field(
+        default_factory=list, description="Modules (or .py files relative to this file) registering types.")
+    dt: float | None = Field(default=None, gt=0, description="Tick period in seconds (default 0.0125, 80 Hz).")
+    duration: float | None = Field(default=None, gt=0,
+                                   description="Stop after this much simulated time (default 600 s without "
+                                               "max_ticks).")
+    max_ticks: Int | None = Field(default=None, gt=0, le=NEVER - 1, description="Stop after this many ticks.")
+    plants: list[dict[str, Any]] = Field(
+        default_factory=list, description="Simulated plants behind the machine (registered plant types): "
+                                          "{\"name\": \"axis\", \"type\": \"Axis\", ...parameters}.")
+    substitute: list[Substitution] = Field(
+        default_factory=list, description="States or transitions replaced for this test (a long step by a Wait); "
+                                          "the machine so changed is checked like any document.")
+    inputs: list[Input] = Field(default_factory=list, description="The timeline of inputs.")
+    expect: list[Expectation] = Field(min_length=1, description="What the run must show; all are checked.")
+
+
+# -- the schema ------------------------------------------------------------------------------------------
+SCENARIO_SCHEMA_PATH = Path(__file__).resolve().parents[2] / "schema" / "scenario.schema.json"
+
+
+def scenario_schema() -> dict[str, Any]:
+    """The JSON Schema of scenario files (committed as ``fsm/schema/scenario.schema.json``)."""
+    from fsm.model.document import file_schema
+
+    return file_schema(Scenario, "scenario.schema.json", "tral-fsm scenario",
+                       "A scenario test for `fsmctl test`; generated from fsm.tools.scenario.model by "
+                       "`python -m fsm.tools.scenario --schema`.")
+
+
+def scenario_schema_text() -> str:
+    return json.dumps(scenario_schema(), indent=2, ensure_ascii=False) + "\n"
+
+
+# -- reading a scenario ----------------------------------------------------------------------------------
+@dataclass
+class LoadedScenario:
+    """A checked scenario with everything a run needs: the checked machine, the world, the tick period."""
+
+    file: str
+    scenario: Scenario
+    spec: Any
+    registry: Any
+    dt: float
+    end_tick: int
+    world_path: Path | None
+    machine_files: list[str] = field(default_factory=list)
+    #: The files of the scenario's plugins (its ``.py`` files, the files of the modules it names).
+    plugin_files: list[str] = field(default_factory=list)
+    #: the plants to attach: (class, validated parameters)
+    plants: list[tuple[type, Any]] = field(default_factory=list)
+    #: JSON pointer -> (line, column) of every input and expectation (for messages).
+    positions: dict[str, tuple[int, int]] = field(default_factory=dict)
+    state_paths: list[str] = field(default_factory=list)
+    #: Problems that do not stop the run (a signal the machine does not read).
+    warnings: list[Problem] = field(default_factory=list)
+
+    @property
+    def name(self) -> str:
+        if self.scenario.name:
+            return self.scenario.name
+        base = Path(self.file).name
+        for suffix in (".scenario.json", ".json"):
+            if base.endswith(suffix):
+                return base[: -len(suffix)] or base
+        return base
+
+    def where(self, ptr: str) -> str:
+        """``file:line:column`` of the element at ``ptr``."""
+        pos = self.positions.get(ptr)
+        return f"{self.file}:{pos[0]}:{pos[1]}" if pos else self.file
+
+    @property
+    def inputs_files(self) -> list[str]:
+        """Every file the run reads (for output checks): the scenario, the machine and its includes, the world,
+        the plugins."""
+        return ([self.file, *self.machine_files] + ([str(self.world_path)] if self.world_path else [])
+                + self.plugin_files)
+
+
+def load_scenario(file: str | Path, plugins: tuple[str, ...] = ()) -> LoadedScenario:
+    """Read and check a scenario and its machine (and world); raises :class:`DiagramError` with every problem.
+
+    ``plugins`` (from ``fsmctl --plugin``) are loaded besides the scenario's own.
+    """
+    from fsm.loading.reading import parse_json_bytes, place, read_file_bytes
+
+    name = str(file)
+    path = Path(file)
+    raw = read_file_bytes(path, "scenario")
+    repeated: list[Problem] = []
+    if not raw.strip():
+        raise DiagramError([Problem("file is empty; a scenario is a JSON object", name, line=1, column=1,
+                                    hint='{"machine": "m.json", "expect": [{"outcome": "succeeded"}]}')])
+    data, source = parse_json_bytes(raw, name, path.parent, duplicates=repeated)
+    problems = list(repeated)
+    scenario: Scenario | None = None
+    if not isinstance(data, dict):
+        kind = "array" if isinstance(data, list) else type(data).__name__
+        problems.append(Problem(f"a scenario must be a JSON object, got {kind}", name,
+                                hint='{"machine": "m.json", "expect": [{"outcome": "succeeded"}]}'))
+    elif {"states", "initial", "root"} & data.keys() and "expect" not in data:
+        problems.append(Problem("this is a machine document (it has 'states' or 'initial'), not a scenario test",
+                                name, hint="run a machine with `fsmctl run FILE`; a scenario names it: "
+                                           f'{{"machine": "{path.name}", "expect": [{{"outcome": "succeeded"}}]}}'))
+    else:
+        try:
+            scenario = Scenario.model_validate(data)
+        except ValidationError as err:
+            problems += problems_from_errors(err, data, name)
+            problems += _partial_problems(data, path, name)
+    loaded: LoadedScenario | None = None
+    if scenario is not None:
+        problems += timeline_problems(scenario, name)
+        if not problems:
+            loaded, more = _load_machine(scenario, path, name, plugins)
+            problems += more
+        elif not (path.parent / scenario.machine).is_file():
+            problems.append(_missing_machine(path.parent / scenario.machine, name))
+    if problems:
+        errors = [p for p in problems if p.severity == "error"]
+        place([p for p in problems if p.file == name], source.locator)
+        if errors:
+            raise DiagramError(sorted(problems, key=lambda p: (p.file != name, p.file or "", p.line or 0,
+                                                               p.column or 0)))
+    assert loaded is not None
+    loaded.positions = source.locator(_element_pointers(loaded.scenario))
+    loaded.warnings = [p for p in problems if p.severity != "error"]
+    return loaded
+
+
+def _element_pointers(scenario: Scenario) -> set[str]:
+    return ({pointer("inputs", i) for i in range(len(scenario.inputs))}
+            | {pointer("expect", i) for i in range(len(scenario.expect))} | {"/machine"})
+
+
+# -- shape problems --------------------------------------------------------------------------------------
+def _existing_prefix(data: Any, loc: list[Any]) -> list[Any]:
+    """The longest prefix of ``loc`` that is a path into ``data`` (pydantic appends union branch names)."""
+    out: list[Any] = []
+    node = data
+    for token in loc:
+        if isinstance(node, dict) and isinstance(token, str) and token in node:
+            node = node[token]
+        elif isinstance(node, list) and isinstance(token, int) and 0 <= token < len(node):
+            node = node[token]
+        else:
+            break
+        out.append(token)
+    return out
+
+
+def _short(value: Any) -> str:
+    text = json.dumps(value, ensure_ascii=False) if not isinstance(value, float) or math.isfinite(value) else str(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _element(loc: list[Any]) -> str | None:
+    if len(loc) >= 2 and loc[0] in ("inputs", "expect") and isinstance(loc[1], int):
+        return f"{'input' if loc[0] == 'inputs' else 'expectation'} {loc[1]}"
+    return None
+
+
+def problems_from_errors(err: ValidationError, data: Any, name: str) -> list[Problem]:
+    """pydantic's errors as problems with JSON pointers (union tags removed) and "did you mean" hints; one
+    problem per location."""
+    problems: dict[str, Problem] = {}
+    for e in err.errors(include_url=False):
+        full = list(e["loc"])
+        model: type[ScenarioModel] = Scenario
+        for token in full:
+            if isinstance(token, str) and token in _MODELS:
+                model = _MODELS[token]
+        loc = [t for t in full if not (isinstance(t, str) and t.startswith("<"))]
+        if model is TransitionsExpect and "transitions" in loc[2:3]:
+            model = TransitionCount if len(loc) > 3 else model
+        if model is PressInput and "bounce" in loc[2:3] and len(loc) > 3:
+            model = Bounce
+        if loc[:1] == ["substitute"] and len(loc) > 2:
+            model = TransitionRef if "transition" in loc[2:3] and len(loc) > 3 else Substitution
+        typ = e["type"]
+        hint = None
+        if typ == "missing":
+            ptr = pointer(*loc[:-1])
+            message = f"missing required key '{loc[-1]}'"
+        elif typ == "extra_forbidden":
+            ptr = pointer(*loc)
+            message = f"unknown key '{loc[-1]}'"
+            fields = sorted({f.alias or n for n, f in model.model_fields.items()})
+            close = difflib.get_close_matches(str(loc[-1]), fields, n=2)
+            hint = ("did you mean " + " or ".join(f"'{c}'" for c in close) + "?") if close else \
+                "known: " + ", ".join(fields)
+        elif typ in ("input_kind", "expect_kind"):
+            ptr = pointer(*loc)
+            message = e["msg"]
+            keys = sorted(e["input"]) if isinstance(e.get("input"), dict) else []
+            hint = f"this one has {', '.join(repr(k) for k in keys)}" if keys else None
+        else:
+            loc = _existing_prefix(data, loc)
+            ptr = pointer(*loc)
+            message = e["msg"].replace("Value error, ", "")
+            if message.startswith("Input should") and loc:
+                message = f"'{loc[-1]}'" + message[len("Input"):]
+            elif message.startswith(("List should", "Dictionary should", "String should")) and loc:
+                message = f"'{loc[-1]}': " + message
+            if "input" in e and not isinstance(e["input"], (dict, list)):
+                message += f", got {_short(e['input'])}"
+        if ptr in problems:
+            if typ not in ("missing", "extra_forbidden") and message not in problems[ptr].message:
+                problems[ptr].message += f" (or: {message})"
+            continue
+        problems[ptr] = Problem(message, name, ptr, element=_element(loc), hint=hint)
+    return list(problems.values())
+
+
+# -- checks beyond shape -----------------------------------------------------------------------------------
+def _missing_machine(machine_path: Path, name: str) -> Problem:
+    what = "is not a file" if machine_path.exists() else "not found"
+    return Problem(f"machine file {what}: {machine_path}", name, "/machine",
+                   hint="the machine's path is relative to the scenario file")
+
+
+def _partial_problems(data: dict[str, Any], path: Path, name: str) -> list[Problem]:
+    """When the scenario's shape is wrong somewhere: the checks of the inputs and expectations that are right
+    (and of the machine's path), so that one run of ``fsmctl test`` reports every problem."""
+    from pydantic import TypeAdapter
+
+    problems: list[Problem] = []
+    machine = data.get("machine")
+    if isinstance(machine, str) and machine and not (path.parent / machine).is_file():
+        problems.append(_missing_machine(path.parent / machine, name))
+    parts: dict[str, list[Any]] = {"inputs": [], "expect": []}
+    for key, kind in (("inputs", Input), ("expect", Expectation)):
+        items = data.get(key)
+        if not isinstance(items, list):
+            continue
+        adapter: TypeAdapter[Any] = TypeAdapter(kind)
+        for item in items:
+            try:
+                parts[key].append(adapter.validate_python(item))
+            except ValidationError:
+                parts[key].append(None)
+    limits_of = {k: data.get(k) for k in ("dt", "duration", "max_ticks")}
+    try:
+        lim = Scenario.model_validate({"machine": "-", "expect": [{"outcome": "-"}],
+                                       **{k: v for k, v in limits_of.items() if k in data}})
+    except ValidationError:
+        lim = None
+    problems += element_problems(parts["inputs"], parts["expect"], lim, name)
+    return problems
+
+
+class Limits(NamedTuple):
+    """The tick period of a scenario's run and the tick at which it ends."""
+
+    dt: float
+    end_tick: int
+
+
+def limits(scenario: Scenario) -> Limits:
+    """The tick period and the tick at which the run ends (``duration`` and ``max_ticks``, the tighter)."""
+    dt = scenario.dt or DEFAULT_DT
+    ends = []
+    if scenario.duration is not None or scenario.max_ticks is None:
+        duration = scenario.duration if scenario.duration is not None else DEFAULT_DURATION
+        ends.append(ticks_for(duration, dt))
+    if scenario.max_ticks is not None:
+        ends.append(scenario.max_ticks)
+    return Limits(dt, min(ends))
+
+
+def timeline_problems(scenario: Scenario, name: str) -> list[Problem]:
+    """Problems of the timeline the models cannot see: a pulse with both a level and a width, a bounce that
+    outlasts its press, times after the end of the run, a run of too many ticks."""
+    problems: list[Problem] = []
+    dt = scenario.dt or DEFAULT_DT
+    duration = scenario.duration if scenario.duration is not None else DEFAULT_DURATION
+    ticks = duration / dt
+    where = "/dt" if scenario.dt is not None else "/duration"
+    if scenario.max_ticks is None and not ticks <= MAX_TICKS:
+        shown = f"{ticks:.3g}" if math.isfinite(ticks) else "infinitely many"
+        problems.append(Problem(f"dt {dt:g} s over {duration:g} s makes {shown} ticks, more than {MAX_TICKS:,}",
+                                name, where,
+                                hint="give max_ticks to allow a run that long, or a larger dt / shorter duration"))
+    elif limits(scenario).end_tick < 1:
+        problems.append(Problem(f"dt {dt:g} s is longer than the run ({duration:g} s): not one tick would run",
+                                name, where, hint="make dt shorter than the duration"))
+    return problems + element_problems(list(scenario.inputs), list(scenario.expect), scenario, name)
+
+
+def element_problems(inputs: list[Any], expect: list[Any], lim: Scenario | None, name: str) -> list[Problem]:
+    """The checks of single inputs and expectations (``None`` for one whose shape is wrong); with ``lim``, the
+    scenario whose ``dt``, ``duration`` and ``max_ticks`` give the end of the run, also times after it."""
+    problems: list[Problem] = []
+    end_time = math.inf
+    if lim is not None:
+        dt, end_tick = limits(lim)
+        end_time = end_tick * dt if end_tick < NEVER else math.inf  # too many ticks: said of dt or duration
+    for i, item in enumerate(inputs):
+        if item is None:
+            continue
+        ptr = pointer("inputs", i)
+        label = f"input {i}"
+        if isinstance(item, SignalInput) and item.value is not None and item.width is not None:
+            problems.append(Problem("'value' sets a level and 'width' makes a pulse; give one of them", name,
+                                    ptr + "/width", element=label,
+                                    hint="a pulse: {\"at\": 1, \"signal\": \"s\", \"width\": 0.1}; a level: "
+                                         "{\"at\": 1, \"signal\": \"s\", \"value\": true}"))
+        if isinstance(item, PressInput) and item.bounce is not None:
+            settle = 2 * item.bounce.count * item.bounce.interval
+            if not settle < item.duration:
+                problems.append(Problem(
+                    f"the bounce lasts {settle:g} s ({item.bounce.count} bounces of two level changes "
+                    f"{item.bounce.interval:g} s apart), "
+                    f"not shorter than the press ({item.duration:g} s)", name, ptr + "/bounce", element=label,
+                    hint="make the press longer, or the bounce shorter or rarer"))
+        if item.at > end_time + EPS:
+            problems.append(Problem(f"at {item.at:g} s is after the end of the run ({end_time:g} s)", name,
+                                    ptr + "/at", element=label, hint="raise 'duration' (or 'max_ticks'), or move it"))
+    for i, exp in enumerate(expect):
+        ptr = pointer("expect", i)
+        label = f"expectation {i}"
+        within = getattr(exp, "within", None)
+        if within is None and isinstance(exp, MonitorsExpect):
+            within = exp.monitors.within
+        if within is not None and within[1] < within[0]:
+            where = ptr + ("/monitors" if isinstance(exp, MonitorsExpect) else "") + "/within"
+            problems.append(Problem(f"the window ends ({within[1]:g} s) before it starts ({within[0]:g} s)", name,
+                                    where, element=label, hint="a window is [start, end] with start <= end"))
+        if isinstance(exp, _Counted):
+            problems += _count_problems(exp, name, ptr, label)
+        if isinstance(exp, InvariantExpect):
+            from fsm.model.expr import ExprError, parse
+
+            try:
+                parse(exp.invariant)
+            except ExprError as exc:
+                problems.append(Problem(f"the invariant does not parse: {exc}", name, ptr + "/invariant",
+                                        element=label, hint="e.g. \"x >= 0 and not signal_estop\""))
+        if isinstance(exp, AtExpect):
+            if exp.active is None and exp.vars is None and exp.paused is None and exp.suspended is None:
+                problems.append(Problem("an 'at' expectation needs 'active', 'vars', 'paused' or 'suspended'", name,
+                                        ptr, element=label, hint='{"at": 2.0, "active": "run/work"}'))
+            if exp.at > end_time + EPS:
+                problems.append(Problem(f"at {exp.at:g} s is after the end of the run ({end_time:g} s)", name,
+                                        ptr + "/at", element=label, hint="raise 'duration' (or 'max_ticks')"))
+        if isinstance(exp, TransitionsExpect):
+            c = exp.transitions
+            if c.count is None and c.min is None and c.max is None:
+                problems.append(Problem("give 'count', 'min' or 'max'", name, ptr + "/transitions", element=label))
+            elif c.count is not None and (c.min is not None or c.max is not None):
+                problems.append(Problem("'count' is exact; give it alone, or 'min' and/or 'max'", name,
+                                        ptr + "/transitions", element=label))
+            elif c.min is not None and c.max is not None and c.min > c.max:
+                problems.append(Problem(f"'min' {c.min} is greater than 'max' {c.max}", name, ptr + "/transitions",
+                                        element=label))
+        if isinstance(exp, MonitorsExpect):
+            problems += _count_problems(exp.monitors, name, ptr + "/monitors", label)
+            for k, at in enumerate(exp.monitors.at or ()):
+                if at > end_time + EPS:
+                    problems.append(Problem(f"at {at:g} s is after the end of the run ({end_time:g} s)", name,
+                                            f"{ptr}/monitors/at/{k}", element=label,
+                                            hint="raise 'duration' (or 'max_ticks')"))
+    return problems
+
+
+def _count_problems(c: Any, name: str, ptr: str, label: str) -> list[Problem]:
+    if c.count is not None and (c.min is not None or c.max is not None):
+        return [Problem("'count' is exact; give it alone, or 'min' and/or 'max'", name, ptr, element=label)]
+    if c.min is not None and c.max is not None and c.min > c.max:
+        return [Problem(f"'min' {c.min} is greater than 'max' {c.max}", name, ptr, element=label)]
+    return []
+
+
+def state_matches(item: str, path: str) -> bool:
+    """A state id or path written in a scenario names the state at ``path``: equal, or its last segments."""
+    item = item.strip("/")
+    return path == item or path.endswith("/" + item)
+
+
+def active_matches(prefix: str, path: str) -> bool:
+    """An ``active`` entry matches an active leaf path: equal, or a prefix ending at a '/'."""
+    prefix = prefix.strip("/")
+    return path == prefix or path.startswith(prefix + "/")
+
+
+def _load_machine(scenario: Scenario, path: Path, name: str,
+                  cli_plugins: tuple[str, ...]) -> tuple[LoadedScenario | None, list[Problem]]:
+    """Check the machine (and world) a scenario names, and the state names its expectations use."""
+    from fsm.loading.loader import check, machine_files, signal_names, uses_car
+    from fsm.loading.loader import compile as compile_spec
+    from fsm.loading.registry import default_registry
+
+    base = path.parent
+    registry = default_registry(tuple(cli_plugins))  # a --plugin that fails is the command line's error
+    plugin_files, problems = _load_plugins(scenario, base, name, registry)
+    if problems:
+        return None, problems
+    machine_path = base / scenario.machine
+    if not machine_path.is_file():
+        return None, problems + [_missing_machine(machine_path, name)]
+    world_path = None
+    if scenario.world is not None:
+        world_path = base / scenario.world
+        if not world_path.is_file():
+            problems.append(Problem(f"world file not found: {world_path}", name, "/world",
+                                    hint="the world's path is relative to the scenario file"))
+    spec, machine_problems = check(str(machine_path), registry=registry)
+    errors = [p for p in machine_problems if p.severity == "error"]
+    if spec is None or errors:
+        problems.append(Problem(f"the machine {machine_path} has {len(errors) or 1} error(s), listed with it", name,
+                                "/machine"))
+        return None, problems + (errors or machine_problems)
+    if world_path is None and uses_car(spec):
+        problems.append(Problem("this machine drives the car; name the world to drive it in", name, "",
+                                hint='"world": "../worlds/hallway.json"'))
+    elif world_path is not None and world_path.is_file():
+        from fsm.sim.world import load_world
+
+        try:
+            load_world(world_path)
+        except DiagramError as exc:
+            problems += exc.problems
+    if problems:
+        return None, problems
+    files = machine_files(spec)
+    if scenario.substitute:
+        spec, problems = substituted(scenario, machine_path, registry, name)
+        if spec is None:
+            return None, problems
+    dt, end_tick = limits(scenario)
+    paths = [sp.path for sp in compile_spec(spec).states()]
+    problems += name_problems(scenario, paths, name)
+    plants, more = _plants(scenario, registry, name)
+    problems += more
+    known = signal_names(spec)
+    given = {item.signal if isinstance(item, SignalInput) else item.press for item in scenario.inputs
+             if isinstance(item, (SignalInput, PressInput))}
+    given |= {sig for cls, params in plants for sig in cls(params).signals()}
+    for level in spec.levels():
+        for st in level.states:
+            pause = getattr(st.params, "pause_signal", None)
+            if pause and pause not in given:
+                problems.append(Problem(f"the pause button '{pause}' of '{st.id}' is never pressed by this scenario",
+                                        name, "/inputs", severity="warning",
+                                        hint=f'add {{"at": 1.0, "press": "{pause}"}} to test the pause'))
+    problems += _invariant_problems(scenario, spec, known | given, world_path is not None, name)
+    for i, item in enumerate(scenario.inputs):
+        sig = item.signal if isinstance(item, SignalInput) else item.press if isinstance(item, PressInput) else None
+        if sig is not None and sig not in known:
+            close = difflib.get_close_matches(sig, sorted(known), n=2)
+            problems.append(Problem(f"the machine reads no signal '{sig}'", name, pointer("inputs", i),
+                                    element=f"input {i}", severity="warning",
+                                    hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close
+                                    else "signals it reads: " + (", ".join(sorted(known)) or "none")))
+    return LoadedScenario(file=name, scenario=scenario, spec=spec, registry=registry, dt=dt, end_tick=end_tick,
+                          world_path=world_path, machine_files=files, plugin_files=plugin_files,
+                          state_paths=paths, plants=plants), problems
+
+
+def invariant_kinds(spec: Any, signals: set[str], car: bool, scenario: Scenario) -> dict[str, str]:
+    """The names an invariant may use and their kinds: the machine's variables (and those the scenario sets),
+    ``signal_NAME`` for every signal the machine reads or declares (``inputs``) or the scenario drives,
+    ``car_NAME`` with a world."""
+    from fsm.debug.breakpoints import CAR_READINGS
+    from fsm.model.expr import ANY, BOOL, NUMBER, kind_of
+
+    kinds = {f"signal_{s}": BOOL for s in (*signals, *(getattr(spec, "inputs", None) or ()))}
+    if car:
+        kinds.update({f"car_{n}": NUMBER for n in CAR_READINGS})
+    for item in scenario.inputs:
+        if isinstance(item, SetInput):
+            kinds.update({k: ANY for k in item.set})
+    kinds.update({k: kind_of(v) for k, v in getattr(spec, "vars", {}).items()})
+    return kinds
+
+
+def _invariant_problems(scenario: Scenario, spec: Any, signals: set[str], car: bool, name: str) -> list[Problem]:
+    from fsm.model.expr import BOOL, ExprError, compile_expr
+
+    problems: list[Problem] = []
+    kinds: dict[str, str] | None = None
+    for i, exp in enumerate(scenario.expect):
+        if not isinstance(exp, InvariantExpect):
+            continue
+        kinds = kinds if kinds is not None else invariant_kinds(spec, signals, car, scenario)
+        if scenario.plants:  # a plant may write any variable: other names are read when the run starts
+            from .runner import expression_names
+
+            try:
+                extra = [n for n in expression_names(exp.invariant) if n not in kinds
+                         and not n.startswith(("signal_", "car_"))]
+            except ExprError:
+                extra = []
+            kinds = {**kinds, **{n: "any" for n in extra}}
+        try:
+            compile_expr(exp.invariant, kinds, want=BOOL)
+        except ExprError as exc:
+            hint = None
+            if exc.message.startswith("unknown variable"):
+                close = difflib.get_close_matches(exc.message.split("'")[1], sorted(kinds), n=3)
+                hint = ("did you mean " + " or ".join(close) + "?") if close else \
+                    "names: " + (", ".join(sorted(kinds)[:12]) or "none")
+            problems.append(Problem(f"invariant: {exc}", name, pointer("expect", i, "invariant"),
+                                    element=f"expectation {i}", hint=hint))
+    return problems
+
+
+# -- substitution ------------------------------------------------------------------------------------------
+_STEP_KEYS: tuple[str, ...] = ("id", "description", "set", "layout", "precondition", "until", "monitors", "timeout",
+                               "timeout_behavior", "timeout_exception", "endless")
+
+
+def _elements(node: Any, prefix: str, ptr: str) -> Any:
+    """Every state element of a document (inline sub-machines, regions, steps, exceptions included): (path, JSON
+    pointer, element), and every transition list: (None, pointer, list)."""
+    if not isinstance(node, dict):
+        return
+    if isinstance(node.get("transitions"), list):
+        yield None, ptr + "/transitions", node["transitions"]
+    for key in ("states", "steps", "exceptions", "sequences"):
+        items = node.get(key)
+        for i, el in enumerate(items if isinstance(items, list) else ()):
+            if isinstance(el, dict) and isinstance(el.get("id"), str):
+                path = prefix + el["id"]
+                yield path, f"{ptr}/{key}/{i}", el
+                yield from _elements(el, path + "/", f"{ptr}/{key}/{i}")
+    regions = node.get("regions")
+    for i, r in enumerate(regions if isinstance(regions, list) else ()):
+        if isinstance(r, dict):
+            yield from _elements(r, prefix + str(r.get("name", "")) + "/", f"{ptr}/regions/{i}")
+    inline = node.get("machine")
+    if isinstance(inline, dict) and "file" not in inline:
+        yield from _elements(inline, prefix, ptr + "/machine")
+
+
+def substituted(scenario: Scenario, machine_path: Path, registry: Any, name: str) -> tuple[Any, list[Problem]]:
+    """The machine with the scenario's substitutions applied and checked: (spec, problems); ``None`` for the
+    spec when a substitution matches nothing, names an unknown type or makes the machine invalid."""
+    import copy
+
+    from fsm.loading.loader import check
+    from fsm.loading.reading import reader_for
+
+    data, _source = reader_for(machine_path)(machine_path)
+    doc = copy.deepcopy(data)
+    problems: list[Problem] = []
+    touched: list[tuple[str, int]] = []  # (document pointer, substitution index)
+    for k, sub in enumerate(scenario.substitute):
+        ptr = pointer("substitute", k)
+        given = [key for key in ("state", "type", "transition") if getattr(sub, key) is not None]
+        if len(given) != 1:
+            problems.append(Problem("a substitution names one of 'state', 'type' or 'transition'", name, ptr,
+                                    hint='{"state": "grip", "with": {"type": "Wait", "seconds": 1}}'))
+            continue
+        kind = sub.with_.get("type")
+        table = registry.transitions if sub.transition is not None else registry.states
+        if not isinstance(kind, str) or kind not in table:
+            known = sorted(table)
+            close = difflib.get_close_matches(str(kind), known, n=2)
+            what = "transition" if sub.transition is not None else "state"
+            problems.append(Problem(f"unknown {what} type {kind!r}" if kind is not None else
+                                    "the replacement needs a 'type'", name, ptr + "/with" + ("/type" if kind else ""),
+                                    hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close else
+                                    f"{what} types: " + ", ".join(known[:15])))
+            continue
+        hits = 0
+        for path, at, el in list(_elements(doc, "", "")):
+            if path is None:
+                if sub.transition is None:
+                    continue
+                ref = sub.transition
+                for j, tr in enumerate(el):
+                    if isinstance(tr, dict) and tr.get("from") == ref.from_ and tr.get("to") == ref.to and \
+                            (ref.type is None or tr.get("type") == ref.type):
+                        el[j] = {"from": tr["from"], "to": tr["to"], **sub.with_}
+                        touched.append((f"{at}/{j}", k))
+                        hits += 1
+                continue
+            if (sub.state is not None and state_matches(sub.state, path)) or \
+                    (sub.type is not None and el.get("type") == sub.type):
+                kept = {key: v for key, v in el.items() if key in _STEP_KEYS}
+                el.clear()
+                el.update({**kept, **sub.with_, "id": kept["id"]})
+                touched.append((at, k))
+                hits += 1
+        if not hits:
+            ref = sub.transition
+            what = (f"state '{sub.state}'" if sub.state is not None else f"state of type '{sub.type}'"
+                    if sub.type is not None or ref is None else f"transition from '{ref.from_}' to '{ref.to}'")
+            problems.append(Problem(f"the machine has no {what} to substitute", name, ptr,
+                                    hint="states inside an included machine file cannot be substituted"))
+    if problems:
+        return None, problems
+    spec, found = check(doc, registry=registry, base_dir=machine_path.parent)
+    errors = [p for p in found if p.severity == "error"]
+    if spec is not None and not errors:
+        return spec, []
+    out = []
+    for p in errors or found:
+        where = next(((at, k) for at, k in touched
+                      if p.pointer and (p.pointer == at or p.pointer.startswith(at + "/"))), None)
+        k = where[1] if where else 0
+        inner = p.pointer[len(where[0]):] if where and p.pointer else ""
+        out.append(Problem(f"with this substitution the machine is invalid: {p.message}", name,
+                           pointer("substitute", k) + ("/with" + inner if where else ""), hint=p.hint))
+    return None, out
+
+
+def _load_plugins(scenario: Scenario, base: Path, name: str, registry: Any) -> tuple[list[str], list[Problem]]:
+    """Import the scenario's ``plugins`` into ``registry``: the files they were loaded from, and a problem at
+    ``/plugins/N`` for each one that is missing or fails (the scenario's error, not the command line's)."""
+    import sys
+
+    from fsm.model.errors import RegistrationError, UsageError
+
+    files: list[str] = []
+    problems: list[Problem] = []
+    for i, plugin in enumerate(scenario.plugins):
+        ptr = pointer("plugins", i)
+        target = str(base / plugin) if plugin.endswith(".py") else plugin
+        if plugin.endswith(".py") and not Path(target).is_file():
+            problems.append(Problem(f"plugin file not found: {target}", name, ptr,
+                                    hint="plugin files are relative to the scenario file"))
+            continue
+        try:
+            registry.load_module(target)
+        except UsageError as exc:  # its words name a --plugin flag: say it of the scenario's entry instead
+            reason = str(exc)
+            for prefix in (f"--plugin {target}: ", f"--plugin {target!r}: "):
+                reason = reason.removeprefix(prefix)
+            problems.append(Problem(f"plugin '{plugin}' cannot be loaded: {reason}", name, ptr))
+            continue
+        except RegistrationError as exc:
+            where = [getattr(exc, "file", None), getattr(exc, "line", None)]
+            problems.append(Problem(f"plugin error: {' '.join(str(exc).split())}", name, ptr,
+                                    hint=f"it failed at {where[0]}:{where[1]}" if all(where) else None))
+            continue
+        module = sys.modules.get(plugin) if not plugin.endswith(".py") else None
+        files.append(target if module is None else str(getattr(module, "__file__", None) or target))
+    return files, problems
+
+
+def named_files(file: str | Path) -> list[str]:
+    """Every file a scenario names, as far as it can be told without running it: the scenario, its machine and
+    the machine's includes, its world and its plugin files. For the output checks of a scenario whose loading
+    stopped at a problem; never raises."""
+    from fsm.loading.loader import check, machine_files
+    from fsm.loading.reading import parse_json_bytes, read_file_bytes
+    from fsm.loading.registry import default_registry
+    from fsm.model.errors import FsmError
+
+    path = Path(file)
+    files = [str(file)]
+    try:
+        data, _source = parse_json_bytes(read_file_bytes(path, "scenario"), str(file), path.parent)
+    except (FsmError, RecursionError, MemoryError):
+        return files
+    if not isinstance(data, dict):
+        return files
+    plugins = data.get("plugins")
+    named = [data.get("machine"), data.get("world")] + (plugins if isinstance(plugins, list) else [])
+    files += [str(path.parent / n) for n in named if isinstance(n, str) and n and "\0" not in n]
+    machine = path.parent / data["machine"] if isinstance(data.get("machine"), str) else None
+    try:
+        if machine is not None and machine.is_file():
+            spec, problems = check(str(machine), registry=default_registry())
+            files += machine_files(spec) + [p.file for p in problems if p.file]
+    except (FsmError, RecursionError, OSError, ValueError):
+        pass
+    return files
+
+
+def _plants(scenario: Scenario, registry: Any, name: str) -> tuple[list[tuple[type, Any]], list[Problem]]:
+    """The scenario's plants: each type registered and its parameters valid (located problems otherwise)."""
+    from pydantic import ValidationError
+
+    from fsm.model.document import problems_from_validation
+
+    out: list[tuple[type, Any]] = []
+    problems: list[Problem] = []
+    names: set[str] = set()
+    for i, raw in enumerate(scenario.plants):
+        ptr = pointer("plants", i)
+        kind = raw.get("type")
+        cls = registry.plants.get(kind) if isinstance(kind, str) else None
+        if cls is None:
+            known = sorted(registry.plants)
+            close = difflib.get_close_matches(str(kind), known, n=2)
+            problems.append(Problem(f"unknown plant type {kind!r}" if kind is not None else "a plant needs a 'type'",
+                                    name, ptr + ("/type" if kind is not None else ""), element=f"plant {i}",
+                                    hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close else
+                                    ("plant types: " + ", ".join(known)) if known else
+                                    "load the plugin that registers it (\"plugins\": [...])"))
+            continue
+        try:
+            params = cls.Params.model_validate(raw)
+        except ValidationError as err:
+            from fsm.model.document import Source
+
+            problems += problems_from_validation(err, source=Source(name=name), base=ptr, element=f"plant {i}",
+                                                 model=cls.Params, kind="parameter", data=raw)
+            continue
+        if params.name in names:
+            problems.append(Problem(f"two plants are named '{params.name}'", name, ptr + "/name", element=f"plant {i}",
+                                    hint="give each plant its own name"))
+            continue
+        names.add(params.name)
+        out.append((cls, params))
+    return out, problems
+
+
+def name_problems(scenario: Scenario, paths: list[str], name: str) -> list[Problem]:
+    """The state names and paths of the scenario's expectations and pause inputs that name no state of ``paths``."""
+    problems = []
+    ids = sorted({p.rsplit("/", 1)[-1] for p in paths} | set(paths))
+    prefixes = {"/".join(p.split("/")[:k]) for p in paths for k in range(1, p.count("/") + 2)}
+    for i, exp in enumerate(scenario.expect):
+        ptr = pointer("expect", i)
+        names: list[tuple[str, str, bool]] = []
+        if isinstance(exp, VisitsExpect):
+            names = [(s, pointer("expect", i, "visits", k), False) for k, s in enumerate(exp.visits)]
+        elif isinstance(exp, NeverExpect):
+            names = [(s, pointer("expect", i, "never", k), False) for k, s in enumerate(exp.never)]
+        elif isinstance(exp, MonitorsExpect):
+            names = [(exp.monitors.owner, pointer("expect", i, "monitors", "owner"), False)]
+        elif isinstance(exp, (EnteredExpect, SkippedExpect, ExitedExpect)):
+            key = "entered" if isinstance(exp, EnteredExpect) else "skipped" if isinstance(exp, SkippedExpect) \
+                else "exited"
+            names = [(getattr(exp, key), pointer("expect", i, key), False)]
+        elif isinstance(exp, OutcomeExpect) and exp.state is not None:
+            names = [(exp.state, pointer("expect", i, "state"), False)]
+        elif isinstance(exp, AtExpect):
+            if exp.active is not None:
+                items = [exp.active] if isinstance(exp.active, str) else exp.active
+                names = [(s, ptr + "/active" + ("" if isinstance(exp.active, str) else f"/{k}"), True)
+                         for k, s in enumerate(items)]
+            for key in ("paused", "suspended"):
+                names += [(s, pointer("expect", i, key, s), False) for s in getattr(exp, key) or {}]
+        for item, at, prefix in names:
+            ok = item.strip("/") in prefixes if prefix else any(state_matches(item, p) for p in paths)
+            if not ok:
+                close = difflib.get_close_matches(item, sorted(prefixes) if prefix else ids, n=3)
+                hint = ("did you mean " + " or ".join(repr(c) for c in close) + "?") if close else \
+                    "states: " + ", ".join(paths[:12]) + (", ..." if len(paths) > 12 else "")
+                what = "no state path starts with" if prefix else "the machine has no state"
+                problems.append(Problem(f"{what} '{item}'", name, at, element=f"expectation {i}", hint=hint))
+    for i, item in enumerate(scenario.inputs):
+        if isinstance(item, (PauseInput, ResumeInput)):
+            key = "pause" if isinstance(item, PauseInput) else "resume"
+            target = getattr(item, key).strip("/")
+            if target not in paths:
+                close = difflib.get_close_matches(target, paths, n=3)
+                suffix = [p for p in paths if state_matches(target, p)]
+                hint = (f"a path from the top: {suffix[0]!r}" if len(suffix) == 1 else
+                        ("did you mean " + " or ".join(repr(c) for c in close) + "?") if close else
+                        "states: " + ", ".join(paths[:12]) + (", ..." if len(paths) > 12 else ""))
+                problems.append(Problem(f"the machine has no state at the path '{target}'", name,
+                                        pointer("inputs", i, key), element=f"input {i}", hint=hint))
+    return problems

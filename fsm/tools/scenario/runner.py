@@ -1,0 +1,808 @@
+"""Running a scenario: one deterministic run with a recording listener, then every expectation checked against
+the record. A failure names the expectation (and where it is written), what was expected, what happened, the
+first tick where the run diverged from it and the trace around that tick.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Container
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, NamedTuple
+
+from fsm.model.errors import StateRuntimeError
+from fsm.model.jsonpos import pointer
+from fsm.runtime.machine import Listener
+from fsm.session.session import tick_at
+
+from .model import (
+    EPS,
+    Approx,
+    AtExpect,
+    EnteredExpect,
+    ExitedExpect,
+    FinishedExpect,
+    InvariantExpect,
+    LoadedScenario,
+    MonitorsExpect,
+    NeverExpect,
+    OutcomeExpect,
+    SkippedExpect,
+    TransitionsExpect,
+    VisitsExpect,
+    active_matches,
+    state_matches,
+)
+from .timeline import expand, pause_changes
+
+if TYPE_CHECKING:
+    from fsm.runtime.context import Context
+    from fsm.runtime.machine import Machine
+    from fsm.runtime.state import State
+    from fsm.runtime.transition import Transition
+
+#: Trace lines shown before and after the diverging tick.
+CONTEXT_BEFORE, CONTEXT_AFTER = 4, 3
+
+
+@dataclass(frozen=True)
+class Entry:
+    """A state entered: by a transition (``kind`` its type) or as an initial state (``kind`` ``"initial"``)."""
+
+    tick: int
+    time: float
+    path: str
+    source: str | None
+    kind: str
+
+
+class ActiveChange(NamedTuple):
+    """The active leaf paths from ``tick`` on."""
+
+    tick: int
+    paths: tuple[str, ...]
+
+
+class VarChange(NamedTuple):
+    """A blackboard variable that changed at ``tick`` (``old`` or ``new`` is ``_UNSET`` when it had no value)."""
+
+    tick: int
+    name: str
+    old: Any
+    new: Any
+
+
+class MonitorFiring(NamedTuple):
+    """A monitor or timeout that fired at ``tick``: its owner's path, its label, ``kind`` (monitor or timeout) and
+    behaviour."""
+
+    tick: int
+    owner: str
+    label: str
+    kind: str
+    behavior: str
+
+
+class PauseChange(NamedTuple):
+    """A state paused (``paused``) or resumed at ``tick``."""
+
+    tick: int
+    path: str
+    paused: bool
+
+
+class Event(NamedTuple):
+    """A line of a failure's trace: at ``tick``, sorted by ``order`` within it (inputs, then entries, firings and
+    pauses, then variable changes)."""
+
+    tick: int
+    order: int
+    text: str
+
+
+class Finish(NamedTuple):
+    """A watched state (named by an ``outcome`` expectation's ``state``) that finished at ``tick``."""
+
+    tick: int
+    path: str
+    outcome: str | None
+
+
+class Snapshot(NamedTuple):
+    """What an ``at`` expectation looks at: active leaf paths, variables, the active states held by a pause and
+    those suspended while an exception sequence runs."""
+
+    active: tuple[str, ...]
+    vars: dict[str, Any]
+    paused: frozenset[str]
+    suspended: frozenset[str]
+
+
+def held_states(machine: Machine) -> tuple[frozenset[str], frozenset[str]]:
+    """The paths of the active states held by a pause (their own or an ancestor's) and of those suspended (frozen
+    while a monitor's exception sequence runs, not by a pause)."""
+    paused: set[str] = set()
+    suspended: set[str] = set()
+    root = machine.root
+    if not root.started:
+        return frozenset(), frozenset()
+    todo: list[tuple[State, bool]] = [(root.active, False)]
+    while todo:
+        state, held = todo.pop()
+        held = held or state.paused
+        if held:
+            paused.add(state.path)
+        elif state.frozen_since is not None:
+            suspended.add(state.path)
+        todo.extend((r.active, held) for r in state.regions if r.started)
+    return frozenset(paused), frozenset(suspended)
+
+
+class InvariantWatch:
+    """An invariant checked after every tick of its window until it first fails."""
+
+    def __init__(self, index: int, text: str, fn: Any, names: list[str], vars_only: bool, first: int, last: int,
+                 signals: tuple[str, ...]) -> None:
+        from fsm.model.expr import ExprRuntimeError
+
+        self.index = index
+        self.text = text
+        self.fn = fn
+        self.names = names
+        self.vars_only = vars_only
+        self.first = first
+        self.last = last
+        self.signals = signals
+        self.failed: int | None = None
+        #: the failure was reported already (a test by hand raises it once)
+        self.reported = False
+        self.values: dict[str, Any] = {}
+        self.error: str | None = None
+        self._errors = (ExprRuntimeError, TypeError, ValueError, ArithmeticError, KeyError)
+        #: (name, signal, car reading) for the names read from outside the variables
+        self._outside = [(n, n[len("signal_"):] if n.startswith("signal_") else None,
+                          n[len("car_"):] if n.startswith("car_") else None) for n in names
+                         if n.startswith(("signal_", "car_"))]
+
+    def _values(self, machine: Machine) -> dict[str, Any]:
+        """What the expression reads: the variables, and only the signals and car readings it names."""
+        ctx = machine.ctx
+        if self.vars_only:
+            return ctx.vars
+        values = dict(ctx.vars)
+        signals = ctx.signals
+        for name, signal, reading in self._outside:
+            if signal is not None:
+                values[name] = signals.get(signal, False)
+            elif reading is not None and ctx.car is not None:
+                value = getattr(ctx.car, reading, None)
+                if isinstance(value, (int, float)):
+                    values[name] = value
+        return values
+
+    def check(self, machine: Machine, tick: int) -> None:
+        values = self._values(machine)
+        try:
+            if self.fn(values) is True:
+                return
+        except self._errors as exc:
+            self.error = str(exc)
+        self.failed = tick
+        self.values = {n: values.get(n, _UNSET) for n in self.names}
+
+
+class Recording(Listener):
+    """What the run did, tick by tick: states entered (and which of them were skipped by their precondition),
+    active leaf paths when they change, variable changes, monitor firings, pauses, the transitions fired, the
+    outcomes of watched states, the invariants, and a snapshot at each tick an ``at`` expectation looks at."""
+
+    def __init__(self, snapshot_ticks: Container[int], watched: list[State] | None = None,
+                 invariants: list[InvariantWatch] | None = None) -> None:
+        self.entries: list[Entry] = []
+        #: indices into ``entries`` of the entries skipped by a precondition
+        self.skipped: set[int] = set()
+        self.active: list[ActiveChange] = []
+        self.var_changes: list[VarChange] = []
+        self.snapshots: dict[int, Snapshot] = {}
+        self._want = snapshot_ticks
+        self._vars: dict[str, Any] = {}
+        self._moved = True
+        self.monitors: list[MonitorFiring] = []
+        self.pauses: list[PauseChange] = []
+        #: (source path, transition index) of every transition fired (for coverage)
+        self.fired: set[tuple[str, int]] = set()
+        self.finishes: list[Finish] = []
+        self._watched = {id(s): s for s in watched or ()}
+        self._recorded: dict[int, bool] = {k: True for k in self._watched}
+        self.invariants = invariants or []
+
+    def on_monitor(self, ctx: Context, owner: State, monitor: Any) -> None:
+        self.monitors.append(MonitorFiring(ctx.tick, owner.path, monitor.label, monitor.kind, monitor.behavior))
+
+    def on_pause(self, ctx: Context, state: State, paused: bool) -> None:
+        self.pauses.append(PauseChange(ctx.tick, state.path, paused))
+
+    def on_skipped(self, ctx: Context, state: State) -> None:
+        for k in range(len(self.entries) - 1, -1, -1):
+            if self.entries[k].path == state.path:
+                self.skipped.add(k)
+                break
+        if id(state) in self._watched:
+            self._recorded[id(state)] = True
+            self.finishes.append(Finish(ctx.tick, state.path, state.outcome))
+
+    def on_transition(self, ctx: Context, source: State | None, target: State, transition: Transition | None) -> None:
+        self.entries.append(Entry(ctx.tick, ctx.now, target.path, source.path if source is not None else None,
+                                  transition.type_name if transition is not None else "initial"))
+        self._moved = True
+        if source is not None and transition is not None:
+            self.fired.add((source.path, getattr(transition, "index", -1)))
+        if self._watched:
+            if source is not None:  # what was left with the source: record how the watched states in it finished
+                for key, st in self._watched.items():
+                    if not self._recorded[key] and st.finished and (st is source or st.path.startswith(
+                            source.path + "/")):
+                        self._recorded[key] = True
+                        self.finishes.append(Finish(ctx.tick, st.path, st.outcome))
+            if id(target) in self._watched:
+                self._recorded[id(target)] = False
+
+    def on_tick(self, machine: Machine) -> None:
+        tick = machine.ctx.tick
+        if self._moved:
+            self._moved = False
+            self.active.append(ActiveChange(tick, tuple(machine.active_paths)))
+        current = machine.ctx.vars
+        if current != self._vars or any(type(v) is not type(self._vars.get(k)) for k, v in current.items()):
+            for name in sorted(set(current) | set(self._vars)):
+                old, new = self._vars.get(name, _UNSET), current.get(name, _UNSET)
+                if old is not new and (old != new or type(old) is not type(new)):
+                    self.var_changes.append(VarChange(tick, name, old, new))
+            self._vars = dict(current)
+        if self._watched:
+            for key, st in self._watched.items():
+                if not self._recorded[key] and st.finished:
+                    self._recorded[key] = True
+                    self.finishes.append(Finish(tick, st.path, st.outcome))
+        for inv in self.invariants:
+            if inv.failed is None and inv.first <= tick <= inv.last:
+                inv.check(machine, tick)
+        if tick in self._want:
+            self.snapshots[tick] = Snapshot(self.active[-1].paths, dict(current), *held_states(machine))
+
+    def final(self, machine: Machine) -> Snapshot:
+        return Snapshot(tuple(machine.active_paths), dict(machine.ctx.vars), *held_states(machine))
+
+    def active_at(self, tick: int) -> tuple[str, ...]:
+        current: tuple[str, ...] = ()
+        for t, paths in self.active:
+            if t > tick:
+                break
+            current = paths
+        return current
+
+    def exits(self) -> list[tuple[int, str]]:
+        """(tick, path) of every state left: no longer active after a tick, or entered again while active (a
+        restart, a self-transition); a state entered and skipped in one tick is left in it."""
+        out: list[tuple[int, str]] = []
+        was: set[str] = set()
+        by_tick: dict[int, list[str]] = {}
+        for e in self.entries:
+            by_tick.setdefault(e.tick, []).append(e.path)
+        changes = {c.tick: c.paths for c in self.active}
+        states = {e.path for e in self.entries}
+        for tick in sorted(set(by_tick) | set(changes)):
+            entered = by_tick.get(tick, [])
+            for path in entered:
+                if path in was:
+                    out.append((tick, path))
+            leaves = changes.get(tick)
+            if leaves is None:
+                continue
+            now = {"/".join(p.split("/")[:k]) for p in leaves for k in range(1, p.count("/") + 2)}
+            out += [(tick, p) for p in sorted((was | set(entered)) - now) if p in states]
+            was = now & states
+        return out
+
+
+def _times(n: int) -> str:
+    return "once" if n == 1 else f"{n} times"
+
+
+class _Unset:
+    def __repr__(self) -> str:
+        return "unset"
+
+
+_UNSET = _Unset()
+
+
+@dataclass
+class Failure:
+    """One expectation that did not hold."""
+
+    index: int
+    where: str
+    kind: str
+    message: str
+    tick: int | None = None
+    time: float | None = None
+    trace: list[str] = field(default_factory=list)
+
+    def lines(self) -> list[str]:
+        head = f"{self.where}: expect[{self.index}] {self.kind}: {self.message}" if self.index >= 0 else \
+            f"{self.where}: {self.message}"
+        return [head] + [f"    {line}" for line in self.trace]
+
+
+@dataclass
+class ScenarioResult:
+    """The outcome of one scenario: passed, or the failures; what ran (ticks, simulated and wall time)."""
+
+    name: str
+    file: str
+    ticks: int = 0
+    sim_time: float = 0.0
+    wall_time: float = 0.0
+    outcome: str | None = None
+    failures: list[Failure] = field(default_factory=list)
+
+    @property
+    def passed(self) -> bool:
+        return not self.failures
+
+    def summary_line(self) -> str:
+        if self.passed:
+            return f"PASS {self.name} ({self.ticks} ticks, {self.sim_time:g} s)"
+        first = self.failures[0]
+        more = f" (+{len(self.failures) - 1} more)" if len(self.failures) > 1 else ""
+        at = f" (tick {first.tick}, t={first.time:g} s)" if first.tick is not None and first.time is not None else ""
+        return f"FAIL {self.name}: expect[{first.index}] {first.kind}{at}: {first.message}{more}" \
+            if first.index >= 0 else f"FAIL {self.name}: {first.message}"
+
+
+def expression_names(text: str) -> list[str]:
+    """The names an expression reads, in order of first use."""
+    from fsm.model.expr import Node, parse
+
+    out: list[str] = []
+    todo = [parse(text)]
+    while todo:
+        node = todo.pop(0)
+        if node.op == "var" and node.args[0] not in out:
+            out.append(node.args[0])
+        todo += [a for a in node.args if isinstance(a, Node)]
+    return out
+
+
+def make_invariants(loaded: LoadedScenario, signals: tuple[str, ...]) -> list[InvariantWatch]:
+    """The scenario's invariants compiled (they were checked when the scenario was loaded)."""
+    from fsm.model.expr import BOOL, compile_expr
+
+    from .model import invariant_kinds
+
+    out = []
+    spec_vars = set(getattr(loaded.spec, "vars", {}))
+    kinds = invariant_kinds(loaded.spec, set(signals), loaded.world_path is not None, loaded.scenario)
+    for i, exp in enumerate(loaded.scenario.expect):
+        if isinstance(exp, InvariantExpect):
+            names = expression_names(exp.invariant)
+            if loaded.plants:  # variables a plant writes (checked when the scenario was loaded)
+                kinds.update({n: "any" for n in names if n not in kinds and not n.startswith(("signal_", "car_"))})
+            set_vars = {k for k, kind in kinds.items() if not k.startswith(("signal_", "car_"))}
+            vars_only = all(n in spec_vars or n in set_vars for n in names)
+            first, last = (0, loaded.end_tick) if exp.within is None else \
+                (_first_tick(exp.within[0], loaded.dt), _last_tick(exp.within[1], loaded.dt))
+            out.append(InvariantWatch(i, exp.invariant, compile_expr(exp.invariant, kinds, want=BOOL).fn, names,
+                                      vars_only, first, last, signals))
+    return out
+
+
+def _first_tick(t: float, dt: float) -> int:
+    return tick_at(t, dt)
+
+
+def _last_tick(t: float, dt: float) -> int:
+    """The last tick whose time is at most ``t``."""
+    n = math.floor(t / dt + EPS) if math.isfinite(t / dt) else 2**62
+    return max(n, 0)
+
+
+def run_scenario(loaded: LoadedScenario, coverage: Any = None) -> ScenarioResult:
+    """Run the scenario's machine on its timeline and check every expectation; with ``coverage`` (a
+    :class:`fsm.tools.scenario.coverage.Coverage`), add what the run entered and fired to it."""
+    from fsm.loading.loader import compile as compile_spec
+    from fsm.session.session import PauseState, Session, SetSignal, SetVars, StopRules
+
+    sc = loaded.scenario
+    dt = loaded.dt
+    result = ScenarioResult(loaded.name, loaded.file)
+    signals, sets = expand(sc, dt)
+    pauses = pause_changes(sc, dt)
+    at_ticks = {min(tick_at(e.at, dt), loaded.end_tick) for e in sc.expect if isinstance(e, AtExpect)}
+    plan = compile_spec(loaded.spec)
+    stop = StopRules(max_ticks=loaded.end_tick)
+    if loaded.world_path is not None:
+        from fsm.sim import simulate
+
+        session = simulate(plan, world=loaded.world_path, seed=sc.seed, noise=sc.noise, dt=dt, stop=stop)
+    else:
+        session = Session.open(plan, dt=dt, stop=stop, record=False)
+    machine = session.machine
+    plant_signals: list[str] = []
+    for cls, params in loaded.plants:
+        plant = cls(params)
+        plant.attach(machine)
+        plant_signals += list(plant.signals())
+    for change in signals:
+        session.schedule(change.time, SetSignal(change.name, change.level))
+    for s in sets:
+        session.schedule(s.time, SetVars(s.values))
+    for pc in pauses:
+        session.schedule(pc.time, PauseState(pc.path, pc.paused))
+    watched_names = [e.state for e in sc.expect if isinstance(e, OutcomeExpect) and e.state is not None]
+    watched = [st for path, st in machine.states_by_path.items()
+               if any(state_matches(n, path) for n in watched_names)]
+    from fsm.loading.loader import signal_names
+
+    read = signal_names(loaded.spec) | set(getattr(loaded.spec, "inputs", None) or ())
+    names = tuple(sorted({c.name for c in signals} | set(plant_signals) | read))
+    rec = machine.add_listener(Recording(at_ticks, watched, make_invariants(loaded, names)))
+    error: StateRuntimeError | None = None
+    t0 = time.perf_counter()
+    try:
+        session.start()
+        rec.on_tick(machine)
+        session.run()
+    except StateRuntimeError as exc:
+        error = exc
+    result.wall_time = time.perf_counter() - t0
+    result.ticks = machine.ticks
+    result.sim_time = round(machine.now, 9)
+    result.outcome = machine.outcome
+    if coverage is not None:
+        import os
+
+        coverage.add(machine, rec, key=os.path.normpath(os.path.join(os.path.dirname(loaded.file), sc.machine)))
+    check = Checker(loaded, machine, rec, signals, sets, pauses)
+    if error is not None:
+        result.failures.append(Failure(-1, loaded.file, "error", f"the machine failed: {error}", error.tick,
+                                       error.time, check.trace(error.tick)))
+    for i, exp in enumerate(sc.expect):
+        failure = check.expectation(i, exp)
+        if failure is not None:
+            result.failures.append(failure)
+    return result
+
+
+def _shown(value: Any) -> str:
+    import json
+
+    if value is _UNSET:
+        return "unset"
+    try:
+        return json.dumps(value, ensure_ascii=False)
+    except (TypeError, ValueError):
+        return repr(value)
+
+
+def _same(expected: Any, got: Any) -> bool:
+    """JSON equality: kinds must agree (true is not 1), numbers compare by value (3 == 3.0)."""
+    if isinstance(expected, bool) or isinstance(got, bool):
+        return isinstance(expected, bool) and isinstance(got, bool) and expected == got
+    if isinstance(expected, (int, float)) and isinstance(got, (int, float)):
+        return expected == got or (isinstance(expected, float) and isinstance(got, float)
+                                   and math.isclose(expected, got, rel_tol=1e-12, abs_tol=0.0))
+    return type(expected) is type(got) and expected == got
+
+
+class Checker:
+    """Checks expectations against a run's record (``rec``) and the machine as it ended; a failure keeps the
+    trace around its first diverging tick."""
+    def __init__(self, loaded: LoadedScenario, machine: Machine, rec: Recording, signals: list[Any],
+                 sets: list[Any], pauses: list[Any] | None = None) -> None:
+        self.loaded = loaded
+        self.pause_inputs = list(pauses or ())
+        self.machine = machine
+        self.rec = rec
+        self.dt = loaded.dt
+        self.signals = signals
+        self.sets = sets
+        self.last_tick = machine.ticks
+
+    def t(self, tick: int) -> float:
+        return round(tick * self.dt, 9)
+
+    def at(self, tick: int) -> str:
+        return f"tick {tick} (t={self.t(tick):g} s)"
+
+    def failure(self, i: int, kind: str, message: str, tick: int | None) -> Failure:
+        where = self.loaded.where(pointer("expect", i))
+        return Failure(i, where, kind, message, tick, None if tick is None else self.t(tick),
+                       self.trace(tick) if tick is not None else [])
+
+    # -- the trace ----------------------------------------------------------------------------------------
+    def events(self) -> list[Event]:
+        out: list[Event] = []
+        for e in self.rec.entries:
+            how = "initial" if e.kind == "initial" else f"{e.kind} from {e.source}"
+            out.append(Event(e.tick, 1, f"enter {e.path} ({how})"))
+        for c in self.signals:
+            if c.tick <= self.last_tick:
+                out.append(Event(c.tick, 0, f"signal {c.name} {'high' if c.level else 'low'} (at {c.time:g} s, "
+                                            f"input {c.index})"))
+        for s in self.sets:
+            if s.tick <= self.last_tick:
+                text = ", ".join(f"{k} = {_shown(v)}" for k, v in s.values.items())
+                out.append(Event(s.tick, 0, f"set {text} (input {s.index})"))
+        for pc in self.pause_inputs:
+            if pc.tick <= self.last_tick:
+                out.append(Event(pc.tick, 0, f"{'pause' if pc.paused else 'resume'} {pc.path} (input {pc.index})"))
+        for k in sorted(self.rec.skipped):
+            e = self.rec.entries[k]
+            out.append(Event(e.tick, 1, f"skip {e.path} (precondition false)"))
+        named = [e.state for e in self.loaded.scenario.expect if isinstance(e, OutcomeExpect) and e.state]
+        for fin in self.rec.finishes:
+            if any(state_matches(n, fin.path) for n in named):
+                out.append(Event(fin.tick, 1, f"finished {fin.path}: {fin.outcome}"))
+        for inv in self.rec.invariants:
+            if inv.failed is not None:
+                out.append(Event(inv.failed, 3, f"invariant {inv.text} false"))
+        for tick, name, old, new in self.rec.var_changes:
+            out.append(Event(tick, 2, f"var {name}: {_shown(old)} -> {_shown(new)}"))
+        for tick, owner, label, kind, behavior in self.rec.monitors:
+            out.append(Event(tick, 1, f"{kind} of {owner} fired ({label}): {behavior}"))
+        for tick, path, paused in self.rec.pauses:
+            out.append(Event(tick, 1, f"{'pause' if paused else 'resume'} {path}"))
+        out.sort(key=lambda e: (e.tick, e.order))
+        return out
+
+    def trace(self, tick: int) -> list[str]:
+        """The trace lines around ``tick`` (marked ``>``) and the active states at that tick."""
+        events = self.events()
+        before = [e for e in events if e.tick < tick][-CONTEXT_BEFORE:]
+        at = [e for e in events if e.tick == tick]
+        after = [e for e in events if e.tick > tick][:CONTEXT_AFTER]
+        lines = [f"  tick {e.tick:>6} t={self.t(e.tick):<9g} {e.text}" for e in before]
+        lines += [f"> tick {e.tick:>6} t={self.t(e.tick):<9g} {e.text}" for e in at]
+        if not at:
+            lines.append(f"> tick {tick:>6} t={self.t(tick):<9g} (nothing happened)")
+        lines += [f"  tick {e.tick:>6} t={self.t(e.tick):<9g} {e.text}" for e in after]
+        active = self.rec.active_at(tick)
+        lines.append(f"  active at tick {tick}: {', '.join(active) or '(none)'}")
+        return lines
+
+    # -- the expectations ---------------------------------------------------------------------------------
+    def expectation(self, i: int, exp: Any) -> Failure | None:
+        m = self.machine
+        end = self.last_tick
+        if isinstance(exp, OutcomeExpect) and exp.state is not None:
+            return self.state_outcome(i, exp)
+        if isinstance(exp, OutcomeExpect):
+            if m.outcome == exp.outcome and exp.within is not None:
+                fin = end  # the run stops in the tick the machine finishes
+                if not self.inside(fin, exp.within):
+                    return self.failure(i, "outcome", f"expected outcome '{exp.outcome}' {self.window(exp.within)}, "
+                                                      f"the machine finished with it at {self.at(fin)}", fin)
+            if m.outcome == exp.outcome:
+                return None
+            if m.outcome is None:
+                return self.failure(i, "outcome", f"expected outcome '{exp.outcome}', but the machine had not "
+                                                  f"finished when the run ended at {self.at(end)}", end)
+            fin = end  # the run stops in the tick the machine finishes
+            return self.failure(i, "outcome", f"expected outcome '{exp.outcome}', got '{m.outcome}' "
+                                              f"(finished in {m.root.active.path} at {self.at(fin)})", fin)
+        if isinstance(exp, FinishedExpect):
+            if m.finished == exp.finished:
+                return None
+            if exp.finished:
+                return self.failure(i, "finished", f"expected the machine to finish, but it was still in "
+                                                   f"{m.active_path} when the run ended at {self.at(end)}", end)
+            fin = end  # the run stops in the tick the machine finishes
+            return self.failure(i, "finished", f"expected the machine not to finish, but it finished with "
+                                               f"'{m.outcome}' at {self.at(fin)}", fin)
+        if isinstance(exp, VisitsExpect):
+            return self.visits(i, exp.visits)
+        if isinstance(exp, NeverExpect):
+            for e in self.rec.entries:
+                hit = next((n for n in exp.never if state_matches(n, e.path)), None)
+                if hit is not None:
+                    return self.failure(i, "never", f"'{hit}' was entered ({e.path}) at {self.at(e.tick)}", e.tick)
+            return None
+        if isinstance(exp, AtExpect):
+            return self.at_check(i, exp)
+        if isinstance(exp, TransitionsExpect):
+            c = exp.transitions
+            n = m.transition_count
+            want = (f"exactly {c.count}" if c.count is not None else
+                    " and ".join(x for x in (f"at least {c.min}" if c.min is not None else "",
+                                             f"at most {c.max}" if c.max is not None else "") if x))
+            ok = (c.count is None or n == c.count) and (c.min is None or n >= c.min) and (c.max is None or n <= c.max)
+            if ok:
+                return None
+            fired = [e for e in self.rec.entries if e.kind != "initial"]
+            limit = c.count if c.count is not None else c.max
+            tick = fired[limit].tick if limit is not None and n > limit else end
+            return self.failure(i, "transitions", f"expected {want} transitions, {n} fired", tick)
+        if isinstance(exp, MonitorsExpect):
+            return self.monitor_check(i, exp.monitors)
+        if isinstance(exp, EnteredExpect):
+            ran = [(e.tick, e.path) for k, e in enumerate(self.rec.entries)
+                   if k not in self.rec.skipped and state_matches(exp.entered, e.path)]
+            return self.counted(i, "entered", exp, ran, f"'{exp.entered}' to be entered (and run)")
+        if isinstance(exp, SkippedExpect):
+            skipped = [(self.rec.entries[k].tick, self.rec.entries[k].path) for k in sorted(self.rec.skipped)
+                       if state_matches(exp.skipped, self.rec.entries[k].path)]
+            return self.counted(i, "skipped", exp, skipped, f"'{exp.skipped}' to be skipped by its precondition")
+        if isinstance(exp, ExitedExpect):
+            left = [(t, p) for t, p in self.rec.exits() if state_matches(exp.exited, p)]
+            return self.counted(i, "exited", exp, left, f"'{exp.exited}' to be left")
+        if isinstance(exp, InvariantExpect):
+            return self.invariant(i, exp)
+        return None  # pragma: no cover - the model admits nothing else
+
+    # -- windows and counts -------------------------------------------------------------------------------
+    def inside(self, tick: int, within: list[float] | None) -> bool:
+        if within is None:
+            return True
+        t = tick * self.dt
+        return within[0] - EPS <= t <= within[1] + EPS
+
+    @staticmethod
+    def window(within: list[float] | None) -> str:
+        return "" if within is None else f"between {within[0]:g} s and {within[1]:g} s"
+
+    def counted(self, i: int, kind: str, c: Any, events: list[tuple[int, str]], what: str) -> Failure | None:
+        """An event that must happen ``count`` (or ``min``..``max``, or at least one) times within a window."""
+        inside = [e for e in events if self.inside(e[0], c.within)]
+        n = len(inside)
+        if c.count is None and c.min is None and c.max is None:
+            ok, want = n >= 1, "at least once"
+        else:
+            ok = (c.count is None or n == c.count) and (c.min is None or n >= c.min) and (c.max is None or n <= c.max)
+            want = (f"exactly {_times(c.count)}" if c.count is not None else
+                    " and ".join(x for x in (f"at least {_times(c.min)}" if c.min is not None else "",
+                                             f"at most {_times(c.max)}" if c.max is not None else "") if x))
+        if ok:
+            return None
+        win = self.window(c.within)
+        shown = ", ".join(f"{self.t(t):g}" for t, _p in inside[:6]) + (", ..." if n > 6 else "")
+        msg = f"expected {what} {want}{' ' + win if win else ''}, it happened {_times(n)}"
+        if n:
+            msg += f" (at {shown} s)"
+        outside = [e for e in events if not self.inside(e[0], c.within)]
+        if outside:
+            msg += (f"; outside the window at {', '.join(f'{self.t(t):g}' for t, _p in outside[:4])} s"
+                    + (", ..." if len(outside) > 4 else ""))
+        limit = c.count if c.count is not None else c.max
+        if limit is not None and n > limit:
+            tick = inside[limit][0]
+        elif c.within is not None:
+            tick = min(_last_tick(c.within[1], self.dt), self.last_tick)
+        else:
+            tick = self.last_tick
+        return self.failure(i, kind, msg, tick)
+
+    def state_outcome(self, i: int, exp: OutcomeExpect) -> Failure | None:
+        assert exp.state is not None
+        fins = [f for f in self.rec.finishes if state_matches(exp.state, f.path)]
+        if any(f.outcome == exp.outcome and self.inside(f.tick, exp.within) for f in fins):
+            return None
+        win = self.window(exp.within)
+        seen = "; ".join(f"{f.path} finished with '{f.outcome}' at {self.at(f.tick)}" for f in fins[:4]) or \
+            "it never finished"
+        tick = next((f.tick for f in fins if self.inside(f.tick, exp.within)), fins[0].tick if fins else
+                    min(_last_tick(exp.within[1], self.dt), self.last_tick) if exp.within else self.last_tick)
+        return self.failure(i, "outcome", f"expected '{exp.state}' to finish with '{exp.outcome}'"
+                                          f"{' ' + win if win else ''}: {seen}", tick)
+
+    def invariant(self, i: int, exp: InvariantExpect) -> Failure | None:
+        inv = next(w for w in self.rec.invariants if w.index == i)
+        if inv.failed is None:
+            return None
+        values = ", ".join(f"{n} = {_shown(v)}" for n, v in inv.values.items())
+        why = f"could not be evaluated: {inv.error}" if inv.error else "is false"
+        return self.failure(i, "invariant", f"'{exp.invariant}' {why} at {self.at(inv.failed)}"
+                                            f"{' (' + values + ')' if values else ''}", inv.failed)
+
+    def monitor_check(self, i: int, c: Any) -> Failure | None:
+        fired = [f for f in self.rec.monitors if state_matches(c.owner, f.owner)
+                 and (c.behavior is None or f.behavior == c.behavior) and (c.kind is None or f.kind == c.kind)
+                 and self.inside(f.tick, c.within)]
+        n = len(fired)
+        if c.count is None and c.min is None and c.max is None:
+            ok, want = n >= 1, "at least once"
+        else:
+            ok = (c.count is None or n == c.count) and (c.min is None or n >= c.min) and (c.max is None or n <= c.max)
+            want = (f"exactly {_times(c.count)}" if c.count is not None else
+                    " and ".join(x for x in (f"at least {_times(c.min)}" if c.min is not None else "",
+                                             f"at most {_times(c.max)}" if c.max is not None else "") if x))
+        if ok and c.at is not None:
+            times = [round(f.tick * self.dt, 9) for f in fired]
+            wanted = [tick_at(t, self.dt) for t in c.at]
+            got = [f.tick for f in fired]
+            if got != wanted:
+                first = next((k for k, (a, b) in enumerate(zip(got, wanted, strict=False)) if a != b),
+                             min(len(got), len(wanted)))
+                tick = got[first] if first < len(got) else (wanted[first] if first < len(wanted) else self.last_tick)
+                return self.failure(i, "monitors", f"expected the monitor of '{c.owner}' to fire at "
+                                                   f"{', '.join(f'{t:g}' for t in c.at)} s, it fired at "
+                                                   f"{', '.join(f'{t:g}' for t in times) or 'no time'} s",
+                                    min(tick, self.last_tick))
+        if ok:
+            return None
+        what = ("" if c.behavior is None else f" with {c.behavior}") + ("" if c.within is None else
+                                                                         f" {self.window(c.within)}")
+        limit = c.count if c.count is not None else c.max
+        tick = fired[limit].tick if limit is not None and n > limit else \
+            min(_last_tick(c.within[1], self.dt), self.last_tick) if c.within is not None else self.last_tick
+        return self.failure(i, "monitors", f"expected a monitor of '{c.owner}'{what} to fire {want}, it fired "
+                                           f"{_times(n)}", tick)
+
+    def visits(self, i: int, wanted: list[str]) -> Failure | None:
+        entries = self.rec.entries
+        pos = 0
+        last: Entry | None = None
+        for k, name in enumerate(wanted):
+            found = next((j for j in range(pos, len(entries)) if state_matches(name, entries[j].path)), None)
+            if found is None:
+                earlier = next((e for e in entries[:pos] if state_matches(name, e.path)), None)
+                # the next state entered, not counting the initial sub-states entered together with the last match
+                nxt = next((e for e in entries[pos:] if last is None or e.tick != last.tick
+                            or not e.path.startswith(last.path + "/")), None)
+                after = f"after '{wanted[k - 1]}' ({last.path} at {self.at(last.tick)})" if last else "at all"
+                msg = f"expected '{name}' to be entered {after}, but it never was"
+                if earlier is not None:
+                    msg += f" (only before, at {self.at(earlier.tick)})"
+                if nxt is not None:
+                    msg += f"; next entered: {nxt.path} at {self.at(nxt.tick)}"
+                    tick = nxt.tick
+                else:
+                    msg += f"; nothing was entered after that until the run ended at {self.at(self.last_tick)}"
+                    tick = self.last_tick
+                return self.failure(i, "visits", msg, tick)
+            last = entries[found]
+            pos = found + 1
+        return None
+
+    def at_check(self, i: int, exp: AtExpect) -> Failure | None:
+        tick = tick_at(exp.at, self.dt)
+        shown_tick = tick
+        snap = self.rec.snapshots.get(tick)
+        if snap is None:  # the machine finished (or the run ended) before: it stays as it ended
+            snap = self.rec.final(self.machine)
+        active, values = snap.active, snap.vars
+        problems = []
+        if exp.active is not None:
+            wanted = [exp.active] if isinstance(exp.active, str) else exp.active
+            missing = [w for w in wanted if not any(active_matches(w, p) for p in active)]
+            if missing:
+                problems.append(f"expected {', '.join(repr(w) for w in missing)} active, active: "
+                                + (", ".join(active) or "(none)"))
+        if exp.vars is not None:
+            for name, want in exp.vars.items():
+                got = values.get(name, _UNSET)
+                if isinstance(want, Approx):
+                    close = (isinstance(got, (int, float)) and not isinstance(got, bool)
+                             and abs(got - want.value) <= want.tolerance * (1 + 1e-12) + 1e-12)
+                    if not close:
+                        changed = [c for c in self.rec.var_changes if c.name == name and c.tick <= tick]
+                        since = f" (since {self.at(changed[-1].tick)})" if changed else ""
+                        problems.append(f"expected {name} = {want.value:g} ± {want.tolerance:g}, got "
+                                        f"{_shown(got)}{since}")
+                elif not _same(want, got):
+                    changed = [c for c in self.rec.var_changes if c.name == name and c.tick <= tick]
+                    since = f" (since {self.at(changed[-1].tick)})" if changed else ""
+                    problems.append(f"expected {name} = {_shown(want)}, got {_shown(got)}{since}")
+        for key, held in (("paused", snap.paused), ("suspended", snap.suspended)):
+            for name, want_held in (getattr(exp, key) or {}).items():
+                is_held = any(state_matches(name, p) for p in held)
+                if is_held != want_held:
+                    shown = ", ".join(sorted(held)) or "none"
+                    problems.append(f"expected '{name}' {'' if want_held else 'not '}{key}, it was "
+                                    f"{'' if is_held else 'not '}({key}: {shown})")
+        if not problems:
+            return None
+        ended = "" if tick <= self.last_tick else f" (the run ended before, at {self.at(self.last_tick)})"
+        return self.failure(i, f"at {exp.at:g} s", "; ".join(problems) + ended, min(shown_tick, self.last_tick))

@@ -1,0 +1,449 @@
+"""The output folder of a sweep (``-o``): checked before any run, its ``sweep.jsonl`` read back and appended to.
+
+A sweep writes only the files it names inside its folder, never through a symlink there (``sweep.html ->
+../machine.json`` would replace the machine), never to a FIFO, device or hard-linked file, never to one of its
+inputs (machine and includes, worlds, sweep file, plugin files). ``sweep.jsonl`` is read line by line, regular
+files only: a last line without its end of line (a sweep killed while writing it) is cut off with a warning, so
+the next record starts on a line of its own; other lines that are not records of a run are ignored with a warning
+(their runs run again). Appends write whole lines; a write that fails is cut back, so the file ends on a line.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import stat
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from fsm.model.errors import DiagramError, FsmError, Problem, UsageError
+
+#: What a sweep writes at the top of its folder, and in each run's folder runs/<id>/.
+REPORTS = ("sweep.jsonl", "sweep.csv", "sweep.html")
+RUN_FILES = ("summary.json", "trace.jsonl", "report.html", "plot.png", "video.mp4")
+#: A line of sweep.jsonl longer than this is not a record (a run's record is about 10 KB); longer lines are
+#: skipped without being held in memory.
+MAX_LINE = 16 * 1024 * 1024
+#: Coordinates of a trajectory point beyond this (metres) are not a car's.
+MAX_COORDINATE = 1e6
+#: A JSON escape of half a surrogate pair: the line may hold text that cannot be written as UTF-8.
+_SURROGATE = re.compile(rb"\\[uU][dD][89a-fA-F]")
+_NOFOLLOW = getattr(os, "O_NOFOLLOW", 0)
+_NONBLOCK = getattr(os, "O_NONBLOCK", 0)
+_CLOEXEC = getattr(os, "O_CLOEXEC", 0)
+
+
+def _kind(mode: int) -> str:
+    for test, name in ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
+                       (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return name
+    return "not a regular file"
+
+
+def _reason(exc: OSError) -> str:
+    from ..files import os_reason
+
+    return os_reason(exc)
+
+
+class Folder:
+    """The sweep's output folder ``out`` (named by ``option`` in messages) and the files the sweep reads
+    (``inputs``), which no output may be."""
+
+    def __init__(self, out: Path, inputs: Iterable[str], option: str = "-o") -> None:
+        self.out = out
+        self.option = option
+        self.inputs: dict[tuple[int, int], str] = {}
+        for name in inputs:
+            try:
+                st = os.stat(name)
+            except (OSError, ValueError):
+                continue
+            self.inputs.setdefault((st.st_dev, st.st_ino), name)
+
+    def _refuse(self, path: Path, reason: str, hint: str = "remove it or choose another output folder") -> UsageError:
+        return UsageError(f"{self.option} {self.out}: {path} {reason}; {hint}")
+
+    def _check(self, path: Path, folder: bool) -> bool:
+        """Refuse ``path`` as something the sweep writes (a folder when ``folder``); ``True`` when it exists."""
+        try:
+            st = os.lstat(path)
+        except FileNotFoundError:
+            return False
+        except (OSError, ValueError) as exc:
+            reason = _reason(exc) if isinstance(exc, OSError) else "is not a usable file name"
+            raise self._refuse(path, f"cannot be checked: {reason}") from None
+        if stat.S_ISLNK(st.st_mode):
+            try:
+                target = os.readlink(path)
+            except OSError:
+                target = "?"
+            raise self._refuse(path, f"is a symlink to {target}; a sweep never writes through a link in its "
+                                     "output folder", "remove the link or choose another output folder")
+        if folder:
+            if not stat.S_ISDIR(st.st_mode):
+                raise self._refuse(path, f"is {_kind(st.st_mode)}, not a folder")
+            return True
+        if not stat.S_ISREG(st.st_mode):
+            raise self._refuse(path, f"is {_kind(st.st_mode)}; a sweep writes regular files there")
+        same = self.inputs.get((st.st_dev, st.st_ino))
+        if same is not None:
+            raise self._refuse(path, f"is the same file as the input {same}", "choose another output folder")
+        if st.st_nlink > 1:
+            raise self._refuse(path, f"has {st.st_nlink} hard links; writing it would change the others too")
+        return True
+
+    def check(self) -> None:
+        """The folder itself and sweep.jsonl, sweep.csv and sweep.html in it: before anything is read or run."""
+        try:
+            st = os.stat(self.out)
+        except FileNotFoundError:
+            return
+        except (OSError, ValueError) as exc:
+            reason = _reason(exc) if isinstance(exc, OSError) else "not a usable folder name"
+            raise UsageError(f"{self.option} {self.out}: {reason}") from None
+        if not stat.S_ISDIR(st.st_mode):
+            raise UsageError(f"{self.option} {self.out}: not a folder")
+        for name in REPORTS:
+            self._check(self.out / name, folder=False)
+        self._check(self.out / "runs", folder=True)
+
+    def check_runs(self, ids: Iterable[str]) -> None:
+        """runs/<id>/ and the files a run writes there, for each run about to run."""
+        if not (self.out / "runs").is_dir():
+            return
+        for run_id in ids:
+            folder = self.out / "runs" / run_id
+            if self._check(folder, folder=True):
+                for name in RUN_FILES:
+                    self._check(folder / name, folder=False)
+
+    def mkdir(self, path: Path) -> None:
+        """Create ``path`` (and its parents) inside the sweep's folder, naming it if the system refuses."""
+        try:
+            path.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise FsmError(f"{path}: cannot create the folder: {_reason(exc)}") from None
+
+
+# -- reading sweep.jsonl back -----------------------------------------------------------------------------------
+@dataclass
+class Resume:
+    """What an earlier sweep left: its good records by key, warnings to show, and where a cut-off last line
+    starts (``None`` when the file ends on a line)."""
+
+    records: dict[str, dict[str, Any]] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+    cut_at: int | None = None
+
+
+def read_records(path: Path, keys: set[str] | None = None) -> Resume:
+    """The finished runs recorded in ``path`` whose key is in ``keys`` (all when ``None``); a missing file is an
+    empty one. Only a :class:`DiagramError` comes out (a FIFO, a folder, an unreadable file)."""
+    resume = Resume()
+    fh = _open_regular(path)
+    if fh is None:
+        return resume
+    bad: list[tuple[int, str]] = []
+    with fh:
+        offset = 0
+        number = 0
+        while True:
+            try:
+                line = fh.readline(MAX_LINE + 1)
+            except OSError as exc:
+                raise DiagramError([Problem(f"cannot read: {_reason(exc)}", str(path))]) from None
+            if not line:
+                break
+            number += 1
+            start, offset = offset, offset + len(line)
+            if len(line) > MAX_LINE and not line.endswith(b"\n"):
+                offset += _skip_line(fh)
+                bad.append((number, f"more than {MAX_LINE // 1048576} MiB without an end of line"))
+                continue
+            if not line.endswith(b"\n"):
+                resume.cut_at = start
+                resume.warnings.append(
+                    f"{path}:{number}: warning: the last line has no end of line ({len(line)} bytes left by a sweep "
+                    "that was stopped while writing it): removed; its run runs again")
+                break
+            rec, why = _record(line, path, number)
+            if rec is None:
+                bad.append((number, why))
+                continue
+            if keys is not None and rec["key"] not in keys or not rec["ok"]:
+                continue  # another grid's run, or a run that raised: it runs again
+            why = record_problem(rec)
+            if why is None and _SURROGATE.search(line) and not _unicode(rec):
+                why = "text that is not Unicode (a lone surrogate)"
+            if why is not None:
+                bad.append((number, why))
+                continue
+            resume.records[rec["key"]] = rec
+    if bad:
+        more = f", and {len(bad) - 1} more line{'s' * (len(bad) > 2)} like it" if len(bad) > 1 else ""
+        resume.warnings.insert(0, f"{path}:{bad[0][0]}: warning: not the record of a finished run ({bad[0][1]}){more}: "
+                                  "ignored; such a run runs again")
+    return resume
+
+
+def jsonl_text(path: Path, records: list[dict[str, Any]]) -> bytes | None:
+    """sweep.jsonl with the line of each flagged record (by key) replaced by the record with its ``flags``, and the
+    ``flags`` of an earlier sweep's line updated; every other line stays byte for byte (a record without ``flags``
+    has none). ``None`` when nothing changes."""
+    by_key = {r["key"]: r for r in records}
+    done: set[str] = set()
+    out: list[bytes] = []
+    changed = False
+    fh = _open_regular(path)
+    data = b""
+    if fh is not None:
+        with fh:
+            try:
+                data = fh.read()
+            except OSError as exc:
+                raise DiagramError([Problem(f"cannot read: {_reason(exc)}", str(path))]) from None
+    for raw in data.split(b"\n"):
+        if not raw:
+            continue
+        rec = None
+        if len(raw) <= MAX_LINE:
+            try:
+                rec = json.loads(raw)
+            except ValueError:
+                rec = None
+        key = rec.get("key") if isinstance(rec, dict) else None
+        if isinstance(rec, dict) and isinstance(key, str) and key in by_key and key not in done:
+            done.add(key)
+            flags = by_key[key].get("flags") or []
+            if flags != (rec.get("flags") or []):
+                raw = json.dumps(by_key[key], separators=(",", ":")).encode("utf-8")
+                changed = True
+        out.append(raw)
+    extra = [json.dumps(r, separators=(",", ":")).encode("utf-8") for r in records
+             if r["key"] not in done and r.get("flags")]
+    if not changed and not extra:
+        return None
+    return b"".join(line + b"\n" for line in out + extra)
+
+
+def _open_regular(path: Path) -> Any:
+    """``path`` opened for reading when it is a regular file; ``None`` when there is none; else a DiagramError.
+    Checked before and after opening, without blocking: a FIFO never hangs the sweep."""
+    name = str(path)
+    try:
+        st = os.lstat(path)
+        if stat.S_ISLNK(st.st_mode):
+            raise DiagramError([Problem(f"is a symlink to {os.readlink(path)}; a sweep's record file must be a "
+                                        "regular file", name)])
+        if not stat.S_ISREG(st.st_mode):
+            raise DiagramError([Problem(f"is {_kind(st.st_mode)}; a sweep's record file must be a regular file",
+                                        name)])
+        fd = os.open(path, os.O_RDONLY | _NOFOLLOW | _NONBLOCK | _CLOEXEC)
+    except FileNotFoundError:
+        return None
+    except OSError as exc:
+        raise DiagramError([Problem(f"cannot read: {_reason(exc)}", name)]) from None
+    except ValueError:
+        raise DiagramError([Problem("not a usable file name", repr(name))]) from None
+    if not stat.S_ISREG(os.fstat(fd).st_mode):
+        os.close(fd)
+        raise DiagramError([Problem("not a regular file; a sweep's record file must be one", name)])
+    return os.fdopen(fd, "rb")
+
+
+def _skip_line(fh: Any) -> int:
+    """Read past the rest of an overlong line, a chunk at a time; how many bytes that was."""
+    skipped = 0
+    while True:
+        chunk = fh.readline(MAX_LINE)
+        skipped += len(chunk)
+        if not chunk or chunk.endswith(b"\n"):
+            return skipped
+
+
+def _record(line: bytes, path: Path, number: int) -> tuple[dict[str, Any] | None, str]:
+    """One line as a record with a text ``key`` and ``id`` and a boolean ``ok``, or ``None`` and why not."""
+    from fsm.loading.reading import parse_json_bytes
+
+    if not line.strip():
+        return None, "an empty line"
+    try:
+        rec, _source = parse_json_bytes(line, str(path))
+    except DiagramError as exc:
+        return None, " ".join(exc.problems[0].message.split())[:200] if exc.problems else "not JSON"
+    if not isinstance(rec, dict):
+        return None, f"a JSON {type(rec).__name__}, not an object"
+    for name, kind in (("key", str), ("id", str), ("ok", bool)):
+        if not isinstance(rec.get(name), kind):
+            return None, f"no {kind.__name__} '{name}'"
+    return rec, ""
+
+
+def _number(value: Any, bound: float | None = MAX_COORDINATE) -> bool:
+    """A JSON number that is a float (NaN and infinity too when ``bound`` is ``None``), else at most ``bound``."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    try:
+        number = float(value)
+    except OverflowError:
+        return False
+    return bound is None or (math.isfinite(number) and abs(number) <= bound)
+
+
+#: The fields of a finished run's record, by type (what sweep.csv and sweep.html read from it).
+_FIELDS: dict[str, tuple[type, ...]] = {"index": (int,), "seed": (int,), "run_seed": (int,), "params": (dict,),
+                                        "command": (str,), "summary": (dict,), "world": (str, type(None))}
+_OPTIONAL: dict[str, tuple[type, ...]] = {"states": (list,), "track": (list,), "dwell": (dict,), "files": (list,),
+                                          "seconds": (int, float), "error": (str,), "traceback": (str,)}
+
+
+def record_problem(rec: dict[str, Any]) -> str | None:
+    """Why a finished run's record cannot be reused in the reports (a wrong type, a trajectory that is not
+    points), or ``None``."""
+    for name, kinds in _FIELDS.items():
+        value = rec.get(name)
+        if isinstance(value, bool) or not isinstance(value, kinds):
+            return f"'{name}' is missing or not {'/'.join(k.__name__ for k in kinds)}"
+    for name, kinds in _OPTIONAL.items():
+        value = rec.get(name)
+        if name in rec and (isinstance(value, bool) or not isinstance(value, kinds)):
+            return f"'{name}' is not {'/'.join(k.__name__ for k in kinds)}"
+    if not all(isinstance(f, str) for f in rec.get("files") or []):
+        return "'files' is not a list of names"
+    for p in rec.get("track") or []:
+        if not (isinstance(p, list) and len(p) >= 2 and _number(p[0]) and _number(p[1])):
+            return "'track' is not a list of points"
+    if not all(_number(v, 1e12) for v in (rec.get("dwell") or {}).values()):
+        return "'dwell' is not seconds per state"
+    rms = rec["summary"].get("wall_error_rms_m")
+    if rms is not None and not (isinstance(rms, float) or _number(rms, 1e300)):
+        return "'summary.wall_error_rms_m' is not a number"
+    return None
+
+
+def _unicode(rec: dict[str, Any]) -> bool:
+    """No lone surrogate (``"\\ud800"`` in the JSON) in the record: sweep.csv and sweep.html are UTF-8."""
+    try:
+        json.dumps(rec, ensure_ascii=False).encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
+# -- appending to sweep.jsonl ------------------------------------------------------------------------------------
+class RecordLog:
+    """sweep.jsonl opened for appending whole lines (never through a symlink, never a FIFO); ``cut_at`` removes a
+    cut-off last line first. A write that fails is cut back to the last whole line and raises an
+    :class:`FsmError` naming the file."""
+
+    def __init__(self, path: Path, cut_at: int | None = None) -> None:
+        self.path = path
+        flags = os.O_WRONLY | os.O_APPEND | os.O_CREAT | _NOFOLLOW | _NONBLOCK | _CLOEXEC
+        try:
+            self.fd = os.open(path, flags, 0o666)
+        except OSError as exc:
+            raise FsmError(f"{path}: cannot open for writing: {_reason(exc)}") from None
+        try:
+            st = os.fstat(self.fd)
+            if not stat.S_ISREG(st.st_mode):
+                raise UsageError(f"{path}: is {_kind(st.st_mode)}; a sweep writes its records to a regular file")
+            if cut_at is not None and cut_at < st.st_size:
+                os.ftruncate(self.fd, cut_at)
+            self.size = os.fstat(self.fd).st_size
+        except OSError as exc:
+            self.close()
+            raise FsmError(f"{path}: cannot write: {_reason(exc)}") from None
+        except BaseException:
+            self.close()
+            raise
+
+    def append(self, line: str) -> None:
+        """Write one record (``line`` ends with a newline) in full, or nothing."""
+        encoded = line.encode("utf-8")
+        data = memoryview(encoded)
+        try:
+            while data:
+                data = data[os.write(self.fd, data):]
+        except OSError as exc:
+            try:
+                os.ftruncate(self.fd, self.size)
+            except OSError:
+                pass
+            raise FsmError(f"{self.path}: cannot write: {_reason(exc)}") from None
+        self.size += len(encoded)
+
+    def close(self) -> None:
+        if self.fd >= 0:
+            os.close(self.fd)
+            self.fd = -1
+
+    def __enter__(self) -> RecordLog:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class OutFile:
+    """A file of the sweep's folder opened for writing (``mode`` ``"w"``, ``"w+"``, ``"wb"``), never through a
+    symlink and never a FIFO or device; a failing write (a full disk) raises an :class:`FsmError` naming it."""
+
+    def __init__(self, path: Path, mode: str = "w") -> None:
+        self.path = path
+        access = os.O_RDWR if "+" in mode else os.O_WRONLY
+        try:
+            fd = os.open(path, access | os.O_CREAT | os.O_TRUNC | _NOFOLLOW | _NONBLOCK | _CLOEXEC, 0o666)
+        except OSError as exc:
+            raise self._failed(exc) from None
+        kind = os.fstat(fd).st_mode
+        if not stat.S_ISREG(kind):
+            os.close(fd)
+            raise FsmError(f"{path}: is {_kind(kind)}; a sweep writes regular files in its folder")
+        os.set_blocking(fd, True)
+        text = {} if "b" in mode else {"encoding": "utf-8", "newline": "\n"}
+        self.raw = os.fdopen(fd, mode, **text)  # the descriptor is open: no second truncation
+
+    def _failed(self, exc: OSError) -> FsmError:
+        return FsmError(f"{self.path}: cannot write: {_reason(exc)}")
+
+    def write(self, data: Any) -> int:
+        try:
+            return self.raw.write(data)
+        except OSError as exc:
+            raise self._failed(exc) from None
+
+    def flush(self) -> None:
+        try:
+            self.raw.flush()
+        except OSError as exc:
+            raise self._failed(exc) from None
+
+    def seek(self, offset: int) -> int:
+        return self.raw.seek(offset)
+
+    def read(self) -> Any:
+        return self.raw.read()
+
+    def close(self) -> None:
+        try:
+            self.raw.close()
+        except OSError as exc:
+            raise self._failed(exc) from None
+
+    def __enter__(self) -> OutFile:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def write_file(path: Path, data: str | bytes) -> None:
+    """``data`` into ``path`` of the sweep's folder, by the rules of :class:`OutFile`."""
+    with OutFile(path, "wb" if isinstance(data, bytes) else "w") as fh:
+        fh.write(data)

@@ -1,0 +1,128 @@
+"""The UMLet palette ``TRAL_State-Machine.uxf``, generated from the registry so that it is never stale.
+
+One template per registered state and transition type with every parameter and its default, written in the
+syntax :mod:`fsm.tools.umlet.reader` reads (see :mod:`fsm.tools.umlet.writer` for why the texts look as they do).
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+from fsm.model.errors import Problem
+
+from . import text as T
+from .writer import diagram, element, head_height, in_json, param_lines, relation, value_text
+
+#: The palette's machine note: the keys, and where the note goes.
+_NOTE_TEMPLATE = "\n".join([
+    T.MACHINE_NOTE_TITLE, "--", "name=", "description=",
+    "// the keys of the machine this note is drawn in: outside every box, the diagram's machine; in a composite "
+    "state or a region frame, that machine",
+    "// name, $schema, description: texts; vars: a JSON object, e.g. vars={\"count\": 0}",
+    "// free text after another -- line is the description", "style=wordwrap"])
+
+
+def palette(registry: Any) -> str:
+    """The UMLet palette: one template per registered state and transition type, every parameter with its
+    default (required ones empty), each explained in a ``//`` comment line UMLet does not draw; a machine note;
+    a ``Parallel`` state holds two region frames instead of a ``regions`` parameter."""
+    from fsm.model.document import param_info
+    from fsm.sequencer.layout import is_sequence
+
+    out: list[str] = []
+    y = 20
+    out.append(element("UMLSpecialState", 20, y, 20, 20, "type=initial"))
+    out.append(element("UMLSpecialState", 60, y, 20, 20, "type=final"))
+    out.append(element("Text", 100, y, 300, 30, "initial marker / final state (outcome = its label)\nfontsize=10"))
+    y += 50
+    out.append(element("UMLNote", 20, y, 300, 90, _NOTE_TEMPLATE))
+    y += 110
+    x_state, x_trans = 20, 360
+    ys, yt = y, y
+    for kind, name, cls in registry:
+        if kind == "condition":
+            continue  # conditions are written inside a guard or a Condition transition, not drawn
+        infos = param_info(cls.Params)
+        lines: list[str] = []
+        comments: list[str] = []
+        doc = (cls.__doc__ or "").strip().split("\n")[0]
+        if doc:
+            comments.append(f"// {doc}")
+        composite = kind == "state" and bool(getattr(cls, "is_composite", False))
+        drawn = composite and any(info["name"] == "regions" for info in infos)
+        reserved = T.STATE_FACET_KEYS if kind == "state" else T.RELATION_FACET_KEYS
+        extra: dict[str, Any] = {}  # parameters UMLet would take for facets: in the JSON line
+        for info in infos:
+            if is_sequence(cls) and info["name"] in ("steps", "exceptions"):
+                comments.append("// steps: boxes drawn inside this box, chained by arrows from an initial marker; a "
+                                "non-blocking Sequence hangs off the step it follows" if info["name"] == "steps" else
+                                "// exceptions: Sequence boxes drawn inside this box with no arrow to or from them")
+                continue
+            if drawn and info["name"] == "regions":
+                comments.append("// regions: one UMLFrame per region inside this box, titled with the region's name "
+                                "(or file=PATH to include the region), holding its initial marker, states and arrows")
+                continue
+            if in_json(info["name"], reserved):
+                extra[info["name"]] = info.get("default")
+            elif "default" in info:
+                value = value_text(info["default"]) if info["default"] is not None else "null"
+                lines.append(f"{info['name']}={value}")
+            else:
+                lines.append(f"{info['name']}=")
+            req = "required" if info["required"] else "optional"
+            desc = f": {info['description']}" if info.get("description") else ""
+            comments.append(f"// {info['name']} ({info['type']}, {req}){desc}")
+        head = param_lines(name, extra, reserved, type_as_json=kind == "state")
+        if kind == "state":
+            text = "\n".join([name, "--"] + head + lines + comments + (["valign=top"] if composite else []))
+            h = 40 + 20 * len(lines) + (80 if composite else 0)
+            w = 300 if composite else 220
+            frames: list[str] = []
+            if drawn:
+                top = ys + head_height(text)
+                h = int(top - ys) + 70 + 20
+                frames = [element("UMLFrame", x_state + 20 + 140 * i, top, 120, 70, f"region{i + 1}") for i in range(2)]
+            out.append(element("UMLState", x_state, ys, w, h, text))
+            out.extend(frames)
+            ys += h + 20
+        else:
+            text = "\n".join(["lt=->"] + head + lines + comments)
+            h = 40 + 20 * len(lines)
+            out.append(relation([[x_trans + 10, yt + 10], [x_trans + 10, yt + h]], text))
+            yt += h + 30
+    y = max(ys, yt) + 10
+    out.append(relation([[x_trans + 10, y + 10], [x_trans + 10, y + 60]],
+                        "lt=->\nevent [guard] / action\n// a UML label: a Signal transition on 'event'"))
+    return diagram(out)
+
+
+_TYPE_NAME = re.compile(r'(?:"type"\s*:\s*"|^type=)([A-Za-z_][A-Za-z0-9_]*)', re.M)
+
+
+def palette_problems(raw: bytes, name: str, registry: Any) -> list[Problem] | None:
+    """``None`` unless the diagram is a palette: it holds a template of every built-in state and transition
+    type (no machine uses them all). A palette is valid when it is exactly what ``fsmctl palette`` generates."""
+    from fsm.model.errors import DiagramError
+
+    from .source import parse_raw
+
+    builtin = {(kind, n) for kind, n, cls in registry if cls.__module__.startswith("fsm.")}
+    if not builtin:
+        return None
+    try:
+        diagram = parse_raw(raw, name)
+    except DiagramError:
+        return None  # the machine check reports it
+    found: set[tuple[str, str]] = set()
+    for el in diagram.elements:
+        kind = "state" if el.kind == "UMLState" else "transition" if el.kind == "Relation" else None
+        if kind is not None:
+            found.update((kind, m.group(1)) for m in _TYPE_NAME.finditer(el.text))
+    if not builtin <= found:
+        return None
+    if raw.decode("utf-8", errors="replace") == palette(registry):
+        return []
+    return [Problem("this is a UMLet palette (a template of every type), not a machine, and it differs from what "
+                    "`fsmctl palette` generates", name, line=1, column=1,
+                    hint=f"regenerate it: fsmctl palette -o {name} (with the same --plugin options)")]

@@ -1,0 +1,416 @@
+"""What the boxes of a UMLet diagram are: states, frames, pseudostates and machine notes, at zoom 10, nested.
+
+A :class:`Scene` holds every box with its text read (a state's name, type and parameters; a frame's title; a
+machine note's keys) and the machine level each box is drawn in. Nesting comes from geometry alone
+(:func:`fsm.tools.umlet.geometry.nest`): UMLet stores no hierarchy. Problems are collected, located by the
+element's kind, label, file line:column and diagram coordinates, never raised one at a time.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from typing import Any
+
+from fsm.model.errors import Problem
+
+from . import text as T
+from .geometry import Box, nest
+from .source import RawDiagram, RawElement
+
+_STATE_KINDS_NEW = {"UMLState"}
+_STATE_KINDS_OLD = {"State", "StateSubDiagram", "SendSignal", "ReceiveSignal"}
+#: Class boxes: states in a diagram that has no state box at all (students draw state machines with them).
+_CLASS_KINDS_NEW = {"UMLClass"}
+_CLASS_KINDS_OLD = {"Class"}
+_FRAME_KINDS = {"UMLFrame"}
+_NOTE_KINDS_NEW = {"UMLNote"}
+_NOTE_KINDS_OLD = {"Note"}
+_SPECIAL_OLD = {"InitialState": "initial", "FinalState": "final", "Decision": "decision",
+                "HistoryState": "history", "RegionEndState": "flow_final", "SyncBarHorizontal": "sync",
+                "SyncBarVertical": "sync"}
+_SUPPORTED_SPECIAL = {"initial", "final"}
+#: Machine note keys whose values are texts (the others: ``vars``, a JSON object).
+_NOTE_TEXT_KEYS = {"name", "$schema", "description"}
+
+
+# -- describing elements ---------------------------------------------------------------------------------------
+def where(elem: RawElement) -> str:
+    return f"x={num(elem.x)}, y={num(elem.y)}"
+
+
+def num(v: float) -> Any:
+    return int(v) if float(v).is_integer() else round(v, 3)
+
+
+def describe(elem: RawElement) -> str:
+    label = elem.first_line
+    if elem.kind == "Relation":
+        rel = T.parse_relation(elem.text)
+        label = " ".join(ln.strip() for ln in rel.label_lines if ln.strip())
+        label = (f"lt={rel.lt}" + (f" {label}" if label else "")) if rel.lt else label
+    label = label if len(label) <= 40 else label[:37] + "..."
+    return f"{elem.kind} '{label}' at {where(elem)}" if label else f"{elem.kind} at {where(elem)}"
+
+
+# -- the scene -----------------------------------------------------------------------------------------------
+@dataclass(eq=False)
+class StateBox:
+    """A state drawn as a box (or a frame, or a final pseudostate): its id, type and parameters."""
+
+    box: Box
+    id: str = ""
+    alias: str | None = None
+    type: str | None = None
+    params: dict[str, Any] = field(default_factory=dict)
+    description: str | None = None
+    composite: bool = False
+
+
+@dataclass(eq=False)
+class Marker:
+    """An initial pseudostate's arrow: the state it starts, its points and the relation element."""
+
+    target: StateBox
+    points: list[Any]
+    relation: RawElement
+
+
+@dataclass(eq=False)
+class Level:
+    """One machine level: the boxes directly inside a container (or at the top)."""
+
+    owner: Box | None
+    states: list[StateBox] = field(default_factory=list)
+    initials: list[Box] = field(default_factory=list)
+    notes: list[Box] = field(default_factory=list)
+    transitions: list[dict[str, Any]] = field(default_factory=list)
+    trans_origin: list[RawElement | None] = field(default_factory=list)
+    initial_target: StateBox | None = None
+    finals_by_outcome: dict[str, StateBox] = field(default_factory=dict)
+
+
+class Scene:
+    """The boxes of one diagram, their texts, nesting and levels; relations are kept for later."""
+
+    def __init__(self, raw: RawDiagram) -> None:
+        self.raw = raw
+        self.name = raw.name
+        self.problems: list[Problem] = []
+        self.scale = 10.0 / raw.zoom
+        self.boxes: list[Box] = []
+        self.relations: list[RawElement] = []
+        self.state_of: dict[int, StateBox] = {}  # id(box) -> state
+        self.note_of: dict[int, dict[str, Any]] = {}  # id(note box) -> the machine's keys
+        self.levels: dict[int, Level] = {}  # id(owner box) or 0 -> level
+        #: Frames drawn directly inside a Parallel state: its regions.
+        self.region_frames: set[int] = set()
+        #: Top-level frames that no arrow touches: each holds a machine of its own.
+        self.machine_frames: set[int] = set()
+        self.markers: dict[int, Marker] = {}  # id(initial pseudostate box) -> its arrow
+        #: Initial pseudostates whose arrow ends at a state whose text did not read (reported there).
+        self.broken_markers: set[int] = set()
+        #: Notes that are no machine notes (comments): not part of a machine, but arrows may anchor at them.
+        self.comment_notes: list[Box] = []
+        #: Boxes that are no part of a machine (class boxes, generic boxes, zero-size boxes), each with the reason:
+        #: an arrow that ends at one is reported naming it.
+        self.ignored: list[tuple[Box, str]] = []
+        #: Whether ``UMLClass`` boxes are the states (the diagram has no ``UMLState`` at all).
+        self.class_states = False
+        self._registry: Any = None
+
+    # -- problems -------------------------------------------------------------------------------------------
+    def problem(self, elem: RawElement | None, message: str, hint: str | None = None) -> None:
+        if elem is None:
+            self.problems.append(Problem(message, self.name, hint=hint))
+            return
+        self.problems.append(Problem(message, self.name, pointer=elem.pointer or "", line=elem.line,
+                                     column=elem.column, element=describe(elem), hint=hint))
+
+    def registry(self) -> Any:
+        if self._registry is None:
+            from fsm.loading.registry import default_registry
+
+            self._registry = default_registry()
+        return self._registry
+
+    # -- queries --------------------------------------------------------------------------------------------
+    def box_name(self, box: Box) -> str:
+        st = self.state_of.get(id(box))
+        if box.role == "initial":
+            return f"the initial pseudostate at {where(box.elem)}"
+        if id(box) in self.region_frames and st is not None:
+            return f"region frame '{st.id}'" if st.id else f"the region frame at {where(box.elem)}"
+        if st is not None and st.id:
+            return f"'{st.id}'"
+        return f"{box.elem.kind} at {where(box.elem)}"
+
+    def level_of(self, box: Box) -> Level:
+        return self.levels[id(box.parent)] if box.parent is not None else self.levels[0]
+
+    def container_chain(self, box: Box) -> list[Box | None]:
+        chain: list[Box | None] = []
+        node = box.parent
+        while node is not None:
+            chain.append(node)
+            node = node.parent
+        chain.append(None)
+        return chain
+
+    def is_parallel(self, box: Box | None) -> bool:
+        st = self.state_of.get(id(box)) if box is not None else None
+        return st is not None and st.type == "Parallel" and box.role == "state"
+
+    # -- building -------------------------------------------------------------------------------------------
+    def build(self) -> None:
+        self.classify()
+        nest(self.boxes)
+        self.read_states()
+        self.make_levels()
+
+    def classify(self) -> None:
+        def is_state(elem: RawElement) -> bool:
+            return elem.kind in _STATE_KINDS_NEW or (elem.old and elem.kind in _STATE_KINDS_OLD)
+
+        def is_class(elem: RawElement) -> bool:
+            return elem.kind in _CLASS_KINDS_NEW or (elem.old and elem.kind in _CLASS_KINDS_OLD)
+
+        self.class_states = not any(is_state(e) for e in self.raw.elements) and any(
+            is_class(e) for e in self.raw.elements)
+        for elem in self.raw.elements:
+            kind = elem.kind
+            role = None
+            if kind != "Relation" and (elem.w <= 0 or elem.h <= 0):
+                if is_state(elem) or kind in _FRAME_KINDS or kind == "UMLSpecialState" or (
+                        self.class_states and is_class(elem)) or (elem.old and kind in _SPECIAL_OLD):
+                    self.problem(elem, f"the box has no size (w={num(elem.w)}, h={num(elem.h)}), so it is ignored",
+                                 hint="give it a size in UMLet (drag its corner), or delete it")
+                self.ignored.append((self.box(elem, "ignored"), "it has no size"))
+                continue
+            if is_state(elem) or (self.class_states and is_class(elem)):
+                role = "state"
+            elif kind in _FRAME_KINDS:
+                role = "frame"
+            elif kind in _NOTE_KINDS_NEW or (elem.old and kind in _NOTE_KINDS_OLD):
+                if not T.is_machine_note(elem.text):
+                    self.comment_notes.append(self.box(elem, "comment"))
+                    continue
+                role = "note"
+            elif kind == "UMLSpecialState":
+                special, _ = T.special_kind(elem.text)
+                role = special if special in _SUPPORTED_SPECIAL else "unsupported"
+            elif elem.old and kind in _SPECIAL_OLD:
+                special = _SPECIAL_OLD[kind]
+                role = special if special in _SUPPORTED_SPECIAL else "unsupported"
+            elif kind == "Relation":
+                self.relations.append(elem)
+                continue
+            if role is None:  # texts, class boxes, generic boxes: not part of a state machine
+                if is_class(elem):
+                    reason = ("class boxes are states only in a diagram without UMLState boxes, and this one has "
+                              "UMLState boxes")
+                else:
+                    reason = f"a {kind} is not part of a state machine"
+                self.ignored.append((self.box(elem, "ignored"), reason))
+                continue
+            box = self.box(elem, role)
+            box.container = role in ("state", "frame")
+            self.boxes.append(box)
+            if role == "unsupported":
+                special = T.special_kind(elem.text)[0] if kind == "UMLSpecialState" else _SPECIAL_OLD[kind]
+                self.problem(elem, f"'{special}' pseudostates are not supported",
+                             hint="use states and transitions with guards (types) instead; "
+                                  "only type=initial and type=final are understood")
+
+    def box(self, elem: RawElement, role: str) -> Box:
+        """The element's rectangle at zoom 10, as UMLet computes it for sticking."""
+        s = self.scale
+        if elem.old:
+            return Box(elem, role, elem.x * s, elem.y * s, elem.w * s, elem.h * s)
+        # NewGridElement.getRealRectangle: val * 10 / gridSize in integer arithmetic
+        return Box(elem, role, float(int(elem.x * s)), float(int(elem.y * s)), float(int(elem.w * s)),
+                   float(int(elem.h * s)))
+
+    def read_states(self) -> None:
+        for box in self.boxes:
+            elem = box.elem
+            if box.role == "frame":
+                title = []
+                for ln in elem.text.split("\n"):
+                    if T.SEPARATOR.match(ln):
+                        break
+                    if not T.is_style(ln, T.BOX_STYLE_KEYS) and ln.strip():
+                        title.append(ln.strip())
+                self.state_of[id(box)] = StateBox(box, id=" ".join(title))
+            elif box.role == "state":
+                st = self.read_state(box)
+                if st is not None:
+                    self.state_of[id(box)] = st
+            elif box.role == "final":
+                st = StateBox(box, type="Final")
+                if elem.kind == "UMLSpecialState":
+                    _, label = T.special_kind(elem.text)
+                else:
+                    label = " ".join(ln.strip() for ln in elem.text.split("\n")
+                                     if ln.strip() and not T.is_style(ln, T.BOX_STYLE_KEYS))
+                if label:
+                    st.params = {"outcome": label}
+                self.state_of[id(box)] = st
+            elif box.role == "note":
+                meta = self.read_note(elem)
+                if meta is not None:
+                    self.note_of[id(box)] = meta
+        for box in self.boxes:
+            if box.role == "frame" and self.is_parallel(box.parent):
+                self.region_frames.add(id(box))
+
+    def read_state(self, box: Box) -> StateBox | None:
+        elem = box.elem
+        try:
+            text = T.parse_state(elem.text)
+        except T.TextError as exc:
+            self.problem(elem, str(exc))
+            return None
+        st = StateBox(box, id=text.name, description=text.description)
+        if text.params is not None:
+            params = dict(text.params)
+            alias = params.pop("id", None)
+            if alias is not None:
+                st.alias = str(alias)
+                if not st.id:
+                    st.id = str(alias)
+            typ = params.pop("type", None)
+            if not isinstance(typ, str) or not typ:
+                self.problem(elem, f"'type' must be a type name, got {typ!r}",
+                             hint="see `fsmctl types` for the state types")
+                return None
+            st.type = typ
+            st.params = self.coerce_kv("state", typ, params, text.kv_keys)
+        if text.activities:
+            sets: dict[str, dict[str, Any]] = {}
+            for when, action in text.activities:
+                hook = "on_enter" if when == "entry" else "on_exit"
+                try:
+                    assigned = T.parse_actions(action)
+                except T.TextError as exc:
+                    self.problem(elem, f"{when} / ...: {exc}",
+                                 hint="an internal activity is 'entry / name = expression; ...' (or exit)")
+                    return None
+                target = sets.setdefault(hook, {})
+                for name, value in assigned.items():
+                    if name in target:
+                        self.problem(elem, f"{when} / ...: '{name}' is assigned twice",
+                                     hint="assign each variable once per entry (or exit)")
+                        return None
+                    target[name] = value
+            if "set" in st.params:
+                self.problem(elem, "the state gives both set= and entry / exit lines", hint="keep one of the two")
+                return None
+            st.params = {**st.params, "set": sets}
+        return st
+
+    def read_note(self, elem: RawElement) -> dict[str, Any] | None:
+        """A machine note's keys, typed: texts for name, $schema and description, a JSON object for vars."""
+        try:
+            note = T.parse_machine_note(elem.text)
+        except T.TextError as exc:
+            self.problem(elem, f"machine note: {exc}")
+            return None
+        meta: dict[str, Any] = {}
+        for key, raw in note.values.items():
+            try:
+                value = T.parse_value(raw, strict=True)
+            except T.TextError as exc:
+                self.problem(elem, f"machine note: {exc}")
+                return None
+            if key in _NOTE_TEXT_KEYS:
+                if not isinstance(value, str) and value is not None:
+                    value = raw  # 42, true, [..]: the text as written
+            elif key == "inputs":
+                if not (isinstance(value, list) and all(isinstance(v, str) for v in value)):
+                    self.problem(elem, f"machine note: 'inputs' must be a JSON list of signal names, got {raw[:40]!r}",
+                                 hint='write it as inputs=["start", "pause"]')
+                    return None
+            elif not isinstance(value, dict):
+                self.problem(elem, f"machine note: '{key}' must be a JSON object, got {raw[:40]!r}",
+                             hint='write it as vars={"name": value, ...}')
+                return None
+            meta[key] = value
+        if note.description is not None:
+            meta["description"] = note.description
+        return meta
+
+    def coerce_kv(self, kind: str, typ: str, params: dict[str, Any], kv_keys: set[str]) -> dict[str, Any]:
+        """``key=value`` texts (the ``kv_keys``): a value that looks like a number stays text where the parameter
+        is text. Values from JSON are typed already."""
+        if not kv_keys:
+            return params
+        reg = self.registry()
+        cls = (reg.states if kind == "state" else reg.transitions).get(typ)
+        if cls is None:
+            return params
+        text_fields = _text_fields(cls.Params)
+        out = {}
+        for k, v in params.items():
+            if k in kv_keys and k in text_fields and not isinstance(v, str) and not isinstance(v, (dict, list)):
+                v = json.dumps(v)
+            out[k] = v
+        return out
+
+    def make_levels(self) -> None:
+        self.levels[0] = Level(None)
+        for box in self.boxes:
+            if box.container and any(c.role != "note" for c in box.children):
+                self.levels[id(box)] = Level(box)
+        for box in self.boxes:
+            if box.role == "note":
+                parent = box.parent
+                level = self.levels.get(id(parent)) if parent is not None else self.levels[0]
+                if level is None:
+                    assert parent is not None
+                    self.problem(box.elem, f"machine note inside {self.box_name(parent)}, which holds no machine",
+                                 hint="move the note into the composite state or region frame whose machine it "
+                                      "describes, or outside every box for the diagram's own machine")
+                elif id(box) in self.note_of:
+                    level.notes.append(box)
+                continue
+            level = self.level_of(box)
+            if box.role == "initial":
+                level.initials.append(box)
+            elif box.role in ("state", "frame", "final"):
+                st = self.state_of.get(id(box))
+                if st is not None:
+                    level.states.append(st)
+                    if id(box) in self.levels:
+                        st.composite = True
+
+        for level in self.levels.values():  # final states: id from the outcome label, unique in their level
+            taken = {st.id for st in level.states if st.box.role != "final"}
+            for st in level.states:
+                if st.box.role == "final":
+                    base = st.params.get("outcome") or "final"
+                    fid, n = base, 2
+                    while fid in taken:
+                        fid = f"{base} ({n})"
+                        n += 1
+                    st.id = fid
+                    taken.add(fid)
+
+
+def _text_fields(model: Any) -> set[str]:
+    cache = _TEXT_FIELDS.get(model)
+    if cache is None:
+        cache = set()
+        schema = model.model_json_schema()
+        for name, prop in schema.get("properties", {}).items():
+            types = {prop.get("type")} if "type" in prop else {p.get("type") for p in prop.get("anyOf", [])}
+            if "enum" in prop and all(isinstance(v, str) for v in prop["enum"]):
+                types = {"string"}
+            types.discard("null")
+            if types == {"string"}:
+                cache.add(name)
+        _TEXT_FIELDS[model] = cache
+    return cache
+
+
+_TEXT_FIELDS: dict[Any, set[str]] = {}

@@ -1,0 +1,400 @@
+"""Reading the raw elements of a UMLet diagram: ``.uxf`` XML, or the JSON TRAL's ``xml2json`` made of one.
+
+Only the XML structure is handled here (kinds, coordinates, texts, relation points, where each element is
+in the file); what the elements mean is :mod:`fsm.tools.umlet.reader`'s business. The XML parser resolves no
+entities, loads no DTD and uses no network; a document with a DOCTYPE is refused before it is parsed, so
+entity bombs and external entities never reach lxml.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from fsm.model.errors import DiagramError, Problem
+
+#: Relation points and coordinates beyond this are refused (far beyond any diagram; keeps arithmetic sane).
+MAX_COORDINATE = 1e9
+#: More elements than this are refused (a 50 MB diagram holds ~200k; this is a guard, not a design size).
+MAX_ELEMENTS = 2_000_000
+
+
+@dataclass(slots=True)
+class RawElement:
+    """One ``<element>``: its kind, whether it is an old (``<type>``) element, geometry and texts."""
+
+    index: int
+    kind: str  # UMLState, UMLSpecialState, UMLFrame, Relation, ... (old elements: the simple class name)
+    old: bool
+    x: float
+    y: float
+    w: float
+    h: float
+    text: str
+    points: list[float] | None  # additional_attributes as numbers (relations), None if absent/empty
+    line: int | None = None  # where the element starts in the file (1-based), when known
+    column: int | None = None
+    pointer: str | None = None  # JSON pointer for the xml2json form
+
+    @property
+    def first_line(self) -> str:
+        for ln in self.text.split("\n"):
+            if ln.strip():
+                return ln.strip()
+        return ""
+
+
+@dataclass
+class RawDiagram:
+    """All elements of a diagram with its zoom level and how to find positions in its text."""
+
+    name: str
+    zoom: float
+    elements: list[RawElement]
+    text: str | None = None  # the file as text (for the loader's locator), None for huge files
+    locate_json: Callable[[set[str]], dict[str, tuple[int, int]]] | None = None
+    zoom_line: int | None = None
+    problems: list[Problem] = field(default_factory=list)
+
+
+def fail(name: str, message: str, line: int | None = None, column: int | None = None, hint: str | None = None,
+         element: str | None = None) -> DiagramError:
+    return DiagramError([Problem(message, name, line=line, column=column, hint=hint, element=element)])
+
+
+# -- entry ------------------------------------------------------------------------------------------------
+def read_raw(path: Path) -> RawDiagram:
+    """The elements of a ``.uxf`` file (XML) or of its ``xml2json`` JSON form, whichever ``path`` holds."""
+    from fsm.loading.reading import read_file_bytes  # regular files only, size-capped, standard input when preloaded
+
+    name = str(path)
+    raw = read_file_bytes(path, "diagram")
+    return parse_raw(raw, name)
+
+
+def parse_raw(raw: bytes, name: str) -> RawDiagram:
+    if raw.startswith(b"\xef\xbb\xbf"):
+        raw = raw[3:]
+    head = raw[:64].lstrip()
+    if not head:
+        raise fail(name, "file is empty; a UMLet diagram is an XML document <diagram>...</diagram>", 1, 1)
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")) or (len(raw) > 1 and raw[1:2] == b"\x00"):
+        raise fail(name, "not UTF-8 (looks like UTF-16)", 1, 1, hint="save the diagram as UTF-8, as UMLet does")
+    if head[:1] in (b"{", b"["):
+        return parse_xml2json(raw, name)
+    return parse_xml(raw, name)
+
+
+# -- XML --------------------------------------------------------------------------------------------------
+_PROLOG_ITEM = re.compile(rb"\s*(?:<\?.*?\?>|<!--.*?-->)", re.S)
+_ELEMENT_TAG = re.compile(rb"<element[\s>/]")
+
+
+def _refuse_doctype(raw: bytes, name: str) -> None:
+    """A DOCTYPE (and with it every entity declaration) is refused outright, before any parsing."""
+    pos = 0
+    while True:
+        m = _PROLOG_ITEM.match(raw, pos)
+        if not m or m.end() == pos:
+            break
+        pos = m.end()
+    while pos < len(raw) and raw[pos:pos + 1].isspace():
+        pos += 1
+    doctype = raw.startswith(b"<!DOCTYPE", pos) or raw.startswith(b"<!doctype", pos)
+    entity = not doctype and b"<!ENTITY" in raw[:pos + 4096]
+    if doctype or entity:
+        line = raw.count(b"\n", 0, pos) + 1
+        col = pos - (raw.rfind(b"\n", 0, pos) + 1) + 1
+        raise fail(name, "DOCTYPE declarations are not allowed in a UMLet diagram (entities are never expanded, "
+                         "external files never read)", line, col,
+                   hint="UMLet never writes a DOCTYPE; remove it")
+
+
+def _parser_kwargs() -> dict[str, Any]:
+    return dict(resolve_entities=False, no_network=True, load_dtd=False, huge_tree=False, remove_comments=True,
+                remove_pis=True, dtd_validation=False)
+
+
+def parse_xml(raw: bytes, name: str) -> RawDiagram:
+    from lxml import etree  # lazily: `fsmctl validate` on JSON never imports lxml
+
+    _refuse_doctype(raw, name)
+    import io
+
+    elements: list[RawElement] = []
+    zoom_text: str | None = None
+    zoom_line: int | None = None
+    root_tag: str | None = None
+    problems: list[Problem] = []
+    sourcelines: list[int | None] = []
+    depth = 0
+    try:
+        context = etree.iterparse(io.BytesIO(raw), events=("start", "end"), **_parser_kwargs())
+        for event, el in context:
+            if event == "start":
+                depth += 1
+                if depth == 1:
+                    root_tag = el.tag
+                    if el.tag != "diagram":
+                        raise fail(name, f"not a UMLet diagram: the root element is <{el.tag}>, not <diagram>",
+                                   el.sourceline, 1)
+                continue
+            depth -= 1
+            if depth == 1:
+                if el.tag == "zoom_level":
+                    zoom_text = el.text
+                    zoom_line = el.sourceline
+                elif el.tag == "element":
+                    if len(elements) >= MAX_ELEMENTS:
+                        raise fail(name, f"more than {MAX_ELEMENTS} elements; refusing to read further",
+                                   el.sourceline)
+                    index = len(elements)
+                    sourcelines.append(el.sourceline)
+                    elem = _xml_element(el, index, name, problems)
+                    if elem is not None:
+                        elements.append(elem)
+                    else:
+                        elements.append(RawElement(index, "", False, 0, 0, 0, 0, "", None))
+                el.clear()
+                # drop already processed siblings so memory stays bounded on huge files
+                parent = el.getparent()
+                if parent is not None:
+                    while el.getprevious() is not None:
+                        del parent[0]
+    except DiagramError:
+        raise
+    except etree.XMLSyntaxError as exc:
+        line, col = (exc.position if exc.position else (None, None))
+        msg = str(exc.msg or exc)
+        msg = re.sub(r",? line \d+, column \d+$", "", msg)
+        if "huge" in msg.lower():
+            msg += " (text nodes are limited to 10 MB)"
+        raise fail(name, f"not well-formed XML: {msg}", line, (col or 0) + 1 if col is not None else None,
+                   hint="is this a UMLet .uxf file?") from None
+    except (ValueError, MemoryError) as exc:  # lxml raises ValueError for some invalid input
+        raise fail(name, f"cannot parse XML: {exc}") from None
+    if root_tag is None:
+        raise fail(name, "not a UMLet diagram: no <diagram> root element", 1, 1)
+    positions = _element_positions(raw, sourcelines)
+    for elem in elements:
+        elem.line, elem.column = positions[elem.index]
+    for p in problems:
+        if p.line is None and p.pointer.startswith("#"):
+            p.line, p.column = positions[int(p.pointer[1:])]
+            p.pointer = ""
+    if problems:
+        raise DiagramError(problems)
+    elements = [e for e in elements if e.kind]
+    zoom = _zoom(zoom_text, name, zoom_line)
+    if not elements:
+        raise fail(name, "the <diagram> has no elements: draw states and transitions in UMLet", 1, 1)
+    text = None
+    if len(raw) <= 8_000_000:
+        text = raw.decode("utf-8", "replace")
+    return RawDiagram(name, zoom, elements, text=text, zoom_line=zoom_line)
+
+
+def _element_positions(raw: bytes, sourcelines: list[int | None]) -> list[tuple[int | None, int | None]]:
+    """Line and column of each ``<element`` tag; the column only where the tag scan agrees with lxml's line."""
+    import bisect
+
+    starts = [0]
+    pos = raw.find(b"\n")
+    while pos != -1:
+        starts.append(pos + 1)
+        pos = raw.find(b"\n", pos + 1)
+    out: list[tuple[int | None, int | None]] = []
+    offsets = [m.start() for m in _ELEMENT_TAG.finditer(raw)]
+    for i, line in enumerate(sourcelines):
+        if i < len(offsets):
+            off = offsets[i]
+            ln = bisect.bisect_right(starts, off)
+            if line is None or ln == line:
+                out.append((ln, off - starts[ln - 1] + 1))
+                continue
+        out.append((line, None))
+    return out
+
+
+def _xml_element(el: Any, index: int, name: str, problems: list[Problem]) -> RawElement | None:
+    kind = None
+    old = False
+    coords = None
+    text = ""
+    extra = None
+    for child in el:
+        tag = child.tag
+        if tag == "id":
+            kind = (child.text or "").strip()
+        elif tag == "type":
+            kind = (child.text or "").strip().rsplit(".", 1)[-1]
+            old = True
+        elif tag == "coordinates":
+            coords = {c.tag: c.text for c in child if isinstance(c.tag, str)}
+        elif tag == "panel_attributes":
+            text = child.text or ""
+        elif tag == "additional_attributes":
+            extra = child.text
+    return _make_element(index, kind, old, coords, text, extra, name, problems, lambda: (None, None), None)
+
+
+def _zoom(text: Any, name: str, line: int | None, pointer: str | None = None) -> float:
+    """UMLet reads ``<zoom_level>`` as an integer (``InputHandler``: ``Integer.parseInt``) and zooms only between 1
+    and 20 (``DiagramHandler.setGridAndZoom``)."""
+    if text is None:
+        return 10.0
+    try:
+        zoom = float(str(text).strip())
+    except ValueError:
+        zoom = float("nan")
+    if not (math.isfinite(zoom) and zoom.is_integer() and 1 <= zoom <= 20):
+        raise DiagramError([Problem(f"<zoom_level> must be a whole number between 1 and 20, got "
+                                    f"{str(text).strip()[:40]!r}", name, pointer=pointer or "", line=line,
+                                    hint="UMLet writes 10 for 100% and zooms between 1 (10%) and 20 (200%)")])
+    return zoom
+
+
+def _number(value: Any) -> float | None:
+    if isinstance(value, bool):
+        return None
+    if isinstance(value, (int, float)):
+        v = float(value)
+    elif isinstance(value, str):
+        try:
+            v = float(value.strip())
+        except ValueError:
+            return None
+    else:
+        return None
+    return v if math.isfinite(v) and abs(v) <= MAX_COORDINATE else None
+
+
+def _make_element(index: int, kind: Any, old: bool, coords: Any, text: Any, extra: Any, name: str,
+                  problems: list[Problem], where: Callable[[], tuple[int | None, int | None]],
+                  pointer: str | None) -> RawElement | None:
+    at: list[float] = []  # x, y once they are read: the element is then named as everywhere else
+
+    def problem(message: str, hint: str | None = None) -> None:
+        line, col = where()
+        if len(at) == 2:
+            from .scene import describe
+
+            element = describe(RawElement(index, str(kind), old, at[0], at[1], 0, 0,
+                                          text.replace("\r\n", "\n") if isinstance(text, str) else "", None))
+        else:
+            label = (text if isinstance(text, str) else "").strip().split("\n")[0][:40]
+            element = f"{kind or 'element'} #{index + 1}" + (f" '{label}'" if label else "")
+        problems.append(Problem(message, name, pointer=pointer if pointer is not None else f"#{index}", line=line,
+                                column=col, element=element, hint=hint))
+
+    if not isinstance(kind, str) or not kind:
+        problem("element without <id> (or old <type>): cannot tell what it is")
+        return None
+    if not isinstance(coords, dict):
+        problem("element without <coordinates>")
+        return None
+    values = []
+    for key in ("x", "y", "w", "h"):
+        v = _number(coords.get(key))
+        if v is None:
+            got = coords.get(key)
+            problem(f"coordinate <{key}> is not a number: {str(got)[:40]!r}" if got is not None
+                    else f"coordinate <{key}> is missing", hint="UMLet writes whole numbers of pixels")
+            return None
+        values.append(v)
+    at.extend(values[:2])
+    if values[2] < 0 or values[3] < 0:
+        problem(f"negative size w={values[2]:g}, h={values[3]:g}", hint="UMLet writes sizes of 0 or more pixels")
+        return None
+    if text is None:
+        text = ""
+    if not isinstance(text, str):
+        problem("panel_attributes must be text")
+        return None
+    points: list[float] | None = None
+    if isinstance(extra, str) and extra.strip():
+        parts = [p for p in extra.strip().split(";") if p.strip() != ""]
+        nums = [_number(p) for p in parts]
+        if kind == "Relation":
+            if any(n is None for n in nums):
+                bad = next(p for p, n in zip(parts, nums, strict=True) if n is None)
+                problem(f"relation point {bad.strip()[:30]!r} is not a number",
+                        hint="additional_attributes holds x;y;x;y;... numbers")
+                return None
+            if len(nums) % 2:
+                problem(f"relation points come in x;y pairs, got {len(nums)} numbers: {extra.strip()[:60]!r}",
+                        hint="additional_attributes holds x;y;x;y;... numbers; draw the arrow again in UMLet")
+                return None
+            points = [float(n) for n in nums]  # type: ignore[arg-type]
+    elif extra is not None and not isinstance(extra, str):
+        problem("additional_attributes must be text")
+        return None
+    text = text.replace("\r\n", "\n").replace("\r", "\n")
+    line, col = where() if pointer is not None else (None, None)
+    return RawElement(index, kind, old, values[0], values[1], values[2], values[3], text, points, line, col, pointer)
+
+
+# -- xml2json ---------------------------------------------------------------------------------------------
+def parse_xml2json(raw: bytes, name: str) -> RawDiagram:
+    """The legacy form: ``{"diagram": {"zoom_level": "10", "element": [...] or {...}}}``, every value a string."""
+    from fsm.loading.reading import parse_json_bytes
+    from fsm.model.jsonpos import locate
+
+    data, source = parse_json_bytes(raw, name, None)
+    text = source.text or ""
+
+    def locator(ptrs: set[str]) -> dict[str, tuple[int, int]]:
+        return locate(text, ptrs)
+
+    def at(ptr: str) -> tuple[int | None, int | None]:
+        pos = locator({ptr}).get(ptr)
+        return pos if pos else (None, None)
+
+    diagram = data.get("diagram") if isinstance(data, dict) else None
+    if not isinstance(diagram, dict):
+        if isinstance(data, dict) and ("states" in data or "initial" in data or "root" in data):
+            raise fail(name, "this is already a machine document, not a diagram", 1, 1,
+                       hint="validate or run it directly: fsmctl validate FILE")
+        raise fail(name, 'not a UMLet diagram in xml2json form: expected {"diagram": {"element": [...]}}', 1, 1)
+    zoom_ptr = "/diagram/zoom_level"
+    zoom = _zoom(diagram.get("zoom_level"), name, at(zoom_ptr)[0] if "zoom_level" in diagram else None, zoom_ptr)
+    raw_elements = diagram.get("element")
+    if isinstance(raw_elements, dict):
+        items = [(raw_elements, "/diagram/element")]
+    elif isinstance(raw_elements, list):
+        items = [(e, f"/diagram/element/{i}") for i, e in enumerate(raw_elements)]
+    else:
+        line, col = at("/diagram")
+        raise fail(name, "the <diagram> has no elements: draw states and transitions in UMLet", line, col)
+    problems: list[Problem] = []
+    elements: list[RawElement] = []
+    for index, (item, ptr) in enumerate(items):
+        if not isinstance(item, dict):
+            line, col = at(ptr)
+            problems.append(Problem("element must be an object", name, pointer=ptr, line=line, column=col))
+            continue
+        kind = item.get("id")
+        old = False
+        if not isinstance(kind, str) and isinstance(item.get("type"), str):
+            kind = item["type"].strip().rsplit(".", 1)[-1]
+            old = True
+        panel = item.get("panel_attributes")
+        if isinstance(panel, dict):  # "#text" when xml2json met mixed content
+            panel = panel.get("#text", "")
+        extra = item.get("additional_attributes")
+        if isinstance(extra, dict):
+            extra = extra.get("#text")
+        elem = _make_element(index, kind.strip() if isinstance(kind, str) else kind, old, item.get("coordinates"),
+                             panel, extra, name, problems, lambda p=ptr: at(p), ptr)
+        if elem is not None:
+            elements.append(elem)
+    if problems:
+        raise DiagramError(problems)
+    if not elements:
+        line, col = at("/diagram")
+        raise fail(name, "the <diagram> has no elements: draw states and transitions in UMLet", line, col)
+    return RawDiagram(name, zoom, elements, text=text, locate_json=locator)

@@ -1,0 +1,470 @@
+"""What the texts of UMLet elements say: names, separators, style facets, arrowheads, parameters, UML labels.
+
+Parameters come in two syntaxes, which may be mixed: TRAL's JSON fragment (``"type": "FollowWall", "p": 12``)
+and ``key=value`` lines (``distance=0.4``). In a parameter block the JSON lines come first, then the
+``key=value`` lines; the type is given in either (``"type": "FollowWall"`` or ``type=FollowWall``). The writer
+puts a state's type in the JSON form because UMLet owns ``type=`` lines in a ``UMLState`` (``StateTypeFacet``
+accepts only ``state``, ``sender`` and ``receiver`` and draws anything else as an error). A text without a
+type is free text: a state's compartments, or a transition's UML label ``event [guard] / action``.
+
+UMLet offers each line of an element's text to the element's facets, and a facet whose key the line starts
+with (``key=``, exactly) consumes it (``PropertiesParser.parseFacets``, ``KeyValueFacet.checkStart``); the
+key sets below are those facets, per element kind.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import dataclass, field
+from typing import Any
+
+#: Facets UMLet consumes on every element (style, layout, comments); never names or parameters.
+_STYLE_KEYS = {"bg", "fg", "lw", "valign", "halign", "fontsize", "layer", "transparency", "group", "style",
+               "symbol", "customelement", "elementstyle", "autoresize"}
+#: Boxes (``UMLState``, ``UMLSpecialState``, ``UMLFrame``, ``UMLNote``: ``Settings.MANUALRESIZE`` ->
+#: ``BASE_WITH_LINETYPE``) also have ``LineTypeFacet``: ``lt=`` is the border's line type. Not for relations,
+#: whose ``lt=`` (the arrow) :func:`parse_relation` reads itself.
+BOX_STYLE_KEYS = _STYLE_KEYS | {"lt"}
+#: Relation facets: line type, end texts and their positions (``Settings.RELATION``, ``LineDescriptionEnum``,
+#: ``LineDescriptionPositionFacet``; ``cbase`` is ``LineDescriptionBasePositionFacet`` of newer UMLets).
+_RELATION_KEYS = {"lt", "m1", "m2", "r1", "r2", "m1pos", "m2pos", "r1pos", "r2pos", "cpos", "mpos", "qualifier",
+                  "cbase"}
+#: Keys of newer UMLets' ``LinkFacet`` and ``PageFacet``: never written as parameter lines either.
+_LATER_KEYS = {"link", "page"}
+#: Keys a ``key=value`` line of a UMLState may not start with: UMLet would consume (or reject) it.
+STATE_FACET_KEYS = BOX_STYLE_KEYS | {"type"} | _LATER_KEYS
+#: Keys a ``key=value`` line of a Relation's label may not start with (``type=`` is plain label text there).
+RELATION_FACET_KEYS = _STYLE_KEYS | _RELATION_KEYS | _LATER_KEYS
+#: ``type=`` values that are UMLet's own shape facets of a UMLState, not state types (any case: UMLet
+#: upper-cases the value, ``StateTypeFacet``).
+_UMLET_STATE_SHAPES = {"state", "sender", "receiver"}
+SEPARATOR = re.compile(r"^\s*(?:--?|-\.\.?)\s*$")
+#: A ``key=value`` line (a parameter of a state or transition): the key and the raw value.
+KEY_VALUE = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*=(.*)$")
+#: A parameter name the ``key=value`` syntax can carry.
+KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+#: The start of a JSON ``"type":`` member: a label written as JSON parameters.
+JSON_TYPE = re.compile(r'"type"\s*:')
+
+
+class TextError(ValueError):
+    """A text that cannot be read; the message says why (the caller adds where)."""
+
+
+def is_style(line: str, keys: set[str] = _STYLE_KEYS) -> bool:
+    stripped = line.strip()
+    if stripped.startswith("//"):
+        return True
+    m = KEY_VALUE.match(stripped)
+    return bool(m and m.group(1) in keys)
+
+
+@dataclass
+class StateText:
+    """A state box's text: its name, its parameters (if any) and its free text compartments."""
+
+    name: str
+    params: dict[str, Any] | None  # None: no type given
+    description: str | None
+    #: the parameters written as ``key=value`` lines (texts: a number there may be meant as text)
+    kv_keys: set[str] = field(default_factory=set)
+    #: UML internal activities: ``("entry" | "exit", action text)`` from ``entry / x = 1`` lines
+    activities: list[tuple[str, str]] = field(default_factory=list)
+
+
+#: A UML internal activity line of a state: ``entry / count = count + 1`` or ``exit / led = false``.
+ACTIVITY = re.compile(r"^\s*(entry|exit)\s*/(.*)$")
+
+
+def split_state(text: str) -> tuple[list[str], list[list[str]]]:
+    """Name lines and compartments (lists of lines) of a UMLState text, style facets removed."""
+    lines = [ln for ln in text.split("\n") if not is_style(ln, BOX_STYLE_KEYS)]
+    name_lines: list[str] = []
+    compartments: list[list[str]] = []
+    current = name_lines
+    for ln in lines:
+        if SEPARATOR.match(ln):
+            current = []
+            compartments.append(current)
+            continue
+        m = KEY_VALUE.match(ln)
+        if m and m.group(1) == "type" and m.group(2).strip().lower() in _UMLET_STATE_SHAPES:
+            continue
+        current.append(ln)
+    return name_lines, compartments
+
+
+def parse_state(text: str) -> StateText:
+    """Name (first lines up to the first separator), type and parameters, and the other compartments."""
+    name_lines, compartments = split_state(text)
+    name = " ".join(ln.strip() for ln in name_lines if ln.strip())
+    params: dict[str, Any] | None = None
+    kv_keys: set[str] = set()
+    free: list[str] = []
+    # A box holding only parameters (no separator): its "name" is the parameters.
+    if not compartments and is_param_block(name_lines):
+        compartments = [name_lines]
+        name = ""
+    activities: list[tuple[str, str]] = []
+    for comp in compartments:
+        if params is None and is_param_block(comp):
+            params, kv_keys = parse_params(comp)
+        else:
+            rest = []
+            for ln in comp:
+                m = ACTIVITY.match(ln)
+                if m:
+                    activities.append((m.group(1), m.group(2).strip()))
+                else:
+                    rest.append(ln)
+            block = "\n".join(ln.rstrip() for ln in rest).strip("\n")
+            if block.strip():
+                free.append(block)
+    description = "\n".join(free) if free else None
+    return StateText(name, params, description, kv_keys, activities)
+
+
+def _has_kv_type(lines: list[str]) -> bool:
+    for ln in lines:
+        m = KEY_VALUE.match(ln)
+        if m and m.group(1) == "type":
+            return True
+    return False
+
+
+def is_param_block(lines: list[str]) -> bool:
+    """Whether these lines give a type (``type=X`` or ``"type": "X"``), so they are parameters, not free text."""
+    return _has_kv_type(lines) or bool(JSON_TYPE.search("\n".join(lines)))
+
+
+def parse_params(lines: list[str]) -> tuple[dict[str, Any], set[str]]:
+    """A parameter block: JSON fragment lines, then ``key=value`` lines (either part may be empty).
+
+    Returns the parameters (``type`` among them) and the keys given as ``key=value`` lines. A line that starts
+    with ``key=`` is never JSON, so where the JSON part ends is unambiguous; after it, every line is
+    ``key=value``.
+    """
+    json_lines: list[str] = []
+    kv_lines: list[str] = []
+    for ln in lines:
+        if kv_lines or KEY_VALUE.match(ln):
+            kv_lines.append(ln)
+        else:
+            json_lines.append(ln)
+    out: dict[str, Any] = {}
+    if any(ln.strip() for ln in json_lines):
+        fragment = "\n".join(json_lines)
+        if not JSON_TYPE.search(fragment) and _has_kv_type(kv_lines):
+            first = next(ln for ln in json_lines if ln.strip())
+            raise TextError(f"line {first.strip()[:40]!r} is not key=value (a text with type=... holds only "
+                            "key=value lines, after JSON lines if any)")
+        out = parse_fragment(fragment)
+    kv = parse_key_values(kv_lines)
+    for key in kv:
+        if key in out:
+            raise TextError(f"parameter '{key}' is given twice")
+    out.update(kv)
+    return out, set(kv)
+
+
+def parse_key_values(lines: list[str]) -> dict[str, Any]:
+    """``key=value`` lines; values are JSON when they parse as JSON (numbers, true, lists, objects), else text."""
+    out: dict[str, Any] = {}
+    for ln in lines:
+        if not ln.strip():
+            continue
+        m = KEY_VALUE.match(ln)
+        if not m:
+            raise TextError(f"line {ln.strip()[:40]!r} is not key=value (after the first key=value line of "
+                            "the parameters, every line is key=value)")
+        key, value = m.group(1), m.group(2).strip()
+        if key in out:
+            raise TextError(f"parameter '{key}' is given twice")
+        out[key] = parse_value(value, strict=True)
+    return out
+
+
+def parse_value(value: str, strict: bool = False) -> Any:
+    """A ``key=value`` value: JSON when it parses as JSON, else the text. ``strict``: a JSON object that repeats
+    a key is a :class:`TextError` (else it stays text)."""
+    if value == "":
+        return ""
+    if value[0] in '[{"-0123456789' or value in ("true", "false", "null"):
+        try:
+            return json.loads(value, object_pairs_hook=_unique_keys)
+        except _RepeatedKey as exc:
+            if strict:
+                raise TextError(f"key '{exc.args[0]}' is given twice in {value[:40]!r}") from None
+            return value
+        except ValueError:
+            return value
+    return value
+
+
+class _RepeatedKey(Exception):
+    """A key written twice in one JSON object of a box's text."""
+
+
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    out = dict(pairs)
+    if len(out) != len(pairs):
+        seen: set[str] = set()
+        for key, _ in pairs:
+            if key in seen:
+                raise _RepeatedKey(key)
+            seen.add(key)
+    return out
+
+
+def parse_fragment(text: str) -> dict[str, Any]:
+    """TRAL's fragment ``"type": "FollowWall", "p": 12`` (with or without braces, a trailing comma allowed)."""
+    body = text.strip()
+    if not body.startswith("{"):
+        body = "{" + body.rstrip().rstrip(",") + "}"
+    try:
+        data = json.loads(body, object_pairs_hook=_unique_keys)
+    except _RepeatedKey as exc:
+        raise TextError(f"parameter '{exc.args[0]}' is given twice in the JSON parameters") from None
+    except json.JSONDecodeError as exc:
+        raise TextError(f"JSON parameters do not parse: {exc.msg} (column {exc.colno} of {body[:60]!r})") from None
+    except RecursionError:
+        raise TextError("JSON parameters nested too deeply") from None
+    if not isinstance(data, dict):
+        raise TextError("JSON parameters must be an object")
+    return data
+
+
+# -- special states -----------------------------------------------------------------------------------------
+def special_kind(text: str) -> tuple[str, str]:
+    """``(kind, label)`` of a UMLSpecialState: kind from ``type=`` (default decision, as UMLet draws it)."""
+    kind = "decision"
+    label: list[str] = []
+    for ln in text.split("\n"):
+        if is_style(ln, BOX_STYLE_KEYS):
+            continue
+        m = KEY_VALUE.match(ln)
+        if m and m.group(1) == "type":  # SpecialStateTypeFacet: valueOf(value.toUpperCase(ENGLISH))
+            kind = m.group(2).strip().lower()
+            continue
+        if ln.strip():
+            label.append(ln.strip())
+    return kind, " ".join(label)
+
+
+# -- relations ------------------------------------------------------------------------------------------------
+_LT = re.compile(r"^((?:[<>xo|()+*#^]|\[[^\]]*\])*?)(-|\.\.|\.)((?:[<>xo|()+*#^]|\[[^\]]*\])*)$")
+
+
+@dataclass
+class RelationText:
+    """A relation's line type (arrowheads) and its middle label lines."""
+
+    lt: str
+    start_head: bool
+    end_head: bool
+    dashed: bool
+    label_lines: list[str] = field(default_factory=list)
+
+
+def parse_relation(text: str) -> RelationText:
+    lt = "-"
+    label: list[str] = []
+    for ln in text.split("\n"):
+        if is_style(ln) or is_style(ln, _RELATION_KEYS - {"lt"}):
+            continue
+        m = KEY_VALUE.match(ln)
+        if m and m.group(1) == "lt":
+            lt = m.group(2).strip()
+            continue
+        label.append(ln)
+    while label and not label[-1].strip():
+        label.pop()
+    while label and not label[0].strip():
+        label.pop(0)
+    start, end, dashed = arrowheads(lt)
+    return RelationText(lt, start, end, dashed, label)
+
+
+def arrowheads(lt: str) -> tuple[bool, bool, bool]:
+    """Whether ``lt`` draws an arrowhead at the start, at the end, and whether its line is dashed/dotted."""
+    m = _LT.match(lt.strip())
+    if not m:
+        return False, False, False
+    start, line, end = m.groups()
+    start_head = bool(re.fullmatch(r"<{1,3}", start))
+    end_head = bool(re.fullmatch(r">{1,3}", end))
+    return start_head, end_head, line != "-"
+
+
+@dataclass
+class Label:
+    """A transition label: explicit type and parameters, or a UML ``event [guard] / action`` text.
+
+    With a type, a last line ``[guard] / action`` (starting with ``[`` or ``/``) adds a guard and a ``set``."""
+
+    params: dict[str, Any] | None
+    text: str  # the label as one line (UML form), "" if none
+    #: the parameters written as ``key=value`` lines
+    kv_keys: set[str] = field(default_factory=set)
+    #: the ``[guard] / action`` line after typed parameters, "" if none
+    uml: str = ""
+
+
+def _is_uml_line(line: str) -> bool:
+    return line.lstrip().startswith(("[", "/"))
+
+
+def parse_label(lines: list[str]) -> Label:
+    body = list(lines)
+    while body and not body[-1].strip():
+        body.pop()
+    tail: list[str] = []
+    while body and _is_uml_line(body[-1]):
+        tail.insert(0, body.pop())
+    if tail and body and is_param_block(body):
+        params, kv_keys = parse_params(body)
+        return Label(params, "", kv_keys, " ".join(" ".join(ln.split()) for ln in tail))
+    if is_param_block(lines):
+        params, kv_keys = parse_params(lines)
+        return Label(params, "", kv_keys)
+    text = " ".join(" ".join(ln.split()) for ln in lines if ln.strip())
+    return Label(None, text)
+
+
+_UML_LABEL = re.compile(r"^(?P<event>[^\[/]*)(?:\[(?P<guard>[^\]]*)\])?\s*(?:/(?P<action>.*))?$", re.S)
+
+
+def split_uml(label: str) -> tuple[str, str | None, str | None]:
+    """``event [guard] / action`` -> ``(event, guard, action)`` (``None`` where the part is not written);
+    :class:`TextError` for a text that is not of that form."""
+    m = _UML_LABEL.match(label)
+    if m is None:
+        if "[" in label and "]" not in label.split("[", 1)[1]:
+            raise TextError(f"label {label[:40]!r}: '[' without ']' (a guard is written [condition])")
+        raise TextError(f"label {label[:40]!r} is not 'event [guard] / action'")
+    guard = m.group("guard")
+    action = m.group("action")
+    return (" ".join(m.group("event").split()), guard.strip() if guard is not None else None,
+            action.strip() if action is not None else None)
+
+
+def event_name(label: str) -> str:
+    """The event of a UML label ``event [guard] / action`` ("" when there is none)."""
+    try:
+        return split_uml(label)[0]
+    except TextError:
+        return label.strip()
+
+
+def literal(text: str) -> Any:
+    """A number or true/false written as an action's value is stored as that constant; else the expression."""
+    if text in ("true", "false"):
+        return text == "true"
+    if re.fullmatch(r"-?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][+-]?\d+)?", text):
+        try:
+            value = json.loads(text)
+        except ValueError:
+            return text
+        return value if json.dumps(value) == text else text
+    return text
+
+
+def parse_actions(text: str) -> dict[str, Any]:
+    """An action ``a = expr; b = 2`` -> ``{"a": "expr", "b": 2}``; :class:`TextError` (with the column) if it
+    does not parse."""
+    from fsm.model.expr import ExprError, parse_assignments
+
+    try:
+        pairs = parse_assignments(text)
+    except ExprError as exc:
+        raise TextError(f"action {text[:60]!r}: {exc}") from None
+    out: dict[str, Any] = {}
+    for name, expr_text, _ in pairs:
+        if name in out:
+            raise TextError(f"action {text[:60]!r} assigns '{name}' twice")
+        out[name] = literal(expr_text)
+    return out
+
+
+def check_guard(text: str) -> str:
+    """A guard's syntax (its variables are checked with the machine); :class:`TextError` if it does not parse."""
+    from fsm.model.expr import ExprError, parse
+
+    try:
+        parse(text)
+    except ExprError as exc:
+        raise TextError(f"guard [{text[:60]}]: {exc}") from None
+    return text
+
+
+# -- machine notes and region frames --------------------------------------------------------------------------
+#: The first line of a ``UMLNote`` that carries a machine's own keys.
+MACHINE_NOTE_TITLE = "machine"
+#: The keys a machine note may give, in the order the writer puts them.
+MACHINE_KEYS = ("name", "$schema", "description", "vars", "inputs")
+_NOTE_KEY_VALUE = re.compile(r"^\s*(\$?[A-Za-z_][A-Za-z0-9_]*)\s*=(.*)$")
+_INCLUDE = re.compile(r"^\s*file\s*=(.*)$")
+
+
+def is_machine_note(text: str) -> bool:
+    """Whether a note's first line (style lines aside) is ``machine``."""
+    for ln in text.split("\n"):
+        if is_style(ln, BOX_STYLE_KEYS) or not ln.strip():
+            continue
+        return ln.strip() == MACHINE_NOTE_TITLE
+    return False
+
+
+@dataclass
+class MachineNote:
+    """A machine note: its ``key=value`` texts (unparsed) and its free text (the description), if any."""
+
+    values: dict[str, str]
+    description: str | None
+
+
+def parse_machine_note(text: str) -> MachineNote:
+    """The compartments after the ``machine`` line: one starting with a machine key holds only ``key=value``
+    lines (keys from :data:`MACHINE_KEYS`); any other is free text, the machine's description."""
+    name_lines, compartments = split_state(text)
+    rest = list(name_lines)
+    while rest and not rest[0].strip():
+        rest.pop(0)
+    rest = rest[1:]  # the "machine" line
+    values: dict[str, str] = {}
+    free: list[str] = []
+    for comp in [rest] + compartments:
+        lines = [ln for ln in comp if ln.strip()]
+        if not lines:
+            continue
+        m = _NOTE_KEY_VALUE.match(lines[0])
+        if m and m.group(1) in MACHINE_KEYS:
+            for ln in lines:
+                m = _NOTE_KEY_VALUE.match(ln)
+                if not m or m.group(1) not in MACHINE_KEYS:
+                    raise TextError(f"line {ln.strip()[:40]!r} is not one of the machine's key=value lines "
+                                    f"({', '.join(MACHINE_KEYS)}); free text goes after another -- line")
+                if m.group(1) in values:
+                    raise TextError(f"'{m.group(1)}' is given twice")
+                values[m.group(1)] = m.group(2).strip()
+        else:
+            free.append("\n".join(ln.rstrip() for ln in comp).strip("\n"))
+    if free and "description" in values:
+        raise TextError("the description is given twice: as description= and as free text")
+    return MachineNote(values, "\n".join(free) if free else None)
+
+
+def note_key_line(line: str) -> bool:
+    """Whether ``line`` would be read as one of a machine note's ``key=value`` lines."""
+    m = _NOTE_KEY_VALUE.match(line)
+    return bool(m and m.group(1) in MACHINE_KEYS)
+
+
+def include_title(title: str) -> str | None:
+    """The file of a region frame titled ``file=PATH`` (an included region), else None."""
+    m = _INCLUDE.match(title)
+    if not m:
+        return None
+    value = parse_value(m.group(1).strip())
+    return value if isinstance(value, str) else m.group(1).strip()

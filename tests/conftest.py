@@ -10,6 +10,10 @@ from collections.abc import Iterator
 import pytest
 from hypothesis import settings
 
+# The built-in types alone: a plugin installed next to tral-fsm (its entry points) cannot change what the tests check
+# (the committed palette and schema, `fsmctl types`); subprocesses inherit it. Tests of entry points unset it.
+os.environ["FSM_NO_ENTRY_POINTS"] = "1"
+
 settings.register_profile("ci", derandomize=True, print_blob=True)
 if os.environ.get("CI"):
     settings.load_profile("ci")

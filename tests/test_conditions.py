@@ -165,5 +165,14 @@ def test_a_condition_type_of_ones_own() -> None:
                                    "guard": {"type": "Above", "var": "t", "limit": 3}}]}, registry=registry)
     m.run(max_ticks=2)
     assert m.finished
-    with pytest.raises(fsm.RegistrationError, match="already registered"):
-        registry.add_condition(Above)
+    registry.add_condition(Above)  # the same class again: one registration
+    assert registry.conditions["Above"] is Above
+
+    class Other(Condition):
+        """Another condition."""
+
+        class Params(ConditionParams):
+            pass
+
+    with pytest.raises(fsm.RegistrationError, match="already registered by .*Above.* is another class"):
+        registry.add_condition(Other, "Above")

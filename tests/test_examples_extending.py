@@ -67,7 +67,7 @@ def installed_plugin(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def test_installed_plugin_types_reach_fsmctl_through_entry_points(installed_plugin: Path) -> None:
-    env = {"PYTHONPATH": str(installed_plugin)}
+    env = {"PYTHONPATH": str(installed_plugin), "FSM_NO_ENTRY_POINTS": ""}
     types = python("-m", "fsm.tools.cli", "types", "Blink", "Counted", env=env, cwd=installed_plugin.parent)
     assert types.returncode == 0, types.stderr
     assert "Blink: Toggles blackboard variable" in types.stdout

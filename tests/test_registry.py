@@ -74,7 +74,7 @@ def test_third_party_types_arrive_through_entry_points(tmp_path: Path) -> None:
     doc = {"initial": "a", "states": [{"id": "a", "type": "Beep"}, {"id": "b", "type": "Beep"}],
            "transitions": [{"type": "Never", "from": "a", "to": "b"}]}
     (tmp_path / "m.json").write_text(json.dumps(doc))
-    env = {**os.environ, "PYTHONPATH": str(tmp_path)}
+    env = {**os.environ, "PYTHONPATH": str(tmp_path), "FSM_NO_ENTRY_POINTS": ""}
     types = subprocess.run([sys.executable, "-m", "fsm.tools.cli", "types", "Beep", "Never"], capture_output=True,
                            text=True, env=env, cwd=tmp_path, timeout=120)
     assert types.returncode == 0, types.stderr

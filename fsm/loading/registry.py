@@ -48,6 +48,8 @@ class Registry:
         self.conditions: dict[str, type[Condition[Any]]] = {}
         self.plants: dict[str, type[Any]] = {}
         self._loaded_plugins: set[str] = set()
+        #: (kind, name) -> the installed distribution whose entry point registered the type
+        self.installed_by: dict[tuple[str, str], str] = {}
 
     # -- registration ---------------------------------------------------------------------------
     def add_state(self, cls: type[State[Any]], name: str | None = None) -> type[State[Any]]:
@@ -69,8 +71,8 @@ class Registry:
         if not (isinstance(cls, type) and issubclass(cls, base)):
             raise RegistrationError(f"{cls!r} is not a subclass of fsm.{base.__name__}")
         self._check_params(cls, name, params_base)
-        self._check_free(table, name, cls, kind)
-        table[name] = cls
+        if self._check_free(table, name, cls, kind):
+            table[name] = cls
         return cls
 
     @classmethod
@@ -101,13 +103,19 @@ class Registry:
             raise RegistrationError(f"type name {name!r} must be an identifier (letters, digits, _)")
 
     @staticmethod
-    def _check_free(table: dict[str, Any], name: str, cls: type, kind: str) -> None:
+    def _check_free(table: dict[str, Any], name: str, cls: type, kind: str) -> bool:
+        """True when ``name`` is free; False when it holds ``cls`` already (the same class, or the same definition
+        imported again under another module name: an entry point's module and ``--plugin`` its file); a
+        :class:`RegistrationError` naming both classes when it holds another one."""
         other = table.get(name)
-        if other is not None:
-            raise RegistrationError(
-                f"{kind} type {name!r} is already registered by {other.__module__}.{other.__qualname__}; "
-                f"{cls.__module__}.{cls.__qualname__} needs another name"
-            )
+        if other is None:
+            return True
+        if same_definition(other, cls):
+            return False
+        raise RegistrationError(
+            f"{kind} type {name!r} is already registered by {_described(other)}; {_described(cls)} is another "
+            f"class and needs another name (register it with name=...)"
+        )
 
     # -- lookup ---------------------------------------------------------------------------------
     def table(self, kind: str) -> dict[str, Any]:
@@ -167,6 +175,7 @@ class Registry:
                 key = f"{group}:{ep.name}={ep.value}"
                 if key in self._loaded_plugins:
                     continue
+                before = {(kind, name) for kind, name, _ in self.every()}
                 try:
                     with using(self):
                         obj = ep.load()
@@ -179,6 +188,47 @@ class Registry:
                     if table.get(ep.name) is not obj and table.get(obj.__name__) is not obj:
                         add(obj, ep.name)
                 self._loaded_plugins.add(key)
+                dist = getattr(getattr(ep, "dist", None), "name", None) or ep.value
+                for added in {(kind, name) for kind, name, _ in self.every()} - before:
+                    self.installed_by[added] = dist
+
+    def without_installed(self) -> Registry:
+        """A copy without the types installed plugins (entry points) registered: what a palette holds when it
+        was generated without them."""
+        copy = Registry()
+        for kind, table in (("state", self.states), ("transition", self.transitions),
+                            ("condition", self.conditions), ("plant", self.plants)):
+            getattr(copy, kind + "s").update({n: c for n, c in table.items() if (kind, n) not in self.installed_by})
+        return copy
+
+
+def same_definition(a: type, b: type) -> bool:
+    """Whether two classes are one definition: the same object, or the same qualified name in the same source file
+    (a module imported twice, e.g. ``my_plugin.states`` through its entry point and ``--plugin states.py``)."""
+    if a is b:
+        return True
+    file_a, file_b = _source_file(a), _source_file(b)
+    return a.__qualname__ == b.__qualname__ and file_a is not None and file_a == file_b
+
+
+def _source_file(cls: type) -> str | None:
+    module = sys.modules.get(cls.__module__)
+    file = getattr(module, "__file__", None)
+    return os.path.realpath(file) if isinstance(file, str) else None
+
+
+def _described(cls: type) -> str:
+    """``module.Class (file:line)`` for a message naming a class."""
+    import inspect
+
+    where = ""
+    try:
+        file = inspect.getsourcefile(cls)
+        line = inspect.getsourcelines(cls)[1]
+        where = f" ({file}:{line})" if file else ""
+    except (OSError, TypeError):
+        pass
+    return f"{cls.__module__}.{cls.__qualname__}{where}"
 
 
 # -- plugins -----------------------------------------------------------------------------------------
@@ -337,9 +387,16 @@ def register_condition(cls: C | None = None, *, name: str | None = None) -> Any:
     return deco(cls) if cls is not None else deco
 
 
+#: Set to 1 to load no installed plugins (entry points): the built-in types and ``--plugin`` modules only (the
+#: project's own tests set it, so that a plugin installed next to tral-fsm cannot change what they check).
+NO_ENTRY_POINTS = "FSM_NO_ENTRY_POINTS"
+
+
 def default_registry(plugins: list[str] | tuple[str, ...] = (), entry_points: bool = True) -> Registry:
-    """The process registry with the built-in types, installed plugins and the ``plugins`` modules loaded."""
+    """The process registry with the built-in types, installed plugins (unless ``FSM_NO_ENTRY_POINTS=1``) and
+    the ``plugins`` modules loaded."""
     global _builtins_loaded
+    entry_points = entry_points and os.environ.get(NO_ENTRY_POINTS, "") in ("", "0")
     registry = _current[0]
     if not _builtins_loaded:
         _builtins_loaded = True

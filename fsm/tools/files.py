@@ -582,18 +582,22 @@ class NewFolder:
         self.check()
         try:
             self._scratch = pathlib.Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", dir=self.path.parent))
+            os.chmod(self._scratch, 0o777 & ~_umask())  # a folder like any the user makes, not mkdtemp's 0700
         except OSError as exc:
             raise self._fail(f"cannot create a folder beside it: {os_reason(exc)}") from None
         track_temporary(str(self._scratch))
 
     def write(self, filename: str, data: bytes | str) -> None:
-        """One file of the folder (a plain name, no path)."""
-        if self._scratch is None or os.sep in filename or filename in ("", ".", ".."):
+        """One file of the folder: a plain name, or a relative path whose folders are made inside it (``src/a.py``)."""
+        parts = filename.split("/")
+        if self._scratch is None or any(p in ("", ".", "..") or os.sep in p for p in parts):
             raise ValueError(f"not a file name of the folder: {filename!r}")
         raw = data.encode("utf-8") if isinstance(data, str) else data
         try:
+            if len(parts) > 1:
+                os.makedirs(self._scratch.joinpath(*parts[:-1]), exist_ok=True)
             flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0)
-            fd = os.open(self._scratch / filename, flags, 0o666)
+            fd = os.open(self._scratch.joinpath(*parts), flags, 0o666)
             with os.fdopen(fd, "wb") as fh:
                 fh.write(raw)
         except OSError as exc:

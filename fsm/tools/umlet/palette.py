@@ -121,8 +121,22 @@ def palette_problems(raw: bytes, name: str, registry: Any) -> list[Problem] | No
             found.update((kind, m.group(1)) for m in _TYPE_NAME.finditer(el.text))
     if not builtin <= found:
         return None
-    if raw.decode("utf-8", errors="replace") == palette(registry):
+    text = raw.decode("utf-8", errors="replace")
+    if text == palette(registry):
         return []
+    installed = sorted({dist for (kind, n), dist in getattr(registry, "installed_by", {}).items()
+                        if kind in ("state", "transition") and (kind, n) not in found})
+    if installed:
+        plugins = ", ".join(installed)
+        if text == palette(registry.without_installed()):
+            return [Problem(f"this UMLet palette holds every type but those of the installed plugin(s) {plugins}",
+                            name, line=1, column=1, severity="warning",
+                            hint=f"to draw with them too: fsmctl palette -o {name}; to check without installed "
+                                 f"plugins: FSM_NO_ENTRY_POINTS=1 fsmctl validate {name}")]
+        return [Problem("this is a UMLet palette (a template of every type), not a machine, and it differs from "
+                        "what `fsmctl palette` generates; it also lacks the types of the installed plugin(s) "
+                        + plugins, name, line=1, column=1,
+                        hint=f"regenerate it: fsmctl palette -o {name} (with the same --plugin options)")]
     return [Problem("this is a UMLet palette (a template of every type), not a machine, and it differs from what "
                     "`fsmctl palette` generates", name, line=1, column=1,
                     hint=f"regenerate it: fsmctl palette -o {name} (with the same --plugin options)")]

@@ -128,7 +128,7 @@ def test_running_again_skips_finished_runs(tmp_path: Path, capsys: pytest.Captur
 def test_bad_input_is_reported_before_any_run(args: list[str], message: str, tmp_path: Path,
                                               capsys: pytest.CaptureFixture[str]) -> None:
     code, _out, err = cli(capsys, "sweep", "--machine", str(LAP), "-o", str(tmp_path / "o"), *args)
-    assert code == 1, err
+    assert code == 2, err  # a flag's value: a usage error
     assert message in err and "Traceback" not in err
     assert not (tmp_path / "o").exists()
 

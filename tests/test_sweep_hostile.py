@@ -150,12 +150,12 @@ def test_a_grid_too_large_is_refused_before_it_is_built(machine: Path, tmp_path:
     t0 = time.perf_counter()
     code, _out, err = sweep(capsys, machine, tmp_path / "o", "--seeds", "0:10000000", "--set",
                             "wait.seconds=1,2")
-    assert code == 1
+    assert code == 2  # of a flag: a usage error
     assert "--seeds: the sweep would make 20,000,000 runs (10,000,000 seeds x 2 values of wait.seconds), " \
            "more than 10,000 (give --max-runs 20000000" in err
     assert time.perf_counter() - t0 < 5
     code, _out, err = sweep(capsys, machine, tmp_path / "o", "--seeds", "0:4", "--max-runs", "3")
-    assert code == 1 and "4 runs" in err and "more than 3" in err
+    assert code == 2 and "4 runs" in err and "more than 3" in err
     assert not (tmp_path / "o").exists()
     code, printed, err = sweep(capsys, machine, tmp_path / "o", "--seeds", "0:3", "--max-runs", "3")
     assert code == 0 and "3 runs: 3 to run" in printed, err
@@ -266,7 +266,7 @@ def test_the_global_plugin_flag_reaches_the_workers(tmp_path: Path, capsys: pyte
     assert code == 1 and printed == ""
     assert err.strip().splitlines() == [
         "fsmctl sweep: 1 of 1 runs raised (run 0000: StateRuntimeError: state 'b' raised RuntimeError in tick at "
-        "tick 1 (t=0.0125 s): always); see out/sweep.html"]
+        f"tick 1 (t=0.0125 s): always (at {tmp_path / 'boom.py'}:6)); see out/sweep.html"]
     assert f"--plugin {tmp_path / 'boom.py'} run" in lines(tmp_path / "out" / "sweep.jsonl")[0]["command"]
 
 

@@ -141,11 +141,65 @@ class StateRuntimeError(FsmError):
         self.tick = tick
         self.time = time
         self.cause = cause
+        self.file, self.line = user_frame(cause)
+        where = f" (at {self.file}:{self.line})" if self.file else ""
         super().__init__(
             f"state '{path}' raised {type(cause).__name__} in {phase} at tick {tick} "
-            f"(t={time:.4f} s): {cause}"
+            f"(t={time:.4f} s): {cause}{where}"
         )
+
+
+#: The folders of the engine that calls user code (a frame there is never the user's).
+_ENGINE = ("runtime", "session", "sequencer", "loading", "model", "debug", "trace")
+
+
+def user_frame(exc: BaseException) -> tuple[str | None, int | None]:
+    """Where user code raised ``exc``: of the frames below the engine's last one (the hook it called first), the
+    innermost outside the standard library, installed libraries and tral-fsm (its car, its built-in types), else
+    the innermost outside the libraries, else that hook's; ``(None, None)`` when no frame is the user's."""
+    import os
+    import sysconfig
+    import traceback
+
+    here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    engine = tuple(os.path.join(here, name) + os.sep for name in _ENGINE)
+    frames = traceback.extract_tb(exc.__traceback__)
+    last = max((i for i, f in enumerate(frames) if os.path.abspath(f.filename).startswith(engine)), default=-1)
+    user = frames[last + 1:]
+    if not user:
+        return None, None
+    libraries = tuple({sysconfig.get_paths()[k] + os.sep for k in ("stdlib", "platstdlib", "purelib", "platlib")})
+    own = [f for f in user if not os.path.abspath(f.filename).startswith(libraries) and f.filename[:1] != "<"]
+    outside = [f for f in own if not os.path.abspath(f.filename).startswith(here + os.sep)]  # not tral-fsm's car
+    chosen = (outside or own or user)[-1 if (outside or own) else 0]
+    return chosen.filename, chosen.lineno
 
 
 class UsageError(FsmError):
     """A command-line usage error (exit status 2)."""
+
+
+#: Set to 1 (or give ``fsmctl --traceback``) to print the whole traceback of any failure.
+TRACEBACK_ENV = "FSM_TRACEBACK"
+
+
+def traceback_wanted() -> bool:
+    """Whether the user asked for whole tracebacks (``FSM_TRACEBACK=1``, which ``fsmctl --traceback`` sets)."""
+    import os
+
+    return os.environ.get(TRACEBACK_ENV, "") not in ("", "0")
+
+
+def print_traceback(exc: BaseException, stream: Any = None) -> None:
+    """The whole traceback of ``exc`` on ``stream`` (standard error), with the exceptions it was raised from, also
+    those a ``raise ... from None`` hid: the user code's own frames are what this is asked for."""
+    import sys
+    import traceback
+
+    seen: set[int] = set()
+    link: BaseException | None = exc
+    while link is not None and id(link) not in seen:
+        seen.add(id(link))
+        link.__suppress_context__ = False
+        link = link.__cause__ or link.__context__
+    traceback.print_exception(exc, file=stream or sys.stderr)

@@ -16,7 +16,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from fsm.model.errors import StateRuntimeError, UsageError, printable
+from fsm.model.errors import StateRuntimeError, UsageError, print_traceback, printable, traceback_wanted
 from fsm.runtime.clock import DEFAULT_DURATION as DEFAULT_MAX_DURATION
 from fsm.sim import DEFAULT_WORLD
 
@@ -132,9 +132,7 @@ def _suffix_ok(name: str | None, suffixes: tuple[str, ...]) -> bool:
 
 
 def apply_overrides(spec: Any, texts: list[str], file: str) -> Any:
-    """``--set PATH.PARAM=VALUE``: each checked against the machine (a located message and exit 1 otherwise)."""
-    from fsm.model.errors import DiagramError, Problem
-
+    """``--set PATH.PARAM=VALUE``: each checked against the machine (a usage error, exit 2, otherwise)."""
     from ..sweep import overrides as O
 
     changes = []
@@ -142,8 +140,8 @@ def apply_overrides(spec: Any, texts: list[str], file: str) -> Any:
         try:
             o = O.parse(text, several=False)
             O.check(spec, o)
-        except O.OverrideError as exc:
-            raise DiagramError([Problem(str(exc), file)]) from None
+        except O.OverrideError as exc:  # of the command line, not of the file: a usage error
+            raise UsageError(str(exc)) from None
         changes.append(o.one(o.values[0]))
     return O.apply(spec, changes) if changes else spec
 
@@ -363,8 +361,11 @@ def _drive(args: argparse.Namespace, session: Any, file: str, duration: float | 
                                   fmt=video_out.suffix)
         show = args.progress if args.progress is not None else sys.stderr.isatty()
         if show and not args.quiet:
-            limit = duration if duration is not None else (max_ticks * machine.dt if max_ticks is not None else None)
-            progress = ProgressBar(limit)
+            # a bar only against a limit the user set; otherwise the machine's end is the stop rule, which no bar
+            # can measure: a spinner with the simulated time (and the cap it never passes)
+            limit = (args.duration if args.duration is not None else
+                     max_ticks * machine.dt if args.max_ticks is not None and max_ticks is not None else None)
+            progress = ProgressBar(limit, cap=duration)
             session.every(0.5, progress)
 
     report = sys.stderr if outputs.to_stdout else sys.stdout  # standard output may carry an output
@@ -418,6 +419,8 @@ def _drive(args: argparse.Namespace, session: Any, file: str, duration: float | 
         if frames is not None:
             frames.folder.commit()
     if error is not None:
+        if traceback_wanted():
+            print_traceback(error)
         stopped = " (the car was stopped)" if car is not None else ""
         print(printable(f"fsmctl run: {file}: {error}{stopped}"), file=sys.stderr)
         return EXIT_FAIL
@@ -439,7 +442,9 @@ def _drive(args: argparse.Namespace, session: Any, file: str, duration: float | 
         return EXIT_INTERRUPTED
     failed = False
     if args.expect is not None and machine.outcome != args.expect:
-        print(printable(f"fsmctl run: expected outcome {args.expect!r}, got {machine.outcome!r}"), file=sys.stderr)
+        got = (f"got {machine.outcome!r}" if machine.outcome is not None else
+               f"not finished after {machine.now:g} s (--duration sets how long it may run)")
+        print(printable(f"fsmctl run: expected outcome {args.expect!r}, {got}"), file=sys.stderr)
         failed = True
     limit = args.max_collisions if args.max_collisions is not None else (0 if args.expect is not None else None)
     if limit is not None and car is not None and car.collisions > limit:
@@ -538,10 +543,12 @@ class ProgressBar:
     """One line on standard error (only used when it is a terminal): a bar when the run has a limit the user
     set, else the simulated time; redrawn at most ten times a second."""
 
-    def __init__(self, total: float | None) -> None:
+    def __init__(self, total: float | None, cap: float | None = None) -> None:
         self.total = total
+        self.cap = cap
         self.width = 30
         self._last = 0.0
+        self._turn = 0
 
     def __call__(self, sim: Any) -> None:
         import time
@@ -555,10 +562,13 @@ class ProgressBar:
             filled = int(frac * self.width)
             head = "[" + "#" * filled + "-" * (self.width - filled) + "] "
         else:
-            head = ""
-        sys.stderr.write(f"\r{head}{sim.now:7.1f} s  {sim.car.distance:7.1f} m  {printable(sim.active_path)[:40]:40s}")
+            self._turn += 1
+            head = "|/-\\"[self._turn % 4] + " "
+        tail = f" (until the machine ends, at most {self.cap:g} s)" if not self.total and self.cap else ""
+        sys.stderr.write(f"\r{head}{sim.now:7.1f} s  {sim.car.distance:7.1f} m  {printable(sim.active_path)[:40]:40s}"
+                         + tail)
         sys.stderr.flush()
 
     def done(self) -> None:
-        sys.stderr.write("\r" + " " * (self.width + 75) + "\r")
+        sys.stderr.write("\r" + " " * (self.width + 115) + "\r")
         sys.stderr.flush()

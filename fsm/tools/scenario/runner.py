@@ -11,7 +11,7 @@ from collections.abc import Container
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, NamedTuple
 
-from fsm.model.errors import StateRuntimeError
+from fsm.model.errors import StateRuntimeError, print_traceback, traceback_wanted
 from fsm.model.jsonpos import pointer
 from fsm.runtime.machine import Listener
 from fsm.session.session import tick_at
@@ -457,6 +457,8 @@ def run_scenario(loaded: LoadedScenario, coverage: Any = None) -> ScenarioResult
         session.run()
     except StateRuntimeError as exc:
         error = exc
+        if traceback_wanted():
+            print_traceback(exc)
     result.wall_time = time.perf_counter() - t0
     result.ticks = machine.ticks
     result.sim_time = round(machine.now, 9)

@@ -87,7 +87,7 @@ def check(spec: MachineSpec, override: Override) -> None:
         close = difflib.get_close_matches(override.param, sorted(own), n=3)
         hint = (f"; did you mean {', '.join(close)}?" if close else
                 f"; its parameters: {', '.join(sorted(own)) or 'none that can be set'}")
-        raise OverrideError(f"--set {override.text}: '{override.path}' ({st.cls.type_name}) has no parameter "
+        raise OverrideError(f"--set {override.text}: '{override.path}' ({st.params.type}) has no parameter "
                             f"'{override.param}'{hint}")
     for value in override.values:
         _validated(st, override.param, value, override.text)
@@ -103,7 +103,7 @@ def _validated(st: StateSpec, param: str, value: Any, text: str) -> StateParams:
     except ValidationError as err:
         first = err.errors()[0]
         raise OverrideError(f"--set {text}: {param}={json.dumps(value)} is not valid for '{st.id}' "
-                            f"({st.cls.type_name}): {first['msg']}") from None
+                            f"({st.params.type}): {first['msg']}") from None
 
 
 def apply(spec: MachineSpec, changes: list[tuple[str, str, Any]]) -> MachineSpec:

@@ -67,6 +67,9 @@ FLAGS = {"seeds": "--seeds", "worlds": "--world", "set": "--set", "machine": "--
 class PlanError(DiagramError):
     """A sweep that cannot run: every problem is said before the first run."""
 
+    #: True when the problem is of a command-line flag: a usage error (``fsmctl`` exits 2)
+    usage = False
+
 
 def plan(spec: SweepSpec, base: Path, name: str, where: str, out_dir: Path, *, flags: Iterable[str] = (),
          flag_plugins: Iterable[str] = (), max_runs: int = MAX_RUNS) -> Plan:
@@ -88,8 +91,10 @@ def plan(spec: SweepSpec, base: Path, name: str, where: str, out_dir: Path, *, f
             if flag and head.rstrip(":") == top:
                 text = f"{flag}{':' if head.endswith(':') else ''} {rest}"
             else:
-                text = f"{flag}: {message}" if flag else message
-            return PlanError([Problem(text, "fsmctl sweep", hint=hint)])
+                text = f"{flag}: {message}" if flag and not message.startswith(flag + " ") else message
+            err = PlanError([Problem(text, "fsmctl sweep", hint=hint)])
+            err.usage = True
+            return err
         return PlanError([Problem(message, where, ptr, hint=hint)])
 
     plugins = [str(base / p) if p.endswith(".py") else p for p in spec.plugins]

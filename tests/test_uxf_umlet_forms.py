@@ -186,7 +186,8 @@ def test_umlets_own_state_shapes_are_not_types_in_any_case(shape):
     ('S\n--\n"type": "Timeout", "seconds": 1\nseconds=2', "'seconds' is given twice"),
     ('S\n--\n"type": "Timeout"\nseconds=2\n"x": 1', "is not key=value"),
     ('S\n--\nstray line\ntype=Timeout', "'stray line' is not key=value"),
-    ('S\n--\n"type": "Timeout"\n"seconds" 2', "JSON parameters do not parse"),
+    ('S\n--\n"type": "Timeout"\n"seconds" 2', "parameter line '\"seconds\" 2' has no colon"),
+    ('S\n--\n"type": "Timeout", "seconds": [2', "JSON parameters do not parse"),
 ])
 def test_broken_parameter_blocks_are_located(text, message):
     with pytest.raises(DiagramError) as exc:

@@ -184,7 +184,7 @@ class Relations:
         try:
             label = T.parse_label(rel.label_lines)
         except T.TextError as exc:
-            self.problem(elem, f"label: {exc}")
+            self.problem(elem, f"label: {exc}", hint=exc.hint)
             return
         params = dict(label.params) if label.params is not None else None
         explicit: dict[str, Any] = {}

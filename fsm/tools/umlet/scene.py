@@ -269,7 +269,7 @@ class Scene:
         try:
             text = T.parse_state(elem.text)
         except T.TextError as exc:
-            self.problem(elem, str(exc))
+            self.problem(elem, str(exc), hint=exc.hint)
             return None
         st = StateBox(box, id=text.name, description=text.description)
         if text.params is not None:

@@ -49,7 +49,15 @@ JSON_TYPE = re.compile(r'"type"\s*:')
 
 
 class TextError(ValueError):
-    """A text that cannot be read; the message says why (the caller adds where)."""
+    """A text that cannot be read; the message says why (the caller adds where), ``hint`` what to write."""
+
+    def __init__(self, message: str, hint: str | None = None) -> None:
+        super().__init__(message)
+        self.hint = hint
+
+
+#: What a state box's text looks like (the hint of a box that cannot be read).
+STATE_BOX_FORM = 'a state box is its name, a line --, then "type": "TypeName", "param": value, ..., one per line'
 
 
 def is_style(line: str, keys: set[str] = _STYLE_KEYS) -> bool:
@@ -104,6 +112,7 @@ def parse_state(text: str) -> StateText:
     free: list[str] = []
     # A box holding only parameters (no separator): its "name" is the parameters.
     if not compartments and is_param_block(name_lines):
+        _check_separator(name_lines)
         compartments = [name_lines]
         name = ""
     activities: list[tuple[str, str]] = []
@@ -123,6 +132,40 @@ def parse_state(text: str) -> StateText:
                 free.append(block)
     description = "\n".join(free) if free else None
     return StateText(name, params, description, kv_keys, activities)
+
+
+def _check_separator(lines: list[str]) -> None:
+    """A box of parameters whose first line is a name (neither JSON nor ``key=value``): its ``--`` line is missing."""
+    first = next((ln.strip() for ln in lines if ln.strip()), "")
+    if not first or first.startswith(('"', "{")) or KEY_VALUE.match(first):
+        return
+    params = [ln.strip() for ln in lines if ln.strip() and ln.strip() != first]
+    shown = " | ".join([first[:40], "--", *(p[:40] for p in params[:3])])
+    raise TextError(f"the name {first[:40]!r} and the parameters need a line -- between them",
+                    hint=f"write the lines {shown}; " + STATE_BOX_FORM)
+
+
+def _fragment_problem(body: str) -> TextError | None:
+    """What is wrong with a JSON fragment that does not parse, said for the usual hand edits: a parameter line
+    without its colon, a parameter name without double quotes, a line without its comma."""
+    lines = [ln.strip() for ln in body.strip().strip("{}").split("\n")]
+    lines = [ln for ln in lines if ln]
+    for ln in lines:
+        if ":" not in ln and "=" not in ln:
+            m = re.fullmatch(r'"?([A-Za-z_][A-Za-z0-9_]*)"?\s+(.+?),?', ln)
+            return TextError(f"parameter line {ln[:40]!r} has no colon",
+                             hint=f'write it as "{m.group(1)}": {m.group(2)}, or as {m.group(1)}={m.group(2)}' if m
+                             else 'write each parameter as "name": value')
+    for ln in lines:
+        m = re.fullmatch(r"([A-Za-z_][A-Za-z0-9_]*)\s*:\s*(.+?),?", ln)
+        if m:
+            return TextError(f"parameter name '{m.group(1)}' needs double quotes in the JSON parameters",
+                             hint=f'write "{m.group(1)}": {m.group(2)}, or {m.group(1)}={m.group(2)}')
+    for k, ln in enumerate(lines[:-1]):
+        if not ln.endswith((",", "{", "[")) and lines[k + 1].startswith('"'):
+            return TextError(f"parameter line {ln[:40]!r} needs a comma at its end (another parameter follows)",
+                             hint=f"end it with a comma: {ln[:40]},")
+    return None
 
 
 def _has_kv_type(lines: list[str]) -> bool:
@@ -227,7 +270,9 @@ def parse_fragment(text: str) -> dict[str, Any]:
     except _RepeatedKey as exc:
         raise TextError(f"parameter '{exc.args[0]}' is given twice in the JSON parameters") from None
     except json.JSONDecodeError as exc:
-        raise TextError(f"JSON parameters do not parse: {exc.msg} (column {exc.colno} of {body[:60]!r})") from None
+        raise _fragment_problem(body) or TextError(
+            f"JSON parameters do not parse: {exc.msg} (column {exc.colno} of {body[:60]!r})",
+            hint='parameters are "name": value lines, separated by commas') from None
     except RecursionError:
         raise TextError("JSON parameters nested too deeply") from None
     if not isinstance(data, dict):

@@ -55,7 +55,7 @@ def test_a_misspelt_type_is_located_on_the_canvas_with_the_name_meant(tmp_path: 
     code, _, err = cli(capsys, "validate", str(file))
     assert code == 1
     assert err == (f"{file}:42:3 (x=1710, y=660) at /states/1/type: error: state 'GESCHLOSSEN': unknown state type "
-                   "'Idel' (did you mean Idle?)\n")
+                   "'Idel' (did you mean Idle? write \"type\": \"Idle\")\n")
 
 
 @needs_corpus

@@ -406,7 +406,8 @@ def check_type(
         return None, [Problem(f"'type' must be a string, got {_short(name)}", source.name,
                               base + "/type", element=label)]
     close = registry.suggest(name, kind)
-    hint = ("did you mean " + " or ".join(close) + "?") if close else f"see `fsmctl types` for the {kind} types"
+    hint = (f'did you mean {" or ".join(close)}? write "type": "{close[0]}"' if close else
+            f"see `fsmctl types` for the {kind} types (a plugin's types need it installed, or --plugin)")
     return None, [Problem(f"unknown {kind} type '{name}'", source.name, base + "/type", element=label, hint=hint)]
 
 

@@ -41,3 +41,9 @@ def _no_plugin_leaks() -> Iterator[None]:
     registry._loaded_plugins.intersection_update(loaded)
     for name in added - modules:  # imported by this test only to register: imported afresh when needed again
         sys.modules.pop(name, None)
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """Skipped tests say why without ``-rs``: a skip is a reason to read (no browser, no corpus, a server)."""
+    if "s" not in config.option.reportchars and "a" not in config.option.reportchars:
+        config.option.reportchars += "s"

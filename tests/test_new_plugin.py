@@ -96,7 +96,7 @@ def test_validate_test_and_pytest_pass_as_written(package: tuple[Path, Path]) ->
 
 def test_the_same_types_loaded_again_are_one_registration(package: tuple[Path, Path], tmp_path: Path) -> None:
     """Installed (entry points) and named again: as a file with --plugin, as a module, in a scenario's
-    ``plugins`` and through ``MachineTest(plugins=...)`` (``simulate`` takes them the same way)."""
+    ``plugins``, through ``MachineTest(plugins=...)`` and ``simulate(plugins=...)``."""
     folder, _ = package
     states = str(folder / "src" / NAME / "states.py")
     for plugin in (states, f"{NAME}.states", f"{NAME}.transitions"):
@@ -114,6 +114,10 @@ def test_the_same_types_loaded_again_are_one_registration(package: tuple[Path, P
             "m.run_for(1.0); m.expect({'outcome': 'succeeded'}); print('ok')")
     proc = _run(package, "-c", code)
     assert (proc.returncode, proc.stdout) == (0, "ok\n"), proc.stderr
+    code = ("from fsm.sim import simulate\n"
+            f"print(simulate('machines/{NAME}.json', plugins=({states!r},)).run().outcome)")
+    proc = _run(package, "-c", code)
+    assert (proc.returncode, proc.stdout) == (0, "succeeded\n"), proc.stderr
 
 
 def test_another_class_under_an_installed_name_is_an_error_naming_both(package: tuple[Path, Path],

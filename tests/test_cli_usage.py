@@ -193,3 +193,21 @@ def test_a_broken_plugin_import_shows_its_own_frames(crash: Path) -> None:
     assert proc.returncode == 1
     assert f'File "{crash / "broken.py"}", line 5, in f' in proc.stderr and "ZeroDivisionError" in proc.stderr
     assert proc.stderr.splitlines()[-1].startswith(f"{crash / 'broken.py'}:5: error: plugin broken.py:")
+
+
+def test_a_scenario_without_a_world_is_told_one_that_exists_from_where_it_is(tmp_path: Path,
+                                                                            capsys: pytest.CaptureFixture[str]) -> None:
+    import shutil
+
+    (tmp_path / "machines" / "worlds").mkdir(parents=True)
+    shutil.copy(CORNER, tmp_path / "machines" / "turn.json")
+    shutil.copy(REPO / "diagrams" / "worlds" / "hallway.json", tmp_path / "machines" / "worlds")
+    (tmp_path / "scenarios").mkdir()
+    scenario = tmp_path / "scenarios" / "turn.scenario.json"
+    scenario.write_text(json.dumps({"machine": "../machines/turn.json", "duration": 1,
+                                    "expect": [{"visits": ["follow"]}]}))
+    code, _, err = fsmctl(capsys, "test", str(scenario))
+    assert code == 1
+    hint = '"world": "../machines/worlds/hallway.json", the world fsmctl run takes for this machine, relative to'
+    assert f"this machine drives the car; name the world to drive it in (add {hint}" in err
+    assert (scenario.parent / "../machines/worlds/hallway.json").is_file()

@@ -720,7 +720,7 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
         return None, problems + (errors or machine_problems)
     if world_path is None and uses_car(spec):
         problems.append(Problem("this machine drives the car; name the world to drive it in", name, "",
-                                hint='"world": "../worlds/hallway.json"'))
+                                hint=_world_hint(machine_path, base)))
     elif world_path is not None and world_path.is_file():
         from fsm.sim.world import load_world
 
@@ -1065,3 +1065,20 @@ def name_problems(scenario: Scenario, paths: list[str], name: str) -> list[Probl
                 problems.append(Problem(f"the machine has no state at the path '{target}'", name,
                                         pointer("inputs", i, key), element=f"input {i}", hint=hint))
     return problems
+
+
+def _world_hint(machine: Path, base: Path) -> str:
+    """``"world": PATH`` with the world ``fsmctl run`` would take for the machine, relative to the scenario."""
+    import os
+
+    from fsm.model.errors import UsageError
+    from fsm.sim.world import default_world
+
+    try:
+        found = default_world(str(machine))
+    except UsageError:
+        return 'add "world": "PATH/TO/WORLD.json", relative to the scenario file'
+    world = os.path.relpath(found, base.resolve())
+    if world.split(os.sep).count("..") > 2:
+        return f'add "world": "{found}", the world fsmctl run takes for this machine'
+    return f'add "world": "{world}", the world fsmctl run takes for this machine, relative to the scenario file'

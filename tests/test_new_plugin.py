@@ -137,6 +137,10 @@ def test_validate_names_the_installed_plugin_a_palette_lacks(package: tuple[Path
     assert proc.returncode == 0, proc.stderr
     assert ("warning: this UMLet palette holds every type but those of the installed plugin(s) lab-types"
             in proc.stdout)
+    proc = _run(package, "-m", "fsm.tools.cli", "palette", "--check", "-o", palette)
+    assert proc.returncode == 1
+    assert proc.stderr == (f"{palette}: error: stale; regenerate it with `fsmctl palette -o {palette}` (it now has "
+                           "the types of the installed plugin(s) lab-types; FSM_NO_ENTRY_POINTS=1 leaves them out)\n")
 
 
 # -- bad names: refused before anything is written ---------------------------------------------------------------

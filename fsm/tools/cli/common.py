@@ -130,9 +130,13 @@ def read_checked(src: Path, registry: Any) -> tuple[dict[str, Any], list[str]]:
     return document[0], machine_files(spec) + [str(src)]
 
 
-def emit_generated(text: str, *, output: str | None, check: str | None, command: str) -> int:
+def emit_generated(text: str, *, output: str | None, check: str | None, command: str, registry: Any = None) -> int:
     """Write generated ``text`` to ``output`` (standard output for ``None`` or ``-``), or with ``check``
-    compare it with that file and exit 1 when the file is stale, naming ``command`` to regenerate it."""
+    compare it with that file and exit 1 when the file is stale, naming ``command`` to regenerate it (and the
+    installed plugins of ``registry`` whose types it now holds)."""
+    installed = sorted(set(getattr(registry, "installed_by", {}).values()))
+    why = (f" (it now has the types of the installed plugin(s) {', '.join(installed)}; FSM_NO_ENTRY_POINTS=1 "
+           "leaves them out)") if installed else ""
     if check == "-":
         raise UsageError("--check compares with a file; name it (standard output cannot be compared)")
     if check:
@@ -146,7 +150,7 @@ def emit_generated(text: str, *, output: str | None, check: str | None, command:
                 print(p, file=sys.stderr)
             return EXIT_FAIL
         if current != text:
-            print(f"{check}: error: stale; regenerate it with `{command} -o {check}`", file=sys.stderr)
+            print(f"{check}: error: stale; regenerate it with `{command} -o {check}`{why}", file=sys.stderr)
             return EXIT_FAIL
         return EXIT_OK
     from ..files import write_output

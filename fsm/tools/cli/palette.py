@@ -18,6 +18,7 @@ def register(sub: Subcommands) -> None:
 def cmd_palette(args: argparse.Namespace) -> int:
     from ..umlet.palette import palette
 
-    text = palette(registry_from(args))
+    registry = registry_from(args)
+    text = palette(registry)
     return emit_generated(text, output=args.output, check=args.output if args.check else None,
-                          command="fsmctl palette")
+                          command="fsmctl palette", registry=registry)

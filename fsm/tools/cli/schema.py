@@ -23,5 +23,6 @@ def schema_text(registry: Any) -> str:
 
 
 def cmd_schema(args: argparse.Namespace) -> int:
-    text = schema_text(registry_from(args))
-    return emit_generated(text, output=args.output, check=args.check, command="fsmctl schema")
+    registry = registry_from(args)
+    return emit_generated(schema_text(registry), output=args.output, check=args.check, command="fsmctl schema",
+                          registry=registry)

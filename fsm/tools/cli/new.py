@@ -292,12 +292,15 @@ and the transition `@CAMEL@Above` (`src/@NAME@/transitions.py`), with a machine 
 Made by `fsmctl new plugin @NAME@`. In the environment where tral-fsm is installed:
 
 ```sh
-pip install -e .                                  # the entry points make the types known to fsmctl
-mypy --strict src/@NAME@                          # the parameter models type `self.params`
+pip install -e .
+mypy --strict src/@NAME@
 fsmctl validate machines/@NAME@.json
 fsmctl test scenarios/@NAME@.scenario.json
-pytest                                            # tests/ and the scenarios
+pytest
 ```
+
+`pip install -e .` registers the entry points that make the types known to fsmctl; mypy checks `self.params`
+against the parameter models; `pytest` runs `tests/` and the scenarios.
 
 - A type is a class registered under its name (`@register_state`, `@register_transition`); a document names the
   type (`"type": "@CAMEL@Ramp"`). Its `Params` model (a subclass of `StateParams` or `TransitionParams`) lists the

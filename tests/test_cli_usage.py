@@ -187,6 +187,18 @@ def test_fsmctl_test_shows_the_failing_plugins_place_and_traceback(crash: Path) 
     assert f'File "{crash / "crash.py"}", line 5, in helper' in traced.stderr
 
 
+def test_a_scenarios_broken_plugin_shows_its_frames_when_asked(crash: Path) -> None:
+    (crash / "broken.py").write_text("import json\n\n\ndef f():\n    return 1 / 0\n\n\nf()\n")
+    (crash / "b.scenario.json").write_text(json.dumps({"machine": "m.json", "plugins": ["broken.py"],
+                                                       "duration": 1, "expect": [{"visits": ["go"]}]}))
+    plain = _cli(crash, "test", "b.scenario.json")
+    assert plain.returncode == 1 and "Traceback" not in plain.stderr
+    assert f"(it failed at {crash / 'broken.py'}:5)" in plain.stderr
+    traced = _cli(crash, "--traceback", "test", "b.scenario.json")
+    assert traced.returncode == 1
+    assert f'File "{crash / "broken.py"}", line 5, in f' in traced.stderr and "ZeroDivisionError" in traced.stderr
+
+
 def test_a_broken_plugin_import_shows_its_own_frames(crash: Path) -> None:
     (crash / "broken.py").write_text("import json\n\n\ndef f():\n    return 1 / 0\n\n\nf()\n")
     proc = _cli(crash, "--traceback", "--plugin", "broken.py", "types")

@@ -939,6 +939,10 @@ def _load_plugins(scenario: Scenario, base: Path, name: str, registry: Any) -> t
             problems.append(Problem(f"plugin '{plugin}' cannot be loaded: {reason}", name, ptr))
             continue
         except RegistrationError as exc:
+            from fsm.model.errors import print_traceback, traceback_wanted
+
+            if traceback_wanted():  # fsmctl --traceback: the plugin's own frames, before the located line
+                print_traceback(exc)
             where = [getattr(exc, "file", None), getattr(exc, "line", None)]
             problems.append(Problem(f"plugin error: {' '.join(str(exc).split())}", name, ptr,
                                     hint=f"it failed at {where[0]}:{where[1]}" if all(where) else None))

@@ -144,7 +144,7 @@ LOAD_AND_RUN = textwrap.dedent('''
     import fsm
     machine = fsm.load({"initial": "a", "states": [{"id": "a", "type": "Idle"}, {"id": "b", "type": "Final"}],
                         "transitions": [{"type": "Timeout", "from": "a", "to": "b", "seconds": 0.1}]})
-    outcome = machine.run(max_ticks=100)
+    outcome = fsm.run(machine, max_ticks=100).outcome
     spec, problems = fsm.check({"initial": "a", "states": [{"id": "a", "type": "Nope"}]})
     heavy = sorted(m for m in sys.modules if m.split(".")[0] in ("cv2", "pymunk", "lxml")
                    or m == "fsm.sim" or m.startswith("fsm.sim.") or m == "fsm.tools" or m.startswith("fsm.tools."))

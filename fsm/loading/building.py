@@ -35,7 +35,8 @@ def build(plan: MachinePlan, *, clock: Any = None, car: Any = None, context: Con
         names = ", ".join(users[:5]) + (" ..." if len(users) > 5 else "")
         raise DiagramError([Problem(f"this machine drives a car ({names}) but no car was given",
                                     plan.spec.source.name, hint="run it with `fsmctl run FILE --world WORLD`, "
-                                    "or in Python with fsm.Session.open(FILE) (it drives the simulated car)")])
+                                    "or in Python with fsm.run(FILE) (it drives the simulated car "
+                                    "in the default world)")])
     builder = _Builder()
     root = builder.region(plan.root, None)
     machine = Machine(root, name=plan.name, clock=clock, context=ctx, all_regions=builder.regions,
@@ -81,7 +82,7 @@ class _Builder:
         return region
 
     def state(self, plan: StatePlan) -> State[Any]:
-        obj = plan.cls(plan.id, plan.params)
+        obj: State[Any] = plan.cls(plan.id, plan.params)
         obj.path = plan.path
         self.states[plan.path] = obj
         self.built.append((obj, plan))
@@ -138,7 +139,7 @@ class _Builder:
 
     def transition(self, plan: TransitionPlan, states: dict[str, State[Any]]) -> Transition[Any]:
         source = states[plan.source]
-        t = plan.cls(plan.params, source, states[plan.target], plan.position)
+        t: Transition[Any] = plan.cls(plan.params, source, states[plan.target], plan.position)
         guard = plan.guard
         if not plan.conditions and guard.expression is None and guard.condition is None and plan.assign is None:
             return t

@@ -16,12 +16,8 @@ from typing import TYPE_CHECKING, Any, NamedTuple, Union
 from fsm.model.expr import Compiled, VarOp
 
 if TYPE_CHECKING:
-    from fsm.model.document import MachineSpec
+    from fsm.model.document import MachineSpec, SequenceLayout
     from fsm.model.params import ConditionParams, StateParams, TransitionParams
-    from fsm.runtime.condition import Condition
-    from fsm.runtime.state import State
-    from fsm.runtime.transition import Transition
-    from fsm.sequencer.layout import SequenceLayout
 
 #: A compiled action: what runs, given the context.
 Action = Callable[[Any], None]
@@ -55,12 +51,12 @@ NOTHING: Mapping[str, Any] = MappingProxyType({})
 class ConditionPlan(NamedTuple):
     """A condition object ready to build: its class, parameters, children and compiled expressions."""
 
-    cls: type[Condition[Any]]
+    cls: type[Any]  #: a registered Condition class (the model names no runtime class)
     params: ConditionParams
     children: tuple[ConditionPlan, ...] = ()
     exprs: Mapping[str, Compiled] = NOTHING
 
-    def build(self) -> Condition[Any]:
+    def build(self) -> Any:
         """A fresh instance (each user gets its own: conditions keep state)."""
         return self.cls(self.params, [c.build() for c in self.children], dict(self.exprs))
 
@@ -80,7 +76,7 @@ class TransitionPlan(NamedTuple):
     """One transition: its type and parameters, its endpoints (ids in its level), its document guard and ``set``,
     and the condition objects of its type's condition parameters."""
 
-    cls: type[Transition[Any]]
+    cls: type[Any]  #: a registered Transition class
     params: TransitionParams
     source: str
     target: str
@@ -133,7 +129,7 @@ class StatePlan(NamedTuple):
     """One state: its type, parameters, path, hooks, supervision, regions and outgoing transitions (ordered:
     preemptive first as the region checks them, then the regular ones, by priority and declaration)."""
 
-    cls: type[State[Any]]
+    cls: type[Any]  #: a registered State class
     params: StateParams
     id: str
     path: str

@@ -82,9 +82,9 @@ class PauseListener(Listener, Protocol):
 L = TypeVar("L", bound=Listener)
 
 
-#: What ``Machine.run`` stops after when given neither ``max_ticks`` nor ``duration`` (machine time, seconds).
+#: What ``fsm.run`` stops after when given neither ``max_ticks`` nor ``duration`` (machine time, seconds).
 DEFAULT_RUN_DURATION = DEFAULT_DURATION
-#: ``Machine.run`` refuses a duration of more ticks than this (1e308 s would never end).
+#: ``fsm.run`` refuses a duration of more ticks than this (1e308 s would never end).
 MAX_RUN_TICKS = 10**12
 
 

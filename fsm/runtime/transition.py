@@ -29,7 +29,8 @@ class Transition(Generic[P]):
     ``action`` runs while firing, between the source's exit and the target's entry.
 
     A document may add a ``guard`` (an expression or a condition, checked before ``check``: both must hold)
-    and a ``set`` (assignments run after ``action``); the build stage applies them with :meth:`apply_plan`.
+    and a ``set`` (assignments run after ``action``); the build stage applies them with
+    :meth:`apply_guard`, :meth:`apply_conditions` and :meth:`apply_set`.
     How the region decides and fires is explicit: ``kind`` (always, an inline ``variable OP constant``
     comparison, or a call of ``test``) and ``effect`` (nothing, an inline counter, or a call of ``run``).
     """

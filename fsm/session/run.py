@@ -53,22 +53,27 @@ def run(source: RunSource, *, world: str | os.PathLike[str] | None = None, car: 
     It stops when the machine finishes, ``until(session)`` is true, or at the first of ``duration`` seconds of
     machine time and ``max_ticks`` ticks (``stop``: the same as one :class:`~fsm.session.session.StopRules`);
     without any, after 600 s of machine time, as ``fsmctl run``. ``outputs`` are listeners that see the run (a
-    :class:`~fsm.trace.recorder.Recorder` writes its trace). ``world`` (a world file) runs it on the simulated car,
-    with sensor noise from ``seed``; ``car`` on a car of your own (anything with the car interface,
-    ``fsm.sim.io.CarIO``). Raises :class:`~fsm.model.errors.DiagramError` for a document with errors, ``TypeError``
-    or ``ValueError`` for a wrong argument, naming it.
+    :class:`~fsm.trace.recorder.Recorder` writes its trace, ended by its ``end`` line). ``world`` (a world file)
+    runs it on the simulated car, with sensor noise from ``seed``; ``car`` on a car of your own (anything with the
+    car interface, ``fsm.sim.io.CarIO``). Raises :class:`~fsm.model.errors.DiagramError` for a document with
+    errors, ``TypeError`` or ``ValueError`` for a wrong argument, naming it.
     """
+    if until is not None and not callable(until):
+        raise TypeError(f"until must be a function of the session returning a bool, or None; got {shown_value(until)}")
     rules = stop_rules(stop, duration, max_ticks, source.dt if isinstance(source, Machine) else dt)
     session = open_session(source, world=world, car=car, stop=rules,
                            registry=registry, plugins=plugins, variables=variables, dt=dt, seed=seed)
-    if until is not None and not callable(until):
-        raise TypeError(f"until must be a function of the session returning a bool, or None; got {shown_value(until)}")
     for output in outputs:
         if isinstance(output, Recorder):
             session.record(output)
         else:
             session.add_listener(output)
-    return session.run(until=until)
+    result = session.run(until=until)
+    error = result.error
+    session.finish(**({} if error is None else {"error": {
+        "state": error.path, "phase": error.phase, "tick": error.tick, "time": error.time,
+        "message": f"{type(error.cause).__name__}: {error.cause}"}}))
+    return result
 
 
 def open_session(source: RunSource, *, world: str | os.PathLike[str] | None = None, car: object | None = None,

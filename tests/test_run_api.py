@@ -104,3 +104,26 @@ def test_every_hint_that_names_a_call_works_as_written(tmp_path: Path, capsys: p
         argv = [str(path) if a == "FILE" else str(WORLD) if a == "WORLD" else a for a in shlex.split(command)]
         assert main(argv[1:]) == 0, command
     assert "succeeded" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("extra", [[], ["--set", "a.seconds=0.2"]])
+def test_fsmctl_run_checks_the_document_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                             capsys: pytest.CaptureFixture[str], extra: list[str]) -> None:
+    """Read, parsed and checked once; compiled from that check (a ``--set`` override makes a new document, which is
+    checked once more)."""
+    import fsm.loading.loader as loader
+
+    calls: list[object] = []
+    real = loader.check_spec
+
+    def counting(spec: Any, problems: Any) -> Any:
+        calls.append(spec)
+        return real(spec, problems)
+
+    monkeypatch.setattr(loader, "check_spec", counting)
+    path = write(tmp_path, {"initial": "a", "states": [{"id": "a", "type": "Wait", "seconds": 0.5},
+                                                      {"id": "b", "type": "Final"}],
+                            "transitions": [{"type": "Finished", "from": "a", "to": "b"}]})
+    assert main(["run", str(path), "--duration", "1", *extra]) == 0
+    assert "succeeded" in capsys.readouterr().out
+    assert len(calls) == (2 if extra else 1)

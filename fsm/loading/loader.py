@@ -122,6 +122,13 @@ def collection_paused() -> Iterator[None]:
                 gc.enable()
 
 
+def compile_checked(spec: MachineSpec, analysis: Analysis) -> MachinePlan:
+    """The plan of a spec :func:`analyse` found without errors, from its analysis: the document is not checked a
+    second time (``fsmctl run`` checks once, then compiles)."""
+    with collection_paused():
+        return compile_machine(spec, analysis)
+
+
 def _plugins(plugins: Any) -> tuple[str, ...]:
     """``plugins`` as a tuple of module names (a lone string would be read letter by letter)."""
     if isinstance(plugins, str):

@@ -6,7 +6,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
 
 from fsm.model.expr import VarOp
-from fsm.model.params import TransitionParams
+from fsm.model.params import TransitionParams, generic_params
 from fsm.model.plan import ActionKind, GuardKind
 
 if TYPE_CHECKING:
@@ -38,7 +38,10 @@ class Transition(Generic[P]):
     __slots__ = ("params", "source", "target", "index", "kind", "compare", "test", "effect", "counter", "run",
                  "assign", "conditions", "arm")
 
+    #: The parameters' model: the generic argument (``class Near(Transition[NearParams])``) unless declared.
     Params: ClassVar[type[TransitionParams]] = TransitionParams
+    #: The generic argument the class (or its nearest base that names one) gives; ``Params`` must agree with it.
+    params_argument: ClassVar[type[TransitionParams] | None] = None
     #: True for transitions that fire whenever checked (``Always``); the runtime then skips ``check``.
     unconditional: ClassVar[bool] = False
     #: True when the transition fires only on a finished source (the loader checks that it can finish).
@@ -62,6 +65,11 @@ class Transition(Generic[P]):
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
+        derived = generic_params(cls, TransitionParams)
+        if derived is not None:
+            cls.params_argument = derived
+            if "Params" not in cls.__dict__:
+                cls.Params = derived
         cls._overrides_action = cls.action is not Transition.action
         cls._overrides_source_enter = cls.on_source_enter is not Transition.on_source_enter
         cls.binds_references = cls.bind is not Transition.bind

@@ -184,3 +184,13 @@ def generic_params(cls: type, base: type[ParamsT]) -> type[ParamsT] | None:
             if isinstance(arg, type) and issubclass(arg, base):
                 return arg
     return None
+
+
+def adopt_generic_params(cls: type, base: type[ParamsBase]) -> None:
+    """Called by a plugin base's ``__init_subclass__``: the generic argument ``cls`` names (:func:`generic_params`)
+    becomes its ``params_argument`` and, unless the class declares ``Params`` itself, its ``Params``."""
+    derived = generic_params(cls, base)
+    if derived is not None:
+        setattr(cls, "params_argument", derived)  # noqa: B010  # a ClassVar of the plugin bases, not of type
+        if "Params" not in cls.__dict__:
+            setattr(cls, "Params", derived)  # noqa: B010

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
 
-from fsm.model.params import ConditionParams, generic_params
+from fsm.model.params import ConditionParams, adopt_generic_params
 
 if TYPE_CHECKING:
     from fsm.model.expr import Compiled
@@ -44,11 +44,7 @@ class Condition(Generic[P]):
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
-        derived = generic_params(cls, ConditionParams)
-        if derived is not None:
-            cls.params_argument = derived
-            if "Params" not in cls.__dict__:
-                cls.Params = derived
+        adopt_generic_params(cls, ConditionParams)
 
     def __init__(self, params: P, children: list[Condition[Any]] | None = None,
                  exprs: dict[str, Compiled] | None = None) -> None:

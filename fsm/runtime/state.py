@@ -6,7 +6,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, ClassVar, Generic, NamedTuple, TypeVar, cast
 
 from fsm.model.errors import StateRuntimeError
-from fsm.model.params import StateParams, generic_params
+from fsm.model.params import StateParams, adopt_generic_params
 
 if TYPE_CHECKING:
     from fsm.runtime.condition import Condition
@@ -105,11 +105,7 @@ class State(Generic[P]):
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
-        derived = generic_params(cls, StateParams)
-        if derived is not None:
-            cls.params_argument = derived
-            if "Params" not in cls.__dict__:
-                cls.Params = derived
+        adopt_generic_params(cls, StateParams)
         cls._overrides_enter = cls.on_enter is not State.on_enter
         cls._overrides_exit = cls.on_exit is not State.on_exit
         cls._overrides_tick = cls.tick is not State.tick

@@ -6,7 +6,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
 
 from fsm.model.expr import VarOp
-from fsm.model.params import TransitionParams, generic_params
+from fsm.model.params import TransitionParams, adopt_generic_params
 from fsm.model.plan import ActionKind, GuardKind
 
 if TYPE_CHECKING:
@@ -65,11 +65,7 @@ class Transition(Generic[P]):
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
-        derived = generic_params(cls, TransitionParams)
-        if derived is not None:
-            cls.params_argument = derived
-            if "Params" not in cls.__dict__:
-                cls.Params = derived
+        adopt_generic_params(cls, TransitionParams)
         cls._overrides_action = cls.action is not Transition.action
         cls._overrides_source_enter = cls.on_source_enter is not Transition.on_source_enter
         cls.binds_references = cls.bind is not Transition.bind

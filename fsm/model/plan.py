@@ -62,7 +62,7 @@ class ConditionPlan(NamedTuple):
 
 
 #: A compiled condition of a state (precondition, exit condition, monitor): an expression or a condition object.
-Check = Union[Compiled, ConditionPlan]
+Predicate = Union[Compiled, ConditionPlan]
 
 
 class GuardPlan(NamedTuple):
@@ -103,7 +103,7 @@ class TransitionPlan(NamedTuple):
 class MonitorPlan(NamedTuple):
     """A monitor of a state, or its timeout (``condition`` None: the supervisor's clock decides)."""
 
-    condition: Check | None
+    condition: Predicate | None
     behavior: str
     exception: str | None
     label: str
@@ -113,8 +113,8 @@ class MonitorPlan(NamedTuple):
 class SupervisionPlan(NamedTuple):
     """A state's step-common keys, compiled: precondition, exit condition, monitors (the timeout first)."""
 
-    precondition: Check | None = None
-    until: Check | None = None
+    precondition: Predicate | None = None
+    until: Predicate | None = None
     monitors: tuple[MonitorPlan, ...] = ()
     #: seconds, or an expression read each time the state is entered
     timeout: float | Compiled | None = None
@@ -144,7 +144,7 @@ class StatePlan(NamedTuple):
     #: ``set.on_complete``, compiled: run when the state is left after it finished by itself
     on_complete: Action | None = None
     #: the type's condition parameters (``Sequence.repeat_while``), compiled
-    checks: Mapping[str, Check] = NOTHING
+    checks: Mapping[str, Predicate] = NOTHING
 
 
 class RegionPlan(NamedTuple):
@@ -187,5 +187,5 @@ class MachinePlan(NamedTuple):
         return out
 
 
-__all__ = ["Action", "ActionKind", "Check", "ConditionPlan", "GuardKind", "GuardPlan", "MachinePlan",
+__all__ = ["Action", "ActionKind", "Predicate", "ConditionPlan", "GuardKind", "GuardPlan", "MachinePlan",
            "MonitorPlan", "RegionPlan", "StatePlan", "SupervisionPlan", "TransitionPlan"]

@@ -76,8 +76,10 @@ def test_a_source_of_another_kind_is_refused() -> None:
 
 def test_a_document_with_errors_raises_with_every_problem() -> None:
     with pytest.raises(fsm.DiagramError) as caught:
-        fsm.run('{"initial": "a", "states": [{"id": "a", "type": "Nope"}]}')
+        fsm.run('{"initial": "a",\n "states": [{"id": "a", "type": "Nope"}]}')
     assert "unknown state type 'Nope'" in str(caught.value)
+    problem = caught.value.problems[0]
+    assert (problem.file, problem.line, problem.column) == ("<text>.json", 2, 25)  # located in the text
 
 
 def test_a_machine_that_drives_runs_on_the_simulated_car(tmp_path: Path) -> None:

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Union
 
 from fsm.loading.building import build
 from fsm.loading.loader import compile as compile_plan
-from fsm.loading.reading import parse_json_bytes
+from fsm.loading.reading import preloaded
 from fsm.model.document import MachineSpec
 from fsm.model.errors import UsageError
 from fsm.model.plan import MachinePlan
@@ -39,6 +39,8 @@ if TYPE_CHECKING:
 
 #: What :func:`run` and :func:`open_session` start from: a path, JSON text, a document dict, a spec, a plan, a machine.
 RunSource = Union[str, "os.PathLike[str]", Mapping[str, object], MachineSpec, MachinePlan, Machine]
+#: The name JSON text given as the source goes by in problems (``<text>.json:3:12: error: ...``).
+TEXT_NAME = "<text>.json"
 #: The entry-point group that names the simulator (``sim = "fsm.sim:simulate"``).
 SIMULATORS = "fsm.simulators"
 
@@ -103,8 +105,8 @@ def plan_of(source: str | os.PathLike[str] | Mapping[str, object] | MachineSpec 
     if isinstance(source, MachinePlan):
         return source
     if isinstance(source, str) and source.lstrip().startswith("{"):
-        document, _source = parse_json_bytes(source.encode("utf-8"), "<text>")
-        return compile_plan(document, registry=registry, plugins=plugins)
+        with preloaded({TEXT_NAME: source.encode("utf-8")}):  # read as a file is: problems get line:column
+            return compile_plan(TEXT_NAME, registry=registry, plugins=plugins)
     if not isinstance(source, (str, os.PathLike, Mapping, MachineSpec)):
         raise TypeError(f"source must be a path, JSON text, a document dict, a spec, a plan or a machine; "
                         f"got {shown_value(source)}")

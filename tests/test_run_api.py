@@ -129,3 +129,21 @@ def test_fsmctl_run_checks_the_document_once(tmp_path: Path, monkeypatch: pytest
     assert main(["run", str(path), "--duration", "1", *extra]) == 0
     assert "succeeded" in capsys.readouterr().out
     assert len(calls) == (2 if extra else 1)
+
+
+def test_the_hint_of_a_registry_without_the_chain_link_works_as_written() -> None:
+    """A sequence of several steps in a registry without ``Finished``: the hint's call makes a registry that loads
+    it."""
+    builtins = fsm.Registry.with_builtins()
+    registry = fsm.Registry()
+    for name in ("Sequence", "Wait"):
+        registry.add_state(builtins.states[name], name)
+    doc = {"initial": "s", "states": [{"id": "s", "type": "Sequence", "steps": [
+        {"id": "a", "type": "Wait", "seconds": 0.1}, {"id": "b", "type": "Wait", "seconds": 0.1}]}]}
+    with pytest.raises(fsm.DiagramError) as caught:
+        fsm.load(doc, registry=registry)
+    hint = caught.value.problems[0].hint or ""
+    calls = re.findall(r"fsm\.[\w.]+\([^)]*\)", hint)
+    assert calls == ["fsm.Registry.with_builtins()"], hint
+    made = eval(calls[0], {"fsm": fsm})  # the hint, run as written
+    assert fsm.run(doc, registry=made).outcome == "succeeded"

@@ -452,11 +452,11 @@ def test_nested_pauses_freeze_time_once(registry):
 
 
 def test_pause_requested_during_a_tick_stops_the_paused_state_from_leaving(registry):
-    # Was a bug (fixed): a step pauses its sequence (its region's owner) from its tick. The owner's Region.step checked
+    # Was a bug (fixed): a step pauses its sequence (its region's owner) from its tick. The owner's Region.tick checked
     # `paused` before ticking, so after the tick it still checks the owner's regular transitions and
     # fires Always a->b: the "paused" subtree is exited in the very tick it was paused (docs/semantics.md: a
     # paused subtree has no exit/enter), and the exit silently clears the pause.
-    # Responsible: fsm/runtime/region.py Region.step; re-check `state.paused` after `state._tick(ctx)` and return.
+    # Responsible: fsm/runtime/region.py Region.tick; re-check `state.paused` after `state._tick(ctx)` and return.
     inner = doc("x", [{"id": "x", "type": "PauseMyOwner"}])
     m = fsm.load(doc("a", [fsmstate("a", inner), spy("b")], [tr("Always", "a", "b")]), registry=registry)
     m.tick()
@@ -692,7 +692,7 @@ def test_exception_in_a_transition_action_is_reported_as_action(registry):
     # Was a bug (fixed): StateRuntimeError's docstring promises the phase names on_enter, tick, on_exit, check,
     # action; an action that raises is reported as phase "firing of transition Gate a -> b", which does
     # not say that the action failed (on_source_enter hooks and listeners land in the same bucket).
-    # Responsible: fsm/runtime/region.py Region.step/fire: set phase = "action" around `tr._action(ctx)`.
+    # Responsible: fsm/runtime/region.py Region.tick/fire: set phase = "action" around `tr._action(ctx)`.
     m = fsm.load(doc("a", [spy("a"), spy("b")], [tr("Gate", "a", "b", fail_in="action")]), registry=registry)
     m.ctx.vars["go"] = True
     with pytest.raises(StateRuntimeError) as info:

@@ -75,7 +75,7 @@ class Composite(State[P]):
 
     def tick(self, ctx: Context) -> None:
         for region in self.regions:
-            region.step(ctx)
+            region.tick(ctx)
         if not self.finished:
             self._join()
 
@@ -88,7 +88,7 @@ class Composite(State[P]):
 
     def _tick_one(self, ctx: Context) -> None:
         region = self.regions[0]
-        region.step(ctx)
+        region.tick(ctx)
         if not self.finished:
             active = region.active
             if active.is_final:

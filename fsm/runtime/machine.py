@@ -159,7 +159,7 @@ class Machine:
         if self._toggles:
             self._check_toggles(ctx)
         try:
-            self.root.step(ctx)
+            self.root.tick(ctx)
         except StateRuntimeError:
             self._emergency_stop()
             raise

@@ -143,7 +143,7 @@ class Sequence(Composite[SequenceParams]):
     def tick(self, ctx: Context) -> None:
         epoch = self.epoch
         for region in self.regions:
-            region.step(ctx)
+            region.tick(ctx)
             if self.epoch != epoch or self.finished:
                 return  # restarted or aborted from inside
             if region is not self.chain and region.active.finished:

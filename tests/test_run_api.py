@@ -89,6 +89,15 @@ def test_a_machine_that_drives_runs_on_the_simulated_car(tmp_path: Path) -> None
     assert fsm.run(path, world=WORLD).outcome == "succeeded"
 
 
+def test_a_machine_that_drives_runs_on_a_car_of_your_own() -> None:
+    from fsm.sim.fake import FakeCar
+
+    car = FakeCar()
+    result = fsm.run(DRIVES, car=car)
+    assert (result.outcome, result.stopped) == ("succeeded", "finished")
+    assert car.speed_command > 0  # the wall follower drove it
+
+
 def test_every_hint_that_names_a_call_works_as_written(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """The "no car was given" error of a machine that drives, loaded without a car: each call its hint names
     (in Python and on the command line) runs the machine, with FILE and WORLD as the user would fill them in."""

@@ -80,7 +80,7 @@ class Battery(fsm.Listener):
 def main() -> None:
     machine = fsm.load(MACHINE)
     machine.add_listener(Battery())
-    outcome = machine.run(duration=5.0)
+    outcome = fsm.run(machine, duration=5.0).outcome
     ctx = machine.ctx
     print(f"outcome: {outcome}")
     print(f"docked at t={ctx.vars['low_at']:.4f} s (tick {ctx.tick}), battery {ctx.vars['battery']:.2f} V")

@@ -61,7 +61,7 @@ def main() -> None:
     machine.add_listener(watcher)
     machine.schedule_signal("start", 0.5)
     machine.schedule_signal("gripped", 3.0)
-    outcome = machine.run(duration=30.0)
+    outcome = fsm.run(machine, duration=30.0).outcome
     watcher.close(machine.ctx.now)
     print(f"outcome: {outcome} at {machine.ctx.now:.3f} s")
     print("dwell time per state:")

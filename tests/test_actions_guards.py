@@ -32,7 +32,7 @@ def test_order_exit_then_transition_set_then_entry() -> None:
         [{"id": "a", "type": "Idle", "set": {"on_exit": {"log": "log + 'x'"}}},
          {"id": "b", "type": "Idle", "set": {"on_enter": {"log": "log + 'e'"}}}],
         [{"type": "Always", "from": "a", "to": "b", "set": {"log": "log + 't'"}}], log="")
-    m.run(max_ticks=1)
+    fsm.run(m, max_ticks=1)
     assert m.ctx.vars["log"] == "xte"
 
 
@@ -56,7 +56,7 @@ def test_set_around_the_state_hooks() -> None:
                   "states": [{"id": "p", "type": "Probe", "set": {"on_enter": {"n": 1}, "on_exit": {"n": "n * 10"}}},
                              {"id": "q", "type": "Final"}],
                   "transitions": [{"type": "Always", "from": "p", "to": "q"}]}, registry=registry)
-    m.run(max_ticks=2)
+    fsm.run(m, max_ticks=2)
     assert seen == [("enter", 1), ("exit", 1)] and m.ctx.vars["n"] == 10
 
 
@@ -73,11 +73,11 @@ def test_false_guard_blocks_and_priority_order_with_guards() -> None:
         [{"type": "Always", "from": "a", "to": "lo"},
          {"type": "Always", "from": "a", "to": "hi", "priority": 2, "guard": "n > 5"},
          {"type": "Always", "from": "a", "to": "mid", "priority": 1, "guard": "n > 0"}], n=0)
-    assert m.run(max_ticks=3) == "lo"
+    assert fsm.run(m, max_ticks=3).outcome == "lo"
     m = machine(*_three(), n=3)
-    assert m.run(max_ticks=3) == "mid"
+    assert fsm.run(m, max_ticks=3).outcome == "mid"
     m = machine(*_three(), n=9)
-    assert m.run(max_ticks=3) == "hi"
+    assert fsm.run(m, max_ticks=3).outcome == "hi"
 
 
 def _three() -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
@@ -92,13 +92,13 @@ def test_guard_and_the_type_must_both_hold() -> None:
     m = machine([{"id": "a", "type": "Idle"}, {"id": "b", "type": "Final"}],
                 [{"type": "Signal", "from": "a", "to": "b", "signal": "go", "guard": "armed"}], armed=False)
     m.schedule_signal("go", 0.1)
-    m.run(max_ticks=20)
+    fsm.run(m, max_ticks=20)
     assert not m.finished  # the edge came while not armed
     m.ctx.vars["armed"] = True
     m.ctx.set_signal("go", False)
-    m.run(max_ticks=2)
+    fsm.run(m, max_ticks=2)
     m.ctx.set_signal("go", True)
-    m.run(max_ticks=2)
+    fsm.run(m, max_ticks=2)
     assert m.finished
 
 
@@ -107,7 +107,7 @@ def test_guard_as_condition_object() -> None:
                 [{"type": "Always", "from": "a", "to": "b",
                   "guard": {"type": "All", "conditions": [{"type": "TimeSince", "seconds": 0.5},
                                                           {"type": "Expr", "expr": "n == 1"}]}}], n=1)
-    m.run(max_ticks=100)
+    fsm.run(m, max_ticks=100)
     assert m.finished and m.now == pytest.approx(0.5)
 
 
@@ -116,7 +116,7 @@ def test_counter_loop_and_preemptive_guard() -> None:
                  {"id": "done", "type": "Final"}],
                 [{"type": "Always", "from": "count", "to": "done", "preempt": True, "guard": "n >= 5"},
                  {"type": "Always", "from": "count", "to": "count"}], n=0)
-    m.run(max_ticks=50)
+    fsm.run(m, max_ticks=50)
     assert m.finished and m.ctx.vars["n"] == 5
 
 
@@ -130,7 +130,7 @@ def test_trace_has_vars_where_they_changed_and_summary_has_final_values() -> Non
     m.start()
     rec.flush(m)
     m.ctx.vars["k"] = 2  # a change made by a state's code between ticks is seen at the next tick's line
-    m.run(max_ticks=10)
+    fsm.run(m, max_ticks=10)
     lines = trace_events(out.getvalue())
     assert lines[0]["vars"] == {"n": 0, "flag": False, "k": 1}
     assert lines[1]["tick"] == 1 and lines[1]["vars"] == {"k": 2} and lines[1]["transitions"] == []
@@ -164,7 +164,7 @@ def test_inline_guard_and_counter_agree_with_their_closures(op: str) -> None:
             tr = m.root.states["a"].regular[0]
             assert tr.kind is GuardKind.COMPARE and tr.effect is ActionKind.COUNTER, "the inline paths are not taken"
             assert tr.test is not None
-            m.run(max_ticks=1)
+            fsm.run(m, max_ticks=1)
             fires = bool(tr.test(m.ctx))
             assert (m.active_path == "b") == fires, (text, n)
             assert m.ctx.vars["k"] == (n * 3 if fires else 0), (text, n)
@@ -177,14 +177,14 @@ def test_inline_guard_keeps_the_kind_check_and_an_added_action_ends_the_inline_c
                 [{"type": "Always", "from": "a", "to": "b", "guard": "n >= 0", "set": {"k": "n + 1"}}], n=0, k=0)
     m.ctx.vars["n"] = True  # a bool is no number, though Python would compare it
     with pytest.raises(StateRuntimeError, match="holds True"):
-        m.run(max_ticks=1)
+        fsm.run(m, max_ticks=1)
     m = machine([{"id": "a", "type": "Idle"}, {"id": "b", "type": "Idle"}],
                 [{"type": "Always", "from": "a", "to": "b", "set": {"k": "n + 1"}}], n=0, k=0)
     tr = m.root.states["a"].regular[0]
     seen: list[int] = []
     tr.then(lambda ctx: seen.append(ctx.vars["k"]))
     assert tr.counter is None
-    m.run(max_ticks=1)
+    fsm.run(m, max_ticks=1)
     assert seen == [1] and m.ctx.vars["k"] == 1
 
 

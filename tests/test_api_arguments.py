@@ -44,31 +44,31 @@ def machine() -> fsm.Machine:
 def test_run_refuses_bad_arguments_before_running(kwargs: dict[str, Any], error: type, words: str) -> None:
     m = machine()
     with pytest.raises(error, match=words):
-        m.run(**kwargs)
+        fsm.run(m, **kwargs)
     assert not m.started and m.ticks == 0
 
 
 def test_run_accepts_good_limits() -> None:
     m = machine()
-    assert m.run(max_ticks=0) is None and m.ticks == 0
-    assert m.run(duration=0.05) is None and m.ticks == 4
-    assert m.run(max_ticks=3, duration=10) is None and m.ticks == 7
+    assert fsm.run(m, max_ticks=0).outcome is None and m.ticks == 0
+    assert fsm.run(m, duration=0.05).outcome is None and m.ticks == 4
+    assert fsm.run(m, max_ticks=3, duration=10).outcome is None and m.ticks == 7
 
 
 def test_run_without_a_limit_stops_at_the_default_duration() -> None:
     """A machine that can never finish returns after 600 s of machine time, like fsmctl run."""
     m = machine()
-    assert m.run() is None
+    assert fsm.run(m).outcome is None
     assert not m.finished
     assert m.now == pytest.approx(DEFAULT_RUN_DURATION)
     m2 = machine()
     m2.schedule_signal("go", 1.0)
-    assert m2.run() == "succeeded" and m2.now == pytest.approx(1.0)
+    assert fsm.run(m2).outcome == "succeeded" and m2.now == pytest.approx(1.0)
 
 
 def test_until_alone_still_has_the_default_limit() -> None:
     m = machine()
-    assert m.run(until=lambda _m: False) is None
+    assert fsm.run(m, until=lambda _m: False).outcome is None
     assert m.now == pytest.approx(DEFAULT_RUN_DURATION)
 
 
@@ -99,7 +99,7 @@ def test_schedule_signal_refuses_bad_arguments(args: tuple[Any, ...], error: typ
 def test_schedule_signal_accepts_bools_and_0_1(value: Any) -> None:
     m = machine()
     m.schedule_signal("go", 0, value)
-    m.run(max_ticks=2)
+    fsm.run(m, max_ticks=2)
     assert m.finished is bool(value)
 
 
@@ -151,7 +151,7 @@ def test_add_listener_refuses_what_is_not_a_listener(listener: Any) -> None:
     with pytest.raises(TypeError, match="listener"):
         m.add_listener(listener)
     assert m.listeners == []
-    m.run(max_ticks=2)  # and the machine still runs
+    fsm.run(m, max_ticks=2)  # and the machine still runs
 
 
 def test_listeners_that_have_both_methods_are_accepted_and_removable() -> None:
@@ -163,9 +163,9 @@ def test_listeners_that_have_both_methods_are_accepted_and_removable() -> None:
             seen.append(machine.ticks)
 
     listener = m.add_listener(Ticks())
-    m.run(max_ticks=2)
+    fsm.run(m, max_ticks=2)
     m.remove_listener(listener)
-    m.run(max_ticks=2)
+    fsm.run(m, max_ticks=2)
     assert seen == [1, 2]
     with pytest.raises(ValueError, match="not a listener"):
         m.remove_listener(listener)
@@ -213,7 +213,7 @@ def test_states_cannot_move_the_clock(kind: str) -> None:
 @pytest.mark.parametrize("name", ["now", "dt", "tick"])
 def test_context_time_is_read_only(name: str) -> None:
     m = machine()
-    m.run(max_ticks=3)
+    fsm.run(m, max_ticks=3)
     with pytest.raises(AttributeError, match="read-only"):
         setattr(m.ctx, name, 1)
     assert (m.ctx.now, m.ctx.tick, m.ctx.dt) == (pytest.approx(0.0375), 3, pytest.approx(0.0125))
@@ -239,7 +239,7 @@ def test_random_run_arguments(until: Any, max_ticks: Any, duration: Any) -> None
         duration = 10.0
     m = machine()
     try:
-        m.run(until=until, max_ticks=max_ticks, duration=duration)
+        fsm.run(m, until=until, max_ticks=max_ticks, duration=duration)
     except (TypeError, ValueError) as exc:
         assert str(exc)
     else:
@@ -261,4 +261,4 @@ def test_random_signal_and_pause_arguments(name: Any, at: Any, value: Any, path:
             call(path)
         except (TypeError, ValueError, KeyError):
             pass
-    m.run(max_ticks=3)
+    fsm.run(m, max_ticks=3)

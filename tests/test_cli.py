@@ -675,7 +675,7 @@ def test_a_document_can_use_a_type_of_its_own_registry() -> None:
 
     registry.add_state(Lamp)
     machine = fsm.load({"initial": "l", "states": [{"id": "l", "type": "Lamp", "watts": 7.5}]}, registry=registry)
-    machine.run(max_ticks=3)
+    fsm.run(machine, max_ticks=3)
     assert machine.active_path == "l"
     with pytest.raises(fsm.DiagramError, match="unknown state type 'Lamp'"):
         fsm.load({"initial": "l", "states": [{"id": "l", "type": "Lamp"}]})  # not in the default registry

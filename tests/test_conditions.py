@@ -49,7 +49,7 @@ def test_bouncing_presses_in_rapid_succession(debounce: float, expected: int) ->
     m = counter({"type": "SignalEdge", "signal": "button", "debounce": debounce})
     for at in (0.1, 0.35, 0.6):
         press(m, at, hold=0.06)
-    m.run(duration=1.5)
+    fsm.run(m, duration=1.5)
     assert m.ctx.vars["n"] == expected
 
 
@@ -57,13 +57,13 @@ def test_debounced_falling_edge_and_levels() -> None:
     m = counter({"type": "SignalEdge", "signal": "button", "edge": "falling", "debounce": 0.03})
     for at in (0.1, 0.35, 0.6):
         press(m, at, hold=0.06)
-    m.run(duration=1.5)
+    fsm.run(m, duration=1.5)
     assert m.ctx.vars["n"] == 3
     high = fsm.load({"initial": "a", "states": [{"id": "a", "type": "Idle"}, {"id": "b", "type": "Final"}],
                      "transitions": [{"type": "Condition", "from": "a", "to": "b", "condition":
                                       {"type": "SignalHigh", "signal": "button", "debounce": 0.05}}]}, registry=REG)
     press(high, 0.1, hold=0.2)
-    high.run(duration=2)
+    fsm.run(high, duration=2)
     # the last bounce closes at 0.1 + 6 dt = 0.175; stable for 0.05 s from then: fires at 0.225
     assert high.finished and high.now == pytest.approx(0.225)
 
@@ -72,10 +72,10 @@ def test_a_short_glitch_never_counts() -> None:
     m = counter({"type": "SignalHigh", "signal": "button", "debounce": 0.05})
     m.schedule_signal("button", 0.1, True)
     m.schedule_signal("button", 0.1375, False)  # 37.5 ms high: a glitch
-    m.run(duration=1)
+    fsm.run(m, duration=1)
     assert m.ctx.vars["n"] == 0
     low = counter({"type": "SignalLow", "signal": "button", "debounce": 0.05})
-    low.run(max_ticks=1)
+    fsm.run(low, max_ticks=1)
     assert low.ctx.vars["n"] == 1  # low from the start (never set counts as low)
 
 
@@ -85,7 +85,7 @@ def test_all_any_not() -> None:
                       "states": [{"id": "a", "type": "Idle"}, {"id": "b", "type": "Final"}],
                       "transitions": [{"type": "Condition", "from": "a", "to": "b", "condition": cond}]},
                      registry=REG)
-        m.run(max_ticks=2)
+        fsm.run(m, max_ticks=2)
         return m.finished
 
     x = {"type": "Expr", "expr": "x > 0"}
@@ -102,12 +102,12 @@ def test_time_since_excludes_pause() -> None:
     m = fsm.load({"initial": "a", "states": [{"id": "a", "type": "Idle"}, {"id": "b", "type": "Final"}],
                   "transitions": [{"type": "Condition", "from": "a", "to": "b",
                                    "condition": {"type": "TimeSince", "seconds": 1.0}}]}, registry=REG)
-    m.run(duration=0.5)
+    fsm.run(m, duration=0.5)
     m.pause("a")
-    m.run(duration=2.0)
+    fsm.run(m, duration=2.0)
     assert not m.finished
     m.resume("a")
-    m.run(duration=2.0)
+    fsm.run(m, duration=2.0)
     assert m.finished and m.now == pytest.approx(3.0)
 
 
@@ -118,7 +118,7 @@ def test_time_since_a_signal() -> None:
                  registry=REG)
     m.schedule_signal("go", 1.0)
     m.schedule_signal("go", 1.1, False)
-    m.run(duration=3)
+    fsm.run(m, duration=3)
     assert m.finished and m.now == pytest.approx(1.5)
 
 
@@ -132,7 +132,7 @@ def test_in_state_syncs_parallel_regions() -> None:
         {"id": "p", "type": "Parallel", "regions": [{"name": "one", **region}, other]},
         {"id": "end", "type": "Final"}], "transitions": [{"type": "Finished", "from": "p", "to": "end"}]},
         registry=REG)
-    m.run(duration=2)
+    fsm.run(m, duration=2)
     # region "other" is ticked after "one" in the same tick: it sees one/f at once, and the join follows
     assert m.finished and m.now == pytest.approx(0.25)
 
@@ -163,7 +163,7 @@ def test_a_condition_type_of_ones_own() -> None:
                                                                 {"id": "b", "type": "Final"}],
                   "transitions": [{"type": "Always", "from": "a", "to": "b",
                                    "guard": {"type": "Above", "var": "t", "limit": 3}}]}, registry=registry)
-    m.run(max_ticks=2)
+    fsm.run(m, max_ticks=2)
     assert m.finished
     registry.add_condition(Above)  # the same class again: one registration
     assert registry.conditions["Above"] is Above

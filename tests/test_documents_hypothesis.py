@@ -117,7 +117,7 @@ def test_the_base_documents_are_valid_and_run() -> None:
         _spec, problems = fsm.check(copy.deepcopy(doc))
         assert [p for p in problems if p.severity == "error"] == [], name
         machine = fsm.load(copy.deepcopy(doc))
-        machine.run(max_ticks=200)
+        fsm.run(machine, max_ticks=200)
 
 
 # -- the property -----------------------------------------------------------------------------------------

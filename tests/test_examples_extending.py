@@ -34,7 +34,7 @@ def test_custom_transition_never_arms_when_the_battery_starts_low() -> None:
     """Hysteresis: a level that was never seen above `below + hysteresis` since entering the source never fires."""
     code = ("import sys; sys.path.insert(0, 'examples'); import fsm, custom_transition as ct\n"
             "m = fsm.load(dict(ct.MACHINE, vars={'battery': 10.0, 'low_at': -1.0}))\n"
-            "print(m.run(duration=1.0), m.active_path, m.ctx.vars['low_at'])")
+            "print(fsm.run(m, duration=1.0).outcome, m.active_path, m.ctx.vars['low_at'])")
     proc = python("-c", code)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.split() == ["None", "work", "-1.0"]

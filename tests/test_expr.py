@@ -9,6 +9,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+import fsm
 from fsm.model.expr import (
     ANY,
     BOOL,
@@ -222,18 +223,17 @@ def test_fused_number_comparisons_and_arithmetic_behave_like_the_generic_path() 
 def test_the_one_closure_guard_and_counter_keep_the_run_time_errors() -> None:
     """The fused ``var OP constant`` guard and ``x = var OP constant`` set (one closure each) still name a missing
     value or a value of the wrong kind, as the generic path does."""
-    import fsm
     from fsm.model.errors import StateRuntimeError
 
     doc = {"initial": "a", "vars": {"n": 0, "m": 0},
            "states": [{"id": "a", "type": "Idle"}, {"id": "b", "type": "Idle"}],
            "transitions": [{"type": "Always", "from": "a", "to": "b", "guard": "n >= 0", "set": {"m": "n + 1"}}]}
     m = fsm.load(doc)
-    m.run(max_ticks=2)
+    fsm.run(m, max_ticks=2)
     assert m.ctx.vars["m"] == 1 and m.active_path == "b"
     for bad, message in (({"n": "x"}, "holds 'x'"), ({}, "has no value yet")):
         m = fsm.load(doc)
         m.ctx.vars.pop("n")
         m.ctx.vars.update(bad)
         with pytest.raises(StateRuntimeError, match=message):
-            m.run(max_ticks=2)
+            fsm.run(m, max_ticks=2)

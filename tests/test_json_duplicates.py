@@ -233,7 +233,7 @@ def test_include_through_a_good_symlink_still_works(tmp_path: Path) -> None:
     os.symlink("real.json", tmp_path / "link.json")
     main, _ = _including(tmp_path, "link.json")
     m = fsm.load(main)
-    m.run(max_ticks=5)
+    fsm.run(m, max_ticks=5)
     assert m.active_path == "a/x" and m.state("a").finished
 
 

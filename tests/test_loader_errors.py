@@ -355,7 +355,7 @@ def test_unreachable_state_is_a_warning_not_an_error(tmp_path: Path, capsys: pyt
     assert "unreachable" in problem.message
     assert (problem.line, problem.column) == pos_of(text, '{"id": "island"')
     machine = fsm.load(str(path))  # a warning does not stop the load
-    assert machine.run(max_ticks=100) == "succeeded"
+    assert fsm.run(machine, max_ticks=100).outcome == "succeeded"
     assert fsmctl(["validate", str(path)]) == 0
     out, err = capsys.readouterr()
     assert "warning" in out and "island" in out
@@ -501,7 +501,7 @@ def test_legacy_form_loads_and_runs(tmp_path: Path) -> None:
     machine = fsm.load(str(path))
     machine.tick()
     assert machine.active_path == "0"
-    assert machine.run(max_ticks=1000) == "parked"
+    assert fsm.run(machine, max_ticks=1000).outcome == "parked"
     assert machine.finished and machine.active_path == "2"
     # 0.5 s in state 0 at 80 Hz, then one tick in state 1
     assert machine.ticks == 41
@@ -510,7 +510,7 @@ def test_legacy_form_loads_and_runs(tmp_path: Path) -> None:
 
 def test_legacy_form_as_a_dict_loads_and_runs() -> None:
     machine = fsm.load(json.loads(LEGACY))
-    assert machine.run(max_ticks=1000) == "parked"
+    assert fsm.run(machine, max_ticks=1000).outcome == "parked"
 
 
 def test_legacy_form_errors_point_at_root_and_integer_ids(tmp_path: Path) -> None:

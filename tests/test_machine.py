@@ -169,7 +169,7 @@ def test_self_transition_on_composite_restarts_its_submachine(registry):
                      [tr("Timeout", "a", "a", seconds=0.05)]), registry=registry)
     m.tick()
     assert m.active_path == "a/y"
-    m.run(max_ticks=3)  # 4 ticks = 0.05 s: the restart happens
+    fsm.run(m, max_ticks=3)  # 4 ticks = 0.05 s: the restart happens
     assert m.active_path == "a/x"
 
 
@@ -190,7 +190,7 @@ def test_composite_finishes_with_final_outcome_and_routes_by_outcome(registry):
 def test_machine_finishes_with_outcome_at_root_final(registry):
     m = fsm.load(doc("a", [probe("a", ticks=3), {"id": "end", "type": "Final", "outcome": "done"}],
                      [tr("Finished", "a", "end")]), registry=registry)
-    assert m.run(max_ticks=100) == "done"
+    assert fsm.run(m, max_ticks=100).outcome == "done"
     assert m.finished and m.outcome == "done" and m.ticks == 3
 
 
@@ -224,22 +224,22 @@ def test_parallel_ticks_regions_in_order_and_join_all(registry):
     LOG.clear()
     m.tick()
     assert LOG == ["tick p/left/w", "tick p/right/w"]
-    m.run(max_ticks=2)
+    fsm.run(m, max_ticks=2)
     assert m.active_path == "p/left/end, p/right/w"
-    m.run(max_ticks=10)
+    fsm.run(m, max_ticks=10)
     assert m.finished and m.ticks == 4
 
 
 def test_parallel_join_any_and_outcome(registry):
     m = fsm.load(parallel("any", 5, 2, r2_outcome="timeout"), registry=registry)
-    m.run(max_ticks=3)
+    fsm.run(m, max_ticks=3)
     assert m.state("p").outcome == "timeout"
     assert m.finished
 
 
 def test_parallel_join_all_reports_first_non_success(registry):
     m = fsm.load(parallel("all", 1, 2, r2_outcome="aborted"), registry=registry)
-    m.run(max_ticks=5)
+    fsm.run(m, max_ticks=5)
     assert m.state("p").outcome == "aborted"
 
 
@@ -249,7 +249,7 @@ def test_instate_synchronises_regions(registry):
     right = {"name": "right", "initial": "prep", "states": [probe("prep"), probe("ready")],
              "transitions": [tr("Timeout", "prep", "ready", seconds=0.1)]}
     m = fsm.load(doc("p", [{"id": "p", "type": "Parallel", "regions": [left, right]}]), registry=registry)
-    m.run(max_ticks=8)  # 0.1 s = 8 ticks: right reaches ready at tick 8, after left was checked
+    fsm.run(m, max_ticks=8)  # 0.1 s = 8 ticks: right reaches ready at tick 8, after left was checked
     assert m.active_paths == ["p/left/go", "p/right/ready"]
     m.tick()
     assert m.active_paths == ["p/left/after", "p/right/ready"]
@@ -258,7 +258,7 @@ def test_instate_synchronises_regions(registry):
 # -- time, pause, signals, vars ---------------------------------------------------------------------------
 def test_timeout_fires_exactly_after_its_seconds(registry):
     m = fsm.load(doc("a", [probe("a"), probe("b")], [tr("Timeout", "a", "b", seconds=1.0)]), registry=registry)
-    m.run(max_ticks=79)
+    fsm.run(m, max_ticks=79)
     assert m.active_path == "a"
     m.tick()
     assert m.active_path == "b" and m.now == pytest.approx(1.0)
@@ -267,14 +267,14 @@ def test_timeout_fires_exactly_after_its_seconds(registry):
 def test_pause_freezes_subtree_and_time_in_state(registry):
     inner = doc("x", [probe("x"), probe("y")], [tr("Timeout", "x", "y", seconds=0.5)])
     m = fsm.load(doc("a", [{"id": "a", "type": "FSMState", "machine": inner}]), registry=registry)
-    m.run(max_ticks=20)  # 0.25 s in x
+    fsm.run(m, max_ticks=20)  # 0.25 s in x
     m.pause("a")
     LOG.clear()
-    m.run(max_ticks=100)
+    fsm.run(m, max_ticks=100)
     assert LOG == []  # not ticked, no exit/enter
     assert m.state("a/x").time_in_state(m.ctx) == pytest.approx(0.25)
     m.resume("a")
-    m.run(max_ticks=19)
+    fsm.run(m, max_ticks=19)
     assert m.active_path == "a/x"
     m.tick()
     assert m.active_path == "a/y"
@@ -301,12 +301,12 @@ def test_paused_state_left_by_outer_transition_is_not_paused_on_reentry(registry
 
 def test_pause_without_path_pauses_the_whole_machine(registry):
     m = fsm.load(doc("a", [probe("a"), probe("b")], [tr("Timeout", "a", "b", seconds=0.1)]), registry=registry)
-    m.run(max_ticks=4)
+    fsm.run(m, max_ticks=4)
     m.pause()
-    m.run(max_ticks=50)
+    fsm.run(m, max_ticks=50)
     assert m.active_path == "a" and m.state("a").time_in_state(m.ctx) == pytest.approx(0.05)
     m.resume()
-    m.run(max_ticks=4)
+    fsm.run(m, max_ticks=4)
     assert m.active_path == "b"
 
 
@@ -324,11 +324,11 @@ def test_signal_edges_and_levels(registry):
                  registry=registry)
     m.schedule_signal("btn", 0.1)
     m.schedule_signal("btn", 0.2, False)
-    m.run(max_ticks=7)
+    fsm.run(m, max_ticks=7)
     assert m.active_path == "a"
     m.tick()  # tick 8 at t=0.1: rising edge
     assert m.active_path == "b"
-    m.run(max_ticks=8)  # tick 16 at t=0.2: falling edge
+    fsm.run(m, max_ticks=8)  # tick 16 at t=0.2: falling edge
     assert m.active_path == "c"
 
 
@@ -336,7 +336,7 @@ def test_rising_edge_lasts_one_tick(registry):
     m = fsm.load(doc("a", [probe("a"), probe("b"), probe("c")],
                      [tr("Timeout", "a", "b", seconds=0.05), tr("Signal", "b", "c", signal="s")]), registry=registry)
     m.schedule_signal("s", 0.0125)
-    m.run(max_ticks=10)
+    fsm.run(m, max_ticks=10)
     assert m.active_path == "b"  # the edge happened while a was active; b never saw it
 
 
@@ -344,14 +344,14 @@ def test_signal_high_level(registry):
     m = fsm.load(doc("a", [probe("a"), probe("b")], [tr("Signal", "a", "b", signal="s", edge="high")]),
                  registry=registry)
     m.ctx.set_signal("s", True)
-    m.run(max_ticks=5)
+    fsm.run(m, max_ticks=5)
     assert m.active_path == "b"
 
 
 def test_var_transition_and_document_vars(registry):
     m = fsm.load(doc("a", [probe("a"), probe("b")], [tr("Var", "a", "b", var="n", op=">=", value=3)],
                      vars={"n": 0}), registry=registry)
-    m.run(max_ticks=5)
+    fsm.run(m, max_ticks=5)
     assert m.active_path == "a"
     m.ctx.vars["n"] = 3
     m.tick()
@@ -381,7 +381,7 @@ def test_exception_in_state_names_path_phase_tick_and_stops_car(registry, phase)
     car = FakeCar()
     m = fsm.load(doc("a", [{"id": "a", "type": "FSMState", "machine": inner}]), registry=registry, car=car)
     with pytest.raises(StateRuntimeError) as info:
-        m.run(max_ticks=10)
+        fsm.run(m, max_ticks=10)
     err = info.value
     assert err.path == "a/y" and err.phase == phase
     assert err.tick == (2 if phase == "on_enter" else 3)
@@ -409,7 +409,7 @@ def test_listener_sees_every_transition(registry):
 
     m = fsm.load(doc("a", [probe("a"), probe("b")], [tr("Always", "a", "b")]), registry=registry)
     m.add_listener(L())
-    m.run(max_ticks=2)
+    fsm.run(m, max_ticks=2)
     assert seen == [(0, None, "a", "initial"), (1, "a", "b", "Always")]
 
 
@@ -438,7 +438,7 @@ def test_listener_is_a_protocol_and_a_base_class(registry):
     assert isinstance(Pauses(), PauseListener) and not isinstance(Pauses(), MonitorListener)
     m = fsm.load(doc("a", [probe("a"), probe("b")], [tr("Always", "a", "b")]), registry=registry)
     listeners = [m.add_listener(ByMethods()), m.add_listener(Ticks()), m.add_listener(Pauses())]
-    m.run(max_ticks=2)
+    fsm.run(m, max_ticks=2)
     m.pause()
     assert [x.ticks for x in listeners] == [2, 2, 2] and listeners[2].paused == ("b", True)
 
@@ -456,7 +456,7 @@ def test_identical_runs_give_identical_traces(tmp_path, registry):
         rec = m.add_listener(Recorder(out))
         m.start()
         rec.flush(m)
-        m.run(max_ticks=50)
+        fsm.run(m, max_ticks=50)
         return out.getvalue()
 
     first, second = run(), run()
@@ -468,7 +468,7 @@ def test_identical_runs_give_identical_traces(tmp_path, registry):
 
 def test_simulated_clock_dt_and_duration(registry):
     m = fsm.load(doc("a", [probe("a")]), registry=registry, dt=0.01)
-    m.run(duration=1.0)
+    fsm.run(m, duration=1.0)
     assert m.ticks == 100 and m.now == pytest.approx(1.0)
 
 
@@ -477,14 +477,14 @@ def test_realtime_clock_keeps_period(registry):
 
     m = fsm.load(doc("a", [probe("a")]), registry=registry, clock=fsm.RealTimeClock(0.01))
     t0 = time.monotonic()
-    m.run(max_ticks=10)
+    fsm.run(m, max_ticks=10)
     assert time.monotonic() - t0 >= 0.09
     assert 0.08 <= m.now <= 1.0
 
 
 def test_run_until(registry):
     m = fsm.load(doc("a", [probe("a")]), registry=registry)
-    m.run(until=lambda mm: mm.ticks >= 7)
+    fsm.run(m, until=lambda mm: mm.ticks >= 7)
     assert m.ticks == 7
 
 
@@ -497,7 +497,7 @@ def test_included_machine_relative_to_including_file(tmp_path, registry):
         doc("t", [{"id": "t", "type": "FSMState", "machine": {"file": "sub/turn.json"}},
                   {"id": "done", "type": "Final"}], [tr("Finished", "t", "done")])))
     m = fsm.load(tmp_path / "main.json", registry=registry)
-    assert m.run(max_ticks=10) == "succeeded"
+    assert fsm.run(m, max_ticks=10).outcome == "succeeded"
     assert m.state("t/l").path == "t/l"
 
 
@@ -505,7 +505,7 @@ def test_legacy_tral_form(registry):
     legacy = {"root": 0, "states": [{"id": 0, "type": "Probe"}, {"id": 1, "type": "Final"}],
               "transitions": [{"type": "Always", "from": 0, "to": 1}]}
     m = fsm.load(legacy, registry=registry)
-    assert m.run(max_ticks=5) == "succeeded"
+    assert fsm.run(m, max_ticks=5).outcome == "succeeded"
     assert m.state("1").is_final
 
 

@@ -66,7 +66,7 @@ def test_a_silent_range_fires_the_monitor_and_a_garbled_one_is_silence() -> None
 def test_a_car_without_topics_never_goes_quiet() -> None:
     car = FakeCar()
     machine: Any = fsm.load(MACHINE, car=car)
-    machine.run(max_ticks=200)
+    fsm.run(machine, max_ticks=200)
     assert car.speed_command == 0.5
 
 

@@ -149,7 +149,7 @@ def test_var_at_run_time_refuses_a_value_of_another_kind(stored: Any, value: Any
 def test_var_at_run_time_compares_ints_and_floats() -> None:
     m = fsm.load(var_doc([("x", ">=", 2.5)]))
     m.ctx.vars["x"] = 3
-    assert m.run(max_ticks=2) == "succeeded"
+    assert fsm.run(m, max_ticks=2).outcome == "succeeded"
 
 
 # -- the Parallel join rule ---------------------------------------------------------------------------------
@@ -200,7 +200,7 @@ def outcomes_by_running(regions: list[list[str]], join: str) -> set[str]:
             m = fsm.load(parallel(regions, join, []))
             for step, r in enumerate(order):
                 m.schedule_signal(f"r{r}_{pick[r]}", 0.0125 * (step + 1))
-            m.run(max_ticks=len(regions) + 3)
+            fsm.run(m, max_ticks=len(regions) + 3)
             p = m.state("p")
             if p.finished:
                 seen.add(p.outcome or "")
@@ -208,7 +208,7 @@ def outcomes_by_running(regions: list[list[str]], join: str) -> set[str]:
         m = fsm.load(parallel(regions, join, []))
         for r in range(len(regions)):
             m.schedule_signal(f"r{r}_{pick[r]}", 0.0125)
-        m.run(max_ticks=4)
+        fsm.run(m, max_ticks=4)
         if m.state("p").finished:
             seen.add(m.state("p").outcome or "")
     return seen

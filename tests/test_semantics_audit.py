@@ -169,10 +169,10 @@ def test_include_used_twice_builds_separate_state_objects(tmp_path, registry):
     assert m.state("one/w") is not m.state("two/w")
     assert m.state("one").regions[0] is not m.state("two").regions[0]
     assert m.state("two/w").region.owner is m.state("two")
-    m.run(max_ticks=2)
+    fsm.run(m, max_ticks=2)
     assert m.active_path == "two/w"
     assert m.state("one/w").finished and not m.state("two/w").finished
-    assert m.run(max_ticks=10) == "succeeded"
+    assert fsm.run(m, max_ticks=10).outcome == "succeeded"
     assert m.ticks == 4 and m.transition_count == 2 + 2
 
 
@@ -186,7 +186,7 @@ def test_legacy_form_with_nested_legacy_machine(registry):
     m.start()
     assert m.active_path == "0/0"
     assert m.state("0/1").is_final and m.state("1").is_final
-    assert m.run(max_ticks=5) == "parked" and m.ticks == 1
+    assert fsm.run(m, max_ticks=5).outcome == "parked" and m.ticks == 1
 
 
 # -- order of firing, entries from on_enter ------------------------------------------------------------
@@ -280,12 +280,12 @@ def test_final_as_initial_state_of_a_submachine_finishes_the_composite_at_its_fi
                      [tr("Finished", "a", "done", outcome="empty")]), registry=registry)
     m.start()
     assert not m.state("a").finished  # finishing is noticed when the composite is ticked
-    assert m.run(max_ticks=5) == "x" and m.ticks == 1
+    assert fsm.run(m, max_ticks=5).outcome == "x" and m.ticks == 1
 
 
 def test_final_as_initial_state_of_the_root_finishes_without_a_tick(registry):
     m = fsm.load(doc("end", [final("end", "nothing")]), registry=registry)
-    assert m.run(max_ticks=5) == "nothing" and m.ticks == 0
+    assert fsm.run(m, max_ticks=5).outcome == "nothing" and m.ticks == 0
 
 
 def test_parallel_join_any_other_region_keeps_running_until_left(registry):
@@ -295,10 +295,10 @@ def test_parallel_join_any_other_region_keeps_running_until_left(registry):
              "transitions": [tr("Finished", "r", "end")]}
     m = fsm.load(doc("p", [{"id": "p", "type": "Parallel", "join": "any", "regions": [left, right]}, spy("b")],
                      [tr("Gate", "p", "b")]), registry=registry)
-    m.run(max_ticks=1)
+    fsm.run(m, max_ticks=1)
     p = m.state("p")
     assert p.finished and p.outcome == "fast"
-    m.run(max_ticks=5)  # nothing leaves p: right keeps running and reaches its Final
+    fsm.run(m, max_ticks=5)  # nothing leaves p: right keeps running and reaches its Final
     assert m.active_paths == ["p/left/end", "p/right/end"]
     assert p.outcome == "fast"  # the first outcome stays
     LOG.clear()
@@ -350,16 +350,16 @@ def test_pause_state_of_one_parallel_region_freezes_only_that_region(registry):
 
     m = fsm.load(doc("p", [{"id": "p", "type": "Parallel", "regions": [region("left"), region("right")]},
                            final("done")], [tr("Finished", "p", "done")]), registry=registry)
-    m.run(max_ticks=4)  # 0.05 s
+    fsm.run(m, max_ticks=4)  # 0.05 s
     m.pause("p/left/w")
     LOG.clear()
-    m.run(max_ticks=4)
+    fsm.run(m, max_ticks=4)
     assert LOG == ["tick p/right/w"] * 4 + ["exit p/right/w"]
     assert m.active_paths == ["p/left/w", "p/right/end"] and not m.finished
     m.resume("p/left/w")
-    m.run(max_ticks=3)
+    fsm.run(m, max_ticks=3)
     assert m.active_paths == ["p/left/w", "p/right/end"]
-    assert m.run(max_ticks=10) == "succeeded" and m.ticks == 12
+    assert fsm.run(m, max_ticks=10).outcome == "succeeded" and m.ticks == 12
 
 
 def test_paused_composite_left_by_outer_transition_reenters_fresh(registry):
@@ -367,9 +367,9 @@ def test_paused_composite_left_by_outer_transition_reenters_fresh(registry):
     mid = doc("a", [fsmstate("a", leaf)])
     m = fsm.load(doc("o", [fsmstate("o", mid), spy("b")],
                      [tr("Gate", "o", "b", flag="leave"), tr("Gate", "b", "o", flag="back")]), registry=registry)
-    m.run(max_ticks=4)
+    fsm.run(m, max_ticks=4)
     m.pause("o/a")
-    m.run(max_ticks=4)
+    fsm.run(m, max_ticks=4)
     a, x = m.state("o/a"), m.state("o/a/x")
     assert a.paused and x.time_in_state(m.ctx) == pytest.approx(0.05)
     LOG.clear()
@@ -383,7 +383,7 @@ def test_paused_composite_left_by_outer_transition_reenters_fresh(registry):
     m.ctx.vars["back"] = False
     assert m.active_path == "o/a/x" and not a.paused
     assert x.time_in_state(m.ctx) == 0.0
-    m.run(max_ticks=7)
+    fsm.run(m, max_ticks=7)
     assert m.active_path == "o/a/x"
     m.tick()
     assert m.active_path == "o/a/y"
@@ -391,13 +391,13 @@ def test_paused_composite_left_by_outer_transition_reenters_fresh(registry):
 
 def test_timeout_on_the_paused_state_itself_counts_only_unpaused_time(registry):
     m = fsm.load(doc("a", [spy("a"), spy("b")], [tr("Timeout", "a", "b", seconds=0.1)]), registry=registry)
-    m.run(max_ticks=3)
+    fsm.run(m, max_ticks=3)
     m.pause("a")
-    m.run(max_ticks=20)
+    fsm.run(m, max_ticks=20)
     assert m.active_path == "a"
     m.resume("a")
     assert m.state("a").time_in_state(m.ctx) == pytest.approx(0.0375)
-    m.run(max_ticks=4)
+    fsm.run(m, max_ticks=4)
     assert m.active_path == "a"
     m.tick()
     assert m.active_path == "b" and m.ticks == 28
@@ -405,22 +405,22 @@ def test_timeout_on_the_paused_state_itself_counts_only_unpaused_time(registry):
 
 def test_resume_of_something_never_paused_is_a_no_op(registry):
     m = fsm.load(doc("a", [spy("a"), spy("b")], [tr("Timeout", "a", "b", seconds=0.1)]), registry=registry)
-    m.run(max_ticks=4)
+    fsm.run(m, max_ticks=4)
     m.resume("a")
     m.resume("b")  # not active, never paused
     m.resume()
     assert m.state("a").time_in_state(m.ctx) == pytest.approx(0.05)
-    m.run(max_ticks=4)
+    fsm.run(m, max_ticks=4)
     assert m.active_path == "b"
 
 
 def test_pause_twice_keeps_the_first_pause_time(registry):
     m = fsm.load(doc("a", [spy("a"), spy("b")], [tr("Timeout", "a", "b", seconds=0.1)]), registry=registry)
-    m.run(max_ticks=4)
+    fsm.run(m, max_ticks=4)
     m.pause("a")
-    m.run(max_ticks=4)
+    fsm.run(m, max_ticks=4)
     m.pause("a")
-    m.run(max_ticks=4)
+    fsm.run(m, max_ticks=4)
     m.resume("a")
     assert m.state("a").time_in_state(m.ctx) == pytest.approx(0.05)
 
@@ -438,25 +438,25 @@ def test_nested_pauses_freeze_time_once(registry):
     inner = doc("x", [spy("x"), spy("y")], [tr("Timeout", "x", "y", seconds=1.0)])
     m = fsm.load(doc("a", [fsmstate("a", inner)]), registry=registry, dt=0.125)
     x = m.state("a/x")
-    m.run(max_ticks=1)  # t = 0.125
+    fsm.run(m, max_ticks=1)  # t = 0.125
     m.pause("a/x")
-    m.run(max_ticks=2)  # t = 0.375
+    fsm.run(m, max_ticks=2)  # t = 0.375
     m.pause("a")
-    m.run(max_ticks=2)  # t = 0.625
+    fsm.run(m, max_ticks=2)  # t = 0.625
     assert x.time_in_state(m.ctx) == pytest.approx(0.125)
     m.resume("a")
-    m.run(max_ticks=2)  # t = 0.875
+    fsm.run(m, max_ticks=2)  # t = 0.875
     assert x.time_in_state(m.ctx) == pytest.approx(0.125)
     m.resume("a/x")
     assert x.time_in_state(m.ctx) == pytest.approx(0.125)
 
 
 def test_pause_requested_during_a_tick_stops_the_paused_state_from_leaving(registry):
-    # Was a bug (fixed): a step pauses its sequence (its region's owner) from its tick. The owner's Region.step checked
+    # Was a bug (fixed): a step pauses its sequence (its region's owner) from its tick. The owner's Region.tick checked
     # `paused` before ticking, so after the tick it still checks the owner's regular transitions and
     # fires Always a->b: the "paused" subtree is exited in the very tick it was paused (docs/semantics.md: a
     # paused subtree has no exit/enter), and the exit silently clears the pause.
-    # Responsible: fsm/runtime/region.py Region.step; re-check `state.paused` after `state._tick(ctx)` and return.
+    # Responsible: fsm/runtime/region.py Region.tick; re-check `state.paused` after `state._tick(ctx)` and return.
     inner = doc("x", [{"id": "x", "type": "PauseMyOwner"}])
     m = fsm.load(doc("a", [fsmstate("a", inner), spy("b")], [tr("Always", "a", "b")]), registry=registry)
     m.tick()
@@ -491,7 +491,7 @@ def test_signal_scheduled_at_exactly_a_tick_time_is_an_edge_in_that_tick(registr
     for n in (1, 3, 7, 29, 57, 99):
         m = fsm.load(doc("a", [spy("a"), spy("b")], [tr("Signal", "a", "b", signal="s")]), registry=registry, dt=dt)
         m.schedule_signal("s", round(n * dt, 12))
-        m.run(max_ticks=n - 1)
+        fsm.run(m, max_ticks=n - 1)
         assert m.active_path == "a", (dt, n)
         m.tick()
         assert m.active_path == "b", (dt, n)
@@ -505,7 +505,7 @@ def test_many_scheduled_signals_step_a_chain(registry):
     for i in reversed(range(n)):  # scheduled out of order
         m.schedule_signal(f"k{i}", (i + 1) * 0.025)
         m.schedule_signal(f"noise{i}", (i + 1) * 0.0125)
-    m.run(max_ticks=2 * n)
+    fsm.run(m, max_ticks=2 * n)
     assert m.active_path == f"s{n}" and m.transition_count == n
 
 
@@ -521,7 +521,7 @@ def test_signal_changed_and_restored_between_ticks_is_no_edge(registry):
                  registry=registry)
     m.schedule_signal("s", 0.05)
     m.schedule_signal("s", 0.05, False)
-    m.run(max_ticks=10)
+    fsm.run(m, max_ticks=10)
     assert m.active_path == "a"
 
 
@@ -529,7 +529,7 @@ def test_falling_edge_after_a_high_level(registry):
     m = fsm.load(doc("a", [spy("a"), spy("b")], [tr("Signal", "a", "b", signal="s", edge="falling")]),
                  registry=registry)
     m.ctx.set_signal("s", True)
-    m.run(max_ticks=3)
+    fsm.run(m, max_ticks=3)
     m.ctx.set_signal("s", False)
     assert m.active_path == "a"
     m.tick()
@@ -552,7 +552,7 @@ def _sync_doc(state_ref):
                                  "/p/right/ready/r1"])
 def test_instate_relative_absolute_and_naming_a_composite(registry, ref):
     m = fsm.load(_sync_doc(ref), registry=registry)
-    m.run(max_ticks=2)  # right enters ready at tick 2, after left was checked
+    fsm.run(m, max_ticks=2)  # right enters ready at tick 2, after left was checked
     assert m.active_paths == ["p/left/go", "p/right/ready/r1"]
     m.tick()
     assert m.active_paths == ["p/left/after", "p/right/ready/r1"]
@@ -564,7 +564,7 @@ def test_instate_of_a_state_inside_an_exited_composite_is_false(registry):
                      [tr("Always", "a", "b"), tr("InState", "b", "c", state="a/x")]), registry=registry)
     m.start()
     assert m.state("a/x").active
-    m.run(max_ticks=5)
+    fsm.run(m, max_ticks=5)
     assert m.active_path == "b" and not m.state("a/x").active
 
 
@@ -582,7 +582,7 @@ def test_listener_order_for_nested_entries(registry):
     m = fsm.load(doc("a", [spy("a"), fsmstate("b", inner)], [tr("Always", "a", "b"), tr("Always", "b", "b")]),
                  registry=registry)
     seen = m.add_listener(Seen())
-    m.run(max_ticks=2)
+    fsm.run(m, max_ticks=2)
     assert seen.events == [
         (0, None, "a", "initial"),
         (1, "a", "b", "Always"), (1, None, "b/x", "initial"), (1, None, "b/x/y", "initial"),
@@ -606,7 +606,7 @@ def test_transition_count_across_levels_and_restarts(registry):
     inner = doc("x", [spy("x"), spy("y")], [tr("Always", "x", "y"), tr("Always", "y", "x")])
     m = fsm.load(doc("a", [fsmstate("a", inner)], [tr("Timeout", "a", "a", seconds=0.05)]), registry=registry)
     rec = m.add_listener(Recorder())
-    m.run(max_ticks=8)
+    fsm.run(m, max_ticks=8)
     # inner fires every tick (8); the self-transition restarts a at ticks 4 and 8
     assert m.transition_count == 10 == rec.transitions
 
@@ -621,35 +621,35 @@ def test_run_duration_with_a_dt_that_does_not_divide_it(registry):
     # Responsible: fsm/runtime/machine.py Machine.run, `ticks_for_duration = int(round(duration / self._dt))`;
     # use `math.ceil(duration / self._dt - 1e-9)`.
     m = fsm.load(doc("a", [spy("a")]), registry=registry, dt=0.03)
-    m.run(duration=0.1)
+    fsm.run(m, duration=0.1)
     assert m.now >= 0.1 - 1e-9 and m.ticks == 4
 
 
 def test_run_duration_that_is_a_multiple_of_dt(registry):
     for dt, duration, ticks in [(0.0125, 1.0, 80), (0.01, 0.3, 30), (0.1, 0.7, 7), (0.03, 0.09, 3)]:
         m = fsm.load(doc("a", [spy("a")]), registry=registry, dt=dt)
-        m.run(duration=duration)
+        fsm.run(m, duration=duration)
         assert m.ticks == ticks, (dt, duration)
 
 
 def test_run_combinations_stop_at_the_first_limit(registry):
     m = fsm.load(doc("a", [spy("a")]), registry=registry)
-    m.run(max_ticks=10, duration=1.0)
+    fsm.run(m, max_ticks=10, duration=1.0)
     assert m.ticks == 10
-    m.run(max_ticks=100, duration=0.05)
+    fsm.run(m, max_ticks=100, duration=0.05)
     assert m.ticks == 14
-    m.run(until=lambda mm: mm.ticks >= 20, max_ticks=100)
+    fsm.run(m, until=lambda mm: mm.ticks >= 20, max_ticks=100)
     assert m.ticks == 20
-    m.run(until=lambda mm: False, duration=0.025)
+    fsm.run(m, until=lambda mm: False, duration=0.025)
     assert m.ticks == 22
-    m.run(max_ticks=0)
+    fsm.run(m, max_ticks=0)
     assert m.ticks == 22
 
 
 def test_run_after_finished_does_not_tick_and_tick_after_finished_keeps_the_outcome(registry):
     m = fsm.load(doc("a", [spy("a", ticks=1), final("end", "ok")], [tr("Finished", "a", "end")]), registry=registry)
-    assert m.run() == "ok" and m.ticks == 1
-    assert m.run(max_ticks=10) == "ok" and m.ticks == 1
+    assert fsm.run(m).outcome == "ok" and m.ticks == 1
+    assert fsm.run(m, max_ticks=10).outcome == "ok" and m.ticks == 1
     m.tick()
     assert m.finished and m.outcome == "ok" and m.ticks == 2 and m.transition_count == 1
 
@@ -692,7 +692,7 @@ def test_exception_in_a_transition_action_is_reported_as_action(registry):
     # Was a bug (fixed): StateRuntimeError's docstring promises the phase names on_enter, tick, on_exit, check,
     # action; an action that raises is reported as phase "firing of transition Gate a -> b", which does
     # not say that the action failed (on_source_enter hooks and listeners land in the same bucket).
-    # Responsible: fsm/runtime/region.py Region.step/fire: set phase = "action" around `tr._action(ctx)`.
+    # Responsible: fsm/runtime/region.py Region.tick/fire: set phase = "action" around `tr._action(ctx)`.
     m = fsm.load(doc("a", [spy("a"), spy("b")], [tr("Gate", "a", "b", fail_in="action")]), registry=registry)
     m.ctx.vars["go"] = True
     with pytest.raises(StateRuntimeError) as info:
@@ -735,7 +735,7 @@ def test_same_document_twice_gives_identical_traces_with_parallel_regions_and_si
             m.schedule_signal("r", 0.2 + k * 0.3)
         m.start()
         rec.flush(m)
-        m.run(max_ticks=100)
+        fsm.run(m, max_ticks=100)
         return out.getvalue(), m.transition_count
 
     first, second = run(), run()

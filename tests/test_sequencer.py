@@ -85,7 +85,7 @@ def test_steps_run_in_order_and_the_sequence_finishes_after_its_last() -> None:
     m, log = machine([seq("s", setvar("a", n="n + 1"), wait("w", 0.5),
                           {"id": "b", "type": "Step", "set": {"on_enter": {"x": 5}}, "until": "x == 5"}),
                       done()], [route("s", "end")], n=0, x=0)
-    assert m.run(duration=5) == "succeeded"
+    assert fsm.run(m, duration=5).outcome == "succeeded"
     assert log.when("s/a") == 0.0
     assert log.when("s/w") == DT  # SetVar finished on entry; its link fires at the next tick
     assert log.when("s/b") == pytest.approx(DT + 0.5)
@@ -96,7 +96,7 @@ def test_steps_run_in_order_and_the_sequence_finishes_after_its_last() -> None:
 def test_a_step_without_until_finishes_at_its_first_tick_and_repeat_runs_the_steps_again() -> None:
     m, log = machine([seq("s", {"id": "a", "type": "Step", "set": {"on_enter": {"n": "n + 1"}}}, repeat=3), done()],
                      [route("s", "end")], n=0)
-    assert m.run(duration=5) == "succeeded"
+    assert fsm.run(m, duration=5).outcome == "succeeded"
     assert m.ctx.vars["n"] == 3
     assert log.entries("s/a") == [0.0, DT, 2 * DT]
 
@@ -104,7 +104,7 @@ def test_a_step_without_until_finishes_at_its_first_tick_and_repeat_runs_the_ste
 def test_repeat_zero_runs_until_stopped_from_outside() -> None:
     m, _log = machine([seq("s", setvar("a", n="n + 1"), repeat=0, timeout=1.0), done("to", "timeout")],
                       [route("s", "to", "timeout")], n=0)
-    assert m.run(duration=5) == "timeout"
+    assert fsm.run(m, duration=5).outcome == "timeout"
     assert m.now == pytest.approx(1.0)
     assert m.ctx.vars["n"] > 10
 
@@ -127,7 +127,7 @@ def test_the_five_behaviours_after_an_exception_sequence(behavior: str) -> None:
     m, log = machine(_two_levels(behavior), [route("main", "end")], e=0)
     m.schedule_signal("btn", 1.5)
     m.schedule_signal("btn", 1.5 + DT / 2, False)  # one tick high
-    assert m.run(duration=10) == "succeeded"
+    assert fsm.run(m, duration=10).outcome == "succeeded"
     assert log.monitors == [(1.5, "main/sub/w2", behavior)]
     assert log.when("main/exc") == 1.5 and log.when("main/exc/e2") == 1.5 + DT
     resumed = 1.5 + DT + 0.25  # the exception's last step ends; the behaviour applies in that tick
@@ -155,7 +155,7 @@ def test_nothing_without_exception_fires_each_tick_the_condition_holds_and_the_o
     m, log = machine(_two_levels("nothing", exception=False), [route("main", "end")], e=0)
     m.schedule_signal("btn", 1.5)
     m.schedule_signal("btn", 1.5 + 3 * DT - DT / 2, False)
-    m.run(duration=10)
+    fsm.run(m, duration=10)
     assert [t for t, _, _ in log.monitors] == [1.5, 1.5 + DT, pytest.approx(1.5 + 2 * DT)]
     assert log.when("main/after") == pytest.approx(2.0)  # not delayed
 
@@ -166,7 +166,7 @@ def test_the_owners_monitor_is_not_checked_during_its_exception_but_its_callers_
     m, log = machine([seq("main", seq("sub", wait("w", 5, monitors=[inner])), monitors=[outer],
                           exceptions=[seq("slow", setvar("s1", y=1), wait("s2", 1))]), done(), done("ab", "aborted")],
                      [route("main", "end", "succeeded"), route("main", "ab", "aborted")], x=1, y=0)
-    assert m.run(duration=10) == "aborted"
+    assert fsm.run(m, duration=10).outcome == "aborted"
     # inner fires at 0 + one tick (w's first tick); its exception sets y; the caller's monitor fires next tick,
     # while the exception runs; the inner monitor (x > 0 all along) is not checked again meanwhile
     assert log.monitors == [(DT, "main/sub/w", "nothing"), (2 * DT, "main", "abortOwner")]
@@ -177,9 +177,9 @@ def test_monitors_are_checked_outermost_first() -> None:
                                       monitors=[{"condition": "x > 0", "behavior": "abortOwner"}]),
                           monitors=[{"condition": "x > 0", "behavior": "abortOwner"}]), done(), done("ab", "aborted")],
                      [route("main", "end", "succeeded"), route("main", "ab", "aborted")], x=0)
-    m.run(max_ticks=3)
+    fsm.run(m, max_ticks=3)
     m.ctx.vars["x"] = 1
-    assert m.run(duration=1) == "aborted"
+    assert fsm.run(m, duration=1).outcome == "aborted"
     assert [o for _, o, _ in log.monitors] == ["main"]
 
 
@@ -211,10 +211,10 @@ def test_abort_owner_ends_everything_inside_non_blocking_sequences_too() -> None
                       done(), done("ab", "aborted")],
            "transitions": [route("main", "end", "succeeded"), route("main", "ab", "aborted")]}
     m = fsm.load(doc, registry=_with_probe())
-    m.run(duration=1)
+    fsm.run(m, duration=1)
     assert sorted(m.active_paths) == ["main/bg/p", "main/q"]
     m.ctx.vars["stop"] = True
-    assert m.run(duration=1) == "aborted"
+    assert fsm.run(m, duration=1).outcome == "aborted"
     assert sorted(SeqProbe.exits) == ["main/bg/p", "main/q"]
     assert m.state("main").outcome == "aborted"
 
@@ -224,7 +224,7 @@ def test_restart_caller_of_owner_on_a_step_two_levels_down_restarts_the_steps_se
     m, log = machine([seq("top", seq("mid", setvar("count", n="n + 1"), seq("low", wait("w", 2, monitors=[monitor]))),
                           setvar("tail", t=1)), done()], [route("top", "end")], n=0, t=0)
     m.schedule_signal("b", 1.0)
-    assert m.run(duration=10) == "succeeded"
+    assert fsm.run(m, duration=10).outcome == "succeeded"
     # the owner is 'w', its caller 'low': the edge at 1.0 restarts 'low' (so 'w' again), 'mid' goes on
     assert log.monitors == [(1.0, "top/mid/low/w", "restartCallerOfOwner")]
     assert log.entries("top/mid/low/w") == [DT, 1.0]
@@ -236,7 +236,7 @@ def test_restart_caller_of_owner_on_a_sequence_restarts_its_caller_from_its_firs
     m, log = machine([seq("top", seq("mid", setvar("count", n="n + 1"), seq("low", wait("w", 2), monitors=[monitor])),
                           setvar("tail", t=1)), done()], [route("top", "end")], n=0, t=0)
     m.schedule_signal("b", 1.0)
-    assert m.run(duration=10) == "succeeded"
+    assert fsm.run(m, duration=10).outcome == "succeeded"
     assert log.monitors == [(1.0, "top/mid/low", "restartCallerOfOwner")]
     assert log.entries("top/mid/count") == [0.0, 1.0]
     assert m.ctx.vars == {"n": 2, "t": 1}
@@ -253,7 +253,7 @@ def test_a_caller_behaviour_at_the_top_level_is_a_load_error() -> None:
 def test_a_timeout_with_abort_owner_ends_the_owner_with_outcome_timeout_and_the_caller_goes_on() -> None:
     m, log = machine([seq("main", wait("slow", 10, timeout=2), setvar("next", n=1)), done()], [route("main", "end")],
                      n=0)
-    assert m.run(duration=20) == "succeeded"
+    assert fsm.run(m, duration=20).outcome == "succeeded"
     assert m.state("main/slow").outcome == "timeout"
     assert log.monitors == [(2.0, "main/slow", "abortOwner")]
     assert log.when("main/next") == 2.0
@@ -266,7 +266,7 @@ def test_a_5s_timeout_paused_for_3s_fires_at_8s() -> None:
     m.schedule_signal("pause", 1.1, False)
     m.schedule_signal("pause", 4.0)
     m.schedule_signal("pause", 4.1, False)
-    assert m.run(duration=20) == "timeout"
+    assert fsm.run(m, duration=20).outcome == "timeout"
     assert log.pauses == [(1.0, "main", True), (4.0, "main", False)]
     assert log.monitors == [(8.0, "main", "abortOwner")]
 
@@ -277,7 +277,7 @@ def test_a_timeout_stands_still_while_an_exception_sequence_suspends_its_owner()
                           timeout=3, exceptions=[seq("e", wait("e1", 1))]),
                       done("to", "timeout")], [route("main", "to", "timeout")])
     m.schedule_signal("b", 1.0)
-    assert m.run(duration=20) == "timeout"
+    assert fsm.run(m, duration=20).outcome == "timeout"
     # main's own timeout keeps counting while the inner owner 'w' is suspended (main is not suspended)
     assert log.monitors[-1] == (3.0, "main", "abortOwner")
     m2, log2 = machine([seq("main", wait("w", 10), timeout=3,
@@ -286,7 +286,7 @@ def test_a_timeout_stands_still_while_an_exception_sequence_suspends_its_owner()
                             exceptions=[seq("e", wait("e1", 1))]),
                         done("to", "timeout")], [route("main", "to", "timeout")])
     m2.schedule_signal("b", 1.0)
-    assert m2.run(duration=20) == "timeout"
+    assert fsm.run(m2, duration=20).outcome == "timeout"
     # main itself is suspended for its exception (1.0 to 2.0 s): its timeout fires 1 s later
     assert log2.monitors[-1] == (4.0, "main", "abortOwner")
 
@@ -295,7 +295,7 @@ def test_reset_timeout_restarts_the_owners_timeout_clock() -> None:
     m, log = machine([seq("main", wait("a", 1.5), {"id": "r", "type": "ResetTimeout", "owner": "main"},
                           wait("b", 1.5), timeout=2), done(), done("to", "timeout")],
                      [route("main", "end", "succeeded"), route("main", "to", "timeout")])
-    assert m.run(duration=20) == "succeeded"
+    assert fsm.run(m, duration=20).outcome == "succeeded"
     assert log.monitors == []
 
 
@@ -304,7 +304,7 @@ def test_a_false_precondition_skips_the_step_with_outcome_precondition_failed() 
     m, log = machine([seq("main", setvar("a", n=1), wait("skipped", 5, precondition="n > 1",
                                                          set={"on_enter": {"entered": True}}),
                           setvar("c", m_=2)), done()], [route("main", "end")], n=0, entered=False, m_=0)
-    assert m.run(duration=20) == "succeeded"
+    assert fsm.run(m, duration=20).outcome == "succeeded"
     assert m.state("main/skipped").outcome == "precondition_failed"
     assert m.ctx.vars["entered"] is False  # nothing of it ran
     assert log.when("main/c") == pytest.approx(2 * DT)  # one tick in the skipped step
@@ -313,7 +313,7 @@ def test_a_false_precondition_skips_the_step_with_outcome_precondition_failed() 
 def test_a_false_precondition_on_a_sequence_routes_by_its_outcome() -> None:
     m, _ = machine([seq("main", wait("w", 1), precondition="ready"), done(), done("no", "precondition_failed")],
                    [route("main", "end", "succeeded"), route("main", "no", "precondition_failed")], ready=False)
-    assert m.run(duration=5) == "precondition_failed"
+    assert fsm.run(m, duration=5).outcome == "precondition_failed"
 
 
 # -- non-blocking and Join ------------------------------------------------------------------------------------
@@ -321,9 +321,9 @@ def test_a_non_blocking_sequence_runs_beside_its_caller_and_join_waits_for_it() 
     m, log = machine([seq("main", seq("bg", wait("b1", 2), setvar("b2", k=1), blocking=False), wait("w", 1),
                           {"id": "j", "type": "Join", "sequences": ["bg"]}, setvar("after", seen="k")),
                       done()], [route("main", "end")], k=0, seen=0)
-    m.run(duration=0.5)
+    fsm.run(m, duration=0.5)
     assert sorted(m.active_paths) == ["main/bg/b1", "main/w"]
-    assert m.run(duration=10) == "succeeded"
+    assert fsm.run(m, duration=10).outcome == "succeeded"
     assert log.when("main/j") == pytest.approx(1.0)
     assert log.when("main/bg/b2") == pytest.approx(2.0)
     assert log.when("main/after") == pytest.approx(2.0 + DT)  # the Join sees bg done at its next tick
@@ -333,7 +333,7 @@ def test_a_non_blocking_sequence_runs_beside_its_caller_and_join_waits_for_it() 
 def test_a_sequence_waits_for_its_non_blocking_sequences_before_it_finishes() -> None:
     m, log = machine([seq("main", setvar("a", x=1), seq("bg", wait("b", 1), blocking=False)), done()],
                      [route("main", "end")], x=0)
-    assert m.run(duration=5) == "succeeded"
+    assert fsm.run(m, duration=5).outcome == "succeeded"
     # 'a' finishes on entry; bg, placed after the last step, starts at the next tick and runs 1 s
     assert log.when("end") == pytest.approx(DT + 1.0)
 
@@ -352,12 +352,12 @@ def test_join_errors(bad: dict[str, Any], message: str) -> None:
 # -- pause ----------------------------------------------------------------------------------------------------
 def test_pause_by_api_freezes_the_subtree_and_resume_continues_where_it_was() -> None:
     m, log = machine([seq("main", wait("w", 2), setvar("x", n=1)), done()], [route("main", "end")], n=0)
-    m.run(duration=1.0)
+    fsm.run(m, duration=1.0)
     m.pause("main")
-    m.run(duration=5.0)
+    fsm.run(m, duration=5.0)
     assert m.active_paths == ["main/w"] and not m.finished
     m.resume("main")
-    assert m.run(duration=5) == "succeeded"
+    assert fsm.run(m, duration=5).outcome == "succeeded"
     assert log.when("main/x") == pytest.approx(7.0)
 
 
@@ -369,7 +369,7 @@ def test_two_sequences_paused_through_a_common_ancestor_stay_paused_together() -
                      a=0, b=0)
     m.schedule_signal("p", 2.5)
     m.schedule_signal("p", 2.6, False)
-    m.run(duration=10)
+    fsm.run(m, duration=10)
     assert m.ctx.vars == {"a": 2, "b": 2}  # both stopped together at 2.5 s
     assert [p for _, p, _ in log.pauses] == ["both"]
 
@@ -380,7 +380,7 @@ def test_a_bouncing_pause_button_toggles_once_per_press_with_debounce() -> None:
         for i in range(5):
             m.schedule_signal("p", at + i * 0.013, i % 2 == 0)  # each bounce lasts one tick
         m.schedule_signal("p", at + 0.2, False)
-    m.run(duration=5)
+    fsm.run(m, duration=5)
     # each press counts once, when stable for 50 ms: its last bounce is seen at the tick at + 0.0625
     assert log.pauses == [(1.1125, "main", True), (3.1125, "main", False)]
 
@@ -396,7 +396,7 @@ def test_three_rapid_bouncing_presses_counted_as_three() -> None:
             for i in range(5):
                 m.schedule_signal("btn", t + i * 0.001, level if i % 2 == 0 else not level)
             t += 0.1
-    m.run(duration=5)
+    fsm.run(m, duration=5)
     assert m.ctx.vars["n"] == 3
     assert len(log.monitors) == 3
 
@@ -442,7 +442,7 @@ def test_the_outcome_of_an_aborted_step_is_visible_to_a_later_precondition() -> 
     m, _ = machine([seq("main", wait("slow", 10, timeout=1), setvar("retry", r=1) | {"precondition": aborted},
                         setvar("fine", f=1) | {"precondition": {"type": "Not", "condition": aborted}}), done()],
                    [route("main", "end")], r=0, f=0)
-    assert m.run(duration=20) == "succeeded"
+    assert fsm.run(m, duration=20).outcome == "succeeded"
     assert m.ctx.vars == {"r": 1, "f": 0}
 
 

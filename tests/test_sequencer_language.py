@@ -29,46 +29,46 @@ def errors(document: dict[str, Any]) -> list[str]:
 # -- the top level ------------------------------------------------------------------------------------------
 def test_a_top_level_sequence_that_finishes_ends_the_machine_with_its_outcome() -> None:
     m = fsm.load(doc(seq("s", {"id": "a", "type": "Step"}, {"id": "b", "type": "Step"})))
-    assert m.run(duration=1.0) == "succeeded"
+    assert fsm.run(m, duration=1.0).outcome == "succeeded"
     assert m.finished and m.ticks == 2
 
 
 def test_a_top_level_state_with_transitions_does_not_end_the_machine_when_it_finishes() -> None:
     m = fsm.load(doc(seq("s", {"id": "a", "type": "Step"}), {"id": "idle", "type": "Idle"},
                      transitions=[{"type": "Signal", "from": "s", "to": "idle", "signal": "go"}]))
-    m.run(duration=0.5)
+    fsm.run(m, duration=0.5)
     assert not m.finished and m.root.active.finished
 
 
 def test_an_aborted_top_level_sequence_ends_the_machine_with_aborted() -> None:
     m = fsm.load(doc(seq("s", {"id": "w", "type": "Wait", "seconds": 5},
                          monitors=[{"condition": "n > 0", "behavior": "abortOwner"}]), n=0))
-    m.run(max_ticks=3)
+    fsm.run(m, max_ticks=3)
     m.ctx.vars["n"] = 1
-    assert m.run(duration=1.0) == "aborted"
+    assert fsm.run(m, duration=1.0).outcome == "aborted"
 
 
 # -- repeat_while ----------------------------------------------------------------------------------------------
 def test_repeat_while_runs_the_steps_again_while_the_condition_holds() -> None:
     m = fsm.load(doc(seq("s", {"id": "inc", "type": "SetVar", "assign": {"n": "n + 1"}}, repeat_while="n < 5"), n=0))
-    assert m.run(duration=5.0) == "succeeded"
+    assert fsm.run(m, duration=5.0).outcome == "succeeded"
     assert m.ctx.vars["n"] == 5
 
 
 def test_repeat_while_checks_after_each_run_and_repeat_caps_it() -> None:
     m = fsm.load(doc(seq("s", {"id": "inc", "type": "SetVar", "assign": {"n": "n + 1"}}, repeat_while="n < 100",
                          repeat=3), n=0))
-    m.run(duration=5.0)
+    fsm.run(m, duration=5.0)
     assert m.ctx.vars["n"] == 3
     m = fsm.load(doc(seq("s", {"id": "inc", "type": "SetVar", "assign": {"n": "n + 1"}}, repeat_while="false"), n=0))
-    m.run(duration=5.0)
+    fsm.run(m, duration=5.0)
     assert m.ctx.vars["n"] == 1, "the steps run once before the condition is first checked"
 
 
 def test_repeat_while_as_a_condition_object_and_a_bad_expression() -> None:
     m = fsm.load(doc(seq("s", {"id": "inc", "type": "SetVar", "assign": {"n": "n + 1"}},
                          repeat_while={"type": "Expr", "expr": "n < 2"}), n=0))
-    m.run(duration=5.0)
+    fsm.run(m, duration=5.0)
     assert m.ctx.vars["n"] == 2
     found = errors(doc(seq("s", {"id": "inc", "type": "Step"}, repeat_while="n +"), n=0))
     assert any(e.startswith("/states/0/repeat_while:") for e in found), found
@@ -79,23 +79,23 @@ def test_on_complete_runs_when_the_state_finished_by_itself_and_not_when_aborted
     step = {"id": "w", "type": "Wait", "seconds": 0.1,
             "set": {"on_complete": {"done": "done + 1"}, "on_exit": {"left": "left + 1"}}}
     m = fsm.load(doc(seq("s", step), done=0, left=0))
-    m.run(duration=1.0)
+    fsm.run(m, duration=1.0)
     assert (m.ctx.vars["done"], m.ctx.vars["left"]) == (1, 0), "the last step is not left: the machine ends"
     m = fsm.load(doc(seq("s", {**step, "seconds": 5}, monitors=[{"condition": "stop", "behavior": "abortOwner"}]),
                      done=0, left=0, stop=False))
-    m.run(max_ticks=2)
+    fsm.run(m, max_ticks=2)
     m.ctx.vars["stop"] = True
-    m.run(duration=1.0)
+    fsm.run(m, duration=1.0)
     assert (m.ctx.vars["done"], m.ctx.vars["left"]) == (0, 1), "an abort leaves the step without completing it"
 
 
 def test_on_complete_runs_in_the_tick_the_state_finishes_before_it_is_left() -> None:
     step = {"id": "a", "type": "Step", "set": {"on_complete": {"log": "log + 'c'"}, "on_exit": {"log": "log + 'x'"}}}
     m = fsm.load(doc(seq("s", step, {"id": "b", "type": "Step"}), log=""))
-    m.run(max_ticks=1)
+    fsm.run(m, max_ticks=1)
     assert m.ctx.vars["log"] == "cx"
     last = fsm.load(doc(seq("s", {"id": "a", "type": "Step", "set": {"on_complete": {"n": "n + 1"}}}), n=0))
-    last.run(duration=1.0)
+    fsm.run(last, duration=1.0)
     assert last.finished and last.ctx.vars["n"] == 1, "the last step completes though it is never left"
 
 
@@ -122,11 +122,11 @@ def test_timeout_keys_without_a_timeout_are_both_errors() -> None:
 def test_a_timeout_read_from_a_variable_at_entry() -> None:
     step = {"id": "w", "type": "Idle", "timeout": "t_max", "timeout_behavior": "abortOwner"}
     m = fsm.load(doc(seq("s", step), t_max=0.5))
-    m.run(duration=5.0)
+    fsm.run(m, duration=5.0)
     assert m.finished and m.now == pytest.approx(0.5, abs=0.02)
     m = fsm.load(doc(seq("s", step), t_max=-1))
     with pytest.raises(StateRuntimeError, match="a timeout is a number of seconds > 0"):
-        m.run(duration=1.0)
+        fsm.run(m, duration=1.0)
     found = errors(doc(seq("s", {**step, "timeout": "'x'"}), t_max=1))
     assert any("/timeout:" in e for e in found), found
 
@@ -160,7 +160,7 @@ def test_listeners_are_told_when_a_state_is_skipped_by_its_precondition() -> Non
     m = fsm.load(doc(seq("s", {"id": "a", "type": "Step"}, {"id": "b", "type": "Step", "precondition": "false"},
                          {"id": "c", "type": "Step"})))
     m.add_listener(Probe())
-    m.run(duration=1.0)
+    fsm.run(m, duration=1.0)
     assert skipped == [(1, "s/b")]
 
 
@@ -202,7 +202,7 @@ def test_the_same_sequence_is_called_twice_in_one_chain() -> None:
             seen.append(target.path)
 
     m.add_listener(Entries())
-    assert m.run(duration=2.0) == "succeeded"
+    assert fsm.run(m, duration=2.0).outcome == "succeeded"
     assert m.ctx.vars["grips"] == 2
     assert "main/g1/close" in seen and "main/g2/hold" in seen
     assert m.state("main/g2").supervisor is not None, "the Call's own keys (a timeout) apply to its instance"

@@ -98,7 +98,7 @@ def test_a_class_box_diagram_runs(tmp_path: Path) -> None:
     f.write_text(diagram(CLASS_DIAGRAM, 10), encoding="utf-8")
     m = fsm.load(f)
     m.schedule_signal("press", 0.1)
-    assert m.run(duration=2) == "succeeded"
+    assert fsm.run(m, duration=2).outcome == "succeeded"
 
 
 def test_class_boxes_nest_like_state_boxes() -> None:

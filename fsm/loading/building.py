@@ -13,7 +13,7 @@ from typing import Any
 
 from fsm.model import expr as E
 from fsm.model.errors import DiagramError, Problem
-from fsm.model.plan import Check, ConditionPlan, MachinePlan, RegionPlan, StatePlan, TransitionPlan
+from fsm.model.plan import ConditionPlan, MachinePlan, Predicate, RegionPlan, StatePlan, TransitionPlan
 from fsm.runtime.composite import Composite
 from fsm.runtime.condition import Condition
 from fsm.runtime.context import Context
@@ -35,7 +35,8 @@ def build(plan: MachinePlan, *, clock: Any = None, car: Any = None, context: Con
         names = ", ".join(users[:5]) + (" ..." if len(users) > 5 else "")
         raise DiagramError([Problem(f"this machine drives a car ({names}) but no car was given",
                                     plan.spec.source.name, hint="run it with `fsmctl run FILE --world WORLD`, "
-                                    "or in Python with fsm.Session.open(FILE) (it drives the simulated car)")])
+                                    "or in Python with fsm.run(FILE) (it drives the simulated car "
+                                    "in the default world)")])
     builder = _Builder()
     root = builder.region(plan.root, None)
     machine = Machine(root, name=plan.name, clock=clock, context=ctx, all_regions=builder.regions,
@@ -81,7 +82,7 @@ class _Builder:
         return region
 
     def state(self, plan: StatePlan) -> State[Any]:
-        obj = plan.cls(plan.id, plan.params)
+        obj: State[Any] = plan.cls(plan.id, plan.params)
         obj.path = plan.path
         self.states[plan.path] = obj
         self.built.append((obj, plan))
@@ -97,7 +98,7 @@ class _Builder:
             resets: list[Condition[Any]] = []
             checks = {}
             for key, check in plan.checks.items():
-                holds, conditions = self.check(check, obj)
+                holds, conditions = self.predicate(check, obj)
                 checks[key] = holds
                 resets.extend(conditions)
             obj.checks = checks
@@ -105,7 +106,7 @@ class _Builder:
         sup = plan.supervision
         if sup is not None:
             if sup.until is not None:
-                holds, conditions = self.check(sup.until, obj)
+                holds, conditions = self.predicate(sup.until, obj)
                 obj.until = Until(holds, conditions)
             if sup.watches:
                 self.supervise(obj, plan)
@@ -117,9 +118,9 @@ class _Builder:
         assert sup is not None
         monitors: list[Monitor] = []
         for mp in sup.monitors:
-            holds, conditions = self.check(mp.condition, obj) if mp.condition is not None else (_never, ())
+            holds, conditions = self.predicate(mp.condition, obj) if mp.condition is not None else (_never, ())
             monitors.append(Monitor(holds, mp.behavior, mp.exception, mp.label, kind=mp.kind, conditions=conditions))
-        pre, pre_conditions = self.check(sup.precondition, obj) if sup.precondition is not None else (None, ())
+        pre, pre_conditions = self.predicate(sup.precondition, obj) if sup.precondition is not None else (None, ())
         timeout = sup.timeout
         supervisor = Supervisor(obj, monitors, pre, pre_conditions,
                                 E.on_context(timeout) if isinstance(timeout, E.Compiled) else timeout)
@@ -128,7 +129,7 @@ class _Builder:
                 m.holds = supervisor.timed_out
         obj.supervisor = supervisor
 
-    def check(self, check: Check, owner: State[Any]) -> tuple[Any, tuple[Condition[Any], ...]]:
+    def predicate(self, check: Predicate, owner: State[Any]) -> tuple[Any, tuple[Condition[Any], ...]]:
         """``(holds(ctx), condition objects)`` of a step condition: an expression, or a condition object."""
         if isinstance(check, ConditionPlan):
             condition = check.build()
@@ -138,7 +139,7 @@ class _Builder:
 
     def transition(self, plan: TransitionPlan, states: dict[str, State[Any]]) -> Transition[Any]:
         source = states[plan.source]
-        t = plan.cls(plan.params, source, states[plan.target], plan.position)
+        t: Transition[Any] = plan.cls(plan.params, source, states[plan.target], plan.position)
         guard = plan.guard
         if not plan.conditions and guard.expression is None and guard.condition is None and plan.assign is None:
             return t

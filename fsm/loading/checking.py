@@ -16,7 +16,7 @@ from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from fsm.loading.outcomes import reachable, state_outcomes
+from fsm.loading.outcomes import can_finish, reachable, state_outcomes
 from fsm.model import expr as E
 from fsm.model.document import ConditionSpec, MachineSpec, Source, StateSpec, TransitionSpec, element_label
 from fsm.model.jsonpos import escape
@@ -63,7 +63,7 @@ def check(root: MachineSpec, problems: Problems) -> Analysis:
     for level in levels:
         for key, value in level.vars.items():
             variables.setdefault(key, value)
-    check_sequences(root, problems)
+    check_sequences(root, problems, can_finish)
     kinds, expressions = _Expressions(states, transitions, variables, paths, problems).check()
     if root.inputs is not None:
         check_inputs(root, problems)

@@ -18,11 +18,11 @@ from fsm.model.jsonpos import escape
 from fsm.model.plan import (
     NOTHING,
     Action,
-    Check,
     ConditionPlan,
     GuardPlan,
     MachinePlan,
     MonitorPlan,
+    Predicate,
     RegionPlan,
     StatePlan,
     SupervisionPlan,
@@ -84,7 +84,7 @@ class _Compiler:
             on_enter = self.assigner(st.source, self.entry_assignments(st))
             on_exit = self.assigner(st.source, self.set_assignments(st, "on_exit"))
             on_complete = self.assigner(st.source, self.set_assignments(st, "on_complete"))
-        checks = {key: self.check(st, key, getattr(params, key)) for key in cls.condition_fields
+        checks = {key: self.predicate(st, key, getattr(params, key)) for key in cls.condition_fields
                   if getattr(params, key, None) is not None} if cls.condition_fields else NOTHING
         supervision = None
         if params.precondition is not None or params.until is not None or params.monitors is not None \
@@ -142,7 +142,7 @@ class _Compiler:
             cls=cs.cls, params=cs.params, children=tuple(self.condition(c, source) for c in cs.children),
             exprs={key: self.analysis.expression(source, f"{cs.pointer}/{key}") for key in cs.cls.expr_fields})
 
-    def check(self, st: StateSpec, key: str, raw: Any) -> Check:
+    def predicate(self, st: StateSpec, key: str, raw: Any) -> Predicate:
         """A step condition: an expression, or a condition object."""
         if isinstance(raw, str):
             return self.analysis.expression(st.source, f"{st.pointer}/{key}")
@@ -166,11 +166,11 @@ class _Compiler:
         for i, m in enumerate(p.monitors or ()):
             label = m.description or (m.condition if isinstance(m.condition, str) else
                                       str(m.condition.get("type", "condition")))
-            monitors.append(MonitorPlan(self.check(st, f"monitors/{i}/condition", m.condition), m.behavior,
+            monitors.append(MonitorPlan(self.predicate(st, f"monitors/{i}/condition", m.condition), m.behavior,
                                         m.exception, label))
         return SupervisionPlan(
-            precondition=None if p.precondition is None else self.check(st, "precondition", p.precondition),
-            until=None if p.until is None else self.check(st, "until", p.until),
+            precondition=None if p.precondition is None else self.predicate(st, "precondition", p.precondition),
+            until=None if p.until is None else self.predicate(st, "until", p.until),
             monitors=tuple(monitors),
             timeout=timeout,
         )

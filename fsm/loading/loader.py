@@ -12,9 +12,9 @@ from __future__ import annotations
 import gc
 import os
 import threading
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
-from typing import Any
+from typing import Any, Union
 
 from fsm.loading.building import build
 from fsm.loading.checking import Analysis, conditions_of, signal_names, signal_readers, value_kind
@@ -28,12 +28,16 @@ from fsm.model.errors import DiagramError, Problem
 from fsm.model.jsonpos import pointer
 from fsm.model.plan import MachinePlan
 from fsm.model.problems import Problems
-from fsm.runtime.clock import SimulatedClock
+from fsm.runtime.clock import Clock, SimulatedClock
 from fsm.runtime.context import Context
 from fsm.runtime.machine import Machine
 
+#: What a document is loaded from: a path (``.json``, or ``.uxf`` with the UMLet reader), the document as a dict, or
+#: a spec parsed before.
+DocumentSource = Union[str, "os.PathLike[str]", Mapping[str, object], MachineSpec]
 
-def analyse(src: Any, *, registry: Registry | None = None, plugins: tuple[str, ...] = (),
+
+def analyse(src: DocumentSource, *, registry: Registry | None = None, plugins: tuple[str, ...] = (),
             base_dir: str | os.PathLike[str] | None = None
             ) -> tuple[MachineSpec | None, Analysis | None, list[Problem]]:
     """Parse and check ``src`` (a path, a document dict, or an already parsed spec): the spec (``None`` if
@@ -55,14 +59,14 @@ def analyse(src: Any, *, registry: Registry | None = None, plugins: tuple[str, .
     return spec, analysis, problems.located()
 
 
-def check(src: Any, *, registry: Registry | None = None, plugins: tuple[str, ...] = (),
+def check(src: DocumentSource, *, registry: Registry | None = None, plugins: tuple[str, ...] = (),
           base_dir: str | os.PathLike[str] | None = None) -> tuple[MachineSpec | None, list[Problem]]:
     """Validate ``src`` without building: the checked spec (``None`` if unusable) and every problem found."""
     spec, _analysis, problems = analyse(src, registry=registry, plugins=plugins, base_dir=base_dir)
     return spec, problems
 
 
-def compile(src: Any, *, registry: Registry | None = None, plugins: tuple[str, ...] = (),  # noqa: A001
+def compile(src: DocumentSource, *, registry: Registry | None = None, plugins: tuple[str, ...] = (),  # noqa: A001
             base_dir: str | os.PathLike[str] | None = None) -> MachinePlan:
     """The plan of ``src`` (a path, a document dict or a parsed spec); raises :class:`DiagramError` with every
     error found. A plan builds any number of machines (:func:`fsm.loading.building.build`)."""
@@ -74,8 +78,8 @@ def compile(src: Any, *, registry: Registry | None = None, plugins: tuple[str, .
         return compile_machine(spec, analysis)
 
 
-def load(src: Any, *, registry: Registry | None = None, plugins: tuple[str, ...] = (), clock: Any = None,
-         car: Any = None, context: Context | None = None, dt: float | None = None,
+def load(src: DocumentSource, *, registry: Registry | None = None, plugins: tuple[str, ...] = (),
+         clock: Clock | None = None, car: object | None = None, context: Context | None = None, dt: float | None = None,
          base_dir: str | os.PathLike[str] | None = None) -> Machine:
     """Load a machine from a file path (``.json``, or ``.uxf`` with the UMLet reader) or a document dict.
 
@@ -118,6 +122,13 @@ def collection_paused() -> Iterator[None]:
                 gc.enable()
 
 
+def compile_checked(spec: MachineSpec, analysis: Analysis) -> MachinePlan:
+    """The plan of a spec :func:`analyse` found without errors, from its analysis: the document is not checked a
+    second time (``fsmctl run`` checks once, then compiles)."""
+    with collection_paused():
+        return compile_machine(spec, analysis)
+
+
 def _plugins(plugins: Any) -> tuple[str, ...]:
     """``plugins`` as a tuple of module names (a lone string would be read letter by letter)."""
     if isinstance(plugins, str):
@@ -128,7 +139,7 @@ def _plugins(plugins: Any) -> tuple[str, ...]:
     return tuple(plugins)
 
 
-def _check_arguments(src: Any, clock: Any, context: Any, dt: Any) -> None:
+def _check_arguments(src: object, clock: object, context: object, dt: object) -> None:
     if clock is not None and not (callable(getattr(clock, "time_at", None)) and hasattr(clock, "dt")):
         raise TypeError(f"clock must be a clock (fsm.SimulatedClock or fsm.RealTimeClock), got {clock!r}")
     if context is not None and not isinstance(context, Context):

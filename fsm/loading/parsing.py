@@ -2,10 +2,10 @@
 
 Each element is looked up in the registry by its ``type`` and validated against that type's ``Params`` (the
 models the JSON Schema is generated from); includes are read relative to the including file, cycles refused;
-condition objects are parsed where they are written; a composite's regions come from the type itself
-(:meth:`fsm.runtime.composite.Composite.parse_regions`), so a Sequence's steps are laid out by the sequencer. What
-cannot
-be parsed becomes a located problem, and parsing goes on with the rest of the file.
+condition objects are parsed where they are written; a composite's regions are parsed by the layout the table
+:data:`REGION_LAYOUTS` names for its type (a Sequence's steps are laid out by :mod:`fsm.sequencer.layout`, any other
+composite's sub-machines are parsed as drawn). What cannot be parsed becomes a located problem, and parsing goes on
+with the rest of the file.
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from __future__ import annotations
 import errno
 import os
 import stat
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +28,7 @@ from fsm.model.document import (
     MachineSpec,
     Source,
     StateSpec,
+    SubMachine,
     TransitionSpec,
     check_type,
     element_label,
@@ -36,14 +38,17 @@ from fsm.model.document import (
 from fsm.model.errors import DiagramError
 from fsm.model.params import ParamsBase
 from fsm.model.problems import Problems
+from fsm.runtime.composite import Composite
+from fsm.sequencer.layout import parse_sequence
+from fsm.sequencer.steps import Sequence
 
 #: Machines nested deeper than this are refused (a recursion guard, far beyond any real diagram).
 MAX_MACHINE_DEPTH = 48
 
 
 class Parser:
-    """One parse: the registry, where problems go, and the include bookkeeping. Types call back into it
-    (``parse_regions``) for the elements and machines they hold."""
+    """One parse: the registry, where problems go, and the include bookkeeping. The region layouts
+    (:data:`REGION_LAYOUTS`) call back into it for the elements and machines a composite holds."""
 
     def __init__(self, registry: Registry, problems: Problems, base_dir: str | os.PathLike[str] | None = None) -> None:
         self.registry = registry
@@ -228,7 +233,7 @@ class Parser:
                 or cls.condition_fields:
             self._step_conditions(spec)
         if cls.is_composite:
-            cls.parse_regions(self, spec, depth)
+            region_layout(cls)(self, spec, depth)
         return spec
 
     def _step_conditions(self, spec: StateSpec) -> None:
@@ -306,4 +311,35 @@ def parse(src: Any, registry: Registry, problems: Problems,
         return None
 
 
-__all__ = ["MAX_MACHINE_DEPTH", "Parser", "parse"]
+def parse_submachines(parser: Parser, spec: StateSpec, depth: int) -> None:
+    """A composite's regions as drawn: each sub-machine its type names (``Composite.submachines``) into
+    ``spec.subs``, a region's own ``name`` checked to be usable as a path step."""
+    for default_name, doc, rel in spec.cls.submachines(spec.params):
+        sub = parser.submachine(doc, spec.source, spec.pointer + rel, depth + 1)
+        name = default_name
+        if default_name is not None and sub is not None and sub.name:
+            name = sub.name
+            if "/" in name or any(name == other.name for other in spec.subs):
+                parser.problems.add(f"region name '{name}' is not usable as a path step (it contains '/' or is "
+                                    f"used twice in '{spec.id}')", sub.source, sub.pointer + "/name",
+                                    element=spec.label, hint="give each region a unique name")
+        spec.subs.append(SubMachine(name, sub, spec.pointer + rel))
+
+
+#: How a composite's regions are parsed, by the base class of its type, the most specific first: a Sequence's steps
+#: are laid out as regions, any other composite's sub-machines are parsed as drawn.
+REGION_LAYOUTS: tuple[tuple[type[Any], Callable[[Parser, StateSpec, int], None]], ...] = (
+    (Sequence, parse_sequence),
+    (Composite, parse_submachines),
+)
+
+
+def region_layout(cls: type[Any]) -> Callable[[Parser, StateSpec, int], None]:
+    """The layout of :data:`REGION_LAYOUTS` for a composite type."""
+    for base, layout in REGION_LAYOUTS:
+        if issubclass(cls, base):
+            return layout
+    return parse_submachines
+
+
+__all__ = ["MAX_MACHINE_DEPTH", "REGION_LAYOUTS", "Parser", "parse", "parse_submachines", "region_layout"]

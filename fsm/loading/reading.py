@@ -23,6 +23,7 @@ from typing import Any
 from fsm.model.document import Source
 from fsm.model.errors import DiagramError, Problem
 from fsm.model.jsonpos import LineIndex, depth_exceeded_at, duplicate_keys, escape, locate
+from fsm.model.problems import place as place  # re-exported: the adapters and tools locate through it
 
 #: Where a too-deep JSON text is reported (Python's parser gives up somewhat deeper than this).
 MAX_JSON_DEPTH = 400
@@ -258,27 +259,6 @@ def duplicate_key_problems(text: str, name: str | None) -> list[Problem]:
         problems.append(Problem("duplicate key in a JSON object", name,
                                 hint="a key may appear once per object; delete one of the two"))
     return problems
-
-
-def place(problems: list[Problem], locator: Any) -> None:
-    """Fill in line, column (and drawing position) of ``problems`` from one call of a source's ``locator``;
-    a pointer that is not found takes the position of its nearest enclosing element."""
-    if locator is None:
-        return
-    wanted: set[str] = set()
-    for p in problems:
-        parts = p.pointer.split("/")
-        wanted.update("/".join(parts[:k]) for k in range(1, len(parts) + 1))
-    found = locator(wanted)
-    for p in problems:
-        parts = p.pointer.split("/")
-        for k in range(len(parts), 0, -1):
-            pos = found.get("/".join(parts[:k]))
-            if pos is not None:
-                p.line, p.column = pos[0], pos[1]
-                if len(pos) > 2 and p.where is None:
-                    p.where = pos[2]
-                break
 
 
 class _Strict(ValueError):

@@ -101,6 +101,13 @@ class Registry:
             )
         if not name.isidentifier():
             raise RegistrationError(f"type name {name!r} must be an identifier (letters, digits, _)")
+        argument = getattr(cls, "params_argument", None)
+        if isinstance(argument, type) and not issubclass(params, argument):
+            raise RegistrationError(
+                f"{cls.__module__}.{cls.__qualname__} (type {name!r}): Params = {params.__qualname__} disagrees with "
+                f"its generic argument {argument.__qualname__}, which types self.params; drop the Params line "
+                f"(the generic argument is the Params), or make Params a subclass of {argument.__qualname__}"
+            )
 
     @staticmethod
     def _check_free(table: dict[str, Any], name: str, cls: type, kind: str) -> bool:

@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import difflib
 import math
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Annotated, Any, NamedTuple
+from typing import Annotated, Any, NamedTuple, Protocol
 
 from pydantic import BaseModel, Field, ValidationError, WithJsonSchema, field_validator
 from pydantic.json_schema import GenerateJsonSchema
@@ -18,13 +18,6 @@ from pydantic.json_schema import GenerateJsonSchema
 from fsm.model.errors import Problem
 from fsm.model.jsonpos import escape, pointer
 from fsm.model.params import ID_PATTERN, ConditionParams, ParamsBase, StateParams, TransitionParams
-
-if TYPE_CHECKING:
-    from fsm.loading.registry import Registry
-    from fsm.runtime.condition import Condition
-    from fsm.runtime.state import State
-    from fsm.runtime.transition import Transition
-    from fsm.sequencer.layout import SequenceLayout
 
 #: A parameter that holds a machine: an inline document or ``{"file": ...}``.
 MachineSpecField = Annotated[dict[str, Any], WithJsonSchema({"type": "object", "x-machine": True})]
@@ -102,12 +95,30 @@ class SubMachine(NamedTuple):
     pointer: str
 
 
+class TypeTables(Protocol):
+    """What the model needs of a registry (:class:`fsm.loading.registry.Registry` is one): the registered classes
+    by name, per kind, and close names for a hint."""
+
+    @property
+    def states(self) -> Mapping[str, type[Any]]: ...
+
+    @property
+    def transitions(self) -> Mapping[str, type[Any]]: ...
+
+    @property
+    def conditions(self) -> Mapping[str, type[Any]]: ...
+
+    def table(self, kind: str) -> Mapping[str, Any]: ...
+
+    def suggest(self, name: str, kind: str) -> list[str]: ...
+
+
 @dataclass
 class ConditionSpec:
     """A parsed condition object: its class, parameters and nested conditions (expressions are checked and
     compiled by the later stages)."""
 
-    cls: type[Condition[Any]]
+    cls: type[Any]  #: a registered Condition class (the model names no runtime class)
     params: ConditionParams
     pointer: str
     children: list[ConditionSpec] = field(default_factory=list)
@@ -130,7 +141,7 @@ class StateSpec:
     """A parsed state element: its type, parameters, sub-machines and condition objects."""
 
     id: str
-    cls: type[State[Any]]
+    cls: type[Any]  #: a registered State class
     params: StateParams
     pointer: str
     source: Source
@@ -151,12 +162,27 @@ class StateSpec:
         return f"state '{self.id}'"
 
 
+@dataclass(frozen=True)
+class SequenceLayout:
+    """Where a Sequence's regions come from: ``subs[0]`` the chain, then one per non-blocking sequence (with the
+    index of the blocking step after which it starts, -1: at once), then one per exception sequence."""
+
+    detached_after: tuple[int, ...] = ()
+    detached_ids: tuple[str, ...] = ()
+    exception_ids: tuple[str, ...] = ()
+    #: ids of exception sequences declared here that did not parse (monitors naming them get no second error)
+    broken_exception_ids: tuple[str, ...] = ()
+    #: every step spec in document order (blocking or not)
+    steps: tuple[StateSpec, ...] = ()
+    exceptions: tuple[StateSpec, ...] = ()
+
+
 @dataclass
 class TransitionSpec:
     """A parsed transition element: its type, parameters and condition objects (a condition guard is
     ``"guard"``; a type's condition parameters by name)."""
 
-    cls: type[Transition[Any]]
+    cls: type[Any]  #: a registered Transition class
     params: TransitionParams
     pointer: str
     source: Source
@@ -390,7 +416,7 @@ def element_label(kind: str, data: Any) -> str | None:
 
 
 def check_type(
-    kind: str, data: dict[str, Any], registry: Registry, source: Source, base: str
+    kind: str, data: dict[str, Any], registry: TypeTables, source: Source, base: str
 ) -> tuple[type[Any] | None, list[Problem]]:
     """The registered class an element names by ``type``, or a problem that suggests close names."""
     name = data.get("type")
@@ -447,7 +473,7 @@ def file_schema(model: type[Any], file: str, title: str, description: str) -> di
     }
 
 
-def json_schema(registry: Registry) -> dict[str, Any]:
+def json_schema(registry: TypeTables) -> dict[str, Any]:
     """The JSON Schema of machine documents for the registered types (discriminated on ``type``)."""
     defs: dict[str, Any] = {}
 
@@ -459,7 +485,7 @@ def json_schema(registry: Registry) -> dict[str, Any]:
             defs[name] = sub
         return schema
 
-    def dispatch(kind: str, table: dict[str, type[Any]]) -> dict[str, Any]:
+    def dispatch(kind: str, table: Mapping[str, type[Any]]) -> dict[str, Any]:
         names = sorted(table)
         branches = []
         for name in names:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Any, ClassVar, Literal
+from typing import Annotated, Any, ClassVar, Literal, TypeVar, get_args
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, WithJsonSchema, field_validator
 
@@ -170,3 +170,27 @@ class ConditionParams(ParamsBase):
     """Fields every condition object has; a condition type's own ``Params`` subclasses this."""
 
     type: str = Field(description="Registered condition type.")
+
+
+#: A parameters model (in :func:`generic_params`).
+ParamsT = TypeVar("ParamsT", bound=ParamsBase)
+
+
+def generic_params(cls: type, base: type[ParamsT]) -> type[ParamsT] | None:
+    """The parameters class ``cls`` names as its own generic argument (``class Drive(State[DriveParams])``:
+    ``DriveParams``), a subclass of ``base``; ``None`` when its bases name none (a type variable, no argument)."""
+    for origin in cls.__dict__.get("__orig_bases__", ()):
+        for arg in get_args(origin):
+            if isinstance(arg, type) and issubclass(arg, base):
+                return arg
+    return None
+
+
+def adopt_generic_params(cls: type, base: type[ParamsBase]) -> None:
+    """Called by a plugin base's ``__init_subclass__``: the generic argument ``cls`` names (:func:`generic_params`)
+    becomes its ``params_argument`` and, unless the class declares ``Params`` itself, its ``Params``."""
+    derived = generic_params(cls, base)
+    if derived is not None:
+        setattr(cls, "params_argument", derived)  # noqa: B010  # a ClassVar of the plugin bases, not of type
+        if "Params" not in cls.__dict__:
+            setattr(cls, "Params", derived)  # noqa: B010

@@ -16,12 +16,8 @@ from typing import TYPE_CHECKING, Any, NamedTuple, Union
 from fsm.model.expr import Compiled, VarOp
 
 if TYPE_CHECKING:
-    from fsm.model.document import MachineSpec
+    from fsm.model.document import MachineSpec, SequenceLayout
     from fsm.model.params import ConditionParams, StateParams, TransitionParams
-    from fsm.runtime.condition import Condition
-    from fsm.runtime.state import State
-    from fsm.runtime.transition import Transition
-    from fsm.sequencer.layout import SequenceLayout
 
 #: A compiled action: what runs, given the context.
 Action = Callable[[Any], None]
@@ -55,18 +51,18 @@ NOTHING: Mapping[str, Any] = MappingProxyType({})
 class ConditionPlan(NamedTuple):
     """A condition object ready to build: its class, parameters, children and compiled expressions."""
 
-    cls: type[Condition[Any]]
+    cls: type[Any]  #: a registered Condition class (the model names no runtime class)
     params: ConditionParams
     children: tuple[ConditionPlan, ...] = ()
     exprs: Mapping[str, Compiled] = NOTHING
 
-    def build(self) -> Condition[Any]:
+    def build(self) -> Any:
         """A fresh instance (each user gets its own: conditions keep state)."""
         return self.cls(self.params, [c.build() for c in self.children], dict(self.exprs))
 
 
 #: A compiled condition of a state (precondition, exit condition, monitor): an expression or a condition object.
-Check = Union[Compiled, ConditionPlan]
+Predicate = Union[Compiled, ConditionPlan]
 
 
 class GuardPlan(NamedTuple):
@@ -80,7 +76,7 @@ class TransitionPlan(NamedTuple):
     """One transition: its type and parameters, its endpoints (ids in its level), its document guard and ``set``,
     and the condition objects of its type's condition parameters."""
 
-    cls: type[Transition[Any]]
+    cls: type[Any]  #: a registered Transition class
     params: TransitionParams
     source: str
     target: str
@@ -107,7 +103,7 @@ class TransitionPlan(NamedTuple):
 class MonitorPlan(NamedTuple):
     """A monitor of a state, or its timeout (``condition`` None: the supervisor's clock decides)."""
 
-    condition: Check | None
+    condition: Predicate | None
     behavior: str
     exception: str | None
     label: str
@@ -117,8 +113,8 @@ class MonitorPlan(NamedTuple):
 class SupervisionPlan(NamedTuple):
     """A state's step-common keys, compiled: precondition, exit condition, monitors (the timeout first)."""
 
-    precondition: Check | None = None
-    until: Check | None = None
+    precondition: Predicate | None = None
+    until: Predicate | None = None
     monitors: tuple[MonitorPlan, ...] = ()
     #: seconds, or an expression read each time the state is entered
     timeout: float | Compiled | None = None
@@ -133,7 +129,7 @@ class StatePlan(NamedTuple):
     """One state: its type, parameters, path, hooks, supervision, regions and outgoing transitions (ordered:
     preemptive first as the region checks them, then the regular ones, by priority and declaration)."""
 
-    cls: type[State[Any]]
+    cls: type[Any]  #: a registered State class
     params: StateParams
     id: str
     path: str
@@ -148,7 +144,7 @@ class StatePlan(NamedTuple):
     #: ``set.on_complete``, compiled: run when the state is left after it finished by itself
     on_complete: Action | None = None
     #: the type's condition parameters (``Sequence.repeat_while``), compiled
-    checks: Mapping[str, Check] = NOTHING
+    checks: Mapping[str, Predicate] = NOTHING
 
 
 class RegionPlan(NamedTuple):
@@ -191,5 +187,5 @@ class MachinePlan(NamedTuple):
         return out
 
 
-__all__ = ["Action", "ActionKind", "Check", "ConditionPlan", "GuardKind", "GuardPlan", "MachinePlan",
+__all__ = ["Action", "ActionKind", "Predicate", "ConditionPlan", "GuardKind", "GuardPlan", "MachinePlan",
            "MonitorPlan", "RegionPlan", "StatePlan", "SupervisionPlan", "TransitionPlan"]

@@ -9,13 +9,33 @@ at the end, fills in line and column with one scan per file.
 from __future__ import annotations
 
 import re
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
-from fsm.loading.reading import place
 from fsm.model.errors import Problem
 
 if TYPE_CHECKING:
     from fsm.model.document import Source
+
+
+def place(problems: list[Problem], locator: Any) -> None:
+    """Fill in line, column (and drawing position) of ``problems`` from one call of a source's ``locator``;
+    a pointer that is not found takes the position of its nearest enclosing element."""
+    if locator is None:
+        return
+    wanted: set[str] = set()
+    for p in problems:
+        parts = p.pointer.split("/")
+        wanted.update("/".join(parts[:k]) for k in range(1, len(parts) + 1))
+    found = locator(wanted)
+    for p in problems:
+        parts = p.pointer.split("/")
+        for k in range(len(parts), 0, -1):
+            pos = found.get("/".join(parts[:k]))
+            if pos is not None:
+                p.line, p.column = pos[0], pos[1]
+                if len(pos) > 2 and p.where is None:
+                    p.where = pos[2]
+                break
 
 
 class Problems:
@@ -94,4 +114,4 @@ def _expression_column(problem: Problem, text: str) -> None:
     problem.column = m.end() + col
 
 
-__all__ = ["Problems"]
+__all__ = ["Problems", "place"]

@@ -10,7 +10,7 @@ from typing import Protocol, runtime_checkable
 #: The TRAL car's control period: 80 Hz (the seed's PD constants 0.0125 s and 80 1/s).
 DEFAULT_DT = 0.0125
 #: Machine time a run stops after when given neither a duration nor a tick limit (seconds): a machine that can
-#: never finish still returns. The one default of ``fsmctl run``, sweeps, scenarios, sessions and ``Machine.run``.
+#: never finish still returns. The one default of ``fsmctl run``, sweeps, scenarios, sessions and ``fsm.run``.
 DEFAULT_DURATION = 600.0
 
 

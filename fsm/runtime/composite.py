@@ -2,15 +2,12 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, ClassVar, TypeVar, cast
+from typing import TYPE_CHECKING, Any, ClassVar, TypeVar
 
-from fsm.model.document import SubMachine
 from fsm.model.params import StateParams
 from fsm.runtime.state import State
 
 if TYPE_CHECKING:
-    from fsm.loading.parsing import Parser
-    from fsm.model.document import StateSpec
     from fsm.model.plan import StatePlan
     from fsm.runtime.context import Context
     from fsm.runtime.region import Region
@@ -48,21 +45,6 @@ class Composite(State[P]):
         """
         raise NotImplementedError
 
-    @classmethod
-    def parse_regions(cls, parser: Parser, spec: StateSpec, depth: int) -> None:
-        """Parse the element's sub-machines into ``spec.subs`` (the parse stage calls this for composites)."""
-        params = cast(P, spec.params)  # the parse stage validated it with cls.Params, the model P stands for
-        for default_name, doc, rel in cls.submachines(params):
-            sub = parser.submachine(doc, spec.source, spec.pointer + rel, depth + 1)
-            name = default_name
-            if default_name is not None and sub is not None and sub.name:
-                name = sub.name
-                if "/" in name or any(name == other.name for other in spec.subs):
-                    parser.problems.add(f"region name '{name}' is not usable as a path step (it contains '/' or is "
-                                        f"used twice in '{spec.id}')", sub.source, sub.pointer + "/name",
-                                        element=spec.label, hint="give each region a unique name")
-            spec.subs.append(SubMachine(name, sub, spec.pointer + rel))
-
     def attach_regions(self, regions: list[Region], plan: StatePlan) -> None:
         """Take the built regions (in the order of ``plan.regions``) as this state's sub-machines."""
         self.regions = tuple(regions)
@@ -93,7 +75,7 @@ class Composite(State[P]):
 
     def tick(self, ctx: Context) -> None:
         for region in self.regions:
-            region.step(ctx)
+            region.tick(ctx)
         if not self.finished:
             self._join()
 
@@ -106,7 +88,7 @@ class Composite(State[P]):
 
     def _tick_one(self, ctx: Context) -> None:
         region = self.regions[0]
-        region.step(ctx)
+        region.tick(ctx)
         if not self.finished:
             active = region.active
             if active.is_final:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
 
-from fsm.model.params import ConditionParams
+from fsm.model.params import ConditionParams, adopt_generic_params
 
 if TYPE_CHECKING:
     from fsm.model.expr import Compiled
@@ -24,12 +24,15 @@ class Condition(Generic[P]):
     """Subclass it, declare ``Params`` (a :class:`fsm.model.params.ConditionParams`), override ``holds`` (and
     ``reset`` when it keeps state), and register it with :func:`fsm.register_condition`.
 
-    ``Condition`` is generic over its parameters, as states are: ``class Hot(Condition[HotParams])`` with
-    ``Params = HotParams`` types ``self.params.limit``."""
+    ``Condition`` is generic over its parameters, as states are: ``class Hot(Condition[HotParams])`` types
+    ``self.params.limit`` and makes ``HotParams`` its ``Params``."""
 
     __slots__ = ("params", "owner", "children", "exprs")
 
+    #: The parameters' model: the generic argument (``class Hot(Condition[HotParams])``) unless declared.
     Params: ClassVar[type[ConditionParams]] = ConditionParams
+    #: The generic argument the class (or its nearest base that names one) gives; ``Params`` must agree with it.
+    params_argument: ClassVar[type[ConditionParams] | None] = None
     #: Parameters that hold nested conditions: one condition object, or a list of them.
     condition_fields: ClassVar[tuple[str, ...]] = ()
     #: Parameters that hold expressions (checked and compiled by the loader, passed in ``exprs``).
@@ -38,6 +41,10 @@ class Condition(Generic[P]):
     state_refs: ClassVar[tuple[str, ...]] = ()
     #: Parameters that hold input signal names.
     signal_refs: ClassVar[tuple[str, ...]] = ()
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        adopt_generic_params(cls, ConditionParams)
 
     def __init__(self, params: P, children: list[Condition[Any]] | None = None,
                  exprs: dict[str, Compiled] | None = None) -> None:

@@ -82,9 +82,9 @@ class PauseListener(Listener, Protocol):
 L = TypeVar("L", bound=Listener)
 
 
-#: What ``Machine.run`` stops after when given neither ``max_ticks`` nor ``duration`` (machine time, seconds).
+#: What ``fsm.run`` stops after when given neither ``max_ticks`` nor ``duration`` (machine time, seconds).
 DEFAULT_RUN_DURATION = DEFAULT_DURATION
-#: ``Machine.run`` refuses a duration of more ticks than this (1e308 s would never end).
+#: ``fsm.run`` refuses a duration of more ticks than this (1e308 s would never end).
 MAX_RUN_TICKS = 10**12
 
 
@@ -159,52 +159,13 @@ class Machine:
         if self._toggles:
             self._check_toggles(ctx)
         try:
-            self.root.step(ctx)
+            self.root.tick(ctx)
         except StateRuntimeError:
             self._emergency_stop()
             raise
         if self.listeners:
             for listener in self.listeners:
                 listener.on_tick(self)
-
-    def run(
-        self,
-        until: Callable[[Machine], bool] | None = None,
-        max_ticks: int | None = None,
-        duration: float | None = None,
-    ) -> str | None:
-        """Tick until the machine finishes, ``until(machine)`` is true, ``max_ticks`` ticks have run or
-        ``duration`` seconds of machine time have passed (the first tick at or after it). Returns the outcome
-        (``None`` if unfinished). This is a :class:`fsm.Session` without a world; use one to run a machine on a car.
-
-        Without ``max_ticks`` and ``duration`` the run stops after :data:`DEFAULT_RUN_DURATION` (600 s of
-        machine time, as ``fsmctl run``), so a machine that can never finish still returns (``None``; check
-        ``finished``). To run longer, pass a larger ``duration``; to run forever, call ``tick()`` in your
-        own loop. With a real-time clock, each tick waits for its period.
-
-        Raises ``TypeError`` for an ``until`` that is not callable, a ``max_ticks`` that is not an integer
-        (``True`` and ``10.0`` are not) or a ``duration`` that is not a number; ``ValueError`` for a negative
-        ``max_ticks`` or a negative, NaN or infinite ``duration``, or one of more than 10**12 ticks.
-        """
-        from fsm.session.session import Session, StopRules  # the session drives machines: it imports this module
-
-        if until is not None and not callable(until):
-            raise TypeError(f"until must be a function of the machine returning a bool, or None; "
-                            f"got {shown_value(until)}")
-        if max_ticks is not None:
-            if isinstance(max_ticks, bool) or not isinstance(max_ticks, numbers.Integral):
-                raise TypeError(f"max_ticks must be an int or None, got {shown_value(max_ticks)}")
-            if max_ticks < 0:
-                raise ValueError(f"max_ticks must be >= 0, got {max_ticks}")
-            max_ticks = int(max_ticks)
-        if duration is not None:
-            duration = _seconds("duration", duration)
-            if duration / self._dt > MAX_RUN_TICKS:
-                raise ValueError(f"duration must be at most {MAX_RUN_TICKS:.0e} ticks of {self._dt:g} s, got "
-                                 f"{duration!r} s; run in steps with tick() for longer")
-        session = Session(self, stop=StopRules(duration, max_ticks), record=False)
-        check = None if until is None else (lambda _session: until(self))
-        return session.run(until=check).outcome
 
     # -- inputs ---------------------------------------------------------------------------------
     def schedule_signal(self, name: str, at: float, value: bool | int = True) -> None:
@@ -215,7 +176,7 @@ class Machine:
         before the next tick.
         """
         check_signal_name(name)
-        at = _seconds("at", at)
+        at = seconds_argument("at", at)
         level = signal_level(value)
         self._schedule_seq += 1
         bisect.insort(self._schedule, (at, self._schedule_seq, name, level))
@@ -462,7 +423,7 @@ def _inner_regions(state: State[Any]) -> tuple[Region, ...]:
 
 
 # -- argument checks (shared with Context.set_signal) --------------------------------------------------
-def _seconds(name: str, value: Any) -> float:
+def seconds_argument(name: str, value: Any) -> float:
     """A time argument: a real number (not a bool, not a string), finite and >= 0."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise TypeError(f"{name} must be a number of seconds, got {shown_value(value)}")

@@ -73,7 +73,7 @@ class Region:
                 state.release()
         self.started = False
 
-    def step(self, ctx: Context) -> None:
+    def tick(self, ctx: Context) -> None:
         """One tick of this level: choose the transition that fires (if any), then fire it.
 
         Choosing: the supervisor first (it may use up the tick, or halt the state so that only its transitions

@@ -6,7 +6,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, ClassVar, Generic, NamedTuple, TypeVar, cast
 
 from fsm.model.errors import StateRuntimeError
-from fsm.model.params import StateParams
+from fsm.model.params import StateParams, adopt_generic_params
 
 if TYPE_CHECKING:
     from fsm.runtime.condition import Condition
@@ -39,8 +39,9 @@ class State(Generic[P]):
     A state that can finish (``can_finish = True``) calls ``finish(outcome)``; ``Finished``
     transitions then route on that outcome.
 
-    ``State`` is generic over its parameters: ``class Wait(State[WaitParams])`` with ``Params = WaitParams``
-    types ``self.params.seconds``.
+    ``State`` is generic over its parameters: ``class Wait(State[WaitParams])`` types ``self.params.seconds`` and
+    makes ``WaitParams`` the type's ``Params`` (what the document is checked against); a ``Params`` declared as
+    well must agree with it (be it or a subclass), else registering the class is a ``RegistrationError``.
     """
 
     __slots__ = (
@@ -73,7 +74,11 @@ class State(Generic[P]):
         "completion_ran",
     )
 
+    #: The parameters' model: the generic argument (``class Wait(State[WaitParams])``) unless declared.
     Params: ClassVar[type[StateParams]] = StateParams
+    #: The generic argument the class (or its nearest base that names one) gives: ``Params`` must be it or a
+    #: subclass of it, or registering the class fails (``self.params`` is typed by it).
+    params_argument: ClassVar[type[StateParams] | None] = None
     #: Whether instances can finish; the loader refuses a ``Finished`` transition out of a type that cannot.
     can_finish: ClassVar[bool] = False
     #: The outcomes instances can finish with (checked against ``Finished`` transitions that name one).
@@ -100,6 +105,7 @@ class State(Generic[P]):
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
+        adopt_generic_params(cls, StateParams)
         cls._overrides_enter = cls.on_enter is not State.on_enter
         cls._overrides_exit = cls.on_exit is not State.on_exit
         cls._overrides_tick = cls.tick is not State.tick

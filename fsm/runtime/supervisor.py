@@ -1,7 +1,7 @@
 """The runtime side of the step-common keys (EEROS): monitors, the timeout monitor, the precondition and the
 exception sequences they run, and what their behaviours do to a state (abort, restart, resume).
 
-A state with monitors, a timeout or a precondition has a :class:`Supervisor`; ``Region.step`` asks it first,
+A state with monitors, a timeout or a precondition has a :class:`Supervisor`; ``Region.tick`` asks it first,
 before the state's preemptive transitions and its tick, so monitors are checked outermost first, each tick,
 while the owner or anything inside it is active. It answers with a :class:`~fsm.runtime.verdict.Verdict`.
 """
@@ -142,7 +142,7 @@ class Supervisor:
             return Verdict.HALTED
         running = self.running
         if running is not None:
-            running.region.step(ctx)
+            running.region.tick(ctx)
             if self.running is not running:
                 return Verdict.CONSUMED  # the owner was left or restarted from inside (an outer behaviour)
             if running.region.active.finished:

@@ -6,7 +6,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
 
 from fsm.model.expr import VarOp
-from fsm.model.params import TransitionParams
+from fsm.model.params import TransitionParams, adopt_generic_params
 from fsm.model.plan import ActionKind, GuardKind
 
 if TYPE_CHECKING:
@@ -29,7 +29,8 @@ class Transition(Generic[P]):
     ``action`` runs while firing, between the source's exit and the target's entry.
 
     A document may add a ``guard`` (an expression or a condition, checked before ``check``: both must hold)
-    and a ``set`` (assignments run after ``action``); the build stage applies them with :meth:`apply_plan`.
+    and a ``set`` (assignments run after ``action``); the build stage applies them with
+    :meth:`apply_guard`, :meth:`apply_conditions` and :meth:`apply_set`.
     How the region decides and fires is explicit: ``kind`` (always, an inline ``variable OP constant``
     comparison, or a call of ``test``) and ``effect`` (nothing, an inline counter, or a call of ``run``).
     """
@@ -37,7 +38,10 @@ class Transition(Generic[P]):
     __slots__ = ("params", "source", "target", "index", "kind", "compare", "test", "effect", "counter", "run",
                  "assign", "conditions", "arm")
 
+    #: The parameters' model: the generic argument (``class Near(Transition[NearParams])``) unless declared.
     Params: ClassVar[type[TransitionParams]] = TransitionParams
+    #: The generic argument the class (or its nearest base that names one) gives; ``Params`` must agree with it.
+    params_argument: ClassVar[type[TransitionParams] | None] = None
     #: True for transitions that fire whenever checked (``Always``); the runtime then skips ``check``.
     unconditional: ClassVar[bool] = False
     #: True when the transition fires only on a finished source (the loader checks that it can finish).
@@ -61,6 +65,7 @@ class Transition(Generic[P]):
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
+        adopt_generic_params(cls, TransitionParams)
         cls._overrides_action = cls.action is not Transition.action
         cls._overrides_source_enter = cls.on_source_enter is not Transition.on_source_enter
         cls.binds_references = cls.bind is not Transition.bind

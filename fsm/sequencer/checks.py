@@ -5,13 +5,13 @@ references, blocking steps that can never finish). Each finding is a located pro
 from __future__ import annotations
 
 import difflib
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import cast
 
-from fsm.loading.outcomes import can_finish
-from fsm.model.document import MachineSpec, StateSpec
+from fsm.model.document import MachineSpec, SequenceLayout, StateSpec
 from fsm.model.problems import Problems
-from fsm.sequencer.layout import SequenceLayout, is_detached
+from fsm.sequencer.layout import is_detached
 from fsm.sequencer.steps import Call, Join, JoinParams, ResetTimeout, ResetTimeoutParams
 
 #: Behaviours that act on the owner's caller (the state that contains it).
@@ -32,8 +32,9 @@ class Enclosing:
         return layout
 
 
-def check_sequences(root: MachineSpec, problems: Problems) -> None:
-    """Check every state against the sequences that enclose it."""
+def check_sequences(root: MachineSpec, problems: Problems, can_finish: Callable[[StateSpec], bool]) -> None:
+    """Check every state against the sequences that enclose it; ``can_finish`` tells whether a parsed state can
+    ever finish (the check stage's, :func:`fsm.loading.outcomes.can_finish`)."""
 
     def walk(level: MachineSpec, prefix: str, caller: StateSpec | None, seqs: tuple[Enclosing, ...],
              using: tuple[str, ...]) -> None:
@@ -50,7 +51,7 @@ def check_sequences(root: MachineSpec, problems: Problems) -> None:
             path = f"{prefix}/{st.id}" if prefix else st.id
             inner = seqs + (Enclosing(st, path),) if st.sequence is not None else seqs
             if st.sequence is not None:
-                _check_steps(problems, st, seqs)
+                _check_steps(problems, st, seqs, can_finish)
             for i, sub in enumerate(st.subs):
                 if sub.machine is None:
                     continue
@@ -102,7 +103,8 @@ def _check_state(problems: Problems, st: StateSpec, caller: StateSpec | None, se
                          hint="use abortOwner / restartOwner, or put it inside a sequence")
 
 
-def _check_steps(problems: Problems, st: StateSpec, seqs: tuple[Enclosing, ...]) -> None:
+def _check_steps(problems: Problems, st: StateSpec, seqs: tuple[Enclosing, ...],
+                 can_finish: Callable[[StateSpec], bool]) -> None:
     """Join and ResetTimeout references; blocking steps that can never finish."""
     layout = st.sequence
     assert layout is not None  # called for sequences only

@@ -9,31 +9,35 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from itertools import pairwise
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any, Protocol, cast
 
-from fsm.model.document import MachineSpec, Source, StateSpec, SubMachine, TransitionSpec
+from fsm.model.document import MachineSpec, SequenceLayout, Source, StateSpec, SubMachine, TransitionSpec
 from fsm.sequencer import steps
 
 if TYPE_CHECKING:
-    from fsm.loading.parsing import Parser
+    from fsm.model.document import TypeTables
+    from fsm.model.problems import Problems
+
+
+class Parser(Protocol):
+    """What laying a sequence out needs of the parse stage (:class:`fsm.loading.parsing.Parser` is one): where
+    problems go, the registry, the scoped bookkeeping, and the parsing of an element and of a state."""
+
+    @property
+    def registry(self) -> TypeTables: ...
+
+    @property
+    def problems(self) -> Problems: ...
+
+    @property
+    def scopes(self) -> dict[str, Any]: ...
+
+    def element(self, kind: str, raw: Any, source: Source, ptr: str) -> tuple[type[Any], Any] | None: ...
+
+    def state(self, raw: Any, source: Source, ptr: str, depth: int) -> StateSpec | None: ...
 
 #: The transition type that links the chain's steps: it must be registered for a Sequence to load.
 LINK_TYPE = "Finished"
-
-
-@dataclass(frozen=True)
-class SequenceLayout:
-    """Where a Sequence's regions come from: ``subs[0]`` the chain, then one per non-blocking sequence (with the
-    index of the blocking step after which it starts, -1: at once), then one per exception sequence."""
-
-    detached_after: tuple[int, ...] = ()
-    detached_ids: tuple[str, ...] = ()
-    exception_ids: tuple[str, ...] = ()
-    #: ids of exception sequences declared here that did not parse (monitors naming them get no second error)
-    broken_exception_ids: tuple[str, ...] = ()
-    #: every step spec in document order (blocking or not)
-    steps: tuple[StateSpec, ...] = ()
-    exceptions: tuple[StateSpec, ...] = ()
 
 
 @dataclass
@@ -230,4 +234,4 @@ def _single(st: StateSpec, source: Source) -> MachineSpec:
                        states=[st], transitions=[], vars={}, edges=[], complete=True, written=False)
 
 
-__all__ = ["LINK_TYPE", "SequenceLayout", "is_detached", "is_sequence", "parse_sequence"]
+__all__ = ["LINK_TYPE", "Parser", "is_detached", "is_sequence", "parse_sequence"]

@@ -18,11 +18,8 @@ from pydantic import Field
 from fsm.model.params import Assignments, ConditionField, Int, StateParams
 from fsm.runtime.composite import Composite
 from fsm.runtime.state import State
-from fsm.sequencer import layout as sequence_parsing
 
 if TYPE_CHECKING:
-    from fsm.loading.parsing import Parser
-    from fsm.model.document import StateSpec
     from fsm.model.plan import StatePlan
     from fsm.runtime.context import Context
     from fsm.runtime.machine import Machine
@@ -88,12 +85,7 @@ class Sequence(Composite[SequenceParams]):
 
     @classmethod
     def submachines(cls, params: SequenceParams) -> list[tuple[str | None, Any, str]]:
-        return []  # its regions come from its steps: see parse_regions
-
-    @classmethod
-    def parse_regions(cls, parser: Parser, spec: StateSpec, depth: int) -> None:
-        """The steps become the chain region, each non-blocking sequence and exception sequence a region."""
-        sequence_parsing.parse_sequence(parser, spec, depth)
+        return []  # its regions come from its steps: fsm.sequencer.layout.parse_sequence
 
     @classmethod
     def composite_outcomes(cls, params: SequenceParams, regions: list[set[str] | None]) -> set[str] | None:
@@ -151,7 +143,7 @@ class Sequence(Composite[SequenceParams]):
     def tick(self, ctx: Context) -> None:
         epoch = self.epoch
         for region in self.regions:
-            region.step(ctx)
+            region.tick(ctx)
             if self.epoch != epoch or self.finished:
                 return  # restarted or aborted from inside
             if region is not self.chain and region.active.finished:

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from fsm.session.session import Input, PauseState, SetSignal, SetVars
+from fsm.trace.recorder import input_json
 
 if TYPE_CHECKING:
     from fsm.runtime.context import Context
@@ -178,22 +179,8 @@ class FinishState:
 
 
 # -- JSON --------------------------------------------------------------------------------------------------------
-def input_to_json(item: Input) -> dict[str, Any]:
-    """``item`` as JSON (an input of another kind: ``{"kind": "other", "text": ...}``, which cannot be replayed)."""
-    if isinstance(item, SetVars):
-        from fsm.trace.recorder import jsonable
-
-        return {"kind": "set", "values": {str(k): jsonable(v) for k, v in item.values.items()}}
-    if isinstance(item, SetSignal):
-        return {"kind": "signal", "name": item.name, "value": item.value}
-    if isinstance(item, PauseState):
-        return {"kind": "pause", "path": item.path, "paused": item.paused}
-    to_json = getattr(item, "to_json", None)
-    if callable(to_json):
-        data = to_json()
-        if isinstance(data, dict):
-            return data
-    return {"kind": "other", "text": item.describe()}
+#: ``item`` as JSON, as the trace's ``input`` lines write it (:func:`fsm.trace.recorder.input_json`).
+input_to_json = input_json
 
 
 def input_from_json(data: Any) -> Input:

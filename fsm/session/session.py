@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 from fsm.model.errors import StateRuntimeError
 from fsm.runtime.clock import DEFAULT_DURATION
-from fsm.trace.recorder import Recorder, summary
+from fsm.trace.recorder import Recorder, jsonable, summary
 
 if TYPE_CHECKING:
     from fsm.loading.registry import Registry
@@ -91,6 +91,9 @@ class SetVars:
     def describe(self) -> str:
         return "set " + ", ".join(f"{k} = {v!r}" for k, v in self.values.items())
 
+    def to_json(self) -> dict[str, Any]:
+        return {"kind": "set", "values": {str(k): jsonable(v) for k, v in self.values.items()}}
+
 
 @dataclass(frozen=True)
 class SetSignal:
@@ -104,6 +107,9 @@ class SetSignal:
 
     def describe(self) -> str:
         return f"signal {self.name} {'high' if self.value else 'low'}"
+
+    def to_json(self) -> dict[str, Any]:
+        return {"kind": "signal", "name": self.name, "value": self.value}
 
 
 @dataclass(frozen=True)
@@ -124,6 +130,9 @@ class PauseState:
 
     def describe(self) -> str:
         return f"{'pause' if self.paused else 'resume'} {self.path or '(machine)'}"
+
+    def to_json(self) -> dict[str, Any]:
+        return {"kind": "pause", "path": self.path, "paused": self.paused}
 
 
 class Input(Protocol):

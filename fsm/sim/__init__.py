@@ -47,7 +47,8 @@ def simulate(source: Any, *, world: str | os.PathLike[str] | None = None, car_fi
 
     plan = source if isinstance(source, MachinePlan) else compile_plan(source, registry=registry, plugins=plugins)
     if world is None:
-        world = default_world(str(source) if isinstance(source, (str, os.PathLike)) else ".")
+        world = default_world(str(source) if isinstance(source, (str, os.PathLike))
+                              else plan.files[0] if plan.files else ".")
     car = SimCar(load_world(world, car=car_file), seed=seed, noise=noise)
     machine = build(plan, clock=SimulatedClock(dt) if dt is not None else None, car=car)
     if variables:

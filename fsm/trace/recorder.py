@@ -32,6 +32,7 @@ import struct
 from collections.abc import Callable
 from typing import IO, TYPE_CHECKING, Any
 
+from fsm.model.version import VERSION
 from fsm.runtime.machine import Listener
 
 if TYPE_CHECKING:
@@ -131,9 +132,7 @@ class Recorder(Listener):
         text."""
         if self.out is None:
             return
-        from fsm.session.inputs import input_to_json
-
-        line = _dumps({"type": "input", "tick": tick, "time": time, "input": input_to_json(item),
+        line = _dumps({"type": "input", "tick": tick, "time": time, "input": input_json(item),
                        "text": item.describe()})
         if self._sample_every:
             self.out.write(line)
@@ -298,13 +297,11 @@ class Recorder(Listener):
                                "transitions": machine.transition_count, **info}))
 
     def _header_line(self, machine: Machine) -> dict[str, Any]:
-        from fsm import __version__
-
         s_every, k_every, f_every = self._every
         dt = machine.dt
         line: dict[str, Any] = {
             "type": "header", "format": TRACE_FORMAT, "version": TRACE_VERSION,
-            "tral_fsm": __version__, "python": platform.python_version(),
+            "tral_fsm": VERSION, "python": platform.python_version(),
             "name": machine.name, "dt": dt,
             "regions": [{"path": r.path, "name": r.name, "states": [s.path for s in r.states.values()]}
                         for r in machine.regions],
@@ -363,6 +360,17 @@ def _dumps(line: dict[str, Any] | list[Any]) -> str:
         return json.dumps(line, separators=(",", ":"), allow_nan=False) + "\n"
     except (ValueError, TypeError):
         return json.dumps(jsonable(line), separators=(",", ":")) + "\n"
+
+
+def input_json(item: Any) -> dict[str, Any]:
+    """An input (:class:`fsm.session.session.Input`) as an ``input`` line writes it: what its ``to_json`` says, or
+    ``{"kind": "other", "text": ...}`` (which cannot be replayed)."""
+    to_json = getattr(item, "to_json", None)
+    if callable(to_json):
+        data = to_json()
+        if isinstance(data, dict):
+            return data
+    return {"kind": "other", "text": item.describe()}
 
 
 def jsonable(value: Any) -> Any:

@@ -219,7 +219,7 @@ def signal_warnings(signals: list[tuple[str, bool, float]], spec: Any, file: str
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from fsm.loading.loader import check, machine_files, uses_car
+    from fsm.loading.loader import analyse, compile_checked, machine_files, uses_car
     from fsm.loading.reading import preloaded
     from fsm.model.errors import DiagramError
     from fsm.runtime.clock import DEFAULT_DT
@@ -247,11 +247,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     file = input_name(args.file)
     registry = registry_from(args)
     with preloaded(pre):
-        spec, problems = check(file, registry=registry)
+        spec, analysis, problems = analyse(file, registry=registry)
     errors = [p for p in problems if p.severity == "error"]
-    if spec is None or errors:
+    if spec is None or analysis is None or errors:
         raise DiagramError(errors or problems)
+    checked = spec
     spec = apply_overrides(spec, args.overrides, file)
+    #: the plan, compiled from the one check (a --set override changes the spec: it is checked again then)
+    args.plan = compile_checked(spec, analysis) if spec is checked else None
     args.initial_vars = parse_vars(args.variables)
     for warning in signal_warnings(args.signal, spec, file, duration, max_ticks, dt):
         print(printable(f"fsmctl run: warning: {warning}"), file=sys.stderr)
@@ -295,7 +298,8 @@ def _session(args: argparse.Namespace, spec: Any, drive: bool, world_path: Path 
     from fsm.model.plan import MachinePlan
     from fsm.session.session import Session, SetSignal, StopRules
 
-    plan = spec if isinstance(spec, MachinePlan) else compile_spec(spec)
+    given = getattr(args, "plan", None)
+    plan = spec if isinstance(spec, MachinePlan) else given if given is not None else compile_spec(spec)
     stop = StopRules(duration, max_ticks)
     if drive:
         from fsm.sim import simulate
@@ -471,7 +475,7 @@ def _run_live(args: argparse.Namespace, spec: Any, file: str, drive: bool, world
     from ..live.runner import run_live
     from ..recording import header_document, run_recorder
 
-    plan = compile_spec(spec)
+    plan = args.plan if getattr(args, "plan", None) is not None else compile_spec(spec)
     document = header_document(file, args.pre)
     watcher = None
     if args.reload is not False and file != "<stdin>":

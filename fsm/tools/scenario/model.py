@@ -186,6 +186,11 @@ class NeverExpect(ScenarioModel):
     never: list[Annotated[str, Field(min_length=1)]] = Field(min_length=1, description="State ids or paths.")
 
 
+_FORMULA = ("A formula: an expression of the document language over the variables, signal_NAME and car_NAME, with "
+            "the state terms active(X), paused(X), suspended(X), entered(X), skipped(X), fired(X), outcome(X) and "
+            "the terms prev(e), rose(b), fell(b), changed(e), start(e) (see docs/scenarios.md, 'Over time').")
+
+
 class AtExpect(ScenarioModel):
     """At the first tick at or after ``at``: these states are active and these variables have these values."""
 
@@ -202,6 +207,32 @@ class AtExpect(ScenarioModel):
     suspended: dict[str, bool] | None = Field(
         default=None, description="State id or path -> whether it is active and suspended while a monitor's "
                                   "exception sequence runs (not by a pause).")
+    holds: str | None = Field(default=None, min_length=1, description="A formula true at that tick. " + _FORMULA)
+
+
+class TemporalExpect(ScenarioModel):
+    """An expectation over time: a formula that holds at every tick (``always``), at none (``never``) or at some
+    (``eventually``); over a window, until another formula holds, or in the ticks after a trigger."""
+
+    always: str | None = Field(default=None, min_length=1, description="Holds at every tick. " + _FORMULA)
+    never: str | None = Field(default=None, min_length=1, description="Holds at no tick. " + _FORMULA)
+    eventually: str | None = Field(default=None, min_length=1, description="Holds at some tick. " + _FORMULA)
+    until: str | None = Field(default=None, min_length=1,
+                              description="With always: the body must hold at every tick before the first tick this "
+                                          "formula holds, and it must hold at some tick.")
+    after: str | None = Field(default=None, min_length=1,
+                              description="A trigger: from each tick it holds, the body is checked over the next "
+                                          "'ticks' ticks (or 'seconds'); it must hold at least once.")
+    ticks: Int | None = Field(default=None, ge=0, description="With after: how many ticks after the trigger "
+                                                              "(the trigger's tick is tick 0).")
+    seconds: float | None = Field(default=None, ge=0, description="With after: the same in simulated seconds.")
+    nth: Int | None = Field(default=None, ge=1, description="With after: only the nth time the trigger holds.")
+    within: Window | None = Field(default=None, description=_WINDOW)
+    count: Int | None = Field(default=None, ge=0, description="With eventually: at exactly this many ticks.")
+    min: Int | None = Field(default=None, ge=0, description="With eventually: at least at this many ticks.")
+    max: Int | None = Field(default=None, ge=0, description="With eventually: at most at this many ticks.")
+    at: list[Annotated[float, Field(ge=0)]] | None = Field(
+        default=None, description="With eventually: the simulated times (s) of exactly the ticks it holds at.")
 
 
 class TransitionCount(ScenarioModel):
@@ -246,6 +277,8 @@ _EXPECT_KEYS = ("outcome", "finished", "visits", "never", "transitions", "entere
 
 def _expect_kind(value: Any) -> str | None:
     if isinstance(value, dict):
+        if "always" in value or "eventually" in value or isinstance(value.get("never"), str):
+            return "<temporal>"
         for key in _EXPECT_KEYS:
             if key in value:
                 return f"<{key}>"
@@ -258,11 +291,12 @@ Expectation = Annotated[
           Annotated[TransitionsExpect, Tag("<transitions>")], Annotated[AtExpect, Tag("<at>")],
           Annotated[MonitorsExpect, Tag("<monitors>")], Annotated[EnteredExpect, Tag("<entered>")],
           Annotated[SkippedExpect, Tag("<skipped>")], Annotated[ExitedExpect, Tag("<exited>")],
-          Annotated[InvariantExpect, Tag("<invariant>")]],
+          Annotated[InvariantExpect, Tag("<invariant>")], Annotated[TemporalExpect, Tag("<temporal>")]],
     Discriminator(_expect_kind, custom_error_type="expect_kind",
                   custom_error_message="an expectation is an object with one of 'outcome', 'finished', 'visits', "
                                        "'never', 'transitions', 'monitors', 'entered', 'skipped', 'exited', "
-                                       "'invariant', or 'at' (with 'active', 'vars', 'paused' and/or 'suspended')"),
+                                       "'invariant', 'always', 'eventually', or 'at' (with 'active', 'vars', "
+                                       "'paused', 'suspended' and/or 'holds')"),
 ]
 
 _MODELS: dict[str, type[ScenarioModel]] = {
@@ -270,7 +304,7 @@ _MODELS: dict[str, type[ScenarioModel]] = {
     "<finished>": FinishedExpect, "<visits>": VisitsExpect, "<never>": NeverExpect,
     "<transitions>": TransitionsExpect, "<at>": AtExpect, "<monitors>": MonitorsExpect, "<pause>": PauseInput,
     "<resume>": ResumeInput, "<entered>": EnteredExpect, "<skipped>": SkippedExpect, "<exited>": ExitedExpect,
-    "<invariant>": InvariantExpect,
+    "<invariant>": InvariantExpect, "<temporal>": TemporalExpect,
 }
 
 
@@ -639,15 +673,20 @@ def element_problems(inputs: list[Any], expect: list[Any], lim: Scenario | None,
         if isinstance(exp, InvariantExpect):
             from fsm.model.expr import ExprError, parse
 
+            from .temporal import TEMPORAL_FUNCTIONS
+
             try:
-                parse(exp.invariant)
+                parse(exp.invariant, TEMPORAL_FUNCTIONS)
             except ExprError as exc:
                 problems.append(Problem(f"the invariant does not parse: {exc}", name, ptr + "/invariant",
                                         element=label, hint="e.g. \"x >= 0 and not signal_estop\""))
+        if isinstance(exp, TemporalExpect):
+            problems += _temporal_shape(exp, name, ptr, label, end_time)
         if isinstance(exp, AtExpect):
-            if exp.active is None and exp.vars is None and exp.paused is None and exp.suspended is None:
-                problems.append(Problem("an 'at' expectation needs 'active', 'vars', 'paused' or 'suspended'", name,
-                                        ptr, element=label, hint='{"at": 2.0, "active": "run/work"}'))
+            if exp.active is None and exp.vars is None and exp.paused is None and exp.suspended is None and \
+                    exp.holds is None:
+                problems.append(Problem("an 'at' expectation needs 'active', 'vars', 'paused', 'suspended' or "
+                                        "'holds'", name, ptr, element=label, hint='{"at": 2.0, "active": "run/work"}'))
             if exp.at > end_time + EPS:
                 problems.append(Problem(f"at {exp.at:g} s is after the end of the run ({end_time:g} s)", name,
                                         ptr + "/at", element=label, hint="raise 'duration' (or 'max_ticks')"))
@@ -668,6 +707,44 @@ def element_problems(inputs: list[Any], expect: list[Any], lim: Scenario | None,
                     problems.append(Problem(f"at {at:g} s is after the end of the run ({end_time:g} s)", name,
                                             f"{ptr}/monitors/at/{k}", element=label,
                                             hint="raise 'duration' (or 'max_ticks')"))
+    return problems
+
+
+def _temporal_shape(exp: TemporalExpect, name: str, ptr: str, label: str, end_time: float) -> list[Problem]:
+    """Which keys of a temporal expectation go together."""
+    problems: list[Problem] = []
+    modes = [k for k in ("always", "never", "eventually") if getattr(exp, k) is not None]
+
+    def bad(message: str, key: str = "", hint: str | None = None) -> None:
+        problems.append(Problem(message, name, ptr + (f"/{key}" if key else ""), element=label, hint=hint))
+
+    if len(modes) != 1:
+        bad(f"give one of 'always', 'never' and 'eventually', not {' and '.join(repr(m) for m in modes)}",
+            hint='{"always": "x >= 0"}; two expectations for two formulas')
+        return problems
+    mode = modes[0]
+    if exp.until is not None and mode != "always":
+        bad(f"'until' goes with 'always' ('{mode}' cannot take it)", "until",
+            hint='{"always": "not active(drive)", "until": "signal_start"}')
+    if exp.until is not None and exp.after is not None:
+        bad("'until' and 'after' do not go together: give 'after' with 'ticks' for a span after a trigger", "until")
+    for key in ("ticks", "seconds", "nth"):
+        if getattr(exp, key) is not None and exp.after is None:
+            bad(f"'{key}' counts from a trigger: give 'after' too", key,
+                hint='{"eventually": "entered(B)", "after": "entered(A)", "ticks": 8}')
+    if exp.ticks is not None and exp.seconds is not None:
+        bad("give 'ticks' or 'seconds', not both", "seconds")
+    counted = [k for k in ("count", "min", "max", "at") if getattr(exp, k) is not None]
+    if counted and (mode != "eventually" or exp.after is not None):
+        bad(f"'{counted[0]}' counts the ticks an 'eventually' (without 'after') holds at", counted[0],
+            hint='{"eventually": "rose(paused(cycle))", "count": 2}')
+    if exp.at is not None and (exp.count is not None or exp.min is not None or exp.max is not None):
+        bad("'at' lists every tick already: give it alone, or 'count', 'min' and/or 'max'", "at")
+    problems += _count_problems(exp, name, ptr, label)
+    for k, at in enumerate(exp.at or ()):
+        if at > end_time + EPS:
+            bad(f"at {at:g} s is after the end of the run ({end_time:g} s)", f"at/{k}",
+                hint="raise 'duration' (or 'max_ticks')")
     return problems
 
 
@@ -751,7 +828,7 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
                 problems.append(Problem(f"the pause button '{pause}' of '{st.id}' is never pressed by this scenario",
                                         name, "/inputs", severity="warning",
                                         hint=f'add {{"at": 1.0, "press": "{pause}"}} to test the pause'))
-    problems += _invariant_problems(scenario, spec, known | given, world_path is not None, name)
+    problems += _invariant_problems(scenario, spec, known | given, world_path is not None, name, paths)
     for i, item in enumerate(scenario.inputs):
         sig = item.signal if isinstance(item, SignalInput) else item.press if isinstance(item, PressInput) else None
         if sig is not None and sig not in known:
@@ -782,34 +859,56 @@ def invariant_kinds(spec: Any, signals: set[str], car: bool, scenario: Scenario)
     return kinds
 
 
-def _invariant_problems(scenario: Scenario, spec: Any, signals: set[str], car: bool, name: str) -> list[Problem]:
-    from fsm.model.expr import BOOL, ExprError, compile_expr
+def formulas_of(exp: Any) -> list[tuple[str, str]]:
+    """The formulas of an expectation: (key, text), the body first."""
+    if isinstance(exp, InvariantExpect):
+        return [("invariant", exp.invariant)]
+    if isinstance(exp, AtExpect):
+        return [("holds", exp.holds)] if exp.holds is not None else []
+    if isinstance(exp, TemporalExpect):
+        return [(k, v) for k in ("always", "never", "eventually", "until", "after") if (v := getattr(exp, k))]
+    return []
+
+
+def formula_kinds(loaded_spec: Any, signals: set[str], car: bool, scenario: Scenario) -> dict[str, str]:
+    """The names formulas may read: those of :func:`invariant_kinds`, and with plants any other name (a variable a
+    plant writes; read when the run starts)."""
+    kinds = invariant_kinds(loaded_spec, signals, car, scenario)
+    if scenario.plants:
+        from fsm.model.expr import ExprError
+
+        from .temporal import formula_names
+
+        for exp in scenario.expect:
+            for _key, text in formulas_of(exp):
+                try:
+                    names = formula_names(text)
+                except ExprError:
+                    names = []
+                kinds.update({n: "any" for n in names if n not in kinds and not n.startswith(("signal_", "car_"))})
+    return kinds
+
+
+def _invariant_problems(scenario: Scenario, spec: Any, signals: set[str], car: bool, name: str,
+                        paths: list[str]) -> list[Problem]:
+    """Every formula of the expectations compiled against the machine: located errors with suggestions."""
+    from fsm.model.expr import ExprError
+
+    from .temporal import FormulaError, compile_formula
 
     problems: list[Problem] = []
     kinds: dict[str, str] | None = None
     for i, exp in enumerate(scenario.expect):
-        if not isinstance(exp, InvariantExpect):
-            continue
-        kinds = kinds if kinds is not None else invariant_kinds(spec, signals, car, scenario)
-        if scenario.plants:  # a plant may write any variable: other names are read when the run starts
-            from .runner import expression_names
-
+        for key, text in formulas_of(exp):
+            kinds = kinds if kinds is not None else formula_kinds(spec, signals, car, scenario)
             try:
-                extra = [n for n in expression_names(exp.invariant) if n not in kinds
-                         and not n.startswith(("signal_", "car_"))]
-            except ExprError:
-                extra = []
-            kinds = {**kinds, **{n: "any" for n in extra}}
-        try:
-            compile_expr(exp.invariant, kinds, want=BOOL)
-        except ExprError as exc:
-            hint = None
-            if exc.message.startswith("unknown variable"):
-                close = difflib.get_close_matches(exc.message.split("'")[1], sorted(kinds), n=3)
-                hint = ("did you mean " + " or ".join(close) + "?") if close else \
-                    "names: " + (", ".join(sorted(kinds)[:12]) or "none")
-            problems.append(Problem(f"invariant: {exc}", name, pointer("expect", i, "invariant"),
-                                    element=f"expectation {i}", hint=hint))
+                compile_formula(text, kinds, paths)
+            except FormulaError as exc:
+                problems.append(Problem(f"{key}: {exc}", name, pointer("expect", i, key), element=f"expectation {i}",
+                                        hint=exc.hint))
+            except ExprError as exc:
+                problems.append(Problem(f"{key}: {exc}", name, pointer("expect", i, key), element=f"expectation {i}",
+                                        hint="e.g. \"x >= 0 and not active(stopped)\""))
     return problems
 
 

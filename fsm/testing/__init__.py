@@ -247,17 +247,32 @@ class MachineTest:
         return self.machine.outcome
 
 
-def scenario_lines(path: str | Path, coverage: Any = None) -> tuple[bool, list[str]]:
-    """Run one scenario file: (passed, the lines ``fsmctl test`` prints for it)."""
+def scenario_lines(path: str | Path, coverage: Any = None, case: str | None = None, max_runs: int | None = None,
+                   marked: bool = False) -> tuple[bool, list[str]]:
+    """Run one scenario file (or, with ``case``, that case of its matrix; without, every case): (passed, the lines
+    ``fsmctl test`` prints for it). ``marked``: pytest applies the skip and xfail markers itself, so the run
+    ignores them and reports plainly."""
+    import dataclasses
+
     from fsm.model.errors import printable
     from fsm.tools.scenario import load_scenario, run_scenario
+    from fsm.tools.scenario.model import cases
 
     try:
-        loaded = load_scenario(path)
+        loaded = load_scenario(path, max_runs=max_runs)
     except DiagramError as exc:
         name = Path(path).name.removesuffix(".scenario.json") or str(path)
         return False, [printable(str(p)) for p in exc.problems] + [f"ERROR {name}: invalid scenario"]
-    result = run_scenario(loaded, coverage)
-    lines = [printable(str(w)) for w in loaded.warnings] + [printable(result.summary_line())]
-    lines += [printable(f"    {line}") for f in result.failures for line in f.lines()]
-    return result.passed, lines
+    runs = [c for c in cases(loaded) if case is None or c.case == case]
+    if not runs:
+        return False, [f"ERROR {loaded.name}: no case '{case}' in its matrix"]
+    lines = [printable(str(w)) for w in loaded.warnings]
+    passed = True
+    for run in runs:
+        if marked:
+            run = dataclasses.replace(run, skip=None, xfail=None)
+        result = run_scenario(run, coverage)
+        passed = passed and result.passed
+        lines += [printable(result.summary_line())]
+        lines += [printable(f"    {line}") for f in result.failures for line in f.lines()]
+    return passed, lines

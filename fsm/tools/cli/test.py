@@ -42,6 +42,8 @@ def register(sub: Subcommands) -> None:
                    help="write the coverage as JSON ('-' for standard output); implies --coverage")
     p.add_argument("--fail-under", metavar="PERCENT", type=_percent,
                    help="exit 1 when the coverage is under PERCENT (0-100); implies --coverage")
+    p.add_argument("--max-runs", metavar="N", type=_positive,
+                   help="allow a scenario's matrix to expand to up to N cases (default: at most 10,000)")
     p.set_defaults(func=cmd_test)
 
 
@@ -73,7 +75,7 @@ def cmd_test(args: argparse.Namespace) -> int:
         out.classify()
     check_distinct(outputs.items, args.scenarios)
     registry_from(args)  # a --plugin that fails is a usage error, said once and not of a scenario
-    loads = [_load(file, tuple(args.plugin)) for file in args.scenarios]
+    loads = [_load(file, tuple(args.plugin), args.max_runs) for file in args.scenarios]
     # every file the inputs name (machines, includes, worlds, plugins): refused as --junit before any run
     outputs.open([*args.scenarios, *args.plugin, *(f for ld in loads for f in ld.files)])
     report = sys.stderr if outputs.to_stdout else sys.stdout
@@ -90,17 +92,23 @@ def cmd_test(args: argparse.Namespace) -> int:
                 continue
             for warning in ld.loaded.warnings:
                 print(warning, file=sys.stderr)
-            result = _run(ld.loaded, coverage)
-            results.append(result)
-            if not result.passed or not args.quiet:
-                _say(result.summary_line(), report)
-            for failure in result.failures:
-                for line in failure.lines():
-                    _say(f"    {line}", report)
-        passed = sum(1 for r in results if isinstance(r, ScenarioResult) and r.passed)
-        failed = sum(1 for r in results if isinstance(r, ScenarioResult) and not r.passed)
+            from ..scenario.model import cases
+
+            for case in cases(ld.loaded):
+                result = _run(case, coverage)
+                results.append(result)
+                if not result.passed or not args.quiet:
+                    _say(result.summary_line(), report)
+                if result.status == "failed":
+                    for failure in result.failures:
+                        for line in failure.lines():
+                            _say(f"    {line}", report)
+        statuses = [r.status for r in results if isinstance(r, ScenarioResult)]
+        passed = statuses.count("passed")
+        failed = statuses.count("failed")
         invalid = sum(1 for r in results if isinstance(r, Invalid))
-        print(f"{passed} passed, {failed} failed" + (f", {invalid} invalid" if invalid else ""), file=report)
+        more = "".join(f", {statuses.count(k)} {k}" for k in ("skipped", "xfailed", "xpassed") if k in statuses)
+        print(f"{passed} passed, {failed} failed{more}" + (f", {invalid} invalid" if invalid else ""), file=report)
         under = False
         if coverage is not None:
             for line in coverage.text():
@@ -118,7 +126,18 @@ def cmd_test(args: argparse.Namespace) -> int:
             outputs.commit()
     finally:
         outputs.discard()
-    return EXIT_OK if passed == len(results) and not under else EXIT_FAIL
+    return EXIT_OK if not failed and not invalid and not under else EXIT_FAIL
+
+
+def _positive(text: str) -> int:
+    """``--max-runs``: a whole number >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
+    return value
 
 
 def _percent(text: str) -> float:
@@ -134,14 +153,14 @@ def _percent(text: str) -> float:
     return value
 
 
-def _load(file: str, plugins: tuple[str, ...]) -> _Load:
+def _load(file: str, plugins: tuple[str, ...], max_runs: int | None = None) -> _Load:
     """Read and check one scenario (and its machine); an invalid one keeps its problems, not a run."""
     from fsm.model.errors import DiagramError
 
     from ..scenario.model import load_scenario, named_files
 
     try:
-        loaded = load_scenario(file, plugins)
+        loaded = load_scenario(file, plugins, max_runs)
     except DiagramError as exc:
         return _Load(file, None, exc.problems, named_files(file))
     return _Load(file, loaded, [], loaded.inputs_files)

@@ -327,6 +327,33 @@ class Substitution(ScenarioModel):
                                                             "and its parameters (step keys may be overridden).")
 
 
+#: A matrix that expands to more cases than this needs ``--max-runs`` (``fsmctl test``, ``--fsm-max-runs`` in pytest).
+MAX_RUNS = 10_000
+
+
+class MatrixCase(ScenarioModel):
+    """One named case of a matrix: the machine's variables it starts with, inputs added to the timeline, markers."""
+
+    name: str = Field(min_length=1, max_length=200, description="The case's name: the scenario is reported as "
+                                                                "'scenario[name]'.")
+    vars: dict[str, Value] = Field(default_factory=dict, description="Variables of the machine set before it starts "
+                                                                     "(their initial values for this case).")
+    inputs: list[Input] = Field(default_factory=list, description="Inputs added to the scenario's timeline.")
+    skip: str | None = Field(default=None, min_length=1, description="Do not run this case; the reason.")
+    xfail: str | None = Field(default=None, min_length=1,
+                              description="This case is expected to fail (a known bug); the reason. A case that "
+                                          "passes is reported as XPASS.")
+
+
+class Matrix(ScenarioModel):
+    """One scenario run as several named cases: every combination of ``vars`` values, or the ``cases`` listed."""
+
+    vars: dict[str, Annotated[list[Value], Field(min_length=1)]] | None = Field(
+        default=None, min_length=1, description="Variable -> the initial values to try: one case per combination, "
+                                                "named 'speed=0.2,load=1'.")
+    cases: list[MatrixCase] | None = Field(default=None, min_length=1, description="The cases, each named.")
+
+
 class Scenario(ScenarioModel):
     """A scenario test: a machine, a timeline of inputs and what the run must show."""
 
@@ -354,6 +381,11 @@ class Scenario(ScenarioModel):
                                           "the machine so changed is checked like any document.")
     inputs: list[Input] = Field(default_factory=list, description="The timeline of inputs.")
     expect: list[Expectation] = Field(min_length=1, description="What the run must show; all are checked.")
+    matrix: Matrix | None = Field(default=None, description="Run this scenario as named cases (like "
+                                                            "pytest.mark.parametrize): each is a test of its own.")
+    skip: str | None = Field(default=None, min_length=1, description="Do not run this scenario; the reason.")
+    xfail: str | None = Field(default=None, min_length=1,
+                              description="This scenario is expected to fail (a known bug); the reason.")
 
 
 # -- the schema ------------------------------------------------------------------------------------------
@@ -395,16 +427,17 @@ class LoadedScenario:
     state_paths: list[str] = field(default_factory=list)
     #: Problems that do not stop the run (a signal the machine does not read).
     warnings: list[Problem] = field(default_factory=list)
+    #: the formulas of the expectations, compiled when the scenario was checked: (index, key) -> formula
+    formulas: dict[tuple[int, str], Any] = field(default_factory=dict)
+    #: a matrix case: its name, the variables the machine starts with, its markers (see :func:`cases`)
+    case: str | None = None
+    initial_vars: dict[str, Any] = field(default_factory=dict)
+    skip: str | None = None
+    xfail: str | None = None
 
     @property
     def name(self) -> str:
-        if self.scenario.name:
-            return self.scenario.name
-        base = Path(self.file).name
-        for suffix in (".scenario.json", ".json"):
-            if base.endswith(suffix):
-                return base[: -len(suffix)] or base
-        return base
+        return base_name(self.file, self.scenario.name) + (f"[{self.case}]" if self.case is not None else "")
 
     def where(self, ptr: str) -> str:
         """``file:line:column`` of the element at ``ptr``."""
@@ -419,10 +452,129 @@ class LoadedScenario:
                 + self.plugin_files)
 
 
-def load_scenario(file: str | Path, plugins: tuple[str, ...] = ()) -> LoadedScenario:
+def base_name(file: str | Path, name: str | None = None) -> str:
+    """A scenario's name in reports: its ``name``, or the file's name without ``.scenario.json``."""
+    if name:
+        return name
+    base = Path(file).name
+    for suffix in (".scenario.json", ".json"):
+        if base.endswith(suffix):
+            return base[: -len(suffix)] or base
+    return base
+
+
+def case_count(matrix: Matrix | None) -> int:
+    """How many cases a matrix expands to (without expanding it)."""
+    if matrix is None:
+        return 1
+    if matrix.cases is not None:
+        return len(matrix.cases)
+    return math.prod(len(v) for v in (matrix.vars or {}).values())
+
+
+def _shown_value(value: Any) -> str:
+    return json.dumps(value, ensure_ascii=False) if isinstance(value, (bool, str)) else f"{value:g}" \
+        if isinstance(value, float) else str(value)
+
+
+def case_plan(scenario: Scenario) -> list[tuple[str | None, dict[str, Any], list[Any], str | None, str | None]]:
+    """The cases of a scenario, in order: (name or None without a matrix, variables, inputs added, skip, xfail); the
+    scenario's own markers apply to every case (a case's own reason wins)."""
+    m = scenario.matrix
+    if m is None:
+        return [(None, {}, [], scenario.skip, scenario.xfail)]
+    if m.cases is not None:
+        return [(c.name, dict(c.vars), list(c.inputs), c.skip or scenario.skip, c.xfail or scenario.xfail)
+                for c in m.cases]
+    import itertools
+
+    names = list(m.vars or {})
+    out: list[tuple[str | None, dict[str, Any], list[Any], str | None, str | None]] = []
+    for combo in itertools.product(*(m.vars or {}).values()):
+        label = ",".join(f"{n}={_shown_value(v)}" for n, v in zip(names, combo, strict=True))
+        out.append((label, dict(zip(names, combo, strict=True)), [], scenario.skip, scenario.xfail))
+    return out
+
+
+def cases(loaded: LoadedScenario) -> list[LoadedScenario]:
+    """The runs of a loaded scenario: itself without a matrix, else one per case (each with its own name, initial
+    variables, timeline and markers)."""
+    import dataclasses
+
+    out = []
+    for name, values, inputs, skip, xfail in case_plan(loaded.scenario):
+        scenario = loaded.scenario if not inputs else loaded.scenario.model_copy(
+            update={"inputs": [*loaded.scenario.inputs, *inputs]})
+        out.append(dataclasses.replace(loaded, scenario=scenario, case=name, initial_vars=values, skip=skip,
+                                       xfail=xfail))
+    return out
+
+
+def matrix_problems(scenario: Scenario, spec: Any, name: str, max_runs: int | None) -> list[Problem]:
+    """A matrix too large for ``--max-runs``, duplicate case names, variables the machine does not have or of
+    another kind, inputs after the end of the run."""
+    from fsm.model.expr import ANY, kind_of, kind_phrase
+
+    m = scenario.matrix
+    if m is None:
+        return []
+    problems: list[Problem] = []
+    if (m.vars is None) == (m.cases is None):
+        return [Problem("a matrix has 'vars' (every combination of their values) or 'cases' (a list), one of them",
+                        name, "/matrix", hint='"matrix": {"vars": {"speed": [0.2, 0.5]}}')]
+    n = case_count(m)
+    limit = MAX_RUNS if max_runs is None else max_runs
+    if n > limit:
+        how = (f"more than {MAX_RUNS:,} need --max-runs {n} (fsmctl test) or --fsm-max-runs {n} (pytest)"
+               if max_runs is None else f"more than --max-runs {max_runs}")
+        return [Problem(f"the matrix expands to {n:,} cases; {how}", name, "/matrix",
+                        hint="fewer values, or a table of 'cases'")]
+    declared = getattr(spec, "vars", {}) or {}
+    where: list[tuple[str, dict[str, Any]]] = []
+    if m.cases is not None:
+        seen: set[str] = set()
+        for k, c in enumerate(m.cases):
+            if c.name in seen:
+                problems.append(Problem(f"two cases are named '{c.name}'", name, pointer("matrix", "cases", k, "name"),
+                                        hint="give each case its own name"))
+            seen.add(c.name)
+            where.append((pointer("matrix", "cases", k, "vars"), c.vars))
+            problems += _case_input_problems(c.inputs, scenario, name, pointer("matrix", "cases", k, "inputs"))
+    else:
+        where = [(pointer("matrix", "vars", v), {v: x}) for v, values in (m.vars or {}).items() for x in values]
+    for ptr, values in where:
+        for var, value in values.items():
+            at = ptr if ptr.endswith("/" + var) else ptr + "/" + var
+            if var not in declared:
+                close = difflib.get_close_matches(var, sorted(declared), n=2)
+                problems.append(Problem(f"the machine has no variable '{var}'", name, at,
+                                        hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close
+                                        else "variables: " + (", ".join(sorted(declared)) or "none")))
+                continue
+            want, got = kind_of(declared[var]), kind_of(value)
+            if ANY not in (want, got) and want != got:
+                problems.append(Problem(f"'{var}' is {kind_phrase(want)} in the machine, this value is "
+                                        f"{kind_phrase(got)}: {_shown_value(value)}", name, at))
+    unique: dict[str, Problem] = {}
+    for p in problems:
+        unique.setdefault(f"{p.pointer}:{p.message}", p)
+    return list(unique.values())
+
+
+def _case_input_problems(inputs: list[Any], scenario: Scenario, name: str, ptr: str) -> list[Problem]:
+    """A case's inputs: the checks of the scenario's own inputs, located under the case."""
+    problems = []
+    for p in element_problems(inputs, [], scenario, name):
+        rest = (p.pointer or "").removeprefix("/inputs")
+        problems.append(Problem(p.message, name, ptr + rest, hint=p.hint))
+    return problems
+
+
+def load_scenario(file: str | Path, plugins: tuple[str, ...] = (), max_runs: int | None = None) -> LoadedScenario:
     """Read and check a scenario and its machine (and world); raises :class:`DiagramError` with every problem.
 
-    ``plugins`` (from ``fsmctl --plugin``) are loaded besides the scenario's own.
+    ``plugins`` (from ``fsmctl --plugin``) are loaded besides the scenario's own; ``max_runs`` (``--max-runs``)
+    lets a matrix expand to more than :data:`MAX_RUNS` cases.
     """
     from fsm.loading.reading import parse_json_bytes, place, read_file_bytes
 
@@ -456,6 +608,8 @@ def load_scenario(file: str | Path, plugins: tuple[str, ...] = ()) -> LoadedScen
         if not problems:
             loaded, more = _load_machine(scenario, path, name, plugins)
             problems += more
+            if loaded is not None:
+                problems += matrix_problems(scenario, loaded.spec, name, max_runs)
         elif not (path.parent / scenario.machine).is_file():
             problems.append(_missing_machine(path.parent / scenario.machine, name))
     if problems:
@@ -517,6 +671,8 @@ def problems_from_errors(err: ValidationError, data: Any, name: str) -> list[Pro
             model = TransitionCount if len(loc) > 3 else model
         if model is PressInput and "bounce" in loc[2:3] and len(loc) > 3:
             model = Bounce
+        if loc[:1] == ["matrix"] and model is Scenario:
+            model = MatrixCase if "cases" in loc[1:2] and len(loc) > 3 else Matrix
         if loc[:1] == ["substitute"] and len(loc) > 2:
             model = TransitionRef if "transition" in loc[2:3] and len(loc) > 3 else Substitution
         typ = e["type"]
@@ -828,7 +984,8 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
                 problems.append(Problem(f"the pause button '{pause}' of '{st.id}' is never pressed by this scenario",
                                         name, "/inputs", severity="warning",
                                         hint=f'add {{"at": 1.0, "press": "{pause}"}} to test the pause'))
-    problems += _invariant_problems(scenario, spec, known | given, world_path is not None, name, paths)
+    formulas: dict[tuple[int, str], Any] = {}
+    problems += _invariant_problems(scenario, spec, known | given, world_path is not None, name, paths, formulas)
     for i, item in enumerate(scenario.inputs):
         sig = item.signal if isinstance(item, SignalInput) else item.press if isinstance(item, PressInput) else None
         if sig is not None and sig not in known:
@@ -839,7 +996,7 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
                                     else "signals it reads: " + (", ".join(sorted(known)) or "none")))
     return LoadedScenario(file=name, scenario=scenario, spec=spec, registry=registry, dt=dt, end_tick=end_tick,
                           world_path=world_path, machine_files=files, plugin_files=plugin_files,
-                          state_paths=paths, plants=plants), problems
+                          state_paths=paths, plants=plants, formulas=formulas), problems
 
 
 def invariant_kinds(spec: Any, signals: set[str], car: bool, scenario: Scenario) -> dict[str, str]:
@@ -890,8 +1047,9 @@ def formula_kinds(loaded_spec: Any, signals: set[str], car: bool, scenario: Scen
 
 
 def _invariant_problems(scenario: Scenario, spec: Any, signals: set[str], car: bool, name: str,
-                        paths: list[str]) -> list[Problem]:
-    """Every formula of the expectations compiled against the machine: located errors with suggestions."""
+                        paths: list[str], compiled: dict[tuple[int, str], Any] | None = None) -> list[Problem]:
+    """Every formula of the expectations compiled against the machine (kept in ``compiled`` for the runs): located
+    errors with suggestions."""
     from fsm.model.expr import ExprError
 
     from .temporal import FormulaError, compile_formula
@@ -902,7 +1060,9 @@ def _invariant_problems(scenario: Scenario, spec: Any, signals: set[str], car: b
         for key, text in formulas_of(exp):
             kinds = kinds if kinds is not None else formula_kinds(spec, signals, car, scenario)
             try:
-                compile_formula(text, kinds, paths)
+                formula = compile_formula(text, kinds, paths)
+                if compiled is not None:
+                    compiled[i, key] = formula
             except FormulaError as exc:
                 problems.append(Problem(f"{key}: {exc}", name, pointer("expect", i, key), element=f"expectation {i}",
                                         hint=exc.hint))

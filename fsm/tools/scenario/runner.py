@@ -427,12 +427,15 @@ def make_temporal(loaded: LoadedScenario, machine: Machine, signals: tuple[str, 
     """The watches of the scenario's invariants, temporal expectations and ``at`` ... ``holds`` (all checked when
     the scenario was loaded), or None when it has none."""
     from .model import TemporalExpect, formula_kinds, formulas_of
-    from .temporal import Watch, compile_formula, formula_names
+    from .temporal import Watch, compile_formula
 
     sc = loaded.scenario
     dt = loaded.dt
-    kinds = formula_kinds(loaded.spec, set(signals), loaded.world_path is not None, sc)
+    kinds: dict[str, str] = {}
+    if any((i, k) not in loaded.formulas for i, exp in enumerate(sc.expect) for k, _t in formulas_of(exp)):
+        kinds = formula_kinds(loaded.spec, set(signals), loaded.world_path is not None, sc)
     paths = loaded.state_paths
+    by_path = machine.states_by_path
     watches: list[Any] = []
     outside: set[str] = set()
     outcome_paths: set[str] = set()
@@ -440,12 +443,12 @@ def make_temporal(loaded: LoadedScenario, machine: Machine, signals: tuple[str, 
         texts = dict(formulas_of(exp))
         if not texts:
             continue
-        for text in texts.values():
-            outside |= {n for n in formula_names(text) if n.startswith(("signal_", "car_"))}
-        formulas = {k: compile_formula(v, kinds, paths) for k, v in texts.items()}
+        formulas = {k: loaded.formulas[i, k].fresh() if (i, k) in loaded.formulas else
+                    compile_formula(v, kinds, paths) for k, v in texts.items()}
         for f in formulas.values():
             outcome_paths |= f.state_paths()
-            f.bind(machine.states_by_path)
+            outside |= {n for n in f.deps if n.startswith(("signal_", "car_"))}
+            f.bind(by_path)
         within = getattr(exp, "within", None)
         first, last = (0, loaded.end_tick) if within is None else \
             (_first_tick(within[0], dt), _last_tick(within[1], dt))
@@ -464,7 +467,7 @@ def make_temporal(loaded: LoadedScenario, machine: Machine, signals: tuple[str, 
                                  at=None if exp.at is None else [tick_at(t, dt) for t in exp.at]))
     if not watches:
         return None
-    states = [st for path, st in machine.states_by_path.items() if path in outcome_paths]
+    states = [by_path[p] for p in sorted(outcome_paths) if p in by_path]
     return TemporalRun(watches, sorted(outside), states, dt)
 
 
@@ -509,12 +512,34 @@ class ScenarioResult:
     wall_time: float = 0.0
     outcome: str | None = None
     failures: list[Failure] = field(default_factory=list)
+    #: markers: the reason it was not run, the reason it is expected to fail
+    skipped: str | None = None
+    xfail: str | None = None
+
+    @property
+    def status(self) -> str:
+        """passed, failed, skipped, xfailed (expected to fail, and failed) or xpassed (expected to fail, passed)."""
+        if self.skipped is not None:
+            return "skipped"
+        if self.xfail is not None:
+            return "xfailed" if self.failures else "xpassed"
+        return "failed" if self.failures else "passed"
 
     @property
     def passed(self) -> bool:
-        return not self.failures
+        """Not a failure: passed, skipped, or marked xfail (whether it failed or not, as pytest by default)."""
+        return self.status != "failed"
 
     def summary_line(self) -> str:
+        status = self.status
+        if status == "skipped":
+            return f"SKIP {self.name}: {self.skipped}"
+        if status == "xpassed":
+            return f"XPASS {self.name} ({self.ticks} ticks, {self.sim_time:g} s): expected to fail: {self.xfail}"
+        if status == "xfailed":
+            first = self.failures[0]
+            return f"XFAIL {self.name}: {self.xfail} (expect[{first.index}] {first.kind}: {first.message})" \
+                if first.index >= 0 else f"XFAIL {self.name}: {self.xfail} ({first.message})"
         if self.passed:
             return f"PASS {self.name} ({self.ticks} ticks, {self.sim_time:g} s)"
         first = self.failures[0]
@@ -551,7 +576,10 @@ def run_scenario(loaded: LoadedScenario, coverage: Any = None) -> ScenarioResult
 
     sc = loaded.scenario
     dt = loaded.dt
-    result = ScenarioResult(loaded.name, loaded.file)
+    result = ScenarioResult(loaded.name, loaded.file, xfail=loaded.xfail)
+    if loaded.skip is not None:
+        result.skipped = loaded.skip
+        return result
     signals, sets = expand(sc, dt)
     pauses = pause_changes(sc, dt)
     at_ticks = {min(tick_at(e.at, dt), loaded.end_tick) for e in sc.expect if isinstance(e, AtExpect)}
@@ -564,6 +592,7 @@ def run_scenario(loaded: LoadedScenario, coverage: Any = None) -> ScenarioResult
     else:
         session = Session.open(plan, dt=dt, stop=stop, record=False)
     machine = session.machine
+    machine.ctx.vars.update(loaded.initial_vars)  # a matrix case's initial values: set before the start
     plant_signals: list[str] = []
     for cls, params in loaded.plants:
         plant = cls(params)

@@ -166,6 +166,14 @@ class Formula:
         #: car readings move every tick; a suspension ends with no event to see: both are looked at each tick
         self.every_tick = any(t.op == "suspended" for t in terms) or any(n.startswith("car_") for n in self.deps)
 
+    def fresh(self) -> Formula:
+        """A copy for a new run: the same compiled functions, terms with no history (compiled once, at load)."""
+        copy = object.__new__(Formula)
+        copy.text, copy.fn, copy.names = self.text, self.fn, self.names
+        copy.deps, copy.transient, copy.every_tick = self.deps, self.transient, self.every_tick
+        copy.terms = [Term(t.name, t.text, t.op, t.kind, t.paths, t.fn) for t in self.terms]
+        return copy
+
     def bind(self, states_by_path: dict[str, Any]) -> None:
         """The states ``paused`` and ``suspended`` look at, in the run's machine."""
         for t in self.terms:

@@ -147,6 +147,10 @@ def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
     coverage = config.stash.get(COVERAGE_KEY, None)
     if coverage is None:
         return
+    workeroutput = getattr(config, "workeroutput", None)
+    if workeroutput is not None:  # a pytest-xdist worker: the controller adds the workers' up and reports
+        workeroutput["fsm_coverage"] = coverage.to_json()
+        return
     notes: list[str] = []
     path = config.option.fsm_coverage_json
     failed = False
@@ -170,6 +174,15 @@ def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
     config.stash[NOTES_KEY] = notes
     if failed and exitstatus == 0:
         session.exitstatus = pytest.ExitCode.TESTS_FAILED
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_testnodedown(node: Any, error: Any) -> None:
+    """pytest-xdist: a worker finished; add the coverage it collected to the controller's."""
+    coverage = node.config.stash.get(COVERAGE_KEY, None)
+    data = getattr(node, "workeroutput", {}).get("fsm_coverage")
+    if coverage is not None and data:
+        coverage.merge_json(data)
 
 
 def pytest_terminal_summary(terminalreporter: Any, exitstatus: int, config: pytest.Config) -> None:

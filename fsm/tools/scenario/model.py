@@ -11,6 +11,7 @@ from __future__ import annotations
 import difflib
 import json
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any, Literal, NamedTuple, Union
@@ -1110,6 +1111,7 @@ def substituted(scenario: Scenario, machine_path: Path, registry: Any, name: str
 
     data, _source = reader_for(machine_path)(machine_path)
     doc = copy.deepcopy(data)
+    _inline_includes(doc, machine_path.parent, [os.path.realpath(machine_path)])
     problems: list[Problem] = []
     touched: list[tuple[str, int]] = []  # (document pointer, substitution index)
     for k, sub in enumerate(scenario.substitute):
@@ -1155,23 +1157,64 @@ def substituted(scenario: Scenario, machine_path: Path, registry: Any, name: str
             what = (f"state '{sub.state}'" if sub.state is not None else f"state of type '{sub.type}'"
                     if sub.type is not None or ref is None else f"transition from '{ref.from_}' to '{ref.to}'")
             problems.append(Problem(f"the machine has no {what} to substitute", name, ptr,
-                                    hint="states inside an included machine file cannot be substituted"))
+                                    hint="a state's id or the end of its path, as 'visits' names it"))
     if problems:
         return None, problems
     spec, found = check(doc, registry=registry, base_dir=machine_path.parent)
     errors = [p for p in found if p.severity == "error"]
     if spec is not None and not errors:
         return spec, []
-    out = []
+    # one problem per place in the scenario: a substitution that matched five states says a misspelt key once
+    grouped: dict[tuple[str, str, str | None], list[str]] = {}
     for p in errors or found:
         where = next(((at, k) for at, k in touched
                       if p.pointer and (p.pointer == at or p.pointer.startswith(at + "/"))), None)
         k = where[1] if where else 0
         inner = p.pointer[len(where[0]):] if where and p.pointer else ""
-        out.append(Problem(f"with this substitution the machine is invalid: {p.message}", name,
-                           pointer("substitute", k) + ("/with" + inner if where else ""), hint=p.hint))
+        at = pointer("substitute", k) + ("/with" + inner if where else "")
+        grouped.setdefault((at, p.message, p.hint), []).append(p.element or "")
+    out = []
+    for (at, message, hint), elements in grouped.items():
+        named = sorted({e.removeprefix("state ") for e in elements if e})
+        more = f" (in {len(elements)} states: {', '.join(named[:6])}{', ...' if len(named) > 6 else ''})" \
+            if len(elements) > 1 and named else ""
+        out.append(Problem(f"with this substitution the machine is invalid: {message}{more}", name, at, hint=hint))
     return None, out
 
+
+def _inline_includes(node: Any, base: Path, stack: list[str]) -> None:
+    """Put the machines of ``{"file": ...}`` includes in place (their own includes too, relative to them), so that a
+    substitution reaches the states inside them; a file that cannot be read is left as an include, for the
+    machine's check to report."""
+    from fsm.loading.reading import reader_for
+
+    if not isinstance(node, dict):
+        return
+    subs: list[tuple[Any, Any]] = []
+    for el in [*(node.get("states") or []), *(node.get("steps") or []), *(node.get("exceptions") or []),
+               *(node.get("sequences") or [])]:
+        if not isinstance(el, dict):
+            continue
+        if "machine" in el:
+            subs.append((el, "machine"))
+        regions = el.get("regions")
+        if isinstance(regions, list):
+            subs += [(regions, i) for i in range(len(regions))]
+        _inline_includes(el, base, stack)
+    for holder, key in subs:
+        sub = holder[key]
+        if isinstance(sub, dict) and isinstance(sub.get("file"), str) and len(sub) == 1 and len(stack) < 32:
+            path = os.path.realpath(base / sub["file"])
+            if path in stack or not os.path.isfile(path):
+                continue
+            try:
+                data, _source = reader_for(Path(path))(Path(path))
+            except (DiagramError, OSError):
+                continue
+            _inline_includes(data, Path(path).parent, [*stack, path])
+            holder[key] = data
+        else:
+            _inline_includes(sub, base, stack)
 
 def _load_plugins(scenario: Scenario, base: Path, name: str, registry: Any) -> tuple[list[str], list[Problem]]:
     """Import the scenario's ``plugins`` into ``registry``: the files they were loaded from, and a problem at

@@ -1,5 +1,6 @@
 """Substitution and coverage details of issue 34, item 6: states inside an included machine file can be substituted,
-and a misspelt parameter in a substitution that matched several states is said once."""
+a misspelt parameter in a substitution that matched several states is said once, and a run's trace records the
+steps skipped by their precondition, so that the report's coverage counts them apart."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from fsm.model.errors import DiagramError
+from fsm.tools.cli import main
 from fsm.tools.scenario import load_scenario, run_scenario
 
 SUB = {"initial": "slow", "states": [{"id": "slow", "type": "Wait", "seconds": 30}, {"id": "ok", "type": "Final"}],
@@ -52,3 +54,23 @@ def test_a_misspelt_parameter_is_said_once_for_every_state_the_substitution_matc
     assert unknown[0].endswith("at /substitute/0/with/secs: error: with this substitution the machine is invalid: "
                                "unknown parameter 'secs' (in 3 states: 'a', 'b', 'c') (did you mean 'seconds'?)")
     assert len(found) == 2  # and 'seconds' missing, once
+
+
+def test_the_trace_records_skips_and_the_reports_coverage_counts_them_apart(tmp_path: Path) -> None:
+    doc = {"initial": "main", "vars": {"go": False}, "states": [{"id": "main", "type": "Sequence", "steps": [
+        {"id": "a", "type": "Wait", "seconds": 0.1}, {"id": "b", "type": "Wait", "seconds": 0.1, "precondition": "go"},
+        {"id": "c", "type": "Wait", "seconds": 0.1}]}]}
+    machine = tmp_path / "m.json"
+    machine.write_text(json.dumps(doc), encoding="utf-8")
+    trace, page = tmp_path / "m.jsonl", tmp_path / "m.html"
+    assert main(["run", str(machine), "--trace", str(trace), "--duration", "1"]) == 0
+    lines = [json.loads(line) for line in trace.read_text(encoding="utf-8").splitlines()]
+    line = next(e for e in lines if "skipped" in e)
+    assert line["skipped"] == ["main/b"] and line["tick"] == 8
+    assert [t["to"] for t in line["transitions"]] == ["main/b"]  # entered, and skipped
+    assert main(["report", str(trace), "-o", str(page)]) == 0
+    html = page.read_text(encoding="utf-8")
+    section = html[html.index('<section id="coverage-box">'):]
+    assert "states 3/4, transitions 2/2, monitors 0/0 (83.3&#8201;%)" in section
+    assert "<tr><th>only skipped (precondition false)</th><td>main/b</td></tr>" in section
+    assert "<tr><th>never entered</th><td>none</td></tr>" in section

@@ -143,3 +143,26 @@ def test_coverage_is_added_up_over_pytest_xdist_workers(tmp_path: Path) -> None:
     assert summary == next(line for line in serial.stdout.splitlines() if line.startswith("coverage: "))
     assert alone["percent"] < 99.9
     assert spread.returncode == 1 and "is under --fsm-fail-under 99.9%" in spread.stdout
+
+
+def test_fsm_machine_drives_the_car_in_a_world(tmp_path: Path) -> None:
+    """A machine that drives the car is tested by hand in a world (issue 34): it follows the wall at 1 s, its
+    invariant reads the car's readings; without a world it is refused with what to add."""
+    (tmp_path / "test_car.py").write_text(textwrap.dedent(f'''
+        import pytest
+
+        def test_follow(fsm_machine):
+            m = fsm_machine({str(REPO / "diagrams" / "corner_turn.json")!r},
+                            world={str(REPO / "diagrams" / "worlds" / "hallway.json")!r}, seed=0)
+            m.always("car_front > 0.05")
+            m.run_for(1.0).expect({{"active": "follow"}})
+            assert m.machine.ctx.car.speed > 0
+
+        def test_no_world(fsm_machine):
+            with pytest.raises(ValueError, match="drives the car: give the world"):
+                fsm_machine({str(REPO / "diagrams" / "corner_turn.json")!r})
+    '''), encoding="utf-8")
+    env = {k: v for k, v in os.environ.items() if k != "PYTEST_ADDOPTS"}
+    proc = subprocess.run([sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-p", "no:randomly", "-q",
+                           str(tmp_path)], capture_output=True, text=True, timeout=180, cwd=tmp_path, env=env)
+    assert "2 passed" in proc.stdout, proc.stdout + proc.stderr

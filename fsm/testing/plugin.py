@@ -126,10 +126,16 @@ def fsm_machine(request: pytest.FixtureRequest) -> Iterator[Callable[..., Any]]:
 
     made: list[MachineTest] = []
 
+    def near(name: Any) -> Any:
+        if isinstance(name, (str, Path)) and not Path(name).is_absolute():
+            here = Path(request.path).parent / name
+            return here if here.exists() else name
+        return name
+
     def make(source: Any, **keys: Any) -> MachineTest:
-        if isinstance(source, (str, Path)) and not Path(source).is_absolute():
-            near = Path(request.path).parent / source
-            source = near if near.exists() else source
+        source = near(source)
+        if keys.get("world") is not None:
+            keys["world"] = near(keys["world"])
         m = MachineTest(source, **keys)
         made.append(m)
         return m

@@ -973,7 +973,7 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
     paths = [sp.path for sp in compile_spec(spec).states()]
     problems += name_problems(scenario, paths, name)
     plants, more = _plants(scenario, registry, name)
-    problems += more
+    problems += more + _plant_expression_problems(scenario, spec, plants, name)
     known = signal_names(spec)
     given = {item.signal if isinstance(item, SignalInput) else item.press for item in scenario.inputs
              if isinstance(item, (SignalInput, PressInput))}
@@ -1317,6 +1317,28 @@ def _plants(scenario: Scenario, registry: Any, name: str) -> tuple[list[tuple[ty
         names.add(params.name)
         out.append((cls, params))
     return out, problems
+
+
+def _plant_expression_problems(scenario: Scenario, spec: Any, plants: list[tuple[type, Any]],
+                                name: str) -> list[Problem]:
+    """The expressions of the library's plants (``rate``, ``take``, ``press_when``, ``when``) over the machine's
+    variables, those the scenario sets and those the plants write."""
+    from fsm.model.expr import kind_of
+    from fsm.states.plants import plant_problems, written_vars
+
+    kinds = {k: kind_of(v) for k, v in (getattr(spec, "vars", {}) or {}).items()}
+    for item in scenario.inputs:
+        if isinstance(item, SetInput):
+            kinds.update({k: "any" for k in item.set})
+    for cls, params in plants:
+        kinds.update({v: "any" for v in written_vars(cls, params)})
+    problems = []
+    for cls, params in plants:
+        i = next(k for k, raw in enumerate(scenario.plants) if raw.get("name") == params.name)
+        for key, message, hint in plant_problems(cls, params, kinds):
+            problems.append(Problem(f"{key}: {message}", name, pointer("plants", i, key), element=f"plant {i}",
+                                    hint=hint))
+    return problems
 
 
 def name_problems(scenario: Scenario, paths: list[str], name: str) -> list[Problem]:

@@ -44,6 +44,18 @@ def test_the_thesis_axis_stated_without_python_passes(capsys: pytest.CaptureFixt
     assert "plugins" not in doc and doc["plants"][0]["type"] == "Integrator"
 
 
+@pytest.mark.parametrize("name", ["rendezvous", "rendezvous_estop"])
+def test_the_thesis_detailed_rendezvous_without_python_passes(name: str) -> None:
+    """Case 8 with Queue and Integrator plants, with and without its emergency stop: case 8's figures (5 handovers,
+    4 retries, one offer withdrawn, aborted at 30 s) with the stop, 7 handovers in 40 s without."""
+    path = AXIS.parent / f"{name}.scenario.json"
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    assert "plugins" not in doc and {p["type"] for p in doc["plants"]} == {"Queue", "Integrator"}
+    result = run_scenario(load_scenario(path))
+    assert result.passed, [f.message for f in result.failures]
+    assert result.outcome == ("aborted" if name.endswith("estop") else None)
+
+
 def test_a_wrong_plant_fails_the_axis_scenario(tmp_path: Path) -> None:
     doc = json.loads(AXIS.read_text(encoding="utf-8"))
     doc["machine"] = str(AXIS.parent / doc["machine"])

@@ -47,8 +47,7 @@ if TYPE_CHECKING:
 CONTEXT_BEFORE, CONTEXT_AFTER = 4, 3
 
 
-@dataclass(frozen=True)
-class Entry:
+class Entry(NamedTuple):
     """A state entered: by a transition (``kind`` its type) or as an initial state (``kind`` ``"initial"``)."""
 
     tick: int

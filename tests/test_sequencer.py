@@ -567,3 +567,18 @@ def test_rule_2_an_exception_sequence_busy_for_another_owner_makes_the_firing_wa
     assert second[1] == "main/B/B1" and second[0] == pytest.approx(1.0 + DT + 0.5)
     assert log.entries("main/E") == [1.0, pytest.approx(1.0 + DT + 0.5)]
     assert m.ctx.vars["n"] == 2
+
+
+@pytest.mark.parametrize("bad", [
+    {"machine": {"initial": "q", "states": [{"id": "q", "type": "Wait", "secondz": 1,
+                                             "monitors": [{"condition": "x > 0", "exception": "e1"}]}]}},
+    {"monitors": [{"condition": "x > 0", "exception": "e1"}]},
+    {"bogus": 2, "machine": {"initial": "q", "states": [{"id": "q", "type": "Wait", "seconds": 1,
+                                                          "monitors": [{"condition": "x > 0", "exception": "e1"}]}]}},
+])
+def test_a_malformed_fsmstate_adds_no_spurious_missing_exception_sequence(bad: dict[str, Any]) -> None:
+    """Issue 34 reported "no exception sequence 'e1'" for a declared one next to a malformed FSMState."""
+    found = problems([seq("main", {"id": "f", "type": "FSMState", **bad},
+                          wait("z", 1, monitors=[{"condition": "x > 0", "exception": "e1"}]),
+                          exceptions=[seq("e1", wait("w", 1))])], x=0)
+    assert found and not any("no exception sequence" in f for f in found), found

@@ -166,3 +166,10 @@ def test_fsm_machine_drives_the_car_in_a_world(tmp_path: Path) -> None:
     proc = subprocess.run([sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-p", "no:randomly", "-q",
                            str(tmp_path)], capture_output=True, text=True, timeout=180, cwd=tmp_path, env=env)
     assert "2 passed" in proc.stdout, proc.stdout + proc.stderr
+
+
+def test_machine_test_refuses_expectations_checked_over_a_run() -> None:
+    m = MachineTest(SORTER)
+    for exp in ({"always": "parts >= 0"}, {"invariant": "parts >= 0"}, {"at": 0, "holds": "parts >= 0"}):
+        with pytest.raises(ValueError, match="checked while a run goes on: use m.always"):
+            m.expect(exp)

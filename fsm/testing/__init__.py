@@ -225,6 +225,14 @@ class MachineTest:
             sc = Scenario.model_validate(data)
         except ValidationError as err:
             raise ValueError("\n".join(str(p) for p in problems_from_errors(err, data, "expect"))) from None
+        from fsm.tools.scenario.model import InvariantExpect, TemporalExpect
+
+        during = [i for i, e in enumerate(sc.expect) if isinstance(e, (InvariantExpect, TemporalExpect))
+                  or getattr(e, "holds", None) is not None]
+        if during:
+            raise ValueError(f"expect[{during[0]}]: invariants and the temporal language (always, never, eventually, "
+                             "holds) are checked while a run goes on: use m.always(\"...\") for an invariant, or a "
+                             "scenario file")
         problems = element_problems([], list(sc.expect), None, "expect") + name_problems(sc, self.paths, "expect")
         late = [f"expect[{i}]: at {e.at:g} s is after now ({now:g} s)" for i, e in enumerate(sc.expect)
                 if getattr(e, "at", None) is not None and isinstance(e.at, float) and e.at > now + 1e-9]

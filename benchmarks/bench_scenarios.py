@@ -1,6 +1,7 @@
 """Scenario testing speed (issue 23): the eight EEROS thesis scenarios plus the sorter in one process (target
 < 1 s), what an invariant checked at every tick costs on a 1,000-step sequence (target <= 20 % of its tick rate)
-and what coverage adds (target <= 10 %).
+and what coverage adds (target <= 10 %); what the temporal expectations of the eight thesis scenarios cost against
+the same runs without them (issue 34, target <= 10 %).
 
 Everything runs in this process through the scenario runner (``load_scenario`` + ``run_scenario``), as
 ``fsmctl test`` and the pytest plugin do. The sequence is the one of ``bench_sequencer.py``: 1,000 ``Step``\\ s
@@ -59,6 +60,37 @@ def suite_time(repeat: int) -> tuple[float, int]:
     return best, ticks
 
 
+def is_temporal(exp: Any) -> bool:
+    """An expectation of the temporal language (issue 34): always, eventually, never with a formula, at ... holds."""
+    return exp.__class__.__name__ == "TemporalExpect" or getattr(exp, "holds", None) is not None
+
+
+def temporal_cost(repeat: int) -> list[tuple[str, int, int, float, float]]:
+    """Per thesis case: (name, temporal expectations, ticks, seconds without them, seconds with them), each the best
+    of ``repeat`` in processor time, the two variants round-robin."""
+    import dataclasses
+
+    from fsm.tools.scenario import load_scenario, run_scenario
+
+    rows = []
+    for path in THESIS:
+        full = load_scenario(path)
+        kept = [e for e in full.scenario.expect if not is_temporal(e)]
+        bare = dataclasses.replace(full, scenario=full.scenario.model_copy(update={"expect": kept}))
+        best = {"bare": float("inf"), "full": float("inf")}
+        ticks = 0
+        for _ in range(repeat):
+            for name, ld in (("bare", bare), ("full", full)):
+                t0 = time.process_time()
+                result = run_scenario(ld)
+                best[name] = min(best[name], time.process_time() - t0)
+                assert result.passed, result.summary_line()
+                ticks = result.ticks
+        rows.append((path.name.removesuffix(".scenario.json"), len(full.scenario.expect) - len(kept), ticks,
+                     best["bare"], best["full"]))
+    return rows
+
+
 def sequence_rates(folder: Path, repeat: int) -> dict[str, float]:
     """Ticks per second of the 1,000-step sequence's scenario: plain, with an invariant over a variable, with one
     over a variable and a signal, with coverage."""
@@ -110,6 +142,7 @@ def main(argv: list[str]) -> int:
     seconds, ticks = suite_time(repeat)
     with tempfile.TemporaryDirectory() as tmp:
         rates = sequence_rates(Path(tmp), repeat)
+    temporal = temporal_cost(repeat)
     ok = True
     print("| workload | result | target |")
     print("|---|---|---|")
@@ -127,6 +160,18 @@ def main(argv: list[str]) -> int:
         target = f"<= {limit:.0%} loss {'ok' if verdict else 'MISSED'}" if name != "invariant (variable, signal)" \
             else "(reported)"
         print(f"| 1,000-step sequence, {name} | {rates[name]:,.0f} ticks/s ({loss:+.1%} loss) | {target} |")
+    print()
+    print("| thesis case | temporal expectations | ticks | run without them | with them | cost |")
+    print("|---|---:|---:|---:|---:|---:|")
+    for name, n, ticks, bare, full in temporal:
+        print(f"| {name} | {n} | {ticks:,} | {bare * 1e3:.1f} ms | {full * 1e3:.1f} ms | {full / bare - 1:+.1%} |")
+    bare_all = sum(r[3] for r in temporal)
+    full_all = sum(r[4] for r in temporal)
+    verdict = full_all / bare_all - 1 <= 0.10
+    ok &= verdict
+    print(f"| all eight | {sum(r[1] for r in temporal)} | {sum(r[2] for r in temporal):,} | {bare_all * 1e3:.1f} ms "
+          f"| {full_all * 1e3:.1f} ms | {full_all / bare_all - 1:+.1%} (target <= 10 % "
+          f"{'ok' if verdict else 'MISSED'}) |")
     return 0 if ok else 1
 
 

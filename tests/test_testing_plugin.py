@@ -114,3 +114,62 @@ def test_pytest_collects_scenarios_and_runs_the_fixture(tmp_path: Path) -> None:
     machines = {Path(m["machine"]).name: m for m in data["machines"]}
     assert machines["mission.json"]["runs"] == 2 and machines["sorter.json"]["runs"] == 1
     assert "tral-fsm coverage" in out
+
+
+def test_coverage_is_added_up_over_pytest_xdist_workers(tmp_path: Path) -> None:
+    """With -n 2 the scenarios run in two worker processes: the controller reports the coverage of both, and
+    --fsm-fail-under judges that (issue 34: it used to print 0/0 and pass)."""
+    drive = REPO / "diagrams" / "examples" / "drive.scenario.json"  # covers 6 of 8 states
+    base = json.loads(drive.read_text(encoding="utf-8"))
+    base["machine"] = str(REPO / "diagrams" / "examples" / base["machine"])
+    for k in range(4):  # four items, so that both workers get some
+        (tmp_path / f"m{k}.scenario.json").write_text(json.dumps(base), encoding="utf-8")
+    env = {k: v for k, v in os.environ.items() if k != "PYTEST_ADDOPTS"}
+
+    def run(*extra: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run([sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-p", "no:randomly",
+                               "--fsm-coverage-json", "cov.json", *extra, str(tmp_path)],
+                              capture_output=True, text=True, timeout=180, cwd=tmp_path, env=env)
+
+    serial = run()
+    assert serial.returncode == 0, serial.stdout + serial.stderr
+    alone = json.loads((tmp_path / "cov.json").read_text(encoding="utf-8"))
+    spread = run("-n", "2", "--fsm-fail-under", "99.9")
+    assert "4 passed" in spread.stdout, spread.stdout + spread.stderr
+    together = json.loads((tmp_path / "cov.json").read_text(encoding="utf-8"))
+    assert together == alone and together["machines"][0]["runs"] == 4
+    assert together["totals"]["states"]["total"] > 0
+    summary = next(line for line in spread.stdout.splitlines() if line.startswith("coverage: "))
+    assert summary == next(line for line in serial.stdout.splitlines() if line.startswith("coverage: "))
+    assert alone["percent"] < 99.9
+    assert spread.returncode == 1 and "is under --fsm-fail-under 99.9%" in spread.stdout
+
+
+def test_fsm_machine_drives_the_car_in_a_world(tmp_path: Path) -> None:
+    """A machine that drives the car is tested by hand in a world (issue 34): it follows the wall at 1 s, its
+    invariant reads the car's readings; without a world it is refused with what to add."""
+    (tmp_path / "test_car.py").write_text(textwrap.dedent(f'''
+        import pytest
+
+        def test_follow(fsm_machine):
+            m = fsm_machine({str(REPO / "diagrams" / "corner_turn.json")!r},
+                            world={str(REPO / "diagrams" / "worlds" / "hallway.json")!r}, seed=0)
+            m.always("car_front > 0.05")
+            m.run_for(1.0).expect({{"active": "follow"}})
+            assert m.machine.ctx.car.speed > 0
+
+        def test_no_world(fsm_machine):
+            with pytest.raises(ValueError, match="drives the car: give the world"):
+                fsm_machine({str(REPO / "diagrams" / "corner_turn.json")!r})
+    '''), encoding="utf-8")
+    env = {k: v for k, v in os.environ.items() if k != "PYTEST_ADDOPTS"}
+    proc = subprocess.run([sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-p", "no:randomly", "-q",
+                           str(tmp_path)], capture_output=True, text=True, timeout=180, cwd=tmp_path, env=env)
+    assert "2 passed" in proc.stdout, proc.stdout + proc.stderr
+
+
+def test_machine_test_refuses_expectations_checked_over_a_run() -> None:
+    m = MachineTest(SORTER)
+    for exp in ({"always": "parts >= 0"}, {"invariant": "parts >= 0"}, {"at": 0, "holds": "parts >= 0"}):
+        with pytest.raises(ValueError, match="checked while a run goes on: use m.always"):
+            m.expect(exp)

@@ -24,6 +24,7 @@ Kinds are those of :func:`fsm.loading.checking.value_kind`: number, true/false, 
 
 from __future__ import annotations
 
+import difflib
 import math
 import operator
 import re
@@ -103,10 +104,11 @@ _COMPARE = ("==", "!=", "<", "<=", ">", ">=")
 
 
 class _Parser:
-    def __init__(self, text: str) -> None:
+    def __init__(self, text: str, functions: dict[str, tuple[int, int | None]] | None = None) -> None:
         self.tokens = tokenize(text)
         self.i = 0
         self.depth = 0
+        self.functions = FUNCTIONS if functions is None else functions
 
     @property
     def tok(self) -> Token:
@@ -224,8 +226,11 @@ class _Parser:
         raise ExprError(f"expected a value, found {_found(t)}", t.column)
 
     def call(self, name: Token) -> Node:
-        if name.text not in FUNCTIONS:
-            raise ExprError(f"unknown function '{name.text}' (known: {', '.join(FUNCTIONS)})", name.column)
+        functions = self.functions
+        if name.text not in functions:
+            close = difflib.get_close_matches(name.text, list(functions), n=1)
+            guess = f"did you mean '{close[0]}'? " if close else ""
+            raise ExprError(f"unknown function '{name.text}' ({guess}known: {', '.join(functions)})", name.column)
         self.take()  # (
         args: list[Node] = []
         if not self.at(")"):
@@ -234,7 +239,7 @@ class _Parser:
                 self.take()
                 args.append(self.expr())
         self.expect(")", "',' or ')'")
-        low, high = FUNCTIONS[name.text]
+        low, high = functions[name.text]
         if len(args) < low or (high is not None and len(args) > high):
             want = f"{low}" if low == high else f"at least {low}"
             raise ExprError(f"{name.text}() takes {want} argument{'s' if low != 1 else ''}, got {len(args)}",
@@ -246,11 +251,13 @@ def _found(t: Token) -> str:
     return "the end" if t.kind == "end" else f"'{t.text}'"
 
 
-def parse(text: str) -> Node:
-    """The syntax tree of one expression, or :class:`ExprError` with the column."""
+def parse(text: str, functions: dict[str, tuple[int, int | None]] | None = None) -> Node:
+    """The syntax tree of one expression, or :class:`ExprError` with the column. ``functions`` (name -> (fewest,
+    most arguments)) replaces the language's own for a language built on this one (the scenario's temporal terms);
+    the caller then rewrites those calls before compiling the tree with :func:`compile_tree`."""
     if not isinstance(text, str):
         raise ExprError("an expression is a string", 1)
-    p = _Parser(text)
+    p = _Parser(text, functions)
     if p.tok.kind == "end":
         raise ExprError("empty expression", 1)
     node = p.expr()
@@ -390,7 +397,11 @@ def compile_expr(text: str, kinds: dict[str, str], want: str | None = None) -> C
     Raises :class:`ExprError` for a syntax error, an unknown variable, a kind mismatch, a division by a
     constant zero, or (with ``want``) a result of another kind.
     """
-    node = parse(text)
+    return compile_tree(parse(text), text, kinds, want)
+
+
+def compile_tree(node: Node, text: str, kinds: dict[str, str], want: str | None = None) -> Compiled:
+    """Check and compile a parsed expression (``text`` is its source, for messages); as :func:`compile_expr`."""
     fn, kind, const, value = _compile(node, kinds)
     if want is not None and kind not in (want, ANY):
         raise ExprError(f"the expression gives {kind_phrase(kind)}, {kind_phrase(want)} is needed here", node.column)

@@ -162,6 +162,7 @@ class Region:
         or ``_USED_UP`` (the supervisor used the tick up, or the state is halted and none of its transitions
         fires)."""
         candidates: tuple[Transition[Any], ...] = state.preempt
+        halted = False
         supervisor = state.supervisor
         if supervisor is not None:
             try:
@@ -173,7 +174,10 @@ class Region:
             if verdict is not _PROCEED:
                 if verdict is not _HALTED:
                     return _USED_UP
-                candidates = state.preempt + state.regular  # halted: not ticked, its transitions checked
+                # halted: not ticked, its transitions checked. A flag, not ``candidates is not state.preempt``: with
+                # no transitions at all (a non-blocking sequence's region) ``() + ()`` is ``()`` itself
+                halted = True
+                candidates = state.preempt + state.regular
         tr = None
         try:
             for tr in candidates:
@@ -184,7 +188,7 @@ class Region:
         except Exception as exc:
             assert tr is not None
             raise StateRuntimeError.of(state, f"check of transition {tr.describe()}", ctx, exc) from exc
-        return _USED_UP if candidates is not state.preempt else None
+        return _USED_UP if halted else None
 
     def leaf_paths(self) -> list[str]:
         """Paths of the active leaf states below this level (several under a parallel state)."""

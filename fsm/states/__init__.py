@@ -6,6 +6,7 @@ from .composites import FSMState, Parallel
 from .driving import ApproachPoint, BasicFollowWall, FollowWall, FollowWallRamp, Motor, Stop
 from .gate_driving import AlignHeading, ArucoGateCenter
 from .generic import Final, Idle
+from .plants import Button, Integrator, Queue, TimerSensor
 from .sequence import Join, ResetTimeout, Sequence, SetVar, Step, Wait
 
 __all__ = [
@@ -27,4 +28,8 @@ __all__ = [
     "Wait",
     "Join",
     "ResetTimeout",
+    "Button",
+    "Integrator",
+    "Queue",
+    "TimerSensor",
 ]

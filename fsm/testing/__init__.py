@@ -52,14 +52,16 @@ class MachineTest:
     to start in instead of the initial states (each level on the way starts at the state the path names).
     ``vars``: variables set before the start. ``dt``: the tick period (default 80 Hz). ``plugins``: modules or
     ``.py`` files registering types. ``plants``: simulated parts behind the machine, as a scenario's ``plants``
-    (``[{"name": "axis", "type": "Axis", "speed": 0.25}]``). A machine that drives the car cannot be tested here
-    (run it in a scenario with a world).
+    (``[{"name": "axis", "type": "Axis", "speed": 0.25}]``). ``world``: a world file (relative paths as the fixture
+    resolves the machine's): the machine drives the simulated car in it, ``seed`` and ``noise`` drive its sensors;
+    a machine that drives the car needs one. Invariants may then read ``car_front``, ``car_speed``, ...
     """
 
     def __init__(self, source: str | os.PathLike[str] | Mapping[str, Any], *, state: str | None = None,
                  vars: Mapping[str, Any] | None = None, dt: float | None = None, plugins: tuple[str, ...] = (),
                  plants: list[Mapping[str, Any]] | None = None,
-                 base_dir: str | os.PathLike[str] | None = None) -> None:
+                 base_dir: str | os.PathLike[str] | None = None, world: str | os.PathLike[str] | None = None,
+                 seed: int = 0, noise: bool = True) -> None:
         from fsm.loading.loader import check
         from fsm.loading.loader import compile as compile_spec
         from fsm.loading.registry import default_registry
@@ -76,11 +78,22 @@ class MachineTest:
         self.dt = dt if dt is not None else DEFAULT_DT
         plan = compile_spec(spec)
         self.paths = [sp.path for sp in plan.states()]
-        self.session = Session.open(plan, dt=self.dt, stop=StopRules(max_ticks=NEVER - 1), record=False)
+        stop = StopRules(max_ticks=NEVER - 1)
+        if world is not None:  # the car in a world, as a scenario's "world" and `fsmctl run --world`
+            from fsm.sim import simulate
+
+            self.session = simulate(plan, world=world, seed=seed, noise=noise, dt=self.dt, stop=stop)
+        else:
+            from fsm.loading.loader import uses_car
+
+            if uses_car(spec):
+                raise ValueError("this machine drives the car: give the world to drive it in, "
+                                 "fsm_machine(..., world=\"worlds/hallway.json\")")
+            self.session = Session.open(plan, dt=self.dt, stop=stop, record=False)
         self.machine = self.session.machine
         self._loaded = LoadedScenario(file=self.file, scenario=Scenario(machine=self.file, expect=[{"finished": True}]),
-                                      spec=spec, registry=registry, dt=self.dt, end_tick=NEVER - 1, world_path=None,
-                                      state_paths=self.paths)
+                                      spec=spec, registry=registry, dt=self.dt, end_tick=NEVER - 1,
+                                      world_path=Path(world) if world is not None else None, state_paths=self.paths)
         # every tick's snapshot and every state's outcome: a test may look back at any of them
         self.record = self.machine.add_listener(Recording(_Every(), list(self.machine.states_by_path.values())))
         for raw in plants or ():
@@ -169,7 +182,7 @@ class MachineTest:
         from fsm.tools.scenario.runner import InvariantWatch, expression_names
 
         signals = set(signal_names(self._loaded.spec)) | set(self.machine.ctx.signals)
-        kinds = invariant_kinds(self._loaded.spec, signals, False, self._loaded.scenario)
+        kinds = invariant_kinds(self._loaded.spec, signals, self._loaded.world_path is not None, self._loaded.scenario)
         kinds.update({k: "any" for k in self.machine.ctx.vars if k not in kinds})
         try:
             fn = compile_expr(invariant, kinds, want=BOOL).fn
@@ -177,7 +190,7 @@ class MachineTest:
             raise ValueError(f"invariant {invariant!r}: {exc}") from None
         names = expression_names(invariant)
         watch = InvariantWatch(len(self.record.invariants), invariant, fn, names,
-                               all(not n.startswith("signal_") for n in names), self.machine.ticks, NEVER,
+                               all(not n.startswith(("signal_", "car_")) for n in names), self.machine.ticks, NEVER,
                                tuple(sorted(signals)))
         self.record.invariants.append(watch)
         watch.check(self.machine, self.machine.ticks)
@@ -212,6 +225,14 @@ class MachineTest:
             sc = Scenario.model_validate(data)
         except ValidationError as err:
             raise ValueError("\n".join(str(p) for p in problems_from_errors(err, data, "expect"))) from None
+        from fsm.tools.scenario.model import InvariantExpect, TemporalExpect
+
+        during = [i for i, e in enumerate(sc.expect) if isinstance(e, (InvariantExpect, TemporalExpect))
+                  or getattr(e, "holds", None) is not None]
+        if during:
+            raise ValueError(f"expect[{during[0]}]: invariants and the temporal language (always, never, eventually, "
+                             "holds) are checked while a run goes on: use m.always(\"...\") for an invariant, or a "
+                             "scenario file")
         problems = element_problems([], list(sc.expect), None, "expect") + name_problems(sc, self.paths, "expect")
         late = [f"expect[{i}]: at {e.at:g} s is after now ({now:g} s)" for i, e in enumerate(sc.expect)
                 if getattr(e, "at", None) is not None and isinstance(e.at, float) and e.at > now + 1e-9]
@@ -247,17 +268,32 @@ class MachineTest:
         return self.machine.outcome
 
 
-def scenario_lines(path: str | Path, coverage: Any = None) -> tuple[bool, list[str]]:
-    """Run one scenario file: (passed, the lines ``fsmctl test`` prints for it)."""
+def scenario_lines(path: str | Path, coverage: Any = None, case: str | None = None, max_runs: int | None = None,
+                   marked: bool = False) -> tuple[bool, list[str]]:
+    """Run one scenario file (or, with ``case``, that case of its matrix; without, every case): (passed, the lines
+    ``fsmctl test`` prints for it). ``marked``: pytest applies the skip and xfail markers itself, so the run
+    ignores them and reports plainly."""
+    import dataclasses
+
     from fsm.model.errors import printable
     from fsm.tools.scenario import load_scenario, run_scenario
+    from fsm.tools.scenario.model import cases
 
     try:
-        loaded = load_scenario(path)
+        loaded = load_scenario(path, max_runs=max_runs)
     except DiagramError as exc:
         name = Path(path).name.removesuffix(".scenario.json") or str(path)
         return False, [printable(str(p)) for p in exc.problems] + [f"ERROR {name}: invalid scenario"]
-    result = run_scenario(loaded, coverage)
-    lines = [printable(str(w)) for w in loaded.warnings] + [printable(result.summary_line())]
-    lines += [printable(f"    {line}") for f in result.failures for line in f.lines()]
-    return result.passed, lines
+    runs = [c for c in cases(loaded) if case is None or c.case == case]
+    if not runs:
+        return False, [f"ERROR {loaded.name}: no case '{case}' in its matrix"]
+    lines = [printable(str(w)) for w in loaded.warnings]
+    passed = True
+    for run in runs:
+        if marked:
+            run = dataclasses.replace(run, skip=None, xfail=None)
+        result = run_scenario(run, coverage)
+        passed = passed and result.passed
+        lines += [printable(result.summary_line())]
+        lines += [printable(f"    {line}") for f in result.failures for line in f.lines()]
+    return passed, lines

@@ -29,6 +29,8 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     group.addoption("--fsm-coverage-json", metavar="FILE", help="write the coverage as JSON (implies --fsm-coverage)")
     group.addoption("--fsm-fail-under", metavar="PERCENT", type=float,
                     help="fail the run when the coverage is under PERCENT (implies --fsm-coverage)")
+    group.addoption("--fsm-max-runs", metavar="N", type=int,
+                    help="allow a scenario's matrix to expand to up to N cases (default: at most 10,000)")
 
 
 def pytest_configure(config: pytest.Config) -> None:
@@ -50,20 +52,57 @@ def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> pytest.Col
 
 
 class ScenarioFile(pytest.File):
-    """A scenario file: one test item."""
+    """A scenario file: one test item, or one per case of its ``matrix`` (``name[case]``), marked ``skip`` or
+    ``xfail`` as the scenario says. Collecting reads only the scenario's own file; the machine is loaded (and every
+    problem reported) when an item runs."""
 
     def collect(self) -> Iterator[pytest.Item]:
-        name = self.path.name.removesuffix(".scenario.json") or self.path.name
-        yield ScenarioItem.from_parent(self, name=name)
+        from fsm.tools.scenario.model import base_name
+
+        plan = _case_plan(self.path, self.config.getoption("fsm_max_runs", None))
+        if plan is None:  # unreadable or invalid: the item reports it when it runs
+            yield ScenarioItem.from_parent(self, name=base_name(self.path))
+            return
+        name, cases = plan
+        for case, skip, xfail in cases:
+            item = ScenarioItem.from_parent(self, name=name if case is None else f"{name}[{case}]")
+            item.case = case
+            if skip is not None:
+                item.add_marker(pytest.mark.skip(reason=skip))
+            if xfail is not None:
+                item.add_marker(pytest.mark.xfail(reason=xfail, raises=AssertionError, strict=False))
+            yield item
+
+
+def _case_plan(path: Path, max_runs: int | None) -> tuple[str, list[tuple[str | None, str | None, str | None]]] | None:
+    """The scenario's name and its cases (name, skip, xfail), or None when its file does not read as a scenario."""
+    from pydantic import ValidationError
+
+    from fsm.model.errors import FsmError
+    from fsm.tools.scenario.model import MAX_RUNS, Scenario, base_name, case_count, case_plan
+
+    try:
+        from fsm.loading.reading import parse_json_bytes, read_file_bytes
+
+        data, _source = parse_json_bytes(read_file_bytes(path, "scenario"), str(path), path.parent)
+        scenario = Scenario.model_validate(data)
+    except (FsmError, ValidationError, ValueError):
+        return None
+    if case_count(scenario.matrix) > (MAX_RUNS if max_runs is None else max_runs):
+        return None  # one item, that says so when it runs
+    return base_name(path, scenario.name), [(c[0], c[3], c[4]) for c in case_plan(scenario)]
 
 
 class ScenarioItem(pytest.Item):
-    """One scenario run with ``fsmctl test``'s checks and output."""
+    """One scenario (or one case of its matrix) run with ``fsmctl test``'s checks and output."""
+
+    case: str | None = None
 
     def runtest(self) -> None:
         from . import ScenarioError, scenario_lines
 
-        passed, lines = scenario_lines(self.path, self.config.stash.get(COVERAGE_KEY, None))
+        passed, lines = scenario_lines(self.path, self.config.stash.get(COVERAGE_KEY, None), case=self.case,
+                                       max_runs=self.config.getoption("fsm_max_runs", None), marked=True)
         if not passed:
             raise ScenarioError(lines)
 
@@ -76,7 +115,7 @@ class ScenarioItem(pytest.Item):
         return super().repr_failure(excinfo)
 
     def reportinfo(self) -> tuple[Path, int | None, str]:
-        return self.path, None, f"scenario {self.name}"
+        return self.path, 0, f"scenario {self.name}"  # a line: pytest places skips by it
 
 
 @pytest.fixture
@@ -87,10 +126,16 @@ def fsm_machine(request: pytest.FixtureRequest) -> Iterator[Callable[..., Any]]:
 
     made: list[MachineTest] = []
 
+    def near(name: Any) -> Any:
+        if isinstance(name, (str, Path)) and not Path(name).is_absolute():
+            here = Path(request.path).parent / name
+            return here if here.exists() else name
+        return name
+
     def make(source: Any, **keys: Any) -> MachineTest:
-        if isinstance(source, (str, Path)) and not Path(source).is_absolute():
-            near = Path(request.path).parent / source
-            source = near if near.exists() else source
+        source = near(source)
+        if keys.get("world") is not None:
+            keys["world"] = near(keys["world"])
         m = MachineTest(source, **keys)
         made.append(m)
         return m
@@ -107,6 +152,10 @@ def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
     config = session.config
     coverage = config.stash.get(COVERAGE_KEY, None)
     if coverage is None:
+        return
+    workeroutput = getattr(config, "workeroutput", None)
+    if workeroutput is not None:  # a pytest-xdist worker: the controller adds the workers' up and reports
+        workeroutput["fsm_coverage"] = coverage.to_json()
         return
     notes: list[str] = []
     path = config.option.fsm_coverage_json
@@ -131,6 +180,15 @@ def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
     config.stash[NOTES_KEY] = notes
     if failed and exitstatus == 0:
         session.exitstatus = pytest.ExitCode.TESTS_FAILED
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_testnodedown(node: Any, error: Any) -> None:
+    """pytest-xdist: a worker finished; add the coverage it collected to the controller's."""
+    coverage = node.config.stash.get(COVERAGE_KEY, None)
+    data = getattr(node, "workeroutput", {}).get("fsm_coverage")
+    if coverage is not None and data:
+        coverage.merge_json(data)
 
 
 def pytest_terminal_summary(terminalreporter: Any, exitstatus: int, config: pytest.Config) -> None:

@@ -127,6 +127,11 @@ class Recorder(Listener):
     def on_pause(self, ctx: Context, state: State[Any], paused: bool) -> None:
         self._events.setdefault("paused" if paused else "resumed", []).append(state.path)
 
+    def on_skipped(self, ctx: Context, state: State[Any]) -> None:
+        """A state entered and skipped by its precondition: its entry is a transition of the line, ``skipped``
+        says that nothing of it ran (coverage counts it apart)."""
+        self._events.setdefault("skipped", []).append(state.path)
+
     def on_input(self, tick: int, time: float, item: Any) -> None:
         """An input applied before ``tick`` (:mod:`fsm.session.session`): an ``input`` line, what it was and its
         text."""

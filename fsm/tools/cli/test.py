@@ -11,6 +11,7 @@ file the scenarios name (their machines and includes, worlds, plugin files). Pri
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from typing import TYPE_CHECKING, Any, NamedTuple, TextIO
 
@@ -32,7 +33,7 @@ def register(sub: Subcommands) -> None:
                                    "states and variables (with tolerances) at given times, monitor firings, "
                                    "invariants at every tick, the outcome of the machine or an inner state). "
                                    "Exit 1 if any scenario failed or is invalid.")
-    p.add_argument("scenarios", nargs="+", metavar="SCENARIO", help="scenario files (*.scenario.json)")
+    p.add_argument("scenarios", nargs="*", metavar="SCENARIO", help="scenario files (*.scenario.json)")
     p.add_argument("-q", "--quiet", action="store_true",
                    help="print only failures (with their trace) and the summary line")
     p.add_argument("--junit", metavar="OUT.xml", help="write a JUnit XML report ('-' for standard output)")
@@ -42,6 +43,21 @@ def register(sub: Subcommands) -> None:
                    help="write the coverage as JSON ('-' for standard output); implies --coverage")
     p.add_argument("--fail-under", metavar="PERCENT", type=_percent,
                    help="exit 1 when the coverage is under PERCENT (0-100); implies --coverage")
+    p.add_argument("--max-runs", metavar="N", type=_positive,
+                   help="allow a scenario's matrix to expand to up to N cases (default: at most 10,000)")
+    g = p.add_argument_group("generated paths (--explore)")
+    g.add_argument("--explore", metavar="MACHINE",
+                   help="search the machine's inputs for paths that reach every state, transition and monitor (a "
+                        "machine file, or a scenario file for its machine, plants and plugins); needs --duration "
+                        "and --step")
+    g.add_argument("--duration", metavar="S", type=float, help="--explore: simulated seconds each path runs")
+    g.add_argument("--step", metavar="S", type=float, help="--explore: every S seconds one input may change")
+    g.add_argument("--var", metavar="NAME=V1,V2", action="append", default=[],
+                   help="--explore: a variable and the values to try (JSON values: 1,2 or true,false)")
+    g.add_argument("--invariant", metavar="EXPR", action="append", default=[],
+                   help="--explore: an expression that must hold on every path; a violation is written as a "
+                        "minimal scenario")
+    g.add_argument("-o", "--out", metavar="DIR", help="--explore: a new folder for the generated scenario files")
     p.set_defaults(func=cmd_test)
 
 
@@ -55,6 +71,10 @@ class _Load(NamedTuple):
 
 
 def cmd_test(args: argparse.Namespace) -> int:
+    if args.explore is not None:
+        return cmd_explore(args)
+    if not args.scenarios:
+        raise UsageError("give scenario files (*.scenario.json), or --explore MACHINE")
     from ..files import Outputs, check_distinct
     from ..scenario.junit import Invalid, junit_xml
     from ..scenario.runner import ScenarioResult
@@ -73,7 +93,7 @@ def cmd_test(args: argparse.Namespace) -> int:
         out.classify()
     check_distinct(outputs.items, args.scenarios)
     registry_from(args)  # a --plugin that fails is a usage error, said once and not of a scenario
-    loads = [_load(file, tuple(args.plugin)) for file in args.scenarios]
+    loads = [_load(file, tuple(args.plugin), args.max_runs) for file in args.scenarios]
     # every file the inputs name (machines, includes, worlds, plugins): refused as --junit before any run
     outputs.open([*args.scenarios, *args.plugin, *(f for ld in loads for f in ld.files)])
     report = sys.stderr if outputs.to_stdout else sys.stdout
@@ -90,17 +110,23 @@ def cmd_test(args: argparse.Namespace) -> int:
                 continue
             for warning in ld.loaded.warnings:
                 print(warning, file=sys.stderr)
-            result = _run(ld.loaded, coverage)
-            results.append(result)
-            if not result.passed or not args.quiet:
-                _say(result.summary_line(), report)
-            for failure in result.failures:
-                for line in failure.lines():
-                    _say(f"    {line}", report)
-        passed = sum(1 for r in results if isinstance(r, ScenarioResult) and r.passed)
-        failed = sum(1 for r in results if isinstance(r, ScenarioResult) and not r.passed)
+            from ..scenario.model import cases
+
+            for case in cases(ld.loaded):
+                result = _run(case, coverage)
+                results.append(result)
+                if not result.passed or not args.quiet:
+                    _say(result.summary_line(), report)
+                if result.status == "failed":
+                    for failure in result.failures:
+                        for line in failure.lines():
+                            _say(f"    {line}", report)
+        statuses = [r.status for r in results if isinstance(r, ScenarioResult)]
+        passed = statuses.count("passed")
+        failed = statuses.count("failed")
         invalid = sum(1 for r in results if isinstance(r, Invalid))
-        print(f"{passed} passed, {failed} failed" + (f", {invalid} invalid" if invalid else ""), file=report)
+        more = "".join(f", {statuses.count(k)} {k}" for k in ("skipped", "xfailed", "xpassed") if k in statuses)
+        print(f"{passed} passed, {failed} failed{more}" + (f", {invalid} invalid" if invalid else ""), file=report)
         under = False
         if coverage is not None:
             for line in coverage.text():
@@ -118,7 +144,18 @@ def cmd_test(args: argparse.Namespace) -> int:
             outputs.commit()
     finally:
         outputs.discard()
-    return EXIT_OK if passed == len(results) and not under else EXIT_FAIL
+    return EXIT_OK if not failed and not invalid and not under else EXIT_FAIL
+
+
+def _positive(text: str) -> int:
+    """``--max-runs``: a whole number >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
+    return value
 
 
 def _percent(text: str) -> float:
@@ -134,14 +171,14 @@ def _percent(text: str) -> float:
     return value
 
 
-def _load(file: str, plugins: tuple[str, ...]) -> _Load:
+def _load(file: str, plugins: tuple[str, ...], max_runs: int | None = None) -> _Load:
     """Read and check one scenario (and its machine); an invalid one keeps its problems, not a run."""
     from fsm.model.errors import DiagramError
 
     from ..scenario.model import load_scenario, named_files
 
     try:
-        loaded = load_scenario(file, plugins)
+        loaded = load_scenario(file, plugins, max_runs)
     except DiagramError as exc:
         return _Load(file, None, exc.problems, named_files(file))
     return _Load(file, loaded, [], loaded.inputs_files)
@@ -173,3 +210,124 @@ def _name(file: str) -> str:
         if base.endswith(suffix) and len(base) > len(suffix):
             return base[: -len(suffix)]
     return base or file
+
+
+def cmd_explore(args: argparse.Namespace) -> int:
+    """``fsmctl test --explore MACHINE``: see :mod:`fsm.tools.scenario.explore`."""
+    import json
+    import math
+    from pathlib import Path
+
+    from fsm.model.errors import DiagramError
+
+    from ..files import NewFolder
+    from ..scenario.explore import Explorer, Space
+
+    missing = [(opt, why) for opt, value, why in (
+        ("--duration", args.duration, "how long each explored path runs, in simulated seconds"),
+        ("--step", args.step, "how often an input may change, in seconds")) if value is None]
+    if missing:
+        raise UsageError("--explore needs bounds: " + "; ".join(f"{o} ({w})" for o, w in missing)
+                         + ", e.g. --duration 10 --step 0.5")
+    for opt, value in (("--duration", args.duration), ("--step", args.step)):
+        if not math.isfinite(value) or value <= 0:
+            raise UsageError(f"{opt}: expected a number of seconds > 0, got {value:g}")
+    if args.step > args.duration:
+        raise UsageError(f"--step {args.step:g} is longer than --duration {args.duration:g}: no input could change")
+    if args.scenarios:
+        raise UsageError("--explore takes one machine; run the scenario files in another command")
+    values: dict[str, list[object]] = {}
+    for item in args.var:
+        name, sep, text = item.partition("=")
+        if not sep or not name or not text:
+            raise UsageError(f"--var {item}: give the variable and the values to try, NAME=V1,V2 (unbounded "
+                             "otherwise)")
+        try:
+            values[name] = [json.loads(v) for v in text.split(",")]
+        except ValueError:
+            raise UsageError(f"--var {item}: the values are JSON (1,2.5 or true,false or \"a\",\"b\")") from None
+    target = args.explore
+    plants: list[tuple[type, object]] = []
+    base: dict[str, object] = {}
+    try:
+        if target.endswith(".scenario.json"):
+            from ..scenario.model import load_scenario
+
+            loaded = load_scenario(target, tuple(args.plugin))
+            if loaded.world_path is not None:
+                raise UsageError(f"--explore {target}: its machine drives the car; --explore runs machines without "
+                                 "a world")
+            spec, plants = loaded.spec, loaded.plants
+            machine_file = str(Path(target).parent / loaded.scenario.machine)
+            sc = loaded.scenario
+            base = {k: v for k, v in (("plugins", [str(Path(os.path.relpath(Path(target).parent, args.out or ".")) / pl)
+                                                   for pl in sc.plugins]), ("plants", sc.plants)) if v}
+            dt = loaded.dt
+        else:
+            from fsm.loading.loader import check, uses_car
+
+            spec, problems = check(target, registry=registry_from(args))
+            errors = [p for p in problems if p.severity == "error"]
+            if spec is None or errors:
+                raise DiagramError(errors or problems)
+            if uses_car(spec):
+                raise UsageError(f"--explore {target}: the machine drives the car; --explore runs machines without a "
+                                 "world")
+            machine_file, dt = target, 0.0125
+    except DiagramError as exc:
+        for problem in exc.problems:
+            print(problem, file=sys.stderr)
+        return EXIT_FAIL
+    from fsm.loading.loader import compile as compile_spec
+    from fsm.loading.loader import signal_names
+    from fsm.model.expr import BOOL, ExprError, compile_expr
+
+    declared = dict(getattr(spec, "vars", {}) or {})
+    for name in values:
+        if name not in declared:
+            import difflib
+
+            close = difflib.get_close_matches(name, sorted(declared), n=2)
+            raise UsageError(f"--var {name}: the machine has no variable '{name}'"
+                             + (f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""))
+    signals = sorted(set(getattr(spec, "inputs", None) or ()) | set(signal_names(spec)))
+    for _cls, params in plants:
+        signals = [s for s in signals if s not in _cls(params).signals()]  # a plant drives them, not the search
+    kinds = {k: "any" for k in declared} | {f"signal_{s}": BOOL for s in signals}
+    invariants = []
+    for text in args.invariant:
+        try:
+            invariants.append((text, compile_expr(text, kinds, want=BOOL).fn))
+        except ExprError as exc:
+            raise UsageError(f"--invariant {text!r}: {exc}") from None
+    space = Space(signals, values, args.step, args.duration, dt)
+    folder = None
+    if args.out is not None:
+        folder = NewFolder(args.out, "-o")
+        folder.check()
+    explorer = Explorer(compile_spec(spec), plants, space, invariants)
+    result = explorer.search(args.max_runs or 2000)
+    total = len(result.targets)
+    print(f"explored {target}: {result.runs} runs in {result.seconds:.2f} s, {space.slots} input slots of "
+          f"{space.step:g} s, inputs: {', '.join(signals + list(values)) or 'none'}")
+    print(f"reached {total - len(result.unreached)}/{total} (states, transitions, monitors)")
+    why = ("the run budget ran out (--max-runs " + str(args.max_runs or 2000) + ")" if result.exhausted else
+           f"not reached by any input sequence within {space.slots} slots of {space.step:g} s (bounded depth; a "
+           "guard no explored input can make true stays unreached)")
+    for t in result.unreached:
+        print(f"  unreached: {t}: {why}")
+    if result.violation is not None:
+        path, tick, text = result.violation
+        print(f"VIOLATION '{text}' at tick {tick} (t={tick * dt:g} s) after {sum(1 for a in path if a[0] != 'wait')} "
+              "input(s)")
+    if folder is not None:
+        from ..scenario.explore import write_scenarios
+
+        folder.open()
+        try:
+            names = write_scenarios(explorer, result, folder, machine_file, base, args.out)
+            folder.commit()
+        finally:
+            folder.discard()
+        print(f"wrote {len(names)} scenario file(s) to {args.out}")
+    return EXIT_FAIL if result.violation is not None else EXIT_OK

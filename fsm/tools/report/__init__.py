@@ -69,11 +69,14 @@ def coverage_of(trace: Trace, warnings: list[str]) -> Any:
     except Exception as exc:  # a type from a plugin this process does not have: the rest of the report stands
         warnings.append(f"the machine in the trace cannot be built ({type(exc).__name__}): no coverage")
         return None
-    entered: set[str] = set()
+    entries: dict[str, int] = {}
+    skips: dict[str, int] = {}
     fired: set[tuple[str, int]] = set()
     for e in trace.events:
+        for path in e.get("skipped", ()):
+            skips[str(path)] = skips.get(str(path), 0) + 1
         for tr in e.get("transitions", ()):
-            entered.add(str(tr.get("to")))
+            entries[str(tr.get("to"))] = entries.get(str(tr.get("to")), 0) + 1
             src = tr.get("from")
             state = machine.states_by_path.get(src) if isinstance(src, str) else None
             for t in state.transitions if state is not None else ():
@@ -82,7 +85,8 @@ def coverage_of(trace: Trace, warnings: list[str]) -> Any:
     monitors = {(str(m.get("owner")), str(m.get("monitor")), str(m.get("kind")))
                 for e in trace.events for m in e.get("monitors", ())}
     cov = Coverage()
-    cov.add_reached(machine, entered, set(), fired, monitors, key=str(trace.name))
+    ran = {p for p, n in entries.items() if n > skips.get(p, 0)}  # a skipped entry ran nothing
+    cov.add_reached(machine, ran, set(skips) - ran, fired, monitors, key=str(trace.name))
     return cov
 
 
@@ -92,7 +96,8 @@ def coverage_section(cov: Any) -> str:
         return ""
     (m,) = cov.machines.values()
     counts = ", ".join(f"{kind} {hit}/{total}" for kind, (hit, total) in m.counts().items())
-    rows = [("never entered", [p for p, v in m.states.items() if v != "ran"]),
+    rows = [("never entered", [p for p, v in m.states.items() if v == "never"]),
+            ("only skipped (precondition false)", [p for p, v in m.states.items() if v == "skipped"]),
             ("transitions never fired", [t for t, v in m.transitions.items() if not v]),
             ("monitors never fired", [t for t, v in m.monitors.items() if not v])]
     body = "".join(f"<tr><th>{escape(title)}</th><td>{escape(', '.join(items)) or 'none'}</td></tr>"

@@ -75,6 +75,23 @@ class Coverage:
                 label = f"{path}: {m.kind} {m.label} ({m.behavior})"
                 cov.monitors[label] = cov.monitors.get(label, False) or (path, m.label, m.kind) in fired_monitors
 
+    def merge_json(self, data: dict[str, Any]) -> None:
+        """Add the coverage another process reported (:meth:`to_json`; a pytest-xdist worker's): a state counts as
+        reached when either reached it, a transition or monitor as fired when either fired it."""
+        rank = {"never": 0, "skipped": 1, "ran": 2}
+        for m in data.get("machines", []):
+            cov = self.machines.get(m["machine"])
+            if cov is None:
+                cov = self.machines[m["machine"]] = MachineCoverage(m["machine"])
+            cov.scenarios += m["runs"]
+            for s in m["states"]:
+                before = cov.states.get(s["path"], "never")
+                cov.states[s["path"]] = max(before, s["status"], key=rank.__getitem__)
+            for t in m["transitions"]:
+                cov.transitions[t["transition"]] = cov.transitions.get(t["transition"], False) or t["fired"]
+            for mon in m["monitors"]:
+                cov.monitors[mon["monitor"]] = cov.monitors.get(mon["monitor"], False) or mon["fired"]
+
     def totals(self) -> dict[str, tuple[int, int]]:
         out = {"states": (0, 0), "transitions": (0, 0), "monitors": (0, 0)}
         for cov in self.machines.values():

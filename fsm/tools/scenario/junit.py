@@ -1,5 +1,6 @@
 """The JUnit XML report of a scenario run (``fsmctl test --junit``), as CI systems read it: one ``testsuite``
-with one ``testcase`` per scenario; a failed expectation is a ``failure``, an invalid scenario an ``error``."""
+with one ``testcase`` per scenario (per case of a matrix); a failed expectation is a ``failure``, an invalid scenario an
+``error``, a skipped case and one that failed as its ``xfail`` expected are ``skipped``."""
 
 from __future__ import annotations
 
@@ -25,11 +26,12 @@ def junit_xml(results: list[ScenarioResult | Invalid], suite: str = "fsmctl test
     """The report as text (UTF-8 XML declaration included)."""
     failures = sum(1 for r in results if isinstance(r, ScenarioResult) and not r.passed)
     errors = sum(1 for r in results if isinstance(r, Invalid))
+    skipped = sum(1 for r in results if isinstance(r, ScenarioResult) and r.status in ("skipped", "xfailed"))
     total_time = sum(r.wall_time for r in results if isinstance(r, ScenarioResult))
     root = ET.Element("testsuites", tests=str(len(results)), failures=str(failures), errors=str(errors),
                       time=f"{total_time:.3f}")
     ts = ET.SubElement(root, "testsuite", name=suite, tests=str(len(results)), failures=str(failures),
-                       errors=str(errors), skipped="0", time=f"{total_time:.3f}")
+                       errors=str(errors), skipped=str(skipped), time=f"{total_time:.3f}")
     for r in results:
         case = ET.SubElement(ts, "testcase", name=r.name, classname=_classname(r.file), file=r.file,
                              time=f"{r.wall_time:.3f}" if isinstance(r, ScenarioResult) else "0")
@@ -37,6 +39,10 @@ def junit_xml(results: list[ScenarioResult | Invalid], suite: str = "fsmctl test
             err = ET.SubElement(case, "error", type="invalid scenario",
                                 message=f"{len([p for p in r.problems if p.severity == 'error'])} problem(s)")
             err.text = "\n".join(p.text for p in r.problems)
+        elif r.status in ("skipped", "xfailed"):  # as pytest's JUnit report: an expected failure is skipped
+            skip = ET.SubElement(case, "skipped", type="pytest.skip" if r.status == "skipped" else "pytest.xfail",
+                                 message=r.skipped if r.skipped is not None else f"xfail: {r.xfail}")
+            skip.text = r.summary_line()
         elif not r.passed:
             first = r.failures[0]
             fail = ET.SubElement(case, "failure", type=first.kind, message=r.summary_line())

@@ -11,6 +11,7 @@ from __future__ import annotations
 import difflib
 import json
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any, Literal, NamedTuple, Union
@@ -186,6 +187,11 @@ class NeverExpect(ScenarioModel):
     never: list[Annotated[str, Field(min_length=1)]] = Field(min_length=1, description="State ids or paths.")
 
 
+_FORMULA = ("A formula: an expression of the document language over the variables, signal_NAME and car_NAME, with "
+            "the state terms active(X), paused(X), suspended(X), entered(X), skipped(X), fired(X), outcome(X) and "
+            "the terms prev(e), rose(b), fell(b), changed(e), start(e) (see docs/scenarios.md, 'Over time').")
+
+
 class AtExpect(ScenarioModel):
     """At the first tick at or after ``at``: these states are active and these variables have these values."""
 
@@ -202,6 +208,32 @@ class AtExpect(ScenarioModel):
     suspended: dict[str, bool] | None = Field(
         default=None, description="State id or path -> whether it is active and suspended while a monitor's "
                                   "exception sequence runs (not by a pause).")
+    holds: str | None = Field(default=None, min_length=1, description="A formula true at that tick. " + _FORMULA)
+
+
+class TemporalExpect(ScenarioModel):
+    """An expectation over time: a formula that holds at every tick (``always``), at none (``never``) or at some
+    (``eventually``); over a window, until another formula holds, or in the ticks after a trigger."""
+
+    always: str | None = Field(default=None, min_length=1, description="Holds at every tick. " + _FORMULA)
+    never: str | None = Field(default=None, min_length=1, description="Holds at no tick. " + _FORMULA)
+    eventually: str | None = Field(default=None, min_length=1, description="Holds at some tick. " + _FORMULA)
+    until: str | None = Field(default=None, min_length=1,
+                              description="With always: the body must hold at every tick before the first tick this "
+                                          "formula holds, and it must hold at some tick.")
+    after: str | None = Field(default=None, min_length=1,
+                              description="A trigger: from each tick it holds, the body is checked over the next "
+                                          "'ticks' ticks (or 'seconds'); it must hold at least once.")
+    ticks: Int | None = Field(default=None, ge=0, description="With after: how many ticks after the trigger "
+                                                              "(the trigger's tick is tick 0).")
+    seconds: float | None = Field(default=None, ge=0, description="With after: the same in simulated seconds.")
+    nth: Int | None = Field(default=None, ge=1, description="With after: only the nth time the trigger holds.")
+    within: Window | None = Field(default=None, description=_WINDOW)
+    count: Int | None = Field(default=None, ge=0, description="With eventually: at exactly this many ticks.")
+    min: Int | None = Field(default=None, ge=0, description="With eventually: at least at this many ticks.")
+    max: Int | None = Field(default=None, ge=0, description="With eventually: at most at this many ticks.")
+    at: list[Annotated[float, Field(ge=0)]] | None = Field(
+        default=None, description="With eventually: the simulated times (s) of exactly the ticks it holds at.")
 
 
 class TransitionCount(ScenarioModel):
@@ -246,6 +278,8 @@ _EXPECT_KEYS = ("outcome", "finished", "visits", "never", "transitions", "entere
 
 def _expect_kind(value: Any) -> str | None:
     if isinstance(value, dict):
+        if "always" in value or "eventually" in value or isinstance(value.get("never"), str):
+            return "<temporal>"
         for key in _EXPECT_KEYS:
             if key in value:
                 return f"<{key}>"
@@ -258,11 +292,12 @@ Expectation = Annotated[
           Annotated[TransitionsExpect, Tag("<transitions>")], Annotated[AtExpect, Tag("<at>")],
           Annotated[MonitorsExpect, Tag("<monitors>")], Annotated[EnteredExpect, Tag("<entered>")],
           Annotated[SkippedExpect, Tag("<skipped>")], Annotated[ExitedExpect, Tag("<exited>")],
-          Annotated[InvariantExpect, Tag("<invariant>")]],
+          Annotated[InvariantExpect, Tag("<invariant>")], Annotated[TemporalExpect, Tag("<temporal>")]],
     Discriminator(_expect_kind, custom_error_type="expect_kind",
                   custom_error_message="an expectation is an object with one of 'outcome', 'finished', 'visits', "
                                        "'never', 'transitions', 'monitors', 'entered', 'skipped', 'exited', "
-                                       "'invariant', or 'at' (with 'active', 'vars', 'paused' and/or 'suspended')"),
+                                       "'invariant', 'always', 'eventually', or 'at' (with 'active', 'vars', "
+                                       "'paused', 'suspended' and/or 'holds')"),
 ]
 
 _MODELS: dict[str, type[ScenarioModel]] = {
@@ -270,7 +305,7 @@ _MODELS: dict[str, type[ScenarioModel]] = {
     "<finished>": FinishedExpect, "<visits>": VisitsExpect, "<never>": NeverExpect,
     "<transitions>": TransitionsExpect, "<at>": AtExpect, "<monitors>": MonitorsExpect, "<pause>": PauseInput,
     "<resume>": ResumeInput, "<entered>": EnteredExpect, "<skipped>": SkippedExpect, "<exited>": ExitedExpect,
-    "<invariant>": InvariantExpect,
+    "<invariant>": InvariantExpect, "<temporal>": TemporalExpect,
 }
 
 
@@ -291,6 +326,33 @@ class Substitution(ScenarioModel):
     transition: TransitionRef | None = Field(default=None, description="Transitions from one state to another.")
     with_: dict[str, Any] = Field(alias="with", description="The replacement: {\"type\": \"Wait\", \"seconds\": 1} "
                                                             "and its parameters (step keys may be overridden).")
+
+
+#: A matrix that expands to more cases than this needs ``--max-runs`` (``fsmctl test``, ``--fsm-max-runs`` in pytest).
+MAX_RUNS = 10_000
+
+
+class MatrixCase(ScenarioModel):
+    """One named case of a matrix: the machine's variables it starts with, inputs added to the timeline, markers."""
+
+    name: str = Field(min_length=1, max_length=200, description="The case's name: the scenario is reported as "
+                                                                "'scenario[name]'.")
+    vars: dict[str, Value] = Field(default_factory=dict, description="Variables of the machine set before it starts "
+                                                                     "(their initial values for this case).")
+    inputs: list[Input] = Field(default_factory=list, description="Inputs added to the scenario's timeline.")
+    skip: str | None = Field(default=None, min_length=1, description="Do not run this case; the reason.")
+    xfail: str | None = Field(default=None, min_length=1,
+                              description="This case is expected to fail (a known bug); the reason. A case that "
+                                          "passes is reported as XPASS.")
+
+
+class Matrix(ScenarioModel):
+    """One scenario run as several named cases: every combination of ``vars`` values, or the ``cases`` listed."""
+
+    vars: dict[str, Annotated[list[Value], Field(min_length=1)]] | None = Field(
+        default=None, min_length=1, description="Variable -> the initial values to try: one case per combination, "
+                                                "named 'speed=0.2,load=1'.")
+    cases: list[MatrixCase] | None = Field(default=None, min_length=1, description="The cases, each named.")
 
 
 class Scenario(ScenarioModel):
@@ -320,6 +382,11 @@ class Scenario(ScenarioModel):
                                           "the machine so changed is checked like any document.")
     inputs: list[Input] = Field(default_factory=list, description="The timeline of inputs.")
     expect: list[Expectation] = Field(min_length=1, description="What the run must show; all are checked.")
+    matrix: Matrix | None = Field(default=None, description="Run this scenario as named cases (like "
+                                                            "pytest.mark.parametrize): each is a test of its own.")
+    skip: str | None = Field(default=None, min_length=1, description="Do not run this scenario; the reason.")
+    xfail: str | None = Field(default=None, min_length=1,
+                              description="This scenario is expected to fail (a known bug); the reason.")
 
 
 # -- the schema ------------------------------------------------------------------------------------------
@@ -361,16 +428,17 @@ class LoadedScenario:
     state_paths: list[str] = field(default_factory=list)
     #: Problems that do not stop the run (a signal the machine does not read).
     warnings: list[Problem] = field(default_factory=list)
+    #: the formulas of the expectations, compiled when the scenario was checked: (index, key) -> formula
+    formulas: dict[tuple[int, str], Any] = field(default_factory=dict)
+    #: a matrix case: its name, the variables the machine starts with, its markers (see :func:`cases`)
+    case: str | None = None
+    initial_vars: dict[str, Any] = field(default_factory=dict)
+    skip: str | None = None
+    xfail: str | None = None
 
     @property
     def name(self) -> str:
-        if self.scenario.name:
-            return self.scenario.name
-        base = Path(self.file).name
-        for suffix in (".scenario.json", ".json"):
-            if base.endswith(suffix):
-                return base[: -len(suffix)] or base
-        return base
+        return base_name(self.file, self.scenario.name) + (f"[{self.case}]" if self.case is not None else "")
 
     def where(self, ptr: str) -> str:
         """``file:line:column`` of the element at ``ptr``."""
@@ -385,10 +453,129 @@ class LoadedScenario:
                 + self.plugin_files)
 
 
-def load_scenario(file: str | Path, plugins: tuple[str, ...] = ()) -> LoadedScenario:
+def base_name(file: str | Path, name: str | None = None) -> str:
+    """A scenario's name in reports: its ``name``, or the file's name without ``.scenario.json``."""
+    if name:
+        return name
+    base = Path(file).name
+    for suffix in (".scenario.json", ".json"):
+        if base.endswith(suffix):
+            return base[: -len(suffix)] or base
+    return base
+
+
+def case_count(matrix: Matrix | None) -> int:
+    """How many cases a matrix expands to (without expanding it)."""
+    if matrix is None:
+        return 1
+    if matrix.cases is not None:
+        return len(matrix.cases)
+    return math.prod(len(v) for v in (matrix.vars or {}).values())
+
+
+def _shown_value(value: Any) -> str:
+    return json.dumps(value, ensure_ascii=False) if isinstance(value, (bool, str)) else f"{value:g}" \
+        if isinstance(value, float) else str(value)
+
+
+def case_plan(scenario: Scenario) -> list[tuple[str | None, dict[str, Any], list[Any], str | None, str | None]]:
+    """The cases of a scenario, in order: (name or None without a matrix, variables, inputs added, skip, xfail); the
+    scenario's own markers apply to every case (a case's own reason wins)."""
+    m = scenario.matrix
+    if m is None:
+        return [(None, {}, [], scenario.skip, scenario.xfail)]
+    if m.cases is not None:
+        return [(c.name, dict(c.vars), list(c.inputs), c.skip or scenario.skip, c.xfail or scenario.xfail)
+                for c in m.cases]
+    import itertools
+
+    names = list(m.vars or {})
+    out: list[tuple[str | None, dict[str, Any], list[Any], str | None, str | None]] = []
+    for combo in itertools.product(*(m.vars or {}).values()):
+        label = ",".join(f"{n}={_shown_value(v)}" for n, v in zip(names, combo, strict=True))
+        out.append((label, dict(zip(names, combo, strict=True)), [], scenario.skip, scenario.xfail))
+    return out
+
+
+def cases(loaded: LoadedScenario) -> list[LoadedScenario]:
+    """The runs of a loaded scenario: itself without a matrix, else one per case (each with its own name, initial
+    variables, timeline and markers)."""
+    import dataclasses
+
+    out = []
+    for name, values, inputs, skip, xfail in case_plan(loaded.scenario):
+        scenario = loaded.scenario if not inputs else loaded.scenario.model_copy(
+            update={"inputs": [*loaded.scenario.inputs, *inputs]})
+        out.append(dataclasses.replace(loaded, scenario=scenario, case=name, initial_vars=values, skip=skip,
+                                       xfail=xfail))
+    return out
+
+
+def matrix_problems(scenario: Scenario, spec: Any, name: str, max_runs: int | None) -> list[Problem]:
+    """A matrix too large for ``--max-runs``, duplicate case names, variables the machine does not have or of
+    another kind, inputs after the end of the run."""
+    from fsm.model.expr import ANY, kind_of, kind_phrase
+
+    m = scenario.matrix
+    if m is None:
+        return []
+    problems: list[Problem] = []
+    if (m.vars is None) == (m.cases is None):
+        return [Problem("a matrix has 'vars' (every combination of their values) or 'cases' (a list), one of them",
+                        name, "/matrix", hint='"matrix": {"vars": {"speed": [0.2, 0.5]}}')]
+    n = case_count(m)
+    limit = MAX_RUNS if max_runs is None else max_runs
+    if n > limit:
+        how = (f"more than {MAX_RUNS:,} need --max-runs {n} (fsmctl test) or --fsm-max-runs {n} (pytest)"
+               if max_runs is None else f"more than --max-runs {max_runs}")
+        return [Problem(f"the matrix expands to {n:,} cases; {how}", name, "/matrix",
+                        hint="fewer values, or a table of 'cases'")]
+    declared = getattr(spec, "vars", {}) or {}
+    where: list[tuple[str, dict[str, Any]]] = []
+    if m.cases is not None:
+        seen: set[str] = set()
+        for k, c in enumerate(m.cases):
+            if c.name in seen:
+                problems.append(Problem(f"two cases are named '{c.name}'", name, pointer("matrix", "cases", k, "name"),
+                                        hint="give each case its own name"))
+            seen.add(c.name)
+            where.append((pointer("matrix", "cases", k, "vars"), c.vars))
+            problems += _case_input_problems(c.inputs, scenario, name, pointer("matrix", "cases", k, "inputs"))
+    else:
+        where = [(pointer("matrix", "vars", v), {v: x}) for v, values in (m.vars or {}).items() for x in values]
+    for ptr, values in where:
+        for var, value in values.items():
+            at = ptr if ptr.endswith("/" + var) else ptr + "/" + var
+            if var not in declared:
+                close = difflib.get_close_matches(var, sorted(declared), n=2)
+                problems.append(Problem(f"the machine has no variable '{var}'", name, at,
+                                        hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close
+                                        else "variables: " + (", ".join(sorted(declared)) or "none")))
+                continue
+            want, got = kind_of(declared[var]), kind_of(value)
+            if ANY not in (want, got) and want != got:
+                problems.append(Problem(f"'{var}' is {kind_phrase(want)} in the machine, this value is "
+                                        f"{kind_phrase(got)}: {_shown_value(value)}", name, at))
+    unique: dict[str, Problem] = {}
+    for p in problems:
+        unique.setdefault(f"{p.pointer}:{p.message}", p)
+    return list(unique.values())
+
+
+def _case_input_problems(inputs: list[Any], scenario: Scenario, name: str, ptr: str) -> list[Problem]:
+    """A case's inputs: the checks of the scenario's own inputs, located under the case."""
+    problems = []
+    for p in element_problems(inputs, [], scenario, name):
+        rest = (p.pointer or "").removeprefix("/inputs")
+        problems.append(Problem(p.message, name, ptr + rest, hint=p.hint))
+    return problems
+
+
+def load_scenario(file: str | Path, plugins: tuple[str, ...] = (), max_runs: int | None = None) -> LoadedScenario:
     """Read and check a scenario and its machine (and world); raises :class:`DiagramError` with every problem.
 
-    ``plugins`` (from ``fsmctl --plugin``) are loaded besides the scenario's own.
+    ``plugins`` (from ``fsmctl --plugin``) are loaded besides the scenario's own; ``max_runs`` (``--max-runs``)
+    lets a matrix expand to more than :data:`MAX_RUNS` cases.
     """
     from fsm.loading.reading import parse_json_bytes, place, read_file_bytes
 
@@ -422,6 +609,8 @@ def load_scenario(file: str | Path, plugins: tuple[str, ...] = ()) -> LoadedScen
         if not problems:
             loaded, more = _load_machine(scenario, path, name, plugins)
             problems += more
+            if loaded is not None:
+                problems += matrix_problems(scenario, loaded.spec, name, max_runs)
         elif not (path.parent / scenario.machine).is_file():
             problems.append(_missing_machine(path.parent / scenario.machine, name))
     if problems:
@@ -483,6 +672,8 @@ def problems_from_errors(err: ValidationError, data: Any, name: str) -> list[Pro
             model = TransitionCount if len(loc) > 3 else model
         if model is PressInput and "bounce" in loc[2:3] and len(loc) > 3:
             model = Bounce
+        if loc[:1] == ["matrix"] and model is Scenario:
+            model = MatrixCase if "cases" in loc[1:2] and len(loc) > 3 else Matrix
         if loc[:1] == ["substitute"] and len(loc) > 2:
             model = TransitionRef if "transition" in loc[2:3] and len(loc) > 3 else Substitution
         typ = e["type"]
@@ -639,15 +830,20 @@ def element_problems(inputs: list[Any], expect: list[Any], lim: Scenario | None,
         if isinstance(exp, InvariantExpect):
             from fsm.model.expr import ExprError, parse
 
+            from .temporal import TEMPORAL_FUNCTIONS
+
             try:
-                parse(exp.invariant)
+                parse(exp.invariant, TEMPORAL_FUNCTIONS)
             except ExprError as exc:
                 problems.append(Problem(f"the invariant does not parse: {exc}", name, ptr + "/invariant",
                                         element=label, hint="e.g. \"x >= 0 and not signal_estop\""))
+        if isinstance(exp, TemporalExpect):
+            problems += _temporal_shape(exp, name, ptr, label, end_time)
         if isinstance(exp, AtExpect):
-            if exp.active is None and exp.vars is None and exp.paused is None and exp.suspended is None:
-                problems.append(Problem("an 'at' expectation needs 'active', 'vars', 'paused' or 'suspended'", name,
-                                        ptr, element=label, hint='{"at": 2.0, "active": "run/work"}'))
+            if exp.active is None and exp.vars is None and exp.paused is None and exp.suspended is None and \
+                    exp.holds is None:
+                problems.append(Problem("an 'at' expectation needs 'active', 'vars', 'paused', 'suspended' or "
+                                        "'holds'", name, ptr, element=label, hint='{"at": 2.0, "active": "run/work"}'))
             if exp.at > end_time + EPS:
                 problems.append(Problem(f"at {exp.at:g} s is after the end of the run ({end_time:g} s)", name,
                                         ptr + "/at", element=label, hint="raise 'duration' (or 'max_ticks')"))
@@ -668,6 +864,44 @@ def element_problems(inputs: list[Any], expect: list[Any], lim: Scenario | None,
                     problems.append(Problem(f"at {at:g} s is after the end of the run ({end_time:g} s)", name,
                                             f"{ptr}/monitors/at/{k}", element=label,
                                             hint="raise 'duration' (or 'max_ticks')"))
+    return problems
+
+
+def _temporal_shape(exp: TemporalExpect, name: str, ptr: str, label: str, end_time: float) -> list[Problem]:
+    """Which keys of a temporal expectation go together."""
+    problems: list[Problem] = []
+    modes = [k for k in ("always", "never", "eventually") if getattr(exp, k) is not None]
+
+    def bad(message: str, key: str = "", hint: str | None = None) -> None:
+        problems.append(Problem(message, name, ptr + (f"/{key}" if key else ""), element=label, hint=hint))
+
+    if len(modes) != 1:
+        bad(f"give one of 'always', 'never' and 'eventually', not {' and '.join(repr(m) for m in modes)}",
+            hint='{"always": "x >= 0"}; two expectations for two formulas')
+        return problems
+    mode = modes[0]
+    if exp.until is not None and mode != "always":
+        bad(f"'until' goes with 'always' ('{mode}' cannot take it)", "until",
+            hint='{"always": "not active(drive)", "until": "signal_start"}')
+    if exp.until is not None and exp.after is not None:
+        bad("'until' and 'after' do not go together: give 'after' with 'ticks' for a span after a trigger", "until")
+    for key in ("ticks", "seconds", "nth"):
+        if getattr(exp, key) is not None and exp.after is None:
+            bad(f"'{key}' counts from a trigger: give 'after' too", key,
+                hint='{"eventually": "entered(B)", "after": "entered(A)", "ticks": 8}')
+    if exp.ticks is not None and exp.seconds is not None:
+        bad("give 'ticks' or 'seconds', not both", "seconds")
+    counted = [k for k in ("count", "min", "max", "at") if getattr(exp, k) is not None]
+    if counted and (mode != "eventually" or exp.after is not None):
+        bad(f"'{counted[0]}' counts the ticks an 'eventually' (without 'after') holds at", counted[0],
+            hint='{"eventually": "rose(paused(cycle))", "count": 2}')
+    if exp.at is not None and (exp.count is not None or exp.min is not None or exp.max is not None):
+        bad("'at' lists every tick already: give it alone, or 'count', 'min' and/or 'max'", "at")
+    problems += _count_problems(exp, name, ptr, label)
+    for k, at in enumerate(exp.at or ()):
+        if at > end_time + EPS:
+            bad(f"at {at:g} s is after the end of the run ({end_time:g} s)", f"at/{k}",
+                hint="raise 'duration' (or 'max_ticks')")
     return problems
 
 
@@ -739,7 +973,7 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
     paths = [sp.path for sp in compile_spec(spec).states()]
     problems += name_problems(scenario, paths, name)
     plants, more = _plants(scenario, registry, name)
-    problems += more
+    problems += more + _plant_expression_problems(scenario, spec, plants, name)
     known = signal_names(spec)
     given = {item.signal if isinstance(item, SignalInput) else item.press for item in scenario.inputs
              if isinstance(item, (SignalInput, PressInput))}
@@ -751,7 +985,8 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
                 problems.append(Problem(f"the pause button '{pause}' of '{st.id}' is never pressed by this scenario",
                                         name, "/inputs", severity="warning",
                                         hint=f'add {{"at": 1.0, "press": "{pause}"}} to test the pause'))
-    problems += _invariant_problems(scenario, spec, known | given, world_path is not None, name)
+    formulas: dict[tuple[int, str], Any] = {}
+    problems += _invariant_problems(scenario, spec, known | given, world_path is not None, name, paths, formulas)
     for i, item in enumerate(scenario.inputs):
         sig = item.signal if isinstance(item, SignalInput) else item.press if isinstance(item, PressInput) else None
         if sig is not None and sig not in known:
@@ -762,7 +997,7 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
                                     else "signals it reads: " + (", ".join(sorted(known)) or "none")))
     return LoadedScenario(file=name, scenario=scenario, spec=spec, registry=registry, dt=dt, end_tick=end_tick,
                           world_path=world_path, machine_files=files, plugin_files=plugin_files,
-                          state_paths=paths, plants=plants), problems
+                          state_paths=paths, plants=plants, formulas=formulas), problems
 
 
 def invariant_kinds(spec: Any, signals: set[str], car: bool, scenario: Scenario) -> dict[str, str]:
@@ -782,34 +1017,59 @@ def invariant_kinds(spec: Any, signals: set[str], car: bool, scenario: Scenario)
     return kinds
 
 
-def _invariant_problems(scenario: Scenario, spec: Any, signals: set[str], car: bool, name: str) -> list[Problem]:
-    from fsm.model.expr import BOOL, ExprError, compile_expr
+def formulas_of(exp: Any) -> list[tuple[str, str]]:
+    """The formulas of an expectation: (key, text), the body first."""
+    if isinstance(exp, InvariantExpect):
+        return [("invariant", exp.invariant)]
+    if isinstance(exp, AtExpect):
+        return [("holds", exp.holds)] if exp.holds is not None else []
+    if isinstance(exp, TemporalExpect):
+        return [(k, v) for k in ("always", "never", "eventually", "until", "after") if (v := getattr(exp, k))]
+    return []
+
+
+def formula_kinds(loaded_spec: Any, signals: set[str], car: bool, scenario: Scenario) -> dict[str, str]:
+    """The names formulas may read: those of :func:`invariant_kinds`, and with plants any other name (a variable a
+    plant writes; read when the run starts)."""
+    kinds = invariant_kinds(loaded_spec, signals, car, scenario)
+    if scenario.plants:
+        from fsm.model.expr import ExprError
+
+        from .temporal import formula_names
+
+        for exp in scenario.expect:
+            for _key, text in formulas_of(exp):
+                try:
+                    names = formula_names(text)
+                except ExprError:
+                    names = []
+                kinds.update({n: "any" for n in names if n not in kinds and not n.startswith(("signal_", "car_"))})
+    return kinds
+
+
+def _invariant_problems(scenario: Scenario, spec: Any, signals: set[str], car: bool, name: str,
+                        paths: list[str], compiled: dict[tuple[int, str], Any] | None = None) -> list[Problem]:
+    """Every formula of the expectations compiled against the machine (kept in ``compiled`` for the runs): located
+    errors with suggestions."""
+    from fsm.model.expr import ExprError
+
+    from .temporal import FormulaError, compile_formula
 
     problems: list[Problem] = []
     kinds: dict[str, str] | None = None
     for i, exp in enumerate(scenario.expect):
-        if not isinstance(exp, InvariantExpect):
-            continue
-        kinds = kinds if kinds is not None else invariant_kinds(spec, signals, car, scenario)
-        if scenario.plants:  # a plant may write any variable: other names are read when the run starts
-            from .runner import expression_names
-
+        for key, text in formulas_of(exp):
+            kinds = kinds if kinds is not None else formula_kinds(spec, signals, car, scenario)
             try:
-                extra = [n for n in expression_names(exp.invariant) if n not in kinds
-                         and not n.startswith(("signal_", "car_"))]
-            except ExprError:
-                extra = []
-            kinds = {**kinds, **{n: "any" for n in extra}}
-        try:
-            compile_expr(exp.invariant, kinds, want=BOOL)
-        except ExprError as exc:
-            hint = None
-            if exc.message.startswith("unknown variable"):
-                close = difflib.get_close_matches(exc.message.split("'")[1], sorted(kinds), n=3)
-                hint = ("did you mean " + " or ".join(close) + "?") if close else \
-                    "names: " + (", ".join(sorted(kinds)[:12]) or "none")
-            problems.append(Problem(f"invariant: {exc}", name, pointer("expect", i, "invariant"),
-                                    element=f"expectation {i}", hint=hint))
+                formula = compile_formula(text, kinds, paths)
+                if compiled is not None:
+                    compiled[i, key] = formula
+            except FormulaError as exc:
+                problems.append(Problem(f"{key}: {exc}", name, pointer("expect", i, key), element=f"expectation {i}",
+                                        hint=exc.hint))
+            except ExprError as exc:
+                problems.append(Problem(f"{key}: {exc}", name, pointer("expect", i, key), element=f"expectation {i}",
+                                        hint="e.g. \"x >= 0 and not active(stopped)\""))
     return problems
 
 
@@ -851,6 +1111,7 @@ def substituted(scenario: Scenario, machine_path: Path, registry: Any, name: str
 
     data, _source = reader_for(machine_path)(machine_path)
     doc = copy.deepcopy(data)
+    _inline_includes(doc, machine_path.parent, [os.path.realpath(machine_path)])
     problems: list[Problem] = []
     touched: list[tuple[str, int]] = []  # (document pointer, substitution index)
     for k, sub in enumerate(scenario.substitute):
@@ -896,23 +1157,64 @@ def substituted(scenario: Scenario, machine_path: Path, registry: Any, name: str
             what = (f"state '{sub.state}'" if sub.state is not None else f"state of type '{sub.type}'"
                     if sub.type is not None or ref is None else f"transition from '{ref.from_}' to '{ref.to}'")
             problems.append(Problem(f"the machine has no {what} to substitute", name, ptr,
-                                    hint="states inside an included machine file cannot be substituted"))
+                                    hint="a state's id or the end of its path, as 'visits' names it"))
     if problems:
         return None, problems
     spec, found = check(doc, registry=registry, base_dir=machine_path.parent)
     errors = [p for p in found if p.severity == "error"]
     if spec is not None and not errors:
         return spec, []
-    out = []
+    # one problem per place in the scenario: a substitution that matched five states says a misspelt key once
+    grouped: dict[tuple[str, str, str | None], list[str]] = {}
     for p in errors or found:
         where = next(((at, k) for at, k in touched
                       if p.pointer and (p.pointer == at or p.pointer.startswith(at + "/"))), None)
         k = where[1] if where else 0
         inner = p.pointer[len(where[0]):] if where and p.pointer else ""
-        out.append(Problem(f"with this substitution the machine is invalid: {p.message}", name,
-                           pointer("substitute", k) + ("/with" + inner if where else ""), hint=p.hint))
+        at = pointer("substitute", k) + ("/with" + inner if where else "")
+        grouped.setdefault((at, p.message, p.hint), []).append(p.element or "")
+    out = []
+    for (at, message, hint), elements in grouped.items():
+        named = sorted({e.removeprefix("state ") for e in elements if e})
+        more = f" (in {len(elements)} states: {', '.join(named[:6])}{', ...' if len(named) > 6 else ''})" \
+            if len(elements) > 1 and named else ""
+        out.append(Problem(f"with this substitution the machine is invalid: {message}{more}", name, at, hint=hint))
     return None, out
 
+
+def _inline_includes(node: Any, base: Path, stack: list[str]) -> None:
+    """Put the machines of ``{"file": ...}`` includes in place (their own includes too, relative to them), so that a
+    substitution reaches the states inside them; a file that cannot be read is left as an include, for the
+    machine's check to report."""
+    from fsm.loading.reading import reader_for
+
+    if not isinstance(node, dict):
+        return
+    subs: list[tuple[Any, Any]] = []
+    for el in [*(node.get("states") or []), *(node.get("steps") or []), *(node.get("exceptions") or []),
+               *(node.get("sequences") or [])]:
+        if not isinstance(el, dict):
+            continue
+        if "machine" in el:
+            subs.append((el, "machine"))
+        regions = el.get("regions")
+        if isinstance(regions, list):
+            subs += [(regions, i) for i in range(len(regions))]
+        _inline_includes(el, base, stack)
+    for holder, key in subs:
+        sub = holder[key]
+        if isinstance(sub, dict) and isinstance(sub.get("file"), str) and len(sub) == 1 and len(stack) < 32:
+            path = os.path.realpath(base / sub["file"])
+            if path in stack or not os.path.isfile(path):
+                continue
+            try:
+                data, _source = reader_for(Path(path))(Path(path))
+            except (DiagramError, OSError):
+                continue
+            _inline_includes(data, Path(path).parent, [*stack, path])
+            holder[key] = data
+        else:
+            _inline_includes(sub, base, stack)
 
 def _load_plugins(scenario: Scenario, base: Path, name: str, registry: Any) -> tuple[list[str], list[Problem]]:
     """Import the scenario's ``plugins`` into ``registry``: the files they were loaded from, and a problem at
@@ -1019,6 +1321,28 @@ def _plants(scenario: Scenario, registry: Any, name: str) -> tuple[list[tuple[ty
         names.add(params.name)
         out.append((cls, params))
     return out, problems
+
+
+def _plant_expression_problems(scenario: Scenario, spec: Any, plants: list[tuple[type, Any]],
+                                name: str) -> list[Problem]:
+    """The expressions of the library's plants (``rate``, ``take``, ``press_when``, ``when``) over the machine's
+    variables, those the scenario sets and those the plants write."""
+    from fsm.model.expr import kind_of
+    from fsm.states.plants import plant_problems, written_vars
+
+    kinds = {k: kind_of(v) for k, v in (getattr(spec, "vars", {}) or {}).items()}
+    for item in scenario.inputs:
+        if isinstance(item, SetInput):
+            kinds.update({k: "any" for k in item.set})
+    for cls, params in plants:
+        kinds.update({v: "any" for v in written_vars(cls, params)})
+    problems = []
+    for cls, params in plants:
+        i = next(k for k, raw in enumerate(scenario.plants) if raw.get("name") == params.name)
+        for key, message, hint in plant_problems(cls, params, kinds):
+            problems.append(Problem(f"{key}: {message}", name, pointer("plants", i, key), element=f"plant {i}",
+                                    hint=hint))
+    return problems
 
 
 def name_problems(scenario: Scenario, paths: list[str], name: str) -> list[Problem]:

@@ -29,6 +29,7 @@ from .model import (
     NeverExpect,
     OutcomeExpect,
     SkippedExpect,
+    TemporalExpect,
     TransitionsExpect,
     VisitsExpect,
     active_matches,
@@ -46,8 +47,7 @@ if TYPE_CHECKING:
 CONTEXT_BEFORE, CONTEXT_AFTER = 4, 3
 
 
-@dataclass(frozen=True)
-class Entry:
+class Entry(NamedTuple):
     """A state entered: by a transition (``kind`` its type) or as an initial state (``kind`` ``"initial"``)."""
 
     tick: int
@@ -198,7 +198,7 @@ class Recording(Listener):
     outcomes of watched states, the invariants, and a snapshot at each tick an ``at`` expectation looks at."""
 
     def __init__(self, snapshot_ticks: Container[int], watched: list[State] | None = None,
-                 invariants: list[InvariantWatch] | None = None) -> None:
+                 invariants: list[InvariantWatch] | None = None, temporal: TemporalRun | None = None) -> None:
         self.entries: list[Entry] = []
         #: indices into ``entries`` of the entries skipped by a precondition
         self.skipped: set[int] = set()
@@ -216,6 +216,7 @@ class Recording(Listener):
         self._watched = {id(s): s for s in watched or ()}
         self._recorded: dict[int, bool] = {k: True for k in self._watched}
         self.invariants = invariants or []
+        self.temporal = temporal
 
     def on_monitor(self, ctx: Context, owner: State, monitor: Any) -> None:
         self.monitors.append(MonitorFiring(ctx.tick, owner.path, monitor.label, monitor.kind, monitor.behavior))
@@ -250,7 +251,8 @@ class Recording(Listener):
 
     def on_tick(self, machine: Machine) -> None:
         tick = machine.ctx.tick
-        if self._moved:
+        moved = self._moved
+        if moved:
             self._moved = False
             self.active.append(ActiveChange(tick, tuple(machine.active_paths)))
         current = machine.ctx.vars
@@ -268,6 +270,8 @@ class Recording(Listener):
         for inv in self.invariants:
             if inv.failed is None and inv.first <= tick <= inv.last:
                 inv.check(machine, tick)
+        if self.temporal is not None:
+            self.temporal.step(machine, self, tick, moved)
         if tick in self._want:
             self.snapshots[tick] = Snapshot(self.active[-1].paths, dict(current), *held_states(machine))
 
@@ -304,6 +308,166 @@ class Recording(Listener):
             out += [(tick, p) for p in sorted((was | set(entered)) - now) if p in states]
             was = now & states
         return out
+
+
+class TemporalRun:
+    """The temporal expectations of a run (:mod:`.temporal`). The recording tells it each tick whether states moved
+    or variables changed; it gathers only what some formula reads (the variables and signals named, entries,
+    firings, pauses, the active states, outcomes) and steps only the watches whose formulas read something that
+    changed (see :class:`~.temporal.Watch`): a tick where nothing they read moved costs a few tests."""
+
+    def __init__(self, watches: list[Any], outside: list[str], outcome_states: list[State], dt: float) -> None:
+        from .temporal import Tick
+
+        self.watches = watches
+        self.dt = dt
+        self.signals = [(n, n[len("signal_"):]) for n in outside if n.startswith("signal_")]
+        self.car = [(n, n[len("car_"):]) for n in outside if n.startswith("car_")]
+        self.outcome_states = [(st.path, st) for st in outcome_states]
+        self._outcome_keys: dict[str, Any] = {}
+        self.now = Tick()
+        self.values: dict[str, Any] = {}
+        self._entries = 0
+        self._monitors = 0
+        self._pauses = 0
+        self._var_changes = 0
+        self._active: Any = None
+        need: frozenset[str] = frozenset().union(*(w.deps for w in watches))
+        self.need_entries = "@entries" in need
+        self.need_active = "@active" in need
+        self.need_fired = "@fired" in need
+        self.every_tick = any(w.every_tick for w in watches) or bool(self.car)
+        self.firsts = {w.first for w in watches}
+        self.forced = True
+
+    def at(self, tick: int) -> str:
+        return f"tick {tick} (t={round(tick * self.dt, 9):g} s)"
+
+    def time(self, tick: int) -> str:
+        return f"{round(tick * self.dt, 9):g}"
+
+    def step(self, machine: Machine, rec: Recording, tick: int, moved: bool) -> None:
+        now = self.now
+        ctx = machine.ctx
+        values = self.values
+        changed: set[str] = set()
+        if self.signals:
+            signals = ctx.signals
+            for name, signal in self.signals:
+                level = signals.get(signal, False)
+                if values.get(name) is not level:
+                    values[name] = level
+                    changed.add(name)
+        for path, st in self.outcome_states:
+            outcome = st.outcome
+            if outcome is not None:
+                key = (st.entered_at, outcome)
+                if self._outcome_keys.get(path) != key:
+                    self._outcome_keys[path] = key
+                    now.outcomes[path] = (tick, outcome)
+                    changed.add("@outcome")
+        if not (changed or moved or self.forced or self.every_tick or len(rec.var_changes) != self._var_changes
+                or len(rec.monitors) != self._monitors or len(rec.pauses) != self._pauses or now.fired
+                or tick in self.firsts):
+            return
+        now.tick = tick
+        if len(rec.var_changes) != self._var_changes or not values:
+            changed.update(c.name for c in rec.var_changes[self._var_changes:])
+            self._var_changes = len(rec.var_changes)
+            values.update(ctx.vars)
+        if self.car and ctx.car is not None:
+            for name, reading in self.car:
+                value = getattr(ctx.car, reading, None)
+                if isinstance(value, (int, float)):
+                    values[name] = value
+        if self.need_entries:
+            entries = rec.entries
+            if len(entries) != self._entries:
+                new = range(self._entries, len(entries))
+                now.entered = frozenset(entries[k].path for k in new if k not in rec.skipped)
+                now.skipped = frozenset(entries[k].path for k in new if k in rec.skipped)
+                self._entries = len(entries)
+                changed.add("@entries")
+            elif now.entered or now.skipped:
+                now.entered = now.skipped = frozenset()
+                changed.add("@entries")
+        if len(rec.monitors) != self._monitors:
+            now.fired = frozenset(f.owner for f in rec.monitors[self._monitors:])
+            self._monitors = len(rec.monitors)
+            changed.add("@fired")
+        elif now.fired:
+            now.fired = frozenset()
+            changed.add("@fired")
+        if len(rec.pauses) != self._pauses:
+            self._pauses = len(rec.pauses)
+            changed.add("@paused")
+        if moved and self.need_active and rec.active[-1] is not self._active:
+            self._active = rec.active[-1]
+            now.active = frozenset("/".join(p.split("/")[:k]) for p in self._active.paths
+                                   for k in range(1, p.count("/") + 2))
+            changed.add("@active")
+        at = self.at
+        forced = every = False
+        for w in self.watches:
+            if w.done:
+                continue
+            busy = w.after is None or bool(w.open)
+            dirty = bool(changed) and not (w.deps if busy else w.idle_deps).isdisjoint(changed)
+            if dirty or w.force or tick == w.first or (w.every_tick if busy else w.idle_every):
+                w.step(tick, now, values, at)
+                w.force = dirty and w.transient
+                forced = forced or w.force
+                every = every or (w.every_tick if w.after is None or w.open else w.idle_every)
+        self.forced = forced
+        self.every_tick = every or bool(self.car)
+
+
+def make_temporal(loaded: LoadedScenario, machine: Machine, signals: tuple[str, ...]) -> TemporalRun | None:
+    """The watches of the scenario's invariants, temporal expectations and ``at`` ... ``holds`` (all checked when
+    the scenario was loaded), or None when it has none."""
+    from .model import TemporalExpect, formula_kinds, formulas_of
+    from .temporal import Watch, compile_formula
+
+    sc = loaded.scenario
+    dt = loaded.dt
+    kinds: dict[str, str] = {}
+    if any((i, k) not in loaded.formulas for i, exp in enumerate(sc.expect) for k, _t in formulas_of(exp)):
+        kinds = formula_kinds(loaded.spec, set(signals), loaded.world_path is not None, sc)
+    paths = loaded.state_paths
+    by_path = machine.states_by_path
+    watches: list[Any] = []
+    outside: set[str] = set()
+    outcome_paths: set[str] = set()
+    for i, exp in enumerate(sc.expect):
+        texts = dict(formulas_of(exp))
+        if not texts:
+            continue
+        formulas = {k: loaded.formulas[i, k].fresh() if (i, k) in loaded.formulas else
+                    compile_formula(v, kinds, paths) for k, v in texts.items()}
+        for f in formulas.values():
+            outcome_paths |= f.state_paths()
+            outside |= {n for n in f.deps if n.startswith(("signal_", "car_"))}
+            f.bind(by_path)
+        within = getattr(exp, "within", None)
+        first, last = (0, loaded.end_tick) if within is None else \
+            (_first_tick(within[0], dt), _last_tick(within[1], dt))
+        if isinstance(exp, InvariantExpect):
+            watches.append(Watch(i, "always", formulas["invariant"], first, last, label="invariant"))
+        elif isinstance(exp, AtExpect):
+            tick = min(tick_at(exp.at, dt), loaded.end_tick)
+            watches.append(Watch(i, "at", formulas["holds"], tick, tick, label=f"at {exp.at:g} s"))
+        elif isinstance(exp, TemporalExpect):
+            mode = next(k for k in ("always", "never", "eventually") if k in formulas)
+            span = exp.ticks if exp.ticks is not None else \
+                (tick_at(exp.seconds, dt) if exp.seconds is not None else None)
+            watches.append(Watch(i, mode, formulas[mode], first, last, until=formulas.get("until"),
+                                 after=formulas.get("after"), span=span, nth=exp.nth,
+                                 count=(exp.count, exp.min, exp.max),
+                                 at=None if exp.at is None else [tick_at(t, dt) for t in exp.at]))
+    if not watches:
+        return None
+    states = [by_path[p] for p in sorted(outcome_paths) if p in by_path]
+    return TemporalRun(watches, sorted(outside), states, dt)
 
 
 def _times(n: int) -> str:
@@ -347,12 +511,34 @@ class ScenarioResult:
     wall_time: float = 0.0
     outcome: str | None = None
     failures: list[Failure] = field(default_factory=list)
+    #: markers: the reason it was not run, the reason it is expected to fail
+    skipped: str | None = None
+    xfail: str | None = None
+
+    @property
+    def status(self) -> str:
+        """passed, failed, skipped, xfailed (expected to fail, and failed) or xpassed (expected to fail, passed)."""
+        if self.skipped is not None:
+            return "skipped"
+        if self.xfail is not None:
+            return "xfailed" if self.failures else "xpassed"
+        return "failed" if self.failures else "passed"
 
     @property
     def passed(self) -> bool:
-        return not self.failures
+        """Not a failure: passed, skipped, or marked xfail (whether it failed or not, as pytest by default)."""
+        return self.status != "failed"
 
     def summary_line(self) -> str:
+        status = self.status
+        if status == "skipped":
+            return f"SKIP {self.name}: {self.skipped}"
+        if status == "xpassed":
+            return f"XPASS {self.name} ({self.ticks} ticks, {self.sim_time:g} s): expected to fail: {self.xfail}"
+        if status == "xfailed":
+            first = self.failures[0]
+            return f"XFAIL {self.name}: {self.xfail} (expect[{first.index}] {first.kind}: {first.message})" \
+                if first.index >= 0 else f"XFAIL {self.name}: {self.xfail} ({first.message})"
         if self.passed:
             return f"PASS {self.name} ({self.ticks} ticks, {self.sim_time:g} s)"
         first = self.failures[0]
@@ -364,39 +550,11 @@ class ScenarioResult:
 
 def expression_names(text: str) -> list[str]:
     """The names an expression reads, in order of first use."""
-    from fsm.model.expr import Node, parse
+    from fsm.model.expr import parse
 
-    out: list[str] = []
-    todo = [parse(text)]
-    while todo:
-        node = todo.pop(0)
-        if node.op == "var" and node.args[0] not in out:
-            out.append(node.args[0])
-        todo += [a for a in node.args if isinstance(a, Node)]
-    return out
+    from .temporal import tree_names
 
-
-def make_invariants(loaded: LoadedScenario, signals: tuple[str, ...]) -> list[InvariantWatch]:
-    """The scenario's invariants compiled (they were checked when the scenario was loaded)."""
-    from fsm.model.expr import BOOL, compile_expr
-
-    from .model import invariant_kinds
-
-    out = []
-    spec_vars = set(getattr(loaded.spec, "vars", {}))
-    kinds = invariant_kinds(loaded.spec, set(signals), loaded.world_path is not None, loaded.scenario)
-    for i, exp in enumerate(loaded.scenario.expect):
-        if isinstance(exp, InvariantExpect):
-            names = expression_names(exp.invariant)
-            if loaded.plants:  # variables a plant writes (checked when the scenario was loaded)
-                kinds.update({n: "any" for n in names if n not in kinds and not n.startswith(("signal_", "car_"))})
-            set_vars = {k for k, kind in kinds.items() if not k.startswith(("signal_", "car_"))}
-            vars_only = all(n in spec_vars or n in set_vars for n in names)
-            first, last = (0, loaded.end_tick) if exp.within is None else \
-                (_first_tick(exp.within[0], loaded.dt), _last_tick(exp.within[1], loaded.dt))
-            out.append(InvariantWatch(i, exp.invariant, compile_expr(exp.invariant, kinds, want=BOOL).fn, names,
-                                      vars_only, first, last, signals))
-    return out
+    return tree_names(parse(text))
 
 
 def _first_tick(t: float, dt: float) -> int:
@@ -417,7 +575,10 @@ def run_scenario(loaded: LoadedScenario, coverage: Any = None) -> ScenarioResult
 
     sc = loaded.scenario
     dt = loaded.dt
-    result = ScenarioResult(loaded.name, loaded.file)
+    result = ScenarioResult(loaded.name, loaded.file, xfail=loaded.xfail)
+    if loaded.skip is not None:
+        result.skipped = loaded.skip
+        return result
     signals, sets = expand(sc, dt)
     pauses = pause_changes(sc, dt)
     at_ticks = {min(tick_at(e.at, dt), loaded.end_tick) for e in sc.expect if isinstance(e, AtExpect)}
@@ -430,6 +591,7 @@ def run_scenario(loaded: LoadedScenario, coverage: Any = None) -> ScenarioResult
     else:
         session = Session.open(plan, dt=dt, stop=stop, record=False)
     machine = session.machine
+    machine.ctx.vars.update(loaded.initial_vars)  # a matrix case's initial values: set before the start
     plant_signals: list[str] = []
     for cls, params in loaded.plants:
         plant = cls(params)
@@ -448,7 +610,7 @@ def run_scenario(loaded: LoadedScenario, coverage: Any = None) -> ScenarioResult
 
     read = signal_names(loaded.spec) | set(getattr(loaded.spec, "inputs", None) or ())
     names = tuple(sorted({c.name for c in signals} | set(plant_signals) | read))
-    rec = machine.add_listener(Recording(at_ticks, watched, make_invariants(loaded, names)))
+    rec = machine.add_listener(Recording(at_ticks, watched, temporal=make_temporal(loaded, machine, names)))
     error: StateRuntimeError | None = None
     t0 = time.perf_counter()
     try:
@@ -512,6 +674,12 @@ class Checker:
         self.signals = signals
         self.sets = sets
         self.last_tick = machine.ticks
+        #: expectation index -> (watch, verdict) of the formulas checked during the run
+        self.verdicts: dict[int, tuple[Any, Any]] = {}
+        temporal = rec.temporal
+        if temporal is not None:
+            for w in temporal.watches:
+                self.verdicts[w.index] = (w, w.finish(self.last_tick, temporal.at, temporal.time))
 
     def t(self, tick: int) -> float:
         return round(tick * self.dt, 9)
@@ -551,6 +719,10 @@ class Checker:
         for inv in self.rec.invariants:
             if inv.failed is not None:
                 out.append(Event(inv.failed, 3, f"invariant {inv.text} false"))
+        for w, verdict in self.verdicts.values():
+            if verdict is not None:
+                out.append(Event(verdict.tick, 3, f"invariant {w.body.text} false" if w.label == "invariant" else
+                                 f"{w.label} {w.body.text} failed"))
         for tick, name, old, new in self.rec.var_changes:
             out.append(Event(tick, 2, f"var {name}: {_shown(old)} -> {_shown(new)}"))
         for tick, owner, label, kind, behavior in self.rec.monitors:
@@ -614,6 +786,8 @@ class Checker:
             return None
         if isinstance(exp, AtExpect):
             return self.at_check(i, exp)
+        if isinstance(exp, TemporalExpect):
+            return self.formula(i)
         if isinstance(exp, TransitionsExpect):
             c = exp.transitions
             n = m.transition_count
@@ -700,13 +874,22 @@ class Checker:
                                           f"{' ' + win if win else ''}: {seen}", tick)
 
     def invariant(self, i: int, exp: InvariantExpect) -> Failure | None:
-        inv = next(w for w in self.rec.invariants if w.index == i)
+        if i in self.verdicts:
+            return self.formula(i)
+        inv = next(w for w in self.rec.invariants if w.index == i)  # by hand: MachineTest.always
         if inv.failed is None:
             return None
         values = ", ".join(f"{n} = {_shown(v)}" for n, v in inv.values.items())
         why = f"could not be evaluated: {inv.error}" if inv.error else "is false"
         return self.failure(i, "invariant", f"'{exp.invariant}' {why} at {self.at(inv.failed)}"
                                             f"{' (' + values + ')' if values else ''}", inv.failed)
+
+    def formula(self, i: int) -> Failure | None:
+        """A formula's verdict (an invariant, a temporal expectation, an ``at``'s ``holds``)."""
+        watch, verdict = self.verdicts[i]
+        if verdict is None:
+            return None
+        return self.failure(i, watch.label, verdict.message, min(verdict.tick, self.last_tick))
 
     def monitor_check(self, i: int, c: Any) -> Failure | None:
         fired = [f for f in self.rec.monitors if state_matches(c.owner, f.owner)
@@ -804,6 +987,10 @@ class Checker:
                     shown = ", ".join(sorted(held)) or "none"
                     problems.append(f"expected '{name}' {'' if want_held else 'not '}{key}, it was "
                                     f"{'' if is_held else 'not '}({key}: {shown})")
+        if exp.holds is not None:
+            verdict = self.verdicts[i][1]
+            if verdict is not None:
+                problems.append(verdict.message)
         if not problems:
             return None
         ended = "" if tick <= self.last_tick else f" (the run ended before, at {self.at(self.last_tick)})"

@@ -1,0 +1,536 @@
+"""The scenario's temporal language: expectations over time (``always``, ``never``, ``eventually``, ``until``,
+``after`` ... ``ticks``) whose formulas are expressions of the document language (:mod:`fsm.model.expr`) with a
+few more functions:
+
+- state predicates, true/false at a tick: ``active(X)``, ``paused(X)``, ``suspended(X)``, ``entered(X)`` (entered
+  and run at this tick), ``skipped(X)`` (entered and skipped by its precondition at this tick), ``fired(X)`` (a
+  monitor or timeout of X fired at this tick); ``outcome(X)`` is text: the outcome X last finished with by this
+  tick ('' before it ever finished). X is a state's id or the end of its path (``grip``, ``run/work/grip`` or
+  ``'run/work/grip'``); ``'X/*'`` is any state below X.
+- terms over time: ``prev(e)`` (e's value at the tick before; at the first tick its own), ``rose(b)``, ``fell(b)``
+  (b became true, false at this tick), ``changed(e)``, ``start(e)`` (e's value at the start of the window, or at the
+  tick the ``after`` trigger held).
+
+A formula is parsed with these functions, each call is replaced by a name of its own whose value the watch computes
+each tick (inner calls first), and the tree is compiled by the document language's compiler: kinds, columns and
+messages are the language's own. Everything is checked when the scenario is loaded (:func:`compile_formula`).
+"""
+
+from __future__ import annotations
+
+import difflib
+import itertools
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from fsm.model.expr import (
+    ANY,
+    BOOL,
+    FUNCTIONS,
+    TEXT,
+    ExprError,
+    ExprRuntimeError,
+    Node,
+    compile_tree,
+    parse,
+    unparse,
+)
+
+#: State predicates (true/false) and the text term ``outcome``.
+STATE_TERMS = ("active", "paused", "suspended", "entered", "skipped", "fired", "outcome")
+#: Terms over the values of ticks.
+TIME_TERMS = ("prev", "rose", "fell", "changed", "start")
+TEMPORAL_FUNCTIONS: dict[str, tuple[int, int | None]] = {**FUNCTIONS, **{n: (1, 1) for n in STATE_TERMS + TIME_TERMS}}
+_PREFIX = "__term"
+#: Names of the terms: unique in a process, since the watches of a run share one dict of values per tick.
+_NAMES = itertools.count()
+
+
+#: The kind of event a state term's value changes with (see ``TemporalRun.step`` in the runner).
+_EVENTS = {"active": {"@active"}, "entered": {"@entries"}, "skipped": {"@entries"}, "fired": {"@fired"},
+           "outcome": {"@outcome"}, "paused": {"@paused", "@active"}, "suspended": {"@active", "@fired"}}
+
+
+class FormulaError(ExprError):
+    """A formula that cannot be used: the language's error, with a hint (did you mean ...)."""
+
+    def __init__(self, message: str, column: int, hint: str | None = None) -> None:
+        super().__init__(message, column)
+        self.hint = hint
+
+
+@dataclass
+class Tick:
+    """What the terms of one tick read: the tick, the active states (every prefix of an active leaf), the states
+    entered (and run), skipped, whose monitor fired at it, and the last outcomes."""
+
+    tick: int = 0
+    active: frozenset[str] = frozenset()
+    entered: frozenset[str] = frozenset()
+    skipped: frozenset[str] = frozenset()
+    fired: frozenset[str] = frozenset()
+    #: path -> (tick it finished, outcome)
+    outcomes: dict[str, tuple[int, str]] = field(default_factory=dict)
+
+
+class Term:
+    """One temporal call of a formula, replaced by the name ``name``; ``update`` computes its value at a tick."""
+
+    __slots__ = ("name", "text", "op", "paths", "fn", "last", "begun", "start_value", "kind", "states")
+
+    def __init__(self, name: str, text: str, op: str, kind: str, paths: frozenset[str] = frozenset(),
+                 fn: Callable[[dict[str, Any]], Any] | None = None) -> None:
+        self.name = name
+        self.text = text
+        self.op = op
+        self.kind = kind
+        self.paths = paths
+        self.fn = fn
+        self.last: Any = None
+        self.begun = False
+        self.start_value: Any = None
+        #: paused, suspended: the states it names (bound to the run's machine by :meth:`Formula.bind`)
+        self.states: list[Any] = []
+
+    def update(self, now: Tick, values: dict[str, Any]) -> None:
+        op = self.op
+        if self.fn is None:  # a state term
+            paths = self.paths
+            if op == "paused" or op == "suspended":
+                values[self.name] = any(_held(st, op == "paused") for st in self.states if st.path in now.active)
+                return
+            if op == "outcome":
+                best: tuple[int, str] | None = None
+                for p in paths:
+                    got = now.outcomes.get(p)
+                    if got is not None and (best is None or got[0] >= best[0]):
+                        best = got
+                values[self.name] = best[1] if best is not None else ""
+            else:
+                values[self.name] = not paths.isdisjoint(getattr(now, op))
+            return
+        current = self.fn(values)
+        if op == "start":
+            if not self.begun:
+                self.begun, self.start_value = True, current
+            values[self.name] = self.start_value
+            return
+        previous = self.last if self.begun else current
+        self.last, self.begun = current, True
+        if op == "prev":
+            values[self.name] = previous
+        elif op == "rose":
+            values[self.name] = current is True and previous is not True
+        elif op == "fell":
+            values[self.name] = current is False and previous is not False
+        else:
+            values[self.name] = current != previous or type(current) is not type(previous)
+
+    def anchor(self, values: dict[str, Any]) -> None:
+        """``start(e)``: from this tick on, e's value at this tick (called after the terms of the tick)."""
+        if self.op == "start" and self.fn is not None:
+            self.start_value = self.fn(values)
+            values[self.name] = self.start_value
+
+
+def _held(state: Any, paused: bool) -> bool:
+    """An active state held by a pause (its own or an ancestor's), or (``paused`` false) suspended: frozen while an
+    exception sequence runs, and not by a pause."""
+    s = state
+    while s is not None:
+        if s.paused:
+            return paused
+        s = s.region.owner if s.region is not None else None
+    return False if paused else state.frozen_since is not None
+
+
+class Formula:
+    """A compiled formula: its terms (inner first) and the function of the rewritten tree."""
+
+    __slots__ = ("text", "terms", "fn", "names", "deps", "transient", "every_tick")
+
+    def __init__(self, text: str, terms: list[Term], fn: Callable[[dict[str, Any]], Any],
+                 names: list[tuple[str, str]]) -> None:
+        self.text = text
+        self.terms = terms
+        self.fn = fn
+        #: the variables, signals and terms it reads, for messages: (shown name, value name)
+        self.names = names
+        #: what its value can change with: the names it reads and the kinds of events its state terms look at
+        #: (``@entries``, ``@active``, ``@fired``, ``@outcome``, ``@paused``); a tick where none changed leaves it
+        #: as it was
+        self.deps = frozenset(formula_names(text)).union(*(_EVENTS[t.op] for t in terms if t.op in _EVENTS))
+        #: it reads a value of one tick only (an edge, prev, an entry): the tick after a change is looked at too
+        self.transient = any(t.op not in ("active", "outcome", "start", "paused", "suspended") for t in terms)
+        #: car readings move every tick; a suspension ends with no event to see: both are looked at each tick
+        self.every_tick = any(t.op == "suspended" for t in terms) or any(n.startswith("car_") for n in self.deps)
+
+    def fresh(self) -> Formula:
+        """A copy for a new run: the same compiled functions, terms with no history (compiled once, at load)."""
+        copy = object.__new__(Formula)
+        copy.text, copy.fn, copy.names = self.text, self.fn, self.names
+        copy.deps, copy.transient, copy.every_tick = self.deps, self.transient, self.every_tick
+        copy.terms = [Term(t.name, t.text, t.op, t.kind, t.paths, t.fn) for t in self.terms]
+        return copy
+
+    def bind(self, states_by_path: dict[str, Any]) -> None:
+        """The states ``paused`` and ``suspended`` look at, in the run's machine."""
+        for t in self.terms:
+            if t.op in ("paused", "suspended"):
+                t.states = [states_by_path[p] for p in sorted(t.paths) if p in states_by_path]
+
+    def step(self, now: Tick, values: dict[str, Any]) -> Any:
+        """The formula's value at this tick (its terms updated first)."""
+        for term in self.terms:
+            term.update(now, values)
+        return self.fn(values)
+
+    def anchor(self, values: dict[str, Any]) -> None:
+        for term in self.terms:
+            if term.op == "start":
+                term.anchor(values)
+
+    def shown(self, values: dict[str, Any]) -> str:
+        """``name = value`` of what the formula reads (terms by their text)."""
+        import json
+
+        parts = []
+        for shown, key in self.names:
+            value = values.get(key, "unset")
+            try:
+                text = json.dumps(value, ensure_ascii=False) if key in values else "unset"
+            except (TypeError, ValueError):
+                text = repr(value)
+            parts.append(f"{shown} = {text}")
+        return ", ".join(parts)
+
+    def state_paths(self) -> set[str]:
+        return {p for t in self.terms if t.op == "outcome" for p in t.paths}
+
+
+def state_argument(node: Node) -> str | None:
+    """The state a predicate names: ``grip``, ``run/work/grip`` (parsed as a division of names) or a quoted string."""
+    if node.op == "var":
+        return str(node.args[0])
+    if node.op == "const" and isinstance(node.args[0], str):
+        return node.args[0]
+    if node.op == "/":
+        left, right = (state_argument(a) for a in node.args)
+        if left is not None and right is not None and node.args[1].op == "var":
+            return f"{left}/{right}"
+    return None
+
+
+def matching_paths(name: str, paths: list[str]) -> list[str]:
+    """The state paths ``name`` matches: by id or the end of the path; ``X/*`` every state below X."""
+    from .model import state_matches
+
+    if name.endswith("/*"):
+        bases = [p for p in paths if state_matches(name[:-2], p)]
+        return [p for p in paths if any(p.startswith(b + "/") for b in bases)]
+    return [p for p in paths if state_matches(name, p)]
+
+
+def compile_formula(text: str, kinds: dict[str, str], paths: list[str], want: str | None = BOOL) -> Formula:
+    """Parse, check and compile ``text``; :class:`FormulaError` (or the language's :class:`ExprError`) when it cannot
+    be used: a state no path matches, a temporal term over the wrong kind, an unknown variable (with suggestions)."""
+    tree = parse(text, TEMPORAL_FUNCTIONS)
+    terms: list[Term] = []
+    extra: dict[str, str] = {}
+    ids = sorted({p.rsplit("/", 1)[-1] for p in paths} | set(paths))
+
+    def rewrite(node: Node) -> Node:
+        if node.op == "call" and node.args[0] in STATE_TERMS + TIME_TERMS:
+            fname, arg = node.args[0], node.args[1]
+            name = f"{_PREFIX}{next(_NAMES)}"
+            shown = unparse(node)
+            if fname in STATE_TERMS:
+                state = state_argument(arg)
+                if state is None:
+                    raise FormulaError(f"{fname}() takes a state: an id, a path (run/work) or a quoted name "
+                                       f"('cycle/*' for any state below cycle)", arg.column)
+                found = matching_paths(state.strip(), paths)
+                if not found:
+                    close = difflib.get_close_matches(state, ids, n=3)
+                    hint = ("did you mean " + " or ".join(repr(c) for c in close) + "?") if close else \
+                        "states: " + ", ".join(paths[:12]) + (", ..." if len(paths) > 12 else "")
+                    raise FormulaError(f"the machine has no state '{state}'", arg.column, hint)
+                kind = TEXT if fname == "outcome" else BOOL
+                terms.append(Term(name, shown, fname, kind, frozenset(found)))
+            else:
+                inner = rewrite(arg)
+                part = compile_tree(inner, text, {**kinds, **extra})
+                if fname in ("rose", "fell") and part.kind not in (BOOL, ANY):
+                    raise FormulaError(f"{fname}() takes a true/false value, this is {part.kind}", arg.column,
+                                       f"for a number write changed(...) or e.g. {fname}(x > 0)")
+                kind = part.kind if fname in ("prev", "start") else BOOL
+                terms.append(Term(name, shown, fname, kind, fn=part.fn))
+            extra[name] = terms[-1].kind
+            return Node("var", (name,), node.column)
+        if node.op in ("const", "var"):
+            return node
+        return Node(node.op, tuple(rewrite(a) if isinstance(a, Node) else a for a in node.args), node.column)
+
+    rewritten = rewrite(tree)
+    try:
+        compiled = compile_tree(rewritten, text, {**kinds, **extra}, want)
+    except ExprError as exc:
+        if exc.message.startswith("unknown variable"):
+            unknown = exc.message.split("'")[1]
+            names = sorted(kinds) + list(TEMPORAL_FUNCTIONS)
+            close = difflib.get_close_matches(unknown, names, n=3)
+            hint = ("did you mean " + " or ".join(close) + "?") if close else \
+                "names: " + (", ".join(sorted(kinds)[:12]) or "none")
+            if unknown in ids:
+                hint = f"'{unknown}' is a state: write active({unknown}) or entered({unknown})"
+            raise FormulaError(exc.message, exc.column, hint) from None
+        raise
+    by_name = {t.name: t.text for t in terms}
+    names: list[tuple[str, str]] = []
+    todo = [rewritten]
+    while todo:  # depth first, left to right: the order they are written in
+        node = todo.pop()
+        if node.op == "var":
+            key = node.args[0]
+            shown = by_name.get(key, key)
+            if (shown, key) not in names:
+                names.append((shown, key))
+        todo += [a for a in reversed(node.args) if isinstance(a, Node)]
+    return Formula(text, terms, compiled.fn, names)
+
+
+def tree_names(tree: Node, skip: tuple[str, ...] = ()) -> list[str]:
+    """The variable names an expression tree reads, in order of first use; not those inside calls of ``skip``."""
+    out: list[str] = []
+    todo = [tree]
+    while todo:
+        node = todo.pop(0)
+        if node.op == "var" and node.args[0] not in out:
+            out.append(node.args[0])
+        if node.op == "call" and node.args[0] in skip:
+            continue
+        todo += [a for a in node.args if isinstance(a, Node)]
+    return out
+
+
+def formula_names(text: str) -> list[str]:
+    """The variable names a formula reads (not the states its state terms name), in order of first use."""
+    return tree_names(parse(text, TEMPORAL_FUNCTIONS), STATE_TERMS)
+
+
+# -- the watches: one per temporal expectation ---------------------------------------------------------------
+@dataclass
+class Verdict:
+    """Why a watch failed: the message and the tick it diverged at."""
+
+    message: str
+    tick: int
+
+
+class Watch:
+    """A temporal expectation checked online.
+
+    ``mode`` is ``always``, ``never``, ``eventually`` or ``at`` (one tick: ``first``); ``body`` the formula;
+    ``until`` (with ``always``) the formula whose first holding tick ends the obligation (it must hold at some tick);
+    ``after`` the trigger: from each tick it holds (or only its ``nth`` time), the body is checked over the next
+    ``span`` ticks (the trigger's tick included; to the end of the window without ``span``). ``first`` and ``last``
+    bound the ticks looked at. ``eventually`` counts the ticks the body holds at: an entry or an edge is one tick, a
+    level (``paused(X)``) as many ticks as it lasts (count its ``rose``).
+
+    The run steps a watch only at the ticks where something its formulas read changed (their ``deps``), the tick
+    after such a change when they read one tick's values (edges, ``prev``, entries), its window's first tick, and
+    every tick when they read car readings or held states: between two of those its formulas keep their values, so
+    what holds at the last tick looked at holds until the next.
+    """
+
+    def __init__(self, index: int, mode: str, body: Formula, first: int, last: int, *,
+                 until: Formula | None = None, after: Formula | None = None, span: int | None = None,
+                 nth: int | None = None, count: tuple[int | None, int | None, int | None] = (None, None, None),
+                 at: list[int] | None = None, label: str | None = None) -> None:
+        self.index = index
+        self.mode = mode
+        self.body = body
+        self.first = first
+        self.last = last
+        self.until = until
+        self.after = after
+        self.span = span
+        self.nth = nth
+        self.count = count
+        self.at = at
+        self.label = label or mode
+        self.verdict: Verdict | None = None
+        self.done = False
+        #: eventually: the runs of ticks it held at (first, last), and the first tick of the run going on (-1: none)
+        self.runs: list[tuple[int, int]] = []
+        self.holding = -1
+        #: eventually after a trigger: the ticks it held at
+        self.hits: list[int] = []
+        self.triggers = 0
+        #: open obligations of an ``after``: (trigger tick, last tick)
+        self.open: list[tuple[int, int]] = []
+        self.anchored = False
+        self.checked = False
+        #: mode "at": (tick, held, values shown) at the last tick looked at up to ``first``
+        self.seen: tuple[int, bool, str] | None = None
+        self.formulas = [f for f in (body, until, after) if f is not None]
+        self.deps = frozenset().union(*(f.deps for f in self.formulas))
+        #: with ``after`` and nothing open, the body is not looked at: only the trigger (and a body that reads one
+        #: tick's values, which needs every tick it changes)
+        self.idle_deps = self.deps if after is None or body.transient else after.deps | (until.deps if until else set())
+        self.force = True
+        self.every_tick = any(f.every_tick for f in self.formulas)
+        self.idle_every = self.every_tick if after is None or body.transient else after.every_tick
+        self.transient = any(f.transient for f in self.formulas)
+        #: the last values shown for a failure found later (an ``after`` whose span ran out between two ticks)
+        self._shown = ""
+
+    def fail(self, message: str, tick: int, values: dict[str, Any] | None = None) -> None:
+        shown = self.body.shown(values) if values is not None else self._shown
+        self.verdict = Verdict(message + (f" ({shown})" if shown else ""), tick)
+        self.done = True
+
+    def step(self, tick: int, now: Tick, values: dict[str, Any], at: Callable[[int], str]) -> None:
+        """Update the terms at this tick and check the expectation (``at`` formats a tick for messages)."""
+        try:
+            f = self.body.step(now, values)
+            g = self.until.step(now, values) if self.until is not None else None
+            trig = self.after.step(now, values) if self.after is not None else None
+        except (ExprRuntimeError, TypeError, ValueError, ArithmeticError, KeyError) as exc:
+            if tick <= self.last and (tick >= self.first or self.mode == "at"):
+                self.fail(f"'{self.body.text}' could not be evaluated at {at(tick)}: {exc}", tick)
+            return
+        mode = self.mode
+        if mode == "at":  # one tick; if the run ends before it, the machine as it ended
+            if tick <= self.first:
+                self.seen = (tick, f is True, "" if f is True else self.body.shown(values))
+            return
+        if tick < self.first or tick > self.last:
+            return
+        self.checked = True
+        if not self.anchored:
+            self.anchored = True
+            self.body.anchor(values)
+            f = self.body.fn(values)
+        text = self.body.text
+        if self.after is None:
+            if self.until is not None:
+                if g is True:
+                    self.done = True
+                elif f is not True:
+                    self.fail(f"'{text}' is false at {at(tick)}, before '{self.until.text}' held", tick, values)
+            elif mode == "always":
+                if f is not True:
+                    self.fail(f"'{text}' is false at {at(tick)}", tick, values)
+            elif mode == "never":
+                if f is True:
+                    self.fail(f"'{text}' holds at {at(tick)}", tick, values)
+            elif f is True:
+                if self.holding < 0:
+                    self.holding = tick
+            elif self.holding >= 0:
+                self.runs.append((self.holding, tick - 1))  # it held up to the tick before this one
+                self.holding = -1
+            return
+        trigger = self.after
+        if self.open and mode == "eventually" and self.open[0][1] < tick:  # its span ran out since the last look
+            since, end = self.open[0]
+            self.fail(f"'{text}' did not hold within {self.span} tick(s) after '{trigger.text}' held at "
+                      f"{at(since)}; at {at(end)}", end)
+            return
+        self.open = [o for o in self.open if o[1] >= tick]
+        if trig is True:
+            self.triggers += 1
+            if self.nth is None or self.triggers == self.nth:
+                self.body.anchor(values)
+                f = self.body.fn(values)
+                self.open.append((tick, self.last if self.span is None else tick + self.span))
+        if not self.open:
+            return
+        since = self.open[0][0]
+        if mode == "always" and f is not True:
+            self.fail(f"'{text}' is false at {at(tick)}, {tick - since} tick(s) after '{trigger.text}' held at "
+                      f"{at(since)}", tick, values)
+        elif mode == "never" and f is True:
+            self.fail(f"'{text}' holds at {at(tick)}, {tick - since} tick(s) after '{trigger.text}' held at "
+                      f"{at(since)}", tick, values)
+        elif mode == "eventually":
+            if f is True:
+                self.hits.append(tick)
+                self.open = []
+            elif self.open[0][1] == tick:
+                self.fail(f"'{text}' did not hold within {self.span} tick(s) after '{trigger.text}' held at "
+                          f"{at(since)}; at {at(tick)}", tick, values)
+            else:
+                self._shown = self.body.shown(values)
+
+    def finish(self, end: int, at: Callable[[int], str], times: Callable[[int], str]) -> Verdict | None:
+        """The verdict once the run has ended at tick ``end``."""
+        if self.verdict is not None or (self.done and self.until is not None):
+            return self.verdict
+        last = min(self.last, end)
+        text = self.body.text
+        if self.mode == "at":
+            if self.seen is None or self.seen[1]:
+                return None
+            tick = min(self.first, end)
+            ended = "" if self.first <= end else f" (the run ended before, at {at(end)})"
+            shown = self.seen[2]
+            return Verdict(f"'{text}' is false at {at(tick)}{ended}" + (f" ({shown})" if shown else ""), tick)
+        if not self.checked:
+            return Verdict(f"the run ended at {at(end)}, before the window started: '{text}' was never checked", end)
+        if self.until is not None:
+            return Verdict(f"'{self.until.text}' never held (until it does, '{text}' must hold); the run "
+                           f"ended at {at(end)}" if self.last >= end else
+                           f"'{self.until.text}' never held by the end of the window at {at(last)}", last)
+        if self.after is not None:
+            if self.triggers == 0 or (self.nth is not None and self.triggers < self.nth):
+                need = "at all" if self.nth is None else f"{self.nth} times (it held {self.triggers} times)"
+                return Verdict(f"'{self.after.text}' never held {need}, so '{text}' was never checked after it",
+                               last)
+            if self.mode == "eventually" and self.open:
+                since, until = self.open[0]
+                if until <= last:
+                    return Verdict(f"'{text}' did not hold within {self.span} tick(s) after '{self.after.text}' "
+                                   f"held at {at(since)}; at {at(until)}" + (f" ({self._shown})" if self._shown
+                                                                             else ""), until)
+                return Verdict(f"'{text}' did not hold after '{self.after.text}' held at {at(since)}; the run "
+                               f"ended at {at(end)}", last)
+            return None
+        if self.mode != "eventually":
+            return None
+        runs = self.runs + ([(self.holding, last)] if self.holding >= 0 else [])
+        n = sum(b - a + 1 for a, b in runs)
+        hits = [t for a, b in runs for t in range(a, min(b, a + 100) + 1)][:100]
+        count, low, high = self.count
+        shown = ", ".join(times(t) for t in hits[:6]) + (", ..." if n > 6 else "")
+        if self.at is not None:
+            if hits != self.at:
+                return Verdict(f"expected '{text}' to hold at {', '.join(times(t) for t in self.at)} s, it "
+                               f"held at {shown or 'no tick'}" + (" s" if n else ""),
+                               min(next((a for a, b in zip(hits, self.at, strict=False) if a != b),
+                                        hits[len(self.at)] if len(hits) > len(self.at) else last), last))
+            return None
+        if count is None and low is None and high is None:
+            if n:
+                return None
+            return Verdict(f"'{text}' never held (up to {at(last)})", last)
+        ok = (count is None or n == count) and (low is None or n >= low) and (high is None or n <= high)
+        if ok:
+            return None
+        want = (f"exactly {_ticks(count)}" if count is not None else
+                " and ".join(x for x in (f"at least {_ticks(low)}" if low is not None else "",
+                                         f"at most {_ticks(high)}" if high is not None else "") if x))
+        limit = count if count is not None else high
+        tick = hits[limit] if limit is not None and n > limit and limit < len(hits) else last
+        return Verdict(f"expected '{text}' to hold at {want}, it held at {_ticks(n)}"
+                       + (f" (at {shown} s)" if n else ""), tick)
+
+
+def _ticks(n: int) -> str:
+    return "1 tick" if n == 1 else f"{n} ticks"
+
+
+__all__ = ["STATE_TERMS", "TEMPORAL_FUNCTIONS", "TIME_TERMS", "Formula", "FormulaError", "Term", "Tick", "Verdict",
+           "Watch", "compile_formula", "formula_names", "matching_paths", "state_argument"]

@@ -476,14 +476,14 @@ def _suspended_owner(behavior: str = "abortOwner", exception: bool = True, block
     steps = [s, wait("A1", 3.0), {"id": "join", "type": "Join", "sequences": ["S"]}] if not blocking else [s, wait(
         "A1", 3.0)]
     m, log = machine([seq("main", *steps, repeat=repeat), done()], [route("main", "end")], x=0)
-    m.run(duration=0.5)
+    fsm.run(m, duration=0.5)
     m.ctx.vars["x"] = 1
     return m, log
 
 
 def test_abort_owner_after_an_exception_ends_a_non_blocking_owner_without_ticking_it_again() -> None:
     m, log = _suspended_owner()
-    assert m.run(duration=10) == "succeeded"
+    assert fsm.run(m, duration=10).outcome == "succeeded"
     suspended = 0.5 + DT  # x is seen at the next tick
     assert log.monitors == [(suspended, "main/S", "abortOwner")]
     assert log.entries("main/S/B2") == []  # B1 was not finished, S's next step not entered
@@ -494,14 +494,14 @@ def test_abort_owner_after_an_exception_ends_a_non_blocking_owner_without_tickin
 
 def test_abort_owner_without_exception_on_a_non_blocking_owner() -> None:
     m, log = _suspended_owner(exception=False)
-    assert m.run(duration=10) == "succeeded"
+    assert fsm.run(m, duration=10).outcome == "succeeded"
     assert log.entries("main/S/B2") == [] and m.state("main/S").outcome == "aborted"
     assert not m.state("main/S/B1").finished
 
 
 def test_abort_owner_after_an_exception_on_a_blocking_owner_goes_on_with_the_callers_next_step() -> None:
     m, log = _suspended_owner(blocking=True)
-    assert m.run(duration=10) == "succeeded"
+    assert fsm.run(m, duration=10).outcome == "succeeded"
     resumed = 0.5 + DT + DT + 1.0  # E entered at 0.5125, its wait from the same tick: 1 s later it ends
     assert log.entries("main/S/B2") == [] and m.state("main/S").outcome == "aborted"
     assert log.when("main/A1") == pytest.approx(resumed - DT)
@@ -509,9 +509,9 @@ def test_abort_owner_after_an_exception_on_a_blocking_owner_goes_on_with_the_cal
 
 def test_nothing_after_an_exception_resumes_a_non_blocking_owner_where_it_was() -> None:
     m, log = _suspended_owner(behavior="nothing")
-    m.run(duration=0.05)  # the monitor fired; x back to 0 so it does not fire again when S resumes
+    fsm.run(m, duration=0.05)  # the monitor fired; x back to 0 so it does not fire again when S resumes
     m.ctx.vars["x"] = 0
-    assert m.run(duration=10) == "succeeded"
+    assert fsm.run(m, duration=10).outcome == "succeeded"
     # B1 stood still for the 1 s of E: its remaining 0.5 s runs after, so B2 is entered 1 s late
     assert log.when("main/S/B2") == pytest.approx(2.0)
     assert m.state("main/S").outcome == "succeeded" and m.state("main/S/B1").outcome == "succeeded"
@@ -519,9 +519,9 @@ def test_nothing_after_an_exception_resumes_a_non_blocking_owner_where_it_was() 
 
 def test_restart_owner_after_an_exception_restarts_a_non_blocking_owner_from_its_first_step() -> None:
     m, log = _suspended_owner(behavior="restartOwner")
-    m.run(duration=0.05)
+    fsm.run(m, duration=0.05)
     m.ctx.vars["x"] = 0
-    assert m.run(duration=10) == "succeeded"
+    assert fsm.run(m, duration=10).outcome == "succeeded"
     restarted = log.entries("main/S")[-1]
     assert log.entries("main/S/B1")[-1] == restarted
     assert log.when("main/S/B2") == pytest.approx(restarted + 1.0)
@@ -530,9 +530,9 @@ def test_restart_owner_after_an_exception_restarts_a_non_blocking_owner_from_its
 
 def test_an_owner_aborted_while_suspended_runs_afresh_on_its_next_entry() -> None:
     m, log = _suspended_owner(blocking=True, repeat=2)
-    m.run(duration=2.0)
+    fsm.run(m, duration=2.0)
     m.ctx.vars["x"] = 0
-    assert m.run(duration=20) == "succeeded"
+    assert fsm.run(m, duration=20).outcome == "succeeded"
     second = log.entries("main/S")[1]
     # no clock left frozen from the abort: B1 takes its full second in the second round
     assert log.when("main/S/B2") == pytest.approx(second + 1.0)
@@ -543,9 +543,9 @@ def test_rule_1_the_timeout_is_checked_before_the_owners_other_monitors_and_one_
     monitors = [{"condition": "x > 0", "behavior": "abortOwner"}, {"condition": "x > 0", "behavior": "nothing"}]
     m, log = machine([seq("main", wait("w", 10, timeout=1.0, monitors=monitors), setvar("next", n=1)), done()],
                      [route("main", "end")], x=0, n=0)
-    m.run(duration=1.0 - DT)
+    fsm.run(m, duration=1.0 - DT)
     m.ctx.vars["x"] = 1  # from the tick at 1.0 s on, the timeout and both monitors hold
-    assert m.run(duration=5) == "succeeded"
+    assert fsm.run(m, duration=5).outcome == "succeeded"
     assert log.monitors == [(1.0, "main/w", "abortOwner")]
     assert m.state("main/w").outcome == "timeout"  # the timeout, not the first monitor
     assert [mon.fired for mon in m.state("main/w").supervisor.monitors] == [1, 0, 0]  # type: ignore[union-attr]
@@ -558,9 +558,9 @@ def test_rule_2_an_exception_sequence_busy_for_another_owner_makes_the_firing_wa
     m, log = machine([seq("main", owner("A"), owner("B"), {"id": "j", "type": "Join", "sequences": ["A", "B"]},
                           exceptions=[seq("E", setvar("e1", n="n + 1"), wait("e2", 0.5))]), done()],
                      [route("main", "end")], x=0, n=0)
-    m.run(duration=1.0 - DT)
+    fsm.run(m, duration=1.0 - DT)
     m.ctx.vars["x"] = 1
-    assert m.run(duration=10) == "succeeded"
+    assert fsm.run(m, duration=10).outcome == "succeeded"
     first, second = log.monitors
     assert first == (1.0, "main/A/A1", "abortOwner")
     # B's monitor held at 1.0 s too, but E was busy for A: B fires once E has ended for A (B is ticked after A)

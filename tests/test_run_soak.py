@@ -142,16 +142,27 @@ def test_laps_past_the_limit_are_counted_in_the_totals_and_the_summary_says_so()
 
 
 def test_the_trajectory_thins_itself_and_keeps_the_whole_run() -> None:
-    track = Track(limit=8)
+    track = Track(0.1, limit=8)
     for i in range(100):
-        track.add(i * 0.1, float(i), 0.5, i % 3)
+        if i % track.every == 0:  # as the loop offers them: every track_every * every ticks
+            track.add(float(i), 0.5, i % 3)
     points = list(track)
-    assert 4 <= len(track) <= 8 and track.every == 16
-    assert [round(t, 6) for t, *_ in points] == [round(i * 1.6, 6) for i in range(len(points))]
-    assert points[-1][1] >= 100 - 16 and points[0][1:] == (0.0, 0.5, 0)  # from the start to near the end
+    assert 4 <= len(track) <= 8 and track.every == 16 and track.period == pytest.approx(1.6)
+    assert points == [(pytest.approx(i * 0.1), float(i), 0.5, i % 3) for i in range(0, 100, 16)]
     assert track[::2] == points[::2]
-    with pytest.raises(ValueError):
-        Track(limit=1)
+    for limit in (1, 7):
+        with pytest.raises(ValueError):
+            Track(0.1, limit=limit)
+
+
+def test_the_loop_keeps_the_trajectory_evenly_spaced_past_the_limit() -> None:
+    session = simulate(FOREVER, world=HALLWAY, stop=StopRules())
+    session.step(40_000)  # 10,000 points offered at one per 4 ticks: thinned twice, to one per 16 ticks
+    sim = session.driver
+    ticks = [round(t / session.dt) for t, *_ in sim.track]
+    assert sim.track.every == 4 and ticks == list(range(0, 40_001, 16))
+    x, y, _ = sim.car.true_pose()
+    assert list(sim.track)[-1][1:] == (pytest.approx(x, abs=1e-5), pytest.approx(y, abs=1e-5), 0)  # the car now
 
 
 def test_memory_retained_by_twenty_thousand_more_ticks_is_under_100_kb() -> None:

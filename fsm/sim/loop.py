@@ -95,8 +95,9 @@ class WallError:
     def add(self, error: float) -> None:
         self.samples += 1
         self.sum_squares += error * error
-        if abs(error) > self.max_abs:
-            self.max_abs = abs(error)
+        size = -error if error < 0 else error
+        if size > self.max_abs:
+            self.max_abs = size
 
     def metrics(self) -> dict[str, Any]:
         n = self.samples
@@ -124,20 +125,25 @@ class SteeringStats:
         self._last_sign = 0.0
 
     def add(self, n: int, value: float) -> None:
-        self.count += 1
-        delta = value - self.mean
-        self.mean += delta / self.count
-        self.m2 += delta * (value - self.mean)
-        if self._last_n is None or n != self._last_n + 1:
-            self._last_sign = 0.0  # a new stretch of straight
+        count = self.count = self.count + 1
+        mean = self.mean
+        delta = value - mean
+        mean = self.mean = mean + delta / count
+        self.m2 += delta * (value - mean)
+        last = self._last_n
+        self._last_n = n
+        if last is None or n != last + 1:
+            last_sign = 0.0  # a new stretch of straight
         else:
             self.intervals += 1
+            last_sign = self._last_sign
         sign = 1.0 if value > 0 else -1.0 if value < 0 else 0.0
         if sign:
-            if self._last_sign and sign != self._last_sign:
+            if last_sign and sign != last_sign:
                 self.changes += 1
             self._last_sign = sign
-        self._last_n = n
+        elif not last_sign:
+            self._last_sign = 0.0
 
     def metrics(self) -> dict[str, Any]:
         if self.count < 2:
@@ -163,40 +169,36 @@ TRACK_LIMIT = 4096
 
 
 class Track:
-    """The car's trajectory for the plot and a sweep's map: (time, x, y, index into ``states_seen``) every
-    ``every``-th call of :meth:`add`, at most :data:`TRACK_LIMIT` points (compact arrays, 20 bytes a point, thinned by
-    halves)."""
+    """The car's trajectory for the plot and a sweep's map: points (time, x, y, index into ``states_seen``) evenly
+    spaced in time, the first at time 0, ``period`` seconds apart; at most :data:`TRACK_LIMIT` of them, in one
+    compact array (x, y and index in single precision, 12 bytes a point; 2 um at 30 m is plenty for a plot). When it
+    is full, every other point is dropped and ``every`` and ``period`` double: the caller adds a point only every
+    ``every``-th time it could (the loop: every ``track_every * every`` ticks), so the track covers the whole run."""
 
-    def __init__(self, limit: int = TRACK_LIMIT) -> None:
-        if limit < 2:
-            raise ValueError(f"limit must be at least 2, got {limit}")
+    def __init__(self, period: float, limit: int = TRACK_LIMIT) -> None:
+        if limit < 2 or limit % 2:
+            raise ValueError(f"limit must be even and at least 2, got {limit}")
         self.limit = limit
-        self.every = 1  # the points kept: one of every this many offered
-        self._offered = 0
-        self._t = array("d")
-        self._x = array("f")  # single precision: 2 um at 30 m, plenty for a plot
-        self._y = array("f")
-        self._k = array("i")
+        self.period = period
+        #: keep one of every this many possible points
+        self.every = 1
+        self._points = array("f")  # x, y, k of each point in turn
 
-    def add(self, t: float, x: float, y: float, k: int) -> None:
-        offered, self._offered = self._offered, self._offered + 1
-        if offered % self.every:
-            return
-        if len(self._t) >= self.limit:
-            self._t, self._x, self._y, self._k = self._t[::2], self._x[::2], self._y[::2], self._k[::2]
+    def add(self, x: float, y: float, k: int) -> None:
+        """Append the next point (thinning the track first when it is full)."""
+        points = self._points
+        if len(points) >= 3 * self.limit:
+            self._points = points = array("f", (v for i in range(0, len(points), 6) for v in points[i:i + 3]))
             self.every *= 2
-            if offered % self.every:
-                return
-        self._t.append(t)
-        self._x.append(x)
-        self._y.append(y)
-        self._k.append(k)
+            self.period *= 2
+        points.extend((x, y, k))
 
     def __len__(self) -> int:
-        return len(self._t)
+        return len(self._points) // 3
 
     def __iter__(self) -> Iterator[tuple[float, float, float, int]]:
-        return zip(self._t, self._x, self._y, self._k, strict=True)
+        p, period = self._points, self.period
+        return ((i // 3 * period, p[i], p[i + 1], int(p[i + 2])) for i in range(0, len(p), 3))
 
     def __getitem__(self, index: slice) -> list[tuple[float, float, float, int]]:
         return list(self)[index]
@@ -341,7 +343,8 @@ class Simulation:
         self.states_seen: list[str] = []
         #: Trajectory: (time, x, y, index into states_seen), every ``track_every`` ticks, thinned past
         #: :data:`TRACK_LIMIT` points.
-        self.track = Track()
+        self.track = Track(track_every * machine.dt)
+        self._track_stride = track_every  # ticks between two points of the track
         #: Index into states_seen of the active configuration (the colour of the track, in the plot and video).
         self.path_index = 0
         #: The wall-distance error and the steering command on straights, sampled at the sensor rate (running figures).
@@ -381,8 +384,10 @@ class Simulation:
         if self.gate_log is not None:
             self.gate_log.update(ctx.now, x, y)
         self.lap_log.update(ctx.now, x, y)
-        if ctx.tick % self.track_every == 0:
-            self.track.add(ctx.now, x, y, self.path_index)
+        if ctx.tick % self._track_stride == 0:
+            track = self.track
+            track.add(x, y, self.path_index)
+            self._track_stride = self.track_every * track.every
 
     def should_stop(self) -> str | None:
         limit = self.max_collisions

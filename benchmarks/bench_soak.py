@@ -12,7 +12,8 @@ never finishes; does the process's memory stay flat while it runs?
   max RSS at the end. Lock-step ticks run at an even pace, so the ticks at a sample are taken in proportion to the
   wall time (the run's total is exact).
 - **instructions** (``--instructions``): the cost of one tick of the car loop counted with valgrind, as
-  ``bench_instructions.py`` counts the core's (2,000 ticks after 1,000 of warm-up, minus the warm-up alone).
+  ``bench_instructions.py`` counts the core's (3,000 ticks and the summary, minus 1,000 ticks and the summary, over
+  2,000: the base computed its figures from its lists at the summary, this checkout at each sample).
 
 With ``--base REF`` the curve, the cli runs and the instruction count also run on an earlier commit, checked out into
 a temporary git worktree (as ``bench_baseline.py`` does). Memory is memory: the machine's load does not change it,
@@ -75,7 +76,8 @@ t0 = time.perf_counter()
 session.run()
 summary = session.summary()
 wall = time.perf_counter() - t0
-points.append((session.ticks, rss()))
+if not points or points[-1][0] != session.ticks:
+    points.append((session.ticks, rss()))
 print(json.dumps({"points": points, "max_rss": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024,
                   "wall_s": wall, "ticks": session.ticks, "laps": summary.get("lap_totals", {}).get("laps",
                   len(summary.get("laps", [])))}))
@@ -90,6 +92,7 @@ from fsm.sim import simulate
 
 session = simulate(json.loads(sys.argv[1]), world=sys.argv[2], stop=StopRules())
 session.step(int(sys.argv[3]))
+session.summary()  # what every run reports at its end: the base computed its figures here
 '''
 
 

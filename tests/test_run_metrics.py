@@ -46,10 +46,11 @@ def test_a_lap_ends_where_the_car_crosses_the_start_line_forwards() -> None:
     log.update(6.0, 4.9, 1.2)
     log.state(7.0, "bottom")
     log.update(8.0, 5.1, 1.2)  # forwards over the line, 0.2 m beside the start: lap 1 ends
-    laps = log.metrics(9.0)
-    assert [lap["complete"] for lap in laps] == [True, False]
+    m = log.metrics(9.0)
+    laps, rest = m["laps"], m["lap_unfinished"]
+    assert [lap["complete"] for lap in laps] == [True] and rest["complete"] is False
     assert laps[0]["time_s"] == 8.0 and laps[0]["states"] == {"bottom": 3.0, "turn": 5.0}
-    assert laps[1]["start_s"] == 8.0 and laps[1]["states"] == {"bottom": 1.0}
+    assert rest["start_s"] == 8.0 and rest["states"] == {"bottom": 1.0}
 
 
 def record(i: int, right_slow: float = 2.3, lap2: float = 67.0) -> dict[str, Any]:

@@ -16,7 +16,9 @@ from __future__ import annotations
 import math
 import os
 import time
-from collections.abc import Callable
+from array import array
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator
 from typing import TYPE_CHECKING, Any, Protocol, cast
 
 from fsm.runtime.machine import Listener
@@ -52,7 +54,9 @@ class GateLog:
             a = (g.center[0] + nx * g.width / 2, g.center[1] + ny * g.width / 2)
             b = (g.center[0] - nx * g.width / 2, g.center[1] - ny * g.width / 2)
             self.gates.append((g, a, b, math.cos(h), math.sin(h)))
-        self.passed: list[list[float]] = [[] for _ in self.gates]
+        #: per gate: when the car first drove through it (``None``: never) and how many times it did
+        self.first_passed: list[float | None] = [None for _ in self.gates]
+        self.times_passed: list[int] = [0 for _ in self.gates]
         self._last: tuple[float, float] | None = None
 
     def update(self, now: float, x: float, y: float) -> None:
@@ -64,44 +68,140 @@ class GateLog:
             if (x - px) * ux + (y - py) * uy <= 0:
                 continue  # not driving through in the gate's direction
             if _crosses(px, py, x, y, a, b):
-                self.passed[k].append(round(now, 4))
+                if not self.times_passed[k]:
+                    self.first_passed[k] = round(now, 4)
+                self.times_passed[k] += 1
 
     def metrics(self) -> dict[str, Any]:
         return {
-            "gates_passed": sum(1 for p in self.passed if p),
+            "gates_passed": sum(1 for n in self.times_passed if n),
             "gates_total": len(self.gates),
-            "gates": [{"name": g.name, "markers": list(g.markers), "passed_at": p[0] if p else None,
-                       "times_passed": len(p)} for (g, *_rest), p in zip(self.gates, self.passed, strict=True)],
+            "gates": [{"name": g.name, "markers": list(g.markers), "passed_at": first, "times_passed": n}
+                      for (g, *_rest), first, n in zip(self.gates, self.first_passed, self.times_passed, strict=True)],
         }
 
 
-def steering_metrics(samples: list[tuple[int, float]], period: float) -> dict[str, Any]:
-    """The steering command on straights: its standard deviation (steering units; the full range is 2) and how often
-    it changes sign per second. ``samples`` are (sensor sample number, command); consecutive sample numbers are one
-    stretch of straight, ``period`` seconds apart; a command of exactly 0 has no sign and changes none."""
-    if len(samples) < 2:
-        return {"steering_std": None, "steering_sign_changes_per_s": None, "straight_time_s": 0.0}
-    values = [v for _n, v in samples]
-    mean = sum(values) / len(values)
-    std = math.sqrt(sum((v - mean) ** 2 for v in values) / len(values))
-    changes = 0
-    intervals = 0
-    last_n, last_sign = samples[0][0], 0.0
-    for n, v in samples:
-        if n != last_n + 1:
+class WallError:
+    """The wall-distance error on straights as a running figure (nothing kept per sample): how many samples, the RMS
+    (the sum of squares in sample order, as a list's would be) and the largest magnitude."""
+
+    __slots__ = ("samples", "sum_squares", "max_abs")
+
+    def __init__(self) -> None:
+        self.samples = 0
+        self.sum_squares = 0.0
+        self.max_abs = 0.0
+
+    def add(self, error: float) -> None:
+        self.samples += 1
+        self.sum_squares += error * error
+        size = -error if error < 0 else error
+        if size > self.max_abs:
+            self.max_abs = size
+
+    def metrics(self) -> dict[str, Any]:
+        n = self.samples
+        return {"wall_error_rms_m": round(math.sqrt(self.sum_squares / n), 5) if n else None,
+                "wall_error_max_m": round(self.max_abs, 5) if n else None,
+                "wall_error_samples": n}
+
+
+class SteeringStats:
+    """The steering command on straights as a running figure: its standard deviation (Welford's method; steering
+    units, the full range is 2) and how often it changes sign per second. Samples are added as (sensor sample number,
+    command); consecutive sample numbers are one stretch of straight, ``period`` seconds apart; a command of exactly 0
+    has no sign and changes none."""
+
+    __slots__ = ("period", "count", "mean", "m2", "changes", "intervals", "_last_n", "_last_sign")
+
+    def __init__(self, period: float) -> None:
+        self.period = period
+        self.count = 0
+        self.mean = 0.0
+        self.m2 = 0.0  # the sum of squared deviations from the mean
+        self.changes = 0
+        self.intervals = 0
+        self._last_n: int | None = None
+        self._last_sign = 0.0
+
+    def add(self, n: int, value: float) -> None:
+        count = self.count = self.count + 1
+        mean = self.mean
+        delta = value - mean
+        mean = self.mean = mean + delta / count
+        self.m2 += delta * (value - mean)
+        last = self._last_n
+        self._last_n = n
+        if last is None or n != last + 1:
             last_sign = 0.0  # a new stretch of straight
         else:
-            intervals += 1
-        sign = 1.0 if v > 0 else -1.0 if v < 0 else 0.0
+            self.intervals += 1
+            last_sign = self._last_sign
+        sign = 1.0 if value > 0 else -1.0 if value < 0 else 0.0
         if sign:
             if last_sign and sign != last_sign:
-                changes += 1
-            last_sign = sign
-        last_n = n
-    seconds = intervals * period
-    return {"steering_std": round(std, 5),
-            "steering_sign_changes_per_s": round(changes / seconds, 3) if seconds > 0 else None,
-            "straight_time_s": round(seconds, 3)}
+                self.changes += 1
+            self._last_sign = sign
+        elif not last_sign:
+            self._last_sign = 0.0
+
+    def metrics(self) -> dict[str, Any]:
+        if self.count < 2:
+            return {"steering_std": None, "steering_sign_changes_per_s": None, "straight_time_s": 0.0}
+        std = math.sqrt(max(0.0, self.m2) / self.count)
+        seconds = self.intervals * self.period
+        return {"steering_std": round(std, 5),
+                "steering_sign_changes_per_s": round(self.changes / seconds, 3) if seconds > 0 else None,
+                "straight_time_s": round(seconds, 3)}
+
+
+def steering_metrics(samples: Iterable[tuple[int, float]], period: float) -> dict[str, Any]:
+    """:class:`SteeringStats`' figures of ``samples`` (sensor sample number, command), ``period`` seconds apart."""
+    stats = SteeringStats(period)
+    for n, value in samples:
+        stats.add(n, value)
+    return stats.metrics()
+
+
+#: The trajectory keeps at most this many points: past it, every other point is dropped and points are taken half as
+#: often (a plot of a long run stays a plot of all of it, in bounded memory).
+TRACK_LIMIT = 4096
+
+
+class Track:
+    """The car's trajectory for the plot and a sweep's map: points (time, x, y, index into ``states_seen``) evenly
+    spaced in time, the first at time 0, ``period`` seconds apart; at most :data:`TRACK_LIMIT` of them, in one
+    compact array (x, y and index in single precision, 12 bytes a point; 2 um at 30 m is plenty for a plot). When it
+    is full, every other point is dropped and ``every`` and ``period`` double: the caller adds a point only every
+    ``every``-th time it could (the loop: every ``track_every * every`` ticks), so the track covers the whole run."""
+
+    def __init__(self, period: float, limit: int = TRACK_LIMIT) -> None:
+        if limit < 2 or limit % 2:
+            raise ValueError(f"limit must be even and at least 2, got {limit}")
+        self.limit = limit
+        self.period = period
+        #: keep one of every this many possible points
+        self.every = 1
+        self._points = array("f")  # x, y, k of each point in turn
+
+    def add(self, x: float, y: float, k: int) -> None:
+        """Append the next point (thinning the track first when it is full)."""
+        points = self._points
+        if len(points) >= 3 * self.limit:
+            self._points = points = array("f", (v for i in range(0, len(points), 6) for v in points[i:i + 3]))
+            self.every *= 2
+            self.period *= 2
+        points.extend((x, y, k))
+
+    def __len__(self) -> int:
+        return len(self._points) // 3
+
+    def __iter__(self) -> Iterator[tuple[float, float, float, int]]:
+        p, period = self._points, self.period
+        return ((i // 3 * period, p[i], p[i + 1], int(p[i + 2])) for i in range(0, len(p), 3))
+
+    def __getitem__(self, index: slice) -> list[tuple[float, float, float, int]]:
+        return list(self)[index]
 
 
 def _crosses(px: float, py: float, qx: float, qy: float, a: tuple[float, float], b: tuple[float, float]) -> bool:
@@ -118,17 +218,29 @@ def _crosses(px: float, py: float, qx: float, qy: float, a: tuple[float, float],
 LAP_HALF_WIDTH = 3.0
 
 
+#: The summary lists at most this many laps, the last ones; ``lap_totals`` covers all of them.
+LAP_LIMIT = 1000
+
+
 class LapLog:
     """Ground truth for the summary: the laps (a lap ends when the car's centre crosses the start line forwards) and
-    the time spent in each active state (leaf path) in each lap."""
+    the time spent in each active state (leaf path) in each lap. A state active when the car crosses the line is split
+    between the two laps. The last :data:`LAP_LIMIT` complete laps are kept, with totals over all of them."""
 
-    def __init__(self, world: World) -> None:
+    def __init__(self, world: World, limit: int = LAP_LIMIT) -> None:
         s = world.start
         self.x0, self.y0 = s.x, s.y
         h = math.radians(s.heading)
         self.c, self.s = math.cos(h), math.sin(h)
         self._ahead: float | None = None
-        self.laps: list[dict[str, Any]] = []
+        self.limit = limit
+        self.laps: deque[dict[str, Any]] = deque(maxlen=limit)
+        #: complete laps so far (``laps`` keeps the last ``limit`` of them)
+        self.completed = 0
+        self._total = 0.0
+        self._fastest: tuple[float, int] | None = None
+        self._slowest: tuple[float, int] | None = None
+        self._state_totals: dict[str, float] = {}
         self._t0 = 0.0
         self._states: dict[str, float] = {}
         self._path = ""
@@ -145,27 +257,52 @@ class LapLog:
         ahead = dx * self.c + dy * self.s
         before, self._ahead = self._ahead, ahead
         if before is not None and before < 0.0 <= ahead and abs(-dx * self.s + dy * self.c) <= LAP_HALF_WIDTH:
-            self._close(now, True)
+            self._close(now)
 
-    def _close(self, now: float, complete: bool) -> None:
+    def _close(self, now: float) -> None:
         self.state(now, self._path)
-        self.laps.append({"lap": len(self.laps) + 1, "start_s": round(self._t0, 4), "time_s": round(now - self._t0, 4),
-                          "complete": complete,
+        self.completed += 1
+        time_s = now - self._t0
+        self.laps.append({"lap": self.completed, "start_s": round(self._t0, 4), "time_s": round(time_s, 4),
+                          "complete": True,
                           "states": {k: round(v, 4) for k, v in sorted(self._states.items()) if v > 0}})
+        self._total += time_s
+        if self._fastest is None or time_s < self._fastest[0]:
+            self._fastest = (time_s, self.completed)
+        if self._slowest is None or time_s > self._slowest[0]:
+            self._slowest = (time_s, self.completed)
+        for path, seconds in self._states.items():
+            self._state_totals[path] = self._state_totals.get(path, 0.0) + seconds
         self._t0 = now
         self._states = {}
 
-    def metrics(self, now: float) -> list[dict[str, Any]]:
-        """The laps so far: each complete one, then what the car drove since the last crossing (``complete``
-        false) unless that is nothing."""
-        out = list(self.laps)
+    def metrics(self, now: float) -> dict[str, Any]:
+        """The summary's ``laps`` (the last :data:`LAP_LIMIT` complete laps), ``lap_unfinished`` (what the car drove
+        since the last crossing: ``None`` if nothing) and ``lap_totals`` (over every complete lap, with how many
+        ``laps`` leaves out), and ``laps_note`` when it leaves some out."""
+        unfinished = None
         if now > self._t0:
             states = dict(self._states)
             if self._path:
                 states[self._path] = states.get(self._path, 0.0) + now - self._since
-            out.append({"lap": len(self.laps) + 1, "start_s": round(self._t0, 4), "time_s": round(now - self._t0, 4),
-                        "complete": False, "states": {k: round(v, 4) for k, v in sorted(states.items()) if v > 0}})
+            unfinished = {"lap": self.completed + 1, "start_s": round(self._t0, 4), "time_s": round(now - self._t0, 4),
+                          "complete": False, "states": {k: round(v, 4) for k, v in sorted(states.items()) if v > 0}}
+        n = self.completed
+        dropped = n - len(self.laps)
+        totals: dict[str, Any] = {
+            "laps": n, "listed": len(self.laps), "dropped": dropped, "time_s": round(self._total, 4),
+            "mean_s": round(self._total / n, 4) if n else None,
+            "fastest": _lap_ref(self._fastest), "slowest": _lap_ref(self._slowest),
+            "states": {k: round(v, 4) for k, v in sorted(self._state_totals.items()) if v > 0}}
+        out: dict[str, Any] = {"laps": list(self.laps), "lap_unfinished": unfinished, "lap_totals": totals}
+        if dropped:
+            out["laps_note"] = (f"only the last {len(self.laps)} of {n} laps are listed (the limit is {self.limit}); "
+                                "lap_totals covers all of them")
         return out
+
+
+def _lap_ref(lap: tuple[float, int] | None) -> dict[str, Any] | None:
+    return None if lap is None else {"lap": lap[1], "time_s": round(lap[0], 4)}
 
 
 class _TransitionFlag(Listener):
@@ -204,14 +341,15 @@ class Simulation:
         self.active_path = ""
         self.leaf: State[Any] | None = None
         self.states_seen: list[str] = []
-        #: Trajectory: (time, x, y, index into states_seen).
-        self.track: list[tuple[float, float, float, int]] = []
+        #: Trajectory: (time, x, y, index into states_seen), every ``track_every`` ticks, thinned past
+        #: :data:`TRACK_LIMIT` points.
+        self.track = Track(track_every * machine.dt)
+        self._track_stride = track_every  # ticks between two points of the track
         #: Index into states_seen of the active configuration (the colour of the track, in the plot and video).
         self.path_index = 0
-        self.wall_errors: list[float] = []
-        #: The steering command at each sensor sample on a straight (where wall errors are measured): sample number,
-        #: command.
-        self.straight_steering: list[tuple[int, float]] = []
+        #: The wall-distance error and the steering command on straights, sampled at the sensor rate (running figures).
+        self.wall_error = WallError()
+        self.steering = SteeringStats(1.0 / car.params.ultrasonic.rate)
         self._err_sample = -1
         self._leaf_d0 = 0.0
         self.gate_log = GateLog(car.world) if car.world.gates else None
@@ -246,9 +384,10 @@ class Simulation:
         if self.gate_log is not None:
             self.gate_log.update(ctx.now, x, y)
         self.lap_log.update(ctx.now, x, y)
-        if ctx.tick % self.track_every == 0:
-            x, y, _ = car.true_pose()
-            self.track.append((ctx.now, x, y, self.path_index))
+        if ctx.tick % self._track_stride == 0:
+            track = self.track
+            track.add(x, y, self.path_index)
+            self._track_stride = self.track_every * track.every
 
     def should_stop(self) -> str | None:
         limit = self.max_collisions
@@ -313,8 +452,8 @@ class Simulation:
         true = self.car.true_distance(cast(WallFollowing, leaf).wall_side)
         if true > target + 0.5:
             return  # no wall there (an opening): nothing to follow
-        self.wall_errors.append(true - target)
-        self.straight_steering.append((self.car.sample, self.car.steering))
+        self.wall_error.add(true - target)
+        self.steering.add(self.car.sample, self.car.steering)
 
     # -- results ----------------------------------------------------------------------------------------
     def summary(self, recorder: Recorder | None = None, world: object = None, seed: int | None = None,
@@ -332,8 +471,6 @@ class Simulation:
     def metrics(self) -> dict[str, Any]:
         """What the summary adds for a car run."""
         car = self.car
-        errs = self.wall_errors
-        rms = math.sqrt(sum(e * e for e in errs) / len(errs)) if errs else None
         sim_time = self.machine.ctx.now
         clearance = car.min_clearance if car.min_clearance != math.inf else None
         wall_time = self.wall_time
@@ -344,16 +481,14 @@ class Simulation:
             "collisions": car.collisions,
             "contact_time_s": round(car.contact_steps * PHYSICS_DT, 3),
             "min_wall_distance_m": None if clearance is None else round(clearance, 4),
-            "wall_error_rms_m": None if rms is None else round(rms, 5),
-            "wall_error_max_m": round(max(abs(e) for e in errs), 5) if errs else None,
-            "wall_error_samples": len(errs),
-            **steering_metrics(self.straight_steering, 1.0 / car.params.ultrasonic.rate),
+            **self.wall_error.metrics(),
+            **self.steering.metrics(),
             "sim_time": round(sim_time, 6),
             "wall_time": round(wall_time, 4),
             "realtime_factor": round(sim_time / run_time, 1) if run_time > 0 else None,
             "realtime_factor_with_outputs": round(sim_time / wall_time, 1) if wall_time > 0 else None,
             **self._camera_metrics(),
-            "laps": self.lap_log.metrics(sim_time),
+            **self.lap_log.metrics(sim_time),
         }
         if self.world_file is not None:
             out.update({"world": str(self.world_file), "seed": self.seed, "noise": self.noise})

@@ -178,9 +178,13 @@ def _check_usage(args: argparse.Namespace) -> None:
 
 
 def _tick_limit(args: argparse.Namespace, dt: float) -> tuple[float | None, int | None]:
-    """The run's ``duration`` and ``max_ticks``; a usage error when it would run more than MAX_TICKS ticks
-    without --max-ticks saying so."""
+    """The run's ``duration`` and ``max_ticks``; a usage error when a simulated run would take more than MAX_TICKS
+    ticks without --max-ticks saying so. Runs on the wall clock (``--ros``, ``--live`` at a pace) take any duration:
+    their car is stopped by hand, and their bookkeeping stays within bounds (docs/car.md)."""
     duration = args.duration
+    if duration is not None and args.max_ticks is None and (
+            args.ros or (args.live and getattr(args, "speed", None) is not None)):
+        return duration, None
     if duration is None and args.max_ticks is None:
         duration = DEFAULT_MAX_DURATION
     if duration is None:

@@ -42,7 +42,8 @@ WORKLOADS = ("load", "flat", "nested", "guard", "guard+set", "lap")
 PROBE = r'''
 import gc, json, statistics, sys, tempfile, time
 from pathlib import Path
-sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(BENCH).resolve().parent]
+if BASE:  # this checkout (an editable install is a plain path entry to it) must not shadow the base's fsm
+    sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(BENCH).resolve().parent]
 sys.path.insert(0, BENCH)
 import fsm
 from peers.tral_fsm import ring_doc as load_ring, nested_doc
@@ -127,7 +128,7 @@ def probe(workload: str, tree: Path | None) -> dict[str, Any]:
         env["PYTHONPATH"] = str(tree)
     else:
         env.pop("PYTHONPATH", None)
-    code = f"BENCH = {str(BENCH)!r}\n" + PROBE
+    code = f"BENCH = {str(BENCH)!r}\nBASE = {tree is not None}\n" + PROBE
     if tree is not None:  # the base's fsm must win over this checkout's editable install
         code = ("import sys\nsys.meta_path[:] = [f for f in sys.meta_path if 'editable' not in "
                 "type(f).__module__.lower()]\n" + code)

@@ -376,7 +376,8 @@ class SimCar:
         self.hall = h = int(self._travel * self._units)
         self.distance = h / self._units
         self.speed = v
-        self._odometry(h)
+        if h != self._odo_hall:  # dead reckoning moves only with the hall count
+            self._odometry(h)
         if self.steps % self.sensor_every == 0:
             self.sense()
         if self._view is not None and self.steps % self.camera_every == 0:
@@ -503,14 +504,18 @@ class SimCar:
         length = max_r + back
         cos_inc = self._cos_inc
         rng = self.rng
+        beam = self._beam is not None
+        echo = self._beam_echo
+        sd0, sd1, outliers, dropouts, min_r, res = (self._sd0, self._sd1, self._outliers, self._dropouts, self._min_r,
+                                                    self._res)
         for sensor in self.sensors:
             ox = x + c * sensor.mx - s * sensor.my
             oy = y + s * sensor.mx + c * sensor.my
             best = max_r
-            if self._beam is not None:
+            if beam:
                 lx, ly = sensor.rays[0]  # the centre ray: the beam's axis
-                best = self._beam_echo(ox, oy, c * lx - s * ly, s * lx + c * ly)
-            for lx, ly in () if self._beam is not None else sensor.rays:
+                best = echo(ox, oy, c * lx - s * ly, s * lx + c * ly)
+            for lx, ly in () if beam else sensor.rays:
                 dx = c * lx - s * ly
                 dy = s * lx + c * ly
                 # Start behind the mount, inside the body: a sensor pressed against a wall still sees it.
@@ -524,18 +529,18 @@ class SimCar:
                 if r < best:
                     best = r
             if best < max_r:
-                if self._sd0 or self._sd1:
-                    best += rng.gauss(0.0, self._sd0 + self._sd1 * best)
-                if self._outliers and rng.random() < self._outliers:
-                    best = rng.uniform(self._min_r, max_r)
-                if self._dropouts and rng.random() < self._dropouts:
+                if sd0 or sd1:
+                    best += rng.gauss(0.0, sd0 + sd1 * best)
+                if outliers and rng.random() < outliers:
+                    best = rng.uniform(min_r, max_r)
+                if dropouts and rng.random() < dropouts:
                     best = max_r  # the echo was missed
-                if best < self._min_r:
-                    best = self._min_r
+                if best < min_r:
+                    best = min_r
                 elif best > max_r:
                     best = max_r
-                if self._res:
-                    best = round(best / self._res) * self._res
+                if res:
+                    best = round(best / res) * res
             setattr(self, sensor.name, best)
         self.sample += 1
         nearest = self._nearest
@@ -556,9 +561,14 @@ class SimCar:
         square to the beam), a round one (a post, a circular obstacle) anywhere in the beam. ``max_range`` when there
         is none. Occlusion is implied: the nearest echo is never behind another surface."""
         assert self._beam is not None
-        assert self._beam_index is not None
+        index = self._beam_index
+        assert index is not None
         circles = self._beam[1]
-        segments = self._beam_index.near(ox, oy, ux, uy)
+        # BeamIndex.near, its filled cells looked up here (three of these per sample)
+        segments = index.cells.get((math.floor(ox / BEAM_CELL), math.floor(oy / BEAM_CELL),
+                                    int(math.atan2(uy, ux) // index.width) % BEAM_SECTORS))
+        if segments is None:
+            segments = index.near(ox, oy, ux, uy)
         best = self._max_r
         tan_h = self._tan_half
         cos_inc = self._cos_inc

@@ -433,8 +433,8 @@ def _drive(args: argparse.Namespace, session: Any, file: str, duration: float | 
             print(f"car: {m['distance_m']:.2f} m, {m['collisions']} collisions, min wall distance "
                   + (f"{near:.3f} m" if near is not None else "n/a") + ", wall error on straights "
                   + (f"{rms * 100:.1f} cm RMS" if rms is not None else "n/a")
-                  + f"; {m['sim_time']:.1f} s simulated in {time.perf_counter() - started:.1f} s with outputs "
-                  f"(the simulation alone {m['realtime_factor']}x real time)", file=report)
+                  + f"; {m['sim_time']:.1f} s simulated in {time.perf_counter() - started:.1f} s with outputs, "
+                  f"the simulation alone {m['realtime_factor']}x real time", file=report)
             if m.get("gates_total"):
                 print(f"gates: {m['gates_passed']}/{m['gates_total']} passed; odometry error at the end "
                       f"{m['odometry_error_m']:.2f} m", file=report)

@@ -13,6 +13,11 @@ EXIT_INTERRUPTED = 130
 
 
 def main() -> int:
+    if sys.argv[1:] == ["--version"]:  # the installed version, without importing the package (pydantic, the loader)
+        from importlib.metadata import version
+
+        sys.stdout.write(f"fsmctl {version('tral-fsm')}\n")
+        return 0
     try:
         from fsm.tools.cli.app import main as fsmctl
 

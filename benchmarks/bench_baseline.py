@@ -9,6 +9,7 @@ Workloads (each the same code on both sides):
 
   load        load + validate + build of the 1000-state ring from disk, ms (median of 7 per process);
               transitions' ``Machine`` (which validates nothing) in the same processes, for the ratio
+  first       ``import fsm`` and then the first load of that ring in a fresh process, ms (what a command pays)
   flat        the flat ring of 100 states (Always), transitions/s (best of 5 x 0.5 s)
   nested      10 x 10 x 10 nested composites, transitions/s
   guard       the flat ring with a guard ``n >= 0`` on every transition; ``guard+set`` adds ``n = n + 1``
@@ -36,13 +37,23 @@ from typing import Any
 
 REPO = Path(__file__).resolve().parents[1]
 BENCH = Path(__file__).resolve().parent
-WORKLOADS = ("load", "flat", "nested", "guard", "guard+set", "lap")
+WORKLOADS = ("load", "first", "flat", "nested", "guard", "guard+set", "lap")
 
 #: Run in a fresh interpreter on either side: prints one JSON object. ``sys.argv[1]`` is the workload.
 PROBE = r'''
 import gc, json, statistics, sys, tempfile, time
 from pathlib import Path
-sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(BENCH).resolve().parent]
+if sys.argv[1] == "first":  # a fresh process: import fsm, then its first load of the ring (what `fsmctl validate` pays)
+    ring = Path(sys.argv[2])
+    t0 = time.perf_counter()
+    import fsm
+    t1 = time.perf_counter()
+    fsm.load(ring)
+    t2 = time.perf_counter()
+    print(json.dumps({"import_ms": (t1 - t0) * 1000, "first_ms": (t2 - t1) * 1000}))
+    sys.exit(0)
+if BASE:  # this checkout (an editable install is a plain path entry to it) must not shadow the base's fsm
+    sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(BENCH).resolve().parent]
 sys.path.insert(0, BENCH)
 import fsm
 from peers.tral_fsm import ring_doc as load_ring, nested_doc
@@ -121,17 +132,18 @@ def base_tree(commit: str, where: Path) -> Path:
     return tree
 
 
-def probe(workload: str, tree: Path | None) -> dict[str, Any]:
+def probe(workload: str, tree: Path | None, ring: Path | None = None) -> dict[str, Any]:
     env = dict(os.environ)
     if tree is not None:
         env["PYTHONPATH"] = str(tree)
     else:
         env.pop("PYTHONPATH", None)
-    code = f"BENCH = {str(BENCH)!r}\n" + PROBE
+    code = f"BENCH = {str(BENCH)!r}\nBASE = {tree is not None}\n" + PROBE
     if tree is not None:  # the base's fsm must win over this checkout's editable install
         code = ("import sys\nsys.meta_path[:] = [f for f in sys.meta_path if 'editable' not in "
                 "type(f).__module__.lower()]\n" + code)
-    done = subprocess.run([sys.executable, "-c", code, workload], env=env, capture_output=True, text=True,
+    done = subprocess.run([sys.executable, "-c", code, workload, *([str(ring)] if ring else [])], env=env,
+                          capture_output=True, text=True,
                           cwd=str(tree or REPO), timeout=900)
     if done.returncode != 0:
         raise RuntimeError(f"{workload} on {'base' if tree else 'this checkout'} failed:\n{done.stderr[-2000:]}")
@@ -153,6 +165,11 @@ def main(argv: list[str] | None = None) -> int:
     where = Path(tempfile.mkdtemp(prefix="tral-base-"))
     try:
         tree = base_tree(args.base, where)
+        ring = where / "ring1000.json"
+        sys.path.insert(0, str(BENCH))
+        from peers.tral_fsm import ring_doc
+
+        ring.write_text(json.dumps(ring_doc(1000), indent=1))
         runs: dict[tuple[str, str], list[dict[str, Any]]] = {}
         needs_plain = any(w in chosen for w in ("guard", "guard+set"))
         for r in range(args.rounds):
@@ -160,7 +177,7 @@ def main(argv: list[str] | None = None) -> int:
                 for side, path in (("base", tree), ("main", None)):
                     if workload in ("guard", "guard+set", "plain") and side == "base":
                         continue  # the guard budget is against this checkout's plain ring
-                    runs.setdefault((workload, side), []).append(probe(workload, path))
+                    runs.setdefault((workload, side), []).append(probe(workload, path, ring))
             print(f"round {r + 1} of {args.rounds} done", file=sys.stderr)
         report(runs, chosen, args.base)
     finally:
@@ -183,6 +200,12 @@ def report(runs: dict[tuple[str, str], list[dict[str, Any]]], chosen: list[str],
         verdict = "pass" if peer / m >= 2 and m <= 10 else "MISS"
         print(f"| load + validate + build, 1000 states (ms, median) | {b:.1f} | {m:.1f} | {b / m:.2f}x faster | "
               f"<= 10 ms and >= 2x transitions' Machine ({peer:.1f} ms: {peer / m:.2f}x): {verdict} |")
+    if "first" in chosen:
+        for key, what in (("import_ms", "`import fsm` in a fresh process (ms, median)"),
+                          ("first_ms", "then the first load of the ring (ms, median)")):
+            b, m = median(runs["first", "base"], key), median(runs["first", "main"], key)
+            print(f"| {what} | {b:.1f} | {m:.1f} | {b / m:.2f}x faster | first load <= base: "
+                  f"{'pass' if key == 'import_ms' or m <= b else 'MISS'} |")
     for workload in ("flat", "nested"):
         if workload in chosen:
             b, m = median(runs[workload, "base"], "rate"), median(runs[workload, "main"], "rate")

@@ -12,6 +12,7 @@ otherwise). The earlier commit is checked out into a temporary git worktree (as 
   plain       one tick of the sequencer benchmark's ring without guards (the reference of the next two)
   guard       the same ring with a guard ``n >= 0`` on every transition; ``guard+set`` adds ``n = n + 1``
   load        one load + validate + build of the 1000-state ring from disk
+  lap         one simulated second of the hallway lap without camera (car, sensors, machine, loop; seed 0)
 
 Rate losses follow from the counts: a guard costing ``g`` instructions per tick against ``p`` plain loses
 ``1 - p / g`` of the rate. Needs valgrind (``apt install valgrind``); slow (about 50x): a few minutes in all.
@@ -34,9 +35,9 @@ from pathlib import Path
 from bench_baseline import REPO, base_tree
 
 BENCH = Path(__file__).resolve().parent
-WORKLOADS = ("flat", "nested", "plain", "guard", "guard+set", "load")
-#: repetitions of the measured run (the other runs 0)
-REPEAT = {"load": 3}
+WORKLOADS = ("flat", "nested", "plain", "guard", "guard+set", "load", "lap")
+#: repetitions of the measured run (the other runs 0); for the lap, simulated seconds
+REPEAT = {"load": 3, "lap": 60}
 TICKS = 10000
 #: workloads only this checkout runs (the guard budget is against this checkout's plain ring)
 MAIN_ONLY = ("plain", "guard", "guard+set")
@@ -44,12 +45,22 @@ MAIN_ONLY = ("plain", "guard", "guard+set")
 PROBE = r'''
 import json, sys, tempfile
 from pathlib import Path
-sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(BENCH).resolve().parent]
+if BASE:  # this checkout (an editable install is a plain path entry to it) must not shadow the base's fsm
+    sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(BENCH).resolve().parent]
 sys.path.insert(0, BENCH)
 import fsm
 from peers.tral_fsm import ring_doc, nested_doc
 workload, n = sys.argv[1], int(sys.argv[2])
-if workload == "load":
+if workload == "lap":
+    from fsm.sim.car import SimCar
+    from fsm.sim.loop import Simulation
+    from fsm.sim.world import load_world
+    root = Path(BENCH).parent
+    car = SimCar(load_world(root / "diagrams" / "worlds" / "hallway.json"), seed=0)
+    sim = Simulation(fsm.load(root / "diagrams" / "hallway_lap.json", car=car), car)
+    if n:
+        sim.run(duration=n)
+elif workload == "load":
     path = Path(tempfile.mkdtemp()) / "ring1000.json"
     path.write_text(json.dumps(ring_doc(1000), indent=1))
     fsm.load(path)
@@ -70,7 +81,7 @@ else:
 
 def instructions(workload: str, n: int, tree: Path | None) -> int:
     env = dict(os.environ, PYTHONHASHSEED="0")  # string hashes decide dict probing: the same on every run
-    code = f"BENCH = {str(BENCH)!r}\n" + PROBE
+    code = f"BENCH = {str(BENCH)!r}\nBASE = {tree is not None}\n" + PROBE
     if tree is not None:  # the base's fsm must win over this checkout's editable install
         env["PYTHONPATH"] = str(tree)
         code = ("import sys\nsys.meta_path[:] = [f for f in sys.meta_path if 'editable' not in "
@@ -127,7 +138,7 @@ def main(argv: list[str] | None = None) -> int:
             subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(where / "base")],
                            capture_output=True)
         shutil.rmtree(where, ignore_errors=True)
-    unit = {"load": "per load"}
+    unit = {"load": "per load", "lap": "per simulated second"}
     print(f"| workload | {args.base} | this checkout | ratio |")
     print("|---|---:|---:|---:|")
     for workload, row in counts.items():

@@ -18,6 +18,13 @@ settings.register_profile("ci", derandomize=True, print_blob=True)
 if os.environ.get("CI"):
     settings.load_profile("ci")
 
+#: Under pytest-xdist each worker (gw0, gw1, ...) talks DDS on a domain of its own, so two workers' ROS 2 nodes never
+#: see each other's topics: the domain the run was given (0 by default) plus the worker's number. Set before any
+#: test starts an rclpy node or an ``fsmctl`` process, which inherit it.
+_WORKER = os.environ.get("PYTEST_XDIST_WORKER", "")
+if _WORKER.startswith("gw") and _WORKER[2:].isdigit():
+    os.environ["ROS_DOMAIN_ID"] = str((int(os.environ.get("ROS_DOMAIN_ID") or 0) + int(_WORKER[2:])) % 102)
+
 
 @pytest.fixture(autouse=True)
 def _no_plugin_leaks() -> Iterator[None]:

@@ -58,7 +58,7 @@ def reader_for(path: Path) -> Reader:
     suffix = path.suffix.lower()
     reader = _READERS.get(suffix)
     if reader is None and suffix and suffix not in _NO_READER:
-        from importlib.metadata import entry_points
+        from fsm.loading.installed import entry_points
 
         for ep in entry_points(group=READER_GROUP, name=suffix[1:]):
             reader = ep.load()

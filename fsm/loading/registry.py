@@ -172,7 +172,7 @@ class Registry:
 
         An entry point names a module (its decorators register) or a class (registered under its name).
         """
-        from importlib.metadata import entry_points
+        from fsm.loading.installed import entry_points
 
         adders: tuple[tuple[str, Callable[[Any, str], object]], ...] = (
             (STATE_GROUP, self.add_state), (TRANSITION_GROUP, self.add_transition),

@@ -142,6 +142,12 @@ class SimCar:
         gear.max_bias = 0.0
         gear.max_force = GRIP * p.mass * 9.81 * p.wheelbase / 2
         self.space.add(self.body, self.shape, self.control, pivot, gear)
+        #: The chipmunk handles of the body, the control body and the space: a physics step and a pose read call
+        #: chipmunk through pymunk's cffi binding directly (the same C calls as pymunk's properties and
+        #: ``Space.step``, without their Python wrappers, which cost a third of a step); None on other builds.
+        self._c: tuple[Any, Any, Any] | None = None
+        if _lib is not None:
+            self._c = (self.body._body, self.control._body, self.space._space)
         self._query = pymunk.ShapeFilter(group=_CAR_GROUP)
         self.collisions = 0
         self.contact_steps = 0
@@ -245,6 +251,14 @@ class SimCar:
         the gate log read it at the ticks the sensors fire: one read of pymunk instead of several)."""
         if self._pose_step == self.steps:
             return self._pose
+        return self._read_pose()
+
+    def _read_pose(self) -> tuple[float, float, float]:
+        """The body's pose from chipmunk: x, y, angle (world frame)."""
+        c = self._c
+        if c is not None:
+            p = _lib.cpBodyGetPosition(c[0])
+            return p.x, p.y, _lib.cpBodyGetAngle(c[0])
         x, y = self.body.position
         return x, y, self.body.angle
 
@@ -342,11 +356,18 @@ class SimCar:
             beta = math.atan(0.5 * t)
             self._k_beta = beta
             self._k_w = math.cos(beta) * t / self.wheelbase
-        control = self.control
-        th = self.body.angle + self._k_beta
-        control.velocity = (v * math.cos(th), v * math.sin(th))
-        control.angular_velocity = v * self._k_w
-        self.space.step(PHYSICS_DT)
+        c = self._c
+        if c is not None and self.steps:  # the first step through pymunk: it checks the bodies added
+            th = _lib.cpBodyGetAngle(c[0]) + self._k_beta
+            _lib.cpBodySetVelocity(c[1], (v * math.cos(th), v * math.sin(th)))
+            _lib.cpBodySetAngularVelocity(c[1], v * self._k_w)
+            _lib.cpSpaceStep(c[2], PHYSICS_DT)
+        else:
+            control = self.control
+            th = self.body.angle + self._k_beta
+            control.velocity = (v * math.cos(th), v * math.sin(th))
+            control.angular_velocity = v * self._k_w
+            self.space.step(PHYSICS_DT)
         if self._touching:
             self.contact_steps += 1
         self.steps += 1
@@ -355,7 +376,8 @@ class SimCar:
         self.hall = h = int(self._travel * self._units)
         self.distance = h / self._units
         self.speed = v
-        self._odometry(h)
+        if h != self._odo_hall:  # dead reckoning moves only with the hall count
+            self._odometry(h)
         if self.steps % self.sensor_every == 0:
             self.sense()
         if self._view is not None and self.steps % self.camera_every == 0:
@@ -435,6 +457,9 @@ class SimCar:
         look at, nothing detected."""
         self.camera_frames += 1
         t = self.time
+        if not self._markers:  # a world without markers: nothing is ever in view (the hallway)
+            self._view = CameraView(t, self.camera_frames)
+            return
         candidates = self._maybe_in_view()
         if not candidates:
             self._frame = None
@@ -470,9 +495,7 @@ class SimCar:
     # -- sensors ------------------------------------------------------------------------------------
     def sense(self) -> None:
         """Take one ultrasonic sample of all three sensors (and the clearance to the walls)."""
-        x, y = self.body.position
-        th = self.body.angle
-        self._pose = (x, y, th)
+        self._pose = x, y, th = self._read_pose()
         self._pose_step = self.steps
         c, s = math.cos(th), math.sin(th)
         ray = self._ray
@@ -481,14 +504,18 @@ class SimCar:
         length = max_r + back
         cos_inc = self._cos_inc
         rng = self.rng
+        beam = self._beam is not None
+        echo = self._beam_echo
+        sd0, sd1, outliers, dropouts, min_r, res = (self._sd0, self._sd1, self._outliers, self._dropouts, self._min_r,
+                                                    self._res)
         for sensor in self.sensors:
             ox = x + c * sensor.mx - s * sensor.my
             oy = y + s * sensor.mx + c * sensor.my
             best = max_r
-            if self._beam is not None:
+            if beam:
                 lx, ly = sensor.rays[0]  # the centre ray: the beam's axis
-                best = self._beam_echo(ox, oy, c * lx - s * ly, s * lx + c * ly)
-            for lx, ly in () if self._beam is not None else sensor.rays:
+                best = echo(ox, oy, c * lx - s * ly, s * lx + c * ly)
+            for lx, ly in () if beam else sensor.rays:
                 dx = c * lx - s * ly
                 dy = s * lx + c * ly
                 # Start behind the mount, inside the body: a sensor pressed against a wall still sees it.
@@ -502,18 +529,18 @@ class SimCar:
                 if r < best:
                     best = r
             if best < max_r:
-                if self._sd0 or self._sd1:
-                    best += rng.gauss(0.0, self._sd0 + self._sd1 * best)
-                if self._outliers and rng.random() < self._outliers:
-                    best = rng.uniform(self._min_r, max_r)
-                if self._dropouts and rng.random() < self._dropouts:
+                if sd0 or sd1:
+                    best += rng.gauss(0.0, sd0 + sd1 * best)
+                if outliers and rng.random() < outliers:
+                    best = rng.uniform(min_r, max_r)
+                if dropouts and rng.random() < dropouts:
                     best = max_r  # the echo was missed
-                if best < self._min_r:
-                    best = self._min_r
+                if best < min_r:
+                    best = min_r
                 elif best > max_r:
                     best = max_r
-                if self._res:
-                    best = round(best / self._res) * self._res
+                if res:
+                    best = round(best / res) * res
             setattr(self, sensor.name, best)
         self.sample += 1
         nearest = self._nearest
@@ -534,9 +561,14 @@ class SimCar:
         square to the beam), a round one (a post, a circular obstacle) anywhere in the beam. ``max_range`` when there
         is none. Occlusion is implied: the nearest echo is never behind another surface."""
         assert self._beam is not None
-        assert self._beam_index is not None
+        index = self._beam_index
+        assert index is not None
         circles = self._beam[1]
-        segments = self._beam_index.near(ox, oy, ux, uy)
+        # BeamIndex.near, its filled cells looked up here (three of these per sample)
+        segments = index.cells.get((math.floor(ox / BEAM_CELL), math.floor(oy / BEAM_CELL),
+                                    int(math.atan2(uy, ux) // index.width) % BEAM_SECTORS))
+        if segments is None:
+            segments = index.near(ox, oy, ux, uy)
         best = self._max_r
         tan_h = self._tan_half
         cos_inc = self._cos_inc

@@ -146,7 +146,7 @@ def test_validate_names_the_installed_plugin_a_palette_lacks(package: tuple[Path
 def test_the_projects_own_tests_pass_with_the_plugin_installed(package: tuple[Path, Path]) -> None:
     """Installed plugins cannot break the project's own tests: they check the committed palette and schema
     against the built-in types alone (tests/conftest.py sets FSM_NO_ENTRY_POINTS=1)."""
-    proc = _run(package, "-m", "pytest", "-q", "-p", "no:cacheprovider", "tests/test_palette.py",
+    proc = _run(package, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-n", "0", "tests/test_palette.py",
                 "tests/test_schema.py", "-k", "committed", cwd=REPO)
     assert proc.returncode == 0, proc.stdout + proc.stderr  # 5 if none had run
     assert proc.stdout.startswith("...")

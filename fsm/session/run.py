@@ -19,7 +19,6 @@ from __future__ import annotations
 import numbers
 import os
 from collections.abc import Callable, Iterable, Mapping
-from importlib.metadata import entry_points
 from typing import TYPE_CHECKING, Union
 
 from fsm.loading.building import build
@@ -139,7 +138,10 @@ def stop_rules(stop: StopRules | None, duration: object = None, max_ticks: objec
 
 
 def simulator() -> Callable[..., Session]:
-    """The simulator's session maker (``fsm.sim.simulate``), found by its entry point."""
+    """The simulator's session maker (``fsm.sim.simulate``), found by its entry point (the installed
+    distributions are read only when a machine needs the simulator)."""
+    from fsm.loading.installed import entry_points
+
     for point in entry_points(group=SIMULATORS):
         maker: Callable[..., Session] = point.load()
         return maker

@@ -184,7 +184,7 @@ def _tick_limit(args: argparse.Namespace, dt: float) -> tuple[float | None, int 
     their car is stopped by hand, and their bookkeeping stays within bounds (docs/car.md)."""
     duration = args.duration
     if duration is not None and args.max_ticks is None and (
-            args.ros or (args.live and getattr(args, "speed", None) is not None)):
+            getattr(args, "ros", False) or (getattr(args, "live", False) and getattr(args, "speed", None) is not None)):
         return duration, None
     if duration is None and args.max_ticks is None:
         duration = DEFAULT_MAX_DURATION

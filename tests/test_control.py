@@ -161,6 +161,7 @@ def lap() -> Iterator[tuple[Controller, list[io.StringIO]]]:
 
     def factory() -> Session:
         session, out = lap_run()
+        session.machine.ctx.vars["probe"] = 0  # a variable to inject (the lap has none)
         outs.append(out)
         return session
 
@@ -235,7 +236,7 @@ def test_an_injected_variable_is_applied_before_the_next_tick_and_rewind_forks(l
     assert snap["inputs"] == [[51, "set probe = 7"]]
     assert next(r for r in replies(controller) if r["id"] == 1)["tick"] == 51
     trace = parse_trace(outs[0].getvalue().encode())
-    assert trace.at(50)[1] == {} and trace.at(51)[1] == {"probe": 7}
+    assert trace.at(50)[1] == {"probe": 0} and trace.at(51)[1] == {"probe": 7}
     controller.send("rewind", {"tick": 40}, 2)
     snap = wait(controller, lambda s: s["tick"] == 40)
     assert snap["inputs"] == [] and len(outs) == 2
@@ -251,7 +252,7 @@ def test_an_injected_variable_is_applied_before_the_next_tick_and_rewind_forks(l
 def test_commands_that_make_no_sense_are_answered_not_obeyed(lap: Any) -> None:
     controller, _ = lap
     commands: list[tuple[str, dict[str, Any]]] = [
-        ("step", {"n": 0}), ("speed", {"x": -1}), ("rewind", {"tick": 5}), ("unbreak", {"id": 9}), ("fly", {}),
+        ("step", {"n": 0}), ("speed", {"x": -1}), ("rewind", {"tick": 5}), ("unbreak", {"breakpoint": 9}), ("fly", {}),
         ("input", {"input": {"kind": "finish", "path": "lap2"}})]
     for number, (name, args) in enumerate(commands):
         controller.send(name, args, number)
@@ -273,3 +274,59 @@ def test_the_pace_follows_real_time() -> None:
     controller.send("stop")
     thread.join(5)
     assert 0.2 <= elapsed < 1.0  # 1 s of machine time at 4x real time
+
+
+def test_a_breakpoint_removed_by_its_number_fires_no_more(lap: Any) -> None:
+    """The page sends ``{"cmd": "unbreak", "id": REQUEST, "breakpoint": N}``: the breakpoint's number never takes
+    the request's place (issue 33: Remove never removed)."""
+    controller, _ = lap
+    controller.send("break", {"spec": {"kind": "enter", "state": "lap1/*"}}, 1)
+    snap = wait(controller, lambda s: len(s["breakpoints"]) == 1)
+    number = snap["breakpoints"][0]["id"]
+    controller.send("unbreak", {"breakpoint": number}, 2)
+    snap = wait(controller, lambda s: s["breakpoints"] == [])
+    assert next(r for r in replies(controller) if r["id"] == 2)["ok"]
+    controller.send("step", {"n": 900})
+    snap = wait(controller, lambda s: s["tick"] == 900 and s["state"] == "paused")
+    assert snap["hit"] is None
+
+
+@pytest.mark.parametrize(("values", "field", "words"), [
+    ({"prob": 1}, "name", "has no variable 'prob' (did you mean 'probe'?)"),
+    ({"probe": "text"}, "value", "'probe' holds a whole number (0); 'text' is a text"),
+    ({"probe": 2.5}, "value", "2.5 is a number"),
+    ({"probe": True}, "value", "True is a true/false"),
+    ({"gates": 1e308}, "value", "'gates' holds a list ([]); 1e+308 is a number"),
+])
+def test_an_injected_value_is_checked_like_a_document(lap: Any, values: dict[str, Any], field: str,
+                                                       words: str) -> None:
+    """A variable the machine lacks, or a value of another kind than the variable holds, is refused with the field
+    it is about; nothing is submitted, so the run goes on as it was (issue 33: a list set to 1e308 ended the run)."""
+    controller, _ = lap
+    controller.session.machine.ctx.vars["gates"] = []
+    controller.send("input", {"input": {"kind": "set", "values": values}}, 1)
+    wait(controller, lambda s: bool(replies(controller)))
+    answer = replies(controller)[0]
+    assert not answer["ok"] and answer["field"] == field and words in answer["error"], answer
+    controller.send("input", {"input": {"kind": "set", "values": {"probe": 3.0}}}, 2)  # whole: taken as 3
+    controller.send("step", {"n": 5})
+    snap = wait(controller, lambda s: s["tick"] == 5 and s["state"] == "paused")
+    assert snap["inputs"] == [[1, "set probe = 3"]] and snap["ended"] is None
+
+
+def test_a_signal_no_condition_reads_is_refused_and_one_it_reads_is_taken() -> None:
+    session, _ = sorter_run()
+    controller = Controller(session, paused=True, signals=["gripped"])
+    thread = threading.Thread(target=controller.loop, daemon=True)
+    thread.start()
+    try:
+        controller.send("input", {"input": {"kind": "signal", "name": "griped"}}, 1)
+        controller.send("input", {"input": {"kind": "signal", "name": "gripped"}}, 2)
+        wait(controller, lambda s: len(replies(controller)) == 2)
+        answers = {r["id"]: r for r in replies(controller)}
+        assert not answers[1]["ok"] and answers[1]["field"] == "name"
+        assert "no condition of the machine reads it (did you mean 'gripped'?)" in answers[1]["error"]
+        assert answers[2]["ok"]
+    finally:
+        controller.send("stop")
+        thread.join(10)

@@ -9,9 +9,11 @@ commands that arrived meanwhile, so debugging never changes what a tick does:
 - ``step`` 1 or N ticks, or ``step_transition`` to the next tick in which a transition fires or a monitor fires;
 - ``speed``: real time x k, or ``None`` for as fast as possible (steps always run as fast as possible);
 - ``stop``: end the loop (the caller writes the trace and the outputs);
-- ``break`` / ``unbreak``: breakpoints (:mod:`fsm.debug.breakpoints`); a hit pauses after the tick it happened in;
+- ``break`` / ``unbreak`` (``breakpoint``: its number): breakpoints (:mod:`fsm.debug.breakpoints`); a hit
+  pauses after the tick it happened in;
 - ``input``: an input (:mod:`fsm.session.inputs`: a variable, a signal, a forced reading, a monitor fired, a state
-  finished), submitted for the next tick and recorded in the trace by the session;
+  finished), checked against the machine (:mod:`fsm.debug.inject`: a variable it has, a value of its kind, a
+  signal it reads), submitted for the next tick and recorded in the trace by the session;
 - ``reload``: a hot reload (:mod:`fsm.debug.reload`, from the file watcher, never from a page: its argument is a
 compiled
   plan): the machine replaced between two ticks, keeping the variables and the active states by path; an active
@@ -42,9 +44,10 @@ from fsm.debug.breakpoints import (
     hits,
     make_breakpoint,
 )
+from fsm.debug.inject import check_injection
 from fsm.debug.reload import ReloadRefused, swap_machine
 from fsm.model.errors import DiagramError, StateRuntimeError
-from fsm.session.inputs import InputError, check_input, input_from_json
+from fsm.session.inputs import InputError, input_from_json
 from fsm.session.session import Input, Session, StopRules
 
 #: Most ticks run between two looks at the commands (a few milliseconds of the hallway lap).
@@ -282,9 +285,10 @@ class Controller:
             except (BreakpointError, InputError, ReloadRefused, ValueError, TypeError) as exc:
                 message: dict[str, Any] = {"kind": "reply", "id": reply, "command": name, "ok": False,
                                            "error": getattr(exc, "message", None) or str(exc)}
-                column = getattr(exc, "column", None)
-                if column is not None:
-                    message["column"] = column
+                for key in ("column", "field"):  # where the mistake is: a column, or the form's field
+                    where = getattr(exc, key, None)
+                    if where is not None:
+                        message[key] = where
                 self.messages.append(message)
             else:
                 self.messages.append({"kind": "reply", "id": reply, "command": name, "ok": True, **answer})
@@ -362,7 +366,7 @@ class Controller:
         return {"breakpoint": bp.to_json()}
 
     def _cmd_unbreak(self, args: dict[str, Any]) -> dict[str, Any]:
-        number = args.get("id")
+        number = args.get("breakpoint")
         kept = [bp for bp in self.breakpoints if bp.id != number]
         if len(kept) == len(self.breakpoints):
             raise ValueError(f"no breakpoint {number!r}")
@@ -373,9 +377,7 @@ class Controller:
         self._going_on()
         item = input_from_json(args.get("input"))
         session = self.session
-        why = check_input(item, session.machine)
-        if why is not None:
-            raise InputError(why)
+        item = check_injection(item, session.machine, self.signals)
         tick = session.ticks + (1 if session.machine.started else 0)
         session.submit(item)
         self.log.append((tick, item))

@@ -87,8 +87,9 @@
     if (!ws || ws.readyState !== 1) return;
     var id = nextId++;
     if (done) pending[id] = done;
-    var msg = { cmd: cmd, id: id };
+    var msg = {};
     for (var k in args || {}) msg[k] = args[k];
+    msg.cmd = cmd; msg.id = id;  // the request's own number: no argument may take its place
     ws.send(JSON.stringify(msg));
   }
   function showReload(m) {  // a hot reload: the edited file's located errors, or what the swap kept
@@ -144,7 +145,7 @@
       row.insertCell().textContent = bp.text + (bp.error ? " — " + bp.error : "");
       var hits = row.insertCell(); hits.className = "hits"; hits.textContent = bp.hits + " hit" + (bp.hits === 1 ? "" : "s");
       var b = document.createElement("button"); b.type = "button"; b.textContent = "remove";
-      b.addEventListener("click", function () { send("unbreak", { id: bp.id }); });
+      b.addEventListener("click", function () { send("unbreak", { breakpoint: bp.id }, reply); });
       row.insertCell().appendChild(b);
     });
   }
@@ -239,9 +240,12 @@
     else if (kind === "finish") input = { kind: "finish", path: a, outcome: b.trim() || "succeeded" };
     else input = { kind: "pause", path: a, paused: kind === "pause" };
     send("input", { input: input }, function (m) {
-      var box = $("inject-error");
+      var box = $("inject-error"), field = { name: "inject-a", value: "inject-b" }[m.field];
       box.hidden = m.ok;
       box.textContent = m.ok ? "" : m.error;
+      box.dataset.field = m.ok ? "" : (m.field || "");
+      ["inject-a", "inject-b", "inject-c"].forEach(function (id) { $(id).classList.toggle("wrong", !m.ok && id === field); });
+      if (!m.ok && field) $(field).focus();  // the refusal points at the field it is about
     });
   });
 

@@ -572,7 +572,8 @@
   function drawPlots() {
     plots.forEach(function (p) {
       var o = p.u.over, x = p.u.valToPos(cursor, "x");
-      p.line.style.display = cursor < w0() || cursor > w1() ? "none" : "";
+      // only inside the plot's own area (its x scale can end before the cursor: the last sample is older)
+      p.line.style.display = !isFinite(x) || x < 0 || x > o.clientWidth || cursor < w0() || cursor > w1() ? "none" : "";
       p.line.style.left = (o.offsetLeft + x) + "px"; p.line.style.top = o.offsetTop + "px"; p.line.style.height = o.clientHeight + "px";
     });
   }

@@ -1,9 +1,10 @@
 """The live server: one page and one WebSocket, on aiohttp, for a run the controller drives in its own thread.
 
 Routes: ``GET /`` (the page) and ``GET /ws`` (the stream), both only with the run's token (``?token=``); every
-other path is 404, so nothing but the page is ever served (no file is read from disk after the start). A
-WebSocket whose ``Origin`` is another site is refused (the token is the real lock; this keeps a page elsewhere
-from even trying).
+other path is 404, so nothing but the page is ever served (no file is read from disk after the start). Every
+request, with a token or without, must name the server by one of its own addresses (``Host``) and come from none
+or one of its own pages (``Origin``): a page elsewhere whose name was made to point at 127.0.0.1 (DNS rebinding)
+is refused. Every answer carries a Content-Security-Policy, ``X-Frame-Options`` and ``nosniff``.
 
 The stream to a page: the trace's lines as binary messages (UTF-8 JSON lines, exactly what the trace file gets),
 and text messages (JSON) for the rest: ``status`` (the controller's snapshot), ``reply`` (to the page's own
@@ -18,16 +19,18 @@ from __future__ import annotations
 import asyncio
 import hmac
 import json
+import logging
 import secrets
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
-from urllib.parse import urlsplit
 
 from aiohttp import WSMsgType, web
+from aiohttp.http_exceptions import HttpProcessingError, LineTooLong
 
 from fsm.debug.control import Controller
 
+from .addresses import allowed_hosts, origin_allowed
 from .stream import LineBuffer
 
 #: Messages a page gets per second at most (the page redraws at most as often).
@@ -40,8 +43,11 @@ MAX_COMMAND = 64 * 1024
 #: Commands a page may send.
 COMMANDS = ("pause", "resume", "step", "step_transition", "speed", "stop", "break", "unbreak", "input", "rewind")
 #: What every answer carries: no caching, no sniffing, no referrer, nothing loaded from elsewhere.
+#: The page's Content-Security-Policy: nothing from elsewhere, no frame around it, its own WebSocket only.
+CSP = ("default-src 'none'; img-src data:; style-src 'unsafe-inline'; script-src 'unsafe-inline'; "
+       "connect-src 'self'; frame-ancestors 'none'; base-uri 'none'; form-action 'none'")
 HEADERS = {"Cache-Control": "no-store", "X-Content-Type-Options": "nosniff", "Referrer-Policy": "no-referrer",
-           "X-Frame-Options": "DENY"}
+           "X-Frame-Options": "DENY", "Content-Security-Policy": CSP}
 
 
 def new_token() -> str:
@@ -49,12 +55,20 @@ def new_token() -> str:
     return secrets.token_urlsafe(16)
 
 
-def token_guard(token: Callable[[], str | None]) -> Any:
-    """An aiohttp middleware: every request carries ``token()`` (``None``: none asked) in its query, or is refused
-    (403) before anything else is looked at; a path that is not served is a short 404, never aiohttp's page."""
+def token_guard(token: Callable[[], str | None], hosts: Callable[[], set[str] | None]) -> Any:
+    """An aiohttp middleware, before anything else is looked at: the request's ``Host`` must be one of ``hosts()``
+    (the server's own names: another one is a page of another site that made its name point here, DNS
+    rebinding), its ``Origin``, if any, one of them too, and its query must carry ``token()`` (``None``: none
+    asked); each refused with 403. A path that is not served is a short 404, never aiohttp's page."""
 
     @web.middleware
     async def guard(request: web.Request, handler: Callable[[web.Request], Any]) -> web.StreamResponse:
+        own = hosts()
+        if own is None or request.headers.get("Host", "").lower() not in own:
+            return web.Response(status=403, text="forbidden: this server answers its own address only; open the URL "
+                                "fsmctl printed\n", headers=HEADERS)
+        if not origin_allowed(request.headers.get("Origin"), own):
+            return web.Response(status=403, text="forbidden: a page of another site\n", headers=HEADERS)
         expected = token()
         if expected is not None:
             given = request.query.get("token", "")
@@ -71,6 +85,37 @@ def token_guard(token: Callable[[], str | None]) -> Any:
         return response
 
     return guard
+
+
+class _OneLine(logging.Filter):
+    """aiohttp's report of a request it could not read (a line or a header over the limit, bytes that are no
+    HTTP): one line per request, without the traceback."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        exc = record.exc_info[1] if record.exc_info else None
+        if not isinstance(exc, HttpProcessingError):
+            return True
+        if isinstance(exc, LineTooLong):
+            what = "a request line or header longer than the limit (8190 bytes)"
+        else:
+            what = (str(exc.message).split(":")[0] or type(exc).__name__)[:100]
+        text = f"live: refused a request it cannot read: {what} (answered {exc.code})"
+        record.msg, record.args, record.exc_info, record.exc_text = text, (), None, None
+        return True
+
+
+def quiet_bad_requests() -> None:
+    """Make aiohttp report a request it cannot read in one line (see :class:`_OneLine`), printed to standard error
+    (once per process)."""
+    logger = logging.getLogger("aiohttp.server")
+    if any(isinstance(f, _OneLine) for f in logger.filters):
+        return
+    logger.addFilter(_OneLine())
+    if not logger.handlers:
+        handler = logging.StreamHandler()
+        handler.setFormatter(logging.Formatter("%(message)s"))
+        logger.addHandler(handler)
+        logger.propagate = False
 
 
 @dataclass
@@ -101,7 +146,9 @@ class LiveServer:
         self.app = web.Application(client_max_size=MAX_COMMAND)
         self.app.router.add_get("/", self.serve_page)
         self.app.router.add_get("/ws", self.serve_socket)
-        self.app.middlewares.append(token_guard(lambda: self.token))
+        #: the Host values answered (known once listening; a sweep's page checks its own)
+        self.hosts: set[str] | None = None
+        self.app.middlewares.append(token_guard(lambda: self.token, lambda: self.hosts))
         self.runner: web.AppRunner | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._wake: asyncio.Event | None = None
@@ -113,6 +160,7 @@ class LiveServer:
     # -- starting and stopping ----------------------------------------------------------------------------------------
     async def start(self, host: str, port: int) -> int:
         """Listen on ``host``:``port`` (0: any free port); the port listened on. ``OSError`` when it cannot."""
+        quiet_bad_requests()
         self.runner = web.AppRunner(self.app, access_log=None, handle_signals=False)
         await self.runner.setup()
         site = web.TCPSite(self.runner, host, port, reuse_address=False)
@@ -123,6 +171,7 @@ class LiveServer:
             raise
         addresses = self.runner.addresses
         bound = addresses[0][1] if addresses else port
+        self.hosts = allowed_hosts(host, int(bound))
         self.begin()
         return int(bound)
 
@@ -156,9 +205,9 @@ class LiveServer:
         return web.Response(text=self.page, content_type="text/html", charset="utf-8", headers=HEADERS)
 
     async def serve_socket(self, request: web.Request) -> web.StreamResponse:
-        """The page's stream (its token already checked; a page of another site is refused)."""
-        origin = request.headers.get("Origin")
-        if origin is not None and urlsplit(origin).netloc != request.host:
+        """The page's stream (its token, Host and Origin already checked; an Origin of another site than the Host
+        it came to is refused here too)."""
+        if not origin_allowed(request.headers.get("Origin"), {request.host.lower()}):
             return web.Response(status=403, text="forbidden: a page of another site\n", headers=HEADERS)
         ws = web.WebSocketResponse(heartbeat=30, max_msg_size=MAX_COMMAND)
         await ws.prepare(request)

@@ -46,9 +46,12 @@ def _need_browser() -> None:
 class Browser:
     """A headless Chromium page on a live run's URL; what it logged and what it tried to reach."""
 
-    def __init__(self, chromium: Any, live: Live) -> None:
-        self.context = chromium.new_context(viewport={"width": 1400, "height": 1000})
+    def __init__(self, chromium: Any, live: Live, size: tuple[int, int] = (1400, 1000),
+                 sockets: Any = None) -> None:
+        self.context = chromium.new_context(viewport={"width": size[0], "height": size[1]})
         self.page = self.context.new_page()
+        if sockets is not None:  # the page's WebSockets through the test (which can drop them)
+            self.page.route_web_socket("**/ws*", sockets)
         self.live = live
         self.errors: list[str] = []
         self.dialogs: list[str] = []
@@ -118,9 +121,9 @@ def browser(chromium: Any) -> Iterator[Any]:
     """Opens runs (``fsmctl run ... --live``) and pages on them; all closed (and checked) at the end."""
     opened: list[tuple[Live, Browser]] = []
 
-    def open_run(*args: str, command: str = "run") -> tuple[Live, Browser]:
+    def open_run(*args: str, command: str = "run", **options: Any) -> tuple[Live, Browser]:
         live = Live(*args, command=command)
-        opened.append((live, Browser(chromium, live)))
+        opened.append((live, Browser(chromium, live, **options)))
         return opened[-1]
 
     yield open_run

@@ -171,7 +171,13 @@ def serve(source: Any, page: Callable[[dict[str, Any]], str], *, host: str, port
             halt.set()
             if thread is not None:
                 await asyncio.get_running_loop().run_in_executor(None, thread.join)
-            await server.close()
+            if controller is not None and controller.quit:
+                why = "the run was stopped from the page"
+            elif controller is not None and stop():
+                why = "the run was stopped by Ctrl-C where fsmctl runs"
+            else:
+                why = "the server was stopped by Ctrl-C where fsmctl runs"
+            await server.close(why)
 
     asyncio.run(main())
 

@@ -7,8 +7,10 @@ or one of its own pages (``Origin``): a page elsewhere whose name was made to po
 is refused. Every answer carries a Content-Security-Policy, ``X-Frame-Options`` and ``nosniff``.
 
 The stream to a page: the trace's lines as binary messages (UTF-8 JSON lines, exactly what the trace file gets),
-and text messages (JSON) for the rest: ``status`` (the controller's snapshot), ``reply`` (to the page's own
-commands), ``hit``, ``rewound``, ``reset`` (the trace starts again: after a rewind). A page that cannot keep up
+and text messages (JSON) for the rest: ``hello`` (first: the page reads the trace from its start), ``status``
+(the controller's snapshot), ``reply`` (to the page's own commands), ``hit``, ``rewound``, ``reset`` (the trace
+starts again: after a rewind), and ``bye`` (the server ends: the run is over; a socket that closes without it is
+a dropped connection, which the page reconnects). A page that cannot keep up
 gets fewer, larger messages: each page is sent at most :data:`MAX_RATE` times a second whatever was written
 meanwhile, so a slow page never holds the run back. Commands from a page are JSON text messages
 ``{"cmd": NAME, "id": N, ...arguments}`` (see :mod:`fsm.debug.control`).
@@ -185,8 +187,9 @@ class LiveServer:
             controller.notify = self._notify
         self._pump = asyncio.create_task(self._pump_loop())
 
-    async def close(self) -> None:
-        """Close every page's socket and stop listening."""
+    async def close(self, why: str = "the server has stopped") -> None:
+        """Tell every page that the run has ended and ``why`` (a ``bye``: a socket that merely closes is a page's
+        cue to reconnect), close their sockets and stop listening."""
         controller = self.source.controller
         if controller is not None:
             controller.notify = None
@@ -194,7 +197,12 @@ class LiveServer:
         if self._pump is not None:  # ended (a cancel that wait_for swallows still ends it: the flag)
             self._pump.cancel()
             await asyncio.wait({self._pump}, timeout=1.0)
+        bye = json.dumps({"kind": "bye", "why": why})
         for client in list(self.clients.values()):
+            try:
+                await asyncio.wait_for(client.ws.send_str(bye), 1.0)
+            except (ConnectionError, RuntimeError, asyncio.TimeoutError):
+                pass  # that page has gone already
             await client.ws.close(message=b"the run has ended")
         if self.runner is not None:
             await self.runner.cleanup()

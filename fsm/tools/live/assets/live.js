@@ -8,6 +8,8 @@
   var decoder = new TextDecoder("utf-8");
   var ws = null, status = null, nextId = 1, pending = {}, dirty = false, drawing = false, lastDraw = 0, cost = 0;
   var live = true, followEnd = null, statusShown = true, breaksShown = "";
+  // reconnecting: the server's word that the run is over (null: none yet), attempts since the last good socket
+  var bye = null, attempts = 0, opened = false, inputsShown = "";
 
   // -- drawing: the model rebuilt from the lines so far, at most about 30 times a second ---------------------------
   function schedule() {
@@ -43,17 +45,29 @@
     var url = (location.protocol === "https:" ? "wss://" : "ws://") + location.host +
       location.pathname.replace(/\/+$/, "") + "/ws" +
       (token ? "?token=" + encodeURIComponent(token) : "");
-    ws = new WebSocket(url);
-    ws.binaryType = "arraybuffer";
-    ws.onopen = function () { $("conn").textContent = "connected"; $("conn").className = "conn up"; };
-    ws.onclose = function () {
-      $("conn").textContent = "disconnected"; $("conn").className = "conn down";
-      if (!statusShown && status) showStatus();  // the last status, before the controls go off for good
+    var sock = new WebSocket(url);
+    ws = sock;
+    sock.binaryType = "arraybuffer";
+    sock.onopen = function () { $("conn").textContent = "connected"; $("conn").className = "conn up"; };
+    sock.onclose = function () {
+      if (sock !== ws) return;  // an older socket's end (a reconnect has replaced it)
+      if (!statusShown && status) showStatus();  // the last status, before the controls go off
       statusShown = true;
       setControls(false);
-      notice("The server has ended (the run was stopped); what was received stays on this page.");
+      pending = {};
+      if (bye !== null) {  // the server said the run is over: for good
+        $("conn").textContent = "disconnected"; $("conn").className = "conn down";
+        notice("The server has ended (" + bye + "); what was received stays on this page.");
+        return;
+      }
+      // no word from the server: the connection dropped (a network blip, a sleeping laptop). Again, with backoff
+      var wait = Math.min(10000, 500 * Math.pow(2, attempts++));
+      $("conn").textContent = "reconnecting…"; $("conn").className = "conn down";
+      notice("The connection to the run was lost; reconnecting in " + (wait / 1000).toFixed(1) + " s (attempt " + attempts + ").");
+      setTimeout(connect, wait);
     };
-    ws.onmessage = function (ev) {
+    sock.onmessage = function (ev) {
+      if (sock !== ws) return;
       if (typeof ev.data !== "string") {
         model.addText(decoder.decode(ev.data));
         dirty = true;
@@ -65,7 +79,17 @@
         return;
       }
       var m = JSON.parse(ev.data);
-      if (m.kind === "hello") { live = m.live; if (!live) { setControls(false); $("live-bar").classList.add("static"); } }
+      if (m.kind === "hello") {
+        live = m.live;
+        if (opened) {  // a reconnect: the server sends the trace from its start again, and the status
+          model.reset(); status = null; statusShown = true; followEnd = null; breaksShown = inputsShown = ""; dirty = true;
+          notice("Reconnected: the page was rebuilt from the run's trace.");
+        }
+        opened = true; attempts = 0;
+        setControls(live);
+        if (!live) $("live-bar").classList.add("static");
+      }
+      else if (m.kind === "bye") bye = m.why || "the run has ended";
       else if (m.kind === "reset") { model.reset(); status = null; statusShown = true; followEnd = null; dirty = true; }
       else if (m.kind === "status") {  // redrawn when the run moved on or changed state, not for a breakpoint's count
         if (!status || m.tick !== status.tick || m.state !== status.state) dirty = true;
@@ -130,6 +154,7 @@
     ["run-step", "run-step-n", "run-step-tr"].forEach(function (id) { $(id).disabled = st.state === "ended"; });
     $("run-rewind").disabled = !st.can_rewind;
     showBreakpoints(st.breakpoints);
+    showInputs();
   }
   function showBreakpoints(list) {
     var key = JSON.stringify(list);
@@ -149,13 +174,21 @@
       row.insertCell().appendChild(b);
     });
   }
-  function showInputs() {
-    var body = $("inputs").tBodies[0];
+  function showInputs() {  // the trace's inputs and reloads, then those the server has not applied yet (pending)
+    var body = $("inputs").tBodies[0], rows = model.inputs.map(function (line) {
+      return [line.tick, line.text || line.input.kind];
+    });
+    if (status) rows = rows.concat(status.inputs.filter(function (r) { return r[0] > status.tick; }));
+    rows = rows.slice(-50);
+    var key = JSON.stringify(rows) + (status ? status.tick : "");
+    if (key === inputsShown) return;
+    inputsShown = key;
     body.textContent = "";
-    model.inputs.slice(-50).forEach(function (line) {
+    rows.forEach(function (r) {
       var row = body.insertRow();
-      row.insertCell().textContent = line.tick;
-      row.insertCell().textContent = line.text || line.input.kind;
+      row.insertCell().textContent = r[0];
+      row.insertCell().textContent = r[1];
+      if (status && r[0] > status.tick) { row.className = "pending"; row.title = "applied before tick " + r[0]; }
     });
   }
   function setControls(on) {
@@ -239,6 +272,7 @@
     else if (kind === "monitor") input = { kind: "monitor", owner: a, monitor: b.trim() };
     else if (kind === "finish") input = { kind: "finish", path: a, outcome: b.trim() || "succeeded" };
     else input = { kind: "pause", path: a, paused: kind === "pause" };
+    $("inject-error").hidden = true;  // until this one's answer
     send("input", { input: input }, function (m) {
       var box = $("inject-error"), field = { name: "inject-a", value: "inject-b" }[m.field];
       box.hidden = m.ok;

@@ -10,6 +10,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from fsm.tools.cli.explain import explain_trace
 from fsm.trace.replay import read_trace
 from live_helpers import REPO
 from test_live_browser import Browser, browser, chromium  # noqa: F401, F811 (the fixtures)
@@ -210,6 +211,10 @@ def test_every_control_as_a_person_uses_it(browser: Any, tmp_path: Path) -> None
     assert p.is_enabled("#run-step") and p.is_enabled("#inject-form button")
     p.click("#run-step")
     last = settled(page, f"s.tick === {cursor + 1}")
+    # -- why: the panel, opened while paused, says what the last tick did (compared with explain below) ------------
+    p.click("#why-box summary")
+    page.until(f"document.getElementById('why-box').dataset.tick === '{last['tick']}'")
+    why_rows = p.eval_on_selector_all("#why tbody tr:not(.state)", "rows => rows.map(r => r.dataset.verdict)")
     p.screenshot(path=str(tmp_path / "controls.png"))
     assert page.until(wide)  # after breakpoints, rewinds and a reconnect, the page is no wider than the window
     # -- stop: the server says the run is over; the trace is what the page showed ------------------------------------
@@ -223,4 +228,6 @@ def test_every_control_as_a_person_uses_it(browser: Any, tmp_path: Path) -> None
     assert trace.last_tick == last["tick"]
     assert [[i["tick"], i["text"]] for i in trace.inputs] == last["inputs"]
     assert trace.at(last["tick"])[0] == last["active"]
+    explained = explain_trace(trace, last["tick"])
+    assert why_rows == [c.verdict for _s, checks in explained.states for c in checks] and why_rows
     assert time.monotonic() - started < 60

@@ -18,6 +18,7 @@ commands that arrived meanwhile, so debugging never changes what a tick does:
 compiled
   plan): the machine replaced between two ticks, keeping the variables and the active states by path; an active
   state that no longer exists pauses the run there; a ``reload`` line in the trace and a rewind does it again;
+- ``why``: what a tick did and why (:mod:`fsm.debug.explain`), by re-simulation, the run untouched;
 - ``rewind``: back to an earlier tick by building the run afresh (``factory``) and re-running it to that tick with
   the inputs given so far up to it (the run is deterministic, so it is the same run); later inputs are dropped,
   so the run forks from there.
@@ -72,9 +73,11 @@ class Controller:
 
     def __init__(self, session: Session, *, factory: Callable[[], Session] | None = None,
                  speed: float | None = 1.0, paused: bool = False, signals: Iterable[str] = (),
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 clock: Callable[[], float] = time.monotonic, fresh: Callable[[], Session] | None = None) -> None:
         self.session = session
         self.factory = factory
+        #: builds the same run afresh without recording it (``why`` re-simulates with it; default: ``factory``)
+        self.fresh = fresh or factory
         self.speed = speed
         self.paused = paused
         self.signals = tuple(sorted(set(signals)))
@@ -427,6 +430,31 @@ class Controller:
         self._active = active_set(swap.machine)
         self._stale = False
         return swap
+
+    def _cmd_why(self, args: dict[str, Any]) -> dict[str, Any]:
+        """Why tick ``tick`` (default: the last one run) did what it did (:mod:`fsm.debug.explain`): the run built
+        afresh and re-simulated to just before it with the inputs given, as a rewind does; the run itself is not
+        touched. Costs as much as running to that tick, and only when asked."""
+        from fsm.debug.explain import explain_next
+
+        now = self.session.ticks
+        tick = args.get("tick", now)
+        if isinstance(tick, bool) or not isinstance(tick, int) or not 1 <= tick <= now:
+            raise ValueError(f"why: a tick from 1 to the current {now}, got {tick!r}")
+        if self.fresh is None:
+            raise ValueError("this run cannot be re-simulated (it was not started with a way to build it again)")
+        if any(at <= tick for at, _plan, _info in self.reloads):
+            raise ValueError("why: the run was hot-reloaded before this tick; Why re-simulates one machine only")
+        session = self.fresh()
+        for t, item in self.log:
+            if t <= tick:
+                session.schedule_tick(t, item)
+        session.start()
+        if tick > 1:
+            session.run(stop_rules=StopRules(max_ticks=tick - 1))
+        if session.ticks != tick - 1:
+            raise ValueError(f"why: the re-simulated run ended at tick {session.ticks}, before tick {tick}")
+        return {"why": explain_next(session, self.signals).to_json()}
 
     def _cmd_rewind(self, args: dict[str, Any]) -> dict[str, Any]:
         tick = args.get("tick")

@@ -237,7 +237,8 @@ def run_live(args: argparse.Namespace, file: str, make_session: Callable[[], Any
         run.session.start()
     except StateRuntimeError:
         pass  # the controller says so in the page, where the run can be rewound
-    controller = Controller(run.session, factory=run.build, speed=args.speed, paused=args.paused, signals=signals)
+    controller = Controller(run.session, factory=run.build, speed=args.speed, paused=args.paused, signals=signals,
+                            fresh=make_session)
     run.source.controller = controller
     host = args.host or "127.0.0.1"
     port = args.port if args.port is not None else DEFAULT_PORT

@@ -155,6 +155,7 @@
     $("run-rewind").disabled = !st.can_rewind;
     showBreakpoints(st.breakpoints);
     showInputs();
+    askWhy();
   }
   function showBreakpoints(list) {
     var key = JSON.stringify(list);
@@ -282,6 +283,45 @@
       if (!m.ok && field) $(field).focus();  // the refusal points at the field it is about
     });
   });
+
+  // -- why: asked only while the panel is open and the run paused (it costs a re-simulation to the tick) ---------
+  var whyAsked = null;
+  function askWhy() {
+    if (!$("why-box").open || !status || status.state === "running" || status.tick < 1) return;
+    var key = status.tick + "|" + status.inputs.length + "|" + status.state;
+    if (key === whyAsked) return;
+    whyAsked = key;
+    $("why-info").textContent = "re-simulating to tick " + status.tick + "…";
+    send("why", { tick: status.tick }, showWhy);
+  }
+  function showWhy(m) {
+    var body = $("why").tBodies[0], info = $("why-info");
+    body.textContent = "";
+    if (!m.ok) { info.textContent = m.error; info.className = "error"; return; }
+    var w = m.why;
+    info.className = "";
+    info.textContent = "Tick " + w.tick + " (" + w.time.toFixed(3) + " s) from " + (w.active.join(", ") || "nothing") +
+      ": fired " + ((w.fired.concat(w.monitors)).join("; ") || "nothing") + (w.paused.length ? "; paused: " + w.paused.join(", ") : "");
+    $("why-box").dataset.tick = w.tick;
+    w.states.forEach(function (st) {
+      var head = body.insertRow(); head.className = "state";
+      var c = head.insertCell(); c.colSpan = 5; c.textContent = st.state + (st.transitions.length ? "" : ": no transition leaves it");
+      st.transitions.forEach(function (t, i) {
+        var row = body.insertRow();
+        row.className = t.verdict === "fired" ? "fired" : (t.checked ? "checked" : "skipped");
+        row.dataset.verdict = t.verdict;
+        row.insertCell().textContent = i + 1;
+        row.insertCell().textContent = t.from + " \u2192 " + t.to + (t.preempt ? " (preemptive)" : "");
+        var params = Object.keys(t.params).map(function (k) { return k + "=" + JSON.stringify(t.params[k]); }).join(" ");
+        row.insertCell().textContent = t.type + (params ? " " + params : "") + (t.guard ? " [" + t.guard + "]" + (t.guard_value === null ? "" : " = " + t.guard_value) : "");
+        row.insertCell().textContent = Object.keys(t.values).map(function (k) {
+          var v = t.values[k]; return k + " = " + (typeof v === "number" ? +v.toPrecision(4) : JSON.stringify(v));
+        }).join(", ");
+        row.insertCell().textContent = t.verdict;
+      });
+    });
+  }
+  $("why-box").addEventListener("toggle", function () { whyAsked = null; askWhy(); });
 
   // for tests and the console
   window.tralLive = { model: model, status: function () { return status; }, send: send,

@@ -330,3 +330,30 @@ def test_a_signal_no_condition_reads_is_refused_and_one_it_reads_is_taken() -> N
     finally:
         controller.send("stop")
         thread.join(10)
+
+
+def test_watch_expressions_are_kept_after_every_tick_and_cost_nothing_without(lap: Any) -> None:
+    controller, _ = lap
+    controller.send("step", {"n": 10})
+    wait(controller, lambda s: s["tick"] == 10 and s["state"] == "paused")
+    assert not controller.watch_log  # none asked: nothing evaluated
+    controller.send("watch", {"expr": "car_right"}, 1)
+    controller.send("watch", {"expr": "probe + 1"}, 2)
+    controller.send("watch", {"expr": "car_front <"}, 3)
+    controller.send("step", {"n": 30})
+    snap = wait(controller, lambda s: s["tick"] == 40 and s["state"] == "paused")
+    answers = {r["id"]: r for r in replies(controller)}
+    assert answers[1]["ok"] and answers[2]["ok"] and not answers[3]["ok"] and answers[3]["column"] == 12
+    assert [w["text"] for w in snap["watches"]] == ["car_right", "probe + 1"]
+    rows = list(controller.watch_log)
+    assert [t for t, _ in rows] == list(range(10, 41))  # from the tick it was added, then every tick
+    assert all(row[1] == 1 for _t, row in rows)
+    sent = [r for m in controller.messages if m["kind"] == "watched" for r in m["rows"]]
+    assert [t for t, _ in sent] == [t for t, _ in rows]
+    assert rows[-1][1][0] == controller.session.car.right  # the reading the machine sees now
+    assert len({row[0] for _t, row in rows}) > 1  # and it moved
+    controller.send("rewind", {"tick": 20}, 4)
+    wait(controller, lambda s: s["tick"] == 20)
+    assert [t for t, _ in controller.watch_log][-1] == 20
+    controller.send("unwatch", {"watch": 1}, 5)
+    snap = wait(controller, lambda s: [w["text"] for w in s["watches"]] == ["probe + 1"])

@@ -211,6 +211,34 @@ def test_every_control_as_a_person_uses_it(browser: Any, tmp_path: Path) -> None
     assert p.is_enabled("#run-step") and p.is_enabled("#inject-form button")
     p.click("#run-step")
     last = settled(page, f"s.tick === {cursor + 1}")
+    # -- a watch expression: its value at the cursor, after every tick; the log: filter, click to jump ----------
+    p.fill("#watch-expr", "evasions * 10")
+    p.click("#watch-form button")
+    settled(page, "s.watches.length === 1")
+    p.fill("#step-n", "3")
+    p.click("#run-step-n")
+    stepped = settled(page, f"s.tick === {last['tick'] + 3}")
+    value = page.until(f"document.querySelector('#watches td.value').dataset.tick === '{stepped['tick']}' && "
+                       "document.querySelector('#watches td.value').textContent")
+    assert value == str(2 * 10)  # evasions was set to 2 before the drop
+    assert p.is_checked("#watches input[type=checkbox]")
+    assert p.eval_on_selector_all("#watch-plot canvas", "c => c.length")
+    p.fill("#watch-expr", "evasions <")
+    p.click("#watch-form button")
+    assert "column" in page.until("!document.getElementById('watch-error').hidden && "
+                                  "document.getElementById('watch-error').textContent")
+    kinds = p.eval_on_selector_all("#log tbody tr", "rows => rows.map(r => r.dataset.kind)")
+    assert "transition" in kinds and "input" in kinds
+    p.uncheck("#log-filter input[value=transition]")
+    rows = "Array.from(document.querySelectorAll('#log tbody tr'))"
+    kinds = page.until(f"{rows}.every(r => r.dataset.kind !== 'transition') && {rows}.map(r => r.dataset.kind)")
+    assert set(kinds) <= {"input", "monitor", "reload", "breakpoint", "warning"}
+    p.check("#log-filter input[value=transition]")
+    row = p.query_selector("#log tbody tr[data-kind=input]")
+    assert row is not None
+    row.click()
+    assert p.evaluate("window.tralReport.current().tick") == int(row.get_attribute("data-tick") or -1)
+    last = stepped
     # -- why: the panel, opened while paused, says what the last tick did (compared with explain below) ------------
     p.click("#why-box summary")
     page.until(f"document.getElementById('why-box').dataset.tick === '{last['tick']}'")

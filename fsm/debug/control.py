@@ -18,6 +18,8 @@ commands that arrived meanwhile, so debugging never changes what a tick does:
 compiled
   plan): the machine replaced between two ticks, keeping the variables and the active states by path; an active
   state that no longer exists pauses the run there; a ``reload`` line in the trace and a rewind does it again;
+- ``watch`` / ``unwatch`` / ``watched``: expressions whose values are kept after every tick (``watched`` messages
+  carry the new ones; nothing is evaluated while there is none);
 - ``why``: what a tick did and why (:mod:`fsm.debug.explain`), by re-simulation, the run untouched;
 - ``rewind``: back to an earlier tick by building the run afresh (``factory``) and re-running it to that tick with
   the inputs given so far up to it (the run is deterministic, so it is the same run); later inputs are dropped,
@@ -29,6 +31,7 @@ thread) and takes :attr:`Controller.messages` (replies to commands, notices).
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from collections import deque
@@ -41,6 +44,7 @@ from fsm.debug.breakpoints import (
     Happened,
     Watch,
     active_set,
+    expression_kinds,
     expression_values,
     hits,
     make_breakpoint,
@@ -48,6 +52,7 @@ from fsm.debug.breakpoints import (
 from fsm.debug.inject import check_injection
 from fsm.debug.reload import ReloadRefused, swap_machine
 from fsm.model.errors import DiagramError, StateRuntimeError
+from fsm.model.expr import ExprError, ExprRuntimeError, compile_expr
 from fsm.session.inputs import InputError, input_from_json
 from fsm.session.session import Input, Session, StopRules
 
@@ -62,6 +67,8 @@ MIN_SPEED, MAX_SPEED = 0.01, 10_000.0
 MAX_BACKLOG = 0.25
 #: How often (s) a running run's trace gets the samples kept for its current block, so a page shows the car moving.
 FLUSH = 0.1
+#: Watch expressions at most, and the ticks of their values kept (about 20 minutes at 80 Hz)
+MAX_WATCHES, MAX_WATCH_TICKS = 20, 100_000
 #: How long the loop sleeps at most while paused or ended before it looks at the commands again (s).
 IDLE = 0.1
 
@@ -106,6 +113,7 @@ class Controller:
         self._to_transition = False
         self._anchor: tuple[float, int] | None = None
         self._next_id = 1
+        self._next_watch = 1
         self._seq = 0
         self._shown: dict[str, Any] = {}  # the last snapshot published, without its seq
         self._replied = False  # a command was answered since (its reply is news even if the status is not)
@@ -115,6 +123,10 @@ class Controller:
         #: ticks ran with no breakpoint and no step to a transition: ``_active`` is older than the machine
         self._stale = False
         self._end = session.stop_rules.end_tick(0, session.dt)
+        #: watch expressions: (number, text, compiled test); their values per tick since the run began
+        self.watches: list[tuple[int, str, Callable[[dict[str, Any]], Any]]] = []
+        self.watch_log: deque[tuple[int, list[Any]]] = deque(maxlen=MAX_WATCH_TICKS)
+        self._watch_new: list[tuple[int, list[Any]]] = []
         self._attach(session)
 
     # -- from any thread ------------------------------------------------------------------------------------------
@@ -220,6 +232,8 @@ class Controller:
 
     def _until(self, session: Session) -> bool:
         """After each tick: a breakpoint hit, the end of a step to a transition, or a command waiting."""
+        if self.watches:
+            self._note_watches(session)
         watch = self._watch
         if not self.breakpoints and not self._to_transition:  # nothing looks: keep the tick cheap
             if watch.moved:
@@ -247,6 +261,20 @@ class Controller:
             self._pause_at({"breakpoint": None, "text": "step to the next transition", "why": "; ".join(what)})
             return True
         return self._interrupt
+
+    def _note_watches(self, session: Session) -> None:
+        """The watch expressions' values after this tick (an expression that fails gives its error's text)."""
+        values = expression_values(session.machine, self.signals)
+        row: list[Any] = []
+        for _number, _text, test in self.watches:
+            try:
+                value = test(values)
+            except (ExprRuntimeError, TypeError, ValueError, ArithmeticError) as exc:
+                value = f"error: {exc}"
+            row.append(value if not isinstance(value, float) or math.isfinite(value) else str(value))
+        entry = (session.ticks, row)
+        self.watch_log.append(entry)
+        self._watch_new.append(entry)
 
     def _resync(self) -> None:
         """Take the active states as they are between two ticks (after ticks nothing looked at)."""
@@ -375,6 +403,41 @@ class Controller:
             raise ValueError(f"no breakpoint {number!r}")
         self.breakpoints = kept
         return {}
+
+    def _cmd_watch(self, args: dict[str, Any]) -> dict[str, Any]:
+        """``expr``: an expression of the document's language, whose value is kept after every tick from now on
+        (plotted by the page); an expression that does not parse is refused with its column."""
+        text = args.get("expr")
+        if not isinstance(text, str) or not text.strip():
+            raise BreakpointError("a watch is an expression such as car_front or n * 2", 1)
+        if len(self.watches) >= MAX_WATCHES:
+            raise ValueError(f"at most {MAX_WATCHES} watch expressions; remove one first")
+        machine = self.session.machine
+        try:
+            compiled = compile_expr(text, expression_kinds(machine, self.signals))
+        except ExprError as exc:
+            raise BreakpointError(exc.message, exc.column) from None
+        self.watches.append((self._next_watch, text, compiled.fn))
+        self._next_watch += 1
+        self.watch_log.clear()  # a new column: the rows so far have one value fewer
+        self._watch_new = []
+        if self.session.machine.started:
+            self._note_watches(self.session)
+        return {"watch": self._next_watch - 1}
+
+    def _cmd_unwatch(self, args: dict[str, Any]) -> dict[str, Any]:
+        number = args.get("watch")
+        kept = [w for w in self.watches if w[0] != number]
+        if len(kept) == len(self.watches):
+            raise ValueError(f"no watch {number!r}")
+        self.watches = kept
+        self.watch_log.clear()
+        self._watch_new = []
+        return {}
+
+    def _cmd_watched(self, args: dict[str, Any]) -> dict[str, Any]:
+        """The watch expressions' values so far (a page that joins late, or reconnects)."""
+        return {"rows": [[t, row] for t, row in self.watch_log]}
 
     def _cmd_input(self, args: dict[str, Any]) -> dict[str, Any]:
         self._going_on()
@@ -507,6 +570,9 @@ class Controller:
         for bp in self.breakpoints:
             if bp.test is not None and bp.enabled:  # "becomes true" counts from here
                 bp.last = bp.test(values) is True
+        while self.watch_log and self.watch_log[-1][0] > session.ticks:  # the same run up to here: kept
+            self.watch_log.pop()
+        self._watch_new = []
         self.messages.append({"kind": "rewound", "tick": session.ticks, "dropped": dropped})
         return dropped
 
@@ -532,7 +598,12 @@ class Controller:
             "breakpoints": [bp.to_json() for bp in self.breakpoints],
             "inputs": [[t, item.describe()] for t, item in self.log[-200:]],
             "can_rewind": self.factory is not None,
+            "watches": [{"id": number, "text": text} for number, text, _fn in self.watches],
         }
+        if self._watch_new:  # the values since the last publish, to every page
+            self.messages.append({"kind": "watched", "rows": [[t, row] for t, row in self._watch_new]})
+            self._watch_new = []
+            self._replied = True
         if snapshot == self._shown and not self._replied:  # a paused run looks every IDLE seconds: nothing new
             return
         self._replied = False

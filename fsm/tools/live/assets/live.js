@@ -30,9 +30,11 @@
     dirty = false;
     var t0 = performance.now(), dt = R.dt || 0.0125;
     var atEnd = followEnd === null || Math.abs(R.cursor() - followEnd) < dt / 2;  // the cursor follows the run
-    R.load(model.build(), atEnd);
+    var data = model.build();
+    R.load(data, atEnd);
     if (atEnd) followEnd = R.end();
     showInputs();
+    showLog(data);
     lastDraw = performance.now();
     cost = lastDraw - t0;
     document.body.dataset.drawn = String((document.body.dataset.drawn | 0) + 1);
@@ -87,9 +89,13 @@
         }
         opened = true; attempts = 0;
         setControls(live);
+        watchRows = []; hits = [];
+        if (live) send("watched", {}, function (r) { if (r.ok) { watchRows = []; addWatched(r.rows); } });
         if (!live) $("live-bar").classList.add("static");
       }
       else if (m.kind === "bye") bye = m.why || "the run has ended";
+      else if (m.kind === "watched") addWatched(m.rows);
+      else if (m.kind === "hit") { hits.push(m); logDirty = true; schedule(); }
       else if (m.kind === "reset") { model.reset(); status = null; statusShown = true; followEnd = null; dirty = true; }
       else if (m.kind === "status") {  // redrawn when the run moved on or changed state, not for a breakpoint's count
         if (!status || m.tick !== status.tick || m.state !== status.state) dirty = true;
@@ -155,6 +161,7 @@
     $("run-rewind").disabled = !st.can_rewind;
     showBreakpoints(st.breakpoints);
     showInputs();
+    showWatches();
     askWhy();
   }
   function showBreakpoints(list) {
@@ -322,6 +329,115 @@
     });
   }
   $("why-box").addEventListener("toggle", function () { whyAsked = null; askWhy(); });
+
+  // -- watch expressions: their values after every tick, from the server; a plot of those ticked ----------------
+  var watchRows = [], watchShown = "", watchPlot = null, plotted = {};
+  function addWatched(rows) {
+    rows.forEach(function (r) {  // a rewind drops the later ones: the rows come in tick order again
+      while (watchRows.length && watchRows[watchRows.length - 1][0] >= r[0]) watchRows.pop();
+      watchRows.push(r);
+    });
+    if (watchRows.length > 100000) watchRows = watchRows.slice(-100000);
+    showWatches();
+  }
+  function watchValueAt(k, tick) {  // the value after the last tick at or before ``tick``
+    var lo = 0, hi = watchRows.length - 1, at = -1;
+    while (lo <= hi) { var mid = (lo + hi) >> 1; if (watchRows[mid][0] <= tick) { at = mid; lo = mid + 1; } else hi = mid - 1; }
+    return at < 0 ? undefined : watchRows[at][1][k];
+  }
+  function showWatches() {
+    var list = status ? status.watches || [] : [], body = $("watches").tBodies[0], tick = R.current().tick;
+    var key = JSON.stringify(list);
+    if (key !== watchShown) {
+      watchShown = key;
+      body.textContent = "";
+      list.forEach(function (w) {
+        var row = body.insertRow(); row.dataset.id = w.id;
+        row.insertCell().textContent = w.text;
+        var v = row.insertCell(); v.className = "value";
+        var pc = row.insertCell(), box = document.createElement("input"); box.type = "checkbox"; box.title = "plot it";
+        box.checked = !!plotted[w.id];
+        box.addEventListener("change", function () { plotted[w.id] = this.checked; drawWatchPlot(true); });
+        var label = document.createElement("label"); label.appendChild(box); label.appendChild(document.createTextNode(" plot")); pc.appendChild(label);
+        var b = document.createElement("button"); b.type = "button"; b.textContent = "remove";
+        b.addEventListener("click", function () { delete plotted[w.id]; send("unwatch", { watch: w.id }, reply); });
+        row.insertCell().appendChild(b);
+      });
+      drawWatchPlot(true);
+    }
+    Array.prototype.forEach.call(body.rows, function (row, k) {
+      var v = watchValueAt(k, tick);
+      row.cells[1].textContent = v === undefined ? "–" : (typeof v === "number" ? String(+v.toPrecision(6)) : JSON.stringify(v));
+      row.cells[1].dataset.tick = tick;
+    });
+    drawWatchPlot(false);
+  }
+  function drawWatchPlot(rebuild) {
+    var list = status ? status.watches || [] : [], box = $("watch-plot");
+    var chosen = list.map(function (w, k) { return [w, k]; }).filter(function (p) { return plotted[p[0].id]; });
+    if (!chosen.length || typeof uPlot === "undefined") { box.textContent = ""; watchPlot = null; return; }
+    var dt = R.dt || 0.0125, xs = watchRows.map(function (r) { return r[0] * dt; });
+    var data = [xs].concat(chosen.map(function (p) {
+      return watchRows.map(function (r) { var v = r[1][p[1]]; return typeof v === "boolean" ? (v ? 1 : 0) : (typeof v === "number" ? v : null); });
+    }));
+    if (rebuild || !watchPlot) {
+      box.textContent = "";
+      var palette = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e"];
+      watchPlot = new uPlot({ title: "Watch expressions", width: Math.max(240, box.clientWidth - 4), height: 160,
+        series: [{}].concat(chosen.map(function (p, i) { return { label: p[0].text, stroke: palette[i % palette.length], width: 1.2 }; })),
+        scales: { x: { time: false } }, axes: [{ label: "s" }, {}], legend: { live: false } }, data, box);
+    } else watchPlot.setData(data);
+  }
+  $("watch-form").addEventListener("submit", function (ev) {
+    ev.preventDefault();
+    var text = $("watch-expr").value;
+    send("watch", { expr: text }, function (m) {
+      var box = $("watch-error");
+      box.hidden = m.ok;
+      if (m.ok) { $("watch-expr").value = ""; plotted[m.watch] = true; return; }
+      box.textContent = m.column ? text + "\n" + " ".repeat(m.column - 1) + "^ " + m.error + " (column " + m.column + ")" : m.error;
+    });
+  });
+
+  // -- the log: what happened, filterable; a click puts the cursor at its tick ------------------------------------
+  var hits = [], logDirty = true, logData = null, logShown = "";
+  function showLog(data) {
+    if (data) logData = data;
+    var d = logData;
+    if (!d) return;
+    var dt = d.meta.dt || 0.0125, S = d.states.map(function (s) { return s.path !== undefined ? s.path : s; }), lines = [];
+    d.transitions.forEach(function (tr) {
+      lines.push([tr[1], "transition", (tr[2] >= 0 ? S[tr[2]] : "start") + " \u2192 " + S[tr[3]] + " (" + d.types[tr[4]] + ")"]);
+    });
+    d.monitors.forEach(function (m) {
+      lines.push([Math.round(m[0] / dt), "monitor", "monitor of " + m[1] + " fired (" + m[2] + (m[4] ? ", exception " + m[4] : "") + ")"]);
+    });
+    d.inputs.forEach(function (i) { lines.push([i[0], /^reload/.test(i[2]) ? "reload" : "input", i[2]]); });
+    hits.forEach(function (h) { lines.push([h.tick, "breakpoint", (h.breakpoint !== null ? "breakpoint " + h.breakpoint + " (" + h.text + "): " : h.text + ": ") + h.why]); });
+    d.meta.warnings.forEach(function (w) { lines.push([0, "warning", w]); });
+    lines.sort(function (a, b) { return a[0] - b[0]; });
+    var on = {};
+    Array.prototype.forEach.call(document.querySelectorAll("#log-filter input[type=checkbox]"), function (c) { on[c.value] = c.checked; });
+    var text = $("log-text").value.toLowerCase();
+    lines = lines.filter(function (l) { return on[l[1]] && (!text || l[2].toLowerCase().indexOf(text) >= 0); }).slice(-300);
+    var key = JSON.stringify(lines);
+    if (key === logShown) return;
+    logShown = key;
+    var body = $("log").tBodies[0];
+    body.textContent = "";
+    lines.forEach(function (l) {
+      var row = body.insertRow(); row.className = "log-" + l[1]; row.dataset.tick = l[0]; row.dataset.kind = l[1];
+      row.insertCell().textContent = l[0];
+      row.insertCell().textContent = l[1];
+      row.insertCell().textContent = l[2];
+      row.addEventListener("click", function () { followEnd = null; R.setTime(l[0] * dt); showWatches(); });
+    });
+  }
+  var cursorSeen = null;  // the watch values follow the cursor, wherever it was moved from
+  setInterval(function () { var c = R.cursor(); if (c !== cursorSeen && status && (status.watches || []).length) { cursorSeen = c; showWatches(); } }, 200);
+  Array.prototype.forEach.call(document.querySelectorAll("#log-filter input"), function (c) {
+    c.addEventListener("input", function () { showLog(null); });
+  });
 
   // for tests and the console
   window.tralLive = { model: model, status: function () { return status; }, send: send,

@@ -198,7 +198,8 @@ def test_every_control_as_a_person_uses_it(browser: Any, tmp_path: Path) -> None
     dropped = sum(1 for t, _ in before["inputs"] if t > cursor)
     assert status["inputs"] == [i for i in before["inputs"] if i[0] <= cursor]
     assert f"Rewound to tick {cursor}" in (p.text_content("#notice") or "")
-    assert (f"{dropped} later input(s) dropped" in (p.text_content("#notice") or "")) == (dropped > 0)
+    said = f"{dropped} later input{'s' if dropped != 1 else ''} dropped"
+    assert (said in (p.text_content("#notice") or "")) == (dropped > 0)
     inject("set", "evasions", "2")
     # -- a dropped connection: reconnecting, then the page rebuilt from the trace --------------------------------------
     rows = page.page.evaluate("window.tralLive.model.rows")

@@ -32,6 +32,7 @@ thread) and takes :attr:`Controller.messages` (replies to commands, notices).
 from __future__ import annotations
 
 import math
+import re
 import threading
 import time
 from collections import deque
@@ -39,6 +40,7 @@ from collections.abc import Callable, Iterable
 from typing import Any
 
 from fsm.debug.breakpoints import (
+    CAR_READINGS,
     Breakpoint,
     BreakpointError,
     Happened,
@@ -127,6 +129,9 @@ class Controller:
         self.watches: list[tuple[int, str, Callable[[dict[str, Any]], Any]]] = []
         self.watch_log: deque[tuple[int, list[Any]]] = deque(maxlen=MAX_WATCH_TICKS)
         self._watch_new: list[tuple[int, list[Any]]] = []
+        #: what the watches read besides the variables: (name, the car's attribute, or None for a signal)
+        self._watch_reads: list[tuple[str, str | None]] = []
+        self._watch_tests: list[Callable[[dict[str, Any]], Any]] = []
         self._attach(session)
 
     # -- from any thread ------------------------------------------------------------------------------------------
@@ -263,15 +268,25 @@ class Controller:
         return self._interrupt
 
     def _note_watches(self, session: Session) -> None:
-        """The watch expressions' values after this tick (an expression that fails gives its error's text)."""
-        values = expression_values(session.machine, self.signals)
-        row: list[Any] = []
-        for _number, _text, test in self.watches:
-            try:
-                value = test(values)
-            except (ExprRuntimeError, TypeError, ValueError, ArithmeticError) as exc:
-                value = f"error: {exc}"
-            row.append(value if not isinstance(value, float) or math.isfinite(value) else str(value))
+        """The watch expressions' values after this tick (an expression that fails gives its error's text). Only
+        the names they use are read (a car's reading can cost a sensor query)."""
+        ctx = session.machine.ctx
+        values: dict[str, Any] = dict(ctx.vars)
+        car = ctx.car
+        for name, reading in self._watch_reads:
+            if reading is None:
+                values[name] = ctx.signals.get(name[7:], False)
+            elif car is not None:
+                values[name] = getattr(car, reading, None)
+        try:  # all at once; one that fails: each on its own, the failing one's error as its value
+            row: list[Any] = [test(values) for test in self._watch_tests]
+        except (ExprRuntimeError, TypeError, ValueError, ArithmeticError):
+            row = []
+            for test in self._watch_tests:
+                try:
+                    row.append(test(values))
+                except (ExprRuntimeError, TypeError, ValueError, ArithmeticError) as exc:
+                    row.append(f"error: {exc}")
         entry = (session.ticks, row)
         self.watch_log.append(entry)
         self._watch_new.append(entry)
@@ -419,6 +434,8 @@ class Controller:
             raise BreakpointError(exc.message, exc.column) from None
         self.watches.append((self._next_watch, text, compiled.fn))
         self._next_watch += 1
+        self._watch_reads = _reads(self.watches)
+        self._watch_tests = [fn for _n, _t, fn in self.watches]
         self.watch_log.clear()  # a new column: the rows so far have one value fewer
         self._watch_new = []
         if self.session.machine.started:
@@ -431,13 +448,15 @@ class Controller:
         if len(kept) == len(self.watches):
             raise ValueError(f"no watch {number!r}")
         self.watches = kept
+        self._watch_reads = _reads(kept)
+        self._watch_tests = [fn for _n, _t, fn in kept]
         self.watch_log.clear()
         self._watch_new = []
         return {}
 
     def _cmd_watched(self, args: dict[str, Any]) -> dict[str, Any]:
         """The watch expressions' values so far (a page that joins late, or reconnects)."""
-        return {"rows": [[t, row] for t, row in self.watch_log]}
+        return {"rows": [[t, [_finite(v) for v in row]] for t, row in self.watch_log]}
 
     def _cmd_input(self, args: dict[str, Any]) -> dict[str, Any]:
         self._going_on()
@@ -524,12 +543,14 @@ class Controller:
         now = self.session.ticks
         if isinstance(tick, bool) or not isinstance(tick, int) or not 0 <= tick <= now:
             raise ValueError(f"rewind to a tick from 0 to the current {now}, got {tick!r}")
+        before = len(self.log)
         dropped = self.rewind(tick)
-        return {"tick": tick, "dropped": dropped}
+        inputs = before - len(self.log)
+        return {"tick": tick, "dropped": inputs, "reloads_dropped": dropped - inputs}
 
     def rewind(self, tick: int) -> int:
         """Build the run afresh and run it to ``tick`` with the inputs given up to it (the loop's thread only);
-        paused there. Returns how many later inputs were dropped."""
+        paused there. Returns how many later inputs and reloads were dropped."""
         if self.factory is None:
             raise ValueError("this run cannot be rewound (it was not started with a way to build it again)")
         session = self.factory()
@@ -538,7 +559,7 @@ class Controller:
             session.schedule_tick(t, item)
         dropped = len(self.log) - len(keep)
         reloads = [r for r in self.reloads if r[0] <= tick]
-        dropped += len(self.reloads) - len(reloads)
+        unloaded = len(self.reloads) - len(reloads)  # the machine goes back to the one before them
         self.session = session
         self.log = keep
         self.reloads = []
@@ -573,8 +594,9 @@ class Controller:
         while self.watch_log and self.watch_log[-1][0] > session.ticks:  # the same run up to here: kept
             self.watch_log.pop()
         self._watch_new = []
-        self.messages.append({"kind": "rewound", "tick": session.ticks, "dropped": dropped})
-        return dropped
+        self.messages.append({"kind": "rewound", "tick": session.ticks, "dropped": dropped,
+                              "reloads_dropped": unloaded})
+        return dropped + unloaded
 
     def _attach(self, session: Session) -> None:
         self._watch = Watch()
@@ -600,8 +622,9 @@ class Controller:
             "can_rewind": self.factory is not None,
             "watches": [{"id": number, "text": text} for number, text, _fn in self.watches],
         }
-        if self._watch_new:  # the values since the last publish, to every page
-            self.messages.append({"kind": "watched", "rows": [[t, row] for t, row in self._watch_new]})
+        if self._watch_new:  # the values since the last publish, to every page (inf and nan as text: JSON)
+            self.messages.append({"kind": "watched", "rows": [[t, [_finite(v) for v in row]]
+                                                              for t, row in self._watch_new]})
             self._watch_new = []
             self._replied = True
         if snapshot == self._shown and not self._replied:  # a paused run looks every IDLE seconds: nothing new
@@ -618,6 +641,18 @@ class Controller:
         notify = self.notify
         if notify is not None:
             notify()
+
+
+def _finite(value: Any) -> Any:
+    return str(value) if isinstance(value, float) and not math.isfinite(value) else value
+
+
+def _reads(watches: list[tuple[int, str, Any]]) -> list[tuple[str, str | None]]:
+    """The signals and car readings ``watches`` name (``signal_NAME``, ``car_NAME``), each once."""
+    names = {name for _n, text, _fn in watches for name in re.findall(r"[A-Za-z_][A-Za-z_0-9]*", text)}
+    reads: list[tuple[str, str | None]] = [(n, None) for n in sorted(names) if n.startswith("signal_")]
+    reads += [(f"car_{r}", r) for r in CAR_READINGS if f"car_{r}" in names]
+    return reads
 
 
 __all__ = ["CHUNK", "Controller"]

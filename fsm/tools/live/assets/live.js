@@ -107,10 +107,21 @@
         if (m.state === "running") statusShown = false; else { statusShown = true; showStatus(); }
         schedule();
       }
-      else if (m.kind === "reload") showReload(m);
+      else if (m.kind === "reload") {
+        showReload(m);
+        // the server now serves the page with the new statechart: this page is rebuilt from it (the run, its
+        // breakpoints, watches and trace are the server's; the page reads them again)
+        if (m.ok) setTimeout(function () { sessionStorage.setItem("tral-reloaded", $("reload").textContent); location.reload(); }, 300);
+      }
       else if (m.kind === "reply" && m.command === "reload") { if (!m.ok) showReload({ ok: false, file: "", errors: [m.error] }); }
       else if (m.kind === "reply") { var done = pending[m.id]; delete pending[m.id]; if (done) done(m); else if (!m.ok) notice(m.error); }
-      else if (m.kind === "rewound") notice("Rewound to tick " + m.tick + (m.dropped ? "; " + m.dropped + " later input(s) dropped" : "") + ".");
+      else if (m.kind === "rewound") {
+        var said = [];
+        if (m.dropped) said.push(m.dropped + " later input" + (m.dropped === 1 ? "" : "s") + " dropped");
+        if (m.reloads_dropped) said.push(m.reloads_dropped + " later hot reload" + (m.reloads_dropped === 1 ? "" : "s") +
+          " undone: the run goes on with the machine it had at that tick (save the file again to reload it)");
+        notice("Rewound to tick " + m.tick + (said.length ? "; " + said.join("; ") : "") + ".");
+      }
     };
   }
   function send(cmd, args, done) {
@@ -129,7 +140,7 @@
     box.dataset.ok = m.ok ? "1" : "0";
     box.dataset.tick = m.ok ? m.tick : "";
     box.textContent = m.ok
-      ? "Reloaded " + m.file + " before tick " + m.tick + ": " + m.text + ". Reload this page to redraw the statechart."
+      ? "Reloaded " + m.file + " before tick " + m.tick + ": " + m.text + ". The statechart is being redrawn."
       : "The edited " + (m.file || "machine") + " was not loaded; the run goes on with the machine it has:\n" + m.errors.join("\n");
   }
   function notice(text) { var n = $("notice"); n.hidden = !text; n.textContent = text || ""; }
@@ -442,5 +453,7 @@
   // for tests and the console
   window.tralLive = { model: model, status: function () { return status; }, send: send,
                       drawn: function () { return document.body.dataset.drawn | 0; } };
+  var reloaded = sessionStorage.getItem("tral-reloaded");  // the page was rebuilt after a hot reload: say so
+  if (reloaded) { sessionStorage.removeItem("tral-reloaded"); showReload({ ok: true, file: "", tick: "", text: "" }); $("reload").textContent = reloaded.replace("The statechart is being redrawn.", "The statechart was redrawn."); }
   connect();
 })();

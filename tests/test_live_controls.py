@@ -173,10 +173,12 @@ def test_every_control_as_a_person_uses_it(browser: Any, tmp_path: Path) -> None
     view = "document.querySelector('#chart svg').getAttribute('viewBox')"
     p.check("#fit")
     fitted = p.evaluate(view)
-    title = "#chart g.composite[data-path='mission/back_off'] > text"
-    p.click(title)  # a composite's title folds it, and unfolds it again
+    part = p.get_attribute("#chart", "data-fit") or ""  # the largest readable part around the active state
+    assert any(a == part or a.startswith(part + "/") for a in page.status()["active"]), part
+    title = "#chart g.composite[data-path='mission/back_off'] > text >> nth=0"
+    p.dispatch_event(title, "click")  # a composite's title folds it (wherever the view is), and unfolds it again
     assert "mission/back_off" in page.until(f"{folded}.length && {folded}")
-    p.click(title)
+    p.dispatch_event(title, "click")
     assert page.until(f"{folded}.length === 0")
     p.hover("#chart")
     p.mouse.wheel(0, -400)
@@ -260,3 +262,38 @@ def test_every_control_as_a_person_uses_it(browser: Any, tmp_path: Path) -> None
     explained = explain_trace(trace, last["tick"])
     assert why_rows == [c.verdict for _s, checks in explained.states for c in checks] and why_rows
     assert time.monotonic() - started < 60
+
+
+#: The font size (screen px) of every statechart text shown in the chart's box.
+SHOWN_TEXT = """(function () {
+  var svg = document.querySelector('#chart svg'), b = document.getElementById('chart').getBoundingClientRect();
+  var k = svg.getScreenCTM().a;
+  return Array.from(svg.querySelectorAll('text')).filter(function (t) {
+    var r = t.getBoundingClientRect();
+    return r.width > 0 && !t.closest('.hidden') && r.bottom > b.top && r.top < b.bottom && r.right > b.left &&
+      r.left < b.right;
+  }).map(function (t) { return parseFloat(getComputedStyle(t).fontSize) * k; });
+})()"""
+
+
+def test_fit_is_readable_for_the_lap_and_the_gate_run(browser: Any) -> None:  # noqa: F811
+    """At 1,600 x 1,000, "fit" shows text of at least 9 px (measured on the rendered SVG): the whole chart when it
+    is readable so, else the largest composite around the active state that is; the page is never wider than the
+    window."""
+    gate = (str(REPO / "diagrams" / "gate_run.json"), "--world", str(REPO / "diagrams" / "worlds" / "gates.json"))
+    for args in ((str(REPO / "diagrams" / "hallway_lap.json"),), gate):
+        live, page = browser(*args, "--paused", "--speed", "max", size=(1600, 1000))
+        p = page.page
+        p.uncheck("#fit")
+        p.check("#fit")
+        sizes = p.evaluate(SHOWN_TEXT)
+        assert len(sizes) >= 5 and min(sizes) >= 9, (args[0], sorted(sizes)[:5])
+        fitted = p.get_attribute("#chart", "data-fit")
+        assert fitted is not None and any(fitted == a or a.startswith(fitted + "/") or fitted == "all"
+                                          for a in page.status()["active"])
+        p.fill("#step-n", "300")
+        p.click("#run-step-n")
+        settled(page, "s.tick === 300")
+        sizes = p.evaluate(SHOWN_TEXT)
+        assert len(sizes) >= 5 and min(sizes) >= 9, (args[0], sorted(sizes)[:5])
+        assert page.until("document.documentElement.scrollWidth <= window.innerWidth")

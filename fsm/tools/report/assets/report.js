@@ -88,11 +88,45 @@
   var full = null, vb = null, box = $("chart");
   function applyView() { if (svg && vb) svg.setAttribute("viewBox", vb.x + " " + vb.y + " " + vb.w + " " + vb.h); }
   function boxAspect() { return (box.clientHeight || 400) / (box.clientWidth || 600); }
-  function fitAll() {
-    var a = boxAspect(), w = full.w, h = full.h;
+  function fitBox(r) {  // r: a drawing-space box, shown whole and centred
+    var a = boxAspect(), w = r.w, h = r.h;
     if (h / w > a) w = h / a; else h = w * a;
-    vb = { x: full.x - (w - full.w) / 2, y: full.y - (h - full.h) / 2, w: w, h: h };
+    vb = { x: r.x - (w - r.w) / 2, y: r.y - (h - r.h) / 2, w: w, h: h };
     applyView();
+  }
+  // "fit": the whole drawing when its smallest text stays readable (READABLE px), else the largest composite
+  // around the active state that does (a tall machine fitted whole is an unreadable strip)
+  var READABLE = 9, minFont = null;
+  function smallestFont() {
+    if (minFont === null) {
+      minFont = Infinity;
+      Array.prototype.forEach.call(svg.querySelectorAll("text"), function (t) {
+        var f = parseFloat(getComputedStyle(t).fontSize);
+        if (f > 0 && f < minFont) minFont = f;
+      });
+      if (!isFinite(minFont)) minFont = 10;
+    }
+    return minFont;
+  }
+  function fitAll() {
+    fitBox(full);
+    box.dataset.fit = "all";
+    if (scale() * smallestFont() >= READABLE - 1e-6) return;
+    var leaf = current && current.active.length ? current.active[0] : (S.length ? S[0] : ""), parts = leaf.split("/");
+    for (var n = 1; n <= parts.length; n++) {
+      var gs = groups[parts.slice(0, n).join("/")];
+      if (!gs || !gs.length || gs[0].classList.contains("hidden")) continue;
+      var r = gs[0].getBBox(), pad = 12, k = Math.min((box.clientWidth || 600) / (r.width + 2 * pad), (box.clientHeight || 400) / (r.height + 2 * pad));
+      if (n < parts.length && k * smallestFont() >= READABLE) {  // a composite around the state, fitted whole
+        fitBox({ x: r.x - pad, y: r.y - pad, w: r.width + 2 * pad, h: r.height + 2 * pad });
+        box.dataset.fit = parts.slice(0, n).join("/");
+        return;
+      }
+      if (n === parts.length) {  // no composite around it fits readably: the state at a readable scale, centred
+        centreOn(r, (READABLE + 2) / smallestFont());
+        box.dataset.fit = leaf;
+      }
+    }
   }
   function scale() { return (box.clientWidth || 600) / vb.w; }  // screen px per drawing unit
   function centreOn(r, zoomTo) {  // r: a drawing-space box
@@ -284,6 +318,8 @@
         if (gs) gs.forEach(function (g) { g.classList.add("active"); shown.push(g); if (n === parts.length && !leaf) leaf = g; });
       }
     });
+    if (svg && $("fit").checked && box.dataset.fit && box.dataset.fit !== "all" && leaf && leaf !== lastLeaf &&
+        !(current.active[0] === box.dataset.fit || current.active[0].indexOf(box.dataset.fit + "/") === 0)) fitAll();
     if ($("follow").checked && leaf && leaf !== lastLeaf && !leaf.classList.contains("hidden") && svg && !$("fit").checked) {
       var r = leaf.getBBox();  // moved to it when it is not wholly in view
       if (r.x < vb.x || r.x + r.width > vb.x + vb.w || r.y < vb.y || r.y + r.height > vb.y + vb.h) centreOn(r, null);
@@ -604,7 +640,7 @@
   var current = null;
   function setTime(t) {
     cursor = Math.min(T, Math.max(0, t));
-    var tick = tickAt(cursor), st = stateAt(tick);
+    var tick = Math.min(tickAt(cursor), M.ticks !== undefined ? M.ticks : Infinity), st = stateAt(tick);  // no tick past the run
     current = { time: cursor, tick: tick, active: st.active.map(function (i) { return S[i]; }), vars: st.vars };
     var el = $("time"); el.textContent = (tick * dt).toFixed(3) + " s · tick " + tick; el.dataset.t = cursor; el.dataset.tick = tick;
     $("active").textContent = current.active.join(", ");

@@ -132,3 +132,10 @@ def test_the_names_a_server_answers() -> None:
     hosts = allowed_hosts("127.0.0.1", 1234)
     assert origin_allowed(None, hosts) and origin_allowed("http://localhost:1234", hosts)
     assert not origin_allowed("http://localhost:1235", hosts) and not origin_allowed("null", hosts)
+
+
+def test_what_json_cannot_say_reaches_a_page_as_text() -> None:
+    from fsm.tools.live.server import dumps
+
+    assert dumps({"kind": "watched", "rows": [[3, [float("inf"), 1.5, float("nan")]]]}) == \
+        '{"kind": "watched", "rows": [[3, ["inf", 1.5, "nan"]]]}'

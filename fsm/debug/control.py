@@ -31,7 +31,7 @@ thread) and takes :attr:`Controller.messages` (replies to commands, notices).
 
 from __future__ import annotations
 
-import math
+import operator
 import re
 import threading
 import time
@@ -280,12 +280,12 @@ class Controller:
                 values[name] = getattr(car, reading, None)
         try:  # all at once; one that fails: each on its own, the failing one's error as its value
             row: list[Any] = [test(values) for test in self._watch_tests]
-        except (ExprRuntimeError, TypeError, ValueError, ArithmeticError):
+        except (ExprRuntimeError, TypeError, ValueError, ArithmeticError, LookupError):
             row = []
             for test in self._watch_tests:
                 try:
                     row.append(test(values))
-                except (ExprRuntimeError, TypeError, ValueError, ArithmeticError) as exc:
+                except (ExprRuntimeError, TypeError, ValueError, ArithmeticError, LookupError) as exc:
                     row.append(f"error: {exc}")
         entry = (session.ticks, row)
         self.watch_log.append(entry)
@@ -432,7 +432,9 @@ class Controller:
             compiled = compile_expr(text, expression_kinds(machine, self.signals))
         except ExprError as exc:
             raise BreakpointError(exc.message, exc.column) from None
-        self.watches.append((self._next_watch, text, compiled.fn))
+        name = text.strip()  # a bare name (the usual watch) is a lookup: no expression to run after every tick
+        fn = operator.itemgetter(name) if name.isidentifier() and not compiled.constant else compiled.fn
+        self.watches.append((self._next_watch, text, fn))
         self._next_watch += 1
         self._watch_reads = _reads(self.watches)
         self._watch_tests = [fn for _n, _t, fn in self.watches]
@@ -456,7 +458,7 @@ class Controller:
 
     def _cmd_watched(self, args: dict[str, Any]) -> dict[str, Any]:
         """The watch expressions' values so far (a page that joins late, or reconnects)."""
-        return {"rows": [[t, [_finite(v) for v in row]] for t, row in self.watch_log]}
+        return {"rows": list(self.watch_log)}
 
     def _cmd_input(self, args: dict[str, Any]) -> dict[str, Any]:
         self._going_on()
@@ -622,9 +624,8 @@ class Controller:
             "can_rewind": self.factory is not None,
             "watches": [{"id": number, "text": text} for number, text, _fn in self.watches],
         }
-        if self._watch_new:  # the values since the last publish, to every page (inf and nan as text: JSON)
-            self.messages.append({"kind": "watched", "rows": [[t, [_finite(v) for v in row]]
-                                                              for t, row in self._watch_new]})
+        if self._watch_new:  # the values since the last publish, to every page (the server writes inf and nan as text)
+            self.messages.append({"kind": "watched", "rows": self._watch_new})
             self._watch_new = []
             self._replied = True
         if snapshot == self._shown and not self._replied:  # a paused run looks every IDLE seconds: nothing new
@@ -641,10 +642,6 @@ class Controller:
         notify = self.notify
         if notify is not None:
             notify()
-
-
-def _finite(value: Any) -> Any:
-    return str(value) if isinstance(value, float) and not math.isfinite(value) else value
 
 
 def _reads(watches: list[tuple[int, str, Any]]) -> list[tuple[str, str | None]]:

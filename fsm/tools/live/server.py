@@ -22,6 +22,7 @@ import asyncio
 import hmac
 import json
 import logging
+import math
 import secrets
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -51,6 +52,24 @@ CSP = ("default-src 'none'; img-src data:; style-src 'unsafe-inline'; script-src
        "connect-src 'self'; frame-ancestors 'none'; base-uri 'none'; form-action 'none'")
 HEADERS = {"Cache-Control": "no-store", "X-Content-Type-Options": "nosniff", "Referrer-Policy": "no-referrer",
            "X-Frame-Options": "DENY", "Content-Security-Policy": CSP}
+
+
+def dumps(message: dict[str, Any]) -> str:
+    """``message`` as JSON for a page: what JSON cannot say (inf, nan: a watch expression's value) as text."""
+    try:
+        return json.dumps(message, allow_nan=False, default=str)
+    except ValueError:
+        return json.dumps(_finite(message), allow_nan=False, default=str)
+
+
+def _finite(value: Any) -> Any:
+    if isinstance(value, float):
+        return value if math.isfinite(value) else str(value)
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    return value
 
 
 def new_token() -> str:
@@ -329,7 +348,7 @@ class LiveServer:
                     await ws.send_bytes(text.encode("utf-8"))
                 outbox, client.outbox = client.outbox, []
                 for message in outbox:
-                    await ws.send_str(json.dumps(message, allow_nan=False, default=str))
+                    await ws.send_str(dumps(message))
                 if snapshot is not None and snapshot.get("seq") != seq:
                     seq = snapshot["seq"]
                     await ws.send_str(json.dumps({"kind": "status", **snapshot}, allow_nan=False, default=str))

@@ -305,7 +305,8 @@
   // -- why: asked only while the panel is open and the run paused (it costs a re-simulation to the tick) ---------
   var whyAsked = null;
   function askWhy() {
-    if (!$("why-box").open || !status || status.state === "running" || status.tick < 1) return;
+    if (!$("why-box").open || !status || status.state === "running") return;
+    if (status.tick < 1) { $("why-info").textContent = "No tick has run yet: step once, and Why says what it did."; return; }
     var key = status.tick + "|" + status.inputs.length + "|" + status.state;
     if (key === whyAsked) return;
     whyAsked = key;

@@ -357,3 +357,41 @@ def test_watch_expressions_are_kept_after_every_tick_and_cost_nothing_without(la
     assert [t for t, _ in controller.watch_log][-1] == 20
     controller.send("unwatch", {"watch": 1}, 5)
     snap = wait(controller, lambda s: [w["text"] for w in s["watches"]] == ["probe + 1"])
+
+
+def test_a_run_that_raises_after_an_injection_has_it_undone_not_the_run_ended() -> None:
+    """A value of the right kind can still make a state raise (here a guard dividing by it): the injection is undone
+    (the run rewound to before it) and the run paused there, told why; it never ends because of an injection."""
+    doc = {"name": "divide", "initial": "wait", "vars": {"n": 1},
+           "states": [{"id": "wait", "type": "Idle"}, {"id": "done", "type": "Final"}],
+           "transitions": [{"type": "Always", "from": "wait", "to": "done", "guard": "10 / n > 100"}]}
+    outs: list[io.StringIO] = []
+
+    def factory() -> Session:
+        session = Session.open(doc)
+        out = io.StringIO()
+        session.record(Recorder(out))
+        outs.append(out)
+        return session
+
+    controller = Controller(factory(), factory=factory, speed=None, paused=True)
+    thread = threading.Thread(target=controller.loop, daemon=True)
+    thread.start()
+    try:
+        controller.send("step", {"n": 10})
+        wait(controller, lambda s: s["tick"] == 10 and s["state"] == "paused")
+        controller.send("input", {"input": {"kind": "set", "values": {"n": 0}}}, 1)
+        controller.send("step", {"n": 5})
+        snap = wait(controller, lambda s: s["hit"] is not None)
+        assert snap["state"] == "paused" and snap["ended"] is None and snap["inputs"] == []
+        assert snap["tick"] == 10 and snap["hit"]["text"] == "injection undone"
+        why = snap["hit"]["why"]
+        assert why.startswith("the run raised in tick 11, after the injection 'set n = 0' (applied before tick 11)")
+        assert "division by zero" in why
+        assert controller.session.machine.ctx.vars["n"] == 1
+        controller.send("step", {"n": 5})  # and it goes on as before the injection
+        snap = wait(controller, lambda s: s["tick"] == 15 and s["state"] == "paused")
+        assert snap["ended"] is None
+    finally:
+        controller.send("stop")
+        thread.join(10)

@@ -13,7 +13,8 @@ commands that arrived meanwhile, so debugging never changes what a tick does:
   pauses after the tick it happened in;
 - ``input``: an input (:mod:`fsm.session.inputs`: a variable, a signal, a forced reading, a monitor fired, a state
   finished), checked against the machine (:mod:`fsm.debug.inject`: a variable it has, a value of its kind, a
-  signal it reads), submitted for the next tick and recorded in the trace by the session;
+  signal it reads), submitted for the next tick and recorded in the trace by the session; a run that raises
+  shortly after an injection has the injection undone (rewound to before it) rather than the run ended;
 - ``reload``: a hot reload (:mod:`fsm.debug.reload`, from the file watcher, never from a page: its argument is a
 compiled
   plan): the machine replaced between two ticks, keeping the variables and the active states by path; an active
@@ -69,6 +70,8 @@ MIN_SPEED, MAX_SPEED = 0.01, 10_000.0
 MAX_BACKLOG = 0.25
 #: How often (s) a running run's trace gets the samples kept for its current block, so a page shows the car moving.
 FLUSH = 0.1
+#: A run that raises this long (simulated seconds) after an injection has the injection undone, not the run ended.
+UNDO_WINDOW = 5.0
 #: Watch expressions at most, and the ticks of their values kept (about 20 minutes at 80 Hz)
 MAX_WATCHES, MAX_WATCH_TICKS = 20, 100_000
 #: How long the loop sleeps at most while paused or ended before it looks at the commands again (s).
@@ -209,7 +212,8 @@ class Controller:
         try:
             result = session.run(until=self._until, stop=stop, stop_rules=StopRules(max_ticks=ticks))
         except StateRuntimeError as exc:
-            self._failed(exc)
+            if not self._undo_injection(exc):
+                self._failed(exc)
             return
         if self._budget > 0:
             self._budget = max(0, self._budget - (session.ticks - before))
@@ -229,6 +233,24 @@ class Controller:
             self.ended = stopped
         if self.ended is not None:
             self._budget = 0
+
+    def _undo_injection(self, exc: StateRuntimeError) -> bool:
+        """A run that raises within :data:`UNDO_WINDOW` seconds after an injection is not ended by it: the
+        injection is undone (the run rewound to just before it applied, dropping it) and the run paused there, the
+        page told what raised. A run that raises again without it, when resumed, ends as any run does."""
+        if self.factory is None or not self.log:
+            return False
+        tick, item = self.log[-1]
+        failed = self.session.machine.ctx.tick  # the tick that raised
+        if failed - tick > UNDO_WINDOW / self.session.dt:
+            return False
+        self.rewind(max(0, tick - 1))
+        self.hit = {"breakpoint": None, "text": "injection undone",
+                    "why": f"the run raised in tick {failed}, after the injection '{item.describe()}' (applied before "
+                           f"tick {tick}): {exc}. The injection was undone: the run is paused before it",
+                    "tick": self.session.ticks, "time": round(self.session.now, 9)}
+        self.messages.append({"kind": "hit", **self.hit})
+        return True
 
     def _failed(self, exc: StateRuntimeError) -> None:
         self.ended = "error"

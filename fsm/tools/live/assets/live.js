@@ -211,7 +211,7 @@
     });
   }
   function setControls(on) {
-    Array.prototype.forEach.call(document.querySelectorAll("#live-bar button, #live-bar select, #live-bar input, #break-form *, #inject-form *"),
+    Array.prototype.forEach.call(document.querySelectorAll("#live-bar button, #live-bar select, #live-bar input, #break-form *, #inject-form *, #watch-form *"),
       function (el) { el.disabled = !on; });
   }
 
@@ -305,6 +305,7 @@
   // -- why: asked only while the panel is open and the run paused (it costs a re-simulation to the tick) ---------
   var whyAsked = null;
   function askWhy() {
+    if ($("why-box").open && !live) { $("why-info").textContent = "A finished run's trace: fsmctl explain TRACE --tick N says why a tick did what it did."; return; }
     if (!$("why-box").open || !status || status.state === "running") return;
     if (status.tick < 1) { $("why-info").textContent = "No tick has run yet: step once, and Why says what it did."; return; }
     var key = status.tick + "|" + status.inputs.length + "|" + status.state;

@@ -9,6 +9,9 @@
   slower; the page gets at most 30 messages a second, the server drops what a slow page cannot take);
 - **rewind**: after the run, back to tick 10,000 (a fresh session re-simulated to it, its trace written again;
   target under 1 s);
+- **live, 10 watch expressions**: the live run, no page, with ten watch expressions evaluated after every tick
+  (target: at most 10 % slower than plain); "why" and watches cost nothing while none is asked (the no-page row);
+- **why**: after the rewind, the explanation of tick 10,000 (a re-simulation to it, the run untouched);
 - **step to redrawn page**: with the run paused and the page connected, the time from a click on "Step 1" to the
   page showing the new tick (the page's own clock, ``performance.now``; target under 100 ms).
 
@@ -42,6 +45,9 @@ WORLD = ROOT / "diagrams" / "worlds" / "hallway.json"
 
 
 _PLAN: list[Any] = []
+#: Ten watch expressions over the car's readings (what a person watching a lap would ask for).
+WATCHES = ("car_front", "car_left", "car_right", "car_distance", "car_speed", "car_steering", "car_speed_command",
+           "car_front < 0.9", "car_left + car_right", "car_distance * 2")
 
 
 def make_session() -> tuple[Any, Any]:
@@ -71,7 +77,7 @@ def plain() -> tuple[float, float]:
 class LiveRun:
     """The lap under the controller, served on a free port from a thread of its own (as ``serve`` does)."""
 
-    def __init__(self) -> None:
+    def __init__(self, watches: int = 0) -> None:
         import asyncio
 
         from fsm.debug.control import Controller
@@ -86,8 +92,11 @@ class LiveRun:
             fresh, source.buffer = make_session()
             return fresh
 
-        self.controller = Controller(session, factory=factory, speed=None, paused=True)
+        self.controller = Controller(session, factory=factory, speed=None, paused=True,
+                                     fresh=lambda: make_session()[0])
         source.controller = self.controller
+        for text in WATCHES[:watches]:
+            self.controller.send("watch", {"expr": text})
         header = json.loads(buffer.chunks[0].split("\n", 1)[0])
         self.server = LiveServer(source, live_page(header, LAP.name), None)
         self.loop = asyncio.new_event_loop()
@@ -130,6 +139,17 @@ class LiveRun:
         controller.send("rewind", {"tick": tick})
         while controller.snapshot.get("tick") != tick or controller.session.ticks != tick:
             time.sleep(0.002)
+        return time.perf_counter() - t0
+
+    def why(self, tick: int) -> float:
+        """Seconds from a ``why`` of ``tick`` to its answer."""
+        controller = self.controller
+        t0 = time.perf_counter()
+        controller.send("why", {"tick": tick}, "why")
+        while not any(m.get("id") == "why" for m in list(controller.messages)):
+            time.sleep(0.002)
+        answer = next(m for m in list(controller.messages) if m.get("id") == "why")
+        assert answer["ok"], answer
         return time.perf_counter() - t0
 
     def close(self) -> None:
@@ -212,13 +232,15 @@ def count_instructions() -> int:
     def count(mode: str, n: int) -> int:
         return callgrind([__file__, "--probe", mode, str(n)], env, ROOT, f"{mode} {n}")
 
-    runs = {mode: count(mode, 1) - count(mode, 0) for mode in ("plain", "live")}
+    runs = {mode: count(mode, 1) - count(mode, 0) for mode in ("plain", "live", "watch")}
     print("| run of the hallway lap (16,176 ticks) | instructions | per tick |")
     print("|---|---:|---:|")
-    for mode, label in (("plain", "plain (session.run)"), ("live", "live, no page")):
+    for mode, label in (("plain", "plain (session.run)"), ("live", "live, no page"),
+                        ("watch", "live, no page, 10 watch expressions")):
         print(f"| {label} | {runs[mode] / 1e6:,.0f}M | {runs[mode] / 16176:,.0f} |")
     print(f"\nunder the controller with the server up and no page: {runs['live'] / runs['plain'] - 1:+.1%} "
           "instructions (target: at most 5 % slower)")
+    print(f"with 10 watch expressions: {runs['watch'] / runs['plain'] - 1:+.1%} instructions (target: at most 10 %)")
     return 0
 
 
@@ -240,7 +262,7 @@ def main() -> int:
             if n:
                 session.run()
         else:
-            live = LiveRun()
+            live = LiveRun(len(WATCHES) if mode == "watch" else 0)
             if n:
                 live.run()
             live.close()
@@ -264,6 +286,12 @@ def main() -> int:
             try:
                 results["live_no_page"].append(live.run())
                 results.setdefault("rewind_10000_s", []).append(live.rewind(10_000))
+                results.setdefault("why_10000_s", []).append(live.why(10_000))
+            finally:
+                live.close()
+            live = LiveRun(len(WATCHES))
+            try:
+                results.setdefault("live_watch10", []).append(live.run())
             finally:
                 live.close()
             if browser is None:
@@ -306,6 +334,9 @@ def main() -> int:
     print("|---|---:|---:|---:|---:|---:|---:|")
     row("plain (session.run)", base)
     row("live, no page", alone)
+    row("live, no page, 10 watch expressions", results["live_watch10"])
+    why = results["why_10000_s"]
+    print(f"\nwhy of tick 10,000 (re-simulated to it): median {statistics.median(why):.2f} s, best {min(why):.2f} s")
     rw = results["rewind_10000_s"]
     print(f"\nrewind from the end (16,176) to tick 10,000: median {statistics.median(rw):.2f} s, best {min(rw):.2f} s "
           f"over {len(rw)}")

@@ -161,6 +161,7 @@ def lap() -> Iterator[tuple[Controller, list[io.StringIO]]]:
 
     def factory() -> Session:
         session, out = lap_run()
+        session.machine.ctx.vars["probe"] = 0  # a variable to inject (the lap has none)
         outs.append(out)
         return session
 
@@ -235,7 +236,7 @@ def test_an_injected_variable_is_applied_before_the_next_tick_and_rewind_forks(l
     assert snap["inputs"] == [[51, "set probe = 7"]]
     assert next(r for r in replies(controller) if r["id"] == 1)["tick"] == 51
     trace = parse_trace(outs[0].getvalue().encode())
-    assert trace.at(50)[1] == {} and trace.at(51)[1] == {"probe": 7}
+    assert trace.at(50)[1] == {"probe": 0} and trace.at(51)[1] == {"probe": 7}
     controller.send("rewind", {"tick": 40}, 2)
     snap = wait(controller, lambda s: s["tick"] == 40)
     assert snap["inputs"] == [] and len(outs) == 2
@@ -251,7 +252,7 @@ def test_an_injected_variable_is_applied_before_the_next_tick_and_rewind_forks(l
 def test_commands_that_make_no_sense_are_answered_not_obeyed(lap: Any) -> None:
     controller, _ = lap
     commands: list[tuple[str, dict[str, Any]]] = [
-        ("step", {"n": 0}), ("speed", {"x": -1}), ("rewind", {"tick": 5}), ("unbreak", {"id": 9}), ("fly", {}),
+        ("step", {"n": 0}), ("speed", {"x": -1}), ("rewind", {"tick": 5}), ("unbreak", {"breakpoint": 9}), ("fly", {}),
         ("input", {"input": {"kind": "finish", "path": "lap2"}})]
     for number, (name, args) in enumerate(commands):
         controller.send(name, args, number)
@@ -273,3 +274,124 @@ def test_the_pace_follows_real_time() -> None:
     controller.send("stop")
     thread.join(5)
     assert 0.2 <= elapsed < 1.0  # 1 s of machine time at 4x real time
+
+
+def test_a_breakpoint_removed_by_its_number_fires_no_more(lap: Any) -> None:
+    """The page sends ``{"cmd": "unbreak", "id": REQUEST, "breakpoint": N}``: the breakpoint's number never takes
+    the request's place (issue 33: Remove never removed)."""
+    controller, _ = lap
+    controller.send("break", {"spec": {"kind": "enter", "state": "lap1/*"}}, 1)
+    snap = wait(controller, lambda s: len(s["breakpoints"]) == 1)
+    number = snap["breakpoints"][0]["id"]
+    controller.send("unbreak", {"breakpoint": number}, 2)
+    snap = wait(controller, lambda s: s["breakpoints"] == [])
+    assert next(r for r in replies(controller) if r["id"] == 2)["ok"]
+    controller.send("step", {"n": 900})
+    snap = wait(controller, lambda s: s["tick"] == 900 and s["state"] == "paused")
+    assert snap["hit"] is None
+
+
+@pytest.mark.parametrize(("values", "field", "words"), [
+    ({"prob": 1}, "name", "has no variable 'prob' (did you mean 'probe'?)"),
+    ({"probe": "text"}, "value", "'probe' holds a whole number (0); 'text' is a text"),
+    ({"probe": 2.5}, "value", "2.5 is a number"),
+    ({"probe": True}, "value", "True is a true/false"),
+    ({"gates": 1e308}, "value", "'gates' holds a list ([]); 1e+308 is a number"),
+])
+def test_an_injected_value_is_checked_like_a_document(lap: Any, values: dict[str, Any], field: str,
+                                                       words: str) -> None:
+    """A variable the machine lacks, or a value of another kind than the variable holds, is refused with the field
+    it is about; nothing is submitted, so the run goes on as it was (issue 33: a list set to 1e308 ended the run)."""
+    controller, _ = lap
+    controller.session.machine.ctx.vars["gates"] = []
+    controller.send("input", {"input": {"kind": "set", "values": values}}, 1)
+    wait(controller, lambda s: bool(replies(controller)))
+    answer = replies(controller)[0]
+    assert not answer["ok"] and answer["field"] == field and words in answer["error"], answer
+    controller.send("input", {"input": {"kind": "set", "values": {"probe": 3.0}}}, 2)  # whole: taken as 3
+    controller.send("step", {"n": 5})
+    snap = wait(controller, lambda s: s["tick"] == 5 and s["state"] == "paused")
+    assert snap["inputs"] == [[1, "set probe = 3"]] and snap["ended"] is None
+
+
+def test_a_signal_no_condition_reads_is_refused_and_one_it_reads_is_taken() -> None:
+    session, _ = sorter_run()
+    controller = Controller(session, paused=True, signals=["gripped"])
+    thread = threading.Thread(target=controller.loop, daemon=True)
+    thread.start()
+    try:
+        controller.send("input", {"input": {"kind": "signal", "name": "griped"}}, 1)
+        controller.send("input", {"input": {"kind": "signal", "name": "gripped"}}, 2)
+        wait(controller, lambda s: len(replies(controller)) == 2)
+        answers = {r["id"]: r for r in replies(controller)}
+        assert not answers[1]["ok"] and answers[1]["field"] == "name"
+        assert "no condition of the machine reads it (did you mean 'gripped'?)" in answers[1]["error"]
+        assert answers[2]["ok"]
+    finally:
+        controller.send("stop")
+        thread.join(10)
+
+
+def test_watch_expressions_are_kept_after_every_tick_and_cost_nothing_without(lap: Any) -> None:
+    controller, _ = lap
+    controller.send("step", {"n": 10})
+    wait(controller, lambda s: s["tick"] == 10 and s["state"] == "paused")
+    assert not controller.watch_log  # none asked: nothing evaluated
+    controller.send("watch", {"expr": "car_right"}, 1)
+    controller.send("watch", {"expr": "probe + 1"}, 2)
+    controller.send("watch", {"expr": "car_front <"}, 3)
+    controller.send("step", {"n": 30})
+    snap = wait(controller, lambda s: s["tick"] == 40 and s["state"] == "paused")
+    answers = {r["id"]: r for r in replies(controller)}
+    assert answers[1]["ok"] and answers[2]["ok"] and not answers[3]["ok"] and answers[3]["column"] == 12
+    assert [w["text"] for w in snap["watches"]] == ["car_right", "probe + 1"]
+    rows = list(controller.watch_log)
+    assert [t for t, _ in rows] == list(range(10, 41))  # from the tick it was added, then every tick
+    assert all(row[1] == 1 for _t, row in rows)
+    sent = [r for m in controller.messages if m["kind"] == "watched" for r in m["rows"]]
+    assert [t for t, _ in sent] == [t for t, _ in rows]
+    assert rows[-1][1][0] == controller.session.car.right  # the reading the machine sees now
+    assert len({row[0] for _t, row in rows}) > 1  # and it moved
+    controller.send("rewind", {"tick": 20}, 4)
+    wait(controller, lambda s: s["tick"] == 20)
+    assert [t for t, _ in controller.watch_log][-1] == 20
+    controller.send("unwatch", {"watch": 1}, 5)
+    snap = wait(controller, lambda s: [w["text"] for w in s["watches"]] == ["probe + 1"])
+
+
+def test_a_run_that_raises_after_an_injection_has_it_undone_not_the_run_ended() -> None:
+    """A value of the right kind can still make a state raise (here a guard dividing by it): the injection is undone
+    (the run rewound to before it) and the run paused there, told why; it never ends because of an injection."""
+    doc = {"name": "divide", "initial": "wait", "vars": {"n": 1},
+           "states": [{"id": "wait", "type": "Idle"}, {"id": "done", "type": "Final"}],
+           "transitions": [{"type": "Always", "from": "wait", "to": "done", "guard": "10 / n > 100"}]}
+    outs: list[io.StringIO] = []
+
+    def factory() -> Session:
+        session = Session.open(doc)
+        out = io.StringIO()
+        session.record(Recorder(out))
+        outs.append(out)
+        return session
+
+    controller = Controller(factory(), factory=factory, speed=None, paused=True)
+    thread = threading.Thread(target=controller.loop, daemon=True)
+    thread.start()
+    try:
+        controller.send("step", {"n": 10})
+        wait(controller, lambda s: s["tick"] == 10 and s["state"] == "paused")
+        controller.send("input", {"input": {"kind": "set", "values": {"n": 0}}}, 1)
+        controller.send("step", {"n": 5})
+        snap = wait(controller, lambda s: s["hit"] is not None)
+        assert snap["state"] == "paused" and snap["ended"] is None and snap["inputs"] == []
+        assert snap["tick"] == 10 and snap["hit"]["text"] == "injection undone"
+        why = snap["hit"]["why"]
+        assert why.startswith("the run raised in tick 11, after the injection 'set n = 0' (applied before tick 11)")
+        assert "division by zero" in why
+        assert controller.session.machine.ctx.vars["n"] == 1
+        controller.send("step", {"n": 5})  # and it goes on as before the injection
+        snap = wait(controller, lambda s: s["tick"] == 15 and s["state"] == "paused")
+        assert snap["ended"] is None
+    finally:
+        controller.send("stop")
+        thread.join(10)

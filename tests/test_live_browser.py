@@ -46,9 +46,12 @@ def _need_browser() -> None:
 class Browser:
     """A headless Chromium page on a live run's URL; what it logged and what it tried to reach."""
 
-    def __init__(self, chromium: Any, live: Live) -> None:
-        self.context = chromium.new_context(viewport={"width": 1400, "height": 1000})
+    def __init__(self, chromium: Any, live: Live, size: tuple[int, int] = (1400, 1000),
+                 sockets: Any = None) -> None:
+        self.context = chromium.new_context(viewport={"width": size[0], "height": size[1]})
         self.page = self.context.new_page()
+        if sockets is not None:  # the page's WebSockets through the test (which can drop them)
+            self.page.route_web_socket("**/ws*", sockets)
         self.live = live
         self.errors: list[str] = []
         self.dialogs: list[str] = []
@@ -73,8 +76,8 @@ class Browser:
         while time.monotonic() < end:
             try:
                 value = self.page.evaluate(script)
-            except Exception as exc:  # the page between two states (a status not there yet): look again
-                if "TypeError" not in str(exc):
+            except Exception as exc:  # the page between two states (a status not there yet, a reload): look again
+                if "TypeError" not in str(exc) and "context was destroyed" not in str(exc):
                     raise
                 value = None
             if value:
@@ -118,9 +121,9 @@ def browser(chromium: Any) -> Iterator[Any]:
     """Opens runs (``fsmctl run ... --live``) and pages on them; all closed (and checked) at the end."""
     opened: list[tuple[Live, Browser]] = []
 
-    def open_run(*args: str, command: str = "run") -> tuple[Live, Browser]:
+    def open_run(*args: str, command: str = "run", **options: Any) -> tuple[Live, Browser]:
         live = Live(*args, command=command)
-        opened.append((live, Browser(chromium, live)))
+        opened.append((live, Browser(chromium, live, **options)))
         return opened[-1]
 
     yield open_run
@@ -263,8 +266,12 @@ def test_a_hot_reload_shows_a_broken_file_located_and_swaps_a_fixed_one(browser:
     # fixed (and edited: done at 7): swapped before the next tick, n kept, the run ends as the new document says
     machine.write_text(COUNTER.replace('"n >= 20"', '"n >= 7"'))
     page.until("document.getElementById('reload').dataset.ok === '1'")
+    # the page rebuilds itself from the page the server now serves: the new statechart, no reload by hand
+    page.until("(document.getElementById('reload').textContent || '').indexOf('was redrawn') >= 0 && "
+               "document.getElementById('chart').textContent.indexOf('n >= 7') >= 0")
     assert page.page.text_content("#reload") == (
-        f"Reloaded {machine} before tick 42: kept count. Reload this page to redraw the statechart.")
+        f"Reloaded {machine} before tick 42: kept count. The statechart was redrawn.")
+    page.until("window.tralLive && window.tralLive.drawn && window.tralLive.drawn() > 0 && window.tralLive.status()")
     page.page.select_option("#run-speed", "max")
     page.page.click("#run-resume")
     page.until("(window.tralLive.status() || {}).state === 'ended'")

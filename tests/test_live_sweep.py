@@ -63,6 +63,16 @@ def test_the_sweep_page_lists_the_runs_and_serves_only_them_with_the_token(tmp_p
             assert _get(f"{live.base}{path}?token={live.token}")[0] == 404, path
         code, page = _get(f"{live.base}/run/0000/?token={live.token}")
         assert code == 200 and "tral-fsm live" in page
+        # another site's name (DNS rebinding) is refused, token or not (issue 33)
+        import http.client
+        from urllib.parse import urlsplit
+
+        where = urlsplit(live.base)
+        for headers in ({"Host": f"evil.example:{where.port}"}, {"Origin": "http://evil.example"}):
+            conn = http.client.HTTPConnection(where.hostname or "", where.port, timeout=10)
+            conn.request("GET", f"/run/0000/?token={live.token}", headers=headers)
+            response = conn.getresponse()
+            assert response.status == 403 and response.getheader("X-Frame-Options") == "DENY", headers
         # every run wrote its trace, which the page serves (and the run's key is the same as without --live)
         assert read_trace(tmp_path / "out" / "runs" / "0001" / "trace.jsonl").end is not None
     finally:

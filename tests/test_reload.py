@@ -85,8 +85,12 @@ def test_a_reload_keeps_variables_active_states_and_their_clocks(counter: Any) -
     wait(controller, lambda s: s["tick"] == 45)
     assert len(parse_trace(outs[1].getvalue().encode()).reloads) == 1
     assert controller.session.machine.ctx.vars["m"] == 3 and controller.signals == ("go",)
-    controller.send("rewind", {"tick": 30})
+    controller.send("rewind", {"tick": 30}, "back")
     wait(controller, lambda s: s["tick"] == 30)
+    told = next(m for m in list(controller.messages) if m.get("kind") == "rewound" and m["tick"] == 30)
+    assert (told["dropped"], told["reloads_dropped"]) == (0, 1)  # the reload was undone, no input dropped
+    answer = next(m for m in list(controller.messages) if m.get("id") == "back")
+    assert (answer["dropped"], answer["reloads_dropped"]) == (0, 1)
     assert not parse_trace(outs[2].getvalue().encode()).reloads and "m" not in controller.session.machine.ctx.vars
     assert controller.signals == ()  # the signal names breakpoint expressions read are the old machine's again
 

@@ -9,13 +9,19 @@ commands that arrived meanwhile, so debugging never changes what a tick does:
 - ``step`` 1 or N ticks, or ``step_transition`` to the next tick in which a transition fires or a monitor fires;
 - ``speed``: real time x k, or ``None`` for as fast as possible (steps always run as fast as possible);
 - ``stop``: end the loop (the caller writes the trace and the outputs);
-- ``break`` / ``unbreak``: breakpoints (:mod:`fsm.debug.breakpoints`); a hit pauses after the tick it happened in;
+- ``break`` / ``unbreak`` (``breakpoint``: its number): breakpoints (:mod:`fsm.debug.breakpoints`); a hit
+  pauses after the tick it happened in;
 - ``input``: an input (:mod:`fsm.session.inputs`: a variable, a signal, a forced reading, a monitor fired, a state
-  finished), submitted for the next tick and recorded in the trace by the session;
+  finished), checked against the machine (:mod:`fsm.debug.inject`: a variable it has, a value of its kind, a
+  signal it reads), submitted for the next tick and recorded in the trace by the session; a run that raises
+  shortly after an injection has the injection undone (rewound to before it) rather than the run ended;
 - ``reload``: a hot reload (:mod:`fsm.debug.reload`, from the file watcher, never from a page: its argument is a
 compiled
   plan): the machine replaced between two ticks, keeping the variables and the active states by path; an active
   state that no longer exists pauses the run there; a ``reload`` line in the trace and a rewind does it again;
+- ``watch`` / ``unwatch`` / ``watched``: expressions whose values are kept after every tick (``watched`` messages
+  carry the new ones; nothing is evaluated while there is none);
+- ``why``: what a tick did and why (:mod:`fsm.debug.explain`), by re-simulation, the run untouched;
 - ``rewind``: back to an earlier tick by building the run afresh (``factory``) and re-running it to that tick with
   the inputs given so far up to it (the run is deterministic, so it is the same run); later inputs are dropped,
   so the run forks from there.
@@ -26,6 +32,8 @@ thread) and takes :attr:`Controller.messages` (replies to commands, notices).
 
 from __future__ import annotations
 
+import operator
+import re
 import threading
 import time
 from collections import deque
@@ -33,18 +41,22 @@ from collections.abc import Callable, Iterable
 from typing import Any
 
 from fsm.debug.breakpoints import (
+    CAR_READINGS,
     Breakpoint,
     BreakpointError,
     Happened,
     Watch,
     active_set,
+    expression_kinds,
     expression_values,
     hits,
     make_breakpoint,
 )
+from fsm.debug.inject import check_injection
 from fsm.debug.reload import ReloadRefused, swap_machine
 from fsm.model.errors import DiagramError, StateRuntimeError
-from fsm.session.inputs import InputError, check_input, input_from_json
+from fsm.model.expr import ExprError, ExprRuntimeError, compile_expr
+from fsm.session.inputs import InputError, input_from_json
 from fsm.session.session import Input, Session, StopRules
 
 #: Most ticks run between two looks at the commands (a few milliseconds of the hallway lap).
@@ -58,6 +70,10 @@ MIN_SPEED, MAX_SPEED = 0.01, 10_000.0
 MAX_BACKLOG = 0.25
 #: How often (s) a running run's trace gets the samples kept for its current block, so a page shows the car moving.
 FLUSH = 0.1
+#: A run that raises this long (simulated seconds) after an injection has the injection undone, not the run ended.
+UNDO_WINDOW = 5.0
+#: Watch expressions at most, and the ticks of their values kept (about 20 minutes at 80 Hz)
+MAX_WATCHES, MAX_WATCH_TICKS = 20, 100_000
 #: How long the loop sleeps at most while paused or ended before it looks at the commands again (s).
 IDLE = 0.1
 
@@ -69,9 +85,11 @@ class Controller:
 
     def __init__(self, session: Session, *, factory: Callable[[], Session] | None = None,
                  speed: float | None = 1.0, paused: bool = False, signals: Iterable[str] = (),
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 clock: Callable[[], float] = time.monotonic, fresh: Callable[[], Session] | None = None) -> None:
         self.session = session
         self.factory = factory
+        #: builds the same run afresh without recording it (``why`` re-simulates with it; default: ``factory``)
+        self.fresh = fresh or factory
         self.speed = speed
         self.paused = paused
         self.signals = tuple(sorted(set(signals)))
@@ -100,6 +118,7 @@ class Controller:
         self._to_transition = False
         self._anchor: tuple[float, int] | None = None
         self._next_id = 1
+        self._next_watch = 1
         self._seq = 0
         self._shown: dict[str, Any] = {}  # the last snapshot published, without its seq
         self._replied = False  # a command was answered since (its reply is news even if the status is not)
@@ -109,6 +128,13 @@ class Controller:
         #: ticks ran with no breakpoint and no step to a transition: ``_active`` is older than the machine
         self._stale = False
         self._end = session.stop_rules.end_tick(0, session.dt)
+        #: watch expressions: (number, text, compiled test); their values per tick since the run began
+        self.watches: list[tuple[int, str, Callable[[dict[str, Any]], Any]]] = []
+        self.watch_log: deque[tuple[int, list[Any]]] = deque(maxlen=MAX_WATCH_TICKS)
+        self._watch_new: list[tuple[int, list[Any]]] = []
+        #: what the watches read besides the variables: (name, the car's attribute, or None for a signal)
+        self._watch_reads: list[tuple[str, str | None]] = []
+        self._watch_tests: list[Callable[[dict[str, Any]], Any]] = []
         self._attach(session)
 
     # -- from any thread ------------------------------------------------------------------------------------------
@@ -186,7 +212,8 @@ class Controller:
         try:
             result = session.run(until=self._until, stop=stop, stop_rules=StopRules(max_ticks=ticks))
         except StateRuntimeError as exc:
-            self._failed(exc)
+            if not self._undo_injection(exc):
+                self._failed(exc)
             return
         if self._budget > 0:
             self._budget = max(0, self._budget - (session.ticks - before))
@@ -207,6 +234,24 @@ class Controller:
         if self.ended is not None:
             self._budget = 0
 
+    def _undo_injection(self, exc: StateRuntimeError) -> bool:
+        """A run that raises within :data:`UNDO_WINDOW` seconds after an injection is not ended by it: the
+        injection is undone (the run rewound to just before it applied, dropping it) and the run paused there, the
+        page told what raised. A run that raises again without it, when resumed, ends as any run does."""
+        if self.factory is None or not self.log:
+            return False
+        tick, item = self.log[-1]
+        failed = self.session.machine.ctx.tick  # the tick that raised
+        if failed - tick > UNDO_WINDOW / self.session.dt:
+            return False
+        self.rewind(max(0, tick - 1))
+        self.hit = {"breakpoint": None, "text": "injection undone",
+                    "why": f"the run raised in tick {failed}, after the injection '{item.describe()}' (applied before "
+                           f"tick {tick}): {exc}. The injection was undone: the run is paused before it",
+                    "tick": self.session.ticks, "time": round(self.session.now, 9)}
+        self.messages.append({"kind": "hit", **self.hit})
+        return True
+
     def _failed(self, exc: StateRuntimeError) -> None:
         self.ended = "error"
         self.error = str(exc)
@@ -214,6 +259,8 @@ class Controller:
 
     def _until(self, session: Session) -> bool:
         """After each tick: a breakpoint hit, the end of a step to a transition, or a command waiting."""
+        if self.watches:
+            self._note_watches(session)
         watch = self._watch
         if not self.breakpoints and not self._to_transition:  # nothing looks: keep the tick cheap
             if watch.moved:
@@ -241,6 +288,30 @@ class Controller:
             self._pause_at({"breakpoint": None, "text": "step to the next transition", "why": "; ".join(what)})
             return True
         return self._interrupt
+
+    def _note_watches(self, session: Session) -> None:
+        """The watch expressions' values after this tick (an expression that fails gives its error's text). Only
+        the names they use are read (a car's reading can cost a sensor query)."""
+        ctx = session.machine.ctx
+        values: dict[str, Any] = dict(ctx.vars)
+        car = ctx.car
+        for name, reading in self._watch_reads:
+            if reading is None:
+                values[name] = ctx.signals.get(name[7:], False)
+            elif car is not None:
+                values[name] = getattr(car, reading, None)
+        try:  # all at once; one that fails: each on its own, the failing one's error as its value
+            row: list[Any] = [test(values) for test in self._watch_tests]
+        except (ExprRuntimeError, TypeError, ValueError, ArithmeticError, LookupError):
+            row = []
+            for test in self._watch_tests:
+                try:
+                    row.append(test(values))
+                except (ExprRuntimeError, TypeError, ValueError, ArithmeticError, LookupError) as exc:
+                    row.append(f"error: {exc}")
+        entry = (session.ticks, row)
+        self.watch_log.append(entry)
+        self._watch_new.append(entry)
 
     def _resync(self) -> None:
         """Take the active states as they are between two ticks (after ticks nothing looked at)."""
@@ -282,9 +353,10 @@ class Controller:
             except (BreakpointError, InputError, ReloadRefused, ValueError, TypeError) as exc:
                 message: dict[str, Any] = {"kind": "reply", "id": reply, "command": name, "ok": False,
                                            "error": getattr(exc, "message", None) or str(exc)}
-                column = getattr(exc, "column", None)
-                if column is not None:
-                    message["column"] = column
+                for key in ("column", "field"):  # where the mistake is: a column, or the form's field
+                    where = getattr(exc, key, None)
+                    if where is not None:
+                        message[key] = where
                 self.messages.append(message)
             else:
                 self.messages.append({"kind": "reply", "id": reply, "command": name, "ok": True, **answer})
@@ -362,20 +434,59 @@ class Controller:
         return {"breakpoint": bp.to_json()}
 
     def _cmd_unbreak(self, args: dict[str, Any]) -> dict[str, Any]:
-        number = args.get("id")
+        number = args.get("breakpoint")
         kept = [bp for bp in self.breakpoints if bp.id != number]
         if len(kept) == len(self.breakpoints):
             raise ValueError(f"no breakpoint {number!r}")
         self.breakpoints = kept
         return {}
 
+    def _cmd_watch(self, args: dict[str, Any]) -> dict[str, Any]:
+        """``expr``: an expression of the document's language, whose value is kept after every tick from now on
+        (plotted by the page); an expression that does not parse is refused with its column."""
+        text = args.get("expr")
+        if not isinstance(text, str) or not text.strip():
+            raise BreakpointError("a watch is an expression such as car_front or n * 2", 1)
+        if len(self.watches) >= MAX_WATCHES:
+            raise ValueError(f"at most {MAX_WATCHES} watch expressions; remove one first")
+        machine = self.session.machine
+        try:
+            compiled = compile_expr(text, expression_kinds(machine, self.signals))
+        except ExprError as exc:
+            raise BreakpointError(exc.message, exc.column) from None
+        name = text.strip()  # a bare name (the usual watch) is a lookup: no expression to run after every tick
+        fn = operator.itemgetter(name) if name.isidentifier() and not compiled.constant else compiled.fn
+        self.watches.append((self._next_watch, text, fn))
+        self._next_watch += 1
+        self._watch_reads = _reads(self.watches)
+        self._watch_tests = [fn for _n, _t, fn in self.watches]
+        self.watch_log.clear()  # a new column: the rows so far have one value fewer
+        self._watch_new = []
+        if self.session.machine.started:
+            self._note_watches(self.session)
+        return {"watch": self._next_watch - 1}
+
+    def _cmd_unwatch(self, args: dict[str, Any]) -> dict[str, Any]:
+        number = args.get("watch")
+        kept = [w for w in self.watches if w[0] != number]
+        if len(kept) == len(self.watches):
+            raise ValueError(f"no watch {number!r}")
+        self.watches = kept
+        self._watch_reads = _reads(kept)
+        self._watch_tests = [fn for _n, _t, fn in kept]
+        self.watch_log.clear()
+        self._watch_new = []
+        return {}
+
+    def _cmd_watched(self, args: dict[str, Any]) -> dict[str, Any]:
+        """The watch expressions' values so far (a page that joins late, or reconnects)."""
+        return {"rows": list(self.watch_log)}
+
     def _cmd_input(self, args: dict[str, Any]) -> dict[str, Any]:
         self._going_on()
         item = input_from_json(args.get("input"))
         session = self.session
-        why = check_input(item, session.machine)
-        if why is not None:
-            raise InputError(why)
+        item = check_injection(item, session.machine, self.signals)
         tick = session.ticks + (1 if session.machine.started else 0)
         session.submit(item)
         self.log.append((tick, item))
@@ -426,17 +537,44 @@ class Controller:
         self._stale = False
         return swap
 
+    def _cmd_why(self, args: dict[str, Any]) -> dict[str, Any]:
+        """Why tick ``tick`` (default: the last one run) did what it did (:mod:`fsm.debug.explain`): the run built
+        afresh and re-simulated to just before it with the inputs given, as a rewind does; the run itself is not
+        touched. Costs as much as running to that tick, and only when asked."""
+        from fsm.debug.explain import explain_next
+
+        now = self.session.ticks
+        tick = args.get("tick", now)
+        if isinstance(tick, bool) or not isinstance(tick, int) or not 1 <= tick <= now:
+            raise ValueError(f"why: a tick from 1 to the current {now}, got {tick!r}")
+        if self.fresh is None:
+            raise ValueError("this run cannot be re-simulated (it was not started with a way to build it again)")
+        if any(at <= tick for at, _plan, _info in self.reloads):
+            raise ValueError("why: the run was hot-reloaded before this tick; Why re-simulates one machine only")
+        session = self.fresh()
+        for t, item in self.log:
+            if t <= tick:
+                session.schedule_tick(t, item)
+        session.start()
+        if tick > 1:
+            session.run(stop_rules=StopRules(max_ticks=tick - 1))
+        if session.ticks != tick - 1:
+            raise ValueError(f"why: the re-simulated run ended at tick {session.ticks}, before tick {tick}")
+        return {"why": explain_next(session, self.signals).to_json()}
+
     def _cmd_rewind(self, args: dict[str, Any]) -> dict[str, Any]:
         tick = args.get("tick")
         now = self.session.ticks
         if isinstance(tick, bool) or not isinstance(tick, int) or not 0 <= tick <= now:
             raise ValueError(f"rewind to a tick from 0 to the current {now}, got {tick!r}")
+        before = len(self.log)
         dropped = self.rewind(tick)
-        return {"tick": tick, "dropped": dropped}
+        inputs = before - len(self.log)
+        return {"tick": tick, "dropped": inputs, "reloads_dropped": dropped - inputs}
 
     def rewind(self, tick: int) -> int:
         """Build the run afresh and run it to ``tick`` with the inputs given up to it (the loop's thread only);
-        paused there. Returns how many later inputs were dropped."""
+        paused there. Returns how many later inputs and reloads were dropped."""
         if self.factory is None:
             raise ValueError("this run cannot be rewound (it was not started with a way to build it again)")
         session = self.factory()
@@ -445,7 +583,7 @@ class Controller:
             session.schedule_tick(t, item)
         dropped = len(self.log) - len(keep)
         reloads = [r for r in self.reloads if r[0] <= tick]
-        dropped += len(self.reloads) - len(reloads)
+        unloaded = len(self.reloads) - len(reloads)  # the machine goes back to the one before them
         self.session = session
         self.log = keep
         self.reloads = []
@@ -477,8 +615,12 @@ class Controller:
         for bp in self.breakpoints:
             if bp.test is not None and bp.enabled:  # "becomes true" counts from here
                 bp.last = bp.test(values) is True
-        self.messages.append({"kind": "rewound", "tick": session.ticks, "dropped": dropped})
-        return dropped
+        while self.watch_log and self.watch_log[-1][0] > session.ticks:  # the same run up to here: kept
+            self.watch_log.pop()
+        self._watch_new = []
+        self.messages.append({"kind": "rewound", "tick": session.ticks, "dropped": dropped,
+                              "reloads_dropped": unloaded})
+        return dropped + unloaded
 
     def _attach(self, session: Session) -> None:
         self._watch = Watch()
@@ -502,7 +644,12 @@ class Controller:
             "breakpoints": [bp.to_json() for bp in self.breakpoints],
             "inputs": [[t, item.describe()] for t, item in self.log[-200:]],
             "can_rewind": self.factory is not None,
+            "watches": [{"id": number, "text": text} for number, text, _fn in self.watches],
         }
+        if self._watch_new:  # the values since the last publish, to every page (the server writes inf and nan as text)
+            self.messages.append({"kind": "watched", "rows": self._watch_new})
+            self._watch_new = []
+            self._replied = True
         if snapshot == self._shown and not self._replied:  # a paused run looks every IDLE seconds: nothing new
             return
         self._replied = False
@@ -517,6 +664,14 @@ class Controller:
         notify = self.notify
         if notify is not None:
             notify()
+
+
+def _reads(watches: list[tuple[int, str, Any]]) -> list[tuple[str, str | None]]:
+    """The signals and car readings ``watches`` name (``signal_NAME``, ``car_NAME``), each once."""
+    names = {name for _n, text, _fn in watches for name in re.findall(r"[A-Za-z_][A-Za-z_0-9]*", text)}
+    reads: list[tuple[str, str | None]] = [(n, None) for n in sorted(names) if n.startswith("signal_")]
+    reads += [(f"car_{r}", r) for r in CAR_READINGS if f"car_{r}" in names]
+    return reads
 
 
 __all__ = ["CHUNK", "Controller"]

@@ -196,7 +196,7 @@ def _start_live(args: argparse.Namespace, p: Any, todo: list[dict[str, Any]], re
     """Serve the sweep's page (a port in use is an error before any run starts) and print its URL; every run to
     run writes its trace (what the page opens), which leaves the runs' keys as they are: a sweep run again without
     --live skips them."""
-    from ..live.runner import DEFAULT_PORT, listen_error
+    from ..live.runner import DEFAULT_PORT, announce, listen_error
     from ..live.server import new_token
     from ..live.sweep import Board, SweepServer
 
@@ -215,8 +215,7 @@ def _start_live(args: argparse.Namespace, p: Any, todo: list[dict[str, Any]], re
         bound = server.start(host, port)
     except OSError as exc:
         raise listen_error(exc, host, port) from None
-    shown = f"[{host}]" if ":" in host else host
-    print(f"live: http://{shown}:{bound}/" + (f"?token={token}" if token else ""), flush=True)
+    announce(host, bound, token, sys.stdout)
     return server
 
 

@@ -7,7 +7,6 @@ from __future__ import annotations
 import argparse
 import asyncio
 import errno
-import ipaddress
 import json
 import sys
 import threading
@@ -18,6 +17,7 @@ from typing import Any
 from fsm.model.errors import FsmError, UsageError, printable
 
 from ..files import shown_path
+from .addresses import is_loopback, usable_urls
 from .stream import LineBuffer
 
 #: The port the page is served on by default.
@@ -93,14 +93,16 @@ def check_usage(args: argparse.Namespace) -> None:
         raise UsageError("--live needs aiohttp: pip install 'tral-fsm[live]'") from None
 
 
-def is_loopback(host: str) -> bool:
-    """Whether ``host`` is this machine only."""
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
+def announce(host: str, port: int, token: str | None, out: Any) -> None:
+    """Print the page's URL (``live: URL``; each interface's when ``host`` is all of them: ``0.0.0.0`` cannot be
+    opened), and, when other machines can reach it, a warning saying so to standard error."""
+    suffix = f"?token={token}" if token else ""
+    for url in usable_urls(host, port, suffix):
+        print(f"live: {url}", file=out, flush=True)
+    if not is_loopback(host):
+        print(f"fsmctl: warning: --host {host}: the page is reachable from other machines on the network; anyone "
+              "with the URL (it carries the token) can steer the run. Use --host 127.0.0.1 to keep it on this "
+              "machine", file=sys.stderr, flush=True)
 
 
 class LiveRun:
@@ -142,9 +144,7 @@ def serve(source: Any, page: Callable[[dict[str, Any]], str], *, host: str, port
             bound = await server.start(host, port)
         except OSError as exc:
             raise listen_error(exc, host, port) from None
-        shown = f"[{host}]" if ":" in host else host
-        url = f"http://{shown}:{bound}/" + (f"?token={token}" if token else "")
-        print(f"live: {url}", file=out, flush=True)
+        announce(host, bound, token, out)
         until = "the run goes on until Stop in the page or Ctrl-C here" if controller else "serving the trace " \
                 "until Ctrl-C here"
         print(f"live: {until}", file=out, flush=True)
@@ -171,7 +171,13 @@ def serve(source: Any, page: Callable[[dict[str, Any]], str], *, host: str, port
             halt.set()
             if thread is not None:
                 await asyncio.get_running_loop().run_in_executor(None, thread.join)
-            await server.close()
+            if controller is not None and controller.quit:
+                why = "the run was stopped from the page"
+            elif controller is not None and stop():
+                why = "the run was stopped by Ctrl-C where fsmctl runs"
+            else:
+                why = "the server was stopped by Ctrl-C where fsmctl runs"
+            await server.close(why)
 
     asyncio.run(main())
 
@@ -231,7 +237,8 @@ def run_live(args: argparse.Namespace, file: str, make_session: Callable[[], Any
         run.session.start()
     except StateRuntimeError:
         pass  # the controller says so in the page, where the run can be rewound
-    controller = Controller(run.session, factory=run.build, speed=args.speed, paused=args.paused, signals=signals)
+    controller = Controller(run.session, factory=run.build, speed=args.speed, paused=args.paused, signals=signals,
+                            fresh=make_session)
     run.source.controller = controller
     host = args.host or "127.0.0.1"
     port = args.port if args.port is not None else DEFAULT_PORT

@@ -1,13 +1,16 @@
 """The live server: one page and one WebSocket, on aiohttp, for a run the controller drives in its own thread.
 
 Routes: ``GET /`` (the page) and ``GET /ws`` (the stream), both only with the run's token (``?token=``); every
-other path is 404, so nothing but the page is ever served (no file is read from disk after the start). A
-WebSocket whose ``Origin`` is another site is refused (the token is the real lock; this keeps a page elsewhere
-from even trying).
+other path is 404, so nothing but the page is ever served (no file is read from disk after the start). Every
+request, with a token or without, must name the server by one of its own addresses (``Host``) and come from none
+or one of its own pages (``Origin``): a page elsewhere whose name was made to point at 127.0.0.1 (DNS rebinding)
+is refused. Every answer carries a Content-Security-Policy, ``X-Frame-Options`` and ``nosniff``.
 
 The stream to a page: the trace's lines as binary messages (UTF-8 JSON lines, exactly what the trace file gets),
-and text messages (JSON) for the rest: ``status`` (the controller's snapshot), ``reply`` (to the page's own
-commands), ``hit``, ``rewound``, ``reset`` (the trace starts again: after a rewind). A page that cannot keep up
+and text messages (JSON) for the rest: ``hello`` (first: the page reads the trace from its start), ``status``
+(the controller's snapshot), ``reply`` (to the page's own commands), ``hit``, ``rewound``, ``reset`` (the trace
+starts again: after a rewind), and ``bye`` (the server ends: the run is over; a socket that closes without it is
+a dropped connection, which the page reconnects). A page that cannot keep up
 gets fewer, larger messages: each page is sent at most :data:`MAX_RATE` times a second whatever was written
 meanwhile, so a slow page never holds the run back. Commands from a page are JSON text messages
 ``{"cmd": NAME, "id": N, ...arguments}`` (see :mod:`fsm.debug.control`).
@@ -18,16 +21,19 @@ from __future__ import annotations
 import asyncio
 import hmac
 import json
+import logging
+import math
 import secrets
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
-from urllib.parse import urlsplit
 
 from aiohttp import WSMsgType, web
+from aiohttp.http_exceptions import HttpProcessingError, LineTooLong
 
 from fsm.debug.control import Controller
 
+from .addresses import allowed_hosts, origin_allowed
 from .stream import LineBuffer
 
 #: Messages a page gets per second at most (the page redraws at most as often).
@@ -38,10 +44,32 @@ FAST_RATE = 5
 #: The largest command a page may send (bytes).
 MAX_COMMAND = 64 * 1024
 #: Commands a page may send.
-COMMANDS = ("pause", "resume", "step", "step_transition", "speed", "stop", "break", "unbreak", "input", "rewind")
+COMMANDS = ("pause", "resume", "step", "step_transition", "speed", "stop", "break", "unbreak", "input", "rewind",
+            "why", "watch", "unwatch", "watched")
 #: What every answer carries: no caching, no sniffing, no referrer, nothing loaded from elsewhere.
+#: The page's Content-Security-Policy: nothing from elsewhere, no frame around it, its own WebSocket only.
+CSP = ("default-src 'none'; img-src data:; style-src 'unsafe-inline'; script-src 'unsafe-inline'; "
+       "connect-src 'self'; frame-ancestors 'none'; base-uri 'none'; form-action 'none'")
 HEADERS = {"Cache-Control": "no-store", "X-Content-Type-Options": "nosniff", "Referrer-Policy": "no-referrer",
-           "X-Frame-Options": "DENY"}
+           "X-Frame-Options": "DENY", "Content-Security-Policy": CSP}
+
+
+def dumps(message: dict[str, Any]) -> str:
+    """``message`` as JSON for a page: what JSON cannot say (inf, nan: a watch expression's value) as text."""
+    try:
+        return json.dumps(message, allow_nan=False, default=str)
+    except ValueError:
+        return json.dumps(_finite(message), allow_nan=False, default=str)
+
+
+def _finite(value: Any) -> Any:
+    if isinstance(value, float):
+        return value if math.isfinite(value) else str(value)
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    return value
 
 
 def new_token() -> str:
@@ -49,12 +77,20 @@ def new_token() -> str:
     return secrets.token_urlsafe(16)
 
 
-def token_guard(token: Callable[[], str | None]) -> Any:
-    """An aiohttp middleware: every request carries ``token()`` (``None``: none asked) in its query, or is refused
-    (403) before anything else is looked at; a path that is not served is a short 404, never aiohttp's page."""
+def token_guard(token: Callable[[], str | None], hosts: Callable[[], set[str] | None]) -> Any:
+    """An aiohttp middleware, before anything else is looked at: the request's ``Host`` must be one of ``hosts()``
+    (the server's own names: another one is a page of another site that made its name point here, DNS
+    rebinding), its ``Origin``, if any, one of them too, and its query must carry ``token()`` (``None``: none
+    asked); each refused with 403. A path that is not served is a short 404, never aiohttp's page."""
 
     @web.middleware
     async def guard(request: web.Request, handler: Callable[[web.Request], Any]) -> web.StreamResponse:
+        own = hosts()
+        if own is None or request.headers.get("Host", "").lower() not in own:
+            return web.Response(status=403, text="forbidden: this server answers its own address only; open the URL "
+                                "fsmctl printed\n", headers=HEADERS)
+        if not origin_allowed(request.headers.get("Origin"), own):
+            return web.Response(status=403, text="forbidden: a page of another site\n", headers=HEADERS)
         expected = token()
         if expected is not None:
             given = request.query.get("token", "")
@@ -71,6 +107,37 @@ def token_guard(token: Callable[[], str | None]) -> Any:
         return response
 
     return guard
+
+
+class _OneLine(logging.Filter):
+    """aiohttp's report of a request it could not read (a line or a header over the limit, bytes that are no
+    HTTP): one line per request, without the traceback."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        exc = record.exc_info[1] if record.exc_info else None
+        if not isinstance(exc, HttpProcessingError):
+            return True
+        if isinstance(exc, LineTooLong):
+            what = "a request line or header longer than the limit (8190 bytes)"
+        else:
+            what = (str(exc.message).split(":")[0] or type(exc).__name__)[:100]
+        text = f"live: refused a request it cannot read: {what} (answered {exc.code})"
+        record.msg, record.args, record.exc_info, record.exc_text = text, (), None, None
+        return True
+
+
+def quiet_bad_requests() -> None:
+    """Make aiohttp report a request it cannot read in one line (see :class:`_OneLine`), printed to standard error
+    (once per process)."""
+    logger = logging.getLogger("aiohttp.server")
+    if any(isinstance(f, _OneLine) for f in logger.filters):
+        return
+    logger.addFilter(_OneLine())
+    if not logger.handlers:
+        handler = logging.StreamHandler()
+        handler.setFormatter(logging.Formatter("%(message)s"))
+        logger.addHandler(handler)
+        logger.propagate = False
 
 
 @dataclass
@@ -101,7 +168,9 @@ class LiveServer:
         self.app = web.Application(client_max_size=MAX_COMMAND)
         self.app.router.add_get("/", self.serve_page)
         self.app.router.add_get("/ws", self.serve_socket)
-        self.app.middlewares.append(token_guard(lambda: self.token))
+        #: the Host values answered (known once listening; a sweep's page checks its own)
+        self.hosts: set[str] | None = None
+        self.app.middlewares.append(token_guard(lambda: self.token, lambda: self.hosts))
         self.runner: web.AppRunner | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._wake: asyncio.Event | None = None
@@ -113,6 +182,7 @@ class LiveServer:
     # -- starting and stopping ----------------------------------------------------------------------------------------
     async def start(self, host: str, port: int) -> int:
         """Listen on ``host``:``port`` (0: any free port); the port listened on. ``OSError`` when it cannot."""
+        quiet_bad_requests()
         self.runner = web.AppRunner(self.app, access_log=None, handle_signals=False)
         await self.runner.setup()
         site = web.TCPSite(self.runner, host, port, reuse_address=False)
@@ -123,6 +193,7 @@ class LiveServer:
             raise
         addresses = self.runner.addresses
         bound = addresses[0][1] if addresses else port
+        self.hosts = allowed_hosts(host, int(bound))
         self.begin()
         return int(bound)
 
@@ -136,8 +207,9 @@ class LiveServer:
             controller.notify = self._notify
         self._pump = asyncio.create_task(self._pump_loop())
 
-    async def close(self) -> None:
-        """Close every page's socket and stop listening."""
+    async def close(self, why: str = "the server has stopped") -> None:
+        """Tell every page that the run has ended and ``why`` (a ``bye``: a socket that merely closes is a page's
+        cue to reconnect), close their sockets and stop listening."""
         controller = self.source.controller
         if controller is not None:
             controller.notify = None
@@ -145,7 +217,12 @@ class LiveServer:
         if self._pump is not None:  # ended (a cancel that wait_for swallows still ends it: the flag)
             self._pump.cancel()
             await asyncio.wait({self._pump}, timeout=1.0)
+        bye = json.dumps({"kind": "bye", "why": why})
         for client in list(self.clients.values()):
+            try:
+                await asyncio.wait_for(client.ws.send_str(bye), 1.0)
+            except (ConnectionError, RuntimeError, asyncio.TimeoutError):
+                pass  # that page has gone already
             await client.ws.close(message=b"the run has ended")
         if self.runner is not None:
             await self.runner.cleanup()
@@ -156,9 +233,9 @@ class LiveServer:
         return web.Response(text=self.page, content_type="text/html", charset="utf-8", headers=HEADERS)
 
     async def serve_socket(self, request: web.Request) -> web.StreamResponse:
-        """The page's stream (its token already checked; a page of another site is refused)."""
-        origin = request.headers.get("Origin")
-        if origin is not None and urlsplit(origin).netloc != request.host:
+        """The page's stream (its token, Host and Origin already checked; an Origin of another site than the Host
+        it came to is refused here too)."""
+        if not origin_allowed(request.headers.get("Origin"), {request.host.lower()}):
             return web.Response(status=403, text="forbidden: a page of another site\n", headers=HEADERS)
         ws = web.WebSocketResponse(heartbeat=30, max_msg_size=MAX_COMMAND)
         await ws.prepare(request)
@@ -271,7 +348,7 @@ class LiveServer:
                     await ws.send_bytes(text.encode("utf-8"))
                 outbox, client.outbox = client.outbox, []
                 for message in outbox:
-                    await ws.send_str(json.dumps(message, allow_nan=False, default=str))
+                    await ws.send_str(dumps(message))
                 if snapshot is not None and snapshot.get("seq") != seq:
                     seq = snapshot["seq"]
                     await ws.send_str(json.dumps({"kind": "status", **snapshot}, allow_nan=False, default=str))

@@ -28,7 +28,8 @@ from aiohttp import web
 
 from fsm.model.errors import FsmError
 
-from .server import HEADERS, LiveServer, Source, token_guard
+from .addresses import allowed_hosts
+from .server import HEADERS, LiveServer, Source, quiet_bad_requests, token_guard
 from .stream import LineBuffer
 
 #: How often (seconds) a running run's trace is read again for its page.
@@ -119,7 +120,8 @@ class SweepServer:
         self.runs: dict[str, LiveServer] = {}
         self.followers: list[asyncio.Task[None]] = []
         self.app = web.Application(client_max_size=64 * 1024)
-        self.app.middlewares.append(token_guard(lambda: self.token))
+        self.hosts: set[str] | None = None  # the Host values answered, once listening
+        self.app.middlewares.append(token_guard(lambda: self.token, lambda: self.hosts))
         self.app.router.add_get("/", self._list)
         self.app.router.add_get("/runs.json", self._statuses)
         self.app.router.add_get("/run/{id}", self._run_page)
@@ -138,6 +140,7 @@ class SweepServer:
         async def main() -> None:
             self.loop = asyncio.get_running_loop()
             self._stopped = asyncio.Event()
+            quiet_bad_requests()
             runner = web.AppRunner(self.app, access_log=None, handle_signals=False)
             await runner.setup()
             site = web.TCPSite(runner, host, port, reuse_address=False)
@@ -149,6 +152,7 @@ class SweepServer:
                 ready.set()
                 return
             result["port"] = runner.addresses[0][1] if runner.addresses else port
+            self.hosts = allowed_hosts(host, int(result["port"]))
             ready.set()
             try:
                 await self._stopped.wait()

@@ -8,6 +8,8 @@
   var decoder = new TextDecoder("utf-8");
   var ws = null, status = null, nextId = 1, pending = {}, dirty = false, drawing = false, lastDraw = 0, cost = 0;
   var live = true, followEnd = null, statusShown = true, breaksShown = "";
+  // reconnecting: the server's word that the run is over (null: none yet), attempts since the last good socket
+  var bye = null, attempts = 0, opened = false, inputsShown = "";
 
   // -- drawing: the model rebuilt from the lines so far, at most about 30 times a second ---------------------------
   function schedule() {
@@ -28,9 +30,11 @@
     dirty = false;
     var t0 = performance.now(), dt = R.dt || 0.0125;
     var atEnd = followEnd === null || Math.abs(R.cursor() - followEnd) < dt / 2;  // the cursor follows the run
-    R.load(model.build(), atEnd);
+    var data = model.build();
+    R.load(data, atEnd);
     if (atEnd) followEnd = R.end();
     showInputs();
+    showLog(data);
     lastDraw = performance.now();
     cost = lastDraw - t0;
     document.body.dataset.drawn = String((document.body.dataset.drawn | 0) + 1);
@@ -43,17 +47,29 @@
     var url = (location.protocol === "https:" ? "wss://" : "ws://") + location.host +
       location.pathname.replace(/\/+$/, "") + "/ws" +
       (token ? "?token=" + encodeURIComponent(token) : "");
-    ws = new WebSocket(url);
-    ws.binaryType = "arraybuffer";
-    ws.onopen = function () { $("conn").textContent = "connected"; $("conn").className = "conn up"; };
-    ws.onclose = function () {
-      $("conn").textContent = "disconnected"; $("conn").className = "conn down";
-      if (!statusShown && status) showStatus();  // the last status, before the controls go off for good
+    var sock = new WebSocket(url);
+    ws = sock;
+    sock.binaryType = "arraybuffer";
+    sock.onopen = function () { $("conn").textContent = "connected"; $("conn").className = "conn up"; };
+    sock.onclose = function () {
+      if (sock !== ws) return;  // an older socket's end (a reconnect has replaced it)
+      if (!statusShown && status) showStatus();  // the last status, before the controls go off
       statusShown = true;
       setControls(false);
-      notice("The server has ended (the run was stopped); what was received stays on this page.");
+      pending = {};
+      if (bye !== null) {  // the server said the run is over: for good
+        $("conn").textContent = "disconnected"; $("conn").className = "conn down";
+        notice("The server has ended (" + bye + "); what was received stays on this page.");
+        return;
+      }
+      // no word from the server: the connection dropped (a network blip, a sleeping laptop). Again, with backoff
+      var wait = Math.min(10000, 500 * Math.pow(2, attempts++));
+      $("conn").textContent = "reconnecting…"; $("conn").className = "conn down";
+      notice("The connection to the run was lost; reconnecting in " + (wait / 1000).toFixed(1) + " s (attempt " + attempts + ").");
+      setTimeout(connect, wait);
     };
-    ws.onmessage = function (ev) {
+    sock.onmessage = function (ev) {
+      if (sock !== ws) return;
       if (typeof ev.data !== "string") {
         model.addText(decoder.decode(ev.data));
         dirty = true;
@@ -65,7 +81,21 @@
         return;
       }
       var m = JSON.parse(ev.data);
-      if (m.kind === "hello") { live = m.live; if (!live) { setControls(false); $("live-bar").classList.add("static"); } }
+      if (m.kind === "hello") {
+        live = m.live;
+        if (opened) {  // a reconnect: the server sends the trace from its start again, and the status
+          model.reset(); status = null; statusShown = true; followEnd = null; breaksShown = inputsShown = ""; dirty = true;
+          notice("Reconnected: the page was rebuilt from the run's trace.");
+        }
+        opened = true; attempts = 0;
+        setControls(live);
+        watchRows = []; hits = [];
+        if (live) send("watched", {}, function (r) { if (r.ok) { watchRows = []; addWatched(r.rows); } });
+        if (!live) $("live-bar").classList.add("static");
+      }
+      else if (m.kind === "bye") bye = m.why || "the run has ended";
+      else if (m.kind === "watched") addWatched(m.rows);
+      else if (m.kind === "hit") { hits.push(m); logDirty = true; schedule(); }
       else if (m.kind === "reset") { model.reset(); status = null; statusShown = true; followEnd = null; dirty = true; }
       else if (m.kind === "status") {  // redrawn when the run moved on or changed state, not for a breakpoint's count
         if (!status || m.tick !== status.tick || m.state !== status.state) dirty = true;
@@ -77,18 +107,30 @@
         if (m.state === "running") statusShown = false; else { statusShown = true; showStatus(); }
         schedule();
       }
-      else if (m.kind === "reload") showReload(m);
+      else if (m.kind === "reload") {
+        showReload(m);
+        // the server now serves the page with the new statechart: this page is rebuilt from it (the run, its
+        // breakpoints, watches and trace are the server's; the page reads them again)
+        if (m.ok) setTimeout(function () { sessionStorage.setItem("tral-reloaded", $("reload").textContent); location.reload(); }, 300);
+      }
       else if (m.kind === "reply" && m.command === "reload") { if (!m.ok) showReload({ ok: false, file: "", errors: [m.error] }); }
       else if (m.kind === "reply") { var done = pending[m.id]; delete pending[m.id]; if (done) done(m); else if (!m.ok) notice(m.error); }
-      else if (m.kind === "rewound") notice("Rewound to tick " + m.tick + (m.dropped ? "; " + m.dropped + " later input(s) dropped" : "") + ".");
+      else if (m.kind === "rewound") {
+        var said = [];
+        if (m.dropped) said.push(m.dropped + " later input" + (m.dropped === 1 ? "" : "s") + " dropped");
+        if (m.reloads_dropped) said.push(m.reloads_dropped + " later hot reload" + (m.reloads_dropped === 1 ? "" : "s") +
+          " undone: the run goes on with the machine it had at that tick (save the file again to reload it)");
+        notice("Rewound to tick " + m.tick + (said.length ? "; " + said.join("; ") : "") + ".");
+      }
     };
   }
   function send(cmd, args, done) {
     if (!ws || ws.readyState !== 1) return;
     var id = nextId++;
     if (done) pending[id] = done;
-    var msg = { cmd: cmd, id: id };
+    var msg = {};
     for (var k in args || {}) msg[k] = args[k];
+    msg.cmd = cmd; msg.id = id;  // the request's own number: no argument may take its place
     ws.send(JSON.stringify(msg));
   }
   function showReload(m) {  // a hot reload: the edited file's located errors, or what the swap kept
@@ -98,7 +140,7 @@
     box.dataset.ok = m.ok ? "1" : "0";
     box.dataset.tick = m.ok ? m.tick : "";
     box.textContent = m.ok
-      ? "Reloaded " + m.file + " before tick " + m.tick + ": " + m.text + ". Reload this page to redraw the statechart."
+      ? "Reloaded " + m.file + " before tick " + m.tick + ": " + m.text + ". The statechart is being redrawn."
       : "The edited " + (m.file || "machine") + " was not loaded; the run goes on with the machine it has:\n" + m.errors.join("\n");
   }
   function notice(text) { var n = $("notice"); n.hidden = !text; n.textContent = text || ""; }
@@ -129,6 +171,9 @@
     ["run-step", "run-step-n", "run-step-tr"].forEach(function (id) { $(id).disabled = st.state === "ended"; });
     $("run-rewind").disabled = !st.can_rewind;
     showBreakpoints(st.breakpoints);
+    showInputs();
+    showWatches();
+    askWhy();
   }
   function showBreakpoints(list) {
     var key = JSON.stringify(list);
@@ -144,21 +189,29 @@
       row.insertCell().textContent = bp.text + (bp.error ? " — " + bp.error : "");
       var hits = row.insertCell(); hits.className = "hits"; hits.textContent = bp.hits + " hit" + (bp.hits === 1 ? "" : "s");
       var b = document.createElement("button"); b.type = "button"; b.textContent = "remove";
-      b.addEventListener("click", function () { send("unbreak", { id: bp.id }); });
+      b.addEventListener("click", function () { send("unbreak", { breakpoint: bp.id }, reply); });
       row.insertCell().appendChild(b);
     });
   }
-  function showInputs() {
-    var body = $("inputs").tBodies[0];
+  function showInputs() {  // the trace's inputs and reloads, then those the server has not applied yet (pending)
+    var body = $("inputs").tBodies[0], rows = model.inputs.map(function (line) {
+      return [line.tick, line.text || line.input.kind];
+    });
+    if (status) rows = rows.concat(status.inputs.filter(function (r) { return r[0] > status.tick; }));
+    rows = rows.slice(-50);
+    var key = JSON.stringify(rows) + (status ? status.tick : "");
+    if (key === inputsShown) return;
+    inputsShown = key;
     body.textContent = "";
-    model.inputs.slice(-50).forEach(function (line) {
+    rows.forEach(function (r) {
       var row = body.insertRow();
-      row.insertCell().textContent = line.tick;
-      row.insertCell().textContent = line.text || line.input.kind;
+      row.insertCell().textContent = r[0];
+      row.insertCell().textContent = r[1];
+      if (status && r[0] > status.tick) { row.className = "pending"; row.title = "applied before tick " + r[0]; }
     });
   }
   function setControls(on) {
-    Array.prototype.forEach.call(document.querySelectorAll("#live-bar button, #live-bar select, #live-bar input, #break-form *, #inject-form *"),
+    Array.prototype.forEach.call(document.querySelectorAll("#live-bar button, #live-bar select, #live-bar input, #break-form *, #inject-form *, #watch-form *"),
       function (el) { el.disabled = !on; });
   }
 
@@ -238,15 +291,171 @@
     else if (kind === "monitor") input = { kind: "monitor", owner: a, monitor: b.trim() };
     else if (kind === "finish") input = { kind: "finish", path: a, outcome: b.trim() || "succeeded" };
     else input = { kind: "pause", path: a, paused: kind === "pause" };
+    $("inject-error").hidden = true;  // until this one's answer
     send("input", { input: input }, function (m) {
-      var box = $("inject-error");
+      var box = $("inject-error"), field = { name: "inject-a", value: "inject-b" }[m.field];
       box.hidden = m.ok;
       box.textContent = m.ok ? "" : m.error;
+      box.dataset.field = m.ok ? "" : (m.field || "");
+      ["inject-a", "inject-b", "inject-c"].forEach(function (id) { $(id).classList.toggle("wrong", !m.ok && id === field); });
+      if (!m.ok && field) $(field).focus();  // the refusal points at the field it is about
     });
+  });
+
+  // -- why: asked only while the panel is open and the run paused (it costs a re-simulation to the tick) ---------
+  var whyAsked = null;
+  function askWhy() {
+    if ($("why-box").open && !live) { $("why-info").textContent = "A finished run's trace: fsmctl explain TRACE --tick N says why a tick did what it did."; return; }
+    if (!$("why-box").open || !status || status.state === "running") return;
+    if (status.tick < 1) { $("why-info").textContent = "No tick has run yet: step once, and Why says what it did."; return; }
+    var key = status.tick + "|" + status.inputs.length + "|" + status.state;
+    if (key === whyAsked) return;
+    whyAsked = key;
+    $("why-info").textContent = "re-simulating to tick " + status.tick + "…";
+    send("why", { tick: status.tick }, showWhy);
+  }
+  function showWhy(m) {
+    var body = $("why").tBodies[0], info = $("why-info");
+    body.textContent = "";
+    if (!m.ok) { info.textContent = m.error; info.className = "error"; return; }
+    var w = m.why;
+    info.className = "";
+    info.textContent = "Tick " + w.tick + " (" + w.time.toFixed(3) + " s) from " + (w.active.join(", ") || "nothing") +
+      ": fired " + ((w.fired.concat(w.monitors)).join("; ") || "nothing") + (w.paused.length ? "; paused: " + w.paused.join(", ") : "");
+    $("why-box").dataset.tick = w.tick;
+    w.states.forEach(function (st) {
+      var head = body.insertRow(); head.className = "state";
+      var c = head.insertCell(); c.colSpan = 5; c.textContent = st.state + (st.transitions.length ? "" : ": no transition leaves it");
+      st.transitions.forEach(function (t, i) {
+        var row = body.insertRow();
+        row.className = t.verdict === "fired" ? "fired" : (t.checked ? "checked" : "skipped");
+        row.dataset.verdict = t.verdict;
+        row.insertCell().textContent = i + 1;
+        row.insertCell().textContent = t.from + " \u2192 " + t.to + (t.preempt ? " (preemptive)" : "");
+        var params = Object.keys(t.params).map(function (k) { return k + "=" + JSON.stringify(t.params[k]); }).join(" ");
+        row.insertCell().textContent = t.type + (params ? " " + params : "") + (t.guard ? " [" + t.guard + "]" + (t.guard_value === null ? "" : " = " + t.guard_value) : "");
+        row.insertCell().textContent = Object.keys(t.values).map(function (k) {
+          var v = t.values[k]; return k + " = " + (typeof v === "number" ? +v.toPrecision(4) : JSON.stringify(v));
+        }).join(", ");
+        row.insertCell().textContent = t.verdict;
+      });
+    });
+  }
+  $("why-box").addEventListener("toggle", function () { whyAsked = null; askWhy(); });
+
+  // -- watch expressions: their values after every tick, from the server; a plot of those ticked ----------------
+  var watchRows = [], watchShown = "", watchPlot = null, plotted = {};
+  function addWatched(rows) {
+    rows.forEach(function (r) {  // a rewind drops the later ones: the rows come in tick order again
+      while (watchRows.length && watchRows[watchRows.length - 1][0] >= r[0]) watchRows.pop();
+      watchRows.push(r);
+    });
+    if (watchRows.length > 100000) watchRows = watchRows.slice(-100000);
+    showWatches();
+  }
+  function watchValueAt(k, tick) {  // the value after the last tick at or before ``tick``
+    var lo = 0, hi = watchRows.length - 1, at = -1;
+    while (lo <= hi) { var mid = (lo + hi) >> 1; if (watchRows[mid][0] <= tick) { at = mid; lo = mid + 1; } else hi = mid - 1; }
+    return at < 0 ? undefined : watchRows[at][1][k];
+  }
+  function showWatches() {
+    var list = status ? status.watches || [] : [], body = $("watches").tBodies[0], tick = R.current().tick;
+    var key = JSON.stringify(list);
+    if (key !== watchShown) {
+      watchShown = key;
+      body.textContent = "";
+      list.forEach(function (w) {
+        var row = body.insertRow(); row.dataset.id = w.id;
+        row.insertCell().textContent = w.text;
+        var v = row.insertCell(); v.className = "value";
+        var pc = row.insertCell(), box = document.createElement("input"); box.type = "checkbox"; box.title = "plot it";
+        box.checked = !!plotted[w.id];
+        box.addEventListener("change", function () { plotted[w.id] = this.checked; drawWatchPlot(true); });
+        var label = document.createElement("label"); label.appendChild(box); label.appendChild(document.createTextNode(" plot")); pc.appendChild(label);
+        var b = document.createElement("button"); b.type = "button"; b.textContent = "remove";
+        b.addEventListener("click", function () { delete plotted[w.id]; send("unwatch", { watch: w.id }, reply); });
+        row.insertCell().appendChild(b);
+      });
+      drawWatchPlot(true);
+    }
+    Array.prototype.forEach.call(body.rows, function (row, k) {
+      var v = watchValueAt(k, tick);
+      row.cells[1].textContent = v === undefined ? "–" : (typeof v === "number" ? String(+v.toPrecision(6)) : JSON.stringify(v));
+      row.cells[1].dataset.tick = tick;
+    });
+    drawWatchPlot(false);
+  }
+  function drawWatchPlot(rebuild) {
+    var list = status ? status.watches || [] : [], box = $("watch-plot");
+    var chosen = list.map(function (w, k) { return [w, k]; }).filter(function (p) { return plotted[p[0].id]; });
+    if (!chosen.length || typeof uPlot === "undefined") { box.textContent = ""; watchPlot = null; return; }
+    var dt = R.dt || 0.0125, xs = watchRows.map(function (r) { return r[0] * dt; });
+    var data = [xs].concat(chosen.map(function (p) {
+      return watchRows.map(function (r) { var v = r[1][p[1]]; return typeof v === "boolean" ? (v ? 1 : 0) : (typeof v === "number" ? v : null); });
+    }));
+    if (rebuild || !watchPlot) {
+      box.textContent = "";
+      var palette = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e"];
+      watchPlot = new uPlot({ title: "Watch expressions", width: Math.max(240, box.clientWidth - 4), height: 160,
+        series: [{}].concat(chosen.map(function (p, i) { return { label: p[0].text, stroke: palette[i % palette.length], width: 1.2 }; })),
+        scales: { x: { time: false } }, axes: [{ label: "s" }, {}], legend: { live: false } }, data, box);
+    } else watchPlot.setData(data);
+  }
+  $("watch-form").addEventListener("submit", function (ev) {
+    ev.preventDefault();
+    var text = $("watch-expr").value;
+    send("watch", { expr: text }, function (m) {
+      var box = $("watch-error");
+      box.hidden = m.ok;
+      if (m.ok) { $("watch-expr").value = ""; plotted[m.watch] = true; return; }
+      box.textContent = m.column ? text + "\n" + " ".repeat(m.column - 1) + "^ " + m.error + " (column " + m.column + ")" : m.error;
+    });
+  });
+
+  // -- the log: what happened, filterable; a click puts the cursor at its tick ------------------------------------
+  var hits = [], logDirty = true, logData = null, logShown = "";
+  function showLog(data) {
+    if (data) logData = data;
+    var d = logData;
+    if (!d) return;
+    var dt = d.meta.dt || 0.0125, S = d.states.map(function (s) { return s.path !== undefined ? s.path : s; }), lines = [];
+    d.transitions.forEach(function (tr) {
+      lines.push([tr[1], "transition", (tr[2] >= 0 ? S[tr[2]] : "start") + " \u2192 " + S[tr[3]] + " (" + d.types[tr[4]] + ")"]);
+    });
+    d.monitors.forEach(function (m) {
+      lines.push([Math.round(m[0] / dt), "monitor", "monitor of " + m[1] + " fired (" + m[2] + (m[4] ? ", exception " + m[4] : "") + ")"]);
+    });
+    d.inputs.forEach(function (i) { lines.push([i[0], /^reload/.test(i[2]) ? "reload" : "input", i[2]]); });
+    hits.forEach(function (h) { lines.push([h.tick, "breakpoint", (h.breakpoint !== null ? "breakpoint " + h.breakpoint + " (" + h.text + "): " : h.text + ": ") + h.why]); });
+    d.meta.warnings.forEach(function (w) { lines.push([0, "warning", w]); });
+    lines.sort(function (a, b) { return a[0] - b[0]; });
+    var on = {};
+    Array.prototype.forEach.call(document.querySelectorAll("#log-filter input[type=checkbox]"), function (c) { on[c.value] = c.checked; });
+    var text = $("log-text").value.toLowerCase();
+    lines = lines.filter(function (l) { return on[l[1]] && (!text || l[2].toLowerCase().indexOf(text) >= 0); }).slice(-300);
+    var key = JSON.stringify(lines);
+    if (key === logShown) return;
+    logShown = key;
+    var body = $("log").tBodies[0];
+    body.textContent = "";
+    lines.forEach(function (l) {
+      var row = body.insertRow(); row.className = "log-" + l[1]; row.dataset.tick = l[0]; row.dataset.kind = l[1];
+      row.insertCell().textContent = l[0];
+      row.insertCell().textContent = l[1];
+      row.insertCell().textContent = l[2];
+      row.addEventListener("click", function () { followEnd = null; R.setTime(l[0] * dt); showWatches(); });
+    });
+  }
+  var cursorSeen = null;  // the watch values follow the cursor, wherever it was moved from
+  setInterval(function () { var c = R.cursor(); if (c !== cursorSeen && status && (status.watches || []).length) { cursorSeen = c; showWatches(); } }, 200);
+  Array.prototype.forEach.call(document.querySelectorAll("#log-filter input"), function (c) {
+    c.addEventListener("input", function () { showLog(null); });
   });
 
   // for tests and the console
   window.tralLive = { model: model, status: function () { return status; }, send: send,
                       drawn: function () { return document.body.dataset.drawn | 0; } };
+  var reloaded = sessionStorage.getItem("tral-reloaded");  // the page was rebuilt after a hot reload: say so
+  if (reloaded) { sessionStorage.removeItem("tral-reloaded"); showReload({ ok: true, file: "", tick: "", text: "" }); $("reload").textContent = reloaded.replace("The statechart is being redrawn.", "The statechart was redrawn."); }
   connect();
 })();

@@ -88,11 +88,45 @@
   var full = null, vb = null, box = $("chart");
   function applyView() { if (svg && vb) svg.setAttribute("viewBox", vb.x + " " + vb.y + " " + vb.w + " " + vb.h); }
   function boxAspect() { return (box.clientHeight || 400) / (box.clientWidth || 600); }
-  function fitAll() {
-    var a = boxAspect(), w = full.w, h = full.h;
+  function fitBox(r) {  // r: a drawing-space box, shown whole and centred
+    var a = boxAspect(), w = r.w, h = r.h;
     if (h / w > a) w = h / a; else h = w * a;
-    vb = { x: full.x - (w - full.w) / 2, y: full.y - (h - full.h) / 2, w: w, h: h };
+    vb = { x: r.x - (w - r.w) / 2, y: r.y - (h - r.h) / 2, w: w, h: h };
     applyView();
+  }
+  // "fit": the whole drawing when its smallest text stays readable (READABLE px), else the largest composite
+  // around the active state that does (a tall machine fitted whole is an unreadable strip)
+  var READABLE = 9, minFont = null;
+  function smallestFont() {
+    if (minFont === null) {
+      minFont = Infinity;
+      Array.prototype.forEach.call(svg.querySelectorAll("text"), function (t) {
+        var f = parseFloat(getComputedStyle(t).fontSize);
+        if (f > 0 && f < minFont) minFont = f;
+      });
+      if (!isFinite(minFont)) minFont = 10;
+    }
+    return minFont;
+  }
+  function fitAll() {
+    fitBox(full);
+    box.dataset.fit = "all";
+    if (scale() * smallestFont() >= READABLE - 1e-6) return;
+    var leaf = current && current.active.length ? current.active[0] : (S.length ? S[0] : ""), parts = leaf.split("/");
+    for (var n = 1; n <= parts.length; n++) {
+      var gs = groups[parts.slice(0, n).join("/")];
+      if (!gs || !gs.length || gs[0].classList.contains("hidden")) continue;
+      var r = gs[0].getBBox(), pad = 12, k = Math.min((box.clientWidth || 600) / (r.width + 2 * pad), (box.clientHeight || 400) / (r.height + 2 * pad));
+      if (n < parts.length && k * smallestFont() >= READABLE) {  // a composite around the state, fitted whole
+        fitBox({ x: r.x - pad, y: r.y - pad, w: r.width + 2 * pad, h: r.height + 2 * pad });
+        box.dataset.fit = parts.slice(0, n).join("/");
+        return;
+      }
+      if (n === parts.length) {  // no composite around it fits readably: the state at a readable scale, centred
+        centreOn(r, (READABLE + 2) / smallestFont());
+        box.dataset.fit = leaf;
+      }
+    }
   }
   function scale() { return (box.clientWidth || 600) / vb.w; }  // screen px per drawing unit
   function centreOn(r, zoomTo) {  // r: a drawing-space box
@@ -284,6 +318,8 @@
         if (gs) gs.forEach(function (g) { g.classList.add("active"); shown.push(g); if (n === parts.length && !leaf) leaf = g; });
       }
     });
+    if (svg && $("fit").checked && box.dataset.fit && box.dataset.fit !== "all" && leaf && leaf !== lastLeaf &&
+        !(current.active[0] === box.dataset.fit || current.active[0].indexOf(box.dataset.fit + "/") === 0)) fitAll();
     if ($("follow").checked && leaf && leaf !== lastLeaf && !leaf.classList.contains("hidden") && svg && !$("fit").checked) {
       var r = leaf.getBBox();  // moved to it when it is not wholly in view
       if (r.x < vb.x || r.x + r.width > vb.x + vb.w || r.y < vb.y || r.y + r.height > vb.y + vb.h) centreOn(r, null);
@@ -485,6 +521,15 @@
       c.fillStyle = "#07a";
       D.map.markers.forEach(function (m) { c.fillRect(X(m.p[0]) - 3, Y(m.p[1]) - 3, 6, 6); label("#" + m.id, X(m.p[0]) + 4, Y(m.p[1]) - 4); });
     }
+    if (D.map) {  // a scale bar in metres (1, 2, 5, 10 ...: about a fifth of the map's width), bottom left
+      var metres = [0.5, 1, 2, 5, 10, 20, 50, 100].filter(function (m) { return m * s <= w / 4; }).pop() || 0.5;
+      var bx = 8, by = h - 8;
+      c.strokeStyle = "#222"; c.lineWidth = 2; c.beginPath();
+      c.moveTo(bx, by - 4); c.lineTo(bx, by); c.lineTo(bx + metres * s, by); c.lineTo(bx + metres * s, by - 4); c.stroke();
+      c.fillStyle = "#222"; c.font = "10px Helvetica, Arial, sans-serif";
+      c.fillText(metres + " m", bx + 4, by - 4);
+      map.dataset.scale = String(metres);
+    }
     if (hasTrack) {  // the trajectory, coloured by the active leaf at each sample: one path per run of a colour
       c.lineWidth = 2.5; c.lineJoin = "round";
       var xs = Sm["car.x"], ys = Sm["car.y"], ts = Sm.t, open = false, inkNow = null;
@@ -521,8 +566,9 @@
     $("camera-box").style.display = frames.length ? "" : "none";
     if (!frames.length) return;
     var k = upper(frameTimes, cursor + 1e-9) - 1;
-    if (k === shownFrame) return;
-    shownFrame = k;
+    var ageKey = k + "|" + Math.floor(cursor * 4);  // the age said to a quarter of a second
+    if (ageKey === shownFrame) return;
+    shownFrame = ageKey;
     var img = $("frame"), cv = $("dets"), c = cv.getContext("2d");
     cv.width = 320; cv.height = 240; c.clearRect(0, 0, 320, 240);
     if (k < 0) { img.removeAttribute("src"); $("camera-info").textContent = "no frame yet"; return; }
@@ -535,7 +581,11 @@
       c.beginPath(); d.c.forEach(function (p, i) { if (i) c.lineTo(p[0] * sx, p[1] * sy); else c.moveTo(p[0] * sx, p[1] * sy); }); c.closePath(); c.stroke();
       c.fillText("#" + d.id, d.c[0][0] * sx, d.c[0][1] * sy - 3);
     });
-    $("camera-info").textContent = "frame at " + f.t.toFixed(2) + " s: " + (f.det.length ? f.det.map(function (d) { return "#" + d.id + " at " + d.d.toFixed(2) + " m"; }).join(", ") : "no marker") + (f.gates.length ? "; gates " + f.gates.map(function (g) { return g.join("/"); }).join(", ") : "");
+    // a frame older than its period (and a bit) says how old it is at the cursor: the camera has not seen since
+    var next = k + 1 < frames.length ? frames[k + 1].t : null, period = k > 0 ? f.t - frames[k - 1].t : (next !== null ? next - f.t : 1);
+    var age = cursor - f.t, stale = age > 1.5 * Math.max(period, dt) ? " (" + age.toFixed(2) + " s old)" : "";
+    $("camera-info").dataset.age = stale ? age.toFixed(2) : "";
+    $("camera-info").textContent = "frame at " + f.t.toFixed(2) + " s" + stale + ": " + (f.det.length ? f.det.map(function (d) { return "#" + d.id + " at " + d.d.toFixed(2) + " m"; }).join(", ") : "no marker") + (f.gates.length ? "; gates " + f.gates.map(function (g) { return g.join("/"); }).join(", ") : "");
   }
 
   // -- plots -------------------------------------------------------------------------------------------------
@@ -552,8 +602,16 @@
       var div = document.createElement("div"); div.className = "plot"; box.appendChild(div);
       var series = [{}].concat(p.series.map(function (s, i) { return { label: s.label, stroke: palette[i % palette.length], width: 1.2 }; }));
       var data = [Sm.t].concat(p.series.map(function (s) { return Sm[s.field]; }));
+      // axes from the run's data: x from 0 to the run's end, y from the data (a flat line gets a margin, so it
+      // has tick labels), a command of -1 to 1 on -1 to 1
+      var yRange = p.unit === "-1 to 1" ? function () { return [-1.05, 1.05]; } : function (u, lo, hi) {
+        if (lo === null || hi === null) return [0, 1];
+        var pad = hi - lo < 1e-9 ? Math.max(Math.abs(hi) * 0.1, 0.5) : (hi - lo) * 0.05;
+        return [lo - pad, hi + pad];
+      };
       var u = new uPlot({ title: p.title + " (" + p.unit + ")", width: width, height: 180, series: series,
-        scales: { x: { time: false } }, axes: [{ label: "s" }, {}], cursor: { drag: { x: false, y: false } },
+        scales: { x: { time: false, range: function () { return [w0(), Math.max(w1(), dt)]; } }, y: { range: yRange } },
+        axes: [{ label: "time (s)" }, { label: p.unit, size: 56, space: 18 }], cursor: { drag: { x: false, y: false } },
         legend: { live: false } }, data, div);
       var line = document.createElement("div"); line.className = "cursor"; div.appendChild(line);
       u.over.addEventListener("click", function (ev) { setTime(u.posToVal(ev.offsetX, "x")); });
@@ -572,7 +630,8 @@
   function drawPlots() {
     plots.forEach(function (p) {
       var o = p.u.over, x = p.u.valToPos(cursor, "x");
-      p.line.style.display = cursor < w0() || cursor > w1() ? "none" : "";
+      // only inside the plot's own area (its x scale can end before the cursor: the last sample is older)
+      p.line.style.display = !isFinite(x) || x < 0 || x > o.clientWidth || cursor < w0() || cursor > w1() ? "none" : "";
       p.line.style.left = (o.offsetLeft + x) + "px"; p.line.style.top = o.offsetTop + "px"; p.line.style.height = o.clientHeight + "px";
     });
   }
@@ -581,9 +640,9 @@
   var current = null;
   function setTime(t) {
     cursor = Math.min(T, Math.max(0, t));
-    var tick = tickAt(cursor), st = stateAt(tick);
+    var tick = Math.min(tickAt(cursor), M.ticks !== undefined ? M.ticks : Infinity), st = stateAt(tick);  // no tick past the run
     current = { time: cursor, tick: tick, active: st.active.map(function (i) { return S[i]; }), vars: st.vars };
-    var el = $("time"); el.textContent = cursor.toFixed(3) + " s"; el.dataset.t = cursor; el.dataset.tick = tick;
+    var el = $("time"); el.textContent = (tick * dt).toFixed(3) + " s · tick " + tick; el.dataset.t = cursor; el.dataset.tick = tick;
     $("active").textContent = current.active.join(", ");
     highlight(st.active);
     showVars(st.vars, st.changed);

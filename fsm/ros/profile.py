@@ -168,7 +168,9 @@ class Transport(ProfileModel):
     keys: Literal["rmw_zenoh", "bridge"] = Field(
         default="rmw_zenoh", description="Key expressions as rmw_zenoh names topics (<domain>/<topic>/<type>/<hash>), "
                                          "or as zenoh-bridge-ros2dds does (the topic name).")
-    domain: int = Field(default=0, ge=0, le=232, description="ROS_DOMAIN_ID (rmw_zenoh keys; rclpy's domain).")
+    domain: int | None = Field(default=None, ge=0, le=232,
+                               description="The ROS domain (rmw_zenoh keys; rclpy's domain); without it "
+                                           "$ROS_DOMAIN_ID, else 0.")
     via: Literal["auto", "zenoh", "rclpy"] = Field(
         default="auto", description="auto: rclpy when it can be imported (ROS 2 installed and sourced), Zenoh "
                                     "otherwise; zenoh or rclpy: that one.")
@@ -217,6 +219,14 @@ class Profile(ProfileModel):
         if camera is None or camera.calibration is None:
             return None
         return Path(self._base_dir or ".") / camera.calibration
+
+
+def domain_of(profile: Profile) -> int:
+    """The ROS domain: the profile's ``transport.domain``, else ``$ROS_DOMAIN_ID`` as ROS 2 reads it, else 0."""
+    if profile.transport.domain is not None:
+        return profile.transport.domain
+    env = os.environ.get("ROS_DOMAIN_ID", "").strip()
+    return int(env) if env.isdigit() and int(env) <= 232 else 0
 
 
 # -- checking ------------------------------------------------------------------------------------------------

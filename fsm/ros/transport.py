@@ -20,7 +20,7 @@ from collections.abc import Callable
 from typing import Any, Protocol
 
 from fsm.model.errors import FsmError
-from fsm.ros.profile import Binding, Profile, normalise_type
+from fsm.ros.profile import Binding, Profile, domain_of, normalise_type
 
 #: Who is waited for, in messages, by default.
 ROBOT = "the robot (rmw_zenoh, the Zenoh bridge, or `fsmctl sim --ros`)"
@@ -79,26 +79,28 @@ def rclpy_available() -> bool:
         return False
 
 
-def resolve_via(profile: Profile, via: str | None = None) -> str:
-    """``zenoh`` or ``rclpy``: ``via`` (the command line) or the profile's ``transport.via``; ``auto`` is rclpy
-    when it can be imported, Zenoh otherwise."""
+def resolve_via(profile: Profile, via: str | None = None, endpoints: bool = False) -> str:
+    """``zenoh`` or ``rclpy``: ``via`` (the command line) or the profile's ``transport.via``; ``auto`` is Zenoh
+    when Zenoh endpoints were named on the command line (``endpoints``: they mean nothing to rclpy), else rclpy
+    when it can be imported, else Zenoh."""
     chosen = via or profile.transport.via
     if chosen == "auto":
-        return "rclpy" if rclpy_available() else "zenoh"
+        return "rclpy" if rclpy_available() and not endpoints else "zenoh"
     return chosen
 
 
 def open_bus(profile: Profile, *, connect: list[str] | None = None, listen: list[str] | None = None,
-             via: str | None = None) -> Bus:
+             via: str | None = None, node: str = "fsmctl") -> Bus:
     """A transport for ``profile``, not yet open (see :func:`resolve_via`); rclpy takes no endpoints (its RMW
-    finds the robot: ``ROS_DOMAIN_ID``, ``RMW_IMPLEMENTATION``), so naming some with it is an error."""
-    if resolve_via(profile, via) == "rclpy":
+    finds the robot: ``ROS_DOMAIN_ID``, ``RMW_IMPLEMENTATION``), so naming some with it is an error. ``node``
+    begins rclpy's node name (``<node>_<profile name>``)."""
+    if resolve_via(profile, via, endpoints=bool(connect or listen)) == "rclpy":
         if connect or listen:
             raise TransportError("--connect/--listen are Zenoh endpoints; with rclpy the RMW finds the robot "
                                  "(ROS_DOMAIN_ID, RMW_IMPLEMENTATION): leave them out, or use --via zenoh")
         from fsm.ros.rclpy_link import RclpyLink
 
-        return RclpyLink(profile)
+        return RclpyLink(profile, node)
     return Link(profile, connect=connect, listen=listen)
 
 
@@ -127,7 +129,7 @@ def topic_key(profile: Profile, binding: Binding, subscriber: bool = False) -> s
         from fsm.ros.messages import type_hash
 
         digest = type_hash(binding.type)
-    return f"{profile.transport.domain}/{topic}/{dds_type(binding.type)}/{digest}"
+    return f"{domain_of(profile)}/{topic}/{dds_type(binding.type)}/{digest}"
 
 
 class Publisher:

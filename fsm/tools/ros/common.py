@@ -27,6 +27,23 @@ def require_extra(what: str, zenoh: bool = True) -> None:
         raise FsmError(f"{what} needs {' and '.join(missing)}: {EXTRA_HINT}")
 
 
+def choose_transport(profile: Any, args: argparse.Namespace, file: str, what: str) -> str:
+    """``zenoh`` or ``rclpy`` for this command, its needs checked before anything connects: the ``ros2`` extra;
+    with rclpy, rclpy itself (one message naming the ``rclpy`` extra) and every bound type's message package
+    (located profile errors)."""
+    from fsm.ros.transport import TransportError, rclpy_available, resolve_via
+
+    via = resolve_via(profile, args.via, endpoints=bool(args.connect or args.listen))
+    require_extra(what, zenoh=via == "zenoh")
+    if via == "rclpy":
+        from fsm.ros.rclpy_link import RCLPY_HINT, check_types
+
+        if not rclpy_available():
+            raise TransportError(f"{what} --via rclpy needs rclpy: {RCLPY_HINT}; or use --via zenoh")
+        check_types(profile, file)
+    return via
+
+
 def add_endpoint_options(p: argparse.ArgumentParser, lockstep_help: str) -> None:
     g = p.add_argument_group("the transport (replacing the profile's)")
     g.add_argument("--connect", action="append", metavar="ENDPOINT",

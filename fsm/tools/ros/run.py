@@ -17,7 +17,7 @@ from typing import Any
 from fsm.model.errors import FsmError, StateRuntimeError, UsageError, printable
 
 from ..cli.common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, Interrupts
-from .common import car_recorder, check_bag_folder, check_endpoints, load, require_extra
+from .common import car_recorder, check_bag_folder, check_endpoints, choose_transport, load
 
 #: Options of ``fsmctl run`` that drive the simulated car in-process, refused with --ros.
 SIM_ONLY = ("world", "car", "video", "plot")
@@ -48,11 +48,11 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
     from fsm.loading.loader import machine_files
     from fsm.ros.bag import BagRecorder
     from fsm.ros.driver import ros_session
-    from fsm.ros.transport import open_bus, resolve_via
+    from fsm.ros.transport import open_bus
     from fsm.session.session import SetSignal, StopRules
 
     profile = load(args.ros)
-    require_extra("--ros", zenoh=resolve_via(profile, args.via) == "zenoh")
+    choose_transport(profile, args, args.ros, "--ros")
     inputs = machine_files(spec) + [args.ros]
     outputs.open(inputs)
     check_bag_folder(args.bag, inputs, outputs.items)  # the input itself, another output's name: refused now

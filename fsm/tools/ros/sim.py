@@ -10,12 +10,12 @@ import sys
 from fsm.model.errors import printable
 
 from ..cli.common import EXIT_INTERRUPTED, EXIT_OK, Interrupts
-from .common import check_endpoints, load, require_extra
+from .common import check_endpoints, choose_transport, load
 
 
 def run_sim(args: argparse.Namespace) -> int:
     from fsm.ros.robot import SimRobot
-    from fsm.ros.transport import open_bus, resolve_via
+    from fsm.ros.transport import open_bus
     from fsm.sim.world import default_world, load_world
 
     from ..files import Outputs
@@ -28,14 +28,13 @@ def run_sim(args: argparse.Namespace) -> int:
     profile = load(args.ros)
     world = args.world or str(default_world("."))
     load_world(world)  # located errors before anything connects
-    require_extra("fsmctl sim --ros", zenoh=resolve_via(profile, args.via) == "zenoh")
+    zenoh = choose_transport(profile, args, args.ros, "fsmctl sim --ros") == "zenoh"
     outputs.open([args.ros, world])
     listen = args.listen
     connect = args.connect
-    zenoh = resolve_via(profile, args.via) == "zenoh"
     if zenoh and listen is None and connect is None:  # the robot's side of the profile: listen where it connects
         listen, connect = list(profile.transport.connect) or ["tcp/127.0.0.1:7447"], []
-    link = open_bus(profile, connect=connect or [], listen=listen or [], via=args.via)
+    link = open_bus(profile, connect=connect or [], listen=listen or [], via=args.via, node="fsmctl_sim")
     say = (lambda text: None) if args.quiet else (lambda text: print(printable(f"fsmctl sim: {text}"),
                                                                        file=sys.stderr, flush=True))
     try:

@@ -267,7 +267,8 @@ class RosDriver:
     def metrics(self) -> dict[str, Any]:
         car = self.car
         return {"ros": {"profile": self.profile.name, "lockstep": self.lockstep, "received": car.received(),
-                        "decode_failures": car.failures(), "silences": self.silences,
+                        "decode_failures": car.failures(), "dropped_readings": dict(car.dropped),
+                        "odometry_jumps": car.odometry_jumps, "silences": self.silences,
                         "silent_at_end": list(self.silent), "commands": self.commands,
                         "zero_speed_commands": self.zero_commands, "stop_commands": self.stop_sent,
                         "monitors_fired": self._watch.fired},

@@ -106,18 +106,20 @@ def car_recorder(stream: IO[str] | None, file: str, car: Any, profile: Any, docu
                                       | {"command": profile.outputs.command.topic}},
                               **(extra_header or {})}
     fields = ["car.odometry[0]", "car.odometry[1]", "car.odometry[2]", "car.left", "car.right", "car.front",
-              "car.distance", "car.speed", "car.speed_command", "car.steering"]
+              "car.distance", "car.speed", "car.speed_command", "car.steering", "car.odometry_jumps"]
 
     def sample() -> tuple[Any, ...]:
         x, y, th = car.pose()
-        return (x, y, th, car.left, car.right, car.front, car.distance, car.speed, car.speed_command, car.steering)
+        return (x, y, th, car.left, car.right, car.front, car.distance, car.speed, car.speed_command, car.steering,
+                car.odometry_jumps)
 
     def extra() -> dict[str, Any]:
         x, y, th = car.pose()
         return {"car": {"odometry": [round(x, 4), round(y, 4), round(th, 4)], "left": round(car.left, 4),
                         "right": round(car.right, 4), "front": round(car.front, 4),
                         "distance": round(car.distance, 4), "speed": round(car.speed, 4),
-                        "speed_command": round(car.speed_command, 4), "steering": round(car.steering, 4)}}
+                        "speed_command": round(car.speed_command, 4), "steering": round(car.steering, 4),
+                        "odometry_jumps": car.odometry_jumps}}
 
     return Recorder(stream, extra=extra, header=header, sample=sample, sample_period=1.0 / sample_rate,
                     sample_fields=fields)

@@ -33,7 +33,7 @@ Log = Callable[[str], None]
 class Slot:
     """The newest message of one input: written on a Zenoh thread, taken on the loop's thread."""
 
-    __slots__ = ("name", "type", "message", "raw", "count", "taken", "failures")
+    __slots__ = ("name", "type", "message", "raw", "count", "taken", "failures", "layout")
 
     def __init__(self, name: str, type_name: str) -> None:
         self.name = name
@@ -43,6 +43,8 @@ class Slot:
         self.count = 0
         self.taken = 0
         self.failures = 0
+        #: the distribution layout the messages were last read in (tried first)
+        self.layout: str | None = None
 
 
 class RosCar:
@@ -94,7 +96,7 @@ class RosCar:
         """A message of input ``name`` arrived: decode it and keep it as the newest (a bad one is counted)."""
         slot = self.slots[name]
         try:
-            message = M.decode(raw, slot.type)
+            message, slot.layout = M.decode_layout(raw, slot.type, slot.layout)
         except M.DecodeError as exc:
             with self._lock:
                 slot.failures += 1

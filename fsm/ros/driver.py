@@ -82,9 +82,10 @@ class RosDriver:
         status = profile.outputs.status
         self._status_every = 1.0 / status.rate if status is not None else 0.0
         self._next_status = 0.0
-        #: what was published, (machine time, CDR bytes), kept without a link (replay)
-        self.sent: list[tuple[float, bytes]] = []
-        self.statuses: list[tuple[float, dict[str, Any]]] = []
+        #: without a link (replay): the last command published, (machine time, CDR bytes), and the last status;
+        #: nothing more is kept, however long the run
+        self.last_sent: tuple[float, bytes] | None = None
+        self.last_status: tuple[float, dict[str, Any]] | None = None
         self._clock = -1.0
         self._clock_cond = threading.Condition()
         self._command: TopicPublisher | None = None
@@ -215,7 +216,7 @@ class RosDriver:
         if self._command is not None:
             self._command.put(raw)
         else:
-            self.sent.append((now, raw))
+            self.last_sent = (now, raw)
         self.commands += 1
         if speed == 0.0:
             self.zero_commands += 1
@@ -237,7 +238,7 @@ class RosDriver:
         if self._status is not None:
             self._status.put(raw)
         else:
-            self.statuses.append((now, status))
+            self.last_status = (now, status)
         self._watch.changed = False
         self._next_status = now + self._status_every
         if self.bag is not None:

@@ -210,6 +210,14 @@ class ReplayDriver(RosDriver):
             if role in self.car.slots:
                 self.car.slots[role].layout = layout
 
+    def _publish_command(self, now: float, speed: float) -> None:
+        if self.drive.commanded:  # encoded to be compared; else there is nothing to compare with
+            super()._publish_command(now, speed)
+            return
+        self.commands += 1
+        if speed == 0.0:
+            self.zero_commands += 1
+
     def _offer_until(self, time_s: float) -> None:
         for role, raw in self.drive.inputs_until(time_s):
             self.car.offer(role, raw)

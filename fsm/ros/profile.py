@@ -171,6 +171,10 @@ class Transport(ProfileModel):
     domain: int | None = Field(default=None, ge=0, le=232,
                                description="The ROS domain (rmw_zenoh keys; rclpy's domain); without it "
                                            "$ROS_DOMAIN_ID, else 0.")
+    user: str | None = Field(default=None, min_length=1, max_length=100, pattern=r"^[^:\s]+$",
+                             description="Zenoh's user/password authentication: the user; the password is read "
+                                         "from the environment variable FSM_ZENOH_PASSWORD. A peer without them is "
+                                         "refused.")
     via: Literal["auto", "zenoh", "rclpy"] = Field(
         default="auto", description="auto: rclpy when it can be imported (ROS 2 installed and sourced), Zenoh "
                                     "otherwise; zenoh or rclpy: that one.")

@@ -205,7 +205,10 @@ class SimRobot:
             self.time = t
             self.publish_sensors(t)
             self._clock_pub.put(M.encode(M.clock_message(t)))
-            command = self._first_command(wait) if n == 0 else self._wait_command(t, wait)
+            command = self._first_command(wait, stop) if n == 0 else self._wait_command(t, wait, stop)
+            if stop is not None and stop():
+                self.car.emergency_stop()
+                return "stopped"
             if command is None:
                 if self.finished:
                     self._drain()
@@ -219,20 +222,22 @@ class SimRobot:
             n += 1
             self._physics_to(n * dt)
 
-    def _first_command(self, wait: float) -> tuple[float, float, float | None] | None:
+    def _first_command(self, wait: float, stop: Any = None) -> tuple[float, float, float | None] | None:
         """The command of tick 0. A subscription the machine's side just declared may miss the first messages even
         once it matched, and then its side would wait for them forever: until the first command comes, time 0's
         sensors and clock are sent again every :data:`RESEND` s (the machine latches the newest; nothing moves)."""
         assert self._clock_pub is not None
         end = time.monotonic() + wait
         while True:
-            command = self._wait_command(0.0, min(RESEND, max(0.0, end - time.monotonic())))
-            if command is not None or self.finished or time.monotonic() >= end:
+            command = self._wait_command(0.0, min(RESEND, max(0.0, end - time.monotonic())), stop)
+            if command is not None or self.finished or time.monotonic() >= end or (stop is not None and stop()):
                 return command
             self.publish_sensors(0.0, again=True)
             self._clock_pub.put(M.encode(M.clock_message(0.0)))
 
-    def _wait_command(self, t: float, wait: float) -> tuple[float, float, float | None] | None:
+    def _wait_command(self, t: float, wait: float, stop: Any = None) -> tuple[float, float, float | None] | None:
+        """The command of time ``t``; None after ``wait`` s, once the machine finished, or as soon as ``stop()``
+        holds (Ctrl-C: looked at every 0.1 s)."""
         end = time.monotonic() + wait
         with self._cond:
             while True:
@@ -241,9 +246,9 @@ class SimRobot:
                     self._taken = self._commands
                     return c
                 left = end - time.monotonic()
-                if left <= 0 or self.finished:
+                if left <= 0 or self.finished or (stop is not None and stop()):
                     return None
-                self._cond.wait(left)
+                self._cond.wait(min(left, 0.1))
 
     def run_realtime(self, duration: float, stop: Any = None) -> str:
         """Physics on the wall clock; sensors at their rates; the newest command applies."""

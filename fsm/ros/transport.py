@@ -104,6 +104,19 @@ def open_bus(profile: Profile, *, connect: list[str] | None = None, listen: list
     return Link(profile, connect=connect, listen=listen)
 
 
+#: Where Zenoh's password is read from (never from a file the profile names: profiles are shared).
+PASSWORD_ENV = "FSM_ZENOH_PASSWORD"
+
+
+def free_endpoint(host: str = "127.0.0.1") -> str:
+    """``tcp/HOST:PORT`` on a port the system has free now (never rmw_zenoh's 7447 unless it was asked for)."""
+    import socket
+
+    with socket.socket() as s:
+        s.bind((host, 0))
+        return f"tcp/{host}:{s.getsockname()[1]}"
+
+
 class PeerTimeout(FsmError):
     """No robot (or simulator) answered on the profile's endpoints in time."""
 
@@ -174,6 +187,7 @@ class Link:
         self.session: Any = None
         self._subscribers: list[Any] = []
         self._lock = threading.Lock()
+        self._dictionary: str | None = None
 
     def describe(self) -> str:
         """The endpoints in words, for messages."""
@@ -195,16 +209,46 @@ class Link:
         conf.insert_json5("listen/endpoints", json.dumps(self.listen))
         # a robot that comes up after us is found within a fraction of a second (Zenoh's default waits seconds)
         conf.insert_json5("connect/retry", json.dumps(RETRY))
+        if t.user is not None:
+            self._auth(conf, t.user)
         return conf
+
+    def _auth(self, conf: Any, user: str) -> None:
+        """Zenoh's user/password authentication (both ways: the user and password this side shows, and the
+        dictionary it checks a peer's against, a file of its own readable by this user only, removed at close)."""
+        import tempfile
+
+        password = os.environ.get(PASSWORD_ENV)
+        if not password:
+            raise TransportError(f"the profile's transport.user is {user!r}: set its password in the environment "
+                                 f"variable {PASSWORD_ENV}")
+        fd, self._dictionary = tempfile.mkstemp(prefix="fsm-zenoh-", suffix=".txt")
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(f"{user}:{password}\n")
+        conf.insert_json5("transport/auth/usrpwd/user", json.dumps(user))
+        conf.insert_json5("transport/auth/usrpwd/password", json.dumps(password))
+        conf.insert_json5("transport/auth/usrpwd/dictionary_file", json.dumps(self._dictionary))
 
     def open(self) -> Link:
         import zenoh
 
         try:
             self.session = zenoh.open(self.config())
+        except TransportError:
+            self._forget_dictionary()
+            raise
         except Exception as exc:  # zenoh.ZError: a port in use, an endpoint it cannot parse
+            self._forget_dictionary()
             raise TransportError(f"cannot open the Zenoh session {self.describe()}: {exc}") from None
         return self
+
+    def _forget_dictionary(self) -> None:
+        path, self._dictionary = self._dictionary, None
+        if path is not None:
+            try:
+                os.unlink(path)
+            except OSError:
+                pass
 
     def peers(self) -> int:
         info = self.session.info
@@ -235,6 +279,7 @@ class Link:
         self._subscribers.append(self.session.declare_subscriber(key, handler))
 
     def close(self) -> None:
+        self._forget_dictionary()
         with self._lock:
             session, self.session = self.session, None
         if session is not None:

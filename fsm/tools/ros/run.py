@@ -48,22 +48,28 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
     from fsm.loading.loader import machine_files
     from fsm.ros.bag import BagRecorder
     from fsm.ros.driver import ros_session
-    from fsm.ros.transport import open_bus
+    from fsm.ros.transport import free_endpoint, open_bus
     from fsm.session.session import SetSignal, StopRules
 
     profile = load(args.ros)
-    choose_transport(profile, args, args.ros, "--ros")
+    via = choose_transport(profile, args, args.ros, "--ros")
     inputs = machine_files(spec) + [args.ros]
     outputs.open(inputs)
     check_bag_folder(args.bag, inputs, outputs.items)  # the input itself, another output's name: refused now
     plan = compile_spec(spec)
-    link = open_bus(profile, connect=args.connect, listen=args.listen, via=args.via)
+    connect, listen = args.connect, args.listen
+    t = profile.transport
+    if via == "zenoh" and not (connect or listen or t.connect or t.listen or t.multicast):
+        listen = [free_endpoint()]  # nowhere to connect to: the robot connects here (printed below)
+    link = open_bus(profile, connect=connect, listen=listen, via=args.via)
     bag = None
     # from here on Ctrl-C asks the run to stop (connecting takes a while): the outputs are written, exit 130
     interrupts = Interrupts()
     with interrupts:
         try:
             link.open()
+            if listen and not args.quiet:
+                print(printable(f"fsmctl run: {link.describe()}; waiting for the robot"), file=sys.stderr, flush=True)
             bag = BagRecorder(args.bag, profile) if args.bag else None
             session = ros_session(plan, profile, link, lockstep=args.lockstep, bag=bag,
                                   variables=args.initial_vars, stop=StopRules(duration, max_ticks))

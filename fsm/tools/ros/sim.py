@@ -15,7 +15,7 @@ from .common import check_endpoints, choose_transport, load
 
 def run_sim(args: argparse.Namespace) -> int:
     from fsm.ros.robot import SimRobot
-    from fsm.ros.transport import open_bus
+    from fsm.ros.transport import free_endpoint, open_bus
     from fsm.sim.world import default_world, load_world
 
     from ..files import Outputs
@@ -32,8 +32,10 @@ def run_sim(args: argparse.Namespace) -> int:
     outputs.open([args.ros, world])
     listen = args.listen
     connect = args.connect
-    if zenoh and listen is None and connect is None:  # the robot's side of the profile: listen where it connects
-        listen, connect = list(profile.transport.connect) or ["tcp/127.0.0.1:7447"], []
+    if zenoh and listen is None and connect is None:
+        # the robot's side of the profile: listen where the machine connects; else on a free port, printed below
+        listen = list(profile.transport.listen or profile.transport.connect) or [free_endpoint()]
+        connect = []
     link = open_bus(profile, connect=connect or [], listen=listen or [], via=args.via, node="fsmctl_sim")
     say = (lambda text: None) if args.quiet else (lambda text: print(printable(f"fsmctl sim: {text}"),
                                                                        file=sys.stderr, flush=True))

@@ -93,3 +93,55 @@ def test_a_fast_car_after_a_pause_of_odometry_is_not_a_jump() -> None:
     odometry(car, 0.0, 0.0)
     odometry(car, 1.0, 0.5)
     assert car.odometry_jumps == 0 and car.distance == pytest.approx(1.0)
+
+
+def test_commands_and_bags_are_stamped_in_ros_time_on_the_wall_clock(tmp_path: Any) -> None:
+    """A real robot drops stale commands: a run on the wall clock stamps them (and the bag) in ROS time, not from
+    1970; lock-step keeps the simulator's /clock."""
+    import time
+
+    from fsm.ros.bag import BagRecorder, read_bag
+    from fsm.ros.driver import RosDriver
+
+    class Quiet:
+        def matched(self) -> bool:
+            return True
+
+        def put(self, payload: bytes) -> None:
+            sent.append(payload)
+
+    class Bus:
+        def __init__(self, profile: Any) -> None:
+            self.profile = profile
+
+        def publisher(self, binding: Any) -> Quiet:
+            return Quiet()
+
+        def subscribe(self, binding: Any, callback: Any) -> None:
+            pass
+
+        def wait_for_peer(self, timeout: float, what: str = "", stop: Any = None) -> None:
+            pass
+
+        def describe(self) -> str:
+            return "here"
+
+    sent: list[bytes] = []
+    p = profile()
+    bag = BagRecorder(tmp_path / "bag", p)
+    driver = RosDriver(p, Bus(p), bag=bag)  # type: ignore[arg-type]
+    for side in ("left", "right", "front"):  # every input came
+        driver.car.offer(side, M.encode(M.range_message(0.0, "us", 1.0, 4.0)))
+    driver.car.offer("odometry", M.encode(M.odometry_message(0.0, 0, 0, 0, 0, 0)))
+    driver.car.offer("hall", M.encode(M.counter_message("std_msgs/msg/Int32", 0)))
+    before = time.time()
+    driver.prime(1)
+    driver._publish_command(2.0, 0.5)
+    bag.commit()
+    stamp = M.stamp_seconds(M.decode(sent[-1], p.outputs.command.type))
+    assert before <= driver.time_offset <= time.time()
+    assert stamp == pytest.approx(driver.time_offset + 2.0, abs=1e-6)
+    (command,) = [m for m in read_bag(tmp_path / "bag") if m[0] == "/tral/cmd"]
+    assert command[2] == pytest.approx((driver.time_offset + 2.0) * 1e9, abs=1e3)
+    lockstep = RosDriver(p, Bus(p), lockstep=True)  # type: ignore[arg-type]
+    assert lockstep.time_offset == 0.0

@@ -106,6 +106,10 @@ class RosDriver:
         self.zero_commands = 0
         self.held_by: str | None = None
         self.stop_sent = 0
+        #: ROS time (s since 1970) at machine time 0: header stamps and bag times are ROS time, as a robot that
+        #: drops stale commands needs. The wall clock's at the start (set by :meth:`prime`); in lock-step 0, the
+        #: simulator's /clock being ROS time there (use_sim_time)
+        self.time_offset = 0.0
 
     # -- the simulator's clock (lock-step) -----------------------------------------------------------------------
     def _on_clock(self, raw: bytes) -> None:
@@ -127,8 +131,6 @@ class RosDriver:
                 self._clock_cond.wait(left)
         return True
 
-    def _silence_timeout(self) -> float:
-        return max(b.max_silence for b in self.profile.inputs_bound().values())
 
     # -- starting ------------------------------------------------------------------------------------------------
     def prime(self, timeout: float | None = None, stop: Callable[[], bool] | None = None) -> bool:
@@ -164,6 +166,8 @@ class RosDriver:
                 raise PeerTimeout(f"a peer answered ({link.describe()}) but nothing came on {topics} "
                                   f"within {timeout:g} s: check the topic names and types in the profile")
             time.sleep(0.005)
+        if not self.lockstep:
+            self.time_offset = time.time()
         self._latch(0.0)
         return True
 
@@ -174,16 +178,20 @@ class RosDriver:
         session.machine.add_listener(self._watch)
 
     def before_tick(self, time_s: float) -> None:
-        if self.lockstep and not self.clock_lost and not self._wait_clock(time_s, self._silence_timeout()):
+        # lock-step: the simulator's time is the only time; a wall-clock limit only tells a simulator that is gone
+        # from a slow one (a loaded machine), so it is long (transport.gone_after)
+        gone_after = self.profile.transport.gone_after
+        if self.lockstep and not self.clock_lost and not self._wait_clock(time_s, gone_after):
             self.clock_lost = True
-            self.log(f"the simulator's clock on {self.profile.clock.topic} stopped before {time_s:.3f} s")
+            self.log(f"the simulator's clock on {self.profile.clock.topic} stopped before {time_s:.3f} s (nothing "
+                     f"for {gone_after:g} s of wall time: transport.gone_after)")
         self._latch(time_s)
 
     def _latch(self, time_s: float) -> None:
         taken = self.car.latch(time_s)
         if self.bag is not None:
             for name, raw in taken:
-                self.bag.write(name, raw, time_s)
+                self.bag.write(name, raw, self.time_offset + time_s)
 
     def after_tick(self) -> None:
         machine = self.machine
@@ -211,7 +219,8 @@ class RosDriver:
     def _publish_command(self, now: float, speed: float) -> None:
         car = self.car
         angle = car.steering * car.max_steering_angle
-        message = M.command_message(self.profile.outputs.command.type, now, speed, angle, car.wheelbase)
+        message = M.command_message(self.profile.outputs.command.type, self.time_offset + now, speed, angle,
+                                    car.wheelbase)
         raw = M.encode(message)
         if self._command is not None:
             self._command.put(raw)
@@ -221,7 +230,7 @@ class RosDriver:
         if speed == 0.0:
             self.zero_commands += 1
         if self.bag is not None:
-            self.bag.write("command", raw, now)
+            self.bag.write("command", raw, self.time_offset + now)
 
     def status(self, machine: Machine, now: float) -> dict[str, Any]:
         """The status topic's JSON: active path, outcome, monitor firings, what holds the car."""
@@ -242,7 +251,7 @@ class RosDriver:
         self._watch.changed = False
         self._next_status = now + self._status_every
         if self.bag is not None:
-            self.bag.write("status", raw, now)
+            self.bag.write("status", raw, self.time_offset + now)
 
     def should_stop(self) -> str | None:
         if self.clock_lost:
@@ -267,7 +276,8 @@ class RosDriver:
 
     def metrics(self) -> dict[str, Any]:
         car = self.car
-        return {"ros": {"profile": self.profile.name, "lockstep": self.lockstep, "received": car.received(),
+        return {"ros": {"profile": self.profile.name, "lockstep": self.lockstep, "time_offset": self.time_offset,
+                        "received": car.received(),
                         "decode_failures": car.failures(), "dropped_readings": dict(car.dropped),
                         "odometry_jumps": car.odometry_jumps, "silences": self.silences,
                         "silent_at_end": list(self.silent), "commands": self.commands,

@@ -165,6 +165,9 @@ class Transport(ProfileModel):
     multicast: bool = Field(default=False, description="Multicast scouting (off: only the endpoints given).")
     peer_timeout: float = Field(default=5.0, gt=0, le=600,
                                 description="Seconds to wait for the robot before giving up (exit 1).")
+    gone_after: float = Field(default=10.0, gt=0, le=3600,
+                              description="Lock-step: seconds of wall time without the simulator's next clock after "
+                                          "which it is gone (the run ends, exit 1). Silences are simulated time.")
     keys: Literal["rmw_zenoh", "bridge"] = Field(
         default="rmw_zenoh", description="Key expressions as rmw_zenoh names topics (<domain>/<topic>/<type>/<hash>), "
                                          "or as zenoh-bridge-ros2dds does (the topic name).")

@@ -249,11 +249,12 @@ class ReplayDriver(RosDriver):
         replayed = self.last_sent[1]
         recorded_active = self.drive.active
         same_path = recorded_active is None or recorded_active == replayed_active
-        if replayed != recorded or not same_path:
-            wheelbase = self.profile.car.wheelbase
-            command_type = self.profile.outputs.command.type
-            rs, ra, _ = M.command_values(M.decode(recorded, command_type), wheelbase)
-            ps, pa, _ = M.command_values(M.decode(replayed, command_type), wheelbase)
+        wheelbase = self.profile.car.wheelbase
+        command_type = self.profile.outputs.command.type
+        # the values, not the bytes: the header stamps are ROS time, which float seconds do not carry to the ns
+        rs, ra, _ = M.command_values(M.decode(recorded, command_type), wheelbase)
+        ps, pa, _ = M.command_values(M.decode(replayed, command_type), wheelbase)
+        if (rs, ra) != (ps, pa) or not same_path:
             self.divergence = Divergence(tick, self.drive.time_at(tick),
                                          {"active": recorded_active, "speed": rs, "angle": ra},
                                          {"active": replayed_active, "speed": ps, "angle": pa})

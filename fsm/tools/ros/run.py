@@ -130,6 +130,8 @@ def _drive(args: argparse.Namespace, session: Any, profile: Any, file: str, outp
     if interrupted:
         result["interrupted"] = True
     end: dict[str, Any] = {"stopped": stopped}
+    if driver.time_offset:  # the bag's times are ROS time: t_bag = time_offset + t_trace
+        end["ros_time_offset"] = driver.time_offset
     if interrupted:
         end["interrupted"] = True
     if "error" in result:

@@ -22,7 +22,7 @@ from typing import Any
 
 import pytest
 
-from helpers import finish
+from helpers import cli, finish
 
 pytest.importorskip("rosbags")
 rclpy = pytest.importorskip("rclpy")
@@ -259,14 +259,18 @@ def test_sim_over_rclpy_is_driven_by_a_plain_rclpy_controller(folder: Path) -> N
 
     profile = twist_profile(folder)
     sim = fsmctl("sim", "--ros", str(profile), "--via", "rclpy", "--lockstep", "--duration", "2", "--wait", "30",
-                 "--summary", str(folder / "sim.json"), "--no-noise")
+                 "--summary", str(folder / "sim.json"), "--no-noise", "--remap", "/tral/cmd:=/car1/cmd",
+                 "--remap", "__node:=tral_sim", "--remap", "__ns:=/car1")
     controller = PlainNode("plain_controller")
     node = controller.node
     ranges: dict[str, float] = {}
     odometry: list[float] = []
-    cmd = node.create_publisher(TwistStamped, "/tral/cmd", 1)
+    cmd = node.create_publisher(TwistStamped, "/car1/cmd", 1)  # remapped on the command line
+    nodes: set[tuple[str, str]] = set()
 
     def on_clock(msg: Any) -> None:
+        if not nodes:
+            nodes.update(node.get_node_names_and_namespaces())
         out = TwistStamped()
         out.header.stamp = msg.clock
         out.twist.linear.x = 1.0
@@ -294,11 +298,32 @@ def test_sim_over_rclpy_is_driven_by_a_plain_rclpy_controller(folder: Path) -> N
     assert set(ranges) == {"left", "right", "front"} and all(0 < r <= 4.0 for r in ranges.values())
     assert topics["/tral/ultrasonic/front"] == ["sensor_msgs/msg/Range"]
     assert topics["/tral/odom"] == ["nav_msgs/msg/Odometry"]
+    assert ("tral_sim", "/car1") in nodes
+
+
+def test_the_node_takes_its_name_namespace_and_use_sim_time(tmp_path: Path) -> None:
+    from fsm.ros.profile import load_profile, remapped
+    from fsm.ros.rclpy_link import RclpyLink
+
+    profile = remapped(load_profile(twist_profile(tmp_path)), ["__node:=driver", "__ns:=/car2",
+                                                               "tral/ultrasonic/front:=/car2/front"])
+    assert profile.inputs.front.topic == "/car2/front" and profile.inputs.left.topic == "/tral/ultrasonic/left"
+    with RclpyLink(profile, sim_time=True) as link:
+        assert link.node.get_name() == "driver" and link.node.get_namespace() == "/car2"
+        assert link.node.get_parameter("use_sim_time").value is True
+        assert "as node /car2/driver" in link.describe()
+    with RclpyLink(load_profile(twist_profile(tmp_path))) as link:
+        assert link.node.get_name() == "fsmctl_tral" and link.node.get_parameter("use_sim_time").value is False
+
+
+def test_a_remapping_of_a_topic_no_binding_has_is_a_usage_error(capsys: pytest.CaptureFixture[str],
+                                                                 tmp_path: Path) -> None:
+    code, _out, err = cli(capsys, "sim", "--ros", str(twist_profile(tmp_path)), "--remap", "/tral/cmnd:=/x")
+    assert code == 2 and "no binding of the profile has that topic" in err and "/tral/cmd" in err
 
 
 def test_a_type_without_a_wheel_is_a_located_profile_error_offering_twist(
         capsys: pytest.CaptureFixture[str]) -> None:
-    from helpers import cli
 
     code, _out, err = cli(capsys, "sim", "--ros", str(PROFILE), "--via", "rclpy")
     assert code == 1
@@ -310,7 +335,6 @@ def test_a_type_without_a_wheel_is_a_located_profile_error_offering_twist(
 def test_rclpy_missing_is_one_message_naming_the_extra(capsys: pytest.CaptureFixture[str],
                                                        monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     from fsm.ros import transport
-    from helpers import cli
 
     monkeypatch.setattr(transport, "rclpy_available", lambda: False)
     code, _out, err = cli(capsys, "run", str(CORNER), "--ros", str(twist_profile(tmp_path)), "--via", "rclpy")

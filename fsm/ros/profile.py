@@ -174,6 +174,14 @@ class Transport(ProfileModel):
     domain: int | None = Field(default=None, ge=0, le=232,
                                description="The ROS domain (rmw_zenoh keys; rclpy's domain); without it "
                                            "$ROS_DOMAIN_ID, else 0.")
+    node: str | None = Field(default=None, pattern=r"^[A-Za-z_][A-Za-z0-9_]*$",
+                             description="rclpy's node name (default fsmctl_<name>, fsmctl_sim_<name> for the "
+                                         "simulator); --remap __node:=NAME replaces it.")
+    namespace: str = Field(default="", pattern=r"^(/[A-Za-z_][A-Za-z0-9_]*)*$",
+                           description="rclpy's node namespace, e.g. /car1; --remap __ns:=/NS replaces it.")
+    remap: list[str] = Field(default_factory=list,
+                             description="Topic remappings FROM:=TO applied to every binding (as ROS 2's -r), "
+                                         "before the command line's --remap.")
     user: str | None = Field(default=None, min_length=1, max_length=100, pattern=r"^[^:\s]+$",
                              description="Zenoh's user/password authentication: the user; the password is read "
                                          "from the environment variable FSM_ZENOH_PASSWORD. A peer without them is "
@@ -226,6 +234,51 @@ class Profile(ProfileModel):
         if camera is None or camera.calibration is None:
             return None
         return Path(self._base_dir or ".") / camera.calibration
+
+
+REMAP_PATTERN = r"^(__node|__ns|/?[A-Za-z_][A-Za-z0-9_/]*):=(/?[A-Za-z_][A-Za-z0-9_/]*)$"
+
+
+def remapped(profile: Profile, remaps: list[str]) -> Profile:
+    """The profile with its ``transport.remap`` and then ``remaps`` applied, as ROS 2's ``-r FROM:=TO``: a topic
+    FROM (with or without the leading '/') of any binding becomes TO; ``__node:=NAME`` names rclpy's node,
+    ``__ns:=/NS`` its namespace. A remapping of a topic no binding has is a :class:`ValueError` (a typo)."""
+    topics: dict[str, str] = {}
+    node, namespace = profile.transport.node, profile.transport.namespace
+    for rule in [*profile.transport.remap, *remaps]:
+        found = re.match(REMAP_PATTERN, rule)
+        if found is None:
+            raise ValueError(f"remapping {rule!r}: write FROM:=TO, e.g. /tral/cmd:=/car1/cmd, __node:=driver or "
+                             "__ns:=/car1")
+        src, dst = found.group(1), found.group(2)
+        if src == "__node":
+            node = dst.strip("/")
+        elif src == "__ns":
+            namespace = "/" + dst.strip("/")
+        else:
+            topics["/" + src.lstrip("/")] = "/" + dst.lstrip("/")
+    bound: list[tuple[str, Any]] = [(f"inputs.{n}", b) for n, b in profile.inputs_bound().items()]
+    bound += [("outputs.command", profile.outputs.command), ("clock", profile.clock)]
+    if profile.outputs.status is not None:
+        bound.append(("outputs.status", profile.outputs.status))
+    known = {"/" + b.topic.lstrip("/") for _n, b in bound}
+    unknown = sorted(set(topics) - known)
+    if unknown:
+        raise ValueError(f"remapping of {', '.join(unknown)}: no binding of the profile has that topic (its topics: "
+                         f"{', '.join(sorted(known))})")
+
+    def fix(b: Any) -> Any:
+        to = topics.get("/" + b.topic.lstrip("/"))
+        return b if to is None else b.model_copy(update={"topic": to})
+
+    inputs = profile.inputs.model_copy(update={n: fix(b) for n, b in profile.inputs_bound().items()})
+    outputs = profile.outputs.model_copy(update={"command": fix(profile.outputs.command)} | (
+        {"status": fix(profile.outputs.status)} if profile.outputs.status is not None else {}))
+    transport = profile.transport.model_copy(update={"node": node, "namespace": namespace})
+    out = profile.model_copy(update={"inputs": inputs, "outputs": outputs, "clock": fix(profile.clock),
+                                     "transport": transport})
+    out._base_dir = profile._base_dir
+    return out
 
 
 def domain_of(profile: Profile) -> int:

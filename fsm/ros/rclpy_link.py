@@ -111,10 +111,14 @@ class RclpyPublisher:
 class RclpyLink:
     """The :class:`~fsm.ros.transport.Bus` of a profile over rclpy (see the module's docstring)."""
 
-    def __init__(self, profile: Profile, node: str = "fsmctl") -> None:
+    def __init__(self, profile: Profile, node: str = "fsmctl", sim_time: bool = False) -> None:
         self.profile = profile
-        #: the node's name: ``fsmctl_<profile name>`` for the machine, ``fsmctl_sim_<profile name>`` for the robot
-        self.node_name = re.sub(r"[^A-Za-z0-9_]", "_", f"{node}_{profile.name}")
+        #: the node's name: the profile's ``transport.node``, else ``fsmctl_<profile name>`` for the machine and
+        #: ``fsmctl_sim_<profile name>`` for the robot; its namespace the profile's ``transport.namespace``
+        self.node_name = profile.transport.node or re.sub(r"[^A-Za-z0-9_]", "_", f"{node}_{profile.name}")
+        self.namespace = profile.transport.namespace
+        #: ``use_sim_time``: the node's clock is the simulator's /clock (lock-step)
+        self.sim_time = sim_time
         self.node: Any = None
         self._context: Any = None
         self._executor: Any = None
@@ -125,7 +129,8 @@ class RclpyLink:
         import os
 
         rmw = os.environ.get("RMW_IMPLEMENTATION", "the default RMW")
-        return f"through rclpy ({rmw}, ROS domain {domain_of(self.profile)})"
+        name = f"{self.namespace.rstrip('/')}/{self.node_name}"
+        return f"through rclpy as node {name} ({rmw}, ROS domain {domain_of(self.profile)})"
 
     def message_class(self, type_name: str) -> Any:
         full = normalise_type(type_name)
@@ -147,7 +152,9 @@ class RclpyLink:
         try:
             self._context = rclpy.Context()
             self._init(rclpy)
-            self.node = rclpy.create_node(self.node_name, context=self._context)
+            overrides = [_module("rclpy.parameter").Parameter("use_sim_time", value=True)] if self.sim_time else []
+            self.node = rclpy.create_node(self.node_name, namespace=self.namespace, context=self._context,
+                                          parameter_overrides=overrides)
         except Exception as exc:  # an RMW that does not load, a bad domain
             raise TransportError(f"cannot start rclpy {self.describe()}: {exc}") from None
         self._executor = executors.SingleThreadedExecutor(context=self._context)

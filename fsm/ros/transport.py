@@ -90,17 +90,18 @@ def resolve_via(profile: Profile, via: str | None = None, endpoints: bool = Fals
 
 
 def open_bus(profile: Profile, *, connect: list[str] | None = None, listen: list[str] | None = None,
-             via: str | None = None, node: str = "fsmctl") -> Bus:
+             via: str | None = None, node: str = "fsmctl", sim_time: bool = False) -> Bus:
     """A transport for ``profile``, not yet open (see :func:`resolve_via`); rclpy takes no endpoints (its RMW
     finds the robot: ``ROS_DOMAIN_ID``, ``RMW_IMPLEMENTATION``), so naming some with it is an error. ``node``
-    begins rclpy's node name (``<node>_<profile name>``)."""
+    begins rclpy's node name (``<node>_<profile name>``) unless the profile names it; ``sim_time``: rclpy's node
+    runs with ``use_sim_time`` (lock-step: the simulator's /clock is ROS time)."""
     if resolve_via(profile, via, endpoints=bool(connect or listen)) == "rclpy":
         if connect or listen:
             raise TransportError("--connect/--listen are Zenoh endpoints; with rclpy the RMW finds the robot "
                                  "(ROS_DOMAIN_ID, RMW_IMPLEMENTATION): leave them out, or use --via zenoh")
         from fsm.ros.rclpy_link import RclpyLink
 
-        return RclpyLink(profile, node)
+        return RclpyLink(profile, node, sim_time=sim_time)
     return Link(profile, connect=connect, listen=listen)
 
 

@@ -53,6 +53,9 @@ def add_endpoint_options(p: argparse.ArgumentParser, lockstep_help: str) -> None
     g.add_argument("--via", choices=("auto", "zenoh", "rclpy"),
                    help="the transport (default: the profile's transport.via, auto: rclpy when it can be imported, "
                         "Zenoh otherwise)")
+    g.add_argument("--remap", action="append", default=[], metavar="FROM:=TO",
+                   help="rename a topic of the profile (/tral/cmd:=/car1/cmd), or rclpy's node (__node:=NAME) or "
+                        "namespace (__ns:=/NS), as ROS 2's -r (repeatable; after the profile's transport.remap)")
     g.add_argument("--lockstep", action="store_true", help=lockstep_help)
 
 
@@ -68,13 +71,17 @@ def check_endpoints(args: argparse.Namespace) -> None:
                                  "e.g. tcp/127.0.0.1:7447")
 
 
-def load(path: str) -> Any:
-    """The profile (located errors before anything starts), its camera calibration checked too."""
-    from fsm.ros.profile import check_camera, load_profile
+def load(path: str, remaps: list[str] | None = None) -> Any:
+    """The profile (located errors before anything starts), its camera calibration checked too, its remappings and
+    ``remaps`` (``--remap``) applied."""
+    from fsm.ros.profile import check_camera, load_profile, remapped
 
     profile = load_profile(path)
     check_camera(profile)
-    return profile
+    try:
+        return remapped(profile, remaps or [])
+    except ValueError as exc:
+        raise UsageError(f"--remap: {exc}") from None
 
 
 def check_bag_folder(name: str | None, inputs: Iterable[str | os.PathLike[str]] = (),

@@ -51,7 +51,7 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
     from fsm.ros.transport import free_endpoint, open_bus
     from fsm.session.session import SetSignal, StopRules
 
-    profile = load(args.ros)
+    profile = load(args.ros, args.remap)
     via = choose_transport(profile, args, args.ros, "--ros")
     inputs = machine_files(spec) + [args.ros]
     outputs.open(inputs)
@@ -61,7 +61,7 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
     t = profile.transport
     if via == "zenoh" and not (connect or listen or t.connect or t.listen or t.multicast):
         listen = [free_endpoint()]  # nowhere to connect to: the robot connects here (printed below)
-    link = open_bus(profile, connect=connect, listen=listen, via=args.via)
+    link = open_bus(profile, connect=connect, listen=listen, via=args.via, sim_time=args.lockstep)
     bag = None
     # from here on Ctrl-C asks the run to stop (connecting takes a while): the outputs are written, exit 130
     interrupts = Interrupts()

@@ -25,7 +25,7 @@ def run_sim(args: argparse.Namespace) -> int:
     summary_out = outputs.add(args.summary, "--summary")
     for out in outputs.items:
         out.classify()
-    profile = load(args.ros)
+    profile = load(args.ros, args.remap)
     world = args.world or str(default_world("."))
     load_world(world)  # located errors before anything connects
     zenoh = choose_transport(profile, args, args.ros, "fsmctl sim --ros") == "zenoh"
@@ -36,7 +36,8 @@ def run_sim(args: argparse.Namespace) -> int:
         # the robot's side of the profile: listen where the machine connects; else on a free port, printed below
         listen = list(profile.transport.listen or profile.transport.connect) or [free_endpoint()]
         connect = []
-    link = open_bus(profile, connect=connect or [], listen=listen or [], via=args.via, node="fsmctl_sim")
+    link = open_bus(profile, connect=connect or [], listen=listen or [], via=args.via, node="fsmctl_sim",
+                    sim_time=args.lockstep)
     say = (lambda text: None) if args.quiet else (lambda text: print(printable(f"fsmctl sim: {text}"),
                                                                        file=sys.stderr, flush=True))
     try:

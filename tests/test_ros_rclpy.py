@@ -120,6 +120,7 @@ class PlainRobot(PlainNode):
         from rclpy.qos import QoSProfile, ReliabilityPolicy
         from rosgraph_msgs.msg import Clock
         from sensor_msgs.msg import Range
+        from diagnostic_msgs.msg import DiagnosticArray
         from std_msgs.msg import Int32, String
 
         from fsm.sim.car import SimCar
@@ -142,6 +143,10 @@ class PlainRobot(PlainNode):
         n.create_subscription(TwistStamped, "/tral/cmd", self._on_command, reliable)
         self.statuses: list[str] = []
         n.create_subscription(String, "/tral/fsm/status", lambda m: self.statuses.append(m.data), 10)
+        self.diagnostics: list[Any] = []
+        self.active: list[str] = []
+        n.create_subscription(DiagnosticArray, "/diagnostics", lambda m: self.diagnostics.append(m.status[0]), 10)
+        n.create_subscription(String, "/tral/fsm/status/active", lambda m: self.active.append(m.data), 10)
         self.ticks = 0
         self.runner = threading.Thread(target=self.run, daemon=True)
 
@@ -245,6 +250,12 @@ def test_run_drives_a_plain_rclpy_robot_to_the_in_process_outcome(folder: Path) 
     assert topics["/tral/fsm/status"] == ["std_msgs/msg/String"]
     last = json.loads(robot.statuses[-1])
     assert last["finished"] is True and last["outcome"] == "succeeded"
+    # the same status as ROS's diagnostics and the active path as a plain String
+    final = robot.diagnostics[-1]
+    assert final.name == "fsmctl: tral" and final.level == b"\x00" and final.message == "finished: succeeded"
+    assert {kv.key: kv.value for kv in final.values}["outcome"] == "succeeded"
+    assert any(d.message == "active: follow" for d in robot.diagnostics)
+    assert "turn/arc" in robot.active and robot.active[-1] == last["active"]
     assert robot.car.collisions == 0
 
 

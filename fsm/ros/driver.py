@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 from fsm.ros import messages as M
 from fsm.ros.car import Log, RosCar
-from fsm.ros.profile import Profile
+from fsm.ros.profile import Profile, status_companions
 from fsm.ros.transport import Bus, PeerTimeout, TopicPublisher
 from fsm.runtime.machine import Listener
 
@@ -90,9 +90,12 @@ class RosDriver:
         self._clock_cond = threading.Condition()
         self._command: TopicPublisher | None = None
         self._status: TopicPublisher | None = None
+        #: beside the status's JSON: DiagnosticArray on /diagnostics, the active path on <status>/active
+        self._companions: dict[str, TopicPublisher] = {}
         if link is not None:
             self._command = link.publisher(profile.outputs.command)
             self._status = link.publisher(status) if status is not None else None
+            self._companions = {k: link.publisher(b) for k, b in status_companions(profile).items()}
             for name, binding in profile.inputs_bound().items():
                 link.subscribe(binding, self.car.subscriber(name))
             if lockstep:  # subscribed last: once the simulator sees it, it sees the inputs' subscriptions too
@@ -246,12 +249,32 @@ class RosDriver:
         raw = M.encode(M.status_message(json.dumps(status, separators=(",", ":"))))
         if self._status is not None:
             self._status.put(raw)
+            if self._companions:
+                self._companions["diagnostics"].put(M.encode(self._diagnostics(status, now)))
+                self._companions["active"].put(M.encode(M.status_message(status["active"])))
         else:
             self.last_status = (now, status)
         self._watch.changed = False
         self._next_status = now + self._status_every
         if self.bag is not None:
             self.bag.write("status", raw, self.time_offset + now)
+
+    def _diagnostics(self, status: dict[str, Any], now: float) -> Any:
+        """The status as ROS's diagnostics: OK while driving or finished well, WARN while something holds the car,
+        ERROR once the machine finished otherwise than 'succeeded'."""
+        outcome = status["outcome"]
+        if status["finished"] and outcome not in (None, "succeeded"):
+            level, text = M.ERROR, f"finished: {outcome}"
+        elif status["held_by"]:
+            silent = f" ({', '.join(status['silent'])})" if status["silent"] else ""
+            level, text = M.WARN, f"held at zero speed by {status['held_by']}{silent}"
+        elif status["finished"]:
+            level, text = M.OK, f"finished: {outcome}"
+        else:
+            level, text = M.OK, f"active: {status['active']}"
+        values = {k: status[k] for k in ("tick", "time", "active", "finished", "outcome", "held_by", "silent",
+                                         "commands", "monitors_fired")}
+        return M.diagnostics_message(self.time_offset + now, f"fsmctl: {self.profile.name}", level, text, values)
 
     def should_stop(self) -> str | None:
         if self.clock_lost:

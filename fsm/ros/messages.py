@@ -251,6 +251,23 @@ def status_message(text: str) -> Any:
     return message_class(STRING)(data=text)
 
 
+#: diagnostic_msgs/DiagnosticStatus levels.
+OK, WARN, ERROR = 0, 1, 2
+
+
+def diagnostics_message(seconds: float, name: str, level: int, text: str, values: dict[str, Any]) -> Any:
+    """A ``diagnostic_msgs/DiagnosticArray`` of one status: ``level`` (:data:`OK`, :data:`WARN`, :data:`ERROR`),
+    a message and key-value pairs (values as text)."""
+    import json
+
+    t = typestore().types
+    kv = t["diagnostic_msgs/msg/KeyValue"]
+    status = t["diagnostic_msgs/msg/DiagnosticStatus"](
+        level=level, name=name, message=text, hardware_id=name,
+        values=[kv(key=k, value=v if isinstance(v, str) else json.dumps(v)) for k, v in values.items()])
+    return t["diagnostic_msgs/msg/DiagnosticArray"](header=header(seconds, ""), status=[status])
+
+
 def stamp_of_clock(message: Any) -> float:
     """The time (s) a ``rosgraph_msgs/msg/Clock`` message carries."""
     c = message.clock

@@ -39,6 +39,7 @@ TWIST = "geometry_msgs/msg/Twist"
 TWIST_STAMPED = "geometry_msgs/msg/TwistStamped"
 STRING = "std_msgs/msg/String"
 CLOCK = "rosgraph_msgs/msg/Clock"
+DIAGNOSTICS = "diagnostic_msgs/msg/DiagnosticArray"
 #: Counters for hall ticks: every one has a single numeric field ``data``.
 COUNTERS = tuple(f"std_msgs/msg/{t}" for t in ("Int16", "Int32", "Int64", "UInt16", "UInt32", "UInt64", "Float32",
                                                  "Float64"))
@@ -234,6 +235,17 @@ class Profile(ProfileModel):
         if camera is None or camera.calibration is None:
             return None
         return Path(self._base_dir or ".") / camera.calibration
+
+
+def status_companions(profile: Profile) -> dict[str, Binding]:
+    """With a status topic, what is published beside its JSON: the machine's status as ROS's
+    ``diagnostic_msgs/DiagnosticArray`` on ``/diagnostics`` (where ``rqt_runtime_monitor`` looks) and the active
+    path as a ``std_msgs/String`` on ``<status topic>/active``."""
+    status = profile.outputs.status
+    if status is None:
+        return {}
+    return {"diagnostics": Binding(topic="/diagnostics", type=DIAGNOSTICS, qos=status.qos),
+            "active": Binding(topic="/" + status.topic.strip("/") + "/active", type=STRING, qos=status.qos)}
 
 
 REMAP_PATTERN = r"^(__node|__ns|/?[A-Za-z_][A-Za-z0-9_/]*):=(/?[A-Za-z_][A-Za-z0-9_/]*)$"

@@ -20,7 +20,7 @@ from collections.abc import Callable
 from typing import Any
 
 from fsm.model.errors import DiagramError, Problem
-from fsm.ros.profile import Binding, Profile, domain_of, normalise_type
+from fsm.ros.profile import Binding, Profile, domain_of, normalise_type, status_companions
 from fsm.ros.transport import ROBOT, PeerTimeout, TransportError
 
 #: What to install for rclpy (the extra pins ROS 2 Jazzy's wheels).
@@ -58,6 +58,7 @@ def type_problems(profile: Profile, file: str) -> list[Problem]:
     if profile.outputs.status is not None:
         bound.append(("/outputs/status", profile.outputs.status))
     bound.append(("/clock", profile.clock))
+    bound += [("/outputs/status", b) for b in status_companions(profile).values()]
     for ptr, binding in bound:
         why = missing_package(binding.type)
         if why is not None:

@@ -115,12 +115,12 @@ class PlainRobot(PlainNode):
     command applied before the next tick. Time 0 is sent again until the first command (a late subscription)."""
 
     def __init__(self, rate: float) -> None:
+        from diagnostic_msgs.msg import DiagnosticArray
         from geometry_msgs.msg import TwistStamped
         from nav_msgs.msg import Odometry
         from rclpy.qos import QoSProfile, ReliabilityPolicy
         from rosgraph_msgs.msg import Clock
         from sensor_msgs.msg import Range
-        from diagnostic_msgs.msg import DiagnosticArray
         from std_msgs.msg import Int32, String
 
         from fsm.sim.car import SimCar
@@ -351,3 +351,49 @@ def test_rclpy_missing_is_one_message_naming_the_extra(capsys: pytest.CaptureFix
     code, _out, err = cli(capsys, "run", str(CORNER), "--ros", str(twist_profile(tmp_path)), "--via", "rclpy")
     assert code == 1 and "Traceback" not in err
     assert err.count("\n") == 1 and "pip install 'tral-fsm[rclpy]'" in err, err
+
+
+#: Waits for the input signal `go`; its variables are there to be read.
+SIGNALLED = {"name": "sig", "initial": "wait", "inputs": ["go"], "vars": {"laps": 0, "mode": "idle", "gains": [1, 2]},
+             "states": [{"id": "wait", "type": "Stop"}, {"id": "done", "type": "Final", "outcome": "succeeded"}],
+             "transitions": [{"type": "Signal", "from": "wait", "to": "done", "signal": "go"}]}
+
+
+def test_variables_are_read_only_parameters_and_the_documents_inputs_can_be_set(folder: Path) -> None:
+    """A plain rclpy parameter client: reads the machine's variables, is refused setting one (with the reason),
+    and sets the signal the document declares as an input, which ends the machine."""
+    from rclpy.parameter import Parameter
+    from rclpy.parameter_client import AsyncParameterClient
+
+    machine = folder / "signalled.json"
+    machine.write_text(json.dumps(SIGNALLED), encoding="utf-8")
+    robot = PlainRobot(rate=80)
+    robot.start()
+
+    def done(future: Any) -> Any:
+        end = time.monotonic() + 20
+        while not future.done():
+            assert time.monotonic() < end, "no answer from the machine's node"
+            time.sleep(0.02)
+        return future.result()
+
+    try:
+        run = fsmctl("run", str(machine), "--ros", str(twist_profile(folder)), "--via", "rclpy", "--lockstep",
+                     "--duration", "60", "--summary", str(folder / "signalled.json.summary"))
+        robot.runner.start()
+        client = AsyncParameterClient(robot.node, "/fsmctl_tral")
+        assert client.wait_for_services(timeout_sec=20)
+        values = done(client.get_parameters(["vars.laps", "vars.mode", "vars.gains", "use_sim_time"])).values
+        assert [values[0].integer_value, values[1].string_value, values[2].string_value] == [0, "idle", "[1,2]"]
+        assert values[3].bool_value is True  # lock-step: the simulator's clock
+        (refused,) = done(client.set_parameters([Parameter("vars.laps", value=5)])).results
+        assert refused.successful is False and "read-only" in refused.reason and "signals.go" in refused.reason
+        (accepted,) = done(client.set_parameters([Parameter("signals.go", value=True)])).results
+        assert accepted.successful, accepted.reason
+        code, _out, err = finish(run)
+    finally:
+        robot.stop.set()
+        robot.close()
+    assert code == 0, err
+    summary = json.loads((folder / "signalled.json.summary").read_text())
+    assert summary["outcome"] == "succeeded" and summary["visited"] == ["wait", "done"]

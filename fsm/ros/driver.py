@@ -15,6 +15,7 @@ import json
 import sys
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -109,6 +110,9 @@ class RosDriver:
         self.zero_commands = 0
         self.held_by: str | None = None
         self.stop_sent = 0
+        #: the input signals the document declares (settable from outside: ROS 2 parameters over rclpy)
+        self.signals: list[str] = []
+        self._signals_in: deque[tuple[str, bool]] = deque()
         #: ROS time (s since 1970) at machine time 0: header stamps and bag times are ROS time, as a robot that
         #: drops stale commands needs. The wall clock's at the start (set by :meth:`prime`); in lock-step 0, the
         #: simulator's /clock being ROS time there (use_sim_time)
@@ -179,8 +183,20 @@ class RosDriver:
         self.session = session
         self.machine = session.machine
         session.machine.add_listener(self._watch)
+        expose = getattr(self.link, "expose_parameters", None)
+        if expose is not None:  # rclpy: the variables as read-only parameters, the document's inputs writable
+            expose(dict(session.machine.ctx.vars), list(self.signals), self._signal_from_outside)
+
+    def _signal_from_outside(self, name: str, value: bool) -> None:
+        """A signal set as a ROS 2 parameter (the executor's thread): applied before the next tick."""
+        self._signals_in.append((name, value))
 
     def before_tick(self, time_s: float) -> None:
+        while self._signals_in and self.session is not None:
+            from fsm.session.session import SetSignal
+
+            name, value = self._signals_in.popleft()
+            self.session.submit(SetSignal(name, value))
         # lock-step: the simulator's time is the only time; a wall-clock limit only tells a simulator that is gone
         # from a slow one (a loaded machine), so it is long (transport.gone_after)
         gone_after = self.profile.transport.gone_after
@@ -256,6 +272,9 @@ class RosDriver:
             self.last_status = (now, status)
         self._watch.changed = False
         self._next_status = now + self._status_every
+        update = getattr(self.link, "update_parameters", None)
+        if update is not None:
+            update(machine.ctx.vars)
         if self.bag is not None:
             self.bag.write("status", raw, self.time_offset + now)
 
@@ -310,7 +329,8 @@ class RosDriver:
 
 
 def ros_session(plan: Any, profile: Profile, link: Bus, *, lockstep: bool = False, bag: BagRecorder | None = None,
-                log: Log | None = None, stop: Any = None, variables: dict[str, Any] | None = None) -> Session:
+                log: Log | None = None, stop: Any = None, variables: dict[str, Any] | None = None,
+                signals: list[str] | None = None) -> Session:
     """A session that runs the machine of ``plan`` (a compiled :class:`fsm.model.plan.MachinePlan`) on the car behind
     ``link``: on the wall clock at the profile's rate, or in lock-step with a simulator's clock."""
     from fsm.loading.building import build
@@ -318,6 +338,7 @@ def ros_session(plan: Any, profile: Profile, link: Bus, *, lockstep: bool = Fals
     from fsm.session.session import Session
 
     driver = RosDriver(profile, link, lockstep=lockstep, bag=bag, log=log)
+    driver.signals = list(signals or [])
     clock = SimulatedClock(profile.dt) if lockstep else RealTimeClock(profile.dt)
     machine = build(plan, clock=clock, car=driver.car)
     if variables:

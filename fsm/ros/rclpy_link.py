@@ -87,6 +87,16 @@ def check_types(profile: Profile, file: str) -> None:
     raise DiagramError(problems)
 
 
+def parameter_value(value: Any) -> Any:
+    """A variable's value as a ROS 2 parameter can hold it: bool, int, float, str as they are (NaN, too); anything
+    else (lists, objects, None) as its JSON text."""
+    import json
+
+    if isinstance(value, (bool, int, float, str)):
+        return value
+    return json.dumps(value, separators=(",", ":"))
+
+
 def qos_of(binding: Binding) -> Any:
     """The rclpy QoS profile of a binding (reliability, volatile durability, keep-last depth)."""
     qos = _module("rclpy.qos")
@@ -187,6 +197,55 @@ class RclpyLink:
             self._executor.spin()
         except Exception:  # the context was shut down while spinning
             pass
+
+    # -- the machine's variables and signals as ROS 2 parameters ----------------------------------------------------
+    def expose_parameters(self, variables: dict[str, Any], signals: list[str],
+                          on_signal: Callable[[str, bool], None]) -> None:
+        """Declare ``vars.<name>`` for each variable (read-only from outside: the machine sets them) and
+        ``signals.<name>`` for each input signal the document declares (writable, bool: ``on_signal`` is called on
+        the executor's thread). A set from outside of anything else is refused with the reason."""
+        rcl = _module("rcl_interfaces.msg")
+        self._updating = False
+        self._writable = {f"signals.{name}" for name in signals}
+        for name, value in variables.items():
+            if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+                self.node.declare_parameter(f"vars.{name}", parameter_value(value), rcl.ParameterDescriptor(
+                    dynamic_typing=True, description=f"the machine's variable {name} (read-only: the machine sets it)"))
+        for name in signals:
+            if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+                self.node.declare_parameter(f"signals.{name}", False, rcl.ParameterDescriptor(
+                    description=f"the input signal {name} (the document's inputs: set it to drive the machine)"))
+
+        def check(params: list[Any]) -> Any:
+            if self._updating:
+                return rcl.SetParametersResult(successful=True)
+            for param in params:
+                if param.name not in self._writable:
+                    return rcl.SetParametersResult(successful=False, reason=(
+                        f"{param.name} is read-only: the machine sets its variables; only the signals the document "
+                        f"declares as inputs can be set ({', '.join(sorted(self._writable)) or 'none'})"))
+                if not isinstance(param.value, bool):
+                    return rcl.SetParametersResult(successful=False, reason=f"{param.name} is a signal: true or false")
+            for param in params:
+                on_signal(param.name.split(".", 1)[1], bool(param.value))
+            return rcl.SetParametersResult(successful=True)
+
+        self.node.add_on_set_parameters_callback(check)
+
+    def update_parameters(self, variables: dict[str, Any]) -> None:
+        """The variables' current values (those declared; a new variable is declared now)."""
+        param = _module("rclpy.parameter").Parameter
+        node = self.node
+        updates = []
+        for name, value in variables.items():
+            key = f"vars.{name}"
+            if node.has_parameter(key):
+                updates.append(param(key, value=parameter_value(value)))
+        self._updating = True
+        try:
+            node.set_parameters(updates)
+        finally:
+            self._updating = False
 
     def wait_for_peer(self, timeout: float, what: str = ROBOT, stop: Callable[[], bool] | None = None) -> None:
         end = time.monotonic() + timeout

@@ -72,7 +72,8 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
                 print(printable(f"fsmctl run: {link.describe()}; waiting for the robot"), file=sys.stderr, flush=True)
             bag = BagRecorder(args.bag, profile) if args.bag else None
             session = ros_session(plan, profile, link, lockstep=args.lockstep, bag=bag,
-                                  variables=args.initial_vars, stop=StopRules(duration, max_ticks))
+                                  variables=args.initial_vars, stop=StopRules(duration, max_ticks),
+                                  signals=list(getattr(spec, "inputs", None) or []))
             for name, value, at in args.signal:
                 session.schedule(at, SetSignal(name, value))
             code = _drive(args, session, profile, file, outputs, trace_out, summary_out, report_out, interrupts)

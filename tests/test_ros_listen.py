@@ -54,13 +54,18 @@ def printed_endpoint(sim: subprocess.Popen[str]) -> str:
     return found.group(1)
 
 
-def peers_of_a_stranger(endpoint: str, seconds: float) -> int:
-    """A plain Zenoh peer without credentials connects to ``endpoint``: how many peers it has after a while."""
+def plain_session(endpoint: str) -> Any:
+    """A plain Zenoh peer (no credentials) connecting to ``endpoint``."""
     conf = zenoh.Config()
     conf.insert_json5("mode", '"peer"')
     conf.insert_json5("scouting/multicast/enabled", "false")
     conf.insert_json5("connect/endpoints", json.dumps([endpoint]))
-    session = zenoh.open(conf)
+    return zenoh.open(conf)
+
+
+def peers_of_a_stranger(endpoint: str, seconds: float) -> int:
+    """A plain Zenoh peer without credentials connects to ``endpoint``: how many peers it has after a while."""
+    session = plain_session(endpoint)
     try:
         end = time.monotonic() + seconds
         while time.monotonic() < end and not list(session.info.peers_zid()):
@@ -111,3 +116,42 @@ def test_a_user_without_a_password_is_one_message(tmp_path: Path) -> None:
     code, out, err = finish(start("sim", "--ros", str(profile(tmp_path, user="car"))), timeout=60)
     assert code == 1 and out == ""
     assert err.strip().count("\n") == 0 and "FSM_ZENOH_PASSWORD" in err and "Traceback" not in err, err
+
+
+#: rmw_zenoh's liveliness token (ros2/rmw_zenoh bfc065f, liveliness_utils.cpp): admin space, domain, zid, nid, id,
+#: kind, enclave, namespace, node[, topic, type, hash, qos].
+TOKEN = re.compile(r"^@ros2_lv/(\d+)/([0-9a-f]+)/(\d+)/(\d+)/(NN|MP|MS)/%/%/([A-Za-z0-9_]+)"
+                   r"(?:/(%[^/]+)/([a-z_]+::msg::dds_::[A-Za-z0-9]+_)/(RIHS01_[0-9a-f]{64})/([^/]*))?$")
+
+
+def test_the_bridge_declares_rmw_zenohs_liveliness_tokens(tmp_path: Path) -> None:
+    """Read back with a plain Zenoh liveliness query, as rmw_zenoh's graph cache does at start."""
+    path = profile(tmp_path, domain=7)
+    sim = start("sim", "--ros", str(path), "--lockstep")
+    try:
+        endpoint = printed_endpoint(sim)
+        session = plain_session(endpoint)
+        try:
+            keys: list[str] = []
+            end = time.monotonic() + 10
+            while len(keys) < 8 and time.monotonic() < end:
+                keys = [str(reply.ok.key_expr) for reply in session.liveliness().get("@ros2_lv/7/**", timeout=2)
+                        if reply.ok is not None]
+        finally:
+            session.close()
+    finally:
+        sim.send_signal(signal.SIGINT)
+        finish(sim, timeout=30)
+    parsed = [TOKEN.match(k) for k in keys]
+    assert all(parsed), keys
+    by_kind = {(m.group(5), m.group(7)): m for m in parsed if m is not None}
+    node = by_kind[("NN", None)]
+    assert node.group(1) == "7" and node.group(6) == "fsmctl_sim_tral" and node.group(4) == "0"
+    front = by_kind[("MP", "%tral%ultrasonic%front")]
+    assert front.group(8) == "sensor_msgs::msg::dds_::Range_" and front.group(10) == "2:2:,1:,:,:,,"
+    assert front.group(2) == node.group(2), "one session: one zid"
+    command = by_kind[("MS", "%tral%cmd")]
+    assert command.group(8) == "ackermann_msgs::msg::dds_::AckermannDriveStamped_"
+    assert command.group(10) == ":2:,1:,:,:,,"  # reliable: rmw_zenoh's default, left empty
+    ids = [int(m.group(4)) for m in parsed if m is not None]
+    assert len(ids) == len(set(ids)), "each entity its own id"

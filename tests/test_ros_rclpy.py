@@ -379,7 +379,7 @@ def test_variables_are_read_only_parameters_and_the_documents_inputs_can_be_set(
 
     try:
         run = fsmctl("run", str(machine), "--ros", str(twist_profile(folder)), "--via", "rclpy", "--lockstep",
-                     "--duration", "60", "--summary", str(folder / "signalled.json.summary"))
+                     "--duration", "3600", "--summary", str(folder / "signalled.json.summary"))
         robot.runner.start()
         client = AsyncParameterClient(robot.node, "/fsmctl_tral")
         assert client.wait_for_services(timeout_sec=20)

@@ -21,7 +21,7 @@ from typing import Any
 
 from fsm.model.errors import DiagramError, Problem
 from fsm.ros.profile import Binding, Profile, domain_of, normalise_type, status_companions
-from fsm.ros.transport import ROBOT, PeerTimeout, TransportError
+from fsm.ros.transport import ROBOT, PeerTimeout, TransportError, node_name
 
 #: What to install for rclpy (the extra pins ROS 2 Jazzy's wheels).
 RCLPY_HINT = "pip install 'tral-fsm[rclpy]' (ROS 2 Jazzy's wheels), or source a ROS 2 installation"
@@ -126,7 +126,7 @@ class RclpyLink:
         self.profile = profile
         #: the node's name: the profile's ``transport.node``, else ``fsmctl_<profile name>`` for the machine and
         #: ``fsmctl_sim_<profile name>`` for the robot; its namespace the profile's ``transport.namespace``
-        self.node_name = profile.transport.node or re.sub(r"[^A-Za-z0-9_]", "_", f"{node}_{profile.name}")
+        self.node_name = node_name(profile, node)
         self.namespace = profile.transport.namespace
         #: ``use_sim_time``: the node's clock is the simulator's /clock (lock-step)
         self.sim_time = sim_time

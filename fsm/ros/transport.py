@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import struct
 import threading
 import time
@@ -102,7 +103,7 @@ def open_bus(profile: Profile, *, connect: list[str] | None = None, listen: list
         from fsm.ros.rclpy_link import RclpyLink
 
         return RclpyLink(profile, node, sim_time=sim_time)
-    return Link(profile, connect=connect, listen=listen)
+    return Link(profile, connect=connect, listen=listen, node=node)
 
 
 #: Where Zenoh's password is read from (never from a file the profile names: profiles are shared).
@@ -146,6 +147,58 @@ def topic_key(profile: Profile, binding: Binding, subscriber: bool = False) -> s
     return f"{domain_of(profile)}/{topic}/{dds_type(binding.type)}/{digest}"
 
 
+# -- rmw_zenoh's liveliness tokens ----------------------------------------------------------------------------------
+# So that nodes on rmw_zenoh see the bridge in `ros2 node list` / `ros2 topic list`, the session declares the tokens
+# rmw_zenoh declares for a node, its publishers and its subscriptions. Format as in ros2/rmw_zenoh at commit bfc065f
+# (Oct 2024, rmw_zenoh_cpp 0.0.1, the code the Jazzy release grew from): docs/design.md ("Graph Cache") and
+# rmw_zenoh_cpp/src/detail/liveliness_utils.cpp (Entity::Entity, qos_to_keyexpr, zid_to_str, mangle_name):
+#   @ros2_lv/<domain>/<zid>/<nid>/<id>/<NN|MP|MS>/<enclave>/<namespace>/<node>[/<topic>/<type>/<hash>/<qos>]
+# with '/' inside a part written '%' (an empty namespace, '/', is '%'), <zid> the session id's 16 bytes from the
+# most significant, each in hex without padding, and <qos> "rel:dur:hist,depth:deadline s,ns:lifespan s,ns:
+# liveliness,lease s,ns", a part left empty where it is rmw_zenoh's default (reliable, transient local, keep last 42,
+# infinite durations, automatic liveliness).
+ADMIN_SPACE = "@ros2_lv"
+#: rmw's enum values: RMW_QOS_POLICY_RELIABILITY_BEST_EFFORT, RMW_QOS_POLICY_DURABILITY_VOLATILE.
+RMW_BEST_EFFORT, RMW_VOLATILE, RMW_ZENOH_DEFAULT_DEPTH = 2, 2, 42
+
+
+def node_name(profile: Profile, node: str = "fsmctl") -> str:
+    """The node's name on either transport: the profile's ``transport.node``, else ``<node>_<profile name>``."""
+    return profile.transport.node or re.sub(r"[^A-Za-z0-9_]", "_", f"{node}_{profile.name}")
+
+
+def mangle(name: str) -> str:
+    return name.replace("/", "%")
+
+
+def zid_text(zid: Any) -> str:
+    """A Zenoh session id as rmw_zenoh writes it (``zid_to_str``)."""
+    value = int(str(zid), 16)
+    return "".join(f"{b:x}" for b in value.to_bytes(16, "big"))
+
+
+def qos_text(binding: Binding) -> str:
+    """``qos_to_keyexpr`` of rmw_zenoh for a binding's QoS (volatile, keep last ``depth``)."""
+    reliability = str(RMW_BEST_EFFORT) if binding.qos.reliability == "best_effort" else ""
+    depth = "" if binding.qos.depth == RMW_ZENOH_DEFAULT_DEPTH else str(binding.qos.depth)
+    return f"{reliability}:{RMW_VOLATILE}:,{depth}:,:,:,,"
+
+
+def liveliness_key(profile: Profile, zid: Any, node: str, entity: int, kind: str,
+                   binding: Binding | None = None) -> str:
+    """The liveliness token of the node (``NN``, entity 0) or of one of its publishers (``MP``) or subscriptions
+    (``MS``)."""
+    namespace = profile.transport.namespace or "/"
+    parts = [ADMIN_SPACE, str(domain_of(profile)), zid_text(zid), "0", str(entity), kind, mangle("/"),
+             mangle(namespace), node]
+    if binding is not None:
+        from fsm.ros.messages import type_hash
+
+        parts += [mangle("/" + binding.topic.lstrip("/")), dds_type(binding.type), type_hash(binding.type),
+                  qos_text(binding)]
+    return "/".join(parts)
+
+
 class Publisher:
     """Publishes one topic's messages (already encoded CDR bytes) with its QoS."""
 
@@ -180,8 +233,12 @@ class Publisher:
 class Link:
     """A Zenoh session for a profile; ``connect`` / ``listen`` replace the profile's endpoints (``--connect``)."""
 
-    def __init__(self, profile: Profile, *, connect: list[str] | None = None, listen: list[str] | None = None) -> None:
+    def __init__(self, profile: Profile, *, connect: list[str] | None = None, listen: list[str] | None = None,
+                 node: str = "fsmctl") -> None:
         self.profile = profile
+        #: the node name of the liveliness tokens (as rclpy's would be)
+        self.node_name = node_name(profile, node)
+        self._tokens: list[Any] = []
         t = profile.transport
         self.connect = list(t.connect if connect is None else connect)
         self.listen = list(t.listen if listen is None else listen)
@@ -241,7 +298,15 @@ class Link:
         except Exception as exc:  # zenoh.ZError: a port in use, an endpoint it cannot parse
             self._forget_dictionary()
             raise TransportError(f"cannot open the Zenoh session {self.describe()}: {exc}") from None
+        self._declare_token("NN")
         return self
+
+    def _declare_token(self, kind: str, binding: Binding | None = None) -> None:
+        """rmw_zenoh's liveliness token of the node or of an entity (see :func:`liveliness_key`)."""
+        if self.profile.transport.keys != "rmw_zenoh":
+            return
+        key = liveliness_key(self.profile, self.session.zid(), self.node_name, len(self._tokens), kind, binding)
+        self._tokens.append(self.session.liveliness().declare_token(key))
 
     def _forget_dictionary(self) -> None:
         path, self._dictionary = self._dictionary, None
@@ -268,7 +333,9 @@ class Link:
             time.sleep(0.02)
 
     def publisher(self, binding: Binding) -> Publisher:
-        return Publisher(self, binding)
+        publisher = Publisher(self, binding)
+        self._declare_token("MP", binding)
+        return publisher
 
     def subscribe(self, binding: Binding, callback: Callable[[bytes], None]) -> None:
         """Call ``callback(cdr_bytes)`` (on a Zenoh thread) for each message of the topic."""
@@ -278,18 +345,20 @@ class Link:
             callback(sample.payload.to_bytes())
 
         self._subscribers.append(self.session.declare_subscriber(key, handler))
+        self._declare_token("MS", binding)
 
     def close(self) -> None:
         self._forget_dictionary()
         with self._lock:
             session, self.session = self.session, None
         if session is not None:
-            for sub in self._subscribers:
+            for sub in [*self._subscribers, *self._tokens]:
                 try:
                     sub.undeclare()
                 except Exception:  # closing anyway
                     pass
             self._subscribers.clear()
+            self._tokens.clear()
             # in a thread of its own, waited for at most CLOSE_WAIT: the sockets go with the process otherwise
             closing = threading.Thread(target=session.close, name="zenoh-close", daemon=True)
             closing.start()

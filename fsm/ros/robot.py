@@ -22,7 +22,7 @@ from typing import Any
 
 from fsm.ros import messages as M
 from fsm.ros.car import Log
-from fsm.ros.profile import COMPRESSED, Profile
+from fsm.ros.profile import COMPRESSED, Binding, Profile
 from fsm.ros.transport import Bus, PeerTimeout
 from fsm.sim.car import PHYSICS_DT, SimCar
 from fsm.sim.loop import GateLog
@@ -32,6 +32,11 @@ from fsm.sim.world import load_world
 COMMAND_TIMEOUT = 0.5
 #: Lock-step: how often time 0's sensors and clock are sent again until the machine's first command (s).
 RESEND = 0.25
+
+
+def reliable(binding: Binding) -> Binding:
+    """``binding`` sent reliably (lock-step)."""
+    return binding.model_copy(update={"qos": binding.qos.model_copy(update={"reliability": "reliable"})})
 
 
 class SimRobot:
@@ -47,8 +52,11 @@ class SimRobot:
         self.car = SimCar(load_world(world), seed=seed, noise=noise)
         self.gates = GateLog(self.car.world) if self.car.world.gates else None
         self.dt = profile.dt
-        self._pubs = {name: link.publisher(b) for name, b in profile.inputs_bound().items()}
-        self._clock_pub = link.publisher(profile.clock) if lockstep else None
+        # lock-step wants every message: a best-effort sensor dropped under load would be a silence in simulated time
+        # (the machine holds the car), so there every topic is sent reliably, blocking rather than dropping
+        self._pubs = {name: link.publisher(reliable(b) if lockstep else b)
+                      for name, b in profile.inputs_bound().items()}
+        self._clock_pub = link.publisher(reliable(profile.clock)) if lockstep else None
         self._cond = threading.Condition()
         self._command: tuple[float, float, float | None] | None = None
         self._commands = 0

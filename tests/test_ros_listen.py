@@ -127,7 +127,7 @@ TOKEN = re.compile(r"^@ros2_lv/(\d+)/([0-9a-f]+)/(\d+)/(\d+)/(NN|MP|MS)/%/%/([A-
 def test_the_bridge_declares_rmw_zenohs_liveliness_tokens(tmp_path: Path) -> None:
     """Read back with a plain Zenoh liveliness query, as rmw_zenoh's graph cache does at start."""
     path = profile(tmp_path, domain=7)
-    sim = start("sim", "--ros", str(path), "--lockstep")
+    sim = start("sim", "--ros", str(path))  # on the wall clock: the profile's QoS (lock-step sends reliably)
     try:
         endpoint = printed_endpoint(sim)
         session = plain_session(endpoint)

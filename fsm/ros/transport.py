@@ -246,6 +246,9 @@ class Link:
         self._subscribers: list[Any] = []
         self._lock = threading.Lock()
         self._dictionary: str | None = None
+        #: rmw_zenoh keys: the callback of each topic's key (without its type hash), behind one subscriber
+        self._routes: dict[str, Callable[[bytes], None]] = {}
+        self._routed: bool | None = None
 
     def describe(self) -> str:
         """The endpoints in words, for messages."""
@@ -338,14 +341,36 @@ class Link:
         return publisher
 
     def subscribe(self, binding: Binding, callback: Callable[[bytes], None]) -> None:
-        """Call ``callback(cdr_bytes)`` (on a Zenoh thread) for each message of the topic."""
-        key = topic_key(self.profile, binding, subscriber=True)
+        """Call ``callback(cdr_bytes)`` (on a Zenoh thread) for each message of the topic.
 
-        def handler(sample: Any) -> None:
-            callback(sample.payload.to_bytes())
-
-        self._subscribers.append(self.session.declare_subscriber(key, handler))
+        With rmw_zenoh's keys every topic comes through one Zenoh subscriber on the domain, routed by key: one
+        subscriber's callbacks run one at a time in the order the messages came, so a tick's sensors are taken
+        before the clock the simulator sends after them (one subscriber per topic would call back on Zenoh's
+        threads in any order, and lock-step would now and then latch the tick before's)."""
         self._declare_token("MS", binding)
+        if self.profile.transport.keys != "rmw_zenoh":
+            key = topic_key(self.profile, binding, subscriber=True)
+
+            def handler(sample: Any) -> None:
+                callback(sample.payload.to_bytes())
+
+            self._subscribers.append(self.session.declare_subscriber(key, handler))
+            return
+        prefix = topic_key(self.profile, binding, subscriber=True).rsplit("/", 1)[0]
+        with self._lock:
+            self._routes[prefix] = callback
+            first = self._routed is None
+            if first:
+                self._routed = True
+        if first:
+            routes = self._routes
+
+            def route(sample: Any) -> None:
+                target = routes.get(str(sample.key_expr).rsplit("/", 1)[0])
+                if target is not None:
+                    target(sample.payload.to_bytes())
+
+            self._subscribers.append(self.session.declare_subscriber(f"{domain_of(self.profile)}/**", route))
 
     def close(self) -> None:
         self._forget_dictionary()

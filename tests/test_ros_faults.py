@@ -163,16 +163,17 @@ def test_the_transport_is_rclpy_only_when_it_can_be_imported(monkeypatch: pytest
     assert isinstance(transport.open_bus(pinned), transport.Link)
 
 
-def test_rclpy_missing_is_not_an_import_error_until_used() -> None:
-    """Here rclpy cannot be imported: the module loads, and opening the link says what to do."""
-    from fsm.ros import transport
-
-    if transport.rclpy_available():
-        pytest.skip("rclpy is installed here")
+def test_rclpy_missing_is_not_an_import_error_until_used(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Where rclpy cannot be imported the module loads, and opening the link says what to do."""
+    from fsm.ros import rclpy_link
     from fsm.ros.rclpy_link import RclpyLink
 
+    def no_rclpy(name: str) -> object:
+        raise ImportError(f"No module named {name!r}")
+
+    monkeypatch.setattr(rclpy_link, "_module", no_rclpy)
     bus = RclpyLink(load_profile(DEFAULT_PROFILE_PATH))
-    with pytest.raises(FsmError, match="rclpy cannot be imported .*--via zenoh"):
+    with pytest.raises(FsmError, match=r"rclpy cannot be imported .*tral-fsm\[rclpy\].*--via zenoh"):
         bus.open()
 
 

@@ -81,7 +81,7 @@ def open_link(profile: Any, listen: list[str], connect: list[str], node: str) ->
 
     if profile.transport.via == "rclpy":
         return open_bus(profile, node=node).open()
-    return open_bus(profile, connect=connect, listen=listen, via="zenoh").open()
+    return open_bus(profile, connect=connect, listen=listen, via="zenoh", sim_time=True).open()  # lock-step
 
 
 # -- the source: the robot's side ----------------------------------------------------------------------------

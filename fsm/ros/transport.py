@@ -95,7 +95,8 @@ def open_bus(profile: Profile, *, connect: list[str] | None = None, listen: list
     """A transport for ``profile``, not yet open (see :func:`resolve_via`); rclpy takes no endpoints (its RMW
     finds the robot: ``ROS_DOMAIN_ID``, ``RMW_IMPLEMENTATION``), so naming some with it is an error. ``node``
     begins rclpy's node name (``<node>_<profile name>``) unless the profile names it; ``sim_time``: rclpy's node
-    runs with ``use_sim_time`` (lock-step: the simulator's /clock is ROS time)."""
+    runs with ``use_sim_time`` (lock-step: the simulator's /clock is ROS time); a Zenoh link then keeps the
+    order of the messages of all topics (:meth:`Link.subscribe`)."""
     if resolve_via(profile, via, endpoints=bool(connect or listen)) == "rclpy":
         if connect or listen:
             raise TransportError("--connect/--listen are Zenoh endpoints; with rclpy the RMW finds the robot "
@@ -103,7 +104,7 @@ def open_bus(profile: Profile, *, connect: list[str] | None = None, listen: list
         from fsm.ros.rclpy_link import RclpyLink
 
         return RclpyLink(profile, node, sim_time=sim_time)
-    return Link(profile, connect=connect, listen=listen, node=node)
+    return Link(profile, connect=connect, listen=listen, node=node, ordered=sim_time)
 
 
 #: Where Zenoh's password is read from (never from a file the profile names: profiles are shared).
@@ -234,8 +235,10 @@ class Link:
     """A Zenoh session for a profile; ``connect`` / ``listen`` replace the profile's endpoints (``--connect``)."""
 
     def __init__(self, profile: Profile, *, connect: list[str] | None = None, listen: list[str] | None = None,
-                 node: str = "fsmctl") -> None:
+                 node: str = "fsmctl", ordered: bool = False) -> None:
         self.profile = profile
+        #: every rmw_zenoh topic through one subscriber, in the order sent (lock-step; see :meth:`subscribe`)
+        self.ordered = ordered
         #: the node name of the liveliness tokens (as rclpy's would be)
         self.node_name = node_name(profile, node)
         self._tokens: list[Any] = []
@@ -343,12 +346,12 @@ class Link:
     def subscribe(self, binding: Binding, callback: Callable[[bytes], None]) -> None:
         """Call ``callback(cdr_bytes)`` (on a Zenoh thread) for each message of the topic.
 
-        With rmw_zenoh's keys every topic comes through one Zenoh subscriber on the domain, routed by key: one
-        subscriber's callbacks run one at a time in the order the messages came, so a tick's sensors are taken
-        before the clock the simulator sends after them (one subscriber per topic would call back on Zenoh's
-        threads in any order, and lock-step would now and then latch the tick before's)."""
+        ``ordered`` (lock-step) with rmw_zenoh's keys: every topic comes through one Zenoh subscriber on the
+        domain, routed by key; one subscriber's callbacks run one at a time in the order the messages came, so a
+        tick's sensors are taken before the clock the simulator sends after them (one subscriber per topic calls
+        back on Zenoh's threads in any order, and lock-step would now and then latch the tick before's)."""
         self._declare_token("MS", binding)
-        if self.profile.transport.keys != "rmw_zenoh":
+        if self.profile.transport.keys != "rmw_zenoh" or not self.ordered:
             key = topic_key(self.profile, binding, subscriber=True)
 
             def handler(sample: Any) -> None:

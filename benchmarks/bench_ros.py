@@ -1,7 +1,10 @@
-"""Benchmark: sensor message in -> command out over Zenoh on localhost (issue 25: p99 under 5 ms at 80 ticks/s over
-10,000 ticks), and the in-process simulator's speed, which the bridge must not change.
+"""Benchmark: sensor message in -> command out over Zenoh or rclpy with Fast DDS on localhost (issues 25 and 32: p99
+under 5 ms at 80 ticks/s over 10,000 ticks), the in-process simulator's speed, which the bridge must not change, and
+the replay of a 13-minute drive of about 300 MB (issue 32: under 20 s, RSS under 200 MB).
 
-Two processes, peer mode on a free tcp/127.0.0.1 port, no router, no multicast:
+Two processes; over Zenoh peer mode on a free tcp/127.0.0.1 port, no router, no multicast; over rclpy (``--via
+rclpy``) Fast DDS in a ROS domain of the benchmark's own with ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and the
+command as ``TwistStamped`` (ackermann_msgs has no wheel):
 
 - the **source** (this file with ``--source``) plays the robot: every 12.5 ms of wall time it publishes what the TRAL
   profile binds (three ``sensor_msgs/Range`` at 20 Hz, ``nav_msgs/Odometry`` and the hall counter at 80 Hz) and the
@@ -13,7 +16,13 @@ The latency of a tick is the time from the source's first ``put`` of the tick's 
 with that tick's stamp arriving back at the source: decode, latch, the machine's tick, encode and both network
 hops (one clock, both processes on the same machine). Not a timed test: CI does not run it.
 
-    .venv/bin/python benchmarks/bench_ros.py [--ticks 10000] [--rate 80] [--json FILE] [--sim-repeat 3]
+    .venv/bin/python benchmarks/bench_ros.py [--ticks 10000] [--rate 80] [--via zenoh|rclpy] [--json FILE]
+                                             [--sim-repeat 3]
+    .venv/bin/python benchmarks/bench_ros.py --replay-minutes 13 [--json FILE]
+
+The replay: a sensors-only drive (three ``Range`` at 20 Hz, ``Odometry`` at 80 Hz) with a camera the profile does
+not bind (``CompressedImage``, 30 KB at 10 Hz), written with rosbags as MCAP, then ``fsmctl replay`` in a process of
+its own: its wall time and its maximum RSS (``getrusage`` of the child).
 """
 
 from __future__ import annotations
@@ -21,6 +30,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import socket
 import statistics
 import subprocess
@@ -46,23 +56,40 @@ def free_port() -> int:
 BENCH_SILENCE = 5.0
 
 
-def bench_profile() -> Any:
-    """The TRAL profile with every input's ``max_silence`` at :data:`BENCH_SILENCE`."""
+#: rclpy's ROS domain for the benchmark (not 0, everyone's default).
+BENCH_DOMAIN = 91
+
+
+def bench_profile(via: str = "zenoh") -> Any:
+    """The TRAL profile with every input's ``max_silence`` at :data:`BENCH_SILENCE`; over rclpy with a
+    ``TwistStamped`` command, in :data:`BENCH_DOMAIN`."""
     from fsm.ros.profile import parse_profile
 
     data = json.loads(PROFILE.read_text(encoding="utf-8"))
     for binding in data["inputs"].values():
         binding["max_silence"] = BENCH_SILENCE
+    data["transport"]["via"] = via
+    if via == "rclpy":
+        data["outputs"]["command"]["type"] = "geometry_msgs/msg/TwistStamped"
+        data["transport"]["domain"] = BENCH_DOMAIN
+        os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     return parse_profile(data, str(PROFILE), base_dir=str(PROFILE.parent))
 
 
-# -- the source: the robot's side ----------------------------------------------------------------------------
-def source(endpoint: str, ticks: int, rate: float) -> dict[str, Any]:
-    from fsm.ros import messages as M
-    from fsm.ros.transport import Link
+def open_link(profile: Any, listen: list[str], connect: list[str], node: str) -> Any:
+    from fsm.ros.transport import open_bus
 
-    profile = bench_profile()
-    link = Link(profile, connect=[], listen=[endpoint]).open()
+    if profile.transport.via == "rclpy":
+        return open_bus(profile, node=node).open()
+    return open_bus(profile, connect=connect, listen=listen, via="zenoh", sim_time=True).open()  # lock-step
+
+
+# -- the source: the robot's side ----------------------------------------------------------------------------
+def source(endpoint: str, ticks: int, rate: float, via: str) -> dict[str, Any]:
+    from fsm.ros import messages as M
+
+    profile = bench_profile(via)
+    link = open_link(profile, [endpoint], [], "bench_source")
     pubs = {name: link.publisher(b) for name, b in profile.inputs_bound().items()}
     clock = link.publisher(profile.clock)
     sent: dict[int, float] = {}
@@ -115,14 +142,13 @@ def source(endpoint: str, ticks: int, rate: float) -> dict[str, Any]:
 
 
 # -- the machine's side ----------------------------------------------------------------------------------------
-def machine_side(endpoint: str, ticks: int) -> dict[str, Any]:
+def machine_side(endpoint: str, ticks: int, via: str) -> dict[str, Any]:
     from fsm.loading.loader import compile as compile_plan
     from fsm.ros.driver import ros_session
-    from fsm.ros.transport import Link
     from fsm.session.session import StopRules
 
-    profile = bench_profile()
-    link = Link(profile, connect=[endpoint], listen=[]).open()
+    profile = bench_profile(via)
+    link = open_link(profile, [], [endpoint], "fsmctl")
     session = ros_session(compile_plan(MACHINE), profile, link, lockstep=True, stop=StopRules(max_ticks=ticks),
                           log=lambda text: None)
     session.driver.prime(30)
@@ -155,23 +181,106 @@ def simulator(repeat: int) -> dict[str, Any]:
             "realtime_factor_median": round(statistics.median(factors), 1)}
 
 
+# -- the replay of a long drive ---------------------------------------------------------------------------------
+#: The machine of the replay: drives on for ever (the front range never comes under 1 m).
+ENDLESS = {"name": "endless", "initial": "go",
+           "states": [{"id": "go", "type": "Motor", "speed": 1.0, "steering": 0, "distance": 1000},
+                      {"id": "halt", "type": "Stop"}],
+           "transitions": [{"type": "SensorLevel", "from": "go", "to": "halt", "sensor": "front", "below": 1.0}]}
+
+
+def write_long_drive(folder: Path, minutes: float) -> Path:
+    """A sensors-only drive with an unbound camera topic, as MCAP (see the module's docstring)."""
+    import numpy as np
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    from fsm.ros import messages as M
+
+    store = M.typestore()
+    bag = folder / "drive"
+    rng = np.random.default_rng(0)
+    jpeg = rng.integers(0, 255, 30_000, dtype=np.uint8).tobytes()  # noise does not compress: 30 KB a frame
+    epoch = 1_790_000_000.0
+    with Writer(bag, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        conns = {side: writer.add_connection(f"/tral/ultrasonic/{side}", "sensor_msgs/msg/Range", typestore=store)
+                 for side in ("left", "right", "front")}
+        odom = writer.add_connection("/tral/odom", "nav_msgs/msg/Odometry", typestore=store)
+        camera = writer.add_connection("/tral/camera/compressed", "sensor_msgs/msg/CompressedImage", typestore=store)
+        for k in range(round(minutes * 60 * 80)):
+            t = epoch + k / 80
+            ns = round(t * 1e9)
+            if k % 4 == 0:
+                for side, conn in conns.items():
+                    writer.write(conn, ns, M.encode(M.range_message(t, f"us_{side}", 3.0 if side == "front" else 0.5,
+                                                                    4.0)))
+            if k % 8 == 0:
+                writer.write(camera, ns, M.encode(M.compressed_image_message(t, jpeg)))
+            writer.write(odom, ns, M.encode(M.odometry_message(t, k / 80 / 2, 0.0, 0.0, 0.5, 0.0)))
+    return bag
+
+
+def replay_bench(minutes: float, json_out: str | None) -> int:
+    import resource
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        t0 = time.perf_counter()
+        bag = write_long_drive(folder, minutes)
+        size = sum(f.stat().st_size for f in bag.iterdir())
+        written = time.perf_counter() - t0
+        data = json.loads(PROFILE.read_text(encoding="utf-8"))
+        data.pop("$schema")
+        del data["inputs"]["hall"]
+        (folder / "profile.json").write_text(json.dumps(data), encoding="utf-8")
+        (folder / "endless.json").write_text(json.dumps(ENDLESS), encoding="utf-8")
+        t0 = time.perf_counter()
+        proc = subprocess.run([sys.executable, "-m", "fsm.tools.cli", "replay", str(bag), "--machine",
+                               str(folder / "endless.json"), "--profile", str(folder / "profile.json"), "--summary",
+                               str(folder / "summary.json")], capture_output=True, text=True, cwd=ROOT)
+        wall = time.perf_counter() - t0
+        usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+        rss_mb = usage.ru_maxrss / 1024
+        cpu = usage.ru_utime + usage.ru_stime  # the replay's CPU time: what a shared machine does not inflate
+        if proc.returncode != 0:
+            print(proc.stderr)
+            return 1
+        summary = json.loads((folder / "summary.json").read_text())
+    report = {"minutes": minutes, "bag_mb": round(size / 1e6, 1), "write_s": round(written, 1),
+              "ticks": summary["replay"]["ticks"], "replay_wall_s": round(wall, 2), "replay_cpu_s": round(cpu, 2),
+              "max_rss_mb": round(rss_mb, 1), "load_average": os.getloadavg()[0]}
+    print(f"replay of a {minutes:g}-minute drive, {report['bag_mb']} MB of MCAP (written in {written:.1f} s): "
+          f"{report['ticks']} ticks in {wall:.2f} s ({cpu:.2f} s of CPU), max RSS {rss_mb:.1f} MB "
+          f"(load average {report['load_average']:.1f})")
+    verdict = "met" if wall < 20 and rss_mb < 200 else "NOT met"
+    print(f"  target < 20 s and RSS < 200 MB: {verdict}")
+    if json_out:
+        Path(json_out).write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+    return 0 if verdict == "met" else 1
+
+
 def main() -> int:
-    sys.setswitchinterval(float(__import__("os").environ.get("SWITCH", "0.005")))
+    sys.setswitchinterval(float(os.environ.get("SWITCH", "0.005")))
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--ticks", type=int, default=10_000)
     ap.add_argument("--rate", type=float, default=80.0)
     ap.add_argument("--json", metavar="FILE")
     ap.add_argument("--sim-repeat", type=int, default=3, help="in-process hallway laps to time (0: none)")
+    ap.add_argument("--via", choices=("zenoh", "rclpy"), default="zenoh", help="the transport (default zenoh)")
+    ap.add_argument("--replay-minutes", type=float, metavar="MIN",
+                    help="instead: write a drive of MIN minutes (about 23 MB a minute) and time its replay")
     ap.add_argument("--source", metavar="ENDPOINT", help=argparse.SUPPRESS)
     args = ap.parse_args()
+    if args.replay_minutes:
+        return replay_bench(args.replay_minutes, args.json)
     if args.source:
-        result = source(args.source, args.ticks, args.rate)
+        result = source(args.source, args.ticks, args.rate, args.via)
         print(json.dumps(result))
         return 0
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     proc = subprocess.Popen([sys.executable, __file__, "--source", endpoint, "--ticks", str(args.ticks), "--rate",
-                             str(args.rate)], stdout=subprocess.PIPE, text=True)
-    side = machine_side(endpoint, args.ticks)
+                             str(args.rate), "--via", args.via], stdout=subprocess.PIPE, text=True)
+    side = machine_side(endpoint, args.ticks, args.via)
     out, _ = proc.communicate(timeout=args.ticks / args.rate + 120)
     src = json.loads(out.strip().splitlines()[-1])
     lat = src.pop("latency_ms")
@@ -181,7 +290,9 @@ def main() -> int:
                              "mean": round(statistics.fmean(lat), 3)},
               "machine_wall_s": round(side["wall_s"], 2), "decode_failures": side["ros"]["decode_failures"],
               "machine_stopped": side["stopped"], "machine_ticks": side["ticks"]}
-    print(f"sensor in -> command out over Zenoh (localhost, peer mode), {len(lat)} of {args.ticks} ticks at "
+    report["via"] = args.via
+    over = "Zenoh (localhost, peer mode)" if args.via == "zenoh" else "rclpy with Fast DDS (localhost)"
+    print(f"sensor in -> command out over {over}, {len(lat)} of {args.ticks} ticks at "
           f"{args.rate:g} ticks/s:")
     for k, v in report["latency_ms"].items():
         print(f"  {k:>4}: {v:7.3f} ms")

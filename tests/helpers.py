@@ -71,3 +71,17 @@ def trace_events(text: str) -> list[dict[str, Any]]:
     import json
 
     return [line for line in map(json.loads, text.splitlines()) if line.get("type") == "event"]
+
+
+def finish(proc: Any, timeout: float = 120) -> tuple[int, str, str]:
+    """Wait for a ``subprocess.Popen`` (text mode, pipes): (exit status, stdout, stderr); killed and failed when it
+    hangs longer than ``timeout`` seconds."""
+    import subprocess
+
+    try:
+        out, err = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        out, err = proc.communicate()
+        raise AssertionError(f"hung: {' '.join(str(a) for a in proc.args)}\n{err}") from None
+    return int(proc.returncode), out, err

@@ -19,6 +19,8 @@ from typing import Any
 
 import pytest
 
+from helpers import finish
+
 pytest.importorskip("zenoh")
 pytest.importorskip("rosbags")
 
@@ -50,16 +52,6 @@ def start(*args: str) -> subprocess.Popen[str]:
     env.pop("PYTHONPATH", None)
     return subprocess.Popen(fsmctl(*args), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO,
                             env=env)
-
-
-def finish(proc: subprocess.Popen[str], timeout: float = 120) -> tuple[int, str, str]:
-    try:
-        out, err = proc.communicate(timeout=timeout)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        out, err = proc.communicate()
-        raise AssertionError(f"hung: {' '.join(str(a) for a in proc.args)}\n{err}") from None
-    return proc.returncode, out, err
 
 
 def profile_with(tmp_path: Path, peer_timeout: float = 15, **safety: Any) -> Path:

@@ -155,29 +155,33 @@ def test_the_transport_is_rclpy_only_when_it_can_be_imported(monkeypatch: pytest
     bus = transport.open_bus(profile)
     assert isinstance(bus, RclpyLink) and bus.node is None, "chosen, not opened"
     assert "through rclpy" in bus.describe()
+    # Zenoh endpoints on the command line mean Zenoh under auto; with rclpy named they are an error
+    assert isinstance(transport.open_bus(profile, connect=["tcp/127.0.0.1:7447"]), transport.Link)
     with pytest.raises(FsmError, match="--connect/--listen are Zenoh endpoints"):
-        transport.open_bus(profile, connect=["tcp/127.0.0.1:7447"])
+        transport.open_bus(profile, connect=["tcp/127.0.0.1:7447"], via="rclpy")
     pinned = profile.model_copy(update={"transport": profile.transport.model_copy(update={"via": "zenoh"})})
     assert isinstance(transport.open_bus(pinned), transport.Link)
 
 
-def test_rclpy_missing_is_not_an_import_error_until_used() -> None:
-    """Here rclpy cannot be imported: the module loads, and opening the link says what to do."""
-    from fsm.ros import transport
-
-    if transport.rclpy_available():
-        pytest.skip("rclpy is installed here")
+def test_rclpy_missing_is_not_an_import_error_until_used(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Where rclpy cannot be imported the module loads, and opening the link says what to do."""
+    from fsm.ros import rclpy_link
     from fsm.ros.rclpy_link import RclpyLink
 
+    def no_rclpy(name: str) -> object:
+        raise ImportError(f"No module named {name!r}")
+
+    monkeypatch.setattr(rclpy_link, "_module", no_rclpy)
     bus = RclpyLink(load_profile(DEFAULT_PROFILE_PATH))
-    with pytest.raises(FsmError, match="rclpy cannot be imported .*--via zenoh"):
+    with pytest.raises(FsmError, match=r"rclpy cannot be imported .*tral-fsm\[rclpy\].*--via zenoh"):
         bus.open()
 
 
 def test_the_profile_via_key_is_checked(tmp_path: Path) -> None:
     from fsm.model.errors import DiagramError
 
-    text = DEFAULT_PROFILE_PATH.read_text(encoding="utf-8").replace('"domain": 0', '"domain": 0, "via": "dds"')
+    text = DEFAULT_PROFILE_PATH.read_text(encoding="utf-8").replace('"keys": "rmw_zenoh"',
+                                                                    '"keys": "rmw_zenoh", "via": "dds"')
     path = tmp_path / "p.json"
     path.write_text(text, encoding="utf-8")
     with pytest.raises(DiagramError) as err:

@@ -15,6 +15,7 @@ from __future__ import annotations
 import os
 import shutil
 import tempfile
+from collections.abc import Callable, Collection, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -91,12 +92,133 @@ class BagRecorder:
 
 
 def read_bag(path: str | os.PathLike[str]) -> list[tuple[str, str, int, bytes]]:
-    """Every message of a rosbag2 folder: ``(topic, type, log time ns, CDR bytes)`` in log-time order."""
-    from rosbags.rosbag2 import Reader
-
-    out: list[tuple[str, str, int, bytes]] = []
-    with Reader(Path(path)) as reader:
-        for connection, timestamp, raw in reader.messages():
-            out.append((connection.topic, connection.msgtype, int(timestamp), bytes(raw)))
+    """Every message of a rosbag2 folder: ``(topic, type, log time ns, CDR bytes)`` in log-time order (all in
+    memory: for tests and small bags; :class:`BagSource` streams)."""
+    with BagSource(path) as source:
+        out = [(topic, source.topics[topic][0], ns, raw) for topic, ns, raw in source.messages()]
     out.sort(key=lambda m: m[2])
     return out
+
+
+class BagSource:
+    """A recorded drive's messages, read as they are needed (never the whole bag in memory): a rosbag2 folder in
+    any storage rosbags reads (MCAP, sqlite3), chunk by chunk; or, when its MCAP file is cut off (a recorder that
+    was killed) or the folder has no ``metadata.yaml``, the MCAP files scanned from the start up to their last whole
+    chunk, with a warning that names where the file stops.
+
+    ``topics``: every recorded topic, ``(message type, layout)``; the layout (:data:`fsm.ros.messages.LAYOUTS`) is
+    the one the bag's type hash names, None where the bag has no hash (then each layout is tried)."""
+
+    def __init__(self, path: str | os.PathLike[str], warn: Callable[[str], None] | None = None) -> None:
+        self.path = Path(path)
+        self.warn = warn or (lambda text: None)
+        self.topics: dict[str, tuple[str, str | None]] = {}
+        #: messages per topic where the bag says (None: a scanned file, not known before reading)
+        self.counts: dict[str, int | None] = {}
+        self._reader: Any = None
+        self._files: list[Path] = []
+        self._open()
+
+    def _open(self) -> None:
+        from rosbags.rosbag2 import Reader
+
+        from fsm.ros.messages import layout_of_hash
+
+        folder = self.path
+        if (folder / "metadata.yaml").is_file():
+            try:
+                reader = Reader(folder)
+                reader.open()
+            except Exception as exc:  # rosbags' ReaderError and what a damaged file makes it raise
+                self._files = sorted(folder.glob("*.mcap"))
+                if not self._files:
+                    raise BagReadError(" ".join(str(exc).split())) from None
+                self._scan_channels(first_error=" ".join(str(exc).split()))
+                return
+            self._reader = reader
+            for c in reader.connections:
+                digest = str(c.digest or "")
+                layout = layout_of_hash(c.msgtype, digest) if digest.startswith("RIHS01_") else None
+                self.topics[c.topic] = (c.msgtype, layout)
+                self.counts[c.topic] = (self.counts.get(c.topic) or 0) + int(c.msgcount)
+            return
+        self._files = [folder] if folder.is_file() else sorted(folder.glob("*.mcap"))
+        if not self._files:
+            raise BagReadError("not a rosbag2 folder (no metadata.yaml and no .mcap file in it)")
+        self._scan_channels()
+
+    def _scan_channels(self, first_error: str | None = None) -> None:
+        """The topics of MCAP files without their index: the channels declared up to where each file stops."""
+        for _topic, _ns, _raw in self._scan(channels_only=True):
+            pass
+        if not self.topics:
+            raise BagReadError(first_error or "no channel in the MCAP file(s): is it an MCAP file of ROS 2 messages?")
+
+    def messages(self, topics: Collection[str] | None = None, start_ns: int | None = None,
+                 stop_ns: int | None = None) -> Iterator[tuple[str, int, bytes]]:
+        """``(topic, log time ns, CDR bytes)`` of ``topics`` (every topic: None) in log-time order, from
+        ``start_ns`` up to (not including) ``stop_ns``."""
+        if self._reader is not None:
+            wanted = [c for c in self._reader.connections if topics is None or c.topic in topics]
+            for connection, ns, raw in self._reader.messages(connections=wanted, start=start_ns, stop=stop_ns):
+                yield connection.topic, int(ns), bytes(raw)
+            return
+        for topic, ns, raw in self._scan(topics=topics):
+            if (start_ns is None or ns >= start_ns) and (stop_ns is None or ns < stop_ns):
+                yield topic, ns, raw
+
+    def _scan(self, topics: Collection[str] | None = None, channels_only: bool = False
+              ) -> Iterator[tuple[str, int, bytes]]:
+        """Each file's records in order, a chunk at a time (its messages sorted by log time), up to the last whole
+        chunk of a file that is cut off (warned once, naming the file, the byte and the log time it stops at)."""
+        from mcap.records import Channel, Chunk, DataEnd, Footer, Message, Schema
+        from mcap.stream_reader import StreamReader, breakup_chunk
+
+        for file in self._files:
+            schemas: dict[int, str] = {}
+            channels: dict[int, str] = {}
+            last_ns: int | None = None
+            chunks = 0
+            with open(file, "rb") as stream:
+                try:
+                    for record in StreamReader(stream, emit_chunks=True).records:
+                        if isinstance(record, (DataEnd, Footer)):
+                            break
+                        inner = breakup_chunk(record) if isinstance(record, Chunk) else [record]
+                        batch: list[tuple[str, int, bytes]] = []
+                        for r in inner:
+                            if isinstance(r, Schema):
+                                schemas[r.id] = r.name
+                            elif isinstance(r, Channel):
+                                channels[r.id] = r.topic
+                                self.topics.setdefault(r.topic, (schemas.get(r.schema_id, ""), None))
+                                self.counts[r.topic] = None
+                            elif isinstance(r, Message) and not channels_only:
+                                topic = channels.get(r.channel_id)
+                                if topic is not None and (topics is None or topic in topics):
+                                    batch.append((topic, int(r.log_time), bytes(r.data)))
+                        if isinstance(record, Chunk):
+                            chunks += 1
+                            last_ns = record.message_end_time
+                        batch.sort(key=lambda m: m[1])
+                        yield from batch
+                except Exception as exc:  # mcap's EndOfFile, McapError, a CRC or length that does not hold
+                    if not channels_only:
+                        where = f"log time {last_ns * 1e-9:.3f} s" if last_ns is not None else "its start"
+                        self.warn(f"{file}: cut off at byte {stream.tell()} ({type(exc).__name__}): replayed up to "
+                                  f"the last whole chunk ({chunks} chunks, up to {where})")
+
+    def close(self) -> None:
+        reader, self._reader = self._reader, None
+        if reader is not None:
+            reader.close()
+
+    def __enter__(self) -> BagSource:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class BagReadError(FsmError):
+    """A bag that cannot be read at all."""

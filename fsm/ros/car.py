@@ -22,6 +22,10 @@ from fsm.ros import messages as M
 from fsm.ros.profile import ODOMETRY, RANGE, Profile
 from fsm.sim.io import NO_VIEW, CameraView, GateMemory
 
+#: An odometry step longer than the car's top speed times the time since the last sample, times this, plus
+#: :data:`JUMP_SLACK` m, is a jump (a reset, a glitch), not travel.
+JUMP_MARGIN = 1.5
+JUMP_SLACK = 0.05
 #: Where problems of the inputs are reported (one line each): standard error unless the caller says otherwise.
 Log = Callable[[str], None]
 
@@ -29,7 +33,7 @@ Log = Callable[[str], None]
 class Slot:
     """The newest message of one input: written on a Zenoh thread, taken on the loop's thread."""
 
-    __slots__ = ("name", "type", "message", "raw", "count", "taken", "failures")
+    __slots__ = ("name", "type", "message", "raw", "count", "taken", "failures", "layout")
 
     def __init__(self, name: str, type_name: str) -> None:
         self.name = name
@@ -39,6 +43,8 @@ class Slot:
         self.count = 0
         self.taken = 0
         self.failures = 0
+        #: the distribution layout the messages were last read in (tried first)
+        self.layout: str | None = None
 
 
 class RosCar:
@@ -65,6 +71,12 @@ class RosCar:
         self.stopped = False
         self._pose = (0.0, 0.0, 0.0)
         self._last_xy: tuple[float, float] | None = None
+        self._last_odometry = 0.0
+        odometry = profile.inputs.odometry
+        self._odometry_period = 1.0 / odometry.rate if odometry is not None else profile.dt
+        #: odometry samples that moved farther than the car can (ignored for distance), and readings dropped (NaN)
+        self.odometry_jumps = 0
+        self.dropped: dict[str, int] = {}
         self._has_hall = profile.inputs.hall is not None
         self._hall0: int | None = None
         self.slots: dict[str, Slot] = {name: Slot(name, b.type) for name, b in profile.inputs_bound().items()}
@@ -84,7 +96,7 @@ class RosCar:
         """A message of input ``name`` arrived: decode it and keep it as the newest (a bad one is counted)."""
         slot = self.slots[name]
         try:
-            message = M.decode(raw, slot.type)
+            message, slot.layout = M.decode_layout(raw, slot.type, slot.layout)
         except M.DecodeError as exc:
             with self._lock:
                 slot.failures += 1
@@ -114,13 +126,14 @@ class RosCar:
         new_sample = False
         for name, message, raw in fresh:
             if message.__msgtype__ == RANGE:
-                value = float(message.range)
-                if not value == value or value > self._max_range or value < 0:
-                    value = self._max_range  # no echo (inf, NaN) reads as the sensor's maximum
+                value = self._range(message)
+                if value is None:  # NaN: a dropped reading, counted; the input stays as silent as it was
+                    self.dropped[name] = self.dropped.get(name, 0) + 1
+                    continue
                 setattr(self, name, value)
                 new_sample = True
             elif message.__msgtype__ == ODOMETRY:
-                self._odometry(message)
+                self._odometry(message, now)
             elif name == "hall":
                 self._counter(message)
             elif name == "camera" and not self._image(message, now):
@@ -131,16 +144,47 @@ class RosCar:
             self.sample += 1
         return taken
 
-    def _odometry(self, message: Any) -> None:
+    def _range(self, message: Any) -> float | None:
+        """A Range's reading as REP 117 means it: -inf or under the message's ``min_range`` is "too close to
+        measure" (the reading becomes ``min_range``); +inf or over ``max_range`` (the message's or the profile's)
+        is "nothing in range" (the profile's ``max_range``); NaN is no reading at all (None)."""
+        value = float(message.range)
+        if value != value:
+            return None
+        low = float(message.min_range)
+        low = low if math.isfinite(low) and low >= 0 else 0.0
+        if value < low:  # -inf included
+            return min(low, self._max_range)
+        high = float(message.max_range)
+        if value > self._max_range or (math.isfinite(high) and high > low and value > high):  # +inf included
+            return self._max_range
+        return value
+
+    def _odometry(self, message: Any, now: float) -> None:
         p = message.pose.pose
         x, y = float(p.position.x), float(p.position.y)
+        if not (math.isfinite(x) and math.isfinite(y)):
+            self.dropped["odometry"] = self.dropped.get("odometry", 0) + 1
+            return
         self._pose = (x, y, M.quaternion_yaw(p.orientation))
-        self.speed = float(message.twist.twist.linear.x)
+        speed = float(message.twist.twist.linear.x)
+        self.speed = speed if math.isfinite(speed) else 0.0
+        last, self._last_xy = self._last_xy, (x, y)
+        last_time, self._last_odometry = self._last_odometry, now
+        if last is None:
+            return
+        step = math.hypot(x - last[0], y - last[1])
+        # farther than the car can go between two samples (at its top speed, with a margin): a reset or a glitch
+        limit = self._max_speed * max(now - last_time, self._odometry_period) * JUMP_MARGIN + JUMP_SLACK
+        if step > limit:
+            self.odometry_jumps += 1
+            if self.odometry_jumps == 1:
+                self.log(f"input 'odometry': at {now:.3f} s the pose jumped {step:.3g} m, more than the car can travel "
+                         f"in one sample ({limit:.3g} m): ignored for distance (further jumps are only counted)")
+            return
         if not self._has_hall:  # the travelled distance from the odometry's path
-            if self._last_xy is not None:
-                self.distance += math.hypot(x - self._last_xy[0], y - self._last_xy[1])
-                self.hall = int(self.distance * self._units)
-            self._last_xy = (x, y)
+            self.distance += step
+            self.hall = int(self.distance * self._units)
 
     def _counter(self, message: Any) -> None:
         value = int(message.data)

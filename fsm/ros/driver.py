@@ -15,12 +15,13 @@ import json
 import sys
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from fsm.ros import messages as M
 from fsm.ros.car import Log, RosCar
-from fsm.ros.profile import Profile
+from fsm.ros.profile import Profile, status_companions
 from fsm.ros.transport import Bus, PeerTimeout, TopicPublisher
 from fsm.runtime.machine import Listener
 
@@ -82,16 +83,20 @@ class RosDriver:
         status = profile.outputs.status
         self._status_every = 1.0 / status.rate if status is not None else 0.0
         self._next_status = 0.0
-        #: what was published, (machine time, CDR bytes), kept without a link (replay)
-        self.sent: list[tuple[float, bytes]] = []
-        self.statuses: list[tuple[float, dict[str, Any]]] = []
+        #: without a link (replay): the last command published, (machine time, CDR bytes), and the last status;
+        #: nothing more is kept, however long the run
+        self.last_sent: tuple[float, bytes] | None = None
+        self.last_status: tuple[float, dict[str, Any]] | None = None
         self._clock = -1.0
         self._clock_cond = threading.Condition()
         self._command: TopicPublisher | None = None
         self._status: TopicPublisher | None = None
+        #: beside the status's JSON: DiagnosticArray on /diagnostics, the active path on <status>/active
+        self._companions: dict[str, TopicPublisher] = {}
         if link is not None:
             self._command = link.publisher(profile.outputs.command)
             self._status = link.publisher(status) if status is not None else None
+            self._companions = {k: link.publisher(b) for k, b in status_companions(profile).items()}
             for name, binding in profile.inputs_bound().items():
                 link.subscribe(binding, self.car.subscriber(name))
             if lockstep:  # subscribed last: once the simulator sees it, it sees the inputs' subscriptions too
@@ -105,6 +110,13 @@ class RosDriver:
         self.zero_commands = 0
         self.held_by: str | None = None
         self.stop_sent = 0
+        #: the input signals the document declares (settable from outside: ROS 2 parameters over rclpy)
+        self.signals: list[str] = []
+        self._signals_in: deque[tuple[str, bool]] = deque()
+        #: ROS time (s since 1970) at machine time 0: header stamps and bag times are ROS time, as a robot that
+        #: drops stale commands needs. The wall clock's at the start (set by :meth:`prime`); in lock-step 0, the
+        #: simulator's /clock being ROS time there (use_sim_time)
+        self.time_offset = 0.0
 
     # -- the simulator's clock (lock-step) -----------------------------------------------------------------------
     def _on_clock(self, raw: bytes) -> None:
@@ -126,8 +138,6 @@ class RosDriver:
                 self._clock_cond.wait(left)
         return True
 
-    def _silence_timeout(self) -> float:
-        return max(b.max_silence for b in self.profile.inputs_bound().values())
 
     # -- starting ------------------------------------------------------------------------------------------------
     def prime(self, timeout: float | None = None, stop: Callable[[], bool] | None = None) -> bool:
@@ -163,6 +173,8 @@ class RosDriver:
                 raise PeerTimeout(f"a peer answered ({link.describe()}) but nothing came on {topics} "
                                   f"within {timeout:g} s: check the topic names and types in the profile")
             time.sleep(0.005)
+        if not self.lockstep:
+            self.time_offset = time.time()
         self._latch(0.0)
         return True
 
@@ -171,18 +183,34 @@ class RosDriver:
         self.session = session
         self.machine = session.machine
         session.machine.add_listener(self._watch)
+        expose = getattr(self.link, "expose_parameters", None)
+        if expose is not None:  # rclpy: the variables as read-only parameters, the document's inputs writable
+            expose(dict(session.machine.ctx.vars), list(self.signals), self._signal_from_outside)
+
+    def _signal_from_outside(self, name: str, value: bool) -> None:
+        """A signal set as a ROS 2 parameter (the executor's thread): applied before the next tick."""
+        self._signals_in.append((name, value))
 
     def before_tick(self, time_s: float) -> None:
-        if self.lockstep and not self.clock_lost and not self._wait_clock(time_s, self._silence_timeout()):
+        while self._signals_in and self.session is not None:
+            from fsm.session.session import SetSignal
+
+            name, value = self._signals_in.popleft()
+            self.session.submit(SetSignal(name, value))
+        # lock-step: the simulator's time is the only time; a wall-clock limit only tells a simulator that is gone
+        # from a slow one (a loaded machine), so it is long (transport.gone_after)
+        gone_after = self.profile.transport.gone_after
+        if self.lockstep and not self.clock_lost and not self._wait_clock(time_s, gone_after):
             self.clock_lost = True
-            self.log(f"the simulator's clock on {self.profile.clock.topic} stopped before {time_s:.3f} s")
+            self.log(f"the simulator's clock on {self.profile.clock.topic} stopped before {time_s:.3f} s (nothing "
+                     f"for {gone_after:g} s of wall time: transport.gone_after)")
         self._latch(time_s)
 
     def _latch(self, time_s: float) -> None:
         taken = self.car.latch(time_s)
         if self.bag is not None:
             for name, raw in taken:
-                self.bag.write(name, raw, time_s)
+                self.bag.write(name, raw, self.time_offset + time_s)
 
     def after_tick(self) -> None:
         machine = self.machine
@@ -210,17 +238,18 @@ class RosDriver:
     def _publish_command(self, now: float, speed: float) -> None:
         car = self.car
         angle = car.steering * car.max_steering_angle
-        message = M.command_message(self.profile.outputs.command.type, now, speed, angle, car.wheelbase)
+        message = M.command_message(self.profile.outputs.command.type, self.time_offset + now, speed, angle,
+                                    car.wheelbase)
         raw = M.encode(message)
         if self._command is not None:
             self._command.put(raw)
         else:
-            self.sent.append((now, raw))
+            self.last_sent = (now, raw)
         self.commands += 1
         if speed == 0.0:
             self.zero_commands += 1
         if self.bag is not None:
-            self.bag.write("command", raw, now)
+            self.bag.write("command", raw, self.time_offset + now)
 
     def status(self, machine: Machine, now: float) -> dict[str, Any]:
         """The status topic's JSON: active path, outcome, monitor firings, what holds the car."""
@@ -236,12 +265,35 @@ class RosDriver:
         raw = M.encode(M.status_message(json.dumps(status, separators=(",", ":"))))
         if self._status is not None:
             self._status.put(raw)
+            if self._companions:
+                self._companions["diagnostics"].put(M.encode(self._diagnostics(status, now)))
+                self._companions["active"].put(M.encode(M.status_message(status["active"])))
         else:
-            self.statuses.append((now, status))
+            self.last_status = (now, status)
         self._watch.changed = False
         self._next_status = now + self._status_every
+        update = getattr(self.link, "update_parameters", None)
+        if update is not None:
+            update(machine.ctx.vars)
         if self.bag is not None:
-            self.bag.write("status", raw, now)
+            self.bag.write("status", raw, self.time_offset + now)
+
+    def _diagnostics(self, status: dict[str, Any], now: float) -> Any:
+        """The status as ROS's diagnostics: OK while driving or finished well, WARN while something holds the car,
+        ERROR once the machine finished otherwise than 'succeeded'."""
+        outcome = status["outcome"]
+        if status["finished"] and outcome not in (None, "succeeded"):
+            level, text = M.ERROR, f"finished: {outcome}"
+        elif status["held_by"]:
+            silent = f" ({', '.join(status['silent'])})" if status["silent"] else ""
+            level, text = M.WARN, f"held at zero speed by {status['held_by']}{silent}"
+        elif status["finished"]:
+            level, text = M.OK, f"finished: {outcome}"
+        else:
+            level, text = M.OK, f"active: {status['active']}"
+        values = {k: status[k] for k in ("tick", "time", "active", "finished", "outcome", "held_by", "silent",
+                                         "commands", "monitors_fired")}
+        return M.diagnostics_message(self.time_offset + now, f"fsmctl: {self.profile.name}", level, text, values)
 
     def should_stop(self) -> str | None:
         if self.clock_lost:
@@ -266,8 +318,10 @@ class RosDriver:
 
     def metrics(self) -> dict[str, Any]:
         car = self.car
-        return {"ros": {"profile": self.profile.name, "lockstep": self.lockstep, "received": car.received(),
-                        "decode_failures": car.failures(), "silences": self.silences,
+        return {"ros": {"profile": self.profile.name, "lockstep": self.lockstep, "time_offset": self.time_offset,
+                        "received": car.received(),
+                        "decode_failures": car.failures(), "dropped_readings": dict(car.dropped),
+                        "odometry_jumps": car.odometry_jumps, "silences": self.silences,
                         "silent_at_end": list(self.silent), "commands": self.commands,
                         "zero_speed_commands": self.zero_commands, "stop_commands": self.stop_sent,
                         "monitors_fired": self._watch.fired},
@@ -275,7 +329,8 @@ class RosDriver:
 
 
 def ros_session(plan: Any, profile: Profile, link: Bus, *, lockstep: bool = False, bag: BagRecorder | None = None,
-                log: Log | None = None, stop: Any = None, variables: dict[str, Any] | None = None) -> Session:
+                log: Log | None = None, stop: Any = None, variables: dict[str, Any] | None = None,
+                signals: list[str] | None = None) -> Session:
     """A session that runs the machine of ``plan`` (a compiled :class:`fsm.model.plan.MachinePlan`) on the car behind
     ``link``: on the wall clock at the profile's rate, or in lock-step with a simulator's clock."""
     from fsm.loading.building import build
@@ -283,6 +338,7 @@ def ros_session(plan: Any, profile: Profile, link: Bus, *, lockstep: bool = Fals
     from fsm.session.session import Session
 
     driver = RosDriver(profile, link, lockstep=lockstep, bag=bag, log=log)
+    driver.signals = list(signals or [])
     clock = SimulatedClock(profile.dt) if lockstep else RealTimeClock(profile.dt)
     machine = build(plan, clock=clock, car=driver.car)
     if variables:

@@ -1,4 +1,8 @@
-"""ROS 2 messages without ROS: rosbags' Jazzy typestore, ackermann_msgs registered from its message text, CDR bytes.
+"""ROS 2 messages without ROS: rosbags' typestores, ackermann_msgs registered from its message text, CDR bytes.
+
+Messages are written in Jazzy's layout. They are read in any distribution's (:data:`LAYOUTS`: Jazzy, Humble, Kilted;
+a Humble ``sensor_msgs/Range`` has no ``variance``): in the layout the sender's type hash names where it is known (a
+bag's connection), else in each layout that differs, in that order, until one reads the whole message.
 
 The functions here turn the car interface's values into messages and back; they are the only place that knows
 field names, units and conventions (REP 103: x forward, y left, yaw counter-clockwise; steering positive = left).
@@ -42,17 +46,44 @@ class DecodeError(ValueError):
     """A message's bytes are not a message of the expected type."""
 
 
-@lru_cache(maxsize=1)
-def typestore() -> Any:
-    """The Jazzy typestore with ackermann_msgs registered (built once per process)."""
+#: The distributions whose message layouts are read, in the order they are tried (the first is the one written).
+LAYOUTS = ("jazzy", "humble", "kilted")
+
+
+@lru_cache(maxsize=None)
+def typestore(layout: str = "jazzy") -> Any:
+    """rosbags' typestore of a distribution (:data:`LAYOUTS`) with ackermann_msgs registered (built once)."""
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
-    store = get_typestore(Stores.ROS2_JAZZY)
+    store = get_typestore(getattr(Stores, f"ROS2_{layout.upper()}"))
     types: dict[str, Any] = {}
     types.update(get_types_from_msg(ACKERMANN_DRIVE_MSG, ACKERMANN_PLAIN))
     types.update(get_types_from_msg(ACKERMANN_STAMPED_MSG, ACKERMANN))
     store.register(types)
     return store
+
+
+@lru_cache(maxsize=None)
+def layouts_of(type_name: str) -> tuple[str, ...]:
+    """The layouts of ``type_name`` that differ, in :data:`LAYOUTS` order (one per distinct type hash)."""
+    out: list[str] = []
+    seen: set[str] = set()
+    for layout in LAYOUTS:
+        digest = str(typestore(layout).hash_rihs01(type_name))
+        if digest not in seen:
+            seen.add(digest)
+            out.append(layout)
+    return tuple(out)
+
+
+@lru_cache(maxsize=None)
+def layout_of_hash(type_name: str, digest: str) -> str | None:
+    """The layout whose RIHS01 hash of ``type_name`` is ``digest`` (a bag's or a peer's), or None."""
+    full = normalise_type(type_name)
+    for layout in LAYOUTS:
+        if str(typestore(layout).hash_rihs01(full)) == digest:
+            return layout
+    return None
 
 
 def message_class(type_name: str) -> Any:
@@ -64,12 +95,26 @@ def encode(message: Any) -> bytes:
     return bytes(typestore().serialize_cdr(message, message.__msgtype__))
 
 
-def decode(raw: bytes, type_name: str) -> Any:
-    """A message of ``type_name`` from CDR bytes; :class:`DecodeError` when they are not one."""
-    try:
-        return typestore().deserialize_cdr(raw, normalise_type(type_name))
-    except Exception as exc:  # rosbags raises several kinds (SerdeError, struct.error, IndexError, ...)
-        raise DecodeError(f"{normalise_type(type_name)}: {exc}") from None
+def decode(raw: bytes, type_name: str, layout: str | None = None) -> Any:
+    """A message of ``type_name`` from CDR bytes, in ``layout`` first if given, else in each layout in turn;
+    :class:`DecodeError` (naming the layouts tried) when they are none."""
+    return decode_layout(raw, type_name, layout)[0]
+
+
+def decode_layout(raw: bytes, type_name: str, layout: str | None = None) -> tuple[Any, str]:
+    """:func:`decode`, and the layout that read it (to try first next time)."""
+    full = normalise_type(type_name)
+    order = layouts_of(full)
+    if layout is not None and layout in order:
+        order = (layout, *(x for x in order if x != layout))
+    first: Exception | None = None
+    for candidate in order:
+        try:
+            return typestore(candidate).deserialize_cdr(raw, full), candidate
+        except Exception as exc:  # rosbags raises several kinds (SerdeError, struct.error, IndexError, ...)
+            first = first or exc
+    tried = f" (in the layouts of {', '.join(order)})" if len(order) > 1 else ""
+    raise DecodeError(f"{full}: {first}{tried}") from None
 
 
 def type_hash(type_name: str) -> str:
@@ -204,6 +249,23 @@ def command_values(message: Any, wheelbase: float) -> tuple[float, float, float 
 
 def status_message(text: str) -> Any:
     return message_class(STRING)(data=text)
+
+
+#: diagnostic_msgs/DiagnosticStatus levels.
+OK, WARN, ERROR = 0, 1, 2
+
+
+def diagnostics_message(seconds: float, name: str, level: int, text: str, values: dict[str, Any]) -> Any:
+    """A ``diagnostic_msgs/DiagnosticArray`` of one status: ``level`` (:data:`OK`, :data:`WARN`, :data:`ERROR`),
+    a message and key-value pairs (values as text)."""
+    import json
+
+    t = typestore().types
+    kv = t["diagnostic_msgs/msg/KeyValue"]
+    status = t["diagnostic_msgs/msg/DiagnosticStatus"](
+        level=level, name=name, message=text, hardware_id=name,
+        values=[kv(key=k, value=v if isinstance(v, str) else json.dumps(v)) for k, v in values.items()])
+    return t["diagnostic_msgs/msg/DiagnosticArray"](header=header(seconds, ""), status=[status])
 
 
 def stamp_of_clock(message: Any) -> float:

@@ -39,6 +39,7 @@ TWIST = "geometry_msgs/msg/Twist"
 TWIST_STAMPED = "geometry_msgs/msg/TwistStamped"
 STRING = "std_msgs/msg/String"
 CLOCK = "rosgraph_msgs/msg/Clock"
+DIAGNOSTICS = "diagnostic_msgs/msg/DiagnosticArray"
 #: Counters for hall ticks: every one has a single numeric field ``data``.
 COUNTERS = tuple(f"std_msgs/msg/{t}" for t in ("Int16", "Int32", "Int64", "UInt16", "UInt32", "UInt64", "Float32",
                                                  "Float64"))
@@ -165,10 +166,27 @@ class Transport(ProfileModel):
     multicast: bool = Field(default=False, description="Multicast scouting (off: only the endpoints given).")
     peer_timeout: float = Field(default=5.0, gt=0, le=600,
                                 description="Seconds to wait for the robot before giving up (exit 1).")
+    gone_after: float = Field(default=10.0, gt=0, le=3600,
+                              description="Lock-step: seconds of wall time without the simulator's next clock after "
+                                          "which it is gone (the run ends, exit 1). Silences are simulated time.")
     keys: Literal["rmw_zenoh", "bridge"] = Field(
         default="rmw_zenoh", description="Key expressions as rmw_zenoh names topics (<domain>/<topic>/<type>/<hash>), "
                                          "or as zenoh-bridge-ros2dds does (the topic name).")
-    domain: int = Field(default=0, ge=0, le=232, description="ROS_DOMAIN_ID (rmw_zenoh keys; rclpy's domain).")
+    domain: int | None = Field(default=None, ge=0, le=232,
+                               description="The ROS domain (rmw_zenoh keys; rclpy's domain); without it "
+                                           "$ROS_DOMAIN_ID, else 0.")
+    node: str | None = Field(default=None, pattern=r"^[A-Za-z_][A-Za-z0-9_]*$",
+                             description="rclpy's node name (default fsmctl_<name>, fsmctl_sim_<name> for the "
+                                         "simulator); --remap __node:=NAME replaces it.")
+    namespace: str = Field(default="", pattern=r"^(/[A-Za-z_][A-Za-z0-9_]*)*$",
+                           description="rclpy's node namespace, e.g. /car1; --remap __ns:=/NS replaces it.")
+    remap: list[str] = Field(default_factory=list,
+                             description="Topic remappings FROM:=TO applied to every binding (as ROS 2's -r), "
+                                         "before the command line's --remap.")
+    user: str | None = Field(default=None, min_length=1, max_length=100, pattern=r"^[^:\s]+$",
+                             description="Zenoh's user/password authentication: the user; the password is read "
+                                         "from the environment variable FSM_ZENOH_PASSWORD. A peer without them is "
+                                         "refused.")
     via: Literal["auto", "zenoh", "rclpy"] = Field(
         default="auto", description="auto: rclpy when it can be imported (ROS 2 installed and sourced), Zenoh "
                                     "otherwise; zenoh or rclpy: that one.")
@@ -217,6 +235,70 @@ class Profile(ProfileModel):
         if camera is None or camera.calibration is None:
             return None
         return Path(self._base_dir or ".") / camera.calibration
+
+
+def status_companions(profile: Profile) -> dict[str, Binding]:
+    """With a status topic, what is published beside its JSON: the machine's status as ROS's
+    ``diagnostic_msgs/DiagnosticArray`` on ``/diagnostics`` (where ``rqt_runtime_monitor`` looks) and the active
+    path as a ``std_msgs/String`` on ``<status topic>/active``."""
+    status = profile.outputs.status
+    if status is None:
+        return {}
+    return {"diagnostics": Binding(topic="/diagnostics", type=DIAGNOSTICS, qos=status.qos),
+            "active": Binding(topic="/" + status.topic.strip("/") + "/active", type=STRING, qos=status.qos)}
+
+
+REMAP_PATTERN = r"^(__node|__ns|/?[A-Za-z_][A-Za-z0-9_/]*):=(/?[A-Za-z_][A-Za-z0-9_/]*)$"
+
+
+def remapped(profile: Profile, remaps: list[str]) -> Profile:
+    """The profile with its ``transport.remap`` and then ``remaps`` applied, as ROS 2's ``-r FROM:=TO``: a topic
+    FROM (with or without the leading '/') of any binding becomes TO; ``__node:=NAME`` names rclpy's node,
+    ``__ns:=/NS`` its namespace. A remapping of a topic no binding has is a :class:`ValueError` (a typo)."""
+    topics: dict[str, str] = {}
+    node, namespace = profile.transport.node, profile.transport.namespace
+    for rule in [*profile.transport.remap, *remaps]:
+        found = re.match(REMAP_PATTERN, rule)
+        if found is None:
+            raise ValueError(f"remapping {rule!r}: write FROM:=TO, e.g. /tral/cmd:=/car1/cmd, __node:=driver or "
+                             "__ns:=/car1")
+        src, dst = found.group(1), found.group(2)
+        if src == "__node":
+            node = dst.strip("/")
+        elif src == "__ns":
+            namespace = "/" + dst.strip("/")
+        else:
+            topics["/" + src.lstrip("/")] = "/" + dst.lstrip("/")
+    bound: list[tuple[str, Any]] = [(f"inputs.{n}", b) for n, b in profile.inputs_bound().items()]
+    bound += [("outputs.command", profile.outputs.command), ("clock", profile.clock)]
+    if profile.outputs.status is not None:
+        bound.append(("outputs.status", profile.outputs.status))
+    known = {"/" + b.topic.lstrip("/") for _n, b in bound}
+    unknown = sorted(set(topics) - known)
+    if unknown:
+        raise ValueError(f"remapping of {', '.join(unknown)}: no binding of the profile has that topic (its topics: "
+                         f"{', '.join(sorted(known))})")
+
+    def fix(b: Any) -> Any:
+        to = topics.get("/" + b.topic.lstrip("/"))
+        return b if to is None else b.model_copy(update={"topic": to})
+
+    inputs = profile.inputs.model_copy(update={n: fix(b) for n, b in profile.inputs_bound().items()})
+    outputs = profile.outputs.model_copy(update={"command": fix(profile.outputs.command)} | (
+        {"status": fix(profile.outputs.status)} if profile.outputs.status is not None else {}))
+    transport = profile.transport.model_copy(update={"node": node, "namespace": namespace})
+    out = profile.model_copy(update={"inputs": inputs, "outputs": outputs, "clock": fix(profile.clock),
+                                     "transport": transport})
+    out._base_dir = profile._base_dir
+    return out
+
+
+def domain_of(profile: Profile) -> int:
+    """The ROS domain: the profile's ``transport.domain``, else ``$ROS_DOMAIN_ID`` as ROS 2 reads it, else 0."""
+    if profile.transport.domain is not None:
+        return profile.transport.domain
+    env = os.environ.get("ROS_DOMAIN_ID", "").strip()
+    return int(env) if env.isdigit() and int(env) <= 232 else 0
 
 
 # -- checking ------------------------------------------------------------------------------------------------

@@ -1,28 +1,100 @@
-"""rclpy as the transport (:class:`fsm.ros.transport.Bus`), where ROS 2 is installed and sourced.
+"""rclpy as the transport (:class:`fsm.ros.transport.Bus`): ROS 2 Jazzy's wheels from the package index
+(``pip install 'tral-fsm[rclpy]'``), or a sourced ROS 2 installation.
 
 One node (``fsmctl_<profile name>``) spun by a single-threaded executor on a thread of its own; publishers and
 subscriptions carry serialised messages (CDR bytes, ``raw=True``), so the rest of :mod:`fsm.ros` is the same on
-rclpy as on Zenoh. The message classes come from the installed packages (``rosidl_runtime_py``): a profile whose
-types are not installed (``ackermann_msgs`` often is not) is one message saying which package to install.
+rclpy as on Zenoh. The message classes are imported from their packages (``from sensor_msgs.msg import Range``;
+``rosidl_runtime_py`` has no wheel); a type whose package is not installed is a located profile error before
+anything starts (:func:`type_problems`), and ``ackermann_msgs``, which has no wheel, offers ``geometry_msgs/Twist``.
 
-Not tested on this project's machines (rclpy is not on the package index): the tests check how the transport is
-chosen and that this module needs nothing at import time; docs/ros.md says so.
+Tested against plain rclpy nodes over Fast DDS on localhost (tests/test_ros_rclpy.py).
 """
 
 from __future__ import annotations
 
 import importlib
+import re
 import threading
 import time
 from collections.abc import Callable
 from typing import Any
 
-from fsm.ros.profile import Binding, Profile, normalise_type
-from fsm.ros.transport import ROBOT, PeerTimeout, TransportError
+from fsm.model.errors import DiagramError, Problem
+from fsm.ros.profile import Binding, Profile, domain_of, normalise_type, status_companions
+from fsm.ros.transport import ROBOT, PeerTimeout, TransportError, node_name
+
+#: What to install for rclpy (the extra pins ROS 2 Jazzy's wheels).
+RCLPY_HINT = "pip install 'tral-fsm[rclpy]' (ROS 2 Jazzy's wheels), or source a ROS 2 installation"
+#: Message packages with no wheel on the package index, and what to use instead.
+NO_WHEEL = {"ackermann_msgs": "geometry_msgs/msg/Twist (or TwistStamped), which the car must then obey"}
 
 
 def _module(name: str) -> Any:
     return importlib.import_module(name)
+
+
+def missing_package(type_name: str) -> str | None:
+    """Why ``type_name``'s Python message package cannot be imported, or None when it can."""
+    import importlib.util
+
+    package = normalise_type(type_name).split("/")[0]
+    try:
+        found = importlib.util.find_spec(f"{package}.msg") is not None
+    except (ImportError, ValueError):
+        found = False
+    if found:
+        return None
+    if package in NO_WHEEL:
+        return f"{package} has no wheel on the package index and is not installed"
+    return f"its package {package} is not installed (pip install ros-jazzy-{package.replace('_', '-')})"
+
+
+def type_problems(profile: Profile, file: str) -> list[Problem]:
+    """Every bound type rclpy cannot load, located in the profile ``file``: the package missing, and for
+    ``ackermann_msgs`` (no wheel) the type to use instead."""
+    problems: list[Problem] = []
+    bound: list[tuple[str, Binding]] = [(f"/inputs/{name}", b) for name, b in profile.inputs_bound().items()]
+    bound.append(("/outputs/command", profile.outputs.command))
+    if profile.outputs.status is not None:
+        bound.append(("/outputs/status", profile.outputs.status))
+    bound.append(("/clock", profile.clock))
+    bound += [("/outputs/status", b) for b in status_companions(profile).values()]
+    for ptr, binding in bound:
+        why = missing_package(binding.type)
+        if why is not None:
+            package = normalise_type(binding.type).split("/")[0]
+            hint = (f"use {NO_WHEEL[package]}; or --via zenoh" if package in NO_WHEEL
+                    else "install it, or use --via zenoh")
+            problems.append(Problem(f"rclpy cannot load {normalise_type(binding.type)}: {why}", file, f"{ptr}/type",
+                                    hint=hint))
+    return problems
+
+
+def check_types(profile: Profile, file: str) -> None:
+    """:class:`DiagramError` with :func:`type_problems`, located by line and column, if there are any."""
+    problems = type_problems(profile, file)
+    if not problems:
+        return
+    from pathlib import Path
+
+    from fsm.loading.reading import parse_json_bytes, place, read_file_bytes
+
+    try:
+        _data, source = parse_json_bytes(read_file_bytes(Path(file), "I/O profile"), file)
+        place(problems, source.locator)
+    except Exception:  # the file was read a moment ago; without it the pointers still say where
+        pass
+    raise DiagramError(problems)
+
+
+def parameter_value(value: Any) -> Any:
+    """A variable's value as a ROS 2 parameter can hold it: bool, int, float, str as they are (NaN, too); anything
+    else (lists, objects, None) as its JSON text."""
+    import json
+
+    if isinstance(value, (bool, int, float, str)):
+        return value
+    return json.dumps(value, separators=(",", ":"))
 
 
 def qos_of(binding: Binding) -> Any:
@@ -50,8 +122,14 @@ class RclpyPublisher:
 class RclpyLink:
     """The :class:`~fsm.ros.transport.Bus` of a profile over rclpy (see the module's docstring)."""
 
-    def __init__(self, profile: Profile) -> None:
+    def __init__(self, profile: Profile, node: str = "fsmctl", sim_time: bool = False) -> None:
         self.profile = profile
+        #: the node's name: the profile's ``transport.node``, else ``fsmctl_<profile name>`` for the machine and
+        #: ``fsmctl_sim_<profile name>`` for the robot; its namespace the profile's ``transport.namespace``
+        self.node_name = node_name(profile, node)
+        self.namespace = profile.transport.namespace
+        #: ``use_sim_time``: the node's clock is the simulator's /clock (lock-step)
+        self.sim_time = sim_time
         self.node: Any = None
         self._context: Any = None
         self._executor: Any = None
@@ -62,28 +140,32 @@ class RclpyLink:
         import os
 
         rmw = os.environ.get("RMW_IMPLEMENTATION", "the default RMW")
-        return f"through rclpy ({rmw}, ROS domain {self.profile.transport.domain})"
+        name = f"{self.namespace.rstrip('/')}/{self.node_name}"
+        return f"through rclpy as node {name} ({rmw}, ROS domain {domain_of(self.profile)})"
 
     def message_class(self, type_name: str) -> Any:
         full = normalise_type(type_name)
+        package, _msg, name = full.split("/")
         try:
-            return _module("rosidl_runtime_py.utilities").get_message(full)
-        except (ImportError, AttributeError, ValueError) as exc:
-            package = full.split("/")[0]
-            raise TransportError(f"rclpy cannot load {full} ({exc}): install its package (e.g. "
-                                 f"ros-$ROS_DISTRO-{package.replace('_', '-')}) or use --via zenoh") from None
+            return getattr(_module(f"{package}.msg"), name)
+        except (ImportError, AttributeError) as exc:
+            why = missing_package(full) or str(exc)
+            hint = f"use {NO_WHEEL[package]}" if package in NO_WHEEL else "install it"
+            raise TransportError(f"rclpy cannot load {full}: {why}: {hint}, or use --via zenoh") from None
 
     def open(self) -> RclpyLink:
         try:
             rclpy = _module("rclpy")
             executors = _module("rclpy.executors")
         except ImportError as exc:
-            raise TransportError(f"rclpy cannot be imported ({exc}): source ROS 2's setup.bash first, or use "
-                                 "Zenoh (--via zenoh, or \"via\": \"zenoh\" in the profile's transport)") from None
+            raise TransportError(f"rclpy cannot be imported ({exc}): {RCLPY_HINT}; or use Zenoh (--via zenoh, or "
+                                 "\"via\": \"zenoh\" in the profile's transport)") from None
         try:
             self._context = rclpy.Context()
             self._init(rclpy)
-            self.node = rclpy.create_node(f"fsmctl_{self.profile.name}".replace("-", "_"), context=self._context)
+            overrides = [_module("rclpy.parameter").Parameter("use_sim_time", value=True)] if self.sim_time else []
+            self.node = rclpy.create_node(self.node_name, namespace=self.namespace, context=self._context,
+                                          parameter_overrides=overrides)
         except Exception as exc:  # an RMW that does not load, a bad domain
             raise TransportError(f"cannot start rclpy {self.describe()}: {exc}") from None
         self._executor = executors.SingleThreadedExecutor(context=self._context)
@@ -99,7 +181,7 @@ class RclpyLink:
         import signal
 
         before = {num: signal.getsignal(num) for num in (signal.SIGINT, signal.SIGTERM)}
-        domain = self.profile.transport.domain
+        domain = domain_of(self.profile)
         try:
             options = _module("rclpy.signals").SignalHandlerOptions.NO
             rclpy.init(context=self._context, domain_id=domain, signal_handler_options=options)
@@ -116,10 +198,58 @@ class RclpyLink:
         except Exception:  # the context was shut down while spinning
             pass
 
+    # -- the machine's variables and signals as ROS 2 parameters ----------------------------------------------------
+    def expose_parameters(self, variables: dict[str, Any], signals: list[str],
+                          on_signal: Callable[[str, bool], None]) -> None:
+        """Declare ``vars.<name>`` for each variable (read-only from outside: the machine sets them) and
+        ``signals.<name>`` for each input signal the document declares (writable, bool: ``on_signal`` is called on
+        the executor's thread). A set from outside of anything else is refused with the reason."""
+        rcl = _module("rcl_interfaces.msg")
+        self._updating = False
+        self._writable = {f"signals.{name}" for name in signals}
+        for name, value in variables.items():
+            if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+                self.node.declare_parameter(f"vars.{name}", parameter_value(value), rcl.ParameterDescriptor(
+                    dynamic_typing=True, description=f"the machine's variable {name} (read-only: the machine sets it)"))
+        for name in signals:
+            if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+                self.node.declare_parameter(f"signals.{name}", False, rcl.ParameterDescriptor(
+                    description=f"the input signal {name} (the document's inputs: set it to drive the machine)"))
+
+        def check(params: list[Any]) -> Any:
+            if self._updating:
+                return rcl.SetParametersResult(successful=True)
+            for param in params:
+                if param.name not in self._writable:
+                    return rcl.SetParametersResult(successful=False, reason=(
+                        f"{param.name} is read-only: the machine sets its variables; only the signals the document "
+                        f"declares as inputs can be set ({', '.join(sorted(self._writable)) or 'none'})"))
+                if not isinstance(param.value, bool):
+                    return rcl.SetParametersResult(successful=False, reason=f"{param.name} is a signal: true or false")
+            for param in params:
+                on_signal(param.name.split(".", 1)[1], bool(param.value))
+            return rcl.SetParametersResult(successful=True)
+
+        self.node.add_on_set_parameters_callback(check)
+
+    def update_parameters(self, variables: dict[str, Any]) -> None:
+        """The variables' current values (those declared; a new variable is declared now)."""
+        param = _module("rclpy.parameter").Parameter
+        node = self.node
+        updates = []
+        for name, value in variables.items():
+            key = f"vars.{name}"
+            if node.has_parameter(key):
+                updates.append(param(key, value=parameter_value(value)))
+        self._updating = True
+        try:
+            node.set_parameters(updates)
+        finally:
+            self._updating = False
+
     def wait_for_peer(self, timeout: float, what: str = ROBOT, stop: Callable[[], bool] | None = None) -> None:
         end = time.monotonic() + timeout
-        own = self.node.get_name()
-        while not [n for n, _ns in self.node.get_node_names_and_namespaces() if n != own]:
+        while len(self.node.get_node_names_and_namespaces()) < 2:  # this node, and another
             if stop is not None and stop():
                 return
             if time.monotonic() >= end:

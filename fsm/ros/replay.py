@@ -2,24 +2,30 @@
 
 The bag's input messages (the profile says which topic is which input) are offered to a
 :class:`~fsm.ros.car.RosCar` before the first tick at or after their log time, exactly as the closed loop latched
-them; the ticks happen at the times of the recorded commands (one per tick), so a bag written by
-``fsmctl run --ros --bag`` replays tick for tick. The machine's commands go nowhere (open loop): they are compared
-with the recorded ones, with the active path the recorded status topic reported, up to the first divergence.
+them. Where the bag has the machine's commands (a bag written by ``fsmctl run --ros --bag``) the ticks happen at
+their times (one per tick), so the drive replays tick for tick, and the machine's commands are compared with the
+recorded ones, with the active path the recorded status topic reported, up to the first divergence. A drive
+recorded without commands (anyone's robot, sensors only) is ticked at the profile's rate on the bag's clock, from
+its first message.
+
+The bag is read as the replay goes (:class:`~fsm.ros.bag.BagSource`): what is held is the messages between two
+ticks, never the drive, so memory does not grow with the bag. ``start``/``stop`` (s, on the bag's clock, from its
+first message) replay a part of it.
 """
 
 from __future__ import annotations
 
-import bisect
 import json
 import os
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from collections import deque
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from fsm.model.errors import DiagramError, FsmError, Problem
 from fsm.ros import messages as M
-from fsm.ros.bag import roles
+from fsm.ros.bag import BagReadError, BagSource, roles
 from fsm.ros.driver import EPS, RosDriver
 from fsm.ros.profile import STRING, Profile
 
@@ -27,117 +33,199 @@ if TYPE_CHECKING:
     from fsm.session.session import Session
 
 
-@dataclass
 class Drive:
-    """A recorded drive: the inputs by time, and what the machine decided at each tick (command, active path)."""
+    """A recorded drive read as the replay goes: the inputs by time, and (where recorded) what the machine decided
+    at each tick (command, the active path of the status topic)."""
 
-    inputs: list[tuple[float, str, bytes]]
-    ticks: list[float]
-    commands: list[bytes]
-    statuses: list[tuple[float, dict[str, Any]]] = field(default_factory=list)
+    def __init__(self, source: BagSource, profile: Profile, name: str, start: float | None = None,
+                 stop: float | None = None) -> None:
+        self.source = source
+        self.profile = profile
+        bound = {"/" + b.topic.lstrip("/"): role for role, b in roles(profile).items()}
+        self.by_topic = {topic: role for topic, role in bound.items() if topic in source.topics}
+        command = "/" + profile.outputs.command.topic.lstrip("/")
+        #: the ticks come from the recorded commands (else from the profile's rate)
+        self.commanded = command in source.topics and source.counts.get(command) != 0
+        self.layouts = {role: source.topics[topic][1] for topic, role in self.by_topic.items()}
+        self.dt = profile.dt
+        first = self._first_time()
+        if first is None:
+            raise FsmError(f"{name}: the bag has no messages on the profile's topics: was it recorded with this "
+                           "profile?")
+        self.origin = first
+        start_ns = round((first + start) * 1e9) if start else None
+        stop_ns = round((first + stop) * 1e9) if stop is not None else None
+        self._stream: Iterator[tuple[str, int, bytes]] = source.messages(list(self.by_topic), start_ns, stop_ns)
+        self.inputs: deque[tuple[float, str, bytes]] = deque()
+        self.commands: deque[tuple[float, bytes]] = deque()
+        self._statuses: deque[tuple[float, Any]] = deque()
+        self.active: str | None = None
+        self._base = 0  # the tick of commands[0]
+        self._last_command = -1.0
+        self.exhausted = False
+        self.last_time = first
+        self.t0: float | None = None
+        self._pull_first()
 
-    def active_at(self, k: int) -> str | None:
-        """The active path the status topic reported at tick ``k`` (None: no status topic in the bag)."""
-        if not self.statuses:
-            return None
-        times = [t for t, _s in self.statuses]
-        i = bisect.bisect_right(times, self.ticks[k] + EPS) - 1
-        return str(self.statuses[i][1].get("active")) if i >= 0 else None
+    def _first_time(self) -> float | None:
+        for _topic, ns, _raw in self.source.messages(list(self.by_topic)):
+            return ns * 1e-9
+        return None
+
+    def _pull(self) -> bool:
+        """One more message from the bag into the queues; False at its end."""
+        if self.exhausted:
+            return False
+        item = next(self._stream, None)
+        if item is None:
+            self.exhausted = True
+            return False
+        topic, ns, raw = item
+        t = ns * 1e-9
+        self.last_time = t
+        role = self.by_topic[topic]
+        if role == "command":
+            if t > self._last_command + EPS:  # the first command of each tick (a stop may follow at its time)
+                self.commands.append((t, raw))
+                self._last_command = t
+        elif role == "status":
+            self._statuses.append((t, raw))
+        else:
+            self.inputs.append((t, role, raw))
+        return True
+
+    def _pull_first(self) -> None:
+        while self.t0 is None and self._pull():
+            if self.commanded:
+                self.t0 = self.commands[0][0] if self.commands else None
+            else:
+                self.t0 = self.last_time
+        if self.t0 is None:
+            self.t0 = self.last_time
+
+    def time_at(self, tick: int) -> float:
+        """The time of tick ``tick``: the recorded command's (past the last one, on at the profile's rate), or the
+        profile's rate from the first message."""
+        assert self.t0 is not None
+        if not self.commanded:
+            return self.t0 + tick * self.dt
+        while tick - self._base >= len(self.commands) and self._pull():
+            pass
+        k = tick - self._base
+        if 0 <= k < len(self.commands):
+            return self.commands[k][0]
+        last = self.commands[-1][0] if self.commands else self._last_command
+        return last + (k - len(self.commands) + 1) * self.dt
+
+    def has_tick(self, tick: int) -> bool:
+        """Whether the bag goes on to tick ``tick``."""
+        if self.commanded:
+            self.time_at(tick)
+            return tick - self._base < len(self.commands)
+        t = self.time_at(tick)
+        while not self.exhausted and self.last_time < t:
+            self._pull()
+        return t <= self.last_time + EPS
+
+    def inputs_until(self, time_s: float) -> Iterator[tuple[str, bytes]]:
+        """The inputs logged at or before ``time_s`` not yet taken, in order; the recorded status up to then."""
+        while not self.exhausted and self.last_time <= time_s + EPS:
+            self._pull()
+        while self.inputs and self.inputs[0][0] <= time_s + EPS:
+            _t, role, raw = self.inputs.popleft()
+            yield role, raw
+        while self._statuses and self._statuses[0][0] <= time_s + EPS:
+            _t, raw = self._statuses.popleft()
+            try:
+                self.active = str(json.loads(M.decode(raw, STRING).data).get("active"))
+            except (M.DecodeError, ValueError, AttributeError):
+                continue
+
+    def command_of(self, tick: int) -> bytes | None:
+        """The recorded command of ``tick``, forgetting those before it (None: not recorded)."""
+        self.time_at(tick)
+        while self.commands and self._base < tick:
+            self.commands.popleft()
+            self._base += 1
+        return self.commands[0][1] if self.commands and self._base == tick else None
 
 
-def load_drive(path: str | os.PathLike[str], profile: Profile) -> Drive:
-    """Read a rosbag2 folder recorded with ``profile``; located errors for a folder that is not one, or a bag
-    without the profile's topics."""
-    from fsm.loading.reading import max_input_bytes
-    from fsm.ros.bag import read_bag
-
+def load_drive(path: str | os.PathLike[str], profile: Profile, start: float | None = None,
+               stop: float | None = None, warn: Callable[[str], None] | None = None) -> Drive:
+    """Open a recorded drive (a rosbag2 folder, or a folder or file of MCAP); located errors for a folder that is
+    not one, or a bag without the profile's inputs. The size cap of input files does not apply: the bag is
+    streamed."""
     folder = Path(path)
     name = str(path)
     if not os.path.lexists(folder):
         raise DiagramError([Problem("no such folder", name, hint="give the folder `fsmctl run --ros ... --bag DIR` "
-                                                                 "wrote")])
-    if not folder.is_dir() or not (folder / "metadata.yaml").is_file():
-        raise DiagramError([Problem("not a rosbag2 folder (no metadata.yaml in it)", name,
-                                    hint="give the folder `fsmctl run --ros ... --bag DIR` wrote")])
-    size = sum(p.stat().st_size for p in folder.iterdir() if p.is_file())
-    if size > max_input_bytes():
-        raise DiagramError([Problem(f"bag is too big ({size / 1048576:.1f} MiB; the limit is "
-                                    f"{max_input_bytes() / 1048576:g} MiB)", name,
-                                    hint="set FSM_MAX_INPUT_BYTES to a larger number of bytes to read it")])
+                                                                 "or `ros2 bag record` wrote")])
     try:
-        messages = read_bag(folder)
-    except Exception as exc:  # rosbags' ReaderError and what a damaged file makes it raise
-        reason = " ".join(str(exc).split())
-        raise DiagramError([Problem(f"cannot read the bag: {reason}", name)]) from None
-    by_topic = {"/" + b.topic.lstrip("/"): role for role, b in roles(profile).items()}
-    inputs: list[tuple[float, str, bytes]] = []
-    ticks: list[float] = []
-    commands: list[bytes] = []
-    statuses: list[tuple[float, dict[str, Any]]] = []
-    for topic, _typ, ns, raw in messages:
-        role = by_topic.get(topic)
-        t = ns * 1e-9
-        if role == "command":
-            if not ticks or t > ticks[-1] + EPS:  # the first command of each tick (a stop may follow at its time)
-                ticks.append(t)
-                commands.append(raw)
-        elif role == "status":
-            try:
-                statuses.append((t, json.loads(M.decode(raw, STRING).data)))
-            except (M.DecodeError, ValueError):
-                continue
-        elif role is not None:
-            inputs.append((t, role, raw))
+        source = BagSource(folder, warn=warn)
+    except BagReadError as exc:
+        raise DiagramError([Problem(f"cannot read the bag: {exc}", name,
+                                    hint="give the folder `fsmctl run --ros ... --bag DIR` or `ros2 bag record` "
+                                         "wrote")]) from None
     missing = [f"{b.topic} ({role})" for role, b in profile.inputs_bound().items()
-               if role != "camera" and not any(r == role for _t, r, _raw in inputs)]
-    if not ticks:
-        missing.insert(0, f"{profile.outputs.command.topic} (command)")
+               if role != "camera" and "/" + b.topic.lstrip("/") not in source.topics]
     if missing:
+        source.close()
         raise FsmError(f"{name}: the bag has no messages on {', '.join(missing)}: was it recorded with this "
-                       "profile (`fsmctl run --ros PROFILE --bag`)?")
-    return Drive(inputs, ticks, commands, statuses)
+                       "profile? (its topics: " + ", ".join(sorted(source.topics)) + ")")
+    try:
+        return Drive(source, profile, name, start, stop)
+    except BaseException:
+        source.close()
+        raise
 
 
 class BagClock:
     """The bag's clock: tick ``n`` happens when the recorded drive's tick ``n`` did."""
 
-    __slots__ = ("dt", "ticks")
+    __slots__ = ("drive", "dt")
     realtime = True
 
-    def __init__(self, ticks: list[float], dt: float) -> None:
-        self.ticks = ticks
-        self.dt = dt
+    def __init__(self, drive: Drive) -> None:
+        self.drive = drive
+        self.dt = drive.dt
 
     def time_at(self, tick: int) -> float:
-        if tick < len(self.ticks):
-            return self.ticks[tick]
-        return self.ticks[-1] + (tick - len(self.ticks) + 1) * self.dt
+        return self.drive.time_at(tick)
 
     def wait_for(self, tick: int) -> None:
         """A bag's time does not wait."""
 
 
 class ReplayDriver(RosDriver):
-    """The recorded drive as the session's world: its inputs offered by log time, the commands kept."""
+    """The recorded drive as the session's world: its inputs offered by log time; each tick's command compared
+    with the recorded one at once (nothing kept but the first divergence)."""
 
     def __init__(self, profile: Profile, drive: Drive) -> None:
         super().__init__(profile, None)
         self.drive = drive
-        self._next = 0
-        self.active: list[str] = []
+        self.ticks = 0
+        self.compared = 0
+        self.divergence: Divergence | None = None
+        for role, layout in drive.layouts.items():
+            if role in self.car.slots:
+                self.car.slots[role].layout = layout
+
+    def _publish_command(self, now: float, speed: float) -> None:
+        if self.drive.commanded:  # encoded to be compared; else there is nothing to compare with
+            super()._publish_command(now, speed)
+            return
+        self.commands += 1
+        if speed == 0.0:
+            self.zero_commands += 1
 
     def _offer_until(self, time_s: float) -> None:
-        inputs = self.drive.inputs
-        k = self._next
-        while k < len(inputs) and inputs[k][0] <= time_s + EPS:
-            _t, role, raw = inputs[k]
+        for role, raw in self.drive.inputs_until(time_s):
             self.car.offer(role, raw)
-            k += 1
-        self._next = k
 
     def prime(self, timeout: float | None = None, stop: Callable[[], bool] | None = None) -> bool:
-        self._offer_until(self.drive.ticks[0])
-        self._latch(self.drive.ticks[0])
+        t = self.drive.time_at(0)
+        self._offer_until(t)
+        self._latch(t)
         return True
 
     def before_tick(self, time_s: float) -> None:
@@ -147,7 +235,33 @@ class ReplayDriver(RosDriver):
     def after_tick(self) -> None:
         super().after_tick()
         assert self.machine is not None
-        self.active.append(self.machine.active_path)
+        self.ticks = self.machine.ticks
+        self._compare(self.ticks, self.machine.active_path)
+
+    def _compare(self, tick: int, replayed_active: str) -> None:
+        """Tick ``tick``'s command (just published) and active path against the recorded ones."""
+        if self.divergence is not None or not self.drive.commanded or self.last_sent is None:
+            return
+        recorded = self.drive.command_of(tick)
+        if recorded is None:
+            return
+        self.compared += 1
+        replayed = self.last_sent[1]
+        recorded_active = self.drive.active
+        same_path = recorded_active is None or recorded_active == replayed_active
+        wheelbase = self.profile.car.wheelbase
+        command_type = self.profile.outputs.command.type
+        # the values, not the bytes: the header stamps are ROS time, which float seconds do not carry to the ns
+        rs, ra, _ = M.command_values(M.decode(recorded, command_type), wheelbase)
+        ps, pa, _ = M.command_values(M.decode(replayed, command_type), wheelbase)
+        if (rs, ra) != (ps, pa) or not same_path:
+            self.divergence = Divergence(tick, self.drive.time_at(tick),
+                                         {"active": recorded_active, "speed": rs, "angle": ra},
+                                         {"active": replayed_active, "speed": ps, "angle": pa})
+
+    def should_stop(self) -> str | None:
+        assert self.machine is not None
+        return None if self.drive.has_tick(self.machine.ticks + 1) else "end of bag"
 
 
 @dataclass
@@ -169,28 +283,12 @@ class Divergence:
 
 
 def replay_session(drive: Drive, plan: Any, profile: Profile) -> Session:
-    """A session that runs ``plan`` open loop on ``drive`` (stops after its last recorded tick)."""
+    """A session that runs ``plan`` open loop on ``drive`` (stops after its last tick)."""
+    import sys
+
     from fsm.loading.building import build
     from fsm.session.session import Session, StopRules
 
     driver = ReplayDriver(profile, drive)
-    machine = build(plan, clock=BagClock(drive.ticks, profile.dt), car=driver.car)
-    return Session(machine, driver=driver, stop=StopRules(max_ticks=len(drive.ticks) - 1))
-
-
-def compare(drive: Drive, driver: ReplayDriver, profile: Profile) -> tuple[int, Divergence | None]:
-    """How many ticks were compared, and the first divergence (None: the same decisions at every tick)."""
-    sent = driver.sent
-    n = min(len(sent), len(drive.commands))
-    wheelbase = profile.car.wheelbase
-    command_type = profile.outputs.command.type
-    for k in range(n):
-        recorded_active = drive.active_at(k)
-        replayed_active = driver.active[k] if k < len(driver.active) else None
-        same_path = recorded_active is None or recorded_active == replayed_active
-        if sent[k][1] != drive.commands[k] or not same_path:
-            rs, ra, _ = M.command_values(M.decode(drive.commands[k], command_type), wheelbase)
-            ps, pa, _ = M.command_values(M.decode(sent[k][1], command_type), wheelbase)
-            return n, Divergence(k, drive.ticks[k], {"active": recorded_active, "speed": rs, "angle": ra},
-                                 {"active": replayed_active, "speed": ps, "angle": pa})
-    return n, None
+    machine = build(plan, clock=BagClock(drive), car=driver.car)
+    return Session(machine, driver=driver, stop=StopRules(max_ticks=sys.maxsize))

@@ -22,7 +22,7 @@ from typing import Any
 
 from fsm.ros import messages as M
 from fsm.ros.car import Log
-from fsm.ros.profile import COMPRESSED, Profile
+from fsm.ros.profile import COMPRESSED, Binding, Profile
 from fsm.ros.transport import Bus, PeerTimeout
 from fsm.sim.car import PHYSICS_DT, SimCar
 from fsm.sim.loop import GateLog
@@ -32,6 +32,11 @@ from fsm.sim.world import load_world
 COMMAND_TIMEOUT = 0.5
 #: Lock-step: how often time 0's sensors and clock are sent again until the machine's first command (s).
 RESEND = 0.25
+
+
+def reliable(binding: Binding) -> Binding:
+    """``binding`` sent reliably (lock-step)."""
+    return binding.model_copy(update={"qos": binding.qos.model_copy(update={"reliability": "reliable"})})
 
 
 class SimRobot:
@@ -47,8 +52,11 @@ class SimRobot:
         self.car = SimCar(load_world(world), seed=seed, noise=noise)
         self.gates = GateLog(self.car.world) if self.car.world.gates else None
         self.dt = profile.dt
-        self._pubs = {name: link.publisher(b) for name, b in profile.inputs_bound().items()}
-        self._clock_pub = link.publisher(profile.clock) if lockstep else None
+        # lock-step wants every message: a best-effort sensor dropped under load would be a silence in simulated time
+        # (the machine holds the car), so there every topic is sent reliably, blocking rather than dropping
+        self._pubs = {name: link.publisher(reliable(b) if lockstep else b)
+                      for name, b in profile.inputs_bound().items()}
+        self._clock_pub = link.publisher(reliable(profile.clock)) if lockstep else None
         self._cond = threading.Condition()
         self._command: tuple[float, float, float | None] | None = None
         self._commands = 0
@@ -205,7 +213,10 @@ class SimRobot:
             self.time = t
             self.publish_sensors(t)
             self._clock_pub.put(M.encode(M.clock_message(t)))
-            command = self._first_command(wait) if n == 0 else self._wait_command(t, wait)
+            command = self._first_command(wait, stop) if n == 0 else self._wait_command(t, wait, stop)
+            if stop is not None and stop():
+                self.car.emergency_stop()
+                return "stopped"
             if command is None:
                 if self.finished:
                     self._drain()
@@ -219,20 +230,22 @@ class SimRobot:
             n += 1
             self._physics_to(n * dt)
 
-    def _first_command(self, wait: float) -> tuple[float, float, float | None] | None:
+    def _first_command(self, wait: float, stop: Any = None) -> tuple[float, float, float | None] | None:
         """The command of tick 0. A subscription the machine's side just declared may miss the first messages even
         once it matched, and then its side would wait for them forever: until the first command comes, time 0's
         sensors and clock are sent again every :data:`RESEND` s (the machine latches the newest; nothing moves)."""
         assert self._clock_pub is not None
         end = time.monotonic() + wait
         while True:
-            command = self._wait_command(0.0, min(RESEND, max(0.0, end - time.monotonic())))
-            if command is not None or self.finished or time.monotonic() >= end:
+            command = self._wait_command(0.0, min(RESEND, max(0.0, end - time.monotonic())), stop)
+            if command is not None or self.finished or time.monotonic() >= end or (stop is not None and stop()):
                 return command
             self.publish_sensors(0.0, again=True)
             self._clock_pub.put(M.encode(M.clock_message(0.0)))
 
-    def _wait_command(self, t: float, wait: float) -> tuple[float, float, float | None] | None:
+    def _wait_command(self, t: float, wait: float, stop: Any = None) -> tuple[float, float, float | None] | None:
+        """The command of time ``t``; None after ``wait`` s, once the machine finished, or as soon as ``stop()``
+        holds (Ctrl-C: looked at every 0.1 s)."""
         end = time.monotonic() + wait
         with self._cond:
             while True:
@@ -241,9 +254,9 @@ class SimRobot:
                     self._taken = self._commands
                     return c
                 left = end - time.monotonic()
-                if left <= 0 or self.finished:
+                if left <= 0 or self.finished or (stop is not None and stop()):
                     return None
-                self._cond.wait(left)
+                self._cond.wait(min(left, 0.1))
 
     def run_realtime(self, duration: float, stop: Any = None) -> str:
         """Physics on the wall clock; sensors at their rates; the newest command applies."""

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import struct
 import threading
 import time
@@ -20,7 +21,7 @@ from collections.abc import Callable
 from typing import Any, Protocol
 
 from fsm.model.errors import FsmError
-from fsm.ros.profile import Binding, Profile, normalise_type
+from fsm.ros.profile import Binding, Profile, domain_of, normalise_type
 
 #: Who is waited for, in messages, by default.
 ROBOT = "the robot (rmw_zenoh, the Zenoh bridge, or `fsmctl sim --ros`)"
@@ -79,27 +80,44 @@ def rclpy_available() -> bool:
         return False
 
 
-def resolve_via(profile: Profile, via: str | None = None) -> str:
-    """``zenoh`` or ``rclpy``: ``via`` (the command line) or the profile's ``transport.via``; ``auto`` is rclpy
-    when it can be imported, Zenoh otherwise."""
+def resolve_via(profile: Profile, via: str | None = None, endpoints: bool = False) -> str:
+    """``zenoh`` or ``rclpy``: ``via`` (the command line) or the profile's ``transport.via``; ``auto`` is Zenoh
+    when Zenoh endpoints were named on the command line (``endpoints``: they mean nothing to rclpy), else rclpy
+    when it can be imported, else Zenoh."""
     chosen = via or profile.transport.via
     if chosen == "auto":
-        return "rclpy" if rclpy_available() else "zenoh"
+        return "rclpy" if rclpy_available() and not endpoints else "zenoh"
     return chosen
 
 
 def open_bus(profile: Profile, *, connect: list[str] | None = None, listen: list[str] | None = None,
-             via: str | None = None) -> Bus:
+             via: str | None = None, node: str = "fsmctl", sim_time: bool = False) -> Bus:
     """A transport for ``profile``, not yet open (see :func:`resolve_via`); rclpy takes no endpoints (its RMW
-    finds the robot: ``ROS_DOMAIN_ID``, ``RMW_IMPLEMENTATION``), so naming some with it is an error."""
-    if resolve_via(profile, via) == "rclpy":
+    finds the robot: ``ROS_DOMAIN_ID``, ``RMW_IMPLEMENTATION``), so naming some with it is an error. ``node``
+    begins rclpy's node name (``<node>_<profile name>``) unless the profile names it; ``sim_time``: rclpy's node
+    runs with ``use_sim_time`` (lock-step: the simulator's /clock is ROS time); a Zenoh link then keeps the
+    order of the messages of all topics (:meth:`Link.subscribe`)."""
+    if resolve_via(profile, via, endpoints=bool(connect or listen)) == "rclpy":
         if connect or listen:
             raise TransportError("--connect/--listen are Zenoh endpoints; with rclpy the RMW finds the robot "
                                  "(ROS_DOMAIN_ID, RMW_IMPLEMENTATION): leave them out, or use --via zenoh")
         from fsm.ros.rclpy_link import RclpyLink
 
-        return RclpyLink(profile)
-    return Link(profile, connect=connect, listen=listen)
+        return RclpyLink(profile, node, sim_time=sim_time)
+    return Link(profile, connect=connect, listen=listen, node=node, ordered=sim_time)
+
+
+#: Where Zenoh's password is read from (never from a file the profile names: profiles are shared).
+PASSWORD_ENV = "FSM_ZENOH_PASSWORD"
+
+
+def free_endpoint(host: str = "127.0.0.1") -> str:
+    """``tcp/HOST:PORT`` on a port the system has free now (never rmw_zenoh's 7447 unless it was asked for)."""
+    import socket
+
+    with socket.socket() as s:
+        s.bind((host, 0))
+        return f"tcp/{host}:{s.getsockname()[1]}"
 
 
 class PeerTimeout(FsmError):
@@ -127,7 +145,59 @@ def topic_key(profile: Profile, binding: Binding, subscriber: bool = False) -> s
         from fsm.ros.messages import type_hash
 
         digest = type_hash(binding.type)
-    return f"{profile.transport.domain}/{topic}/{dds_type(binding.type)}/{digest}"
+    return f"{domain_of(profile)}/{topic}/{dds_type(binding.type)}/{digest}"
+
+
+# -- rmw_zenoh's liveliness tokens ----------------------------------------------------------------------------------
+# So that nodes on rmw_zenoh see the bridge in `ros2 node list` / `ros2 topic list`, the session declares the tokens
+# rmw_zenoh declares for a node, its publishers and its subscriptions. Format as in ros2/rmw_zenoh at commit bfc065f
+# (Oct 2024, rmw_zenoh_cpp 0.0.1, the code the Jazzy release grew from): docs/design.md ("Graph Cache") and
+# rmw_zenoh_cpp/src/detail/liveliness_utils.cpp (Entity::Entity, qos_to_keyexpr, zid_to_str, mangle_name):
+#   @ros2_lv/<domain>/<zid>/<nid>/<id>/<NN|MP|MS>/<enclave>/<namespace>/<node>[/<topic>/<type>/<hash>/<qos>]
+# with '/' inside a part written '%' (an empty namespace, '/', is '%'), <zid> the session id's 16 bytes from the
+# most significant, each in hex without padding, and <qos> "rel:dur:hist,depth:deadline s,ns:lifespan s,ns:
+# liveliness,lease s,ns", a part left empty where it is rmw_zenoh's default (reliable, transient local, keep last 42,
+# infinite durations, automatic liveliness).
+ADMIN_SPACE = "@ros2_lv"
+#: rmw's enum values: RMW_QOS_POLICY_RELIABILITY_BEST_EFFORT, RMW_QOS_POLICY_DURABILITY_VOLATILE.
+RMW_BEST_EFFORT, RMW_VOLATILE, RMW_ZENOH_DEFAULT_DEPTH = 2, 2, 42
+
+
+def node_name(profile: Profile, node: str = "fsmctl") -> str:
+    """The node's name on either transport: the profile's ``transport.node``, else ``<node>_<profile name>``."""
+    return profile.transport.node or re.sub(r"[^A-Za-z0-9_]", "_", f"{node}_{profile.name}")
+
+
+def mangle(name: str) -> str:
+    return name.replace("/", "%")
+
+
+def zid_text(zid: Any) -> str:
+    """A Zenoh session id as rmw_zenoh writes it (``zid_to_str``)."""
+    value = int(str(zid), 16)
+    return "".join(f"{b:x}" for b in value.to_bytes(16, "big"))
+
+
+def qos_text(binding: Binding) -> str:
+    """``qos_to_keyexpr`` of rmw_zenoh for a binding's QoS (volatile, keep last ``depth``)."""
+    reliability = str(RMW_BEST_EFFORT) if binding.qos.reliability == "best_effort" else ""
+    depth = "" if binding.qos.depth == RMW_ZENOH_DEFAULT_DEPTH else str(binding.qos.depth)
+    return f"{reliability}:{RMW_VOLATILE}:,{depth}:,:,:,,"
+
+
+def liveliness_key(profile: Profile, zid: Any, node: str, entity: int, kind: str,
+                   binding: Binding | None = None) -> str:
+    """The liveliness token of the node (``NN``, entity 0) or of one of its publishers (``MP``) or subscriptions
+    (``MS``)."""
+    namespace = profile.transport.namespace or "/"
+    parts = [ADMIN_SPACE, str(domain_of(profile)), zid_text(zid), "0", str(entity), kind, mangle("/"),
+             mangle(namespace), node]
+    if binding is not None:
+        from fsm.ros.messages import type_hash
+
+        parts += [mangle("/" + binding.topic.lstrip("/")), dds_type(binding.type), type_hash(binding.type),
+                  qos_text(binding)]
+    return "/".join(parts)
 
 
 class Publisher:
@@ -164,14 +234,24 @@ class Publisher:
 class Link:
     """A Zenoh session for a profile; ``connect`` / ``listen`` replace the profile's endpoints (``--connect``)."""
 
-    def __init__(self, profile: Profile, *, connect: list[str] | None = None, listen: list[str] | None = None) -> None:
+    def __init__(self, profile: Profile, *, connect: list[str] | None = None, listen: list[str] | None = None,
+                 node: str = "fsmctl", ordered: bool = False) -> None:
         self.profile = profile
+        #: every rmw_zenoh topic through one subscriber, in the order sent (lock-step; see :meth:`subscribe`)
+        self.ordered = ordered
+        #: the node name of the liveliness tokens (as rclpy's would be)
+        self.node_name = node_name(profile, node)
+        self._tokens: list[Any] = []
         t = profile.transport
         self.connect = list(t.connect if connect is None else connect)
         self.listen = list(t.listen if listen is None else listen)
         self.session: Any = None
         self._subscribers: list[Any] = []
         self._lock = threading.Lock()
+        self._dictionary: str | None = None
+        #: rmw_zenoh keys: the callback of each topic's key (without its type hash), behind one subscriber
+        self._routes: dict[str, Callable[[bytes], None]] = {}
+        self._routed: bool | None = None
 
     def describe(self) -> str:
         """The endpoints in words, for messages."""
@@ -193,16 +273,54 @@ class Link:
         conf.insert_json5("listen/endpoints", json.dumps(self.listen))
         # a robot that comes up after us is found within a fraction of a second (Zenoh's default waits seconds)
         conf.insert_json5("connect/retry", json.dumps(RETRY))
+        if t.user is not None:
+            self._auth(conf, t.user)
         return conf
+
+    def _auth(self, conf: Any, user: str) -> None:
+        """Zenoh's user/password authentication (both ways: the user and password this side shows, and the
+        dictionary it checks a peer's against, a file of its own readable by this user only, removed at close)."""
+        import tempfile
+
+        password = os.environ.get(PASSWORD_ENV)
+        if not password:
+            raise TransportError(f"the profile's transport.user is {user!r}: set its password in the environment "
+                                 f"variable {PASSWORD_ENV}")
+        fd, self._dictionary = tempfile.mkstemp(prefix="fsm-zenoh-", suffix=".txt")
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(f"{user}:{password}\n")
+        conf.insert_json5("transport/auth/usrpwd/user", json.dumps(user))
+        conf.insert_json5("transport/auth/usrpwd/password", json.dumps(password))
+        conf.insert_json5("transport/auth/usrpwd/dictionary_file", json.dumps(self._dictionary))
 
     def open(self) -> Link:
         import zenoh
 
         try:
             self.session = zenoh.open(self.config())
+        except TransportError:
+            self._forget_dictionary()
+            raise
         except Exception as exc:  # zenoh.ZError: a port in use, an endpoint it cannot parse
+            self._forget_dictionary()
             raise TransportError(f"cannot open the Zenoh session {self.describe()}: {exc}") from None
+        self._declare_token("NN")
         return self
+
+    def _declare_token(self, kind: str, binding: Binding | None = None) -> None:
+        """rmw_zenoh's liveliness token of the node or of an entity (see :func:`liveliness_key`)."""
+        if self.profile.transport.keys != "rmw_zenoh":
+            return
+        key = liveliness_key(self.profile, self.session.zid(), self.node_name, len(self._tokens), kind, binding)
+        self._tokens.append(self.session.liveliness().declare_token(key))
+
+    def _forget_dictionary(self) -> None:
+        path, self._dictionary = self._dictionary, None
+        if path is not None:
+            try:
+                os.unlink(path)
+            except OSError:
+                pass
 
     def peers(self) -> int:
         info = self.session.info
@@ -221,27 +339,54 @@ class Link:
             time.sleep(0.02)
 
     def publisher(self, binding: Binding) -> Publisher:
-        return Publisher(self, binding)
+        publisher = Publisher(self, binding)
+        self._declare_token("MP", binding)
+        return publisher
 
     def subscribe(self, binding: Binding, callback: Callable[[bytes], None]) -> None:
-        """Call ``callback(cdr_bytes)`` (on a Zenoh thread) for each message of the topic."""
-        key = topic_key(self.profile, binding, subscriber=True)
+        """Call ``callback(cdr_bytes)`` (on a Zenoh thread) for each message of the topic.
 
-        def handler(sample: Any) -> None:
-            callback(sample.payload.to_bytes())
+        ``ordered`` (lock-step) with rmw_zenoh's keys: every topic comes through one Zenoh subscriber on the
+        domain, routed by key; one subscriber's callbacks run one at a time in the order the messages came, so a
+        tick's sensors are taken before the clock the simulator sends after them (one subscriber per topic calls
+        back on Zenoh's threads in any order, and lock-step would now and then latch the tick before's)."""
+        self._declare_token("MS", binding)
+        if self.profile.transport.keys != "rmw_zenoh" or not self.ordered:
+            key = topic_key(self.profile, binding, subscriber=True)
 
-        self._subscribers.append(self.session.declare_subscriber(key, handler))
+            def handler(sample: Any) -> None:
+                callback(sample.payload.to_bytes())
+
+            self._subscribers.append(self.session.declare_subscriber(key, handler))
+            return
+        prefix = topic_key(self.profile, binding, subscriber=True).rsplit("/", 1)[0]
+        with self._lock:
+            self._routes[prefix] = callback
+            first = self._routed is None
+            if first:
+                self._routed = True
+        if first:
+            routes = self._routes
+
+            def route(sample: Any) -> None:
+                target = routes.get(str(sample.key_expr).rsplit("/", 1)[0])
+                if target is not None:
+                    target(sample.payload.to_bytes())
+
+            self._subscribers.append(self.session.declare_subscriber(f"{domain_of(self.profile)}/**", route))
 
     def close(self) -> None:
+        self._forget_dictionary()
         with self._lock:
             session, self.session = self.session, None
         if session is not None:
-            for sub in self._subscribers:
+            for sub in [*self._subscribers, *self._tokens]:
                 try:
                     sub.undeclare()
                 except Exception:  # closing anyway
                     pass
             self._subscribers.clear()
+            self._tokens.clear()
             # in a thread of its own, waited for at most CLOSE_WAIT: the sockets go with the process otherwise
             closing = threading.Thread(target=session.close, name="zenoh-close", daemon=True)
             closing.start()

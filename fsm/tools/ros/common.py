@@ -27,6 +27,23 @@ def require_extra(what: str, zenoh: bool = True) -> None:
         raise FsmError(f"{what} needs {' and '.join(missing)}: {EXTRA_HINT}")
 
 
+def choose_transport(profile: Any, args: argparse.Namespace, file: str, what: str) -> str:
+    """``zenoh`` or ``rclpy`` for this command, its needs checked before anything connects: the ``ros2`` extra;
+    with rclpy, rclpy itself (one message naming the ``rclpy`` extra) and every bound type's message package
+    (located profile errors)."""
+    from fsm.ros.transport import TransportError, rclpy_available, resolve_via
+
+    via = resolve_via(profile, args.via, endpoints=bool(args.connect or args.listen))
+    require_extra(what, zenoh=via == "zenoh")
+    if via == "rclpy":
+        from fsm.ros.rclpy_link import RCLPY_HINT, check_types
+
+        if not rclpy_available():
+            raise TransportError(f"{what} --via rclpy needs rclpy: {RCLPY_HINT}; or use --via zenoh")
+        check_types(profile, file)
+    return via
+
+
 def add_endpoint_options(p: argparse.ArgumentParser, lockstep_help: str) -> None:
     g = p.add_argument_group("the transport (replacing the profile's)")
     g.add_argument("--connect", action="append", metavar="ENDPOINT",
@@ -36,6 +53,9 @@ def add_endpoint_options(p: argparse.ArgumentParser, lockstep_help: str) -> None
     g.add_argument("--via", choices=("auto", "zenoh", "rclpy"),
                    help="the transport (default: the profile's transport.via, auto: rclpy when it can be imported, "
                         "Zenoh otherwise)")
+    g.add_argument("--remap", action="append", default=[], metavar="FROM:=TO",
+                   help="rename a topic of the profile (/tral/cmd:=/car1/cmd), or rclpy's node (__node:=NAME) or "
+                        "namespace (__ns:=/NS), as ROS 2's -r (repeatable; after the profile's transport.remap)")
     g.add_argument("--lockstep", action="store_true", help=lockstep_help)
 
 
@@ -51,13 +71,17 @@ def check_endpoints(args: argparse.Namespace) -> None:
                                  "e.g. tcp/127.0.0.1:7447")
 
 
-def load(path: str) -> Any:
-    """The profile (located errors before anything starts), its camera calibration checked too."""
-    from fsm.ros.profile import check_camera, load_profile
+def load(path: str, remaps: list[str] | None = None) -> Any:
+    """The profile (located errors before anything starts), its camera calibration checked too, its remappings and
+    ``remaps`` (``--remap``) applied."""
+    from fsm.ros.profile import check_camera, load_profile, remapped
 
     profile = load_profile(path)
     check_camera(profile)
-    return profile
+    try:
+        return remapped(profile, remaps or [])
+    except ValueError as exc:
+        raise UsageError(f"--remap: {exc}") from None
 
 
 def check_bag_folder(name: str | None, inputs: Iterable[str | os.PathLike[str]] = (),
@@ -89,18 +113,20 @@ def car_recorder(stream: IO[str] | None, file: str, car: Any, profile: Any, docu
                                       | {"command": profile.outputs.command.topic}},
                               **(extra_header or {})}
     fields = ["car.odometry[0]", "car.odometry[1]", "car.odometry[2]", "car.left", "car.right", "car.front",
-              "car.distance", "car.speed", "car.speed_command", "car.steering"]
+              "car.distance", "car.speed", "car.speed_command", "car.steering", "car.odometry_jumps"]
 
     def sample() -> tuple[Any, ...]:
         x, y, th = car.pose()
-        return (x, y, th, car.left, car.right, car.front, car.distance, car.speed, car.speed_command, car.steering)
+        return (x, y, th, car.left, car.right, car.front, car.distance, car.speed, car.speed_command, car.steering,
+                car.odometry_jumps)
 
     def extra() -> dict[str, Any]:
         x, y, th = car.pose()
         return {"car": {"odometry": [round(x, 4), round(y, 4), round(th, 4)], "left": round(car.left, 4),
                         "right": round(car.right, 4), "front": round(car.front, 4),
                         "distance": round(car.distance, 4), "speed": round(car.speed, 4),
-                        "speed_command": round(car.speed_command, 4), "steering": round(car.steering, 4)}}
+                        "speed_command": round(car.speed_command, 4), "steering": round(car.steering, 4),
+                        "odometry_jumps": car.odometry_jumps}}
 
     return Recorder(stream, extra=extra, header=header, sample=sample, sample_period=1.0 / sample_rate,
                     sample_fields=fields)

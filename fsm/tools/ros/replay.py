@@ -7,7 +7,7 @@ import json
 import sys
 from typing import Any
 
-from fsm.model.errors import DiagramError, printable
+from fsm.model.errors import DiagramError, UsageError, printable
 
 from ..cli.common import EXIT_FAIL, EXIT_OK, input_name, read_inputs, registry_from
 from .common import car_recorder, load, require_extra
@@ -17,7 +17,7 @@ def run_replay(args: argparse.Namespace) -> int:
     from fsm.loading.loader import check, machine_files
     from fsm.loading.loader import compile as compile_spec
     from fsm.loading.reading import preloaded
-    from fsm.ros.replay import compare, load_drive, replay_session
+    from fsm.ros.replay import load_drive, replay_session
 
     from ..cli.run import Tee, apply_overrides, write_report
     from ..files import Outputs, check_distinct
@@ -39,7 +39,10 @@ def run_replay(args: argparse.Namespace) -> int:
     spec = apply_overrides(spec, args.overrides, file)
     profile = load(args.profile)
     require_extra("fsmctl replay")
-    drive = load_drive(args.bag, profile)
+    if args.start is not None and args.stop is not None and args.stop <= args.start:
+        raise UsageError(f"--to {args.stop:g} must be after --from {args.start:g}")
+    drive = load_drive(args.bag, profile, start=args.start, stop=args.stop,
+                       warn=lambda text: print(printable(f"fsmctl replay: warning: {text}"), file=sys.stderr))
     outputs.open(machine_files(spec) + [args.profile])
     try:
         session = replay_session(drive, compile_spec(spec), profile)
@@ -52,9 +55,10 @@ def run_replay(args: argparse.Namespace) -> int:
                                                sample_rate=args.sample_rate, extra_header=header))
         driver.prime()
         session.run()
-        compared, divergence = compare(drive, driver, profile)
+        compared, divergence = driver.compared, driver.divergence
         result: dict[str, Any] = session.summary()
-        result["replay"] = {"bag": args.bag, "ticks": len(drive.ticks), "compared": compared,
+        result["replay"] = {"bag": args.bag, "ticks": session.machine.ticks + 1, "commands_recorded": drive.commanded,
+                            "from": args.start, "to": args.stop, "compared": compared,
                             "divergence": None if divergence is None else {
                                 "tick": divergence.tick, "time": divergence.time,
                                 "recorded": divergence.recorded, "replayed": divergence.replayed}}
@@ -66,13 +70,17 @@ def run_replay(args: argparse.Namespace) -> int:
         outputs.commit()
     finally:
         outputs.discard()
+        drive.source.close()
     report = sys.stderr if outputs.to_stdout else sys.stdout
     machine = session.machine
     if not args.quiet:
         status = f"outcome {machine.outcome}" if machine.finished else "not finished"
         print(printable(f"{file} on {args.bag}: {status} after {machine.ticks} ticks ({machine.now:.3f} s)"),
               file=report)
-        if divergence is None:
+        if not drive.commanded:
+            print(f"the bag has no commands on {profile.outputs.command.topic}: ticked at {profile.rate:g} Hz on "
+                  "its clock, nothing to compare", file=report)
+        elif divergence is None:
             print(f"the same decisions as the recorded drive at all {compared} ticks compared", file=report)
         else:
             print(printable(divergence.describe()), file=report)

@@ -17,7 +17,7 @@ from typing import Any
 from fsm.model.errors import FsmError, StateRuntimeError, UsageError, printable
 
 from ..cli.common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, Interrupts
-from .common import car_recorder, check_bag_folder, check_endpoints, load, require_extra
+from .common import car_recorder, check_bag_folder, check_endpoints, choose_transport, load
 
 #: Options of ``fsmctl run`` that drive the simulated car in-process, refused with --ros.
 SIM_ONLY = ("world", "car", "video", "plot")
@@ -48,25 +48,32 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
     from fsm.loading.loader import machine_files
     from fsm.ros.bag import BagRecorder
     from fsm.ros.driver import ros_session
-    from fsm.ros.transport import open_bus, resolve_via
+    from fsm.ros.transport import free_endpoint, open_bus
     from fsm.session.session import SetSignal, StopRules
 
-    profile = load(args.ros)
-    require_extra("--ros", zenoh=resolve_via(profile, args.via) == "zenoh")
+    profile = load(args.ros, args.remap)
+    via = choose_transport(profile, args, args.ros, "--ros")
     inputs = machine_files(spec) + [args.ros]
     outputs.open(inputs)
     check_bag_folder(args.bag, inputs, outputs.items)  # the input itself, another output's name: refused now
     plan = compile_spec(spec)
-    link = open_bus(profile, connect=args.connect, listen=args.listen, via=args.via)
+    connect, listen = args.connect, args.listen
+    t = profile.transport
+    if via == "zenoh" and not (connect or listen or t.connect or t.listen or t.multicast):
+        listen = [free_endpoint()]  # nowhere to connect to: the robot connects here (printed below)
+    link = open_bus(profile, connect=connect, listen=listen, via=args.via, sim_time=args.lockstep)
     bag = None
     # from here on Ctrl-C asks the run to stop (connecting takes a while): the outputs are written, exit 130
     interrupts = Interrupts()
     with interrupts:
         try:
             link.open()
+            if listen and not args.quiet:
+                print(printable(f"fsmctl run: {link.describe()}; waiting for the robot"), file=sys.stderr, flush=True)
             bag = BagRecorder(args.bag, profile) if args.bag else None
             session = ros_session(plan, profile, link, lockstep=args.lockstep, bag=bag,
-                                  variables=args.initial_vars, stop=StopRules(duration, max_ticks))
+                                  variables=args.initial_vars, stop=StopRules(duration, max_ticks),
+                                  signals=list(getattr(spec, "inputs", None) or []))
             for name, value, at in args.signal:
                 session.schedule(at, SetSignal(name, value))
             code = _drive(args, session, profile, file, outputs, trace_out, summary_out, report_out, interrupts)
@@ -124,6 +131,8 @@ def _drive(args: argparse.Namespace, session: Any, profile: Any, file: str, outp
     if interrupted:
         result["interrupted"] = True
     end: dict[str, Any] = {"stopped": stopped}
+    if driver.time_offset:  # the bag's times are ROS time: t_bag = time_offset + t_trace
+        end["ros_time_offset"] = driver.time_offset
     if interrupted:
         end["interrupted"] = True
     if "error" in result:

@@ -10,12 +10,12 @@ import sys
 from fsm.model.errors import printable
 
 from ..cli.common import EXIT_INTERRUPTED, EXIT_OK, Interrupts
-from .common import check_endpoints, load, require_extra
+from .common import check_endpoints, choose_transport, load
 
 
 def run_sim(args: argparse.Namespace) -> int:
     from fsm.ros.robot import SimRobot
-    from fsm.ros.transport import open_bus, resolve_via
+    from fsm.ros.transport import free_endpoint, open_bus
     from fsm.sim.world import default_world, load_world
 
     from ..files import Outputs
@@ -25,17 +25,19 @@ def run_sim(args: argparse.Namespace) -> int:
     summary_out = outputs.add(args.summary, "--summary")
     for out in outputs.items:
         out.classify()
-    profile = load(args.ros)
+    profile = load(args.ros, args.remap)
     world = args.world or str(default_world("."))
     load_world(world)  # located errors before anything connects
-    require_extra("fsmctl sim --ros", zenoh=resolve_via(profile, args.via) == "zenoh")
+    zenoh = choose_transport(profile, args, args.ros, "fsmctl sim --ros") == "zenoh"
     outputs.open([args.ros, world])
     listen = args.listen
     connect = args.connect
-    zenoh = resolve_via(profile, args.via) == "zenoh"
-    if zenoh and listen is None and connect is None:  # the robot's side of the profile: listen where it connects
-        listen, connect = list(profile.transport.connect) or ["tcp/127.0.0.1:7447"], []
-    link = open_bus(profile, connect=connect or [], listen=listen or [], via=args.via)
+    if zenoh and listen is None and connect is None:
+        # the robot's side of the profile: listen where the machine connects; else on a free port, printed below
+        listen = list(profile.transport.listen or profile.transport.connect) or [free_endpoint()]
+        connect = []
+    link = open_bus(profile, connect=connect or [], listen=listen or [], via=args.via, node="fsmctl_sim",
+                    sim_time=args.lockstep)
     say = (lambda text: None) if args.quiet else (lambda text: print(printable(f"fsmctl sim: {text}"),
                                                                        file=sys.stderr, flush=True))
     try:

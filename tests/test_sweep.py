@@ -72,13 +72,14 @@ def test_summaries_are_identical_on_one_and_two_processes_and_on_ray(tmp_path: P
     assert len(summaries(one)) == 4
 
 
-def test_the_printed_command_reproduces_a_run_alone(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_the_printed_command_reproduces_a_run_alone(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
     assert sweep(capsys, tmp_path / "s", "-j", "2")[0] == 0
     rec = next(json.loads(line) for line in (tmp_path / "s" / "sweep.jsonl").read_text().splitlines()
                if json.loads(line)["id"] == "0003")
     argv = shlex.split(rec["command"])
     assert argv[0] == "fsmctl" and "--set" in argv and "--seed" in argv
-    os.chdir(tmp_path)
+    monkeypatch.chdir(tmp_path)  # restored after the test: later tests of this worker read paths from the checkout
     code, _out, err = cli(capsys, *argv[1:], "-q")
     assert code == 0, err
     alone = {k: v for k, v in json.loads((tmp_path / "summary.json").read_text()).items() if k not in TIMING}

@@ -3,7 +3,7 @@
 Run a machine document (JSON, or a UMLet diagram) from Python in one call::
 
     import fsm
-    result = fsm.run("diagrams/examples/traffic_light.json", duration=30.0)
+    result = fsm.run("diagrams/examples/blinker.json", duration=30.0)
     print(result.outcome, result.stopped)
 
 ``fsm.load`` builds a machine to tick yourself, ``fsm.check`` validates a document; ``State``, ``Transition`` and

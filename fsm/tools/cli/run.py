@@ -200,6 +200,11 @@ def _tick_limit(args: argparse.Namespace, dt: float) -> tuple[float | None, int 
     return duration, args.max_ticks
 
 
+
+def _seconds(wall: float) -> str:
+    """A wall time as a person reads it: two decimals under 10 s (a short run is not "0.0 s"), one above."""
+    return f"{wall:.2f} s" if wall < 10 else f"{wall:.1f} s"
+
 def signal_warnings(signals: list[tuple[str, bool, float]], spec: Any, file: str, duration: float | None,
                     max_ticks: int | None, dt: float) -> list[str]:
     """What is suspicious about the ``--signal`` options: a name no transition reads (a typo, most likely),
@@ -444,7 +449,7 @@ def _drive(args: argparse.Namespace, session: Any, file: str, duration: float | 
             print(f"car: {m['distance_m']:.2f} m, {m['collisions']} collisions, min wall distance "
                   + (f"{near:.3f} m" if near is not None else "n/a") + ", wall error on straights "
                   + (f"{rms * 100:.1f} cm RMS" if rms is not None else "n/a")
-                  + f"; {m['sim_time']:.1f} s simulated in {time.perf_counter() - started:.1f} s with outputs, "
+                  + f"; {m['sim_time']:.1f} s simulated in {_seconds(time.perf_counter() - started)} with outputs, "
                   f"the simulation alone {m['realtime_factor']}x real time", file=report)
             if m.get("gates_total"):
                 print(f"gates: {m['gates_passed']}/{m['gates_total']} passed; odometry error at the end "

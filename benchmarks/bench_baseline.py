@@ -9,7 +9,7 @@ Workloads (each the same code on both sides):
 
   load        load + validate + build of the 1000-state ring from disk, ms (median of 7 per process);
               transitions' ``Machine`` (which validates nothing) in the same processes, for the ratio
-  first       ``import fsm`` and then the first load of that ring in a fresh process, ms (what a command pays)
+  first       ``import fsm`` and its loader, then the first load of that ring, fresh process, ms (what a command pays)
   flat        the flat ring of 100 states (Always), transitions/s (best of 5 x 0.5 s)
   nested      10 x 10 x 10 nested composites, transitions/s
   guard       the flat ring with a guard ``n >= 0`` on every transition; ``guard+set`` adds ``n = n + 1``
@@ -47,8 +47,9 @@ if sys.argv[1] == "first":  # a fresh process: import fsm, then its first load o
     ring = Path(sys.argv[2])
     t0 = time.perf_counter()
     import fsm
+    load = fsm.load  # fsm's names are imported on first use: the loader's import counts as importing, on either tree
     t1 = time.perf_counter()
-    fsm.load(ring)
+    load(ring)
     t2 = time.perf_counter()
     print(json.dumps({"import_ms": (t1 - t0) * 1000, "first_ms": (t2 - t1) * 1000}))
     sys.exit(0)

@@ -19,7 +19,7 @@ from typing import Any
 
 from fsm.model.errors import DiagramError, Problem, UsageError
 
-from ..sweep.spec import MAX_RUNS, check_duration
+from ..sweep.limits import MAX_RUNS
 from .common import (
     EXIT_FAIL,
     EXIT_INTERRUPTED,
@@ -98,6 +98,7 @@ def _sweep(args: argparse.Namespace, interrupts: Interrupts) -> int:
     from ..sweep.backends import BackendError
     from ..sweep.folder import Folder, read_records
     from ..sweep.runner import execute, plan
+    from ..sweep.spec import check_duration
 
     if args.spec is None and args.machine is None:
         raise UsageError("give a sweep file or --machine FILE")

@@ -5,7 +5,6 @@ written as ``fsmctl run`` writes them (the trace is the run's last fork: it repl
 from __future__ import annotations
 
 import argparse
-import asyncio
 import errno
 import json
 import sys
@@ -132,6 +131,8 @@ def serve(source: Any, page: Callable[[dict[str, Any]], str], *, host: str, port
     """Serve the live page of ``source`` until the page's Stop or ``stop()`` (Ctrl-C): listen first (a port in use
     is an error before the run starts), print the URL to ``out``, run the controller's loop (if any: a finished
     trace has none) in its own thread."""
+    import asyncio  # here, not at the top: fsmctl's parser takes its options from this module (add_arguments)
+
     controller = source.controller
     header = json.loads(source.buffer.chunks[0].split("\n", 1)[0])
     html = page(header)

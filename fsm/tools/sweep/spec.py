@@ -22,6 +22,9 @@ from pydantic import Field
 
 from fsm.model.params import Int, ParamsBase
 
+from .limits import MAX_RUNS as MAX_RUNS
+from .limits import MAX_TICKS as MAX_TICKS
+
 SWEEP_SCHEMA_PATH = Path(__file__).resolve().parents[2] / "schema" / "sweep.schema.json"
 #: Bumped when a change of the runner would change results: finished runs of another version are run again.
 RUN_VERSION = 1
@@ -70,12 +73,6 @@ def sweep_schema_text() -> str:
 
 #: Seeds are whole numbers from 0 to this (as ``fsmctl run --seed``).
 MAX_SEED = 2**63 - 1
-#: A sweep of more runs is refused unless ``--max-runs`` allows it: every finished run's record (about 70 KB with
-#: its trajectory) is kept in memory until sweep.csv and sweep.html are written, and planning holds every run.
-MAX_RUNS = 10_000
-#: The most ticks ``fsmctl run`` runs without ``--max-ticks`` (``MAX_TICKS`` of fsm/tools/cli/run.py, which this package
-#: may not import): a sweep's duration must be one its printed ``fsmctl run`` command accepts.
-MAX_TICKS = 10_000_000
 
 
 class SpecError(ValueError):

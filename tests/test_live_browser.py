@@ -151,6 +151,8 @@ def test_pause_step_rewind_and_a_state_breakpoint_on_the_lap(browser: Any, tmp_p
     for _ in range(2):
         page.page.click("#run-step")
     page.drawn_at(tick + 2)
+    # a person presses the key once the button is enabled again (the page ignores keys of disabled buttons)
+    page.until("!document.getElementById('run-step').disabled")
     page.page.keyboard.press("s")  # the key the button's title names
     shown = page.drawn_at(tick + 3)
     status = page.status()

@@ -174,7 +174,6 @@ class RampParams(StateParams):
 class @CAMEL@Ramp(State[RampParams]):
     """Moves blackboard variable `var` towards `target` at `rate` per second; finishes when it is there."""
 
-    Params = RampParams
     can_finish = True
 
     def on_enter(self, ctx: Context) -> None:
@@ -211,8 +210,6 @@ class AboveParams(TransitionParams):
 @register_transition
 class @CAMEL@Above(Transition[AboveParams]):
     """Fires when blackboard variable `var` is at least `value`."""
-
-    Params = AboveParams
 
     def check(self, ctx: Context) -> bool:
         current: float = ctx.vars.get(self.params.var, 0.0)

@@ -21,7 +21,6 @@ class BlinkParams(StateParams):
 class Blink(State[BlinkParams]):
     """Toggles blackboard variable `var` every `period` seconds and counts the toggles in `var`_count."""
 
-    Params = BlinkParams
     #: machine time of the next toggle
     next_toggle: float
 

@@ -181,15 +181,9 @@ def _check_live(args: argparse.Namespace) -> None:
         if given:
             raise UsageError(f"{given[0]} is an option of the live page: add --live")
         return
-    from ..live.runner import is_loopback
+    from ..live.runner import check_page_options
 
-    if args.no_token and not is_loopback(args.host or "127.0.0.1"):
-        raise UsageError(f"--no-token with --host {args.host}: a page other machines can reach needs its token; "
-                         "drop --no-token (the URL printed carries it)")
-    try:
-        import aiohttp  # noqa: F401
-    except ImportError:
-        raise UsageError("--live needs aiohttp: pip install 'tral-fsm[live]'") from None
+    check_page_options(args)
 
 
 def _start_live(args: argparse.Namespace, p: Any, todo: list[dict[str, Any]], resume: Any, out_dir: Path,

@@ -83,6 +83,12 @@ def check_usage(args: argparse.Namespace) -> None:
                          "with --trace and make the video with a run without --live")
     if args.trace == "-" or args.summary == "-":
         raise UsageError("with --live, standard output shows the page's URL: name a file for --trace and --summary")
+    check_page_options(args)
+
+
+def check_page_options(args: argparse.Namespace) -> None:
+    """What any ``--live`` page needs (``fsmctl run --live`` and ``fsmctl sweep --live``): a token where other
+    machines can reach it, and aiohttp (usage errors)."""
     if args.no_token and not is_loopback(args.host or "127.0.0.1"):
         raise UsageError(f"--no-token with --host {args.host}: a page other machines can reach needs its token; "
                          "drop --no-token (the URL printed carries it)")

@@ -95,7 +95,9 @@ def instructions(workload: str, n: int, tree: Path | None) -> int:
 def callgrind(args: list[str], env: dict[str, str], cwd: Path, what: str) -> int:
     """The instructions of ``python ARGS`` (run in ``cwd`` with ``env``) counted by callgrind; RuntimeError naming
     ``what`` when it fails."""
-    done = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null", sys.executable, *args],
+    # --trace-children: this machine's interpreter re-executes itself at start, and only the new image runs the code
+    done = subprocess.run(["valgrind", "--tool=callgrind", "--trace-children=yes", "--callgrind-out-file=/dev/null",
+                           sys.executable, *args],
                           env=env, capture_output=True, text=True, cwd=str(cwd), timeout=3600)
     found = re.search(r"Collected\s*:\s*(\d+)", done.stderr)
     if done.returncode != 0 or found is None:

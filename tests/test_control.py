@@ -359,6 +359,45 @@ def test_watch_expressions_are_kept_after_every_tick_and_cost_nothing_without(la
     snap = wait(controller, lambda s: [w["text"] for w in s["watches"]] == ["probe + 1"])
 
 
+def test_watch_values_are_exact_per_tick_and_a_tick_where_nothing_read_moved_reuses_its_row(lap: Any) -> None:
+    """Each tick's row is what the expressions give for that tick's variables and readings (an injected variable
+    shows from the tick it applied before); a tick where none of the names read changed keeps the last row."""
+    controller, _ = lap
+    for n, text in enumerate(("probe", "car_right", "probe * 2 + car_right", "car_right < probe")):
+        controller.send("watch", {"expr": text}, n)
+    controller.send("step", {"n": 20})
+    wait(controller, lambda s: s["tick"] == 20 and s["state"] == "paused")
+    controller.send("input", {"input": {"kind": "set", "values": {"probe": 5}}}, 9)
+    controller.send("step", {"n": 40})
+    wait(controller, lambda s: s["tick"] == 60 and s["state"] == "paused")
+    rows = list(controller.watch_log)
+    assert [t for t, _ in rows] == list(range(61))  # tick 0 (the start) on
+    assert [row[0] for _t, row in rows] == [0] * 21 + [5] * 40  # the set applies before tick 21
+    for _t, (probe, right, total, below) in rows:
+        assert total == probe * 2 + right and below is (right < probe)
+    rights = [row[1] for _t, row in rows]
+    assert len(set(rights)) > 1  # the reading moved (the ultrasonic sensors sample at 20 Hz, the ticks at 80)
+    reused = [k for k in range(1, len(rows)) if rows[k][1] is rows[k - 1][1]]
+    assert reused and all(rights[k] == rights[k - 1] for k in reused)
+    assert all(rows[k][1] is not rows[k - 1][1] for k in range(1, len(rows)) if rights[k] != rights[k - 1])
+    controller.send("watch", {"expr": "car_left"}, 10)  # one more: every row has its column from now on
+    controller.send("step", {"n": 2})
+    wait(controller, lambda s: s["tick"] == 62 and s["state"] == "paused")
+    assert [len(row) for _t, row in controller.watch_log] == [5, 5, 5]  # 60 (when added), 61, 62
+    assert controller.watch_log[-1][1][4] == controller.session.car.left
+
+
+def test_a_watched_list_is_read_afresh_at_every_tick(lap: Any) -> None:
+    """A list changes in place (equal to itself though changed): a watch reading one never keeps an old row."""
+    controller, _ = lap
+    controller.session.machine.ctx.vars["gates"] = []
+    controller.send("watch", {"expr": "gates"}, 1)
+    controller.send("step", {"n": 5})
+    wait(controller, lambda s: s["tick"] == 5 and s["state"] == "paused")
+    rows = [row for _t, row in controller.watch_log]
+    assert len(rows) == 6 and all(rows[k] is not rows[k - 1] for k in range(1, 6))
+
+
 def test_a_run_that_raises_after_an_injection_has_it_undone_not_the_run_ended() -> None:
     """A value of the right kind can still make a state raise (here a guard dividing by it): the injection is undone
     (the run rewound to before it) and the run paused there, told why; it never ends because of an injection."""

@@ -470,6 +470,17 @@ def make_temporal(loaded: LoadedScenario, machine: Machine, signals: tuple[str, 
     return TemporalRun(watches, sorted(outside), states, dt)
 
 
+def count_verdict(n: int, c: Any) -> tuple[bool, str]:
+    """Whether ``n`` occurrences meet an expectation's ``count`` (or ``min``..``max``, or at least one), and what
+    it wanted, in words."""
+    if c.count is None and c.min is None and c.max is None:
+        return n >= 1, "at least once"
+    ok = (c.count is None or n == c.count) and (c.min is None or n >= c.min) and (c.max is None or n <= c.max)
+    want = (f"exactly {_times(c.count)}" if c.count is not None else
+            " and ".join(x for x in (f"at least {_times(c.min)}" if c.min is not None else "",
+                                     f"at most {_times(c.max)}" if c.max is not None else "") if x))
+    return ok, want
+
 def _times(n: int) -> str:
     return "once" if n == 1 else f"{n} times"
 
@@ -833,13 +844,7 @@ class Checker:
         """An event that must happen ``count`` (or ``min``..``max``, or at least one) times within a window."""
         inside = [e for e in events if self.inside(e[0], c.within)]
         n = len(inside)
-        if c.count is None and c.min is None and c.max is None:
-            ok, want = n >= 1, "at least once"
-        else:
-            ok = (c.count is None or n == c.count) and (c.min is None or n >= c.min) and (c.max is None or n <= c.max)
-            want = (f"exactly {_times(c.count)}" if c.count is not None else
-                    " and ".join(x for x in (f"at least {_times(c.min)}" if c.min is not None else "",
-                                             f"at most {_times(c.max)}" if c.max is not None else "") if x))
+        ok, want = count_verdict(n, c)
         if ok:
             return None
         win = self.window(c.within)
@@ -896,13 +901,7 @@ class Checker:
                  and (c.behavior is None or f.behavior == c.behavior) and (c.kind is None or f.kind == c.kind)
                  and self.inside(f.tick, c.within)]
         n = len(fired)
-        if c.count is None and c.min is None and c.max is None:
-            ok, want = n >= 1, "at least once"
-        else:
-            ok = (c.count is None or n == c.count) and (c.min is None or n >= c.min) and (c.max is None or n <= c.max)
-            want = (f"exactly {_times(c.count)}" if c.count is not None else
-                    " and ".join(x for x in (f"at least {_times(c.min)}" if c.min is not None else "",
-                                             f"at most {_times(c.max)}" if c.max is not None else "") if x))
+        ok, want = count_verdict(n, c)
         if ok and c.at is not None:
             times = [round(f.tick * self.dt, 9) for f in fired]
             wanted = [tick_at(t, self.dt) for t in c.at]

@@ -185,3 +185,33 @@ def test_no_type_ignore_in_states_and_transitions() -> None:
              for path in sorted((ROOT / "fsm" / folder).rglob("*.py"))
              for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1) if "type: ignore" in line]
     assert found == []
+
+
+def _type_ignores() -> list[tuple[str, str]]:
+    return [(f"{path.relative_to(ROOT)}:{n}", line) for path in sorted((ROOT / "fsm").rglob("*.py"))
+            for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1) if "type: ignore" in line]
+
+
+def test_strict_mode_covers_the_whole_package() -> None:
+    """mypy checks all of fsm/ (tools and testing included): nothing is excluded or skipped; the only modules whose
+    errors are not reported are the temporary list of packages other branches are typing (issue 31), and at most
+    10 ``type: ignore`` stand in the whole package."""
+    import tomllib
+
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["tool"]["mypy"]
+    assert config["strict"] is True and config["packages"] == ["fsm"]
+    assert "exclude" not in config
+    overrides = config.get("overrides", [])
+    assert not [o for o in overrides if o.get("follow_imports") == "skip"]
+    ignored = [m for o in overrides if o.get("ignore_errors") for m in o["module"]]
+    assert set(ignored) <= {"fsm.tools.graph.*", "fsm.tools.live.*", "fsm.tools.ros.*"}
+    found = _type_ignores()
+    assert len(found) <= 10, "\n".join(where for where, _ in found)
+
+
+def test_type_ignores_in_tools_and_testing_say_why() -> None:
+    """A ``type: ignore`` in tools/ or testing/ names its error code and, in a comment after it, the reason."""
+    reason = re.compile(r"#\s*type:\s*ignore\[[a-z-]+(,\s*[a-z-]+)*\]\s+#\s*\S")
+    bare = [where for where, line in _type_ignores()
+            if where.startswith(("fsm/tools/", "fsm/testing/")) and not reason.search(line)]
+    assert bare == []

@@ -91,9 +91,10 @@ class MachineTest:
                                  "fsm_machine(..., world=\"worlds/hallway.json\")")
             self.session = Session.open(plan, dt=self.dt, stop=stop, record=False)
         self.machine = self.session.machine
-        self._loaded = LoadedScenario(file=self.file, scenario=Scenario(machine=self.file, expect=[{"finished": True}]),
-                                      spec=spec, registry=registry, dt=self.dt, end_tick=NEVER - 1,
-                                      world_path=Path(world) if world is not None else None, state_paths=self.paths)
+        finished = Scenario.model_validate({"machine": self.file, "expect": [{"finished": True}]})
+        self._loaded = LoadedScenario(file=self.file, scenario=finished, spec=spec, registry=registry, dt=self.dt,
+                                      end_tick=NEVER - 1, world_path=Path(world) if world is not None else None,
+                                      state_paths=self.paths)
         # every tick's snapshot and every state's outcome: a test may look back at any of them
         self.record = self.machine.add_listener(Recording(_Every(), list(self.machine.states_by_path.values())))
         for raw in plants or ():
@@ -225,7 +226,7 @@ class MachineTest:
             sc = Scenario.model_validate(data)
         except ValidationError as err:
             raise ValueError("\n".join(str(p) for p in problems_from_errors(err, data, "expect"))) from None
-        from fsm.tools.scenario.model import InvariantExpect, TemporalExpect
+        from fsm.tools.scenario.model import AtExpect, InvariantExpect, TemporalExpect
 
         during = [i for i, e in enumerate(sc.expect) if isinstance(e, (InvariantExpect, TemporalExpect))
                   or getattr(e, "holds", None) is not None]
@@ -235,7 +236,7 @@ class MachineTest:
                              "scenario file")
         problems = element_problems([], list(sc.expect), None, "expect") + name_problems(sc, self.paths, "expect")
         late = [f"expect[{i}]: at {e.at:g} s is after now ({now:g} s)" for i, e in enumerate(sc.expect)
-                if getattr(e, "at", None) is not None and isinstance(e.at, float) and e.at > now + 1e-9]
+                if isinstance(e, AtExpect) and e.at > now + 1e-9]
         if problems or late:
             raise ValueError("\n".join([str(p) for p in problems if p.severity == "error"] + late))
         self._fail([(e, i) for i, e in enumerate(sc.expect)])

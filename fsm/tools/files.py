@@ -32,6 +32,16 @@ _FD_PATH = re.compile(r"^/(?:dev/fd|proc/self/fd)/(\d+)$")
 _NAMED_FDS = {"/dev/stdout": 1, "/dev/stderr": 2}
 
 
+def _descriptor(name: str) -> int | None:
+    """The file descriptor an output name stands for (``-``, ``/dev/stdout``, ``/dev/fd/N``), or ``None``."""
+    if name == STDOUT:
+        return 1
+    if name in _NAMED_FDS:
+        return _NAMED_FDS[name]
+    match = _FD_PATH.match(name)
+    return int(match.group(1)) if match else None
+
+
 def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
@@ -95,11 +105,11 @@ class Output:
         self.suffix = suffix  # of the temporary file (encoders that pick the container by suffix)
         self.kind = ""  # "fd" (standard output, /dev/fd/N), "special" (device, FIFO), "file"
         self.target = name
-        self.fd: int | None = None
+        self.fd = -1  #: the descriptor of a "fd" output (none: -1)
         self.mode: int | None = None
         self.owner: tuple[int, int] | None = None
         self._tmp: str | None = None
-        self._fh: _Guarded | None = None
+        self._fh: Stream | None = None
 
     # -- checks -------------------------------------------------------------------------------------
     def _fail(self, reason: str, hint: str | None = None) -> UsageError:
@@ -108,40 +118,56 @@ class Output:
 
     def classify(self) -> None:
         """Decide how the output is written; raise :class:`UsageError` for a path that cannot be an output."""
-        name = self.name
-        if name == STDOUT or name in _NAMED_FDS or _FD_PATH.match(name):
-            self.kind = "fd"
-            self.fd = 1 if name == STDOUT else _NAMED_FDS.get(name) or int(_FD_PATH.match(name).group(1))  # type: ignore[union-attr]
-            if self.binary and self.fd == 1 and _stdout_is_terminal():
-                raise self._fail("will not write binary data to a terminal", "redirect standard output or name a file")
-            try:
-                os.fstat(self.fd)
-            except OSError:
-                raise self._fail(f"file descriptor {self.fd} is not open") from None
+        fd = _descriptor(self.name)
+        if fd is not None:
+            self._classify_descriptor(fd)
             return
+        st = self._stat_target()
+        if st is not None and not stat.S_ISREG(st.st_mode):
+            self._classify_special(st)
+            return
+        self._classify_file(st)
+
+    def _classify_descriptor(self, fd: int) -> None:
+        """``-``, ``/dev/stdout``, ``/dev/fd/N``: an open descriptor, written in place."""
+        self.kind = "fd"
+        self.fd = fd
+        if self.binary and fd == 1 and _stdout_is_terminal():
+            raise self._fail("will not write binary data to a terminal", "redirect standard output or name a file")
+        try:
+            os.fstat(fd)
+        except OSError:
+            raise self._fail(f"file descriptor {fd} is not open") from None
+
+    def _stat_target(self) -> os.stat_result | None:
+        """Resolve the name into :attr:`target`; its status, or ``None`` when nothing is there yet."""
+        name = self.name
         if not name:
             raise self._fail("empty file name")
         if "\0" in name:
             raise self._fail("the file name contains a NUL byte")
         try:
-            real = os.path.realpath(name)
-            st = os.stat(real)
+            self.target = os.path.realpath(name)
+            return os.stat(self.target)
         except FileNotFoundError:
-            st = None
+            return None
         except ValueError:
             raise self._fail("not a usable file name") from None
         except OSError as exc:
             if exc.errno == errno.ENOTDIR:
                 raise self._fail("a folder on the path is not a folder") from None
             raise self._fail(os_reason(exc)) from None
-        self.target = real
-        if st is not None and not stat.S_ISREG(st.st_mode):
-            if stat.S_ISDIR(st.st_mode):
-                raise self._fail("is a directory", "name a file in it")
-            if stat.S_ISSOCK(st.st_mode):
-                raise self._fail("is a socket")
-            self.kind = "special"
-            return
+
+    def _classify_special(self, st: os.stat_result) -> None:
+        """A device or FIFO is written in place; a folder or socket is no output."""
+        if stat.S_ISDIR(st.st_mode):
+            raise self._fail("is a directory", "name a file in it")
+        if stat.S_ISSOCK(st.st_mode):
+            raise self._fail("is a socket")
+        self.kind = "special"
+
+    def _classify_file(self, st: os.stat_result | None) -> None:
+        """A regular file (or none yet): replaced atomically, keeping its mode and owner."""
         self.kind = "file"
         if st is not None:
             if st.st_nlink > 1:
@@ -149,9 +175,9 @@ class Output:
                                  "place is not atomic", "remove the other links or write to another name")
             self.mode = stat.S_IMODE(st.st_mode)
             self.owner = (st.st_uid, st.st_gid)
-        folder = os.path.dirname(real) or "."
+        folder = os.path.dirname(self.target) or "."
         if not os.path.isdir(folder):
-            raise self._fail(f"folder {os.path.dirname(name) or folder} does not exist", "create it first")
+            raise self._fail(f"folder {os.path.dirname(self.name) or folder} does not exist", "create it first")
 
     # -- life cycle ---------------------------------------------------------------------------------
     def open(self) -> Output:
@@ -184,23 +210,27 @@ class Output:
             raise RuntimeError("open() an output before writing, and binary outputs through path")
         return self._tmp
 
-    def stream(self) -> Any:
+    def stream(self) -> Stream:
         """A file object to write to (text: UTF-8 with ``\\n`` lines)."""
         if self._fh is None:
-            self._fh = _Guarded(self._open_stream(), self)
+            self._fh = Stream(self._open_stream(), self)
         return self._fh
 
     def _open_stream(self) -> IO[Any]:
-        kwargs: dict[str, Any] = {} if self.binary else {"encoding": "utf-8", "newline": "\n"}
-        mode = "wb" if self.binary else "w"
         if self._tmp is not None:
-            return open(self._tmp, mode, **kwargs)
+            return self._open(self._tmp)
         if self.kind == "fd":
-            return self._std_stream() or os.fdopen(os.dup(self.fd), mode, **kwargs)  # type: ignore[arg-type]
+            return self._std_stream() or self._open(os.dup(self.fd))
         try:
-            return open(self.target, mode, **kwargs)
+            return self._open(self.target)
         except OSError as exc:
             raise self._fail(f"cannot write: {os_reason(exc)}") from None
+
+    def _open(self, file: str | int) -> IO[Any]:
+        """``file`` (a path or a descriptor) opened for writing: bytes, or UTF-8 text with ``\\n`` lines."""
+        if self.binary:
+            return open(file, "wb")
+        return open(file, "w", encoding="utf-8", newline="\n")
 
     def write(self, data: str | bytes) -> None:
         self.stream().write(data)
@@ -249,7 +279,7 @@ class Output:
                         shutil.copyfileobj(src, std)
                         std.flush()
                     else:
-                        with os.fdopen(os.dup(self.fd), "wb") as dst:  # type: ignore[arg-type]
+                        with open(os.dup(self.fd), "wb") as dst:
                             shutil.copyfileobj(src, dst)
                 else:
                     with open(self.target, "wb") as dst:
@@ -290,7 +320,7 @@ class Output:
         return getattr(stream, "buffer", None) if self.binary else stream
 
 
-class _Guarded:
+class Stream:
     """A stream whose write errors (a full disk, /dev/full, a closed pipe) name the output, in one line."""
 
     __slots__ = ("raw", "_output")
@@ -469,26 +499,6 @@ def write_atomic(path: str | os.PathLike[str], data: str | bytes) -> None:
     write_output(os.fspath(path), data, option="output")
 
 
-class AtomicFile:
-    """``with AtomicFile(path) as fh:`` writes through :class:`Output`; ``path`` is replaced only on success."""
-
-    def __init__(self, path: str | os.PathLike[str], mode: str = "w") -> None:
-        self.output = Output(os.fspath(path), "output", binary="b" in mode)
-
-    def __enter__(self) -> IO[Any]:
-        self.output.open()
-        return self.output.stream()
-
-    def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
-        if exc_type is None:
-            self.output.commit()
-        else:
-            self.output.discard()
-
-    def discard(self) -> None:
-        self.output.discard()
-
-
 # -- temporary files when the process is stopped -----------------------------------------------------
 #: The temporary files of this process's open outputs, removed should a signal end it (they would stay behind).
 _TEMPORARY: set[str] = set()
@@ -545,7 +555,7 @@ def _end_by_signal(signum: int, frame: Any) -> None:
     os.kill(os.getpid(), signum)
 
 
-__all__ = ["AtomicFile", "Output", "Outputs", "STDOUT", "check_distinct", "identity", "os_reason", "shown_path",
+__all__ = ["Output", "Outputs", "STDOUT", "Stream", "check_distinct", "identity", "os_reason", "shown_path",
            "write_atomic", "write_output"]
 
 

@@ -30,12 +30,14 @@ import json
 import platform
 import struct
 from collections.abc import Callable
-from typing import IO, TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any
 
 from fsm.model.version import VERSION
 from fsm.runtime.machine import Listener
 
 if TYPE_CHECKING:
+    from _typeshed import SupportsWrite
+
     from fsm.runtime.context import Context
     from fsm.runtime.machine import Fired, Machine
     from fsm.runtime.state import State
@@ -64,7 +66,7 @@ class Recorder(Listener):
     lines; ``header`` is merged into the header line.
     """
 
-    def __init__(self, out: IO[str] | None = None, extra: Callable[[], dict[str, Any]] | None = None, *,
+    def __init__(self, out: SupportsWrite[str] | None = None, extra: Callable[[], dict[str, Any]] | None = None, *,
                  header: dict[str, Any] | None = None, sample: Callable[[], Any] | None = None,
                  sample_period: float = SAMPLE_PERIOD, keyframe_period: float = KEYFRAME_PERIOD,
                  frames: Callable[[], dict[str, Any] | None] | None = None, frame_period: float = FRAME_PERIOD,

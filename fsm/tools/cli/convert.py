@@ -6,10 +6,14 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from fsm.model.errors import DiagramError, Problem
 
 from .common import EXIT_FAIL, EXIT_OK, Subcommands, default_output, registry_from
+
+if TYPE_CHECKING:
+    from ..files import Outputs
 
 
 def register(sub: Subcommands) -> None:
@@ -43,7 +47,7 @@ def cmd_convert(args: argparse.Namespace) -> int:
         outputs.discard()
 
 
-def _convert(args: argparse.Namespace, src: Path, out: str, outputs: object) -> int:
+def _convert(args: argparse.Namespace, src: Path, out: str, outputs: Outputs) -> int:
     from ..umlet.convert import convert_checked, dumps
 
     registry = registry_from(args)
@@ -64,9 +68,8 @@ def _convert(args: argparse.Namespace, src: Path, out: str, outputs: object) -> 
     text = dumps(doc)
     if args.check:
         return check_output(src, out, doc, args.format)
-    item = outputs.items[0]  # type: ignore[attr-defined]
-    item.write(text)
-    outputs.commit()  # type: ignore[attr-defined]
+    outputs.items[0].write(text)
+    outputs.commit()
     return EXIT_OK
 
 
@@ -86,7 +89,7 @@ def _palette_problems(src: Path, registry: object) -> list[Problem] | None:
     return palette_problems(raw, str(src), registry)
 
 
-def check_output(src: Path, out: str, doc: dict, fmt: str) -> int:
+def check_output(src: Path, out: str, doc: dict[str, Any], fmt: str) -> int:
     if out == "-":
         report([Problem("--check needs a file to compare with, not '-'", str(src))], fmt)
         return EXIT_FAIL

@@ -4,17 +4,22 @@ for). The trace format and its recorder are :mod:`fsm.trace.recorder`, reading t
 HTML report
 is :mod:`fsm.tools.report`."""
 
-from typing import IO, Any
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
 
 from .document import header_document
+
+if TYPE_CHECKING:
+    from _typeshed import SupportsWrite
 
 __all__ = ["end_lines", "header_document", "run_recorder"]
 
 
-def run_recorder(stream: IO[str] | None, file: str, car: Any = None, *, world_file: Any = None, seed: int = 0,
-                 noise: bool = True, preloaded: dict[str, Any] | None = None, overrides: list[str] | None = None,
-                 initial_vars: dict[str, Any] | None = None, sample_rate: float = 20.0,
-                 document: dict[str, Any] | None = None) -> Any:
+def run_recorder(stream: SupportsWrite[str] | None, file: str, car: Any = None, *, world_file: Any = None,
+                 seed: int = 0, noise: bool = True, preloaded: dict[str, Any] | None = None,
+                 overrides: list[str] | None = None, initial_vars: dict[str, Any] | None = None,
+                 sample_rate: float = 20.0, document: dict[str, Any] | None = None) -> Any:
     """The recorder of a run as ``fsmctl run`` and ``fsmctl sweep`` write it: the header (the machine document
     with its layout, world, seed, overrides), the car's samples at ``sample_rate`` Hz and its camera frames; a
     bare :class:`~fsm.trace.recorder.Recorder` (summary only) when ``stream`` is ``None``. ``document``: the header's

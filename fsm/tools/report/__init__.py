@@ -41,7 +41,8 @@ def chart_svg(trace: Trace, warnings: list[str]) -> str:
     from ..graph import svg
 
     try:
-        return svg(doc)
+        drawing: str = svg(doc)
+        return drawing
     except Exception as exc:  # a document that no longer draws: the rest of the report still stands
         warnings.append(f"the machine in the trace cannot be drawn ({type(exc).__name__}: {exc}): no statechart")
         return ""

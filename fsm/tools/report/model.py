@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from itertools import pairwise
-from typing import Any
+from typing import Any, TypedDict
 
 from fsm.trace.replay import Trace, event_active
 
@@ -95,7 +95,7 @@ def _guess_dt(trace: Trace) -> float:
     for lines in (trace.events, trace.samples):
         for line in lines:
             if line["tick"] > 0 and isinstance(line.get("time"), (int, float)) and line["time"] > 0:
-                return float(line["time"]) / line["tick"]
+                return float(line["time"]) / float(line["tick"])
     return 0.0125
 
 
@@ -132,30 +132,40 @@ def _states(trace: Trace) -> tuple[list[str], dict[str, int]]:
     return states, index
 
 
-def _regions(trace: Trace, states: list[str], index: dict[str, int]) -> list[dict[str, Any]]:
+class Region(TypedDict):
+    """A region of the machine: its path, the indexes of its states and the label its lane shows."""
+
+    path: str
+    states: list[int]
+    label: str
+
+
+def _regions(trace: Trace, states: list[str], index: dict[str, int]) -> list[Region]:
     """The machine's regions (from the header; for an older trace, one per parent path), outermost first, each
     with the indexes of its states."""
     name = trace.header.get("name") or "machine"
     found = trace.header.get("regions")
     if isinstance(found, list) and found:
-        regions = [{"path": str(r.get("path", "")), "states": [index[s] for s in r.get("states", ()) if s in index]}
+        members = [(str(r.get("path", "")), [index[s] for s in r.get("states", ()) if s in index])
                    for r in found if isinstance(r, dict)]
     else:
         by_parent: dict[str, list[int]] = {}
         for i, path in enumerate(states):
             by_parent.setdefault(path.rpartition("/")[0], []).append(i)
-        regions = [{"path": p, "states": s} for p, s in by_parent.items()]
-    regions.sort(key=lambda r: [part for part in r["path"].split("/") if part])
-    paths = [r["path"] for r in regions]
-    for r in regions:
-        r["label"] = r["path"] or f"{name} (top level)"
-        if paths.count(r["path"]) > 1:  # a sequence's exception regions sit at their sequence's path
-            steps = [states[i].rpartition("/")[2] for i in r["states"]]
-            r["label"] += ": " + ", ".join(steps[:3]) + (", …" if len(steps) > 3 else "")
+        members = list(by_parent.items())
+    members.sort(key=lambda m: [part for part in m[0].split("/") if part])
+    paths = [path for path, _ in members]
+    regions: list[Region] = []
+    for path, indexes in members:
+        label = path or f"{name} (top level)"
+        if paths.count(path) > 1:  # a sequence's exception regions sit at their sequence's path
+            steps = [states[i].rpartition("/")[2] for i in indexes]
+            label += ": " + ", ".join(steps[:3]) + (", …" if len(steps) > 3 else "")
+        regions.append(Region(path=path, states=indexes, label=label))
     return regions
 
 
-def _lanes(trace: Trace, regions: list[dict[str, Any]], states: list[str], index: dict[str, int],
+def _lanes(trace: Trace, regions: list[Region], states: list[str], index: dict[str, int],
            t_end: float) -> list[dict[str, Any]]:
     """The state lanes: one per machine level (nesting depth), and one per parallel region at each level below a
     ``Parallel`` state; regions of one level that are never active at once share its lane (the three turns of a lap
@@ -291,7 +301,7 @@ def _map(world_doc: Any, warnings: list[str]) -> dict[str, Any] | None:
         warnings.append(f"the world in the trace does not load ({str(exc).splitlines()[0]}): no walls on the map")
         return None
     walls = [[a[0], a[1], b[0], b[1]] for wall in world.walls for a, b in _wall_segments(wall)]
-    obstacles = []
+    obstacles: list[dict[str, list[Any]]] = []
     for ob in world.obstacles:
         poly = ob.polygon()
         if poly is not None:

@@ -728,11 +728,11 @@ def _partial_problems(data: dict[str, Any], path: Path, name: str) -> list[Probl
     if isinstance(machine, str) and machine and not (path.parent / machine).is_file():
         problems.append(_missing_machine(path.parent / machine, name))
     parts: dict[str, list[Any]] = {"inputs": [], "expect": []}
-    for key, kind in (("inputs", Input), ("expect", Expectation)):
+    adapters: dict[str, TypeAdapter[Any]] = {"inputs": TypeAdapter(Input), "expect": TypeAdapter(Expectation)}
+    for key, adapter in adapters.items():
         items = data.get(key)
         if not isinstance(items, list):
             continue
-        adapter: TypeAdapter[Any] = TypeAdapter(kind)
         for item in items:
             try:
                 parts[key].append(adapter.validate_python(item))
@@ -1137,10 +1137,10 @@ def substituted(scenario: Scenario, machine_path: Path, registry: Any, name: str
             if path is None:
                 if sub.transition is None:
                     continue
-                ref = sub.transition
+                tref = sub.transition
                 for j, tr in enumerate(el):
-                    if isinstance(tr, dict) and tr.get("from") == ref.from_ and tr.get("to") == ref.to and \
-                            (ref.type is None or tr.get("type") == ref.type):
+                    if isinstance(tr, dict) and tr.get("from") == tref.from_ and tr.get("to") == tref.to and \
+                            (tref.type is None or tr.get("type") == tref.type):
                         el[j] = {"from": tr["from"], "to": tr["to"], **sub.with_}
                         touched.append((f"{at}/{j}", k))
                         hits += 1
@@ -1380,10 +1380,10 @@ def name_problems(scenario: Scenario, paths: list[str], name: str) -> list[Probl
                     "states: " + ", ".join(paths[:12]) + (", ..." if len(paths) > 12 else "")
                 what = "no state path starts with" if prefix else "the machine has no state"
                 problems.append(Problem(f"{what} '{item}'", name, at, element=f"expectation {i}", hint=hint))
-    for i, item in enumerate(scenario.inputs):
-        if isinstance(item, (PauseInput, ResumeInput)):
-            key = "pause" if isinstance(item, PauseInput) else "resume"
-            target = getattr(item, key).strip("/")
+    for i, inp in enumerate(scenario.inputs):
+        if isinstance(inp, (PauseInput, ResumeInput)):
+            key = "pause" if isinstance(inp, PauseInput) else "resume"
+            target = getattr(inp, key).strip("/")
             if target not in paths:
                 close = difflib.get_close_matches(target, paths, n=3)
                 suffix = [p for p in paths if state_matches(target, p)]

@@ -39,9 +39,8 @@ from .timeline import expand, pause_changes
 
 if TYPE_CHECKING:
     from fsm.runtime.context import Context
-    from fsm.runtime.machine import Machine
+    from fsm.runtime.machine import Fired, Machine
     from fsm.runtime.state import State
-    from fsm.runtime.transition import Transition
 
 #: Trace lines shown before and after the diverging tick.
 CONTEXT_BEFORE, CONTEXT_AFTER = 4, 3
@@ -127,7 +126,7 @@ def held_states(machine: Machine) -> tuple[frozenset[str], frozenset[str]]:
     root = machine.root
     if not root.started:
         return frozenset(), frozenset()
-    todo: list[tuple[State, bool]] = [(root.active, False)]
+    todo: list[tuple[State[Any], bool]] = [(root.active, False)]
     while todo:
         state, held = todo.pop()
         held = held or state.paused
@@ -197,7 +196,7 @@ class Recording(Listener):
     active leaf paths when they change, variable changes, monitor firings, pauses, the transitions fired, the
     outcomes of watched states, the invariants, and a snapshot at each tick an ``at`` expectation looks at."""
 
-    def __init__(self, snapshot_ticks: Container[int], watched: list[State] | None = None,
+    def __init__(self, snapshot_ticks: Container[int], watched: list[State[Any]] | None = None,
                  invariants: list[InvariantWatch] | None = None, temporal: TemporalRun | None = None) -> None:
         self.entries: list[Entry] = []
         #: indices into ``entries`` of the entries skipped by a precondition
@@ -218,13 +217,13 @@ class Recording(Listener):
         self.invariants = invariants or []
         self.temporal = temporal
 
-    def on_monitor(self, ctx: Context, owner: State, monitor: Any) -> None:
+    def on_monitor(self, ctx: Context, owner: State[Any], monitor: Any) -> None:
         self.monitors.append(MonitorFiring(ctx.tick, owner.path, monitor.label, monitor.kind, monitor.behavior))
 
-    def on_pause(self, ctx: Context, state: State, paused: bool) -> None:
+    def on_pause(self, ctx: Context, state: State[Any], paused: bool) -> None:
         self.pauses.append(PauseChange(ctx.tick, state.path, paused))
 
-    def on_skipped(self, ctx: Context, state: State) -> None:
+    def on_skipped(self, ctx: Context, state: State[Any]) -> None:
         for k in range(len(self.entries) - 1, -1, -1):
             if self.entries[k].path == state.path:
                 self.skipped.add(k)
@@ -233,7 +232,8 @@ class Recording(Listener):
             self._recorded[id(state)] = True
             self.finishes.append(Finish(ctx.tick, state.path, state.outcome))
 
-    def on_transition(self, ctx: Context, source: State | None, target: State, transition: Transition | None) -> None:
+    def on_transition(self, ctx: Context, source: State[Any] | None, target: State[Any],
+                      transition: Fired | None) -> None:
         self.entries.append(Entry(ctx.tick, ctx.now, target.path, source.path if source is not None else None,
                                   transition.type_name if transition is not None else "initial"))
         self._moved = True
@@ -316,7 +316,7 @@ class TemporalRun:
     firings, pauses, the active states, outcomes) and steps only the watches whose formulas read something that
     changed (see :class:`~.temporal.Watch`): a tick where nothing they read moved costs a few tests."""
 
-    def __init__(self, watches: list[Any], outside: list[str], outcome_states: list[State], dt: float) -> None:
+    def __init__(self, watches: list[Any], outside: list[str], outcome_states: list[State[Any]], dt: float) -> None:
         from .temporal import Tick
 
         self.watches = watches

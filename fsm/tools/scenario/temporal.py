@@ -278,8 +278,8 @@ def compile_formula(text: str, kinds: dict[str, str], paths: list[str], want: st
     except ExprError as exc:
         if exc.message.startswith("unknown variable"):
             unknown = exc.message.split("'")[1]
-            names = sorted(kinds) + list(TEMPORAL_FUNCTIONS)
-            close = difflib.get_close_matches(unknown, names, n=3)
+            known = sorted(kinds) + list(TEMPORAL_FUNCTIONS)
+            close = difflib.get_close_matches(unknown, known, n=3)
             hint = ("did you mean " + " or ".join(close) + "?") if close else \
                 "names: " + (", ".join(sorted(kinds)[:12]) or "none")
             if unknown in ids:

@@ -5,6 +5,7 @@ only when asked for (the ``ray`` extra)."""
 
 from __future__ import annotations
 
+import logging
 from typing import Any
 
 
@@ -49,9 +50,9 @@ def ray_pool(processes: int, address: str | None) -> Any:
     try:
         if not ray.is_initialized():
             if address:
-                ray.init(address=address, log_to_driver=False, logging_level="ERROR")
+                ray.init(address=address, log_to_driver=False, logging_level=logging.ERROR)
             else:
-                ray.init(num_cpus=processes, include_dashboard=False, log_to_driver=False, logging_level="ERROR",
+                ray.init(num_cpus=processes, include_dashboard=False, log_to_driver=False, logging_level=logging.ERROR,
                          object_store_memory=100 * 1024 * 1024)
     except Exception as exc:  # ConnectionError, TimeoutError, ValueError for a malformed address, ...
         where = f"at {address}" if address else "locally"

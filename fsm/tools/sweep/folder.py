@@ -18,7 +18,7 @@ import stat
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 from fsm.model.errors import DiagramError, FsmError, Problem, UsageError
 
@@ -178,11 +178,11 @@ def read_records(path: Path, keys: set[str] | None = None) -> Resume:
                 continue
             if keys is not None and rec["key"] not in keys or not rec["ok"]:
                 continue  # another grid's run, or a run that raised: it runs again
-            why = record_problem(rec)
-            if why is None and _SURROGATE.search(line) and not _unicode(rec):
-                why = "text that is not Unicode (a lone surrogate)"
-            if why is not None:
-                bad.append((number, why))
+            problem = record_problem(rec)
+            if problem is None and _SURROGATE.search(line) and not _unicode(rec):
+                problem = "text that is not Unicode (a lone surrogate)"
+            if problem is not None:
+                bad.append((number, problem))
                 continue
             resume.records[rec["key"]] = rec
     if bad:
@@ -406,8 +406,8 @@ class OutFile:
             os.close(fd)
             raise FsmError(f"{path}: is {_kind(kind)}; a sweep writes regular files in its folder")
         os.set_blocking(fd, True)
-        text = {} if "b" in mode else {"encoding": "utf-8", "newline": "\n"}
-        self.raw = os.fdopen(fd, mode, **text)  # the descriptor is open: no second truncation
+        # the descriptor is open: no second truncation
+        self.raw: IO[Any] = os.fdopen(fd, mode) if "b" in mode else os.fdopen(fd, mode, encoding="utf-8", newline="\n")
 
     def _failed(self, exc: OSError) -> FsmError:
         return FsmError(f"{self.path}: cannot write: {_reason(exc)}")

@@ -14,7 +14,7 @@ import json
 from dataclasses import dataclass
 from typing import Any
 
-from fsm.model.document import MachineSpec, StateSpec
+from fsm.model.document import MachineSpec, StateSpec, SubMachine
 from fsm.model.params import StateParams
 
 #: Keys an override may not change: identity, layout, and what the loader compiled (conditions, assignments).
@@ -99,7 +99,8 @@ def _validated(st: StateSpec, param: str, value: Any, text: str) -> StateParams:
     data = st.params.model_dump(by_alias=True, exclude_unset=True)
     data[param] = value
     try:
-        return st.cls.Params.model_validate(data)
+        params: StateParams = st.cls.Params.model_validate(data)  # the registered class's own params model
+        return params
     except ValidationError as err:
         first = err.errors()[0]
         raise OverrideError(f"--set {text}: {param}={json.dumps(value)} is not valid for '{st.id}' "
@@ -134,7 +135,7 @@ def _set(level: MachineSpec, steps: list[str], param: str, value: Any) -> Machin
             if inner is None or not inner:
                 continue
             if any(s.id == inner[0] for s in sub.states):
-                subs[k] = (name, _set(sub, inner, param, value), ptr)
+                subs[k] = SubMachine(name, _set(sub, inner, param, value), ptr)
                 st.subs = subs
                 return level
     raise OverrideError(f"no state at path '{'/'.join(steps)}'")

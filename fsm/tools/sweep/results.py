@@ -93,7 +93,7 @@ def success(record: dict[str, Any]) -> bool:
 
 def read_jsonl(path: Path) -> list[dict[str, Any]]:
     """The records of an earlier (maybe interrupted) sweep: whole lines only."""
-    out = []
+    out: list[dict[str, Any]] = []
     if not path.is_file():
         return out
     for line in path.read_text(encoding="utf-8", errors="replace").splitlines():

@@ -13,7 +13,7 @@ import itertools
 import json
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -239,8 +239,8 @@ class Run:
         return f"{self.index:04d}"
 
 
-def grid(worlds: list[Path | None], seeds: list[int], sets: list[tuple[str, str, list[Any]]],
-         variables: dict[str, list[Any]]) -> list[Run]:
+def grid(worlds: Sequence[Path | None], seeds: Sequence[int], sets: Sequence[tuple[str, str, list[Any]]],
+         variables: Mapping[str, list[Any]]) -> list[Run]:
     """Worlds x seeds x each override's values x each variable's values, in that order."""
     set_axes = [[(path, param, v) for v in values] for path, param, values in sets]
     var_axes = [[(name, v) for v in values] for name, values in variables.items()]

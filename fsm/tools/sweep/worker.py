@@ -11,7 +11,10 @@ import os
 import time
 import traceback
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from fsm.sim.loop import Simulation
 
 #: Fields of a summary that depend on the machine the run ran on, not on the run: left out of comparisons.
 TIMING = ("wall_time", "realtime_factor", "realtime_factor_with_outputs")
@@ -115,7 +118,7 @@ def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], d
         if spec is None or errors:
             raise DiagramError(errors or problems)
         _CHECKED[key] = spec
-    spec = apply(spec, [tuple(c) for c in job["sets"]])  # type: ignore[misc]
+    spec = apply(spec, [(path, param, value) for path, param, value in job["sets"]])
     plan = compile_spec(spec)
     out_dir = Path(job["out"]) if job.get("out") else None
     if out_dir is not None:
@@ -123,13 +126,17 @@ def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], d
     trace_file = OutFile(out_dir / "trace.jsonl", "w+") if out_dir and (job.get("trace") or job.get("report")) \
         else None
     session = None
+    sim: Simulation | None = None
     try:
         stop = StopRules(job["duration"])
         if job["world"] is not None or uses_car(spec):
             from fsm.sim import simulate
+            from fsm.sim.loop import Simulation
 
             session = simulate(plan, world=job["world"], seed=job["run_seed"], noise=job["noise"],
                                variables=job["vars"], stop=stop)
+            assert isinstance(session.driver, Simulation)  # simulate() drives the session with the simulated car
+            sim = session.driver
             car = session.car
             if car.params.camera.enabled and (car.world.gates or car.world.markers):  # else no frame is rendered
                 _one_cv2_thread()
@@ -145,7 +152,6 @@ def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], d
             trace_file, job["machine"], car, world_file=job["world"], seed=job["run_seed"], noise=job["noise"],
             overrides=job["overrides"], initial_vars=job["vars"], document=document))
         dwell = session.add_listener(Dwell())
-        sim = session.driver
         video = None
         if sim is not None and out_dir is not None and job.get("video"):
             from fsm.sim.render import VideoRecorder

@@ -8,9 +8,12 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from fsm.model.errors import DiagramError, Problem
+
+if TYPE_CHECKING:
+    from .reader import Converted
 
 
 def convert_checked(path: Path, machine: str | None = None, registry: Any = None,
@@ -45,7 +48,7 @@ def convert_checked(path: Path, machine: str | None = None, registry: Any = None
     return doc, problems
 
 
-def select(conv: Any, machine: str | None) -> int:
+def select(conv: Converted, machine: str | None) -> int:
     from . import reader
 
     if machine is None:

@@ -193,14 +193,14 @@ class Documents:
         for tr, elem in zip(level.transitions, level.trans_origin, strict=True):
             if id(tr["_from"]) not in ids:
                 continue
-            doc = {k: v for k, v in tr.items() if not k.startswith("_")}
-            doc["from"], doc["to"] = tr["_from"].id, tr["_to"].id
-            if doc["type"] == "_completion":
-                doc["type"] = "Finished" if self.can_finish(tr["_from"]) else "Always"
+            tdoc = {k: v for k, v in tr.items() if not k.startswith("_")}
+            tdoc["from"], tdoc["to"] = tr["_from"].id, tr["_to"].id
+            if tdoc["type"] == "_completion":
+                tdoc["type"] = "Finished" if self.can_finish(tr["_from"]) else "Always"
             ptr = f"{base}/transitions/{len(out_trans)}"
             if elem is not None:
                 origins[ptr] = elem
-            out_trans.append(_ordered(doc, ("type", "from", "to")))
+            out_trans.append(_ordered(tdoc, ("type", "from", "to")))
         doc: dict[str, Any] = dict(meta)
         if name is not None or "name" in meta:
             doc["name"] = meta.get("name", name)

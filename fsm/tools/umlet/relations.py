@@ -13,7 +13,7 @@ import math
 from typing import Any, NamedTuple
 
 from . import text as T
-from .geometry import LENIENT, Attacher, Box
+from .geometry import LENIENT, Attacher, Attachment, Box
 from .scene import Level, Marker, Scene, StateBox, describe, num, where
 from .source import RawElement
 
@@ -116,7 +116,7 @@ class Relations:
         """A point at zoom 10 in the file's pixels."""
         return f"x={num(point[0] / self.scene.scale)}, y={num(point[1] / self.scene.scale)}"
 
-    def check_end(self, elem: RawElement, end: Any, role: str) -> Box | None | bool:
+    def check_end(self, elem: RawElement, end: tuple[Attachment, list[Any]], role: str) -> Box | None | bool:
         a, point = end
         if a.box is not None:
             return a.box
@@ -140,9 +140,9 @@ class Relations:
             return
         hint = "move the arrow's end onto a state's border (UMLet sticks ends closer than 9 px at 100% zoom)"
         if len([p for p in self.scene.problems if "attached to nothing" in p.message]) < 50:
-            box, d = self.attacher.nearest(point[0], point[1]) if self.attacher.boxes else (None, math.inf)
-            if box is not None:
-                hint = f"nearest is {self.scene.box_name(box)}, {num(round(d, 1))} px away at zoom 10; " + hint
+            near, d = self.attacher.nearest(point[0], point[1]) if self.attacher.boxes else (None, math.inf)
+            if near is not None:
+                hint = f"nearest is {self.scene.box_name(near)}, {num(round(d, 1))} px away at zoom 10; " + hint
         self.problem(elem, f"{role} end at {stored} is attached to nothing", hint=hint)
 
     def ignored_at(self, point: list[Any]) -> tuple[Box, str] | None:

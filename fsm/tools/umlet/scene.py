@@ -159,7 +159,7 @@ class Scene:
 
     def is_parallel(self, box: Box | None) -> bool:
         st = self.state_of.get(id(box)) if box is not None else None
-        return st is not None and st.type == "Parallel" and box.role == "state"
+        return box is not None and st is not None and st.type == "Parallel" and box.role == "state"
 
     # -- building -------------------------------------------------------------------------------------------
     def build(self) -> None:

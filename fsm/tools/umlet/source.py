@@ -8,6 +8,7 @@ entity bombs and external entities never reach lxml.
 
 from __future__ import annotations
 
+import functools
 import math
 import re
 from collections.abc import Callable
@@ -329,7 +330,7 @@ def _make_element(index: int, kind: Any, old: bool, coords: Any, text: Any, extr
                 problem(f"relation points come in x;y pairs, got {len(nums)} numbers: {extra.strip()[:60]!r}",
                         hint="additional_attributes holds x;y;x;y;... numbers; draw the arrow again in UMLet")
                 return None
-            points = [float(n) for n in nums]  # type: ignore[arg-type]
+            points = [n for n in nums if n is not None]  # every one is a number (checked above)
     elif extra is not None and not isinstance(extra, str):
         problem("additional_attributes must be text")
         return None
@@ -389,7 +390,7 @@ def parse_xml2json(raw: bytes, name: str) -> RawDiagram:
         if isinstance(extra, dict):
             extra = extra.get("#text")
         elem = _make_element(index, kind.strip() if isinstance(kind, str) else kind, old, item.get("coordinates"),
-                             panel, extra, name, problems, lambda p=ptr: at(p), ptr)
+                             panel, extra, name, problems, functools.partial(at, ptr), ptr)
         if elem is not None:
             elements.append(elem)
     if problems:

@@ -366,11 +366,13 @@ def export(doc: dict[str, Any], registry: Any = None) -> str:
         if regions is None:
             return None
         parts: list[tuple[str | None, dict[str, Any], Any]] = []
+        widths: list[float] = []
         for r in regions:
             machine = r if "states" in r else {"states": []}
             roles[id(machine)] = "region"
-            parts.append((region_title(r), machine, None))
-        widths = [len(title) * 8 + 60 for title, _, _ in parts]
+            title = region_title(r)
+            parts.append((title, machine, None))
+            widths.append(len(title) * 8 + 60)
         return Expansion(parts, head=head, inset=True, min_widths=widths)
 
     def note_of(machine: dict[str, Any]) -> str | None:
@@ -434,4 +436,5 @@ def _emit(level: LevelLayout, out: list[str], registry: Any, note_of: Any) -> No
     if level.note is not None:
         text = note_of(level.machine)
         if text is not None:
-            out.append(element("UMLNote", *level.note, text))
+            x, y, w, h = level.note
+            out.append(element("UMLNote", x, y, w, h, text))

@@ -1,4 +1,5 @@
-"""What the commands share: exit statuses, argument types, the registry with plugins, generated files."""
+"""What the commands share: argument types and generated files; the exit statuses, the registry with plugins, inputs
+and Ctrl-C handling come from :mod:`fsm.tools.runs.args` (shared with the live debugger and the ROS 2 bridge)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,14 @@ from typing import Any, Protocol
 
 from fsm.model.errors import UsageError
 
-EXIT_OK, EXIT_FAIL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+from ..runs.args import EXIT_FAIL as EXIT_FAIL
+from ..runs.args import EXIT_INTERRUPTED as EXIT_INTERRUPTED
+from ..runs.args import EXIT_OK as EXIT_OK
+from ..runs.args import EXIT_USAGE as EXIT_USAGE
+from ..runs.args import Interrupts as Interrupts
+from ..runs.args import input_name as input_name
+from ..runs.args import read_inputs as read_inputs
+from ..runs.args import registry_from as registry_from
 
 
 def whole_number(low: int, high: int | None = None, high_text: str | None = None) -> Any:
@@ -78,37 +86,11 @@ def bounded_float(low: float, high: float, what: str) -> Any:
     return parse
 
 
-def registry_from(args: argparse.Namespace) -> Any:
-    """The registry with built-ins, installed plugins and the ``--plugin`` modules or files."""
-    from fsm.loading.registry import default_registry
-
-    return default_registry(tuple(args.plugin))
-
-
-def read_inputs(files: list[str]) -> dict[str, bytes]:
-    """``-`` in ``files`` read from standard input, once: ``{"<stdin>": bytes}`` to preload (or ``{}``)."""
-    from fsm.loading.reading import STDIN_NAME, read_stdin_bytes
-
-    if "-" not in files:
-        return {}
-    if sys.stdin is None or (sys.stdin.isatty() if hasattr(sys.stdin, "isatty") else False):
-        raise UsageError("'-' reads a document from standard input, but standard input is a terminal; "
-                         "pipe a document in (fsmctl validate - < machine.json)")
-    return {STDIN_NAME: read_stdin_bytes()}
-
-
 def default_output(src: Path, suffix: str) -> str:
     """``src`` with another suffix: the default output of convert and export (a usage error without a name)."""
     if not src.name or src.name in (".", ".."):
         raise UsageError(f"{str(src)!r} is not a file name; name the input file (and -o OUT{suffix})")
     return str(src.with_suffix(suffix))
-
-
-def input_name(file: str) -> str:
-    """The name a file goes by inside the loader: ``<stdin>`` for ``-``."""
-    from fsm.loading.reading import STDIN_NAME
-
-    return STDIN_NAME if file == "-" else file
 
 
 def read_checked(src: Path, registry: Any) -> tuple[dict[str, Any], list[str]]:
@@ -157,54 +139,6 @@ def emit_generated(text: str, *, output: str | None, check: str | None, command:
 
     write_output(output or "-", text, "-o")
     return EXIT_OK
-
-
-class Interrupts:
-    """Ctrl-C (SIGINT) and SIGTERM during a run: the first asks the run to stop after the current tick, so
-    everything written so far is whole and the outputs are still written; a second one during the run raises
-    ``KeyboardInterrupt`` (a state that never returns). While the outputs are written, signals are noted and
-    otherwise ignored, up to three: the files are finished first."""
-
-    SIGNALS = ("SIGINT", "SIGTERM")
-
-    def __init__(self) -> None:
-        self.received: int | None = None
-        self.count = 0
-        self.writing = False
-        self._old: dict[int, Any] = {}
-
-    def __enter__(self) -> Interrupts:
-        import signal
-        import threading
-
-        if threading.current_thread() is threading.main_thread():
-            for name in self.SIGNALS:
-                num = getattr(signal, name, None)
-                if num is not None:
-                    self._old[num] = signal.signal(num, self._handle)
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        import signal
-
-        for num, old in self._old.items():
-            signal.signal(num, old)
-        self._old.clear()
-
-    def _handle(self, signum: int, frame: Any) -> None:
-        self.count += 1
-        if self.received is None:
-            self.received = signum
-            return
-        if (not self.writing and self.count >= 2) or self.count >= 4:
-            raise KeyboardInterrupt
-
-    def stop(self) -> bool:
-        return self.received is not None
-
-    @property
-    def interrupted(self) -> bool:
-        return self.received is not None
 
 
 class Subcommands(Protocol):

@@ -101,7 +101,7 @@ def explain_trace(trace: Any, tick: int) -> Any:
 def cmd_explain(args: argparse.Namespace) -> int:
     from fsm.model.errors import printable
 
-    from .report import read_trace_arg
+    from ..runs.args import read_trace_arg
 
     trace = read_trace_arg(args.trace)
     for warning in trace.warnings:

@@ -9,6 +9,7 @@ from typing import Any
 
 from fsm.model.errors import UsageError
 
+from ..runs.args import read_trace_arg
 from .common import EXIT_OK, Subcommands, default_output
 
 
@@ -28,17 +29,6 @@ def register(sub: Subcommands) -> None:
     live.add_argument("--host", default=None, metavar="HOST", help="address to listen on (default 127.0.0.1)")
     live.add_argument("--no-token", action="store_true", help="no token in the URL (this machine only)")
     p.set_defaults(func=cmd_report)
-
-
-def read_trace_arg(name: str) -> Any:
-    """The trace named on the command line, read by the reading rule (a regular file or '-' for standard input,
-    at most FSM_MAX_INPUT_BYTES); a located error (exit 1) when it cannot be read or is none."""
-    from fsm.loading.reading import STDIN_NAME, read_stdin_bytes
-    from fsm.trace.replay import parse_trace, read_trace
-
-    if name == "-":
-        return parse_trace(read_stdin_bytes(), STDIN_NAME)
-    return read_trace(name)
 
 
 def write_from_trace(name: str, out: str, option: str, suffix: str, command: str, render: Any,

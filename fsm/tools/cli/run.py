@@ -21,20 +21,18 @@ from fsm.model.errors import StateRuntimeError, UsageError, print_traceback, pri
 from fsm.runtime.clock import DEFAULT_DURATION as DEFAULT_MAX_DURATION
 from fsm.sim import DEFAULT_WORLD
 
-from .common import (
+from ..runs.args import (
     EXIT_FAIL,
     EXIT_INTERRUPTED,
     EXIT_OK,
     Interrupts,
-    Subcommands,
-    bounded_float,
+    apply_overrides,
     input_name,
-    positive_float,
     read_inputs,
     registry_from,
-    signal_arg,
-    whole_number,
 )
+from ..runs.ending import Tee, end_run
+from .common import Subcommands, bounded_float, positive_float, signal_arg, whole_number
 
 #: Runs of more ticks than this are refused unless --max-ticks asks for them (a tiny --dt is usually a typo).
 MAX_TICKS = 10_000_000
@@ -130,21 +128,6 @@ def _suffix_ok(name: str | None, suffixes: tuple[str, ...]) -> bool:
     if name is None or name == "-" or name.startswith("/dev/") or name.startswith("/proc/self/fd/"):
         return True
     return Path(name).suffix.lower() in suffixes
-
-
-def apply_overrides(spec: Any, texts: list[str], file: str) -> Any:
-    """``--set PATH.PARAM=VALUE``: each checked against the machine (a usage error, exit 2, otherwise)."""
-    from ..sweep import overrides as O
-
-    changes = []
-    for text in texts:
-        try:
-            o = O.parse(text, several=False)
-            O.check(spec, o)
-        except O.OverrideError as exc:  # of the command line, not of the file: a usage error
-            raise UsageError(str(exc)) from None
-        changes.append(o.one(o.values[0]))
-    return O.apply(spec, changes) if changes else spec
 
 
 def parse_vars(texts: list[str]) -> dict[str, Any]:
@@ -362,100 +345,125 @@ def _frames(args: argparse.Namespace, session: Any, world_path: Path | None) -> 
 def _drive(args: argparse.Namespace, session: Any, file: str, duration: float | None, max_ticks: int | None,
            outputs: Any, trace_out: Any, summary_out: Any, video_out: Any, plot_out: Any, report_out: Any,
            world_path: Path | None, frames: Any) -> int:
+    """Run the session with its outputs, write them, and say how it went (the exit status)."""
     started = time.perf_counter()  # the wall time with outputs: the run, then the video, plot, trace... written
-    machine = session.machine
-    car = session.car
-    sim = session.driver  # the Simulation when the car drives
-    video = None
-    progress = None
-    if sim is not None:
-        if video_out is not None:
-            from fsm.sim.render import VideoRecorder
-
-            video = VideoRecorder(sim, args.video, speed=args.video_speed, fps=args.fps, scratch=video_out.path,
-                                  fmt=video_out.suffix)
-        show = args.progress if args.progress is not None else sys.stderr.isatty()
-        if show and not args.quiet:
-            # a bar only against a limit the user set; otherwise the machine's end is the stop rule, which no bar
-            # can measure: a spinner with the simulated time (and the cap it never passes)
-            limit = (args.duration if args.duration is not None else
-                     max_ticks * machine.dt if args.max_ticks is not None and max_ticks is not None else None)
-            progress = ProgressBar(limit, cap=duration)
-            session.every(0.5, progress)
-
+    video = _video(args, session, video_out)
+    progress = _progress(args, session, duration, max_ticks)
     report = sys.stderr if outputs.to_stdout else sys.stdout  # standard output may carry an output
-    recorder = session.record(_recorder(args, file, car, world_path, trace_out, report_out))
-    error: StateRuntimeError | None = None
+    session.record(_recorder(args, file, session.car, world_path, trace_out, report_out))
     interrupts = Interrupts()
     with interrupts:
-        try:
-            if not interrupts.stop():
-                session.run(stop=interrupts.stop)
-            else:
-                session.start()
-        except StateRuntimeError as exc:
-            error = exc
-            recorder.flush(machine)
-        except KeyboardInterrupt:  # a second Ctrl-C while a state did not return
-            interrupts.received = interrupts.received or 2
-            recorder.flush(machine)
-        finally:
-            interrupts.writing = True
-            if progress is not None:
-                progress.done()
+        error = _run_until_stopped(session, interrupts, progress)
         interrupted = interrupts.interrupted
-        result = session.summary()
-        if error is not None:
-            result["error"] = {"state": error.path, "phase": error.phase, "tick": error.tick, "time": error.time,
-                               "message": f"{type(error.cause).__name__}: {error.cause}"}
-        if interrupted:
-            result["interrupted"] = True
-        end: dict[str, Any] = {}
-        if interrupted:
-            end["interrupted"] = True
-        if "error" in result:
-            end["error"] = result["error"]
-        session.finish(**end)
-        if report_out is not None:
-            write_report(recorder.out, report_out, args.trace if args.trace not in (None, "-") else file)
-        if video is not None:
-            video.close()
-            result["video"] = {"file": args.video, "frames": video.frames, "codec": video.codec}
-        if plot_out is not None and sim is not None:
-            from fsm.sim.render import plot_png
-
-            plot_out.write(plot_png(sim))
-        if frames is not None:
-            frames.finish()
-            result["frames"] = {"folder": args.frames, "saved": frames.saved, "every": frames.every}
-        if summary_out is not None:
-            summary_out.write(json.dumps(result, indent=2) + "\n")
+        result = end_run(session, error, interrupted, report_out=report_out,
+                         report_name=args.trace if args.trace not in (None, "-") else file)
+        _write_outputs(args, session, result, video, plot_out, frames, summary_out)
         outputs.commit()
         if frames is not None:
             frames.folder.commit()
     if error is not None:
-        if traceback_wanted():
-            print_traceback(error)
-        stopped = " (the car was stopped)" if car is not None else ""
-        print(printable(f"fsmctl run: {file}: {error}{stopped}"), file=sys.stderr)
-        return EXIT_FAIL
+        return _failed(file, error, session.car)
     if not args.quiet:
-        from ..recording import end_lines
-
-        print("\n".join(end_lines(file, machine, recorder, interrupted=interrupted)), file=report)
-        if sim is not None:
-            m = sim.metrics()
-            rms, near = m["wall_error_rms_m"], m["min_wall_distance_m"]
-            print(f"car: {m['distance_m']:.2f} m, {m['collisions']} collisions, min wall distance "
-                  + (f"{near:.3f} m" if near is not None else "n/a") + ", wall error on straights "
-                  + (f"{rms * 100:.1f} cm RMS" if rms is not None else "n/a")
-                  + f"; {m['sim_time']:.1f} s simulated in {_seconds(time.perf_counter() - started)} with outputs, "
-                  f"the simulation alone {m['realtime_factor']}x real time", file=report)
-            if m.get("gates_total"):
-                print(f"gates: {m['gates_passed']}/{m['gates_total']} passed; odometry error at the end "
-                      f"{m['odometry_error_m']:.2f} m", file=report)
+        _print_end(file, session, interrupted, report, started)
     if interrupted:
         return EXIT_INTERRUPTED
+    return _verdict(args, session)
+
+
+def _video(args: argparse.Namespace, session: Any, video_out: Any) -> Any:
+    """``--video``: the recorder of the car's video (``None`` without it, or without a car)."""
+    if session.driver is None or video_out is None:
+        return None
+    from fsm.sim.render import VideoRecorder
+
+    return VideoRecorder(session.driver, args.video, speed=args.video_speed, fps=args.fps, scratch=video_out.path,
+                         fmt=video_out.suffix)
+
+
+def _progress(args: argparse.Namespace, session: Any, duration: float | None, max_ticks: int | None) -> Any:
+    """The progress line on a terminal (``--progress``), called every half second of simulated time, or ``None``."""
+    show = args.progress if args.progress is not None else sys.stderr.isatty()
+    if session.driver is None or not show or args.quiet:
+        return None
+    # a bar only against a limit the user set; otherwise the machine's end is the stop rule, which no bar
+    # can measure: a spinner with the simulated time (and the cap it never passes)
+    limit = (args.duration if args.duration is not None else
+             max_ticks * session.machine.dt if args.max_ticks is not None and max_ticks is not None else None)
+    progress = ProgressBar(limit, cap=duration)
+    session.every(0.5, progress)
+    return progress
+
+
+def _run_until_stopped(session: Any, interrupts: Interrupts, progress: Any) -> StateRuntimeError | None:
+    """Run until a stop rule, the machine's end or Ctrl-C; a state's exception is returned (the trace flushed)."""
+    recorder = session.recorder
+    try:
+        if not interrupts.stop():
+            session.run(stop=interrupts.stop)
+        else:
+            session.start()
+    except StateRuntimeError as exc:
+        recorder.flush(session.machine)
+        return exc
+    except KeyboardInterrupt:  # a second Ctrl-C while a state did not return
+        interrupts.received = interrupts.received or 2
+        recorder.flush(session.machine)
+    finally:
+        interrupts.writing = True
+        if progress is not None:
+            progress.done()
+    return None
+
+
+def _write_outputs(args: argparse.Namespace, session: Any, result: dict[str, Any], video: Any, plot_out: Any,
+                   frames: Any, summary_out: Any) -> None:
+    """The video, plot, frames and summary of the run (the summary last: it names the others)."""
+    if video is not None:
+        video.close()
+        result["video"] = {"file": args.video, "frames": video.frames, "codec": video.codec}
+    if plot_out is not None and session.driver is not None:
+        from fsm.sim.render import plot_png
+
+        plot_out.write(plot_png(session.driver))
+    if frames is not None:
+        frames.finish()
+        result["frames"] = {"folder": args.frames, "saved": frames.saved, "every": frames.every}
+    if summary_out is not None:
+        summary_out.write(json.dumps(result, indent=2) + "\n")
+
+
+def _failed(file: str, error: StateRuntimeError, car: Any) -> int:
+    """A state raised: say which, where and when (the traceback with FSM_TRACEBACK=1)."""
+    if traceback_wanted():
+        print_traceback(error)
+    stopped = " (the car was stopped)" if car is not None else ""
+    print(printable(f"fsmctl run: {file}: {error}{stopped}"), file=sys.stderr)
+    return EXIT_FAIL
+
+
+def _print_end(file: str, session: Any, interrupted: bool, report: Any, started: float) -> None:
+    """The end lines (where the machine ended, what it did) and, with a car, how the car drove."""
+    from ..recording import end_lines
+
+    print("\n".join(end_lines(file, session.machine, session.recorder, interrupted=interrupted)), file=report)
+    sim = session.driver
+    if sim is None:
+        return
+    m = sim.metrics()
+    rms, near = m["wall_error_rms_m"], m["min_wall_distance_m"]
+    print(f"car: {m['distance_m']:.2f} m, {m['collisions']} collisions, min wall distance "
+          + (f"{near:.3f} m" if near is not None else "n/a") + ", wall error on straights "
+          + (f"{rms * 100:.1f} cm RMS" if rms is not None else "n/a")
+          + f"; {m['sim_time']:.1f} s simulated in {_seconds(time.perf_counter() - started)} with outputs, "
+          f"the simulation alone {m['realtime_factor']}x real time", file=report)
+    if m.get("gates_total"):
+        print(f"gates: {m['gates_passed']}/{m['gates_total']} passed; odometry error at the end "
+              f"{m['odometry_error_m']:.2f} m", file=report)
+
+
+def _verdict(args: argparse.Namespace, session: Any) -> int:
+    """The exit status of a run that ended: ``--expect``'s outcome and the collisions ``--max-collisions`` allows."""
+    machine, car = session.machine, session.car
     failed = False
     if args.expect is not None and machine.outcome != args.expect:
         got = (f"got {machine.outcome!r}" if machine.outcome is not None else
@@ -511,20 +519,6 @@ def _run_live(args: argparse.Namespace, spec: Any, file: str, drive: bool, world
                     sorted(signal_names(spec)), outputs, trace_out, summary_out, plot_out, report_out, watcher)
 
 
-class Tee:
-    """The trace written to the user's file and kept in memory for the report."""
-
-    def __init__(self, *streams: Any) -> None:
-        import io
-
-        self.memory = io.StringIO()
-        self.streams = [st for st in streams if st is not None] + [self.memory]
-
-    def write(self, text: str) -> None:
-        for st in self.streams:
-            st.write(text)
-
-
 def _shown_world(path: Path | None) -> str | None:
     """The world file as the trace's header names it (a default one relative to the current folder)."""
     from ..files import shown_path
@@ -543,16 +537,6 @@ def _recorder(args: argparse.Namespace, file: str, car: Any, world_path: Path | 
     return run_recorder(stream, file, car, world_file=_shown_world(world_path), seed=args.seed,
                         noise=not args.no_noise, preloaded=args.pre, overrides=args.overrides,
                         initial_vars=args.initial_vars, sample_rate=args.sample_rate)
-
-
-def write_report(stream: Any, report_out: Any, name: str) -> None:
-    """Write the HTML report of the trace a :class:`Tee` kept in memory to ``report_out``."""
-    from fsm.trace.replay import parse_trace
-
-    from ..report import report_html
-
-    trace = parse_trace(stream.memory.getvalue().encode("utf-8"), name)
-    report_out.write(report_html(trace))
 
 
 class ProgressBar:

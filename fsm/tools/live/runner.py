@@ -192,8 +192,7 @@ def serve(source: Any, page: Callable[[dict[str, Any]], str], *, host: str, port
 def serve_trace(name: str, args: argparse.Namespace) -> int:
     """``fsmctl report TRACE --live``: a finished run's trace in the live page (the same page, nothing to steer),
     until Ctrl-C. What is served is what the trace reader accepted (a damaged tail is left out, with its warning)."""
-    from ..cli.common import EXIT_INTERRUPTED, EXIT_OK, Interrupts
-    from ..cli.report import read_trace_arg
+    from ..runs.args import EXIT_INTERRUPTED, EXIT_OK, Interrupts, read_trace_arg
     from .page import live_page
     from .server import Source, new_token
 
@@ -234,7 +233,7 @@ def run_live(args: argparse.Namespace, file: str, make_session: Callable[[], Any
     from fsm.debug.control import Controller
     from fsm.model.errors import StateRuntimeError
 
-    from ..cli.common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, Interrupts
+    from ..runs.args import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, Interrupts
     from .page import live_page
     from .server import new_token
 

@@ -9,7 +9,7 @@ from typing import Any
 
 from fsm.model.errors import DiagramError, UsageError, printable
 
-from ..cli.common import EXIT_FAIL, EXIT_OK, input_name, read_inputs, registry_from
+from ..runs.args import EXIT_FAIL, EXIT_OK, input_name, read_inputs, registry_from
 from .common import car_recorder, load, require_extra
 
 
@@ -19,8 +19,9 @@ def run_replay(args: argparse.Namespace) -> int:
     from fsm.loading.reading import preloaded
     from fsm.ros.replay import load_drive, replay_session
 
-    from ..cli.run import Tee, apply_overrides, write_report
     from ..files import Outputs, check_distinct
+    from ..runs.args import apply_overrides
+    from ..runs.ending import Tee, write_report
 
     outputs = Outputs()
     trace_out = outputs.add(args.trace, "--trace")

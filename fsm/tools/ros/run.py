@@ -16,7 +16,7 @@ from typing import Any
 
 from fsm.model.errors import FsmError, StateRuntimeError, UsageError, printable
 
-from ..cli.common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, Interrupts
+from ..runs.args import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, Interrupts
 from .common import car_recorder, check_bag_folder, check_endpoints, choose_transport, load
 
 #: Options of ``fsmctl run`` that drive the simulated car in-process, refused with --ros.
@@ -89,7 +89,7 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
 
 def _drive(args: argparse.Namespace, session: Any, profile: Any, file: str, outputs: Any, trace_out: Any,
            summary_out: Any, report_out: Any, interrupts: Interrupts) -> int:
-    from ..cli.run import Tee, write_report
+    from ..runs.ending import Tee, end_run
 
     driver = session.driver
     machine = session.machine
@@ -122,24 +122,12 @@ def _drive(args: argparse.Namespace, session: Any, profile: Any, file: str, outp
         interrupts.writing = True
     driver.stop()  # the run is over, however: the car gets zero speed before the files are written
     interrupted = interrupts.interrupted
-    result = session.summary()
     stopped = session.result.stopped if session.result is not None else "not started"
-    result["stopped"] = stopped
-    if error is not None:
-        result["error"] = {"state": error.path, "phase": error.phase, "tick": error.tick, "time": error.time,
-                           "message": f"{type(error.cause).__name__}: {error.cause}"}
-    if interrupted:
-        result["interrupted"] = True
     end: dict[str, Any] = {"stopped": stopped}
     if driver.time_offset:  # the bag's times are ROS time: t_bag = time_offset + t_trace
         end["ros_time_offset"] = driver.time_offset
-    if interrupted:
-        end["interrupted"] = True
-    if "error" in result:
-        end["error"] = result["error"]
-    session.finish(**end)
-    if report_out is not None:
-        write_report(recorder.out, report_out, args.trace if args.trace not in (None, "-") else file)
+    result = end_run(session, error, interrupted, report_out=report_out, result={"stopped": stopped}, end=end,
+                     report_name=args.trace if args.trace not in (None, "-") else file)
     if summary_out is not None:
         summary_out.write(json.dumps(result, indent=2) + "\n")
     outputs.commit()

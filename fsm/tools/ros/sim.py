@@ -9,7 +9,7 @@ import sys
 
 from fsm.model.errors import printable
 
-from ..cli.common import EXIT_INTERRUPTED, EXIT_OK, Interrupts
+from ..runs.args import EXIT_INTERRUPTED, EXIT_OK, Interrupts
 from .common import check_endpoints, choose_transport, load
 
 

@@ -13,11 +13,14 @@ import json
 import math
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from fsm.model.errors import DiagramError, Problem, UsageError
 
 from .common import EXIT_OK, Subcommands, input_name
+
+if TYPE_CHECKING:
+    from ..files import Outputs
 
 #: The side of a marker, metres: above 1 mm (a speck no camera resolves) and at most 10 m.
 MARKER_SIZE_RANGE = (0.001, 10.0)
@@ -134,9 +137,9 @@ def detect_in(file: str, image: Any, calibration: Any, calibration_name: str | N
     return file, image if keep else None, camera, note, markers, find_gates(markers, rule)
 
 
-def cmd_detect(args: argparse.Namespace) -> int:
-    from fsm.loading.reading import preloaded
-    from fsm.vision import GateRule, dictionary_names, load_calibration
+def _check_detect_usage(args: argparse.Namespace) -> None:
+    """The options that do not go together, refused before any image is read."""
+    from fsm.vision import dictionary_names
 
     if args.dictionary not in dictionary_names():
         raise UsageError(f"--dictionary: unknown {args.dictionary!r}; choose one of {', '.join(dictionary_names())}")
@@ -144,15 +147,47 @@ def cmd_detect(args: argparse.Namespace) -> int:
         raise UsageError("-o/--output takes one IMAGE")
     if args.calibration and args.fov is not None:
         raise UsageError("--fov is for images without --calibration")
-    outputs = None
-    if args.output:
-        from ..files import Outputs
 
-        if Path(args.output).suffix.lower() not in IMAGE_SUFFIXES:
-            raise UsageError(f"-o: {args.output}: name an image file (.png, .jpg, ...)")
-        outputs = Outputs()
-        outputs.add(args.output, "-o", binary=True)
-        outputs.items[0].classify()  # a folder, a missing folder: refused before any work
+
+def _image_output(args: argparse.Namespace) -> Outputs | None:
+    """``-o IMAGE``: the annotated image's output, checked (a folder, a missing folder: refused before any work)."""
+    if not args.output:
+        return None
+    from ..files import Outputs
+
+    if Path(args.output).suffix.lower() not in IMAGE_SUFFIXES:
+        raise UsageError(f"-o: {args.output}: name an image file (.png, .jpg, ...)")
+    outputs = Outputs()
+    outputs.add(args.output, "-o", binary=True)
+    outputs.items[0].classify()
+    return outputs
+
+
+def _write_annotated(args: argparse.Namespace, outputs: Outputs, result: tuple[Any, ...]) -> None:
+    """The one image with its markers and gates drawn, written to ``-o``."""
+    import cv2
+
+    from fsm.vision.draw import annotate
+
+    _file, image, camera, _note, markers, gates = result
+    ok, png = cv2.imencode(Path(args.output).suffix.lower(), annotate(image, markers, camera, gates))
+    if not ok:  # pragma: no cover - OpenCV encodes every suffix we allow
+        raise DiagramError([Problem("cannot encode the annotated image", args.output)])
+    inputs = [f for f in args.images + [args.calibration or "-"] if f != "-"]
+    outputs.open(inputs)  # the same file as the image read: refused
+    try:
+        outputs.items[0].write(png.tobytes())
+        outputs.commit()
+    finally:
+        outputs.discard()
+
+
+def cmd_detect(args: argparse.Namespace) -> int:
+    from fsm.loading.reading import preloaded
+    from fsm.vision import GateRule, load_calibration
+
+    _check_detect_usage(args)
+    outputs = _image_output(args)
     stdin = read_stdin(args)
     calibration_name = input_name(args.calibration) if args.calibration else None
     rule = GateRule(pairs=args.gate) if args.gate else GateRule()
@@ -172,21 +207,7 @@ def cmd_detect(args: argparse.Namespace) -> int:
     if problems:
         raise DiagramError(problems)
     if outputs is not None:
-        import cv2
-
-        from fsm.vision.draw import annotate
-
-        file, image, camera, _note, markers, gates = results[0]
-        ok, png = cv2.imencode(Path(args.output).suffix.lower(), annotate(image, markers, camera, gates))
-        if not ok:  # pragma: no cover - OpenCV encodes every suffix we allow
-            raise DiagramError([Problem("cannot encode the annotated image", args.output)])
-        inputs = [f for f in args.images + [args.calibration or "-"] if f != "-"]
-        outputs.open(inputs)  # the same file as the image read: refused
-        try:
-            outputs.items[0].write(png.tobytes())
-            outputs.commit()
-        finally:
-            outputs.discard()
+        _write_annotated(args, outputs, results[0])
     if args.format == "json":
         print(json.dumps([{
             "file": file, "width": camera.width, "height": camera.height,

@@ -94,10 +94,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         return _sweep(args, interrupts)
 
 
-def _sweep(args: argparse.Namespace, interrupts: Interrupts) -> int:
-    from ..sweep.backends import BackendError
-    from ..sweep.folder import Folder, read_records
-    from ..sweep.runner import execute, plan
+def _check_sweep_usage(args: argparse.Namespace) -> None:
+    """The options that do not go together, refused before the sweep file is read."""
     from ..sweep.spec import check_duration
 
     if args.spec is None and args.machine is None:
@@ -109,6 +107,14 @@ def _sweep(args: argparse.Namespace, interrupts: Interrupts) -> int:
     if args.duration is not None and (problem := check_duration(args.duration)) is not None:
         raise UsageError(f"--{problem}")
     _check_live(args)
+
+
+def _sweep(args: argparse.Namespace, interrupts: Interrupts) -> int:
+    from ..sweep.backends import BackendError
+    from ..sweep.folder import Folder, read_records
+    from ..sweep.runner import execute, plan
+
+    _check_sweep_usage(args)
     spec, base, where, name, flags = _spec(args)
     out_dir = Path(args.out)
     if out_dir.exists() and not out_dir.is_dir():
@@ -160,6 +166,12 @@ def _sweep(args: argparse.Namespace, interrupts: Interrupts) -> int:
         raise
     if live is None:
         return _report(args, p, result, out_dir)
+    return _report_live(args, p, result, out_dir, live, interrupts)
+
+
+def _report_live(args: argparse.Namespace, p: Any, result: Any, out_dir: Path, live: Any,
+                 interrupts: Interrupts) -> int:
+    """``--live``: the report, then the runs served until Ctrl-C (unless the sweep was interrupted)."""
     live.board.end()
     try:
         code = _report(args, p, result, out_dir)

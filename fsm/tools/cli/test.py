@@ -20,6 +20,8 @@ from fsm.model.errors import Problem, UsageError, printable
 from .common import EXIT_FAIL, EXIT_OK, Subcommands, registry_from
 
 if TYPE_CHECKING:
+    from ..files import Output, Outputs
+    from ..scenario.junit import Invalid
     from ..scenario.model import LoadedScenario
     from ..scenario.runner import ScenarioResult
 
@@ -76,8 +78,6 @@ def cmd_test(args: argparse.Namespace) -> int:
     if not args.scenarios:
         raise UsageError("give scenario files (*.scenario.json), or --explore MACHINE")
     from ..files import Outputs, check_distinct
-    from ..scenario.junit import Invalid, junit_xml
-    from ..scenario.runner import ScenarioResult
 
     outputs = Outputs()
     junit = outputs.add(args.junit, "--junit")
@@ -97,54 +97,82 @@ def cmd_test(args: argparse.Namespace) -> int:
     # every file the inputs name (machines, includes, worlds, plugins): refused as --junit before any run
     outputs.open([*args.scenarios, *args.plugin, *(f for ld in loads for f in ld.files)])
     report = sys.stderr if outputs.to_stdout else sys.stdout
-    results: list[ScenarioResult | Invalid] = []
     try:
-        for ld in loads:
-            if ld.loaded is None:
-                for problem in ld.problems:
-                    print(problem, file=sys.stderr)
-                name = _name(ld.file)
-                results.append(Invalid(name, ld.file, ld.problems))
-                errors = sum(1 for p in ld.problems if p.severity == "error")
-                _say(f"ERROR {name}: invalid scenario ({errors or len(ld.problems)} problem(s) above)", report)
-                continue
-            for warning in ld.loaded.warnings:
-                print(warning, file=sys.stderr)
-            from ..scenario.model import cases
-
-            for case in cases(ld.loaded):
-                result = _run(case, coverage)
-                results.append(result)
-                if not result.passed or not args.quiet:
-                    _say(result.summary_line(), report)
-                if result.status == "failed":
-                    for failure in result.failures:
-                        for line in failure.lines():
-                            _say(f"    {line}", report)
-        statuses = [r.status for r in results if isinstance(r, ScenarioResult)]
-        passed = statuses.count("passed")
-        failed = statuses.count("failed")
-        invalid = sum(1 for r in results if isinstance(r, Invalid))
-        more = "".join(f", {statuses.count(k)} {k}" for k in ("skipped", "xfailed", "xpassed") if k in statuses)
-        print(f"{passed} passed, {failed} failed{more}" + (f", {invalid} invalid" if invalid else ""), file=report)
-        under = False
-        if coverage is not None:
-            for line in coverage.text():
-                _say(line, report)
-            if args.fail_under is not None and coverage.percent() < args.fail_under:
-                under = True
-                _say(f"FAIL coverage {coverage.percent():.1f}% is under --fail-under {args.fail_under:g}%", report)
-        if junit is not None:
-            junit.write(junit_xml(results))
-        if cov_out is not None and coverage is not None:
-            import json
-
-            cov_out.write(json.dumps(coverage.to_json(), indent=2) + "\n")
-        if junit is not None or cov_out is not None:
-            outputs.commit()
+        results = [result for ld in loads for result in _run_load(ld, coverage, args.quiet, report)]
+        ok = _tell_results(results, report)
+        ok = _tell_coverage(coverage, args.fail_under, report) and ok
+        _write_test_outputs(results, coverage, junit, cov_out, outputs)
     finally:
         outputs.discard()
-    return EXIT_OK if not failed and not invalid and not under else EXIT_FAIL
+    return EXIT_OK if ok else EXIT_FAIL
+
+
+def _run_load(ld: _Load, coverage: Any, quiet: bool, report: TextIO) -> list[ScenarioResult | Invalid]:
+    """Run the cases of one scenario file, saying how each went (an invalid file: its problems)."""
+    from ..scenario.junit import Invalid
+    from ..scenario.model import cases
+
+    if ld.loaded is None:
+        for problem in ld.problems:
+            print(problem, file=sys.stderr)
+        name = _name(ld.file)
+        errors = sum(1 for p in ld.problems if p.severity == "error")
+        _say(f"ERROR {name}: invalid scenario ({errors or len(ld.problems)} problem(s) above)", report)
+        return [Invalid(name, ld.file, ld.problems)]
+    for warning in ld.loaded.warnings:
+        print(warning, file=sys.stderr)
+    results: list[ScenarioResult | Invalid] = []
+    for case in cases(ld.loaded):
+        result = _run(case, coverage)
+        results.append(result)
+        if not result.passed or not quiet:
+            _say(result.summary_line(), report)
+        if result.status == "failed":
+            for failure in result.failures:
+                for line in failure.lines():
+                    _say(f"    {line}", report)
+    return results
+
+
+def _tell_results(results: list[ScenarioResult | Invalid], report: TextIO) -> bool:
+    """The counts line (passed, failed, ...); whether none failed and none was invalid."""
+    from ..scenario.junit import Invalid
+    from ..scenario.runner import ScenarioResult
+
+    statuses = [r.status for r in results if isinstance(r, ScenarioResult)]
+    passed = statuses.count("passed")
+    failed = statuses.count("failed")
+    invalid = sum(1 for r in results if isinstance(r, Invalid))
+    more = "".join(f", {statuses.count(k)} {k}" for k in ("skipped", "xfailed", "xpassed") if k in statuses)
+    print(f"{passed} passed, {failed} failed{more}" + (f", {invalid} invalid" if invalid else ""), file=report)
+    return not failed and not invalid
+
+
+def _tell_coverage(coverage: Any, fail_under: float | None, report: TextIO) -> bool:
+    """The coverage lines (with --coverage); whether coverage is at least ``--fail-under``."""
+    if coverage is None:
+        return True
+    for line in coverage.text():
+        _say(line, report)
+    if fail_under is not None and coverage.percent() < fail_under:
+        _say(f"FAIL coverage {coverage.percent():.1f}% is under --fail-under {fail_under:g}%", report)
+        return False
+    return True
+
+
+def _write_test_outputs(results: list[ScenarioResult | Invalid], coverage: Any, junit: Output | None,
+                        cov_out: Output | None, outputs: Outputs) -> None:
+    """``--junit`` and ``--coverage-json``, written together."""
+    from ..scenario.junit import junit_xml
+
+    if junit is not None:
+        junit.write(junit_xml(results))
+    if cov_out is not None and coverage is not None:
+        import json
+
+        cov_out.write(json.dumps(coverage.to_json(), indent=2) + "\n")
+    if junit is not None or cov_out is not None:
+        outputs.commit()
 
 
 def _positive(text: str) -> int:
@@ -214,14 +242,45 @@ def _name(file: str) -> str:
 
 def cmd_explore(args: argparse.Namespace) -> int:
     """``fsmctl test --explore MACHINE``: see :mod:`fsm.tools.scenario.explore`."""
-    import json
-    import math
-    from pathlib import Path
-
+    from fsm.loading.loader import compile as compile_spec
     from fsm.model.errors import DiagramError
 
     from ..files import NewFolder
     from ..scenario.explore import Explorer, Space
+
+    _check_explore_usage(args)
+    values = _explore_values(args.var)
+    try:
+        target = _explore_target(args)
+    except DiagramError as exc:
+        for problem in exc.problems:
+            print(problem, file=sys.stderr)
+        return EXIT_FAIL
+    signals, invariants = _explore_inputs(args, target, values)
+    space = Space(signals, values, args.step, args.duration, target.dt)
+    folder = None
+    if args.out is not None:
+        folder = NewFolder(args.out, "-o")
+        folder.check()
+    explorer = Explorer(compile_spec(target.spec), target.plants, space, invariants)
+    result = explorer.search(args.max_runs or 2000)
+    _tell_exploration(args, result, space, signals + list(values), target.dt)
+    if folder is not None:
+        from ..scenario.explore import write_scenarios
+
+        folder.open()
+        try:
+            names = write_scenarios(explorer, result, folder, target.machine_file, target.base, args.out)
+            folder.commit()
+        finally:
+            folder.discard()
+        print(f"wrote {len(names)} scenario file(s) to {args.out}")
+    return EXIT_FAIL if result.violation is not None else EXIT_OK
+
+
+def _check_explore_usage(args: argparse.Namespace) -> None:
+    """``--explore`` needs positive bounds, a step within the duration, and no scenario files."""
+    import math
 
     missing = [(opt, why) for opt, value, why in (
         ("--duration", args.duration, "how long each explored path runs, in simulated seconds"),
@@ -236,8 +295,14 @@ def cmd_explore(args: argparse.Namespace) -> int:
         raise UsageError(f"--step {args.step:g} is longer than --duration {args.duration:g}: no input could change")
     if args.scenarios:
         raise UsageError("--explore takes one machine; run the scenario files in another command")
+
+
+def _explore_values(items: list[str]) -> dict[str, list[object]]:
+    """``--var NAME=V1,V2``: the values to try for each variable (JSON)."""
+    import json
+
     values: dict[str, list[object]] = {}
-    for item in args.var:
+    for item in items:
         name, sep, text = item.partition("=")
         if not sep or not name or not text:
             raise UsageError(f"--var {item}: give the variable and the values to try, NAME=V1,V2 (unbounded "
@@ -246,42 +311,57 @@ def cmd_explore(args: argparse.Namespace) -> int:
             values[name] = [json.loads(v) for v in text.split(",")]
         except ValueError:
             raise UsageError(f"--var {item}: the values are JSON (1,2.5 or true,false or \"a\",\"b\")") from None
+    return values
+
+
+class _Target(NamedTuple):
+    """What ``--explore`` explores: the checked machine, its plants, the scenario fields the generated files keep
+    (``base``), the machine's file and the tick."""
+
+    spec: Any
+    plants: list[tuple[type, object]]
+    base: dict[str, object]
+    machine_file: str
+    dt: float
+
+
+def _explore_target(args: argparse.Namespace) -> _Target:
+    """The machine of ``--explore`` (a machine file, or a scenario with its plants); a car machine is refused."""
     target = args.explore
-    plants: list[tuple[type, object]] = []
-    base: dict[str, object] = {}
-    try:
-        if target.endswith(".scenario.json"):
-            from ..scenario.model import load_scenario
+    if target.endswith(".scenario.json"):
+        from pathlib import Path
 
-            loaded = load_scenario(target, tuple(args.plugin))
-            if loaded.world_path is not None:
-                raise UsageError(f"--explore {target}: its machine drives the car; --explore runs machines without "
-                                 "a world")
-            spec, plants = loaded.spec, loaded.plants
-            machine_file = str(Path(target).parent / loaded.scenario.machine)
-            sc = loaded.scenario
-            base = {k: v for k, v in (("plugins", [str(Path(os.path.relpath(Path(target).parent, args.out or ".")) / pl)
-                                                   for pl in sc.plugins]), ("plants", sc.plants)) if v}
-            dt = loaded.dt
-        else:
-            from fsm.loading.loader import check, uses_car
+        from ..scenario.model import load_scenario
 
-            spec, problems = check(target, registry=registry_from(args))
-            errors = [p for p in problems if p.severity == "error"]
-            if spec is None or errors:
-                raise DiagramError(errors or problems)
-            if uses_car(spec):
-                raise UsageError(f"--explore {target}: the machine drives the car; --explore runs machines without a "
-                                 "world")
-            machine_file, dt = target, 0.0125
-    except DiagramError as exc:
-        for problem in exc.problems:
-            print(problem, file=sys.stderr)
-        return EXIT_FAIL
-    from fsm.loading.loader import compile as compile_spec
+        loaded = load_scenario(target, tuple(args.plugin))
+        if loaded.world_path is not None:
+            raise UsageError(f"--explore {target}: its machine drives the car; --explore runs machines without "
+                             "a world")
+        sc = loaded.scenario
+        here = Path(os.path.relpath(Path(target).parent, args.out or "."))
+        base: dict[str, object] = {k: v for k, v in (("plugins", [str(here / pl) for pl in sc.plugins]),
+                                                     ("plants", sc.plants)) if v}
+        return _Target(loaded.spec, loaded.plants, base, str(Path(target).parent / sc.machine), loaded.dt)
+    from fsm.loading.loader import check, uses_car
+    from fsm.model.errors import DiagramError
+
+    spec, problems = check(target, registry=registry_from(args))
+    errors = [p for p in problems if p.severity == "error"]
+    if spec is None or errors:
+        raise DiagramError(errors or problems)
+    if uses_car(spec):
+        raise UsageError(f"--explore {target}: the machine drives the car; --explore runs machines without a "
+                         "world")
+    return _Target(spec, [], {}, target, 0.0125)
+
+
+def _explore_inputs(args: argparse.Namespace, target: _Target, values: dict[str, list[object]]
+                    ) -> tuple[list[str], list[tuple[str, Any]]]:
+    """The signals the search sets (those no plant drives) and the compiled ``--invariant`` expressions."""
     from fsm.loading.loader import signal_names
     from fsm.model.expr import BOOL, ExprError, compile_expr
 
+    spec = target.spec
     declared = dict(getattr(spec, "vars", {}) or {})
     for name in values:
         if name not in declared:
@@ -291,7 +371,7 @@ def cmd_explore(args: argparse.Namespace) -> int:
             raise UsageError(f"--var {name}: the machine has no variable '{name}'"
                              + (f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""))
     signals = sorted(set(getattr(spec, "inputs", None) or ()) | set(signal_names(spec)))
-    for _cls, params in plants:
+    for _cls, params in target.plants:
         signals = [s for s in signals if s not in _cls(params).signals()]  # a plant drives them, not the search
     kinds = {k: "any" for k in declared} | {f"signal_{s}": BOOL for s in signals}
     invariants = []
@@ -300,16 +380,14 @@ def cmd_explore(args: argparse.Namespace) -> int:
             invariants.append((text, compile_expr(text, kinds, want=BOOL).fn))
         except ExprError as exc:
             raise UsageError(f"--invariant {text!r}: {exc}") from None
-    space = Space(signals, values, args.step, args.duration, dt)
-    folder = None
-    if args.out is not None:
-        folder = NewFolder(args.out, "-o")
-        folder.check()
-    explorer = Explorer(compile_spec(spec), plants, space, invariants)
-    result = explorer.search(args.max_runs or 2000)
+    return signals, invariants
+
+
+def _tell_exploration(args: argparse.Namespace, result: Any, space: Any, inputs: list[str], dt: float) -> None:
+    """What the search ran, what it reached and did not (and why), and an invariant's violation."""
     total = len(result.targets)
-    print(f"explored {target}: {result.runs} runs in {result.seconds:.2f} s, {space.slots} input slots of "
-          f"{space.step:g} s, inputs: {', '.join(signals + list(values)) or 'none'}")
+    print(f"explored {args.explore}: {result.runs} runs in {result.seconds:.2f} s, {space.slots} input slots of "
+          f"{space.step:g} s, inputs: {', '.join(inputs) or 'none'}")
     print(f"reached {total - len(result.unreached)}/{total} (states, transitions, monitors)")
     why = ("the run budget ran out (--max-runs " + str(args.max_runs or 2000) + ")" if result.exhausted else
            f"not reached by any input sequence within {space.slots} slots of {space.step:g} s (bounded depth; a "
@@ -320,14 +398,3 @@ def cmd_explore(args: argparse.Namespace) -> int:
         path, tick, text = result.violation
         print(f"VIOLATION '{text}' at tick {tick} (t={tick * dt:g} s) after {sum(1 for a in path if a[0] != 'wait')} "
               "input(s)")
-    if folder is not None:
-        from ..scenario.explore import write_scenarios
-
-        folder.open()
-        try:
-            names = write_scenarios(explorer, result, folder, machine_file, base, args.out)
-            folder.commit()
-        finally:
-            folder.discard()
-        print(f"wrote {len(names)} scenario file(s) to {args.out}")
-    return EXIT_FAIL if result.violation is not None else EXIT_OK

@@ -107,6 +107,19 @@ class _Out:
 def write_mcap(trace: Trace, stream: IO[bytes]) -> dict[str, int]:
     """Write ``trace`` to ``stream`` as MCAP; returns the number of messages per topic."""
     out = _Out(stream)
+    _write_header(out, trace)
+    _write_events(out, trace.events)
+    for s in trace.samples:
+        car = s.get("car")
+        if isinstance(car, dict):
+            _write_sample(out, float(s["time"]), car)
+    _write_frames(out, trace.frames)
+    out.writer.finish()
+    return out.counts
+
+
+def _write_header(out: _Out, trace: Trace) -> None:
+    """The header's fields as metadata; the machine document and the world as attachments."""
     header = dict(trace.header)
     document = header.pop("machine", None)
     world = header.pop("world", None)
@@ -117,8 +130,12 @@ def write_mcap(trace: Trace, stream: IO[bytes]) -> dict[str, int]:
         out.writer.add_attachment(0, 0, "machine.json", "application/json", json.dumps(document, indent=1).encode())
     if world is not None:
         out.writer.add_attachment(0, 0, "world.json", "application/json", json.dumps(world, indent=1).encode())
+
+
+def _write_events(out: _Out, events: list[dict[str, Any]]) -> None:
+    """The machine's topics: active states (when they change), transitions, variables, monitors, pauses."""
     last_active: list[str] | None = None
-    for e in trace.events:
+    for e in events:
         t, tick = float(e["time"]), e["tick"]
         active = event_active(e)
         if active != last_active:
@@ -135,35 +152,36 @@ def write_mcap(trace: Trace, stream: IO[bytes]) -> dict[str, int]:
         for kind in ("paused", "resumed"):
             for path in e.get(kind, ()):
                 out.add("/fsm/pause", "tral_fsm.Pause", t, {"tick": tick, "state": path, "paused": kind == "paused"})
-    for s in trace.samples:
-        car = s.get("car")
-        if not isinstance(car, dict):
-            continue
-        t = float(s["time"])
-        if _numbers(car, "x", "y", "heading"):
-            out.add("/car/pose", "foxglove.PoseInFrame", t, _pose(t, car["x"], car["y"], car["heading"]))
-        odo = car.get("odometry")
-        if isinstance(odo, list) and len(odo) == 3 and all(isinstance(v, (int, float)) for v in odo):
-            out.add("/car/odometry", "foxglove.PoseInFrame", t, _pose(t, *odo))
-        if _numbers(car, "speed_command", "steering"):
-            out.add("/car/cmd", "tral_fsm.CarCommand", t, {"speed": car["speed_command"], "steering": car["steering"]})
-        if _numbers(car, "speed", "distance"):
-            out.add("/car/state", "tral_fsm.CarState", t, {"speed": car["speed"], "distance": car["distance"],
-                                                           "collisions": car.get("collisions", 0)})
-        for name in SENSORS:
-            if name in car:
-                value = car[name]
-                out.add(f"/sensors/{name}", "tral_fsm.Range", t,
-                        {"range": value if isinstance(value, (int, float)) else None})
-    for f in trace.frames:
+
+
+def _write_sample(out: _Out, t: float, car: dict[str, Any]) -> None:
+    """One sample of the car: pose, odometry, command, state and each sensor, as far as the sample has them."""
+    if _numbers(car, "x", "y", "heading"):
+        out.add("/car/pose", "foxglove.PoseInFrame", t, _pose(t, car["x"], car["y"], car["heading"]))
+    odo = car.get("odometry")
+    if isinstance(odo, list) and len(odo) == 3 and all(isinstance(v, (int, float)) for v in odo):
+        out.add("/car/odometry", "foxglove.PoseInFrame", t, _pose(t, *odo))
+    if _numbers(car, "speed_command", "steering"):
+        out.add("/car/cmd", "tral_fsm.CarCommand", t, {"speed": car["speed_command"], "steering": car["steering"]})
+    if _numbers(car, "speed", "distance"):
+        out.add("/car/state", "tral_fsm.CarState", t, {"speed": car["speed"], "distance": car["distance"],
+                                                       "collisions": car.get("collisions", 0)})
+    for name in SENSORS:
+        if name in car:
+            value = car[name]
+            out.add(f"/sensors/{name}", "tral_fsm.Range", t,
+                    {"range": value if isinstance(value, (int, float)) else None})
+
+
+def _write_frames(out: _Out, frames: list[dict[str, Any]]) -> None:
+    """The camera's detections and images."""
+    for f in frames:
         t = float(f["time"])
         out.add("/camera/detections", "tral_fsm.Detections", t,
                 {"frame": f.get("frame", 0), "markers": f.get("detections", []), "gates": f.get("gates", [])})
         if isinstance(f.get("jpeg"), str):
             out.add("/camera/image", "foxglove.CompressedImage", t,
                     {"timestamp": _stamp(t), "frame_id": "camera", "data": f["jpeg"], "format": "jpeg"})
-    out.writer.finish()
-    return out.counts
 
 
 def _numbers(d: dict[str, Any], *keys: str) -> bool:

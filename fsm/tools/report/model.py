@@ -171,6 +171,16 @@ def _lanes(trace: Trace, regions: list[Region], states: list[str], index: dict[s
     ``Parallel`` state; regions of one level that are never active at once share its lane (the three turns of a lap
     are one lane), others get their own. Each lane: its label, depth and segments ``[t0, t1, state]`` (flat
     triples)."""
+    segments = _segments(trace, regions, index, t_end)
+    lanes = _shared_lanes(regions, segments, set(states))
+    lanes.sort(key=lambda lane: (lane["depth"], lane["key"][1], lane["seg"][0][0]))
+    return [{"label": lane_label(lane["regions"]), "depth": lane["depth"], "regions": lane["regions"],
+             "seg": [v for seg in lane["seg"] for v in seg]} for lane in lanes]
+
+
+def _segments(trace: Trace, regions: list[Region], index: dict[str, int],
+              t_end: float) -> dict[int, list[list[float]]]:
+    """Region index -> its segments ``[t0, t1, state]``: which of its states was active from when to when."""
     region_of: dict[int, int] = {}
     for r_i, r in enumerate(regions):
         for s in r["states"]:
@@ -184,13 +194,7 @@ def _lanes(trace: Trace, regions: list[Region], states: list[str], index: dict[s
 
     for e in trace.events:
         t = float(e["time"])
-        active: set[int] = set()
-        for leaf in event_active(e):
-            parts = leaf.split("/")
-            for n in range(1, len(parts) + 1):
-                i = index.get("/".join(parts[:n]))
-                if i is not None:
-                    active.add(i)
+        active = _active_indexes(event_active(e), index)
         now = {region_of[i]: i for i in active if i in region_of}
         for r_i in list(current):
             if now.get(r_i) != current[r_i][0]:
@@ -200,7 +204,25 @@ def _lanes(trace: Trace, regions: list[Region], states: list[str], index: dict[s
                 current[r_i] = (s, t)
     for r_i in list(current):
         close(r_i, t_end)
-    state_set = set(states)
+    return segments
+
+
+def _active_indexes(leaves: list[str], index: dict[str, int]) -> set[int]:
+    """The indexes of the active leaves and of all their ancestors."""
+    active: set[int] = set()
+    for leaf in leaves:
+        parts = leaf.split("/")
+        for n in range(1, len(parts) + 1):
+            i = index.get("/".join(parts[:n]))
+            if i is not None:
+                active.add(i)
+    return active
+
+
+def _shared_lanes(regions: list[Region], segments: dict[int, list[list[float]]],
+                  state_set: set[str]) -> list[dict[str, Any]]:
+    """The regions that were ever active, put into lanes: a region joins the first lane of its depth and parallel
+    branch whose segments it does not overlap."""
     lanes: list[dict[str, Any]] = []
     for r_i, r in enumerate(regions):
         if r_i not in segments:
@@ -217,14 +239,7 @@ def _lanes(trace: Trace, regions: list[Region], states: list[str], index: dict[s
                 break
         else:
             lanes.append({"key": key, "depth": depth, "seg": segments[r_i], "regions": [r["label"]]})
-    lanes.sort(key=lambda lane: (lane["depth"], lane["key"][1], lane["seg"][0][0]))
-    out = []
-    for lane in lanes:
-        branch = lane["key"][1]
-        label = lane_label(lane["regions"])
-        out.append({"label": label, "depth": lane["depth"], "regions": lane["regions"],
-                    "seg": [v for seg in lane["seg"] for v in seg]})
-    return out
+    return lanes
 
 
 def lane_label(regions: list[str]) -> str:

@@ -663,52 +663,59 @@ def problems_from_errors(err: ValidationError, data: Any, name: str) -> list[Pro
     problems: dict[str, Problem] = {}
     for e in err.errors(include_url=False):
         full = list(e["loc"])
-        model: type[ScenarioModel] = Scenario
-        for token in full:
-            if isinstance(token, str) and token in _MODELS:
-                model = _MODELS[token]
         loc = [t for t in full if not (isinstance(t, str) and t.startswith("<"))]
-        if model is TransitionsExpect and "transitions" in loc[2:3]:
-            model = TransitionCount if len(loc) > 3 else model
-        if model is PressInput and "bounce" in loc[2:3] and len(loc) > 3:
-            model = Bounce
-        if loc[:1] == ["matrix"] and model is Scenario:
-            model = MatrixCase if "cases" in loc[1:2] and len(loc) > 3 else Matrix
-        if loc[:1] == ["substitute"] and len(loc) > 2:
-            model = TransitionRef if "transition" in loc[2:3] and len(loc) > 3 else Substitution
         typ = e["type"]
-        hint = None
-        if typ == "missing":
-            ptr = pointer(*loc[:-1])
-            message = f"missing required key '{loc[-1]}'"
-        elif typ == "extra_forbidden":
-            ptr = pointer(*loc)
-            message = f"unknown key '{loc[-1]}'"
-            fields = sorted({f.alias or n for n, f in model.model_fields.items()})
-            close = difflib.get_close_matches(str(loc[-1]), fields, n=2)
-            hint = ("did you mean " + " or ".join(f"'{c}'" for c in close) + "?") if close else \
-                "known: " + ", ".join(fields)
-        elif typ in ("input_kind", "expect_kind"):
-            ptr = pointer(*loc)
-            message = e["msg"]
-            keys = sorted(e["input"]) if isinstance(e.get("input"), dict) else []
-            hint = f"this one has {', '.join(repr(k) for k in keys)}" if keys else None
-        else:
-            loc = _existing_prefix(data, loc)
-            ptr = pointer(*loc)
-            message = e["msg"].replace("Value error, ", "")
-            if message.startswith("Input should") and loc:
-                message = f"'{loc[-1]}'" + message[len("Input"):]
-            elif message.startswith(("List should", "Dictionary should", "String should")) and loc:
-                message = f"'{loc[-1]}': " + message
-            if "input" in e and not isinstance(e["input"], (dict, list)):
-                message += f", got {_short(e['input'])}"
+        loc, message, hint = _error_text(e, loc, data, _error_model(full, loc))
+        ptr = pointer(*loc[:-1]) if typ == "missing" else pointer(*loc)
         if ptr in problems:
             if typ not in ("missing", "extra_forbidden") and message not in problems[ptr].message:
                 problems[ptr].message += f" (or: {message})"
             continue
         problems[ptr] = Problem(message, name, ptr, element=_element(loc), hint=hint)
     return list(problems.values())
+
+
+def _error_model(full: list[Any], loc: list[Any]) -> type[ScenarioModel]:
+    """The model an error's location ends in (whose fields a "did you mean" hint offers)."""
+    model: type[ScenarioModel] = Scenario
+    for token in full:
+        if isinstance(token, str) and token in _MODELS:
+            model = _MODELS[token]
+    if model is TransitionsExpect and "transitions" in loc[2:3]:
+        model = TransitionCount if len(loc) > 3 else model
+    if model is PressInput and "bounce" in loc[2:3] and len(loc) > 3:
+        model = Bounce
+    if loc[:1] == ["matrix"] and model is Scenario:
+        model = MatrixCase if "cases" in loc[1:2] and len(loc) > 3 else Matrix
+    if loc[:1] == ["substitute"] and len(loc) > 2:
+        model = TransitionRef if "transition" in loc[2:3] and len(loc) > 3 else Substitution
+    return model
+
+
+def _error_text(e: Any, loc: list[Any], data: Any, model: type[ScenarioModel]
+                ) -> tuple[list[Any], str, str | None]:
+    """One pydantic error's location (cut where it leaves ``data``), message and hint."""
+    typ = e["type"]
+    if typ == "missing":
+        return loc, f"missing required key '{loc[-1]}'", None
+    if typ == "extra_forbidden":
+        fields = sorted({f.alias or n for n, f in model.model_fields.items()})
+        close = difflib.get_close_matches(str(loc[-1]), fields, n=2)
+        hint = ("did you mean " + " or ".join(f"'{c}'" for c in close) + "?") if close else \
+            "known: " + ", ".join(fields)
+        return loc, f"unknown key '{loc[-1]}'", hint
+    if typ in ("input_kind", "expect_kind"):
+        keys = sorted(e["input"]) if isinstance(e.get("input"), dict) else []
+        return loc, e["msg"], f"this one has {', '.join(repr(k) for k in keys)}" if keys else None
+    loc = _existing_prefix(data, loc)
+    message = e["msg"].replace("Value error, ", "")
+    if message.startswith("Input should") and loc:
+        message = f"'{loc[-1]}'" + message[len("Input"):]
+    elif message.startswith(("List should", "Dictionary should", "String should")) and loc:
+        message = f"'{loc[-1]}': " + message
+    if "input" in e and not isinstance(e["input"], (dict, list)):
+        message += f", got {_short(e['input'])}"
+    return loc, message, None
 
 
 # -- checks beyond shape -----------------------------------------------------------------------------------
@@ -795,76 +802,104 @@ def element_problems(inputs: list[Any], expect: list[Any], lim: Scenario | None,
         dt, end_tick = limits(lim)
         end_time = end_tick * dt if end_tick < NEVER else math.inf  # too many ticks: said of dt or duration
     for i, item in enumerate(inputs):
-        if item is None:
-            continue
-        ptr = pointer("inputs", i)
-        label = f"input {i}"
-        if isinstance(item, SignalInput) and item.value is not None and item.width is not None:
-            problems.append(Problem("'value' sets a level and 'width' makes a pulse; give one of them", name,
-                                    ptr + "/width", element=label,
-                                    hint="a pulse: {\"at\": 1, \"signal\": \"s\", \"width\": 0.1}; a level: "
-                                         "{\"at\": 1, \"signal\": \"s\", \"value\": true}"))
-        if isinstance(item, PressInput) and item.bounce is not None:
-            settle = 2 * item.bounce.count * item.bounce.interval
-            if not settle < item.duration:
-                problems.append(Problem(
-                    f"the bounce lasts {settle:g} s ({item.bounce.count} bounces of two level changes "
-                    f"{item.bounce.interval:g} s apart), "
-                    f"not shorter than the press ({item.duration:g} s)", name, ptr + "/bounce", element=label,
-                    hint="make the press longer, or the bounce shorter or rarer"))
-        if item.at > end_time + EPS:
-            problems.append(Problem(f"at {item.at:g} s is after the end of the run ({end_time:g} s)", name,
-                                    ptr + "/at", element=label, hint="raise 'duration' (or 'max_ticks'), or move it"))
+        if item is not None:
+            problems += _input_problems(item, name, pointer("inputs", i), f"input {i}", end_time)
     for i, exp in enumerate(expect):
-        ptr = pointer("expect", i)
-        label = f"expectation {i}"
-        within = getattr(exp, "within", None)
-        if within is None and isinstance(exp, MonitorsExpect):
-            within = exp.monitors.within
-        if within is not None and within[1] < within[0]:
-            where = ptr + ("/monitors" if isinstance(exp, MonitorsExpect) else "") + "/within"
-            problems.append(Problem(f"the window ends ({within[1]:g} s) before it starts ({within[0]:g} s)", name,
-                                    where, element=label, hint="a window is [start, end] with start <= end"))
-        if isinstance(exp, _Counted):
-            problems += _count_problems(exp, name, ptr, label)
-        if isinstance(exp, InvariantExpect):
-            from fsm.model.expr import ExprError, parse
-
-            from .temporal import TEMPORAL_FUNCTIONS
-
-            try:
-                parse(exp.invariant, TEMPORAL_FUNCTIONS)
-            except ExprError as exc:
-                problems.append(Problem(f"the invariant does not parse: {exc}", name, ptr + "/invariant",
-                                        element=label, hint="e.g. \"x >= 0 and not signal_estop\""))
-        if isinstance(exp, TemporalExpect):
-            problems += _temporal_shape(exp, name, ptr, label, end_time)
-        if isinstance(exp, AtExpect):
-            if exp.active is None and exp.vars is None and exp.paused is None and exp.suspended is None and \
-                    exp.holds is None:
-                problems.append(Problem("an 'at' expectation needs 'active', 'vars', 'paused', 'suspended' or "
-                                        "'holds'", name, ptr, element=label, hint='{"at": 2.0, "active": "run/work"}'))
-            if exp.at > end_time + EPS:
-                problems.append(Problem(f"at {exp.at:g} s is after the end of the run ({end_time:g} s)", name,
-                                        ptr + "/at", element=label, hint="raise 'duration' (or 'max_ticks')"))
-        if isinstance(exp, TransitionsExpect):
-            c = exp.transitions
-            if c.count is None and c.min is None and c.max is None:
-                problems.append(Problem("give 'count', 'min' or 'max'", name, ptr + "/transitions", element=label))
-            elif c.count is not None and (c.min is not None or c.max is not None):
-                problems.append(Problem("'count' is exact; give it alone, or 'min' and/or 'max'", name,
-                                        ptr + "/transitions", element=label))
-            elif c.min is not None and c.max is not None and c.min > c.max:
-                problems.append(Problem(f"'min' {c.min} is greater than 'max' {c.max}", name, ptr + "/transitions",
-                                        element=label))
-        if isinstance(exp, MonitorsExpect):
-            problems += _count_problems(exp.monitors, name, ptr + "/monitors", label)
-            for k, at in enumerate(exp.monitors.at or ()):
-                if at > end_time + EPS:
-                    problems.append(Problem(f"at {at:g} s is after the end of the run ({end_time:g} s)", name,
-                                            f"{ptr}/monitors/at/{k}", element=label,
-                                            hint="raise 'duration' (or 'max_ticks')"))
+        problems += _expect_problems(exp, name, pointer("expect", i), f"expectation {i}", end_time)
     return problems
+
+
+def _input_problems(item: Any, name: str, ptr: str, label: str, end_time: float) -> list[Problem]:
+    """One input: a level and a pulse at once, a bounce as long as its press, a time after the run."""
+    problems: list[Problem] = []
+    if isinstance(item, SignalInput) and item.value is not None and item.width is not None:
+        problems.append(Problem("'value' sets a level and 'width' makes a pulse; give one of them", name,
+                                ptr + "/width", element=label,
+                                hint="a pulse: {\"at\": 1, \"signal\": \"s\", \"width\": 0.1}; a level: "
+                                     "{\"at\": 1, \"signal\": \"s\", \"value\": true}"))
+    if isinstance(item, PressInput) and item.bounce is not None:
+        settle = 2 * item.bounce.count * item.bounce.interval
+        if not settle < item.duration:
+            problems.append(Problem(
+                f"the bounce lasts {settle:g} s ({item.bounce.count} bounces of two level changes "
+                f"{item.bounce.interval:g} s apart), "
+                f"not shorter than the press ({item.duration:g} s)", name, ptr + "/bounce", element=label,
+                hint="make the press longer, or the bounce shorter or rarer"))
+    if item.at > end_time + EPS:
+        problems.append(Problem(f"at {item.at:g} s is after the end of the run ({end_time:g} s)", name,
+                                ptr + "/at", element=label, hint="raise 'duration' (or 'max_ticks'), or move it"))
+    return problems
+
+
+def _expect_problems(exp: Any, name: str, ptr: str, label: str, end_time: float) -> list[Problem]:
+    """One expectation: its window, its counts, and the checks of its kind."""
+    problems: list[Problem] = []
+    within = getattr(exp, "within", None)
+    if within is None and isinstance(exp, MonitorsExpect):
+        within = exp.monitors.within
+    if within is not None and within[1] < within[0]:
+        where = ptr + ("/monitors" if isinstance(exp, MonitorsExpect) else "") + "/within"
+        problems.append(Problem(f"the window ends ({within[1]:g} s) before it starts ({within[0]:g} s)", name,
+                                where, element=label, hint="a window is [start, end] with start <= end"))
+    if isinstance(exp, _Counted):
+        problems += _count_problems(exp, name, ptr, label)
+    if isinstance(exp, InvariantExpect):
+        problems += _invariant_parse_problems(exp, name, ptr, label)
+    if isinstance(exp, TemporalExpect):
+        problems += _temporal_shape(exp, name, ptr, label, end_time)
+    if isinstance(exp, AtExpect):
+        problems += _at_problems(exp, name, ptr, label, end_time)
+    if isinstance(exp, TransitionsExpect):
+        problems += _transitions_problems(exp, name, ptr, label)
+    if isinstance(exp, MonitorsExpect):
+        problems += _count_problems(exp.monitors, name, ptr + "/monitors", label)
+        for k, at in enumerate(exp.monitors.at or ()):
+            if at > end_time + EPS:
+                problems.append(Problem(f"at {at:g} s is after the end of the run ({end_time:g} s)", name,
+                                        f"{ptr}/monitors/at/{k}", element=label,
+                                        hint="raise 'duration' (or 'max_ticks')"))
+    return problems
+
+
+def _invariant_parse_problems(exp: InvariantExpect, name: str, ptr: str, label: str) -> list[Problem]:
+    """An invariant that does not parse."""
+    from fsm.model.expr import ExprError, parse
+
+    from .temporal import TEMPORAL_FUNCTIONS
+
+    try:
+        parse(exp.invariant, TEMPORAL_FUNCTIONS)
+    except ExprError as exc:
+        return [Problem(f"the invariant does not parse: {exc}", name, ptr + "/invariant", element=label,
+                        hint="e.g. \"x >= 0 and not signal_estop\"")]
+    return []
+
+
+def _at_problems(exp: AtExpect, name: str, ptr: str, label: str, end_time: float) -> list[Problem]:
+    """An 'at' expectation that checks nothing, or looks after the end of the run."""
+    problems: list[Problem] = []
+    if exp.active is None and exp.vars is None and exp.paused is None and exp.suspended is None and \
+            exp.holds is None:
+        problems.append(Problem("an 'at' expectation needs 'active', 'vars', 'paused', 'suspended' or "
+                                "'holds'", name, ptr, element=label, hint='{"at": 2.0, "active": "run/work"}'))
+    if exp.at > end_time + EPS:
+        problems.append(Problem(f"at {exp.at:g} s is after the end of the run ({end_time:g} s)", name,
+                                ptr + "/at", element=label, hint="raise 'duration' (or 'max_ticks')"))
+    return problems
+
+
+def _transitions_problems(exp: TransitionsExpect, name: str, ptr: str, label: str) -> list[Problem]:
+    """The bounds on the number of transitions: at least one, 'count' alone, 'min' <= 'max'."""
+    c = exp.transitions
+    if c.count is None and c.min is None and c.max is None:
+        return [Problem("give 'count', 'min' or 'max'", name, ptr + "/transitions", element=label)]
+    if c.count is not None and (c.min is not None or c.max is not None):
+        return [Problem("'count' is exact; give it alone, or 'min' and/or 'max'", name, ptr + "/transitions",
+                        element=label)]
+    if c.min is not None and c.max is not None and c.min > c.max:
+        return [Problem(f"'min' {c.min} is greater than 'max' {c.max}", name, ptr + "/transitions",
+                        element=label)]
+    return []
 
 
 def _temporal_shape(exp: TemporalExpect, name: str, ptr: str, label: str, end_time: float) -> list[Problem]:
@@ -925,10 +960,54 @@ def active_matches(prefix: str, path: str) -> bool:
     return path == prefix or path.startswith(prefix + "/")
 
 
+def _world_problems(spec: Any, world_path: Path | None, machine_path: Path, base: Path, name: str) -> list[Problem]:
+    """A car machine needs a world; a world named must load."""
+    from fsm.loading.loader import uses_car
+
+    if world_path is None and uses_car(spec):
+        return [Problem("this machine drives the car; name the world to drive it in", name, "",
+                        hint=_world_hint(machine_path, base))]
+    if world_path is not None and world_path.is_file():
+        from fsm.sim.world import load_world
+
+        try:
+            load_world(world_path)
+        except DiagramError as exc:
+            return list(exc.problems)
+    return []
+
+
+def _pause_warnings(spec: Any, given: set[str], name: str) -> list[Problem]:
+    """A warning for each pause button of the machine that the scenario never presses."""
+    problems: list[Problem] = []
+    for level in spec.levels():
+        for st in level.states:
+            pause = getattr(st.params, "pause_signal", None)
+            if pause and pause not in given:
+                problems.append(Problem(f"the pause button '{pause}' of '{st.id}' is never pressed by this scenario",
+                                        name, "/inputs", severity="warning",
+                                        hint=f'add {{"at": 1.0, "press": "{pause}"}} to test the pause'))
+    return problems
+
+
+def _signal_warnings(scenario: Scenario, known: set[str], name: str) -> list[Problem]:
+    """A warning for each input of a signal the machine does not read."""
+    problems: list[Problem] = []
+    for i, item in enumerate(scenario.inputs):
+        sig = item.signal if isinstance(item, SignalInput) else item.press if isinstance(item, PressInput) else None
+        if sig is not None and sig not in known:
+            close = difflib.get_close_matches(sig, sorted(known), n=2)
+            problems.append(Problem(f"the machine reads no signal '{sig}'", name, pointer("inputs", i),
+                                    element=f"input {i}", severity="warning",
+                                    hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close
+                                    else "signals it reads: " + (", ".join(sorted(known)) or "none")))
+    return problems
+
+
 def _load_machine(scenario: Scenario, path: Path, name: str,
                   cli_plugins: tuple[str, ...]) -> tuple[LoadedScenario | None, list[Problem]]:
     """Check the machine (and world) a scenario names, and the state names its expectations use."""
-    from fsm.loading.loader import check, machine_files, signal_names, uses_car
+    from fsm.loading.loader import check, machine_files, signal_names
     from fsm.loading.loader import compile as compile_spec
     from fsm.loading.registry import default_registry
 
@@ -952,16 +1031,7 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
         problems.append(Problem(f"the machine {machine_path} has {len(errors) or 1} error(s), listed with it", name,
                                 "/machine"))
         return None, problems + (errors or machine_problems)
-    if world_path is None and uses_car(spec):
-        problems.append(Problem("this machine drives the car; name the world to drive it in", name, "",
-                                hint=_world_hint(machine_path, base)))
-    elif world_path is not None and world_path.is_file():
-        from fsm.sim.world import load_world
-
-        try:
-            load_world(world_path)
-        except DiagramError as exc:
-            problems += exc.problems
+    problems += _world_problems(spec, world_path, machine_path, base, name)
     if problems:
         return None, problems
     files = machine_files(spec)
@@ -978,23 +1048,10 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
     given = {item.signal if isinstance(item, SignalInput) else item.press for item in scenario.inputs
              if isinstance(item, (SignalInput, PressInput))}
     given |= {sig for cls, params in plants for sig in cls(params).signals()}
-    for level in spec.levels():
-        for st in level.states:
-            pause = getattr(st.params, "pause_signal", None)
-            if pause and pause not in given:
-                problems.append(Problem(f"the pause button '{pause}' of '{st.id}' is never pressed by this scenario",
-                                        name, "/inputs", severity="warning",
-                                        hint=f'add {{"at": 1.0, "press": "{pause}"}} to test the pause'))
+    problems += _pause_warnings(spec, given, name)
     formulas: dict[tuple[int, str], Any] = {}
     problems += _invariant_problems(scenario, spec, known | given, world_path is not None, name, paths, formulas)
-    for i, item in enumerate(scenario.inputs):
-        sig = item.signal if isinstance(item, SignalInput) else item.press if isinstance(item, PressInput) else None
-        if sig is not None and sig not in known:
-            close = difflib.get_close_matches(sig, sorted(known), n=2)
-            problems.append(Problem(f"the machine reads no signal '{sig}'", name, pointer("inputs", i),
-                                    element=f"input {i}", severity="warning",
-                                    hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close
-                                    else "signals it reads: " + (", ".join(sorted(known)) or "none")))
+    problems += _signal_warnings(scenario, known, name)
     return LoadedScenario(file=name, scenario=scenario, spec=spec, registry=registry, dt=dt, end_tick=end_tick,
                           world_path=world_path, machine_files=files, plugin_files=plugin_files,
                           state_paths=paths, plants=plants, formulas=formulas), problems

@@ -347,8 +347,19 @@ class TemporalRun:
         return f"{round(tick * self.dt, 9):g}"
 
     def step(self, machine: Machine, rec: Recording, tick: int, moved: bool) -> None:
+        """After each tick: read what the formulas use, and step the watches whose inputs changed."""
+        changed = self._levels(machine.ctx, tick)
         now = self.now
-        ctx = machine.ctx
+        if not (changed or moved or self.forced or self.every_tick or len(rec.var_changes) != self._var_changes
+                or len(rec.monitors) != self._monitors or len(rec.pauses) != self._pauses or now.fired
+                or tick in self.firsts):
+            return
+        now.tick = tick
+        self._gather(machine.ctx, rec, moved, changed)
+        self._step_watches(tick, changed)
+
+    def _levels(self, ctx: Context, tick: int) -> set[str]:
+        """The signals' levels and the watched states' outcomes: the names among them that changed."""
         values = self.values
         changed: set[str] = set()
         if self.signals:
@@ -364,13 +375,14 @@ class TemporalRun:
                 key = (st.entered_at, outcome)
                 if self._outcome_keys.get(path) != key:
                     self._outcome_keys[path] = key
-                    now.outcomes[path] = (tick, outcome)
+                    self.now.outcomes[path] = (tick, outcome)
                     changed.add("@outcome")
-        if not (changed or moved or self.forced or self.every_tick or len(rec.var_changes) != self._var_changes
-                or len(rec.monitors) != self._monitors or len(rec.pauses) != self._pauses or now.fired
-                or tick in self.firsts):
-            return
-        now.tick = tick
+        return changed
+
+    def _gather(self, ctx: Context, rec: Recording, moved: bool, changed: set[str]) -> None:
+        """Variables, car readings, entries, monitor firings, pauses and active states into :attr:`now` and
+        :attr:`values`; what changed is added to ``changed``."""
+        values = self.values
         if len(rec.var_changes) != self._var_changes or not values:
             changed.update(c.name for c in rec.var_changes[self._var_changes:])
             self._var_changes = len(rec.var_changes)
@@ -381,16 +393,34 @@ class TemporalRun:
                 if isinstance(value, (int, float)):
                     values[name] = value
         if self.need_entries:
-            entries = rec.entries
-            if len(entries) != self._entries:
-                new = range(self._entries, len(entries))
-                now.entered = frozenset(entries[k].path for k in new if k not in rec.skipped)
-                now.skipped = frozenset(entries[k].path for k in new if k in rec.skipped)
-                self._entries = len(entries)
-                changed.add("@entries")
-            elif now.entered or now.skipped:
-                now.entered = now.skipped = frozenset()
-                changed.add("@entries")
+            self._entries_of(rec, changed)
+        self._firings_of(rec, changed)
+        if len(rec.pauses) != self._pauses:
+            self._pauses = len(rec.pauses)
+            changed.add("@paused")
+        if moved and self.need_active and rec.active[-1] is not self._active:
+            self._active = rec.active[-1]
+            self.now.active = frozenset("/".join(p.split("/")[:k]) for p in self._active.paths
+                                        for k in range(1, p.count("/") + 2))
+            changed.add("@active")
+
+    def _entries_of(self, rec: Recording, changed: set[str]) -> None:
+        """The states entered (and skipped) in this tick."""
+        now = self.now
+        entries = rec.entries
+        if len(entries) != self._entries:
+            new = range(self._entries, len(entries))
+            now.entered = frozenset(entries[k].path for k in new if k not in rec.skipped)
+            now.skipped = frozenset(entries[k].path for k in new if k in rec.skipped)
+            self._entries = len(entries)
+            changed.add("@entries")
+        elif now.entered or now.skipped:
+            now.entered = now.skipped = frozenset()
+            changed.add("@entries")
+
+    def _firings_of(self, rec: Recording, changed: set[str]) -> None:
+        """The owners of the monitors that fired in this tick."""
+        now = self.now
         if len(rec.monitors) != self._monitors:
             now.fired = frozenset(f.owner for f in rec.monitors[self._monitors:])
             self._monitors = len(rec.monitors)
@@ -398,15 +428,10 @@ class TemporalRun:
         elif now.fired:
             now.fired = frozenset()
             changed.add("@fired")
-        if len(rec.pauses) != self._pauses:
-            self._pauses = len(rec.pauses)
-            changed.add("@paused")
-        if moved and self.need_active and rec.active[-1] is not self._active:
-            self._active = rec.active[-1]
-            now.active = frozenset("/".join(p.split("/")[:k]) for p in self._active.paths
-                                   for k in range(1, p.count("/") + 2))
-            changed.add("@active")
-        at = self.at
+
+    def _step_watches(self, tick: int, changed: set[str]) -> None:
+        """Step each open watch whose inputs changed (or that steps every tick)."""
+        now, values, at = self.now, self.values, self.at
         forced = every = False
         for w in self.watches:
             if w.done:
@@ -705,42 +730,46 @@ class Checker:
 
     # -- the trace ----------------------------------------------------------------------------------------
     def events(self) -> list[Event]:
+        """What happened, in tick order: the run's own events, the scenario's inputs and the failed checks."""
+        out = self._run_events() + self._input_events() + self._check_events()
+        out.sort(key=lambda e: (e.tick, e.order))
+        return out
+
+    def _run_events(self) -> list[Event]:
+        rec = self.rec
         out: list[Event] = []
-        for e in self.rec.entries:
+        for e in rec.entries:
             how = "initial" if e.kind == "initial" else f"{e.kind} from {e.source}"
             out.append(Event(e.tick, 1, f"enter {e.path} ({how})"))
-        for c in self.signals:
-            if c.tick <= self.last_tick:
-                out.append(Event(c.tick, 0, f"signal {c.name} {'high' if c.level else 'low'} (at {c.time:g} s, "
-                                            f"input {c.index})"))
-        for s in self.sets:
-            if s.tick <= self.last_tick:
-                text = ", ".join(f"{k} = {_shown(v)}" for k, v in s.values.items())
-                out.append(Event(s.tick, 0, f"set {text} (input {s.index})"))
-        for pc in self.pause_inputs:
-            if pc.tick <= self.last_tick:
-                out.append(Event(pc.tick, 0, f"{'pause' if pc.paused else 'resume'} {pc.path} (input {pc.index})"))
-        for k in sorted(self.rec.skipped):
-            e = self.rec.entries[k]
+        for k in sorted(rec.skipped):
+            e = rec.entries[k]
             out.append(Event(e.tick, 1, f"skip {e.path} (precondition false)"))
         named = [e.state for e in self.loaded.scenario.expect if isinstance(e, OutcomeExpect) and e.state]
-        for fin in self.rec.finishes:
-            if any(state_matches(n, fin.path) for n in named):
-                out.append(Event(fin.tick, 1, f"finished {fin.path}: {fin.outcome}"))
-        for inv in self.rec.invariants:
-            if inv.failed is not None:
-                out.append(Event(inv.failed, 3, f"invariant {inv.text} false"))
-        for w, verdict in self.verdicts.values():
-            if verdict is not None:
-                out.append(Event(verdict.tick, 3, f"invariant {w.body.text} false" if w.label == "invariant" else
-                                 f"{w.label} {w.body.text} failed"))
-        for tick, name, old, new in self.rec.var_changes:
-            out.append(Event(tick, 2, f"var {name}: {_shown(old)} -> {_shown(new)}"))
-        for tick, owner, label, kind, behavior in self.rec.monitors:
-            out.append(Event(tick, 1, f"{kind} of {owner} fired ({label}): {behavior}"))
-        for tick, path, paused in self.rec.pauses:
-            out.append(Event(tick, 1, f"{'pause' if paused else 'resume'} {path}"))
-        out.sort(key=lambda e: (e.tick, e.order))
+        out += [Event(fin.tick, 1, f"finished {fin.path}: {fin.outcome}") for fin in rec.finishes
+                if any(state_matches(n, fin.path) for n in named)]
+        out += [Event(tick, 2, f"var {name}: {_shown(old)} -> {_shown(new)}")
+                for tick, name, old, new in rec.var_changes]
+        out += [Event(tick, 1, f"{kind} of {owner} fired ({label}): {behavior}")
+                for tick, owner, label, kind, behavior in rec.monitors]
+        out += [Event(tick, 1, f"{'pause' if paused else 'resume'} {path}") for tick, path, paused in rec.pauses]
+        return out
+
+    def _input_events(self) -> list[Event]:
+        last = self.last_tick
+        out = [Event(c.tick, 0, f"signal {c.name} {'high' if c.level else 'low'} (at {c.time:g} s, input {c.index})")
+               for c in self.signals if c.tick <= last]
+        out += [Event(s.tick, 0, f"set {', '.join(f'{k} = {_shown(v)}' for k, v in s.values.items())} "
+                                 f"(input {s.index})") for s in self.sets if s.tick <= last]
+        out += [Event(pc.tick, 0, f"{'pause' if pc.paused else 'resume'} {pc.path} (input {pc.index})")
+                for pc in self.pause_inputs if pc.tick <= last]
+        return out
+
+    def _check_events(self) -> list[Event]:
+        out = [Event(inv.failed, 3, f"invariant {inv.text} false") for inv in self.rec.invariants
+               if inv.failed is not None]
+        out += [Event(verdict.tick, 3, f"invariant {w.body.text} false" if w.label == "invariant" else
+                      f"{w.label} {w.body.text} failed")
+                for w, verdict in self.verdicts.values() if verdict is not None]
         return out
 
     def trace(self, tick: int) -> list[str]:
@@ -760,74 +789,92 @@ class Checker:
 
     # -- the expectations ---------------------------------------------------------------------------------
     def expectation(self, i: int, exp: Any) -> Failure | None:
-        m = self.machine
-        end = self.last_tick
-        if isinstance(exp, OutcomeExpect) and exp.state is not None:
-            return self.state_outcome(i, exp)
+        """The failure of expectation ``i`` (``exp``) in this run, or ``None`` when it holds."""
         if isinstance(exp, OutcomeExpect):
-            if m.outcome == exp.outcome and exp.within is not None:
-                fin = end  # the run stops in the tick the machine finishes
-                if not self.inside(fin, exp.within):
-                    return self.failure(i, "outcome", f"expected outcome '{exp.outcome}' {self.window(exp.within)}, "
-                                                      f"the machine finished with it at {self.at(fin)}", fin)
-            if m.outcome == exp.outcome:
-                return None
-            if m.outcome is None:
-                return self.failure(i, "outcome", f"expected outcome '{exp.outcome}', but the machine had not "
-                                                  f"finished when the run ended at {self.at(end)}", end)
-            fin = end  # the run stops in the tick the machine finishes
-            return self.failure(i, "outcome", f"expected outcome '{exp.outcome}', got '{m.outcome}' "
-                                              f"(finished in {m.root.active.path} at {self.at(fin)})", fin)
+            return self.state_outcome(i, exp) if exp.state is not None else self.outcome(i, exp)
         if isinstance(exp, FinishedExpect):
-            if m.finished == exp.finished:
-                return None
-            if exp.finished:
-                return self.failure(i, "finished", f"expected the machine to finish, but it was still in "
-                                                   f"{m.active_path} when the run ended at {self.at(end)}", end)
-            fin = end  # the run stops in the tick the machine finishes
-            return self.failure(i, "finished", f"expected the machine not to finish, but it finished with "
-                                               f"'{m.outcome}' at {self.at(fin)}", fin)
+            return self.finished(i, exp)
         if isinstance(exp, VisitsExpect):
             return self.visits(i, exp.visits)
         if isinstance(exp, NeverExpect):
-            for e in self.rec.entries:
-                hit = next((n for n in exp.never if state_matches(n, e.path)), None)
-                if hit is not None:
-                    return self.failure(i, "never", f"'{hit}' was entered ({e.path}) at {self.at(e.tick)}", e.tick)
-            return None
+            return self.never(i, exp)
         if isinstance(exp, AtExpect):
             return self.at_check(i, exp)
         if isinstance(exp, TemporalExpect):
             return self.formula(i)
         if isinstance(exp, TransitionsExpect):
-            c = exp.transitions
-            n = m.transition_count
-            want = (f"exactly {c.count}" if c.count is not None else
-                    " and ".join(x for x in (f"at least {c.min}" if c.min is not None else "",
-                                             f"at most {c.max}" if c.max is not None else "") if x))
-            ok = (c.count is None or n == c.count) and (c.min is None or n >= c.min) and (c.max is None or n <= c.max)
-            if ok:
-                return None
-            fired = [e for e in self.rec.entries if e.kind != "initial"]
-            limit = c.count if c.count is not None else c.max
-            tick = fired[limit].tick if limit is not None and n > limit else end
-            return self.failure(i, "transitions", f"expected {want} transitions, {n} fired", tick)
+            return self.transitions(i, exp)
         if isinstance(exp, MonitorsExpect):
             return self.monitor_check(i, exp.monitors)
-        if isinstance(exp, EnteredExpect):
-            ran = [(e.tick, e.path) for k, e in enumerate(self.rec.entries)
-                   if k not in self.rec.skipped and state_matches(exp.entered, e.path)]
-            return self.counted(i, "entered", exp, ran, f"'{exp.entered}' to be entered (and run)")
-        if isinstance(exp, SkippedExpect):
-            skipped = [(self.rec.entries[k].tick, self.rec.entries[k].path) for k in sorted(self.rec.skipped)
-                       if state_matches(exp.skipped, self.rec.entries[k].path)]
-            return self.counted(i, "skipped", exp, skipped, f"'{exp.skipped}' to be skipped by its precondition")
-        if isinstance(exp, ExitedExpect):
-            left = [(t, p) for t, p in self.rec.exits() if state_matches(exp.exited, p)]
-            return self.counted(i, "exited", exp, left, f"'{exp.exited}' to be left")
+        if isinstance(exp, (EnteredExpect, SkippedExpect, ExitedExpect)):
+            return self.occurrences(i, exp)
         if isinstance(exp, InvariantExpect):
             return self.invariant(i, exp)
         return None  # pragma: no cover - the model admits nothing else
+
+    def outcome(self, i: int, exp: OutcomeExpect) -> Failure | None:
+        """The machine finishes with this outcome (within the window, if given)."""
+        m = self.machine
+        fin = end = self.last_tick  # the run stops in the tick the machine finishes
+        if m.outcome == exp.outcome and exp.within is not None and not self.inside(fin, exp.within):
+            return self.failure(i, "outcome", f"expected outcome '{exp.outcome}' {self.window(exp.within)}, "
+                                              f"the machine finished with it at {self.at(fin)}", fin)
+        if m.outcome == exp.outcome:
+            return None
+        if m.outcome is None:
+            return self.failure(i, "outcome", f"expected outcome '{exp.outcome}', but the machine had not "
+                                              f"finished when the run ended at {self.at(end)}", end)
+        return self.failure(i, "outcome", f"expected outcome '{exp.outcome}', got '{m.outcome}' "
+                                          f"(finished in {m.root.active.path} at {self.at(fin)})", fin)
+
+    def finished(self, i: int, exp: FinishedExpect) -> Failure | None:
+        """The machine has (or has not) finished when the run ends."""
+        m = self.machine
+        fin = end = self.last_tick  # the run stops in the tick the machine finishes
+        if m.finished == exp.finished:
+            return None
+        if exp.finished:
+            return self.failure(i, "finished", f"expected the machine to finish, but it was still in "
+                                               f"{m.active_path} when the run ended at {self.at(end)}", end)
+        return self.failure(i, "finished", f"expected the machine not to finish, but it finished with "
+                                           f"'{m.outcome}' at {self.at(fin)}", fin)
+
+    def never(self, i: int, exp: NeverExpect) -> Failure | None:
+        """None of these states is entered."""
+        for e in self.rec.entries:
+            hit = next((n for n in exp.never if state_matches(n, e.path)), None)
+            if hit is not None:
+                return self.failure(i, "never", f"'{hit}' was entered ({e.path}) at {self.at(e.tick)}", e.tick)
+        return None
+
+    def transitions(self, i: int, exp: TransitionsExpect) -> Failure | None:
+        """The number of transitions fired is within the bounds."""
+        c = exp.transitions
+        n = self.machine.transition_count
+        want = (f"exactly {c.count}" if c.count is not None else
+                " and ".join(x for x in (f"at least {c.min}" if c.min is not None else "",
+                                         f"at most {c.max}" if c.max is not None else "") if x))
+        ok = (c.count is None or n == c.count) and (c.min is None or n >= c.min) and (c.max is None or n <= c.max)
+        if ok:
+            return None
+        fired = [e for e in self.rec.entries if e.kind != "initial"]
+        limit = c.count if c.count is not None else c.max
+        tick = fired[limit].tick if limit is not None and n > limit else self.last_tick
+        return self.failure(i, "transitions", f"expected {want} transitions, {n} fired", tick)
+
+    def occurrences(self, i: int, exp: EnteredExpect | SkippedExpect | ExitedExpect) -> Failure | None:
+        """A state is entered (and runs), skipped by its precondition, or left: as often as counted."""
+        rec = self.rec
+        if isinstance(exp, EnteredExpect):
+            ran = [(e.tick, e.path) for k, e in enumerate(rec.entries)
+                   if k not in rec.skipped and state_matches(exp.entered, e.path)]
+            return self.counted(i, "entered", exp, ran, f"'{exp.entered}' to be entered (and run)")
+        if isinstance(exp, SkippedExpect):
+            skipped = [(rec.entries[k].tick, rec.entries[k].path) for k in sorted(rec.skipped)
+                       if state_matches(exp.skipped, rec.entries[k].path)]
+            return self.counted(i, "skipped", exp, skipped, f"'{exp.skipped}' to be skipped by its precondition")
+        left = [(t, p) for t, p in rec.exits() if state_matches(exp.exited, p)]
+        return self.counted(i, "exited", exp, left, f"'{exp.exited}' to be left")
 
     # -- windows and counts -------------------------------------------------------------------------------
     def inside(self, tick: int, within: list[float] | None) -> bool:

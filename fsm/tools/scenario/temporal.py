@@ -413,27 +413,39 @@ class Watch:
             self.anchored = True
             self.body.anchor(values)
             f = self.body.fn(values)
-        text = self.body.text
         if self.after is None:
-            if self.until is not None:
-                if g is True:
-                    self.done = True
-                elif f is not True:
-                    self.fail(f"'{text}' is false at {at(tick)}, before '{self.until.text}' held", tick, values)
-            elif mode == "always":
-                if f is not True:
-                    self.fail(f"'{text}' is false at {at(tick)}", tick, values)
-            elif mode == "never":
-                if f is True:
-                    self.fail(f"'{text}' holds at {at(tick)}", tick, values)
-            elif f is True:
-                if self.holding < 0:
-                    self.holding = tick
-            elif self.holding >= 0:
-                self.runs.append((self.holding, tick - 1))  # it held up to the tick before this one
-                self.holding = -1
-            return
+            self._step_alone(tick, f, g, values, at)
+        else:
+            self._step_after(tick, f, trig, values, at)
+
+    def _step_alone(self, tick: int, f: Any, g: Any, values: dict[str, Any], at: Callable[[int], str]) -> None:
+        """A step without a trigger: ``always`` (maybe ``until``), ``never``, or ``eventually`` (its runs kept)."""
+        text = self.body.text
+        mode = self.mode
+        if self.until is not None:
+            if g is True:
+                self.done = True
+            elif f is not True:
+                self.fail(f"'{text}' is false at {at(tick)}, before '{self.until.text}' held", tick, values)
+        elif mode == "always":
+            if f is not True:
+                self.fail(f"'{text}' is false at {at(tick)}", tick, values)
+        elif mode == "never":
+            if f is True:
+                self.fail(f"'{text}' holds at {at(tick)}", tick, values)
+        elif f is True:
+            if self.holding < 0:
+                self.holding = tick
+        elif self.holding >= 0:
+            self.runs.append((self.holding, tick - 1))  # it held up to the tick before this one
+            self.holding = -1
+
+    def _step_after(self, tick: int, f: Any, trig: Any, values: dict[str, Any], at: Callable[[int], str]) -> None:
+        """A step with a trigger (``after``): open a span where it holds, check the body in the open spans."""
+        text = self.body.text
+        mode = self.mode
         trigger = self.after
+        assert trigger is not None
         if self.open and mode == "eventually" and self.open[0][1] < tick:  # its span ran out since the last look
             since, end = self.open[0]
             self.fail(f"'{text}' did not hold within {self.span} tick(s) after '{trigger.text}' held at "
@@ -465,6 +477,23 @@ class Watch:
             else:
                 self._shown = self.body.shown(values)
 
+    def _after_verdict(self, end: int, last: int, at: Callable[[int], str]) -> Verdict | None:
+        """The verdict of a triggered expectation: its trigger never held (enough), or its last span ran out."""
+        assert self.after is not None
+        text = self.body.text
+        if self.triggers == 0 or (self.nth is not None and self.triggers < self.nth):
+            need = "at all" if self.nth is None else f"{self.nth} times (it held {self.triggers} times)"
+            return Verdict(f"'{self.after.text}' never held {need}, so '{text}' was never checked after it", last)
+        if self.mode == "eventually" and self.open:
+            since, until = self.open[0]
+            if until <= last:
+                return Verdict(f"'{text}' did not hold within {self.span} tick(s) after '{self.after.text}' "
+                               f"held at {at(since)}; at {at(until)}" + (f" ({self._shown})" if self._shown
+                                                                         else ""), until)
+            return Verdict(f"'{text}' did not hold after '{self.after.text}' held at {at(since)}; the run "
+                           f"ended at {at(end)}", last)
+        return None
+
     def finish(self, end: int, at: Callable[[int], str], times: Callable[[int], str]) -> Verdict | None:
         """The verdict once the run has ended at tick ``end``."""
         if self.verdict is not None or (self.done and self.until is not None):
@@ -485,19 +514,7 @@ class Watch:
                            f"ended at {at(end)}" if self.last >= end else
                            f"'{self.until.text}' never held by the end of the window at {at(last)}", last)
         if self.after is not None:
-            if self.triggers == 0 or (self.nth is not None and self.triggers < self.nth):
-                need = "at all" if self.nth is None else f"{self.nth} times (it held {self.triggers} times)"
-                return Verdict(f"'{self.after.text}' never held {need}, so '{text}' was never checked after it",
-                               last)
-            if self.mode == "eventually" and self.open:
-                since, until = self.open[0]
-                if until <= last:
-                    return Verdict(f"'{text}' did not hold within {self.span} tick(s) after '{self.after.text}' "
-                                   f"held at {at(since)}; at {at(until)}" + (f" ({self._shown})" if self._shown
-                                                                             else ""), until)
-                return Verdict(f"'{text}' did not hold after '{self.after.text}' held at {at(since)}; the run "
-                               f"ended at {at(end)}", last)
-            return None
+            return self._after_verdict(end, last, at)
         if self.mode != "eventually":
             return None
         runs = self.runs + ([(self.holding, last)] if self.holding >= 0 else [])

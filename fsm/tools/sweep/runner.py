@@ -14,7 +14,7 @@ import os
 import shlex
 import sys
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -71,21 +71,17 @@ class PlanError(DiagramError):
     usage = False
 
 
-def plan(spec: SweepSpec, base: Path, name: str, where: str, out_dir: Path, *, flags: Iterable[str] = (),
-         flag_plugins: Iterable[str] = (), max_runs: int = MAX_RUNS) -> Plan:
-    """Everything checked; ``where`` names the spec (a file, or 'the command line') in messages, and the keys in
-    ``flags`` (JSON pointers: ``/seeds``, ``/set/home.speed``) are said as the flags they came from.
-    ``flag_plugins`` (``fsmctl --plugin``, already loaded here) are loaded by the workers too. The grid's size is
-    computed before it is built: more than ``max_runs`` runs are refused."""
-    from fsm.loading.loader import check, machine_files, uses_car
-    from fsm.loading.registry import default_registry
+class _Fail:
+    """Makes the :class:`PlanError` of a problem: located in the sweep file, or said as the flag it came from."""
 
-    from_flags = set(flags)
+    def __init__(self, where: str, flags: Iterable[str]) -> None:
+        self.where = where
+        self.from_flags = set(flags)
 
-    def fail(message: str, ptr: str = "", hint: str | None = None) -> PlanError:
+    def __call__(self, message: str, ptr: str = "", hint: str | None = None) -> PlanError:
         top = ptr.strip("/").split("/")[0]
-        flagged = any(ptr == f or ptr.startswith(f + "/") for f in from_flags)
-        if where == CLI or flagged:  # said as the flag it came from, not as a place in a file
+        flagged = any(ptr == f or ptr.startswith(f + "/") for f in self.from_flags)
+        if self.where == CLI or flagged:  # said as the flag it came from, not as a place in a file
             flag = FLAGS.get(top, "")
             head, _, rest = message.partition(" ")
             if flag and head.rstrip(":") == top:
@@ -95,9 +91,37 @@ def plan(spec: SweepSpec, base: Path, name: str, where: str, out_dir: Path, *, f
             err = PlanError([Problem(text, "fsmctl sweep", hint=hint)])
             err.usage = True
             return err
-        return PlanError([Problem(message, where, ptr, hint=hint)])
+        return PlanError([Problem(message, self.where, ptr, hint=hint)])
 
+
+def plan(spec: SweepSpec, base: Path, name: str, where: str, out_dir: Path, *, flags: Iterable[str] = (),
+         flag_plugins: Iterable[str] = (), max_runs: int = MAX_RUNS) -> Plan:
+    """Everything checked; ``where`` names the spec (a file, or 'the command line') in messages, and the keys in
+    ``flags`` (JSON pointers: ``/seeds``, ``/set/home.speed``) are said as the flags they came from.
+    ``flag_plugins`` (``fsmctl --plugin``, already loaded here) are loaded by the workers too. The grid's size is
+    computed before it is built: more than ``max_runs`` runs are refused."""
+    from fsm.loading.loader import machine_files
+
+    fail = _Fail(where, flags)
     plugins = [str(base / p) if p.endswith(".py") else p for p in spec.plugins]
+    registry = _registry(spec, plugins, fail)
+    seeds, sets, worlds = _axes(spec, base, fail)
+    _check_size(spec, worlds, seeds, sets, max_runs, fail)
+    machine, mspec = _checked_machine(spec, base, registry, sets, fail)
+    worlds, world_walls = _worlds(worlds, mspec, machine, fail)
+    runs = grid(worlds, seeds, sets, spec.vars)
+    seed_runs(runs)
+    files = machine_files(mspec) + [str(w) for w in worlds if w is not None]
+    all_plugins = plugins + list(flag_plugins)
+    jobs = _jobs(runs, files_digest(files), spec, machine, all_plugins, out_dir, fail)
+    inputs = files + [where] * (where != CLI) + [p for p in all_plugins if p.endswith(".py")]
+    return Plan(spec, name, machine, runs, jobs, list(runs[0].params), all_plugins, world_walls, inputs)
+
+
+def _registry(spec: SweepSpec, plugins: list[str], fail: _Fail) -> Any:
+    """The registry with the sweep's plugins loaded."""
+    from fsm.loading.registry import default_registry
+
     registry = default_registry(())
     for i, plugin in enumerate(plugins):
         try:
@@ -105,6 +129,12 @@ def plan(spec: SweepSpec, base: Path, name: str, where: str, out_dir: Path, *, f
         except UsageError as exc:
             text = str(exc).removeprefix(f"--plugin {plugin}: ").removeprefix(f"--plugin {plugin!r}: ")
             raise fail(f"plugin {spec.plugins[i]!r}: {text}", f"/plugins/{i}") from None
+    return registry
+
+
+def _axes(spec: SweepSpec, base: Path, fail: _Fail
+          ) -> tuple[Sequence[int], list[tuple[str, str, list[Any]]], list[Path | None]]:
+    """The seeds, the ``set`` axes and the worlds, each checked (no value given twice)."""
     try:
         seeds = parse_seeds(spec.seeds)
         if (problem := check_duration(spec.duration)) is not None:
@@ -119,6 +149,12 @@ def plan(spec: SweepSpec, base: Path, name: str, where: str, out_dir: Path, *, f
             check_unique(values, f"vars {key}", f"/vars/{escape_pointer(key)}")
     except SpecError as exc:
         raise fail(str(exc), exc.pointer) from None
+    return seeds, sets, worlds
+
+
+def _check_size(spec: SweepSpec, worlds: list[Path | None], seeds: Sequence[int],
+                sets: list[tuple[str, str, list[Any]]], max_runs: int, fail: _Fail) -> None:
+    """The grid's size, computed before it is built: empty, or more than ``max_runs`` runs, is refused."""
     axes = [(f"{len(values)} values of {path}.{param}", len(values)) for path, param, values in sets]
     axes += [(f"{len(values)} values of {key}", len(values)) for key, values in spec.vars.items()]
     count = count_runs(len(worlds) or 1, len(seeds), [n for _, n in axes])
@@ -130,6 +166,13 @@ def plan(spec: SweepSpec, base: Path, name: str, where: str, out_dir: Path, *, f
         raise fail(f"the sweep would make {count:,} runs ({sizes}), more than {max_runs:,}",
                    "/seeds" if count // max(len(seeds), 1) <= max_runs else "",
                    hint=f"give --max-runs {count} to run them all, or fewer seeds, worlds or values")
+
+
+def _checked_machine(spec: SweepSpec, base: Path, registry: Any, sets: list[tuple[str, str, list[Any]]],
+                     fail: _Fail) -> tuple[Path, Any]:
+    """The machine file, checked, and each ``set`` path against it."""
+    from fsm.loading.loader import check
+
     try:
         machine = (base / spec.machine).resolve()
         found_machine = machine.is_file()
@@ -147,6 +190,14 @@ def plan(spec: SweepSpec, base: Path, name: str, where: str, out_dir: Path, *, f
             O.check(mspec, O.Override(path, param, tuple(values), f"{key}={','.join(json.dumps(v) for v in values)}"))
         except O.OverrideError as exc:
             raise fail(str(exc), f"/set/{escape_pointer(key)}") from None
+    return machine, mspec
+
+
+def _worlds(worlds: list[Path | None], mspec: Any, machine: Path, fail: _Fail
+            ) -> tuple[list[Path | None], dict[str, Any]]:
+    """The worlds to run in (none given: the machine's default world if it drives the car) and their walls."""
+    from fsm.loading.loader import uses_car
+
     if not worlds:
         if uses_car(mspec):
             from fsm.sim.world import default_world
@@ -166,23 +217,22 @@ def plan(spec: SweepSpec, base: Path, name: str, where: str, out_dir: Path, *, f
             raise fail(f"world {w}: {' '.join(str(exc).split())[:400]}", "/worlds") from None
         world_walls[str(w)] = [[list(pt) for pt in wall.points] + ([list(wall.points[0])] if wall.closed else [])
                                for wall in world.walls]
-    runs = grid(worlds, seeds, sets, spec.vars)
-    seed_runs(runs)
-    files = machine_files(mspec) + [str(w) for w in worlds if w is not None]
-    digest = files_digest(files)
-    param_names = list(runs[0].params)
+    return worlds, world_walls
+
+
+def _jobs(runs: list[Run], digest: str, spec: SweepSpec, machine: Path, plugins: list[str], out_dir: Path,
+          fail: _Fail) -> list[dict[str, Any]]:
+    """Each run's key and job; two runs with one key (a world, seed or value given twice) are refused."""
     jobs = []
     seen: dict[str, Run] = {}
-    all_plugins = plugins + list(flag_plugins)
     for run in runs:
         run.key = run_key(run, digest, spec)
         twin = seen.setdefault(run.key, run)
         if twin is not run:
             raise fail(f"runs {twin.id} and {run.id} would be the same run (world, seed and values): a world, seed "
                        "or value is given twice", "", hint="give each once")
-        jobs.append(_job(run, spec, machine, all_plugins, out_dir))
-    inputs = files + [where] * (where != CLI) + [p for p in all_plugins if p.endswith(".py")]
-    return Plan(spec, name, machine, runs, jobs, param_names, all_plugins, world_walls, inputs)
+        jobs.append(_job(run, spec, machine, plugins, out_dir))
+    return jobs
 
 
 def _set_axes(sets: dict[str, list[Any]]) -> list[tuple[str, str, list[Any]]]:

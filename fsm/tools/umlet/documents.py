@@ -137,36 +137,56 @@ class Documents:
         """The document of one machine level: ``meta`` holds the keys of its machine ``note``; ``name`` is
         the name it has unless the note gives one (None: no name)."""
         scene = self.scene
-        targets = [(m, scene.markers.get(id(m))) for m in initials]
-        markers = [(m, mk) for m, mk in targets if mk is not None and mk.target in states]
-        initial_id: str | None = None
         layout: dict[str, Any] = {}
-        if len(markers) > 1:
-            listing = ", ".join(f"at {where(m.elem)}" for m, _ in markers)
-            self.problem(markers[1][0].elem, f"{len(markers)} initial pseudostates in one machine ({listing})",
-                         hint="keep one initial pseudostate per machine level")
-        elif markers:
-            box, mk = markers[0]
-            initial_id = mk.target.id
-            layout["initial"] = {**box_layout(box), "points": mk.points}
-            origins[base + "/initial"] = mk.relation
-        elif any(id(m) in scene.broken_markers for m in initials):
-            pass  # the marker's target state has a text error, reported where it is
-        elif len(states) == 1:
-            initial_id = states[0].id
-        else:
-            elem = frame.elem if frame is not None else (level.owner.elem if level.owner is not None else None)
-            elem = elem or (states[0].box.elem if states else None)
-            self.problem(elem, f"{what} has no initial state: no initial pseudostate with an arrow to a state",
-                         hint="draw a UMLSpecialState with type=initial and an arrow to the first state")
+        initial_id = self.initial_of(level, states, initials, base, origins, layout, frame, what)
         if frame is not None:
             layout["frame"] = {**box_layout(frame), "title": scene.state_of[id(frame)].id}
         if note is not None:
             layout["note"] = box_layout(note)
-        # states
+        finals = list(level.finals_by_outcome.values())
+        out_states = self.state_docs(states, finals, base, origins)
+        out_trans = self.transition_docs(level, {id(st) for st in states + finals}, base, origins)
+        doc: dict[str, Any] = dict(meta)
+        if name is not None or "name" in meta:
+            doc["name"] = meta.get("name", name)
+        doc.update({"initial": initial_id or "", "states": out_states, "transitions": out_trans})
+        if layout:
+            doc["layout"] = layout
+        return {k: doc[k] for k in _MACHINE_ORDER if k in doc}
+
+    def initial_of(self, level: Level, states: list[StateBox], initials: list[Box], base: str,
+                   origins: dict[str, RawElement], layout: dict[str, Any], frame: Box | None, what: str) -> str | None:
+        """The machine's initial state: the target of its one initial marker (its arrow into ``layout``), or its
+        only state; several markers, or none for several states, are said."""
+        scene = self.scene
+        targets = [(m, scene.markers.get(id(m))) for m in initials]
+        markers = [(m, mk) for m, mk in targets if mk is not None and mk.target in states]
+        if len(markers) > 1:
+            listing = ", ".join(f"at {where(m.elem)}" for m, _ in markers)
+            self.problem(markers[1][0].elem, f"{len(markers)} initial pseudostates in one machine ({listing})",
+                         hint="keep one initial pseudostate per machine level")
+            return None
+        if markers:
+            box, mk = markers[0]
+            layout["initial"] = {**box_layout(box), "points": mk.points}
+            origins[base + "/initial"] = mk.relation
+            return mk.target.id
+        if any(id(m) in scene.broken_markers for m in initials):
+            return None  # the marker's target state has a text error, reported where it is
+        if len(states) == 1:
+            return states[0].id
+        elem = frame.elem if frame is not None else (level.owner.elem if level.owner is not None else None)
+        elem = elem or (states[0].box.elem if states else None)
+        self.problem(elem, f"{what} has no initial state: no initial pseudostate with an arrow to a state",
+                     hint="draw a UMLSpecialState with type=initial and an arrow to the first state")
+        return None
+
+    def state_docs(self, states: list[StateBox], finals: list[StateBox], base: str,
+                   origins: dict[str, RawElement]) -> list[dict[str, Any]]:
+        """The documents of a level's states and final states; a box without a name, with a name used twice or
+        with a '/' in it is said and left out."""
         seen: dict[str, StateBox] = {}
         out_states: list[dict[str, Any]] = []
-        finals = list(level.finals_by_outcome.values())
         for st in states + finals:
             if not st.id:
                 self.problem(st.box.elem, "state box has no name",
@@ -187,8 +207,11 @@ class Documents:
             if st not in finals:
                 origins[ptr] = st.box.elem
             out_states.append(self.state_doc(st, ptr, origins))
-        # transitions: those whose source is one of these states
-        ids = {id(st) for st in states + finals}
+        return out_states
+
+    def transition_docs(self, level: Level, ids: set[int], base: str,
+                        origins: dict[str, RawElement]) -> list[dict[str, Any]]:
+        """The documents of the level's transitions whose source is one of the states ``ids``."""
         out_trans: list[dict[str, Any]] = []
         for tr, elem in zip(level.transitions, level.trans_origin, strict=True):
             if id(tr["_from"]) not in ids:
@@ -201,13 +224,7 @@ class Documents:
             if elem is not None:
                 origins[ptr] = elem
             out_trans.append(_ordered(tdoc, ("type", "from", "to")))
-        doc: dict[str, Any] = dict(meta)
-        if name is not None or "name" in meta:
-            doc["name"] = meta.get("name", name)
-        doc.update({"initial": initial_id or "", "states": out_states, "transitions": out_trans})
-        if layout:
-            doc["layout"] = layout
-        return {k: doc[k] for k in _MACHINE_ORDER if k in doc}
+        return out_trans
 
     def sequence_steps(self, st: StateBox, sub: dict[str, Any]) -> tuple[list[Any], list[Any]]:
         """The steps of a Sequence box, in the order its arrows give: from the first step (the initial marker's),

@@ -178,6 +178,7 @@ class Relations:
                              hint="draw an arrow from it to the first state of its machine")
 
     def relation(self, elem: RawElement, rel: T.RelationText, src: Any, dst: Any, points: list[Any]) -> None:
+        """An arrow with its attached ends: a transition, an initial marker's arrow, or a problem said."""
         scene = self.scene
         if src is False or dst is False:
             return  # ambiguous: reported
@@ -193,54 +194,73 @@ class Relations:
                 if key in params:
                     explicit[key] = params.pop(key)
             params.pop("id", None)
-        ends = []
+        ends = self.named_ends(elem, src, dst, explicit)
+        if ends is None:
+            return
+        source, target = ends
+        if source is None or target is None:
+            self.unattached(elem, source, target, points)
+            return
+        if not self.ends_allowed(elem, source, target):
+            return
+        if source.role == "initial":
+            self.initial(elem, source, target, points)
+            return
+        if source.role == "unsupported" or target.role == "unsupported":
+            return  # the pseudostate is reported
+        s_state = scene.state_of.get(id(source))
+        d_state = scene.state_of.get(id(target))
+        if s_state is None or d_state is None:
+            return  # their text did not parse: reported
+        if id(source) in scene.machine_frames or id(target) in scene.machine_frames:
+            return
+        self.transition(elem, s_state, d_state, params, label, points)
+
+    def named_ends(self, elem: RawElement, src: Box | None, dst: Box | None,
+                   explicit: dict[str, Any]) -> tuple[Box | None, Box | None] | None:
+        """The ends' boxes, as attached or as the label's ``from``/``to`` name them (``None``: a problem said)."""
+        ends: list[Box | None] = []
         for box, key, role in ((src, "from", "source"), (dst, "to", "target")):
             if key in explicit:
                 named = self.find_state(explicit[key])
                 if named is None:
                     self.problem(elem, f"'{key}': {explicit[key]!r} names no state of the diagram")
-                    return
+                    return None
                 if box is not None and box is not named.box:
                     self.problem(elem, f"'{key}' in the label names '{named.id}' but the arrow's {role} end is "
-                                       f"attached to {scene.box_name(box)}",
+                                       f"attached to {self.scene.box_name(box)}",
                                  hint=f"remove '{key}' from the label or move the arrow")
-                    return
+                    return None
                 box = named.box
             ends.append(box)
-        if ends[0] is None or ends[1] is None:
-            for box, i, role in ((ends[0], 0, "source"), (ends[1], -1, "target")):
-                if box is None:
-                    self.dangling(elem, points[i], role)
-            if isinstance(ends[0], Box) and ends[0].role == "initial":
-                # the marker's arrow is reported where it dangles; its machine does have an initial marker
-                self._initial_used.add(id(ends[0]))
-                scene.broken_markers.add(id(ends[0]))
-            return
-        src, dst = ends
-        if dst.role == "initial":
+        return ends[0], ends[1]
+
+    def unattached(self, elem: RawElement, source: Box | None, target: Box | None, points: list[Any]) -> None:
+        """An arrow with an end attached to nothing: said at that end."""
+        for box, i, role in ((source, 0, "source"), (target, -1, "target")):
+            if box is None:
+                self.dangling(elem, points[i], role)
+        if source is not None and source.role == "initial":
+            # the marker's arrow is reported where it dangles; its machine does have an initial marker
+            self._initial_used.add(id(source))
+            self.scene.broken_markers.add(id(source))
+
+    def ends_allowed(self, elem: RawElement, source: Box, target: Box) -> bool:
+        """No arrow ends at an initial marker or at a region's frame."""
+        scene = self.scene
+        if target.role == "initial":
             self.problem(elem, "a transition may not end at an initial pseudostate",
                          hint="an initial pseudostate only starts its machine; end the arrow at a state "
                               "(a final state ends the machine)")
-            return
-        for box in (src, dst):
+            return False
+        for box in (source, target):
             if id(box) in scene.region_frames:
                 self.problem(elem, f"the arrow ends at {scene.box_name(box)} of Parallel "
                                    f"'{scene.state_of[id(box.parent)].id}': a region is not a state",
                              hint="arrows go between the states inside one region, or to and from the Parallel "
                                   "state's own border")
-                return
-        if src.role == "initial":
-            self.initial(elem, src, dst, points)
-            return
-        if src.role == "unsupported" or dst.role == "unsupported":
-            return  # the pseudostate is reported
-        s_state = scene.state_of.get(id(src))
-        d_state = scene.state_of.get(id(dst))
-        if s_state is None or d_state is None:
-            return  # their text did not parse: reported
-        if id(src) in scene.machine_frames or id(dst) in scene.machine_frames:
-            return
-        self.transition(elem, s_state, d_state, params, label, points)
+                return False
+        return True
 
     def find_state(self, ref: Any) -> StateBox | None:
         if not isinstance(ref, (str, int)) or isinstance(ref, bool):

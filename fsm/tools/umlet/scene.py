@@ -90,6 +90,14 @@ class Level:
     finals_by_outcome: dict[str, StateBox] = field(default_factory=dict)
 
 
+def _is_state(elem: RawElement) -> bool:
+    return elem.kind in _STATE_KINDS_NEW or (elem.old and elem.kind in _STATE_KINDS_OLD)
+
+
+def _is_class(elem: RawElement) -> bool:
+    return elem.kind in _CLASS_KINDS_NEW or (elem.old and elem.kind in _CLASS_KINDS_OLD)
+
+
 class Scene:
     """The boxes of one diagram, their texts, nesting and levels; relations are kept for later."""
 
@@ -169,58 +177,64 @@ class Scene:
         self.make_levels()
 
     def classify(self) -> None:
-        def is_state(elem: RawElement) -> bool:
-            return elem.kind in _STATE_KINDS_NEW or (elem.old and elem.kind in _STATE_KINDS_OLD)
-
-        def is_class(elem: RawElement) -> bool:
-            return elem.kind in _CLASS_KINDS_NEW or (elem.old and elem.kind in _CLASS_KINDS_OLD)
-
-        self.class_states = not any(is_state(e) for e in self.raw.elements) and any(
-            is_class(e) for e in self.raw.elements)
+        """Sort the elements: state boxes, frames, notes and pseudostates become boxes, relations are kept for
+        later, and what is not part of a state machine is ignored (with the reason an arrow ending on it gives)."""
+        self.class_states = not any(_is_state(e) for e in self.raw.elements) and any(
+            _is_class(e) for e in self.raw.elements)
         for elem in self.raw.elements:
-            kind = elem.kind
-            role = None
-            if kind != "Relation" and (elem.w <= 0 or elem.h <= 0):
-                if is_state(elem) or kind in _FRAME_KINDS or kind == "UMLSpecialState" or (
-                        self.class_states and is_class(elem)) or (elem.old and kind in _SPECIAL_OLD):
-                    self.problem(elem, f"the box has no size (w={num(elem.w)}, h={num(elem.h)}), so it is ignored",
-                                 hint="give it a size in UMLet (drag its corner), or delete it")
-                self.ignored.append((self.box(elem, "ignored"), "it has no size"))
+            if elem.kind != "Relation" and (elem.w <= 0 or elem.h <= 0):
+                self._sizeless(elem)
                 continue
-            if is_state(elem) or (self.class_states and is_class(elem)):
-                role = "state"
-            elif kind in _FRAME_KINDS:
-                role = "frame"
-            elif kind in _NOTE_KINDS_NEW or (elem.old and kind in _NOTE_KINDS_OLD):
-                if not T.is_machine_note(elem.text):
-                    self.comment_notes.append(self.box(elem, "comment"))
-                    continue
-                role = "note"
-            elif kind == "UMLSpecialState":
-                special, _ = T.special_kind(elem.text)
-                role = special if special in _SUPPORTED_SPECIAL else "unsupported"
-            elif elem.old and kind in _SPECIAL_OLD:
-                special = _SPECIAL_OLD[kind]
-                role = special if special in _SUPPORTED_SPECIAL else "unsupported"
-            elif kind == "Relation":
+            role = self._role(elem)
+            if role == "relation":
                 self.relations.append(elem)
-                continue
-            if role is None:  # texts, class boxes, generic boxes: not part of a state machine
-                if is_class(elem):
-                    reason = ("class boxes are states only in a diagram without UMLState boxes, and this one has "
-                              "UMLState boxes")
-                else:
-                    reason = f"a {kind} is not part of a state machine"
-                self.ignored.append((self.box(elem, "ignored"), reason))
-                continue
-            box = self.box(elem, role)
-            box.container = role in ("state", "frame")
-            self.boxes.append(box)
-            if role == "unsupported":
-                special = T.special_kind(elem.text)[0] if kind == "UMLSpecialState" else _SPECIAL_OLD[kind]
-                self.problem(elem, f"'{special}' pseudostates are not supported",
-                             hint="use states and transitions with guards (types) instead; "
-                                  "only type=initial and type=final are understood")
+            elif role == "comment":
+                self.comment_notes.append(self.box(elem, "comment"))
+            elif role is None:  # texts, class boxes, generic boxes: not part of a state machine
+                self.ignored.append((self.box(elem, "ignored"), self._ignored_reason(elem)))
+            else:
+                self._add_box(elem, role)
+
+    def _sizeless(self, elem: RawElement) -> None:
+        """A box of no size is ignored; one that would be part of the machine is said."""
+        kind = elem.kind
+        if _is_state(elem) or kind in _FRAME_KINDS or kind == "UMLSpecialState" or (
+                self.class_states and _is_class(elem)) or (elem.old and kind in _SPECIAL_OLD):
+            self.problem(elem, f"the box has no size (w={num(elem.w)}, h={num(elem.h)}), so it is ignored",
+                         hint="give it a size in UMLet (drag its corner), or delete it")
+        self.ignored.append((self.box(elem, "ignored"), "it has no size"))
+
+    def _role(self, elem: RawElement) -> str | None:
+        """state, frame, note, a pseudostate's kind (or unsupported), comment, relation; ``None``: ignored."""
+        kind = elem.kind
+        if _is_state(elem) or (self.class_states and _is_class(elem)):
+            return "state"
+        if kind in _FRAME_KINDS:
+            return "frame"
+        if kind in _NOTE_KINDS_NEW or (elem.old and kind in _NOTE_KINDS_OLD):
+            return "note" if T.is_machine_note(elem.text) else "comment"
+        if kind == "UMLSpecialState" or (elem.old and kind in _SPECIAL_OLD):
+            special = T.special_kind(elem.text)[0] if kind == "UMLSpecialState" else _SPECIAL_OLD[kind]
+            return special if special in _SUPPORTED_SPECIAL else "unsupported"
+        if kind == "Relation":
+            return "relation"
+        return None
+
+    @staticmethod
+    def _ignored_reason(elem: RawElement) -> str:
+        if _is_class(elem):
+            return "class boxes are states only in a diagram without UMLState boxes, and this one has UMLState boxes"
+        return f"a {elem.kind} is not part of a state machine"
+
+    def _add_box(self, elem: RawElement, role: str) -> None:
+        box = self.box(elem, role)
+        box.container = role in ("state", "frame")
+        self.boxes.append(box)
+        if role == "unsupported":
+            special = T.special_kind(elem.text)[0] if elem.kind == "UMLSpecialState" else _SPECIAL_OLD[elem.kind]
+            self.problem(elem, f"'{special}' pseudostates are not supported",
+                         hint="use states and transitions with guards (types) instead; "
+                              "only type=initial and type=final are understood")
 
     def box(self, elem: RawElement, role: str) -> Box:
         """The element's rectangle at zoom 10, as UMLet computes it for sticking."""

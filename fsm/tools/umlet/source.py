@@ -120,83 +120,102 @@ def _parser_kwargs() -> dict[str, Any]:
                 remove_pis=True, dtd_validation=False)
 
 
-def parse_xml(raw: bytes, name: str) -> RawDiagram:
-    from lxml import etree  # lazily: `fsmctl validate` on JSON never imports lxml
+class _XmlElements:
+    """What one pass over a UMLet file's XML events collects: the root's tag, the zoom level and the elements (one
+    :class:`RawElement` per ``<element>``, a blank one for an element with problems) with their source lines."""
 
-    _refuse_doctype(raw, name)
-    import io
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self.elements: list[RawElement] = []
+        self.zoom_text: str | None = None
+        self.zoom_line: int | None = None
+        self.root_tag: str | None = None
+        self.problems: list[Problem] = []
+        self.sourcelines: list[int | None] = []
 
-    elements: list[RawElement] = []
-    zoom_text: str | None = None
-    zoom_line: int | None = None
-    root_tag: str | None = None
-    problems: list[Problem] = []
-    sourcelines: list[int | None] = []
-    depth = 0
-    try:
-        context = etree.iterparse(io.BytesIO(raw), events=("start", "end"), **_parser_kwargs())
+    def read(self, context: Any) -> None:
+        depth = 0
         for event, el in context:
             if event == "start":
                 depth += 1
                 if depth == 1:
-                    root_tag = el.tag
-                    if el.tag != "diagram":
-                        raise fail(name, f"not a UMLet diagram: the root element is <{el.tag}>, not <diagram>",
-                                   el.sourceline, 1)
+                    self.root(el)
                 continue
             depth -= 1
             if depth == 1:
-                if el.tag == "zoom_level":
-                    zoom_text = el.text
-                    zoom_line = el.sourceline
-                elif el.tag == "element":
-                    if len(elements) >= MAX_ELEMENTS:
-                        raise fail(name, f"more than {MAX_ELEMENTS} elements; refusing to read further",
-                                   el.sourceline)
-                    index = len(elements)
-                    sourcelines.append(el.sourceline)
-                    elem = _xml_element(el, index, name, problems)
-                    if elem is not None:
-                        elements.append(elem)
-                    else:
-                        elements.append(RawElement(index, "", False, 0, 0, 0, 0, "", None))
+                self.child(el)
                 el.clear()
                 # drop already processed siblings so memory stays bounded on huge files
                 parent = el.getparent()
                 if parent is not None:
                     while el.getprevious() is not None:
                         del parent[0]
+
+    def root(self, el: Any) -> None:
+        self.root_tag = el.tag
+        if el.tag != "diagram":
+            raise fail(self.name, f"not a UMLet diagram: the root element is <{el.tag}>, not <diagram>",
+                       el.sourceline, 1)
+
+    def child(self, el: Any) -> None:
+        """A child of ``<diagram>``: the zoom level, or an element."""
+        if el.tag == "zoom_level":
+            self.zoom_text = el.text
+            self.zoom_line = el.sourceline
+        elif el.tag == "element":
+            if len(self.elements) >= MAX_ELEMENTS:
+                raise fail(self.name, f"more than {MAX_ELEMENTS} elements; refusing to read further", el.sourceline)
+            index = len(self.elements)
+            self.sourcelines.append(el.sourceline)
+            elem = _xml_element(el, index, self.name, self.problems)
+            self.elements.append(elem if elem is not None else RawElement(index, "", False, 0, 0, 0, 0, "", None))
+
+
+def _syntax_failure(exc: Any, name: str) -> DiagramError:
+    """lxml's complaint about XML that is not well-formed, located."""
+    line, col = (exc.position if exc.position else (None, None))
+    msg = str(exc.msg or exc)
+    msg = re.sub(r",? line \d+, column \d+$", "", msg)
+    if "huge" in msg.lower():
+        msg += " (text nodes are limited to 10 MB)"
+    return fail(name, f"not well-formed XML: {msg}", line, (col or 0) + 1 if col is not None else None,
+                hint="is this a UMLet .uxf file?")
+
+
+def parse_xml(raw: bytes, name: str) -> RawDiagram:
+    from lxml import etree  # lazily: `fsmctl validate` on JSON never imports lxml
+
+    _refuse_doctype(raw, name)
+    import io
+
+    found = _XmlElements(name)
+    try:
+        found.read(etree.iterparse(io.BytesIO(raw), events=("start", "end"), **_parser_kwargs()))
     except DiagramError:
         raise
     except etree.XMLSyntaxError as exc:
-        line, col = (exc.position if exc.position else (None, None))
-        msg = str(exc.msg or exc)
-        msg = re.sub(r",? line \d+, column \d+$", "", msg)
-        if "huge" in msg.lower():
-            msg += " (text nodes are limited to 10 MB)"
-        raise fail(name, f"not well-formed XML: {msg}", line, (col or 0) + 1 if col is not None else None,
-                   hint="is this a UMLet .uxf file?") from None
+        raise _syntax_failure(exc, name) from None
     except (ValueError, MemoryError) as exc:  # lxml raises ValueError for some invalid input
         raise fail(name, f"cannot parse XML: {exc}") from None
-    if root_tag is None:
+    if found.root_tag is None:
         raise fail(name, "not a UMLet diagram: no <diagram> root element", 1, 1)
-    positions = _element_positions(raw, sourcelines)
-    for elem in elements:
+    positions = _element_positions(raw, found.sourcelines)
+    for elem in found.elements:
         elem.line, elem.column = positions[elem.index]
-    for p in problems:
+    for p in found.problems:
         if p.line is None and p.pointer.startswith("#"):
             p.line, p.column = positions[int(p.pointer[1:])]
             p.pointer = ""
-    if problems:
-        raise DiagramError(problems)
-    elements = [e for e in elements if e.kind]
-    zoom = _zoom(zoom_text, name, zoom_line)
+    if found.problems:
+        raise DiagramError(found.problems)
+    elements = [e for e in found.elements if e.kind]
+    zoom = _zoom(found.zoom_text, name, found.zoom_line)
     if not elements:
         raise fail(name, "the <diagram> has no elements: draw states and transitions in UMLet", 1, 1)
     text = None
     if len(raw) <= 8_000_000:
         text = raw.decode("utf-8", "replace")
-    return RawDiagram(name, zoom, elements, text=text, zoom_line=zoom_line)
+    return RawDiagram(name, zoom, elements, text=text, zoom_line=found.zoom_line)
 
 
 def _element_positions(raw: bytes, sourcelines: list[int | None]) -> list[tuple[int | None, int | None]]:

@@ -582,3 +582,52 @@ def test_the_layer_checks_find_a_cycle_and_an_upward_import(tmp_path: Path) -> N
     assert upward_imports(graph, ["model", "runtime", "fsm"]) == ["fsm.model.a -> fsm.runtime.b"]
     assert cycles(graph) == [["fsm.model.a", "fsm.runtime.b"]]
     assert layer_order("x\n**Layer order** (lowest first): `schema` → `model` → `fsm`\n") == ["schema", "model", "fsm"]
+
+
+# -- the tools' layer order: the same import graph over fsm/tools ------------------------------------------------
+
+TOOLS_DIR = CORE_DIR / "tools"
+
+
+def tools_order(text: str) -> list[str]:
+    """The packages of ``fsm/tools``, lowest first, from the ``**Tools order**`` line of docs/architecture.md."""
+    import re
+
+    found = re.search(r"^\*\*Tools order\*\*[^:\n]*:(.*)$", text, re.M)
+    assert found, "docs/architecture.md has no **Tools order** line"
+    return [re.sub(r"[`.\s]", "", part) for part in found.group(1).split("→")]
+
+
+def tools_graph() -> dict[str, dict[str, bool]]:
+    """module -> {imported module: type only} over the modules of fsm/tools (imports of the core left out)."""
+    graph = import_graph(CORE_DIR, ["tools"])
+    graph.pop("fsm")
+    return {m: {t: only for t, only in edges.items() if t != "fsm"} for m, edges in graph.items()}
+
+
+def tools_package(module: str) -> str:
+    """``fsm.tools.cli.run`` -> ``cli``; ``fsm.tools.files`` -> ``files``; the package itself -> ``tools``."""
+    parts = module.split(".")
+    return parts[2] if len(parts) > 2 else "tools"
+
+
+def test_the_tools_order_names_every_package() -> None:
+    order = tools_order(CORE_LAYERS_DOC.read_text(encoding="utf-8"))
+    found = {tools_package(m) for m in tools_graph()}
+    assert sorted(found - set(order)) == [], "tools packages missing from the **Tools order** line"
+    assert order.index("runs") < min(order.index(p) for p in ("cli", "live", "ros"))
+
+
+def test_no_tools_module_imports_a_higher_package() -> None:
+    """Every import counts (at the top, inside a function, under TYPE_CHECKING), as for the core."""
+    order = tools_order(CORE_LAYERS_DOC.read_text(encoding="utf-8"))
+    rank = {p: i for i, p in enumerate(order)}
+    upward = sorted(f"{a} -> {b}" for a, edges in tools_graph().items() for b in edges
+                    if rank[tools_package(b)] > rank[tools_package(a)])
+    assert upward == []
+
+
+def test_no_import_cycle_in_tools() -> None:
+    graph = tools_graph()
+    assert len(graph) > 80
+    assert cycles(graph) == []

@@ -23,6 +23,9 @@ from fsm.model.jsonpos import pointer
 from fsm.model.params import Int, ParamsBase
 from fsm.session.session import NEVER, ticks_for
 
+from .paths import active_matches as active_matches
+from .paths import state_matches as state_matches
+
 #: Runs longer than this many ticks are refused (the limit of ``fsmctl run`` without ``--max-ticks``).
 MAX_TICKS = 10_000_000
 #: Length of a run whose scenario gives neither ``duration`` nor ``max_ticks`` (as ``fsmctl run``), seconds.
@@ -946,18 +949,6 @@ def _count_problems(c: Any, name: str, ptr: str, label: str) -> list[Problem]:
     if c.min is not None and c.max is not None and c.min > c.max:
         return [Problem(f"'min' {c.min} is greater than 'max' {c.max}", name, ptr, element=label)]
     return []
-
-
-def state_matches(item: str, path: str) -> bool:
-    """A state id or path written in a scenario names the state at ``path``: equal, or its last segments."""
-    item = item.strip("/")
-    return path == item or path.endswith("/" + item)
-
-
-def active_matches(prefix: str, path: str) -> bool:
-    """An ``active`` entry matches an active leaf path: equal, or a prefix ending at a '/'."""
-    prefix = prefix.strip("/")
-    return path == prefix or path.startswith(prefix + "/")
 
 
 def _world_problems(spec: Any, world_path: Path | None, machine_path: Path, base: Path, name: str) -> list[Problem]:

@@ -224,7 +224,7 @@ def state_argument(node: Node) -> str | None:
 
 def matching_paths(name: str, paths: list[str]) -> list[str]:
     """The state paths ``name`` matches: by id or the end of the path; ``X/*`` every state below X."""
-    from .model import state_matches
+    from .paths import state_matches
 
     if name.endswith("/*"):
         bases = [p for p in paths if state_matches(name[:-2], p)]

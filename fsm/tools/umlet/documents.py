@@ -15,8 +15,8 @@ from typing import Any
 
 from . import text as T
 from .geometry import Box
-from .scene import Level, Scene, StateBox, num, where
-from .source import RawElement
+from .scene import Level, Scene, StateBox
+from .source import RawElement, num, where
 
 #: The order of a machine's own keys in a document.
 _MACHINE_ORDER = ("$schema", "name", "description", "vars", "inputs", "initial", "states", "transitions", "layout")

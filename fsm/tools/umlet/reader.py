@@ -56,8 +56,8 @@ from fsm.model.errors import DiagramError, Problem
 
 from .documents import Documents
 from .relations import Relations
-from .scene import Scene, describe, where
-from .source import RawDiagram, RawElement, read_raw
+from .scene import Scene
+from .source import RawDiagram, RawElement, describe, read_raw, where
 
 __all__ = ["Converted", "PRESELECTED", "convert_bytes", "convert_file", "convert_raw", "describe", "read_uxf",
            "several_machines_problem", "where"]

@@ -14,8 +14,8 @@ from typing import Any, NamedTuple
 
 from . import text as T
 from .geometry import LENIENT, Attacher, Attachment, Box
-from .scene import Level, Marker, Scene, StateBox, describe, num, where
-from .source import RawElement
+from .scene import Level, Marker, Scene, StateBox
+from .source import RawElement, describe, num, where
 
 
 class Attached(NamedTuple):

@@ -16,7 +16,7 @@ from fsm.model.errors import Problem
 
 from . import text as T
 from .geometry import Box, nest
-from .source import RawDiagram, RawElement
+from .source import RawDiagram, RawElement, describe, num, where
 
 _STATE_KINDS_NEW = {"UMLState"}
 _STATE_KINDS_OLD = {"State", "StateSubDiagram", "SendSignal", "ReceiveSignal"}
@@ -35,24 +35,6 @@ _NOTE_TEXT_KEYS = {"name", "$schema", "description"}
 
 
 # -- describing elements ---------------------------------------------------------------------------------------
-def where(elem: RawElement) -> str:
-    return f"x={num(elem.x)}, y={num(elem.y)}"
-
-
-def num(v: float) -> Any:
-    return int(v) if float(v).is_integer() else round(v, 3)
-
-
-def describe(elem: RawElement) -> str:
-    label = elem.first_line
-    if elem.kind == "Relation":
-        rel = T.parse_relation(elem.text)
-        label = " ".join(ln.strip() for ln in rel.label_lines if ln.strip())
-        label = (f"lt={rel.lt}" + (f" {label}" if label else "")) if rel.lt else label
-    label = label if len(label) <= 40 else label[:37] + "..."
-    return f"{elem.kind} '{label}' at {where(elem)}" if label else f"{elem.kind} at {where(elem)}"
-
-
 # -- the scene -----------------------------------------------------------------------------------------------
 @dataclass(eq=False)
 class StateBox:

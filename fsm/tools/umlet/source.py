@@ -18,6 +18,8 @@ from typing import Any
 
 from fsm.model.errors import DiagramError, Problem
 
+from . import text as T
+
 #: Relation points and coordinates beyond this are refused (far beyond any diagram; keeps arithmetic sane).
 MAX_COORDINATE = 1e9
 #: More elements than this are refused (a 50 MB diagram holds ~200k; this is a guard, not a design size).
@@ -301,8 +303,6 @@ def _make_element(index: int, kind: Any, old: bool, coords: Any, text: Any, extr
     def problem(message: str, hint: str | None = None) -> None:
         line, col = where()
         if len(at) == 2:
-            from .scene import describe
-
             element = describe(RawElement(index, str(kind), old, at[0], at[1], 0, 0,
                                           text.replace("\r\n", "\n") if isinstance(text, str) else "", None))
         else:
@@ -418,3 +418,22 @@ def parse_xml2json(raw: bytes, name: str) -> RawDiagram:
         line, col = at("/diagram")
         raise fail(name, "the <diagram> has no elements: draw states and transitions in UMLet", line, col)
     return RawDiagram(name, zoom, elements, text=text, locate_json=locator)
+
+
+# -- naming elements in messages ----------------------------------------------------------------------------
+def where(elem: RawElement) -> str:
+    return f"x={num(elem.x)}, y={num(elem.y)}"
+
+
+def num(v: float) -> Any:
+    return int(v) if float(v).is_integer() else round(v, 3)
+
+
+def describe(elem: RawElement) -> str:
+    label = elem.first_line
+    if elem.kind == "Relation":
+        rel = T.parse_relation(elem.text)
+        label = " ".join(ln.strip() for ln in rel.label_lines if ln.strip())
+        label = (f"lt={rel.lt}" + (f" {label}" if label else "")) if rel.lt else label
+    label = label if len(label) <= 40 else label[:37] + "..."
+    return f"{elem.kind} '{label}' at {where(elem)}" if label else f"{elem.kind} at {where(elem)}"

@@ -125,6 +125,19 @@ def test_bad_formulas_are_located_with_suggestions_and_nothing_runs(tmp_path: Pa
     assert "/expect/4/always" in found[4] and "expected a value" in found[4]
 
 
+def test_a_formula_error_points_at_its_character_as_in_a_machine_document(tmp_path: Path) -> None:
+    """Scenario problems take the machine documents' located-problems path (fsm.model.problems.Problems): an
+    error inside a formula is placed at its character in the JSON string, not at the key."""
+    sc = tmp_path / "t.scenario.json"
+    (tmp_path / "m.json").write_text(json.dumps(MACHINE), encoding="utf-8")
+    sc.write_text('{"machine": "m.json",\n "expect": [{"always": "n >= 0 and actve(d)"}]}\n', encoding="utf-8")
+    with pytest.raises(DiagramError) as info:
+        load_scenario(sc)
+    (problem,) = info.value.problems
+    line = sc.read_text(encoding="utf-8").splitlines()[1]
+    assert (problem.line, problem.column) == (2, line.index("actve") + 1), str(problem)
+
+
 def test_keys_that_do_not_go_together_are_located(tmp_path: Path) -> None:
     found = problems(tmp_path, {"always": "n >= 0", "count": 2}, {"never": "n > 5", "until": "active(d)"},
                      {"always": "n >= 0", "never": "n > 5"}, {"eventually": "n > 0", "ticks": 3},

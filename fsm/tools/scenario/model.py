@@ -14,7 +14,7 @@ import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any, Literal, NamedTuple, Union
+from typing import TYPE_CHECKING, Annotated, Any, Literal, NamedTuple, Union
 
 from pydantic import Discriminator, Field, Tag, ValidationError
 
@@ -25,6 +25,9 @@ from fsm.session.session import NEVER, ticks_for
 
 from .paths import active_matches as active_matches
 from .paths import state_matches as state_matches
+
+if TYPE_CHECKING:
+    from fsm.model.document import Source
 
 #: Runs longer than this many ticks are refused (the limit of ``fsmctl run`` without ``--max-ticks``).
 MAX_TICKS = 10_000_000
@@ -580,7 +583,7 @@ def load_scenario(file: str | Path, plugins: tuple[str, ...] = (), max_runs: int
     ``plugins`` (from ``fsmctl --plugin``) are loaded besides the scenario's own; ``max_runs`` (``--max-runs``)
     lets a matrix expand to more than :data:`MAX_RUNS` cases.
     """
-    from fsm.loading.reading import parse_json_bytes, place, read_file_bytes
+    from fsm.loading.reading import parse_json_bytes, read_file_bytes
 
     name = str(file)
     path = Path(file)
@@ -618,7 +621,7 @@ def load_scenario(file: str | Path, plugins: tuple[str, ...] = (), max_runs: int
             problems.append(_missing_machine(path.parent / scenario.machine, name))
     if problems:
         errors = [p for p in problems if p.severity == "error"]
-        place([p for p in problems if p.file == name], source.locator)
+        _locate(problems, name, source)
         if errors:
             raise DiagramError(sorted(problems, key=lambda p: (p.file != name, p.file or "", p.line or 0,
                                                                p.column or 0)))
@@ -626,6 +629,16 @@ def load_scenario(file: str | Path, plugins: tuple[str, ...] = (), max_runs: int
     loaded.positions = source.locator(_element_pointers(loaded.scenario))
     loaded.warnings = [p for p in problems if p.severity != "error"]
     return loaded
+
+
+def _locate(problems: list[Problem], name: str, source: Source) -> None:
+    """Line and column for the scenario file's own problems by the located-problems path machine documents take
+    (:class:`fsm.model.problems.Problems`): an error in a formula points at its character in the JSON string."""
+    from fsm.model.problems import Problems
+
+    found = Problems()
+    found.extend([p for p in problems if p.file == name and p.line is None], source)
+    found.located()
 
 
 def _element_pointers(scenario: Scenario) -> set[str]:
@@ -874,7 +887,7 @@ def _invariant_parse_problems(exp: InvariantExpect, name: str, ptr: str, label: 
         parse(exp.invariant, TEMPORAL_FUNCTIONS)
     except ExprError as exc:
         return [Problem(f"the invariant does not parse: {exc}", name, ptr + "/invariant", element=label,
-                        hint="e.g. \"x >= 0 and not signal_estop\"")]
+                        hint="e.g. \"x >= 0 and not signal_estop\"", expr_column=exc.column)]
     return []
 
 
@@ -1114,10 +1127,10 @@ def _invariant_problems(scenario: Scenario, spec: Any, signals: set[str], car: b
                     compiled[i, key] = formula
             except FormulaError as exc:
                 problems.append(Problem(f"{key}: {exc}", name, pointer("expect", i, key), element=f"expectation {i}",
-                                        hint=exc.hint))
+                                        hint=exc.hint, expr_column=exc.column))
             except ExprError as exc:
                 problems.append(Problem(f"{key}: {exc}", name, pointer("expect", i, key), element=f"expectation {i}",
-                                        hint="e.g. \"x >= 0 and not active(stopped)\""))
+                                        hint="e.g. \"x >= 0 and not active(stopped)\"", expr_column=exc.column))
     return problems
 
 

@@ -348,22 +348,11 @@ class TemporalRun:
 
     def step(self, machine: Machine, rec: Recording, tick: int, moved: bool) -> None:
         """After each tick: read what the formulas use, and step the watches whose inputs changed."""
-        changed = self._levels(machine.ctx, tick)
         now = self.now
-        if not (changed or moved or self.forced or self.every_tick or len(rec.var_changes) != self._var_changes
-                or len(rec.monitors) != self._monitors or len(rec.pauses) != self._pauses or now.fired
-                or tick in self.firsts):
-            return
-        now.tick = tick
-        self._gather(machine.ctx, rec, moved, changed)
-        self._step_watches(tick, changed)
-
-    def _levels(self, ctx: Context, tick: int) -> set[str]:
-        """The signals' levels and the watched states' outcomes: the names among them that changed."""
         values = self.values
         changed: set[str] = set()
         if self.signals:
-            signals = ctx.signals
+            signals = machine.ctx.signals
             for name, signal in self.signals:
                 level = signals.get(signal, False)
                 if values.get(name) is not level:
@@ -375,9 +364,28 @@ class TemporalRun:
                 key = (st.entered_at, outcome)
                 if self._outcome_keys.get(path) != key:
                     self._outcome_keys[path] = key
-                    self.now.outcomes[path] = (tick, outcome)
+                    now.outcomes[path] = (tick, outcome)
                     changed.add("@outcome")
-        return changed
+        if not (changed or moved or self.forced or self.every_tick or len(rec.var_changes) != self._var_changes
+                or len(rec.monitors) != self._monitors or len(rec.pauses) != self._pauses or now.fired
+                or tick in self.firsts):
+            return
+        now.tick = tick
+        self._gather(machine.ctx, rec, moved, changed)
+        at = self.at
+        forced = every = False
+        for w in self.watches:  # each open watch whose inputs changed, or that steps every tick
+            if w.done:
+                continue
+            busy = w.after is None or bool(w.open)
+            dirty = bool(changed) and not (w.deps if busy else w.idle_deps).isdisjoint(changed)
+            if dirty or w.force or tick == w.first or (w.every_tick if busy else w.idle_every):
+                w.step(tick, now, values, at)
+                w.force = dirty and w.transient
+                forced = forced or w.force
+                every = every or (w.every_tick if w.after is None or w.open else w.idle_every)
+        self.forced = forced
+        self.every_tick = every or bool(self.car)
 
     def _gather(self, ctx: Context, rec: Recording, moved: bool, changed: set[str]) -> None:
         """Variables, car readings, entries, monitor firings, pauses and active states into :attr:`now` and
@@ -392,9 +400,25 @@ class TemporalRun:
                 value = getattr(ctx.car, reading, None)
                 if isinstance(value, (int, float)):
                     values[name] = value
+        now = self.now
         if self.need_entries:
-            self._entries_of(rec, changed)
-        self._firings_of(rec, changed)
+            entries = rec.entries
+            if len(entries) != self._entries:
+                new = range(self._entries, len(entries))
+                now.entered = frozenset(entries[k].path for k in new if k not in rec.skipped)
+                now.skipped = frozenset(entries[k].path for k in new if k in rec.skipped)
+                self._entries = len(entries)
+                changed.add("@entries")
+            elif now.entered or now.skipped:
+                now.entered = now.skipped = frozenset()
+                changed.add("@entries")
+        if len(rec.monitors) != self._monitors:
+            now.fired = frozenset(f.owner for f in rec.monitors[self._monitors:])
+            self._monitors = len(rec.monitors)
+            changed.add("@fired")
+        elif now.fired:
+            now.fired = frozenset()
+            changed.add("@fired")
         if len(rec.pauses) != self._pauses:
             self._pauses = len(rec.pauses)
             changed.add("@paused")
@@ -403,48 +427,6 @@ class TemporalRun:
             self.now.active = frozenset("/".join(p.split("/")[:k]) for p in self._active.paths
                                         for k in range(1, p.count("/") + 2))
             changed.add("@active")
-
-    def _entries_of(self, rec: Recording, changed: set[str]) -> None:
-        """The states entered (and skipped) in this tick."""
-        now = self.now
-        entries = rec.entries
-        if len(entries) != self._entries:
-            new = range(self._entries, len(entries))
-            now.entered = frozenset(entries[k].path for k in new if k not in rec.skipped)
-            now.skipped = frozenset(entries[k].path for k in new if k in rec.skipped)
-            self._entries = len(entries)
-            changed.add("@entries")
-        elif now.entered or now.skipped:
-            now.entered = now.skipped = frozenset()
-            changed.add("@entries")
-
-    def _firings_of(self, rec: Recording, changed: set[str]) -> None:
-        """The owners of the monitors that fired in this tick."""
-        now = self.now
-        if len(rec.monitors) != self._monitors:
-            now.fired = frozenset(f.owner for f in rec.monitors[self._monitors:])
-            self._monitors = len(rec.monitors)
-            changed.add("@fired")
-        elif now.fired:
-            now.fired = frozenset()
-            changed.add("@fired")
-
-    def _step_watches(self, tick: int, changed: set[str]) -> None:
-        """Step each open watch whose inputs changed (or that steps every tick)."""
-        now, values, at = self.now, self.values, self.at
-        forced = every = False
-        for w in self.watches:
-            if w.done:
-                continue
-            busy = w.after is None or bool(w.open)
-            dirty = bool(changed) and not (w.deps if busy else w.idle_deps).isdisjoint(changed)
-            if dirty or w.force or tick == w.first or (w.every_tick if busy else w.idle_every):
-                w.step(tick, now, values, at)
-                w.force = dirty and w.transient
-                forced = forced or w.force
-                every = every or (w.every_tick if w.after is None or w.open else w.idle_every)
-        self.forced = forced
-        self.every_tick = every or bool(self.car)
 
 
 def make_temporal(loaded: LoadedScenario, machine: Machine, signals: tuple[str, ...]) -> TemporalRun | None:

@@ -39,6 +39,8 @@ EXPECT = [{"always": "active(a) or active(b)"}, {"eventually": "entered(b)"},
 
 PROBE = r'''
 import sys
+import fsm
+assert fsm.__file__.startswith(sys.argv[2]), f"imported {fsm.__file__}, not the tree under {sys.argv[2]}"
 from fsm.tools.scenario import load_scenario, run_scenario
 result = run_scenario(load_scenario(sys.argv[1]))
 assert result.passed, [f.message for f in result.failures]
@@ -54,15 +56,14 @@ def write_scenario(folder: Path, seconds: int) -> Path:
 
 
 def instructions(scenario: Path, tree: Path | None) -> int:
-    env = dict(os.environ, PYTHONHASHSEED="0")
-    code = PROBE
-    if tree is not None:  # the base's fsm must win over this checkout's editable install
+    """The instructions of checking ``scenario`` in a fresh interpreter, with this checkout's ``fsm`` or, with
+    ``tree``, the exported one (``PYTHONPATH`` comes before the editable install's plain path entry)."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env["PYTHONHASHSEED"] = "0"
+    if tree is not None:
         env["PYTHONPATH"] = str(tree)
-        code = ("import sys\nsys.meta_path[:] = [f for f in sys.meta_path if 'editable' not in "
-                "type(f).__module__.lower()]\n" + code)
-    else:
-        env.pop("PYTHONPATH", None)
-    return callgrind(["-c", code, str(scenario)], env, tree or REPO, f"{scenario.name} on {tree or 'this checkout'}")
+    root = tree or REPO
+    return callgrind(["-c", PROBE, str(scenario), str(root)], env, root, f"{scenario.name} on {root}")
 
 
 def per_tick(folder: Path, tree: Path | None) -> float:

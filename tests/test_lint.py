@@ -62,3 +62,48 @@ def test_complexity_exceptions_are_only_the_temporary_ones() -> None:
     assert not [p for p in let_off if p.startswith(("fsm/tools/cli", "fsm/tools/scenario", "fsm/tools/umlet",
                                                     "fsm/tools/sweep", "fsm/tools/recording", "fsm/tools/report",
                                                     "fsm/tools/runs", "fsm/tools/files", "fsm/testing"))]
+
+
+#: Imports inside functions (ruff's PLC0415) are kept for these libraries and adapters only: the optional extras and
+#: heavy libraries no command line or validation may load (tests/test_startup.py's HEAVY), and the adapters that
+#: load them (fsm.sim: pymunk; fsm.vision: OpenCV; fsm.ros: the ROS 2 extras).
+LAZY_MODULES = ("cv2", "numpy", "pymunk", "lxml", "jsonschema", "aiohttp", "zenoh", "ray", "mcap", "rosbags", "rclpy",
+                "imageio_ffmpeg", "hypothesis", "pytest", "fsm.sim", "fsm.vision", "fsm.ros")
+#: ... and anywhere in these files, for the reason given.
+LAZY_FILES = {
+    "fsm/tools/cli/": "start-up: `fsmctl --help` builds every command's parser, and each command imports what it "
+                      "runs only when it runs (tests/test_startup.py counts the modules)",
+    "fsm/tools/runs/": "start-up: every command imports runs.args (through cli/common) to parse its command line",
+    "fsm/tools/sweep/backends.py": "the Ray extra, and the process pool, only for the backend the sweep uses",
+    "fsm/tools/sweep/worker.py": "imported by each pool process as it starts: a run's machinery loads with its first "
+                                 "job",
+    "fsm/testing/": "the pytest plugin is imported by every pytest run once tral-fsm is installed: the scenario "
+                    "runner loads only when a test uses it",
+    # TEMPORARY (issue 31, removed at merge): packages other branches are changing this round.
+    "fsm/tools/graph/": "temporary: another branch's area this round",
+    "fsm/tools/live/": "the live extra; temporary: another branch's area this round",
+    "fsm/tools/ros/": "the ROS 2 extras; temporary: another branch's area this round",
+}
+
+
+def test_imports_inside_functions_only_for_optional_extras() -> None:
+    """In fsm/tools and fsm/testing an import sits at the top of its module unless it loads an optional extra or a
+    heavy library (:data:`LAZY_MODULES`) or its file is on the short list :data:`LAZY_FILES`, which says why."""
+    import json
+    import re
+
+    done = ruff("--select", "PLC0415", "--output-format", "json", "fsm/tools", "fsm/testing")
+    found = json.loads(done.stdout)
+    assert found, done.stderr  # the rule runs (the lists below are in use)
+    statement = re.compile(r"^\s*(?:from\s+(\S+)\s+import|import\s+(\S+))")
+    offenders = []
+    for item in found:
+        path = Path(item["filename"]).resolve().relative_to(ROOT).as_posix()
+        if path.startswith(tuple(LAZY_FILES)):
+            continue
+        line = Path(item["filename"]).read_text(encoding="utf-8").splitlines()[item["location"]["row"] - 1]
+        match = statement.match(line)
+        module = (match.group(1) or match.group(2)) if match else ""
+        if not any(module == m or module.startswith(m + ".") for m in LAZY_MODULES):
+            offenders.append(f"{path}:{item['location']['row']}: {line.strip()}")
+    assert offenders == [], "import these at the top of the module:\n" + "\n".join(offenders)

@@ -14,14 +14,17 @@
 
 from __future__ import annotations
 
+import atexit
 import errno
 import os
 import pathlib
 import re
 import shutil
+import signal
 import stat
 import sys
 import tempfile
+import threading
 from collections.abc import Iterable
 from typing import IO, Any
 
@@ -514,10 +517,6 @@ def track_temporary(path: str) -> None:
     """Remember a temporary output file until it is committed or discarded; while any is open, a signal that
     would end the process at once (SIGTERM, SIGHUP; SIGINT where nothing handles it) first removes them.
     A handler a command installed itself (``fsmctl run`` stops between ticks) is left alone."""
-    import atexit
-    import signal
-    import threading
-
     if _OWNER[0] != os.getpid():
         _TEMPORARY.clear()
         _OWNER[0] = os.getpid()
@@ -548,8 +547,6 @@ def remove_temporary_files() -> None:
 
 def _end_by_signal(signum: int, frame: Any) -> None:
     """Remove the temporary files, then end the process by the same signal, as it would have ended without us."""
-    import signal
-
     remove_temporary_files()
     signal.signal(signum, signal.SIG_DFL)
     os.kill(os.getpid(), signum)

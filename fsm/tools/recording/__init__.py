@@ -8,6 +8,9 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+from fsm.model.errors import printable
+from fsm.trace.recorder import Recorder
+
 from .document import header_document
 
 if TYPE_CHECKING:
@@ -25,8 +28,6 @@ def run_recorder(stream: SupportsWrite[str] | None, file: str, car: Any = None, 
     bare :class:`~fsm.trace.recorder.Recorder` (summary only) when ``stream`` is ``None``. ``document``: the header's
     machine
     document when the caller already has it (else read again from ``file``)."""
-    from fsm.trace.recorder import Recorder
-
     if stream is None:
         return Recorder()
     header: dict[str, Any] = {"source": file,
@@ -59,8 +60,6 @@ def end_lines(file: str, machine: Any, recorder: Any, *, interrupted: bool = Fal
     """What a command says when a run ended (``fsmctl run``, with ``--live`` and ``--ros``): the outcome, the ticks,
     the time and the transitions (``where``: on what it ran, after the time; ``note``: said with "interrupted"), the
     states visited, and the active one when it did not finish. Terminal-safe (control characters escaped)."""
-    from fsm.model.errors import printable
-
     status = f"outcome {machine.outcome}" if machine.finished else "not finished"
     if interrupted:
         status += f" (interrupted{note})"

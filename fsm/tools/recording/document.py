@@ -8,6 +8,10 @@ import copy
 from pathlib import Path
 from typing import Any
 
+from fsm.loading.reading import preloaded, reader_for
+from fsm.model.document import normalize_legacy
+from fsm.model.errors import DiagramError
+
 from ..graph.includes import read_include
 
 #: Includes nested deeper than this stay references (the loader refused such a machine anyway).
@@ -17,10 +21,6 @@ MAX_DEPTH = 16
 def header_document(file: str, preloaded_files: dict[str, Any] | None = None) -> dict[str, Any] | None:
     """The document of ``file`` (``<stdin>`` when preloaded) with its includes inlined; ``None`` if it cannot be
     read again (the run still writes its trace, without a drawing)."""
-    from fsm.loading.reading import preloaded, reader_for
-    from fsm.model.document import normalize_legacy
-    from fsm.model.errors import DiagramError
-
     try:
         with preloaded(preloaded_files or {}):
             data, source = reader_for(Path(file))(Path(file))

@@ -13,8 +13,13 @@ from html import escape
 from importlib import resources
 from typing import Any
 
+import fsm
+from fsm import __version__
+from fsm.loading.loader import uses_car
 from fsm.trace.replay import Trace
 
+from ..graph import svg
+from ..scenario.coverage import Coverage
 from .model import build_model
 
 __all__ = ["build_model", "report_html"]
@@ -38,7 +43,6 @@ def chart_svg(trace: Trace, warnings: list[str]) -> str:
         if trace.version >= 2:
             warnings.append("the trace carries no machine document: no statechart")
         return ""
-    from ..graph import svg
 
     try:
         drawing: str = svg(doc)
@@ -54,13 +58,8 @@ def coverage_of(trace: Trace, warnings: list[str]) -> Any:
     doc = trace.header.get("machine")
     if not isinstance(doc, dict):
         return None
-    import fsm
-
-    from ..scenario.coverage import Coverage
 
     try:
-        from fsm.loading.loader import uses_car
-
         car = None
         if uses_car(fsm.check(doc)[0]):  # only its structure is needed: a car with nothing behind it
             from fsm.sim.fake import FakeCar
@@ -109,8 +108,6 @@ def coverage_section(cov: Any) -> str:
 
 def report_html(trace: Trace) -> str:
     """The report page of ``trace``, as text (UTF-8 when written)."""
-    from fsm import __version__
-
     model = build_model(trace)
     chart = chart_svg(trace, model["meta"]["warnings"])
     coverage = coverage_section(coverage_of(trace, model["meta"]["warnings"]))

@@ -12,6 +12,8 @@ import math
 from itertools import pairwise
 from typing import Any, TypedDict
 
+from pydantic import ValidationError
+
 from fsm.trace.replay import Trace, event_active
 
 #: Sample fields and how the page groups them into plots: (title, unit, [(field, label)]).
@@ -306,8 +308,6 @@ def _frame(f: dict[str, Any]) -> dict[str, Any]:
 def _map(world_doc: Any, warnings: list[str]) -> dict[str, Any] | None:
     """Walls, obstacles, gates and markers of the run's world, in metres (None, with a warning, if the world in
     the header does not load)."""
-    from pydantic import ValidationError
-
     from fsm.sim.world import World
 
     try:

@@ -6,10 +6,10 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from .model import scenario_schema_text
+
 
 def main(argv: list[str]) -> int:
-    from .model import scenario_schema_text
-
     if argv[:1] != ["--schema"] or len(argv) > 2:
         print("usage: python -m fsm.tools.scenario --schema [FILE]", file=sys.stderr)
         return 2

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from fsm.runtime.machine import Listener
+from fsm.session.session import Session, SetSignal, SetVars, StopRules, ticks_for
 
 if TYPE_CHECKING:
     from fsm.runtime.context import Context
@@ -128,8 +129,6 @@ class Explorer:
 
     def run(self, path: tuple[Action, ...]) -> tuple[_Reach, Machine]:
         """One run with the inputs of ``path`` (input k before the first tick at k * step)."""
-        from fsm.session.session import Session, SetSignal, SetVars, StopRules, ticks_for
-
         sp = self.space
         stop = StopRules(max_ticks=ticks_for(sp.duration, sp.dt))
         session = Session.open(self.plan, dt=sp.dt, stop=stop, record=False)

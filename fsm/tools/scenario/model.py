@@ -8,26 +8,45 @@ press, a state name the machine does not have, a time after the end of the run) 
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import difflib
+import itertools
 import json
 import math
 import os
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any, Literal, NamedTuple, Union
+from typing import Annotated, Any, Literal, NamedTuple, Union
 
-from pydantic import Discriminator, Field, Tag, ValidationError
+from pydantic import Discriminator, Field, Tag, TypeAdapter, ValidationError
 
-from fsm.model.errors import DiagramError, Problem
+from fsm.debug.breakpoints import CAR_READINGS
+from fsm.loading.loader import check, machine_files, signal_names, uses_car
+from fsm.loading.loader import compile as compile_spec
+from fsm.loading.reading import parse_json_bytes, read_file_bytes, reader_for
+from fsm.loading.registry import default_registry
+from fsm.model.document import Source, file_schema, problems_from_validation
+from fsm.model.errors import (
+    DiagramError,
+    FsmError,
+    Problem,
+    RegistrationError,
+    UsageError,
+    print_traceback,
+    traceback_wanted,
+)
+from fsm.model.expr import ANY, BOOL, NUMBER, ExprError, kind_of, kind_phrase, parse
 from fsm.model.jsonpos import pointer
 from fsm.model.params import Int, ParamsBase
+from fsm.model.problems import Problems
 from fsm.session.session import NEVER, ticks_for
+from fsm.states.plants import plant_problems, written_vars
 
 from .paths import active_matches as active_matches
 from .paths import state_matches as state_matches
-
-if TYPE_CHECKING:
-    from fsm.model.document import Source
+from .temporal import TEMPORAL_FUNCTIONS, FormulaError, compile_formula, formula_names
 
 #: Runs longer than this many ticks are refused (the limit of ``fsmctl run`` without ``--max-ticks``).
 MAX_TICKS = 10_000_000
@@ -401,8 +420,6 @@ SCENARIO_SCHEMA_PATH = Path(__file__).resolve().parents[2] / "schema" / "scenari
 
 def scenario_schema() -> dict[str, Any]:
     """The JSON Schema of scenario files (committed as ``fsm/schema/scenario.schema.json``)."""
-    from fsm.model.document import file_schema
-
     return file_schema(Scenario, "scenario.schema.json", "tral-fsm scenario",
                        "A scenario test for `fsmctl test`; generated from fsm.tools.scenario.model by "
                        "`python -m fsm.tools.scenario --schema`.")
@@ -493,7 +510,6 @@ def case_plan(scenario: Scenario) -> list[tuple[str | None, dict[str, Any], list
     if m.cases is not None:
         return [(c.name, dict(c.vars), list(c.inputs), c.skip or scenario.skip, c.xfail or scenario.xfail)
                 for c in m.cases]
-    import itertools
 
     names = list(m.vars or {})
     out: list[tuple[str | None, dict[str, Any], list[Any], str | None, str | None]] = []
@@ -506,8 +522,6 @@ def case_plan(scenario: Scenario) -> list[tuple[str | None, dict[str, Any], list
 def cases(loaded: LoadedScenario) -> list[LoadedScenario]:
     """The runs of a loaded scenario: itself without a matrix, else one per case (each with its own name, initial
     variables, timeline and markers)."""
-    import dataclasses
-
     out = []
     for name, values, inputs, skip, xfail in case_plan(loaded.scenario):
         scenario = loaded.scenario if not inputs else loaded.scenario.model_copy(
@@ -520,8 +534,6 @@ def cases(loaded: LoadedScenario) -> list[LoadedScenario]:
 def matrix_problems(scenario: Scenario, spec: Any, name: str, max_runs: int | None) -> list[Problem]:
     """A matrix too large for ``--max-runs``, duplicate case names, variables the machine does not have or of
     another kind, inputs after the end of the run."""
-    from fsm.model.expr import ANY, kind_of, kind_phrase
-
     m = scenario.matrix
     if m is None:
         return []
@@ -583,8 +595,6 @@ def load_scenario(file: str | Path, plugins: tuple[str, ...] = (), max_runs: int
     ``plugins`` (from ``fsmctl --plugin``) are loaded besides the scenario's own; ``max_runs`` (``--max-runs``)
     lets a matrix expand to more than :data:`MAX_RUNS` cases.
     """
-    from fsm.loading.reading import parse_json_bytes, read_file_bytes
-
     name = str(file)
     path = Path(file)
     raw = read_file_bytes(path, "scenario")
@@ -634,8 +644,6 @@ def load_scenario(file: str | Path, plugins: tuple[str, ...] = (), max_runs: int
 def _locate(problems: list[Problem], name: str, source: Source) -> None:
     """Line and column for the scenario file's own problems by the located-problems path machine documents take
     (:class:`fsm.model.problems.Problems`): an error in a formula points at its character in the JSON string."""
-    from fsm.model.problems import Problems
-
     found = Problems()
     found.extend([p for p in problems if p.file == name and p.line is None], source)
     found.located()
@@ -744,8 +752,6 @@ def _missing_machine(machine_path: Path, name: str) -> Problem:
 def _partial_problems(data: dict[str, Any], path: Path, name: str) -> list[Problem]:
     """When the scenario's shape is wrong somewhere: the checks of the inputs and expectations that are right
     (and of the machine's path), so that one run of ``fsmctl test`` reports every problem."""
-    from pydantic import TypeAdapter
-
     problems: list[Problem] = []
     machine = data.get("machine")
     if isinstance(machine, str) and machine and not (path.parent / machine).is_file():
@@ -879,10 +885,6 @@ def _expect_problems(exp: Any, name: str, ptr: str, label: str, end_time: float)
 
 def _invariant_parse_problems(exp: InvariantExpect, name: str, ptr: str, label: str) -> list[Problem]:
     """An invariant that does not parse."""
-    from fsm.model.expr import ExprError, parse
-
-    from .temporal import TEMPORAL_FUNCTIONS
-
     try:
         parse(exp.invariant, TEMPORAL_FUNCTIONS)
     except ExprError as exc:
@@ -966,8 +968,6 @@ def _count_problems(c: Any, name: str, ptr: str, label: str) -> list[Problem]:
 
 def _world_problems(spec: Any, world_path: Path | None, machine_path: Path, base: Path, name: str) -> list[Problem]:
     """A car machine needs a world; a world named must load."""
-    from fsm.loading.loader import uses_car
-
     if world_path is None and uses_car(spec):
         return [Problem("this machine drives the car; name the world to drive it in", name, "",
                         hint=_world_hint(machine_path, base))]
@@ -1011,10 +1011,6 @@ def _signal_warnings(scenario: Scenario, known: set[str], name: str) -> list[Pro
 def _load_machine(scenario: Scenario, path: Path, name: str,
                   cli_plugins: tuple[str, ...]) -> tuple[LoadedScenario | None, list[Problem]]:
     """Check the machine (and world) a scenario names, and the state names its expectations use."""
-    from fsm.loading.loader import check, machine_files, signal_names
-    from fsm.loading.loader import compile as compile_spec
-    from fsm.loading.registry import default_registry
-
     base = path.parent
     registry = default_registry(tuple(cli_plugins))  # a --plugin that fails is the command line's error
     plugin_files, problems = _load_plugins(scenario, base, name, registry)
@@ -1065,9 +1061,6 @@ def invariant_kinds(spec: Any, signals: set[str], car: bool, scenario: Scenario)
     """The names an invariant may use and their kinds: the machine's variables (and those the scenario sets),
     ``signal_NAME`` for every signal the machine reads or declares (``inputs``) or the scenario drives,
     ``car_NAME`` with a world."""
-    from fsm.debug.breakpoints import CAR_READINGS
-    from fsm.model.expr import ANY, BOOL, NUMBER, kind_of
-
     kinds = {f"signal_{s}": BOOL for s in (*signals, *(getattr(spec, "inputs", None) or ()))}
     if car:
         kinds.update({f"car_{n}": NUMBER for n in CAR_READINGS})
@@ -1094,10 +1087,6 @@ def formula_kinds(loaded_spec: Any, signals: set[str], car: bool, scenario: Scen
     plant writes; read when the run starts)."""
     kinds = invariant_kinds(loaded_spec, signals, car, scenario)
     if scenario.plants:
-        from fsm.model.expr import ExprError
-
-        from .temporal import formula_names
-
         for exp in scenario.expect:
             for _key, text in formulas_of(exp):
                 try:
@@ -1112,10 +1101,6 @@ def _invariant_problems(scenario: Scenario, spec: Any, signals: set[str], car: b
                         paths: list[str], compiled: dict[tuple[int, str], Any] | None = None) -> list[Problem]:
     """Every formula of the expectations compiled against the machine (kept in ``compiled`` for the runs): located
     errors with suggestions."""
-    from fsm.model.expr import ExprError
-
-    from .temporal import FormulaError, compile_formula
-
     problems: list[Problem] = []
     kinds: dict[str, str] | None = None
     for i, exp in enumerate(scenario.expect):
@@ -1165,11 +1150,6 @@ def _elements(node: Any, prefix: str, ptr: str) -> Any:
 def substituted(scenario: Scenario, machine_path: Path, registry: Any, name: str) -> tuple[Any, list[Problem]]:
     """The machine with the scenario's substitutions applied and checked: (spec, problems); ``None`` for the
     spec when a substitution matches nothing, names an unknown type or makes the machine invalid."""
-    import copy
-
-    from fsm.loading.loader import check
-    from fsm.loading.reading import reader_for
-
     data, _source = reader_for(machine_path)(machine_path)
     doc = copy.deepcopy(data)
     _inline_includes(doc, machine_path.parent, [os.path.realpath(machine_path)])
@@ -1247,8 +1227,6 @@ def _inline_includes(node: Any, base: Path, stack: list[str]) -> None:
     """Put the machines of ``{"file": ...}`` includes in place (their own includes too, relative to them), so that a
     substitution reaches the states inside them; a file that cannot be read is left as an include, for the
     machine's check to report."""
-    from fsm.loading.reading import reader_for
-
     if not isinstance(node, dict):
         return
     subs: list[tuple[Any, Any]] = []
@@ -1280,10 +1258,6 @@ def _inline_includes(node: Any, base: Path, stack: list[str]) -> None:
 def _load_plugins(scenario: Scenario, base: Path, name: str, registry: Any) -> tuple[list[str], list[Problem]]:
     """Import the scenario's ``plugins`` into ``registry``: the files they were loaded from, and a problem at
     ``/plugins/N`` for each one that is missing or fails (the scenario's error, not the command line's)."""
-    import sys
-
-    from fsm.model.errors import RegistrationError, UsageError
-
     files: list[str] = []
     problems: list[Problem] = []
     for i, plugin in enumerate(scenario.plugins):
@@ -1302,8 +1276,6 @@ def _load_plugins(scenario: Scenario, base: Path, name: str, registry: Any) -> t
             problems.append(Problem(f"plugin '{plugin}' cannot be loaded: {reason}", name, ptr))
             continue
         except RegistrationError as exc:
-            from fsm.model.errors import print_traceback, traceback_wanted
-
             if traceback_wanted():  # fsmctl --traceback: the plugin's own frames, before the located line
                 print_traceback(exc)
             where = [getattr(exc, "file", None), getattr(exc, "line", None)]
@@ -1319,11 +1291,6 @@ def named_files(file: str | Path) -> list[str]:
     """Every file a scenario names, as far as it can be told without running it: the scenario, its machine and
     the machine's includes, its world and its plugin files. For the output checks of a scenario whose loading
     stopped at a problem; never raises."""
-    from fsm.loading.loader import check, machine_files
-    from fsm.loading.reading import parse_json_bytes, read_file_bytes
-    from fsm.loading.registry import default_registry
-    from fsm.model.errors import FsmError
-
     path = Path(file)
     files = [str(file)]
     try:
@@ -1347,10 +1314,6 @@ def named_files(file: str | Path) -> list[str]:
 
 def _plants(scenario: Scenario, registry: Any, name: str) -> tuple[list[tuple[type, Any]], list[Problem]]:
     """The scenario's plants: each type registered and its parameters valid (located problems otherwise)."""
-    from pydantic import ValidationError
-
-    from fsm.model.document import problems_from_validation
-
     out: list[tuple[type, Any]] = []
     problems: list[Problem] = []
     names: set[str] = set()
@@ -1370,8 +1333,6 @@ def _plants(scenario: Scenario, registry: Any, name: str) -> tuple[list[tuple[ty
         try:
             params = cls.Params.model_validate(raw)
         except ValidationError as err:
-            from fsm.model.document import Source
-
             problems += problems_from_validation(err, source=Source(name=name), base=ptr, element=f"plant {i}",
                                                  model=cls.Params, kind="parameter", data=raw)
             continue
@@ -1388,9 +1349,6 @@ def _plant_expression_problems(scenario: Scenario, spec: Any, plants: list[tuple
                                 name: str) -> list[Problem]:
     """The expressions of the library's plants (``rate``, ``take``, ``press_when``, ``when``) over the machine's
     variables, those the scenario sets and those the plants write."""
-    from fsm.model.expr import kind_of
-    from fsm.states.plants import plant_problems, written_vars
-
     kinds = {k: kind_of(v) for k, v in (getattr(spec, "vars", {}) or {}).items()}
     for item in scenario.inputs:
         if isinstance(item, SetInput):
@@ -1458,9 +1416,6 @@ def name_problems(scenario: Scenario, paths: list[str], name: str) -> list[Probl
 
 def _world_hint(machine: Path, base: Path) -> str:
     """``"world": PATH`` with the world ``fsmctl run`` would take for the machine, relative to the scenario."""
-    import os
-
-    from fsm.model.errors import UsageError
     from fsm.sim.world import default_world
 
     try:

@@ -5,16 +5,21 @@ first tick where the run diverged from it and the trace around that tick.
 
 from __future__ import annotations
 
+import json
 import math
+import os
 import time
 from collections.abc import Container
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, NamedTuple
 
+from fsm.loading.loader import compile as compile_spec
+from fsm.loading.loader import signal_names
 from fsm.model.errors import StateRuntimeError, print_traceback, traceback_wanted
+from fsm.model.expr import ExprRuntimeError, parse
 from fsm.model.jsonpos import pointer
 from fsm.runtime.machine import Listener
-from fsm.session.session import tick_at
+from fsm.session.session import PauseState, Session, SetSignal, SetVars, StopRules, tick_at
 
 from .model import (
     EPS,
@@ -33,8 +38,11 @@ from .model import (
     TransitionsExpect,
     VisitsExpect,
     active_matches,
+    formula_kinds,
+    formulas_of,
     state_matches,
 )
+from .temporal import Tick, Watch, compile_formula, tree_names
 from .timeline import expand, pause_changes
 
 if TYPE_CHECKING:
@@ -143,8 +151,6 @@ class InvariantWatch:
 
     def __init__(self, index: int, text: str, fn: Any, names: list[str], vars_only: bool, first: int, last: int,
                  signals: tuple[str, ...]) -> None:
-        from fsm.model.expr import ExprRuntimeError
-
         self.index = index
         self.text = text
         self.fn = fn
@@ -317,8 +323,6 @@ class TemporalRun:
     changed (see :class:`~.temporal.Watch`): a tick where nothing they read moved costs a few tests."""
 
     def __init__(self, watches: list[Any], outside: list[str], outcome_states: list[State[Any]], dt: float) -> None:
-        from .temporal import Tick
-
         self.watches = watches
         self.dt = dt
         self.signals = [(n, n[len("signal_"):]) for n in outside if n.startswith("signal_")]
@@ -432,9 +436,6 @@ class TemporalRun:
 def make_temporal(loaded: LoadedScenario, machine: Machine, signals: tuple[str, ...]) -> TemporalRun | None:
     """The watches of the scenario's invariants, temporal expectations and ``at`` ... ``holds`` (all checked when
     the scenario was loaded), or None when it has none."""
-    from .model import TemporalExpect, formula_kinds, formulas_of
-    from .temporal import Watch, compile_formula
-
     sc = loaded.scenario
     dt = loaded.dt
     kinds: dict[str, str] = {}
@@ -568,10 +569,6 @@ class ScenarioResult:
 
 def expression_names(text: str) -> list[str]:
     """The names an expression reads, in order of first use."""
-    from fsm.model.expr import parse
-
-    from .temporal import tree_names
-
     return tree_names(parse(text))
 
 
@@ -588,9 +585,6 @@ def _last_tick(t: float, dt: float) -> int:
 def run_scenario(loaded: LoadedScenario, coverage: Any = None) -> ScenarioResult:
     """Run the scenario's machine on its timeline and check every expectation; with ``coverage`` (a
     :class:`fsm.tools.scenario.coverage.Coverage`), add what the run entered and fired to it."""
-    from fsm.loading.loader import compile as compile_spec
-    from fsm.session.session import PauseState, Session, SetSignal, SetVars, StopRules
-
     sc = loaded.scenario
     dt = loaded.dt
     result = ScenarioResult(loaded.name, loaded.file, xfail=loaded.xfail)
@@ -624,7 +618,6 @@ def run_scenario(loaded: LoadedScenario, coverage: Any = None) -> ScenarioResult
     watched_names = [e.state for e in sc.expect if isinstance(e, OutcomeExpect) and e.state is not None]
     watched = [st for path, st in machine.states_by_path.items()
                if any(state_matches(n, path) for n in watched_names)]
-    from fsm.loading.loader import signal_names
 
     read = signal_names(loaded.spec) | set(getattr(loaded.spec, "inputs", None) or ())
     names = tuple(sorted({c.name for c in signals} | set(plant_signals) | read))
@@ -644,8 +637,6 @@ def run_scenario(loaded: LoadedScenario, coverage: Any = None) -> ScenarioResult
     result.sim_time = round(machine.now, 9)
     result.outcome = machine.outcome
     if coverage is not None:
-        import os
-
         coverage.add(machine, rec, key=os.path.normpath(os.path.join(os.path.dirname(loaded.file), sc.machine)))
     check = Checker(loaded, machine, rec, signals, sets, pauses)
     if error is not None:
@@ -659,8 +650,6 @@ def run_scenario(loaded: LoadedScenario, coverage: Any = None) -> ScenarioResult
 
 
 def _shown(value: Any) -> str:
-    import json
-
     if value is _UNSET:
         return "unset"
     try:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import difflib
 import itertools
+import json
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -36,6 +37,8 @@ from fsm.model.expr import (
     parse,
     unparse,
 )
+
+from .paths import state_matches
 
 #: State predicates (true/false) and the text term ``outcome``.
 STATE_TERMS = ("active", "paused", "suspended", "entered", "skipped", "fired", "outcome")
@@ -193,8 +196,6 @@ class Formula:
 
     def shown(self, values: dict[str, Any]) -> str:
         """``name = value`` of what the formula reads (terms by their text)."""
-        import json
-
         parts = []
         for shown, key in self.names:
             value = values.get(key, "unset")
@@ -224,8 +225,6 @@ def state_argument(node: Node) -> str | None:
 
 def matching_paths(name: str, paths: list[str]) -> list[str]:
     """The state paths ``name`` matches: by id or the end of the path; ``X/*`` every state below X."""
-    from .paths import state_matches
-
     if name.endswith("/*"):
         bases = [p for p in paths if state_matches(name[:-2], p)]
         return [p for p in paths if any(p.startswith(b + "/") for b in bases)]

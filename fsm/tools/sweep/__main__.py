@@ -6,10 +6,10 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from .spec import sweep_schema_text
+
 
 def main(argv: list[str]) -> int:
-    from .spec import sweep_schema_text
-
     if argv[:1] != ["--schema"] or len(argv) > 2:
         print("usage: python -m fsm.tools.sweep --schema [FILE]", file=sys.stderr)
         return 2

@@ -20,7 +20,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
+from fsm.loading.reading import parse_json_bytes
 from fsm.model.errors import DiagramError, FsmError, Problem, UsageError
+
+from ..files import os_reason
 
 #: What a sweep writes at the top of its folder, and in each run's folder runs/<id>/.
 REPORTS = ("sweep.jsonl", "sweep.csv", "sweep.html")
@@ -46,8 +49,6 @@ def _kind(mode: int) -> str:
 
 
 def _reason(exc: OSError) -> str:
-    from ..files import os_reason
-
     return os_reason(exc)
 
 
@@ -269,8 +270,6 @@ def _skip_line(fh: Any) -> int:
 
 def _record(line: bytes, path: Path, number: int) -> tuple[dict[str, Any] | None, str]:
     """One line as a record with a text ``key`` and ``id`` and a boolean ``ok``, or ``None`` and why not."""
-    from fsm.loading.reading import parse_json_bytes
-
     if not line.strip():
         return None, "an empty line"
     try:

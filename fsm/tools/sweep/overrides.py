@@ -14,6 +14,8 @@ import json
 from dataclasses import dataclass
 from typing import Any
 
+from pydantic import ValidationError
+
 from fsm.model.document import MachineSpec, StateSpec, SubMachine
 from fsm.model.params import StateParams
 
@@ -94,8 +96,6 @@ def check(spec: MachineSpec, override: Override) -> None:
 
 
 def _validated(st: StateSpec, param: str, value: Any, text: str) -> StateParams:
-    from pydantic import ValidationError
-
     data = st.params.model_dump(by_alias=True, exclude_unset=True)
     data[param] = value
     try:

@@ -10,6 +10,7 @@ run again.
 from __future__ import annotations
 
 import json
+import multiprocessing
 import os
 import shlex
 import sys
@@ -19,9 +20,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from fsm.loading.loader import check, machine_files, uses_car
+from fsm.loading.registry import default_registry
 from fsm.model.errors import DiagramError, FsmError, Problem, UsageError
 
+from ..files import Outputs
 from . import overrides as O
+from .backends import local_pool, ray_pool, shutdown_ray
 from .folder import Folder, RecordLog, Resume, jsonl_text, write_file
 from .results import csv_text, html_page, success, with_flags
 from .spec import (
@@ -41,6 +46,7 @@ from .spec import (
     run_key,
     seed_runs,
 )
+from .worker import run_one
 
 
 @dataclass
@@ -100,8 +106,6 @@ def plan(spec: SweepSpec, base: Path, name: str, where: str, out_dir: Path, *, f
     ``flags`` (JSON pointers: ``/seeds``, ``/set/home.speed``) are said as the flags they came from.
     ``flag_plugins`` (``fsmctl --plugin``, already loaded here) are loaded by the workers too. The grid's size is
     computed before it is built: more than ``max_runs`` runs are refused."""
-    from fsm.loading.loader import machine_files
-
     fail = _Fail(where, flags)
     plugins = [str(base / p) if p.endswith(".py") else p for p in spec.plugins]
     registry = _registry(spec, plugins, fail)
@@ -120,8 +124,6 @@ def plan(spec: SweepSpec, base: Path, name: str, where: str, out_dir: Path, *, f
 
 def _registry(spec: SweepSpec, plugins: list[str], fail: _Fail) -> Any:
     """The registry with the sweep's plugins loaded."""
-    from fsm.loading.registry import default_registry
-
     registry = default_registry(())
     for i, plugin in enumerate(plugins):
         try:
@@ -171,8 +173,6 @@ def _check_size(spec: SweepSpec, worlds: list[Path | None], seeds: Sequence[int]
 def _checked_machine(spec: SweepSpec, base: Path, registry: Any, sets: list[tuple[str, str, list[Any]]],
                      fail: _Fail) -> tuple[Path, Any]:
     """The machine file, checked, and each ``set`` path against it."""
-    from fsm.loading.loader import check
-
     try:
         machine = (base / spec.machine).resolve()
         found_machine = machine.is_file()
@@ -196,8 +196,6 @@ def _checked_machine(spec: SweepSpec, base: Path, registry: Any, sets: list[tupl
 def _worlds(worlds: list[Path | None], mspec: Any, machine: Path, fail: _Fail
             ) -> tuple[list[Path | None], dict[str, Any]]:
     """The worlds to run in (none given: the machine's default world if it drives the car) and their walls."""
-    from fsm.loading.loader import uses_car
-
     if not worlds:
         if uses_car(mspec):
             from fsm.sim.world import default_world
@@ -295,8 +293,6 @@ def execute(p: Plan, folder: Folder, todo: list[dict[str, Any]], resume: Resume,
     its run finishes, then write sweep.csv and sweep.html. ``interrupts.stop()`` (Ctrl-C, SIGTERM) stops the
     pool: what finished is kept and written, and the outcome says it was interrupted. ``on_record`` is told of
     each record as it is logged (the live page's list of runs)."""
-    from .backends import local_pool, ray_pool, shutdown_ray
-
     results = dict(resume.records)
     t0 = time.perf_counter()
     bar = Progress(len(todo), enabled=progress)
@@ -338,10 +334,6 @@ def execute(p: Plan, folder: Folder, todo: list[dict[str, Any]], resume: Resume,
 def _collect(pool: Any, todo: list[dict[str, Any]], folder: Folder, log: RecordLog, results: dict[str, Any],
              bar: Progress, interrupts: Any, on_record: Callable[[dict[str, Any]], None] | None = None) -> None:
     """Take the records as runs finish, until every run is done or Ctrl-C asks to stop."""
-    import multiprocessing
-
-    from .worker import run_one
-
     waiting = (TimeoutError, multiprocessing.TimeoutError)
     it = pool.imap_unordered(run_one, todo)
     while not interrupts.stop():
@@ -374,8 +366,6 @@ def _write_run(folder: Folder, rec: dict[str, Any]) -> list[str]:
 def write_reports(p: Plan, out_dir: Path, records: list[dict[str, Any]]) -> None:
     """sweep.csv and sweep.html, and sweep.jsonl again with each record's ``flags`` (the runs that stand out, known
     only once every run finished), each whole or not at all (fsm/tools/files.py), none of them an input."""
-    from ..files import Outputs
-
     records = with_flags(records)
     texts: dict[str, str | bytes] = {"sweep.csv": csv_text(records, p.param_names),
                                      "sweep.html": html_page(p.name, records, p.param_names, p.worlds)}

@@ -18,9 +18,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from pydantic import Field
+from pydantic import Field, ValidationError
 
+from fsm.loading.reading import parse_json_bytes, place, read_file_bytes
+from fsm.model.document import Source, file_schema, problems_from_validation
+from fsm.model.errors import DiagramError, Problem
 from fsm.model.params import Int, ParamsBase
+from fsm.runtime.clock import DEFAULT_DT
 
 from .limits import MAX_RUNS as MAX_RUNS
 from .limits import MAX_TICKS as MAX_TICKS
@@ -60,8 +64,6 @@ class SweepSpec(ParamsBase):
 
 
 def sweep_schema() -> dict[str, Any]:
-    from fsm.model.document import file_schema
-
     return file_schema(SweepSpec, "sweep.schema.json", "tral-fsm sweep",
                        "A sweep for `fsmctl sweep`; generated from fsm.tools.sweep.spec by "
                        "`python -m fsm.tools.sweep --schema`.")
@@ -121,8 +123,6 @@ def _short(value: Any, limit: int = 60) -> str:
 def check_duration(duration: float | None) -> str | None:
     """Why ``duration`` (seconds of simulated time per run) cannot be a sweep's, or ``None`` when it can: finite,
     > 0, and at most :data:`MAX_TICKS` ticks of the default period, the longest run ``fsmctl run`` accepts."""
-    from fsm.runtime.clock import DEFAULT_DT
-
     if duration is None:
         return None
     if not (isinstance(duration, (int, float)) and duration > 0 and math.isfinite(duration)):
@@ -174,12 +174,6 @@ def count_runs(worlds: int, seeds: int, axes: list[int]) -> int:
 def read_spec_file(path: Path) -> SweepSpec:
     """A sweep file, read by the project's reading rule (regular files only, size cap, strict JSON) and validated
     against the model; a :class:`DiagramError` with located problems otherwise."""
-    from pydantic import ValidationError
-
-    from fsm.loading.reading import parse_json_bytes, place, read_file_bytes
-    from fsm.model.document import Source, problems_from_validation
-    from fsm.model.errors import DiagramError, Problem
-
     raw = read_file_bytes(path, "sweep")
     data, source = parse_json_bytes(raw, str(path), path.parent)
     if not isinstance(data, dict):

@@ -10,7 +10,10 @@ import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from fsm.loading.loader import check as check_file
 from fsm.model.errors import DiagramError, Problem
+
+from . import reader
 
 if TYPE_CHECKING:
     from .reader import Converted
@@ -24,10 +27,6 @@ def convert_checked(path: Path, machine: str | None = None, registry: Any = None
     are the loader's own (``fsm.loading.loader.check`` through the ``.uxf`` reader hook), so they locate problems
     in the ``.uxf`` file; here they also get the diagram coordinates of their element.
     """
-    from fsm.loading.loader import check as check_file
-
-    from . import reader
-
     conv = reader.convert_file(path)
     index = select(conv, machine)
     doc = conv.machines[index]
@@ -49,8 +48,6 @@ def convert_checked(path: Path, machine: str | None = None, registry: Any = None
 
 
 def select(conv: Converted, machine: str | None) -> int:
-    from . import reader
-
     if machine is None:
         if len(conv.machines) > 1:
             raise DiagramError([reader.several_machines_problem(conv)])

@@ -9,9 +9,12 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from fsm.model.errors import Problem
+from fsm.model.document import param_info
+from fsm.model.errors import DiagramError, Problem
+from fsm.sequencer.layout import is_sequence
 
 from . import text as T
+from .source import parse_raw
 from .writer import diagram, element, head_height, in_json, param_lines, relation, value_text
 
 #: The palette's machine note: the keys, and where the note goes.
@@ -27,9 +30,6 @@ def palette(registry: Any) -> str:
     """The UMLet palette: one template per registered state and transition type, every parameter with its
     default (required ones empty), each explained in a ``//`` comment line UMLet does not draw; a machine note;
     a ``Parallel`` state holds two region frames instead of a ``regions`` parameter."""
-    from fsm.model.document import param_info
-    from fsm.sequencer.layout import is_sequence
-
     out: list[str] = []
     y = 20
     out.append(element("UMLSpecialState", 20, y, 20, 20, "type=initial"))
@@ -103,10 +103,6 @@ _TYPE_NAME = re.compile(r'(?:"type"\s*:\s*"|^type=)([A-Za-z_][A-Za-z0-9_]*)', re
 def palette_problems(raw: bytes, name: str, registry: Any) -> list[Problem] | None:
     """``None`` unless the diagram is a palette: it holds a template of every built-in state and transition
     type (no machine uses them all). A palette is valid when it is exactly what ``fsmctl palette`` generates."""
-    from fsm.model.errors import DiagramError
-
-    from .source import parse_raw
-
     builtin = {(kind, n) for kind, n, cls in registry if cls.__module__.startswith("fsm.")}
     if not builtin:
         return None

@@ -57,7 +57,7 @@ from fsm.model.errors import DiagramError, Problem
 from .documents import Documents
 from .relations import Relations
 from .scene import Scene
-from .source import RawDiagram, RawElement, describe, read_raw, where
+from .source import RawDiagram, RawElement, describe, parse_raw, read_raw, where
 
 __all__ = ["Converted", "PRESELECTED", "convert_bytes", "convert_file", "convert_raw", "describe", "read_uxf",
            "several_machines_problem", "where"]
@@ -140,8 +140,6 @@ def convert_file(path: Path) -> Converted:
 
 
 def convert_bytes(data: bytes, name: str = "<diagram>") -> Converted:
-    from .source import parse_raw
-
     return convert_raw(parse_raw(data, name))
 
 

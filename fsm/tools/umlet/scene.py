@@ -12,6 +12,7 @@ import json
 from dataclasses import dataclass, field
 from typing import Any
 
+from fsm.loading.registry import default_registry
 from fsm.model.errors import Problem
 
 from . import text as T
@@ -119,8 +120,6 @@ class Scene:
 
     def registry(self) -> Any:
         if self._registry is None:
-            from fsm.loading.registry import default_registry
-
             self._registry = default_registry()
         return self._registry
 

@@ -8,7 +8,9 @@ entity bombs and external entities never reach lxml.
 
 from __future__ import annotations
 
+import bisect
 import functools
+import io
 import math
 import re
 from collections.abc import Callable
@@ -16,7 +18,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from fsm.loading.reading import parse_json_bytes, read_file_bytes
 from fsm.model.errors import DiagramError, Problem
+from fsm.model.jsonpos import locate
 
 from . import text as T
 
@@ -72,8 +76,6 @@ def fail(name: str, message: str, line: int | None = None, column: int | None = 
 # -- entry ------------------------------------------------------------------------------------------------
 def read_raw(path: Path) -> RawDiagram:
     """The elements of a ``.uxf`` file (XML) or of its ``xml2json`` JSON form, whichever ``path`` holds."""
-    from fsm.loading.reading import read_file_bytes  # regular files only, size-capped, standard input when preloaded
-
     name = str(path)
     raw = read_file_bytes(path, "diagram")
     return parse_raw(raw, name)
@@ -188,7 +190,6 @@ def parse_xml(raw: bytes, name: str) -> RawDiagram:
     from lxml import etree  # lazily: `fsmctl validate` on JSON never imports lxml
 
     _refuse_doctype(raw, name)
-    import io
 
     found = _XmlElements(name)
     try:
@@ -222,8 +223,6 @@ def parse_xml(raw: bytes, name: str) -> RawDiagram:
 
 def _element_positions(raw: bytes, sourcelines: list[int | None]) -> list[tuple[int | None, int | None]]:
     """Line and column of each ``<element`` tag; the column only where the tag scan agrees with lxml's line."""
-    import bisect
-
     starts = [0]
     pos = raw.find(b"\n")
     while pos != -1:
@@ -361,9 +360,6 @@ def _make_element(index: int, kind: Any, old: bool, coords: Any, text: Any, extr
 # -- xml2json ---------------------------------------------------------------------------------------------
 def parse_xml2json(raw: bytes, name: str) -> RawDiagram:
     """The legacy form: ``{"diagram": {"zoom_level": "10", "element": [...] or {...}}}``, every value a string."""
-    from fsm.loading.reading import parse_json_bytes
-    from fsm.model.jsonpos import locate
-
     data, source = parse_json_bytes(raw, name, None)
     text = source.text or ""
 

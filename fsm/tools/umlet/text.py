@@ -19,6 +19,8 @@ import re
 from dataclasses import dataclass, field
 from typing import Any
 
+from fsm.model.expr import ExprError, parse, parse_assignments
+
 #: Facets UMLet consumes on every element (style, layout, comments); never names or parameters.
 _STYLE_KEYS = {"bg", "fg", "lw", "valign", "halign", "fontsize", "layer", "transparency", "group", "style",
                "symbol", "customelement", "elementstyle", "autoresize"}
@@ -418,8 +420,6 @@ def literal(text: str) -> Any:
 def parse_actions(text: str) -> dict[str, Any]:
     """An action ``a = expr; b = 2`` -> ``{"a": "expr", "b": 2}``; :class:`TextError` (with the column) if it
     does not parse."""
-    from fsm.model.expr import ExprError, parse_assignments
-
     try:
         pairs = parse_assignments(text)
     except ExprError as exc:
@@ -434,8 +434,6 @@ def parse_actions(text: str) -> dict[str, Any]:
 
 def check_guard(text: str) -> str:
     """A guard's syntax (its variables are checked with the machine); :class:`TextError` if it does not parse."""
-    from fsm.model.expr import ExprError, parse
-
     try:
         parse(text)
     except ExprError as exc:

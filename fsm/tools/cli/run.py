@@ -32,6 +32,7 @@ from ..runs.args import (
     registry_from,
 )
 from ..runs.ending import Tee, end_run
+from ..runs.outputs import RunOutputs, run_outputs
 from .common import Subcommands, bounded_float, positive_float, signal_arg, whole_number
 
 #: Runs of more ticks than this are refused unless --max-ticks asks for them (a tiny --dt is usually a typo).
@@ -217,25 +218,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     from fsm.model.errors import DiagramError
     from fsm.runtime.clock import DEFAULT_DT
 
-    from ..files import Outputs, check_distinct
-
     _check_usage(args)
     from ..live.runner import check_usage as check_live_usage
 
     check_live_usage(args)
     dt = args.dt or DEFAULT_DT
     duration, max_ticks = _tick_limit(args, dt)
-    outputs = Outputs()
-    trace_out = outputs.add(args.trace, "--trace")
-    report_out = outputs.add(args.report, "--report", suffix=".html")
-    summary_out = outputs.add(args.summary, "--summary")
-    video_suffix = Path(args.video).suffix.lower() if args.video else ""
-    video_suffix = video_suffix if video_suffix in VIDEO_SUFFIXES else ".mp4"
-    video_out = outputs.add(args.video, "--video", binary=True, suffix=video_suffix)
-    plot_out = outputs.add(args.plot, "--plot", binary=True, suffix=".png")
-    for out in outputs.items:  # a directory, a missing folder, ...: said before anything is read
-        out.classify()
-    check_distinct(outputs.items, [])
+    outs = run_outputs(args, video_suffixes=VIDEO_SUFFIXES)  # a folder, a missing folder: before anything is read
+    outputs = outs.all
     pre = read_inputs([args.file])
     file = input_name(args.file)
     registry = registry_from(args)
@@ -257,7 +247,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         args.pre = pre
         try:
-            return run_ros(args, spec, file, outputs, trace_out, summary_out, report_out, duration, max_ticks)
+            return run_ros(args, spec, file, outputs, outs.trace, outs.summary, outs.report, duration, max_ticks)
         finally:
             outputs.discard()
 
@@ -276,10 +266,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     try:
         args.pre = pre
         if args.live:
-            return _run_live(args, spec, file, drive, world_path, duration, max_ticks, outputs, trace_out,
-                             summary_out, plot_out, report_out)
-        return _run(args, spec, file, drive, world_path, duration, max_ticks, outputs,
-                    trace_out, summary_out, video_out, plot_out, report_out)
+            return _run_live(args, spec, file, drive, world_path, duration, max_ticks, outs)
+        return _run(args, spec, file, drive, world_path, duration, max_ticks, outs)
     finally:
         outputs.discard()
 
@@ -308,13 +296,11 @@ def _session(args: argparse.Namespace, spec: Any, drive: bool, world_path: Path 
 
 
 def _run(args: argparse.Namespace, spec: Any, file: str, drive: bool, world_path: Path | None,
-         duration: float | None, max_ticks: int | None, outputs: Any, trace_out: Any, summary_out: Any,
-         video_out: Any, plot_out: Any, report_out: Any) -> int:
+         duration: float | None, max_ticks: int | None, outs: RunOutputs) -> int:
     session = _session(args, spec, drive, world_path, duration, max_ticks)
     frames = _frames(args, session, world_path)
     try:
-        return _drive(args, session, file, duration, max_ticks, outputs, trace_out, summary_out, video_out,
-                      plot_out, report_out, world_path, frames)
+        return _drive(args, session, file, duration, max_ticks, outs, world_path, frames)
     finally:
         if frames is not None:
             frames.folder.discard()
@@ -343,22 +329,21 @@ def _frames(args: argparse.Namespace, session: Any, world_path: Path | None) -> 
 
 
 def _drive(args: argparse.Namespace, session: Any, file: str, duration: float | None, max_ticks: int | None,
-           outputs: Any, trace_out: Any, summary_out: Any, video_out: Any, plot_out: Any, report_out: Any,
-           world_path: Path | None, frames: Any) -> int:
+           outs: RunOutputs, world_path: Path | None, frames: Any) -> int:
     """Run the session with its outputs, write them, and say how it went (the exit status)."""
     started = time.perf_counter()  # the wall time with outputs: the run, then the video, plot, trace... written
-    video = _video(args, session, video_out)
+    video = _video(args, session, outs.video)
     progress = _progress(args, session, duration, max_ticks)
-    report = sys.stderr if outputs.to_stdout else sys.stdout  # standard output may carry an output
-    session.record(_recorder(args, file, session.car, world_path, trace_out, report_out))
+    report = sys.stderr if outs.all.to_stdout else sys.stdout  # standard output may carry an output
+    session.record(_recorder(args, file, session.car, world_path, outs.trace, outs.report))
     interrupts = Interrupts()
     with interrupts:
         error = _run_until_stopped(session, interrupts, progress)
         interrupted = interrupts.interrupted
-        result = end_run(session, error, interrupted, report_out=report_out,
+        result = end_run(session, error, interrupted, report_out=outs.report,
                          report_name=args.trace if args.trace not in (None, "-") else file)
-        _write_outputs(args, session, result, video, plot_out, frames, summary_out)
-        outputs.commit()
+        _write_outputs(args, session, result, video, outs.plot, frames, outs.summary)
+        outs.all.commit()
         if frames is not None:
             frames.folder.commit()
     if error is not None:
@@ -485,8 +470,7 @@ def _verdict(args: argparse.Namespace, session: Any) -> int:
 
 
 def _run_live(args: argparse.Namespace, spec: Any, file: str, drive: bool, world_path: Path | None,
-              duration: float | None, max_ticks: int | None, outputs: Any, trace_out: Any, summary_out: Any,
-              plot_out: Any, report_out: Any) -> int:
+              duration: float | None, max_ticks: int | None, outs: RunOutputs) -> int:
     """``--live``: the run under the live debugger (:mod:`fsm.tools.live`), built again from the same plan for
     each rewind."""
     from fsm.loading.loader import compile as compile_spec
@@ -516,7 +500,7 @@ def _run_live(args: argparse.Namespace, spec: Any, file: str, drive: bool, world
                             sample_rate=args.sample_rate, document=document)
 
     return run_live(args, file, lambda: _session(args, plan, drive, world_path, duration, max_ticks), make_recorder,
-                    sorted(signal_names(spec)), outputs, trace_out, summary_out, plot_out, report_out, watcher)
+                    sorted(signal_names(spec)), outs.all, outs.trace, outs.summary, outs.plot, outs.report, watcher)
 
 
 def _shown_world(path: Path | None) -> str | None:

@@ -19,17 +19,12 @@ def run_replay(args: argparse.Namespace) -> int:
     from fsm.loading.reading import preloaded
     from fsm.ros.replay import load_drive, replay_session
 
-    from ..files import Outputs, check_distinct
     from ..runs.args import apply_overrides
     from ..runs.ending import Tee, write_report
+    from ..runs.outputs import run_outputs
 
-    outputs = Outputs()
-    trace_out = outputs.add(args.trace, "--trace")
-    report_out = outputs.add(args.report, "--report", suffix=".html")
-    summary_out = outputs.add(args.summary, "--summary")
-    for out in outputs.items:
-        out.classify()
-    check_distinct(outputs.items, [])
+    outs = run_outputs(args)
+    outputs, trace_out, report_out, summary_out = outs.all, outs.trace, outs.report, outs.summary
     pre = read_inputs([args.machine])
     file = input_name(args.machine)
     with preloaded(pre):

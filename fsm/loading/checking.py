@@ -13,7 +13,7 @@ from __future__ import annotations
 import difflib
 import json
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from fsm.loading.outcomes import can_finish, reachable, state_outcomes
@@ -34,6 +34,9 @@ class Analysis:
     expressions: Mapping[tuple[str | None, str], E.Compiled]
     #: every state path of the machine
     paths: frozenset[str]
+    #: the kind each expression was checked for (``E.BOOL``, ``E.NUMBER`` or None), by the same keys: with the
+    #: text and ``kinds`` it compiles the expression again (how the plan cache stores an expression as data)
+    wants: Mapping[tuple[str | None, str], str | None] = field(default_factory=dict)
 
     def expression(self, source: Source, pointer: str) -> E.Compiled:
         return self.expressions[(source.name, pointer)]
@@ -64,7 +67,8 @@ def check(root: MachineSpec, problems: Problems) -> Analysis:
         for key, value in level.vars.items():
             variables.setdefault(key, value)
     check_sequences(root, problems, can_finish)
-    kinds, expressions = _Expressions(states, transitions, variables, paths, problems).check()
+    exprs = _Expressions(states, transitions, variables, paths, problems)
+    kinds, expressions = exprs.check()
     if root.inputs is not None:
         check_inputs(root, problems)
     for tr in [tr for tr, _scope in transitions if tr.cls.checks_document]:
@@ -80,7 +84,7 @@ def check(root: MachineSpec, problems: Problems) -> Analysis:
             if resolve_path(value, scope, paths) is None:
                 problems.add(f"'{key}' names no state: '{value}'", tr.source, f"{tr.pointer}/{key}",
                              element=tr.label, hint=PATH_HINT)
-    return Analysis(kinds, expressions, paths)
+    return Analysis(kinds, expressions, paths, exprs.wants)
 
 
 PATH_HINT = ("a path of ids joined by '/', relative to this machine or an enclosing one, or absolute with a "
@@ -258,6 +262,7 @@ class _Expressions:
         self.paths = paths
         self.problems = problems
         self.compiled: dict[tuple[str | None, str], E.Compiled] = {}
+        self.wants: dict[tuple[str | None, str], str | None] = {}
         self.kinds: dict[str, str] = {}
 
     def check(self) -> tuple[dict[str, str], dict[tuple[str | None, str], E.Compiled]]:
@@ -383,6 +388,7 @@ class _Expressions:
             self.problems.add(f"{exc}: {shown}", source, ptr, element=element, hint=hint, expr_column=exc.column)
             return None
         self.compiled[(source.name, ptr)] = c
+        self.wants[(source.name, ptr)] = want
         return c
 
 

@@ -257,7 +257,7 @@ class _Writer(pickle.Pickler):
         self.wants = entry.analysis.wants
         self.var_ops = {id(c.var_op): c for c in entry.analysis.expressions.values() if c.var_op is not None}
 
-    def reducer_override(self, obj: Any) -> Any:  # noqa: C901 - one case per kind of object, flat
+    def reducer_override(self, obj: Any) -> Any:
         kind = type(obj)
         if kind is Source:
             if obj.name not in self.texts or obj.text != self.texts[obj.name]:

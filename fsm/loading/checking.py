@@ -102,23 +102,45 @@ def check_level(spec: MachineSpec, problems: Problems) -> None:
     Ids and endpoints are checked on the elements as written, so an element with a bad parameter still gets
     its other errors reported in the same run.
     """
-    src, base, add = spec.source, spec.pointer, problems.add
-    first_at: dict[str, int] = {}  # id -> index of the first state element that has it
+    first_at = _check_ids(spec, problems)
+    by_id: dict[str, StateSpec] = {}
+    for st in spec.states:
+        by_id.setdefault(st.id, st)
+    if spec.envelope_ok and spec.initial not in first_at:
+        problems.add(f"initial state '{spec.initial}' is not a state of this machine", spec.source,
+                     spec.initial_pointer, hint=_choices(spec.initial, first_at))
+    _check_endpoints(spec, first_at, problems)
+    for tr in spec.transitions:
+        source = by_id.get(tr.params.from_)
+        if source is not None and (source.cls.is_final or tr.cls.needs_finishing_source):
+            _check_source(tr, source, problems)
+    if spec.initial in by_id:
+        reached = reachable(spec)
+        for st in spec.states:
+            if st.id not in reached and by_id.get(st.id) is st:
+                problems.add(f"unreachable from the initial state '{spec.initial}'", spec.source, st.pointer,
+                             element=st.label, severity="warning", hint="add a transition into it or remove it")
+
+
+def _check_ids(spec: MachineSpec, problems: Problems) -> dict[str, int]:
+    """Duplicate ids among the state elements as written; each id with the index of its first element."""
+    base = spec.pointer
+    first_at: dict[str, int] = {}
     for i, raw in enumerate(spec.raw_states):
         sid = raw.get("id") if isinstance(raw, dict) else None
         if not isinstance(sid, str):
             continue
         if sid in first_at:
-            add(f"duplicate id '{sid}' (first used at {base}/states/{first_at[sid]})", src, f"{base}/states/{i}/id",
-                element=f"state '{sid}'", hint="ids must be unique within one machine level")
+            problems.add(f"duplicate id '{sid}' (first used at {base}/states/{first_at[sid]})", spec.source,
+                         f"{base}/states/{i}/id", element=f"state '{sid}'",
+                         hint="ids must be unique within one machine level")
         else:
             first_at[sid] = i
-    by_id: dict[str, StateSpec] = {}
-    for st in spec.states:
-        by_id.setdefault(st.id, st)
-    if spec.envelope_ok and spec.initial not in first_at:
-        add(f"initial state '{spec.initial}' is not a state of this machine", src, spec.initial_pointer,
-            hint=_choices(spec.initial, first_at))
+    return first_at
+
+
+def _check_endpoints(spec: MachineSpec, first_at: dict[str, int], problems: Problems) -> None:
+    """Each transition element's ``from`` and ``to`` name a state of the level."""
     for i, raw in enumerate(spec.raw_transitions):
         if not isinstance(raw, dict):
             continue
@@ -128,18 +150,9 @@ def check_level(spec: MachineSpec, problems: Problems) -> None:
         for key in ("from", "to"):
             ref = raw.get(key)
             if isinstance(ref, str) and ref and ref not in first_at:
-                add(f"'{key}' names unknown state '{ref}'", src, f"{base}/transitions/{i}/{key}",
-                    element=element_label("transition", raw), hint=_choices(ref, first_at))
-    for tr in spec.transitions:
-        source = by_id.get(tr.params.from_)
-        if source is not None and (source.cls.is_final or tr.cls.needs_finishing_source):
-            _check_source(tr, source, problems)
-    if spec.initial in by_id:
-        reached = reachable(spec)
-        for st in spec.states:
-            if st.id not in reached and by_id.get(st.id) is st:
-                add(f"unreachable from the initial state '{spec.initial}'", src, st.pointer, element=st.label,
-                    severity="warning", hint="add a transition into it or remove it")
+                problems.add(f"'{key}' names unknown state '{ref}'", spec.source,
+                             f"{spec.pointer}/transitions/{i}/{key}", element=element_label("transition", raw),
+                             hint=_choices(ref, first_at))
 
 
 def _check_source(tr: TransitionSpec, source: StateSpec, problems: Problems) -> None:

@@ -43,7 +43,6 @@ import sys
 import tempfile
 import types
 from collections.abc import Callable
-from dataclasses import is_dataclass
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -149,9 +148,12 @@ def registry_key(registry: Registry) -> str | None:
     return hashlib.sha256(json.dumps(entries).encode("utf-8", "surrogatepass")).hexdigest()
 
 
-def _allowed(registry: Registry) -> dict[tuple[str, str], type]:
+def _allowed(registry: Registry, key: str) -> dict[tuple[str, str], type]:
     """The classes a cache file may name: the model's data classes, the registered types and the parameter
-    models and enums of their modules."""
+    models and enums of their modules (made once per registry key in a process)."""
+    known = _ALLOWED.get(key)
+    if known is not None:
+        return known
     allowed: dict[tuple[str, str], type] = {}
 
     def add_module(module: str, keep: Callable[[type], bool]) -> None:
@@ -171,7 +173,12 @@ def _allowed(registry: Registry) -> dict[tuple[str, str], type]:
         for module in {cls.__module__, getattr(params, "__module__", cls.__module__)}:
             if module in sys.modules:
                 add_module(module, lambda c: issubclass(c, (BaseModel, Enum)))
+    _ALLOWED.clear()  # one registry in a process, as a rule: keep the last
+    _ALLOWED[key] = allowed
     return allowed
+
+
+_ALLOWED: dict[str, dict[tuple[str, str], type]] = {}
 
 
 # -- the texts read ----------------------------------------------------------------------------------------------
@@ -256,9 +263,13 @@ class _Writer(pickle.Pickler):
         self.expr_keys = {id(c): key for key, c in entry.analysis.expressions.items()}
         self.wants = entry.analysis.wants
         self.var_ops = {id(c.var_op): c for c in entry.analysis.expressions.values() if c.var_op is not None}
+        #: the kinds of plain data met so far (parameter models, specs, plans): pickled as they are, asked once
+        self.plain: set[type] = set()
 
     def reducer_override(self, obj: Any) -> Any:
         kind = type(obj)
+        if kind in self.plain:
+            return NotImplemented
         if kind is Source:
             if obj.name not in self.texts or obj.text != self.texts[obj.name]:
                 raise _NotCachable(f"a source not read from a file: {obj.name}")
@@ -282,8 +293,9 @@ class _Writer(pickle.Pickler):
             if self.allowed.get((obj.__module__, obj.__qualname__)) is not obj:
                 raise _NotCachable(f"a class the cache does not read back: {obj.__module__}.{obj.__qualname__}")
             return NotImplemented
-        if callable(obj) and not (is_dataclass(obj) or hasattr(obj, "model_fields")):
+        if callable(obj):
             raise _NotCachable(f"code: {obj!r}")
+        self.plain.add(kind)
         return NotImplemented
 
     def expression(self, c: E.Compiled) -> Any:
@@ -322,7 +334,7 @@ def store(name: str, registry: Registry, entry: Entry, token: str) -> bool:
         return False
     out = io.BytesIO()
     try:
-        _Writer(out, entry, texts, _allowed(registry)).dump(
+        _Writer(out, entry, texts, _allowed(registry, key)).dump(
             (entry.spec, (entry.analysis.expressions, entry.analysis.paths, entry.analysis.wants), entry.problems,
              entry.plan))
     except (_NotCachable, pickle.PicklingError, TypeError, AttributeError, RecursionError):
@@ -420,7 +432,8 @@ def _read(data: bytes, name: str, registry: Registry, doc: Document) -> Entry | 
     start = len(MAGIC) + 4
     size = int.from_bytes(data[len(MAGIC):start], "big")
     header = json.loads(data[start:start + size])
-    if header.get("key") != registry_key(registry):
+    key = registry_key(registry)
+    if key is None or header.get("key") != key:
         return None
     files = header["files"]
     if files[0] != [name, _digest(doc.text), doc.token]:
@@ -435,7 +448,7 @@ def _read(data: bytes, name: str, registry: Registry, doc: Document) -> Entry | 
     if hashlib.sha256(payload).hexdigest() != header["payload"]:
         return None
     kinds = header["kinds"]
-    spec, (expressions, paths, wants), problems, plan = _Reader(payload, _allowed(registry), texts, kinds).load()
+    spec, (expressions, paths, wants), problems, plan = _Reader(payload, _allowed(registry, key), texts, kinds).load()
     if not isinstance(spec, MachineSpec) or not isinstance(plan, MachinePlan) or not isinstance(problems, list):
         return None
     return Entry(spec, Analysis(kinds, expressions, paths, wants), problems, plan)

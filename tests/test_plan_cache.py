@@ -312,3 +312,37 @@ def test_a_real_umlet_file_is_cached_and_validates_the_same(folder: Path, tmp_pa
         outputs.append(captured.out + captured.err)
     assert outputs[0] == outputs[1] == outputs[2]
     assert hit(path)
+
+
+def test_the_machine_chosen_in_a_diagram_is_part_of_the_key(folder: Path, tmp_path: Path,
+                                                            capsys: pytest.CaptureFixture[str]) -> None:
+    """A diagram with two machines: ``--machine`` picks one; the cache never answers with the other."""
+    import re
+
+    from fsm.tools.umlet.writer import diagram, element, relation
+
+    one = [element("UMLSpecialState", 100, 20, 20, 20, "type=initial"),
+           relation([[110, 40], [110, 80]], "lt=->"),
+           element("UMLState", 40, 80, 160, 60, 'wait\n--\n"type": "Idle"\n--'),
+           element("UMLState", 40, 220, 160, 60, "done\n--\ntype=Final"),
+           relation([[110, 140], [110, 220]], 'lt=->\n"type": "Timeout", "seconds": 0.5')]
+    text = diagram(one)
+    body = text.split("  <zoom_level>10</zoom_level>\n")[1].rsplit("</diagram>", 1)[0]
+    other = re.sub(r"<x>(\d+)</x>", lambda m: f"<x>{int(m.group(1)) + 2000}</x>", body).replace("wait", "other")
+    src = tmp_path / "two.uxf"
+    src.write_text(text.replace("</diagram>", other + "</diagram>"))
+    from fsm.tools.umlet import reader
+    from fsm.tools.umlet.convert import select
+
+    conv = reader.convert_file(src)
+    for name in ("wait", "other", "wait", "other"):  # as `fsmctl convert/graph --machine NAME` check the diagram
+        token = reader.PRESELECTED.set((src.resolve(), conv, select(conv, name)))
+        try:
+            spec, problems = fsm.check(src)
+        finally:
+            reader.PRESELECTED.reset(token)
+        assert spec is not None and spec.initial == name, problems
+        assert [f.name for f in folder.iterdir()] == [cache.file_of(str(src)).name]
+    for name in ("wait", "other"):
+        assert main(["graph", str(src), "--machine", name, "--format", "dot"]) == 0
+        assert f'"{name}"' in capsys.readouterr().out

@@ -57,6 +57,7 @@ def folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     monkeypatch.setenv(cache.CACHE_DIR_ENV, str(where))
     monkeypatch.delenv(cache.NO_CACHE_ENV, raising=False)
     loader._LAST.clear()
+    cache._KEPT.clear()
     return where
 
 
@@ -71,7 +72,9 @@ def machine_files(tmp_path: Path) -> Path:
 
 
 def hit(path: Path, registry: Registry | None = None) -> bool:
-    """Whether the cache holds an entry for ``path`` as it is now."""
+    """Whether the cache folder holds an entry for ``path`` as it is now (what this process keeps in memory set
+    aside)."""
+    cache._KEPT.clear()
     doc = cache.document(str(path))
     assert doc is not None
     return cache.lookup(str(path), registry or default_registry(), doc) is not None
@@ -103,6 +106,21 @@ def test_second_load_is_a_hit_and_runs_as_the_first(folder: Path, tmp_path: Path
     monkeypatch.setenv(cache.NO_CACHE_ENV, "1")
     assert run_trace(fsm.load(path, dt=0.05)) == expected
     assert expected[-1][1]["log"].count("x") > 3  # the included machine ran, its set too
+
+
+def test_a_process_reuses_what_it_read_until_a_file_changes(folder: Path, tmp_path: Path) -> None:
+    path = machine_files(tmp_path)
+    loader.compile(path)
+    loader._LAST.clear()
+    shutil.rmtree(folder)  # answered from memory now, as long as the texts and the key are the same
+    spec, problems = fsm.check(path)
+    assert spec is not None and [p.severity for p in problems] == ["warning"]
+    problems[0].element = "changed by a caller"
+    assert fsm.check(path)[1][0].element != "changed by a caller"  # each load gets its own problems
+    write(tmp_path / "sub.json", {**SUB, "states": [{"id": "x", "type": "Idle"}, {"id": "end", "type": "Final"}]})
+    loader._LAST.clear()
+    plan = loader.compile(path)
+    assert plan.root.states[2].regions[0].states[0].on_enter is None
 
 
 def test_a_sequence_with_monitors_and_exceptions_runs_the_same_from_the_cache(folder: Path, tmp_path: Path) -> None:

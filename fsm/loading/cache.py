@@ -34,6 +34,7 @@ document could. A file not owned by the current user is not read.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import io
 import json
@@ -343,6 +344,7 @@ def store(name: str, registry: Registry, entry: Entry, token: str) -> bool:
     files = [[name, _digest(texts[name]), token]] + [[n, _digest(t)] for n, t in texts.items() if n != name]
     header = json.dumps({"key": key, "files": files, "kinds": dict(entry.analysis.kinds),
                          "payload": hashlib.sha256(payload).hexdigest()}).encode()
+    keep(name, key, files, entry._replace(problems=[dataclasses.replace(p) for p in entry.problems]))
     return write_atomic(file_of(name), MAGIC + len(header).to_bytes(4, "big") + header + payload)
 
 
@@ -412,7 +414,19 @@ def _action_of(pairs: tuple[tuple[str, E.Compiled], ...]) -> Any:
 
 def lookup(name: str, registry: Registry, doc: Document) -> Entry | None:
     """The cached result of loading the document ``name`` (as it is now: ``doc``), or None: no cache file, another
-    key or content, or a file that cannot be read back (ignored; the load writes it again)."""
+    key or content, or a file that cannot be read back (ignored; the load writes it again).
+
+    A result this process read or wrote is kept in memory too (the last few documents): with the same key and
+    texts, it is answered without reading the file again (a scenario suite, a sweep, a reload load one machine
+    many times). Specs and plans are never changed after a load (an override copies what it changes), so loads
+    may share them; the problems are copied, since callers add to a problem's text."""
+    key = registry_key(registry)
+    if key is None:
+        return None
+    kept = _KEPT.get(name)
+    if kept is not None and kept[0] == key and _texts(kept[1], name, doc) is not None:
+        entry = kept[2]
+        return entry._replace(problems=[dataclasses.replace(p) for p in entry.problems])
     try:
         with open(file_of(name), "rb") as fh:
             if os.fstat(fh.fileno()).st_uid != os.geteuid():
@@ -421,21 +435,36 @@ def lookup(name: str, registry: Registry, doc: Document) -> Entry | None:
     except OSError:
         return None
     try:
-        return _read(data, name, registry, doc)
+        return _read(data, name, registry, doc, key)
     except Exception:  # noqa: BLE001 - a corrupt or foreign file is ignored, whatever it holds
         return None
 
 
-def _read(data: bytes, name: str, registry: Registry, doc: Document) -> Entry | None:
+def _read(data: bytes, name: str, registry: Registry, doc: Document, key: str) -> Entry | None:
     if not data.startswith(MAGIC):
         return None
     start = len(MAGIC) + 4
     size = int.from_bytes(data[len(MAGIC):start], "big")
     header = json.loads(data[start:start + size])
-    key = registry_key(registry)
-    if key is None or header.get("key") != key:
+    if header.get("key") != key:
         return None
     files = header["files"]
+    texts = _texts(files, name, doc)
+    payload = data[start + size:]
+    if texts is None or hashlib.sha256(payload).hexdigest() != header["payload"]:
+        return None
+    kinds = header["kinds"]
+    spec, (expressions, paths, wants), problems, plan = _Reader(payload, _allowed(registry, key), texts, kinds).load()
+    if not isinstance(spec, MachineSpec) or not isinstance(plan, MachinePlan) or not isinstance(problems, list):
+        return None
+    entry = Entry(spec, Analysis(kinds, expressions, paths, wants), problems, plan)
+    keep(name, key, files, entry)
+    return entry._replace(problems=[dataclasses.replace(p) for p in problems])
+
+
+def _texts(files: list[list[str]], name: str, doc: Document) -> dict[str, str] | None:
+    """The text of each file of a cache entry (``[name, digest, token]`` first, then ``[include, digest]``) if
+    every one is still what it was, else None."""
     if files[0] != [name, _digest(doc.text), doc.token]:
         return None
     texts = {name: doc.text}
@@ -444,14 +473,19 @@ def _read(data: bytes, name: str, registry: Registry, doc: Document) -> Entry | 
         if found is None or _digest(found[0]) != digest:
             return None
         texts[other] = found[0]
-    payload = data[start + size:]
-    if hashlib.sha256(payload).hexdigest() != header["payload"]:
-        return None
-    kinds = header["kinds"]
-    spec, (expressions, paths, wants), problems, plan = _Reader(payload, _allowed(registry, key), texts, kinds).load()
-    if not isinstance(spec, MachineSpec) or not isinstance(plan, MachinePlan) or not isinstance(problems, list):
-        return None
-    return Entry(spec, Analysis(kinds, expressions, paths, wants), problems, plan)
+    return texts
+
+
+#: The results this process read or wrote, by document: (registry key, files, entry); the newest few.
+_KEPT: dict[str, tuple[str, list[list[str]], Entry]] = {}
+KEPT_DOCUMENTS = 8
+
+
+def keep(name: str, key: str, files: list[list[str]], entry: Entry) -> None:
+    _KEPT.pop(name, None)
+    _KEPT[name] = (key, files, entry)
+    while len(_KEPT) > KEPT_DOCUMENTS:
+        del _KEPT[next(iter(_KEPT))]
 
 
 __all__ = ["CACHE_DIR_ENV", "Document", "Entry", "LOADER_VERSION", "NO_CACHE_ENV", "document", "enabled", "file_of",

@@ -11,7 +11,8 @@ Rows:
   fresh process   importing the loader, then its first load of the ring (what ``fsmctl validate`` pays), without
                   the cache (FSM_NO_CACHE=1) and from a filled cache; the import alone counted too, so the load's
                   own share is the difference
-  same process    one more load (per repetition, 5 repetitions less 0): no cache, from the cache; building apart
+  same process    one more load (per repetition, 5 repetitions less 0): no cache, from the cache (what the process
+                  keeps in memory, and with that cleared: the file read again); building apart
   a miss          a load whose cache file is gone: checked, compiled and written
 
     python benchmarks/bench_plan_cache.py [--rounds 5] [--no-instructions]
@@ -50,8 +51,10 @@ if what != "import":
     out["first_ms"] = (time.perf_counter() - t1) * 1000
     times, builds = [], []
     for _ in range(n):
-        if what == "miss":
+        if what in ("miss", "file"):
             from fsm.loading import cache
+            cache._KEPT.clear()  # what the process keeps in memory: gone, so the file is read (or written)
+        if what == "miss":
             os.unlink(cache.file_of(ring))
         loader._LAST.clear()  # no plan kept from the load before: the next one reads the cache (or the document)
         a = time.perf_counter()
@@ -71,6 +74,7 @@ CASES = {  # name: (what, FSM_NO_CACHE)
     "import": ("import", True),
     "cold": ("load", True),
     "hit": ("load", False),
+    "file": ("file", False),
     "miss": ("miss", False),
     "build": ("build", False),
 }
@@ -114,15 +118,16 @@ def main(argv: list[str] | None = None) -> int:
         wall("hit", ring, cache, 0)  # fills the cache
         runs: dict[str, list[dict[str, Any]]] = {}
         for _ in range(args.rounds):
-            for case in ("import", "cold", "hit", "miss", "build"):
+            for case in ("import", "cold", "hit", "file", "miss", "build"):
                 runs.setdefault(case, []).append(wall(case, ring, cache, 5))
             wall("hit", ring, cache, 0)  # the miss case left a fresh file; keep it filled
         counts: dict[str, float] = {}
         if not args.no_instructions and shutil.which("valgrind"):
             wall("hit", ring, cache, 0)
             base = count("import", ring, cache, 0)
-            for case in ("cold", "hit"):
-                counts[f"first {case}"] = count(case, ring, cache, 0) - base
+            for case in ("cold", "hit", "file"):
+                if case != "file":
+                    counts[f"first {case}"] = count(case, ring, cache, 0) - base
                 wall("hit", ring, cache, 0)
                 counts[f"again {case}"] = (count(case, ring, cache, 5) - count(case, ring, cache, 0)) / 5
                 wall("hit", ring, cache, 0)
@@ -145,16 +150,20 @@ def report(runs: dict[str, list[dict[str, Any]]], counts: dict[str, float]) -> N
     print(f"| importing the loader, fresh process (ms, median) | {imp:.1f} | | |")
     c, h = med(runs["cold"], "first_ms"), med(runs["hit"], "first_ms")
     print(f"| first load in a fresh process, after the import (ms, median) | {c:.1f} | {h:.1f} | {c / h:.1f}x |")
-    c, h = med(runs["cold"], "ms"), med(runs["hit"], "ms")
-    print(f"| one more load in the same process (ms, median) | {c:.2f} | {h:.2f} | {c / h:.1f}x |")
+    c, h, f = med(runs["cold"], "ms"), med(runs["hit"], "ms"), med(runs["file"], "ms")
+    print(f"| one more load in the same process, kept in memory (ms, median) | {c:.2f} | {h:.2f} | {c / h:.1f}x |")
+    print(f"| one more load in the same process, read from the file (ms, median) | {c:.2f} | {f:.2f} | {c / f:.1f}x |")
     print(f"| a miss: checked, compiled and written (ms, median) | | {med(runs['miss'], 'ms'):.2f} | |")
     print(f"| building the Machine from the plan, apart (ms, median) | | {med(runs['build'], 'build_ms'):.2f} | |")
     if counts:
         c, h = counts["first cold"], counts["first hit"]
         print(f"| first load in a fresh process (instructions, the import's subtracted) | {c / 1e6:.1f}M | "
               f"{h / 1e6:.1f}M | {c / h:.1f}x |")
-        c, h = counts["again cold"], counts["again hit"]
-        print(f"| one more load in the same process (instructions) | {c / 1e6:.1f}M | {h / 1e6:.1f}M | {c / h:.1f}x |")
+        c = counts["again cold"]
+        for case, what in (("hit", "kept in memory"), ("file", "read from the file")):
+            h = counts[f"again {case}"]
+            print(f"| one more load in the same process, {what} (instructions) | {c / 1e6:.1f}M | {h / 1e6:.2f}M | "
+                  f"{c / h:.0f}x |")
 
 
 if __name__ == "__main__":

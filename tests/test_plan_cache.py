@@ -364,3 +364,27 @@ def test_the_machine_chosen_in_a_diagram_is_part_of_the_key(folder: Path, tmp_pa
     for name in ("wait", "other"):
         assert main(["graph", str(src), "--machine", name, "--format", "dot"]) == 0
         assert f'"{name}"' in capsys.readouterr().out
+
+
+def test_the_folder_keeps_the_most_recently_used_files(folder: Path, tmp_path: Path,
+                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every document ever loaded would leave a file: beyond the limit the least recently used go, and a
+    temporary file a dead writer left behind is removed."""
+    monkeypatch.setattr(cache, "MAX_FILES", 3)
+    paths = [write(tmp_path / f"d{i}.json", {"initial": "a", "states": [{"id": "a", "type": "Idle"}]})
+             for i in range(3)]
+    for i, path in enumerate(paths):
+        loader.compile(path)
+        os.utime(cache.file_of(str(path)), (1_000_000 + i, 1_000_000 + i))
+    assert hit(paths[0])  # read: now the most recently used
+    stale = folder / ".left-behind.tmp"
+    stale.write_bytes(b"half")
+    os.utime(stale, (1_000, 1_000))
+    fresh = folder / ".being-written.tmp"
+    fresh.write_bytes(b"half")
+    loader.compile(write(tmp_path / "d3.json", {"initial": "b", "states": [{"id": "b", "type": "Idle"}]}))
+    left = sorted(f.name for f in folder.iterdir())
+    assert cache.file_of(str(paths[1])).name not in left  # the least recently used
+    assert {cache.file_of(str(p)).name for p in (paths[0], paths[2])} <= set(left)
+    assert ".left-behind.tmp" not in left and ".being-written.tmp" in left
+    assert len([n for n in left if n.endswith(".plan")]) == 3

@@ -18,7 +18,7 @@ is ignored (and rewritten by that load), never an error.
 
 **Where.** In the user's cache folder, ``$XDG_CACHE_HOME/tral-fsm/plans`` or ``~/.cache/tral-fsm/plans``;
 ``FSM_CACHE_DIR`` names another folder. Not beside the document: the document's folder is the user's, and a load
-(``fsmctl validate``) is not asked to write there. ``FSM_NO_CACHE=1`` (``fsmctl --no-cache``) neither reads nor
+(``fsmctl validate``) is not asked to write there. The folder keeps the :data:`MAX_FILES` most recently used files. ``FSM_NO_CACHE=1`` (``fsmctl --no-cache``) neither reads nor
 writes the cache. One file per document path (the newest content replaces the older), written atomically (a
 temporary file in the folder, then renamed), readable by its owner only; a write that fails (a read-only home)
 is skipped.
@@ -42,6 +42,7 @@ import os
 import pickle
 import sys
 import tempfile
+import time
 import types
 from collections.abc import Callable
 from pathlib import Path
@@ -345,7 +346,44 @@ def store(name: str, registry: Registry, entry: Entry, token: str) -> bool:
     header = json.dumps({"key": key, "files": files, "kinds": dict(entry.analysis.kinds),
                          "payload": hashlib.sha256(payload).hexdigest()}).encode()
     keep(name, key, files, entry._replace(problems=[dataclasses.replace(p) for p in entry.problems]))
-    return write_atomic(file_of(name), MAGIC + len(header).to_bytes(4, "big") + header + payload)
+    target = file_of(name)
+    written = write_atomic(target, MAGIC + len(header).to_bytes(4, "big") + header + payload)
+    if written:
+        prune(target.parent)
+    return written
+
+
+#: The most cache files kept: beyond it, the least recently used go (a file is touched when it is read).
+MAX_FILES = 256
+#: A temporary file older than this (seconds) was left by a writer that died: removed.
+STALE_TEMPORARY = 3600.0
+
+
+def prune(where: Path, keep_files: int | None = None) -> None:
+    """The cache folder held to :data:`MAX_FILES` files (the least recently used removed first) and cleared of
+    temporary files writers left behind; whatever cannot be removed stays (another process may be at it)."""
+    limit = MAX_FILES if keep_files is None else keep_files
+    try:
+        entries = list(os.scandir(where))
+    except OSError:
+        return
+    now = time.time()
+    plans: list[tuple[float, str]] = []
+    for e in entries:
+        try:
+            if e.name.endswith(".plan"):
+                plans.append((e.stat().st_mtime, e.path))
+            elif e.name.endswith(".tmp") and now - e.stat().st_mtime > STALE_TEMPORARY:
+                os.unlink(e.path)
+        except OSError:
+            continue
+    if len(plans) <= limit:
+        return
+    for _mtime, path in sorted(plans)[:len(plans) - limit]:
+        try:
+            os.unlink(path)
+        except OSError:
+            pass
 
 
 def write_atomic(target: Path, data: bytes) -> bool:
@@ -435,9 +473,15 @@ def lookup(name: str, registry: Registry, doc: Document) -> Entry | None:
     except OSError:
         return None
     try:
-        return _read(data, name, registry, doc, key)
+        found = _read(data, name, registry, doc, key)
     except Exception:  # noqa: BLE001 - a corrupt or foreign file is ignored, whatever it holds
         return None
+    if found is not None:
+        try:
+            os.utime(file_of(name))  # recently used: the last to be pruned
+        except OSError:
+            pass
+    return found
 
 
 def _read(data: bytes, name: str, registry: Registry, doc: Document, key: str) -> Entry | None:
@@ -489,4 +533,4 @@ def keep(name: str, key: str, files: list[list[str]], entry: Entry) -> None:
 
 
 __all__ = ["CACHE_DIR_ENV", "Document", "Entry", "LOADER_VERSION", "NO_CACHE_ENV", "document", "enabled", "file_of",
-           "folder", "lookup", "registry_key", "store", "text_of", "write_atomic"]
+           "folder", "lookup", "prune", "registry_key", "store", "text_of", "write_atomic"]

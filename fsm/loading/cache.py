@@ -18,10 +18,10 @@ is ignored (and rewritten by that load), never an error.
 
 **Where.** In the user's cache folder, ``$XDG_CACHE_HOME/tral-fsm/plans`` or ``~/.cache/tral-fsm/plans``;
 ``FSM_CACHE_DIR`` names another folder. Not beside the document: the document's folder is the user's, and a load
-(``fsmctl validate``) is not asked to write there. The folder keeps the :data:`MAX_FILES` most recently used files. ``FSM_NO_CACHE=1`` (``fsmctl --no-cache``) neither reads nor
+(``fsmctl validate``) is not asked to write there. ``FSM_NO_CACHE=1`` (``fsmctl --no-cache``) neither reads nor
 writes the cache. One file per document path (the newest content replaces the older), written atomically (a
 temporary file in the folder, then renamed), readable by its owner only; a write that fails (a read-only home)
-is skipped.
+is skipped. The folder keeps the :data:`MAX_FILES` most recently used files.
 
 **Data only.** A plan holds compiled closures (expressions, ``set`` actions); the cache holds none of them: an
 expression is kept as its text and the kind it was checked for, and compiled again when the file is read; an action

@@ -10,6 +10,9 @@ Workloads (each the same code on both sides):
   load        load + validate + build of the 1000-state ring from disk, ms (median of 7 per process);
               transitions' ``Machine`` (which validates nothing) in the same processes, for the ratio
   first       ``import fsm`` and its loader, then the first load of that ring, fresh process, ms (what a command pays)
+  warm        this checkout's plan cache (the other workloads run with FSM_NO_CACHE=1): the ring's document to its
+              checked plan from the cache, in a fresh process (what ``fsmctl validate`` pays on the second run) and
+              again in the same process; building the Machine from the plan apart; a miss that writes the cache
   flat        the flat ring of 100 states (Always), transitions/s (best of 5 x 0.5 s)
   nested      10 x 10 x 10 nested composites, transitions/s
   guard       the flat ring with a guard ``n >= 0`` on every transition; ``guard+set`` adds ``n = n + 1``
@@ -37,7 +40,7 @@ from typing import Any
 
 REPO = Path(__file__).resolve().parents[1]
 BENCH = Path(__file__).resolve().parent
-WORKLOADS = ("load", "first", "flat", "nested", "guard", "guard+set", "lap")
+WORKLOADS = ("load", "first", "warm", "flat", "nested", "guard", "guard+set", "lap")
 
 #: Run in a fresh interpreter on either side: prints one JSON object. ``sys.argv[1]`` is the workload.
 PROBE = r'''
@@ -52,6 +55,31 @@ if sys.argv[1] == "first":  # a fresh process: import fsm, then its first load o
     load(ring)
     t2 = time.perf_counter()
     print(json.dumps({"import_ms": (t1 - t0) * 1000, "first_ms": (t2 - t1) * 1000}))
+    sys.exit(0)
+if sys.argv[1] == "warm":  # this checkout's plan cache, filled by an earlier process: document -> plan, then build
+    ring = Path(sys.argv[2])
+    t0 = time.perf_counter()
+    from fsm.loading import loader
+    from fsm.loading.building import build
+    t1 = time.perf_counter()
+    plan = loader.compile(ring)
+    t2 = time.perf_counter()
+    build(plan)
+    t3 = time.perf_counter()
+    from fsm.loading import cache as _cache
+    hits, builds, misses = [], [], []
+    for _ in range(7):  # read from the file each time: what the process keeps in memory cleared
+        loader._LAST.clear(); _cache._KEPT.clear(); gc.collect()
+        a = time.perf_counter(); plan = loader.compile(ring); b = time.perf_counter(); build(plan)
+        hits.append(b - a); builds.append(time.perf_counter() - b)
+    import os as _os
+    for _ in range(3):  # a miss that writes the cache: the cache file gone, the document loaded and stored
+        _os.unlink(_cache.file_of(str(ring)))
+        loader._LAST.clear(); _cache._KEPT.clear(); gc.collect()
+        a = time.perf_counter(); loader.compile(ring); misses.append(time.perf_counter() - a)
+    print(json.dumps({"import_ms": (t1 - t0) * 1000, "first_plan_ms": (t2 - t1) * 1000,
+                      "first_build_ms": (t3 - t2) * 1000, "plan_ms": statistics.median(hits) * 1000,
+                      "build_ms": statistics.median(builds) * 1000, "miss_ms": statistics.median(misses) * 1000}))
     sys.exit(0)
 if BASE:  # this checkout (an editable install is a plain path entry to it) must not shadow the base's fsm
     sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(BENCH).resolve().parent]
@@ -133,8 +161,13 @@ def base_tree(commit: str, where: Path) -> Path:
     return tree
 
 
-def probe(workload: str, tree: Path | None, ring: Path | None = None) -> dict[str, Any]:
+def probe(workload: str, tree: Path | None, ring: Path | None = None, cache: Path | None = None) -> dict[str, Any]:
     env = dict(os.environ)
+    if workload == "warm" and cache is not None:  # a cache folder of the benchmark's own, never the user's
+        env["FSM_CACHE_DIR"] = str(cache)
+        env.pop("FSM_NO_CACHE", None)
+    else:
+        env["FSM_NO_CACHE"] = "1"  # the cold path on this checkout, as on the base (which has no cache)
     if tree is not None:
         env["PYTHONPATH"] = str(tree)
     else:
@@ -176,9 +209,11 @@ def main(argv: list[str] | None = None) -> int:
         for r in range(args.rounds):
             for workload in chosen + (["plain"] if needs_plain else []):
                 for side, path in (("base", tree), ("main", None)):
-                    if workload in ("guard", "guard+set", "plain") and side == "base":
-                        continue  # the guard budget is against this checkout's plain ring
-                    runs.setdefault((workload, side), []).append(probe(workload, path, ring))
+                    if workload in ("guard", "guard+set", "plain", "warm") and side == "base":
+                        continue  # the guard budget is against this checkout's plain ring; the base has no cache
+                    if workload == "warm" and r == 0:
+                        probe(workload, path, ring, where / "cache")  # fills the cache
+                    runs.setdefault((workload, side), []).append(probe(workload, path, ring, where / "cache"))
             print(f"round {r + 1} of {args.rounds} done", file=sys.stderr)
         report(runs, chosen, args.base)
     finally:
@@ -207,6 +242,18 @@ def report(runs: dict[tuple[str, str], list[dict[str, Any]]], chosen: list[str],
             b, m = median(runs["first", "base"], key), median(runs["first", "main"], key)
             print(f"| {what} | {b:.1f} | {m:.1f} | {b / m:.2f}x faster | first load <= base: "
                   f"{'pass' if key == 'import_ms' or m <= b else 'MISS'} |")
+    if "warm" in chosen:
+        warm = runs["warm", "main"]
+        for key, what, budget in (
+                ("import_ms", "plan cache, fresh process: importing the loader (ms, median)", None),
+                ("first_plan_ms", "plan cache, fresh process: the ring's document -> plan from the cache (ms)", 2.0),
+                ("first_build_ms", "plan cache, fresh process: then building the Machine (ms)", None),
+                ("plan_ms", "plan cache, same process: document -> plan from the cache file (ms)", 2.0),
+                ("build_ms", "plan cache, same process: building the Machine (ms)", None),
+                ("miss_ms", "plan cache, a miss: document -> plan, checked, compiled and written (ms)", None)):
+            m = median(warm, key)
+            verdict = "" if budget is None else f"<= {budget:g} ms: {'pass' if m <= budget else 'MISS'}"
+            print(f"| {what} | | {m:.2f} | | {verdict} |")
     for workload in ("flat", "nested"):
         if workload in chosen:
             b, m = median(runs[workload, "base"], "rate"), median(runs[workload, "main"], "rate")

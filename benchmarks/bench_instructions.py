@@ -80,7 +80,8 @@ else:
 
 
 def instructions(workload: str, n: int, tree: Path | None) -> int:
-    env = dict(os.environ, PYTHONHASHSEED="0")  # string hashes decide dict probing: the same on every run
+    # string hashes decide dict probing: the same on every run; the plan cache off: the cold load, as on the base
+    env = dict(os.environ, PYTHONHASHSEED="0", FSM_NO_CACHE="1")
     code = f"BENCH = {str(BENCH)!r}\nBASE = {tree is not None}\n" + PROBE
     if tree is not None:  # the base's fsm must win over this checkout's editable install
         env["PYTHONPATH"] = str(tree)

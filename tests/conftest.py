@@ -3,8 +3,11 @@ CI means a real regression, not a newly drawn example; locally it keeps explorin
 
 from __future__ import annotations
 
+import atexit
 import os
+import shutil
 import sys
+import tempfile
 from collections.abc import Iterator
 
 import pytest
@@ -13,6 +16,12 @@ from hypothesis import settings
 # The built-in types alone: a plugin installed next to tral-fsm (its entry points) cannot change what the tests check
 # (the committed palette and schema, `fsmctl types`); subprocesses inherit it. Tests of entry points unset it.
 os.environ["FSM_NO_ENTRY_POINTS"] = "1"
+
+# Loads keep their plans in a cache (fsm.loading.cache): the tests' cache is a folder of their own (one per xdist
+# worker, removed at the end), never the user's; subprocesses inherit it.
+if not os.environ.get("FSM_CACHE_DIR"):
+    os.environ["FSM_CACHE_DIR"] = tempfile.mkdtemp(prefix="tral-fsm-test-cache-")
+    atexit.register(shutil.rmtree, os.environ["FSM_CACHE_DIR"], True)
 
 settings.register_profile("ci", derandomize=True, print_blob=True)
 if os.environ.get("CI"):

@@ -13,7 +13,7 @@ from __future__ import annotations
 import difflib
 import json
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from fsm.loading.outcomes import can_finish, reachable, state_outcomes
@@ -34,6 +34,9 @@ class Analysis:
     expressions: Mapping[tuple[str | None, str], E.Compiled]
     #: every state path of the machine
     paths: frozenset[str]
+    #: the kind each expression was checked for (``E.BOOL``, ``E.NUMBER`` or None), by the same keys: with the
+    #: text and ``kinds`` it compiles the expression again (how the plan cache stores an expression as data)
+    wants: Mapping[tuple[str | None, str], str | None] = field(default_factory=dict)
 
     def expression(self, source: Source, pointer: str) -> E.Compiled:
         return self.expressions[(source.name, pointer)]
@@ -64,7 +67,8 @@ def check(root: MachineSpec, problems: Problems) -> Analysis:
         for key, value in level.vars.items():
             variables.setdefault(key, value)
     check_sequences(root, problems, can_finish)
-    kinds, expressions = _Expressions(states, transitions, variables, paths, problems).check()
+    exprs = _Expressions(states, transitions, variables, paths, problems)
+    kinds, expressions = exprs.check()
     if root.inputs is not None:
         check_inputs(root, problems)
     for tr in [tr for tr, _scope in transitions if tr.cls.checks_document]:
@@ -80,7 +84,7 @@ def check(root: MachineSpec, problems: Problems) -> Analysis:
             if resolve_path(value, scope, paths) is None:
                 problems.add(f"'{key}' names no state: '{value}'", tr.source, f"{tr.pointer}/{key}",
                              element=tr.label, hint=PATH_HINT)
-    return Analysis(kinds, expressions, paths)
+    return Analysis(kinds, expressions, paths, exprs.wants)
 
 
 PATH_HINT = ("a path of ids joined by '/', relative to this machine or an enclosing one, or absolute with a "
@@ -98,23 +102,45 @@ def check_level(spec: MachineSpec, problems: Problems) -> None:
     Ids and endpoints are checked on the elements as written, so an element with a bad parameter still gets
     its other errors reported in the same run.
     """
-    src, base, add = spec.source, spec.pointer, problems.add
-    first_at: dict[str, int] = {}  # id -> index of the first state element that has it
+    first_at = _check_ids(spec, problems)
+    by_id: dict[str, StateSpec] = {}
+    for st in spec.states:
+        by_id.setdefault(st.id, st)
+    if spec.envelope_ok and spec.initial not in first_at:
+        problems.add(f"initial state '{spec.initial}' is not a state of this machine", spec.source,
+                     spec.initial_pointer, hint=_choices(spec.initial, first_at))
+    _check_endpoints(spec, first_at, problems)
+    for tr in spec.transitions:
+        source = by_id.get(tr.params.from_)
+        if source is not None and (source.cls.is_final or tr.cls.needs_finishing_source):
+            _check_source(tr, source, problems)
+    if spec.initial in by_id:
+        reached = reachable(spec)
+        for st in spec.states:
+            if st.id not in reached and by_id.get(st.id) is st:
+                problems.add(f"unreachable from the initial state '{spec.initial}'", spec.source, st.pointer,
+                             element=st.label, severity="warning", hint="add a transition into it or remove it")
+
+
+def _check_ids(spec: MachineSpec, problems: Problems) -> dict[str, int]:
+    """Duplicate ids among the state elements as written; each id with the index of its first element."""
+    base = spec.pointer
+    first_at: dict[str, int] = {}
     for i, raw in enumerate(spec.raw_states):
         sid = raw.get("id") if isinstance(raw, dict) else None
         if not isinstance(sid, str):
             continue
         if sid in first_at:
-            add(f"duplicate id '{sid}' (first used at {base}/states/{first_at[sid]})", src, f"{base}/states/{i}/id",
-                element=f"state '{sid}'", hint="ids must be unique within one machine level")
+            problems.add(f"duplicate id '{sid}' (first used at {base}/states/{first_at[sid]})", spec.source,
+                         f"{base}/states/{i}/id", element=f"state '{sid}'",
+                         hint="ids must be unique within one machine level")
         else:
             first_at[sid] = i
-    by_id: dict[str, StateSpec] = {}
-    for st in spec.states:
-        by_id.setdefault(st.id, st)
-    if spec.envelope_ok and spec.initial not in first_at:
-        add(f"initial state '{spec.initial}' is not a state of this machine", src, spec.initial_pointer,
-            hint=_choices(spec.initial, first_at))
+    return first_at
+
+
+def _check_endpoints(spec: MachineSpec, first_at: dict[str, int], problems: Problems) -> None:
+    """Each transition element's ``from`` and ``to`` name a state of the level."""
     for i, raw in enumerate(spec.raw_transitions):
         if not isinstance(raw, dict):
             continue
@@ -124,18 +150,9 @@ def check_level(spec: MachineSpec, problems: Problems) -> None:
         for key in ("from", "to"):
             ref = raw.get(key)
             if isinstance(ref, str) and ref and ref not in first_at:
-                add(f"'{key}' names unknown state '{ref}'", src, f"{base}/transitions/{i}/{key}",
-                    element=element_label("transition", raw), hint=_choices(ref, first_at))
-    for tr in spec.transitions:
-        source = by_id.get(tr.params.from_)
-        if source is not None and (source.cls.is_final or tr.cls.needs_finishing_source):
-            _check_source(tr, source, problems)
-    if spec.initial in by_id:
-        reached = reachable(spec)
-        for st in spec.states:
-            if st.id not in reached and by_id.get(st.id) is st:
-                add(f"unreachable from the initial state '{spec.initial}'", src, st.pointer, element=st.label,
-                    severity="warning", hint="add a transition into it or remove it")
+                problems.add(f"'{key}' names unknown state '{ref}'", spec.source,
+                             f"{spec.pointer}/transitions/{i}/{key}", element=element_label("transition", raw),
+                             hint=_choices(ref, first_at))
 
 
 def _check_source(tr: TransitionSpec, source: StateSpec, problems: Problems) -> None:
@@ -258,6 +275,7 @@ class _Expressions:
         self.paths = paths
         self.problems = problems
         self.compiled: dict[tuple[str | None, str], E.Compiled] = {}
+        self.wants: dict[tuple[str | None, str], str | None] = {}
         self.kinds: dict[str, str] = {}
 
     def check(self) -> tuple[dict[str, str], dict[tuple[str | None, str], E.Compiled]]:
@@ -383,6 +401,7 @@ class _Expressions:
             self.problems.add(f"{exc}: {shown}", source, ptr, element=element, hint=hint, expr_column=exc.column)
             return None
         self.compiled[(source.name, ptr)] = c
+        self.wants[(source.name, ptr)] = want
         return c
 
 

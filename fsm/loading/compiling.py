@@ -8,6 +8,7 @@ before building (does it need a car, which files and signals does it use).
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Iterable
 from typing import Any
 
@@ -110,7 +111,10 @@ class _Compiler:
     def assigner(self, source: Source, targets: list[tuple[str, str]]) -> Action | None:
         if not targets:
             return None
-        return E.assigner([(name, self.analysis.expression(source, ptr)) for name, ptr in targets])
+        pairs = [(name, self.analysis.expression(source, ptr)) for name, ptr in targets]
+        action = E.assigner(pairs)
+        ACTIONS[action] = tuple(pairs)
+        return action
 
     def transition(self, tr: TransitionSpec, index: int, prefix: str) -> TransitionPlan:
         p = tr.params
@@ -181,6 +185,9 @@ class _Compiler:
                 self.car_users.append(f"{where} (condition {cs.type})")
 
 
+#: Each compiled action of a plan with the ``(variable, expression)`` pairs it runs: how the plan cache stores an
+#: action as data (``E.assigner`` of the pairs makes it again), never as code.
+ACTIONS: weakref.WeakKeyDictionary[Action, tuple[tuple[str, E.Compiled], ...]] = weakref.WeakKeyDictionary()
 _NO_GUARD = GuardPlan()
 _NONE: list[TransitionPlan] = []
 
@@ -193,4 +200,4 @@ def _join(prefix: str, sid: str) -> str:
     return f"{prefix}/{sid}" if prefix else sid
 
 
-__all__ = ["compile_machine"]
+__all__ = ["ACTIONS", "compile_machine"]

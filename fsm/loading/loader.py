@@ -14,14 +14,16 @@ import os
 import threading
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any, Union
 
+from fsm.loading import cache
 from fsm.loading.building import build
 from fsm.loading.checking import Analysis, conditions_of, signal_names, signal_readers, value_kind
 from fsm.loading.checking import check as check_spec
 from fsm.loading.compiling import compile_machine
 from fsm.loading.parsing import parse
-from fsm.loading.reading import read_json, register_reader
+from fsm.loading.reading import preloaded, read_json, register_reader
 from fsm.loading.registry import Registry, default_registry
 from fsm.model.document import MachineSpec
 from fsm.model.errors import DiagramError, Problem
@@ -44,6 +46,13 @@ def analyse(src: DocumentSource, *, registry: Registry | None = None, plugins: t
     unusable), what checking found out (``None`` then too) and every problem, located and sorted."""
     if registry is not None and not isinstance(registry, Registry):
         raise TypeError(f"registry must be an fsm.Registry or None, got {type(registry).__name__}")
+    if isinstance(src, (str, os.PathLike)) and cache.enabled():
+        return _analyse_file(str(Path(src)), registry or default_registry(_plugins(plugins)))
+    return _analyse(src, registry, plugins, base_dir)
+
+
+def _analyse(src: DocumentSource, registry: Registry | None, plugins: tuple[str, ...],
+             base_dir: str | os.PathLike[str] | None) -> tuple[MachineSpec | None, Analysis | None, list[Problem]]:
     problems = Problems()
     if isinstance(src, MachineSpec):
         spec: MachineSpec | None = src
@@ -57,6 +66,38 @@ def analyse(src: DocumentSource, *, registry: Registry | None = None, plugins: t
             problems.add("document nested too deeply to check", spec.source, "")
             spec = None
     return spec, analysis, problems.located()
+
+
+def _analyse_file(name: str, registry: Registry) -> tuple[MachineSpec | None, Analysis | None, list[Problem]]:
+    """:func:`analyse` of a file through the plan cache (:mod:`fsm.loading.cache`): the cached result when the
+    document, its includes, the registry's types and the loader are what they were; else checked, and when it has
+    no errors compiled and cached."""
+    with collection_paused():
+        doc = cache.document(name)
+        if doc is not None:
+            entry = cache.lookup(name, registry, doc)
+            if entry is not None:
+                _LAST[:] = [entry]
+                return entry.spec, entry.analysis, list(entry.problems)
+        with preloaded({name: doc.raw} if doc is not None and doc.raw is not None else {}):
+            spec, analysis, problems = _analyse(name, registry, (), None)
+        if doc is None or spec is None or analysis is None or any(p.severity == "error" for p in problems):
+            return spec, analysis, problems
+        entry = cache.Entry(spec, analysis, list(problems), compile_machine(spec, analysis))
+        cache.store(name, registry, entry, doc.token)
+        _LAST[:] = [entry]
+        return spec, analysis, problems
+
+
+#: The last file analysed through the cache, with its plan: compiling that spec again takes the plan.
+_LAST: list[cache.Entry] = []
+
+
+def _plan_of(spec: MachineSpec, analysis: Analysis) -> MachinePlan:
+    last = _LAST[0] if _LAST else None
+    if last is not None and last.spec is spec and last.analysis is analysis:
+        return last.plan
+    return compile_machine(spec, analysis)
 
 
 def check(src: DocumentSource, *, registry: Registry | None = None, plugins: tuple[str, ...] = (),
@@ -75,7 +116,7 @@ def compile(src: DocumentSource, *, registry: Registry | None = None, plugins: t
         errors = [p for p in problems if p.severity == "error"]
         if spec is None or analysis is None or errors:
             raise DiagramError(errors or problems)
-        return compile_machine(spec, analysis)
+        return _plan_of(spec, analysis)
 
 
 def load(src: DocumentSource, *, registry: Registry | None = None, plugins: tuple[str, ...] = (),
@@ -126,7 +167,7 @@ def compile_checked(spec: MachineSpec, analysis: Analysis) -> MachinePlan:
     """The plan of a spec :func:`analyse` found without errors, from its analysis: the document is not checked a
     second time (``fsmctl run`` checks once, then compiles)."""
     with collection_paused():
-        return compile_machine(spec, analysis)
+        return _plan_of(spec, analysis)
 
 
 def _plugins(plugins: Any) -> tuple[str, ...]:

@@ -32,13 +32,32 @@ Reader = Callable[[Path], tuple[Any, Source]]
 _READERS: dict[str, Reader] = {}
 
 
-def register_reader(suffix: str, reader: Reader) -> None:
+#: What besides a file's text decides what a reader makes of it (the plan cache's key holds it), by reader.
+CacheKey = Callable[[Path], "tuple[str, str | None]"]
+_CACHE_KEYS: dict[Reader, CacheKey] = {}
+
+
+def register_reader(suffix: str, reader: Reader, cache_key: CacheKey | None = None) -> None:
     """Let ``load`` read files ending in ``suffix`` (``".uxf"``) with ``reader(path) -> (document, Source)``.
 
     The reader raises :class:`DiagramError` for a file it cannot read. This keeps the core free of
-    UMLet: ``fsm.tools`` registers its reader.
+    UMLet: ``fsm.tools`` registers its reader. ``cache_key(path)`` gives what besides the file's text decides what
+    the reader makes of it (a diagram's chosen machine) and the file's text if the caller has read it already
+    (else None); without it, the reader's files are not cached (fsm.loading.cache).
     """
     _READERS[suffix.lower()] = reader
+    if cache_key is not None:
+        _CACHE_KEYS[reader] = cache_key
+
+
+def cache_key(path: Path) -> tuple[str, str | None] | None:
+    """What besides its text decides what the file's reader (by suffix) makes of ``path``, with its text when the
+    caller read it already; None when its reader says nothing of it (its documents are not cached)."""
+    reader = _reader_by_suffix(path)
+    if reader is read_json:
+        return "json", None
+    key = _CACHE_KEYS.get(reader)
+    return key(path) if key is not None else None
 
 
 #: Entry-point group of file readers: the entry point's name is the suffix without its dot (``uxf``).
@@ -55,6 +74,10 @@ def reader_for(path: Path) -> Reader:
             return lambda _path: item
         if str(path) == STDIN_NAME and item.lstrip(b"\xef\xbb\xbf \t\r\n").startswith(b"<"):
             return reader_for(Path(STDIN_NAME + ".uxf"))  # a diagram on standard input
+    return _reader_by_suffix(path)
+
+
+def _reader_by_suffix(path: Path) -> Reader:
     suffix = path.suffix.lower()
     reader = _READERS.get(suffix)
     if reader is None and suffix and suffix not in _NO_READER:
@@ -100,6 +123,13 @@ def preloaded(files: dict[str, Any]) -> Iterator[None]:
         yield
     finally:
         _PRELOADED.reset(token)
+
+
+def preloaded_copy(name: str) -> Any:
+    """What the caller preloaded for the file ``name`` (its bytes, or the ``(document, Source)`` a reader made of
+    them), or None."""
+    pre = _PRELOADED.get()
+    return pre.get(name) if pre is not None else None
 
 
 def max_input_bytes() -> int:

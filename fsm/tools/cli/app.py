@@ -30,11 +30,14 @@ EPILOG = """exit status:
   2    command-line usage error
   130  a run stopped by Ctrl-C or SIGTERM (its outputs are still written)
 
-Options before COMMAND are fsmctl's own (--plugin, --traceback); those after it are the command's
-(fsmctl COMMAND --help). --traceback or FSM_TRACEBACK=1 prints the whole traceback of any failure."""
+Options before COMMAND are fsmctl's own (--plugin, --traceback, --no-cache); those after it are the command's
+(fsmctl COMMAND --help). --traceback or FSM_TRACEBACK=1 prints the whole traceback of any failure. --no-cache
+(before or after COMMAND) or FSM_NO_CACHE=1 loads every machine from its files, neither reading nor writing the
+plan cache (~/.cache/tral-fsm, or FSM_CACHE_DIR)."""
 
 #: fsmctl's own options, given before the command; the value says whether one takes a value.
-TOP_OPTIONS = {"--plugin": True, "--traceback": False, "--version": False, "-h": False, "--help": False}
+TOP_OPTIONS = {"--plugin": True, "--traceback": False, "--no-cache": False, "--version": False, "-h": False,
+               "--help": False}
 
 
 class _Parser(argparse.ArgumentParser):
@@ -54,6 +57,9 @@ def build_parser() -> argparse.ArgumentParser:
                              "state/transition types (repeatable)")
     parser.add_argument("--traceback", action="store_true",
                         help="print the whole traceback of any failure (as FSM_TRACEBACK=1 does)")
+    parser.add_argument("--no-cache", action="store_true",
+                        help="load machines from their files only: neither read nor write the plan cache (as "
+                             "FSM_NO_CACHE=1 does); also accepted after the command")
     parser.add_argument("--version", action="version", version="%(prog)s " + version())
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name in COMMANDS:
@@ -68,6 +74,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         _check_placement(parser, argv)
         args, extra = parser.parse_known_args(argv)
+        if "--no-cache" in extra:  # fsmctl's own, but at home after any command that loads a machine too
+            extra = [token for token in extra if token != "--no-cache"]
+            args.no_cache = True
         if extra:
             _unrecognized(parser, args.command, extra)
     except KeyboardInterrupt:
@@ -75,16 +84,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command is None:
         parser.print_help(sys.stderr)
         return EXIT_USAGE
-    if args.traceback:
-        import os
+    import os
 
+    if args.traceback:
         from fsm.model.errors import TRACEBACK_ENV
 
         os.environ[TRACEBACK_ENV] = "1"  # for every path that prints a failure, and for worker processes
+    before = os.environ.get("FSM_NO_CACHE")
+    if args.no_cache:  # for every load of the command, and for its worker processes (a sweep's)
+        os.environ["FSM_NO_CACHE"] = "1"
     try:
         return int(args.func(args) or 0)
     except BaseException as exc:
         return _failed(exc)
+    finally:
+        if args.no_cache and before is None:  # main may be called in a process that goes on
+            del os.environ["FSM_NO_CACHE"]
+        elif args.no_cache and before is not None:
+            os.environ["FSM_NO_CACHE"] = before
 
 
 def _failed(exc: BaseException) -> int:

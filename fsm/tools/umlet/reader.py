@@ -157,4 +157,13 @@ def convert_raw(raw: RawDiagram) -> Converted:
 
 
 
-register_reader(".uxf", read_uxf)
+def cache_key(path: Path) -> tuple[str, str | None]:
+    """What besides the diagram's text decides what :func:`read_uxf` makes of it (the machine chosen), and its
+    text when it was read already (the plan cache hashes it)."""
+    pre = PRESELECTED.get()
+    if pre is not None and pre[0] == path.resolve():
+        return f"machine {pre[2]}", pre[1].diagram.text
+    return "the only machine", None
+
+
+register_reader(".uxf", read_uxf, cache_key)

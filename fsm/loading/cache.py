@@ -1,0 +1,536 @@
+"""The plan cache: a checked and compiled document kept by content, like Python's ``__pycache__``.
+
+A load of a file that checks without errors leaves its result (the spec, what checking found out, the warnings and
+the plan) in a cache file; the next load of the same content takes it from there instead of parsing, validating,
+checking and compiling again.
+
+**The key.** A cache file is used only when everything a load depends on is what it was when the file was written:
+
+- the text of the document and of every file it includes (SHA-256 of each, read again on every load);
+- the registry's types: every registered name with its class's module and qualified name, and each of those
+  modules' source file (modification time in nanoseconds and size, as ``__pycache__`` does), so a plugin whose
+  source changes, a type registered under another name or another class misses;
+- the loader's version: the package's version, this file format, and the source files of the modules that parse,
+  check and compile (a changed loader in a development checkout misses too).
+
+The key is checked before anything of the file is read back; a file whose key, checksum or content does not fit
+is ignored (and rewritten by that load), never an error.
+
+**Where.** In the user's cache folder, ``$XDG_CACHE_HOME/tral-fsm/plans`` or ``~/.cache/tral-fsm/plans``;
+``FSM_CACHE_DIR`` names another folder. Not beside the document: the document's folder is the user's, and a load
+(``fsmctl validate``) is not asked to write there. ``FSM_NO_CACHE=1`` (``fsmctl --no-cache``) neither reads nor
+writes the cache. One file per document path (the newest content replaces the older), written atomically (a
+temporary file in the folder, then renamed), readable by its owner only; a write that fails (a read-only home)
+is skipped. The folder keeps the :data:`MAX_FILES` most recently used files.
+
+**Data only.** A plan holds compiled closures (expressions, ``set`` actions); the cache holds none of them: an
+expression is kept as its text and the kind it was checked for, and compiled again when the file is read; an action
+as its ``(variable, expression)`` pairs; a file's locator as nothing (made again from the text, read anyway for the
+key). The rest is pickled data read back by an unpickler that resolves only the document model's classes and the
+registry's own types and parameter models (nothing else: no function, no module, no builtin), so a forged cache
+file cannot run code beyond creating those objects; what it can do is describe a different machine, as editing the
+document could. A file not owned by the current user is not read.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import io
+import json
+import os
+import pickle
+import sys
+import tempfile
+import time
+import types
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, NamedTuple
+
+from fsm.loading.checking import Analysis
+from fsm.loading.compiling import ACTIONS
+from fsm.loading.reading import STDIN_NAME, cache_key, preloaded_copy, read_file_bytes
+from fsm.loading.registry import Registry
+from fsm.model import expr as E
+from fsm.model.document import MachineSpec, Source
+from fsm.model.errors import DiagramError, Problem
+from fsm.model.jsonpos import locate
+from fsm.model.plan import NOTHING, MachinePlan
+from fsm.model.version import VERSION
+
+#: The folder of the cache files (overrides the user's cache folder).
+CACHE_DIR_ENV = "FSM_CACHE_DIR"
+#: ``1``: neither read nor write the cache.
+NO_CACHE_ENV = "FSM_NO_CACHE"
+#: The cache file's format; a new one misses every older file.
+FORMAT = 1
+MAGIC = b"tral-fsm plan cache\n"
+#: The loader's version as far as the cache is concerned (the package's, and the format).
+LOADER_VERSION = f"{VERSION}/{FORMAT}"
+#: The modules whose source decides what a load makes of a document (their files are part of the key).
+LOADER_MODULES = ("fsm.model.document", "fsm.model.params", "fsm.model.plan", "fsm.model.expr", "fsm.model.errors",
+                  "fsm.model.problems", "fsm.loading.parsing", "fsm.loading.checking", "fsm.loading.outcomes",
+                  "fsm.loading.compiling", "fsm.loading.cache", "fsm.sequencer.layout", "fsm.sequencer.checks")
+#: The modules of the document model whose classes a cache file may hold.
+MODEL_MODULES = ("fsm.model.document", "fsm.model.params", "fsm.model.plan", "fsm.model.errors")
+
+
+class Entry(NamedTuple):
+    """What a load of a document without errors found: its spec, analysis, problems (warnings) and plan."""
+
+    spec: MachineSpec
+    analysis: Analysis
+    problems: list[Problem]
+    plan: MachinePlan
+
+
+class _NotCachable(Exception):
+    """Something in a load's result the cache cannot hold as data: the load is simply not cached."""
+
+
+def enabled() -> bool:
+    """Whether loads use the cache (``FSM_NO_CACHE`` unset, empty or ``0``)."""
+    return os.environ.get(NO_CACHE_ENV, "").strip() in ("", "0")
+
+
+def folder() -> Path:
+    """The folder of the cache files: ``FSM_CACHE_DIR``, else ``$XDG_CACHE_HOME/tral-fsm/plans``, else
+    ``~/.cache/tral-fsm/plans``."""
+    chosen = os.environ.get(CACHE_DIR_ENV)
+    if chosen:
+        return Path(chosen)
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "tral-fsm" / "plans"
+
+
+def file_of(name: str) -> Path:
+    """The cache file of the document ``name`` (as given, and where it really is)."""
+    where = os.path.realpath(name) if name else ""
+    digest = hashlib.sha256(f"{FORMAT}\0{name}\0{where}".encode("utf-8", "surrogatepass")).hexdigest()
+    return folder() / f"{digest[:40]}.plan"
+
+
+# -- the key -----------------------------------------------------------------------------------------------------
+def _source_stamp(module: str) -> list[Any] | None:
+    """``[module, file, mtime_ns, size]`` of a module's source, or None when it has no file to stamp."""
+    mod = sys.modules.get(module)
+    path = getattr(mod, "__file__", None) if mod is not None else None
+    if not path:
+        return None
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return [module, path, st.st_mtime_ns, st.st_size]
+
+
+def _types_of(registry: Registry) -> list[tuple[str, str, type]]:
+    tables = (("state", registry.states), ("transition", registry.transitions), ("condition", registry.conditions),
+              ("plant", registry.plants))
+    return [(kind, name, cls) for kind, table in tables for name, cls in sorted(table.items())]
+
+
+def registry_key(registry: Registry) -> str | None:
+    """The key of the registry's types and the loader's version; None when a type has no source file to stamp
+    (such a registry's loads are not cached)."""
+    entries: list[Any] = [LOADER_VERSION]
+    modules = set(LOADER_MODULES)
+    for kind, name, cls in _types_of(registry):
+        entries.append([kind, name, cls.__module__, cls.__qualname__])
+        modules.add(cls.__module__)
+        params = getattr(cls, "Params", None)
+        if isinstance(params, type):
+            modules.add(params.__module__)
+    for module in sorted(modules):
+        stamp = _source_stamp(module)
+        if stamp is None:
+            return None
+        entries.append(stamp)
+    return hashlib.sha256(json.dumps(entries).encode("utf-8", "surrogatepass")).hexdigest()
+
+
+def _allowed(registry: Registry, key: str) -> dict[tuple[str, str], type]:
+    """The classes a cache file may name: the model's data classes, the registered types and the parameter
+    models and enums of their modules (made once per registry key in a process)."""
+    known = _ALLOWED.get(key)
+    if known is not None:
+        return known
+    allowed: dict[tuple[str, str], type] = {}
+
+    def add_module(module: str, keep: Callable[[type], bool]) -> None:
+        for value in vars(sys.modules[module]).values():
+            if isinstance(value, type) and value.__module__ == module and keep(value):
+                allowed[(module, value.__qualname__)] = value
+
+    for module in MODEL_MODULES:
+        add_module(module, lambda cls: True)
+    from enum import Enum
+
+    from pydantic import BaseModel
+
+    for _kind, _name, cls in _types_of(registry):
+        allowed[(cls.__module__, cls.__qualname__)] = cls
+        params = getattr(cls, "Params", None)
+        for module in {cls.__module__, getattr(params, "__module__", cls.__module__)}:
+            if module in sys.modules:
+                add_module(module, lambda c: issubclass(c, (BaseModel, Enum)))
+    _ALLOWED.clear()  # one registry in a process, as a rule: keep the last
+    _ALLOWED[key] = allowed
+    return allowed
+
+
+_ALLOWED: dict[str, dict[tuple[str, str], type]] = {}
+
+
+# -- the texts read ----------------------------------------------------------------------------------------------
+def text_of(name: str) -> tuple[str, bytes | None] | None:
+    """The text of a document file as the loader reads it (the caller's preloaded copy if there is one), with the
+    bytes when they were read here; None when it cannot be read or decoded (the load itself says why)."""
+    item = preloaded_copy(name)
+    if isinstance(item, tuple):
+        text = getattr(item[1], "text", None)
+        return (text, None) if isinstance(text, str) else None
+    try:
+        raw = read_file_bytes(Path(name))
+    except DiagramError:
+        return None
+    try:
+        text = (raw[3:] if raw.startswith(b"\xef\xbb\xbf") else raw).decode("utf-8")
+    except UnicodeDecodeError:
+        return None
+    return text, (None if isinstance(item, bytes) else raw)
+
+
+class Document(NamedTuple):
+    """A document file as a load through the cache sees it: its text, its bytes when read here (the load takes
+    them, so the file is read once and the text hashed is the text parsed), and its reader's cache token."""
+
+    text: str
+    raw: bytes | None
+    token: str
+
+
+def document(name: str) -> Document | None:
+    """The document file ``name`` if its load may be cached (not standard input, a reader that names what it
+    depends on, a text that can be read), else None."""
+    if name == STDIN_NAME or not name:
+        return None
+    key = cache_key(Path(name))
+    if key is None:
+        return None
+    token, text = key
+    if text is not None:
+        return Document(text, None, token)
+    found = text_of(name)
+    return Document(found[0], found[1], token) if found is not None else None
+
+
+def _digest(text: str) -> str:
+    return hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()
+
+
+class _Locator:
+    """A file's locator made again from its text on first use (a cache file holds no function)."""
+
+    def __init__(self, name: str, text: str) -> None:
+        self.name = name
+        self.text = text
+        self._made: Any = None
+
+    def __call__(self, pointers: set[str]) -> Any:
+        if self._made is None:
+            from fsm.loading.reading import preloaded, read_json, reader_for
+
+            path = Path(self.name)
+            reader = reader_for(path)
+            if reader is read_json:
+                text = self.text
+                self._made = lambda ptrs: locate(text, ptrs)
+            else:
+                with preloaded({self.name: self.text.encode("utf-8", "surrogatepass")}):
+                    self._made = reader(path)[1].locator
+        return self._made(pointers)
+
+
+# -- writing -------------------------------------------------------------------------------------------------------
+class _Writer(pickle.Pickler):
+    """Pickles a load's result as data: sources, expressions and actions as what they are made of, each once
+    (a reduction is memoized: the thousand states of one file share one source)."""
+
+    def __init__(self, out: io.BytesIO, entry: Entry, texts: dict[str, str], allowed: dict[tuple[str, str], type]):
+        super().__init__(out, protocol=pickle.HIGHEST_PROTOCOL)
+        self.texts = texts
+        self.allowed = allowed
+        self.expr_keys = {id(c): key for key, c in entry.analysis.expressions.items()}
+        self.wants = entry.analysis.wants
+        self.var_ops = {id(c.var_op): c for c in entry.analysis.expressions.values() if c.var_op is not None}
+        #: the kinds of plain data met so far (parameter models, specs, plans): pickled as they are, asked once
+        self.plain: set[type] = set()
+
+    def reducer_override(self, obj: Any) -> Any:
+        kind = type(obj)
+        if kind in self.plain:
+            return NotImplemented
+        if kind is Source:
+            if obj.name not in self.texts or obj.text != self.texts[obj.name]:
+                raise _NotCachable(f"a source not read from a file: {obj.name}")
+            return _source, (obj.name,)
+        if kind is E.Compiled:
+            return self.expression(obj)
+        if kind is E.VarOp:
+            if id(obj) not in self.var_ops:
+                raise _NotCachable("a comparison of no expression")
+            return _var_op, (self.var_ops[id(obj)],)
+        if kind is types.MappingProxyType:
+            return (_nothing, ()) if obj is NOTHING else (_proxy, (dict(obj),))
+        if kind is types.FunctionType:
+            if obj in _REFERENCES:
+                return NotImplemented
+            pairs = ACTIONS.get(obj)
+            if pairs is None:
+                raise _NotCachable(f"a function: {obj!r}")
+            return _action, (pairs,)
+        if isinstance(obj, type):
+            if self.allowed.get((obj.__module__, obj.__qualname__)) is not obj:
+                raise _NotCachable(f"a class the cache does not read back: {obj.__module__}.{obj.__qualname__}")
+            return NotImplemented
+        if callable(obj):
+            raise _NotCachable(f"code: {obj!r}")
+        self.plain.add(kind)
+        return NotImplemented
+
+    def expression(self, c: E.Compiled) -> Any:
+        key = self.expr_keys.get(id(c))
+        if c.constant:
+            return _constant, (c.value,)
+        if key is None:
+            raise _NotCachable(f"an expression of no analysis: {c.text}")
+        return _expression, (c.text, self.wants.get(key))
+
+
+def _reference(name: str) -> Callable[..., Any]:
+    def made_by_the_reader(*_args: Any) -> Any:
+        raise RuntimeError("a name in cache files only; the cache's reader makes the object")
+    made_by_the_reader.__name__ = made_by_the_reader.__qualname__ = name
+    return made_by_the_reader
+
+
+#: Names the writer puts in a cache file for what is made again when it is read (see ``_Reader.find_class``).
+_source, _expression, _constant, _var_op, _nothing, _proxy, _action = (
+    _reference(n) for n in ("_source", "_expression", "_constant", "_var_op", "_nothing", "_proxy", "_action"))
+_REFERENCES = frozenset([_source, _expression, _constant, _var_op, _nothing, _proxy, _action])
+
+
+def store(name: str, registry: Registry, entry: Entry, token: str) -> bool:
+    """Write the cache file of the document ``name``; False (and nothing written) when the result holds something
+    the cache cannot keep as data or the folder cannot be written."""
+    key = registry_key(registry)
+    if key is None:
+        return False
+    texts: dict[str, str] = {}
+    for level in entry.spec.levels():
+        if level.source.name is not None and level.source.text is not None:
+            texts.setdefault(level.source.name, level.source.text)
+    if name not in texts:
+        return False
+    out = io.BytesIO()
+    try:
+        _Writer(out, entry, texts, _allowed(registry, key)).dump(
+            (entry.spec, (entry.analysis.expressions, entry.analysis.paths, entry.analysis.wants), entry.problems,
+             entry.plan))
+    except (_NotCachable, pickle.PicklingError, TypeError, AttributeError, RecursionError):
+        return False
+    payload = out.getvalue()
+    files = [[name, _digest(texts[name]), token]] + [[n, _digest(t)] for n, t in texts.items() if n != name]
+    header = json.dumps({"key": key, "files": files, "kinds": dict(entry.analysis.kinds),
+                         "payload": hashlib.sha256(payload).hexdigest()}).encode()
+    keep(name, key, files, entry._replace(problems=[dataclasses.replace(p) for p in entry.problems]))
+    target = file_of(name)
+    written = write_atomic(target, MAGIC + len(header).to_bytes(4, "big") + header + payload)
+    if written:
+        prune(target.parent)
+    return written
+
+
+#: The most cache files kept: beyond it, the least recently used go (a file is touched when it is read).
+MAX_FILES = 256
+#: A temporary file older than this (seconds) was left by a writer that died: removed.
+STALE_TEMPORARY = 3600.0
+
+
+def prune(where: Path, keep_files: int | None = None) -> None:
+    """The cache folder held to :data:`MAX_FILES` files (the least recently used removed first) and cleared of
+    temporary files writers left behind; whatever cannot be removed stays (another process may be at it)."""
+    limit = MAX_FILES if keep_files is None else keep_files
+    try:
+        entries = list(os.scandir(where))
+    except OSError:
+        return
+    now = time.time()
+    plans: list[tuple[float, str]] = []
+    for e in entries:
+        try:
+            if e.name.endswith(".plan"):
+                plans.append((e.stat().st_mtime, e.path))
+            elif e.name.endswith(".tmp") and now - e.stat().st_mtime > STALE_TEMPORARY:
+                os.unlink(e.path)
+        except OSError:
+            continue
+    if len(plans) <= limit:
+        return
+    for _mtime, path in sorted(plans)[:len(plans) - limit]:
+        try:
+            os.unlink(path)
+        except OSError:
+            pass
+
+
+def write_atomic(target: Path, data: bytes) -> bool:
+    """The core's one writer of its own files: a private temporary file in the target's folder, renamed over the
+    target (a reader sees the old file or the new one, never half of one; two writers: the last rename wins)."""
+    tmp = None
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.replace(tmp, target)
+        return True
+    except OSError:
+        if tmp is not None:
+            try:
+                os.unlink(tmp)
+            except OSError:
+                pass
+        return False
+
+
+# -- reading -------------------------------------------------------------------------------------------------------
+class _Reader(pickle.Unpickler):
+    """Reads a cache file's payload back: only allowed classes; sources, expressions and actions made again."""
+
+    def __init__(self, data: bytes, allowed: dict[tuple[str, str], type], texts: dict[str, str],
+                 kinds: dict[str, str]) -> None:
+        super().__init__(io.BytesIO(data))
+        self.allowed = allowed
+        self.texts = texts
+        self.kinds = kinds
+        self.made: dict[str, Callable[..., Any]] = {
+            "_source": self.source, "_expression": self.expression, "_constant": E.constant,
+            "_var_op": _var_op_of, "_nothing": _the_nothing, "_proxy": types.MappingProxyType, "_action": _action_of}
+
+    def find_class(self, module: str, name: str) -> Any:
+        if module == __name__ and name in self.made:
+            return self.made[name]
+        cls = self.allowed.get((module, name))
+        if cls is None:
+            raise pickle.UnpicklingError(f"a cache file may not name {module}.{name}")
+        return cls
+
+    def source(self, name: str) -> Source:
+        text = self.texts[name]
+        return Source(name=name, directory=Path(name).parent, text=text, locator=_Locator(name, text))
+
+    def expression(self, text: str, want: str | None) -> E.Compiled:
+        return E.compile_expr(text, self.kinds, want)
+
+
+def _var_op_of(c: E.Compiled) -> E.VarOp | None:
+    return c.var_op
+
+
+def _the_nothing() -> Any:
+    return NOTHING
+
+
+def _action_of(pairs: tuple[tuple[str, E.Compiled], ...]) -> Any:
+    action = E.assigner(list(pairs))
+    ACTIONS[action] = tuple(pairs)
+    return action
+
+
+def lookup(name: str, registry: Registry, doc: Document) -> Entry | None:
+    """The cached result of loading the document ``name`` (as it is now: ``doc``), or None: no cache file, another
+    key or content, or a file that cannot be read back (ignored; the load writes it again).
+
+    A result this process read or wrote is kept in memory too (the last few documents): with the same key and
+    texts, it is answered without reading the file again (a scenario suite, a sweep, a reload load one machine
+    many times). Specs and plans are never changed after a load (an override copies what it changes), so loads
+    may share them; the problems are copied, since callers add to a problem's text."""
+    key = registry_key(registry)
+    if key is None:
+        return None
+    kept = _KEPT.get(name)
+    if kept is not None and kept[0] == key and _texts(kept[1], name, doc) is not None:
+        entry = kept[2]
+        return entry._replace(problems=[dataclasses.replace(p) for p in entry.problems])
+    try:
+        with open(file_of(name), "rb") as fh:
+            if os.fstat(fh.fileno()).st_uid != os.geteuid():
+                return None
+            data = fh.read()
+    except OSError:
+        return None
+    try:
+        found = _read(data, name, registry, doc, key)
+    except Exception:  # noqa: BLE001 - a corrupt or foreign file is ignored, whatever it holds
+        return None
+    if found is not None:
+        try:
+            os.utime(file_of(name))  # recently used: the last to be pruned
+        except OSError:
+            pass
+    return found
+
+
+def _read(data: bytes, name: str, registry: Registry, doc: Document, key: str) -> Entry | None:
+    if not data.startswith(MAGIC):
+        return None
+    start = len(MAGIC) + 4
+    size = int.from_bytes(data[len(MAGIC):start], "big")
+    header = json.loads(data[start:start + size])
+    if header.get("key") != key:
+        return None
+    files = header["files"]
+    texts = _texts(files, name, doc)
+    payload = data[start + size:]
+    if texts is None or hashlib.sha256(payload).hexdigest() != header["payload"]:
+        return None
+    kinds = header["kinds"]
+    spec, (expressions, paths, wants), problems, plan = _Reader(payload, _allowed(registry, key), texts, kinds).load()
+    if not isinstance(spec, MachineSpec) or not isinstance(plan, MachinePlan) or not isinstance(problems, list):
+        return None
+    entry = Entry(spec, Analysis(kinds, expressions, paths, wants), problems, plan)
+    keep(name, key, files, entry)
+    return entry._replace(problems=[dataclasses.replace(p) for p in problems])
+
+
+def _texts(files: list[list[str]], name: str, doc: Document) -> dict[str, str] | None:
+    """The text of each file of a cache entry (``[name, digest, token]`` first, then ``[include, digest]``) if
+    every one is still what it was, else None."""
+    if files[0] != [name, _digest(doc.text), doc.token]:
+        return None
+    texts = {name: doc.text}
+    for other, digest in files[1:]:
+        found = text_of(other)
+        if found is None or _digest(found[0]) != digest:
+            return None
+        texts[other] = found[0]
+    return texts
+
+
+#: The results this process read or wrote, by document: (registry key, files, entry); the newest few.
+_KEPT: dict[str, tuple[str, list[list[str]], Entry]] = {}
+KEPT_DOCUMENTS = 8
+
+
+def keep(name: str, key: str, files: list[list[str]], entry: Entry) -> None:
+    _KEPT.pop(name, None)
+    _KEPT[name] = (key, files, entry)
+    while len(_KEPT) > KEPT_DOCUMENTS:
+        del _KEPT[next(iter(_KEPT))]
+
+
+__all__ = ["CACHE_DIR_ENV", "Document", "Entry", "LOADER_VERSION", "NO_CACHE_ENV", "document", "enabled", "file_of",
+           "folder", "lookup", "prune", "registry_key", "store", "text_of", "write_atomic"]

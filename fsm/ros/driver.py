@@ -109,6 +109,9 @@ class RosDriver:
         self.commands = 0
         self.zero_commands = 0
         self.held_by: str | None = None
+        #: a managed node deactivated (:mod:`fsm.ros.lifecycle`): every command has zero speed, the tick in
+        #: progress's too
+        self.inactive = False
         self.stop_sent = 0
         #: the input signals the document declares (settable from outside: ROS 2 parameters over rclpy)
         self.signals: list[str] = []
@@ -229,7 +232,8 @@ class RosDriver:
                 self._silent_since = None
             self.silent = silent
             self._watch.changed = True
-        held = "silence" if silent else "pause" if self._watch.paused else "stopped" if car.stopped else None
+        held = ("silence" if silent else "inactive" if self.inactive else "pause" if self._watch.paused
+                else "stopped" if car.stopped else None)
         self.held_by = held
         self._publish_command(now, 0.0 if held else car.speed_command)
         if self.profile.outputs.status is not None and (self._watch.changed or now + EPS >= self._next_status):
@@ -330,16 +334,18 @@ class RosDriver:
 
 def ros_session(plan: Any, profile: Profile, link: Bus, *, lockstep: bool = False, bag: BagRecorder | None = None,
                 log: Log | None = None, stop: Any = None, variables: dict[str, Any] | None = None,
-                signals: list[str] | None = None) -> Session:
+                signals: list[str] | None = None, clock: Any = None) -> Session:
     """A session that runs the machine of ``plan`` (a compiled :class:`fsm.model.plan.MachinePlan`) on the car behind
-    ``link``: on the wall clock at the profile's rate, or in lock-step with a simulator's clock."""
+    ``link``: on the wall clock at the profile's rate, or in lock-step with a simulator's clock (``clock``: another
+    clock, e.g. :class:`fsm.ros.lifecycle.HoldableClock`)."""
     from fsm.loading.building import build
     from fsm.runtime.clock import RealTimeClock, SimulatedClock
     from fsm.session.session import Session
 
     driver = RosDriver(profile, link, lockstep=lockstep, bag=bag, log=log)
     driver.signals = list(signals or [])
-    clock = SimulatedClock(profile.dt) if lockstep else RealTimeClock(profile.dt)
+    if clock is None:
+        clock = SimulatedClock(profile.dt) if lockstep else RealTimeClock(profile.dt)
     machine = build(plan, clock=clock, car=driver.car)
     if variables:
         machine.ctx.vars.update(variables)

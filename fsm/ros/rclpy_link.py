@@ -17,11 +17,14 @@ import re
 import threading
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from fsm.model.errors import DiagramError, Problem
 from fsm.ros.profile import Binding, Profile, domain_of, normalise_type, status_companions
 from fsm.ros.transport import ROBOT, PeerTimeout, TransportError, node_name
+
+if TYPE_CHECKING:
+    from fsm.ros.lifecycle import Managed
 
 #: What to install for rclpy (the extra pins ROS 2 Jazzy's wheels).
 RCLPY_HINT = "pip install 'tral-fsm[rclpy]' (ROS 2 Jazzy's wheels), or source a ROS 2 installation"
@@ -122,8 +125,11 @@ class RclpyPublisher:
 class RclpyLink:
     """The :class:`~fsm.ros.transport.Bus` of a profile over rclpy (see the module's docstring)."""
 
-    def __init__(self, profile: Profile, node: str = "fsmctl", sim_time: bool = False) -> None:
+    def __init__(self, profile: Profile, node: str = "fsmctl", sim_time: bool = False,
+                 managed: Managed | None = None) -> None:
         self.profile = profile
+        #: a managed (lifecycle) node whose transitions call ``managed`` (:mod:`fsm.ros.lifecycle`), else a plain one
+        self.managed = managed
         #: the node's name: the profile's ``transport.node``, else ``fsmctl_<profile name>`` for the machine and
         #: ``fsmctl_sim_<profile name>`` for the robot; its namespace the profile's ``transport.namespace``
         self.node_name = node_name(profile, node)
@@ -135,6 +141,9 @@ class RclpyLink:
         self._executor: Any = None
         self._thread: threading.Thread | None = None
         self._subscriptions: list[Any] = []
+        self._publishers: list[Any] = []
+        self._parameters: list[str] = []
+        self._on_set: Any = None
 
     def describe(self) -> str:
         import os
@@ -164,8 +173,14 @@ class RclpyLink:
             self._context = rclpy.Context()
             self._init(rclpy)
             overrides = [_module("rclpy.parameter").Parameter("use_sim_time", value=True)] if self.sim_time else []
-            self.node = rclpy.create_node(self.node_name, namespace=self.namespace, context=self._context,
-                                          parameter_overrides=overrides)
+            if self.managed is not None:
+                from fsm.ros.lifecycle import lifecycle_node
+
+                self.node = lifecycle_node(self.node_name, self.managed, namespace=self.namespace,
+                                           context=self._context, parameter_overrides=overrides)
+            else:
+                self.node = rclpy.create_node(self.node_name, namespace=self.namespace, context=self._context,
+                                              parameter_overrides=overrides)
         except Exception as exc:  # an RMW that does not load, a bad domain
             raise TransportError(f"cannot start rclpy {self.describe()}: {exc}") from None
         self._executor = executors.SingleThreadedExecutor(context=self._context)
@@ -209,10 +224,12 @@ class RclpyLink:
         self._writable = {f"signals.{name}" for name in signals}
         for name, value in variables.items():
             if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+                self._parameters.append(f"vars.{name}")
                 self.node.declare_parameter(f"vars.{name}", parameter_value(value), rcl.ParameterDescriptor(
                     dynamic_typing=True, description=f"the machine's variable {name} (read-only: the machine sets it)"))
         for name in signals:
             if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+                self._parameters.append(f"signals.{name}")
                 self.node.declare_parameter(f"signals.{name}", False, rcl.ParameterDescriptor(
                     description=f"the input signal {name} (the document's inputs: set it to drive the machine)"))
 
@@ -231,6 +248,7 @@ class RclpyLink:
             return rcl.SetParametersResult(successful=True)
 
         self.node.add_on_set_parameters_callback(check)
+        self._on_set = check
 
     def update_parameters(self, variables: dict[str, Any]) -> None:
         """The variables' current values (those declared; a new variable is declared now)."""
@@ -259,12 +277,33 @@ class RclpyLink:
 
     def publisher(self, binding: Binding) -> RclpyPublisher:
         pub = self.node.create_publisher(self.message_class(binding.type), binding.topic, qos_of(binding))
+        self._publishers.append(pub)
         return RclpyPublisher(pub)
 
     def subscribe(self, binding: Binding, callback: Callable[[bytes], None]) -> None:
         sub = self.node.create_subscription(self.message_class(binding.type), binding.topic,
                                             lambda raw: callback(bytes(raw)), qos_of(binding), raw=True)
         self._subscriptions.append(sub)
+
+    def release(self) -> None:
+        """Destroy the publishers, subscriptions and parameters made since :meth:`open` (a managed node's
+        ``cleanup``); the node stays."""
+        node = self.node
+        if node is None:
+            return
+        for pub in self._publishers:
+            node.destroy_publisher(pub)
+        for sub in self._subscriptions:
+            node.destroy_subscription(sub)
+        self._publishers.clear()
+        self._subscriptions.clear()
+        if self._on_set is not None:
+            node.remove_on_set_parameters_callback(self._on_set)
+            self._on_set = None
+        for name in self._parameters:
+            if node.has_parameter(name):
+                node.undeclare_parameter(name)
+        self._parameters.clear()
 
     def close(self) -> None:
         executor, self._executor = self._executor, None

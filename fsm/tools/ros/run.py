@@ -29,8 +29,9 @@ def check_usage(args: argparse.Namespace) -> None:
         for option in ("bag", "connect", "listen", "via"):
             if getattr(args, option, None):
                 raise UsageError(f"--{option} needs --ros PROFILE (it records or reaches a car on ROS 2 topics)")
-        if getattr(args, "lockstep", False):
-            raise UsageError("--lockstep needs --ros PROFILE")
+        for flag in ("lockstep", "lifecycle"):
+            if getattr(args, flag, False):
+                raise UsageError(f"--{flag} needs --ros PROFILE")
         return
     for option in SIM_ONLY:
         if getattr(args, option, None):
@@ -53,6 +54,10 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
 
     profile = load(args.ros, args.remap)
     via = choose_transport(profile, args, args.ros, "--ros")
+    if getattr(args, "lifecycle", False):
+        from .lifecycle import check_usage as check_lifecycle
+
+        check_lifecycle(args, via)
     inputs = machine_files(spec) + [args.ros]
     outputs.open(inputs)
     check_bag_folder(args.bag, inputs, outputs.items)  # the input itself, another output's name: refused now
@@ -62,6 +67,9 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
     if via == "zenoh" and not (connect or listen or t.connect or t.listen or t.multicast):
         listen = [free_endpoint()]  # nowhere to connect to: the robot connects here (printed below)
     link = open_bus(profile, connect=connect, listen=listen, via=args.via, sim_time=args.lockstep)
+    if getattr(args, "lifecycle", False):
+        return _managed(args, file, profile, link, outputs, {"trace": trace_out, "summary": summary_out,
+                                                             "report": report_out}, StopRules(duration, max_ticks))
     bag = None
     # from here on Ctrl-C asks the run to stop (connecting takes a while): the outputs are written, exit 130
     interrupts = Interrupts()
@@ -87,18 +95,28 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
             link.close()
 
 
+def _managed(args: argparse.Namespace, file: str, profile: Any, link: Any, outputs: Any, files: dict[str, Any],
+             stop_rules: Any) -> int:
+    """--lifecycle: the node is managed (:mod:`.lifecycle`); the machine is built at its configure."""
+    from .lifecycle import LifecycleRun
+
+    interrupts = Interrupts()
+    run = LifecycleRun(args, file, profile, link, outputs, files, stop_rules, interrupts)
+    link.managed = run
+    with interrupts:
+        try:
+            link.open()
+            return run.serve()
+        finally:
+            run.discard()
+            link.close()
+
+
 def _drive(args: argparse.Namespace, session: Any, profile: Any, file: str, outputs: Any, trace_out: Any,
            summary_out: Any, report_out: Any, interrupts: Interrupts) -> int:
-    from ..cli.run import Tee, write_report
-
     driver = session.driver
     machine = session.machine
-    report = sys.stderr if outputs.to_stdout else sys.stdout
-    stream = trace_out.stream() if trace_out is not None else None
-    if report_out is not None:
-        stream = Tee(stream)
-    recorder = session.record(car_recorder(stream, file, driver.car, profile, preloaded=args.pre,
-                                           sample_rate=args.sample_rate))
+    recorder = start_recording(args, session, profile, file, trace_out, report_out)
     error: StateRuntimeError | None = None
     try:
         primed = driver.prime(stop=interrupts.stop)
@@ -120,8 +138,30 @@ def _drive(args: argparse.Namespace, session: Any, profile: Any, file: str, outp
         raise
     finally:
         interrupts.writing = True
-    driver.stop()  # the run is over, however: the car gets zero speed before the files are written
-    interrupted = interrupts.interrupted
+    return end_run(args, session, file, outputs, summary_out, report_out, recorder, error, interrupts.interrupted)
+
+
+def start_recording(args: argparse.Namespace, session: Any, profile: Any, file: str, trace_out: Any,
+                    report_out: Any) -> Any:
+    """The session's recorder: the trace's stream (and the report's copy of it)."""
+    from ..cli.run import Tee
+
+    stream = trace_out.stream() if trace_out is not None else None
+    if report_out is not None:
+        stream = Tee(stream)
+    return session.record(car_recorder(stream, file, session.driver.car, profile, preloaded=args.pre,
+                                       sample_rate=args.sample_rate))
+
+
+def end_run(args: argparse.Namespace, session: Any, file: str, outputs: Any, summary_out: Any, report_out: Any,
+            recorder: Any, error: StateRuntimeError | None, interrupted: bool) -> int:
+    """The run is over, however: the car gets zero speed before the trace's end, summary and report are written;
+    the exit status."""
+    from ..cli.run import write_report
+
+    driver = session.driver
+    driver.stop()
+    report = sys.stderr if outputs.to_stdout else sys.stdout
     result = session.summary()
     stopped = session.result.stopped if session.result is not None else "not started"
     result["stopped"] = stopped

@@ -17,7 +17,7 @@ pytest.importorskip("rosbags")
 pytest.importorskip("rclpy")
 pytest.importorskip("lifecycle_msgs")
 
-from test_ros_rclpy import CORNER, PlainRobot, fsmctl, ros_environment, twist_profile  # noqa: E402
+from test_ros_rclpy import CORNER, PlainRobot, answer, fsmctl, ros_environment, twist_profile  # noqa: E402
 
 __all__ = ["ros_environment"]  # the module's ROS domain (autouse)
 
@@ -34,25 +34,17 @@ class LifecycleClient:
     def ready(self, timeout: float) -> bool:
         return bool(self.change.wait_for_service(timeout_sec=timeout) and self.get.wait_for_service(timeout_sec=5))
 
-    @staticmethod
-    def _answer(future: Any, timeout: float = 20) -> Any:
-        end = time.monotonic() + timeout
-        while not future.done():
-            assert time.monotonic() < end, "the managed node did not answer"
-            time.sleep(0.01)
-        return future.result()
-
     def state(self) -> str:
         from lifecycle_msgs.srv import GetState
 
-        return str(self._answer(self.get.call_async(GetState.Request())).current_state.label)
+        return str(answer(self.get.call_async(GetState.Request())).current_state.label)
 
     def set(self, label: str) -> bool:
         from lifecycle_msgs.msg import Transition
         from lifecycle_msgs.srv import ChangeState
 
         request = ChangeState.Request(transition=Transition(label=label))
-        return bool(self._answer(self.change.call_async(request)).success)
+        return bool(answer(self.change.call_async(request)).success)
 
 
 def wait_for(what: str, condition: Any, timeout: float = 20) -> None:

@@ -102,6 +102,15 @@ class PlainNode:
         self.thread.join(timeout=2)
 
 
+def answer(future: Any, timeout: float = 20) -> Any:
+    """The result of a service call (rclpy's future), waited for at most ``timeout`` seconds."""
+    end = time.monotonic() + timeout
+    while not future.done():
+        assert time.monotonic() < end, "no answer from the machine's node"
+        time.sleep(0.01)
+    return future.result()
+
+
 def stamp(t: float) -> Any:
     from builtin_interfaces.msg import Time
 
@@ -370,25 +379,18 @@ def test_variables_are_read_only_parameters_and_the_documents_inputs_can_be_set(
     robot = PlainRobot(rate=80)
     robot.start()
 
-    def done(future: Any) -> Any:
-        end = time.monotonic() + 20
-        while not future.done():
-            assert time.monotonic() < end, "no answer from the machine's node"
-            time.sleep(0.02)
-        return future.result()
-
     try:
         run = fsmctl("run", str(machine), "--ros", str(twist_profile(folder)), "--via", "rclpy", "--lockstep",
                      "--duration", "3600", "--summary", str(folder / "signalled.json.summary"))
         robot.runner.start()
         client = AsyncParameterClient(robot.node, "/fsmctl_tral")
         assert client.wait_for_services(timeout_sec=20)
-        values = done(client.get_parameters(["vars.laps", "vars.mode", "vars.gains", "use_sim_time"])).values
+        values = answer(client.get_parameters(["vars.laps", "vars.mode", "vars.gains", "use_sim_time"])).values
         assert [values[0].integer_value, values[1].string_value, values[2].string_value] == [0, "idle", "[1,2]"]
         assert values[3].bool_value is True  # lock-step: the simulator's clock
-        (refused,) = done(client.set_parameters([Parameter("vars.laps", value=5)])).results
+        (refused,) = answer(client.set_parameters([Parameter("vars.laps", value=5)])).results
         assert refused.successful is False and "read-only" in refused.reason and "signals.go" in refused.reason
-        (accepted,) = done(client.set_parameters([Parameter("signals.go", value=True)])).results
+        (accepted,) = answer(client.set_parameters([Parameter("signals.go", value=True)])).results
         assert accepted.successful, accepted.reason
         code, _out, err = finish(run)
     finally:

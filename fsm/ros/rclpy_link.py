@@ -16,10 +16,11 @@ import importlib
 import re
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 from fsm.model.errors import DiagramError, Problem
+from fsm.ros.parameters import Tunable
 from fsm.ros.profile import Binding, Profile, domain_of, normalise_type, status_companions
 from fsm.ros.transport import ROBOT, PeerTimeout, TransportError, node_name
 
@@ -98,6 +99,18 @@ def parameter_value(value: Any) -> Any:
     if isinstance(value, (bool, int, float, str)):
         return value
     return json.dumps(value, separators=(",", ":"))
+
+
+def parameter_type(value: Any) -> int:
+    """rcl_interfaces' ParameterType of a parameter's value (bool, int, float, str)."""
+    types = _module("rcl_interfaces.msg").ParameterType
+    if isinstance(value, bool):
+        return int(types.PARAMETER_BOOL)
+    if isinstance(value, int):
+        return int(types.PARAMETER_INTEGER)
+    if isinstance(value, float):
+        return int(types.PARAMETER_DOUBLE)
+    return int(types.PARAMETER_STRING)
 
 
 def qos_of(binding: Binding) -> Any:
@@ -213,42 +226,66 @@ class RclpyLink:
         except Exception:  # the context was shut down while spinning
             pass
 
-    # -- the machine's variables and signals as ROS 2 parameters ----------------------------------------------------
+    # -- the machine's variables, signals and state parameters as ROS 2 parameters --------------------------------
     def expose_parameters(self, variables: dict[str, Any], signals: list[str],
-                          on_signal: Callable[[str, bool], None]) -> None:
-        """Declare ``vars.<name>`` for each variable (read-only from outside: the machine sets them) and
+                          on_signal: Callable[[str, bool], None], tunables: Sequence[Tunable] = (),
+                          on_tunable: Callable[[Tunable, Any], None] | None = None) -> None:
+        """Declare ``vars.<name>`` for each variable (read-only from outside: the machine sets them),
         ``signals.<name>`` for each input signal the document declares (writable, bool: ``on_signal`` is called on
-        the executor's thread). A set from outside of anything else is refused with the reason."""
+        the executor's thread) and ``states.<path>.<param>`` for each of ``tunables`` (typed; read-only unless
+        writable; a valid value set from outside goes to ``on_tunable`` with the state's new parameters). A set
+        from outside of anything else, or of a value that is not valid, is refused with the reason."""
         rcl = _module("rcl_interfaces.msg")
         self._updating = False
         self._writable = {f"signals.{name}" for name in signals}
         for name, value in variables.items():
             if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
-                self._parameters.append(f"vars.{name}")
-                self.node.declare_parameter(f"vars.{name}", parameter_value(value), rcl.ParameterDescriptor(
+                self._declare(f"vars.{name}", parameter_value(value), rcl.ParameterDescriptor(
                     dynamic_typing=True, description=f"the machine's variable {name} (read-only: the machine sets it)"))
         for name in signals:
             if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
-                self._parameters.append(f"signals.{name}")
-                self.node.declare_parameter(f"signals.{name}", False, rcl.ParameterDescriptor(
+                self._declare(f"signals.{name}", False, rcl.ParameterDescriptor(
                     description=f"the input signal {name} (the document's inputs: set it to drive the machine)"))
+        by_name = {t.name: t for t in tunables}
+        for t in tunables:
+            self._declare(t.name, t.value, rcl.ParameterDescriptor(
+                type=parameter_type(t.value), read_only=not t.writable, description=t.description))
+        self._writable |= {t.name for t in tunables if t.writable}
+
+        def refused(reason: str) -> Any:
+            return rcl.SetParametersResult(successful=False, reason=reason)
 
         def check(params: list[Any]) -> Any:
             if self._updating:
                 return rcl.SetParametersResult(successful=True)
+            taken: list[tuple[Tunable, Any]] = []
             for param in params:
+                tunable = by_name.get(param.name)
                 if param.name not in self._writable:
-                    return rcl.SetParametersResult(successful=False, reason=(
-                        f"{param.name} is read-only: the machine sets its variables; only the signals the document "
-                        f"declares as inputs can be set ({', '.join(sorted(self._writable)) or 'none'})"))
-                if not isinstance(param.value, bool):
-                    return rcl.SetParametersResult(successful=False, reason=f"{param.name} is a signal: true or false")
+                    return refused(f"{param.name} is read-only: the machine sets its variables; only the signals the "
+                                   "document declares as inputs and the state parameters named by --tunable can be "
+                                   f"set ({', '.join(sorted(self._writable)) or 'none'})")
+                if tunable is not None:
+                    try:
+                        taken.append((tunable, tunable.validate(param.value)))
+                    except ValueError as exc:
+                        return refused(f"{param.name}: {exc}")
+                elif not isinstance(param.value, bool):
+                    return refused(f"{param.name} is a signal: true or false")
             for param in params:
-                on_signal(param.name.split(".", 1)[1], bool(param.value))
+                if param.name.startswith("signals."):
+                    on_signal(param.name.split(".", 1)[1], bool(param.value))
+            if on_tunable is not None:
+                for tunable, new in taken:
+                    on_tunable(tunable, new)
             return rcl.SetParametersResult(successful=True)
 
         self.node.add_on_set_parameters_callback(check)
         self._on_set = check
+
+    def _declare(self, name: str, value: Any, descriptor: Any) -> None:
+        self._parameters.append(name)
+        self.node.declare_parameter(name, value, descriptor)
 
     def update_parameters(self, variables: dict[str, Any]) -> None:
         """The variables' current values (those declared; a new variable is declared now)."""

@@ -62,6 +62,9 @@ def add_endpoint_options(p: argparse.ArgumentParser, lockstep_help: str, managed
         g.add_argument("--lifecycle", action="store_true",
                        help="with --via rclpy: the bridge is a ROS 2 managed node; configure loads the document, "
                             "activate starts ticking, deactivate stops the car and pauses, shutdown ends the run")
+        g.add_argument("--tunable", action="append", default=[], metavar="PATH.PARAM",
+                       help="with --via rclpy: let a ROS 2 client set this state parameter (states.PATH.PARAM on "
+                            "the node; the others are read-only), e.g. follow.speed (repeatable)")
 
 
 def check_endpoints(args: argparse.Namespace) -> None:

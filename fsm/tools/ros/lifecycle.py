@@ -83,9 +83,9 @@ class LifecycleRun:
                     "after cleanup start fsmctl again to configure another")
         try:
             spec, plan = load_plan(self.args, self.file)
+            self._build(spec, plan)
         except FsmError as exc:
             return str(exc)
-        self._build(spec, plan)
         return None
 
     def _build(self, spec: Any, plan: Any) -> None:
@@ -94,7 +94,7 @@ class LifecycleRun:
         from fsm.ros.lifecycle import HoldableClock
         from fsm.session.session import SetSignal
 
-        from .run import start_recording
+        from .run import start_recording, state_parameters
 
         args = self.args
         if args.bag and self.bag is None:
@@ -102,7 +102,8 @@ class LifecycleRun:
         clock = None if args.lockstep else HoldableClock(self.profile.dt)
         session = ros_session(plan, self.profile, self.link, lockstep=args.lockstep, bag=self.bag,
                               variables=args.initial_vars, stop=self.stop_rules, clock=clock,
-                              signals=list(getattr(spec, "inputs", None) or []))
+                              signals=list(getattr(spec, "inputs", None) or []),
+                              tunables=state_parameters(args, spec, "rclpy"))
         for name, value, at in args.signal:
             session.schedule(at, SetSignal(name, value))
         self.recorder = start_recording(args, session, self.profile, self.file, self.files["trace"],

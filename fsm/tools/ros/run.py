@@ -29,7 +29,7 @@ def check_usage(args: argparse.Namespace) -> None:
         for option in ("bag", "connect", "listen", "via"):
             if getattr(args, option, None):
                 raise UsageError(f"--{option} needs --ros PROFILE (it records or reaches a car on ROS 2 topics)")
-        for flag in ("lockstep", "lifecycle"):
+        for flag in ("lockstep", "lifecycle", "tunable"):
             if getattr(args, flag, False):
                 raise UsageError(f"--{flag} needs --ros PROFILE")
         return
@@ -58,6 +58,9 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
         from .lifecycle import check_usage as check_lifecycle
 
         check_lifecycle(args, via)
+    if getattr(args, "tunable", None) and via != "rclpy":
+        raise UsageError("--tunable makes state parameters ROS 2 parameters, which rclpy provides: add --via rclpy")
+    tunables = state_parameters(args, spec, via)  # a --tunable naming nothing: said before anything starts
     inputs = machine_files(spec) + [args.ros]
     outputs.open(inputs)
     check_bag_folder(args.bag, inputs, outputs.items)  # the input itself, another output's name: refused now
@@ -81,7 +84,8 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
             bag = BagRecorder(args.bag, profile) if args.bag else None
             session = ros_session(plan, profile, link, lockstep=args.lockstep, bag=bag,
                                   variables=args.initial_vars, stop=StopRules(duration, max_ticks),
-                                  signals=list(getattr(spec, "inputs", None) or []))
+                                  signals=list(getattr(spec, "inputs", None) or []),
+                                  tunables=tunables)
             for name, value, at in args.signal:
                 session.schedule(at, SetSignal(name, value))
             code = _drive(args, session, profile, file, outputs, trace_out, summary_out, report_out, interrupts)
@@ -93,6 +97,15 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
             if bag is not None:
                 bag.discard()
             link.close()
+
+
+def state_parameters(args: argparse.Namespace, spec: Any, via: str) -> list[Any]:
+    """The states' parameters as ROS 2 parameters (over rclpy; Zenoh has none)."""
+    if via != "rclpy":
+        return []
+    from .parameters import tunables
+
+    return tunables(spec, list(getattr(args, "tunable", None) or []), list(getattr(args, "overrides", None) or []))
 
 
 def _managed(args: argparse.Namespace, file: str, profile: Any, link: Any, outputs: Any, files: dict[str, Any],

@@ -68,7 +68,7 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
     connect, listen = args.connect, args.listen
     t = profile.transport
     if via == "zenoh" and not (connect or listen or t.connect or t.listen or t.multicast):
-        listen = [free_endpoint()]  # nowhere to connect to: the robot connects here (printed below)
+        listen = [free_endpoint(profile=profile)]  # nowhere to connect to: the robot connects here (printed below)
     link = open_bus(profile, connect=connect, listen=listen, via=args.via, sim_time=args.lockstep)
     if getattr(args, "lifecycle", False):
         return _managed(args, file, profile, link, outputs, {"trace": trace_out, "summary": summary_out,

@@ -399,3 +399,34 @@ def test_variables_are_read_only_parameters_and_the_documents_inputs_can_be_set(
     assert code == 0, err
     summary = json.loads((folder / "signalled.json.summary").read_text())
     assert summary["outcome"] == "succeeded" and summary["visited"] == ["wait", "done"]
+
+
+def test_the_executor_is_rclpys_events_executor_unless_the_environment_says_single(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The EventsExecutor (C++) spins the node by default: the SingleThreadedExecutor's Python wait sets put a
+    p99 of 20 ms between message and machine (docs/performance.md). ``single`` stays available; a message still
+    goes through either, and either closes at once."""
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.experimental import EventsExecutor  # noqa: F401 (the wheel has it)
+
+    from fsm.ros.profile import load_profile
+    from fsm.ros.rclpy_link import RclpyLink
+    from fsm.ros.transport import TransportError
+
+    profile = load_profile(twist_profile(tmp_path))
+    for kind in ("events", "single"):
+        monkeypatch.setenv("FSM_RCLPY_EXECUTOR", kind)
+        got: list[bytes] = []
+        with RclpyLink(profile) as link:
+            assert isinstance(link._executor, SingleThreadedExecutor) is (kind == "single")
+            link.subscribe(profile.outputs.command, got.append)
+            pub = link.publisher(profile.outputs.command)
+            end = time.monotonic() + 10
+            while not got and time.monotonic() < end:
+                pub.put(bytes.fromhex("000100000000000000000000") + bytes(48))
+                time.sleep(0.05)
+            started = time.monotonic()
+        assert got and time.monotonic() - started < 1.5, kind
+    monkeypatch.setenv("FSM_RCLPY_EXECUTOR", "fast")
+    with pytest.raises(TransportError, match="FSM_RCLPY_EXECUTOR='fast': write events or single"):
+        RclpyLink(profile).open()

@@ -38,8 +38,11 @@ def run_sim(args: argparse.Namespace) -> int:
         connect = []
     link = open_bus(profile, connect=connect or [], listen=listen or [], via=args.via, node="fsmctl_sim",
                     sim_time=args.lockstep)
-    say = (lambda text: None) if args.quiet else (lambda text: print(printable(f"fsmctl sim: {text}"),
-                                                                       file=sys.stderr, flush=True))
+
+    def say(text: str) -> None:
+        if not args.quiet:
+            print(printable(f"fsmctl sim: {text}"), file=sys.stderr, flush=True)
+
     try:
         link.open()
         robot = SimRobot(profile, link, world, seed=args.seed, noise=not args.no_noise, lockstep=args.lockstep,

@@ -113,6 +113,63 @@ def test_a_plain_client_configures_activates_deactivates_and_shuts_the_node_down
     assert json.loads(lines[0])["source"] == str(machine)
 
 
+def test_cleanup_releases_the_topics_and_a_run_without_outputs_configures_again(tmp_path: Path) -> None:
+    from geometry_msgs.msg import TwistStamped
+
+    robot = PlainRobot(rate=80)
+    speeds: list[float] = []
+    robot.node.create_subscription(TwistStamped, "/tral/cmd", lambda m: speeds.append(m.twist.linear.x), 100)
+    robot.start()
+    client = LifecycleClient(robot, "/fsmctl_tral")
+    run = fsmctl("run", str(CORNER), "--ros", str(twist_profile(tmp_path)), "--via", "rclpy", "--lifecycle",
+                 "--lockstep")
+    try:
+        assert client.ready(30), "no lifecycle services"
+        assert client.set("configure") is True
+        wait_for("the command publisher", lambda: robot.node.count_publishers("/tral/cmd") == 1)
+        robot.runner.start()
+        assert client.set("activate") is True
+        wait_for("commands at speed", lambda: sum(1 for s in speeds if s > 0) >= 20)
+        assert client.set("cleanup") is False, "cleanup is not a transition of active"
+        assert client.set("deactivate") is True and client.set("cleanup") is True
+        assert client.state() == "unconfigured"
+        wait_for("the publisher gone", lambda: robot.node.count_publishers("/tral/cmd") == 0, 10)
+        assert client.set("configure") is True and client.state() == "inactive"
+        wait_for("the publisher back", lambda: robot.node.count_publishers("/tral/cmd") == 1, 10)
+        assert client.set("shutdown") is True
+        code, _out, err = finish(run, timeout=30)
+    finally:
+        robot.stop.set()
+        robot.close()
+        if run.poll() is None:
+            run.kill()
+            print(run.communicate()[1])
+    assert code == 0, err
+    assert "Traceback" not in err
+
+
+def test_a_run_that_records_cannot_configure_another_machine_after_cleanup(tmp_path: Path) -> None:
+    robot = PlainRobot(rate=80)
+    robot.start()
+    client = LifecycleClient(robot, "/fsmctl_tral")
+    run = fsmctl("run", str(CORNER), "--ros", str(twist_profile(tmp_path)), "--via", "rclpy", "--lifecycle",
+                 "--summary", str(tmp_path / "summary.json"))
+    try:
+        assert client.ready(30), "no lifecycle services"
+        assert client.set("configure") is True and client.set("cleanup") is True
+        assert client.set("configure") is False and client.state() == "unconfigured"
+        assert client.set("shutdown") is True
+        code, _out, err = finish(run, timeout=30)
+    finally:
+        robot.stop.set()
+        robot.close()
+        if run.poll() is None:
+            run.kill()
+    assert code == 0, err
+    assert "start fsmctl again to configure another" in err
+    assert json.loads((tmp_path / "summary.json").read_text())["stopped"] == "not started"
+
+
 def test_a_deactivated_run_goes_on_where_it_was_paused() -> None:
     """The wall clock of a managed run: the time it was deactivated does not count (no burst of ticks after)."""
     from fsm.ros.lifecycle import HoldableClock

@@ -17,6 +17,7 @@ thread: each call returns quickly; the ticking is done on the command's thread.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from typing import Any, Protocol
 
 from fsm.runtime.clock import RealTimeClock
@@ -70,7 +71,11 @@ def lifecycle_node(name: str, managed: Managed, **kwargs: Any) -> Any:
 
     change_state_type: Any = importlib.import_module("lifecycle_msgs.srv").ChangeState
 
-    def outcome(node: Any, transition: str, why: str | None) -> Any:
+    def outcome(node: Any, transition: str, step: Callable[[], str | None]) -> Any:
+        try:
+            why = step()
+        except Exception as exc:  # rclpy would turn it into ERROR without a word
+            why = f"{type(exc).__name__}: {exc}"
         if why is None:
             logger_of(node).info(f"{transition}: done")
             return TransitionCallbackReturn.SUCCESS
@@ -102,20 +107,26 @@ def lifecycle_node(name: str, managed: Managed, **kwargs: Any) -> Any:
                 return change_state_type.Response(success=False)
             return self._allowed(request, response)
 
+        def forget_parameter(self, name: str) -> None:
+            """rclpy's ``undeclare_parameter``, for read-only parameters too: a cleanup releases everything its
+            configure declared (rclpy refuses to undeclare a read-only one)."""
+            self._parameters.pop(name, None)
+            self._descriptors.pop(name, None)
+
         def on_configure(self, state: Any) -> Any:
-            return outcome(self, "configure", managed.configure())
+            return outcome(self, "configure", managed.configure)
 
         def on_activate(self, state: Any) -> Any:
-            return outcome(self, "activate", managed.activate())
+            return outcome(self, "activate", managed.activate)
 
         def on_deactivate(self, state: Any) -> Any:
-            return outcome(self, "deactivate", managed.deactivate())
+            return outcome(self, "deactivate", managed.deactivate)
 
         def on_cleanup(self, state: Any) -> Any:
-            return outcome(self, "cleanup", managed.cleanup())
+            return outcome(self, "cleanup", managed.cleanup)
 
         def on_shutdown(self, state: Any) -> Any:
-            return outcome(self, "shutdown", managed.shutdown())
+            return outcome(self, "shutdown", managed.shutdown)
 
         def on_error(self, state: Any) -> Any:
             managed.deactivate()

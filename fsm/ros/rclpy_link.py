@@ -375,9 +375,10 @@ class RclpyLink:
         if self._on_set is not None:
             node.remove_on_set_parameters_callback(self._on_set)
             self._on_set = None
+        forget = getattr(node, "forget_parameter", node.undeclare_parameter)  # a managed node forgets read-only ones
         for name in self._parameters:
             if node.has_parameter(name):
-                node.undeclare_parameter(name)
+                forget(name)
         self._parameters.clear()
 
     def close(self) -> None:

@@ -17,7 +17,7 @@ pytest.importorskip("rosbags")
 pytest.importorskip("rclpy")
 pytest.importorskip("lifecycle_msgs")
 
-from test_ros_rclpy import CORNER, PlainRobot, answer, fsmctl, ros_environment, twist_profile  # noqa: E402
+from test_ros_rclpy import CORNER, PlainRobot, answer, fsmctl, ros_environment, stop_both, twist_profile  # noqa: E402
 
 __all__ = ["ros_environment"]  # the module's ROS domain (autouse)
 
@@ -96,11 +96,7 @@ def test_a_plain_client_configures_activates_deactivates_and_shuts_the_node_down
         assert client.set("shutdown") is True
         code, _out, err = finish(run, timeout=30)
     finally:
-        robot.stop.set()
-        robot.close()
-        if run.poll() is None:
-            run.kill()
-            print(run.communicate()[1])  # what the node said, when the test failed
+        stop_both(robot, run)
     assert code == 0, err
     assert "corner.json:" in err and "folow" in err and "configure failed" in err, err
     assert "unable to start transition activate from the current state unconfigured" in err
@@ -139,11 +135,7 @@ def test_cleanup_releases_the_topics_and_a_run_without_outputs_configures_again(
         assert client.set("shutdown") is True
         code, _out, err = finish(run, timeout=30)
     finally:
-        robot.stop.set()
-        robot.close()
-        if run.poll() is None:
-            run.kill()
-            print(run.communicate()[1])
+        stop_both(robot, run)
     assert code == 0, err
     assert "Traceback" not in err
 
@@ -161,10 +153,7 @@ def test_a_run_that_records_cannot_configure_another_machine_after_cleanup(tmp_p
         assert client.set("shutdown") is True
         code, _out, err = finish(run, timeout=30)
     finally:
-        robot.stop.set()
-        robot.close()
-        if run.poll() is None:
-            run.kill()
+        stop_both(robot, run)
     assert code == 0, err
     assert "start fsmctl again to configure another" in err
     assert json.loads((tmp_path / "summary.json").read_text())["stopped"] == "not started"

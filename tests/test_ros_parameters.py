@@ -5,6 +5,7 @@ against the plain rclpy robot of tests/test_ros_rclpy.py."""
 from __future__ import annotations
 
 import json
+import time
 from pathlib import Path
 
 import pytest
@@ -14,7 +15,7 @@ from helpers import cli, finish
 pytest.importorskip("rosbags")
 pytest.importorskip("rclpy")
 
-from test_ros_rclpy import PlainRobot, answer, fsmctl, ros_environment, twist_profile  # noqa: E402
+from test_ros_rclpy import PlainRobot, answer, fsmctl, ros_environment, stop_both, twist_profile  # noqa: E402
 
 __all__ = ["ros_environment"]  # the module's ROS domain (autouse)
 
@@ -46,6 +47,11 @@ def test_state_parameters_are_typed_read_only_unless_tunable_and_set_between_tic
         robot.runner.start()
         client = AsyncParameterClient(robot.node, "/fsmctl_tral")
         assert client.wait_for_services(timeout_sec=30)
+        # the node answers as soon as it exists; the machine's parameters come with the session, a moment later
+        end = time.monotonic() + 20
+        while len(answer(client.list_parameters(prefixes=["states"])).result.names) < 2:
+            assert time.monotonic() < end, "the states' parameters were never declared"
+            time.sleep(0.05)
         names = answer(client.list_parameters(prefixes=["states"])).result.names
         assert {"states.drive.speed", "states.drive.distance"} <= set(names)
         both = ["states.drive.speed", "states.drive.distance"]
@@ -66,10 +72,7 @@ def test_state_parameters_are_typed_read_only_unless_tunable_and_set_between_tic
         assert go.successful, go.reason
         code, _out, err = finish(run)
     finally:
-        robot.stop.set()
-        robot.close()
-        if run.poll() is None:
-            run.kill()
+        stop_both(robot, run)
     assert code == 0, err
     assert "drive.speed set from outside" in err
     assert 0.8 in speeds and 0.5 not in speeds, "the Motor drove at the speed set from outside"

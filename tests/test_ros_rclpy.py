@@ -111,6 +111,16 @@ def answer(future: Any, timeout: float = 20) -> Any:
     return future.result()
 
 
+def stop_both(robot: Any, run: subprocess.Popen[str]) -> None:
+    """The end of a test with a plain robot and fsmctl: the robot stops; fsmctl, if still running (the test failed),
+    is killed and what it said printed."""
+    robot.stop.set()
+    robot.close()
+    if run.poll() is None:
+        run.kill()
+        print(run.communicate()[1])
+
+
 def stamp(t: float) -> Any:
     from builtin_interfaces.msg import Time
 
@@ -385,6 +395,10 @@ def test_variables_are_read_only_parameters_and_the_documents_inputs_can_be_set(
         robot.runner.start()
         client = AsyncParameterClient(robot.node, "/fsmctl_tral")
         assert client.wait_for_services(timeout_sec=20)
+        end = time.monotonic() + 20  # the node answers as soon as it exists, its parameters come a moment later
+        while len(answer(client.list_parameters(prefixes=["vars"])).result.names) < 3:
+            assert time.monotonic() < end, "the variables were never declared"
+            time.sleep(0.05)
         values = answer(client.get_parameters(["vars.laps", "vars.mode", "vars.gains", "use_sim_time"])).values
         assert [values[0].integer_value, values[1].string_value, values[2].string_value] == [0, "idle", "[1,2]"]
         assert values[3].bool_value is True  # lock-step: the simulator's clock

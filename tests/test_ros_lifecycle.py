@@ -159,6 +159,19 @@ def test_a_run_that_records_cannot_configure_another_machine_after_cleanup(tmp_p
     assert json.loads((tmp_path / "summary.json").read_text())["stopped"] == "not started"
 
 
+def test_ctrl_c_before_configure_ends_the_run_with_130_and_writes_nothing(tmp_path: Path) -> None:
+    import signal
+
+    run = fsmctl("run", str(CORNER), "--ros", str(twist_profile(tmp_path)), "--via", "rclpy", "--lifecycle",
+                 "--summary", str(tmp_path / "summary.json"))
+    assert run.stderr is not None
+    assert "a managed node, unconfigured" in run.stderr.readline()
+    run.send_signal(signal.SIGINT)
+    code, _out, err = finish(run, timeout=30)
+    assert code == 130 and "interrupted with no machine configured: nothing to write" in err, err
+    assert not (tmp_path / "summary.json").exists()
+
+
 def test_a_deactivated_run_goes_on_where_it_was_paused() -> None:
     """The wall clock of a managed run: the time it was deactivated does not count (no burst of ticks after)."""
     from fsm.ros.lifecycle import HoldableClock

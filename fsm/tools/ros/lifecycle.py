@@ -21,7 +21,7 @@ from typing import Any
 
 from fsm.model.errors import FsmError, StateRuntimeError, UsageError, printable
 
-from ..cli.common import EXIT_OK, Interrupts
+from ..cli.common import EXIT_INTERRUPTED, EXIT_OK, Interrupts
 
 #: How long cleanup waits for the tick in progress to end, s (a tick takes milliseconds).
 TICK_WAIT = 2.0
@@ -195,8 +195,9 @@ class LifecycleRun:
         from .run import end_run
 
         if self.session is None:
-            self.say("shut down with no machine configured: nothing to write")
-            return EXIT_OK
+            interrupted = self.interrupts.interrupted
+            self.say(f"{'interrupted' if interrupted else 'shut down'} with no machine configured: nothing to write")
+            return EXIT_INTERRUPTED if interrupted else EXIT_OK
         code = end_run(self.args, self.session, self.file, self.outputs, self.files["summary"],
                        self.files["report"], self.recorder, self.error, self.interrupts.interrupted)
         if self.bag is not None:

@@ -28,6 +28,7 @@ its own: its wall time and its maximum RSS (``getrusage`` of the child).
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import math
 import os
@@ -112,11 +113,13 @@ def source(endpoint: str, ticks: int, rate: float, via: str) -> dict[str, Any]:
         time.sleep(0.01)
     hall_type = profile.inputs.hall.type if profile.inputs.hall is not None else "std_msgs/msg/Int32"
     t0 = time.perf_counter()
+    cpu0 = time.process_time()
     for n in range(ticks + 1):
         if n == 1:  # tick 0 waits for the machine to start (its command of tick 0); the timing starts then
             while 0 not in got:
                 time.sleep(0.001)
             t0 = time.perf_counter() - dt
+            cpu0 = time.process_time()
         due = t0 + n * dt
         delay = due - time.perf_counter()
         if delay > 0:
@@ -136,9 +139,11 @@ def source(endpoint: str, ticks: int, rate: float, via: str) -> dict[str, Any]:
             pubs[name].put(raw)
         clock.put(clock_raw)
     done.wait(10)
+    cpu = time.process_time() - cpu0
     link.close()
     lat = [(got[n] - sent[n]) * 1000 for n in range(1, ticks + 1) if n in got]
-    return {"ticks": ticks, "received": len(lat), "latency_ms": lat, "wall_s": time.perf_counter() - t0}
+    return {"ticks": ticks, "received": len(lat), "latency_ms": lat, "wall_s": time.perf_counter() - t0,
+            "cpu_s": cpu}
 
 
 # -- the machine's side ----------------------------------------------------------------------------------------
@@ -152,13 +157,25 @@ def machine_side(endpoint: str, ticks: int, via: str) -> dict[str, Any]:
     session = ros_session(compile_plan(MACHINE), profile, link, lockstep=True, stop=StopRules(max_ticks=ticks),
                           log=lambda text: None)
     session.driver.prime(30)
-    t0 = time.perf_counter()
+    pauses: list[float] = []
+    started: list[float] = []
+
+    def on_gc(phase: str, info: dict[str, Any]) -> None:
+        if phase == "start":
+            started.append(time.perf_counter())
+        elif started:
+            pauses.append((time.perf_counter() - started.pop()) * 1000)
+
+    gc.callbacks.append(on_gc)
+    t0, cpu0 = time.perf_counter(), time.process_time()
     session.run()
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
+    gc.callbacks.remove(on_gc)
     time.sleep(0.5)
     link.close()
     stopped = session.result.stopped if session.result is not None else "not started"
-    return {"ticks": session.ticks, "wall_s": wall, "ros": session.driver.metrics()["ros"], "stopped": stopped}
+    return {"ticks": session.ticks, "wall_s": wall, "cpu_s": cpu, "ros": session.driver.metrics()["ros"],
+            "stopped": stopped, "gc_pauses_ms": pauses}
 
 
 def percentile(values: list[float], q: float) -> float:
@@ -259,6 +276,60 @@ def replay_bench(minutes: float, json_out: str | None) -> int:
     return 0 if verdict == "met" else 1
 
 
+#: Which executor spins rclpy's node (fsm.ros.rclpy_link.EXECUTOR_ENV); both processes read it.
+EXECUTOR_ENV = "FSM_RCLPY_EXECUTOR"
+
+
+def latency_run(ticks: int, rate: float, via: str, executor: str) -> dict[str, Any]:
+    """One pair of processes (see the module's docstring), rclpy's node spun by ``executor``."""
+    os.environ[EXECUTOR_ENV] = executor
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    load0 = os.getloadavg()[0]
+    proc = subprocess.Popen([sys.executable, __file__, "--source", endpoint, "--ticks", str(ticks), "--rate",
+                             str(rate), "--via", via], stdout=subprocess.PIPE, text=True)
+    side = machine_side(endpoint, ticks, via)
+    out, _ = proc.communicate(timeout=ticks / rate + 120)
+    src = json.loads(out.strip().splitlines()[-1])
+    lat = src.pop("latency_ms")
+    pauses = side["gc_pauses_ms"]
+    report = {"ticks": ticks, "rate_hz": rate, "via": via, "executor": executor, "commands_back": len(lat),
+              "latency_ms": {"p50": round(percentile(lat, 0.50), 3), "p90": round(percentile(lat, 0.90), 3),
+                             "p99": round(percentile(lat, 0.99), 3), "max": round(max(lat), 3),
+                             "mean": round(statistics.fmean(lat), 3)},
+              "machine_cpu_us_per_tick": round(side["cpu_s"] / max(1, side["ticks"]) * 1e6, 1),
+              "source_cpu_us_per_tick": round(src["cpu_s"] / ticks * 1e6, 1),
+              "machine_gc": {"collections": len(pauses), "total_ms": round(sum(pauses), 2),
+                             "max_ms": round(max(pauses, default=0.0), 3)},
+              "load_average": [round(load0, 1), round(os.getloadavg()[0], 1)],
+              "machine_wall_s": round(side["wall_s"], 2), "decode_failures": side["ros"]["decode_failures"],
+              "machine_stopped": side["stopped"], "machine_ticks": side["ticks"]}
+    over = "Zenoh (localhost, peer mode)" if via == "zenoh" else f"rclpy with Fast DDS (localhost), {executor} executor"
+    print(f"sensor in -> command out over {over}, {len(lat)} of {ticks} ticks at {rate:g} ticks/s:")
+    for k, v in report["latency_ms"].items():
+        print(f"  {k:>4}: {v:7.3f} ms")
+    print(f"  CPU per tick: machine {report['machine_cpu_us_per_tick']} us, source {report['source_cpu_us_per_tick']}"
+          f" us; the machine's GC: {report['machine_gc']}; load average {load0:.1f} -> {os.getloadavg()[0]:.1f}")
+    if side["stopped"] != "limit":
+        print(f"  the machine stopped after {side['ticks']} ticks: {side['stopped']} (in lock-step a clock that "
+              f"stalls longer than {BENCH_SILENCE:g} s stops it: the machine was too loaded)")
+    return report
+
+
+def print_comparison(runs: dict[str, dict[str, Any]]) -> None:
+    """The executors side by side, measured in one invocation: the new one's figures as ratios of the old's."""
+    old, new = runs["single"], runs["events"]
+    print("\n| executor | commands back | p50 | p90 | p99 | max | machine CPU/tick | source CPU/tick | load |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for kind, r in runs.items():
+        q = r["latency_ms"]
+        print(f"| {kind} | {r['commands_back']:,} | {q['p50']:.2f} ms | {q['p90']:.2f} ms | {q['p99']:.2f} ms | "
+              f"{q['max']:.1f} ms | {r['machine_cpu_us_per_tick']:.0f} us | {r['source_cpu_us_per_tick']:.0f} us | "
+              f"{r['load_average'][0]}-{r['load_average'][1]} |")
+    ratios = {k: round(new["latency_ms"][k] / old["latency_ms"][k], 2) for k in ("p50", "p90", "p99")}
+    cpu = round(new["machine_cpu_us_per_tick"] / old["machine_cpu_us_per_tick"], 2)
+    print(f"events / single: p50 {ratios['p50']}, p90 {ratios['p90']}, p99 {ratios['p99']}, machine CPU {cpu}")
+
+
 def main() -> int:
     sys.setswitchinterval(float(os.environ.get("SWITCH", "0.005")))
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -267,6 +338,8 @@ def main() -> int:
     ap.add_argument("--json", metavar="FILE")
     ap.add_argument("--sim-repeat", type=int, default=3, help="in-process hallway laps to time (0: none)")
     ap.add_argument("--via", choices=("zenoh", "rclpy"), default="zenoh", help="the transport (default zenoh)")
+    ap.add_argument("--compare-executors", action="store_true",
+                    help="rclpy: the SingleThreadedExecutor, then the EventsExecutor, in one invocation")
     ap.add_argument("--replay-minutes", type=float, metavar="MIN",
                     help="instead: write a drive of MIN minutes (about 23 MB a minute) and time its replay")
     ap.add_argument("--source", metavar="ENDPOINT", help=argparse.SUPPRESS)
@@ -277,30 +350,16 @@ def main() -> int:
         result = source(args.source, args.ticks, args.rate, args.via)
         print(json.dumps(result))
         return 0
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    proc = subprocess.Popen([sys.executable, __file__, "--source", endpoint, "--ticks", str(args.ticks), "--rate",
-                             str(args.rate), "--via", args.via], stdout=subprocess.PIPE, text=True)
-    side = machine_side(endpoint, args.ticks, args.via)
-    out, _ = proc.communicate(timeout=args.ticks / args.rate + 120)
-    src = json.loads(out.strip().splitlines()[-1])
-    lat = src.pop("latency_ms")
-    report = {"ticks": args.ticks, "rate_hz": args.rate, "commands_back": len(lat),
-              "latency_ms": {"p50": round(percentile(lat, 0.50), 3), "p90": round(percentile(lat, 0.90), 3),
-                             "p99": round(percentile(lat, 0.99), 3), "max": round(max(lat), 3),
-                             "mean": round(statistics.fmean(lat), 3)},
-              "machine_wall_s": round(side["wall_s"], 2), "decode_failures": side["ros"]["decode_failures"],
-              "machine_stopped": side["stopped"], "machine_ticks": side["ticks"]}
-    report["via"] = args.via
-    over = "Zenoh (localhost, peer mode)" if args.via == "zenoh" else "rclpy with Fast DDS (localhost)"
-    print(f"sensor in -> command out over {over}, {len(lat)} of {args.ticks} ticks at "
-          f"{args.rate:g} ticks/s:")
-    for k, v in report["latency_ms"].items():
-        print(f"  {k:>4}: {v:7.3f} ms")
-    if side["stopped"] != "limit":
-        print(f"  the machine stopped after {side['ticks']} ticks: {side['stopped']} (in lock-step a clock that "
-              f"stalls longer than {BENCH_SILENCE:g} s stops it: the machine was too loaded)")
-    verdict = "met" if report["latency_ms"]["p99"] < 5.0 and len(lat) == args.ticks else "NOT met"
-    print(f"  target p99 < 5 ms over {args.ticks} ticks: {verdict}")
+    if args.compare_executors and args.via != "rclpy":
+        ap.error("--compare-executors is for --via rclpy")
+    kinds = ["single", "events"] if args.compare_executors else [os.environ.get(EXECUTOR_ENV, "events")]
+    runs = {kind: latency_run(args.ticks, args.rate, args.via, kind) for kind in kinds}
+    report = dict(runs[kinds[-1]])
+    if args.compare_executors:
+        report["executors"] = runs
+        print_comparison(runs)
+    verdict = "met" if report["latency_ms"]["p99"] < 5.0 and report["commands_back"] == args.ticks else "NOT met"
+    print(f"  target p99 < 5 ms over {args.ticks} ticks: {verdict} (load average {os.getloadavg()[0]:.1f})")
     if args.sim_repeat:
         report["in_process_simulator"] = simulator(args.sim_repeat)
         print(f"in-process hallway lap: {report['in_process_simulator']['realtime_factor_best']}x real time (best of "

@@ -54,18 +54,22 @@ def printed_endpoint(sim: subprocess.Popen[str]) -> str:
     return found.group(1)
 
 
-def plain_session(endpoint: str) -> Any:
-    """A plain Zenoh peer (no credentials) connecting to ``endpoint``."""
+def plain_session(endpoint: str, **tls: Any) -> Any:
+    """A plain Zenoh peer (no credentials; ``tls``: Zenoh's own transport/link/tls settings) connecting to
+    ``endpoint``."""
     conf = zenoh.Config()
     conf.insert_json5("mode", '"peer"')
     conf.insert_json5("scouting/multicast/enabled", "false")
     conf.insert_json5("connect/endpoints", json.dumps([endpoint]))
+    if tls:
+        conf.insert_json5("transport/link/tls", json.dumps(tls))
     return zenoh.open(conf)
 
 
-def peers_of_a_stranger(endpoint: str, seconds: float) -> int:
-    """A plain Zenoh peer without credentials connects to ``endpoint``: how many peers it has after a while."""
-    session = plain_session(endpoint)
+def peers_of_a_stranger(endpoint: str, seconds: float, **tls: Any) -> int:
+    """A plain Zenoh peer without credentials connects to ``endpoint``: how many peers it has after at most
+    ``seconds``."""
+    session = plain_session(endpoint, **tls)
     try:
         end = time.monotonic() + seconds
         while time.monotonic() < end and not list(session.info.peers_zid()):

@@ -102,6 +102,25 @@ class PlainNode:
         self.thread.join(timeout=2)
 
 
+def answer(future: Any, timeout: float = 20) -> Any:
+    """The result of a service call (rclpy's future), waited for at most ``timeout`` seconds."""
+    end = time.monotonic() + timeout
+    while not future.done():
+        assert time.monotonic() < end, "no answer from the machine's node"
+        time.sleep(0.01)
+    return future.result()
+
+
+def stop_both(robot: Any, run: subprocess.Popen[str]) -> None:
+    """The end of a test with a plain robot and fsmctl: the robot stops; fsmctl, if still running (the test failed),
+    is killed and what it said printed."""
+    robot.stop.set()
+    robot.close()
+    if run.poll() is None:
+        run.kill()
+        print(run.communicate()[1])
+
+
 def stamp(t: float) -> Any:
     from builtin_interfaces.msg import Time
 
@@ -370,25 +389,22 @@ def test_variables_are_read_only_parameters_and_the_documents_inputs_can_be_set(
     robot = PlainRobot(rate=80)
     robot.start()
 
-    def done(future: Any) -> Any:
-        end = time.monotonic() + 20
-        while not future.done():
-            assert time.monotonic() < end, "no answer from the machine's node"
-            time.sleep(0.02)
-        return future.result()
-
     try:
         run = fsmctl("run", str(machine), "--ros", str(twist_profile(folder)), "--via", "rclpy", "--lockstep",
                      "--duration", "3600", "--summary", str(folder / "signalled.json.summary"))
         robot.runner.start()
         client = AsyncParameterClient(robot.node, "/fsmctl_tral")
         assert client.wait_for_services(timeout_sec=20)
-        values = done(client.get_parameters(["vars.laps", "vars.mode", "vars.gains", "use_sim_time"])).values
+        end = time.monotonic() + 20  # the node answers as soon as it exists, its parameters come a moment later
+        while len(answer(client.list_parameters(prefixes=["vars"])).result.names) < 3:
+            assert time.monotonic() < end, "the variables were never declared"
+            time.sleep(0.05)
+        values = answer(client.get_parameters(["vars.laps", "vars.mode", "vars.gains", "use_sim_time"])).values
         assert [values[0].integer_value, values[1].string_value, values[2].string_value] == [0, "idle", "[1,2]"]
         assert values[3].bool_value is True  # lock-step: the simulator's clock
-        (refused,) = done(client.set_parameters([Parameter("vars.laps", value=5)])).results
+        (refused,) = answer(client.set_parameters([Parameter("vars.laps", value=5)])).results
         assert refused.successful is False and "read-only" in refused.reason and "signals.go" in refused.reason
-        (accepted,) = done(client.set_parameters([Parameter("signals.go", value=True)])).results
+        (accepted,) = answer(client.set_parameters([Parameter("signals.go", value=True)])).results
         assert accepted.successful, accepted.reason
         code, _out, err = finish(run)
     finally:
@@ -397,3 +413,34 @@ def test_variables_are_read_only_parameters_and_the_documents_inputs_can_be_set(
     assert code == 0, err
     summary = json.loads((folder / "signalled.json.summary").read_text())
     assert summary["outcome"] == "succeeded" and summary["visited"] == ["wait", "done"]
+
+
+def test_the_executor_is_rclpys_events_executor_unless_the_environment_says_single(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The EventsExecutor (C++) spins the node by default: the SingleThreadedExecutor's Python wait sets put a
+    p99 of 20 ms between message and machine (docs/performance.md). ``single`` stays available; a message still
+    goes through either, and either closes at once."""
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.experimental import EventsExecutor  # noqa: F401 (the wheel has it)
+
+    from fsm.ros.profile import load_profile
+    from fsm.ros.rclpy_link import RclpyLink
+    from fsm.ros.transport import TransportError
+
+    profile = load_profile(twist_profile(tmp_path))
+    for kind in ("events", "single"):
+        monkeypatch.setenv("FSM_RCLPY_EXECUTOR", kind)
+        got: list[bytes] = []
+        with RclpyLink(profile) as link:
+            assert isinstance(link._executor, SingleThreadedExecutor) is (kind == "single")
+            link.subscribe(profile.outputs.command, got.append)
+            pub = link.publisher(profile.outputs.command)
+            end = time.monotonic() + 10
+            while not got and time.monotonic() < end:
+                pub.put(bytes.fromhex("000100000000000000000000") + bytes(48))
+                time.sleep(0.05)
+            started = time.monotonic()
+        assert got and time.monotonic() - started < 1.5, kind
+    monkeypatch.setenv("FSM_RCLPY_EXECUTOR", "fast")
+    with pytest.raises(TransportError, match="FSM_RCLPY_EXECUTOR='fast': write events or single"):
+        RclpyLink(profile).open()

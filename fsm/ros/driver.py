@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 from fsm.ros import messages as M
 from fsm.ros.car import Log, RosCar
+from fsm.ros.parameters import Tunable, apply_tunable
 from fsm.ros.profile import Profile, status_companions
 from fsm.ros.transport import Bus, PeerTimeout, TopicPublisher
 from fsm.runtime.machine import Listener
@@ -109,10 +110,17 @@ class RosDriver:
         self.commands = 0
         self.zero_commands = 0
         self.held_by: str | None = None
+        #: a managed node deactivated (:mod:`fsm.ros.lifecycle`): every command has zero speed, the tick in
+        #: progress's too
+        self.inactive = False
         self.stop_sent = 0
         #: the input signals the document declares (settable from outside: ROS 2 parameters over rclpy)
         self.signals: list[str] = []
         self._signals_in: deque[tuple[str, bool]] = deque()
+        #: the states' parameters as ROS 2 parameters (over rclpy), and those set from outside so far
+        self.tunables: list[Tunable] = []
+        self._tunables_in: deque[tuple[Tunable, Any]] = deque()
+        self.tunables_set: list[dict[str, Any]] = []
         #: ROS time (s since 1970) at machine time 0: header stamps and bag times are ROS time, as a robot that
         #: drops stale commands needs. The wall clock's at the start (set by :meth:`prime`); in lock-step 0, the
         #: simulator's /clock being ROS time there (use_sim_time)
@@ -185,13 +193,26 @@ class RosDriver:
         session.machine.add_listener(self._watch)
         expose = getattr(self.link, "expose_parameters", None)
         if expose is not None:  # rclpy: the variables as read-only parameters, the document's inputs writable
-            expose(dict(session.machine.ctx.vars), list(self.signals), self._signal_from_outside)
+            expose(dict(session.machine.ctx.vars), list(self.signals), self._signal_from_outside,
+                   self.tunables, self._tunable_from_outside)
 
     def _signal_from_outside(self, name: str, value: bool) -> None:
         """A signal set as a ROS 2 parameter (the executor's thread): applied before the next tick."""
         self._signals_in.append((name, value))
 
+    def _tunable_from_outside(self, tunable: Tunable, params: Any) -> None:
+        """A state's parameter set as a ROS 2 parameter (the executor's thread, checked): applied before the next
+        tick."""
+        self._tunables_in.append((tunable, params))
+
     def before_tick(self, time_s: float) -> None:
+        while self._tunables_in and self.machine is not None:
+            tunable, params = self._tunables_in.popleft()
+            params = apply_tunable(self.machine, tunable, params)
+            self.tunables_set.append({"tick": self.machine.ticks + 1, "parameter": tunable.name,
+                                      "value": params.model_dump(mode="json", by_alias=True).get(tunable.param)})
+            self.log(f"at {self.machine.now:.3f} s: {tunable.path}.{tunable.param} set from outside "
+                     f"({tunable.name})")
         while self._signals_in and self.session is not None:
             from fsm.session.session import SetSignal
 
@@ -229,7 +250,8 @@ class RosDriver:
                 self._silent_since = None
             self.silent = silent
             self._watch.changed = True
-        held = "silence" if silent else "pause" if self._watch.paused else "stopped" if car.stopped else None
+        held = ("silence" if silent else "inactive" if self.inactive else "pause" if self._watch.paused
+                else "stopped" if car.stopped else None)
         self.held_by = held
         self._publish_command(now, 0.0 if held else car.speed_command)
         if self.profile.outputs.status is not None and (self._watch.changed or now + EPS >= self._next_status):
@@ -324,22 +346,26 @@ class RosDriver:
                         "odometry_jumps": car.odometry_jumps, "silences": self.silences,
                         "silent_at_end": list(self.silent), "commands": self.commands,
                         "zero_speed_commands": self.zero_commands, "stop_commands": self.stop_sent,
-                        "monitors_fired": self._watch.fired},
+                        "monitors_fired": self._watch.fired, "parameters_set": self.tunables_set[-100:]},
                 "distance_m": round(car.distance, 4), "collisions": 0}
 
 
 def ros_session(plan: Any, profile: Profile, link: Bus, *, lockstep: bool = False, bag: BagRecorder | None = None,
                 log: Log | None = None, stop: Any = None, variables: dict[str, Any] | None = None,
-                signals: list[str] | None = None) -> Session:
+                signals: list[str] | None = None, clock: Any = None,
+                tunables: list[Tunable] | None = None) -> Session:
     """A session that runs the machine of ``plan`` (a compiled :class:`fsm.model.plan.MachinePlan`) on the car behind
-    ``link``: on the wall clock at the profile's rate, or in lock-step with a simulator's clock."""
+    ``link``: on the wall clock at the profile's rate, or in lock-step with a simulator's clock (``clock``: another
+    clock, e.g. :class:`fsm.ros.lifecycle.HoldableClock`)."""
     from fsm.loading.building import build
     from fsm.runtime.clock import RealTimeClock, SimulatedClock
     from fsm.session.session import Session
 
     driver = RosDriver(profile, link, lockstep=lockstep, bag=bag, log=log)
     driver.signals = list(signals or [])
-    clock = SimulatedClock(profile.dt) if lockstep else RealTimeClock(profile.dt)
+    driver.tunables = list(tunables or [])
+    if clock is None:
+        clock = SimulatedClock(profile.dt) if lockstep else RealTimeClock(profile.dt)
     machine = build(plan, clock=clock, car=driver.car)
     if variables:
         machine.ctx.vars.update(variables)

@@ -19,7 +19,7 @@ import re
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import Field, PrivateAttr, ValidationError
+from pydantic import Field, PrivateAttr, ValidationError, model_validator
 
 from fsm.model.errors import DiagramError, Problem
 from fsm.model.params import ParamsBase
@@ -157,6 +157,33 @@ class CarGeometry(ProfileModel):
     max_range: float = Field(default=4.0, gt=0, le=100, description="Ultrasonic reading without an echo, m.")
 
 
+class Tls(ProfileModel):
+    """Zenoh over TLS (endpoints ``tls/HOST:PORT``; plain TCP is then refused): certificates in PEM files, paths
+    relative to the profile's folder. Zenoh reads them (transport/link/tls)."""
+
+    ca: str = Field(min_length=1, description="The certificate of the CA that signed the peers' certificates "
+                                              "(root_ca_certificate): a peer whose certificate it did not sign is "
+                                              "refused.")
+    certificate: str | None = Field(default=None, min_length=1,
+                                    description="This side's certificate (listen_certificate, and with mutual "
+                                                "connect_certificate); needed to listen.")
+    key: str | None = Field(default=None, min_length=1,
+                            description="This side's private key (listen_private_key / connect_private_key); "
+                                        "readable by its user only.")
+    mutual: bool = Field(default=False, description="Mutual TLS (enable_mtls): the listening side also checks the "
+                                                    "connecting side's certificate; both need certificate and key.")
+    verify_name: bool = Field(default=True, description="Check that the listening side's certificate names the "
+                                                        "host connected to (verify_name_on_connect).")
+
+    @model_validator(mode="after")
+    def _pairs(self) -> Tls:
+        if (self.certificate is None) != (self.key is None):
+            raise ValueError("certificate and key go together: give both or neither")
+        if self.mutual and self.certificate is None:
+            raise ValueError("mutual TLS: each side shows its own certificate; give certificate and key")
+        return self
+
+
 class Transport(ProfileModel):
     """The Zenoh session: peer mode on explicit endpoints (multicast scouting off by default), or a router."""
 
@@ -190,6 +217,8 @@ class Transport(ProfileModel):
     via: Literal["auto", "zenoh", "rclpy"] = Field(
         default="auto", description="auto: rclpy when it can be imported (ROS 2 installed and sourced), Zenoh "
                                     "otherwise; zenoh or rclpy: that one.")
+    tls: Tls | None = Field(default=None, description="Zenoh over TLS: the CA, this side's certificate and key, "
+                                                      "mutual TLS. Endpoints are then tls/HOST:PORT.")
 
 
 class Safety(ProfileModel):
@@ -229,6 +258,14 @@ class Profile(ProfileModel):
             if value is not None:
                 out[name] = value
         return out
+
+    def tls_paths(self) -> dict[str, Path]:
+        """The TLS files the profile names (``ca``, ``certificate``, ``key``), relative to its folder."""
+        tls = self.transport.tls
+        if tls is None:
+            return {}
+        named = {"ca": tls.ca, "certificate": tls.certificate, "key": tls.key}
+        return {k: Path(self._base_dir or ".") / v for k, v in named.items() if v is not None}
 
     def calibration_path(self) -> Path | None:
         camera = self.inputs.camera

@@ -1,7 +1,8 @@
 """rclpy as the transport (:class:`fsm.ros.transport.Bus`): ROS 2 Jazzy's wheels from the package index
 (``pip install 'tral-fsm[rclpy]'``), or a sourced ROS 2 installation.
 
-One node (``fsmctl_<profile name>``) spun by a single-threaded executor on a thread of its own; publishers and
+One node (``fsmctl_<profile name>``) spun by rclpy's EventsExecutor (C++, :func:`make_executor`) on a thread of its
+own, which calls ``spin_once`` in slices so that closing never waits inside its ``spin``; publishers and
 subscriptions carry serialised messages (CDR bytes, ``raw=True``), so the rest of :mod:`fsm.ros` is the same on
 rclpy as on Zenoh. The message classes are imported from their packages (``from sensor_msgs.msg import Range``;
 ``rosidl_runtime_py`` has no wheel); a type whose package is not installed is a located profile error before
@@ -13,15 +14,20 @@ Tested against plain rclpy nodes over Fast DDS on localhost (tests/test_ros_rclp
 from __future__ import annotations
 
 import importlib
+import os
 import re
 import threading
 import time
-from collections.abc import Callable
-from typing import Any
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any
 
 from fsm.model.errors import DiagramError, Problem
+from fsm.ros.parameters import Tunable
 from fsm.ros.profile import Binding, Profile, domain_of, normalise_type, status_companions
 from fsm.ros.transport import ROBOT, PeerTimeout, TransportError, node_name
+
+if TYPE_CHECKING:
+    from fsm.ros.lifecycle import Managed
 
 #: What to install for rclpy (the extra pins ROS 2 Jazzy's wheels).
 RCLPY_HINT = "pip install 'tral-fsm[rclpy]' (ROS 2 Jazzy's wheels), or source a ROS 2 installation"
@@ -97,6 +103,18 @@ def parameter_value(value: Any) -> Any:
     return json.dumps(value, separators=(",", ":"))
 
 
+def parameter_type(value: Any) -> int:
+    """rcl_interfaces' ParameterType of a parameter's value (bool, int, float, str)."""
+    types = _module("rcl_interfaces.msg").ParameterType
+    if isinstance(value, bool):
+        return int(types.PARAMETER_BOOL)
+    if isinstance(value, int):
+        return int(types.PARAMETER_INTEGER)
+    if isinstance(value, float):
+        return int(types.PARAMETER_DOUBLE)
+    return int(types.PARAMETER_STRING)
+
+
 def qos_of(binding: Binding) -> Any:
     """The rclpy QoS profile of a binding (reliability, volatile durability, keep-last depth)."""
     qos = _module("rclpy.qos")
@@ -104,6 +122,33 @@ def qos_of(binding: Binding) -> Any:
                    else qos.ReliabilityPolicy.BEST_EFFORT)
     return qos.QoSProfile(depth=binding.qos.depth, reliability=reliability,
                           durability=qos.DurabilityPolicy.VOLATILE, history=qos.HistoryPolicy.KEEP_LAST)
+
+
+#: The longest the executor's thread waits for work before it looks whether it should stop, s.
+SPIN_SLICE = 0.1
+#: Which executor spins the node, if not the default (``events``): ``single`` for rclpy's SingleThreadedExecutor.
+EXECUTOR_ENV = "FSM_RCLPY_EXECUTOR"
+
+
+def check_executor(kind: str) -> None:
+    if kind not in ("events", "single"):
+        raise TransportError(f"${EXECUTOR_ENV}={kind!r}: write events or single")
+
+
+def make_executor(kind: str, context: Any) -> Any:
+    """The executor that spins the node: ``events``, rclpy's EventsExecutor (C++; in rclpy.experimental since
+    Jazzy's 7.1), where this rclpy has it, else ``single``, the SingleThreadedExecutor (pure Python: it builds a
+    wait set and a task for every callback, which puts hundreds of microseconds of interpreter time between a
+    message and the machine; docs/performance.md)."""
+    check_executor(kind)
+    if kind == "events":
+        try:
+            events = _module("rclpy.experimental").EventsExecutor
+        except (ImportError, AttributeError):
+            pass
+        else:
+            return events(context=context)
+    return _module("rclpy.executors").SingleThreadedExecutor(context=context)
 
 
 class RclpyPublisher:
@@ -122,8 +167,14 @@ class RclpyPublisher:
 class RclpyLink:
     """The :class:`~fsm.ros.transport.Bus` of a profile over rclpy (see the module's docstring)."""
 
-    def __init__(self, profile: Profile, node: str = "fsmctl", sim_time: bool = False) -> None:
+    def __init__(self, profile: Profile, node: str = "fsmctl", sim_time: bool = False,
+                 managed: Managed | None = None, executor: str | None = None) -> None:
         self.profile = profile
+        #: "events" (rclpy's EventsExecutor, where the rclpy has it) or "single" (SingleThreadedExecutor); default
+        #: $FSM_RCLPY_EXECUTOR, else "events" (see :func:`make_executor`)
+        self.executor = executor or os.environ.get(EXECUTOR_ENV) or "events"
+        #: a managed (lifecycle) node whose transitions call ``managed`` (:mod:`fsm.ros.lifecycle`), else a plain one
+        self.managed = managed
         #: the node's name: the profile's ``transport.node``, else ``fsmctl_<profile name>`` for the machine and
         #: ``fsmctl_sim_<profile name>`` for the robot; its namespace the profile's ``transport.namespace``
         self.node_name = node_name(profile, node)
@@ -134,7 +185,11 @@ class RclpyLink:
         self._context: Any = None
         self._executor: Any = None
         self._thread: threading.Thread | None = None
+        self._spinning = False
         self._subscriptions: list[Any] = []
+        self._publishers: list[Any] = []
+        self._parameters: list[str] = []
+        self._on_set: Any = None
 
     def describe(self) -> str:
         import os
@@ -154,9 +209,9 @@ class RclpyLink:
             raise TransportError(f"rclpy cannot load {full}: {why}: {hint}, or use --via zenoh") from None
 
     def open(self) -> RclpyLink:
+        check_executor(self.executor)
         try:
             rclpy = _module("rclpy")
-            executors = _module("rclpy.executors")
         except ImportError as exc:
             raise TransportError(f"rclpy cannot be imported ({exc}): {RCLPY_HINT}; or use Zenoh (--via zenoh, or "
                                  "\"via\": \"zenoh\" in the profile's transport)") from None
@@ -164,12 +219,19 @@ class RclpyLink:
             self._context = rclpy.Context()
             self._init(rclpy)
             overrides = [_module("rclpy.parameter").Parameter("use_sim_time", value=True)] if self.sim_time else []
-            self.node = rclpy.create_node(self.node_name, namespace=self.namespace, context=self._context,
-                                          parameter_overrides=overrides)
+            if self.managed is not None:
+                from fsm.ros.lifecycle import lifecycle_node
+
+                self.node = lifecycle_node(self.node_name, self.managed, namespace=self.namespace,
+                                           context=self._context, parameter_overrides=overrides)
+            else:
+                self.node = rclpy.create_node(self.node_name, namespace=self.namespace, context=self._context,
+                                              parameter_overrides=overrides)
         except Exception as exc:  # an RMW that does not load, a bad domain
             raise TransportError(f"cannot start rclpy {self.describe()}: {exc}") from None
-        self._executor = executors.SingleThreadedExecutor(context=self._context)
+        self._executor = make_executor(self.executor, self._context)
         self._executor.add_node(self.node)
+        self._spinning = True
         self._thread = threading.Thread(target=self._spin, name="rclpy", daemon=True)
         self._thread.start()
         return self
@@ -193,44 +255,75 @@ class RclpyLink:
                         signal.signal(num, handler)
 
     def _spin(self) -> None:
+        executor = self._executor
         try:
-            self._executor.spin()
+            while self._spinning:
+                executor.spin_once(timeout_sec=SPIN_SLICE)
         except Exception:  # the context was shut down while spinning
             pass
 
-    # -- the machine's variables and signals as ROS 2 parameters ----------------------------------------------------
+    # -- the machine's variables, signals and state parameters as ROS 2 parameters --------------------------------
     def expose_parameters(self, variables: dict[str, Any], signals: list[str],
-                          on_signal: Callable[[str, bool], None]) -> None:
-        """Declare ``vars.<name>`` for each variable (read-only from outside: the machine sets them) and
+                          on_signal: Callable[[str, bool], None], tunables: Sequence[Tunable] = (),
+                          on_tunable: Callable[[Tunable, Any], None] | None = None) -> None:
+        """Declare ``vars.<name>`` for each variable (read-only from outside: the machine sets them),
         ``signals.<name>`` for each input signal the document declares (writable, bool: ``on_signal`` is called on
-        the executor's thread). A set from outside of anything else is refused with the reason."""
+        the executor's thread) and ``states.<path>.<param>`` for each of ``tunables`` (typed; read-only unless
+        writable; a valid value set from outside goes to ``on_tunable`` with the state's new parameters). A set
+        from outside of anything else, or of a value that is not valid, is refused with the reason."""
         rcl = _module("rcl_interfaces.msg")
         self._updating = False
         self._writable = {f"signals.{name}" for name in signals}
         for name, value in variables.items():
             if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
-                self.node.declare_parameter(f"vars.{name}", parameter_value(value), rcl.ParameterDescriptor(
+                self._declare(f"vars.{name}", parameter_value(value), rcl.ParameterDescriptor(
                     dynamic_typing=True, description=f"the machine's variable {name} (read-only: the machine sets it)"))
         for name in signals:
             if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
-                self.node.declare_parameter(f"signals.{name}", False, rcl.ParameterDescriptor(
+                self._declare(f"signals.{name}", False, rcl.ParameterDescriptor(
                     description=f"the input signal {name} (the document's inputs: set it to drive the machine)"))
+        for t in tunables:
+            self._declare(t.name, t.value, rcl.ParameterDescriptor(
+                type=parameter_type(t.value), read_only=not t.writable, description=t.description))
+        self._writable |= {t.name for t in tunables if t.writable}
+        by_name = {t.name: t for t in tunables}
 
         def check(params: list[Any]) -> Any:
-            if self._updating:
-                return rcl.SetParametersResult(successful=True)
-            for param in params:
-                if param.name not in self._writable:
-                    return rcl.SetParametersResult(successful=False, reason=(
-                        f"{param.name} is read-only: the machine sets its variables; only the signals the document "
-                        f"declares as inputs can be set ({', '.join(sorted(self._writable)) or 'none'})"))
-                if not isinstance(param.value, bool):
-                    return rcl.SetParametersResult(successful=False, reason=f"{param.name} is a signal: true or false")
-            for param in params:
-                on_signal(param.name.split(".", 1)[1], bool(param.value))
-            return rcl.SetParametersResult(successful=True)
+            why = None if self._updating else self._set_from_outside(params, by_name, on_signal, on_tunable)
+            return rcl.SetParametersResult(successful=why is None, reason=why or "")
 
         self.node.add_on_set_parameters_callback(check)
+        self._on_set = check
+
+    def _set_from_outside(self, params: list[Any], tunables: dict[str, Tunable],
+                          on_signal: Callable[[str, bool], None],
+                          on_tunable: Callable[[Tunable, Any], None] | None) -> str | None:
+        """Parameters set from outside, all or none: why not, or None once each was passed on."""
+        taken: list[tuple[Tunable, Any]] = []
+        for param in params:
+            if param.name not in self._writable:
+                return (f"{param.name} is read-only: the machine sets its variables; only the signals the document "
+                        "declares as inputs and the state parameters named by --tunable can be set "
+                        f"({', '.join(sorted(self._writable)) or 'none'})")
+            tunable = tunables.get(param.name)
+            if tunable is None and not isinstance(param.value, bool):
+                return f"{param.name} is a signal: true or false"
+            if tunable is not None:
+                try:
+                    taken.append((tunable, tunable.validate(param.value)))
+                except ValueError as exc:
+                    return f"{param.name}: {exc}"
+        for param in params:
+            if param.name.startswith("signals."):
+                on_signal(param.name.split(".", 1)[1], bool(param.value))
+        for tunable, new in taken:
+            if on_tunable is not None:
+                on_tunable(tunable, new)
+        return None
+
+    def _declare(self, name: str, value: Any, descriptor: Any) -> None:
+        self._parameters.append(name)
+        self.node.declare_parameter(name, value, descriptor)
 
     def update_parameters(self, variables: dict[str, Any]) -> None:
         """The variables' current values (those declared; a new variable is declared now)."""
@@ -259,6 +352,7 @@ class RclpyLink:
 
     def publisher(self, binding: Binding) -> RclpyPublisher:
         pub = self.node.create_publisher(self.message_class(binding.type), binding.topic, qos_of(binding))
+        self._publishers.append(pub)
         return RclpyPublisher(pub)
 
     def subscribe(self, binding: Binding, callback: Callable[[bytes], None]) -> None:
@@ -266,19 +360,44 @@ class RclpyLink:
                                             lambda raw: callback(bytes(raw)), qos_of(binding), raw=True)
         self._subscriptions.append(sub)
 
+    def release(self) -> None:
+        """Destroy the publishers, subscriptions and parameters made since :meth:`open` (a managed node's
+        ``cleanup``); the node stays."""
+        node = self.node
+        if node is None:
+            return
+        for pub in self._publishers:
+            node.destroy_publisher(pub)
+        for sub in self._subscriptions:
+            node.destroy_subscription(sub)
+        self._publishers.clear()
+        self._subscriptions.clear()
+        if self._on_set is not None:
+            node.remove_on_set_parameters_callback(self._on_set)
+            self._on_set = None
+        forget = getattr(node, "forget_parameter", node.undeclare_parameter)  # a managed node forgets read-only ones
+        for name in self._parameters:
+            if node.has_parameter(name):
+                forget(name)
+        self._parameters.clear()
+
     def close(self) -> None:
+        """Stop spinning (the executor's thread ends within :data:`SPIN_SLICE`), then the executor, the node and
+        the context, in that order: rclpy's EventsExecutor hangs in ``shutdown`` (and the context's) while another
+        thread is inside its ``spin``."""
+        self._spinning = False
+        if self._thread is not None:
+            self._thread.join(timeout=2)
+            self._thread = None
         executor, self._executor = self._executor, None
         if executor is not None:
-            executor.shutdown()
+            executor.shutdown(timeout_sec=2)
         if self.node is not None:
             self.node.destroy_node()
             self.node = None
         context, self._context = self._context, None
         if context is not None and context.ok():
             context.shutdown()
-        if self._thread is not None:
-            self._thread.join(timeout=2)
-            self._thread = None
 
     def __enter__(self) -> RclpyLink:
         return self.open() if self.node is None else self

@@ -111,13 +111,15 @@ def open_bus(profile: Profile, *, connect: list[str] | None = None, listen: list
 PASSWORD_ENV = "FSM_ZENOH_PASSWORD"
 
 
-def free_endpoint(host: str = "127.0.0.1") -> str:
-    """``tcp/HOST:PORT`` on a port the system has free now (never rmw_zenoh's 7447 unless it was asked for)."""
+def free_endpoint(host: str = "127.0.0.1", profile: Profile | None = None) -> str:
+    """``tcp/HOST:PORT`` (``tls/`` when the profile configures TLS) on a port the system has free now (never
+    rmw_zenoh's 7447 unless it was asked for)."""
     import socket
 
+    protocol = "tls" if profile is not None and profile.transport.tls is not None else "tcp"
     with socket.socket() as s:
         s.bind((host, 0))
-        return f"tcp/{host}:{s.getsockname()[1]}"
+        return f"{protocol}/{host}:{s.getsockname()[1]}"
 
 
 class PeerTimeout(FsmError):
@@ -275,7 +277,34 @@ class Link:
         conf.insert_json5("connect/retry", json.dumps(RETRY))
         if t.user is not None:
             self._auth(conf, t.user)
+        if t.tls is not None:
+            self._tls(conf)
         return conf
+
+    def _tls(self, conf: Any) -> None:
+        """Zenoh's TLS (``transport/link/tls``, keys as zenoh 1.x names them; see the profile's ``transport.tls``):
+        the CA that signs the peers' certificates, this side's certificate and key for listening and (mutual TLS)
+        connecting; only TLS links are accepted, so a peer cannot fall back to plain TCP."""
+        tls = self.profile.transport.tls
+        assert tls is not None
+        paths = self.profile.tls_paths()
+        for what, path in paths.items():
+            if not path.is_file():
+                raise TransportError(f"the profile's transport.tls.{what} {path}: no such file")
+        plain = [e for e in self.connect + self.listen if not e.startswith("tls/")]
+        if plain:
+            raise TransportError(f"the profile configures TLS (transport.tls), but {', '.join(plain)} is not a TLS "
+                                 "endpoint: write tls/HOST:PORT")
+        if self.listen and "certificate" not in paths:
+            raise TransportError("listening on TLS needs this side's certificate and key: transport.tls.certificate "
+                                 "and transport.tls.key")
+        settings: dict[str, Any] = {"root_ca_certificate": str(paths["ca"]), "enable_mtls": tls.mutual,
+                                    "verify_name_on_connect": tls.verify_name}
+        if "certificate" in paths:
+            settings |= {"listen_certificate": str(paths["certificate"]), "listen_private_key": str(paths["key"]),
+                         "connect_certificate": str(paths["certificate"]), "connect_private_key": str(paths["key"])}
+        conf.insert_json5("transport/link/tls", json.dumps(settings))
+        conf.insert_json5("transport/link/protocols", json.dumps(["tls"]))
 
     def _auth(self, conf: Any, user: str) -> None:
         """Zenoh's user/password authentication (both ways: the user and password this side shows, and the

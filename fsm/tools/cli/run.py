@@ -109,7 +109,7 @@ def register(sub: Subcommands) -> None:
     from ..ros.common import add_endpoint_options
 
     add_endpoint_options(p, "advance in lock-step with `fsmctl sim --ros --lockstep` on the profile's clock topic "
-                            "instead of the wall clock (fast, reproducible runs against the simulator)")
+                            "instead of the wall clock (fast, reproducible runs against the simulator)", managed=True)
     bar = car.add_mutually_exclusive_group()
     bar.add_argument("--progress", dest="progress", action="store_true", default=None,
                      help="show a progress bar (default: only when standard error is a terminal)")

@@ -44,7 +44,8 @@ def choose_transport(profile: Any, args: argparse.Namespace, file: str, what: st
     return via
 
 
-def add_endpoint_options(p: argparse.ArgumentParser, lockstep_help: str) -> None:
+def add_endpoint_options(p: argparse.ArgumentParser, lockstep_help: str, managed: bool = False) -> None:
+    """The transport's options; ``managed``: also ``--lifecycle`` (fsmctl run)."""
     g = p.add_argument_group("the transport (replacing the profile's)")
     g.add_argument("--connect", action="append", metavar="ENDPOINT",
                    help="connect to ENDPOINT, e.g. tcp/127.0.0.1:7447 (repeatable)")
@@ -57,6 +58,13 @@ def add_endpoint_options(p: argparse.ArgumentParser, lockstep_help: str) -> None
                    help="rename a topic of the profile (/tral/cmd:=/car1/cmd), or rclpy's node (__node:=NAME) or "
                         "namespace (__ns:=/NS), as ROS 2's -r (repeatable; after the profile's transport.remap)")
     g.add_argument("--lockstep", action="store_true", help=lockstep_help)
+    if managed:
+        g.add_argument("--lifecycle", action="store_true",
+                       help="with --via rclpy: the bridge is a ROS 2 managed node; configure loads the document, "
+                            "activate starts ticking, deactivate stops the car and pauses, shutdown ends the run")
+        g.add_argument("--tunable", action="append", default=[], metavar="PATH.PARAM",
+                       help="with --via rclpy: let a ROS 2 client set this state parameter (states.PATH.PARAM on "
+                            "the node; the others are read-only), e.g. follow.speed (repeatable)")
 
 
 def check_endpoints(args: argparse.Namespace) -> None:

@@ -17,7 +17,7 @@ def run_replay(args: argparse.Namespace) -> int:
     from fsm.loading.loader import check, machine_files
     from fsm.loading.loader import compile as compile_spec
     from fsm.loading.reading import preloaded
-    from fsm.ros.replay import load_drive, replay_session
+    from fsm.ros.replay import ReplayDriver, load_drive, replay_session
 
     from ..runs.args import apply_overrides
     from ..runs.ending import Tee, write_report
@@ -43,6 +43,7 @@ def run_replay(args: argparse.Namespace) -> int:
     try:
         session = replay_session(drive, compile_spec(spec), profile)
         driver = session.driver
+        assert isinstance(driver, ReplayDriver)
         stream = trace_out.stream() if trace_out is not None else None
         if report_out is not None:
             stream = Tee(stream)

@@ -29,8 +29,9 @@ def check_usage(args: argparse.Namespace) -> None:
         for option in ("bag", "connect", "listen", "via"):
             if getattr(args, option, None):
                 raise UsageError(f"--{option} needs --ros PROFILE (it records or reaches a car on ROS 2 topics)")
-        if getattr(args, "lockstep", False):
-            raise UsageError("--lockstep needs --ros PROFILE")
+        for flag in ("lockstep", "lifecycle", "tunable"):
+            if getattr(args, flag, False):
+                raise UsageError(f"--{flag} needs --ros PROFILE")
         return
     for option in SIM_ONLY:
         if getattr(args, option, None):
@@ -53,6 +54,13 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
 
     profile = load(args.ros, args.remap)
     via = choose_transport(profile, args, args.ros, "--ros")
+    if getattr(args, "lifecycle", False):
+        from .lifecycle import check_usage as check_lifecycle
+
+        check_lifecycle(args, via)
+    if getattr(args, "tunable", None) and via != "rclpy":
+        raise UsageError("--tunable makes state parameters ROS 2 parameters, which rclpy provides: add --via rclpy")
+    tunables = state_parameters(args, spec, via)  # a --tunable naming nothing: said before anything starts
     inputs = machine_files(spec) + [args.ros]
     outputs.open(inputs)
     check_bag_folder(args.bag, inputs, outputs.items)  # the input itself, another output's name: refused now
@@ -60,8 +68,11 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
     connect, listen = args.connect, args.listen
     t = profile.transport
     if via == "zenoh" and not (connect or listen or t.connect or t.listen or t.multicast):
-        listen = [free_endpoint()]  # nowhere to connect to: the robot connects here (printed below)
+        listen = [free_endpoint(profile=profile)]  # nowhere to connect to: the robot connects here (printed below)
     link = open_bus(profile, connect=connect, listen=listen, via=args.via, sim_time=args.lockstep)
+    if getattr(args, "lifecycle", False):
+        return _managed(args, file, profile, link, outputs, {"trace": trace_out, "summary": summary_out,
+                                                             "report": report_out}, StopRules(duration, max_ticks))
     bag = None
     # from here on Ctrl-C asks the run to stop (connecting takes a while): the outputs are written, exit 130
     interrupts = Interrupts()
@@ -73,7 +84,8 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
             bag = BagRecorder(args.bag, profile) if args.bag else None
             session = ros_session(plan, profile, link, lockstep=args.lockstep, bag=bag,
                                   variables=args.initial_vars, stop=StopRules(duration, max_ticks),
-                                  signals=list(getattr(spec, "inputs", None) or []))
+                                  signals=list(getattr(spec, "inputs", None) or []),
+                                  tunables=tunables)
             for name, value, at in args.signal:
                 session.schedule(at, SetSignal(name, value))
             code = _drive(args, session, profile, file, outputs, trace_out, summary_out, report_out, interrupts)
@@ -87,18 +99,37 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
             link.close()
 
 
+def state_parameters(args: argparse.Namespace, spec: Any, via: str) -> list[Any]:
+    """The states' parameters as ROS 2 parameters (over rclpy; Zenoh has none)."""
+    if via != "rclpy":
+        return []
+    from .parameters import tunables
+
+    return tunables(spec, list(getattr(args, "tunable", None) or []), list(getattr(args, "overrides", None) or []))
+
+
+def _managed(args: argparse.Namespace, file: str, profile: Any, link: Any, outputs: Any, files: dict[str, Any],
+             stop_rules: Any) -> int:
+    """--lifecycle: the node is managed (:mod:`.lifecycle`); the machine is built at its configure."""
+    from .lifecycle import LifecycleRun
+
+    interrupts = Interrupts()
+    run = LifecycleRun(args, file, profile, link, outputs, files, stop_rules, interrupts)
+    link.managed = run
+    with interrupts:
+        try:
+            link.open()
+            return run.serve()
+        finally:
+            run.discard()
+            link.close()
+
+
 def _drive(args: argparse.Namespace, session: Any, profile: Any, file: str, outputs: Any, trace_out: Any,
            summary_out: Any, report_out: Any, interrupts: Interrupts) -> int:
-    from ..runs.ending import Tee, end_run
-
     driver = session.driver
     machine = session.machine
-    report = sys.stderr if outputs.to_stdout else sys.stdout
-    stream = trace_out.stream() if trace_out is not None else None
-    if report_out is not None:
-        stream = Tee(stream)
-    recorder = session.record(car_recorder(stream, file, driver.car, profile, preloaded=args.pre,
-                                           sample_rate=args.sample_rate))
+    recorder = start_recording(args, session, profile, file, trace_out, report_out)
     error: StateRuntimeError | None = None
     try:
         primed = driver.prime(stop=interrupts.stop)
@@ -120,8 +151,30 @@ def _drive(args: argparse.Namespace, session: Any, profile: Any, file: str, outp
         raise
     finally:
         interrupts.writing = True
-    driver.stop()  # the run is over, however: the car gets zero speed before the files are written
-    interrupted = interrupts.interrupted
+    return finish_run(args, session, file, outputs, summary_out, report_out, recorder, error, interrupts.interrupted)
+
+
+def start_recording(args: argparse.Namespace, session: Any, profile: Any, file: str, trace_out: Any,
+                    report_out: Any) -> Any:
+    """The session's recorder: the trace's stream (and the report's copy of it)."""
+    from ..runs.ending import Tee
+
+    stream = trace_out.stream() if trace_out is not None else None
+    if report_out is not None:
+        stream = Tee(stream)
+    return session.record(car_recorder(stream, file, session.driver.car, profile, preloaded=args.pre,
+                                       sample_rate=args.sample_rate))
+
+
+def finish_run(args: argparse.Namespace, session: Any, file: str, outputs: Any, summary_out: Any, report_out: Any,
+               recorder: Any, error: StateRuntimeError | None, interrupted: bool) -> int:
+    """The run is over, however: the car gets zero speed before the trace's end, summary and report are written;
+    the exit status."""
+    from ..runs.ending import end_run
+
+    driver = session.driver
+    driver.stop()
+    report = sys.stderr if outputs.to_stdout else sys.stdout
     stopped = session.result.stopped if session.result is not None else "not started"
     end: dict[str, Any] = {"stopped": stopped}
     if driver.time_offset:  # the bag's times are ROS time: t_bag = time_offset + t_trace

@@ -34,12 +34,15 @@ def run_sim(args: argparse.Namespace) -> int:
     connect = args.connect
     if zenoh and listen is None and connect is None:
         # the robot's side of the profile: listen where the machine connects; else on a free port, printed below
-        listen = list(profile.transport.listen or profile.transport.connect) or [free_endpoint()]
+        listen = list(profile.transport.listen or profile.transport.connect) or [free_endpoint(profile=profile)]
         connect = []
     link = open_bus(profile, connect=connect or [], listen=listen or [], via=args.via, node="fsmctl_sim",
                     sim_time=args.lockstep)
-    say = (lambda text: None) if args.quiet else (lambda text: print(printable(f"fsmctl sim: {text}"),
-                                                                       file=sys.stderr, flush=True))
+
+    def say(text: str) -> None:
+        if not args.quiet:
+            print(printable(f"fsmctl sim: {text}"), file=sys.stderr, flush=True)
+
     try:
         link.open()
         robot = SimRobot(profile, link, world, seed=args.seed, noise=not args.no_noise, lockstep=args.lockstep,

@@ -93,7 +93,7 @@ class LifecycleRun:
         from fsm.ros.lifecycle import HoldableClock
         from fsm.session.session import SetSignal
 
-        from .run import start_recording, state_parameters
+        from .ends import start_recording, state_parameters
 
         args = self.args
         if args.bag and self.bag is None:
@@ -191,7 +191,7 @@ class LifecycleRun:
             self.say(f"the machine is over ({self.over}); the car is held at zero speed until shutdown")
 
     def _end(self) -> int:
-        from .run import finish_run
+        from .ends import finish_run
 
         if self.session is None:
             interrupted = self.interrupts.interrupted

@@ -10,14 +10,14 @@ exception) a zero-speed command is sent first; then trace, report, summary and b
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from typing import Any
 
 from fsm.model.errors import FsmError, StateRuntimeError, UsageError, printable
 
-from ..runs.args import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, Interrupts
-from .common import car_recorder, check_bag_folder, check_endpoints, choose_transport, load
+from ..runs.args import Interrupts
+from .common import check_bag_folder, check_endpoints, choose_transport, load
+from .ends import finish_run, start_recording, state_parameters
 
 #: Options of ``fsmctl run`` that drive the simulated car in-process, refused with --ros.
 SIM_ONLY = ("world", "car", "video", "plot")
@@ -99,15 +99,6 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
             link.close()
 
 
-def state_parameters(args: argparse.Namespace, spec: Any, via: str) -> list[Any]:
-    """The states' parameters as ROS 2 parameters (over rclpy; Zenoh has none)."""
-    if via != "rclpy":
-        return []
-    from .parameters import tunables
-
-    return tunables(spec, list(getattr(args, "tunable", None) or []), list(getattr(args, "overrides", None) or []))
-
-
 def _managed(args: argparse.Namespace, file: str, profile: Any, link: Any, outputs: Any, files: dict[str, Any],
              stop_rules: Any) -> int:
     """--lifecycle: the node is managed (:mod:`.lifecycle`); the machine is built at its configure."""
@@ -152,68 +143,6 @@ def _drive(args: argparse.Namespace, session: Any, profile: Any, file: str, outp
     finally:
         interrupts.writing = True
     return finish_run(args, session, file, outputs, summary_out, report_out, recorder, error, interrupts.interrupted)
-
-
-def start_recording(args: argparse.Namespace, session: Any, profile: Any, file: str, trace_out: Any,
-                    report_out: Any) -> Any:
-    """The session's recorder: the trace's stream (and the report's copy of it)."""
-    from ..runs.ending import Tee
-
-    stream = trace_out.stream() if trace_out is not None else None
-    if report_out is not None:
-        stream = Tee(stream)
-    return session.record(car_recorder(stream, file, session.driver.car, profile, preloaded=args.pre,
-                                       sample_rate=args.sample_rate))
-
-
-def finish_run(args: argparse.Namespace, session: Any, file: str, outputs: Any, summary_out: Any, report_out: Any,
-               recorder: Any, error: StateRuntimeError | None, interrupted: bool) -> int:
-    """The run is over, however: the car gets zero speed before the trace's end, summary and report are written;
-    the exit status."""
-    from ..runs.ending import end_run
-
-    driver = session.driver
-    driver.stop()
-    report = sys.stderr if outputs.to_stdout else sys.stdout
-    stopped = session.result.stopped if session.result is not None else "not started"
-    end: dict[str, Any] = {"stopped": stopped}
-    if driver.time_offset:  # the bag's times are ROS time: t_bag = time_offset + t_trace
-        end["ros_time_offset"] = driver.time_offset
-    result = end_run(session, error, interrupted, report_out=report_out, result={"stopped": stopped}, end=end,
-                     report_name=args.trace if args.trace not in (None, "-") else file)
-    if summary_out is not None:
-        summary_out.write(json.dumps(result, indent=2) + "\n")
-    outputs.commit()
-    return _verdict(args, session, file, error, interrupted, stopped, report, recorder)
-
-
-def _verdict(args: argparse.Namespace, session: Any, file: str, error: StateRuntimeError | None, interrupted: bool,
-             stopped: str, report: Any, recorder: Any) -> int:
-    machine = session.machine
-    driver = session.driver
-    if error is not None:
-        print(printable(f"fsmctl run: {file}: {error} (the car was sent zero speed)"), file=sys.stderr)
-        return EXIT_FAIL
-    if not args.quiet:
-        from ..recording import end_lines
-
-        print("\n".join(end_lines(file, machine, recorder, interrupted=interrupted,
-                                  note="; the car was sent zero speed", where=f" on {driver.profile.name} over ROS 2")),
-              file=report)
-        m = driver.metrics()["ros"]
-        print(f"ros: {m['commands']} commands ({m['zero_speed_commands']} at zero speed), "
-              f"{sum(m['received'].values())} messages in, {m['silences']} silences, "
-              f"{sum(m['decode_failures'].values())} undecodable", file=report)
-    if interrupted:
-        return EXIT_INTERRUPTED
-    if stopped == "silence":
-        print(printable(f"fsmctl run: stopped: {', '.join(driver.silent) or 'the clock'} silent longer than "
-                        f"{driver.profile.name} allows (the car was sent zero speed)"), file=sys.stderr)
-        return EXIT_FAIL
-    if args.expect is not None and machine.outcome != args.expect:
-        print(printable(f"fsmctl run: expected outcome {args.expect!r}, got {machine.outcome!r}"), file=sys.stderr)
-        return EXIT_FAIL
-    return EXIT_OK
 
 
 __all__ = ["FsmError", "check_usage", "run_ros"]

@@ -3,12 +3,55 @@
 from __future__ import annotations
 
 import numbers
-from typing import TYPE_CHECKING, Any
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any, Protocol
 
 if TYPE_CHECKING:
-    from fsm.runtime.machine import Machine
-    from fsm.runtime.plant import Plant
     from fsm.runtime.state import State
+
+
+class MachineView(Protocol):
+    """The machine as the code it runs sees it: ``ctx.machine``, and the argument of every ``bind`` (a state's, a
+    transition's, a condition's). :class:`fsm.runtime.machine.Machine` is one; the protocol lives here, below the
+    states, so that they name what they use of their machine without importing it (no import cycle)."""
+
+    @property
+    def ctx(self) -> Context:
+        """The machine's context (the blackboard, signals, the clock's time)."""
+        ...
+
+    @property
+    def listeners(self) -> Sequence[object]:
+        """The attached listeners (empty: nobody to tell)."""
+        ...
+
+    def state(self, path: str) -> State[Any]:
+        """The state at the full ``path``."""
+        ...
+
+    def resolve(self, path: str, scope: str = "") -> State[Any]:
+        """The state ``path`` names when written in the level at ``scope``."""
+        ...
+
+    def pause(self, path: str | None = None) -> None:
+        """Pause the state at ``path`` (the whole machine without one)."""
+        ...
+
+    def resume(self, path: str | None = None) -> None:
+        """Resume what :meth:`pause` paused."""
+        ...
+
+    def thaw(self, state: State[Any], now: float) -> None:
+        """Unfreeze ``state`` and its subtree (after a suspension)."""
+        ...
+
+    def add_pause_button(self, state: State[Any], signal: str, debounce: float = 0.0) -> None:
+        """Each rising edge of ``signal`` pauses or resumes ``state``."""
+        ...
+
+    def notify_skipped(self, state: State[Any]) -> None:
+        """Tell the listeners that ``state``, just entered, was skipped by its precondition."""
+        ...
 
 
 class Context:
@@ -31,9 +74,10 @@ class Context:
         self._tick = 0
         self.vars: dict[str, Any] = dict(variables or {})
         self.car = car
-        self.machine: Machine | None = None
-        #: simulated plants by name (``fsm.runtime.plant.Plant``), attached by a scenario or a run
-        self.plants: dict[str, Plant] = {}
+        self.machine: MachineView | None = None
+        #: simulated plants by name (:class:`fsm.runtime.plant.Plant`, a layer above: kept as objects here),
+        #: attached by a scenario or a run
+        self.plants: dict[str, object] = {}
         self._signals: dict[str, bool] = {}
         self._changed: dict[str, int] = {}
         #: Signals changed since the last tick started, with their level then.

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any, Protocol
 
 from fsm.model.errors import StateRuntimeError
 from fsm.model.plan import ActionKind, GuardKind
@@ -10,7 +11,6 @@ from fsm.runtime.verdict import Verdict
 
 if TYPE_CHECKING:
     from fsm.runtime.context import Context
-    from fsm.runtime.machine import Listener
     from fsm.runtime.state import State
     from fsm.runtime.transition import Transition
 
@@ -23,6 +23,15 @@ _PROCEED = Verdict.PROCEED
 _HALTED = Verdict.HALTED
 #: What ``Region._before_tick`` returns when nothing more happens at this level in this tick.
 _USED_UP: Any = object()
+
+
+class EntryListener(Protocol):
+    """What a level tells of each entry: a :class:`fsm.runtime.machine.Listener` (above this module) is one.
+    ``transition`` is the transition that fired, a monitor's restart record, or ``None`` for an initial entry."""
+
+    def on_transition(self, ctx: Context, source: State[Any] | None, target: State[Any], transition: Any) -> None:
+        """``target`` was entered."""
+        ...
 
 
 class Region:
@@ -49,7 +58,8 @@ class Region:
         self.owner: State[Any] | None = None
         self.started = False
         self.fired = 0
-        self.listeners: list[Listener] = []
+        #: the machine's listeners (its own list, shared by every level)
+        self.listeners: Sequence[EntryListener] = ()
 
     def start(self, ctx: Context) -> None:
         """Enter the initial state (and down into its initial sub-states)."""

@@ -8,8 +8,8 @@ while the owner or anything inside it is active. It answers with a :class:`~fsm.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, NamedTuple
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
 
 from fsm.model.expr import ExprRuntimeError
 from fsm.runtime.state import State
@@ -18,7 +18,6 @@ from fsm.runtime.verdict import Verdict
 if TYPE_CHECKING:
     from fsm.runtime.condition import Condition
     from fsm.runtime.context import Context
-    from fsm.runtime.machine import Machine
     from fsm.runtime.region import Region
 
 #: Slack for timeouts computed from ticks (80 ticks of 0.0125 s are 1 s).
@@ -68,6 +67,20 @@ class Restart:
         return f"restart {self.source.id}" + (f" ({self.monitor.label})" if self.monitor else "")
 
 
+class MonitorListeners(Protocol):
+    """What a supervisor tells when a monitor fires: the machine's listeners (a
+    :class:`fsm.runtime.machine.Machine`, above this module, is one)."""
+
+    @property
+    def listeners(self) -> Sequence[object]:
+        """The attached listeners (empty: nobody to tell)."""
+        ...
+
+    def notify_monitor(self, owner: State[Any], monitor: Monitor) -> None:
+        """Tell the listeners that a monitor (or a timeout) of ``owner`` fired."""
+        ...
+
+
 class Running(NamedTuple):
     """An exception sequence running for its owner: the monitor that started it and the sequence's region."""
 
@@ -101,7 +114,8 @@ class Supervisor:
         self.reset_at = 0.0
         #: the exception sequence running for this owner, if any
         self.running: Running | None = None
-        self.machine: Machine | None = None
+        #: whom to tell when a monitor fires (the machine, bound when it is built)
+        self.machine: MonitorListeners | None = None
         self.halted = False
 
     # -- entry -------------------------------------------------------------------------------------

@@ -11,8 +11,7 @@ from fsm.model.plan import ActionKind, GuardKind
 
 if TYPE_CHECKING:
     from fsm.runtime.condition import Condition
-    from fsm.runtime.context import Context
-    from fsm.runtime.machine import Machine
+    from fsm.runtime.context import Context, MachineView
     from fsm.runtime.state import State
 
 P = TypeVar("P", bound=TransitionParams)
@@ -193,7 +192,7 @@ class Transition(Generic[P]):
     def action(self, ctx: Context) -> None:
         """Called while firing, after the source's exit and before the target's entry."""
 
-    def bind(self, machine: Machine) -> None:
+    def bind(self, machine: MachineView) -> None:
         """Called once when the machine is built, to resolve references to other states (``InState``)."""
 
     def describe(self) -> str:

@@ -13,8 +13,7 @@ from fsm.model.params import TransitionParams
 from fsm.runtime.transition import Transition
 
 if TYPE_CHECKING:
-    from fsm.runtime.context import Context
-    from fsm.runtime.machine import Machine
+    from fsm.runtime.context import Context, MachineView
     from fsm.runtime.state import State
 
 
@@ -120,7 +119,7 @@ class InState(Transition[InStateParams]):
         super().__init__(params, source, target, index)
         self._other: State[Any] | None = None
 
-    def bind(self, machine: Machine) -> None:
+    def bind(self, machine: MachineView) -> None:
         scope = self.source.region.path if self.source.region is not None else ""
         self._other = machine.resolve(self.params.state, scope)
 

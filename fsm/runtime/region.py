@@ -176,7 +176,7 @@ class Region:
         supervisor = state.supervisor
         if supervisor is not None:
             try:
-                verdict = supervisor.check(ctx)
+                verdict = supervisor.verdict(ctx)
             except StateRuntimeError:
                 raise
             except Exception as exc:

@@ -150,8 +150,8 @@ class Supervisor:
         self.reset_at = self.owner.time_in_state(ctx)
 
     # -- each tick ---------------------------------------------------------------------------------
-    def check(self, ctx: Context) -> Verdict:
-        """Before the owner is ticked: run a running exception sequence, or check the monitors in order."""
+    def verdict(self, ctx: Context) -> Verdict:
+        """Before the owner is ticked: run a running exception sequence, or ask the monitors in order."""
         if self.halted:
             return Verdict.HALTED
         running = self.running

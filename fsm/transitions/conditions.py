@@ -286,5 +286,5 @@ class ConditionTransition(Transition[ConditionTransitionParams]):
     Params = ConditionTransitionParams
     condition_fields = ("condition",)
 
-    def check(self, ctx: Context) -> bool:
+    def holds(self, ctx: Context) -> bool:
         return self.conditions["condition"].holds(ctx)

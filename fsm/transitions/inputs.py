@@ -37,7 +37,7 @@ class Signal(Transition[SignalTransitionParams]):
         self.signal = params.signal
         self.edge = params.edge
 
-    def check(self, ctx: Context) -> bool:
+    def holds(self, ctx: Context) -> bool:
         edge = self.edge
         if edge == "rising":
             return ctx.rising(self.signal)
@@ -88,7 +88,7 @@ class Var(Transition[VarParams]):
     def variable_test(cls, params: VarParams) -> tuple[str, str, Any] | None:
         return params.var, params.op, params.value
 
-    def check(self, ctx: Context) -> bool:
+    def holds(self, ctx: Context) -> bool:
         current = ctx.vars.get(self.var, _UNSET)
         if current is _UNSET:
             return False
@@ -123,6 +123,6 @@ class InState(Transition[InStateParams]):
         scope = self.source.region.path if self.source.region is not None else ""
         self._other = machine.resolve(self.params.state, scope)
 
-    def check(self, ctx: Context) -> bool:
+    def holds(self, ctx: Context) -> bool:
         other = self._other
         return other is not None and other.active

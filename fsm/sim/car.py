@@ -669,14 +669,14 @@ class SimCar:
         return [(-hl, -hw), (hl, -hw), (hl, hw), (-hl, hw), (0.0, hw), (0.0, -hw)]
 
     # -- ground truth for metrics -----------------------------------------------------------------------
-    def true_distance(self, side: str) -> float:
-        """Ground truth: distance from sensor ``side`` to the nearest nominal wall (door recesses left out)."""
+    def true_distance(self, side: str, pose: tuple[float, float, float] | None = None) -> float:
+        """Ground truth: distance from sensor ``side`` to the nearest nominal wall (door recesses left out), from
+        ``pose`` (the :meth:`true_pose` of this step, which the caller may have read already) or the body's."""
         if self._nominal is None:
             has_doors = any(w.doors for w in self.world.walls)
             self._nominal = build_space(self.world, doors=False) if has_doors else self.space
         sensor = self._by_name[side]
-        x, y = self.body.position
-        th = self.body.angle
+        x, y, th = pose if pose is not None else self.true_pose()
         c, s = math.cos(th), math.sin(th)
         return self._nearest(self._nominal, x + c * sensor.mx - s * sensor.my, y + s * sensor.mx + c * sensor.my, 5.0)
 

@@ -21,6 +21,9 @@ _NO_ACTION = ActionKind.NONE
 _COUNTER = ActionKind.COUNTER
 _PROCEED = Verdict.PROCEED
 _HALTED = Verdict.HALTED
+#: What runs in ``Region.tick`` when user code raises: the state's tick, or a transition's check.
+_TICK = "tick"
+_CHECK = "check"
 #: What ``Region._before_tick`` returns when nothing more happens at this level in this tick.
 _USED_UP: Any = object()
 
@@ -89,33 +92,27 @@ class Region:
         Choosing: the supervisor first (it may use up the tick, or halt the state so that only its transitions
         are checked), then the preemptive transitions, the state's tick, the regular transitions in order.
         Firing: exit (innermost first), the transition's action, entry of the target (and down into its initial
-        sub-states). Both are written out here, in one function, because this is the loop every tick runs; each
-        part that runs user code has its own ``try`` (free unless something raises) to name the phase that failed.
+        sub-states). Choosing is written out here, in one function, because this is the loop every tick runs;
+        firing (once per transition, not per tick) is :meth:`_fire`. ``phase`` names what runs user code, so that
+        one ``try`` (free unless something raises) names the phase that failed.
         """
         state = self.active
         if state.paused:
             return
-        if state.watched:  # a supervisor or preemptive transitions: checked before the tick
-            chosen = self._before_tick(state, ctx)
-            if chosen is _USED_UP:
-                return
-        else:
-            chosen = None
-        if chosen is not None:
-            tr = chosen
-        else:
-            tick = state.tick_hook
-            if tick is not None:
-                try:
-                    tick(ctx)
-                except StateRuntimeError:
-                    raise
-                except Exception as exc:
-                    raise StateRuntimeError.of(state, "tick", ctx, exc) from exc
-                if state.paused:  # paused during its own tick (by a child or a listener): no transition
+        tr = None
+        phase = _TICK
+        try:
+            if state.watched:  # a supervisor or preemptive transitions: checked before the tick
+                tr = self._before_tick(state, ctx)
+                if tr is _USED_UP:
                     return
-            tr = None
-            try:
+            if tr is None:
+                tick = state.tick_hook
+                if tick is not None:
+                    tick(ctx)
+                    if state.paused:  # paused during its own tick (by a child or a listener): no transition
+                        return
+                phase = _CHECK
                 for tr in state.regular:
                     kind = tr.kind
                     if kind is _ALWAYS:
@@ -131,39 +128,44 @@ class Region:
                             break
                 else:
                     return
-            except StateRuntimeError:
-                raise
-            except Exception as exc:
-                raise StateRuntimeError.of(state, f"check of transition {tr.describe()}", ctx, exc) from exc
-        # -- firing ``tr`` --
+        except StateRuntimeError:
+            raise
+        except Exception as exc:
+            raise StateRuntimeError.of(state, _TICK if tr is None or phase is _TICK else
+                                       f"check of transition {tr.describe()}", ctx, exc) from exc
+        self._fire(state, tr, ctx)
+
+    def _fire(self, state: State[Any], tr: Transition[Any], ctx: Context) -> None:
+        """Fire ``tr`` out of ``state``: exit, the transition's effect, the listeners told, entry of the target."""
         if state.exit_hook is not None:
             state.exit_hook(ctx)
-        effect = tr.effect
-        if effect is not _NO_ACTION:
-            try:
+        phase = "action"
+        try:
+            effect = tr.effect
+            if effect is not _NO_ACTION:
                 if effect is _COUNTER:  # a set ``target = variable OP constant`` and nothing else, inline
-                    to, (name, op, const, _swapped, read) = tr.counter
+                    counter = tr.counter
+                    assert counter is not None  # COUNTER has one
+                    to, (name, op, const, _swapped, read) = counter
                     v = ctx.vars
                     x = v[name] if name in v else read(v)
                     v[to] = op(x if type(x) in _NUMERIC else read(v), const)
                 else:
-                    tr.run(ctx)
-            except StateRuntimeError:
-                raise
-            except Exception as exc:
-                raise StateRuntimeError.of(state, f"action of transition {tr.describe()}", ctx, exc) from exc
-        target = tr.target
-        self.active = target
-        target.entered_at = ctx._now  # the machine's time slot: the property costs a call on this path
-        self.fired += 1
-        if self.listeners:
-            try:
+                    run = tr.run
+                    assert run is not None  # CALL has one
+                    run(ctx)
+            target = tr.target
+            self.active = target
+            target.entered_at = ctx._now  # the machine's time slot: the property costs a call on this path
+            self.fired += 1
+            if self.listeners:
+                phase = "firing"
                 for listener in self.listeners:
                     listener.on_transition(ctx, state, target, tr)
-            except StateRuntimeError:
-                raise
-            except Exception as exc:
-                raise StateRuntimeError.of(state, f"firing of transition {tr.describe()}", ctx, exc) from exc
+        except StateRuntimeError:
+            raise
+        except Exception as exc:
+            raise StateRuntimeError.of(state, f"{phase} of transition {tr.describe()}", ctx, exc) from exc
         if target.enter_hook is not None:
             target.enter_hook(ctx)
 

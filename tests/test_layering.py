@@ -418,9 +418,8 @@ CORE_LAYERS_DOC = REPO / "docs" / "architecture.md"
 #: runtime's classes naming each other in hints (a state its region, supervisor, transitions, conditions). Issue 31
 #: leaves them; the list may only shrink (each entry must still exist and stay type-only).
 TYPE_ONLY_CYCLE_EDGES = frozenset({
-    ("fsm.runtime.context", "fsm.runtime.state"), ("fsm.runtime.state", "fsm.runtime.condition"),
-    ("fsm.runtime.state", "fsm.runtime.region"), ("fsm.runtime.state", "fsm.runtime.supervisor"),
-    ("fsm.runtime.state", "fsm.runtime.transition"),
+    ("fsm.runtime.state", "fsm.runtime.condition"), ("fsm.runtime.state", "fsm.runtime.region"),
+    ("fsm.runtime.state", "fsm.runtime.supervisor"), ("fsm.runtime.state", "fsm.runtime.transition"),
 })
 
 

@@ -4,10 +4,42 @@ from __future__ import annotations
 
 import numbers
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import Any, Protocol
 
-if TYPE_CHECKING:
-    from fsm.runtime.state import State
+
+class StateView(Protocol):
+    """A state as the code of another one sees it (``ctx.state(path)``, a ``bind``'s ``machine.resolve``): where it
+    is, whether it runs, how it finished. :class:`fsm.runtime.state.State` is one; the protocol lives here, below the
+    states, so that the context names them without importing them (no import cycle)."""
+
+    @property
+    def path(self) -> str:
+        """Its path in the machine (``"drive/turn"``)."""
+        ...
+
+    @property
+    def active(self) -> bool:
+        """True while it and all its ancestors are active."""
+        ...
+
+    @property
+    def paused(self) -> bool:
+        """True while paused (by ``pause``, a pause button)."""
+        ...
+
+    @property
+    def finished(self) -> bool:
+        """True once it finished (since its last entry)."""
+        ...
+
+    @property
+    def outcome(self) -> str | None:
+        """The outcome it finished with, or None."""
+        ...
+
+    def time_in_state(self, ctx: Context) -> float:
+        """Seconds since it was entered, paused time excluded."""
+        ...
 
 
 class MachineView(Protocol):
@@ -25,11 +57,11 @@ class MachineView(Protocol):
         """The attached listeners (empty: nobody to tell)."""
         ...
 
-    def state(self, path: str) -> State[Any]:
+    def state(self, path: str) -> StateView:
         """The state at the full ``path``."""
         ...
 
-    def resolve(self, path: str, scope: str = "") -> State[Any]:
+    def resolve(self, path: str, scope: str = "") -> StateView:
         """The state ``path`` names when written in the level at ``scope``."""
         ...
 
@@ -41,15 +73,11 @@ class MachineView(Protocol):
         """Resume what :meth:`pause` paused."""
         ...
 
-    def thaw(self, state: State[Any], now: float) -> None:
-        """Unfreeze ``state`` and its subtree (after a suspension)."""
-        ...
-
-    def add_pause_button(self, state: State[Any], signal: str, debounce: float = 0.0) -> None:
+    def add_pause_button(self, state: StateView, signal: str, debounce: float = 0.0) -> None:
         """Each rising edge of ``signal`` pauses or resumes ``state``."""
         ...
 
-    def notify_skipped(self, state: State[Any]) -> None:
+    def notify_skipped(self, state: StateView) -> None:
         """Tell the listeners that ``state``, just entered, was skipped by its precondition."""
         ...
 
@@ -173,12 +201,12 @@ class Context:
         return dict(self._signals)
 
     # -- lookup ---------------------------------------------------------------------------------
-    def state(self, path: str) -> State[Any]:
+    def state(self, path: str) -> StateView:
         """The state at ``path`` (``"drive/turn/slow"``), like EEROS ``getSequenceByName``."""
         assert self.machine is not None
         return self.machine.state(path)
 
-    def time_in_state(self, state: State[Any] | str) -> float:
+    def time_in_state(self, state: StateView | str) -> float:
         """Seconds since ``state`` (an object or a path) was entered, paused time excluded."""
         if isinstance(state, str):
             state = self.state(state)

@@ -68,8 +68,8 @@ class Restart:
 
 
 class MonitorListeners(Protocol):
-    """What a supervisor tells when a monitor fires: the machine's listeners (a
-    :class:`fsm.runtime.machine.Machine`, above this module, is one)."""
+    """What a supervisor needs of its machine: to tell the listeners that a monitor fired, and to thaw its owner
+    after an exception sequence (a :class:`fsm.runtime.machine.Machine`, above this module, is one)."""
 
     @property
     def listeners(self) -> Sequence[object]:
@@ -78,6 +78,10 @@ class MonitorListeners(Protocol):
 
     def notify_monitor(self, owner: State[Any], monitor: Monitor) -> None:
         """Tell the listeners that a monitor (or a timeout) of ``owner`` fired."""
+        ...
+
+    def thaw(self, state: State[Any], now: float) -> None:
+        """Unfreeze ``state`` and its subtree after a suspension."""
         ...
 
 
@@ -187,7 +191,7 @@ class Supervisor:
         owner = self.owner
         behavior = m.behavior
         if behavior == "nothing":
-            unsuspend(owner, ctx)
+            unsuspend(owner, ctx, self.machine)
             return Verdict.PROCEED if m.exception is None else Verdict.CONSUMED
         outcome = "timeout" if m.kind == "timeout" else "aborted"
         if behavior == "abortOwner":
@@ -197,7 +201,7 @@ class Supervisor:
             restart(owner, ctx, m)
             return Verdict.CONSUMED
         caller = owner.region.owner if owner.region is not None else None
-        unsuspend(owner, ctx)
+        unsuspend(owner, ctx, self.machine)
         if caller is None:  # the checks refuse this; a hand-built machine gets the owner's own behaviour
             caller = owner
         if behavior == "abortCallerOfOwner":
@@ -224,8 +228,9 @@ def suspend(state: State[Any], ctx: Context) -> None:
             todo.append(w.running.region.active)  # an exception sequence running further down stands still too
 
 
-def unsuspend(state: State[Any], ctx: Context) -> None:
-    """Undo :func:`suspend` (states held by a pause stay frozen until resumed)."""
+def unsuspend(state: State[Any], ctx: Context, machine: MonitorListeners | None) -> None:
+    """Undo :func:`suspend` (states held by a pause stay frozen until resumed); ``machine`` thaws it (the
+    supervisor's, bound when the machine is built)."""
     if state.frozen_since is None:
         return
     s: Any = state
@@ -233,8 +238,8 @@ def unsuspend(state: State[Any], ctx: Context) -> None:
         if s.paused:
             return
         s = s.region.owner if s.region is not None else None
-    assert ctx.machine is not None
-    ctx.machine.thaw(state, ctx.now)
+    assert machine is not None, "a supervisor is bound to its machine when the machine is built"
+    machine.thaw(state, ctx.now)
 
 
 def abort(state: State[Any], outcome: str, ctx: Context) -> None:

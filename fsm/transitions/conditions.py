@@ -16,7 +16,7 @@ from fsm.runtime.transition import Transition
 
 if TYPE_CHECKING:
     from fsm.model.expr import Compiled
-    from fsm.runtime.context import Context, MachineView
+    from fsm.runtime.context import Context, MachineView, StateView
     from fsm.runtime.state import State
 
 #: Half a nanosecond of slack for times computed from ticks (80 ticks of 0.0125 s are 1 s).
@@ -194,7 +194,7 @@ class InStateCondition(Condition[IP]):
     def bind(self, machine: MachineView, owner: State[Any]) -> None:
         super().bind(machine, owner)
         scope = owner.region.path if owner.region is not None else ""
-        self.other: State[Any] = machine.resolve(self.params.state, scope)
+        self.other: StateView = machine.resolve(self.params.state, scope)
 
     def holds(self, ctx: Context) -> bool:
         return self.other.active

@@ -13,7 +13,7 @@ from fsm.model.params import TransitionParams
 from fsm.runtime.transition import Transition
 
 if TYPE_CHECKING:
-    from fsm.runtime.context import Context, MachineView
+    from fsm.runtime.context import Context, MachineView, StateView
     from fsm.runtime.state import State
 
 
@@ -117,7 +117,7 @@ class InState(Transition[InStateParams]):
 
     def __init__(self, params: InStateParams, source: State[Any], target: State[Any], index: int = 0) -> None:
         super().__init__(params, source, target, index)
-        self._other: State[Any] | None = None
+        self._other: StateView | None = None
 
     def bind(self, machine: MachineView) -> None:
         scope = self.source.region.path if self.source.region is not None else ""

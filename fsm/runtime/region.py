@@ -21,9 +21,6 @@ _NO_ACTION = ActionKind.NONE
 _COUNTER = ActionKind.COUNTER
 _PROCEED = Verdict.PROCEED
 _HALTED = Verdict.HALTED
-#: What runs in ``Region.tick`` when user code raises: the state's tick, or a transition's check.
-_TICK = "tick"
-_CHECK = "check"
 #: What ``Region._before_tick`` returns when nothing more happens at this level in this tick.
 _USED_UP: Any = object()
 
@@ -93,14 +90,15 @@ class Region:
         are checked), then the preemptive transitions, the state's tick, the regular transitions in order.
         Firing: exit (innermost first), the transition's action, entry of the target (and down into its initial
         sub-states). Both are written out here, in one function, because this is the loop every tick runs (a
-        transition fires every tick in the flat ring: a call to a firing method costs it 13 %); ``phase`` names the
-        user code that runs, so that one ``try`` (free unless something raises) per half names what failed.
+        transition fires every tick in the flat ring: a call to a firing method costs it 13 %); one ``try`` (free
+        unless something raises) per half names what failed.
         """
         state = self.active
         if state.paused:
             return
-        tr: Any = None  # the transition chosen (a ``Transition``), or what ``_before_tick`` answered
-        phase = _TICK
+        # the transition chosen (a ``Transition``), or what ``_before_tick`` answered; None while the state's tick
+        # runs, so that a failure names the tick or the transition being checked
+        tr: Any = None
         try:
             if state.watched:  # a supervisor or preemptive transitions: checked before the tick
                 tr = self._before_tick(state, ctx)
@@ -112,7 +110,6 @@ class Region:
                     tick(ctx)
                     if state.paused:  # paused during its own tick (by a child or a listener): no transition
                         return
-                phase = _CHECK
                 for tr in state.regular:
                     kind = tr.kind
                     if kind is _ALWAYS:
@@ -131,8 +128,8 @@ class Region:
         except StateRuntimeError:
             raise
         except Exception as exc:
-            raise StateRuntimeError.of(state, _TICK if tr is None or phase is _TICK else
-                                       f"check of transition {tr.describe()}", ctx, exc) from exc
+            raise StateRuntimeError.of(state, "tick" if tr is None else f"check of transition {tr.describe()}", ctx,
+                                       exc) from exc
         # -- firing ``tr`` --
         if state.exit_hook is not None:
             state.exit_hook(ctx)

@@ -40,7 +40,7 @@ class BatteryLow(Transition[BatteryLowParams]):
         self.armed = False
         self.low_ticks = 0
 
-    def check(self, ctx: fsm.Context) -> bool:
+    def holds(self, ctx: fsm.Context) -> bool:
         level = float(ctx.vars.get(self.params.var, 0.0))
         if level >= self.params.below + self.params.hysteresis:
             self.armed = True

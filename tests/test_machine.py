@@ -49,7 +49,7 @@ class Flag(Transition):
     class Params(TransitionParams):
         flag: str
 
-    def check(self, ctx):
+    def holds(self, ctx):
         LOG.append(f"check {self.source.path}->{self.target.path}")
         return bool(ctx.vars.get(self.params.flag))
 

@@ -93,7 +93,7 @@ def test_transitions_and_conditions_derive_theirs_too() -> None:
         limit: float = 1.0
 
     class Near(fsm.Transition[NearParams]):
-        def check(self, ctx: fsm.Context) -> bool:
+        def holds(self, ctx: fsm.Context) -> bool:
             return True
 
     class Hot(fsm.Condition[HotParams]):
@@ -116,3 +116,44 @@ def test_every_builtin_type_agrees() -> None:
     tables: list[dict[str, Any]] = [registry.states, registry.transitions, registry.conditions]
     assert all(cls.params_argument is None or issubclass(cls.Params, cls.params_argument)
                for table in tables for cls in table.values())
+
+
+# -- Transition.check is renamed holds: the old name works for one release, with a warning where the class is -------
+def test_a_transition_that_still_defines_check_warns_where_it_is_defined_and_still_fires() -> None:
+    with pytest.warns(DeprecationWarning, match=r"Old: Transition.check\(ctx\) is renamed holds\(ctx\)") as caught:
+        class Old(fsm.Transition[fsm.TransitionParams]):
+            def check(self, ctx: fsm.Context) -> bool:
+                return bool(ctx.vars.get("go"))
+    assert [w.filename for w in caught] == [__file__]  # the class statement, not the runtime
+    builtins = fsm.Registry.with_builtins()
+    registry = fsm.Registry()
+    registry.add_transition(Old)
+    registry.add_state(builtins.states["SetVar"])
+    registry.add_state(builtins.states["Final"])
+    machine = fsm.load({"initial": "a", "vars": {"go": 0},
+                        "states": [{"id": "a", "type": "SetVar", "assign": {"go": "1"}},
+                                   {"id": "end", "type": "Final"}],
+                        "transitions": [{"type": "Old", "from": "a", "to": "end"}]}, registry=registry)
+    assert fsm.run(machine, max_ticks=5).outcome == "succeeded"
+    assert Old.holds is Old.check
+
+
+def test_the_new_name_gives_no_warning_and_the_old_call_answers_like_holds(recwarn: pytest.WarningsRecorder) -> None:
+    class New(fsm.Transition[fsm.TransitionParams]):
+        def holds(self, ctx: fsm.Context) -> bool:
+            return True
+
+    assert not [w for w in recwarn if issubclass(w.category, DeprecationWarning)]
+    with pytest.warns(DeprecationWarning, match="renamed holds"):
+        class Older(New):
+            def check(self, ctx: fsm.Context) -> bool:  # an old-style override below a new-style class
+                return super().check(ctx) and False
+
+    machine = fsm.load({"initial": "a", "states": [{"id": "a", "type": "Final"}]})
+    a = machine.state("a")
+    new = New(fsm.TransitionParams.model_validate({"type": "New", "from": "a", "to": "a"}), a, a)
+    with pytest.warns(DeprecationWarning, match="call holds"):
+        assert new.check(machine.ctx) is True
+    older = Older(fsm.TransitionParams.model_validate({"type": "Older", "from": "a", "to": "a"}), a, a)
+    with pytest.warns(DeprecationWarning, match="call holds"):
+        assert older.holds(machine.ctx) is False

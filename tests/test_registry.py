@@ -63,7 +63,7 @@ def test_third_party_types_arrive_through_entry_points(tmp_path: Path) -> None:
 
         class Never(Transition):
             """Never fires (a third-party transition)."""
-            def check(self, ctx):
+            def holds(self, ctx):
                 return False
     '''))
     dist = tmp_path / "beeper-1.0.dist-info"

@@ -73,7 +73,7 @@ class Gate(Transition):
         if self.params.fail_in == "arm":
             raise KeyError("sensor missing")
 
-    def check(self, ctx):
+    def holds(self, ctx):
         LOG.append(f"check {self.source.path}->{self.target.path}")
         if self.params.fail_in == "check":
             raise ValueError("boom in check")

@@ -444,53 +444,85 @@ def _compile(node: Node, kinds: dict[str, str]) -> _Part:
             raise ExprError(f"unknown variable '{name}'", node.column)
         return _Part(_var(name, kinds[name]), kinds[name], False, None)
     if op == "call":
-        fname = node.args[0]
-        parts = [_compile(a, kinds) for a in node.args[1:]]
-        for a, part in zip(node.args[1:], parts, strict=True):
-            _need(part.kind, NUMBER, f"{fname}()", a.column)
-        fns = [p.fn for p in parts]
-        impls: dict[str, Callable[..., Any]] = {"abs": abs, "min": min, "max": max}
-        impl = impls[fname]
-        if fname == "abs":
-            f0 = fns[0]
-            fn: Fn = lambda v: abs(f0(v))
-        elif len(fns) == 2:
-            f0, f1 = fns
-            fn = (lambda v: min(f0(v), f1(v))) if fname == "min" else (lambda v: max(f0(v), f1(v)))
-        else:
-            fn = lambda v: impl(f(v) for f in fns)  # noqa: E731
-        return _fold(fn, NUMBER, parts)
+        return _compile_call(node, kinds)
     if op in ("neg", "not"):
-        part = _compile(node.args[0], kinds)
-        inner = part.fn
-        if op == "neg":
-            _need(part.kind, NUMBER, "'-'", node.column)
-            return _fold(lambda v: -inner(v), NUMBER, [part])
-        _need(part.kind, BOOL, "'not'", node.column)
-        return _fold(lambda v: not inner(v), BOOL, [part])
+        return _compile_unary(node, kinds)
     left, right = (_compile(a, kinds) for a in node.args)
+    if op in ("and", "or"):
+        return _compile_logic(node, left, right)
+    if op in ("==", "!=", "<", "<=", ">", ">="):
+        return _compile_comparison(node, kinds, left, right)
+    return _compile_arithmetic(node, kinds, left, right)
+
+
+def _compile_call(node: Node, kinds: dict[str, str]) -> _Part:
+    """``abs(x)``, ``min(...)``, ``max(...)``: numbers in, a number out."""
+    fname = node.args[0]
+    parts = [_compile(a, kinds) for a in node.args[1:]]
+    for a, part in zip(node.args[1:], parts, strict=True):
+        _need(part.kind, NUMBER, f"{fname}()", a.column)
+    fns = [p.fn for p in parts]
+    impls: dict[str, Callable[..., Any]] = {"abs": abs, "min": min, "max": max}
+    impl = impls[fname]
+    if fname == "abs":
+        f0 = fns[0]
+        fn: Fn = lambda v: abs(f0(v))
+    elif len(fns) == 2:
+        f0, f1 = fns
+        fn = (lambda v: min(f0(v), f1(v))) if fname == "min" else (lambda v: max(f0(v), f1(v)))
+    else:
+        fn = lambda v: impl(f(v) for f in fns)  # noqa: E731
+    return _fold(fn, NUMBER, parts)
+
+
+def _compile_unary(node: Node, kinds: dict[str, str]) -> _Part:
+    """``-x`` (a number) and ``not x`` (true/false)."""
+    part = _compile(node.args[0], kinds)
+    inner = part.fn
+    if node.op == "neg":
+        _need(part.kind, NUMBER, "'-'", node.column)
+        return _fold(lambda v: -inner(v), NUMBER, [part])
+    _need(part.kind, BOOL, "'not'", node.column)
+    return _fold(lambda v: not inner(v), BOOL, [part])
+
+
+def _compile_logic(node: Node, left: _Part, right: _Part) -> _Part:
+    """``and``/``or`` of two true/false values (the right one asked only when needed)."""
+    op = node.op
+    lf, rf = left.fn, right.fn
+    _need(left.kind, BOOL, f"'{op}'", node.args[0].column)
+    _need(right.kind, BOOL, f"'{op}'", node.args[1].column)
+    fn = (lambda v: lf(v) and rf(v)) if op == "and" else (lambda v: lf(v) or rf(v))
+    return _fold(fn, BOOL, [left, right])
+
+
+def _compile_comparison(node: Node, kinds: dict[str, str], left: _Part, right: _Part) -> _Part:
+    """``==``/``!=`` of two values of one kind; ``<``, ``<=``, ``>``, ``>=`` of numbers or of texts."""
+    op = node.op
     lf, rf = left.fn, right.fn
     lk, rk = left.kind, right.kind
-    if op in ("and", "or"):
-        _need(lk, BOOL, f"'{op}'", node.args[0].column)
-        _need(rk, BOOL, f"'{op}'", node.args[1].column)
-        fn = (lambda v: lf(v) and rf(v)) if op == "and" else (lambda v: lf(v) or rf(v))
-        return _fold(fn, BOOL, [left, right])
+    fn: Fn
     if op in ("==", "!="):
         if ANY not in (lk, rk) and lk != rk:
             raise ExprError(f"cannot compare {kind_phrase(lk)} with {kind_phrase(rk)} (true/false is not a number, "
                             "'5' is not 5)", node.column)
         fn = (lambda v: lf(v) == rf(v)) if op == "==" else (lambda v: lf(v) != rf(v))
         return _fold(_fused(op, node, kinds) or fn, BOOL, [left, right])
-    if op in ("<", "<=", ">", ">="):
-        if BOOL in (lk, rk):
-            raise ExprError(f"'{op}' on true/false: true/false values are only equal or not", node.column)
-        if ANY not in (lk, rk) and lk != rk:
-            raise ExprError(f"cannot compare {kind_phrase(lk)} with {kind_phrase(rk)}", node.column)
-        fn = {"<": lambda v: lf(v) < rf(v), "<=": lambda v: lf(v) <= rf(v),
-              ">": lambda v: lf(v) > rf(v), ">=": lambda v: lf(v) >= rf(v)}[op]
-        return _fold(_fused(op, node, kinds) or fn, BOOL, [left, right])
-    # arithmetic
+    if BOOL in (lk, rk):
+        raise ExprError(f"'{op}' on true/false: true/false values are only equal or not", node.column)
+    if ANY not in (lk, rk) and lk != rk:
+        raise ExprError(f"cannot compare {kind_phrase(lk)} with {kind_phrase(rk)}", node.column)
+    fn = {"<": lambda v: lf(v) < rf(v), "<=": lambda v: lf(v) <= rf(v),
+          ">": lambda v: lf(v) > rf(v), ">=": lambda v: lf(v) >= rf(v)}[op]
+    return _fold(_fused(op, node, kinds) or fn, BOOL, [left, right])
+
+
+def _compile_arithmetic(node: Node, kinds: dict[str, str], left: _Part, right: _Part) -> _Part:
+    """``+ - * / %`` of numbers; ``+`` of texts joins them."""
+    op = node.op
+    lf, rf = left.fn, right.fn
+    lk, rk = left.kind, right.kind
+    fn: Fn
     if op == "+" and TEXT in (lk, rk):
         if {lk, rk} - {TEXT, ANY}:
             raise ExprError(f"cannot add {kind_phrase(lk)} and {kind_phrase(rk)}", node.column)

@@ -13,8 +13,7 @@ from fsm.model.params import ConditionParams, adopt_generic_params
 
 if TYPE_CHECKING:
     from fsm.model.expr import Compiled
-    from fsm.runtime.context import Context
-    from fsm.runtime.machine import Machine
+    from fsm.runtime.context import Context, MachineView
     from fsm.runtime.state import State
 
 P = TypeVar("P", bound=ConditionParams)
@@ -53,7 +52,7 @@ class Condition(Generic[P]):
         self.children = tuple(children or ())
         self.exprs = exprs or {}
 
-    def bind(self, machine: Machine, owner: State[Any]) -> None:
+    def bind(self, machine: MachineView, owner: State[Any]) -> None:
         """Called once when the machine is built; resolve references here. Binds the children too."""
         self.owner = owner
         for child in self.children:

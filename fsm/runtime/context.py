@@ -3,12 +3,83 @@
 from __future__ import annotations
 
 import numbers
-from typing import TYPE_CHECKING, Any
+from collections.abc import Sequence
+from typing import Any, Protocol
 
-if TYPE_CHECKING:
-    from fsm.runtime.machine import Machine
-    from fsm.runtime.plant import Plant
-    from fsm.runtime.state import State
+
+class StateView(Protocol):
+    """A state as the code of another one sees it (``ctx.state(path)``, a ``bind``'s ``machine.resolve``): where it
+    is, whether it runs, how it finished. :class:`fsm.runtime.state.State` is one; the protocol lives here, below the
+    states, so that the context names them without importing them (no import cycle)."""
+
+    @property
+    def path(self) -> str:
+        """Its path in the machine (``"drive/turn"``)."""
+        ...
+
+    @property
+    def active(self) -> bool:
+        """True while it and all its ancestors are active."""
+        ...
+
+    @property
+    def paused(self) -> bool:
+        """True while paused (by ``pause``, a pause button)."""
+        ...
+
+    @property
+    def finished(self) -> bool:
+        """True once it finished (since its last entry)."""
+        ...
+
+    @property
+    def outcome(self) -> str | None:
+        """The outcome it finished with, or None."""
+        ...
+
+    def time_in_state(self, ctx: Context) -> float:
+        """Seconds since it was entered, paused time excluded."""
+        ...
+
+
+class MachineView(Protocol):
+    """The machine as the code it runs sees it: ``ctx.machine``, and the argument of every ``bind`` (a state's, a
+    transition's, a condition's). :class:`fsm.runtime.machine.Machine` is one; the protocol lives here, below the
+    states, so that they name what they use of their machine without importing it (no import cycle)."""
+
+    @property
+    def ctx(self) -> Context:
+        """The machine's context (the blackboard, signals, the clock's time)."""
+        ...
+
+    @property
+    def listeners(self) -> Sequence[object]:
+        """The attached listeners (empty: nobody to tell)."""
+        ...
+
+    def state(self, path: str) -> StateView:
+        """The state at the full ``path``."""
+        ...
+
+    def resolve(self, path: str, scope: str = "") -> StateView:
+        """The state ``path`` names when written in the level at ``scope``."""
+        ...
+
+    def pause(self, path: str | None = None) -> None:
+        """Pause the state at ``path`` (the whole machine without one)."""
+        ...
+
+    def resume(self, path: str | None = None) -> None:
+        """Resume what :meth:`pause` paused."""
+        ...
+
+    def add_pause_button(self, state: StateView, signal: str, debounce: float = 0.0) -> None:
+        """Each rising edge of ``signal`` pauses or resumes ``state``."""
+        ...
+
+    def notify_skipped(self, state: StateView) -> None:
+        """Tell the listeners that ``state``, just entered, was skipped by its precondition."""
+        ...
 
 
 class Context:
@@ -31,9 +102,10 @@ class Context:
         self._tick = 0
         self.vars: dict[str, Any] = dict(variables or {})
         self.car = car
-        self.machine: Machine | None = None
-        #: simulated plants by name (``fsm.runtime.plant.Plant``), attached by a scenario or a run
-        self.plants: dict[str, Plant] = {}
+        self.machine: MachineView | None = None
+        #: simulated plants by name (:class:`fsm.runtime.plant.Plant`, a layer above: kept as objects here),
+        #: attached by a scenario or a run
+        self.plants: dict[str, object] = {}
         self._signals: dict[str, bool] = {}
         self._changed: dict[str, int] = {}
         #: Signals changed since the last tick started, with their level then.
@@ -129,12 +201,12 @@ class Context:
         return dict(self._signals)
 
     # -- lookup ---------------------------------------------------------------------------------
-    def state(self, path: str) -> State[Any]:
+    def state(self, path: str) -> StateView:
         """The state at ``path`` (``"drive/turn/slow"``), like EEROS ``getSequenceByName``."""
         assert self.machine is not None
         return self.machine.state(path)
 
-    def time_in_state(self, state: State[Any] | str) -> float:
+    def time_in_state(self, state: StateView | str) -> float:
         """Seconds since ``state`` (an object or a path) was entered, paused time excluded."""
         if isinstance(state, str):
             state = self.state(state)

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any, Protocol, TypeAlias, TypeVar, runtime_che
 from fsm.model.errors import StateRuntimeError
 from fsm.model.paths import resolve_path
 from fsm.runtime.clock import DEFAULT_DURATION, Clock, SimulatedClock
-from fsm.runtime.context import Context, check_signal_name, shown_value, signal_level
+from fsm.runtime.context import Context, StateView, check_signal_name, shown_value, signal_level
 from fsm.runtime.debounce import Debounced
 from fsm.runtime.state import State
 from fsm.runtime.supervisor import Restart
@@ -122,7 +122,7 @@ class Machine:
         self._schedule: list[tuple[float, int, str, bool]] = []
         self._schedule_seq = 0
         #: pause buttons: (rising-edge detector ``fn(ctx) -> bool``, state) checked before each tick
-        self._toggles: list[tuple[Callable[[Context], bool], State[Any]]] = []
+        self._toggles: list[tuple[Callable[[Context], bool], StateView]] = []
         for region in self.regions:
             region.listeners = self.listeners
         #: Top-level states without outgoing transitions: one that finishes ends the machine.
@@ -344,7 +344,7 @@ class Machine:
                 else:
                     self.pause(state.path)
 
-    def add_pause_button(self, state: State[Any], signal: str, debounce: float = 0.0) -> None:
+    def add_pause_button(self, state: StateView, signal: str, debounce: float = 0.0) -> None:
         """Each rising edge of ``signal`` (debounced by ``debounce`` seconds) pauses ``state`` when it runs and
         resumes it when it is paused (one push button, checked before each tick)."""
         filt = Debounced(self.ctx.signal_history(signal), debounce)
@@ -364,7 +364,7 @@ class Machine:
             if hook is not None:
                 hook(self.ctx, owner, monitor)
 
-    def notify_skipped(self, state: State[Any]) -> None:
+    def notify_skipped(self, state: StateView) -> None:
         """Tell the listeners that ``state``, just entered, was skipped by its precondition."""
         for listener in self.listeners:
             hook = getattr(listener, "on_skipped", None)

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any, Protocol
 
 from fsm.model.errors import StateRuntimeError
 from fsm.model.plan import ActionKind, GuardKind
@@ -10,7 +11,6 @@ from fsm.runtime.verdict import Verdict
 
 if TYPE_CHECKING:
     from fsm.runtime.context import Context
-    from fsm.runtime.machine import Listener
     from fsm.runtime.state import State
     from fsm.runtime.transition import Transition
 
@@ -23,6 +23,15 @@ _PROCEED = Verdict.PROCEED
 _HALTED = Verdict.HALTED
 #: What ``Region._before_tick`` returns when nothing more happens at this level in this tick.
 _USED_UP: Any = object()
+
+
+class EntryListener(Protocol):
+    """What a level tells of each entry: a :class:`fsm.runtime.machine.Listener` (above this module) is one.
+    ``transition`` is the transition that fired, a monitor's restart record, or ``None`` for an initial entry."""
+
+    def on_transition(self, ctx: Context, source: State[Any] | None, target: State[Any], transition: Any) -> None:
+        """``target`` was entered."""
+        ...
 
 
 class Region:
@@ -49,7 +58,8 @@ class Region:
         self.owner: State[Any] | None = None
         self.started = False
         self.fired = 0
-        self.listeners: list[Listener] = []
+        #: the machine's listeners (its own list, shared by every level)
+        self.listeners: Sequence[EntryListener] = ()
 
     def start(self, ctx: Context) -> None:
         """Enter the initial state (and down into its initial sub-states)."""
@@ -79,58 +89,53 @@ class Region:
         Choosing: the supervisor first (it may use up the tick, or halt the state so that only its transitions
         are checked), then the preemptive transitions, the state's tick, the regular transitions in order.
         Firing: exit (innermost first), the transition's action, entry of the target (and down into its initial
-        sub-states). Both are written out here, in one function, because this is the loop every tick runs; each
-        part that runs user code has its own ``try`` (free unless something raises) to name the phase that failed.
+        sub-states). Both are written out here, in one function, because this is the loop every tick runs (a
+        transition fires every tick in the flat ring: a call to a firing method costs it 13 %); one ``try`` (free
+        unless something raises) per half names what failed.
         """
         state = self.active
         if state.paused:
             return
-        if state.watched:  # a supervisor or preemptive transitions: checked before the tick
-            chosen = self._before_tick(state, ctx)
-            if chosen is _USED_UP:
-                return
-        else:
-            chosen = None
-        if chosen is not None:
-            tr = chosen
-        else:
-            tick = state.tick_hook
-            if tick is not None:
-                try:
-                    tick(ctx)
-                except StateRuntimeError:
-                    raise
-                except Exception as exc:
-                    raise StateRuntimeError.of(state, "tick", ctx, exc) from exc
-                if state.paused:  # paused during its own tick (by a child or a listener): no transition
+        # the transition chosen (a ``Transition``), or what ``_before_tick`` answered; None while the state's tick
+        # runs, so that a failure names the tick or the transition being checked
+        tr: Any = None
+        try:
+            if state.watched:  # a supervisor or preemptive transitions: checked before the tick
+                tr = self._before_tick(state, ctx)
+                if tr is _USED_UP:
                     return
-            tr = None
-            try:
+            if tr is None:
+                tick = state.tick_hook
+                if tick is not None:
+                    tick(ctx)
+                    if state.paused:  # paused during its own tick (by a child or a listener): no transition
+                        return
                 for tr in state.regular:
                     kind = tr.kind
                     if kind is _ALWAYS:
                         break
                     if kind is _CALL:
-                        if tr.test(ctx):  # type: ignore[misc]
+                        if tr.test(ctx):
                             break
                     else:  # COMPARE: the guard ``variable OP constant``, inline
-                        name, op, const, _swapped, read = tr.compare  # type: ignore[misc]
+                        name, op, const, _swapped, read = tr.compare
                         v = ctx.vars
                         x = v[name] if name in v else read(v)
                         if op(x if type(x) in _NUMERIC else read(v), const):
                             break
                 else:
                     return
-            except StateRuntimeError:
-                raise
-            except Exception as exc:
-                raise StateRuntimeError.of(state, f"check of transition {tr.describe()}", ctx, exc) from exc
+        except StateRuntimeError:
+            raise
+        except Exception as exc:
+            raise StateRuntimeError.of(state, "tick" if tr is None else f"check of transition {tr.describe()}", ctx,
+                                       exc) from exc
         # -- firing ``tr`` --
         if state.exit_hook is not None:
             state.exit_hook(ctx)
-        effect = tr.effect
-        if effect is not _NO_ACTION:
-            try:
+        try:
+            effect = tr.effect
+            if effect is not _NO_ACTION:
                 if effect is _COUNTER:  # a set ``target = variable OP constant`` and nothing else, inline
                     to, (name, op, const, _swapped, read) = tr.counter
                     v = ctx.vars
@@ -138,24 +143,28 @@ class Region:
                     v[to] = op(x if type(x) in _NUMERIC else read(v), const)
                 else:
                     tr.run(ctx)
-            except StateRuntimeError:
-                raise
-            except Exception as exc:
-                raise StateRuntimeError.of(state, f"action of transition {tr.describe()}", ctx, exc) from exc
+        except StateRuntimeError:
+            raise
+        except Exception as exc:
+            raise StateRuntimeError.of(state, f"action of transition {tr.describe()}", ctx, exc) from exc
         target = tr.target
         self.active = target
         target.entered_at = ctx._now  # the machine's time slot: the property costs a call on this path
         self.fired += 1
         if self.listeners:
-            try:
-                for listener in self.listeners:
-                    listener.on_transition(ctx, state, target, tr)
-            except StateRuntimeError:
-                raise
-            except Exception as exc:
-                raise StateRuntimeError.of(state, f"firing of transition {tr.describe()}", ctx, exc) from exc
+            self._tell(ctx, state, target, tr)
         if target.enter_hook is not None:
             target.enter_hook(ctx)
+
+    def _tell(self, ctx: Context, state: State[Any], target: State[Any], tr: Transition[Any]) -> None:
+        """Tell the listeners that ``tr`` fired (a call only where listeners are attached)."""
+        try:
+            for listener in self.listeners:
+                listener.on_transition(ctx, state, target, tr)
+        except StateRuntimeError:
+            raise
+        except Exception as exc:
+            raise StateRuntimeError.of(state, f"firing of transition {tr.describe()}", ctx, exc) from exc
 
     def _before_tick(self, state: State[Any], ctx: Context) -> Any:
         """The supervisor and the preemptive transitions: the transition that fires, None (go on with the tick),
@@ -166,7 +175,7 @@ class Region:
         supervisor = state.supervisor
         if supervisor is not None:
             try:
-                verdict = supervisor.check(ctx)
+                verdict = supervisor.verdict(ctx)
             except StateRuntimeError:
                 raise
             except Exception as exc:

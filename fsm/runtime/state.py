@@ -10,8 +10,7 @@ from fsm.model.params import StateParams, adopt_generic_params
 
 if TYPE_CHECKING:
     from fsm.runtime.condition import Condition
-    from fsm.runtime.context import Context
-    from fsm.runtime.machine import Machine
+    from fsm.runtime.context import Context, MachineView
     from fsm.runtime.region import Region
     from fsm.runtime.supervisor import Supervisor
     from fsm.runtime.transition import Transition
@@ -181,7 +180,7 @@ class State(Generic[P]):
     def on_resume(self, ctx: Context) -> None:
         """Called when a pause ends and the state is ticked again: restart what ``on_pause`` stopped."""
 
-    def bind(self, machine: Machine) -> None:
+    def bind(self, machine: MachineView) -> None:
         """Called once when the machine is built, to resolve references to other states (``Join``)."""
 
     # -- API for subclasses ---------------------------------------------------------------------

@@ -8,8 +8,8 @@ while the owner or anything inside it is active. It answers with a :class:`~fsm.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, NamedTuple
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
 
 from fsm.model.expr import ExprRuntimeError
 from fsm.runtime.state import State
@@ -18,7 +18,6 @@ from fsm.runtime.verdict import Verdict
 if TYPE_CHECKING:
     from fsm.runtime.condition import Condition
     from fsm.runtime.context import Context
-    from fsm.runtime.machine import Machine
     from fsm.runtime.region import Region
 
 #: Slack for timeouts computed from ticks (80 ticks of 0.0125 s are 1 s).
@@ -68,6 +67,24 @@ class Restart:
         return f"restart {self.source.id}" + (f" ({self.monitor.label})" if self.monitor else "")
 
 
+class MonitorListeners(Protocol):
+    """What a supervisor needs of its machine: to tell the listeners that a monitor fired, and to thaw its owner
+    after an exception sequence (a :class:`fsm.runtime.machine.Machine`, above this module, is one)."""
+
+    @property
+    def listeners(self) -> Sequence[object]:
+        """The attached listeners (empty: nobody to tell)."""
+        ...
+
+    def notify_monitor(self, owner: State[Any], monitor: Monitor) -> None:
+        """Tell the listeners that a monitor (or a timeout) of ``owner`` fired."""
+        ...
+
+    def thaw(self, state: State[Any], now: float) -> None:
+        """Unfreeze ``state`` and its subtree after a suspension."""
+        ...
+
+
 class Running(NamedTuple):
     """An exception sequence running for its owner: the monitor that started it and the sequence's region."""
 
@@ -101,7 +118,8 @@ class Supervisor:
         self.reset_at = 0.0
         #: the exception sequence running for this owner, if any
         self.running: Running | None = None
-        self.machine: Machine | None = None
+        #: whom to tell when a monitor fires (the machine, bound when it is built)
+        self.machine: MonitorListeners | None = None
         self.halted = False
 
     # -- entry -------------------------------------------------------------------------------------
@@ -136,8 +154,8 @@ class Supervisor:
         self.reset_at = self.owner.time_in_state(ctx)
 
     # -- each tick ---------------------------------------------------------------------------------
-    def check(self, ctx: Context) -> Verdict:
-        """Before the owner is ticked: run a running exception sequence, or check the monitors in order."""
+    def verdict(self, ctx: Context) -> Verdict:
+        """Before the owner is ticked: run a running exception sequence, or ask the monitors in order."""
         if self.halted:
             return Verdict.HALTED
         running = self.running
@@ -173,7 +191,7 @@ class Supervisor:
         owner = self.owner
         behavior = m.behavior
         if behavior == "nothing":
-            unsuspend(owner, ctx)
+            unsuspend(owner, ctx, self.machine)
             return Verdict.PROCEED if m.exception is None else Verdict.CONSUMED
         outcome = "timeout" if m.kind == "timeout" else "aborted"
         if behavior == "abortOwner":
@@ -183,7 +201,7 @@ class Supervisor:
             restart(owner, ctx, m)
             return Verdict.CONSUMED
         caller = owner.region.owner if owner.region is not None else None
-        unsuspend(owner, ctx)
+        unsuspend(owner, ctx, self.machine)
         if caller is None:  # the checks refuse this; a hand-built machine gets the owner's own behaviour
             caller = owner
         if behavior == "abortCallerOfOwner":
@@ -210,8 +228,9 @@ def suspend(state: State[Any], ctx: Context) -> None:
             todo.append(w.running.region.active)  # an exception sequence running further down stands still too
 
 
-def unsuspend(state: State[Any], ctx: Context) -> None:
-    """Undo :func:`suspend` (states held by a pause stay frozen until resumed)."""
+def unsuspend(state: State[Any], ctx: Context, machine: MonitorListeners | None) -> None:
+    """Undo :func:`suspend` (states held by a pause stay frozen until resumed); ``machine`` thaws it (the
+    supervisor's, bound when the machine is built)."""
     if state.frozen_since is None:
         return
     s: Any = state
@@ -219,8 +238,8 @@ def unsuspend(state: State[Any], ctx: Context) -> None:
         if s.paused:
             return
         s = s.region.owner if s.region is not None else None
-    assert ctx.machine is not None
-    ctx.machine.thaw(state, ctx.now)
+    assert machine is not None, "a supervisor is bound to its machine when the machine is built"
+    machine.thaw(state, ctx.now)
 
 
 def abort(state: State[Any], outcome: str, ctx: Context) -> None:

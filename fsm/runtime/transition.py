@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
 
@@ -11,8 +12,7 @@ from fsm.model.plan import ActionKind, GuardKind
 
 if TYPE_CHECKING:
     from fsm.runtime.condition import Condition
-    from fsm.runtime.context import Context
-    from fsm.runtime.machine import Machine
+    from fsm.runtime.context import Context, MachineView
     from fsm.runtime.state import State
 
 P = TypeVar("P", bound=TransitionParams)
@@ -21,14 +21,14 @@ _NO_CONDITIONS: dict[str, Any] = {}
 
 
 class Transition(Generic[P]):
-    """A transition from ``source`` to ``target``. Subclass it, declare ``Params``, override ``check``.
+    """A transition from ``source`` to ``target``. Subclass it, declare ``Params``, override ``holds``.
 
-    ``check(ctx)`` is called each tick while the source is active (after the source's tick, or before
+    ``holds(ctx)`` is called each tick while the source is active (after the source's tick, or before
     it for ``preempt: true``); the first transition whose check is true fires. ``on_source_enter`` is
     called whenever the source is entered (to take a reference value, e.g. the travelled distance).
     ``action`` runs while firing, between the source's exit and the target's entry.
 
-    A document may add a ``guard`` (an expression or a condition, checked before ``check``: both must hold)
+    A document may add a ``guard`` (an expression or a condition, asked before ``holds``: both must hold)
     and a ``set`` (assignments run after ``action``); the build stage applies them with
     :meth:`apply_guard`, :meth:`apply_conditions` and :meth:`apply_set`.
     How the region decides and fires is explicit: ``kind`` (always, an inline ``variable OP constant``
@@ -42,7 +42,7 @@ class Transition(Generic[P]):
     Params: ClassVar[type[TransitionParams]] = TransitionParams
     #: The generic argument the class (or its nearest base that names one) gives; ``Params`` must agree with it.
     params_argument: ClassVar[type[TransitionParams] | None] = None
-    #: True for transitions that fire whenever checked (``Always``); the runtime then skips ``check``.
+    #: True for transitions that fire whenever asked (``Always``); the runtime then skips ``holds``.
     unconditional: ClassVar[bool] = False
     #: True when the transition fires only on a finished source (the loader checks that it can finish).
     needs_finishing_source: ClassVar[bool] = False
@@ -62,9 +62,12 @@ class Transition(Generic[P]):
     #: only where it does.
     checks_document: ClassVar[bool] = False
     tests_variables: ClassVar[bool] = False
+    #: Whether the class's ``holds`` is a ``check`` written under the old name (see :meth:`check`).
+    _holds_is_check: ClassVar[bool] = False
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
+        _adopt_old_check(cls)
         adopt_generic_params(cls, TransitionParams)
         cls._overrides_action = cls.action is not Transition.action
         cls._overrides_source_enter = cls.on_source_enter is not Transition.on_source_enter
@@ -84,7 +87,7 @@ class Transition(Generic[P]):
             self.test: Callable[[Context], bool] | None = None
         else:
             self.kind = GuardKind.CALL
-            self.test = self.check
+            self.test = self.holds
         self.compare: VarOp | None = None
         #: What firing runs: NONE, COUNTER (``counter`` inline) or CALL (``run(ctx)``).
         if cls._overrides_action:
@@ -108,7 +111,7 @@ class Transition(Generic[P]):
 
     # -- built from the plan --------------------------------------------------------------------------
     def apply_guard(self, guard: Callable[[Context], bool] | None, compare: VarOp | None = None) -> None:
-        """Add the document's guard: checked first, then the type's ``check`` (an ``Always`` has none). With
+        """Add the document's guard: asked first, then the type's ``holds`` (an ``Always`` has none). With
         ``compare`` (a guard ``variable OP constant`` on an ``Always``) the region runs it inline."""
         if compare is not None and type(self).unconditional:
             self.kind = GuardKind.COMPARE
@@ -183,9 +186,19 @@ class Transition(Generic[P]):
         (``Var``): the loader checks that every comparison of a variable uses one kind of value."""
         return None
 
-    def check(self, ctx: Context) -> bool:
-        """True when the transition should fire now."""
+    def holds(self, ctx: Context) -> bool:
+        """True when the transition should fire now (asked each tick while the source is active)."""
         return False
+
+    def check(self, ctx: Context) -> bool:
+        """Deprecated: the old name of :meth:`holds` (``check`` now means only the document check), removed in the
+        next release. A class that still defines ``check`` works: it is its ``holds``, with a ``DeprecationWarning``
+        when the class is defined, before it is registered (docs/extending.md)."""
+        warnings.warn(f"{type(self).__qualname__}.check(ctx) is deprecated: call holds(ctx)", DeprecationWarning,
+                      stacklevel=2)
+        if type(self)._holds_is_check:  # reached by super().check(ctx) from an old-style check: the base's answer
+            return False
+        return self.holds(ctx)
 
     def on_source_enter(self, ctx: Context) -> None:
         """Called each time the source state is entered."""
@@ -193,7 +206,7 @@ class Transition(Generic[P]):
     def action(self, ctx: Context) -> None:
         """Called while firing, after the source's exit and before the target's entry."""
 
-    def bind(self, machine: Machine) -> None:
+    def bind(self, machine: MachineView) -> None:
         """Called once when the machine is built, to resolve references to other states (``InState``)."""
 
     def describe(self) -> str:
@@ -202,3 +215,17 @@ class Transition(Generic[P]):
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.source.path!r} -> {self.target.path!r}>"
+
+
+def _adopt_old_check(cls: type[Transition[Any]]) -> None:
+    """A class that defines ``check`` (the old name of ``holds``) and no ``holds`` of its own: its ``check`` becomes
+    its ``holds``, with a ``DeprecationWarning`` naming the new name (once, where the class is defined)."""
+    old = cls.__dict__.get("check")
+    if old is None or "holds" in cls.__dict__:
+        cls._holds_is_check = cls._holds_is_check and "holds" not in cls.__dict__
+        return
+    warnings.warn(f"{cls.__module__}.{cls.__qualname__}: Transition.check(ctx) is renamed holds(ctx); rename the "
+                  "method (check is the old name, accepted until the next release)", DeprecationWarning,
+                  stacklevel=3)
+    type.__setattr__(cls, "holds", old)  # the old name serves as the new (mypy refuses assigning a method)
+    cls._holds_is_check = True

@@ -21,8 +21,7 @@ from fsm.runtime.state import State
 
 if TYPE_CHECKING:
     from fsm.model.plan import StatePlan
-    from fsm.runtime.context import Context
-    from fsm.runtime.machine import Machine
+    from fsm.runtime.context import Context, MachineView
     from fsm.runtime.region import Region
 
 #: Slack for times computed from ticks (80 ticks of 0.0125 s are 1 s).
@@ -109,7 +108,7 @@ class Sequence(Composite[SequenceParams]):
             link = next(t for t in steps[after].transitions if t.target is steps[after + 1])
             _start_on(link, self, region)
 
-    def bind(self, machine: Machine) -> None:
+    def bind(self, machine: MachineView) -> None:
         """A pause button (``pause_signal``): each debounced rising edge pauses or resumes this sequence."""
         signal = self.params.pause_signal
         if signal:
@@ -256,7 +255,7 @@ class ResetTimeout(State[ResetTimeoutParams]):
         super().__init__(id, params)
         self.target: State[Any] | None = None
 
-    def bind(self, machine: Machine) -> None:
+    def bind(self, machine: MachineView) -> None:
         """The owner: the nearest enclosing sequence of that id, or a step of one (the checks found it)."""
         name = self.params.owner.strip("/").split("/")[-1]
         seq = enclosing_sequence(self)
@@ -294,7 +293,7 @@ class Join(State[JoinParams]):
         #: (sequence that starts it, its id) per name, bound when the machine is built
         self.holders: list[tuple[Sequence, str]] = []
 
-    def bind(self, machine: Machine) -> None:
+    def bind(self, machine: MachineView) -> None:
         """Each named non-blocking sequence's holder: the nearest enclosing sequence that starts it."""
         holders = []
         for name in self.params.sequences:

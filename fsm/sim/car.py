@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import random
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from typing import Any
 
 import pymunk
@@ -498,36 +498,20 @@ class SimCar:
         self._pose = x, y, th = self._read_pose()
         self._pose_step = self.steps
         c, s = math.cos(th), math.sin(th)
-        ray = self._ray
         max_r = self._max_r
-        back = RAY_BACK
-        length = max_r + back
-        cos_inc = self._cos_inc
         rng = self.rng
         beam = self._beam is not None
-        echo = self._beam_echo
+        echo = self._beam_echo if self._beam is not None and self._beam[1] else self._wall_echo
         sd0, sd1, outliers, dropouts, min_r, res = (self._sd0, self._sd1, self._outliers, self._dropouts, self._min_r,
                                                     self._res)
         for sensor in self.sensors:
             ox = x + c * sensor.mx - s * sensor.my
             oy = y + s * sensor.mx + c * sensor.my
-            best = max_r
             if beam:
                 lx, ly = sensor.rays[0]  # the centre ray: the beam's axis
                 best = echo(ox, oy, c * lx - s * ly, s * lx + c * ly)
-            for lx, ly in () if beam else sensor.rays:
-                dx = c * lx - s * ly
-                dy = s * lx + c * ly
-                # Start behind the mount, inside the body: a sensor pressed against a wall still sees it.
-                hit = ray(ox - dx * back, oy - dy * back, ox + dx * max_r, oy + dy * max_r)
-                if hit is None:
-                    continue
-                alpha, nx, ny = hit
-                if -(nx * dx + ny * dy) < cos_inc:
-                    continue  # too oblique: the echo is reflected away
-                r = alpha * length - back
-                if r < best:
-                    best = r
+            else:
+                best = self._ray_echo(ox, oy, c, s, sensor.rays)
             if best < max_r:
                 if sd0 or sd1:
                     best += rng.gauss(0.0, sd0 + sd1 * best)
@@ -543,37 +527,59 @@ class SimCar:
                     best = round(best / res) * res
             setattr(self, sensor.name, best)
         self.sample += 1
+        clear = self.min_clearance
+        reach = clear + self._half_diagonal
+        # The body can only be nearer than the clearance so far if its centre is within that plus its half diagonal.
+        if self._nearest(self.space, x, y, reach) < reach:
+            self._clearance_near(x, y, c, s)
+
+    def _ray_echo(self, ox: float, oy: float, c: float, s: float, rays: Iterable[tuple[float, float]]) -> float:
+        """The ``rays`` model: the nearest echo along the sensor's rays (directions in the car's frame, the car
+        turned by cos ``c``, sin ``s``) from a sensor at (ox, oy); ``max_range`` when none comes back."""
+        ray = self._ray
+        max_r = self._max_r
+        back = RAY_BACK
+        length = max_r + back
+        cos_inc = self._cos_inc
+        best = max_r
+        for lx, ly in rays:
+            dx = c * lx - s * ly
+            dy = s * lx + c * ly
+            # Start behind the mount, inside the body: a sensor pressed against a wall still sees it.
+            hit = ray(ox - dx * back, oy - dy * back, ox + dx * max_r, oy + dy * max_r)
+            if hit is None:
+                continue
+            alpha, nx, ny = hit
+            if -(nx * dx + ny * dy) < cos_inc:
+                continue  # too oblique: the echo is reflected away
+            r = alpha * length - back
+            if r < best:
+                best = r
+        return best
+
+    def _clearance_near(self, x: float, y: float, c: float, s: float) -> None:
+        """The body's clearance to the walls, where its centre (x, y, turned by cos ``c``, sin ``s``) is near
+        enough for it to be below the smallest so far: the nearest wall to each point of the outline."""
         nearest = self._nearest
         clear = self.min_clearance
-        # The body can only be nearer than the clearance so far if its centre is within that plus its half diagonal.
-        if nearest(self.space, x, y, clear + self._half_diagonal) < clear + self._half_diagonal:
-            reach = clear if clear != math.inf else 1e3
-            for px, py in self._outline:
-                d = nearest(self.space, x + c * px - s * py, y + s * px + c * py, reach)
-                if d < clear:
-                    clear = d
-            self.min_clearance = clear
+        reach = clear if clear != math.inf else 1e3
+        for px, py in self._outline:
+            d = nearest(self.space, x + c * px - s * py, y + s * px + c * py, reach)
+            if d < clear:
+                clear = d
+        self.min_clearance = clear
 
     def _beam_echo(self, ox: float, oy: float, ux: float, uy: float) -> float:
         """The ``beam`` model: the distance from a sensor at (ox, oy) looking along the unit vector (ux, uy) to the
         nearest surface inside its cone (half-angle ``cone / 2``) within range; a flat surface (a wall segment) only
         where the beam meets it within ``max_incidence`` of its normal (its nearest point in the cone is the one most
         square to the beam), a round one (a post, a circular obstacle) anywhere in the beam. ``max_range`` when there
-        is none. Occlusion is implied: the nearest echo is never behind another surface."""
+        is none. Occlusion is implied: the nearest echo is never behind another surface. The round surfaces here,
+        the flat ones in :meth:`_wall_echo` (which a world without round ones calls directly)."""
         assert self._beam is not None
-        index = self._beam_index
-        assert index is not None
-        circles = self._beam[1]
-        # BeamIndex.near, its filled cells looked up here (three of these per sample)
-        segments = index.cells.get((math.floor(ox / BEAM_CELL), math.floor(oy / BEAM_CELL),
-                                    int(math.atan2(uy, ux) // index.width) % BEAM_SECTORS))
-        if segments is None:
-            segments = index.near(ox, oy, ux, uy)
         best = self._max_r
-        tan_h = self._tan_half
-        cos_inc = self._cos_inc
         half = self._half
-        for cx, cy, r in circles:
+        for cx, cy, r in self._beam[1]:
             dx, dy = cx - ox, cy - oy
             d = math.hypot(dx, dy)
             if d - r >= best:
@@ -583,6 +589,22 @@ class SimCar:
             cos_a = (dx * ux + dy * uy) / d
             if math.acos(max(-1.0, min(1.0, cos_a))) <= half + math.asin(r / d):
                 best = d - r
+        return self._wall_echo(ox, oy, ux, uy, best)
+
+    def _wall_echo(self, ox: float, oy: float, ux: float, uy: float, best: float | None = None) -> float:
+        """The ``beam`` model's echo from the wall segments (see :meth:`_beam_echo`): the nearest one nearer than
+        ``best`` (``max_range`` without one), else ``best``."""
+        index = self._beam_index
+        assert index is not None
+        # BeamIndex.near, its filled cells looked up here (three of these per sample)
+        segments = index.cells.get((math.floor(ox / BEAM_CELL), math.floor(oy / BEAM_CELL),
+                                    int(math.atan2(uy, ux) // index.width) % BEAM_SECTORS))
+        if segments is None:
+            segments = index.near(ox, oy, ux, uy)
+        if best is None:
+            best = self._max_r
+        tan_h = self._tan_half
+        cos_inc = self._cos_inc
         for ax, ay, bx, by, lox, hix, loy, hiy in segments:
             reach = best + WALL_RADIUS
             if lox > ox + reach or hix < ox - reach or loy > oy + reach or hiy < oy - reach:
@@ -669,14 +691,14 @@ class SimCar:
         return [(-hl, -hw), (hl, -hw), (hl, hw), (-hl, hw), (0.0, hw), (0.0, -hw)]
 
     # -- ground truth for metrics -----------------------------------------------------------------------
-    def true_distance(self, side: str) -> float:
-        """Ground truth: distance from sensor ``side`` to the nearest nominal wall (door recesses left out)."""
+    def true_distance(self, side: str, pose: tuple[float, float, float] | None = None) -> float:
+        """Ground truth: distance from sensor ``side`` to the nearest nominal wall (door recesses left out), from
+        ``pose`` (the :meth:`true_pose` of this step, which the caller may have read already) or the body's."""
         if self._nominal is None:
             has_doors = any(w.doors for w in self.world.walls)
             self._nominal = build_space(self.world, doors=False) if has_doors else self.space
         sensor = self._by_name[side]
-        x, y = self.body.position
-        th = self.body.angle
+        x, y, th = pose if pose is not None else self.true_pose()
         c, s = math.cos(th), math.sin(th)
         return self._nearest(self._nominal, x + c * sensor.mx - s * sensor.my, y + s * sensor.mx + c * sensor.my, 5.0)
 

@@ -352,6 +352,8 @@ class Simulation:
         self.steering = SteeringStats(1.0 / car.params.ultrasonic.rate)
         self._err_sample = -1
         self._leaf_d0 = 0.0
+        #: the active leaf when it counts as a straight (a wall follower: :class:`WallFollowing`), else None
+        self._straight: WallFollowing | None = None
         self.gate_log = GateLog(car.world) if car.world.gates else None
         self.lap_log = LapLog(car.world)
         #: Wall time spent in observers (outputs such as the video), seconds.
@@ -376,15 +378,18 @@ class Simulation:
         if self._flag.changed:
             self._update_active()
         car = self.car
+        ctx = self.machine.ctx
+        now = ctx._now  # the machine's time slot: the property costs a call each tick
+        x, y, th = car.true_pose()
         if car.sample != self._err_sample:
             self._err_sample = car.sample
-            self._measure()
-        ctx = self.machine.ctx
-        x, y, _ = car.true_pose()
+            leaf = self._straight
+            if leaf is not None:
+                self._measure(leaf, (x, y, th))
         if self.gate_log is not None:
-            self.gate_log.update(ctx.now, x, y)
-        self.lap_log.update(ctx.now, x, y)
-        if ctx.tick % self._track_stride == 0:
+            self.gate_log.update(now, x, y)
+        self.lap_log.update(now, x, y)
+        if ctx._tick % self._track_stride == 0:
             track = self.track
             track.add(x, y, self.path_index)
             self._track_stride = self.track_every * track.every
@@ -425,6 +430,7 @@ class Simulation:
         if state is not self.leaf:
             self.leaf = state
             self._leaf_d0 = self.car.distance
+            self._straight = cast(WallFollowing, state) if getattr(state, "straight_metric", False) else None
         try:
             self.path_index = self.states_seen.index(self.active_path)
         except ValueError:
@@ -442,14 +448,12 @@ class Simulation:
             self.session.every(progress_every, lambda _session: progress(self))
         return self.session.run(stop=stop, stop_rules=StopRules(duration, max_ticks)).outcome
 
-    def _measure(self) -> None:
-        leaf = self.leaf
-        target = getattr(leaf, "wall_target", None)
-        if target is None or not getattr(leaf, "straight_metric", False):
+    def _measure(self, leaf: WallFollowing, pose: tuple[float, float, float]) -> None:
+        """One sample of the wall-distance error and the steering on a straight (``leaf`` measures straights)."""
+        target = getattr(leaf, "wall_target", None)  # a plugin's straight may lack it: then nothing to measure
+        if target is None or self.car.distance - self._leaf_d0 < self.settle:
             return
-        if self.car.distance - self._leaf_d0 < self.settle:
-            return
-        true = self.car.true_distance(cast(WallFollowing, leaf).wall_side)
+        true = self.car.true_distance(leaf.wall_side, pose)
         if true > target + 0.5:
             return  # no wall there (an opening): nothing to follow
         self.wall_error.add(true - target)

@@ -39,7 +39,7 @@ class Distance(Transition[DistanceParams]):
     def on_source_enter(self, ctx: Context) -> None:
         self._d0 = ctx.car.distance
 
-    def check(self, ctx: Context) -> bool:
+    def holds(self, ctx: Context) -> bool:
         travelled: float = ctx.car.distance - self._d0
         return travelled >= self.distance
 
@@ -79,7 +79,7 @@ class SensorLevel(Transition[SensorLevelParams]):
         self._count = 0
         self._seen = -1
 
-    def check(self, ctx: Context) -> bool:
+    def holds(self, ctx: Context) -> bool:
         car = ctx.car
         sample = car.sample
         if sample != self._seen:
@@ -123,7 +123,7 @@ class PassPoint(Transition[PassPointParams]):
         self._d0 = ctx.car.distance
         self._last = None
 
-    def check(self, ctx: Context) -> bool:
+    def holds(self, ctx: Context) -> bool:
         p = self.params
         car = ctx.car
         x, y, _ = car.pose()

@@ -16,8 +16,7 @@ from fsm.runtime.transition import Transition
 
 if TYPE_CHECKING:
     from fsm.model.expr import Compiled
-    from fsm.runtime.context import Context
-    from fsm.runtime.machine import Machine
+    from fsm.runtime.context import Context, MachineView, StateView
     from fsm.runtime.state import State
 
 #: Half a nanosecond of slack for times computed from ticks (80 ticks of 0.0125 s are 1 s).
@@ -47,7 +46,7 @@ class _SignalCondition(Condition[SP]):
         self.debounce: float = params.debounce
         self.filter: Debounced | None = None
 
-    def bind(self, machine: Machine, owner: State[Any]) -> None:
+    def bind(self, machine: MachineView, owner: State[Any]) -> None:
         super().bind(machine, owner)
         if self.debounce > 0:
             self.filter = Debounced(machine.ctx.signal_history(self.signal), self.debounce)
@@ -159,7 +158,7 @@ class TimeSince(Condition[TimeSinceParams]):
         self.signal = params.signal
         self.history: list[tuple[float, bool]] | None = None
 
-    def bind(self, machine: Machine, owner: State[Any]) -> None:
+    def bind(self, machine: MachineView, owner: State[Any]) -> None:
         super().bind(machine, owner)
         if self.signal is not None:
             self.history = machine.ctx.signal_history(self.signal)
@@ -192,10 +191,10 @@ class InStateCondition(Condition[IP]):
     Params: ClassVar[type[InStateParams]] = InStateParams
     state_refs = ("state",)
 
-    def bind(self, machine: Machine, owner: State[Any]) -> None:
+    def bind(self, machine: MachineView, owner: State[Any]) -> None:
         super().bind(machine, owner)
         scope = owner.region.path if owner.region is not None else ""
-        self.other: State[Any] = machine.resolve(self.params.state, scope)
+        self.other: StateView = machine.resolve(self.params.state, scope)
 
     def holds(self, ctx: Context) -> bool:
         return self.other.active
@@ -214,7 +213,7 @@ class OutcomeCondition(InStateCondition[OutcomeParams]):
     __slots__ = ("outcome",)
     Params = OutcomeParams
 
-    def bind(self, machine: Machine, owner: State[Any]) -> None:
+    def bind(self, machine: MachineView, owner: State[Any]) -> None:
         super().bind(machine, owner)
         self.outcome = self.params.outcome
 
@@ -287,5 +286,5 @@ class ConditionTransition(Transition[ConditionTransitionParams]):
     Params = ConditionTransitionParams
     condition_fields = ("condition",)
 
-    def check(self, ctx: Context) -> bool:
+    def holds(self, ctx: Context) -> bool:
         return self.conditions["condition"].holds(ctx)

@@ -22,7 +22,7 @@ class Always(Transition[TransitionParams]):
     __slots__ = ()
     unconditional = True
 
-    def check(self, ctx: Context) -> bool:
+    def holds(self, ctx: Context) -> bool:
         return True
 
 
@@ -43,7 +43,7 @@ class Finished(Transition[FinishedParams]):
         super().__init__(params, source, target, index)
         self.outcome = params.outcome
 
-    def check(self, ctx: Context) -> bool:
+    def holds(self, ctx: Context) -> bool:
         source = self.source
         return source.finished and (self.outcome is None or source.outcome == self.outcome)
 
@@ -64,5 +64,5 @@ class Timeout(Transition[TimeoutParams]):
         # Half a nanosecond of slack: 80 ticks of 0.0125 s are 1 s, however the floats round.
         self.seconds = params.seconds - 5e-10
 
-    def check(self, ctx: Context) -> bool:
+    def holds(self, ctx: Context) -> bool:
         return ctx._now - self.source.entered_at >= self.seconds  # the time slot: ctx.now costs a call per tick

@@ -13,8 +13,7 @@ from fsm.model.params import TransitionParams
 from fsm.runtime.transition import Transition
 
 if TYPE_CHECKING:
-    from fsm.runtime.context import Context
-    from fsm.runtime.machine import Machine
+    from fsm.runtime.context import Context, MachineView, StateView
     from fsm.runtime.state import State
 
 
@@ -38,7 +37,7 @@ class Signal(Transition[SignalTransitionParams]):
         self.signal = params.signal
         self.edge = params.edge
 
-    def check(self, ctx: Context) -> bool:
+    def holds(self, ctx: Context) -> bool:
         edge = self.edge
         if edge == "rising":
             return ctx.rising(self.signal)
@@ -89,7 +88,7 @@ class Var(Transition[VarParams]):
     def variable_test(cls, params: VarParams) -> tuple[str, str, Any] | None:
         return params.var, params.op, params.value
 
-    def check(self, ctx: Context) -> bool:
+    def holds(self, ctx: Context) -> bool:
         current = ctx.vars.get(self.var, _UNSET)
         if current is _UNSET:
             return False
@@ -118,12 +117,12 @@ class InState(Transition[InStateParams]):
 
     def __init__(self, params: InStateParams, source: State[Any], target: State[Any], index: int = 0) -> None:
         super().__init__(params, source, target, index)
-        self._other: State[Any] | None = None
+        self._other: StateView | None = None
 
-    def bind(self, machine: Machine) -> None:
+    def bind(self, machine: MachineView) -> None:
         scope = self.source.region.path if self.source.region is not None else ""
         self._other = machine.resolve(self.params.state, scope)
 
-    def check(self, ctx: Context) -> bool:
+    def holds(self, ctx: Context) -> bool:
         other = self._other
         return other is not None and other.active

@@ -221,7 +221,7 @@ class _CameraTransition(Transition[CP]):
         self._frame = -1
         self._count = 0
 
-    def check(self, ctx: Context) -> bool:
+    def holds(self, ctx: Context) -> bool:
         view = ctx.car.camera()
         if view is None or view.frame == self._frame:
             return self._count >= self.params.frames
@@ -244,13 +244,13 @@ class ArucoGateFound(_CameraTransition[ArucoGateFoundParams]):
         super().__init__(params, source, target, index)
         self._gate: Any = None
 
-    def check(self, ctx: Context) -> bool:
+    def holds(self, ctx: Context) -> bool:
         if not self.params.memory:
-            return super().check(ctx)
+            return super().holds(ctx)
         view = ctx.car.camera()
         if view is not None and view.frame != self._frame:
             remember_gates(ctx, view)
-        if super().check(ctx):
+        if super().holds(ctx):
             return True
         gate = self._remembered(ctx)
         if gate is None:

@@ -211,7 +211,7 @@ class AboveParams(TransitionParams):
 class @CAMEL@Above(Transition[AboveParams]):
     """Fires when blackboard variable `var` is at least `value`."""
 
-    def check(self, ctx: Context) -> bool:
+    def holds(self, ctx: Context) -> bool:
         current: float = ctx.vars.get(self.params.var, 0.0)
         return current >= self.params.value
 '''

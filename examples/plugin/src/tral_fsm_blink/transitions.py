@@ -18,6 +18,6 @@ class CountedParams(TransitionParams):
 class Counted(Transition[CountedParams]):
     """Fires when blackboard variable `var` has reached `count`."""
 
-    def check(self, ctx: Context) -> bool:
+    def holds(self, ctx: Context) -> bool:
         count: int = ctx.vars.get(self.params.var, 0)  # the blackboard holds any value: this one is a count
         return count >= self.params.count

@@ -389,6 +389,11 @@ class Simulation:
             track.add(x, y, self.path_index)
             self._track_stride = self.track_every * track.every
 
+    def snapshot_ready(self) -> bool:
+        """Whether a snapshot of the run (:mod:`fsm.session.snapshot`) taken now restores exactly (the car's
+        :meth:`~fsm.sim.car.SimCar.snapshot_ready`)."""
+        return self.car.snapshot_ready()
+
     def should_stop(self) -> str | None:
         limit = self.max_collisions
         return "collisions" if limit is not None and self.car.collisions > limit else None
@@ -560,13 +565,23 @@ def car_trace_frames(car: SimCar, width: int = THUMB_WIDTH) -> Callable[[], dict
     call (a frame appears once in a trace) or no marker was in view (nothing was rendered)."""
     if car.params.camera is None or not car.params.camera.enabled:
         return None
-    last = [-1]
+    return CarFrames(car, width)
 
-    def frame() -> dict[str, Any] | None:
+
+class CarFrames:
+    """:func:`car_trace_frames`' callable: the frame it gave last is an attribute (a snapshot of the run keeps it)."""
+
+    def __init__(self, car: SimCar, width: int) -> None:
+        self.car = car
+        self.width = width
+        self.last = -1
+
+    def __call__(self) -> dict[str, Any] | None:
+        car = self.car
         view = car.camera()
-        if view is None or view.frame == last[0]:
+        if view is None or view.frame == self.last:
             return None
-        last[0] = view.frame
+        self.last = view.frame
         image = car.camera_frame()
         if image is None and not view.detections:
             return None  # nothing in view: no frame was rendered
@@ -578,8 +593,8 @@ def car_trace_frames(car: SimCar, width: int = THUMB_WIDTH) -> Callable[[], dict
             import cv2
 
             h, w = image.shape[:2]
-            scale = width / w
-            small = cv2.resize(image, (width, max(1, round(h * scale))), interpolation=cv2.INTER_AREA)
+            scale = self.width / w
+            small = cv2.resize(image, (self.width, max(1, round(h * scale))), interpolation=cv2.INTER_AREA)
             ok, jpeg = cv2.imencode(".jpg", small, [cv2.IMWRITE_JPEG_QUALITY, THUMB_QUALITY])
             if ok:
                 line.update(jpeg=base64.b64encode(jpeg.tobytes()).decode("ascii"), width=small.shape[1],
@@ -591,8 +606,6 @@ def car_trace_frames(car: SimCar, width: int = THUMB_WIDTH) -> Callable[[], dict
         if view.gates:
             line["gates"] = [[int(g.left.id), int(g.right.id)] for g in view.gates]
         return line
-
-    return frame
 
 
 def car_trace_header(car: SimCar, world_file: object, seed: int, noise: bool) -> dict[str, Any]:

@@ -62,7 +62,13 @@ class Recorder(Listener):
     period (a ``samples`` line with a row per sample: cheaper to write, and :mod:`fsm.trace.replay` reads them back as
     sample lines); ``frames`` (a callable returning a dict or ``None``) the frame
     lines; ``header`` is merged into the header line.
+
+    A snapshot of the run (:mod:`fsm.session.snapshot`) copies what the recorder has not written yet and its
+    counts; its stream, header and callables are shared (``__snapshot_skip__``): the callables read the car, which
+    the snapshot restores, and the stream is cut where the snapshot was taken by whoever restores it.
     """
+
+    __snapshot_skip__ = ("out", "extra", "header", "sample", "_sampler", "sample_fields", "_tails", "periods")
 
     def __init__(self, out: IO[str] | None = None, extra: Callable[[], dict[str, Any]] | None = None, *,
                  header: dict[str, Any] | None = None, sample: Callable[[], Any] | None = None,

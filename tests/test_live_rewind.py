@@ -1,0 +1,248 @@
+"""Rewind from snapshots (issue 33 item 8): a rewind restores the nearest snapshot of the session at or before the
+target (fsm.session.snapshot) and re-simulates from there; the run it gives is the one a full re-simulation gives,
+tick by tick (active states, variables, the car's pose and readings) and line by line in the trace, across an
+injected input, a breakpoint and a hot reload, on the hallway lap (the simulated car) and on an EEROS case
+(a sequence paused by a bouncing button, with timeouts, on a plant)."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any, cast
+
+import pytest
+
+from fsm.debug.control import Controller
+from fsm.session.session import Session, SetSignal
+from fsm.tools.live.stream import TraceFile
+from fsm.trace.recorder import Recorder
+from fsm.trace.replay import parse_trace
+
+REPO = Path(__file__).resolve().parents[1]
+LAP = REPO / "diagrams" / "hallway_lap.json"
+HALLWAY = REPO / "diagrams" / "worlds" / "hallway.json"
+PAUSE_CASE = REPO / "diagrams" / "eeros" / "case4_pause.scenario.json"
+
+
+def lap_session() -> Session:
+    from fsm.sim import simulate
+    from fsm.tools.recording import run_recorder
+
+    session = simulate(str(LAP), world=HALLWAY)
+    session.record(run_recorder(TraceFile(), str(LAP), session.car, world_file=HALLWAY))
+    return session
+
+
+def gate_session() -> Session:
+    """The gate run: the car's camera renders and detects markers (its noise and tracking are part of the run)."""
+    from fsm.sim import simulate
+    from fsm.tools.recording import run_recorder
+
+    world = REPO / "diagrams" / "worlds" / "gates.json"
+    session = simulate(str(REPO / "diagrams" / "gate_run.json"), world=world)
+    session.record(run_recorder(TraceFile(), str(REPO / "diagrams" / "gate_run.json"), session.car, world_file=world))
+    return session
+
+
+def eeros_session() -> Session:
+    """The EEROS pause case as its scenario runs it: the axis plant attached, the bouncing button's edges scheduled."""
+    from fsm.loading.loader import compile as compile_spec
+    from fsm.tools.scenario.model import load_scenario
+    from fsm.tools.scenario.timeline import expand
+
+    loaded = load_scenario(PAUSE_CASE)
+    session = Session.open(compile_spec(loaded.spec), dt=loaded.dt)
+    for cls, params in loaded.plants:
+        cls(params).attach(session.machine)
+    signals, _sets = expand(loaded.scenario, loaded.dt)
+    for change in signals:
+        session.schedule(change.time, SetSignal(change.name, change.level))
+    session.record(Recorder(cast(Any, TraceFile())))
+    return session
+
+
+def eeros_plan() -> Any:
+    from fsm.loading.loader import compile as compile_spec
+    from fsm.tools.scenario.model import load_scenario
+
+    return compile_spec(load_scenario(PAUSE_CASE).spec)
+
+
+@contextmanager
+def running(factory: Callable[[], Session], **options: Any) -> Iterator[Controller]:
+    controller = Controller(factory(), factory=factory, speed=None, paused=True, **options)
+    thread = threading.Thread(target=controller.loop, daemon=True)
+    thread.start()
+    try:
+        yield controller
+    finally:
+        controller.send("stop")
+        thread.join(20)
+    assert not thread.is_alive()
+
+
+def until(controller: Controller, pred: Callable[[dict[str, Any]], bool], seconds: float = 60) -> dict[str, Any]:
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        snap = controller.snapshot
+        if snap and pred(snap):
+            return snap
+        time.sleep(0.001)
+    raise AssertionError(f"not reached: {controller.snapshot}")
+
+
+def ask(controller: Controller, name: str, args: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Send a command and wait for its reply."""
+    ask.n += 1  # type: ignore[attr-defined]
+    number = ask.n  # type: ignore[attr-defined]
+    controller.send(name, args, number)
+    end = time.monotonic() + 60
+    while time.monotonic() < end:
+        for message in list(controller.messages):
+            if message.get("kind") == "reply" and message.get("id") == number:
+                assert message["ok"], message
+                return message
+        time.sleep(0.001)
+    raise AssertionError(f"no reply to {name}")
+
+
+ask.n = 0  # type: ignore[attr-defined]
+
+
+def step_to(controller: Controller, tick: int) -> None:
+    now = until(controller, lambda s: s.get("state") in ("paused", "ended"))["tick"]
+    if tick > now:
+        ask(controller, "step", {"n": tick - now})
+    until(controller, lambda s: s["tick"] == tick and s["state"] == "paused")
+
+
+def state_of(session: Session) -> tuple[Any, ...]:
+    """What a tick left: the active states, the variables, and the car's pose and readings (if it has one)."""
+    machine = session.machine
+    car = machine.ctx.car
+    seen: tuple[Any, ...] = (machine.ticks, machine.active_paths, dict(machine.ctx.vars), machine.finished)
+    if car is not None:
+        seen += (car.true_pose(), car.pose(), car.left, car.right, car.front, car.distance, car.steering)
+    return seen
+
+
+def trace_lines(session: Session) -> dict[str, list[dict[str, Any]]]:
+    recorder = session.recorder
+    assert recorder is not None and isinstance(recorder.out, TraceFile)
+    recorder.flush_samples(session.machine)
+    trace = parse_trace(recorder.out.text().encode("utf-8"))
+    return {"events": trace.events, "keyframes": trace.keyframes, "samples": trace.samples,
+            "inputs": trace.inputs, "reloads": [{k: v for k, v in r.items() if k != "time"} for r in trace.reloads]}
+
+
+def compare_tick_by_tick(subject: Controller, reference: Controller, ticks: int) -> None:
+    """Step both one tick at a time, comparing what each tick left; then their traces, line by line."""
+    for _ in range(ticks):
+        step_to(subject, subject.session.ticks + 1)
+        step_to(reference, reference.session.ticks + 1)
+        assert state_of(subject.session) == state_of(reference.session)
+    assert trace_lines(subject.session) == trace_lines(reference.session)
+
+
+def test_a_rewind_from_a_snapshot_is_the_run_a_re_simulation_gives_on_the_hallway_lap() -> None:
+    injected = {"kind": "force", "sensor": "front", "value": 2.9, "ticks": 40}
+    with running(lap_session, snapshot_period=3.0, snapshot_share=1.0) as subject:
+        step_to(subject, 700)
+        ask(subject, "input", {"input": injected})  # applies before tick 701
+        ask(subject, "break", {"spec": {"kind": "enter", "state": "lap1/right_slow"}})
+        ask(subject, "resume")
+        hit = until(subject, lambda s: s["hit"] is not None and s["state"] == "paused")
+        assert hit["hit"]["breakpoint"] == 1
+        ask(subject, "unbreak", {"breakpoint": 1})
+        step_to(subject, 2600)
+        assert len(subject.snapshots) >= 5
+        target = 1700
+        reply = ask(subject, "rewind", {"tick": target})
+        assert reply["dropped"] == 0
+        rewound = next(m for m in list(subject.messages) if m.get("kind") == "rewound")
+        assert rewound["snapshot"] is not None and 700 < rewound["snapshot"] <= target  # after the injection
+        with running(lap_session, snapshot_period=None) as reference:
+            step_to(reference, 700)
+            ask(reference, "input", {"input": injected})
+            step_to(reference, target)
+            assert state_of(subject.session) == state_of(reference.session)
+            compare_tick_by_tick(subject, reference, 60)
+            # and a second rewind, to before the injection: the snapshot it restores has not applied it
+            ask(subject, "rewind", {"tick": 650})
+            assert [t for t, _item in subject.log] == []
+            step_to(subject, 900)
+            with running(lap_session, snapshot_period=None) as plain:
+                step_to(plain, 900)
+                assert state_of(subject.session) == state_of(plain.session)
+
+
+def test_a_rewind_from_a_snapshot_is_exact_with_the_camera_on_the_gate_run() -> None:
+    with running(gate_session, snapshot_period=2.0, snapshot_share=1.0) as subject, \
+            running(gate_session, snapshot_period=None) as reference:
+        step_to(subject, 1800)
+        ask(subject, "rewind", {"tick": 1300})
+        rewound = next(m for m in list(subject.messages) if m.get("kind") == "rewound")
+        assert rewound["snapshot"] is not None and rewound["snapshot"] > 800
+        step_to(reference, 1300)
+        assert subject.session.car.rendered_frames > 0
+        compare_tick_by_tick(subject, reference, 30)
+
+
+def test_a_rewind_from_a_snapshot_across_a_hot_reload_on_an_eeros_case() -> None:
+    with running(eeros_session, snapshot_period=1.0, snapshot_share=1.0) as subject, \
+            running(eeros_session, snapshot_period=None) as reference:
+        for controller in (subject, reference):
+            step_to(controller, 300)
+            ask(controller, "input", {"input": {"kind": "set", "values": {"cycles": 5}}})
+        step_to(subject, 700)
+        ask(subject, "reload", {"plan": eeros_plan(), "info": {"file": "case4_pause.json"}})
+        step_to(subject, 1400)
+        ask(subject, "rewind", {"tick": 1000})  # a snapshot after the reload
+        ask(subject, "rewind", {"tick": 650})  # a snapshot before it: the reload is dropped
+        rewound = [m for m in list(subject.messages) if m.get("kind") == "rewound"]
+        assert rewound[-1]["reloads_dropped"] == 1 and rewound[-1]["snapshot"] is not None
+        ask(subject, "reload", {"plan": eeros_plan(), "info": {"file": "case4_pause.json"}})  # done again at 651
+        step_to(subject, 1200)
+        ask(subject, "rewind", {"tick": 900})  # a snapshot before the reload: it is done again on the way
+        step_to(reference, 650)
+        ask(reference, "reload", {"plan": eeros_plan(), "info": {"file": "case4_pause.json"}})
+        step_to(reference, 900)
+        assert state_of(subject.session) == state_of(reference.session)
+        assert subject.session.machine.ctx.vars["cycles"] >= 5
+        compare_tick_by_tick(subject, reference, 40)
+
+
+def test_a_rewind_beyond_the_horizon_says_how_far_back_it_can_go() -> None:
+    with running(lap_session, snapshot_period=2.0, snapshot_share=1.0, horizon=10.0) as controller:
+        step_to(controller, 100)
+        ask(controller, "input", {"input": {"kind": "force", "sensor": "front", "value": 2.5, "ticks": 5}})
+        step_to(controller, 3000)  # 37.5 s: the first 27.5 s are beyond a 10 s horizon
+        earliest = controller.earliest
+        assert 2000 - 160 <= earliest <= 3000 - 800 and controller.snapshots[0].tick == earliest
+        assert controller.log == [] and controller.session.applied == []
+        controller.send("rewind", {"tick": 100}, "far")
+        end = time.monotonic() + 20
+        while not any(m.get("id") == "far" for m in list(controller.messages)):
+            assert time.monotonic() < end
+            time.sleep(0.002)
+        refused = next(m for m in list(controller.messages) if m.get("id") == "far")
+        assert not refused["ok"] and f"rewound to tick {earliest} " in refused["error"]
+        assert "--rewind-horizon" in refused["error"] and controller.snapshot["rewind_from"] == earliest
+        ask(controller, "rewind", {"tick": earliest + 10})
+        assert controller.session.ticks == earliest + 10
+
+
+@pytest.mark.parametrize("horizon", [0.0])
+def test_no_horizon_keeps_no_history(horizon: float) -> None:
+    with running(lap_session, horizon=horizon) as controller:
+        step_to(controller, 2000)
+        assert controller.snapshots == [] and controller.snapshot["can_rewind"] is False
+        controller.send("rewind", {"tick": 10}, "no")
+        end = time.monotonic() + 20
+        while not any(m.get("id") == "no" for m in list(controller.messages)):
+            assert time.monotonic() < end
+            time.sleep(0.002)
+        assert "--rewind-horizon 0" in next(m for m in list(controller.messages) if m.get("id") == "no")["error"]

@@ -16,7 +16,7 @@ from typing import Any, cast
 import pytest
 
 from fsm.debug.control import Controller
-from fsm.session.session import Session, SetSignal
+from fsm.session.session import Session, SetSignal, StopRules
 from fsm.tools.live.stream import TraceFile
 from fsm.trace.recorder import Recorder
 from fsm.trace.replay import parse_trace
@@ -145,6 +145,12 @@ def compare_tick_by_tick(subject: Controller, reference: Controller, ticks: int)
         step_to(reference, reference.session.ticks + 1)
         assert state_of(subject.session) == state_of(reference.session)
     assert trace_lines(subject.session) == trace_lines(reference.session)
+    drivers = subject.session.driver, reference.session.driver
+    if drivers[0] is not None:  # the trajectory of the plot, and the summary's figures
+        assert list(getattr(drivers[0], "track")) == list(getattr(drivers[1], "track"))
+        summaries = [{k: v for k, v in s.summary().items() if "wall_time" not in k and "realtime" not in k}
+                     for s in (subject.session, reference.session)]
+        assert summaries[0] == summaries[1]
 
 
 def test_a_rewind_from_a_snapshot_is_the_run_a_re_simulation_gives_on_the_hallway_lap() -> None:
@@ -246,3 +252,42 @@ def test_no_horizon_keeps_no_history(horizon: float) -> None:
             assert time.monotonic() < end
             time.sleep(0.002)
         assert "--rewind-horizon 0" in next(m for m in list(controller.messages) if m.get("id") == "no")["error"]
+
+
+def test_a_live_run_past_its_horizon_retains_under_100_kb_in_20000_more_ticks() -> None:
+    """Issue 37 item 4: the snapshots, inputs and trace of a live run stay within the horizon (10 simulated seconds
+    here), so memory is flat after it (tracemalloc: deterministic, unlike RSS)."""
+    import gc
+    import tracemalloc
+
+    from fsm.sim import simulate
+    from fsm.tools.recording import run_recorder
+
+    forever = {"name": "forever", "initial": "follow", "states": [
+        {"id": "follow", "type": "FollowWall", "side": "right", "distance": 0.4, "speed": 1.0}]}
+    session = simulate(forever, world=HALLWAY, stop=StopRules(max_ticks=10**7))
+    session.record(run_recorder(TraceFile(), "forever.json", session.car, world_file=HALLWAY, document=forever))
+    controller = Controller(session, speed=None, horizon=10.0, snapshot_period=2.5, snapshot_share=1e9)
+
+    def run_to(tick: int) -> None:  # an input every 5 s on the way: the inputs kept are bounded by the horizon too
+        while session.ticks < tick:
+            controller.send("input", {"input": {"kind": "set", "values": {"k": session.ticks}}})
+            end = min(tick, session.ticks + 400)
+            controller.loop(stop=lambda: session.ticks >= end)
+
+    gc.collect()
+    tracemalloc.start()
+    try:
+        run_to(4_000)  # past the horizon (800 ticks) and a lap: the car's caches of the hallway are filled
+        gc.collect()
+        before = tracemalloc.get_traced_memory()[0]
+        run_to(24_000)
+        gc.collect()
+        retained = tracemalloc.get_traced_memory()[0] - before
+    finally:
+        tracemalloc.stop()
+    assert session.ticks == 24_000
+    # none is taken while the car touches a wall (this machine scrapes the hallway's corners about half the time)
+    assert 1 <= len(controller.snapshots) <= 5 and controller.earliest >= 24_000 - 800 - 2_000
+    assert len(controller.log) <= 3 and len(session.applied) <= 3
+    assert retained < 100_000, f"{retained:,} bytes retained by 20,000 ticks"

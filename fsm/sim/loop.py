@@ -173,7 +173,12 @@ class Track:
     spaced in time, the first at time 0, ``period`` seconds apart; at most :data:`TRACK_LIMIT` of them, in one
     compact array (x, y and index in single precision, 12 bytes a point; 2 um at 30 m is plenty for a plot). When it
     is full, every other point is dropped and ``every`` and ``period`` double: the caller adds a point only every
-    ``every``-th time it could (the loop: every ``track_every * every`` ticks), so the track covers the whole run."""
+    ``every``-th time it could (the loop: every ``track_every * every`` ticks), so the track covers the whole run.
+
+    The points only grow at their end until the array is replaced by a thinner one, so a snapshot of the run
+    (:mod:`fsm.session.snapshot`) keeps the array and its length, not a copy of it: snapshots share it."""
+
+    __snapshot_skip__ = ("_points",)
 
     def __init__(self, period: float, limit: int = TRACK_LIMIT) -> None:
         if limit < 2 or limit % 2:
@@ -195,6 +200,18 @@ class Track:
 
     def __len__(self) -> int:
         return len(self._points) // 3
+
+    def __snapshot__(self) -> tuple[array[float], int]:
+        return self._points, len(self._points)
+
+    def __restore__(self, state: tuple[array[float], int]) -> None:
+        """The points as they were: the same array cut to its length then (what was added since is dropped), or,
+        when it was replaced by a thinner one since, a copy of the first ones of the array it was."""
+        points, n = state
+        if points is self._points:
+            del points[n:]
+        else:
+            self._points = array("f", points[:n])
 
     def __iter__(self) -> Iterator[tuple[float, float, float, int]]:
         p, period = self._points, self.period

@@ -91,7 +91,7 @@ class LiveRun:
     def __init__(self, watches: int = 0, snapshots: bool = True) -> None:
         import asyncio
 
-        from fsm.debug.control import Controller
+        from fsm.debug.control import SNAPSHOT_PERIOD, Controller
         from fsm.tools.live.page import live_page
         from fsm.tools.live.server import LiveServer, Source
 
@@ -108,7 +108,7 @@ class LiveRun:
 
         self.controller = Controller(session, factory=factory, speed=None, paused=True,
                                      fresh=lambda: make_session()[0], on_restore=restored,
-                                     **({} if snapshots else {"snapshot_period": None}))
+                                     snapshot_period=SNAPSHOT_PERIOD if snapshots else None)
         source.controller = self.controller
         for text in WATCHES[:watches]:
             self.controller.send("watch", {"expr": text})

@@ -147,7 +147,8 @@ def compare_tick_by_tick(subject: Controller, reference: Controller, ticks: int)
     assert trace_lines(subject.session) == trace_lines(reference.session)
     drivers = subject.session.driver, reference.session.driver
     if drivers[0] is not None:  # the trajectory of the plot, and the summary's figures
-        assert list(getattr(drivers[0], "track")) == list(getattr(drivers[1], "track"))
+        tracks = [list(cast(Any, driver).track) for driver in drivers]
+        assert tracks[0] == tracks[1]
         summaries = [{k: v for k, v in s.summary().items() if "wall_time" not in k and "realtime" not in k}
                      for s in (subject.session, reference.session)]
         assert summaries[0] == summaries[1]
@@ -273,7 +274,7 @@ def test_a_live_run_past_its_horizon_retains_under_100_kb_in_20000_more_ticks() 
         while session.ticks < tick:
             controller.send("input", {"input": {"kind": "set", "values": {"k": session.ticks}}})
             end = min(tick, session.ticks + 400)
-            controller.loop(stop=lambda: session.ticks >= end)
+            controller.loop(stop=lambda end=end: session.ticks >= end)  # type: ignore[misc]
 
     gc.collect()
     tracemalloc.start()

@@ -207,10 +207,17 @@ def test_a_rewind_from_a_snapshot_across_a_hot_reload_on_an_eeros_case() -> None
         step_to(subject, 700)
         ask(subject, "reload", {"plan": eeros_plan(), "info": {"file": "case4_pause.json"}})
         step_to(subject, 1400)
+        drawn: list[Any] = []
+        subject.machine_changed = drawn.append
         ask(subject, "rewind", {"tick": 1000})  # a snapshot after the reload
+        assert drawn == []
         ask(subject, "rewind", {"tick": 650})  # a snapshot before it: the reload is dropped
         rewound = [m for m in list(subject.messages) if m.get("kind") == "rewound"]
         assert rewound[-1]["reloads_dropped"] == 1 and rewound[-1]["snapshot"] is not None
+        # the page is told to draw the machine the run started with again, as after a reload
+        assert drawn == [None]
+        told = [m for m in list(subject.messages) if m.get("kind") == "reload" and m.get("rewound")]
+        assert told and told[-1]["ok"] and "undid 1 later hot reload" in told[-1]["text"]
         ask(subject, "reload", {"plan": eeros_plan(), "info": {"file": "case4_pause.json"}})  # done again at 651
         step_to(subject, 1200)
         ask(subject, "rewind", {"tick": 900})  # a snapshot before the reload: it is done again on the way

@@ -164,6 +164,9 @@ class Controller:
         self.snapshot_share = snapshot_share
         #: called (from the loop's thread) after a rewind restored a snapshot: the recorder writes to a new stream
         self.on_restore = on_restore
+        #: called (from the loop's thread) when a rewind undid hot reloads, with the document of the machine that
+        #: runs now (None: the one the run started with): the page served from then on draws it
+        self.machine_changed: Callable[[dict[str, Any] | None], None] | None = None
         #: the snapshots kept (oldest first), what one costs (s of this thread's processor time) and this thread's
         #: processor time when the last one was taken
         self.snapshots: list[Snapshot] = []
@@ -173,6 +176,8 @@ class Controller:
         self.earliest = 0
         #: whether inputs older than the horizon were let go (Why re-simulates from the start: it needs them all)
         self._forgot_inputs = False
+        #: the document of the last reload let go with the horizon (the machine before the reloads kept)
+        self._base_document: dict[str, Any] | None = None
         self._attach(session)
 
     # -- from any thread ------------------------------------------------------------------------------------------
@@ -682,7 +687,8 @@ class Controller:
         keep = [(t, item) for t, item in self.log if t <= tick]
         dropped = len(self.log) - len(keep)
         reloads = [r for r in self.reloads if r[0] <= tick]
-        unloaded = len(self.reloads) - len(reloads)  # the machine goes back to the one before them
+        undone = [r for r in self.reloads if r[0] > tick]
+        unloaded = len(undone)  # the machine goes back to the one before them
         self.snapshots = [s for s in self.snapshots if snap is not None and s.tick <= snap.tick]
         if snap is None:
             session = self.factory() if self.factory is not None else self.session
@@ -706,7 +712,21 @@ class Controller:
         self._replay(tick, reloads)
         self.messages.append({"kind": "rewound", "tick": self.session.ticks, "dropped": dropped,
                               "reloads_dropped": unloaded, "snapshot": None if snap is None else snap.tick})
+        if unloaded:
+            self._machine_back(undone, unloaded)
         return dropped + unloaded
+
+    def _machine_back(self, undone: list[tuple[int, Any, dict[str, Any]]], count: int) -> None:
+        """A rewind undid ``count`` hot reloads (``undone``): the page served from now on draws the machine that
+        runs now, and the pages are told to rebuild themselves from it, as after a reload."""
+        document = self.reloads[-1][2].get("document") if self.reloads else self._base_document
+        if self.machine_changed is not None:
+            self.machine_changed(document)
+        file = next((str(info.get("file")) for _at, _plan, info in undone if info.get("file")), "the machine")
+        self.messages.append({
+            "kind": "reload", "ok": True, "rewound": True, "tick": self.session.ticks, "file": file,
+            "text": f"the rewind to tick {self.session.ticks} undid {count} later hot reload{'s' * (count != 1)}, so "
+                    "the run goes on with the machine it had then"})
 
     def _restore(self, snap: Snapshot, keep: list[tuple[int, Input]]) -> Session:
         """The run as it was at ``snap`` (restored in place), its trace cut there, the inputs of ``keep`` after it
@@ -806,7 +826,10 @@ class Controller:
         kept = [(t, item) for t, item in self.log if t > first]
         self._forgot_inputs = self._forgot_inputs or len(kept) < len(self.log)
         self.log = kept
-        self.reloads = [r for r in self.reloads if r[0] > first]
+        gone = [r for r in self.reloads if r[0] <= first]
+        if gone:
+            self._base_document = gone[-1][2].get("document")
+            self.reloads = [r for r in self.reloads if r[0] > first]
         session.forget_applied(first)
 
     def _attach(self, session: Session) -> None:

@@ -185,6 +185,10 @@ def serve(source: Any, page: Callable[[dict[str, Any]], str], *, host: str, port
             def redraw(loaded: Any) -> None:  # the page served from now on draws the new machine
                 server.page = page({**header, "machine": loaded.info.get("document")})
 
+            def redrawn(document: dict[str, Any] | None) -> None:  # a rewind undid reloads: the machine now
+                server.page = page(header if document is None else {**header, "machine": document})
+
+            controller.machine_changed = redrawn
             watching = asyncio.create_task(watcher.run(controller, redraw))
             print(f"live: watching {', '.join(shown_path(f) for f in watcher.files)} (hot reload; --no-reload to "
                   "turn it off)", file=out, flush=True)
@@ -234,7 +238,7 @@ def serve_trace(name: str, args: argparse.Namespace) -> int:
         serve(Source(buffer), lambda header: live_page(header, Path(name).name), host=args.host or "127.0.0.1",
               port=args.port if args.port is not None else DEFAULT_PORT, token=None if args.no_token else new_token(),
               stop=interrupts.stop, out=sys.stdout)
-    return EXIT_INTERRUPTED if interrupts.interrupted else EXIT_OK
+    return int(EXIT_INTERRUPTED if interrupts.interrupted else EXIT_OK)
 
 
 def listen_error(exc: OSError, host: str, port: int) -> FsmError:
@@ -298,9 +302,11 @@ def run_live(args: argparse.Namespace, file: str, make_session: Callable[[], Any
 
             report_out.write(report_html(parse_trace(text.encode("utf-8"), args.trace or file)))
         if plot_out is not None and session.driver is not None:
+            from fsm.sim.loop import Simulation
             from fsm.sim.render import plot_png
 
-            plot_out.write(plot_png(session.driver))
+            if isinstance(session.driver, Simulation):
+                plot_out.write(plot_png(session.driver))
         if summary_out is not None:
             summary_out.write(json.dumps(result, indent=2) + "\n")
         outputs.commit()
@@ -310,5 +316,5 @@ def run_live(args: argparse.Namespace, file: str, make_session: Callable[[], Any
         recorder = session.recorder
         print("\n".join(end_lines(file, session.machine, recorder, interrupted=interrupted)), file=out)
     if interrupted:
-        return EXIT_INTERRUPTED
-    return EXIT_FAIL if controller.error is not None else EXIT_OK
+        return int(EXIT_INTERRUPTED)
+    return int(EXIT_FAIL if controller.error is not None else EXIT_OK)

@@ -160,7 +160,8 @@ class Controller:
         self._watch_same = True
         #: how far back (simulated seconds) rewind reaches (``inf``: to the start; 0: no rewind)
         self.horizon = horizon
-        self.snapshot_period = snapshot_period if horizon > 0 else None
+        # a horizon shorter than the period: snapshots often enough that a rewind reaches about that far back
+        self.snapshot_period = None if horizon <= 0 or snapshot_period is None else min(snapshot_period, horizon / 3)
         self.snapshot_share = snapshot_share
         #: called (from the loop's thread) after a rewind restored a snapshot: the recorder writes to a new stream
         self.on_restore = on_restore

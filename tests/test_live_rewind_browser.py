@@ -8,8 +8,11 @@ import json
 from pathlib import Path
 from typing import Any
 
+import test_live_browser as browser_tests
 from live_helpers import REPO
-from test_live_browser import DT, LAP, browser, chromium  # noqa: F401  (the fixtures)
+
+DT, LAP = browser_tests.DT, browser_tests.LAP
+chromium, browser = browser_tests.chromium, browser_tests.browser  # the fixtures: a Chromium, pages on live runs
 
 
 def step_to(page: Any, tick: int) -> None:

@@ -299,3 +299,24 @@ def test_a_live_run_past_its_horizon_retains_under_100_kb_in_20000_more_ticks() 
     assert 1 <= len(controller.snapshots) <= 5 and controller.earliest >= 24_000 - 800 - 2_000
     assert len(controller.log) <= 3 and len(session.applied) <= 3
     assert retained < 100_000, f"{retained:,} bytes retained by 20,000 ticks"
+
+
+def test_the_fields_a_snapshot_reads_by_name_are_every_attribute_the_objects_have() -> None:
+    """The classes whose snapshots read their attributes by name (not through ``__dict__``, which slows CPython
+    3.11's attribute access of the object down for good) must name all of them, or a rewind would not be exact."""
+    from fsm.session.snapshot import _KINDS, take
+
+    for make in (lap_session, gate_session, eeros_session):
+        session = make()
+        session.run(stop_rules=StopRules(max_ticks=1200))
+        snap = take([session], session.ticks, shared=[session.recorder.out if session.recorder else None,
+                                                      session.machine.listeners])
+        checked = 0
+        for obj, _kept in snap.entries:
+            cls = type(obj)
+            if _KINDS.by_dict.get(cls) is False and hasattr(obj, "__dict__"):
+                names, _getter, skip = _KINDS.layout(cls)
+                missing = set(vars(obj)) - skip - set(names)
+                assert not missing, f"{cls.__qualname__} does not name {missing}"
+                checked += 1
+        assert checked >= (2 if make is eeros_session else 7)

@@ -180,6 +180,10 @@ class RunResult:
 class Session:
     """One run of ``machine`` in ``driver``'s world (none: the machine runs on its clock alone)."""
 
+    #: what a snapshot of the run (:mod:`fsm.session.snapshot`) reads, by name
+    __snapshot_fields__ = ("machine", "driver", "stop_rules", "recorder", "_record", "_inputs", "_order", "_observers",
+                           "_next_observe", "_applied", "wall_time", "result")
+
     def __init__(self, machine: Machine, *, driver: Driver | None = None, stop: StopRules | None = None,
                  record: bool = True) -> None:
         self.machine = machine

@@ -46,6 +46,14 @@ _ATOMIC: set[type] = {
 _SHARED_MODULES = ("pymunk", "numpy", "cv2", "pydantic", "re", "pathlib", "operator", "functools", "threading",
                    "_thread", "io", "_io", "logging", "asyncio")
 _MISSING = object()
+#: The attributes of classes whose instances have a ``__dict__`` (no ``__slots__``) that a snapshot reads by name,
+#: besides a class's own ``__snapshot_fields__``: reading an instance's ``__dict__`` makes CPython 3.11 keep its
+#: attributes in a dict from then on, and every attribute access of that object slower (a tenth of a tick of the
+#: lap, measured). A class without either is read through its ``__dict__``. Tests check the lists are complete.
+_FIELDS: dict[str, tuple[str, ...]] = {
+    "fsm.runtime.machine.Machine": ("root", "clock", "ctx", "regions", "listeners", "started", "_sim", "_dt",
+                                    "_schedule", "_schedule_seq", "_toggles", "_terminal"),
+}
 #: What the runtime fixes when it builds a machine and never changes while it runs (the hooks ``State.seal``
 #: chooses, the compiled guards, names and paths), by class: a snapshot neither reads nor restores them (about
 #: half of what a machine's objects hold). The objects they lead to are reached through other attributes.
@@ -91,6 +99,8 @@ class _Kinds:
     def __init__(self) -> None:
         self.shared: dict[type, bool] = {}
         self.slots: dict[type, tuple[tuple[str, ...], Any, frozenset[str]]] = {}
+        #: whether a walk reads the class's instances' ``__dict__`` (no list of fields names their attributes)
+        self.by_dict: dict[type, bool] = {}
 
     def is_shared(self, cls: type) -> bool:
         found = self.shared.get(cls)
@@ -109,6 +119,9 @@ class _Kinds:
                         names.append(_mangled(klass, name))
             skip = frozenset(getattr(cls, "__snapshot_skip__", ())).union(
                 *(_BUILT.get(f"{k.__module__}.{k.__qualname__}", ()) for k in cls.__mro__))
+            fields = getattr(cls, "__snapshot_fields__", None) or _FIELDS.get(f"{cls.__module__}.{cls.__qualname__}")
+            self.by_dict[cls] = fields is None
+            names += [n for n in fields or () if n not in names]
             kept = tuple(n for n in names if n not in skip)
             getter = operator.attrgetter(*kept) if len(kept) > 1 else None
             found = self.slots[cls] = (kept, getter, skip)
@@ -205,7 +218,7 @@ class _Walk:
                         kept[name] = v
                     elif v is not _MISSING:
                         kept[name] = value(v)
-            d = getattr(obj, "__dict__", None)
+            d = getattr(obj, "__dict__", None) if _KINDS.by_dict[obj.__class__] else None
             if d is not None:
                 for name, v in list(d.items()):
                     if name not in skip:
@@ -268,8 +281,8 @@ def restore(snapshot: Snapshot) -> None:
     copy = _Copy()
     setter = object.__setattr__
     for obj, kept in snapshot.entries:
-        d = getattr(obj, "__dict__", None)
         names, _getter, skip = _KINDS.layout(obj.__class__)
+        d = getattr(obj, "__dict__", None) if _KINDS.by_dict[obj.__class__] else None
         values = {name: copy.value(v) for name, v in kept.items()}
         if d is not None:
             keep = {name: v for name, v in d.items() if name in skip}

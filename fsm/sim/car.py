@@ -114,6 +114,17 @@ class SimCar:
     __snapshot_skip__ = ("world", "params", "space", "_nominal", "body", "shape", "control", "_c", "_query",
                          "sensors", "_beam", "_beam_index", "_by_name", "_outline", "_ray", "_nearest", "_markers",
                          "_specs", "_joints")
+    #: what a snapshot reads and restores, by name (reading ``__dict__`` would cost CPython 3.11 the fast path of
+    #: every attribute of the car from then on); a test checks that it names every attribute the car sets
+    __snapshot_fields__ = (
+        "rng", "noise", "wheelbase", "max_steering_angle", "length", "width", "_pose", "_pose_step", "_apart",
+        "collisions", "contact_steps", "_touching", "_cmd_steer", "_cmd_speed", "_servo", "_moving", "_v", "_offset",
+        "_rate_dt", "_half_band", "_lag", "_pending", "_servo_cmd", "_acc_dt", "_dec_dt", "_max_speed", "_delta",
+        "_k_beta", "_k_w", "_units", "_travel", "_min_r", "_max_r", "_cos_inc", "_sd0", "_sd1", "_outliers",
+        "_dropouts", "_half", "_tan_half", "_res", "sensor_every", "left", "right", "front", "sample", "distance",
+        "hall", "speed", "steering", "steps", "time", "min_clearance", "_half_diagonal", "_odo_scale", "_odo_offset",
+        "_odo_hall", "_odo_delta", "_odo_tan", "_odo_beta", "_odo_cos", "_odo", "_view", "_frame", "_cam",
+        "camera_frames", "rendered_frames", "gate_memory", "camera_every", "_cam_seed")
 
     def __init__(self, world: World, *, seed: int = 0, noise: bool = True) -> None:
         p = world.car

@@ -46,6 +46,8 @@ class GateLog:
     """Ground truth for the summary: when the car's centre crossed each gate (the segment between its two markers) in
     the gate's direction."""
 
+    __snapshot_fields__ = ("gates", "first_passed", "times_passed", "_last")
+
     def __init__(self, world: World) -> None:
         self.gates: list[tuple[Gate, tuple[float, float], tuple[float, float], float, float]] = []
         for g in world.gates:
@@ -179,6 +181,7 @@ class Track:
     (:mod:`fsm.session.snapshot`) keeps the array and its length, not a copy of it: snapshots share it."""
 
     __snapshot_skip__ = ("_points",)
+    __snapshot_fields__ = ("limit", "period", "every")
 
     def __init__(self, period: float, limit: int = TRACK_LIMIT) -> None:
         if limit < 2 or limit % 2:
@@ -243,6 +246,9 @@ class LapLog:
     """Ground truth for the summary: the laps (a lap ends when the car's centre crosses the start line forwards) and
     the time spent in each active state (leaf path) in each lap. A state active when the car crosses the line is split
     between the two laps. The last :data:`LAP_LIMIT` complete laps are kept, with totals over all of them."""
+
+    __snapshot_fields__ = ("x0", "y0", "c", "s", "_ahead", "limit", "laps", "completed", "_total", "_fastest",
+                           "_slowest", "_state_totals", "_t0", "_states", "_path", "_since")
 
     def __init__(self, world: World, limit: int = LAP_LIMIT) -> None:
         s = world.start
@@ -342,6 +348,12 @@ class Simulation:
     every ``track_every`` machine ticks a trajectory point is recorded (the plot). With ``max_collisions`` the run
     stops as soon as the car has collided more often than that.
     """
+
+    #: what a snapshot of the run reads, by name (see :attr:`fsm.sim.car.SimCar.__snapshot_fields__`)
+    __snapshot_fields__ = ("machine", "car", "settle", "track_every", "max_collisions", "world_file", "seed", "noise",
+                           "_flag", "active_path", "leaf", "states_seen", "track", "_track_stride", "path_index",
+                           "wall_error", "steering", "_err_sample", "_leaf_d0", "gate_log", "lap_log", "output_time",
+                           "session")
 
     def __init__(self, machine: Machine, car: SimCar, *, settle: float = 2.0, track_every: int = 4,
                  max_collisions: int | None = None, world_file: str | os.PathLike[str] | None = None, seed: int = 0,
@@ -587,6 +599,8 @@ def car_trace_frames(car: SimCar, width: int = THUMB_WIDTH) -> Callable[[], dict
 
 class CarFrames:
     """:func:`car_trace_frames`' callable: the frame it gave last is an attribute (a snapshot of the run keeps it)."""
+
+    __snapshot_fields__ = ("car", "width", "last")
 
     def __init__(self, car: SimCar, width: int) -> None:
         self.car = car

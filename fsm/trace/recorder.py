@@ -69,6 +69,10 @@ class Recorder(Listener):
     """
 
     __snapshot_skip__ = ("out", "extra", "header", "sample", "_sampler", "sample_fields", "_tails", "periods")
+    #: what a snapshot reads, by name (reading ``__dict__`` would slow every attribute of the recorder down)
+    __snapshot_fields__ = ("sample_digits", "_rows", "_active_json", "frames", "_every", "_sample_every", "visited",
+                           "_seen", "transitions", "_pending", "_vars", "_events", "monitor_counts", "_last_tick",
+                           "_due", "_special", "_sample_only", "ended", "_input_lines")
 
     def __init__(self, out: IO[str] | None = None, extra: Callable[[], dict[str, Any]] | None = None, *,
                  header: dict[str, Any] | None = None, sample: Callable[[], Any] | None = None,

@@ -320,3 +320,17 @@ def test_the_fields_a_snapshot_reads_by_name_are_every_attribute_the_objects_hav
                 assert not missing, f"{cls.__qualname__} does not name {missing}"
                 checked += 1
         assert checked >= (2 if make is eeros_session else 7)
+
+
+@pytest.mark.parametrize(("args", "said"), [
+    (["--rewind-horizon", "10"], "--rewind-horizon is an option of the live debugger: add --live"),
+    (["--live", "--rewind-horizon", "-3"], "a rewind horizon is 0 or more seconds (or 'inf'), got -3"),
+    (["--live", "--rewind-horizon", "nan"], "a rewind horizon is 0 or more seconds (or 'inf'), got nan"),
+    (["--live", "--rewind-horizon", "ten"], "expected seconds of simulated time or 'inf', got 'ten'"),
+])
+def test_a_rewind_horizon_that_is_no_horizon_is_a_usage_error(capsys: pytest.CaptureFixture[str], args: list[str],
+                                                               said: str) -> None:
+    from helpers import cli
+
+    code, out, err = cli(capsys, "run", str(LAP), *args)
+    assert code == 2 and said in err and out == ""

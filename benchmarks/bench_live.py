@@ -7,8 +7,9 @@
   slower);
 - **live, one page**: the same with one headless Chromium page connected and redrawing (target: at most 15 %
   slower; the page gets at most 30 messages a second, the server drops what a slow page cannot take);
-- **rewind**: after the run, back to tick 10,000 (a fresh session re-simulated to it, its trace written again;
-  target under 1 s);
+- **rewind**: after the run, back to tick 10,000: from the nearest snapshot the controller took on the way
+  (restored in place, the rest re-simulated; target under 0.2 s), and, for comparison, with snapshots off (a fresh
+  session re-simulated from tick 0); what a snapshot costs (processor time of the run's thread, bytes it holds);
 - **live, 10 watch expressions**: the live run, no page, with ten watch expressions evaluated after every tick
   (target: at most 10 % slower than plain); "why" and watches cost nothing while none is asked (the no-page row);
 - **why**: after the rewind, the explanation of tick 10,000 (a re-simulation to it, the run untouched);
@@ -67,6 +68,16 @@ def make_session() -> tuple[Any, Any]:
     return session, buffer
 
 
+def snapshot_figures(controller: Any) -> tuple[int, float, int, list[int]]:
+    """How many snapshots the run took, what the last cost (s of the run thread's processor time), the bytes one
+    holds (median), and their ticks."""
+    from fsm.session.snapshot import sizeof
+
+    snaps = controller.snapshots
+    sizes = sorted(sizeof(snap) for snap in snaps) or [0]
+    return len(snaps), controller._snap_cost, sizes[len(sizes) // 2], [snap.tick for snap in snaps]
+
+
 def plain() -> tuple[float, float]:
     session, _ = make_session()
     c0, t0 = time.process_time(), time.perf_counter()
@@ -77,10 +88,10 @@ def plain() -> tuple[float, float]:
 class LiveRun:
     """The lap under the controller, served on a free port from a thread of its own (as ``serve`` does)."""
 
-    def __init__(self, watches: int = 0) -> None:
+    def __init__(self, watches: int = 0, snapshots: bool = True) -> None:
         import asyncio
 
-        from fsm.debug.control import Controller
+        from fsm.debug.control import SNAPSHOT_PERIOD, Controller
         from fsm.tools.live.page import live_page
         from fsm.tools.live.server import LiveServer, Source
 
@@ -92,12 +103,16 @@ class LiveRun:
             fresh, source.buffer = make_session()
             return fresh
 
+        def restored(session: Any) -> None:  # a snapshot restored: the pages switch to its trace
+            source.buffer = session.recorder.out
+
         self.controller = Controller(session, factory=factory, speed=None, paused=True,
-                                     fresh=lambda: make_session()[0])
+                                     fresh=lambda: make_session()[0], on_restore=restored,
+                                     snapshot_period=SNAPSHOT_PERIOD if snapshots else None)
         source.controller = self.controller
         for text in WATCHES[:watches]:
             self.controller.send("watch", {"expr": text})
-        header = json.loads(buffer.chunks[0].split("\n", 1)[0])
+        header = json.loads(buffer.first_line())
         self.server = LiveServer(source, live_page(header, LAP.name), None)
         self.loop = asyncio.new_event_loop()
         started = threading.Event()
@@ -232,14 +247,15 @@ def count_instructions() -> int:
     def count(mode: str, n: int) -> int:
         return callgrind([__file__, "--probe", mode, str(n)], env, ROOT, f"{mode} {n}")
 
-    runs = {mode: count(mode, 1) - count(mode, 0) for mode in ("plain", "live", "watch")}
+    runs = {mode: count(mode, 1) - count(mode, 0) for mode in ("plain", "live", "nosnap", "watch")}
     print("| run of the hallway lap (16,176 ticks) | instructions | per tick |")
     print("|---|---:|---:|")
     for mode, label in (("plain", "plain (session.run)"), ("live", "live, no page"),
-                        ("watch", "live, no page, 10 watch expressions")):
+                        ("nosnap", "live, no page, snapshots off"), ("watch", "live, no page, 10 watch expressions")):
         print(f"| {label} | {runs[mode] / 1e6:,.0f}M | {runs[mode] / 16176:,.0f} |")
     print(f"\nunder the controller with the server up and no page: {runs['live'] / runs['plain'] - 1:+.1%} "
           "instructions (target: at most 5 % slower)")
+    print(f"of which the snapshots for rewind: {runs['live'] / runs['nosnap'] - 1:+.1%} instructions")
     print(f"with 10 watch expressions: {runs['watch'] / runs['plain'] - 1:+.1%} instructions (target: at most 10 %)")
     return 0
 
@@ -262,9 +278,11 @@ def main() -> int:
             if n:
                 session.run()
         else:
-            live = LiveRun(len(WATCHES) if mode == "watch" else 0)
+            live = LiveRun(len(WATCHES) if mode == "watch" else 0, snapshots=mode != "nosnap")
             if n:
                 live.run()
+                if mode == "live":
+                    print(f"snapshots: {len(live.controller.snapshots)}", file=sys.stderr)
             live.close()
         return 0
     if args.instructions:
@@ -285,8 +303,15 @@ def main() -> int:
             live = LiveRun()
             try:
                 results["live_no_page"].append(live.run())
+                results.setdefault("snapshots", []).append(snapshot_figures(live.controller))
                 results.setdefault("rewind_10000_s", []).append(live.rewind(10_000))
                 results.setdefault("why_10000_s", []).append(live.why(10_000))
+            finally:
+                live.close()
+            live = LiveRun(snapshots=False)
+            try:
+                live.run()
+                results.setdefault("rewind_resim_10000_s", []).append(live.rewind(10_000))
             finally:
                 live.close()
             live = LiveRun(len(WATCHES))
@@ -337,9 +362,15 @@ def main() -> int:
     row("live, no page, 10 watch expressions", results["live_watch10"])
     why = results["why_10000_s"]
     print(f"\nwhy of tick 10,000 (re-simulated to it): median {statistics.median(why):.2f} s, best {min(why):.2f} s")
-    rw = results["rewind_10000_s"]
-    print(f"\nrewind from the end (16,176) to tick 10,000: median {statistics.median(rw):.2f} s, best {min(rw):.2f} s "
-          f"over {len(rw)}")
+    rw, full = results["rewind_10000_s"], results["rewind_resim_10000_s"]
+    print(f"\nrewind from the end (16,176) to tick 10,000 from a snapshot: median {statistics.median(rw):.3f} s, best "
+          f"{min(rw):.3f} s, worst {max(rw):.3f} s over {len(rw)}; re-simulated from tick 0 (snapshots off): median "
+          f"{statistics.median(full):.3f} s, best {min(full):.3f} s")
+    snaps = results["snapshots"]
+    print(f"snapshots taken in a run of the lap: {', '.join(str(n) for n, _c, _b, _t in snaps)} (at ticks "
+          f"{snaps[-1][3]}); each: {statistics.median(c for _n, c, _b, _t in snaps) * 1e3:.2f} ms of the run's "
+          f"processor time (median of the runs' last), {statistics.median(b for _n, _c, b, _t in snaps) / 1e3:.0f} KB "
+          f"held")
     if results["live_one_page"]:
         row("live, one Chromium page", results["live_one_page"])
         bc = results["browser_ms_per_1000_ticks"]

@@ -11,6 +11,10 @@ never finishes; does the process's memory stay flat while it runs?
   ``--ros-hours`` simulated hours (default 1; 0 leaves it out), the run's RSS every few seconds of wall time and its
   max RSS at the end. Lock-step ticks run at an even pace, so the ticks at a sample are taken in proportion to the
   wall time (the run's total is exact).
+- **live** (``--live-hours``, default 2; 0 leaves it out): ``fsmctl run --live`` as it runs with no page connected
+  and no pace (as fast as possible): the controller, its snapshots for rewind and the trace streamed to the run's
+  temporary file, with a rewind horizon of ``--live-horizon`` simulated seconds (default 600, so that the horizon
+  is passed early), RSS every 600 simulated seconds and the slope in bytes per tick beyond the horizon.
 - **instructions** (``--instructions``): the cost of one tick of the car loop counted with valgrind, as
   ``bench_instructions.py`` counts the core's (3,000 ticks and the summary, minus 1,000 ticks and the summary, over
   2,000: the base computed its figures from its lists at the summary, this checkout at each sample).
@@ -83,6 +87,41 @@ print(json.dumps({"points": points, "max_rss": resource.getrusage(resource.RUSAG
                   len(summary.get("laps", [])))}))
 '''
 
+LIVE = r'''
+import json, resource, sys, time
+from pathlib import Path
+from fsm.debug.control import Controller
+from fsm.session.session import StopRules
+from fsm.sim import simulate
+from fsm.tools.live.stream import TraceFile
+from fsm.tools.recording import run_recorder
+
+machine, world, duration, every, horizon = (json.loads(sys.argv[1]), sys.argv[2], float(sys.argv[3]),
+                                            float(sys.argv[4]), float(sys.argv[5]))
+
+
+def rss():
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) * 1024
+    return 0
+
+
+session = simulate(machine, world=world, stop=StopRules(duration))
+session.record(run_recorder(TraceFile(), "forever.json", session.car, world_file=world, document=machine))
+points = []
+session.every(every, lambda s: points.append((s.ticks, rss())))
+controller = Controller(session, speed=None, horizon=horizon)
+t0 = time.perf_counter()
+controller.loop(stop=lambda: controller.ended is not None)
+wall = time.perf_counter() - t0
+if not points or points[-1][0] != session.ticks:
+    points.append((session.ticks, rss()))
+print(json.dumps({"points": points, "max_rss": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024,
+                  "wall_s": wall, "ticks": session.ticks, "snapshots": len(controller.snapshots),
+                  "earliest": controller.earliest, "trace_bytes": session.recorder.out.mark()}))
+'''
+
 TICKS = r'''
 import json, sys
 if len(sys.argv) > 4:
@@ -116,6 +155,21 @@ def curve(hours: float, tree: Path | None) -> dict[str, Any]:
         raise RuntimeError(f"the curve on {'base' if tree else 'this checkout'} failed:\n{done.stderr[-2000:]}")
     result: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
     result["slope"] = slope([p for p in result["points"] if p[0] >= round(EVERY / 0.0125)])
+    return result
+
+
+def live_curve(hours: float, horizon: float) -> dict[str, Any]:
+    """``fsmctl run --live`` with no page and no pace, for ``hours`` simulated hours in a fresh process: RSS every
+    :data:`EVERY` simulated seconds, and the slope beyond the horizon (and beyond the first 600 s)."""
+    args = [sys.executable, "-c", LIVE, json.dumps(FOREVER), str(WORLD), str(hours * 3600), str(EVERY), str(horizon)]
+    done = subprocess.run(args, env=python_env(None), capture_output=True, text=True, cwd=str(REPO),
+                          timeout=6 * 3600)
+    if done.returncode != 0:
+        raise RuntimeError(f"the live run failed:\n{done.stderr[-2000:]}")
+    result: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
+    result["horizon"] = horizon
+    past = round(max(horizon, EVERY) / 0.0125)
+    result["slope"] = slope([p for p in result["points"] if p[0] > past])
     return result
 
 
@@ -241,6 +295,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--hours", type=float, default=8.0, help="simulated hours of the curve (default 8)")
     ap.add_argument("--ros-hours", type=float, default=1.0, help="simulated hours over ROS 2 (default 1; 0: none)")
     ap.add_argument("--base", help="also measure this earlier commit (curve, cli runs, instructions)")
+    ap.add_argument("--live-hours", type=float, default=2.0,
+                    help="simulated hours of a live run with no page (default 2; 0: none)")
+    ap.add_argument("--live-horizon", type=float, default=600.0,
+                    help="its rewind horizon, simulated seconds (default 600)")
     ap.add_argument("--no-cli", action="store_true", help="leave the fsmctl runs of 600/2400/9600 s out")
     ap.add_argument("--instructions", action="store_true", help="count the instructions of a tick (valgrind)")
     ap.add_argument("--json", metavar="FILE", help="also write every figure as JSON")
@@ -262,6 +320,9 @@ def main(argv: list[str] | None = None) -> int:
                 result.setdefault("cli", {})[name] = {f"{d:g}": v for d, v in cli_runs(side, machine, where).items()}
             if args.instructions:
                 result.setdefault("instructions", {})[name] = per_tick(side)
+        if args.live_hours > 0:
+            print(f"live, no page: {args.live_hours:g} simulated hours ...", file=sys.stderr, flush=True)
+            result["live"] = live_curve(args.live_hours, args.live_horizon)
         if args.ros_hours > 0:
             print(f"ROS 2 lock-step: {args.ros_hours:g} simulated hours ...", file=sys.stderr, flush=True)
             result["ros"] = ros_run(args.ros_hours, machine, where)
@@ -307,6 +368,22 @@ def report(result: dict[str, Any]) -> None:
         for n, rows in result["cli"].items():
             growth = rows["9600"][0] - rows["600"][0]
             print(f"{n}: max RSS after 9,600 s minus after 600 s: {growth / 1e6:+.2f} MB (target: within 5 MB)")
+    if "live" in result:
+        live = result["live"]
+        print(f"\n## a live run (fsmctl run --live), no page, as fast as possible, rewind horizon {live['horizon']:g} "
+              "s\n")
+        print("| simulated time | ticks | RSS, MB |\n|---:|---:|---:|")
+        pts = live["points"]
+        every = max(1, round(1800 / EVERY))
+        for i, p in enumerate(pts):
+            if i in (0, 1) or i % every == 0 or i == len(pts) - 1:
+                print(f"| {p[0] * 0.0125:,.0f} s | {p[0]:,} | {mb(p[1])} |")
+        s = live["slope"]
+        print(f"\n{live['ticks']:,} ticks in {live['wall_s']:.0f} s of wall time "
+              f"({live['ticks'] / live['wall_s']:,.0f} ticks/s); max RSS {mb(live['max_rss'])} MB; "
+              f"{live['snapshots']} snapshots kept, rewind reaches back to "
+              f"tick {live['earliest']:,}; trace on disk {live['trace_bytes'] / 1e6:.1f} MB; slope beyond the horizon "
+              + (f"{s:.3f} bytes per tick" if s is not None else "n/a"))
     if "ros" in result:
         r = result["ros"]
         print(f"\n## {result['ros_hours']:g} simulated hour(s) over ROS 2 (Zenoh, lock-step)\n")

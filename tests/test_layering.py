@@ -348,7 +348,7 @@ REPO = Path(__file__).resolve().parents[1]
 PRIVATE_READS = {"fsm/runtime/machine.py": {"_now", "_tick", "_dt", "_pending"}, "fsm/runtime/region.py": {"_now"},
                  "fsm/trace/recorder.py": {"_tick"}, "fsm/transitions/generic.py": {"_now"},
                  "fsm/transitions/conditions.py": {"_now"},
-                 "fsm/sim/car.py": {"_space", "_body"}, "fsm/sim/loop.py": {"_now", "_tick"}}
+                 "fsm/sim/car.py": {"_space", "_body", "_constraint"}, "fsm/sim/loop.py": {"_now", "_tick"}}
 #: The public API of named tuples, underscored so as not to clash with field names.
 NAMEDTUPLE_API = {"_replace", "_asdict", "_fields", "_make"}
 

@@ -22,9 +22,13 @@ compiled
 - ``watch`` / ``unwatch`` / ``watched``: expressions whose values are kept after every tick (``watched`` messages
   carry the new ones; nothing is evaluated while there is none);
 - ``why``: what a tick did and why (:mod:`fsm.debug.explain`), by re-simulation, the run untouched;
-- ``rewind``: back to an earlier tick by building the run afresh (``factory``) and re-running it to that tick with
-  the inputs given so far up to it (the run is deterministic, so it is the same run); later inputs are dropped,
-  so the run forks from there.
+- ``rewind``: back to an earlier tick: the nearest snapshot at or before it restored (:mod:`fsm.session.snapshot`:
+  taken every :data:`SNAPSHOT_PERIOD` simulated seconds or less often, so that taking them costs the run at most
+  :data:`SNAPSHOT_SHARE` of its time) and the run re-simulated from there with the inputs given up to that tick;
+  before the first snapshot, the run built afresh (``factory``) and re-run from its start. The run is
+  deterministic, so it is the same run; later inputs are dropped, so the run forks from there. The history a
+  rewind needs (snapshots, inputs, reloads) is kept for ``horizon`` simulated seconds back: a rewind further back
+  is refused with how far back it can go.
 
 Whoever watches reads :attr:`Controller.snapshot` (replaced, never changed, after each chunk: safe from another
 thread) and takes :attr:`Controller.messages` (replies to commands, notices).
@@ -58,6 +62,7 @@ from fsm.model.errors import DiagramError, StateRuntimeError
 from fsm.model.expr import ExprError, ExprRuntimeError, compile_expr
 from fsm.session.inputs import InputError, input_from_json
 from fsm.session.session import Input, Session, StopRules
+from fsm.session.snapshot import Snapshot, restore, take
 
 #: Most ticks run between two looks at the commands (a few milliseconds of the hallway lap).
 CHUNK = 256
@@ -76,6 +81,13 @@ UNDO_WINDOW = 5.0
 MAX_WATCHES, MAX_WATCH_TICKS = 20, 100_000
 #: How long the loop sleeps at most while paused or ended before it looks at the commands again (s).
 IDLE = 0.1
+#: Snapshots for rewind: at most one every this many simulated seconds, and no more often than keeps their cost
+#: under this share of the run's own time (at full speed on the hallway lap: one every 60-100 s of the run, so a
+#: rewind re-simulates about a tenth of a second at most; see docs/performance.md).
+SNAPSHOT_PERIOD = 30.0
+SNAPSHOT_SHARE = 0.02
+#: How far back (simulated seconds) a live run can be rewound by default: its rewind history is kept for this long.
+DEFAULT_HORIZON = 1800.0
 
 
 class Controller:
@@ -85,7 +97,9 @@ class Controller:
 
     def __init__(self, session: Session, *, factory: Callable[[], Session] | None = None,
                  speed: float | None = 1.0, paused: bool = False, signals: Iterable[str] = (),
-                 clock: Callable[[], float] = time.monotonic, fresh: Callable[[], Session] | None = None) -> None:
+                 clock: Callable[[], float] = time.monotonic, fresh: Callable[[], Session] | None = None,
+                 horizon: float = DEFAULT_HORIZON, snapshot_period: float | None = SNAPSHOT_PERIOD,
+                 snapshot_share: float = SNAPSHOT_SHARE, on_restore: Callable[[Session], None] | None = None) -> None:
         self.session = session
         self.factory = factory
         #: builds the same run afresh without recording it (``why`` re-simulates with it; default: ``factory``)
@@ -144,6 +158,27 @@ class Controller:
         self._watch_last: tuple[tuple[Any, ...] | None, tuple[Any, ...]] = (None, ())
         #: whether a tick whose reads equal the last tick's may keep its row (not when a list or a dict is read)
         self._watch_same = True
+        #: how far back (simulated seconds) rewind reaches (``inf``: to the start; 0: no rewind)
+        self.horizon = horizon
+        # a horizon shorter than the period: snapshots often enough that a rewind reaches about that far back
+        self.snapshot_period = None if horizon <= 0 or snapshot_period is None else min(snapshot_period, horizon / 3)
+        self.snapshot_share = snapshot_share
+        #: called (from the loop's thread) after a rewind restored a snapshot: the recorder writes to a new stream
+        self.on_restore = on_restore
+        #: called (from the loop's thread) when a rewind undid hot reloads, with the document of the machine that
+        #: runs now (None: the one the run started with): the page served from then on draws it
+        self.machine_changed: Callable[[dict[str, Any] | None], None] | None = None
+        #: the snapshots kept (oldest first), what one costs (s of this thread's processor time) and this thread's
+        #: processor time when the last one was taken
+        self.snapshots: list[Snapshot] = []
+        self._snap_cost = 0.0
+        self._snap_wall = 0.0
+        #: the earliest tick a rewind reaches (above 0 once the horizon let the start go)
+        self.earliest = 0
+        #: whether inputs older than the horizon were let go (Why re-simulates from the start: it needs them all)
+        self._forgot_inputs = False
+        #: the document of the last reload let go with the horizon (the machine before the reloads kept)
+        self._base_document: dict[str, Any] | None = None
         self._attach(session)
 
     # -- from any thread ------------------------------------------------------------------------------------------
@@ -173,6 +208,7 @@ class Controller:
                 self._idle(wait)
                 continue
             self._run(ticks, stop)
+            self._snapshot()
             self._publish()
         self._publish()
 
@@ -251,7 +287,7 @@ class Controller:
             return False
         tick, item = self.log[-1]
         failed = self.session.machine.ctx.tick  # the tick that raised
-        if failed - tick > UNDO_WINDOW / self.session.dt:
+        if failed - tick > UNDO_WINDOW / self.session.dt or tick - 1 < self.earliest:
             return False
         self.rewind(max(0, tick - 1))
         self.hit = {"breakpoint": None, "text": "injection undone",
@@ -614,6 +650,9 @@ class Controller:
             raise ValueError("this run cannot be re-simulated (it was not started with a way to build it again)")
         if any(at <= tick for at, _plan, _info in self.reloads):
             raise ValueError("why: the run was hot-reloaded before this tick; Why re-simulates one machine only")
+        if self._forgot_inputs or self.earliest:
+            raise ValueError("why: Why re-simulates the run from its start, and its inputs before tick "
+                             f"{self.earliest} are beyond the rewind horizon (--rewind-horizon {self.horizon:g} s)")
         session = self.fresh()
         for t, item in self.log:
             if t <= tick:
@@ -630,36 +669,92 @@ class Controller:
         now = self.session.ticks
         if isinstance(tick, bool) or not isinstance(tick, int) or not 0 <= tick <= now:
             raise ValueError(f"rewind to a tick from 0 to the current {now}, got {tick!r}")
+        if self.horizon <= 0:
+            raise ValueError("this run keeps no rewind history (--rewind-horizon 0)")
         before = len(self.log)
         dropped = self.rewind(tick)
         inputs = before - len(self.log)
         return {"tick": tick, "dropped": inputs, "reloads_dropped": dropped - inputs}
 
     def rewind(self, tick: int) -> int:
-        """Build the run afresh and run it to ``tick`` with the inputs given up to it (the loop's thread only);
-        paused there. Returns how many later inputs and reloads were dropped."""
-        if self.factory is None:
+        """Back to ``tick`` (the loop's thread only): the nearest snapshot at or before it restored, else the run
+        built afresh, then re-run to ``tick`` with the inputs given up to it; paused there. Returns how many later
+        inputs and reloads were dropped."""
+        if tick < self.earliest:
+            raise ValueError(self._beyond_horizon(tick))
+        snap = next((snap for snap in reversed(self.snapshots) if snap.tick <= tick), None)
+        if snap is None and self.factory is None:
             raise ValueError("this run cannot be rewound (it was not started with a way to build it again)")
-        session = self.factory()
         keep = [(t, item) for t, item in self.log if t <= tick]
-        for t, item in keep:
-            session.schedule_tick(t, item)
         dropped = len(self.log) - len(keep)
         reloads = [r for r in self.reloads if r[0] <= tick]
-        unloaded = len(self.reloads) - len(reloads)  # the machine goes back to the one before them
+        undone = [r for r in self.reloads if r[0] > tick]
+        unloaded = len(undone)  # the machine goes back to the one before them
+        self.snapshots = [s for s in self.snapshots if snap is not None and s.tick <= snap.tick]
+        if snap is None:
+            session = self.factory() if self.factory is not None else self.session
+            for t, item in keep:
+                session.schedule_tick(t, item)
+            self.signals = self._first_signals
+        else:
+            session = self._restore(snap, keep)
+            reloads = [r for r in reloads if r[0] > snap.tick]  # those before it are in the snapshot's machine
         self.session = session
         self.log = keep
-        self.reloads = []
+        self.reloads = [r for r in self.reloads if snap is not None and r[0] <= snap.tick]
         self.ended = self.error = self.hit = None
         self.paused = True
         self._budget = 0
         self._to_transition = False
         self._anchor = None
-        self.signals = self._first_signals
         self._shown = {}  # a new trace: its status is published even if it reads as the last one did
         self._attach(session)
         self._start()
-        try:  # no breakpoint looks at the ticks replayed: they were looked at the first time
+        self._replay(tick, reloads)
+        self.messages.append({"kind": "rewound", "tick": self.session.ticks, "dropped": dropped,
+                              "reloads_dropped": unloaded, "snapshot": None if snap is None else snap.tick})
+        if unloaded:
+            self._machine_back(undone, unloaded)
+        return dropped + unloaded
+
+    def _machine_back(self, undone: list[tuple[int, Any, dict[str, Any]]], count: int) -> None:
+        """A rewind undid ``count`` hot reloads (``undone``): the page served from now on draws the machine that
+        runs now, and the pages are told to rebuild themselves from it, as after a reload."""
+        document = self.reloads[-1][2].get("document") if self.reloads else self._base_document
+        if self.machine_changed is not None:
+            self.machine_changed(document)
+        file = next((str(info.get("file")) for _at, _plan, info in undone if info.get("file")), "the machine")
+        self.messages.append({
+            "kind": "reload", "ok": True, "rewound": True, "tick": self.session.ticks, "file": file,
+            "text": f"the rewind to tick {self.session.ticks} undid {count} later hot reload{'s' * (count != 1)}, so "
+                    "the run goes on with the machine it had then"})
+
+    def _restore(self, snap: Snapshot, keep: list[tuple[int, Input]]) -> Session:
+        """The run as it was at ``snap`` (restored in place), its trace cut there, the inputs of ``keep`` after it
+        scheduled again (those the run had scheduled then besides, such as ``--signal``, stay)."""
+        live: Any = self.session.recorder.out if self.session.recorder is not None else None
+        restore(snap)
+        session: Session = snap.extra["session"]
+        machine = session.machine
+        machine.listeners[:] = [lst for lst in machine.listeners if not isinstance(lst, Watch)]
+        if session.recorder is not None and live is not None:
+            session.recorder.out = live.fork(snap.extra["mark"])
+        given = {id(item) for _t, item in self.log}
+        session.keep_scheduled(lambda item: id(item) not in given)
+        for t, item in keep:
+            if t > snap.tick:
+                session.schedule_tick(t, item)
+        self.signals = snap.extra["signals"]
+        self._snap_wall = time.thread_time()
+        if self.on_restore is not None:
+            self.on_restore(session)
+        return session
+
+    def _replay(self, tick: int, reloads: list[tuple[int, Any, dict[str, Any]]]) -> None:
+        """Run the session to ``tick`` doing ``reloads`` again on the way (no breakpoint looks at these ticks: they
+        were looked at the first time)."""
+        session = self.session
+        try:
             for at, plan, info in reloads:  # each reload again, before the tick it applied before
                 if self.ended is None and session.ticks < at - 1:
                     self._ended_by(session.run(stop_rules=StopRules(max_ticks=at - 1 - session.ticks)).stopped)
@@ -681,9 +776,62 @@ class Controller:
         while self.watch_log and self.watch_log[-1][0] > session.ticks:  # the same run up to here: kept
             self.watch_log.pop()
         self._watch_new = []
-        self.messages.append({"kind": "rewound", "tick": session.ticks, "dropped": dropped,
-                              "reloads_dropped": unloaded})
-        return dropped + unloaded
+
+    def _beyond_horizon(self, tick: int) -> str:
+        dt = self.session.dt
+        return (f"tick {tick} ({tick * dt:.2f} s) is beyond the rewind horizon: this run can be rewound to tick "
+                f"{self.earliest} ({self.earliest * dt:.2f} s) at the earliest (--rewind-horizon {self.horizon:g} s "
+                "of simulated time; a longer one keeps more history)")
+
+    # -- snapshots ----------------------------------------------------------------------------------------------
+    def _snapshot(self) -> None:
+        """After a chunk: a snapshot when one is due (see :data:`SNAPSHOT_PERIOD`) and the run can be snapshotted
+        now (its world says so: a car pressed against a wall cannot); then the history beyond the horizon let go."""
+        period = self.snapshot_period
+        session = self.session
+        if period is None or self.ended is not None or not session.machine.started:
+            return
+        last = self.snapshots[-1].tick if self.snapshots else 0
+        if (session.ticks - last) * session.dt < period - 1e-9:
+            return
+        if time.thread_time() - self._snap_wall < self._snap_cost / self.snapshot_share:
+            return
+        recorder = session.recorder
+        out: Any = recorder.out if recorder is not None else None
+        driver = session.driver
+        ready = getattr(driver, "snapshot_ready", None)
+        if out is None or not hasattr(out, "fork") or (driver is not None and (ready is None or not ready())):
+            return
+        t0 = time.thread_time()  # this thread's processor time: neither the other threads nor the load count
+        snap = take([session], session.ticks, shared=[out, session.machine.listeners])
+        snap.extra.update(session=session, mark=out.mark(), signals=self.signals)
+        self.snapshots.append(snap)
+        self._snap_wall = time.thread_time()
+        cost = self._snap_wall - t0
+        self._snap_cost = cost if not self._snap_cost else min(cost, 2 * self._snap_cost)
+        self._forget()
+
+    def _forget(self) -> None:
+        """Let go what is older than the horizon: the snapshots but the newest one at or before it (the earliest
+        tick a rewind reaches from now on), and the inputs and reloads that snapshot holds already."""
+        if self.horizon == float("inf"):
+            return
+        session = self.session
+        cut = session.ticks - self.horizon / session.dt
+        older = [k for k, snap in enumerate(self.snapshots) if snap.tick <= cut + 1e-9]
+        if not older:
+            return
+        del self.snapshots[:older[-1]]
+        first = self.snapshots[0].tick
+        self.earliest = first
+        kept = [(t, item) for t, item in self.log if t > first]
+        self._forgot_inputs = self._forgot_inputs or len(kept) < len(self.log)
+        self.log = kept
+        gone = [r for r in self.reloads if r[0] <= first]
+        if gone:
+            self._base_document = gone[-1][2].get("document")
+            self.reloads = [r for r in self.reloads if r[0] > first]
+        session.forget_applied(first)
 
     def _attach(self, session: Session) -> None:
         self._watch = Watch()
@@ -706,7 +854,8 @@ class Controller:
             "hit": self.hit, "end_tick": self._end if self._end < 2**62 else None,
             "breakpoints": [bp.to_json() for bp in self.breakpoints],
             "inputs": [[t, item.describe()] for t, item in self.log[-200:]],
-            "can_rewind": self.factory is not None,
+            "can_rewind": (self.factory is not None or bool(self.snapshots)) and self.horizon > 0,
+            "rewind_from": self.earliest,
             "watches": [{"id": number, "text": text} for number, text, _fn in self.watches],
         }
         if self._watch_new:  # the values since the last publish, to every page (the server writes inf and nan as text)

@@ -180,6 +180,10 @@ class RunResult:
 class Session:
     """One run of ``machine`` in ``driver``'s world (none: the machine runs on its clock alone)."""
 
+    #: what a snapshot of the run (:mod:`fsm.session.snapshot`) reads, by name
+    __snapshot_fields__ = ("machine", "driver", "stop_rules", "recorder", "_record", "_inputs", "_order", "_observers",
+                           "_next_observe", "_applied", "wall_time", "result")
+
     def __init__(self, machine: Machine, *, driver: Driver | None = None, stop: StopRules | None = None,
                  record: bool = True) -> None:
         self.machine = machine
@@ -279,10 +283,22 @@ class Session:
         self._order += 1
         bisect.insort(self._inputs, Scheduled(tick, self._order, item))
 
+    def keep_scheduled(self, keep: Callable[[Input], bool]) -> None:
+        """Drop the inputs scheduled and not applied yet for which ``keep(input)`` is false (a debugger's rewind
+        schedules its own again)."""
+        self._inputs = [item for item in self._inputs if keep(item.input)]
+
     @property
     def applied(self) -> list[tuple[int, Input]]:
-        """Every input applied so far, with the tick before which it was applied."""
+        """Every input applied so far (since :meth:`forget_applied`), with the tick before which it was applied."""
         return list(self._applied)
+
+    def forget_applied(self, tick: int) -> None:
+        """Let go of the inputs applied before ``tick`` or at it (a live run keeps them only within its rewind
+        horizon: a run of hours holds no per-input history)."""
+        applied = self._applied
+        if applied and applied[0][0] <= tick:
+            self._applied = [entry for entry in applied if entry[0] > tick]
 
     # -- state of the run ---------------------------------------------------------------------------------------
     @property

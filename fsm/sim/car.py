@@ -103,7 +103,28 @@ class SimCar:
 
     ``noise=False`` turns off ultrasonic noise and outliers (the geometry stays). The noise is drawn
     from ``random.Random(seed)``, so a seed gives the same run, bit for bit.
+
+    A snapshot of a run (:mod:`fsm.session.snapshot`) copies the car's plain attributes; the world, the walls, the
+    pymunk objects and the sensor queries are shared (``__snapshot_skip__``), and the bodies' and joints' state is
+    kept by :meth:`__snapshot__` (only while no contact is cached: :meth:`snapshot_ready`).
     """
+
+    #: what a snapshot shares: built from the world and the car's parameters, never changed by a run (the beam
+    #: index is a cache whose contents do not depend on when it was filled)
+    __snapshot_skip__ = ("world", "params", "space", "_nominal", "body", "shape", "control", "_c", "_query",
+                         "sensors", "_beam", "_beam_index", "_by_name", "_outline", "_ray", "_nearest", "_markers",
+                         "_specs", "_joints")
+    #: what a snapshot reads and restores, by name (reading ``__dict__`` would cost CPython 3.11 the fast path of
+    #: every attribute of the car from then on); a test checks that it names every attribute the car sets
+    __snapshot_fields__ = (
+        "rng", "noise", "wheelbase", "max_steering_angle", "length", "width", "_pose", "_pose_step", "_apart",
+        "collisions", "contact_steps", "_touching", "_cmd_steer", "_cmd_speed", "_servo", "_moving", "_v", "_offset",
+        "_rate_dt", "_half_band", "_lag", "_pending", "_servo_cmd", "_acc_dt", "_dec_dt", "_max_speed", "_delta",
+        "_k_beta", "_k_w", "_units", "_travel", "_min_r", "_max_r", "_cos_inc", "_sd0", "_sd1", "_outliers",
+        "_dropouts", "_half", "_tan_half", "_res", "sensor_every", "left", "right", "front", "sample", "distance",
+        "hall", "speed", "steering", "steps", "time", "min_clearance", "_half_diagonal", "_odo_scale", "_odo_offset",
+        "_odo_hall", "_odo_delta", "_odo_tan", "_odo_beta", "_odo_cos", "_odo", "_view", "_frame", "_cam",
+        "camera_frames", "rendered_frames", "gate_memory", "camera_every", "_cam_seed")
 
     def __init__(self, world: World, *, seed: int = 0, noise: bool = True) -> None:
         p = world.car
@@ -142,6 +163,8 @@ class SimCar:
         gear.max_bias = 0.0
         gear.max_force = GRIP * p.mass * 9.81 * p.wheelbase / 2
         self.space.add(self.body, self.shape, self.control, pivot, gear)
+        self._joints = (pivot, gear)
+        self._apart = -1_000  # the physics step in which the car last left a wall
         #: The chipmunk handles of the body, the control body and the space: a physics step and a pose read call
         #: chipmunk through pymunk's cffi binding directly (the same C calls as pymunk's properties and
         #: ``Space.step``, without their Python wrappers, which cost a third of a step); None on other builds.
@@ -491,6 +514,51 @@ class SimCar:
 
     def _separate(self, arbiter: Any, space: Any, data: Any) -> None:
         self._touching = max(0, self._touching - 1)
+        self._apart = self.steps
+
+    # -- snapshots (fsm.session.snapshot) -------------------------------------------------------------------
+    def snapshot_ready(self) -> bool:
+        """Whether a snapshot taken now restores exactly: pymunk keeps no contact of the car (none now, and none
+        cached from the last few steps: a contact's impulses carry over to the next steps, and they cannot be
+        read), and its joints' memory can be read on this pymunk build."""
+        return (not self._touching and self.steps - self._apart > self.space.collision_persistence
+                and self._c is not None and _joint_layout(self._joints) is not None)
+
+    def __snapshot__(self) -> tuple[Any, ...]:
+        """The bodies' state (position, angle, velocities, forces) and the joints' accumulated impulses (which
+        the next step starts from: pymunk has no way to set them, so their memory is copied)."""
+        body, control, _space = self._c or (None, None, None)
+        layout = _joint_layout(self._joints)
+        if body is None or layout is None:
+            return ()
+        bodies = tuple((_lib.cpBodyGetPosition(b), _lib.cpBodyGetAngle(b), _lib.cpBodyGetVelocity(b),
+                        _lib.cpBodyGetAngularVelocity(b), _lib.cpBodyGetForce(b), _lib.cpBodyGetTorque(b))
+                       for b in (body, control))
+        joints = tuple(bytes(_ffi.buffer(_ffi.cast("char *", joint._constraint) + start, size))
+                       for joint, (start, size) in zip(self._joints, layout, strict=True))
+        return tuple((p.x, p.y, a, v.x, v.y, w, f.x, f.y, t) for p, a, v, w, f, t in bodies), joints
+
+    def __restore__(self, state: tuple[Any, ...]) -> None:
+        """Put the bodies and joints back as :meth:`__snapshot__` found them, and drop the contacts pymunk caches
+        for the car (the car's shape taken out of the space and put back): a snapshot has none."""
+        if not state or self._c is None:
+            return
+        bodies, joints = state
+        restored = self._touching, self._apart, self.collisions
+        self.space.remove(self.shape)  # its cached contacts go with it (their callbacks' counts: put back below)
+        self.space.add(self.shape)
+        self._touching, self._apart, self.collisions = restored
+        for b, (x, y, a, vx, vy, w, fx, fy, t) in zip(self._c[:2], bodies, strict=True):
+            _lib.cpBodySetAngle(b, a)
+            _lib.cpBodySetPosition(b, (x, y))
+            _lib.cpBodySetVelocity(b, (vx, vy))
+            _lib.cpBodySetAngularVelocity(b, w)
+            _lib.cpBodySetForce(b, (fx, fy))
+            _lib.cpBodySetTorque(b, t)
+        layout = _joint_layout(self._joints)
+        assert layout is not None
+        for joint, (start, size), raw in zip(self._joints, layout, joints, strict=True):
+            _ffi.memmove(_ffi.cast("char *", joint._constraint) + start, raw, size)
 
     # -- sensors ------------------------------------------------------------------------------------
     def sense(self) -> None:
@@ -701,6 +769,46 @@ class SimCar:
         x, y, th = pose if pose is not None else self.true_pose()
         c, s = math.cos(th), math.sin(th)
         return self._nearest(self._nominal, x + c * sensor.mx - s * sensor.my, y + s * sensor.mx + c * sensor.my, 5.0)
+
+
+#: Where a pivot and a gear joint keep their numbers in chipmunk's memory (bytes from the start, how many): after
+#: the common constraint header, the pivot's anchors, arms, mass matrix, accumulated impulse and bias; the gear's
+#: phase, ratio, inverse ratio, mass, bias and accumulated impulse. Found and checked once (see _joint_layout).
+_JOINT_FIELDS = (16, 6)
+_layout: list[tuple[tuple[int, int], ...] | None] = []
+
+
+def _joint_layout(joints: tuple[Any, ...]) -> tuple[tuple[int, int], ...] | None:
+    """Where the pivot's and the gear's numbers are in chipmunk's memory, or None if they cannot be found on this
+    pymunk build. Found by writing known anchors and a known phase and looking for them, then checked: the
+    accumulated impulses at the places found must be what pymunk reports as the joints' impulses."""
+    if _layout:
+        return _layout[0]
+    found: tuple[tuple[int, int], ...] | None = None
+    if _lib is not None:
+        a, b = pymunk.Body(body_type=pymunk.Body.KINEMATIC), pymunk.Body(1.0, 1.0)
+        probe = (pymunk.PivotJoint(a, b, (0.123456789, 0.987654321), (0.5, 0.25)),
+                 pymunk.GearJoint(a, b, 0.314159, 1.5))
+        marks = (0.123456789, 0.314159)
+        starts: list[int] = []
+        for joint, mark in zip(probe, marks, strict=True):
+            d = _ffi.cast("double *", joint._constraint)
+            starts += [i for i in range(4, 40) if d[i] == mark][:1]
+        if len(starts) == 2:
+            found = tuple((8 * start, 8 * n) for start, n in zip(starts, _JOINT_FIELDS, strict=True))
+    if found is not None and not _impulses_agree(joints, found):
+        found = None
+    _layout.append(found)
+    return found
+
+
+def _impulses_agree(joints: tuple[Any, ...], layout: tuple[tuple[int, int], ...]) -> bool:
+    pivot, gear = joints
+    p = _ffi.cast("double *", pivot._constraint)
+    g = _ffi.cast("double *", gear._constraint)
+    i, j = layout[0][0] // 8 + 12, layout[1][0] // 8 + 5
+    return bool(math.isclose(math.sqrt(p[i] * p[i] + p[i + 1] * p[i + 1]), pivot.impulse, rel_tol=1e-9, abs_tol=1e-300)
+                and math.isclose(abs(g[j]), gear.impulse, rel_tol=1e-9, abs_tol=1e-300))
 
 
 class BeamIndex:

@@ -46,6 +46,8 @@ class GateLog:
     """Ground truth for the summary: when the car's centre crossed each gate (the segment between its two markers) in
     the gate's direction."""
 
+    __snapshot_fields__ = ("gates", "first_passed", "times_passed", "_last")
+
     def __init__(self, world: World) -> None:
         self.gates: list[tuple[Gate, tuple[float, float], tuple[float, float], float, float]] = []
         for g in world.gates:
@@ -173,7 +175,13 @@ class Track:
     spaced in time, the first at time 0, ``period`` seconds apart; at most :data:`TRACK_LIMIT` of them, in one
     compact array (x, y and index in single precision, 12 bytes a point; 2 um at 30 m is plenty for a plot). When it
     is full, every other point is dropped and ``every`` and ``period`` double: the caller adds a point only every
-    ``every``-th time it could (the loop: every ``track_every * every`` ticks), so the track covers the whole run."""
+    ``every``-th time it could (the loop: every ``track_every * every`` ticks), so the track covers the whole run.
+
+    The points only grow at their end until the array is replaced by a thinner one, so a snapshot of the run
+    (:mod:`fsm.session.snapshot`) keeps the array and its length, not a copy of it: snapshots share it."""
+
+    __snapshot_skip__ = ("_points",)
+    __snapshot_fields__ = ("limit", "period", "every")
 
     def __init__(self, period: float, limit: int = TRACK_LIMIT) -> None:
         if limit < 2 or limit % 2:
@@ -195,6 +203,18 @@ class Track:
 
     def __len__(self) -> int:
         return len(self._points) // 3
+
+    def __snapshot__(self) -> tuple[array[float], int]:
+        return self._points, len(self._points)
+
+    def __restore__(self, state: tuple[array[float], int]) -> None:
+        """The points as they were: the same array cut to its length then (what was added since is dropped), or,
+        when it was replaced by a thinner one since, a copy of the first ones of the array it was."""
+        points, n = state
+        if points is self._points:
+            del points[n:]
+        else:
+            self._points = array("f", points[:n])
 
     def __iter__(self) -> Iterator[tuple[float, float, float, int]]:
         p, period = self._points, self.period
@@ -226,6 +246,9 @@ class LapLog:
     """Ground truth for the summary: the laps (a lap ends when the car's centre crosses the start line forwards) and
     the time spent in each active state (leaf path) in each lap. A state active when the car crosses the line is split
     between the two laps. The last :data:`LAP_LIMIT` complete laps are kept, with totals over all of them."""
+
+    __snapshot_fields__ = ("x0", "y0", "c", "s", "_ahead", "limit", "laps", "completed", "_total", "_fastest",
+                           "_slowest", "_state_totals", "_t0", "_states", "_path", "_since")
 
     def __init__(self, world: World, limit: int = LAP_LIMIT) -> None:
         s = world.start
@@ -326,6 +349,12 @@ class Simulation:
     stops as soon as the car has collided more often than that.
     """
 
+    #: what a snapshot of the run reads, by name (see :attr:`fsm.sim.car.SimCar.__snapshot_fields__`)
+    __snapshot_fields__ = ("machine", "car", "settle", "track_every", "max_collisions", "world_file", "seed", "noise",
+                           "_flag", "active_path", "leaf", "states_seen", "track", "_track_stride", "path_index",
+                           "wall_error", "steering", "_err_sample", "_leaf_d0", "gate_log", "lap_log", "output_time",
+                           "session")
+
     def __init__(self, machine: Machine, car: SimCar, *, settle: float = 2.0, track_every: int = 4,
                  max_collisions: int | None = None, world_file: str | os.PathLike[str] | None = None, seed: int = 0,
                  noise: bool = True) -> None:
@@ -393,6 +422,11 @@ class Simulation:
             track = self.track
             track.add(x, y, self.path_index)
             self._track_stride = self.track_every * track.every
+
+    def snapshot_ready(self) -> bool:
+        """Whether a snapshot of the run (:mod:`fsm.session.snapshot`) taken now restores exactly (the car's
+        :meth:`~fsm.sim.car.SimCar.snapshot_ready`)."""
+        return self.car.snapshot_ready()
 
     def should_stop(self) -> str | None:
         limit = self.max_collisions
@@ -564,13 +598,25 @@ def car_trace_frames(car: SimCar, width: int = THUMB_WIDTH) -> Callable[[], dict
     call (a frame appears once in a trace) or no marker was in view (nothing was rendered)."""
     if car.params.camera is None or not car.params.camera.enabled:
         return None
-    last = [-1]
+    return CarFrames(car, width)
 
-    def frame() -> dict[str, Any] | None:
+
+class CarFrames:
+    """:func:`car_trace_frames`' callable: the frame it gave last is an attribute (a snapshot of the run keeps it)."""
+
+    __snapshot_fields__ = ("car", "width", "last")
+
+    def __init__(self, car: SimCar, width: int) -> None:
+        self.car = car
+        self.width = width
+        self.last = -1
+
+    def __call__(self) -> dict[str, Any] | None:
+        car = self.car
         view = car.camera()
-        if view is None or view.frame == last[0]:
+        if view is None or view.frame == self.last:
             return None
-        last[0] = view.frame
+        self.last = view.frame
         image = car.camera_frame()
         if image is None and not view.detections:
             return None  # nothing in view: no frame was rendered
@@ -582,8 +628,8 @@ def car_trace_frames(car: SimCar, width: int = THUMB_WIDTH) -> Callable[[], dict
             import cv2
 
             h, w = image.shape[:2]
-            scale = width / w
-            small = cv2.resize(image, (width, max(1, round(h * scale))), interpolation=cv2.INTER_AREA)
+            scale = self.width / w
+            small = cv2.resize(image, (self.width, max(1, round(h * scale))), interpolation=cv2.INTER_AREA)
             ok, jpeg = cv2.imencode(".jpg", small, [cv2.IMWRITE_JPEG_QUALITY, THUMB_QUALITY])
             if ok:
                 line.update(jpeg=base64.b64encode(jpeg.tobytes()).decode("ascii"), width=small.shape[1],
@@ -595,8 +641,6 @@ def car_trace_frames(car: SimCar, width: int = THUMB_WIDTH) -> Callable[[], dict
         if view.gates:
             line["gates"] = [[int(g.left.id), int(g.right.id)] for g in view.gates]
         return line
-
-    return frame
 
 
 def car_trace_header(car: SimCar, world_file: object, seed: int, noise: bool) -> dict[str, Any]:

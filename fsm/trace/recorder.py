@@ -64,7 +64,17 @@ class Recorder(Listener):
     period (a ``samples`` line with a row per sample: cheaper to write, and :mod:`fsm.trace.replay` reads them back as
     sample lines); ``frames`` (a callable returning a dict or ``None``) the frame
     lines; ``header`` is merged into the header line.
+
+    A snapshot of the run (:mod:`fsm.session.snapshot`) copies what the recorder has not written yet and its
+    counts; its stream, header and callables are shared (``__snapshot_skip__``): the callables read the car, which
+    the snapshot restores, and the stream is cut where the snapshot was taken by whoever restores it.
     """
+
+    __snapshot_skip__ = ("out", "extra", "header", "sample", "_sampler", "sample_fields", "_tails", "periods")
+    #: what a snapshot reads, by name (reading ``__dict__`` would slow every attribute of the recorder down)
+    __snapshot_fields__ = ("sample_digits", "_rows", "_active_json", "frames", "_every", "_sample_every", "visited",
+                           "_seen", "transitions", "_pending", "_vars", "_events", "monitor_counts", "_last_tick",
+                           "_due", "_special", "_sample_only", "ended", "_input_lines")
 
     def __init__(self, out: SupportsWrite[str] | None = None, extra: Callable[[], dict[str, Any]] | None = None, *,
                  header: dict[str, Any] | None = None, sample: Callable[[], Any] | None = None,
@@ -192,44 +202,58 @@ class Recorder(Listener):
             self._pending = []
             self._events = {}
             return
-        ctx = machine.ctx
-        tick = ctx.tick
         if not self._sample_every:
-            s_every, k_every, f_every = (max(1, round(p / machine.dt)) for p in self.periods)
-            self._every = (s_every, k_every, f_every)
-            self._sample_every = s_every
-            out.write(_dumps(self._header_line(machine)))
-            for input_line in self._input_lines:
-                out.write(input_line)
-            self._input_lines = []
-        time = round(ctx.now, 9)
+            self._begin(machine, out)
         if self._pending or changed is not None or self._events:
-            line: dict[str, Any] = {"type": "event", "tick": tick, "time": time, "active": machine.active_paths,
-                                    "transitions": self._pending}
-            if changed is not None:
-                values, unset = changed
-                if values:
-                    line["vars"] = {k: jsonable(v) for k, v in values.items()}
-                if unset:
-                    line["unset"] = unset
-            if self._events:
-                line.update(self._events)
-            if self.extra is not None:
-                line.update(self.extra())
-            out.write(_dumps(line))
-            self._pending = []
-            self._events = {}
-            self._active_json = None  # whatever changed (a transition, an abort, a pause), print it again
+            self._write_event(machine, out, changed)
+        tick = machine.ctx.tick
         if tick == self._last_tick:
             return
         self._last_tick = tick
+        self._write_due(machine, out, tick)
+        self._schedule(tick)
+
+    def _begin(self, machine: Machine, out: SupportsWrite[str]) -> None:
+        """The first flush: the periods in ticks, the header, and the inputs applied before it."""
+        s_every, k_every, f_every = (max(1, round(p / machine.dt)) for p in self.periods)
+        self._every = (s_every, k_every, f_every)
+        self._sample_every = s_every
+        out.write(_dumps(self._header_line(machine)))
+        for input_line in self._input_lines:
+            out.write(input_line)
+        self._input_lines = []
+
+    def _write_event(self, machine: Machine, out: SupportsWrite[str], changed: tuple[dict[str, Any], list[str]] | None) -> None:
+        """The tick's ``event`` line: its transitions, variables changed and removed, monitors and pauses."""
+        ctx = machine.ctx
+        line: dict[str, Any] = {"type": "event", "tick": ctx.tick, "time": round(ctx.now, 9),
+                                "active": machine.active_paths, "transitions": self._pending}
+        if changed is not None:
+            values, unset = changed
+            if values:
+                line["vars"] = {k: jsonable(v) for k, v in values.items()}
+            if unset:
+                line["unset"] = unset
+        if self._events:
+            line.update(self._events)
+        if self.extra is not None:
+            line.update(self.extra())
+        out.write(_dumps(line))
+        self._pending = []
+        self._events = {}
+        self._active_json = None  # whatever changed (a transition, an abort, a pause), print it again
+
+    def _write_due(self, machine: Machine, out: SupportsWrite[str], tick: int) -> None:
+        """The keyframe, sample and frame lines due at ``tick``."""
         s_every, k_every, f_every = self._every
+        time = round(machine.ctx.now, 9)
         if tick % k_every == 0:
             active = self._active_json
             if active is None:  # printed again only after a transition
                 active = self._active_json = _dumps(machine.active_paths)[:-1]
-            variables = _dumps({k: jsonable(v) for k, v in ctx.vars.items()})[:-1] if ctx.vars else "{}"
-            out.write(f'{{"type":"keyframe","tick":{tick},"time":{time!r},"active":{active},"vars":{variables}}}\n')
+            variables = machine.ctx.vars
+            shown = _dumps({k: jsonable(v) for k, v in variables.items()})[:-1] if variables else "{}"
+            out.write(f'{{"type":"keyframe","tick":{tick},"time":{time!r},"active":{active},"vars":{shown}}}\n')
         if self.sample is not None and tick % s_every == 0:
             if self.sample_fields is not None:
                 if tick % k_every == 0:
@@ -241,7 +265,6 @@ class Recorder(Listener):
             frame = self.frames()
             if frame:
                 out.write(_dumps({"type": "frame", "tick": tick, "time": time, **frame}))
-        self._schedule(tick)
 
     def flush_samples(self, machine: Machine) -> None:
         """Write the samples kept for the current block now (a debugger that pauses shows the car where it is; the

@@ -17,7 +17,7 @@ from fsm.model.errors import FsmError, UsageError, printable
 
 from ..files import shown_path
 from .addresses import is_loopback, usable_urls
-from .stream import LineBuffer
+from .stream import LineBuffer, TraceFile
 
 #: The port the page is served on by default.
 DEFAULT_PORT = 8765
@@ -40,6 +40,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     live.add_argument("--speed", type=_speed, default=1.0, metavar="X|max",
                       help="pace of the live run: X times real time (0.01 to 10000, default 1) or 'max'")
     live.add_argument("--paused", action="store_true", help="start the live run paused at tick 0")
+    live.add_argument("--rewind-horizon", type=parse_horizon, default=None, metavar="SECONDS",
+                      help="how far back (simulated seconds) the live run can be rewound: its snapshots, inputs and "
+                           "reloads are kept this long, so memory stays flat however long it runs (default 1800, "
+                           "30 minutes; 'inf': back to the start, memory grows with the run; 0: no rewind)")
     live.add_argument("--reload", action=argparse.BooleanOptionalAction, default=None,
                       help="hot reload: when the machine's file (or an include) changes on disk, check it; show its "
                            "errors in the page, or swap the machine at the next tick keeping the variables and the "
@@ -54,6 +58,17 @@ def parse_port(text: str) -> int:
         raise argparse.ArgumentTypeError(f"expected a port number, got {text!r}") from None
     if not 0 <= value <= 65535:
         raise argparse.ArgumentTypeError(f"a port is 0 to 65535, got {value}")
+    return value
+
+
+def parse_horizon(text: str) -> float:
+    """A rewind horizon given on the command line: seconds of simulated time, 0 or more, or ``inf``."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected seconds of simulated time or 'inf', got {text!r}") from None
+    if not value >= 0:
+        raise argparse.ArgumentTypeError(f"a rewind horizon is 0 or more seconds (or 'inf'), got {text}")
     return value
 
 
@@ -74,6 +89,7 @@ def check_usage(args: argparse.Namespace) -> None:
     if not args.live:
         given = [o for o, v in (("--port", args.port), ("--host", args.host), ("--no-token", args.no_token or None),
                                 ("--paused", args.paused or None),
+                                ("--rewind-horizon", getattr(args, "rewind_horizon", None)),
                                 ("--reload" if args.reload else "--no-reload", args.reload)) if v is not None]
         if given:
             raise UsageError(f"{given[0]} is an option of the live debugger: add --live")
@@ -111,7 +127,8 @@ def announce(host: str, port: int, token: str | None, out: Any) -> None:
 
 
 class LiveRun:
-    """One live run: builds its sessions (the first, and each rewind's), keeps the trace being written."""
+    """One live run: builds its sessions (the first, and each rewind's before the first snapshot), keeps the trace
+    being written (in a temporary file the run owns: :class:`~fsm.tools.live.stream.TraceFile`)."""
 
     def __init__(self, make_session: Callable[[], Any], make_recorder: Callable[[Any, LineBuffer], Any]) -> None:
         from .server import Source
@@ -123,13 +140,19 @@ class LiveRun:
         self.session = self.build()
 
     def build(self) -> Any:
-        """A fresh session of the run, recording into a fresh buffer (which the pages switch to)."""
+        """A fresh session of the run, recording into a fresh trace file (which the pages switch to)."""
         session = self.make_session()
-        buffer = LineBuffer()
+        buffer = TraceFile()
         self.recorder = session.record(self.make_recorder(session, buffer))
         self.source.buffer = buffer
         self.session = session
         return session
+
+    def restored(self, session: Any) -> None:
+        """A rewind restored a snapshot of ``session``: the pages switch to the trace it writes from now on."""
+        self.session = session
+        self.recorder = session.recorder
+        self.source.buffer = session.recorder.out
 
 
 def serve(source: Any, page: Callable[[dict[str, Any]], str], *, host: str, port: int, token: str | None,
@@ -140,7 +163,7 @@ def serve(source: Any, page: Callable[[dict[str, Any]], str], *, host: str, port
     import asyncio  # here, not at the top: fsmctl's parser takes its options from this module (add_arguments)
 
     controller = source.controller
-    header = json.loads(source.buffer.chunks[0].split("\n", 1)[0])
+    header = json.loads(source.buffer.first_line())
     html = page(header)
 
     async def main() -> None:
@@ -162,6 +185,10 @@ def serve(source: Any, page: Callable[[dict[str, Any]], str], *, host: str, port
             def redraw(loaded: Any) -> None:  # the page served from now on draws the new machine
                 server.page = page({**header, "machine": loaded.info.get("document")})
 
+            def redrawn(document: dict[str, Any] | None) -> None:  # a rewind undid reloads: the machine now
+                server.page = page(header if document is None else {**header, "machine": document})
+
+            controller.machine_changed = redrawn
             watching = asyncio.create_task(watcher.run(controller, redraw))
             print(f"live: watching {', '.join(shown_path(f) for f in watcher.files)} (hot reload; --no-reload to "
                   "turn it off)", file=out, flush=True)
@@ -210,7 +237,7 @@ def serve_trace(name: str, args: argparse.Namespace) -> int:
         serve(Source(buffer), lambda header: live_page(header, Path(name).name), host=args.host or "127.0.0.1",
               port=args.port if args.port is not None else DEFAULT_PORT, token=None if args.no_token else new_token(),
               stop=interrupts.stop, out=sys.stdout)
-    return EXIT_INTERRUPTED if interrupts.interrupted else EXIT_OK
+    return int(EXIT_INTERRUPTED if interrupts.interrupted else EXIT_OK)
 
 
 def listen_error(exc: OSError, host: str, port: int) -> FsmError:
@@ -230,7 +257,7 @@ def run_live(args: argparse.Namespace, file: str, make_session: Callable[[], Any
              make_recorder: Callable[[Any, LineBuffer], Any], signals: list[str], outputs: Any, trace_out: Any,
              summary_out: Any, plot_out: Any, report_out: Any, watcher: Any = None) -> int:
     """The live run of ``fsmctl run --live`` (see the module docstring); its exit status."""
-    from fsm.debug.control import Controller
+    from fsm.debug.control import DEFAULT_HORIZON, Controller
     from fsm.model.errors import StateRuntimeError
 
     from ..runs.args import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, Interrupts
@@ -243,8 +270,9 @@ def run_live(args: argparse.Namespace, file: str, make_session: Callable[[], Any
         run.session.start()
     except StateRuntimeError:
         pass  # the controller says so in the page, where the run can be rewound
+    horizon = args.rewind_horizon if getattr(args, "rewind_horizon", None) is not None else DEFAULT_HORIZON
     controller = Controller(run.session, factory=run.build, speed=args.speed, paused=args.paused, signals=signals,
-                            fresh=make_session)
+                            fresh=make_session, horizon=horizon, on_restore=run.restored)
     run.source.controller = controller
     host = args.host or "127.0.0.1"
     port = args.port if args.port is not None else DEFAULT_PORT
@@ -273,9 +301,11 @@ def run_live(args: argparse.Namespace, file: str, make_session: Callable[[], Any
 
             report_out.write(report_html(parse_trace(text.encode("utf-8"), args.trace or file)))
         if plot_out is not None and session.driver is not None:
+            from fsm.sim.loop import Simulation
             from fsm.sim.render import plot_png
 
-            plot_out.write(plot_png(session.driver))
+            if isinstance(session.driver, Simulation):
+                plot_out.write(plot_png(session.driver))
         if summary_out is not None:
             summary_out.write(json.dumps(result, indent=2) + "\n")
         outputs.commit()
@@ -285,5 +315,5 @@ def run_live(args: argparse.Namespace, file: str, make_session: Callable[[], Any
         recorder = session.recorder
         print("\n".join(end_lines(file, session.machine, recorder, interrupted=interrupted)), file=out)
     if interrupted:
-        return EXIT_INTERRUPTED
-    return EXIT_FAIL if controller.error is not None else EXIT_OK
+        return int(EXIT_INTERRUPTED)
+    return int(EXIT_FAIL if controller.error is not None else EXIT_OK)

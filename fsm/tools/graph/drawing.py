@@ -210,6 +210,8 @@ def _label_shapes(text: str) -> list[tuple[list[str], float, float, float]]:
     return out
 
 
+#: What a label costs for each arrow running through it: more than any place near its arrow, less than a box.
+CROSSED = 20000.0
 #: The rings of candidate places: first those near the arrow (-1: on it), then further out.
 _RINGS = ((-1, 0, 1, 2, 3), tuple(range(4, 12)))
 #: A candidate place: what it costs before looking at the drawing, its number in the order the places are
@@ -276,8 +278,8 @@ def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
                     d = 0.0 if ring < 0 else 4 + abs(sx) * w / 2 + abs(sy) * h / 2 + ring * (LINE_H + 2) * 0.75
                     cx, cy = px + sx * d, py + sy * d
                     r = (round(cx - w / 2, 1), round(cy - h / 2, 1), w, h)
-                    if ring < 0:  # on its own arrow, which costs 600 more: no better than the best one?
-                        low = base + 600
+                    if ring < 0:  # on its own arrow, which costs CROSSED more: no better than the best one?
+                        low = base + CROSSED
                         if (low > best_cost or low == best_cost and idx > best_idx) and \
                                 any(segment_hits_box(*sg, r) for sg in own):
                             continue
@@ -287,13 +289,13 @@ def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
                     cost = base + near.cost(r, (px, py), limit)
                     if cost < best_cost or cost == best_cost and idx < best_idx:
                         best[:] = [cost, idx, r, lines]
-                if best[0] < 1e5:
+                if best[0] < CROSSED:
                     break
 
         search(shapes[:2], _candidates(tuple(worse for *_, worse in shapes[:2])), best, near, anchors, own)
-        if best[0] >= 1e5 and len(shapes) > 2:  # nowhere free: the short form, near its arrow
+        if best[0] >= CROSSED and len(shapes) > 2:  # nowhere free: the short form, near its arrow
             short: list[Any] = [best[0], -1, None, []]
-            search(shapes[2:], _candidates((shapes[2][3],))[:1], short, near, anchors, own)
+            search(shapes[2:], _candidates((shapes[2][3],)), short, near, anchors, own)
             if short[2] is not None and short[0] < best[0]:
                 best = short
         best_r: Rect | None = best[2]
@@ -382,7 +384,7 @@ class _Near:
         for j in range(k, len(found)):
             seg, of, sx0, sy0, sx1, sy1 = segments[found[j] - n_obstacles]
             if not (sx1 < rx or sx0 > rx1 or sy1 < ry or sy0 > ry1) and segment_hits_box(*seg, r):
-                cost += 600 if of == owner else 3000
+                cost += CROSSED  # a label across an arrow (its own too) reads as belonging to it
             elif of != owner and not (sx1 < lx0 or sx0 > lx1 or sy1 < ly0 or sy0 > ly1) and segments_cross(leader, seg):
                 cost += 3000  # another arrow runs between this label and its arrow
             if cost >= limit:

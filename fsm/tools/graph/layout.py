@@ -95,6 +95,8 @@ class Node:
     detached: bool = False
     #: The stored box, before room was made for grown composites (where stored arrow ends are attached).
     stored: tuple[float, float, float, float] | None = None
+    #: How far a tall level's reflow into columns moved the node (drawing only, :func:`_reflow`).
+    reflowed: tuple[float, float] = (0.0, 0.0)
 
     @property
     def id(self) -> str:
@@ -286,6 +288,8 @@ def lay_out(machine: dict[str, Any], label_lines: Any, *, expand: Callable[..., 
         last = _attach(pts[-1], level.initial) if level.initial.stored is not None else pts[-1]
         middle = [] if level.initial.detached else [_spread(p, level.inserted) for p in pts[1:-1]]
         level.marker_points = [first] + middle + [last]
+    if drawing:
+        _reflow(level, label_width)
     for tr in _items(machine, "transitions"):
         if not isinstance(tr, dict):
             continue
@@ -601,6 +605,97 @@ def _is_point(p: Any) -> bool:
     return isinstance(p, list) and len(p) == 2 and all(_num(v) for v in p)
 
 
+# -- tall levels ---------------------------------------------------------------------------------------------
+#: A level taller than ``REFLOW_ASPECT`` times its width (and than ``REFLOW_MIN_H``) is reflowed into columns
+#: (drawing only); the number of columns is the one whose height over width comes nearest to ``REFLOW_TARGET``.
+REFLOW_ASPECT, REFLOW_MIN_H, REFLOW_TARGET = 2.0, 900.0, 0.75
+#: A level that is one column of states (two bands in three hold one state) is reflowed from this height over width.
+COLUMN_ASPECT = 1.3
+
+
+def _bands(level: LevelLayout) -> list[list[tuple[float, float, float, float, Node | None]]]:
+    """The level's boxes (states, and the initial marker as ``None``) cut into horizontal bands: a band ends where
+    a horizontal line meets no box. Top to bottom."""
+    items: list[tuple[float, float, float, float, Node | None]] = [(n.x, n.y, n.w, n.h, n) for n in level.nodes]
+    if level.marker is not None:  # it reaches down to its state, so that the two stay in one band
+        mx, my = level.marker
+        reach = level.initial.y + 1 - my if level.initial is not None else level.marker_size[1]
+        items.append((mx, my, level.marker_size[0], max(level.marker_size[1], reach), None))
+    items.sort(key=lambda b: (b[1], b[0]))
+    bands: list[list[tuple[float, float, float, float, Node | None]]] = []
+    bottom = -math.inf
+    for b in items:
+        if not bands or b[1] >= bottom:
+            bands.append([])
+        bands[-1].append(b)
+        bottom = max(bottom, b[1] + b[3])
+    return bands
+
+
+def _columns(sizes: list[tuple[float, float]], gap_x: float) -> list[list[int]]:
+    """Consecutive bands (``(width, height)`` each) split into columns, each cut where its height would pass the
+    column height tried; the split whose height over width is nearest ``REFLOW_TARGET``."""
+    best: tuple[float, list[list[int]]] = (math.inf, [list(range(len(sizes)))])
+    total = sum(h for _, h in sizes) + GAP_Y * (len(sizes) - 1)
+    for k in range(2, len(sizes) + 1):
+        limit = max(max(h for _, h in sizes), total / k)
+        cols: list[list[int]] = [[]]
+        height = 0.0
+        for i, (_, h) in enumerate(sizes):
+            if cols[-1] and height + GAP_Y + h > limit + 1:
+                cols.append([])
+                height = 0.0
+            height += (GAP_Y if cols[-1] else 0) + h
+            cols[-1].append(i)
+        width = sum(max(sizes[i][0] for i in c) for c in cols) + gap_x * (len(cols) - 1)
+        tall = max(sum(sizes[i][1] for i in c) + GAP_Y * (len(c) - 1) for c in cols)
+        score = abs(math.log(tall / width / REFLOW_TARGET)) + 0.05 * len(cols)  # of two alike, fewer columns
+        if score < best[0]:
+            best = (score, cols)
+    return best[1]
+
+
+def _reflow(level: LevelLayout, label_width: Callable[[dict[str, Any]], float] | None) -> None:
+    """A level much taller than wide (a long chain of states, as a diagram drawn as one column) is cut into its
+    horizontal bands and the bands set into columns side by side, in order, so that the drawing reads in a
+    page rather than as a strip. Each band keeps its own arrangement; every node remembers how far it moved
+    (``reflowed``), so arrows within a band keep their stored bends and arrows between bands are drawn anew."""
+    if len(level.nodes) < 4 or level.note is not None:
+        return
+    x0, y0, x1, y1 = _node_bbox(level)
+    if y1 - y0 <= max(REFLOW_MIN_H, COLUMN_ASPECT * (x1 - x0)):
+        return
+    bands = _bands(level)
+    single = sum(1 for band in bands if sum(1 for b in band if b[4] is not None) == 1)
+    if len(bands) < 3 or (y1 - y0 <= REFLOW_ASPECT * (x1 - x0) and 3 * single < 2 * len(bands)):
+        return
+    boxes = [(min(b[0] for b in band), min(b[1] for b in band), max(b[0] + b[2] for b in band),
+              max(b[1] + b[3] for b in band)) for band in bands]
+    widths = [label_width(tr) for tr in _items(level.machine, "transitions") if isinstance(tr, dict)] \
+        if label_width is not None else []
+    gap_x = GAP_X + min(max(widths, default=0.0), 240.0)
+    sizes = [(bx1 - x0, by1 - by0) for _, by0, bx1, by1 in boxes]
+    columns = _columns(sizes, gap_x)
+    if len(columns) < 2:
+        return
+    left = x0
+    for col in columns:
+        top = y0
+        for i in col:
+            dy = _snap(top - boxes[i][1])
+            dx = left - x0
+            for *_, n in bands[i]:
+                if n is None:
+                    assert level.marker is not None
+                    level.marker = (level.marker[0] + dx, level.marker[1] + dy)
+                    level.marker_points = [[px + dx, py + dy] for px, py in level.marker_points]
+                else:
+                    n.move(dx, dy)
+                    n.reflowed = (dx, dy)
+            top = boxes[i][1] + dy + sizes[i][1] + GAP_Y
+        left += _snap(max(sizes[i][0] for i in col) + gap_x)
+
+
 # -- arrows ----------------------------------------------------------------------------------------------------
 def _route(level: LevelLayout, drawing: bool = False) -> None:
     pair_count: dict[tuple[int, int], int] = {}
@@ -613,11 +708,13 @@ def _route(level: LevelLayout, drawing: bool = False) -> None:
         lay = e.doc.get("layout") if isinstance(e.doc.get("layout"), dict) else {}
         pts = lay.get("points")
         if (e.src.placed and e.dst.placed and isinstance(pts, list) and len(pts) >= 2
-                and all(_is_point(p) for p in pts) and _stored(e.src) and _stored(e.dst)):
+                and all(_is_point(p) for p in pts) and _stored(e.src) and _stored(e.dst)
+                and e.src.reflowed == e.dst.reflowed):
             e.points = [[float(p[0]), float(p[1])] for p in pts]
-            if level.inserted:  # room was made for grown composites: the ends stay on their boxes
+            if level.inserted or e.src.reflowed != (0.0, 0.0):  # boxes moved: the ends stay on their boxes
+                dx, dy = e.src.reflowed
                 middle = [] if e.src.detached or e.dst.detached else \
-                    [_spread(p, level.inserted) for p in e.points[1:-1]]
+                    [[x + dx, y + dy] for x, y in (_spread(p, level.inserted) for p in e.points[1:-1])]
                 e.points = [_attach(e.points[0], e.src)] + middle + [_attach(e.points[-1], e.dst)]
             continue
         key = (min(id(e.src), id(e.dst)), max(id(e.src), id(e.dst)))
@@ -666,6 +763,8 @@ def _separate_duplicates(level: LevelLayout) -> None:
 #: units of length), and the most boxes a level may have for its arrows to be routed (the grid grows with the
 #: square of it).
 CLEARANCE, BEND, ROUTE_MAX = 12, 60.0, 80
+#: How close an arrow may run along a box that is not one of its ends (closer, it looks as if it went in).
+GRAZE = 4.0
 Seg = tuple[float, float, float, float]
 #: Routing passes: after the first, each routed arrow is routed again with all the others in place.
 ROUTE_PASSES = 2
@@ -701,8 +800,8 @@ def _routes(boxes: tuple[Seg, ...], arrows: tuple[tuple[int, int, tuple[Point, .
     for k, (si, ti, pts) in enumerate(arrows):
         if si == ti or len(pts) < 2:
             continue
-        if any(i not in (si, ti) and segment_hits_box(a[0], a[1], b[0], b[1], boxes[i], 1.0) for a, b in pairwise(pts)
-               for i in range(len(boxes))):
+        if any(i not in (si, ti) and segment_hits_box(a[0], a[1], b[0], b[1], boxes[i], -GRAZE)
+               for a, b in pairwise(pts) for i in range(len(boxes))):
             bad.append(k)
     kept = [(a[0], a[1], b[0], b[1]) for k, (_, _, pts) in enumerate(arrows) if k not in bad
             for a, b in pairwise(pts)]
@@ -758,8 +857,8 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
         lo_x, lo_y, hi_x, hi_y = key
         inside = hits.get(key)
         if inside is None:
-            inside = hits[key] = tuple(i for i, r in enumerate(boxes) if lo_x < r[0] + r[2] - 1 and hi_x > r[0] + 1
-                                       and lo_y < r[1] + r[3] - 1 and hi_y > r[1] + 1)
+            inside = hits[key] = tuple(i for i, r in enumerate(boxes) if lo_x < r[0] + r[2] + GRAZE
+                                       and hi_x > r[0] - GRAZE and lo_y < r[1] + r[3] + GRAZE and hi_y > r[1] - GRAZE)
         if any(i != si and i != ti for i in inside):
             return False
         for r, (px, py) in ((s, start), (t, goal)):

@@ -9,6 +9,9 @@ measures any version of the drawing code the same way. Counted:
   its ends (the boxes its first and last points lie on) nor a composite it is drawn in;
 * ``label_box``: arrow labels over a state box, a composite's title band, or a composite they are not drawn in;
 * ``label_label``: pairs of labels that overlap;
+* ``label_edge``: (label, arrow) pairs where the arrow runs through the label's rectangle (its own arrow too);
+* ``edge_grazes_box``: (arrow, box) pairs where the arrow, not through the box, runs along its border closer than
+  ``GRAZE`` (it looks as if it went in);
 * ``crossings``: points where two arrows cross;
 * ``along``: pairs of segments of two arrows that run on top of each other for some length.
 """
@@ -26,6 +29,8 @@ NS = "{http://www.w3.org/2000/svg}"
 Rect = tuple[float, float, float, float]
 #: How deep into a box an arrow or label must reach to count (the border and a pixel or two of air do not).
 TOLERANCE = 2.0
+#: How close an arrow may run along a box that is not one of its ends.
+GRAZE = 3.0
 
 
 @dataclass
@@ -34,6 +39,8 @@ class Quality:
     edge_through_box: int = 0
     label_box: int = 0
     label_label: int = 0
+    label_edge: int = 0
+    edge_grazes_box: int = 0
     crossings: int = 0
     along: int = 0
     boxes: int = 0
@@ -41,8 +48,8 @@ class Quality:
     labels: int = 0
 
     def row(self) -> tuple[int, ...]:
-        return (self.boxes, self.edges, self.box_overlaps, self.edge_through_box, self.label_box, self.label_label,
-                self.crossings, self.along)
+        return (self.boxes, self.edges, self.box_overlaps, self.edge_through_box, self.edge_grazes_box,
+                self.label_box, self.label_label, self.label_edge, self.crossings, self.along)
 
 
 @dataclass
@@ -144,18 +151,22 @@ def measure(svg_text: str) -> Quality:
         if len(pts) < 2:
             continue
         ends = [b.path for b in boxes if _touches(pts[0], b.rect) or _touches(pts[-1], b.rect)]
-        hit = set()
+        hit, grazed = set(), set()
         for p, r in pairwise(pts):
             seg = (p[0], p[1], r[0], r[1])
             all_segs.append((k, seg))
             segs.add_segment(*seg)
-            for j in grid.near(min(p[0], r[0]), min(p[1], r[1]), max(p[0], r[0]), max(p[1], r[1])):
+            for j in grid.near(min(p[0], r[0]) - GRAZE, min(p[1], r[1]) - GRAZE, max(p[0], r[0]) + GRAZE,
+                               max(p[1], r[1]) + GRAZE):
                 b = boxes[j]
                 if j in hit or b.path in ends or (within and _inside(within, b.path)):
                     continue
                 if segment_hits_box(*seg, b.rect, TOLERANCE):
                     hit.add(j)
+                elif segment_hits_box(*seg, b.rect, -GRAZE):
+                    grazed.add(j)
         q.edge_through_box += len(hit)
+        q.edge_grazes_box += len(grazed - hit)
     for i, (k, seg) in enumerate(all_segs):
         for j in segs.near(min(seg[0], seg[2]), min(seg[1], seg[3]), max(seg[0], seg[2]), max(seg[1], seg[3])):
             k2, seg2 = all_segs[j]
@@ -173,6 +184,10 @@ def measure(svg_text: str) -> Quality:
             elif _overlap(r, b.rect):
                 q.label_box += 1
                 break
+    for _, r in labels:
+        crossed = {all_segs[j][0] for j in segs.near(r[0], r[1], r[0] + r[2], r[1] + r[3])
+                   if segment_hits_box(*all_segs[j][1], r, TOLERANCE)}
+        q.label_edge += len(crossed)
     placed = Buckets()
     for _, r in labels:
         placed.add_rect(*r)
@@ -183,7 +198,8 @@ def measure(svg_text: str) -> Quality:
     return q
 
 
-HEADER = ("boxes", "arrows", "box/box", "arrow/box", "label/box", "label/label", "crossings", "arrow along arrow")
+HEADER = ("boxes", "arrows", "box/box", "arrow/box", "arrow along box", "label/box", "label/label", "label/arrow",
+          "crossings", "arrow along arrow")
 
 
 def table(rows: list[tuple[str, Quality | str]]) -> str:

@@ -1,0 +1,131 @@
+"""Issue 33 item 6: the charts of the live page, the report and ``fsmctl graph`` are legible.
+
+Measured on the rendered SVG (:func:`fsm.tools.graph.quality.measure`): label rectangles against each other, against
+state boxes and against arrows; arrow polylines against state boxes (through them, or along their border so close
+that they seem to go in). On the hallway lap and the gate run as the live page draws them (from the ``.uxf`` the
+user runs), and on real UMLet files from the corpus converted by our converter.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from xml.etree import ElementTree
+
+import pytest
+
+from fsm.tools import graph
+from fsm.tools.graph.quality import measure
+from fsm.tools.umlet.reader import convert_file, read_uxf
+from helpers import CORPUS
+
+ROOT = Path(__file__).resolve().parents[1]
+NS = "{http://www.w3.org/2000/svg}"
+CORPUS_FILES = ["Belinus-code__Garagen-Controller__Zustandsdiagramm.uxf",
+                "ForceGitE__SoftwareDesign-assignment__statechart.uxf",
+                "nastygorodi__PROJECT-Short_Text_Generator__State Machine.uxf"]
+
+
+def _drawn(path: Path) -> str:
+    doc, _ = read_uxf(path)
+    return graph.svg(doc, base=path)
+
+
+def _size(svg: str) -> tuple[float, float]:
+    m = re.search(r'<svg [^>]*width="([\d.]+)" height="([\d.]+)"', svg)
+    assert m is not None
+    return float(m.group(1)), float(m.group(2))
+
+
+def _boxes(svg: str) -> dict[str, tuple[float, float, float, float]]:
+    out = {}
+    for g in ElementTree.fromstring(svg).iter(NS + "g"):
+        rect = g.find(NS + "rect")
+        if g.get("data-path") and rect is not None:
+            out[g.get("data-path") or ""] = tuple(float(rect.get(k, "0")) for k in ("x", "y", "width", "height"))
+    return out
+
+
+FAULTS = ("box_overlaps", "edge_through_box", "edge_grazes_box", "label_box", "label_label", "label_edge")
+
+
+@pytest.mark.parametrize("name", ["hallway_lap.uxf", "lap.uxf", "gate_home.uxf", "mission.uxf", "corner_turn.uxf"])
+def test_no_label_over_a_label_box_or_arrow_and_no_arrow_in_a_box(name):
+    q = measure(_drawn(ROOT / "diagrams" / name))
+    assert q.boxes > 0 and q.labels > 0
+    assert {f: getattr(q, f) for f in FAULTS} == dict.fromkeys(FAULTS, 0), q
+
+
+def test_the_gate_run_as_the_live_page_draws_it():
+    """The gate run's chart (side1 drawn from gate_side.json): no stacked labels, no arrow through or along `view`
+    or any other box; of its 46 labels at most one (the view -> slow label, at a junction of four arrows in the
+    user's own layout) touches an arrow."""
+    svg = _drawn(ROOT / "diagrams" / "gate_run.uxf")
+    q = measure(svg)
+    assert (q.box_overlaps, q.edge_through_box, q.edge_grazes_box, q.label_box, q.label_label) == (0, 0, 0, 0, 0), q
+    labels_on_arrows = 0
+    root = ElementTree.fromstring(svg)
+    for g in root.iter(NS + "g"):
+        if g.get("class") == "label":
+            one = measure(_only(svg, g))
+            labels_on_arrows += one.label_edge > 0
+    assert labels_on_arrows <= 1, q
+
+
+def _only(svg: str, keep: ElementTree.Element) -> str:
+    """The drawing with one label only (to count the labels that touch an arrow, not the pairs)."""
+    root = ElementTree.fromstring(svg)
+    for parent in list(root.iter()):
+        for child in list(parent):
+            if child.get("class") == "label" and child.tag == NS + "g" and \
+                    ElementTree.tostring(child) != ElementTree.tostring(keep):
+                parent.remove(child)
+    return ElementTree.tostring(root, encoding="unicode")
+
+
+@pytest.mark.parametrize("name", CORPUS_FILES)
+def test_real_umlet_files_from_the_corpus(name):
+    path = CORPUS / name
+    if not path.is_file():
+        pytest.skip("corpus file not present")
+    conv = convert_file(path)
+    for doc in conv.machines:
+        q = measure(graph.svg(doc, base=path))
+        assert q.boxes > 0
+        assert {f: getattr(q, f) for f in FAULTS} == dict.fromkeys(FAULTS, 0), q
+
+
+def test_the_three_laps_are_not_one_column():
+    """The hallway lap was a 470 x 4,070 strip: its laps and the lap's four sides now stand side by side, so the
+    chart is about as wide as it is tall and "fit" can show it in a window."""
+    svg = _drawn(ROOT / "diagrams" / "hallway_lap.uxf")
+    w, h = _size(svg)
+    assert h <= 1.2 * w, (w, h)
+    boxes = _boxes(svg)
+    lap1, lap2, lap3 = boxes["lap1"], boxes["lap2"], boxes["lap3"]
+    assert lap2[0] >= lap1[0] + lap1[2] and lap3[0] >= lap1[0] + lap1[2]  # beside the first lap, not below it
+    inner = [b for p, b in boxes.items() if p.startswith("lap1/") and p.count("/") == 1]
+    assert len({b[0] for b in inner}) >= 3  # the lap's own states in several columns
+
+
+def test_a_long_chain_without_a_layout_is_set_in_columns():
+    states = [{"id": f"s{i}", "type": "Wait", "seconds": 1} for i in range(24)]
+    transitions = [{"type": "Finished", "from": f"s{i}", "to": f"s{i + 1}"} for i in range(23)]
+    svg = graph.svg({"name": "chain", "initial": "s0", "states": states, "transitions": transitions})
+    w, h = _size(svg)
+    assert h <= 1.5 * w, (w, h)
+    q = measure(svg)
+    assert {f: getattr(q, f) for f in FAULTS} == dict.fromkeys(FAULTS, 0), q
+    boxes = _boxes(svg)
+    assert boxes["s1"][1] > boxes["s0"][1]  # still read top to bottom within a column
+
+
+def test_a_short_or_wide_diagram_keeps_its_geometry():
+    """Only a level much taller than wide is reflowed: the user's own layout of the gate side stays as drawn."""
+    path = ROOT / "diagrams" / "gate_side.uxf"
+    doc, _ = read_uxf(path)
+    boxes = _boxes(graph.svg(doc, base=path))
+    for st in doc["states"]:
+        lay = st.get("layout")
+        if lay:
+            assert boxes[st["id"]][:2] == (lay["x"], lay["y"])

@@ -421,3 +421,21 @@ def test_a_rewind_that_publishes_nothing_new_is_still_told_its_status(scripted: 
     run.notify()  # a new trace, no new snapshot
     assert page.drawn_at(390)["tick"] == 390
     assert page.until("window.tralLive.status() && window.tralLive.status().tick === 390")
+
+
+def test_the_sticky_bars_never_cover_what_the_page_brings_into_view(browser: Any) -> None:
+    """Issue 33: scrolled down, a field of the side panels that gets the focus (a click on its label, Tab, a search
+    in the page) comes into view below the toolbar and the live bar, not under them."""
+    live, page = browser(LAP, "--paused", size=(1280, 560))
+    p = page.page
+    p.wait_for_selector("#conn.up")
+    bars = p.evaluate("document.getElementById('toolbar').offsetHeight + document.getElementById('live-bar')"
+                      ".offsetHeight")
+    p.evaluate("window.scrollTo(0, document.documentElement.scrollHeight)")
+    assert p.evaluate("document.getElementById('live-bar').getBoundingClientRect().top") == \
+        p.evaluate("document.getElementById('toolbar').offsetHeight")  # stuck right below the toolbar
+    for field in ("#watch-expr", "#break-a", "#inject-a"):
+        p.evaluate("window.scrollTo(0, document.documentElement.scrollHeight)")
+        p.focus(field)
+        top = p.evaluate(f"document.querySelector('{field}').getBoundingClientRect().top")
+        assert top >= bars, (field, top, bars)

@@ -352,9 +352,18 @@ class LiveServer:
                 if snapshot is not None and snapshot.get("seq") != seq:
                     seq = snapshot["seq"]
                     await ws.send_str(json.dumps({"kind": "status", **snapshot}, allow_nan=False, default=str))
-                fast = snapshot is not None and snapshot.get("speed") is None and snapshot.get("state") == "running"
-                await asyncio.sleep(max(0.0, 1 / (FAST_RATE if fast else MAX_RATE) - (loop.time() - started)))
+                await asyncio.sleep(_pause_before_next(snapshot, loop.time() - started))
                 await client.wake.wait()
                 client.wake.clear()
         except (ConnectionError, asyncio.CancelledError, RuntimeError):
             return
+
+
+def _pause_before_next(snapshot: dict[str, Any] | None, spent: float) -> float:
+    """How long a page's sender waits before it looks again: a running run's pages get at most :data:`MAX_RATE`
+    messages a second (:data:`FAST_RATE` at full speed); a paused or ended run's, at once: what it sends then is
+    the answer to a click (a step, a rewind), and a click is answered as fast as the page can draw."""
+    if snapshot is None or snapshot.get("state") != "running":
+        return 0.0
+    fast = snapshot.get("speed") is None
+    return max(0.0, 1 / (FAST_RATE if fast else MAX_RATE) - spent)

@@ -212,8 +212,12 @@ def _label_shapes(text: str) -> list[tuple[list[str], float, float, float]]:
 
 #: What a label costs for each arrow running through it: more than any place near its arrow, less than a box.
 CROSSED = 20000.0
-#: The rings of candidate places: first those near the arrow (-1: on it), then further out.
-_RINGS = ((-1, 0, 1, 2, 3), tuple(range(4, 12)))
+#: Rings from this one on are tried only when every place beside the arrow lies across something: the label goes
+#: round a point of its arrow in eight directions (``side`` is the direction), at growing distances.
+COMPASS = 12
+_DIRECTIONS = tuple((math.cos(k * math.pi / 4), math.sin(k * math.pi / 4)) for k in range(8))
+#: The rings of candidate places: first those near the arrow (-1: on it), then further out, then around it.
+_RINGS = ((-1, 0, 1, 2, 3), tuple(range(4, 12)), tuple(range(COMPASS, COMPASS + 8)))
 #: A candidate place: what it costs before looking at the drawing, its number in the order the places are
 #: listed (the first of equally good places wins), its ring, which ``_ALONG`` point, which label shape, which side.
 Candidate = tuple[float, int, int, int, int, int]
@@ -230,7 +234,7 @@ def _candidates(worse: tuple[float, ...]) -> tuple[tuple[Candidate, ...], ...]:
         for ring in rings:
             for ti, t in enumerate(_ALONG):
                 for si, bad in enumerate(worse):
-                    for side in ((1,) if ring < 0 else (1, -1)):
+                    for side in ((1,) if ring < 0 else range(8) if ring >= COMPASS else (1, -1)):
                         group.append((abs(t - 0.5) * 120 + max(ring, 0) * 250 + (0 if side == 1 else 15) + bad, idx,
                                       ring, ti, si, side))
                         idx += 1
@@ -274,8 +278,12 @@ def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
                         break  # this place and all after it cost at least as much as the best one
                     px, py, nx, ny = anchors[ti]
                     lines, w, h, _ = shapes[si]
-                    sx, sy = nx * side, ny * side
-                    d = 0.0 if ring < 0 else 4 + abs(sx) * w / 2 + abs(sy) * h / 2 + ring * (LINE_H + 2) * 0.75
+                    if ring >= COMPASS:  # round the point: past the label's own half size, then a step a ring
+                        sx, sy = _DIRECTIONS[side]
+                        d = 4 + abs(sx) * w / 2 + abs(sy) * h / 2 + (ring - COMPASS) * (LINE_H + 2)
+                    else:
+                        sx, sy = nx * side, ny * side
+                        d = 0.0 if ring < 0 else 4 + abs(sx) * w / 2 + abs(sy) * h / 2 + ring * (LINE_H + 2) * 0.75
                     cx, cy = px + sx * d, py + sy * d
                     r = (round(cx - w / 2, 1), round(cy - h / 2, 1), w, h)
                     if ring < 0:  # on its own arrow, which costs CROSSED more: no better than the best one?

@@ -267,7 +267,7 @@ def lay_out(machine: dict[str, Any], label_lines: Any, *, expand: Callable[..., 
                 node.parts.append(Part(lay_out(sub, label_lines, expand=hook or expand, size=size,
                                                label_width=label_width, drawing=drawing, note_size=note_size), name,
                                        exp.min_widths[i] if i < len(exp.min_widths) else 0))
-        lay = st.get("layout") if isinstance(st.get("layout"), dict) else {}
+        lay = _dict(st.get("layout"))
         if all(_num(lay.get(k)) for k in "xywh"):
             node.x, node.y, node.w, node.h = float(lay["x"]), float(lay["y"]), float(lay["w"]), float(lay["h"])
             node.placed = True
@@ -315,8 +315,8 @@ def _place_note(level: LevelLayout, size: tuple[float, float] | None) -> None:
     if size is None:
         return
     w, h = size
-    lay = level.machine.get("layout") if isinstance(level.machine.get("layout"), dict) else {}
-    note = lay.get("note") if isinstance(lay.get("note"), dict) else {}
+    lay = _dict(level.machine.get("layout"))
+    note = _dict(lay.get("note"))
     if all(_num(note.get(k)) for k in "xywh") and all(n.stored is not None for n in level.nodes) \
             and not level.inserted:
         level.note = [float(note["x"]), float(note["y"]), float(note["w"]), float(note["h"])]
@@ -386,7 +386,7 @@ def _arrange(n: Node) -> None:
 def _stored_frames(n: Node) -> list[tuple[float, float, float, float]] | None:
     """The frames an inset composite's regions keep (``layout.frames`` of the state, one per region), when the
     box kept its stored place and every frame lies inside it and holds its region's content; else None."""
-    lay = n.doc.get("layout") if isinstance(n.doc.get("layout"), dict) else {}
+    lay = _dict(n.doc.get("layout"))
     stored = lay.get("frames")
     if not n.inset or n.stored is None or not isinstance(stored, list) or len(stored) != len(n.parts):
         return None
@@ -446,7 +446,7 @@ def _place(level: LevelLayout, by_id: dict[str, Node], label_width: Callable[[di
                 if isinstance(tr, dict) and str(tr.get("from")) in by_id:
                     into.setdefault(str(tr.get("to")), []).append(tr)
         for i, r in enumerate(sorted(rows)):
-            gap_x = GAP_X
+            gap_x: float = GAP_X
             if label_width is not None:
                 ids = dict.fromkeys(n.id for n in rows[r])
                 widths = [label_width(tr) for sid in ids for tr in into.get(sid, [])]
@@ -460,8 +460,8 @@ def _place(level: LevelLayout, by_id: dict[str, Node], label_width: Callable[[di
                 n.placed = True
                 x += n.w + gap_x
             y += max(n.h for n in rows[r]) + GAP_Y
-    lay = level.machine.get("layout") if isinstance(level.machine.get("layout"), dict) else {}
-    ini = lay.get("initial") if isinstance(lay.get("initial"), dict) else {}
+    lay = _dict(level.machine.get("layout"))
+    ini = _dict(lay.get("initial"))
     if level.initial is not None:
         if _num(ini.get("x")) and _num(ini.get("y")) and level.initial.placed \
                 and all(n.placed for n in level.nodes) and not todo:
@@ -592,6 +592,11 @@ def _node_bbox(level: LevelLayout) -> tuple[float, float, float, float]:
     return min(xs), min(ys), max(xe), max(ye)
 
 
+def _dict(v: Any) -> dict[str, Any]:
+    """``v`` when it is a dictionary (a document's optional ``layout`` block), else an empty one."""
+    return v if isinstance(v, dict) else {}
+
+
 def _num(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
@@ -705,7 +710,7 @@ def _route(level: LevelLayout, drawing: bool = False) -> None:
         key = (min(id(e.src), id(e.dst)), max(id(e.src), id(e.dst)))
         pair_total[key] = pair_total.get(key, 0) + 1
     for e in level.edges:
-        lay = e.doc.get("layout") if isinstance(e.doc.get("layout"), dict) else {}
+        lay = _dict(e.doc.get("layout"))
         pts = lay.get("points")
         if (e.src.placed and e.dst.placed and isinstance(pts, list) and len(pts) >= 2
                 and all(_is_point(p) for p in pts) and _stored(e.src) and _stored(e.dst)
@@ -755,7 +760,7 @@ def _separate_duplicates(level: LevelLayout) -> None:
         off = 18 * ((k + 1) // 2) * (1 if k % 2 else -1)
         i = (len(e.points) - 1) // 2
         p, q = e.points[i], e.points[i + 1]
-        bend = [round((p[0] + q[0]) / 2 + nx * off), round((p[1] + q[1]) / 2 + ny * off)]
+        bend = [float(round((p[0] + q[0]) / 2 + nx * off)), float(round((p[1] + q[1]) / 2 + ny * off))]
         e.points = e.points[:i + 1] + [bend] + e.points[i + 1:]
 
 
@@ -920,8 +925,8 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
     pts = [(xs[i], ys[j]) for i, j in reversed(cells)]
     corners = [pts[0]]
     for p, q in pairwise(pts[1:]):
-        last = corners[-1]
-        if not ((last[0] == p[0] == q[0]) or (last[1] == p[1] == q[1])):
+        before = corners[-1]
+        if not ((before[0] == p[0] == q[0]) or (before[1] == p[1] == q[1])):
             corners.append(p)
     corners.append(pts[-1])
     # cut at the borders: leave the source where the path first leaves it, enter the target where it last enters
@@ -986,7 +991,7 @@ def _connect(a: tuple[float, float, float, float], b: tuple[float, float, float,
     dx, dy = bx - ax, by - ay
     length = math.hypot(dx, dy) or 1.0
     nx, ny = -dy / length, dx / length
-    off = (k + 1) // 2 * 14 * (1 if k % 2 else -1) if k else 0
+    off: float = (k + 1) // 2 * 14 * (1 if k % 2 else -1) if k else 0
     lim = min(a[2], a[3], b[2], b[3]) / 2 - 4
     off = max(-lim, min(lim, off))
     sx, sy = ax + nx * off, ay + ny * off

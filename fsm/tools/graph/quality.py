@@ -98,7 +98,7 @@ def _along(a: tuple[float, float, float, float], b: tuple[float, float, float, f
             return False  # an end of b is off a's line
     t0 = ((b[0] - ax) * dx + (b[1] - ay) * dy) / length
     t1 = ((b[2] - ax) * dx + (b[3] - ay) * dy) / length
-    return min(length, max(t0, t1)) - max(0.0, min(t0, t1)) > 4
+    return bool(min(length, max(t0, t1)) - max(0.0, min(t0, t1)) > 4)
 
 
 def measure(svg_text: str) -> Quality:
@@ -152,12 +152,12 @@ def measure(svg_text: str) -> Quality:
             continue
         ends = [b.path for b in boxes if _touches(pts[0], b.rect) or _touches(pts[-1], b.rect)]
         hit, grazed = set(), set()
-        for p, r in pairwise(pts):
-            seg = (p[0], p[1], r[0], r[1])
+        for u, v in pairwise(pts):
+            seg = (u[0], u[1], v[0], v[1])
             all_segs.append((k, seg))
             segs.add_segment(*seg)
-            for j in grid.near(min(p[0], r[0]) - GRAZE, min(p[1], r[1]) - GRAZE, max(p[0], r[0]) + GRAZE,
-                               max(p[1], r[1]) + GRAZE):
+            for j in grid.near(min(u[0], v[0]) - GRAZE, min(u[1], v[1]) - GRAZE, max(u[0], v[0]) + GRAZE,
+                               max(u[1], v[1]) + GRAZE):
                 b = boxes[j]
                 if j in hit or b.path in ends or (within and _inside(within, b.path)):
                     continue

@@ -417,67 +417,79 @@ def _place(level: LevelLayout, by_id: dict[str, Node], label_width: Callable[[di
         w, h = _natural_size(n)
         n.w, n.h = max(n.w, w), max(n.h, h)
     if todo:
-        depth: dict[str, int] = {}
-        if level.initial is not None:
-            depth[level.initial.id] = 0
-            queue = deque([level.initial.id])
-            edges: dict[str, list[str]] = {}
-            for tr in _items(level.machine, "transitions"):
-                if isinstance(tr, dict):
-                    edges.setdefault(str(tr.get("from")), []).append(str(tr.get("to")))
-            while queue:
-                cur = queue.popleft()
-                for nxt in edges.get(cur, []):
-                    if nxt not in depth and nxt in by_id:
-                        depth[nxt] = depth[cur] + 1
-                        queue.append(nxt)
-        placed = [n for n in level.nodes if n.placed]
-        top = max((n.y + n.h for n in placed), default=-GAP_Y) + GAP_Y
-        top = max(top, MARKER + 40)
-        rows: dict[int, list[Node]] = {}
-        last = max(depth.values(), default=0) + 1
-        for n in todo:
-            rows.setdefault(depth.get(n.id, last), []).append(n)
-        y = top
-        left = min((n.x for n in placed), default=0.0)
-        into: dict[str, list[dict[str, Any]]] = {}  # the arrows into each state, for the room their labels need
-        if label_width is not None:
-            for tr in _items(level.machine, "transitions"):
-                if isinstance(tr, dict) and str(tr.get("from")) in by_id:
-                    into.setdefault(str(tr.get("to")), []).append(tr)
-        for i, r in enumerate(sorted(rows)):
-            gap_x: float = GAP_X
-            if label_width is not None:
-                ids = dict.fromkeys(n.id for n in rows[r])
-                widths = [label_width(tr) for sid in ids for tr in into.get(sid, [])]
-                gap_x = max(GAP_X, _snap(max(widths, default=0) + 20))
-                if i:
-                    y += max(0, len(widths) - 1) * 16
-            x = left
-            for n in rows[r]:
-                n.x, n.y = x, y
-                _arrange(n)
-                n.placed = True
-                x += n.w + gap_x
-            y += max(n.h for n in rows[r]) + GAP_Y
-    lay = _dict(level.machine.get("layout"))
-    ini = _dict(lay.get("initial"))
+        _place_rows(level, _rows(level, by_id, todo), by_id, label_width)
     if level.initial is not None:
-        if _num(ini.get("x")) and _num(ini.get("y")) and level.initial.placed \
-                and all(n.placed for n in level.nodes) and not todo:
-            level.marker = (float(ini["x"]), float(ini["y"]))
-            if _num(ini.get("w")) and _num(ini.get("h")):
-                level.marker_size = (float(ini["w"]), float(ini["h"]))
-            pts = ini.get("points")
-            if isinstance(pts, list) and len(pts) >= 2 and all(_is_point(p) for p in pts):
-                level.marker_points = [[float(p[0]), float(p[1])] for p in pts]
-        else:
-            n = level.initial
-            level.marker = (n.x + n.w / 2 - MARKER / 2, n.y - MARKER - 40)
-        if not level.marker_points:
-            mx, my = level.marker
-            level.marker_points = _connect((mx, my, MARKER, MARKER), (level.initial.x, level.initial.y,
-                                                                         level.initial.w, level.initial.h), 0)
+        _place_marker(level, level.initial, stored=not todo)
+
+
+def _rows(level: LevelLayout, by_id: dict[str, Node], todo: list[Node]) -> dict[int, list[Node]]:
+    """The nodes to place by their distance (in arrows) from the initial state; the unreachable ones last."""
+    depth: dict[str, int] = {}
+    if level.initial is not None:
+        depth[level.initial.id] = 0
+        queue = deque([level.initial.id])
+        edges: dict[str, list[str]] = {}
+        for tr in _items(level.machine, "transitions"):
+            if isinstance(tr, dict):
+                edges.setdefault(str(tr.get("from")), []).append(str(tr.get("to")))
+        while queue:
+            cur = queue.popleft()
+            for nxt in edges.get(cur, []):
+                if nxt not in depth and nxt in by_id:
+                    depth[nxt] = depth[cur] + 1
+                    queue.append(nxt)
+    rows: dict[int, list[Node]] = {}
+    last = max(depth.values(), default=0) + 1
+    for n in todo:
+        rows.setdefault(depth.get(n.id, last), []).append(n)
+    return rows
+
+
+def _place_rows(level: LevelLayout, rows: dict[int, list[Node]], by_id: dict[str, Node],
+                label_width: Callable[[dict[str, Any]], float] | None) -> None:
+    """The rows one below the other, below what has a stored place, each row's boxes side by side."""
+    placed = [n for n in level.nodes if n.placed]
+    y = max(max((n.y + n.h for n in placed), default=-GAP_Y) + GAP_Y, MARKER + 40)
+    left = min((n.x for n in placed), default=0.0)
+    into: dict[str, list[dict[str, Any]]] = {}  # the arrows into each state, for the room their labels need
+    if label_width is not None:
+        for tr in _items(level.machine, "transitions"):
+            if isinstance(tr, dict) and str(tr.get("from")) in by_id:
+                into.setdefault(str(tr.get("to")), []).append(tr)
+    for i, r in enumerate(sorted(rows)):
+        gap_x: float = GAP_X
+        if label_width is not None:
+            ids = dict.fromkeys(n.id for n in rows[r])
+            widths = [label_width(tr) for sid in ids for tr in into.get(sid, [])]
+            gap_x = max(GAP_X, _snap(max(widths, default=0) + 20))
+            if i:
+                y += max(0, len(widths) - 1) * 16
+        x = left
+        for n in rows[r]:
+            n.x, n.y = x, y
+            _arrange(n)
+            n.placed = True
+            x += n.w + gap_x
+        y += max(n.h for n in rows[r]) + GAP_Y
+
+
+def _place_marker(level: LevelLayout, initial: Node, stored: bool) -> None:
+    """The initial marker and its arrow: where ``layout.initial`` keeps them when every box kept its stored
+    place, else above the initial state."""
+    ini = _dict(_dict(level.machine.get("layout")).get("initial"))
+    if _num(ini.get("x")) and _num(ini.get("y")) and initial.placed and all(n.placed for n in level.nodes) \
+            and stored:
+        level.marker = (float(ini["x"]), float(ini["y"]))
+        if _num(ini.get("w")) and _num(ini.get("h")):
+            level.marker_size = (float(ini["w"]), float(ini["h"]))
+        pts = ini.get("points")
+        if isinstance(pts, list) and len(pts) >= 2 and all(_is_point(p) for p in pts):
+            level.marker_points = [[float(p[0]), float(p[1])] for p in pts]
+    else:
+        level.marker = (initial.x + initial.w / 2 - MARKER / 2, initial.y - MARKER - 40)
+    if not level.marker_points:
+        mx, my = level.marker
+        level.marker_points = _connect((mx, my, MARKER, MARKER), (initial.x, initial.y, initial.w, initial.h), 0)
 
 
 def _fit_composites(level: LevelLayout, drawing: bool) -> None:

@@ -912,15 +912,7 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
             if not free(a, b, key):
                 continue
             length = abs(b[0] - a[0]) + abs(b[1] - a[1])
-            crossed = crossings.get(key)
-            if crossed is None:
-                crossed = crossings[key] = sum(segments_cross(key, seg) for seg in kept)
-            if key[1] == key[3]:  # routed arrows are horizontal and vertical runs: only the crosswise ones cross
-                y = key[1]
-                crossed += sum(1 for x, y0, y1 in across_v if key[0] < x < key[2] and y0 < y < y1)
-            else:
-                x = key[0]
-                crossed += sum(1 for y, x0, x1 in across_h if key[1] < y < key[3] and x0 < x < x1)
+            crossed = _crossed(key, kept, crossings, across_h, across_v)
             step = length + CROSS * _shared(used, a, b) + (BEND if nd != d and d >= 0 else 0) + CROSS * crossed
             new = cost + step
             if new < best.get((ni, nj), math.inf):
@@ -929,6 +921,26 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
                 heapq.heappush(heap, (new + abs(b[0] - gx) + abs(b[1] - gy), new, ni, nj, nd))
     if end is None:
         return None
+    return _cut(_corners(end, came, xs, ys), s, t)
+
+
+def _crossed(key: Seg, kept: list[Seg], crossings: dict[Seg, int], across_h: list[tuple[float, float, float]],
+             across_v: list[tuple[float, float, float]]) -> int:
+    """How many arrows the grid run ``key`` crosses: those that keep their path (counted once a run, in
+    ``crossings``) and the ones routed before (horizontal and vertical runs: only the crosswise ones cross)."""
+    crossed = crossings.get(key)
+    if crossed is None:
+        crossed = crossings[key] = sum(segments_cross(key, seg) for seg in kept)
+    if key[1] == key[3]:
+        y = key[1]
+        return crossed + sum(1 for x, y0, y1 in across_v if key[0] < x < key[2] and y0 < y < y1)
+    x = key[0]
+    return crossed + sum(1 for y, x0, x1 in across_h if key[1] < y < key[3] and x0 < x < x1)
+
+
+def _corners(end: tuple[int, int], came: dict[tuple[int, int], tuple[int, int] | None], xs: list[float],
+             ys: list[float]) -> list[tuple[float, float]]:
+    """The path the search found, back from its end, as its corners only."""
     cells: list[tuple[int, int]] = []
     cur: tuple[int, int] | None = end
     while cur is not None:
@@ -941,11 +953,16 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
         if not ((before[0] == p[0] == q[0]) or (before[1] == p[1] == q[1])):
             corners.append(p)
     corners.append(pts[-1])
-    # cut at the borders: leave the source where the path first leaves it, enter the target where it last enters
+    return corners
+
+
+def _cut(corners: list[tuple[float, float]], s: Seg, t: Seg) -> list[list[float]] | None:
+    """The path cut at the borders: it leaves the source where it first leaves it and enters the target where it
+    last enters it; None when the two boxes overlap (no path between their borders)."""
     first = next((i for i in range(1, len(corners)) if not _inside_box(corners[i], s)), None)
     last = max((i for i in range(len(corners) - 1) if not _inside_box(corners[i], t)), default=None)
     if first is None or last is None or first > last + 1:
-        return None  # the two boxes overlap: no path between their borders
+        return None
     p0 = _exit_point(s, *corners[first - 1], *corners[first])
     p1 = _exit_point(t, *corners[last + 1], *corners[last])
     path = [p0] + corners[first:last + 1] + [p1]

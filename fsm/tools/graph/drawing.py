@@ -421,79 +421,99 @@ def _draw(level: LevelLayout, body: list[str], prefix: str = "", where: dict[int
     drawn in (for a viewer that folds composites); ``where`` gets that path for each arrow (for its label)."""
     for n in level.nodes:
         st = n.doc
-        sid = escape(str(st.get("id")))
         path = f"{prefix}/{st.get('id')}" if prefix else str(st.get("id"))
-        dpath = f" data-path={quoteattr(path)}"
+        attrs = f" data-id={quoteattr(str(st.get('id')))} data-path={quoteattr(path)}"
         if n.composite:
-            body.append(f'<g class="node composite" data-id={quoteattr(str(st.get("id")))}{dpath}>')
-            body.append(f'<rect x="{n.x:.0f}" y="{n.y:.0f}" width="{n.w:.0f}" height="{n.h:.0f}" rx="12" '
-                        'fill="#f4f7fb" stroke="#4a6d94" stroke-width="1.5"/>')
-            avail = n.w - 2 * BOX_MARGIN
-            top = n.y if n.parts else n.y + max(0.0, (n.h - n.head) / 2)  # no content: the text in the middle
-            title, size = fit(str(st.get("id")), avail, FONT, bold=True)
-            body.append(_text(n.x + n.w / 2, top + 18, title, size, extra=' font-weight="bold"'))
-            if n.note is not None:
-                note, nsize = fit(n.note, avail, SMALL_FONT)
-                colour = "#a33" if n.note_error else "#666"
-                body.append(_text(n.x + n.w / 2, top + 32, note, nsize, extra=f' font-style="italic" fill="{colour}"'))
-            if n.parts:
-                body.append(f'<line x1="{n.x:.0f}" y1="{n.y + n.head:.0f}" x2="{n.x + n.w:.0f}" '
-                            f'y2="{n.y + n.head:.0f}" stroke="#4a6d94"/>')
-            for i, p in enumerate(n.parts):
-                if i:
-                    body.append(f'<line x1="{p.x:.0f}" y1="{p.y:.0f}" x2="{p.x:.0f}" y2="{p.y + p.h:.0f}" '
-                                'stroke="#4a6d94" stroke-dasharray="6,4"/>')
-                if p.name is not None:
-                    name, psize = fit(p.name, p.w - 2 * BOX_MARGIN, LABEL_FONT)
-                    body.append(_text(p.x + p.w / 2, p.y + 16, name, psize,
-                                      extra=' font-style="italic" fill="#4a6d94"'))
-            body.append("</g>")
+            _draw_composite(n, attrs, body)
             for i, p in enumerate(n.parts):
                 _draw(p.level, body, _region_prefix(n, path, i), where)
         elif st.get("type") == "Final":
-            cx, cy = n.x + n.w / 2, n.y + n.h / 2
-            if _small_final(n):  # a UMLet final pseudostate
-                r = n.w / 2
-                body.append(f'<g class="pseudo" data-id={quoteattr(str(st.get("id")))}{dpath}>')
-                body.append(f'<circle cx="{cx:.0f}" cy="{cy:.0f}" r="{r:.1f}" fill="white" stroke="#333"/>')
-                body.append(f'<circle cx="{cx:.0f}" cy="{cy:.0f}" r="{max(r - 4, 2):.1f}" fill="#333"/>')
-                body.append(f'<text x="{cx + r + 4:.0f}" y="{cy + 4:.0f}" fill="#555">{sid}</text>')
-                body.append("</g>")
-            else:
-                body.append(f'<g class="node final" data-id={quoteattr(str(st.get("id")))}{dpath}>')
-                body.append(f'<rect x="{n.x:.0f}" y="{n.y:.0f}" width="{n.w:.0f}" height="{n.h:.0f}" rx="10" '
-                            'fill="#eef6ee" stroke="#333" stroke-width="3"/>')
-                body.append(f'<circle cx="{n.x + 16:.0f}" cy="{cy:.0f}" r="7" fill="white" stroke="#333"/>')
-                body.append(f'<circle cx="{n.x + 16:.0f}" cy="{cy:.0f}" r="4" fill="#333"/>')
-                left, right = n.x + FINAL_ICON, n.x + n.w - BOX_MARGIN
-                text = final_text(st)
-                if text_width(text, FONT - 1.5) > right - left and " → " in text and n.h >= 44:
-                    first, second = text.split(" → ", 1)
-                    a, sa = fit(first, right - left, FONT)
-                    b, sb = fit("→ " + second, right - left, FONT)
-                    size = min(sa, sb)
-                    body.append(_text((left + right) / 2, cy - 3, a, size))
-                    body.append(_text((left + right) / 2, cy + size, b, size))
-                else:
-                    t, size = fit(text, right - left, FONT)
-                    body.append(_text((left + right) / 2, cy + size / 3, t, size))
-                body.append("</g>")
+            _draw_final(n, attrs, body)
         else:
-            body.append(f'<g class="node" data-id={quoteattr(str(st.get("id")))}{dpath}>')
-            body.append(f'<rect x="{n.x:.0f}" y="{n.y:.0f}" width="{n.w:.0f}" height="{n.h:.0f}" rx="10" '
-                        'fill="#fffbe6" stroke="#333" stroke-width="1.2"/>')
-            name, sub = _state_lines(st)
-            avail = n.w - 2 * BOX_MARGIN
-            cx, cy = n.x + n.w / 2, n.y + n.h / 2
-            if sub:
-                t, size = fit(name, avail, FONT)
-                body.append(_text(cx, cy - 2, t, size))
-                t, size = fit(sub, avail, SMALL_FONT)
-                body.append(_text(cx, cy + 12, t, size, extra=' fill="#666"'))
-            else:
-                t, size = fit(name, avail, FONT)
-                body.append(_text(cx, cy + size / 3, t, size))
-            body.append("</g>")
+            _draw_state(n, attrs, body)
+    _draw_arrows(level, body, prefix, where)
+
+
+def _draw_composite(n: Node, attrs: str, body: list[str]) -> None:
+    """A composite's box: its title (and note) in a band, its parts' compartments."""
+    st = n.doc
+    body.append(f'<g class="node composite"{attrs}>')
+    body.append(f'<rect x="{n.x:.0f}" y="{n.y:.0f}" width="{n.w:.0f}" height="{n.h:.0f}" rx="12" '
+                'fill="#f4f7fb" stroke="#4a6d94" stroke-width="1.5"/>')
+    avail = n.w - 2 * BOX_MARGIN
+    top = n.y if n.parts else n.y + max(0.0, (n.h - n.head) / 2)  # no content: the text in the middle
+    title, size = fit(str(st.get("id")), avail, FONT, bold=True)
+    body.append(_text(n.x + n.w / 2, top + 18, title, size, extra=' font-weight="bold"'))
+    if n.note is not None:
+        note, nsize = fit(n.note, avail, SMALL_FONT)
+        colour = "#a33" if n.note_error else "#666"
+        body.append(_text(n.x + n.w / 2, top + 32, note, nsize, extra=f' font-style="italic" fill="{colour}"'))
+    if n.parts:
+        body.append(f'<line x1="{n.x:.0f}" y1="{n.y + n.head:.0f}" x2="{n.x + n.w:.0f}" '
+                    f'y2="{n.y + n.head:.0f}" stroke="#4a6d94"/>')
+    for i, p in enumerate(n.parts):
+        if i:
+            body.append(f'<line x1="{p.x:.0f}" y1="{p.y:.0f}" x2="{p.x:.0f}" y2="{p.y + p.h:.0f}" '
+                        'stroke="#4a6d94" stroke-dasharray="6,4"/>')
+        if p.name is not None:
+            name, psize = fit(p.name, p.w - 2 * BOX_MARGIN, LABEL_FONT)
+            body.append(_text(p.x + p.w / 2, p.y + 16, name, psize, extra=' font-style="italic" fill="#4a6d94"'))
+    body.append("</g>")
+
+
+def _draw_final(n: Node, attrs: str, body: list[str]) -> None:
+    """A final state: a UMLet final pseudostate (a small circle, its id beside it), or a box with the icon."""
+    st = n.doc
+    cx, cy = n.x + n.w / 2, n.y + n.h / 2
+    if _small_final(n):
+        r = n.w / 2
+        body.append(f'<g class="pseudo"{attrs}>')
+        body.append(f'<circle cx="{cx:.0f}" cy="{cy:.0f}" r="{r:.1f}" fill="white" stroke="#333"/>')
+        body.append(f'<circle cx="{cx:.0f}" cy="{cy:.0f}" r="{max(r - 4, 2):.1f}" fill="#333"/>')
+        body.append(f'<text x="{cx + r + 4:.0f}" y="{cy + 4:.0f}" fill="#555">{escape(str(st.get("id")))}</text>')
+        body.append("</g>")
+        return
+    body.append(f'<g class="node final"{attrs}>')
+    body.append(f'<rect x="{n.x:.0f}" y="{n.y:.0f}" width="{n.w:.0f}" height="{n.h:.0f}" rx="10" '
+                'fill="#eef6ee" stroke="#333" stroke-width="3"/>')
+    body.append(f'<circle cx="{n.x + 16:.0f}" cy="{cy:.0f}" r="7" fill="white" stroke="#333"/>')
+    body.append(f'<circle cx="{n.x + 16:.0f}" cy="{cy:.0f}" r="4" fill="#333"/>')
+    left, right = n.x + FINAL_ICON, n.x + n.w - BOX_MARGIN
+    text = final_text(st)
+    if text_width(text, FONT - 1.5) > right - left and " → " in text and n.h >= 44:
+        first, second = text.split(" → ", 1)
+        a, sa = fit(first, right - left, FONT)
+        b, sb = fit("→ " + second, right - left, FONT)
+        size = min(sa, sb)
+        body.append(_text((left + right) / 2, cy - 3, a, size))
+        body.append(_text((left + right) / 2, cy + size, b, size))
+    else:
+        t, size = fit(text, right - left, FONT)
+        body.append(_text((left + right) / 2, cy + size / 3, t, size))
+    body.append("</g>")
+
+
+def _draw_state(n: Node, attrs: str, body: list[str]) -> None:
+    """A simple state's box: its name, and its type under it."""
+    body.append(f'<g class="node"{attrs}>')
+    body.append(f'<rect x="{n.x:.0f}" y="{n.y:.0f}" width="{n.w:.0f}" height="{n.h:.0f}" rx="10" '
+                'fill="#fffbe6" stroke="#333" stroke-width="1.2"/>')
+    name, sub = _state_lines(n.doc)
+    avail = n.w - 2 * BOX_MARGIN
+    cx, cy = n.x + n.w / 2, n.y + n.h / 2
+    if sub:
+        t, size = fit(name, avail, FONT)
+        body.append(_text(cx, cy - 2, t, size))
+        t, size = fit(sub, avail, SMALL_FONT)
+        body.append(_text(cx, cy + 12, t, size, extra=' fill="#666"'))
+    else:
+        t, size = fit(name, avail, FONT)
+        body.append(_text(cx, cy + size / 3, t, size))
+    body.append("</g>")
+
+
+def _draw_arrows(level: LevelLayout, body: list[str], prefix: str, where: dict[int, str] | None) -> None:
+    """The level's initial marker and arrows, in one group that names the composite they are drawn in."""
     body.append(f'<g class="level" data-in={quoteattr(prefix)}>')
     if level.marker is not None:
         mx, my = level.marker
@@ -509,4 +529,3 @@ def _draw(level: LevelLayout, body: list[str], prefix: str = "", where: dict[int
         if where is not None:
             where[id(e)] = prefix
     body.append("</g>")
-

@@ -268,42 +268,10 @@ def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
         own = [(a[0], a[1], b[0], b[1]) for a, b in pairwise(e.points)]
         best: list[Any] = [math.inf, -1, None, []]  # cost, candidate number, place, lines
 
-        def search(shapes: list[tuple[list[str], float, float, float]], groups: tuple[tuple[Candidate, ...], ...],
-                   best: list[Any], near: _Near, anchors: list[tuple[float, float, float, float]],
-                   own: list[tuple[float, float, float, float]]) -> None:
-            for group in groups:
-                for base, idx, ring, ti, si, side in group:
-                    best_cost, best_idx = best[0], best[1]
-                    if base > best_cost or base == best_cost and idx > best_idx:
-                        break  # this place and all after it cost at least as much as the best one
-                    px, py, nx, ny = anchors[ti]
-                    lines, w, h, _ = shapes[si]
-                    if ring >= COMPASS:  # round the point: past the label's own half size, then a step a ring
-                        sx, sy = _DIRECTIONS[side]
-                        d = 4 + abs(sx) * w / 2 + abs(sy) * h / 2 + (ring - COMPASS) * (LINE_H + 2)
-                    else:
-                        sx, sy = nx * side, ny * side
-                        d = 0.0 if ring < 0 else 4 + abs(sx) * w / 2 + abs(sy) * h / 2 + ring * (LINE_H + 2) * 0.75
-                    cx, cy = px + sx * d, py + sy * d
-                    r = (round(cx - w / 2, 1), round(cy - h / 2, 1), w, h)
-                    if ring < 0:  # on its own arrow, which costs CROSSED more: no better than the best one?
-                        low = base + CROSSED
-                        if (low > best_cost or low == best_cost and idx > best_idx) and \
-                                any(segment_hits_box(*sg, r) for sg in own):
-                            continue
-                    limit = best_cost - base
-                    if idx < best_idx:  # as good as the best one would do: it comes first
-                        limit = math.nextafter(limit, math.inf)
-                    cost = base + near.cost(r, (px, py), limit)
-                    if cost < best_cost or cost == best_cost and idx < best_idx:
-                        best[:] = [cost, idx, r, lines]
-                if best[0] < CROSSED:
-                    break
-
-        search(shapes[:2], _candidates(tuple(worse for *_, worse in shapes[:2])), best, near, anchors, own)
+        _search(shapes[:2], _candidates(tuple(worse for *_, worse in shapes[:2])), best, near, anchors, own)
         if best[0] >= CROSSED and len(shapes) > 2:  # nowhere free: the short form, near its arrow
             short: list[Any] = [best[0], -1, None, []]
-            search(shapes[2:], _candidates((shapes[2][3],)), short, near, anchors, own)
+            _search(shapes[2:], _candidates((shapes[2][3],)), short, near, anchors, own)
             if short[2] is not None and short[0] < best[0]:
                 best = short
         best_r: Rect | None = best[2]
@@ -312,6 +280,41 @@ def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
         placed.add(best_r)
         out.append((e, best_r, best_lines))
     return out
+
+
+def _search(shapes: list[tuple[list[str], float, float, float]], groups: tuple[tuple[Candidate, ...], ...],
+            best: list[Any], near: _Near, anchors: list[tuple[float, float, float, float]],
+            own: list[tuple[float, float, float, float]]) -> None:
+    """The cheapest of the candidate places into ``best`` (cost, number, place, lines), searched group by group
+    (a group further out only while every place so far lies across something)."""
+    for group in groups:
+        for base, idx, ring, ti, si, side in group:
+            best_cost, best_idx = best[0], best[1]
+            if base > best_cost or base == best_cost and idx > best_idx:
+                break  # this place and all after it cost at least as much as the best one
+            px, py, nx, ny = anchors[ti]
+            lines, w, h, _ = shapes[si]
+            if ring >= COMPASS:  # round the point: past the label's own half size, then a step a ring
+                sx, sy = _DIRECTIONS[side]
+                d = 4 + abs(sx) * w / 2 + abs(sy) * h / 2 + (ring - COMPASS) * (LINE_H + 2)
+            else:
+                sx, sy = nx * side, ny * side
+                d = 0.0 if ring < 0 else 4 + abs(sx) * w / 2 + abs(sy) * h / 2 + ring * (LINE_H + 2) * 0.75
+            cx, cy = px + sx * d, py + sy * d
+            r = (round(cx - w / 2, 1), round(cy - h / 2, 1), w, h)
+            if ring < 0:  # on its own arrow, which costs CROSSED more: no better than the best one?
+                low = base + CROSSED
+                if (low > best_cost or low == best_cost and idx > best_idx) and \
+                        any(segment_hits_box(*sg, r) for sg in own):
+                    continue
+            limit = best_cost - base
+            if idx < best_idx:  # as good as the best one would do: it comes first
+                limit = math.nextafter(limit, math.inf)
+            cost = base + near.cost(r, (px, py), limit)
+            if cost < best_cost or cost == best_cost and idx < best_idx:
+                best[:] = [cost, idx, r, lines]
+        if best[0] < CROSSED:
+            break
 
 
 class _Placed:
@@ -337,11 +340,30 @@ class _Near:
             (container[0] + 2, container[1] + 2, container[2] - 4, container[3] - 4)
 
     def cost(self, r: Rect, anchor: tuple[float, float], limit: float) -> float:
-        """How bad a place ``r`` for a label is; stops counting once it is worse than ``limit``."""
-        scene = self.scene
+        """How bad a place ``r`` for a label is; stops counting once it is worse than ``limit``: over a label placed
+        before, over a box (or out of its composite), across an arrow, or with an arrow between it and its own."""
         rx, ry, rw, rh = r
-        rx1, ry1 = rx + rw, ry + rh
-        x0, y0, x1, y1 = rx - 2, ry - 2, rx1 + 2, ry1 + 2  # with a little air around it
+        air = (rx - 2, ry - 2, rx + rw + 2, ry + rh + 2)  # with a little air around it
+        cost = self._on_labels(air)
+        if cost >= limit:
+            return cost
+        ax, ay = anchor
+        x0, y0, x1, y1 = air
+        # one look into the grid for the boxes (near the place) and the segments (between the place and its arrow)
+        found = self.scene.grid.near(x0 if x0 < ax else ax, y0 if y0 < ay else ay, x1 if x1 > ax else ax,
+                                     y1 if y1 > ay else ay)
+        k, on_boxes = self._on_boxes(found, air)
+        cost += on_boxes
+        if self.inner is not None:
+            outside = rw * rh - _area(r, self.inner)
+            if outside > 0.01:
+                cost += 1e5 + outside * 10
+        if cost >= limit:
+            return cost
+        return self._on_arrows(found, k, r, anchor, cost, limit)
+
+    def _on_labels(self, air: Rect) -> float:
+        x0, y0, x1, y1 = air
         cost = 0.0
         placed = self.placed.rects
         for i in self.placed.grid.near(x0, y0, x1, y1):
@@ -351,16 +373,18 @@ class _Near:
             h = (y1 if y1 < oy1 else oy1) - (y0 if y0 > oy else oy)
             if w > 0 and h > 0:
                 cost += 1e6 + w * h * 100
-        if cost >= limit:
-            return cost
-        ax, ay = anchor
-        # one look into the grid for the boxes (near the place) and the segments (between the place and its arrow)
-        found = scene.grid.near(x0 if x0 < ax else ax, y0 if y0 < ay else ay, x1 if x1 > ax else ax,
-                                y1 if y1 > ay else ay)
+        return cost
+
+    def _on_boxes(self, found: list[int], air: Rect) -> tuple[int, float]:
+        """The cost of the boxes and composites (not the label's own) among ``found``, which lists them first; and
+        how many of ``found`` they are."""
+        x0, y0, x1, y1 = air
+        scene = self.scene
         boxes, composites = scene.boxes, scene.composites
         n_boxes = len(boxes)
         n_obstacles = n_boxes + len(composites)
         k = 0
+        cost = 0.0
         for i in found:
             if i >= n_obstacles:
                 break
@@ -376,18 +400,22 @@ class _Near:
             h = (y1 if y1 < oy1 else oy1) - (y0 if y0 > oy else oy)
             if w > 0 and h > 0:
                 cost += 1e5 + w * h * 10
-        if self.inner is not None:
-            outside = rw * rh - _area(r, self.inner)
-            if outside > 0.01:
-                cost += 1e5 + outside * 10
-        if cost >= limit:
-            return cost
+        return k, cost
+
+    def _on_arrows(self, found: list[int], k: int, r: Rect, anchor: tuple[float, float], cost: float,
+                   limit: float) -> float:
+        """``cost`` plus the arrows among ``found`` (from ``k`` on) across the label or between it and its arrow."""
+        scene = self.scene
+        rx, ry, rw, rh = r
+        rx1, ry1 = rx + rw, ry + rh
+        ax, ay = anchor
         cx = rx if ax < rx else rx1 if ax > rx1 else ax  # the label's point nearest to its arrow
         cy = ry if ay < ry else ry1 if ay > ry1 else ay
         leader = (ax, ay, cx, cy)
         lx0, lx1 = (ax, cx) if ax <= cx else (cx, ax)
         ly0, ly1 = (ay, cy) if ay <= cy else (cy, ay)
         segments = scene.segments
+        n_obstacles = len(scene.boxes) + len(scene.composites)
         owner = self.owner
         for j in range(k, len(found)):
             seg, of, sx0, sy0, sx1, sy1 = segments[found[j] - n_obstacles]

@@ -627,7 +627,7 @@ def _is_point(p: Any) -> bool:
 #: (drawing only); the number of columns is the one whose height over width comes nearest to ``REFLOW_TARGET``.
 REFLOW_ASPECT, REFLOW_MIN_H, REFLOW_TARGET = 2.0, 900.0, 0.75
 #: A level that is one column of states (two bands in three hold one state) is reflowed from this height over width.
-COLUMN_ASPECT = 1.3
+COLUMN_ASPECT = 1.0
 
 
 def _bands(level: LevelLayout) -> list[list[tuple[float, float, float, float, Node | None]]]:
@@ -650,26 +650,36 @@ def _bands(level: LevelLayout) -> list[list[tuple[float, float, float, float, No
 
 
 def _columns(sizes: list[tuple[float, float]], gap_x: float) -> list[list[int]]:
-    """Consecutive bands (``(width, height)`` each) split into columns, each cut where its height would pass the
-    column height tried; the split whose height over width is nearest ``REFLOW_TARGET``."""
+    """Consecutive bands (``(width, height)`` each) split into columns: for each number of columns, the lowest
+    column height that holds them all in that many (cut greedily); of those, the split whose height over width is
+    nearest ``REFLOW_TARGET`` (of two alike, the one with fewer columns)."""
     best: tuple[float, list[list[int]]] = (math.inf, [list(range(len(sizes)))])
     total = sum(h for _, h in sizes) + GAP_Y * (len(sizes) - 1)
     for k in range(2, len(sizes) + 1):
         limit = max(max(h for _, h in sizes), total / k)
-        cols: list[list[int]] = [[]]
-        height = 0.0
-        for i, (_, h) in enumerate(sizes):
-            if cols[-1] and height + GAP_Y + h > limit + 1:
-                cols.append([])
-                height = 0.0
-            height += (GAP_Y if cols[-1] else 0) + h
-            cols[-1].append(i)
+        cols = _cut_columns(sizes, limit)
+        while len(cols) > k:  # a band did not fit where the even share ended: a little more height a column
+            limit *= 1.05
+            cols = _cut_columns(sizes, limit)
         width = sum(max(sizes[i][0] for i in c) for c in cols) + gap_x * (len(cols) - 1)
         tall = max(sum(sizes[i][1] for i in c) + GAP_Y * (len(c) - 1) for c in cols)
-        score = abs(math.log(tall / width / REFLOW_TARGET)) + 0.05 * len(cols)  # of two alike, fewer columns
+        score = abs(math.log(tall / width / REFLOW_TARGET)) + 0.05 * len(cols)
         if score < best[0]:
             best = (score, cols)
     return best[1]
+
+
+def _cut_columns(sizes: list[tuple[float, float]], limit: float) -> list[list[int]]:
+    """The bands in order, a new column wherever the next one would make the column taller than ``limit``."""
+    cols: list[list[int]] = [[]]
+    height = 0.0
+    for i, (_, h) in enumerate(sizes):
+        if cols[-1] and height + GAP_Y + h > limit + 1:
+            cols.append([])
+            height = 0.0
+        height += (GAP_Y if cols[-1] else 0) + h
+        cols[-1].append(i)
+    return cols
 
 
 def _reflow(level: LevelLayout, label_width: Callable[[dict[str, Any]], float] | None) -> None:

@@ -254,8 +254,10 @@ class Controller:
 
     def _until(self, session: Session) -> bool:
         """After each tick: a breakpoint hit, the end of a step to a transition, or a command waiting."""
-        if self.watches:
-            self._note_watches(session)
+        if self.watches:  # (inline: this runs after every tick while a watch exists)
+            entry = (session.ticks, self._watch_row(session.machine.ctx))
+            self.watch_log.append(entry)
+            self._watch_new.append(entry)
         watch = self._watch
         if not self.breakpoints and not self._to_transition:  # nothing looks: keep the tick cheap
             if watch.moved:

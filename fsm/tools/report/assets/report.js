@@ -413,12 +413,16 @@
     setWindow(at - (at - w0()) * k, at + (w1() - at) * k);
   }, { passive: false });
   lanes.addEventListener("dblclick", function () { setWindow(0, T); });
+  // a canvas is given its size only when it changes: setting it (even to the same value) clears the canvas and
+  // allocates a new one, which the browser then uploads whole (a redraw after each step of a live run)
+  function resize(canvases, w, h) {
+    canvases.forEach(function (c) { if (c.width !== w) c.width = w; if (c.height !== h) c.height = h; });
+  }
   function drawLanesBg() {
     var ratio = window.devicePixelRatio || 1, w = lanes.clientWidth || 800;
     var h = D.lanes.length * LANE_H + 22;
     lanes.style.height = h + "px";
-    lanes.width = lanesBg.width = Math.round(w * ratio);
-    lanes.height = lanesBg.height = Math.round(h * ratio);
+    resize([lanes, lanesBg], Math.round(w * ratio), Math.round(h * ratio));
     var c = lanesBg.getContext("2d");
     c.setTransform(ratio, 0, 0, ratio, 0, 0);
     c.fillStyle = "#fff"; c.fillRect(0, 0, w, h);
@@ -493,7 +497,7 @@
     s = Math.min(s, h / (y1 - y0));
     view = { s: s, x0: x0, y1: y1 };
     map.style.height = h + "px";
-    map.width = mapBg.width = Math.round(w * ratio); map.height = mapBg.height = Math.round(h * ratio);
+    resize([map, mapBg], Math.round(w * ratio), Math.round(h * ratio));
     var c = mapBg.getContext("2d");
     c.setTransform(ratio, 0, 0, ratio, 0, 0);
     c.fillStyle = "#fff"; c.fillRect(0, 0, w, h);

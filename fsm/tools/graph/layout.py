@@ -626,6 +626,8 @@ def _is_point(p: Any) -> bool:
 #: A level taller than ``REFLOW_ASPECT`` times its width (and than ``REFLOW_MIN_H``) is reflowed into columns
 #: (drawing only); the number of columns is the one whose height over width comes nearest to ``REFLOW_TARGET``.
 REFLOW_ASPECT, REFLOW_MIN_H, REFLOW_TARGET = 2.0, 900.0, 0.75
+#: The most columns tried (more for a very long chain: about the square root of its length).
+MAX_COLUMNS = 12
 #: A level that is one column of states (two bands in three hold one state) is reflowed from this height over width.
 COLUMN_ASPECT = 1.0
 
@@ -655,7 +657,7 @@ def _columns(sizes: list[tuple[float, float]], gap_x: float) -> list[list[int]]:
     nearest ``REFLOW_TARGET`` (of two alike, the one with fewer columns)."""
     best: tuple[float, list[list[int]]] = (math.inf, [list(range(len(sizes)))])
     total = sum(h for _, h in sizes) + GAP_Y * (len(sizes) - 1)
-    for k in range(2, len(sizes) + 1):
+    for k in range(2, min(len(sizes), max(MAX_COLUMNS, math.isqrt(len(sizes)) + 1)) + 1):
         limit = max(max(h for _, h in sizes), total / k)
         cols = _cut_columns(sizes, limit)
         while len(cols) > k:  # a band did not fit where the even share ended: a little more height a column

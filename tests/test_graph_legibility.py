@@ -47,7 +47,8 @@ def _boxes(svg: str) -> dict[str, tuple[float, float, float, float]]:
     return out
 
 
-FAULTS = ("box_overlaps", "edge_through_box", "edge_grazes_box", "label_box", "label_label", "label_edge")
+FAULTS = ("box_overlaps", "edge_through_box", "edge_grazes_box", "label_box", "label_label", "label_stacked",
+          "label_edge")
 
 
 @pytest.mark.parametrize("name", ["hallway_lap.uxf", "lap.uxf", "gate_run.uxf", "gate_side.uxf", "gate_home.uxf",
@@ -113,3 +114,17 @@ def test_a_short_or_wide_diagram_keeps_its_geometry():
         lay = st.get("layout")
         if lay:
             assert boxes[st["id"]][:2] == (lay["x"], lay["y"])
+
+
+def test_the_metric_counts_labels_on_arrows_stacked_labels_and_arrows_along_boxes():
+    box = '<g class="node" data-path="{p}"><rect x="{x}" y="{y}" width="100" height="40"/></g>'
+    label = '<g class="label" data-in=""><rect class="label" x="{x}" y="{y}" width="60" height="15"/></g>'
+    body = box.format(p="a", x=0, y=0) + box.format(p="b", x=300, y=0) + box.format(p="c", x=150, y=100)
+    body += ('<g class="level" data-in=""><polyline class="edge" points="100,20 300,20"/>'  # a -> b, clear
+             '<polyline class="edge" points="50,40 50,98 480,98"/>'  # along c's top border, 2 px above it
+             '</g>')
+    body += label.format(x=170, y=12)  # across the arrow a -> b
+    body += label.format(x=400, y=200) + label.format(x=400, y=217)  # 2 px apart: one stacked pair
+    body += label.format(x=400, y=300) + label.format(x=400, y=330)  # apart
+    q = measure(f'<svg xmlns="http://www.w3.org/2000/svg">{body}</svg>')
+    assert (q.label_edge, q.label_stacked, q.label_label, q.edge_grazes_box, q.edge_through_box) == (1, 1, 0, 1, 0), q

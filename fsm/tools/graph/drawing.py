@@ -210,6 +210,8 @@ def _label_shapes(text: str) -> list[tuple[list[str], float, float, float]]:
     return out
 
 
+#: Labels closer than this (px) read as one stacked label: a place that close to another costs a little more.
+STACKED = 6.0
 #: What a label costs for each arrow running through it: more than any place near its arrow, less than a box.
 CROSSED = 20000.0
 #: Rings from this one on are tried only when every place beside the arrow lies across something: the label goes
@@ -363,16 +365,21 @@ class _Near:
         return self._on_arrows(found, k, r, anchor, cost, limit)
 
     def _on_labels(self, air: Rect) -> float:
+        """Over a label placed before; or stacked right next to one (within ``STACKED`` px), which reads as one
+        label of two lines whose arrows cannot be told apart."""
         x0, y0, x1, y1 = air
         cost = 0.0
         placed = self.placed.rects
-        for i in self.placed.grid.near(x0, y0, x1, y1):
+        m = STACKED
+        for i in self.placed.grid.near(x0 - m, y0 - m, x1 + m, y1 + m):
             ox, oy, ow, oh = placed[i]
             ox1, oy1 = ox + ow, oy + oh
             w = (x1 if x1 < ox1 else ox1) - (x0 if x0 > ox else ox)
             h = (y1 if y1 < oy1 else oy1) - (y0 if y0 > oy else oy)
             if w > 0 and h > 0:
                 cost += 1e6 + w * h * 100
+            elif w > -m and h > -m:
+                cost += 400
         return cost
 
     def _on_boxes(self, found: list[int], air: Rect) -> tuple[int, float]:

@@ -9,6 +9,8 @@ measures any version of the drawing code the same way. Counted:
   its ends (the boxes its first and last points lie on) nor a composite it is drawn in;
 * ``label_box``: arrow labels over a state box, a composite's title band, or a composite they are not drawn in;
 * ``label_label``: pairs of labels that overlap;
+* ``label_stacked``: pairs of labels that do not overlap but stand closer than ``STACKED`` (they read as one
+  label of two lines, whose arrows cannot be told apart);
 * ``label_edge``: (label, arrow) pairs where the arrow runs through the label's rectangle (its own arrow too);
 * ``edge_grazes_box``: (arrow, box) pairs where the arrow, not through the box, runs along its border closer than
   ``GRAZE`` (it looks as if it went in);
@@ -31,6 +33,8 @@ Rect = tuple[float, float, float, float]
 TOLERANCE = 2.0
 #: How close an arrow may run along a box that is not one of its ends.
 GRAZE = 3.0
+#: How close two labels may stand.
+STACKED = 4.0
 
 
 @dataclass
@@ -39,6 +43,7 @@ class Quality:
     edge_through_box: int = 0
     label_box: int = 0
     label_label: int = 0
+    label_stacked: int = 0
     label_edge: int = 0
     edge_grazes_box: int = 0
     crossings: int = 0
@@ -49,7 +54,7 @@ class Quality:
 
     def row(self) -> tuple[int, ...]:
         return (self.boxes, self.edges, self.box_overlaps, self.edge_through_box, self.edge_grazes_box,
-                self.label_box, self.label_label, self.label_edge, self.crossings, self.along)
+                self.label_box, self.label_label, self.label_stacked, self.label_edge, self.crossings, self.along)
 
 
 @dataclass
@@ -126,7 +131,7 @@ def measure(svg_text: str) -> Quality:
     q.label_box = sum(_label_on_box(d.boxes, grid, within, r) for within, r in d.labels)
     q.label_edge = sum(len({all_segs[j][0] for j in segs.near(r[0], r[1], r[0] + r[2], r[1] + r[3])
                             if segment_hits_box(*all_segs[j][1], r, TOLERANCE)}) for _, r in d.labels)
-    q.label_label = _label_overlaps([r for _, r in d.labels])
+    q.label_label, q.label_stacked = _label_overlaps([r for _, r in d.labels])
     return q
 
 
@@ -233,16 +238,26 @@ def _label_on_box(boxes: list[_Box], grid: Buckets, within: str, r: Rect) -> boo
     return False
 
 
-def _label_overlaps(rects: list[Rect]) -> int:
+def _label_overlaps(rects: list[Rect]) -> tuple[int, int]:
+    """Pairs of labels that overlap, and pairs that do not but stand closer than ``STACKED``."""
     placed = Buckets()
     for r in rects:
         placed.add_rect(*r)
-    return sum(1 for i, r in enumerate(rects) for j in placed.near(r[0], r[1], r[0] + r[2], r[1] + r[3])
-               if j > i and _overlap(r, rects[j]))
+    over = stacked = 0
+    m = STACKED
+    for i, r in enumerate(rects):
+        for j in placed.near(r[0] - m, r[1] - m, r[0] + r[2] + m, r[1] + r[3] + m):
+            if j <= i:
+                continue
+            if _overlap(r, rects[j]):
+                over += 1
+            elif _overlap(r, rects[j], -m):
+                stacked += 1
+    return over, stacked
 
 
-HEADER = ("boxes", "arrows", "box/box", "arrow/box", "arrow along box", "label/box", "label/label", "label/arrow",
-          "crossings", "arrow along arrow")
+HEADER = ("boxes", "arrows", "box/box", "arrow/box", "arrow along box", "label/box", "label/label", "labels stacked",
+          "label/arrow", "crossings", "arrow along arrow")
 
 
 def table(rows: list[tuple[str, Quality | str]]) -> str:

@@ -308,20 +308,25 @@ class LiveServer:
             except asyncio.TimeoutError:
                 pass
             self._wake.clear()
-            controller = self.source.controller
-            if controller is not None:
-                while controller.messages:
-                    message = controller.messages.popleft()
-                    target = message.get("id")
-                    if message.get("kind") == "reply" and isinstance(target, tuple):
-                        client = self.clients.get(target[0])
-                        if client is not None:
-                            client.outbox.append({**message, "id": target[1]})
-                    else:
-                        for client in self.clients.values():
-                            client.outbox.append(message)
+            self._dispatch()
             for client in self.clients.values():
                 client.wake.set()
+
+    def _dispatch(self) -> None:
+        """Move the controller's messages (replies, notices) to the outboxes of the pages they are for."""
+        controller = self.source.controller
+        if controller is None:
+            return
+        while controller.messages:
+            message = controller.messages.popleft()
+            target = message.get("id")
+            if message.get("kind") == "reply" and isinstance(target, tuple):
+                client = self.clients.get(target[0])
+                if client is not None:
+                    client.outbox.append({**message, "id": target[1]})
+            else:
+                for client in self.clients.values():
+                    client.outbox.append(message)
 
     async def _send_loop(self, client: _Client) -> None:
         """Send a page what is new, at most :data:`MAX_RATE` times a second: the trace's new lines, the messages
@@ -337,6 +342,9 @@ class LiveServer:
                 started = loop.time()
                 controller = self.source.controller
                 snapshot = controller.snapshot if controller is not None else None
+                # what the run said before this status goes first (a step's reply before the status after it): the
+                # sender no longer waits between two sends while the run is paused, so it does not wait for the pump
+                self._dispatch()
                 current = self.source.buffer
                 if current is not buffer:
                     if buffer is not None:  # a rewind: the page starts again, and is told the status again after

@@ -260,6 +260,22 @@ def count_instructions() -> int:
     return 0
 
 
+def probe(mode: str, n: int) -> int:
+    """One counted process: the lap plain or under the controller (``n`` 0: build only, to subtract)."""
+    if mode == "plain":
+        session, _ = make_session()
+        if n:
+            session.run()
+    else:
+        live = LiveRun(len(WATCHES) if mode == "watch" else 0, snapshots=mode != "nosnap")
+        if n:
+            live.run()
+            if mode == "live":
+                print(f"snapshots: {len(live.controller.snapshots)}", file=sys.stderr)
+        live.close()
+    return 0
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeat", type=int, default=3)
@@ -272,19 +288,7 @@ def main() -> int:
     ap.add_argument("--probe", nargs=2, metavar=("MODE", "N"), help=argparse.SUPPRESS)  # one counted process
     args = ap.parse_args()
     if args.probe:
-        mode, n = args.probe[0], int(args.probe[1])
-        if mode == "plain":
-            session, _ = make_session()
-            if n:
-                session.run()
-        else:
-            live = LiveRun(len(WATCHES) if mode == "watch" else 0, snapshots=mode != "nosnap")
-            if n:
-                live.run()
-                if mode == "live":
-                    print(f"snapshots: {len(live.controller.snapshots)}", file=sys.stderr)
-            live.close()
-        return 0
+        return probe(args.probe[0], int(args.probe[1]))
     if args.instructions:
         return count_instructions()
     results: dict[str, Any] = {"plain": [], "live_no_page": [], "live_one_page": [], "step_ms_tick0": [],

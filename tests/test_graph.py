@@ -227,8 +227,8 @@ def test_stored_layout_makes_room_for_included_content():
     assert top[0][3] > doc["states"][0]["layout"]["h"]  # lap1 grew to hold lap.json
     for a, b in itertools.combinations(top, 2):
         assert not _overlap(a, b)
-    ys = [r[1] for r in top]
-    assert ys == sorted(ys)  # still one column, in the diagram's order
+    order = [(r[0], r[1]) for r in top]
+    assert order == sorted(order)  # the diagram's order, read column by column (issue 33: not one tall column)
 
 
 def test_svg_is_deterministic_across_processes():

@@ -421,3 +421,70 @@ def test_a_rewind_that_publishes_nothing_new_is_still_told_its_status(scripted: 
     run.notify()  # a new trace, no new snapshot
     assert page.drawn_at(390)["tick"] == 390
     assert page.until("window.tralLive.status() && window.tralLive.status().tick === 390")
+
+
+def test_the_sticky_bars_never_cover_what_the_page_brings_into_view(browser: Any) -> None:
+    """Issue 33: scrolled down, a field of the side panels that gets the focus (a click on its label, Tab, a search
+    in the page) comes into view below the toolbar and the live bar, not under them."""
+    live, page = browser(LAP, "--paused", size=(1280, 560))
+    p = page.page
+    p.wait_for_selector("#conn.up")
+    bars = p.evaluate("document.getElementById('toolbar').offsetHeight + document.getElementById('live-bar')"
+                      ".offsetHeight")
+    p.evaluate("window.scrollTo(0, document.documentElement.scrollHeight)")
+    assert p.evaluate("document.getElementById('live-bar').getBoundingClientRect().top") == \
+        p.evaluate("document.getElementById('toolbar').offsetHeight")  # stuck right below the toolbar
+    for field in ("#watch-expr", "#break-a", "#inject-a"):
+        p.evaluate("window.scrollTo(0, document.documentElement.scrollHeight)")
+        p.focus(field)
+        top = p.evaluate(f"document.querySelector('{field}').getBoundingClientRect().top")
+        assert top >= bars, (field, top, bars)
+
+
+def test_a_step_adds_to_the_map_track_and_the_map_is_the_one_drawn_whole(browser: Any) -> None:
+    """Issue 33 (click to redraw): a step of a live run draws its new samples onto the map's track instead of the
+    whole track again (which grew with the tick), and the map it gives is pixel for pixel the one drawn whole."""
+    live, page = browser(LAP, "--paused", "--speed", "max", size=(1400, 1000))
+    p = page.page
+    p.wait_for_selector("#conn.up")
+    shown = "document.body.dataset.tick"
+    redrawn = "+document.getElementById('map').dataset.redrawn"
+    track = "+document.getElementById('map').dataset.track"
+    p.fill("#step-n", "1500")
+    p.click("#run-step-n")
+    page.until(f"{shown} === '1500'")
+    p.fill("#step-n", "40")
+    added_to = 0
+    for k in range(1, 9):  # steps of 40 ticks: those with no transition only add to the track
+        before, samples = p.evaluate(redrawn), p.evaluate(track)
+        p.click("#run-step-n")
+        page.until(f"{shown} === '{1500 + 40 * k}'")
+        if p.evaluate(redrawn) == before and p.evaluate(track) > samples:
+            added_to += 1
+            break
+    assert added_to, "no step only added to the track"
+    pixels = "document.getElementById('map').toDataURL()"
+    added = p.evaluate(pixels)
+    p.set_viewport_size({"width": 1401, "height": 1000})  # a resize draws the map whole
+    page.until(f"{redrawn} > {p.evaluate(redrawn)}")
+    p.set_viewport_size({"width": 1400, "height": 1000})
+    whole = p.evaluate(redrawn)
+    page.until(f"{redrawn} > {whole}")
+    assert _pixels_apart(p.evaluate(pixels), added) <= 5, "the track added to differs from the one drawn whole"
+
+
+def _pixels_apart(a: str, b: str) -> int:
+    """How many pixels differ by more than a shade between two PNG data URLs of one size (the joints where a path
+    was continued are anti-aliased a shade differently from one drawn in one go; a missing piece of track is
+    tens of pixels)."""
+    import base64
+
+    import cv2
+    import numpy as np
+
+    def decode(url: str) -> Any:
+        return cv2.imdecode(np.frombuffer(base64.b64decode(url.split(",", 1)[1]), np.uint8), cv2.IMREAD_UNCHANGED)
+
+    x, y = decode(a).astype(int), decode(b).astype(int)
+    assert x.shape == y.shape
+    return int((np.abs(x - y).max(axis=2) > 48).sum())

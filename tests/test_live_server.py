@@ -149,3 +149,17 @@ def test_options_that_do_not_go_together_are_usage_errors(args: list[str], words
                                                           capsys: pytest.CaptureFixture[str]) -> None:
     code, _out, err = cli(capsys, "run", str(REPO / "diagrams" / "hallway_lap.json"), *args)
     assert code == 2 and words in err
+
+
+def test_a_paused_runs_pages_are_answered_at_once_a_running_runs_at_the_page_rate() -> None:
+    """Issue 33 (click to redraw): while paused, what a page is sent answers a click (a step, a rewind), so its sender
+    does not wait out the page rate (1/30 s) before the step's status; while running it does (1/5 s as fast as
+    possible). Measured end to end by benchmarks/bench_live.py, not timed here."""
+    from fsm.tools.live.server import FAST_RATE, MAX_RATE, _pause_before_next
+
+    assert _pause_before_next({"state": "paused", "speed": 1.0}, 0.0) == 0.0
+    assert _pause_before_next({"state": "ended", "speed": None}, 0.0) == 0.0
+    assert _pause_before_next(None, 0.0) == 0.0
+    assert _pause_before_next({"state": "running", "speed": 1.0}, 0.0) == pytest.approx(1 / MAX_RATE)
+    assert _pause_before_next({"state": "running", "speed": None}, 0.05) == pytest.approx(1 / FAST_RATE - 0.05)
+    assert _pause_before_next({"state": "running", "speed": 1.0}, 1.0) == 0.0

@@ -36,8 +36,6 @@ thread) and takes :attr:`Controller.messages` (replies to commands, notices).
 
 from __future__ import annotations
 
-import operator
-import re
 import threading
 import time
 from collections import deque
@@ -45,21 +43,19 @@ from collections.abc import Callable, Iterable
 from typing import Any
 
 from fsm.debug.breakpoints import (
-    CAR_READINGS,
     Breakpoint,
     BreakpointError,
     Happened,
     Watch,
     active_set,
-    expression_kinds,
     expression_values,
     hits,
     make_breakpoint,
 )
 from fsm.debug.inject import check_injection
 from fsm.debug.reload import ReloadRefused, swap_machine
+from fsm.debug.watch import WatchExpr, compile_watch, row_function
 from fsm.model.errors import DiagramError, StateRuntimeError
-from fsm.model.expr import ExprError, ExprRuntimeError, compile_expr
 from fsm.session.inputs import InputError, input_from_json
 from fsm.session.session import Input, Session, StopRules
 from fsm.session.snapshot import Snapshot, restore, take
@@ -142,22 +138,12 @@ class Controller:
         #: ticks ran with no breakpoint and no step to a transition: ``_active`` is older than the machine
         self._stale = False
         self._end = session.stop_rules.end_tick(0, session.dt)
-        #: watch expressions: (number, text, compiled test); their values per tick since the run began
-        self.watches: list[tuple[int, str, Callable[[dict[str, Any]], Any]]] = []
+        #: watch expressions: (number, text, the checked expression); their values per tick since the run began
+        self.watches: list[tuple[int, str, WatchExpr]] = []
         self.watch_log: deque[tuple[int, tuple[Any, ...]]] = deque(maxlen=MAX_WATCH_TICKS)
         self._watch_new: list[tuple[int, tuple[Any, ...]]] = []
-        #: what the watches read besides the variables: (name, the car's attribute, or None for a signal)
-        self._watch_reads: list[tuple[str, str | None]] = []
-        self._watch_tests: list[Callable[[dict[str, Any]], Any]] = []
-        #: all the watches read, in one call per tick (None: read one by one); the last of it and the row it gave
-        self._watch_read: Callable[[Any], tuple[Any, ...]] | None = None
-        self._watch_names: tuple[str, ...] = ()
-        #: the watches that are expressions, not bare names (None: none is), and the row from what they give
-        self._watch_exprs: list[Callable[[dict[str, Any]], Any]] | None = None
-        self._watch_order: Callable[[tuple[Any, ...]], tuple[Any, ...]] = lambda got: ()
-        self._watch_last: tuple[tuple[Any, ...] | None, tuple[Any, ...]] = (None, ())
-        #: whether a tick whose reads equal the last tick's may keep its row (not when a list or a dict is read)
-        self._watch_same = True
+        #: the watches' row after a tick: one generated function for them all (:mod:`fsm.debug.watch`)
+        self._watch_row: Callable[[Any], tuple[Any, ...]] = row_function([])
         #: how far back (simulated seconds) rewind reaches (``inf``: to the start; 0: no rewind)
         self.horizon = horizon
         # a horizon shorter than the period: snapshots often enough that a rewind reaches about that far back
@@ -304,8 +290,10 @@ class Controller:
 
     def _until(self, session: Session) -> bool:
         """After each tick: a breakpoint hit, the end of a step to a transition, or a command waiting."""
-        if self.watches:
-            self._note_watches(session)
+        if self.watches:  # (inline: this runs after every tick while a watch exists)
+            entry = (session.ticks, self._watch_row(session.machine.ctx))
+            self.watch_log.append(entry)
+            self._watch_new.append(entry)
         watch = self._watch
         if not self.breakpoints and not self._to_transition:  # nothing looks: keep the tick cheap
             if watch.moved:
@@ -335,84 +323,15 @@ class Controller:
         return self._interrupt
 
     def _note_watches(self, session: Session) -> None:
-        """The watch expressions' values after this tick (an expression that fails gives its error's text). Only
-        the names they use are read (a car's reading can cost a sensor query), all at once into one tuple; a tick
-        where none of it changed keeps the last row (the same object: nothing evaluated, nothing allocated). Rows
-        are tuples of plain values, which the garbage collector stops tracking: a long log costs it nothing."""
-        ctx = session.machine.ctx
-        read = self._watch_read
-        now: tuple[Any, ...] | None = None
-        if read is not None:
-            try:
-                now = read(ctx)
-            except (AttributeError, LookupError, TypeError):  # no car, or a variable a reload took away
-                now = None
-        last, row = self._watch_last
-        if now is None:
-            row = self._watch_row(self._watch_values(ctx))
-        elif now != last or not self._watch_same:
-            exprs = self._watch_exprs
-            if exprs is None:  # every watch a bare name: its values are the reader's, in the watches' order
-                row = self._watch_order(now)
-            else:  # the bare names from the reader, the expressions evaluated (an error: each on its own)
-                values = dict(zip(self._watch_names, now, strict=True))
-                try:
-                    row = self._watch_order(now + tuple([fn(values) for fn in exprs]))
-                except (ExprRuntimeError, TypeError, ValueError, ArithmeticError, LookupError):
-                    row = self._watch_row(values)
-            self._watch_last = (now, row)
-        entry = (session.ticks, row)
+        """The watch expressions' values after this tick: one call of the generated function, which keeps the last
+        row (the same object) when nothing read moved. Rows are tuples of plain values, which the garbage collector
+        stops tracking: a long log costs it nothing."""
+        entry = (session.ticks, self._watch_row(session.machine.ctx))
         self.watch_log.append(entry)
         self._watch_new.append(entry)
 
-    def _watch_values(self, ctx: Any) -> dict[str, Any]:
-        """What the watches may read, one by one (when the reader could not: no car, a variable gone)."""
-        values: dict[str, Any] = dict(ctx.vars)
-        car = ctx.car
-        for name, reading in self._watch_reads:
-            if reading is None:
-                values[name] = ctx.signals.get(name[7:], False)
-            elif car is not None:
-                values[name] = getattr(car, reading, None)
-        return values
-
-    def _watch_row(self, values: dict[str, Any]) -> tuple[Any, ...]:
-        try:  # all at once; one that fails: each on its own, the failing one's error as its value
-            return tuple([test(values) for test in self._watch_tests])
-        except (ExprRuntimeError, TypeError, ValueError, ArithmeticError, LookupError):
-            row = []
-            for test in self._watch_tests:
-                try:
-                    row.append(test(values))
-                except (ExprRuntimeError, TypeError, ValueError, ArithmeticError, LookupError) as exc:
-                    row.append(f"error: {exc}")
-            return tuple(row)
-
     def _plan_watches(self) -> None:
-        """What the watches read (:func:`_reads`), and one reader of all of it per tick (see :func:`_reader`)."""
-        self._watch_reads = _reads(self.watches)
-        self._watch_tests = [fn for _n, _t, fn in self.watches]
-        self._watch_names, self._watch_read = _reader(self.watches, self._watch_reads,
-                                                      self.session.machine.ctx.vars)
-        self._watch_last = (None, ())
-        # a list or a dict changes in place: equal to itself though changed, so never a reason to keep the row
-        variables = self.session.machine.ctx.vars
-        self._watch_same = not any(isinstance(variables.get(n), (list, dict, set)) for n in self._watch_names)
-        # a row from the reader's tuple and the expressions' values after it, by one itemgetter
-        at = {name: k for k, name in enumerate(self._watch_names)}
-        exprs: list[Callable[[dict[str, Any]], Any]] = []
-        order: list[int] = []
-        for _n, text, fn in self.watches:
-            if text.strip() in at and isinstance(fn, operator.itemgetter):
-                order.append(at[text.strip()])
-            else:
-                order.append(len(at) + len(exprs))
-                exprs.append(fn)
-        self._watch_exprs = exprs or None
-        if len(order) > 1:
-            self._watch_order = operator.itemgetter(*order)
-        else:  # one index: itemgetter would give the bare value, not a tuple
-            self._watch_order = lambda got: tuple([got[k] for k in order])
+        self._watch_row = row_function([w for _n, _t, w in self.watches])
 
     def _resync(self) -> None:
         """Take the active states as they are between two ticks (after ticks nothing looked at)."""
@@ -545,19 +464,10 @@ class Controller:
     def _cmd_watch(self, args: dict[str, Any]) -> dict[str, Any]:
         """``expr``: an expression of the document's language, whose value is kept after every tick from now on
         (plotted by the page); an expression that does not parse is refused with its column."""
-        text = args.get("expr")
-        if not isinstance(text, str) or not text.strip():
-            raise BreakpointError("a watch is an expression such as car_front or n * 2", 1)
         if len(self.watches) >= MAX_WATCHES:
             raise ValueError(f"at most {MAX_WATCHES} watch expressions; remove one first")
-        machine = self.session.machine
-        try:
-            compiled = compile_expr(text, expression_kinds(machine, self.signals))
-        except ExprError as exc:
-            raise BreakpointError(exc.message, exc.column) from None
-        name = text.strip()  # a bare name (the usual watch) is a lookup: no expression to run after every tick
-        fn = operator.itemgetter(name) if name.isidentifier() and not compiled.constant else compiled.fn
-        self.watches.append((self._next_watch, text, fn))
+        watch = compile_watch(args.get("expr"), self.session.machine, self.signals)
+        self.watches.append((self._next_watch, watch.text, watch))
         self._next_watch += 1
         self._plan_watches()
         self.watch_log.clear()  # a new column: the rows so far have one value fewer
@@ -876,41 +786,6 @@ class Controller:
         notify = self.notify
         if notify is not None:
             notify()
-
-
-def _reads(watches: list[tuple[int, str, Any]]) -> list[tuple[str, str | None]]:
-    """The signals and car readings ``watches`` name (``signal_NAME``, ``car_NAME``), each once."""
-    names = {name for _n, text, _fn in watches for name in re.findall(r"[A-Za-z_][A-Za-z_0-9]*", text)}
-    reads: list[tuple[str, str | None]] = [(n, None) for n in sorted(names) if n.startswith("signal_")]
-    reads += [(f"car_{r}", r) for r in CAR_READINGS if f"car_{r}" in names]
-    return reads
-
-
-def _reader(watches: list[tuple[int, str, Any]], reads: list[tuple[str, str | None]], variables: dict[str, Any]
-            ) -> tuple[tuple[str, ...], Callable[[Any], tuple[Any, ...]] | None]:
-    """The names ``watches`` read and one function giving their values for a machine's context as a tuple: the
-    car's readings (one ``attrgetter``), the variables named (one ``itemgetter``), the signals' levels. Two equal
-    tuples mean equal rows (the expressions are pure), so a tick where none of it changed needs no evaluation."""
-    names = {name for _n, text, _fn in watches for name in re.findall(r"[A-Za-z_][A-Za-z_0-9]*", text)}
-    car = tuple(reading for _name, reading in reads if reading is not None)
-    signals = tuple(name for name, reading in reads if reading is None)
-    held = tuple(sorted(n for n in names if n in variables))
-    getters: list[Callable[[Any], tuple[Any, ...]]] = []
-    if car:
-        car_of = operator.attrgetter(*car)
-        getters.append((lambda ctx: car_of(ctx.car)) if len(car) > 1 else (lambda ctx: (car_of(ctx.car),)))
-    if held:
-        vars_of = operator.itemgetter(*held)
-        getters.append((lambda ctx: vars_of(ctx.vars)) if len(held) > 1 else (lambda ctx: (vars_of(ctx.vars),)))
-    if signals:
-        levels = tuple(name[7:] for name in signals)
-        getters.append(lambda ctx: tuple([ctx.signals.get(s, False) for s in levels]))
-    names_read = tuple(f"car_{r}" for r in car) + held + signals
-    if not getters:
-        return names_read, None
-    if len(getters) == 1:
-        return names_read, getters[0]
-    return names_read, lambda ctx: sum((get(ctx) for get in getters), ())
 
 
 __all__ = ["CHUNK", "Controller"]

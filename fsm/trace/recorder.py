@@ -223,7 +223,8 @@ class Recorder(Listener):
             out.write(input_line)
         self._input_lines = []
 
-    def _write_event(self, machine: Machine, out: SupportsWrite[str], changed: tuple[dict[str, Any], list[str]] | None) -> None:
+    def _write_event(self, machine: Machine, out: SupportsWrite[str],
+                     changed: tuple[dict[str, Any], list[str]] | None) -> None:
         """The tick's ``event`` line: its transitions, variables changed and removed, monitors and pauses."""
         ctx = machine.ctx
         line: dict[str, Any] = {"type": "event", "tick": ctx.tick, "time": round(ctx.now, 9),

@@ -210,8 +210,16 @@ def _label_shapes(text: str) -> list[tuple[list[str], float, float, float]]:
     return out
 
 
-#: The rings of candidate places: first those near the arrow (-1: on it), then further out.
-_RINGS = ((-1, 0, 1, 2, 3), tuple(range(4, 12)))
+#: Labels closer than this (px) read as one stacked label: a place that close to another costs a little more.
+STACKED = 6.0
+#: What a label costs for each arrow running through it: more than any place near its arrow, less than a box.
+CROSSED = 20000.0
+#: Rings from this one on are tried only when every place beside the arrow lies across something: the label goes
+#: round a point of its arrow in eight directions (``side`` is the direction), at growing distances.
+COMPASS = 12
+_DIRECTIONS = tuple((math.cos(k * math.pi / 4), math.sin(k * math.pi / 4)) for k in range(8))
+#: The rings of candidate places: first those near the arrow (-1: on it), then further out, then around it.
+_RINGS = ((-1, 0, 1, 2, 3), tuple(range(4, 12)), tuple(range(COMPASS, COMPASS + 8)))
 #: A candidate place: what it costs before looking at the drawing, its number in the order the places are
 #: listed (the first of equally good places wins), its ring, which ``_ALONG`` point, which label shape, which side.
 Candidate = tuple[float, int, int, int, int, int]
@@ -228,7 +236,7 @@ def _candidates(worse: tuple[float, ...]) -> tuple[tuple[Candidate, ...], ...]:
         for ring in rings:
             for ti, t in enumerate(_ALONG):
                 for si, bad in enumerate(worse):
-                    for side in ((1,) if ring < 0 else (1, -1)):
+                    for side in ((1,) if ring < 0 else range(8) if ring >= COMPASS else (1, -1)):
                         group.append((abs(t - 0.5) * 120 + max(ring, 0) * 250 + (0 if side == 1 else 15) + bad, idx,
                                       ring, ti, si, side))
                         idx += 1
@@ -262,38 +270,10 @@ def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
         own = [(a[0], a[1], b[0], b[1]) for a, b in pairwise(e.points)]
         best: list[Any] = [math.inf, -1, None, []]  # cost, candidate number, place, lines
 
-        def search(shapes: list[tuple[list[str], float, float, float]], groups: tuple[tuple[Candidate, ...], ...],
-                   best: list[Any], near: _Near, anchors: list[tuple[float, float, float, float]],
-                   own: list[tuple[float, float, float, float]]) -> None:
-            for group in groups:
-                for base, idx, ring, ti, si, side in group:
-                    best_cost, best_idx = best[0], best[1]
-                    if base > best_cost or base == best_cost and idx > best_idx:
-                        break  # this place and all after it cost at least as much as the best one
-                    px, py, nx, ny = anchors[ti]
-                    lines, w, h, _ = shapes[si]
-                    sx, sy = nx * side, ny * side
-                    d = 0.0 if ring < 0 else 4 + abs(sx) * w / 2 + abs(sy) * h / 2 + ring * (LINE_H + 2) * 0.75
-                    cx, cy = px + sx * d, py + sy * d
-                    r = (round(cx - w / 2, 1), round(cy - h / 2, 1), w, h)
-                    if ring < 0:  # on its own arrow, which costs 600 more: no better than the best one?
-                        low = base + 600
-                        if (low > best_cost or low == best_cost and idx > best_idx) and \
-                                any(segment_hits_box(*sg, r) for sg in own):
-                            continue
-                    limit = best_cost - base
-                    if idx < best_idx:  # as good as the best one would do: it comes first
-                        limit = math.nextafter(limit, math.inf)
-                    cost = base + near.cost(r, (px, py), limit)
-                    if cost < best_cost or cost == best_cost and idx < best_idx:
-                        best[:] = [cost, idx, r, lines]
-                if best[0] < 1e5:
-                    break
-
-        search(shapes[:2], _candidates(tuple(worse for *_, worse in shapes[:2])), best, near, anchors, own)
-        if best[0] >= 1e5 and len(shapes) > 2:  # nowhere free: the short form, near its arrow
+        _search(shapes[:2], _candidates(tuple(worse for *_, worse in shapes[:2])), best, near, anchors, own)
+        if best[0] >= CROSSED and len(shapes) > 2:  # nowhere free: the short form, near its arrow
             short: list[Any] = [best[0], -1, None, []]
-            search(shapes[2:], _candidates((shapes[2][3],))[:1], short, near, anchors, own)
+            _search(shapes[2:], _candidates((shapes[2][3],)), short, near, anchors, own)
             if short[2] is not None and short[0] < best[0]:
                 best = short
         best_r: Rect | None = best[2]
@@ -302,6 +282,41 @@ def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
         placed.add(best_r)
         out.append((e, best_r, best_lines))
     return out
+
+
+def _search(shapes: list[tuple[list[str], float, float, float]], groups: tuple[tuple[Candidate, ...], ...],
+            best: list[Any], near: _Near, anchors: list[tuple[float, float, float, float]],
+            own: list[tuple[float, float, float, float]]) -> None:
+    """The cheapest of the candidate places into ``best`` (cost, number, place, lines), searched group by group
+    (a group further out only while every place so far lies across something)."""
+    for group in groups:
+        for base, idx, ring, ti, si, side in group:
+            best_cost, best_idx = best[0], best[1]
+            if base > best_cost or base == best_cost and idx > best_idx:
+                break  # this place and all after it cost at least as much as the best one
+            px, py, nx, ny = anchors[ti]
+            lines, w, h, _ = shapes[si]
+            if ring >= COMPASS:  # round the point: past the label's own half size, then a step a ring
+                sx, sy = _DIRECTIONS[side]
+                d = 4 + abs(sx) * w / 2 + abs(sy) * h / 2 + (ring - COMPASS) * (LINE_H + 2)
+            else:
+                sx, sy = nx * side, ny * side
+                d = 0.0 if ring < 0 else 4 + abs(sx) * w / 2 + abs(sy) * h / 2 + ring * (LINE_H + 2) * 0.75
+            cx, cy = px + sx * d, py + sy * d
+            r = (round(cx - w / 2, 1), round(cy - h / 2, 1), w, h)
+            if ring < 0:  # on its own arrow, which costs CROSSED more: no better than the best one?
+                low = base + CROSSED
+                if (low > best_cost or low == best_cost and idx > best_idx) and \
+                        any(segment_hits_box(*sg, r) for sg in own):
+                    continue
+            limit = best_cost - base
+            if idx < best_idx:  # as good as the best one would do: it comes first
+                limit = math.nextafter(limit, math.inf)
+            cost = base + near.cost(r, (px, py), limit)
+            if cost < best_cost or cost == best_cost and idx < best_idx:
+                best[:] = [cost, idx, r, lines]
+        if best[0] < CROSSED:
+            break
 
 
 class _Placed:
@@ -327,30 +342,56 @@ class _Near:
             (container[0] + 2, container[1] + 2, container[2] - 4, container[3] - 4)
 
     def cost(self, r: Rect, anchor: tuple[float, float], limit: float) -> float:
-        """How bad a place ``r`` for a label is; stops counting once it is worse than ``limit``."""
-        scene = self.scene
+        """How bad a place ``r`` for a label is; stops counting once it is worse than ``limit``: over a label placed
+        before, over a box (or out of its composite), across an arrow, or with an arrow between it and its own."""
         rx, ry, rw, rh = r
-        rx1, ry1 = rx + rw, ry + rh
-        x0, y0, x1, y1 = rx - 2, ry - 2, rx1 + 2, ry1 + 2  # with a little air around it
+        air = (rx - 2, ry - 2, rx + rw + 2, ry + rh + 2)  # with a little air around it
+        cost = self._on_labels(air)
+        if cost >= limit:
+            return cost
+        ax, ay = anchor
+        x0, y0, x1, y1 = air
+        # one look into the grid for the boxes (near the place) and the segments (between the place and its arrow)
+        found = self.scene.grid.near(x0 if x0 < ax else ax, y0 if y0 < ay else ay, x1 if x1 > ax else ax,
+                                     y1 if y1 > ay else ay)
+        k, on_boxes = self._on_boxes(found, air)
+        cost += on_boxes
+        if self.inner is not None:
+            outside = rw * rh - _area(r, self.inner)
+            if outside > 0.01:
+                cost += 1e5 + outside * 10
+        if cost >= limit:
+            return cost
+        return self._on_arrows(found, k, r, anchor, cost, limit)
+
+    def _on_labels(self, air: Rect) -> float:
+        """Over a label placed before; or stacked right next to one (within ``STACKED`` px), which reads as one
+        label of two lines whose arrows cannot be told apart."""
+        x0, y0, x1, y1 = air
         cost = 0.0
         placed = self.placed.rects
-        for i in self.placed.grid.near(x0, y0, x1, y1):
+        m = STACKED
+        for i in self.placed.grid.near(x0 - m, y0 - m, x1 + m, y1 + m):
             ox, oy, ow, oh = placed[i]
             ox1, oy1 = ox + ow, oy + oh
             w = (x1 if x1 < ox1 else ox1) - (x0 if x0 > ox else ox)
             h = (y1 if y1 < oy1 else oy1) - (y0 if y0 > oy else oy)
             if w > 0 and h > 0:
                 cost += 1e6 + w * h * 100
-        if cost >= limit:
-            return cost
-        ax, ay = anchor
-        # one look into the grid for the boxes (near the place) and the segments (between the place and its arrow)
-        found = scene.grid.near(x0 if x0 < ax else ax, y0 if y0 < ay else ay, x1 if x1 > ax else ax,
-                                y1 if y1 > ay else ay)
+            elif w > -m and h > -m:
+                cost += 400
+        return cost
+
+    def _on_boxes(self, found: list[int], air: Rect) -> tuple[int, float]:
+        """The cost of the boxes and composites (not the label's own) among ``found``, which lists them first; and
+        how many of ``found`` they are."""
+        x0, y0, x1, y1 = air
+        scene = self.scene
         boxes, composites = scene.boxes, scene.composites
         n_boxes = len(boxes)
         n_obstacles = n_boxes + len(composites)
         k = 0
+        cost = 0.0
         for i in found:
             if i >= n_obstacles:
                 break
@@ -366,23 +407,27 @@ class _Near:
             h = (y1 if y1 < oy1 else oy1) - (y0 if y0 > oy else oy)
             if w > 0 and h > 0:
                 cost += 1e5 + w * h * 10
-        if self.inner is not None:
-            outside = rw * rh - _area(r, self.inner)
-            if outside > 0.01:
-                cost += 1e5 + outside * 10
-        if cost >= limit:
-            return cost
+        return k, cost
+
+    def _on_arrows(self, found: list[int], k: int, r: Rect, anchor: tuple[float, float], cost: float,
+                   limit: float) -> float:
+        """``cost`` plus the arrows among ``found`` (from ``k`` on) across the label or between it and its arrow."""
+        scene = self.scene
+        rx, ry, rw, rh = r
+        rx1, ry1 = rx + rw, ry + rh
+        ax, ay = anchor
         cx = rx if ax < rx else rx1 if ax > rx1 else ax  # the label's point nearest to its arrow
         cy = ry if ay < ry else ry1 if ay > ry1 else ay
         leader = (ax, ay, cx, cy)
         lx0, lx1 = (ax, cx) if ax <= cx else (cx, ax)
         ly0, ly1 = (ay, cy) if ay <= cy else (cy, ay)
         segments = scene.segments
+        n_obstacles = len(scene.boxes) + len(scene.composites)
         owner = self.owner
         for j in range(k, len(found)):
             seg, of, sx0, sy0, sx1, sy1 = segments[found[j] - n_obstacles]
             if not (sx1 < rx or sx0 > rx1 or sy1 < ry or sy0 > ry1) and segment_hits_box(*seg, r):
-                cost += 600 if of == owner else 3000
+                cost += CROSSED  # a label across an arrow (its own too) reads as belonging to it
             elif of != owner and not (sx1 < lx0 or sx0 > lx1 or sy1 < ly0 or sy0 > ly1) and segments_cross(leader, seg):
                 cost += 3000  # another arrow runs between this label and its arrow
             if cost >= limit:
@@ -411,79 +456,99 @@ def _draw(level: LevelLayout, body: list[str], prefix: str = "", where: dict[int
     drawn in (for a viewer that folds composites); ``where`` gets that path for each arrow (for its label)."""
     for n in level.nodes:
         st = n.doc
-        sid = escape(str(st.get("id")))
         path = f"{prefix}/{st.get('id')}" if prefix else str(st.get("id"))
-        dpath = f" data-path={quoteattr(path)}"
+        attrs = f" data-id={quoteattr(str(st.get('id')))} data-path={quoteattr(path)}"
         if n.composite:
-            body.append(f'<g class="node composite" data-id={quoteattr(str(st.get("id")))}{dpath}>')
-            body.append(f'<rect x="{n.x:.0f}" y="{n.y:.0f}" width="{n.w:.0f}" height="{n.h:.0f}" rx="12" '
-                        'fill="#f4f7fb" stroke="#4a6d94" stroke-width="1.5"/>')
-            avail = n.w - 2 * BOX_MARGIN
-            top = n.y if n.parts else n.y + max(0.0, (n.h - n.head) / 2)  # no content: the text in the middle
-            title, size = fit(str(st.get("id")), avail, FONT, bold=True)
-            body.append(_text(n.x + n.w / 2, top + 18, title, size, extra=' font-weight="bold"'))
-            if n.note is not None:
-                note, nsize = fit(n.note, avail, SMALL_FONT)
-                colour = "#a33" if n.note_error else "#666"
-                body.append(_text(n.x + n.w / 2, top + 32, note, nsize, extra=f' font-style="italic" fill="{colour}"'))
-            if n.parts:
-                body.append(f'<line x1="{n.x:.0f}" y1="{n.y + n.head:.0f}" x2="{n.x + n.w:.0f}" '
-                            f'y2="{n.y + n.head:.0f}" stroke="#4a6d94"/>')
-            for i, p in enumerate(n.parts):
-                if i:
-                    body.append(f'<line x1="{p.x:.0f}" y1="{p.y:.0f}" x2="{p.x:.0f}" y2="{p.y + p.h:.0f}" '
-                                'stroke="#4a6d94" stroke-dasharray="6,4"/>')
-                if p.name is not None:
-                    name, psize = fit(p.name, p.w - 2 * BOX_MARGIN, LABEL_FONT)
-                    body.append(_text(p.x + p.w / 2, p.y + 16, name, psize,
-                                      extra=' font-style="italic" fill="#4a6d94"'))
-            body.append("</g>")
+            _draw_composite(n, attrs, body)
             for i, p in enumerate(n.parts):
                 _draw(p.level, body, _region_prefix(n, path, i), where)
         elif st.get("type") == "Final":
-            cx, cy = n.x + n.w / 2, n.y + n.h / 2
-            if _small_final(n):  # a UMLet final pseudostate
-                r = n.w / 2
-                body.append(f'<g class="pseudo" data-id={quoteattr(str(st.get("id")))}{dpath}>')
-                body.append(f'<circle cx="{cx:.0f}" cy="{cy:.0f}" r="{r:.1f}" fill="white" stroke="#333"/>')
-                body.append(f'<circle cx="{cx:.0f}" cy="{cy:.0f}" r="{max(r - 4, 2):.1f}" fill="#333"/>')
-                body.append(f'<text x="{cx + r + 4:.0f}" y="{cy + 4:.0f}" fill="#555">{sid}</text>')
-                body.append("</g>")
-            else:
-                body.append(f'<g class="node final" data-id={quoteattr(str(st.get("id")))}{dpath}>')
-                body.append(f'<rect x="{n.x:.0f}" y="{n.y:.0f}" width="{n.w:.0f}" height="{n.h:.0f}" rx="10" '
-                            'fill="#eef6ee" stroke="#333" stroke-width="3"/>')
-                body.append(f'<circle cx="{n.x + 16:.0f}" cy="{cy:.0f}" r="7" fill="white" stroke="#333"/>')
-                body.append(f'<circle cx="{n.x + 16:.0f}" cy="{cy:.0f}" r="4" fill="#333"/>')
-                left, right = n.x + FINAL_ICON, n.x + n.w - BOX_MARGIN
-                text = final_text(st)
-                if text_width(text, FONT - 1.5) > right - left and " → " in text and n.h >= 44:
-                    first, second = text.split(" → ", 1)
-                    a, sa = fit(first, right - left, FONT)
-                    b, sb = fit("→ " + second, right - left, FONT)
-                    size = min(sa, sb)
-                    body.append(_text((left + right) / 2, cy - 3, a, size))
-                    body.append(_text((left + right) / 2, cy + size, b, size))
-                else:
-                    t, size = fit(text, right - left, FONT)
-                    body.append(_text((left + right) / 2, cy + size / 3, t, size))
-                body.append("</g>")
+            _draw_final(n, attrs, body)
         else:
-            body.append(f'<g class="node" data-id={quoteattr(str(st.get("id")))}{dpath}>')
-            body.append(f'<rect x="{n.x:.0f}" y="{n.y:.0f}" width="{n.w:.0f}" height="{n.h:.0f}" rx="10" '
-                        'fill="#fffbe6" stroke="#333" stroke-width="1.2"/>')
-            name, sub = _state_lines(st)
-            avail = n.w - 2 * BOX_MARGIN
-            cx, cy = n.x + n.w / 2, n.y + n.h / 2
-            if sub:
-                t, size = fit(name, avail, FONT)
-                body.append(_text(cx, cy - 2, t, size))
-                t, size = fit(sub, avail, SMALL_FONT)
-                body.append(_text(cx, cy + 12, t, size, extra=' fill="#666"'))
-            else:
-                t, size = fit(name, avail, FONT)
-                body.append(_text(cx, cy + size / 3, t, size))
-            body.append("</g>")
+            _draw_state(n, attrs, body)
+    _draw_arrows(level, body, prefix, where)
+
+
+def _draw_composite(n: Node, attrs: str, body: list[str]) -> None:
+    """A composite's box: its title (and note) in a band, its parts' compartments."""
+    st = n.doc
+    body.append(f'<g class="node composite"{attrs}>')
+    body.append(f'<rect x="{n.x:.0f}" y="{n.y:.0f}" width="{n.w:.0f}" height="{n.h:.0f}" rx="12" '
+                'fill="#f4f7fb" stroke="#4a6d94" stroke-width="1.5"/>')
+    avail = n.w - 2 * BOX_MARGIN
+    top = n.y if n.parts else n.y + max(0.0, (n.h - n.head) / 2)  # no content: the text in the middle
+    title, size = fit(str(st.get("id")), avail, FONT, bold=True)
+    body.append(_text(n.x + n.w / 2, top + 18, title, size, extra=' font-weight="bold"'))
+    if n.note is not None:
+        note, nsize = fit(n.note, avail, SMALL_FONT)
+        colour = "#a33" if n.note_error else "#666"
+        body.append(_text(n.x + n.w / 2, top + 32, note, nsize, extra=f' font-style="italic" fill="{colour}"'))
+    if n.parts:
+        body.append(f'<line x1="{n.x:.0f}" y1="{n.y + n.head:.0f}" x2="{n.x + n.w:.0f}" '
+                    f'y2="{n.y + n.head:.0f}" stroke="#4a6d94"/>')
+    for i, p in enumerate(n.parts):
+        if i:
+            body.append(f'<line x1="{p.x:.0f}" y1="{p.y:.0f}" x2="{p.x:.0f}" y2="{p.y + p.h:.0f}" '
+                        'stroke="#4a6d94" stroke-dasharray="6,4"/>')
+        if p.name is not None:
+            name, psize = fit(p.name, p.w - 2 * BOX_MARGIN, LABEL_FONT)
+            body.append(_text(p.x + p.w / 2, p.y + 16, name, psize, extra=' font-style="italic" fill="#4a6d94"'))
+    body.append("</g>")
+
+
+def _draw_final(n: Node, attrs: str, body: list[str]) -> None:
+    """A final state: a UMLet final pseudostate (a small circle, its id beside it), or a box with the icon."""
+    st = n.doc
+    cx, cy = n.x + n.w / 2, n.y + n.h / 2
+    if _small_final(n):
+        r = n.w / 2
+        body.append(f'<g class="pseudo"{attrs}>')
+        body.append(f'<circle cx="{cx:.0f}" cy="{cy:.0f}" r="{r:.1f}" fill="white" stroke="#333"/>')
+        body.append(f'<circle cx="{cx:.0f}" cy="{cy:.0f}" r="{max(r - 4, 2):.1f}" fill="#333"/>')
+        body.append(f'<text x="{cx + r + 4:.0f}" y="{cy + 4:.0f}" fill="#555">{escape(str(st.get("id")))}</text>')
+        body.append("</g>")
+        return
+    body.append(f'<g class="node final"{attrs}>')
+    body.append(f'<rect x="{n.x:.0f}" y="{n.y:.0f}" width="{n.w:.0f}" height="{n.h:.0f}" rx="10" '
+                'fill="#eef6ee" stroke="#333" stroke-width="3"/>')
+    body.append(f'<circle cx="{n.x + 16:.0f}" cy="{cy:.0f}" r="7" fill="white" stroke="#333"/>')
+    body.append(f'<circle cx="{n.x + 16:.0f}" cy="{cy:.0f}" r="4" fill="#333"/>')
+    left, right = n.x + FINAL_ICON, n.x + n.w - BOX_MARGIN
+    text = final_text(st)
+    if text_width(text, FONT - 1.5) > right - left and " → " in text and n.h >= 44:
+        first, second = text.split(" → ", 1)
+        a, sa = fit(first, right - left, FONT)
+        b, sb = fit("→ " + second, right - left, FONT)
+        size = min(sa, sb)
+        body.append(_text((left + right) / 2, cy - 3, a, size))
+        body.append(_text((left + right) / 2, cy + size, b, size))
+    else:
+        t, size = fit(text, right - left, FONT)
+        body.append(_text((left + right) / 2, cy + size / 3, t, size))
+    body.append("</g>")
+
+
+def _draw_state(n: Node, attrs: str, body: list[str]) -> None:
+    """A simple state's box: its name, and its type under it."""
+    body.append(f'<g class="node"{attrs}>')
+    body.append(f'<rect x="{n.x:.0f}" y="{n.y:.0f}" width="{n.w:.0f}" height="{n.h:.0f}" rx="10" '
+                'fill="#fffbe6" stroke="#333" stroke-width="1.2"/>')
+    name, sub = _state_lines(n.doc)
+    avail = n.w - 2 * BOX_MARGIN
+    cx, cy = n.x + n.w / 2, n.y + n.h / 2
+    if sub:
+        t, size = fit(name, avail, FONT)
+        body.append(_text(cx, cy - 2, t, size))
+        t, size = fit(sub, avail, SMALL_FONT)
+        body.append(_text(cx, cy + 12, t, size, extra=' fill="#666"'))
+    else:
+        t, size = fit(name, avail, FONT)
+        body.append(_text(cx, cy + size / 3, t, size))
+    body.append("</g>")
+
+
+def _draw_arrows(level: LevelLayout, body: list[str], prefix: str, where: dict[int, str] | None) -> None:
+    """The level's initial marker and arrows, in one group that names the composite they are drawn in."""
     body.append(f'<g class="level" data-in={quoteattr(prefix)}>')
     if level.marker is not None:
         mx, my = level.marker
@@ -499,4 +564,3 @@ def _draw(level: LevelLayout, body: list[str], prefix: str = "", where: dict[int
         if where is not None:
             where[id(e)] = prefix
     body.append("</g>")
-

@@ -32,70 +32,84 @@ def sequence_note(st: dict[str, Any]) -> str:
 
 
 def expander(directory: Path | None, where: str = "", stack: tuple[Path, ...] = (),
-              seen: dict[Path, Any] | None = None) -> Callable[[dict[str, Any]], Expansion | None]:
+             seen: dict[Path, Any] | None = None) -> Callable[[dict[str, Any]], Expansion | None]:
     """What a composite shows: inline machines, ``{"file": ...}`` includes (read relative to ``directory``, the
     including file's folder) and the regions of a ``Parallel`` state.
 
     An included file is drawn where it is first included (in document order); a later include of the same file
     is a box naming the file and that first place, so a machine reused many times is drawn once.
     """
-    seen = {} if seen is None else seen  # file -> (document, folder) | "problem", and where it is drawn
+    return _Expander(directory, where, stack, {} if seen is None else seen).expand
 
-    def resolve(ref: dict[str, Any], here: str) -> tuple[dict[str, Any] | None, Any, str, bool]:
-        """(machine, expand hook for its states, note, whether the note is an error)."""
+
+Part = tuple[dict[str, Any] | None, Any, str | None, bool]
+
+
+class _Expander:
+    """:func:`expander`'s hook and what it shares with the hooks of the machines it opens: ``seen`` maps a file to
+    (its document and folder, or what is wrong with it; where it is drawn)."""
+
+    def __init__(self, directory: Path | None, where: str, stack: tuple[Path, ...], seen: dict[Path, Any]) -> None:
+        self.directory, self.where, self.stack, self.seen = directory, where, stack, seen
+
+    def expand(self, st: dict[str, Any]) -> Expansion | None:
+        here = f"{self.where}/{st.get('id')}" if self.where else str(st.get("id"))
+        if st.get("type") == "Parallel" and isinstance(st.get("regions"), list):
+            return self.regions(st, here)
+        if st.get("type") == "Sequence" and isinstance(st.get("steps"), list):
+            seq = sequence_machine(st)
+            return Expansion([(None, seq, expander(self.directory, here, self.stack, self.seen))], sequence_note(st))
+        m = st.get("machine")
+        if st.get("type") != "FSMState" or not isinstance(m, dict):
+            return None
+        machine, hook, note, error = self.part(m, here)
+        if "file" not in m:
+            return Expansion([(None, machine, hook)]) if machine is not None else None
+        return Expansion([(None, machine, hook)] if machine is not None else [], note, foreign=True, error=error)
+
+    def regions(self, st: dict[str, Any], here: str) -> Expansion | None:
+        """A ``Parallel`` state's regions, one compartment each, named by their machine (and what went wrong)."""
+        parts: list[tuple[str | None, dict[str, Any], Any]] = []
+        for i, ref in enumerate(st["regions"]):
+            inline = ref.get("name") if isinstance(ref, dict) and isinstance(ref.get("name"), str) else None
+            machine, hook, note, error = self.part(ref, f"{here}/{inline or f'region{i + 1}'}")
+            name = machine.get("name") if machine is not None else None
+            name = name if isinstance(name, str) and name else f"region{i + 1}"
+            if note:
+                name += f" — {note}" if error else f" ({note})"
+            parts.append((name, machine if machine is not None else {"states": []}, hook))
+        widths = [text_width(name or "", LABEL_FONT) + 2 * BOX_MARGIN + 4 for name, _, _ in parts]
+        return Expansion(parts, parallel_note(st), foreign=True, min_widths=widths) if parts else None
+
+    def part(self, ref: Any, here: str) -> Part:
+        """(machine, expand hook for its states, note, whether the note is an error) of a region or sub-machine."""
+        if isinstance(ref, dict) and "file" in ref:
+            return self.resolve(ref, here)
+        if isinstance(ref, dict) and isinstance(ref.get("states"), list):
+            return ref, expander(self.directory, here, self.stack, self.seen), None, False
+        return None, None, None, False
+
+    def resolve(self, ref: dict[str, Any], here: str) -> Part:
         file = str(ref.get("file"))
-        if directory is None:
+        if self.directory is None:
             return None, None, f"{file} (not opened)", False
-        path = (directory / file).resolve()
-        if path in stack:
+        path = (self.directory / file).resolve()
+        if path in self.stack:
             return None, None, f"{file}: include cycle", True
-        if len(stack) >= MAX_INCLUDE_DEPTH:
+        if len(self.stack) >= MAX_INCLUDE_DEPTH:
             return None, None, f"{file}: nested too deep", True
+        seen = self.seen
         if path not in seen:
             seen[path] = (read_include(path), here)
             got = seen[path][0]
             if isinstance(got, str):
                 return None, None, f"{file}: {got}", True
             data, folder = got
-            return data, expander(folder, here, stack + (path,), seen), file, False
+            return data, expander(folder, here, self.stack + (path,), seen), file, False
         got, first = seen[path]
         if isinstance(got, str):
             return None, None, f"{file}: {got}", True
         return None, None, f"{file}, drawn in {first}", False
-
-    def part(ref: Any, here: str) -> tuple[dict[str, Any] | None, Any, str | None, bool]:
-        if isinstance(ref, dict) and "file" in ref:
-            return resolve(ref, here)
-        if isinstance(ref, dict) and isinstance(ref.get("states"), list):
-            return ref, expander(directory, here, stack, seen), None, False
-        return None, None, None, False
-
-    def expand(st: dict[str, Any]) -> Expansion | None:
-        here = f"{where}/{st.get('id')}" if where else str(st.get("id"))
-        if st.get("type") == "Parallel" and isinstance(st.get("regions"), list):
-            parts: list[tuple[str | None, dict[str, Any], Any]] = []
-            for i, ref in enumerate(st["regions"]):
-                inline = ref.get("name") if isinstance(ref, dict) and isinstance(ref.get("name"), str) else None
-                machine, hook, note, error = part(ref, f"{here}/{inline or f'region{i + 1}'}")
-                name = machine.get("name") if machine is not None else None
-                name = name if isinstance(name, str) and name else f"region{i + 1}"
-                if note:
-                    name += f" — {note}" if error else f" ({note})"
-                parts.append((name, machine if machine is not None else {"states": []}, hook))
-            widths = [text_width(name or "", LABEL_FONT) + 2 * BOX_MARGIN + 4 for name, _, _ in parts]
-            return Expansion(parts, parallel_note(st), foreign=True, min_widths=widths) if parts else None
-        if st.get("type") == "Sequence" and isinstance(st.get("steps"), list):
-            seq = sequence_machine(st)
-            return Expansion([(None, seq, expander(directory, here, stack, seen))], sequence_note(st))
-        m = st.get("machine")
-        if st.get("type") != "FSMState" or not isinstance(m, dict):
-            return None
-        machine, hook, note, error = part(m, here)
-        if "file" not in m:
-            return Expansion([(None, machine, hook)]) if machine is not None else None
-        return Expansion([(None, machine, hook)] if machine is not None else [], note, foreign=True, error=error)
-
-    return expand
 
 
 def read_include(path: Path) -> tuple[dict[str, Any], Path] | str:

@@ -13,8 +13,9 @@ _SKIP = {"type", "from", "to", "layout", "label", "description"}
 
 def edge_label(tr: dict[str, Any]) -> str:
     """How a transition is labelled: its UML label, else its type and parameters."""
-    if isinstance(tr.get("label"), str) and tr["label"]:
-        return tr["label"]
+    label = tr.get("label")
+    if isinstance(label, str) and label:
+        return label
     params = [f"{k}={v if isinstance(v, str) else json.dumps(v)}" for k, v in tr.items() if k not in _SKIP]
     typ = str(tr.get("type", ""))
     return typ + (" " + ", ".join(params) if params else "")

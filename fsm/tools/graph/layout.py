@@ -95,6 +95,8 @@ class Node:
     detached: bool = False
     #: The stored box, before room was made for grown composites (where stored arrow ends are attached).
     stored: tuple[float, float, float, float] | None = None
+    #: How far a tall level's reflow into columns moved the node (drawing only, :func:`_reflow`).
+    reflowed: tuple[float, float] = (0.0, 0.0)
 
     @property
     def id(self) -> str:
@@ -265,7 +267,7 @@ def lay_out(machine: dict[str, Any], label_lines: Any, *, expand: Callable[..., 
                 node.parts.append(Part(lay_out(sub, label_lines, expand=hook or expand, size=size,
                                                label_width=label_width, drawing=drawing, note_size=note_size), name,
                                        exp.min_widths[i] if i < len(exp.min_widths) else 0))
-        lay = st.get("layout") if isinstance(st.get("layout"), dict) else {}
+        lay = _dict(st.get("layout"))
         if all(_num(lay.get(k)) for k in "xywh"):
             node.x, node.y, node.w, node.h = float(lay["x"]), float(lay["y"]), float(lay["w"]), float(lay["h"])
             node.placed = True
@@ -286,6 +288,8 @@ def lay_out(machine: dict[str, Any], label_lines: Any, *, expand: Callable[..., 
         last = _attach(pts[-1], level.initial) if level.initial.stored is not None else pts[-1]
         middle = [] if level.initial.detached else [_spread(p, level.inserted) for p in pts[1:-1]]
         level.marker_points = [first] + middle + [last]
+    if drawing:
+        _reflow(level, label_width)
     for tr in _items(machine, "transitions"):
         if not isinstance(tr, dict):
             continue
@@ -311,8 +315,8 @@ def _place_note(level: LevelLayout, size: tuple[float, float] | None) -> None:
     if size is None:
         return
     w, h = size
-    lay = level.machine.get("layout") if isinstance(level.machine.get("layout"), dict) else {}
-    note = lay.get("note") if isinstance(lay.get("note"), dict) else {}
+    lay = _dict(level.machine.get("layout"))
+    note = _dict(lay.get("note"))
     if all(_num(note.get(k)) for k in "xywh") and all(n.stored is not None for n in level.nodes) \
             and not level.inserted:
         level.note = [float(note["x"]), float(note["y"]), float(note["w"]), float(note["h"])]
@@ -382,7 +386,7 @@ def _arrange(n: Node) -> None:
 def _stored_frames(n: Node) -> list[tuple[float, float, float, float]] | None:
     """The frames an inset composite's regions keep (``layout.frames`` of the state, one per region), when the
     box kept its stored place and every frame lies inside it and holds its region's content; else None."""
-    lay = n.doc.get("layout") if isinstance(n.doc.get("layout"), dict) else {}
+    lay = _dict(n.doc.get("layout"))
     stored = lay.get("frames")
     if not n.inset or n.stored is None or not isinstance(stored, list) or len(stored) != len(n.parts):
         return None
@@ -413,67 +417,79 @@ def _place(level: LevelLayout, by_id: dict[str, Node], label_width: Callable[[di
         w, h = _natural_size(n)
         n.w, n.h = max(n.w, w), max(n.h, h)
     if todo:
-        depth: dict[str, int] = {}
-        if level.initial is not None:
-            depth[level.initial.id] = 0
-            queue = deque([level.initial.id])
-            edges: dict[str, list[str]] = {}
-            for tr in _items(level.machine, "transitions"):
-                if isinstance(tr, dict):
-                    edges.setdefault(str(tr.get("from")), []).append(str(tr.get("to")))
-            while queue:
-                cur = queue.popleft()
-                for nxt in edges.get(cur, []):
-                    if nxt not in depth and nxt in by_id:
-                        depth[nxt] = depth[cur] + 1
-                        queue.append(nxt)
-        placed = [n for n in level.nodes if n.placed]
-        top = max((n.y + n.h for n in placed), default=-GAP_Y) + GAP_Y
-        top = max(top, MARKER + 40)
-        rows: dict[int, list[Node]] = {}
-        last = max(depth.values(), default=0) + 1
-        for n in todo:
-            rows.setdefault(depth.get(n.id, last), []).append(n)
-        y = top
-        left = min((n.x for n in placed), default=0.0)
-        into: dict[str, list[dict[str, Any]]] = {}  # the arrows into each state, for the room their labels need
-        if label_width is not None:
-            for tr in _items(level.machine, "transitions"):
-                if isinstance(tr, dict) and str(tr.get("from")) in by_id:
-                    into.setdefault(str(tr.get("to")), []).append(tr)
-        for i, r in enumerate(sorted(rows)):
-            gap_x = GAP_X
-            if label_width is not None:
-                ids = dict.fromkeys(n.id for n in rows[r])
-                widths = [label_width(tr) for sid in ids for tr in into.get(sid, [])]
-                gap_x = max(GAP_X, _snap(max(widths, default=0) + 20))
-                if i:
-                    y += max(0, len(widths) - 1) * 16
-            x = left
-            for n in rows[r]:
-                n.x, n.y = x, y
-                _arrange(n)
-                n.placed = True
-                x += n.w + gap_x
-            y += max(n.h for n in rows[r]) + GAP_Y
-    lay = level.machine.get("layout") if isinstance(level.machine.get("layout"), dict) else {}
-    ini = lay.get("initial") if isinstance(lay.get("initial"), dict) else {}
+        _place_rows(level, _rows(level, by_id, todo), by_id, label_width)
     if level.initial is not None:
-        if _num(ini.get("x")) and _num(ini.get("y")) and level.initial.placed \
-                and all(n.placed for n in level.nodes) and not todo:
-            level.marker = (float(ini["x"]), float(ini["y"]))
-            if _num(ini.get("w")) and _num(ini.get("h")):
-                level.marker_size = (float(ini["w"]), float(ini["h"]))
-            pts = ini.get("points")
-            if isinstance(pts, list) and len(pts) >= 2 and all(_is_point(p) for p in pts):
-                level.marker_points = [[float(p[0]), float(p[1])] for p in pts]
-        else:
-            n = level.initial
-            level.marker = (n.x + n.w / 2 - MARKER / 2, n.y - MARKER - 40)
-        if not level.marker_points:
-            mx, my = level.marker
-            level.marker_points = _connect((mx, my, MARKER, MARKER), (level.initial.x, level.initial.y,
-                                                                         level.initial.w, level.initial.h), 0)
+        _place_marker(level, level.initial, stored=not todo)
+
+
+def _rows(level: LevelLayout, by_id: dict[str, Node], todo: list[Node]) -> dict[int, list[Node]]:
+    """The nodes to place by their distance (in arrows) from the initial state; the unreachable ones last."""
+    depth: dict[str, int] = {}
+    if level.initial is not None:
+        depth[level.initial.id] = 0
+        queue = deque([level.initial.id])
+        edges: dict[str, list[str]] = {}
+        for tr in _items(level.machine, "transitions"):
+            if isinstance(tr, dict):
+                edges.setdefault(str(tr.get("from")), []).append(str(tr.get("to")))
+        while queue:
+            cur = queue.popleft()
+            for nxt in edges.get(cur, []):
+                if nxt not in depth and nxt in by_id:
+                    depth[nxt] = depth[cur] + 1
+                    queue.append(nxt)
+    rows: dict[int, list[Node]] = {}
+    last = max(depth.values(), default=0) + 1
+    for n in todo:
+        rows.setdefault(depth.get(n.id, last), []).append(n)
+    return rows
+
+
+def _place_rows(level: LevelLayout, rows: dict[int, list[Node]], by_id: dict[str, Node],
+                label_width: Callable[[dict[str, Any]], float] | None) -> None:
+    """The rows one below the other, below what has a stored place, each row's boxes side by side."""
+    placed = [n for n in level.nodes if n.placed]
+    y = max(max((n.y + n.h for n in placed), default=-GAP_Y) + GAP_Y, MARKER + 40)
+    left = min((n.x for n in placed), default=0.0)
+    into: dict[str, list[dict[str, Any]]] = {}  # the arrows into each state, for the room their labels need
+    if label_width is not None:
+        for tr in _items(level.machine, "transitions"):
+            if isinstance(tr, dict) and str(tr.get("from")) in by_id:
+                into.setdefault(str(tr.get("to")), []).append(tr)
+    for i, r in enumerate(sorted(rows)):
+        gap_x: float = GAP_X
+        if label_width is not None:
+            ids = dict.fromkeys(n.id for n in rows[r])
+            widths = [label_width(tr) for sid in ids for tr in into.get(sid, [])]
+            gap_x = max(GAP_X, _snap(max(widths, default=0) + 20))
+            if i:
+                y += max(0, len(widths) - 1) * 16
+        x = left
+        for n in rows[r]:
+            n.x, n.y = x, y
+            _arrange(n)
+            n.placed = True
+            x += n.w + gap_x
+        y += max(n.h for n in rows[r]) + GAP_Y
+
+
+def _place_marker(level: LevelLayout, initial: Node, stored: bool) -> None:
+    """The initial marker and its arrow: where ``layout.initial`` keeps them when every box kept its stored
+    place, else above the initial state."""
+    ini = _dict(_dict(level.machine.get("layout")).get("initial"))
+    if _num(ini.get("x")) and _num(ini.get("y")) and initial.placed and all(n.placed for n in level.nodes) \
+            and stored:
+        level.marker = (float(ini["x"]), float(ini["y"]))
+        if _num(ini.get("w")) and _num(ini.get("h")):
+            level.marker_size = (float(ini["w"]), float(ini["h"]))
+        pts = ini.get("points")
+        if isinstance(pts, list) and len(pts) >= 2 and all(_is_point(p) for p in pts):
+            level.marker_points = [[float(p[0]), float(p[1])] for p in pts]
+    else:
+        level.marker = (initial.x + initial.w / 2 - MARKER / 2, initial.y - MARKER - 40)
+    if not level.marker_points:
+        mx, my = level.marker
+        level.marker_points = _connect((mx, my, MARKER, MARKER), (initial.x, initial.y, initial.w, initial.h), 0)
 
 
 def _fit_composites(level: LevelLayout, drawing: bool) -> None:
@@ -588,6 +604,11 @@ def _node_bbox(level: LevelLayout) -> tuple[float, float, float, float]:
     return min(xs), min(ys), max(xe), max(ye)
 
 
+def _dict(v: Any) -> dict[str, Any]:
+    """``v`` when it is a dictionary (a document's optional ``layout`` block), else an empty one."""
+    return v if isinstance(v, dict) else {}
+
+
 def _num(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
@@ -601,6 +622,109 @@ def _is_point(p: Any) -> bool:
     return isinstance(p, list) and len(p) == 2 and all(_num(v) for v in p)
 
 
+# -- tall levels ---------------------------------------------------------------------------------------------
+#: A level taller than ``REFLOW_ASPECT`` times its width (and than ``REFLOW_MIN_H``) is reflowed into columns
+#: (drawing only); the number of columns is the one whose height over width comes nearest to ``REFLOW_TARGET``.
+REFLOW_ASPECT, REFLOW_MIN_H, REFLOW_TARGET = 2.0, 900.0, 0.75
+#: The most columns tried (more for a very long chain: about the square root of its length).
+MAX_COLUMNS = 12
+#: A level that is one column of states (two bands in three hold one state) is reflowed from this height over width.
+COLUMN_ASPECT = 1.0
+
+
+def _bands(level: LevelLayout) -> list[list[tuple[float, float, float, float, Node | None]]]:
+    """The level's boxes (states, and the initial marker as ``None``) cut into horizontal bands: a band ends where
+    a horizontal line meets no box. Top to bottom."""
+    items: list[tuple[float, float, float, float, Node | None]] = [(n.x, n.y, n.w, n.h, n) for n in level.nodes]
+    if level.marker is not None:  # it reaches down to its state, so that the two stay in one band
+        mx, my = level.marker
+        reach = level.initial.y + 1 - my if level.initial is not None else level.marker_size[1]
+        items.append((mx, my, level.marker_size[0], max(level.marker_size[1], reach), None))
+    items.sort(key=lambda b: (b[1], b[0]))
+    bands: list[list[tuple[float, float, float, float, Node | None]]] = []
+    bottom = -math.inf
+    for b in items:
+        if not bands or b[1] >= bottom:
+            bands.append([])
+        bands[-1].append(b)
+        bottom = max(bottom, b[1] + b[3])
+    return bands
+
+
+def _columns(sizes: list[tuple[float, float]], gap_x: float) -> list[list[int]]:
+    """Consecutive bands (``(width, height)`` each) split into columns: for each number of columns, the lowest
+    column height that holds them all in that many (cut greedily); of those, the split whose height over width is
+    nearest ``REFLOW_TARGET`` (of two alike, the one with fewer columns)."""
+    best: tuple[float, list[list[int]]] = (math.inf, [list(range(len(sizes)))])
+    total = sum(h for _, h in sizes) + GAP_Y * (len(sizes) - 1)
+    for k in range(2, min(len(sizes), max(MAX_COLUMNS, math.isqrt(len(sizes)) + 1)) + 1):
+        limit = max(max(h for _, h in sizes), total / k)
+        cols = _cut_columns(sizes, limit)
+        while len(cols) > k:  # a band did not fit where the even share ended: a little more height a column
+            limit *= 1.05
+            cols = _cut_columns(sizes, limit)
+        width = sum(max(sizes[i][0] for i in c) for c in cols) + gap_x * (len(cols) - 1)
+        tall = max(sum(sizes[i][1] for i in c) + GAP_Y * (len(c) - 1) for c in cols)
+        score = abs(math.log(tall / width / REFLOW_TARGET)) + 0.05 * len(cols)
+        if score < best[0]:
+            best = (score, cols)
+    return best[1]
+
+
+def _cut_columns(sizes: list[tuple[float, float]], limit: float) -> list[list[int]]:
+    """The bands in order, a new column wherever the next one would make the column taller than ``limit``."""
+    cols: list[list[int]] = [[]]
+    height = 0.0
+    for i, (_, h) in enumerate(sizes):
+        if cols[-1] and height + GAP_Y + h > limit + 1:
+            cols.append([])
+            height = 0.0
+        height += (GAP_Y if cols[-1] else 0) + h
+        cols[-1].append(i)
+    return cols
+
+
+def _reflow(level: LevelLayout, label_width: Callable[[dict[str, Any]], float] | None) -> None:
+    """A level much taller than wide (a long chain of states, as a diagram drawn as one column) is cut into its
+    horizontal bands and the bands set into columns side by side, in order, so that the drawing reads in a
+    page rather than as a strip. Each band keeps its own arrangement; every node remembers how far it moved
+    (``reflowed``), so arrows within a band keep their stored bends and arrows between bands are drawn anew."""
+    if len(level.nodes) < 4 or level.note is not None:
+        return
+    x0, y0, x1, y1 = _node_bbox(level)
+    if y1 - y0 <= max(REFLOW_MIN_H, COLUMN_ASPECT * (x1 - x0)):
+        return
+    bands = _bands(level)
+    single = sum(1 for band in bands if sum(1 for b in band if b[4] is not None) == 1)
+    if len(bands) < 3 or (y1 - y0 <= REFLOW_ASPECT * (x1 - x0) and 3 * single < 2 * len(bands)):
+        return
+    boxes = [(min(b[0] for b in band), min(b[1] for b in band), max(b[0] + b[2] for b in band),
+              max(b[1] + b[3] for b in band)) for band in bands]
+    widths = [label_width(tr) for tr in _items(level.machine, "transitions") if isinstance(tr, dict)] \
+        if label_width is not None else []
+    gap_x = GAP_X + min(max(widths, default=0.0), 240.0)
+    sizes = [(bx1 - x0, by1 - by0) for _, by0, bx1, by1 in boxes]
+    columns = _columns(sizes, gap_x)
+    if len(columns) < 2:
+        return
+    left = x0
+    for col in columns:
+        top = y0
+        for i in col:
+            dy = _snap(top - boxes[i][1])
+            dx = left - x0
+            for *_, n in bands[i]:
+                if n is None:
+                    assert level.marker is not None
+                    level.marker = (level.marker[0] + dx, level.marker[1] + dy)
+                    level.marker_points = [[px + dx, py + dy] for px, py in level.marker_points]
+                else:
+                    n.move(dx, dy)
+                    n.reflowed = (dx, dy)
+            top = boxes[i][1] + dy + sizes[i][1] + GAP_Y
+        left += _snap(max(sizes[i][0] for i in col) + gap_x)
+
+
 # -- arrows ----------------------------------------------------------------------------------------------------
 def _route(level: LevelLayout, drawing: bool = False) -> None:
     pair_count: dict[tuple[int, int], int] = {}
@@ -610,14 +734,16 @@ def _route(level: LevelLayout, drawing: bool = False) -> None:
         key = (min(id(e.src), id(e.dst)), max(id(e.src), id(e.dst)))
         pair_total[key] = pair_total.get(key, 0) + 1
     for e in level.edges:
-        lay = e.doc.get("layout") if isinstance(e.doc.get("layout"), dict) else {}
+        lay = _dict(e.doc.get("layout"))
         pts = lay.get("points")
         if (e.src.placed and e.dst.placed and isinstance(pts, list) and len(pts) >= 2
-                and all(_is_point(p) for p in pts) and _stored(e.src) and _stored(e.dst)):
+                and all(_is_point(p) for p in pts) and _stored(e.src) and _stored(e.dst)
+                and e.src.reflowed == e.dst.reflowed):
             e.points = [[float(p[0]), float(p[1])] for p in pts]
-            if level.inserted:  # room was made for grown composites: the ends stay on their boxes
+            if level.inserted or e.src.reflowed != (0.0, 0.0):  # boxes moved: the ends stay on their boxes
+                dx, dy = e.src.reflowed
                 middle = [] if e.src.detached or e.dst.detached else \
-                    [_spread(p, level.inserted) for p in e.points[1:-1]]
+                    [[x + dx, y + dy] for x, y in (_spread(p, level.inserted) for p in e.points[1:-1])]
                 e.points = [_attach(e.points[0], e.src)] + middle + [_attach(e.points[-1], e.dst)]
             continue
         key = (min(id(e.src), id(e.dst)), max(id(e.src), id(e.dst)))
@@ -658,7 +784,7 @@ def _separate_duplicates(level: LevelLayout) -> None:
         off = 18 * ((k + 1) // 2) * (1 if k % 2 else -1)
         i = (len(e.points) - 1) // 2
         p, q = e.points[i], e.points[i + 1]
-        bend = [round((p[0] + q[0]) / 2 + nx * off), round((p[1] + q[1]) / 2 + ny * off)]
+        bend = [float(round((p[0] + q[0]) / 2 + nx * off)), float(round((p[1] + q[1]) / 2 + ny * off))]
         e.points = e.points[:i + 1] + [bend] + e.points[i + 1:]
 
 
@@ -666,6 +792,8 @@ def _separate_duplicates(level: LevelLayout) -> None:
 #: units of length), and the most boxes a level may have for its arrows to be routed (the grid grows with the
 #: square of it).
 CLEARANCE, BEND, ROUTE_MAX = 12, 60.0, 80
+#: How close an arrow may run along a box that is not one of its ends (closer, it looks as if it went in).
+GRAZE = 4.0
 Seg = tuple[float, float, float, float]
 #: Routing passes: after the first, each routed arrow is routed again with all the others in place.
 ROUTE_PASSES = 2
@@ -701,8 +829,8 @@ def _routes(boxes: tuple[Seg, ...], arrows: tuple[tuple[int, int, tuple[Point, .
     for k, (si, ti, pts) in enumerate(arrows):
         if si == ti or len(pts) < 2:
             continue
-        if any(i not in (si, ti) and segment_hits_box(a[0], a[1], b[0], b[1], boxes[i], 1.0) for a, b in pairwise(pts)
-               for i in range(len(boxes))):
+        if any(i not in (si, ti) and segment_hits_box(a[0], a[1], b[0], b[1], boxes[i], -GRAZE)
+               for a, b in pairwise(pts) for i in range(len(boxes))):
             bad.append(k)
     kept = [(a[0], a[1], b[0], b[1]) for k, (_, _, pts) in enumerate(arrows) if k not in bad
             for a, b in pairwise(pts)]
@@ -758,8 +886,8 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
         lo_x, lo_y, hi_x, hi_y = key
         inside = hits.get(key)
         if inside is None:
-            inside = hits[key] = tuple(i for i, r in enumerate(boxes) if lo_x < r[0] + r[2] - 1 and hi_x > r[0] + 1
-                                       and lo_y < r[1] + r[3] - 1 and hi_y > r[1] + 1)
+            inside = hits[key] = tuple(i for i, r in enumerate(boxes) if lo_x < r[0] + r[2] + GRAZE
+                                       and hi_x > r[0] - GRAZE and lo_y < r[1] + r[3] + GRAZE and hi_y > r[1] - GRAZE)
         if any(i != si and i != ti for i in inside):
             return False
         for r, (px, py) in ((s, start), (t, goal)):
@@ -796,15 +924,7 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
             if not free(a, b, key):
                 continue
             length = abs(b[0] - a[0]) + abs(b[1] - a[1])
-            crossed = crossings.get(key)
-            if crossed is None:
-                crossed = crossings[key] = sum(segments_cross(key, seg) for seg in kept)
-            if key[1] == key[3]:  # routed arrows are horizontal and vertical runs: only the crosswise ones cross
-                y = key[1]
-                crossed += sum(1 for x, y0, y1 in across_v if key[0] < x < key[2] and y0 < y < y1)
-            else:
-                x = key[0]
-                crossed += sum(1 for y, x0, x1 in across_h if key[1] < y < key[3] and x0 < x < x1)
+            crossed = _crossed(key, kept, crossings, across_h, across_v)
             step = length + CROSS * _shared(used, a, b) + (BEND if nd != d and d >= 0 else 0) + CROSS * crossed
             new = cost + step
             if new < best.get((ni, nj), math.inf):
@@ -813,6 +933,26 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
                 heapq.heappush(heap, (new + abs(b[0] - gx) + abs(b[1] - gy), new, ni, nj, nd))
     if end is None:
         return None
+    return _cut(_corners(end, came, xs, ys), s, t)
+
+
+def _crossed(key: Seg, kept: list[Seg], crossings: dict[Seg, int], across_h: list[tuple[float, float, float]],
+             across_v: list[tuple[float, float, float]]) -> int:
+    """How many arrows the grid run ``key`` crosses: those that keep their path (counted once a run, in
+    ``crossings``) and the ones routed before (horizontal and vertical runs: only the crosswise ones cross)."""
+    crossed = crossings.get(key)
+    if crossed is None:
+        crossed = crossings[key] = sum(segments_cross(key, seg) for seg in kept)
+    if key[1] == key[3]:
+        y = key[1]
+        return crossed + sum(1 for x, y0, y1 in across_v if key[0] < x < key[2] and y0 < y < y1)
+    x = key[0]
+    return crossed + sum(1 for y, x0, x1 in across_h if key[1] < y < key[3] and x0 < x < x1)
+
+
+def _corners(end: tuple[int, int], came: dict[tuple[int, int], tuple[int, int] | None], xs: list[float],
+             ys: list[float]) -> list[tuple[float, float]]:
+    """The path the search found, back from its end, as its corners only."""
     cells: list[tuple[int, int]] = []
     cur: tuple[int, int] | None = end
     while cur is not None:
@@ -821,15 +961,20 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
     pts = [(xs[i], ys[j]) for i, j in reversed(cells)]
     corners = [pts[0]]
     for p, q in pairwise(pts[1:]):
-        last = corners[-1]
-        if not ((last[0] == p[0] == q[0]) or (last[1] == p[1] == q[1])):
+        before = corners[-1]
+        if not ((before[0] == p[0] == q[0]) or (before[1] == p[1] == q[1])):
             corners.append(p)
     corners.append(pts[-1])
-    # cut at the borders: leave the source where the path first leaves it, enter the target where it last enters
+    return corners
+
+
+def _cut(corners: list[tuple[float, float]], s: Seg, t: Seg) -> list[list[float]] | None:
+    """The path cut at the borders: it leaves the source where it first leaves it and enters the target where it
+    last enters it; None when the two boxes overlap (no path between their borders)."""
     first = next((i for i in range(1, len(corners)) if not _inside_box(corners[i], s)), None)
     last = max((i for i in range(len(corners) - 1) if not _inside_box(corners[i], t)), default=None)
     if first is None or last is None or first > last + 1:
-        return None  # the two boxes overlap: no path between their borders
+        return None
     p0 = _exit_point(s, *corners[first - 1], *corners[first])
     p1 = _exit_point(t, *corners[last + 1], *corners[last])
     path = [p0] + corners[first:last + 1] + [p1]
@@ -887,7 +1032,7 @@ def _connect(a: tuple[float, float, float, float], b: tuple[float, float, float,
     dx, dy = bx - ax, by - ay
     length = math.hypot(dx, dy) or 1.0
     nx, ny = -dy / length, dx / length
-    off = (k + 1) // 2 * 14 * (1 if k % 2 else -1) if k else 0
+    off: float = (k + 1) // 2 * 14 * (1 if k % 2 else -1) if k else 0
     lim = min(a[2], a[3], b[2], b[3]) / 2 - 4
     off = max(-lim, min(lim, off))
     sx, sy = ax + nx * off, ay + ny * off

@@ -9,6 +9,11 @@ measures any version of the drawing code the same way. Counted:
   its ends (the boxes its first and last points lie on) nor a composite it is drawn in;
 * ``label_box``: arrow labels over a state box, a composite's title band, or a composite they are not drawn in;
 * ``label_label``: pairs of labels that overlap;
+* ``label_stacked``: pairs of labels that do not overlap but stand closer than ``STACKED`` (they read as one
+  label of two lines, whose arrows cannot be told apart);
+* ``label_edge``: (label, arrow) pairs where the arrow runs through the label's rectangle (its own arrow too);
+* ``edge_grazes_box``: (arrow, box) pairs where the arrow, not through the box, runs along its border closer than
+  ``GRAZE`` (it looks as if it went in);
 * ``crossings``: points where two arrows cross;
 * ``along``: pairs of segments of two arrows that run on top of each other for some length.
 """
@@ -26,6 +31,10 @@ NS = "{http://www.w3.org/2000/svg}"
 Rect = tuple[float, float, float, float]
 #: How deep into a box an arrow or label must reach to count (the border and a pixel or two of air do not).
 TOLERANCE = 2.0
+#: How close an arrow may run along a box that is not one of its ends.
+GRAZE = 3.0
+#: How close two labels may stand.
+STACKED = 4.0
 
 
 @dataclass
@@ -34,6 +43,9 @@ class Quality:
     edge_through_box: int = 0
     label_box: int = 0
     label_label: int = 0
+    label_stacked: int = 0
+    label_edge: int = 0
+    edge_grazes_box: int = 0
     crossings: int = 0
     along: int = 0
     boxes: int = 0
@@ -41,8 +53,8 @@ class Quality:
     labels: int = 0
 
     def row(self) -> tuple[int, ...]:
-        return (self.boxes, self.edges, self.box_overlaps, self.edge_through_box, self.label_box, self.label_label,
-                self.crossings, self.along)
+        return (self.boxes, self.edges, self.box_overlaps, self.edge_through_box, self.edge_grazes_box,
+                self.label_box, self.label_label, self.label_stacked, self.label_edge, self.crossings, self.along)
 
 
 @dataclass
@@ -91,99 +103,161 @@ def _along(a: tuple[float, float, float, float], b: tuple[float, float, float, f
             return False  # an end of b is off a's line
     t0 = ((b[0] - ax) * dx + (b[1] - ay) * dy) / length
     t1 = ((b[2] - ax) * dx + (b[3] - ay) * dy) / length
-    return min(length, max(t0, t1)) - max(0.0, min(t0, t1)) > 4
+    return bool(min(length, max(t0, t1)) - max(0.0, min(t0, t1)) > 4)
+
+
+Point = tuple[float, float]
+Seg = tuple[float, float, float, float]
+
+
+@dataclass
+class _Drawing:
+    """What the counts look at, read from the SVG: state boxes, arrows (with the path they are drawn in), labels."""
+    boxes: list[_Box]
+    edges: list[tuple[str, list[Point]]]
+    labels: list[tuple[str, Rect]]
 
 
 def measure(svg_text: str) -> Quality:
     """The counts for one drawing."""
-    root = ElementTree.fromstring(svg_text)
-    boxes: list[_Box] = []
-    edges: list[tuple[str, list[tuple[float, float]]]] = []
-    labels: list[tuple[str, Rect]] = []
+    d = _read(ElementTree.fromstring(svg_text))
+    q = Quality(boxes=len(d.boxes), edges=len(d.edges), labels=len(d.labels))
+    grid = Buckets()
+    for b in d.boxes:
+        grid.add_rect(*b.rect)
+    q.box_overlaps = _box_overlaps(d.boxes, grid)
+    segs, all_segs = _edges_against_boxes(d, grid, q)
+    q.crossings, q.along = _crossings(segs, all_segs)
+    q.label_box = sum(_label_on_box(d.boxes, grid, within, r) for within, r in d.labels)
+    q.label_edge = sum(len({all_segs[j][0] for j in segs.near(r[0], r[1], r[0] + r[2], r[1] + r[3])
+                            if segment_hits_box(*all_segs[j][1], r, TOLERANCE)}) for _, r in d.labels)
+    q.label_label, q.label_stacked = _label_overlaps([r for _, r in d.labels])
+    return q
+
+
+def _box_of(g: ElementTree.Element, cls: list[str]) -> _Box | None:
+    """A state's box (a rectangle, or the circle of a pseudostate), with a composite's title band."""
+    rect = g.find(NS + "rect")
+    if rect is not None:
+        r = (_f(rect, "x"), _f(rect, "y"), _f(rect, "width"), _f(rect, "height"))
+    else:
+        c = g.find(NS + "circle")
+        if c is None:
+            return None
+        rad = _f(c, "r")
+        r = (_f(c, "cx") - rad, _f(c, "cy") - rad, 2 * rad, 2 * rad)
+    band = None
+    if "composite" in cls:
+        line = g.find(NS + "line")
+        band = (r[0], r[1], r[2], (_f(line, "y1") - r[1]) if line is not None else r[3])
+    return _Box(g.get("data-path") or g.get("data-id") or "", r, band)
+
+
+def _read(root: ElementTree.Element) -> _Drawing:
+    d = _Drawing([], [], [])
     for g in root.iter(NS + "g"):
         cls = (g.get("class") or "").split()
         if "node" in cls or "pseudo" in cls:
-            path = g.get("data-path") or g.get("data-id") or ""
-            rect = g.find(NS + "rect")
-            if rect is not None:
-                r = (_f(rect, "x"), _f(rect, "y"), _f(rect, "width"), _f(rect, "height"))
-            else:
-                c = g.find(NS + "circle")
-                if c is None:
-                    continue
-                rad = _f(c, "r")
-                r = (_f(c, "cx") - rad, _f(c, "cy") - rad, 2 * rad, 2 * rad)
-            band = None
-            if "composite" in cls:
-                line = g.find(NS + "line")
-                band = (r[0], r[1], r[2], (_f(line, "y1") - r[1]) if line is not None else r[3])
-            boxes.append(_Box(path, r, band))
+            box = _box_of(g, cls)
+            if box is not None:
+                d.boxes.append(box)
         elif "level" in cls:
-            within = g.get("data-in") or ""
-            for pl in g.iter(NS + "polyline"):
-                if "edge" in (pl.get("class") or "").split():
-                    edges.append((within, _points(pl)))
+            d.edges += [(g.get("data-in") or "", _points(pl)) for pl in g.iter(NS + "polyline")
+                        if "edge" in (pl.get("class") or "").split()]
         elif "label" in cls:
             rect = g.find(NS + "rect")
             if rect is not None:
-                labels.append((g.get("data-in") or "", (_f(rect, "x"), _f(rect, "y"), _f(rect, "width"),
-                                                         _f(rect, "height"))))
-    q = Quality(boxes=len(boxes), edges=len(edges), labels=len(labels))
-    grid = Buckets()
-    for b in boxes:
-        grid.add_rect(*b.rect)
+                d.labels.append((g.get("data-in") or "", (_f(rect, "x"), _f(rect, "y"), _f(rect, "width"),
+                                                           _f(rect, "height"))))
+    return d
+
+
+def _box_overlaps(boxes: list[_Box], grid: Buckets) -> int:
+    count = 0
     for i, a in enumerate(boxes):
         x, y, w, h = a.rect
         for j in grid.near(x, y, x + w, y + h):
             b = boxes[j]
             if j > i and not _inside(a.path, b.path) and not _inside(b.path, a.path) and _overlap(a.rect, b.rect):
-                q.box_overlaps += 1
+                count += 1
+    return count
+
+
+def _edges_against_boxes(d: _Drawing, grid: Buckets, q: Quality) -> tuple[Buckets, list[tuple[int, Seg]]]:
+    """Counts the arrows through and along boxes into ``q``; every arrow segment, numbered by its arrow."""
     segs = Buckets()
-    all_segs: list[tuple[int, tuple[float, float, float, float]]] = []
-    for k, (within, pts) in enumerate(edges):
+    all_segs: list[tuple[int, Seg]] = []
+    for k, (within, pts) in enumerate(d.edges):
         if len(pts) < 2:
             continue
-        ends = [b.path for b in boxes if _touches(pts[0], b.rect) or _touches(pts[-1], b.rect)]
-        hit = set()
-        for p, r in pairwise(pts):
-            seg = (p[0], p[1], r[0], r[1])
+        ends = [b.path for b in d.boxes if _touches(pts[0], b.rect) or _touches(pts[-1], b.rect)]
+        hit: set[int] = set()
+        grazed: set[int] = set()
+        for u, v in pairwise(pts):
+            seg = (u[0], u[1], v[0], v[1])
             all_segs.append((k, seg))
             segs.add_segment(*seg)
-            for j in grid.near(min(p[0], r[0]), min(p[1], r[1]), max(p[0], r[0]), max(p[1], r[1])):
-                b = boxes[j]
+            for j in grid.near(min(u[0], v[0]) - GRAZE, min(u[1], v[1]) - GRAZE, max(u[0], v[0]) + GRAZE,
+                               max(u[1], v[1]) + GRAZE):
+                b = d.boxes[j]
                 if j in hit or b.path in ends or (within and _inside(within, b.path)):
                     continue
                 if segment_hits_box(*seg, b.rect, TOLERANCE):
                     hit.add(j)
+                elif segment_hits_box(*seg, b.rect, -GRAZE):
+                    grazed.add(j)
         q.edge_through_box += len(hit)
+        q.edge_grazes_box += len(grazed - hit)
+    return segs, all_segs
+
+
+def _crossings(segs: Buckets, all_segs: list[tuple[int, Seg]]) -> tuple[int, int]:
+    """Points where two arrows cross, and pairs of segments of two arrows on top of each other."""
+    crossings = along = 0
     for i, (k, seg) in enumerate(all_segs):
         for j in segs.near(min(seg[0], seg[2]), min(seg[1], seg[3]), max(seg[0], seg[2]), max(seg[1], seg[3])):
             k2, seg2 = all_segs[j]
-            if j > i and k2 != k and segments_cross(seg, seg2):
-                q.crossings += 1
-            elif j > i and k2 != k and _along(seg, seg2):
-                q.along += 1
-    for within, r in labels:
-        for j in grid.near(r[0], r[1], r[0] + r[2], r[1] + r[3]):
-            b = boxes[j]
-            if b.band is not None and within and _inside(within, b.path):
-                if _overlap(r, b.band):
-                    q.label_box += 1
-                    break
-            elif _overlap(r, b.rect):
-                q.label_box += 1
-                break
+            if j <= i or k2 == k:
+                continue
+            if segments_cross(seg, seg2):
+                crossings += 1
+            elif _along(seg, seg2):
+                along += 1
+    return crossings, along
+
+
+def _label_on_box(boxes: list[_Box], grid: Buckets, within: str, r: Rect) -> bool:
+    """Whether a label lies over a state box, a composite's title band, or a composite it is not drawn in."""
+    for j in grid.near(r[0], r[1], r[0] + r[2], r[1] + r[3]):
+        b = boxes[j]
+        if b.band is not None and within and _inside(within, b.path):
+            if _overlap(r, b.band):
+                return True
+        elif _overlap(r, b.rect):
+            return True
+    return False
+
+
+def _label_overlaps(rects: list[Rect]) -> tuple[int, int]:
+    """Pairs of labels that overlap, and pairs that do not but stand closer than ``STACKED``."""
     placed = Buckets()
-    for _, r in labels:
+    for r in rects:
         placed.add_rect(*r)
-    for i, (_, r) in enumerate(labels):
-        for j in placed.near(r[0], r[1], r[0] + r[2], r[1] + r[3]):
-            if j > i and _overlap(r, labels[j][1]):
-                q.label_label += 1
-    return q
+    over = stacked = 0
+    m = STACKED
+    for i, r in enumerate(rects):
+        for j in placed.near(r[0] - m, r[1] - m, r[0] + r[2] + m, r[1] + r[3] + m):
+            if j <= i:
+                continue
+            if _overlap(r, rects[j]):
+                over += 1
+            elif _overlap(r, rects[j], -m):
+                stacked += 1
+    return over, stacked
 
 
-HEADER = ("boxes", "arrows", "box/box", "arrow/box", "label/box", "label/label", "crossings", "arrow along arrow")
+HEADER = ("boxes", "arrows", "box/box", "arrow/box", "arrow along box", "label/box", "label/label", "labels stacked",
+          "label/arrow", "crossings", "arrow along arrow")
 
 
 def table(rows: list[tuple[str, Quality | str]]) -> str:

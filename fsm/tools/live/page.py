@@ -50,5 +50,6 @@ def live_page(header: dict[str, Any], name: str) -> str:
         "__MODEL_JS__": _asset(__package__, "model.js"),
         "__LIVE_JS__": _asset(__package__, "live.js"),
     }
-    return fill_template(_asset(__package__, "live.html"), parts)
+    page: str = fill_template(_asset(__package__, "live.html"), parts)
+    return page
 

@@ -308,20 +308,25 @@ class LiveServer:
             except asyncio.TimeoutError:
                 pass
             self._wake.clear()
-            controller = self.source.controller
-            if controller is not None:
-                while controller.messages:
-                    message = controller.messages.popleft()
-                    target = message.get("id")
-                    if message.get("kind") == "reply" and isinstance(target, tuple):
-                        client = self.clients.get(target[0])
-                        if client is not None:
-                            client.outbox.append({**message, "id": target[1]})
-                    else:
-                        for client in self.clients.values():
-                            client.outbox.append(message)
+            self._dispatch()
             for client in self.clients.values():
                 client.wake.set()
+
+    def _dispatch(self) -> None:
+        """Move the controller's messages (replies, notices) to the outboxes of the pages they are for."""
+        controller = self.source.controller
+        if controller is None:
+            return
+        while controller.messages:
+            message = controller.messages.popleft()
+            target = message.get("id")
+            if message.get("kind") == "reply" and isinstance(target, tuple):
+                client = self.clients.get(target[0])
+                if client is not None:
+                    client.outbox.append({**message, "id": target[1]})
+            else:
+                for client in self.clients.values():
+                    client.outbox.append(message)
 
     async def _send_loop(self, client: _Client) -> None:
         """Send a page what is new, at most :data:`MAX_RATE` times a second: the trace's new lines, the messages
@@ -337,6 +342,9 @@ class LiveServer:
                 started = loop.time()
                 controller = self.source.controller
                 snapshot = controller.snapshot if controller is not None else None
+                # what the run said before this status goes first (a step's reply before the status after it): the
+                # sender no longer waits between two sends while the run is paused, so it does not wait for the pump
+                self._dispatch()
                 current = self.source.buffer
                 if current is not buffer:
                     if buffer is not None:  # a rewind: the page starts again, and is told the status again after
@@ -352,9 +360,18 @@ class LiveServer:
                 if snapshot is not None and snapshot.get("seq") != seq:
                     seq = snapshot["seq"]
                     await ws.send_str(json.dumps({"kind": "status", **snapshot}, allow_nan=False, default=str))
-                fast = snapshot is not None and snapshot.get("speed") is None and snapshot.get("state") == "running"
-                await asyncio.sleep(max(0.0, 1 / (FAST_RATE if fast else MAX_RATE) - (loop.time() - started)))
+                await asyncio.sleep(_pause_before_next(snapshot, loop.time() - started))
                 await client.wake.wait()
                 client.wake.clear()
         except (ConnectionError, asyncio.CancelledError, RuntimeError):
             return
+
+
+def _pause_before_next(snapshot: dict[str, Any] | None, spent: float) -> float:
+    """How long a page's sender waits before it looks again: a running run's pages get at most :data:`MAX_RATE`
+    messages a second (:data:`FAST_RATE` at full speed); a paused or ended run's, at once: what it sends then is
+    the answer to a click (a step, a rewind), and a click is answered as fast as the page can draw."""
+    if snapshot is None or snapshot.get("state") != "running":
+        return 0.0
+    fast = snapshot.get("speed") is None
+    return max(0.0, 1 / (FAST_RATE if fast else MAX_RATE) - spent)

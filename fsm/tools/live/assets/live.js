@@ -41,6 +41,16 @@
     document.body.dataset.tick = String(R.current().tick);
   }
 
+  // -- the sticky bars: what the page scrolls into view (a focused field, a found text) lands below them ------------
+  function padScroll() {
+    var bars = $("toolbar").offsetHeight + $("live-bar").offsetHeight;
+    $("live-bar").style.top = $("toolbar").offsetHeight + "px";  // right below the toolbar, however tall it wraps
+    document.documentElement.style.scrollPaddingTop = (bars + 6) + "px";
+    document.documentElement.dataset.bars = String(bars);
+  }
+  padScroll();
+  window.addEventListener("resize", padScroll);
+
   // -- the stream ---------------------------------------------------------------------------------------------------
   function connect() {
     // the stream is next to the page: /ws for a run, /run/ID/ws for a run of a sweep's page

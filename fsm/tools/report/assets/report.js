@@ -413,12 +413,16 @@
     setWindow(at - (at - w0()) * k, at + (w1() - at) * k);
   }, { passive: false });
   lanes.addEventListener("dblclick", function () { setWindow(0, T); });
+  // a canvas is given its size only when it changes: setting it (even to the same value) clears the canvas and
+  // allocates a new one, which the browser then uploads whole (a redraw after each step of a live run)
+  function resize(canvases, w, h) {
+    canvases.forEach(function (c) { if (c.width !== w) c.width = w; if (c.height !== h) c.height = h; });
+  }
   function drawLanesBg() {
     var ratio = window.devicePixelRatio || 1, w = lanes.clientWidth || 800;
     var h = D.lanes.length * LANE_H + 22;
     lanes.style.height = h + "px";
-    lanes.width = lanesBg.width = Math.round(w * ratio);
-    lanes.height = lanesBg.height = Math.round(h * ratio);
+    resize([lanes, lanesBg], Math.round(w * ratio), Math.round(h * ratio));
     var c = lanesBg.getContext("2d");
     c.setTransform(ratio, 0, 0, ratio, 0, 0);
     c.fillStyle = "#fff"; c.fillRect(0, 0, w, h);
@@ -481,6 +485,8 @@
   // -- map -------------------------------------------------------------------------------------------------
   var map = $("map"), mapBg = document.createElement("canvas"), view = null;
   function drawMapBg() {
+    trackDrawn = 0;
+    map.dataset.redrawn = String((map.dataset.redrawn | 0) + 1);  // whole redraws (tests: a step adds to the track)
     $("map-box").style.display = !D.map && !hasTrack ? "none" : "";
     if (!D.map && !hasTrack) return;
     var ratio = window.devicePixelRatio || 1, w = map.clientWidth || 400;
@@ -493,7 +499,7 @@
     s = Math.min(s, h / (y1 - y0));
     view = { s: s, x0: x0, y1: y1 };
     map.style.height = h + "px";
-    map.width = mapBg.width = Math.round(w * ratio); map.height = mapBg.height = Math.round(h * ratio);
+    resize([map, mapBg], Math.round(w * ratio), Math.round(h * ratio));
     var c = mapBg.getContext("2d");
     c.setTransform(ratio, 0, 0, ratio, 0, 0);
     c.fillStyle = "#fff"; c.fillRect(0, 0, w, h);
@@ -502,7 +508,7 @@
       var tw = c.measureText(text).width;
       c.fillText(text, Math.max(2, Math.min(x, w - tw - 2)), Math.max(10, Math.min(y, h - 3)));
     }
-    view.X = X; view.Y = Y;
+    view.X = X; view.Y = Y; view.box = [x0, y0, x1, y1];
     if (D.map) {
       c.strokeStyle = "#333"; c.lineWidth = 2;
       D.map.walls.forEach(function (wl) { c.beginPath(); c.moveTo(X(wl[0]), Y(wl[1])); c.lineTo(X(wl[2]), Y(wl[3])); c.stroke(); });
@@ -530,19 +536,33 @@
       c.fillText(metres + " m", bx + 4, by - 4);
       map.dataset.scale = String(metres);
     }
-    if (hasTrack) {  // the trajectory, coloured by the active leaf at each sample: one path per run of a colour
-      c.lineWidth = 2.5; c.lineJoin = "round";
-      var xs = Sm["car.x"], ys = Sm["car.y"], ts = Sm.t, open = false, inkNow = null;
-      for (var i = 0; i < ts.length; i++) {
-        if (xs[i] === null) { if (open) c.stroke(); open = false; continue; }
-        var st = stateAt(tickAt(ts[i])).active, ink = st.length ? colour(st[0]) : "#888";
-        if (open && ink !== inkNow) { c.stroke(); open = false; }  // the next path starts where this one ended
-        if (!open && i > 0 && xs[i - 1] !== null) { c.beginPath(); c.moveTo(X(xs[i - 1]), Y(ys[i - 1])); open = true; }
-        if (open) c.lineTo(X(xs[i]), Y(ys[i]));
-        inkNow = ink; c.strokeStyle = ink;
-      }
-      if (open) c.stroke();
+    if (hasTrack) drawTrack(c);
+  }
+  // the trajectory, coloured by the active leaf at each sample: one path per run of a colour; from the samples
+  // drawn before on (a live run's new samples are added to the map, not the whole track drawn again)
+  var trackDrawn = 0;
+  function drawTrack(c) {
+    var X = view.X, Y = view.Y;
+    c.lineWidth = 2.5; c.lineJoin = "round";
+    var xs = Sm["car.x"], ys = Sm["car.y"], ts = Sm.t, open = false, inkNow = null;
+    for (var i = trackDrawn; i < ts.length; i++) {
+      if (xs[i] === null) { if (open) c.stroke(); open = false; continue; }
+      var st = stateAt(tickAt(ts[i])).active, ink = st.length ? colour(st[0]) : "#888";
+      if (open && ink !== inkNow) { c.stroke(); open = false; }  // the next path starts where this one ended
+      if (!open && i > 0 && xs[i - 1] !== null) { c.beginPath(); c.moveTo(X(xs[i - 1]), Y(ys[i - 1])); open = true; }
+      if (open) c.lineTo(X(xs[i]), Y(ys[i]));
+      inkNow = ink; c.strokeStyle = ink;
     }
+    if (open) c.stroke();
+    trackDrawn = ts.length;
+    map.dataset.track = String(trackDrawn);
+  }
+  function trackLeaves() {  // a new sample outside the map's scale: the map is drawn anew, at a new scale
+    var b = view.box, xs = Sm["car.x"], ys = Sm["car.y"];
+    for (var i = trackDrawn; i < xs.length; i++) {
+      if (xs[i] !== null && (xs[i] < b[0] || xs[i] > b[2] || ys[i] < b[1] || ys[i] > b[3])) return true;
+    }
+    return false;
   }
   function sampleIndex(t) { return Sm ? Math.max(0, upper(Sm.t, t + 1e-9) - 1) : -1; }
   function drawMap() {
@@ -683,13 +703,22 @@
   window.addEventListener("resize", function () { clearTimeout(resizeTimer); resizeTimer = setTimeout(layout, 150); });
   layout();
   // a new model (a live page's, as the trace grows): redrawn, the cursor kept or put at the end (``follow``)
-  var lastMapKey = null;
+  var lastMapKey = null, lastSamples = null;
   function load(data, follow) {
     D = data; derive(); showHeader(); shownFrame = -2;
-    // the map's background (walls, the whole track) again only when the track or the states along it changed
-    var mapKey = (Sm ? Sm.t.length : 0) + "|" + D.events.length + "|" + D.keyframes.length + "|" + map.clientWidth;
+    // the map's background (walls, the whole track) again only when the states along the track changed; with a
+    // world map (the scale is the map's) new samples of the same run are only added to the track (a keyframe
+    // changes no state, and an event comes before the samples of its tick: it colours only the samples after)
+    var mapKey = D.events.length + "|" + map.clientWidth, samples = Sm ? Sm.t.length : 0;
     drawLanesBg();
-    if (mapKey !== lastMapKey) { lastMapKey = mapKey; drawMapBg(); }
+    if (mapKey !== lastMapKey || Sm !== lastSamples ||
+        (samples !== trackDrawn && (!D.map || !view || (hasTrack && trackLeaves())))) {
+      lastMapKey = mapKey; lastSamples = Sm; drawMapBg();
+    } else if (hasTrack && samples !== trackDrawn) {
+      var ratio = window.devicePixelRatio || 1, c = mapBg.getContext("2d");
+      c.setTransform(ratio, 0, 0, ratio, 0, 0);
+      drawTrack(c);
+    }
     updatePlots();
     if (selected >= 0 && selected < S.length) showVisits(selected);
     setTime(follow ? T : cursor);

@@ -9,6 +9,7 @@ geometry these share (:mod:`~fsm.tools.graph.geometry`). May import the ``fsm`` 
 
 from __future__ import annotations
 
+import importlib
 from typing import Any
 
 __all__ = ["FONT", "dot", "edge_label", "mermaid", "state_label", "svg", "text_width"]
@@ -20,8 +21,6 @@ def __getattr__(name: str) -> Any:
     """The drawing modules load when first used: a run that traces imports only ``includes`` from here."""
     if name not in _HOMES:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    import importlib
-
     value = getattr(importlib.import_module(f".{_HOMES[name]}", __name__), name)
     globals()[name] = value
     return value

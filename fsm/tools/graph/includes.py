@@ -10,6 +10,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from fsm.loading.reading import reader_for
 from fsm.model.document import normalize_legacy
 from fsm.model.errors import DiagramError
 
@@ -114,8 +115,6 @@ class _Expander:
 
 def read_include(path: Path) -> tuple[dict[str, Any], Path] | str:
     """An included machine document and its folder, or what is wrong with it."""
-    from fsm.loading.reading import reader_for
-
     try:
         data, source = reader_for(path)(path)
     except DiagramError as exc:

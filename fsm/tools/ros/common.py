@@ -6,9 +6,12 @@ from __future__ import annotations
 import argparse
 import os
 from collections.abc import Iterable
-from typing import IO, Any
+from typing import TYPE_CHECKING, Any
 
 from fsm.model.errors import FsmError, UsageError
+
+if TYPE_CHECKING:
+    from _typeshed import SupportsWrite
 
 #: What to install when the extra is missing.
 EXTRA_HINT = "pip install 'tral-fsm[ros2]' (rosbags and eclipse-zenoh)"
@@ -103,7 +106,7 @@ def check_bag_folder(name: str | None, inputs: Iterable[str | os.PathLike[str]] 
     return check_new_folder(name, "--bag", inputs, outputs)
 
 
-def car_recorder(stream: IO[str] | None, file: str, car: Any, profile: Any, document: Any = None,
+def car_recorder(stream: SupportsWrite[str] | None, file: str, car: Any, profile: Any, document: Any = None,
                  preloaded: dict[str, Any] | None = None, sample_rate: float = 20.0,
                  extra_header: dict[str, Any] | None = None) -> Any:
     """The trace of a run on topics: the machine's header, the profile, the car's readings and commands as the

@@ -5,7 +5,10 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from _typeshed import SupportsWrite
 
 from fsm.model.errors import DiagramError, UsageError, printable
 
@@ -44,7 +47,7 @@ def run_replay(args: argparse.Namespace) -> int:
         session = replay_session(drive, compile_spec(spec), profile)
         driver = session.driver
         assert isinstance(driver, ReplayDriver)
-        stream = trace_out.stream() if trace_out is not None else None
+        stream: SupportsWrite[str] | None = trace_out.stream() if trace_out is not None else None
         if report_out is not None:
             stream = Tee(stream)
         header = {"replay_of": args.bag, "overrides": args.overrides}

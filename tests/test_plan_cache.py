@@ -20,9 +20,9 @@ import fsm
 from fsm.loading import cache, loader
 from fsm.loading.registry import Registry, default_registry
 from fsm.tools.cli import main
+from helpers import CORPUS, needs_corpus
 
 REPO = Path(__file__).resolve().parents[1]
-CORPUS = Path("/work/shared/corpus/uxf")
 
 #: A machine with what a plan holds as closures: ``set`` on entry, exit and transitions, a counter, a guard, a
 #: timeout, an included sub-machine, and an unreachable state (a warning).
@@ -311,7 +311,7 @@ def test_two_processes_writing_at_once(folder: Path, tmp_path: Path) -> None:
     assert hit(path)
 
 
-@pytest.mark.skipif(not CORPUS.is_dir(), reason="the shared UMLet corpus is not on this machine")
+@needs_corpus
 def test_a_real_umlet_file_is_cached_and_validates_the_same(folder: Path, tmp_path: Path,
                                                             capsys: pytest.CaptureFixture[str]) -> None:
     """A diagram drawn by someone else in UMLet: read by the UMLet reader, cached, validated the same."""

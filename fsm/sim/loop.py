@@ -351,9 +351,9 @@ class Simulation:
 
     #: what a snapshot of the run reads, by name (see :attr:`fsm.sim.car.SimCar.__snapshot_fields__`)
     __snapshot_fields__ = ("machine", "car", "settle", "track_every", "max_collisions", "world_file", "seed", "noise",
-                           "_flag", "active_path", "leaf", "states_seen", "track", "_track_stride", "path_index",
-                           "wall_error", "steering", "_err_sample", "_leaf_d0", "gate_log", "lap_log", "output_time",
-                           "session")
+                           "_flag", "active_path", "leaf", "_straight", "states_seen", "track", "_track_stride",
+                           "path_index", "wall_error", "steering", "_err_sample", "_leaf_d0", "gate_log", "lap_log",
+                           "output_time", "session")
 
     def __init__(self, machine: Machine, car: SimCar, *, settle: float = 2.0, track_every: int = 4,
                  max_collisions: int | None = None, world_file: str | os.PathLike[str] | None = None, seed: int = 0,

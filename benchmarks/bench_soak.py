@@ -55,6 +55,18 @@ EVERY = 600.0
 #: 0.1-0.25 s, which would end the run (the safety rule), as in bench_ros.py
 SILENCE = 5.0
 
+#: What both child scripts measure with: the process's resident set, bytes.
+RSS = r'''
+from pathlib import Path
+
+
+def rss():
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) * 1024
+    return 0
+'''
+
 CURVE = r'''
 import json, resource, sys, time
 from pathlib import Path
@@ -65,12 +77,6 @@ from fsm.sim import simulate
 
 machine, world, duration, every = json.loads(sys.argv[1]), sys.argv[2], float(sys.argv[3]), float(sys.argv[4])
 
-
-def rss():
-    for line in Path("/proc/self/status").read_text().splitlines():
-        if line.startswith("VmRSS:"):
-            return int(line.split()[1]) * 1024
-    return 0
 
 
 session = simulate(machine, world=world, stop=StopRules(duration))
@@ -99,12 +105,6 @@ from fsm.tools.recording import run_recorder
 machine, world, duration, every, horizon = (json.loads(sys.argv[1]), sys.argv[2], float(sys.argv[3]),
                                             float(sys.argv[4]), float(sys.argv[5]))
 
-
-def rss():
-    for line in Path("/proc/self/status").read_text().splitlines():
-        if line.startswith("VmRSS:"):
-            return int(line.split()[1]) * 1024
-    return 0
 
 
 session = simulate(machine, world=world, stop=StopRules(duration))
@@ -146,7 +146,7 @@ def python_env(tree: Path | None) -> dict[str, str]:
 
 def curve(hours: float, tree: Path | None) -> dict[str, Any]:
     """The machine for ``hours`` simulated hours in a fresh process: RSS every :data:`EVERY` simulated seconds."""
-    args = [sys.executable, "-c", CURVE, json.dumps(FOREVER), str(WORLD), str(hours * 3600), str(EVERY)]
+    args = [sys.executable, "-c", RSS + CURVE, json.dumps(FOREVER), str(WORLD), str(hours * 3600), str(EVERY)]
     if tree is not None:
         args.append("base")
     done = subprocess.run(args, env=python_env(tree), capture_output=True, text=True, cwd=str(tree or REPO),
@@ -161,7 +161,8 @@ def curve(hours: float, tree: Path | None) -> dict[str, Any]:
 def live_curve(hours: float, horizon: float) -> dict[str, Any]:
     """``fsmctl run --live`` with no page and no pace, for ``hours`` simulated hours in a fresh process: RSS every
     :data:`EVERY` simulated seconds, and the slope beyond the horizon (and beyond the first 600 s)."""
-    args = [sys.executable, "-c", LIVE, json.dumps(FOREVER), str(WORLD), str(hours * 3600), str(EVERY), str(horizon)]
+    args = [sys.executable, "-c", RSS + LIVE, json.dumps(FOREVER), str(WORLD), str(hours * 3600), str(EVERY),
+            str(horizon)]
     done = subprocess.run(args, env=python_env(None), capture_output=True, text=True, cwd=str(REPO),
                           timeout=6 * 3600)
     if done.returncode != 0:

@@ -54,16 +54,22 @@ def wait_for(what: str, condition: Any, timeout: float = 20) -> None:
         time.sleep(0.01)
 
 
+def listening_robot() -> tuple[PlainRobot, list[float]]:
+    """The plain rclpy robot, started, and the forward speed of every command it has heard on /tral/cmd."""
+    from geometry_msgs.msg import TwistStamped
+
+    robot = PlainRobot(rate=80)
+    speeds: list[float] = []
+    robot.node.create_subscription(TwistStamped, "/tral/cmd", lambda m: speeds.append(m.twist.linear.x), 100)
+    robot.start()
+    return robot, speeds
+
+
 def test_a_plain_client_configures_activates_deactivates_and_shuts_the_node_down(tmp_path: Path) -> None:
     machine = tmp_path / "corner.json"
     good = CORNER.read_text(encoding="utf-8")
     machine.write_text(good, encoding="utf-8")
-    robot = PlainRobot(rate=80)
-    speeds: list[float] = []
-    from geometry_msgs.msg import TwistStamped
-
-    robot.node.create_subscription(TwistStamped, "/tral/cmd", lambda m: speeds.append(m.twist.linear.x), 100)
-    robot.start()
+    robot, speeds = listening_robot()
     client = LifecycleClient(robot, "/fsmctl_tral")
     run = fsmctl("run", str(machine), "--ros", str(twist_profile(tmp_path)), "--via", "rclpy", "--lifecycle",
                  "--lockstep", "--summary", str(tmp_path / "summary.json"), "--trace", str(tmp_path / "trace.jsonl"))
@@ -110,12 +116,7 @@ def test_a_plain_client_configures_activates_deactivates_and_shuts_the_node_down
 
 
 def test_cleanup_releases_the_topics_and_a_run_without_outputs_configures_again(tmp_path: Path) -> None:
-    from geometry_msgs.msg import TwistStamped
-
-    robot = PlainRobot(rate=80)
-    speeds: list[float] = []
-    robot.node.create_subscription(TwistStamped, "/tral/cmd", lambda m: speeds.append(m.twist.linear.x), 100)
-    robot.start()
+    robot, speeds = listening_robot()
     client = LifecycleClient(robot, "/fsmctl_tral")
     run = fsmctl("run", str(CORNER), "--ros", str(twist_profile(tmp_path)), "--via", "rclpy", "--lifecycle",
                  "--lockstep")

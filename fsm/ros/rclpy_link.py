@@ -13,12 +13,13 @@ Tested against plain rclpy nodes over Fast DDS on localhost (tests/test_ros_rclp
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import os
 import re
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import TYPE_CHECKING, Any
 
 from fsm.model.errors import DiagramError, Problem
@@ -190,6 +191,7 @@ class RclpyLink:
         self._publishers: list[Any] = []
         self._parameters: list[str] = []
         self._on_set: Any = None
+        self._internal = threading.local()
 
     def describe(self) -> str:
         import os
@@ -272,28 +274,41 @@ class RclpyLink:
         writable; a valid value set from outside goes to ``on_tunable`` with the state's new parameters). A set
         from outside of anything else, or of a value that is not valid, is refused with the reason."""
         rcl = _module("rcl_interfaces.msg")
-        self._updating = False
-        self._writable = {f"signals.{name}" for name in signals}
-        for name, value in variables.items():
-            if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
-                self._declare(f"vars.{name}", parameter_value(value), rcl.ParameterDescriptor(
-                    dynamic_typing=True, description=f"the machine's variable {name} (read-only: the machine sets it)"))
-        for name in signals:
-            if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
-                self._declare(f"signals.{name}", False, rcl.ParameterDescriptor(
-                    description=f"the input signal {name} (the document's inputs: set it to drive the machine)"))
-        for t in tunables:
-            self._declare(t.name, t.value, rcl.ParameterDescriptor(
-                type=parameter_type(t.value), read_only=not t.writable, description=t.description))
-        self._writable |= {t.name for t in tunables if t.writable}
+        self._writable = {f"signals.{name}" for name in signals} | {t.name for t in tunables if t.writable}
         by_name = {t.name: t for t in tunables}
 
         def check(params: list[Any]) -> Any:
-            why = None if self._updating else self._set_from_outside(params, by_name, on_signal, on_tunable)
+            inside = getattr(self._internal, "active", False)  # this process's own declare/update, on its thread
+            why = None if inside else self._set_from_outside(params, by_name, on_signal, on_tunable)
             return rcl.SetParametersResult(successful=why is None, reason=why or "")
 
+        # The check is in place before the first name is declared: a client that sees a parameter can set it at
+        # once (the executor answers on its own thread), and must be refused from the very first one.
         self.node.add_on_set_parameters_callback(check)
         self._on_set = check
+        with self._inside():
+            for name, value in variables.items():
+                if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+                    self._declare(f"vars.{name}", parameter_value(value), rcl.ParameterDescriptor(
+                        dynamic_typing=True,
+                        description=f"the machine's variable {name} (read-only: the machine sets it)"))
+            for name in signals:
+                if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+                    self._declare(f"signals.{name}", False, rcl.ParameterDescriptor(
+                        description=f"the input signal {name} (the document's inputs: set it to drive the machine)"))
+            for t in tunables:
+                self._declare(t.name, t.value, rcl.ParameterDescriptor(
+                    type=parameter_type(t.value), read_only=not t.writable, description=t.description))
+
+    @contextlib.contextmanager
+    def _inside(self) -> Iterator[None]:
+        """Sets made by this process on the calling thread pass the outside check; a set that arrives meanwhile
+        through the parameter service (on the executor's thread) is still checked."""
+        self._internal.active = True
+        try:
+            yield
+        finally:
+            self._internal.active = False
 
     def _set_from_outside(self, params: list[Any], tunables: dict[str, Tunable],
                           on_signal: Callable[[str, bool], None],
@@ -334,11 +349,8 @@ class RclpyLink:
             key = f"vars.{name}"
             if node.has_parameter(key):
                 updates.append(param(key, value=parameter_value(value)))
-        self._updating = True
-        try:
+        with self._inside():
             node.set_parameters(updates)
-        finally:
-            self._updating = False
 
     def wait_for_peer(self, timeout: float, what: str = ROBOT, stop: Callable[[], bool] | None = None) -> None:
         end = time.monotonic() + timeout

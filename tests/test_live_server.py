@@ -85,7 +85,8 @@ def test_the_stream_is_the_trace_and_stop_writes_the_outputs(counter: Path, tmp_
         url = live.base.replace("http", "ws") + f"/ws?token={live.token}"
         got = asyncio.run(socket_talk(url, [{"cmd": "step", "id": 1, "n": 5}, {"cmd": "fly", "id": 2}],
                                       until=lambda g: any('"tick": 5' in m and '"paused"' in m for m in g
-                                                          if isinstance(m, str))))
+                                                          if isinstance(m, str))
+                                      and any('"id": 2' in m for m in g if isinstance(m, str))))
         got += asyncio.run(socket_talk(url, [{"cmd": "input", "id": 3, "input": {"kind": "set", "values": {"n": 60}}},
                                              {"cmd": "step", "id": 4, "n": 3}, "not json"],  # type: ignore[list-item]
                                        until=lambda g: all(any(f'"id": {k}' in m for m in g if isinstance(m, str))

@@ -16,9 +16,11 @@ import json
 import math
 import os
 import sys
+import types
+import typing
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any, Literal, NamedTuple, Union
+from typing import TYPE_CHECKING, Annotated, Any, Literal, NamedTuple, Union
 
 from pydantic import Discriminator, Field, Tag, TypeAdapter, ValidationError
 
@@ -47,6 +49,9 @@ from fsm.states.plants import plant_problems, written_vars
 from .paths import active_matches as active_matches
 from .paths import state_matches as state_matches
 from .temporal import TEMPORAL_FUNCTIONS, FormulaError, compile_formula, formula_names
+
+if TYPE_CHECKING:
+    from pydantic_core import ErrorDetails
 
 #: Runs longer than this many ticks are refused (the limit of ``fsmctl run`` without ``--max-ticks``).
 MAX_TICKS = 10_000_000
@@ -654,92 +659,90 @@ def _element_pointers(scenario: Scenario) -> set[str]:
             | {pointer("expect", i) for i in range(len(scenario.expect))} | {"/machine"})
 
 
-# -- shape problems --------------------------------------------------------------------------------------
-def _existing_prefix(data: Any, loc: list[Any]) -> list[Any]:
-    """The longest prefix of ``loc`` that is a path into ``data`` (pydantic appends union branch names)."""
-    out: list[Any] = []
-    node = data
-    for token in loc:
-        if isinstance(node, dict) and isinstance(token, str) and token in node:
-            node = node[token]
-        elif isinstance(node, list) and isinstance(token, int) and 0 <= token < len(node):
-            node = node[token]
-        else:
-            break
-        out.append(token)
-    return out
-
-
-def _short(value: Any) -> str:
-    text = json.dumps(value, ensure_ascii=False) if not isinstance(value, float) or math.isfinite(value) else str(value)
-    return text if len(text) <= 40 else text[:37] + "..."
-
-
-def _element(loc: list[Any]) -> str | None:
-    if len(loc) >= 2 and loc[0] in ("inputs", "expect") and isinstance(loc[1], int):
-        return f"{'input' if loc[0] == 'inputs' else 'expectation'} {loc[1]}"
-    return None
+# -- shape problems --------------------------------------------------------------------------------------------
+#: The discriminators' own errors: an object that is no input (expectation) at all.
+_KIND_ERRORS = ("input_kind", "expect_kind")
 
 
 def problems_from_errors(err: ValidationError, data: Any, name: str) -> list[Problem]:
-    """pydantic's errors as problems with JSON pointers (union tags removed) and "did you mean" hints; one
-    problem per location."""
-    problems: dict[str, Problem] = {}
+    """pydantic's errors as problems by the core's path, as a machine document's
+    (:func:`fsm.model.document.problems_from_validation`): each is reported at the object it belongs to (an
+    input, an expectation, a bounce, a matrix case), in its words and with "did you mean" among its keys."""
+    groups: dict[tuple[str, type[ScenarioModel]], tuple[Any, str | None, list[ErrorDetails]]] = {}
     for e in err.errors(include_url=False):
-        full = list(e["loc"])
-        loc = [t for t in full if not (isinstance(t, str) and t.startswith("<"))]
-        typ = e["type"]
-        loc, message, hint = _error_text(e, loc, data, _error_model(full, loc))
-        ptr = pointer(*loc[:-1]) if typ == "missing" else pointer(*loc)
-        if ptr in problems:
-            if typ not in ("missing", "extra_forbidden") and message not in problems[ptr].message:
-                problems[ptr].message += f" (or: {message})"
-            continue
-        problems[ptr] = Problem(message, name, ptr, element=_element(loc), hint=hint)
-    return list(problems.values())
+        at, model, node, rest = _owner(e, data)
+        group = groups.setdefault((pointer(*at), model), (node, _element(at), []))
+        group[2].append({**e, "loc": tuple(rest)})
+    problems: list[Problem] = []
+    for (base, model), (node, element, details) in groups.items():
+        found = problems_from_validation(details, source=Source(name=name), base=base, element=element, model=model,
+                                         kind="key", data=node)
+        if details[0]["type"] in _KIND_ERRORS and isinstance(node, dict) and node:
+            found[0].hint = f"this one has {', '.join(repr(k) for k in sorted(node))}"
+        problems += found
+    return problems
 
 
-def _error_model(full: list[Any], loc: list[Any]) -> type[ScenarioModel]:
-    """The model an error's location ends in (whose fields a "did you mean" hint offers)."""
+def _owner(e: ErrorDetails, data: Any) -> tuple[list[Any], type[ScenarioModel], Any, list[Any]]:
+    """Where an error's object starts in ``data`` (the innermost model its location passes through), that model,
+    the object, and the error's location from there on (the union tags, ``<signal>``, left out)."""
     model: type[ScenarioModel] = Scenario
-    for token in full:
-        if isinstance(token, str) and token in _MODELS:
-            model = _MODELS[token]
-    if model is TransitionsExpect and "transitions" in loc[2:3]:
-        model = TransitionCount if len(loc) > 3 else model
-    if model is PressInput and "bounce" in loc[2:3] and len(loc) > 3:
-        model = Bounce
-    if loc[:1] == ["matrix"] and model is Scenario:
-        model = MatrixCase if "cases" in loc[1:2] and len(loc) > 3 else Matrix
-    if loc[:1] == ["substitute"] and len(loc) > 2:
-        model = TransitionRef if "transition" in loc[2:3] and len(loc) > 3 else Substitution
-    return model
+    at: list[Any] = []
+    path: list[Any] = []
+    owner, node = data, data
+    expected: Any = Scenario
+    found = True
+    for token in e["loc"]:
+        if isinstance(token, str) and token.startswith("<"):
+            if found and token in _MODELS:  # the tagged union's branch: the object is this model
+                model = expected = _MODELS[token]
+                at, owner = list(path), node
+            continue
+        path.append(token)
+        found = found and _has(node, token)
+        if found:
+            node, expected = node[token], _unwrap(_inner(expected, token))
+            if isinstance(expected, type) and issubclass(expected, ScenarioModel) and isinstance(node, dict):
+                model, at, owner = expected, list(path), node
+    if e["type"] in _KIND_ERRORS:
+        at, owner = path, node
+    return at, model, owner, path[len(at):]
 
 
-def _error_text(e: Any, loc: list[Any], data: Any, model: type[ScenarioModel]
-                ) -> tuple[list[Any], str, str | None]:
-    """One pydantic error's location (cut where it leaves ``data``), message and hint."""
-    typ = e["type"]
-    if typ == "missing":
-        return loc, f"missing required key '{loc[-1]}'", None
-    if typ == "extra_forbidden":
-        fields = sorted({f.alias or n for n, f in model.model_fields.items()})
-        close = difflib.get_close_matches(str(loc[-1]), fields, n=2)
-        hint = ("did you mean " + " or ".join(f"'{c}'" for c in close) + "?") if close else \
-            "known: " + ", ".join(fields)
-        return loc, f"unknown key '{loc[-1]}'", hint
-    if typ in ("input_kind", "expect_kind"):
-        keys = sorted(e["input"]) if isinstance(e.get("input"), dict) else []
-        return loc, e["msg"], f"this one has {', '.join(repr(k) for k in keys)}" if keys else None
-    loc = _existing_prefix(data, loc)
-    message = e["msg"].replace("Value error, ", "")
-    if message.startswith("Input should") and loc:
-        message = f"'{loc[-1]}'" + message[len("Input"):]
-    elif message.startswith(("List should", "Dictionary should", "String should")) and loc:
-        message = f"'{loc[-1]}': " + message
-    if "input" in e and not isinstance(e["input"], (dict, list)):
-        message += f", got {_short(e['input'])}"
-    return loc, message, None
+def _has(node: Any, token: Any) -> bool:
+    if isinstance(node, dict):
+        return isinstance(token, str) and token in node
+    return isinstance(node, list) and isinstance(token, int) and 0 <= token < len(node)
+
+
+def _inner(annotation: Any, token: Any) -> Any:
+    """What a model's field, a list's item or a dict's value (``token`` into ``annotation``) should be."""
+    if isinstance(annotation, type) and issubclass(annotation, ScenarioModel):
+        fields = {f.alias or n: f for n, f in annotation.model_fields.items()}
+        return fields[token].annotation if token in fields else None
+    args = typing.get_args(annotation)
+    origin = typing.get_origin(annotation)
+    if origin is list and args:
+        return args[0]
+    return args[1] if origin is dict and len(args) == 2 else None
+
+
+def _unwrap(annotation: Any) -> Any:
+    """``annotation`` without ``Annotated`` and ``| None``."""
+    while True:
+        args = typing.get_args(annotation)
+        if typing.get_origin(annotation) is Annotated:
+            annotation = args[0]
+        elif typing.get_origin(annotation) in (Union, types.UnionType) and len(args) == 2 and type(None) in args:
+            annotation = args[0] if args[1] is type(None) else args[1]
+        else:
+            return annotation
+
+
+def _element(at: list[Any]) -> str | None:
+    if len(at) >= 2 and at[0] in ("inputs", "expect") and isinstance(at[1], int):
+        return f"{'input' if at[0] == 'inputs' else 'expectation'} {at[1]}"
+    return None
 
 
 # -- checks beyond shape -----------------------------------------------------------------------------------

@@ -20,7 +20,7 @@ import types
 import typing
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any, Literal, NamedTuple, Union
+from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Literal, NamedTuple, Union
 
 from pydantic import Discriminator, Field, Tag, TypeAdapter, ValidationError
 
@@ -68,6 +68,19 @@ Value = Union[bool, int, float, str]  # noqa: UP007 - pydantic's strict union: t
 
 class ScenarioModel(ParamsBase):
     """Strict like machine documents: unknown keys, null, strings for numbers, NaN and infinity are errors."""
+
+    def state_names(self) -> list[StateName]:
+        """The states this element names, each with its JSON pointer inside the element."""
+        return []
+
+
+class StateName(NamedTuple):
+    """A state an expectation or input names: its id or path, where (a JSON pointer inside the element), and
+    whether it is the start of a path (``active``) rather than a state's id or the end of its path."""
+
+    name: str
+    pointer: str
+    prefix: bool = False
 
 
 # -- inputs --------------------------------------------------------------------------------------------
@@ -162,6 +175,9 @@ class OutcomeExpect(ScenarioModel):
                                           "('precondition_failed' for a step skipped by its precondition).")
     within: Window | None = Field(default=None, description=_WINDOW)
 
+    def state_names(self) -> list[StateName]:
+        return [] if self.state is None else [StateName(self.state, "/state")]
+
 
 class _Counted(ScenarioModel):
     """How often an event happens: exactly ``count``, or ``min`` and/or ``max``; at least once without them."""
@@ -170,23 +186,31 @@ class _Counted(ScenarioModel):
     count: Int | None = Field(default=None, ge=0, description="Exactly this many times.")
     min: Int | None = Field(default=None, ge=0, description="At least this many times.")
     max: Int | None = Field(default=None, ge=0, description="At most this many times.")
+    #: The key naming the state whose event is counted.
+    event: ClassVar[str]
+
+    def state_names(self) -> list[StateName]:
+        return [StateName(getattr(self, self.event), "/" + self.event)]
 
 
 class EnteredExpect(_Counted):
     """A state is entered and runs (an entry skipped by its precondition does not count: see ``skipped``)."""
 
+    event: ClassVar[str] = "entered"
     entered: str = Field(min_length=1, description="State id or path ('grip/closing' matches 'run/work/grip/closing').")
 
 
 class SkippedExpect(_Counted):
     """A state is entered and at once skipped because its precondition is false."""
 
+    event: ClassVar[str] = "skipped"
     skipped: str = Field(min_length=1, description="State id or path.")
 
 
 class ExitedExpect(_Counted):
     """A state is left (by a transition of its own level, with its parent, or by a restart)."""
 
+    event: ClassVar[str] = "exited"
     exited: str = Field(min_length=1, description="State id or path.")
 
 
@@ -210,11 +234,17 @@ class VisitsExpect(ScenarioModel):
     visits: list[Annotated[str, Field(min_length=1)]] = Field(
         min_length=1, description="State ids or paths ('grip/closing' matches 'run/work/grip/closing').")
 
+    def state_names(self) -> list[StateName]:
+        return [StateName(name, pointer("visits", k)) for k, name in enumerate(self.visits)]
+
 
 class NeverExpect(ScenarioModel):
     """None of these states is ever entered."""
 
     never: list[Annotated[str, Field(min_length=1)]] = Field(min_length=1, description="State ids or paths.")
+
+    def state_names(self) -> list[StateName]:
+        return [StateName(name, pointer("never", k)) for k, name in enumerate(self.never)]
 
 
 _FORMULA = ("A formula: an expression of the document language over the variables, signal_NAME and car_NAME, with "
@@ -239,6 +269,12 @@ class AtExpect(ScenarioModel):
         default=None, description="State id or path -> whether it is active and suspended while a monitor's "
                                   "exception sequence runs (not by a pause).")
     holds: str | None = Field(default=None, min_length=1, description="A formula true at that tick. " + _FORMULA)
+
+    def state_names(self) -> list[StateName]:
+        names = [StateName(self.active, "/active", True)] if isinstance(self.active, str) else \
+            [StateName(name, pointer("active", k), True) for k, name in enumerate(self.active or ())]
+        return names + [StateName(name, pointer(key, name)) for key in ("paused", "suspended")
+                        for name in getattr(self, key) or {}]
 
 
 class TemporalExpect(ScenarioModel):
@@ -300,6 +336,9 @@ class MonitorsExpect(ScenarioModel):
     """A monitor (or timeout) of a state fires during the run."""
 
     monitors: MonitorFired
+
+    def state_names(self) -> list[StateName]:
+        return [StateName(self.monitors.owner, "/monitors/owner")]
 
 
 _EXPECT_KEYS = ("outcome", "finished", "visits", "never", "transitions", "entered", "skipped", "exited", "invariant",
@@ -570,10 +609,9 @@ def matrix_problems(scenario: Scenario, spec: Any, name: str, max_runs: int | No
         for var, value in values.items():
             at = ptr if ptr.endswith("/" + var) else ptr + "/" + var
             if var not in declared:
-                close = difflib.get_close_matches(var, sorted(declared), n=2)
                 problems.append(Problem(f"the machine has no variable '{var}'", name, at,
-                                        hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close
-                                        else "variables: " + (", ".join(sorted(declared)) or "none")))
+                                        hint=did_you_mean(var, sorted(declared))
+                                        or "variables: " + (", ".join(sorted(declared)) or "none")))
                 continue
             want, got = kind_of(declared[var]), kind_of(value)
             if ANY not in (want, got) and want != got:
@@ -1003,11 +1041,10 @@ def _signal_warnings(scenario: Scenario, known: set[str], name: str) -> list[Pro
     for i, item in enumerate(scenario.inputs):
         sig = item.signal if isinstance(item, SignalInput) else item.press if isinstance(item, PressInput) else None
         if sig is not None and sig not in known:
-            close = difflib.get_close_matches(sig, sorted(known), n=2)
             problems.append(Problem(f"the machine reads no signal '{sig}'", name, pointer("inputs", i),
                                     element=f"input {i}", severity="warning",
-                                    hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close
-                                    else "signals it reads: " + (", ".join(sorted(known)) or "none")))
+                                    hint=did_you_mean(sig, sorted(known))
+                                    or "signals it reads: " + (", ".join(sorted(known)) or "none")))
     return problems
 
 
@@ -1159,63 +1196,98 @@ def substituted(scenario: Scenario, machine_path: Path, registry: Any, name: str
     problems: list[Problem] = []
     touched: list[tuple[str, int]] = []  # (document pointer, substitution index)
     for k, sub in enumerate(scenario.substitute):
-        ptr = pointer("substitute", k)
-        given = [key for key in ("state", "type", "transition") if getattr(sub, key) is not None]
-        if len(given) != 1:
-            problems.append(Problem("a substitution names one of 'state', 'type' or 'transition'", name, ptr,
-                                    hint='{"state": "grip", "with": {"type": "Wait", "seconds": 1}}'))
-            continue
-        kind = sub.with_.get("type")
-        table = registry.transitions if sub.transition is not None else registry.states
-        if not isinstance(kind, str) or kind not in table:
-            known = sorted(table)
-            close = difflib.get_close_matches(str(kind), known, n=2)
-            what = "transition" if sub.transition is not None else "state"
-            problems.append(Problem(f"unknown {what} type {kind!r}" if kind is not None else
-                                    "the replacement needs a 'type'", name, ptr + "/with" + ("/type" if kind else ""),
-                                    hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close else
-                                    f"{what} types: " + ", ".join(known[:15])))
-            continue
-        hits = 0
-        for path, at, el in list(_elements(doc, "", "")):
-            if path is None:
-                if sub.transition is None:
-                    continue
-                tref = sub.transition
-                for j, tr in enumerate(el):
-                    if isinstance(tr, dict) and tr.get("from") == tref.from_ and tr.get("to") == tref.to and \
-                            (tref.type is None or tr.get("type") == tref.type):
-                        el[j] = {"from": tr["from"], "to": tr["to"], **sub.with_}
-                        touched.append((f"{at}/{j}", k))
-                        hits += 1
-                continue
-            if (sub.state is not None and state_matches(sub.state, path)) or \
-                    (sub.type is not None and el.get("type") == sub.type):
-                kept = {key: v for key, v in el.items() if key in _STEP_KEYS}
-                el.clear()
-                el.update({**kept, **sub.with_, "id": kept["id"]})
-                touched.append((at, k))
-                hits += 1
-        if not hits:
-            ref = sub.transition
-            what = (f"state '{sub.state}'" if sub.state is not None else f"state of type '{sub.type}'"
-                    if sub.type is not None or ref is None else f"transition from '{ref.from_}' to '{ref.to}'")
-            problems.append(Problem(f"the machine has no {what} to substitute", name, ptr,
-                                    hint="a state's id or the end of its path, as 'visits' names it"))
+        problem = _substitution_problem(sub, pointer("substitute", k), registry, name)
+        if problem is None:
+            replaced = _substitute(doc, sub)
+            touched += [(at, k) for at in replaced]
+            problem = None if replaced else _no_match(sub, pointer("substitute", k), name)
+        if problem is not None:
+            problems.append(problem)
     if problems:
         return None, problems
     spec, found = check(doc, registry=registry, base_dir=machine_path.parent)
     errors = [p for p in found if p.severity == "error"]
     if spec is not None and not errors:
         return spec, []
-    # one problem per place in the scenario: a substitution that matched five states says a misspelt key once
+    return None, _said_of_substitutions(errors or found, touched, name)
+
+
+def _substitution_problem(sub: Substitution, ptr: str, registry: Any, name: str) -> Problem | None:
+    """What is wrong with a substitution before it is applied: not one target, or a replacement of no known type."""
+    if sum(getattr(sub, key) is not None for key in ("state", "type", "transition")) != 1:
+        return Problem("a substitution names one of 'state', 'type' or 'transition'", name, ptr,
+                       hint='{"state": "grip", "with": {"type": "Wait", "seconds": 1}}')
+    kind = sub.with_.get("type")
+    what = "transition" if sub.transition is not None else "state"
+    known = sorted(registry.transitions if sub.transition is not None else registry.states)
+    if isinstance(kind, str) and kind in known:
+        return None
+    return Problem(f"unknown {what} type {kind!r}" if kind is not None else "the replacement needs a 'type'", name,
+                   ptr + "/with" + ("/type" if kind else ""),
+                   hint=did_you_mean(str(kind), known) or f"{what} types: " + ", ".join(known[:15]))
+
+
+def did_you_mean(word: str, known: list[str], n: int = 2) -> str | None:
+    """"did you mean 'a' or 'b'?" for the (at most ``n``) known words close to ``word``, or ``None``."""
+    close = difflib.get_close_matches(word, known, n=n)
+    return "did you mean " + " or ".join(repr(c) for c in close) + "?" if close else None
+
+
+def _substitute(doc: Any, sub: Substitution) -> list[str]:
+    """Apply one substitution to ``doc`` in place; the pointers of the elements it replaced."""
+    replaced: list[str] = []
+    for path, at, el in list(_elements(doc, "", "")):
+        if path is None:
+            replaced += _substitute_transitions(el, at, sub)
+        elif _state_hit(sub, path, el):
+            kept = {key: v for key, v in el.items() if key in _STEP_KEYS}
+            el.clear()
+            el.update({**kept, **sub.with_, "id": kept["id"]})
+            replaced.append(at)
+    return replaced
+
+
+def _state_hit(sub: Substitution, path: str, el: dict[str, Any]) -> bool:
+    if sub.state is not None:
+        return state_matches(sub.state, path)
+    return sub.type is not None and el.get("type") == sub.type
+
+
+def _substitute_transitions(transitions: list[Any], at: str, sub: Substitution) -> list[str]:
+    """Replace the transitions of one list that ``sub.transition`` names; their pointers."""
+    ref = sub.transition
+    if ref is None:
+        return []
+    replaced: list[str] = []
+    for j, tr in enumerate(transitions):
+        if isinstance(tr, dict) and (tr.get("from"), tr.get("to")) == (ref.from_, ref.to) and \
+                ref.type in (None, tr.get("type")):
+            transitions[j] = {"from": tr["from"], "to": tr["to"], **sub.with_}
+            replaced.append(f"{at}/{j}")
+    return replaced
+
+
+def _no_match(sub: Substitution, ptr: str, name: str) -> Problem:
+    ref = sub.transition
+    if sub.state is not None:
+        what = f"state '{sub.state}'"
+    elif sub.type is not None or ref is None:
+        what = f"state of type '{sub.type}'"
+    else:
+        what = f"transition from '{ref.from_}' to '{ref.to}'"
+    return Problem(f"the machine has no {what} to substitute", name, ptr,
+                   hint="a state's id or the end of its path, as 'visits' names it")
+
+
+def _said_of_substitutions(found: list[Problem], touched: list[tuple[str, int]], name: str) -> list[Problem]:
+    """The substituted machine's problems, each at the substitution that made it (under ``/with``); one problem per
+    place in the scenario: a substitution that matched five states says a misspelt key once."""
     grouped: dict[tuple[str, str, str | None], list[str]] = {}
-    for p in errors or found:
+    for p in found:
         where = next(((at, k) for at, k in touched
                       if p.pointer and (p.pointer == at or p.pointer.startswith(at + "/"))), None)
-        k = where[1] if where else 0
-        inner = p.pointer[len(where[0]):] if where and p.pointer else ""
-        at = pointer("substitute", k) + ("/with" + inner if where else "")
+        at = pointer("substitute", where[1]) + "/with" + p.pointer[len(where[0]):] if where else \
+            pointer("substitute", 0)
         grouped.setdefault((at, p.message, p.hint), []).append(p.element or "")
     out = []
     for (at, message, hint), elements in grouped.items():
@@ -1223,7 +1295,7 @@ def substituted(scenario: Scenario, machine_path: Path, registry: Any, name: str
         more = f" (in {len(elements)} states: {', '.join(named[:6])}{', ...' if len(named) > 6 else ''})" \
             if len(elements) > 1 and named else ""
         out.append(Problem(f"with this substitution the machine is invalid: {message}{more}", name, at, hint=hint))
-    return None, out
+    return out
 
 
 def _inline_includes(node: Any, base: Path, stack: list[str]) -> None:
@@ -1326,12 +1398,10 @@ def _plants(scenario: Scenario, registry: Any, name: str) -> tuple[list[tuple[ty
         cls = registry.plants.get(kind) if isinstance(kind, str) else None
         if cls is None:
             known = sorted(registry.plants)
-            close = difflib.get_close_matches(str(kind), known, n=2)
             problems.append(Problem(f"unknown plant type {kind!r}" if kind is not None else "a plant needs a 'type'",
                                     name, ptr + ("/type" if kind is not None else ""), element=f"plant {i}",
-                                    hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close else
-                                    ("plant types: " + ", ".join(known)) if known else
-                                    "load the plugin that registers it (\"plugins\": [...])"))
+                                    hint=did_you_mean(str(kind), known) or ("plant types: " + ", ".join(known)
+                                    if known else "load the plugin that registers it (\"plugins\": [...])")))
             continue
         try:
             params = cls.Params.model_validate(raw)
@@ -1369,52 +1439,47 @@ def _plant_expression_problems(scenario: Scenario, spec: Any, plants: list[tuple
 
 def name_problems(scenario: Scenario, paths: list[str], name: str) -> list[Problem]:
     """The state names and paths of the scenario's expectations and pause inputs that name no state of ``paths``."""
-    problems = []
-    ids = sorted({p.rsplit("/", 1)[-1] for p in paths} | set(paths))
-    prefixes = {"/".join(p.split("/")[:k]) for p in paths for k in range(1, p.count("/") + 2)}
+    known = _KnownStates(paths)
+    problems: list[Problem] = []
     for i, exp in enumerate(scenario.expect):
-        ptr = pointer("expect", i)
-        names: list[tuple[str, str, bool]] = []
-        if isinstance(exp, VisitsExpect):
-            names = [(s, pointer("expect", i, "visits", k), False) for k, s in enumerate(exp.visits)]
-        elif isinstance(exp, NeverExpect):
-            names = [(s, pointer("expect", i, "never", k), False) for k, s in enumerate(exp.never)]
-        elif isinstance(exp, MonitorsExpect):
-            names = [(exp.monitors.owner, pointer("expect", i, "monitors", "owner"), False)]
-        elif isinstance(exp, (EnteredExpect, SkippedExpect, ExitedExpect)):
-            key = "entered" if isinstance(exp, EnteredExpect) else "skipped" if isinstance(exp, SkippedExpect) \
-                else "exited"
-            names = [(getattr(exp, key), pointer("expect", i, key), False)]
-        elif isinstance(exp, OutcomeExpect) and exp.state is not None:
-            names = [(exp.state, pointer("expect", i, "state"), False)]
-        elif isinstance(exp, AtExpect):
-            if exp.active is not None:
-                items = [exp.active] if isinstance(exp.active, str) else exp.active
-                names = [(s, ptr + "/active" + ("" if isinstance(exp.active, str) else f"/{k}"), True)
-                         for k, s in enumerate(items)]
-            for key in ("paused", "suspended"):
-                names += [(s, pointer("expect", i, key, s), False) for s in getattr(exp, key) or {}]
-        for item, at, prefix in names:
-            ok = item.strip("/") in prefixes if prefix else any(state_matches(item, p) for p in paths)
-            if not ok:
-                close = difflib.get_close_matches(item, sorted(prefixes) if prefix else ids, n=3)
-                hint = ("did you mean " + " or ".join(repr(c) for c in close) + "?") if close else \
-                    "states: " + ", ".join(paths[:12]) + (", ..." if len(paths) > 12 else "")
-                what = "no state path starts with" if prefix else "the machine has no state"
-                problems.append(Problem(f"{what} '{item}'", name, at, element=f"expectation {i}", hint=hint))
+        for state in exp.state_names():
+            unknown = known.unknown(state)
+            if unknown is not None:
+                problems.append(Problem(unknown[0], name, pointer("expect", i) + state.pointer,
+                                        element=f"expectation {i}", hint=unknown[1]))
     for i, inp in enumerate(scenario.inputs):
-        if isinstance(inp, (PauseInput, ResumeInput)):
-            key = "pause" if isinstance(inp, PauseInput) else "resume"
-            target = getattr(inp, key).strip("/")
-            if target not in paths:
-                close = difflib.get_close_matches(target, paths, n=3)
-                suffix = [p for p in paths if state_matches(target, p)]
-                hint = (f"a path from the top: {suffix[0]!r}" if len(suffix) == 1 else
-                        ("did you mean " + " or ".join(repr(c) for c in close) + "?") if close else
-                        "states: " + ", ".join(paths[:12]) + (", ..." if len(paths) > 12 else ""))
-                problems.append(Problem(f"the machine has no state at the path '{target}'", name,
-                                        pointer("inputs", i, key), element=f"input {i}", hint=hint))
+        key = "pause" if isinstance(inp, PauseInput) else "resume"
+        target = inp.pause if isinstance(inp, PauseInput) else inp.resume if isinstance(inp, ResumeInput) else None
+        if target is not None and target.strip("/") not in paths:
+            target = target.strip("/")
+            suffix = [p for p in paths if state_matches(target, p)]
+            hint = f"a path from the top: {suffix[0]!r}" if len(suffix) == 1 else \
+                did_you_mean(target, paths, n=3) or known.listed()
+            problems.append(Problem(f"the machine has no state at the path '{target}'", name,
+                                    pointer("inputs", i, key), element=f"input {i}", hint=hint))
     return problems
+
+
+class _KnownStates:
+    """A machine's state paths, to tell whether (and how nearly) a name an expectation gives is one of them."""
+
+    def __init__(self, paths: list[str]) -> None:
+        self.paths = paths
+        self.ids = sorted({p.rsplit("/", 1)[-1] for p in paths} | set(paths))
+        self.prefixes = {"/".join(p.split("/")[:k]) for p in paths for k in range(1, p.count("/") + 2)}
+
+    def unknown(self, state: StateName) -> tuple[str, str] | None:
+        """(message, hint) when ``state`` names no state (no path starting with it, for a prefix), else ``None``."""
+        if state.prefix and state.name.strip("/") in self.prefixes:
+            return None
+        if not state.prefix and any(state_matches(state.name, p) for p in self.paths):
+            return None
+        what = "no state path starts with" if state.prefix else "the machine has no state"
+        close = did_you_mean(state.name, sorted(self.prefixes) if state.prefix else self.ids, n=3)
+        return f"{what} '{state.name}'", close or self.listed()
+
+    def listed(self) -> str:
+        return "states: " + ", ".join(self.paths[:12]) + (", ..." if len(self.paths) > 12 else "")
 
 
 def _world_hint(machine: Path, base: Path) -> str:

@@ -668,6 +668,28 @@ def _same(expected: Any, got: Any) -> bool:
     return type(expected) is type(got) and expected == got
 
 
+def _inactive(exp: AtExpect, active: tuple[str, ...]) -> list[str]:
+    """The states ``exp.active`` names that are not active, said as one problem."""
+    wanted = [exp.active] if isinstance(exp.active, str) else exp.active or []
+    missing = [w for w in wanted if not any(active_matches(w, p) for p in active)]
+    if not missing:
+        return []
+    return [f"expected {', '.join(repr(w) for w in missing)} active, active: " + (", ".join(active) or "(none)")]
+
+
+def _wrong_held(exp: AtExpect, snap: Snapshot) -> list[str]:
+    """The states of ``exp.paused`` and ``exp.suspended`` held (or not) other than expected."""
+    problems = []
+    for key, held in (("paused", snap.paused), ("suspended", snap.suspended)):
+        for name, want_held in (getattr(exp, key) or {}).items():
+            is_held = any(state_matches(name, p) for p in held)
+            if is_held != want_held:
+                shown = ", ".join(sorted(held)) or "none"
+                problems.append(f"expected '{name}' {'' if want_held else 'not '}{key}, it was "
+                                f"{'' if is_held else 'not '}({key}: {shown})")
+    return problems
+
+
 class Checker:
     """Checks expectations against a run's record (``rec``) and the machine as it ended; a failure keeps the
     trace around its first diverging tick."""
@@ -920,20 +942,8 @@ class Checker:
                  and self.inside(f.tick, c.within)]
         n = len(fired)
         ok, want = count_verdict(n, c)
-        if ok and c.at is not None:
-            times = [round(f.tick * self.dt, 9) for f in fired]
-            wanted = [tick_at(t, self.dt) for t in c.at]
-            got = [f.tick for f in fired]
-            if got != wanted:
-                first = next((k for k, (a, b) in enumerate(zip(got, wanted, strict=False)) if a != b),
-                             min(len(got), len(wanted)))
-                tick = got[first] if first < len(got) else (wanted[first] if first < len(wanted) else self.last_tick)
-                return self.failure(i, "monitors", f"expected the monitor of '{c.owner}' to fire at "
-                                                   f"{', '.join(f'{t:g}' for t in c.at)} s, it fired at "
-                                                   f"{', '.join(f'{t:g}' for t in times) or 'no time'} s",
-                                    min(tick, self.last_tick))
         if ok:
-            return None
+            return None if c.at is None else self._monitor_times(i, c, fired)
         what = ("" if c.behavior is None else f" with {c.behavior}") + ("" if c.within is None else
                                                                          f" {self.window(c.within)}")
         limit = c.count if c.count is not None else c.max
@@ -941,6 +951,21 @@ class Checker:
             min(_last_tick(c.within[1], self.dt), self.last_tick) if c.within is not None else self.last_tick
         return self.failure(i, "monitors", f"expected a monitor of '{c.owner}'{what} to fire {want}, it fired "
                                            f"{_times(n)}", tick)
+
+    def _monitor_times(self, i: int, c: Any, fired: list[MonitorFiring]) -> Failure | None:
+        """A monitor's firings at exactly the ticks of ``c.at``, or a failure at the first that differs."""
+        wanted = [tick_at(t, self.dt) for t in c.at]
+        got = [f.tick for f in fired]
+        if got == wanted:
+            return None
+        first = next((k for k, (a, b) in enumerate(zip(got, wanted, strict=False)) if a != b),
+                     min(len(got), len(wanted)))
+        tick = got[first] if first < len(got) else (wanted[first] if first < len(wanted) else self.last_tick)
+        times = [round(f.tick * self.dt, 9) for f in fired]
+        return self.failure(i, "monitors", f"expected the monitor of '{c.owner}' to fire at "
+                                           f"{', '.join(f'{t:g}' for t in c.at)} s, it fired at "
+                                           f"{', '.join(f'{t:g}' for t in times) or 'no time'} s",
+                            min(tick, self.last_tick))
 
     def visits(self, i: int, wanted: list[str]) -> Failure | None:
         entries = self.rec.entries
@@ -970,45 +995,32 @@ class Checker:
 
     def at_check(self, i: int, exp: AtExpect) -> Failure | None:
         tick = tick_at(exp.at, self.dt)
-        shown_tick = tick
         snap = self.rec.snapshots.get(tick)
         if snap is None:  # the machine finished (or the run ended) before: it stays as it ended
             snap = self.rec.final(self.machine)
-        active, values = snap.active, snap.vars
-        problems = []
-        if exp.active is not None:
-            wanted = [exp.active] if isinstance(exp.active, str) else exp.active
-            missing = [w for w in wanted if not any(active_matches(w, p) for p in active)]
-            if missing:
-                problems.append(f"expected {', '.join(repr(w) for w in missing)} active, active: "
-                                + (", ".join(active) or "(none)"))
-        if exp.vars is not None:
-            for name, want in exp.vars.items():
-                got = values.get(name, _UNSET)
-                if isinstance(want, Approx):
-                    close = (isinstance(got, (int, float)) and not isinstance(got, bool)
-                             and abs(got - want.value) <= want.tolerance * (1 + 1e-12) + 1e-12)
-                    if not close:
-                        changed = [c for c in self.rec.var_changes if c.name == name and c.tick <= tick]
-                        since = f" (since {self.at(changed[-1].tick)})" if changed else ""
-                        problems.append(f"expected {name} = {want.value:g} ± {want.tolerance:g}, got "
-                                        f"{_shown(got)}{since}")
-                elif not _same(want, got):
-                    changed = [c for c in self.rec.var_changes if c.name == name and c.tick <= tick]
-                    since = f" (since {self.at(changed[-1].tick)})" if changed else ""
-                    problems.append(f"expected {name} = {_shown(want)}, got {_shown(got)}{since}")
-        for key, held in (("paused", snap.paused), ("suspended", snap.suspended)):
-            for name, want_held in (getattr(exp, key) or {}).items():
-                is_held = any(state_matches(name, p) for p in held)
-                if is_held != want_held:
-                    shown = ", ".join(sorted(held)) or "none"
-                    problems.append(f"expected '{name}' {'' if want_held else 'not '}{key}, it was "
-                                    f"{'' if is_held else 'not '}({key}: {shown})")
-        if exp.holds is not None:
-            verdict = self.verdicts[i][1]
-            if verdict is not None:
-                problems.append(verdict.message)
+        verdict = self.verdicts[i][1] if exp.holds is not None else None
+        problems = [*_inactive(exp, snap.active), *self._wrong_vars(exp, snap.vars, tick), *_wrong_held(exp, snap),
+                    *([verdict.message] if verdict is not None else [])]
         if not problems:
             return None
         ended = "" if tick <= self.last_tick else f" (the run ended before, at {self.at(self.last_tick)})"
-        return self.failure(i, f"at {exp.at:g} s", "; ".join(problems) + ended, min(shown_tick, self.last_tick))
+        return self.failure(i, f"at {exp.at:g} s", "; ".join(problems) + ended, min(tick, self.last_tick))
+
+    def _wrong_vars(self, exp: AtExpect, values: dict[str, Any], tick: int) -> list[str]:
+        """The variables of ``exp.vars`` without their expected value (or within its tolerance) at ``tick``."""
+        problems = []
+        for name, want in (exp.vars or {}).items():
+            got = values.get(name, _UNSET)
+            if isinstance(want, Approx):
+                if isinstance(got, (int, float)) and not isinstance(got, bool) \
+                        and abs(got - want.value) <= want.tolerance * (1 + 1e-12) + 1e-12:
+                    continue
+                expected = f"{want.value:g} ± {want.tolerance:g}"
+            elif _same(want, got):
+                continue
+            else:
+                expected = _shown(want)
+            changed = [c for c in self.rec.var_changes if c.name == name and c.tick <= tick]
+            since = f" (since {self.at(changed[-1].tick)})" if changed else ""
+            problems.append(f"expected {name} = {expected}, got {_shown(got)}{since}")
+        return problems

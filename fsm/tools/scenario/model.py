@@ -51,6 +51,8 @@ from .paths import state_matches as state_matches
 from .temporal import TEMPORAL_FUNCTIONS, FormulaError, compile_formula, formula_names
 
 if TYPE_CHECKING:
+    from collections.abc import Callable, Iterator
+
     from pydantic_core import ErrorDetails
 
 #: Runs longer than this many ticks are refused (the limit of ``fsmctl run`` without ``--max-ticks``).
@@ -895,36 +897,32 @@ def _input_problems(item: Any, name: str, ptr: str, label: str, end_time: float)
 
 
 def _expect_problems(exp: Any, name: str, ptr: str, label: str, end_time: float) -> list[Problem]:
-    """One expectation: its window, its counts, and the checks of its kind."""
+    """One expectation: its window, and the checks of its kind (:data:`_EXPECT_CHECKS`)."""
     problems: list[Problem] = []
-    within = getattr(exp, "within", None)
-    if within is None and isinstance(exp, MonitorsExpect):
-        within = exp.monitors.within
+    monitors = isinstance(exp, MonitorsExpect)
+    within = exp.monitors.within if monitors else getattr(exp, "within", None)
     if within is not None and within[1] < within[0]:
-        where = ptr + ("/monitors" if isinstance(exp, MonitorsExpect) else "") + "/within"
         problems.append(Problem(f"the window ends ({within[1]:g} s) before it starts ({within[0]:g} s)", name,
-                                where, element=label, hint="a window is [start, end] with start <= end"))
-    if isinstance(exp, _Counted):
-        problems += _count_problems(exp, name, ptr, label)
-    if isinstance(exp, InvariantExpect):
-        problems += _invariant_parse_problems(exp, name, ptr, label)
-    if isinstance(exp, TemporalExpect):
-        problems += _temporal_shape(exp, name, ptr, label, end_time)
-    if isinstance(exp, AtExpect):
-        problems += _at_problems(exp, name, ptr, label, end_time)
-    if isinstance(exp, TransitionsExpect):
-        problems += _transitions_problems(exp, name, ptr, label)
-    if isinstance(exp, MonitorsExpect):
-        problems += _count_problems(exp.monitors, name, ptr + "/monitors", label)
-        for k, at in enumerate(exp.monitors.at or ()):
-            if at > end_time + EPS:
-                problems.append(Problem(f"at {at:g} s is after the end of the run ({end_time:g} s)", name,
-                                        f"{ptr}/monitors/at/{k}", element=label,
-                                        hint="raise 'duration' (or 'max_ticks')"))
-    return problems
+                                ptr + ("/monitors" if monitors else "") + "/within", element=label,
+                                hint="a window is [start, end] with start <= end"))
+    check = _EXPECT_CHECKS.get(type(exp))
+    return problems + check(exp, name, ptr, label, end_time) if check is not None else problems
 
 
-def _invariant_parse_problems(exp: InvariantExpect, name: str, ptr: str, label: str) -> list[Problem]:
+def _monitors_problems(exp: MonitorsExpect, name: str, ptr: str, label: str, end_time: float) -> list[Problem]:
+    """A monitor expectation: its counts, and times after the end of the run."""
+    problems = _count_problems(exp.monitors, name, ptr + "/monitors", label)
+    return problems + [Problem(f"at {at:g} s is after the end of the run ({end_time:g} s)", name,
+                               f"{ptr}/monitors/at/{k}", element=label, hint="raise 'duration' (or 'max_ticks')")
+                       for k, at in enumerate(exp.monitors.at or ()) if at > end_time + EPS]
+
+
+def _counted_problems(exp: _Counted, name: str, ptr: str, label: str, end_time: float) -> list[Problem]:
+    return _count_problems(exp, name, ptr, label)
+
+
+def _invariant_parse_problems(exp: InvariantExpect, name: str, ptr: str, label: str, end_time: float
+                              ) -> list[Problem]:
     """An invariant that does not parse."""
     try:
         parse(exp.invariant, TEMPORAL_FUNCTIONS)
@@ -947,7 +945,8 @@ def _at_problems(exp: AtExpect, name: str, ptr: str, label: str, end_time: float
     return problems
 
 
-def _transitions_problems(exp: TransitionsExpect, name: str, ptr: str, label: str) -> list[Problem]:
+def _transitions_problems(exp: TransitionsExpect, name: str, ptr: str, label: str, end_time: float
+                          ) -> list[Problem]:
     """The bounds on the number of transitions: at least one, 'count' alone, 'min' <= 'max'."""
     c = exp.transitions
     if c.count is None and c.min is None and c.max is None:
@@ -962,41 +961,39 @@ def _transitions_problems(exp: TransitionsExpect, name: str, ptr: str, label: st
 
 
 def _temporal_shape(exp: TemporalExpect, name: str, ptr: str, label: str, end_time: float) -> list[Problem]:
-    """Which keys of a temporal expectation go together."""
-    problems: list[Problem] = []
+    """Which keys of a temporal expectation go together, and times after the end of the run."""
     modes = [k for k in ("always", "never", "eventually") if getattr(exp, k) is not None]
-
-    def bad(message: str, key: str = "", hint: str | None = None) -> None:
-        problems.append(Problem(message, name, ptr + (f"/{key}" if key else ""), element=label, hint=hint))
-
     if len(modes) != 1:
-        bad(f"give one of 'always', 'never' and 'eventually', not {' and '.join(repr(m) for m in modes)}",
-            hint='{"always": "x >= 0"}; two expectations for two formulas')
-        return problems
-    mode = modes[0]
+        return [Problem(f"give one of 'always', 'never' and 'eventually', not {' and '.join(repr(m) for m in modes)}",
+                        name, ptr, element=label, hint='{"always": "x >= 0"}; two expectations for two formulas')]
+    problems = [Problem(message, name, ptr + (f"/{key}" if key else ""), element=label, hint=hint)
+                for message, key, hint in _temporal_conflicts(exp, modes[0])]
+    problems += _count_problems(exp, name, ptr, label)
+    return problems + [Problem(f"at {at:g} s is after the end of the run ({end_time:g} s)", name, f"{ptr}/at/{k}",
+                               element=label, hint="raise 'duration' (or 'max_ticks')")
+                       for k, at in enumerate(exp.at or ()) if at > end_time + EPS]
+
+
+def _temporal_conflicts(exp: TemporalExpect, mode: str) -> Iterator[tuple[str, str, str | None]]:
+    """The keys of a temporal expectation that do not go with its mode or with each other: (message, key, hint)."""
     if exp.until is not None and mode != "always":
-        bad(f"'until' goes with 'always' ('{mode}' cannot take it)", "until",
-            hint='{"always": "not active(drive)", "until": "signal_start"}')
+        yield (f"'until' goes with 'always' ('{mode}' cannot take it)", "until",
+               '{"always": "not active(drive)", "until": "signal_start"}')
     if exp.until is not None and exp.after is not None:
-        bad("'until' and 'after' do not go together: give 'after' with 'ticks' for a span after a trigger", "until")
+        yield "'until' and 'after' do not go together: give 'after' with 'ticks' for a span after a trigger", \
+            "until", None
     for key in ("ticks", "seconds", "nth"):
         if getattr(exp, key) is not None and exp.after is None:
-            bad(f"'{key}' counts from a trigger: give 'after' too", key,
-                hint='{"eventually": "entered(B)", "after": "entered(A)", "ticks": 8}')
+            yield (f"'{key}' counts from a trigger: give 'after' too", key,
+                   '{"eventually": "entered(B)", "after": "entered(A)", "ticks": 8}')
     if exp.ticks is not None and exp.seconds is not None:
-        bad("give 'ticks' or 'seconds', not both", "seconds")
+        yield "give 'ticks' or 'seconds', not both", "seconds", None
     counted = [k for k in ("count", "min", "max", "at") if getattr(exp, k) is not None]
     if counted and (mode != "eventually" or exp.after is not None):
-        bad(f"'{counted[0]}' counts the ticks an 'eventually' (without 'after') holds at", counted[0],
-            hint='{"eventually": "rose(paused(cycle))", "count": 2}')
-    if exp.at is not None and (exp.count is not None or exp.min is not None or exp.max is not None):
-        bad("'at' lists every tick already: give it alone, or 'count', 'min' and/or 'max'", "at")
-    problems += _count_problems(exp, name, ptr, label)
-    for k, at in enumerate(exp.at or ()):
-        if at > end_time + EPS:
-            bad(f"at {at:g} s is after the end of the run ({end_time:g} s)", f"at/{k}",
-                hint="raise 'duration' (or 'max_ticks')")
-    return problems
+        yield (f"'{counted[0]}' counts the ticks an 'eventually' (without 'after') holds at", counted[0],
+               '{"eventually": "rose(paused(cycle))", "count": 2}')
+    if exp.at is not None and counted != ["at"]:
+        yield "'at' lists every tick already: give it alone, or 'count', 'min' and/or 'max'", "at", None
 
 
 def _count_problems(c: Any, name: str, ptr: str, label: str) -> list[Problem]:
@@ -1005,6 +1002,14 @@ def _count_problems(c: Any, name: str, ptr: str, label: str) -> list[Problem]:
     if c.min is not None and c.max is not None and c.min > c.max:
         return [Problem(f"'min' {c.min} is greater than 'max' {c.max}", name, ptr, element=label)]
     return []
+
+
+#: The checks of each kind of expectation beyond its shape: (expectation, file, pointer, label, end of the run).
+_EXPECT_CHECKS: dict[type[ScenarioModel], Callable[[Any, str, str, str, float], list[Problem]]] = {
+    EnteredExpect: _counted_problems, SkippedExpect: _counted_problems, ExitedExpect: _counted_problems,
+    InvariantExpect: _invariant_parse_problems, TemporalExpect: _temporal_shape, AtExpect: _at_problems,
+    TransitionsExpect: _transitions_problems, MonitorsExpect: _monitors_problems,
+}
 
 
 def _world_problems(spec: Any, world_path: Path | None, machine_path: Path, base: Path, name: str) -> list[Problem]:

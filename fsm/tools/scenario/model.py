@@ -583,30 +583,52 @@ def matrix_problems(scenario: Scenario, spec: Any, name: str, max_runs: int | No
     m = scenario.matrix
     if m is None:
         return []
-    problems: list[Problem] = []
     if (m.vars is None) == (m.cases is None):
         return [Problem("a matrix has 'vars' (every combination of their values) or 'cases' (a list), one of them",
                         name, "/matrix", hint='"matrix": {"vars": {"speed": [0.2, 0.5]}}')]
-    n = case_count(m)
-    limit = MAX_RUNS if max_runs is None else max_runs
-    if n > limit:
-        how = (f"more than {MAX_RUNS:,} need --max-runs {n} (fsmctl test) or --fsm-max-runs {n} (pytest)"
-               if max_runs is None else f"more than --max-runs {max_runs}")
-        return [Problem(f"the matrix expands to {n:,} cases; {how}", name, "/matrix",
-                        hint="fewer values, or a table of 'cases'")]
-    declared = getattr(spec, "vars", {}) or {}
-    where: list[tuple[str, dict[str, Any]]] = []
+    too_large = _matrix_size_problem(m, name, max_runs)
+    if too_large is not None:
+        return [too_large]
+    problems: list[Problem] = []
     if m.cases is not None:
-        seen: set[str] = set()
-        for k, c in enumerate(m.cases):
-            if c.name in seen:
-                problems.append(Problem(f"two cases are named '{c.name}'", name, pointer("matrix", "cases", k, "name"),
-                                        hint="give each case its own name"))
-            seen.add(c.name)
-            where.append((pointer("matrix", "cases", k, "vars"), c.vars))
-            problems += _case_input_problems(c.inputs, scenario, name, pointer("matrix", "cases", k, "inputs"))
+        problems += _case_problems(m.cases, scenario, name)
+        where = [(pointer("matrix", "cases", k, "vars"), c.vars) for k, c in enumerate(m.cases)]
     else:
         where = [(pointer("matrix", "vars", v), {v: x}) for v, values in (m.vars or {}).items() for x in values]
+    problems += _matrix_var_problems(where, getattr(spec, "vars", {}) or {}, name)
+    unique: dict[str, Problem] = {}
+    for p in problems:
+        unique.setdefault(f"{p.pointer}:{p.message}", p)
+    return list(unique.values())
+
+
+def _matrix_size_problem(m: Matrix, name: str, max_runs: int | None) -> Problem | None:
+    n = case_count(m)
+    if n <= (MAX_RUNS if max_runs is None else max_runs):
+        return None
+    how = (f"more than {MAX_RUNS:,} need --max-runs {n} (fsmctl test) or --fsm-max-runs {n} (pytest)"
+           if max_runs is None else f"more than --max-runs {max_runs}")
+    return Problem(f"the matrix expands to {n:,} cases; {how}", name, "/matrix",
+                   hint="fewer values, or a table of 'cases'")
+
+
+def _case_problems(cases: list[MatrixCase], scenario: Scenario, name: str) -> list[Problem]:
+    """Cases named twice, and each case's inputs checked as the scenario's are."""
+    problems: list[Problem] = []
+    seen: set[str] = set()
+    for k, c in enumerate(cases):
+        if c.name in seen:
+            problems.append(Problem(f"two cases are named '{c.name}'", name, pointer("matrix", "cases", k, "name"),
+                                    hint="give each case its own name"))
+        seen.add(c.name)
+        problems += _case_input_problems(c.inputs, scenario, name, pointer("matrix", "cases", k, "inputs"))
+    return problems
+
+
+def _matrix_var_problems(where: list[tuple[str, dict[str, Any]]], declared: dict[str, Any], name: str
+                         ) -> list[Problem]:
+    """The matrix's variables the machine does not declare, or whose values are of another kind than its."""
+    problems: list[Problem] = []
     for ptr, values in where:
         for var, value in values.items():
             at = ptr if ptr.endswith("/" + var) else ptr + "/" + var
@@ -619,10 +641,7 @@ def matrix_problems(scenario: Scenario, spec: Any, name: str, max_runs: int | No
             if ANY not in (want, got) and want != got:
                 problems.append(Problem(f"'{var}' is {kind_phrase(want)} in the machine, this value is "
                                         f"{kind_phrase(got)}: {_shown_value(value)}", name, at))
-    unique: dict[str, Problem] = {}
-    for p in problems:
-        unique.setdefault(f"{p.pointer}:{p.message}", p)
-    return list(unique.values())
+    return problems
 
 
 def _case_input_problems(inputs: list[Any], scenario: Scenario, name: str, ptr: str) -> list[Problem]:

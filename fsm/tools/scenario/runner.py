@@ -33,6 +33,7 @@ from .model import (
     MonitorsExpect,
     NeverExpect,
     OutcomeExpect,
+    Scenario,
     SkippedExpect,
     TemporalExpect,
     TransitionsExpect,
@@ -593,45 +594,23 @@ def run_scenario(loaded: LoadedScenario, coverage: Any = None) -> ScenarioResult
         return result
     signals, sets = expand(sc, dt)
     pauses = pause_changes(sc, dt)
-    at_ticks = {min(tick_at(e.at, dt), loaded.end_tick) for e in sc.expect if isinstance(e, AtExpect)}
-    plan = compile_spec(loaded.spec)
-    stop = StopRules(max_ticks=loaded.end_tick)
-    if loaded.world_path is not None:
-        from fsm.sim import simulate
-
-        session = simulate(plan, world=loaded.world_path, seed=sc.seed, noise=sc.noise, dt=dt, stop=stop)
-    else:
-        session = Session.open(plan, dt=dt, stop=stop, record=False)
+    session = _open(loaded)
     machine = session.machine
     machine.ctx.vars.update(loaded.initial_vars)  # a matrix case's initial values: set before the start
-    plant_signals: list[str] = []
-    for cls, params in loaded.plants:
-        plant = cls(params)
-        plant.attach(machine)
-        plant_signals += list(plant.signals())
+    plant_signals = _attach_plants(loaded, machine)
     for change in signals:
         session.schedule(change.time, SetSignal(change.name, change.level))
     for s in sets:
         session.schedule(s.time, SetVars(s.values))
     for pc in pauses:
         session.schedule(pc.time, PauseState(pc.path, pc.paused))
-    watched_names = [e.state for e in sc.expect if isinstance(e, OutcomeExpect) and e.state is not None]
-    watched = [st for path, st in machine.states_by_path.items()
-               if any(state_matches(n, path) for n in watched_names)]
-
     read = signal_names(loaded.spec) | set(getattr(loaded.spec, "inputs", None) or ())
     names = tuple(sorted({c.name for c in signals} | set(plant_signals) | read))
-    rec = machine.add_listener(Recording(at_ticks, watched, temporal=make_temporal(loaded, machine, names)))
-    error: StateRuntimeError | None = None
+    at_ticks = {min(tick_at(e.at, dt), loaded.end_tick) for e in sc.expect if isinstance(e, AtExpect)}
+    rec = machine.add_listener(Recording(at_ticks, _watched(sc, machine),
+                                         temporal=make_temporal(loaded, machine, names)))
     t0 = time.perf_counter()
-    try:
-        session.start()
-        rec.on_tick(machine)
-        session.run()
-    except StateRuntimeError as exc:
-        error = exc
-        if traceback_wanted():
-            print_traceback(exc)
+    error = _run(session, rec)
     result.wall_time = time.perf_counter() - t0
     result.ticks = machine.ticks
     result.sim_time = round(machine.now, 9)
@@ -642,11 +621,49 @@ def run_scenario(loaded: LoadedScenario, coverage: Any = None) -> ScenarioResult
     if error is not None:
         result.failures.append(Failure(-1, loaded.file, "error", f"the machine failed: {error}", error.tick,
                                        error.time, check.trace(error.tick)))
-    for i, exp in enumerate(sc.expect):
-        failure = check.expectation(i, exp)
-        if failure is not None:
-            result.failures.append(failure)
+    result.failures += [f for i, exp in enumerate(sc.expect) if (f := check.expectation(i, exp)) is not None]
     return result
+
+
+def _open(loaded: LoadedScenario) -> Session:
+    """The run's session: the machine driving the simulated car in the scenario's world, or the machine alone."""
+    plan = compile_spec(loaded.spec)
+    stop = StopRules(max_ticks=loaded.end_tick)
+    if loaded.world_path is None:
+        return Session.open(plan, dt=loaded.dt, stop=stop, record=False)
+    from fsm.sim import simulate
+
+    sc = loaded.scenario
+    return simulate(plan, world=loaded.world_path, seed=sc.seed, noise=sc.noise, dt=loaded.dt, stop=stop)
+
+
+def _attach_plants(loaded: LoadedScenario, machine: Machine) -> list[str]:
+    """Attach the scenario's plants to the machine; the signals they write."""
+    signals: list[str] = []
+    for cls, params in loaded.plants:
+        plant = cls(params)
+        plant.attach(machine)
+        signals += list(plant.signals())
+    return signals
+
+
+def _watched(sc: Scenario, machine: Machine) -> list[Any]:
+    """The states whose outcomes an expectation names (``{"outcome": ..., "state": ...}``)."""
+    names = [e.state for e in sc.expect if isinstance(e, OutcomeExpect) and e.state is not None]
+    return [st for path, st in machine.states_by_path.items() if any(state_matches(n, path) for n in names)]
+
+
+def _run(session: Session, rec: Recording) -> StateRuntimeError | None:
+    """Start and run the session (the recording sees the first tick); the error a state raised, if one did."""
+    try:
+        session.start()
+        rec.on_tick(session.machine)
+        session.run()
+    except StateRuntimeError as exc:
+        if traceback_wanted():
+            print_traceback(exc)
+        return exc
+    return None
 
 
 def _shown(value: Any) -> str:

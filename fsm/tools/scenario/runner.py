@@ -43,7 +43,7 @@ from .model import (
     formulas_of,
     state_matches,
 )
-from .temporal import Tick, Watch, compile_formula, tree_names
+from .temporal import Formula, Tick, Watch, compile_formula, tree_names
 from .timeline import expand, pause_changes
 
 if TYPE_CHECKING:
@@ -438,45 +438,46 @@ def make_temporal(loaded: LoadedScenario, machine: Machine, signals: tuple[str, 
     """The watches of the scenario's invariants, temporal expectations and ``at`` ... ``holds`` (all checked when
     the scenario was loaded), or None when it has none."""
     sc = loaded.scenario
-    dt = loaded.dt
     kinds: dict[str, str] = {}
     if any((i, k) not in loaded.formulas for i, exp in enumerate(sc.expect) for k, _t in formulas_of(exp)):
         kinds = formula_kinds(loaded.spec, set(signals), loaded.world_path is not None, sc)
-    paths = loaded.state_paths
     by_path = machine.states_by_path
-    watches: list[Any] = []
+    watches: list[Watch] = []
     outside: set[str] = set()
     outcome_paths: set[str] = set()
     for i, exp in enumerate(sc.expect):
-        texts = dict(formulas_of(exp))
-        if not texts:
-            continue
         formulas = {k: loaded.formulas[i, k].fresh() if (i, k) in loaded.formulas else
-                    compile_formula(v, kinds, paths) for k, v in texts.items()}
+                    compile_formula(v, kinds, loaded.state_paths) for k, v in formulas_of(exp)}
         for f in formulas.values():
             outcome_paths |= f.state_paths()
             outside |= {n for n in f.deps if n.startswith(("signal_", "car_"))}
             f.bind(by_path)
-        within = getattr(exp, "within", None)
-        first, last = (0, loaded.end_tick) if within is None else \
-            (_first_tick(within[0], dt), _last_tick(within[1], dt))
-        if isinstance(exp, InvariantExpect):
-            watches.append(Watch(i, "always", formulas["invariant"], first, last, label="invariant"))
-        elif isinstance(exp, AtExpect):
-            tick = min(tick_at(exp.at, dt), loaded.end_tick)
-            watches.append(Watch(i, "at", formulas["holds"], tick, tick, label=f"at {exp.at:g} s"))
-        elif isinstance(exp, TemporalExpect):
-            mode = next(k for k in ("always", "never", "eventually") if k in formulas)
-            span = exp.ticks if exp.ticks is not None else \
-                (tick_at(exp.seconds, dt) if exp.seconds is not None else None)
-            watches.append(Watch(i, mode, formulas[mode], first, last, until=formulas.get("until"),
-                                 after=formulas.get("after"), span=span, nth=exp.nth,
-                                 count=(exp.count, exp.min, exp.max),
-                                 at=None if exp.at is None else [tick_at(t, dt) for t in exp.at]))
+        if formulas:
+            watches += _watches(loaded, i, exp, formulas)
     if not watches:
         return None
     states = [by_path[p] for p in sorted(outcome_paths) if p in by_path]
-    return TemporalRun(watches, sorted(outside), states, dt)
+    return TemporalRun(watches, sorted(outside), states, loaded.dt)
+
+
+def _watches(loaded: LoadedScenario, i: int, exp: Any, formulas: dict[str, Formula]) -> list[Watch]:
+    """The watch of expectation ``i`` with compiled ``formulas``: an invariant, an ``at`` ... ``holds`` or a
+    temporal expectation (over its window, with its trigger, span and counts)."""
+    dt = loaded.dt
+    within = getattr(exp, "within", None)
+    first, last = (0, loaded.end_tick) if within is None else (_first_tick(within[0], dt), _last_tick(within[1], dt))
+    if isinstance(exp, InvariantExpect):
+        return [Watch(i, "always", formulas["invariant"], first, last, label="invariant")]
+    if isinstance(exp, AtExpect):
+        tick = min(tick_at(exp.at, dt), loaded.end_tick)
+        return [Watch(i, "at", formulas["holds"], tick, tick, label=f"at {exp.at:g} s")]
+    if not isinstance(exp, TemporalExpect):
+        return []
+    mode = next(k for k in ("always", "never", "eventually") if k in formulas)
+    span = exp.ticks if exp.ticks is not None else (tick_at(exp.seconds, dt) if exp.seconds is not None else None)
+    return [Watch(i, mode, formulas[mode], first, last, until=formulas.get("until"), after=formulas.get("after"),
+                  span=span, nth=exp.nth, count=(exp.count, exp.min, exp.max),
+                  at=None if exp.at is None else [tick_at(t, dt) for t in exp.at])]
 
 
 def count_verdict(n: int, c: Any) -> tuple[bool, str]:

@@ -1081,22 +1081,8 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
     if problems:
         return None, problems
     machine_path = base / scenario.machine
-    if not machine_path.is_file():
-        return None, problems + [_missing_machine(machine_path, name)]
-    world_path = None
-    if scenario.world is not None:
-        world_path = base / scenario.world
-        if not world_path.is_file():
-            problems.append(Problem(f"world file not found: {world_path}", name, "/world",
-                                    hint="the world's path is relative to the scenario file"))
-    spec, machine_problems = check(str(machine_path), registry=registry)
-    errors = [p for p in machine_problems if p.severity == "error"]
-    if spec is None or errors:
-        problems.append(Problem(f"the machine {machine_path} has {len(errors) or 1} error(s), listed with it", name,
-                                "/machine"))
-        return None, problems + (errors or machine_problems)
-    problems += _world_problems(spec, world_path, machine_path, base, name)
-    if problems:
+    spec, world_path, problems = _checked_machine(scenario, base, name, registry)
+    if spec is None:
         return None, problems
     files = machine_files(spec)
     if scenario.substitute:
@@ -1119,6 +1105,28 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
     return LoadedScenario(file=name, scenario=scenario, spec=spec, registry=registry, dt=dt, end_tick=end_tick,
                           world_path=world_path, machine_files=files, plugin_files=plugin_files,
                           state_paths=paths, plants=plants, formulas=formulas), problems
+
+
+def _checked_machine(scenario: Scenario, base: Path, name: str, registry: Any
+                     ) -> tuple[Any, Path | None, list[Problem]]:
+    """The scenario's machine checked, with its world's path: (spec, world path, []); or ``None`` for the spec
+    and the problems: a missing machine or world file, the machine's errors, a world it cannot drive in."""
+    machine_path = base / scenario.machine
+    if not machine_path.is_file():
+        return None, None, [_missing_machine(machine_path, name)]
+    problems: list[Problem] = []
+    world_path = None if scenario.world is None else base / scenario.world
+    if world_path is not None and not world_path.is_file():
+        problems.append(Problem(f"world file not found: {world_path}", name, "/world",
+                                hint="the world's path is relative to the scenario file"))
+    spec, machine_problems = check(str(machine_path), registry=registry)
+    errors = [p for p in machine_problems if p.severity == "error"]
+    if spec is None or errors:
+        problems.append(Problem(f"the machine {machine_path} has {len(errors) or 1} error(s), listed with it", name,
+                                "/machine"))
+        return None, None, problems + (errors or machine_problems)
+    problems += _world_problems(spec, world_path, machine_path, base, name)
+    return (None if problems else spec), world_path, problems
 
 
 def invariant_kinds(spec: Any, signals: set[str], car: bool, scenario: Scenario) -> dict[str, str]:

@@ -530,12 +530,7 @@ class Watch:
         shown = ", ".join(times(t) for t in hits[:6]) + (", ..." if n > 6 else "")
         text = self.body.text
         if self.at is not None:
-            if hits == self.at:
-                return None
-            differs = next((a for a, b in zip(hits, self.at, strict=False) if a != b),
-                           hits[len(self.at)] if len(hits) > len(self.at) else last)
-            return Verdict(f"expected '{text}' to hold at {', '.join(times(t) for t in self.at)} s, it "
-                           f"held at {shown or 'no tick'}" + (" s" if n else ""), min(differs, last))
+            return None if hits == self.at else self._exact_ticks_verdict(hits, shown, last, times)
         if self.count == (None, None, None):
             return None if n else Verdict(f"'{text}' never held (up to {at(last)})", last)
         want = _outside(n, *self.count)
@@ -546,6 +541,15 @@ class Watch:
         return Verdict(f"expected '{text}' to hold at {want}, it held at {_ticks(n)}"
                        + (f" (at {shown} s)" if n else ""), tick)
 
+
+    def _exact_ticks_verdict(self, hits: list[int], shown: str, last: int, times: Callable[[int], str]) -> Verdict:
+        """``eventually`` with ``at``: it held at other ticks than those listed; the verdict at the first that
+        differs."""
+        assert self.at is not None
+        differs = next((a for a, b in zip(hits, self.at, strict=False) if a != b),
+                       hits[len(self.at)] if len(hits) > len(self.at) else last)
+        return Verdict(f"expected '{self.body.text}' to hold at {', '.join(times(t) for t in self.at)} s, it "
+                       f"held at {shown or 'no tick'}" + (" s" if hits else ""), min(differs, last))
 
 def _outside(n: int, count: int | None, low: int | None, high: int | None) -> str | None:
     """What was wanted, when ``n`` ticks are not exactly ``count`` or not within ``low`` and ``high``; else ``None``."""

@@ -398,23 +398,7 @@ def parse_xml2json(raw: bytes, name: str) -> RawDiagram:
     problems: list[Problem] = []
     elements: list[RawElement] = []
     for index, (item, ptr) in enumerate(items):
-        if not isinstance(item, dict):
-            line, col = at(ptr)
-            problems.append(Problem("element must be an object", name, pointer=ptr, line=line, column=col))
-            continue
-        kind = item.get("id")
-        old = False
-        if not isinstance(kind, str) and isinstance(item.get("type"), str):
-            kind = item["type"].strip().rsplit(".", 1)[-1]
-            old = True
-        panel = item.get("panel_attributes")
-        if isinstance(panel, dict):  # "#text" when xml2json met mixed content
-            panel = panel.get("#text", "")
-        extra = item.get("additional_attributes")
-        if isinstance(extra, dict):
-            extra = extra.get("#text")
-        elem = _make_element(index, kind.strip() if isinstance(kind, str) else kind, old, item.get("coordinates"),
-                             panel, extra, name, problems, functools.partial(at, ptr), ptr)
+        elem = _xml2json_element(index, item, ptr, name, problems, functools.partial(at, ptr))
         if elem is not None:
             elements.append(elem)
     if problems:
@@ -423,6 +407,29 @@ def parse_xml2json(raw: bytes, name: str) -> RawDiagram:
         line, col = at("/diagram")
         raise fail(name, "the <diagram> has no elements: draw states and transitions in UMLet", line, col)
     return RawDiagram(name, zoom, elements, text=text, locate_json=locator)
+
+
+def _xml2json_element(index: int, item: Any, ptr: str, name: str, problems: list[Problem],
+                      at: Callable[[], tuple[int | None, int | None]]) -> RawElement | None:
+    """One element of the xml2json form (its kind in ``id``, or an old ``type``; ``#text`` where xml2json met
+    mixed content), or ``None`` with its problem added."""
+    if not isinstance(item, dict):
+        line, col = at()
+        problems.append(Problem("element must be an object", name, pointer=ptr, line=line, column=col))
+        return None
+    kind = item.get("id")
+    old = False
+    if not isinstance(kind, str) and isinstance(item.get("type"), str):
+        kind = item["type"].strip().rsplit(".", 1)[-1]
+        old = True
+    panel = item.get("panel_attributes")
+    if isinstance(panel, dict):
+        panel = panel.get("#text", "")
+    extra = item.get("additional_attributes")
+    if isinstance(extra, dict):
+        extra = extra.get("#text")
+    return _make_element(index, kind.strip() if isinstance(kind, str) else kind, old, item.get("coordinates"),
+                         panel, extra, name, problems, at, ptr)
 
 
 # -- naming elements in messages ----------------------------------------------------------------------------

@@ -667,22 +667,8 @@ def load_scenario(file: str | Path, plugins: tuple[str, ...] = (), max_runs: int
         raise DiagramError([Problem("file is empty; a scenario is a JSON object", name, line=1, column=1,
                                     hint='{"machine": "m.json", "expect": [{"outcome": "succeeded"}]}')])
     data, source = parse_json_bytes(raw, name, path.parent, duplicates=repeated)
-    problems = list(repeated)
-    scenario: Scenario | None = None
-    if not isinstance(data, dict):
-        kind = "array" if isinstance(data, list) else type(data).__name__
-        problems.append(Problem(f"a scenario must be a JSON object, got {kind}", name,
-                                hint='{"machine": "m.json", "expect": [{"outcome": "succeeded"}]}'))
-    elif {"states", "initial", "root"} & data.keys() and "expect" not in data:
-        problems.append(Problem("this is a machine document (it has 'states' or 'initial'), not a scenario test",
-                                name, hint="run a machine with `fsmctl run FILE`; a scenario names it: "
-                                           f'{{"machine": "{path.name}", "expect": [{{"outcome": "succeeded"}}]}}'))
-    else:
-        try:
-            scenario = Scenario.model_validate(data)
-        except ValidationError as err:
-            problems += problems_from_errors(err, data, name)
-            problems += _partial_problems(data, path, name)
+    scenario, shape = _validated(data, path, name)
+    problems = repeated + shape
     loaded: LoadedScenario | None = None
     if scenario is not None:
         problems += timeline_problems(scenario, name)
@@ -703,6 +689,23 @@ def load_scenario(file: str | Path, plugins: tuple[str, ...] = (), max_runs: int
     loaded.positions = source.locator(_element_pointers(loaded.scenario))
     loaded.warnings = [p for p in problems if p.severity != "error"]
     return loaded
+
+
+def _validated(data: Any, path: Path, name: str) -> tuple[Scenario | None, list[Problem]]:
+    """The scenario the document's data is, or ``None`` and why not: not an object, a machine document, or the
+    models' problems (with the checks of the inputs and expectations whose shape is right)."""
+    if not isinstance(data, dict):
+        kind = "array" if isinstance(data, list) else type(data).__name__
+        return None, [Problem(f"a scenario must be a JSON object, got {kind}", name,
+                              hint='{"machine": "m.json", "expect": [{"outcome": "succeeded"}]}')]
+    if {"states", "initial", "root"} & data.keys() and "expect" not in data:
+        return None, [Problem("this is a machine document (it has 'states' or 'initial'), not a scenario test",
+                              name, hint="run a machine with `fsmctl run FILE`; a scenario names it: "
+                                         f'{{"machine": "{path.name}", "expect": [{{"outcome": "succeeded"}}]}}')]
+    try:
+        return Scenario.model_validate(data), []
+    except ValidationError as err:
+        return None, problems_from_errors(err, data, name) + _partial_problems(data, path, name)
 
 
 def _locate(problems: list[Problem], name: str, source: Source) -> None:

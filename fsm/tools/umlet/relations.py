@@ -356,7 +356,20 @@ class Relations:
 
     def add_transition(self, level: Level, s: StateBox, d: StateBox, params: dict[str, Any] | None, label: T.Label,
                        points: list[Any] | None, elem: RawElement | None) -> None:
-        tr: dict[str, Any] = {}
+        try:
+            tr = self.transition_doc(params, label)
+        except T.TextError as exc:
+            self.problem(elem, str(exc), hint=exc.hint)
+            return
+        tr["_from"], tr["_to"] = s, d
+        if points is not None:
+            tr["layout"] = {"points": points}
+        level.transitions.append(tr)
+        level.trans_origin.append(elem)
+
+    def transition_doc(self, params: dict[str, Any] | None, label: T.Label) -> dict[str, Any]:
+        """A relation's transition: of the type its parameters name, else a Signal transition on its UML label's
+        event, else a completion; with the label's guard and actions. A TextError says what is wrong."""
         uml = label.uml or label.text
         try:
             event, guard, action = T.split_uml(uml) if uml else ("", None, None)
@@ -364,45 +377,46 @@ class Relations:
                 T.check_guard(guard)
             actions = T.parse_actions(action) if action is not None else None
         except T.TextError as exc:
-            self.problem(elem, f"label: {exc}",
-                         hint="a label is 'event [guard] / name = expression; ...' (see `fsmctl types` and the "
-                              "expression grammar in the documentation)")
-            return
+            raise T.TextError(f"label: {exc}", hint="a label is 'event [guard] / name = expression; ...' (see "
+                                                    "`fsmctl types` and the expression grammar in the "
+                                                    "documentation)") from None
         if params is not None:
-            typ = params.pop("type", None) if "type" in params else None
-            if not isinstance(typ, str) or not typ:
-                self.problem(elem, f"'type' must be a transition type name, got {typ!r}",
-                             hint="see `fsmctl types` for the transition types")
-                return
-            if label.uml and event:
-                self.problem(elem, f"label: the line {label.uml[:40]!r} after the parameters may only hold "
-                                   "'[guard] / action'; the type is given above it")
-                return
-            for key, value in (("guard", guard), ("set", actions)):
-                if value is not None and key in params:
-                    self.problem(elem, f"label: '{key}' is given both as a parameter and in the "
-                                       "'[guard] / action' line", hint="keep one of the two")
-                    return
-            params = self.scene.coerce_kv("transition", typ, params, label.kv_keys)
-            tr = {"type": typ, "from": "", "to": "", **params}
+            tr = self.typed_transition(params, label, event, {"guard": guard, "set": actions})
         elif event:
-            key, eq, value = event.partition("=")
-            if eq and key.strip().isidentifier() and value.strip():
-                self.problem(elem, f"label: {event!r} looks like a parameter, but the relation has no 'type=' line "
-                                   "(a signal's name has no '=')",
-                             hint=f"add the transition type above it, e.g. 'type=Finished' then '{event.strip()}' "
-                                  "(see `fsmctl types`)")
-                return
-            tr = {"type": "Signal", "from": "", "to": "", "signal": event, "label": label.text}
+            tr = _signal_transition(event, label)
         else:
             tr = {"type": "_completion", "from": "", "to": ""}
         if guard is not None:
             tr["guard"] = guard
         if actions is not None:
             tr["set"] = actions
-        tr["_from"], tr["_to"] = s, d
-        if points is not None:
-            tr["layout"] = {"points": points}
-        level.transitions.append(tr)
-        level.trans_origin.append(elem)
+        return tr
 
+    def typed_transition(self, params: dict[str, Any], label: T.Label, event: str, drawn: dict[str, Any]
+                         ) -> dict[str, Any]:
+        """A transition whose text gives its type and parameters; ``drawn``: the guard and actions of the
+        '[guard] / action' line, which the parameters may not give again."""
+        typ = params.pop("type", None) if "type" in params else None
+        if not isinstance(typ, str) or not typ:
+            raise T.TextError(f"'type' must be a transition type name, got {typ!r}",
+                              hint="see `fsmctl types` for the transition types")
+        if label.uml and event:
+            raise T.TextError(f"label: the line {label.uml[:40]!r} after the parameters may only hold "
+                              "'[guard] / action'; the type is given above it")
+        for key, value in drawn.items():
+            if value is not None and key in params:
+                raise T.TextError(f"label: '{key}' is given both as a parameter and in the '[guard] / action' "
+                                  "line", hint="keep one of the two")
+        params = self.scene.coerce_kv("transition", typ, params, label.kv_keys)
+        return {"type": typ, "from": "", "to": "", **params}
+
+
+def _signal_transition(event: str, label: T.Label) -> dict[str, Any]:
+    """A Signal transition on a UML label's event (which may not look like a parameter: a signal has no '=')."""
+    key, eq, value = event.partition("=")
+    if eq and key.strip().isidentifier() and value.strip():
+        raise T.TextError(f"label: {event!r} looks like a parameter, but the relation has no 'type=' line "
+                          "(a signal's name has no '=')",
+                          hint=f"add the transition type above it, e.g. 'type=Finished' then '{event.strip()}' "
+                               "(see `fsmctl types`)")
+    return {"type": "Signal", "from": "", "to": "", "signal": event, "label": label.text}

@@ -300,15 +300,16 @@ def _make_element(index: int, kind: Any, old: bool, coords: Any, text: Any, extr
     at: list[float] = []  # x, y once they are read: the element is then named as everywhere else
     try:
         if not isinstance(kind, str) or not kind:
-            raise _Bad("element without <id> (or old <type>): cannot tell what it is")
+            raise T.TextError("element without <id> (or old <type>): cannot tell what it is")
         values = _coordinates(coords)
         at.extend(values[:2])
         if values[2] < 0 or values[3] < 0:
-            raise _Bad(f"negative size w={values[2]:g}, h={values[3]:g}", "UMLet writes sizes of 0 or more pixels")
+            raise T.TextError(f"negative size w={values[2]:g}, h={values[3]:g}",
+                              "UMLet writes sizes of 0 or more pixels")
         if not isinstance(text, (str, type(None))):
-            raise _Bad("panel_attributes must be text")
+            raise T.TextError("panel_attributes must be text")
         points = _points(kind, extra)
-    except _Bad as bad:
+    except T.TextError as bad:
         line, col = where()
         if len(at) == 2:
             element = describe(RawElement(index, str(kind), old, at[0], at[1], 0, 0,
@@ -316,7 +317,7 @@ def _make_element(index: int, kind: Any, old: bool, coords: Any, text: Any, extr
         else:
             label = (text if isinstance(text, str) else "").strip().split("\n")[0][:40]
             element = f"{kind or 'element'} #{index + 1}" + (f" '{label}'" if label else "")
-        problems.append(Problem(bad.message, name, pointer=pointer if pointer is not None else f"#{index}", line=line,
+        problems.append(Problem(str(bad), name, pointer=pointer if pointer is not None else f"#{index}", line=line,
                                 column=col, element=element, hint=bad.hint))
         return None
     text = (text or "").replace("\r\n", "\n").replace("\r", "\n")
@@ -324,25 +325,16 @@ def _make_element(index: int, kind: Any, old: bool, coords: Any, text: Any, extr
     return RawElement(index, kind, old, values[0], values[1], values[2], values[3], text, points, line, col, pointer)
 
 
-class _Bad(Exception):
-    """An element that cannot be read: the message and hint of its problem."""
-
-    def __init__(self, message: str, hint: str | None = None) -> None:
-        super().__init__(message)
-        self.message = message
-        self.hint = hint
-
-
 def _coordinates(coords: Any) -> list[float]:
     """x, y, w, h of an element's ``<coordinates>``, each a number."""
     if not isinstance(coords, dict):
-        raise _Bad("element without <coordinates>")
+        raise T.TextError("element without <coordinates>")
     values = []
     for key in ("x", "y", "w", "h"):
         v = _number(coords.get(key))
         if v is None:
             got = coords.get(key)
-            raise _Bad(f"coordinate <{key}> is not a number: {str(got)[:40]!r}" if got is not None
+            raise T.TextError(f"coordinate <{key}> is not a number: {str(got)[:40]!r}" if got is not None
                        else f"coordinate <{key}> is missing", "UMLet writes whole numbers of pixels")
         values.append(v)
     return values
@@ -351,17 +343,17 @@ def _coordinates(coords: Any) -> list[float]:
 def _points(kind: str, extra: Any) -> list[float] | None:
     """A relation's points from ``<additional_attributes>`` (``x;y;x;y;...``); ``None`` for other elements."""
     if extra is not None and not isinstance(extra, str):
-        raise _Bad("additional_attributes must be text")
+        raise T.TextError("additional_attributes must be text")
     if kind != "Relation" or not extra or not extra.strip():
         return None
     parts = [p for p in extra.strip().split(";") if p.strip() != ""]
     nums = [_number(p) for p in parts]
     bad = next((p for p, n in zip(parts, nums, strict=True) if n is None), None)
     if bad is not None:
-        raise _Bad(f"relation point {bad.strip()[:30]!r} is not a number",
+        raise T.TextError(f"relation point {bad.strip()[:30]!r} is not a number",
                    "additional_attributes holds x;y;x;y;... numbers")
     if len(nums) % 2:
-        raise _Bad(f"relation points come in x;y pairs, got {len(nums)} numbers: {extra.strip()[:60]!r}",
+        raise T.TextError(f"relation points come in x;y pairs, got {len(nums)} numbers: {extra.strip()[:60]!r}",
                    "additional_attributes holds x;y;x;y;... numbers; draw the arrow again in UMLet")
     return [n for n in nums if n is not None]
 

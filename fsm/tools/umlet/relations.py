@@ -297,30 +297,11 @@ class Relations:
         d_chain = scene.container_chain(dst)
         d_set = {id(c) for c in d_chain}
         common = next(c for c in s_chain if id(c) in d_set)
-        for chain, way in ((s_chain, "leaves"), (d_chain, "enters")):
-            for c in chain:
-                if c is common:
-                    break
-                if c is not None and id(c) in scene.region_frames:
-                    self.problem(elem, f"the arrow {way} {scene.box_name(c)} of Parallel "
-                                       f"'{scene.state_of[id(c.parent)].id}'",
-                                 hint="a region starts at its own initial pseudostate and ends in a Final state; "
-                                      "arrows into or out of the Parallel state end at its border, and Finished "
-                                      "transitions route on the regions' outcomes")
-                    return
-        # enter: the target must be reached through initial states from the common level
-        target = d
-        node = dst
-        while node.parent is not common:
-            owner = node.parent
-            assert owner is not None
-            lvl = scene.levels[id(owner)]
-            if lvl.initial_target is not None and lvl.initial_target.box is node:
-                node = owner
-                target = scene.state_of[id(owner)]
-            else:
-                self._pending_enter.setdefault(id(elem), (elem, node, owner))
-                return
+        if self.crosses_region(elem, s_chain, d_chain, common):
+            return
+        target = self.entry_target(elem, d, common)
+        if target is None:
+            return
         if src.parent is common:
             self.add_transition(scene.level_of(src), s, target, params, label, points, elem)
             return
@@ -333,16 +314,7 @@ class Relations:
             owner = node.parent
             assert owner is not None
             lvl = scene.levels[id(owner)]
-            final = lvl.finals_by_outcome.get(outcome)
-            if final is None:
-                taken = {st.id for st in lvl.states} | {f.id for f in lvl.finals_by_outcome.values()}
-                fid = outcome
-                n = 2
-                while fid in taken:
-                    fid = f"{outcome} ({n})"
-                    n += 1
-                final = StateBox(Box(elem, "final", 0, 0, 0, 0), id=fid, type="Final", params={"outcome": outcome})
-                lvl.finals_by_outcome[outcome] = final
+            final = _exit_final(lvl, outcome, elem)
             if first:
                 self.add_transition(lvl, current, final, params, label, points, elem)
                 first = False
@@ -353,6 +325,39 @@ class Relations:
             node = owner
         self.add_transition(scene.level_of(node), current, target, {"type": "Finished", "outcome": outcome},
                             T.Label(None, ""), None, None)
+
+    def crosses_region(self, elem: RawElement, s_chain: list[Any], d_chain: list[Any], common: Any) -> bool:
+        """Whether the arrow leaves or enters a region frame of a Parallel state (said as a problem)."""
+        scene = self.scene
+        for chain, way in ((s_chain, "leaves"), (d_chain, "enters")):
+            for c in chain:
+                if c is common:
+                    break
+                if c is not None and id(c) in scene.region_frames:
+                    self.problem(elem, f"the arrow {way} {scene.box_name(c)} of Parallel "
+                                       f"'{scene.state_of[id(c.parent)].id}'",
+                                 hint="a region starts at its own initial pseudostate and ends in a Final state; "
+                                      "arrows into or out of the Parallel state end at its border, and Finished "
+                                      "transitions route on the regions' outcomes")
+                    return True
+        return False
+
+    def entry_target(self, elem: RawElement, d: StateBox, common: Any) -> StateBox | None:
+        """The state an arrow to ``d`` enters at the common level: ``d`` must be reached through initial states
+        from there, else the arrow waits (``None``) to be said when nothing resolves it."""
+        scene = self.scene
+        target = d
+        node = d.box
+        while node.parent is not common:
+            owner = node.parent
+            assert owner is not None
+            lvl = scene.levels[id(owner)]
+            if lvl.initial_target is None or lvl.initial_target.box is not node:
+                self._pending_enter.setdefault(id(elem), (elem, node, owner))
+                return None
+            node = owner
+            target = scene.state_of[id(owner)]
+        return target
 
     def add_transition(self, level: Level, s: StateBox, d: StateBox, params: dict[str, Any] | None, label: T.Label,
                        points: list[Any] | None, elem: RawElement | None) -> None:
@@ -420,3 +425,19 @@ def _signal_transition(event: str, label: T.Label) -> dict[str, Any]:
                           hint=f"add the transition type above it, e.g. 'type=Finished' then '{event.strip()}' "
                                "(see `fsmctl types`)")
     return {"type": "Signal", "from": "", "to": "", "signal": event, "label": label.text}
+
+
+def _exit_final(lvl: Level, outcome: str, elem: RawElement) -> StateBox:
+    """The Final state of ``lvl`` with ``outcome`` (an exit to a state outside), made the first time it is needed
+    with an id no state of the level has."""
+    final = lvl.finals_by_outcome.get(outcome)
+    if final is None:
+        taken = {st.id for st in lvl.states} | {f.id for f in lvl.finals_by_outcome.values()}
+        fid = outcome
+        n = 2
+        while fid in taken:
+            fid = f"{outcome} ({n})"
+            n += 1
+        final = StateBox(Box(elem, "final", 0, 0, 0, 0), id=fid, type="Final", params={"outcome": outcome})
+        lvl.finals_by_outcome[outcome] = final
+    return final

@@ -175,11 +175,11 @@ def test_bad_scenarios_give_every_located_error_at_once(capsys: pytest.CaptureFi
     expected = [
         f"{file}:2:3 at /machine: error: machine file not found",
         f"{file}:3:3 at /dtt: error: unknown key 'dtt' (did you mean 'dt'?)",
-        f"{file}:5:6 at /inputs/0/at: error: input 0: 'at' should be greater than or equal to 0, got -1",
+        f"{file}:5:6 at /inputs/0/at: error: input 0: 'at': Input should be greater than or equal to 0, got -1",
         f"{file}:6:51 at /inputs/1/bounce: error: input 1: the bounce lasts 0.24 s",
         f"{file}:7:5 at /inputs/2: error: input 2: an input is an object with 'signal', 'press', 'set', 'pause' or "
         "'resume'",
-        f"{file}:10:6 at /expect/0/outcome: error: expectation 0: 'outcome' should be a valid string, got 3",
+        f"{file}:10:6 at /expect/0/outcome: error: expectation 0: 'outcome': Input should be a valid string, got 3",
         f"{file}:11:5 at /expect/1: error: expectation 1: an expectation is an object with one of",
     ]
     assert len(lines) == len(expected), err
@@ -187,6 +187,33 @@ def test_bad_scenarios_give_every_located_error_at_once(capsys: pytest.CaptureFi
         assert line.startswith(start), (line, start)
     assert "Traceback" not in err
     assert out.splitlines() == ["ERROR bad: invalid scenario (7 problem(s) above)", "0 passed, 0 failed, 1 invalid"]
+
+
+def test_scenario_shape_errors_read_as_a_machine_documents(capsys: pytest.CaptureFixture[str],
+                                                           tmp_path: Path) -> None:
+    """A scenario's pydantic errors go through the core's located-problems path: the same words as the same
+    mistake in a machine document, at the object it is in (a nested bounce gets its own "did you mean")."""
+    machine = write(tmp_path, "m.json", {"initial": "a", "states": [{"id": "a", "type": "Wait", "seconds": -1}]})
+    assert main(["validate", machine]) == 1
+    machine_err = capsys.readouterr().err
+    assert "at /states/0/seconds: error: state 'a': 'seconds': Input should be greater than or equal to 0, got -1" \
+        in machine_err
+    text = (
+        '{"machine": "%s",\n'
+        ' "inputs": [{"at": -1, "signal": "start"},\n'
+        '            {"at": 1, "press": "b", "bounce": {"cuont": 3, "interval": 0.01}}],\n'
+        ' "expect": [{"outcome": "succeeded", "whithin": 2}]}\n' % MISSION)
+    file = write(tmp_path, "shape.scenario.json", text)
+    code, out, err = run(capsys, file)
+    assert code == 1
+    assert err.splitlines() == [
+        f"{file}:2:14 at /inputs/0/at: error: input 0: 'at': Input should be greater than or equal to 0, got -1",
+        f"{file}:3:37 at /inputs/1/bounce: error: input 1: missing required key 'count' (How many times the "
+        "contact bounces (opens and closes again).)",
+        f"{file}:3:48 at /inputs/1/bounce/cuont: error: input 1: unknown key 'cuont' (did you mean 'count'?)",
+        f"{file}:4:38 at /expect/0/whithin: error: expectation 0: unknown key 'whithin' (did you mean 'within'?)",
+    ]
+    assert out.splitlines()[-1] == "0 passed, 0 failed, 1 invalid"
 
 
 def test_unknown_state_names_are_located_with_suggestions(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:

@@ -10,7 +10,7 @@ import difflib
 import math
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
-from typing import Annotated, Any, NamedTuple, Protocol
+from typing import TYPE_CHECKING, Annotated, Any, NamedTuple, Protocol
 
 from pydantic import BaseModel, Field, ValidationError, WithJsonSchema, field_validator
 from pydantic.json_schema import GenerateJsonSchema
@@ -18,6 +18,9 @@ from pydantic.json_schema import GenerateJsonSchema
 from fsm.model.errors import Problem
 from fsm.model.jsonpos import escape, pointer
 from fsm.model.params import ID_PATTERN, ConditionParams, ParamsBase, StateParams, TransitionParams
+
+if TYPE_CHECKING:
+    from pydantic_core import ErrorDetails
 
 #: A parameter that holds a machine: an inline document or ``{"file": ...}``.
 MachineSpecField = Annotated[dict[str, Any], WithJsonSchema({"type": "object", "x-machine": True})]
@@ -284,7 +287,7 @@ def _legacy_id(value: Any) -> Any:
 
 
 def problems_from_validation(
-    err: ValidationError,
+    err: ValidationError | list[ErrorDetails],
     *,
     source: Source,
     base: str,
@@ -298,12 +301,15 @@ def problems_from_validation(
 
     ``data`` is the validated input: error locations are cut where they leave it (pydantic appends the
     names of union branches), and the several complaints of one union about one value become one problem.
+    ``err`` may also be some of a ValidationError's ``errors()``, their locations made relative to ``base`` (a
+    document that validates as a whole and reports each element at its own place, as scenario documents do).
     """
     problems: list[Problem] = []
     at_pointer: dict[str, Problem] = {}
     fields = {f.alias or name for name, f in model.model_fields.items()}
     own = sorted(fields - _COMMON_FIELDS)
-    for e in err.errors(include_url=False):
+    details = err.errors(include_url=False) if isinstance(err, ValidationError) else err
+    for e in details:
         loc = list(e["loc"])
         typ = e["type"]
         if data is not None and typ != "missing":

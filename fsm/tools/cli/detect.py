@@ -113,7 +113,7 @@ def read_stdin(args: argparse.Namespace) -> dict[str, bytes]:
 
 
 def detect_in(file: str, image: Any, calibration: Any, calibration_name: str | None, rule: Any,
-              args: argparse.Namespace, keep: bool) -> tuple[str, Any, Any, str | None, list[Any], list[Any]]:
+              args: argparse.Namespace, keep: bool) -> Detected:
     """Markers and gates in one image: (file, the image if ``keep`` else None, camera, note, markers, gates)."""
     from fsm.vision import CameraModel, MarkerDetector, find_gates
     from fsm.vision.camera import DEFAULT_FOV
@@ -191,7 +191,7 @@ def cmd_detect(args: argparse.Namespace) -> int:
     stdin = read_stdin(args)
     calibration_name = input_name(args.calibration) if args.calibration else None
     rule = GateRule(pairs=args.gate) if args.gate else GateRule()
-    results: list[tuple[str, Any, Any, str | None, list[Any], list[Any]]] = []
+    results: list[Detected] = []
     problems: list[Problem] = []
     with preloaded(stdin):
         calibration = load_calibration(calibration_name) if calibration_name else None
@@ -209,27 +209,42 @@ def cmd_detect(args: argparse.Namespace) -> int:
     if outputs is not None:
         _write_annotated(args, outputs, results[0])
     if args.format == "json":
-        print(json.dumps([{
-            "file": file, "width": camera.width, "height": camera.height,
-            "camera": {"fx": camera.fx, "fy": camera.fy, "cx": camera.cx, "cy": camera.cy,
-                       "distortion": [float(d) for d in camera.dist], "note": note},
-            "frame": "camera: x forward, y left, z up (m); angles in degrees, left positive",
-            "markers": [d.to_dict() for d in markers], "gates": [g.to_dict() for g in gates],
-        } for file, _image, camera, note, markers, gates in results], indent=2))
+        print(json.dumps([_as_json(*r) for r in results], indent=2))
         return EXIT_OK
     print("poses in the camera frame: x forward, y left, z up (m); angles in degrees, left positive")
-    for file, _image, camera, note, markers, gates in results:
-        print(f"{file}: {camera.width}x{camera.height}, {len(markers)} marker{'s' * (len(markers) != 1)}, "
-              f"{len(gates)} gate{'s' * (len(gates) != 1)}")
-        print(f"  camera: {camera.describe()}" + (f" ({note})" if note else ""))
-        for d in markers:
-            x, y, z = d.position
-            print(f"  marker {d.id}: distance {d.distance:.3f} m, bearing {math.degrees(d.bearing):+.1f} deg, "
-                  f"x={x:.3f} y={y:+.3f} z={z:+.3f} m, facing {math.degrees(d.facing):+.1f} deg, "
-                  f"reprojection {d.error:.2f} px")
-        for g in gates:
-            print(f"  gate {g.ids[0]}/{g.ids[1]}: centre x={g.center[0]:.3f} y={g.center[1]:+.3f} m, "
-                  f"distance {g.distance:.3f} m, heading {math.degrees(g.heading):+.1f} deg, width {g.width:.3f} m")
+    for r in results:
+        _print_detected(*r)
     if args.output:
         print(f"wrote {args.output}", file=sys.stderr)
     return EXIT_OK
+
+
+#: What one image gave: its file, the image (kept for an annotated output), the camera, the calibration's note,
+#: the markers and the gates.
+Detected = tuple[str, Any, Any, str | None, list[Any], list[Any]]
+
+
+def _as_json(file: str, _image: Any, camera: Any, note: str | None, markers: list[Any], gates: list[Any]
+             ) -> dict[str, Any]:
+    return {
+        "file": file, "width": camera.width, "height": camera.height,
+        "camera": {"fx": camera.fx, "fy": camera.fy, "cx": camera.cx, "cy": camera.cy,
+                   "distortion": [float(d) for d in camera.dist], "note": note},
+        "frame": "camera: x forward, y left, z up (m); angles in degrees, left positive",
+        "markers": [d.to_dict() for d in markers], "gates": [g.to_dict() for g in gates],
+    }
+
+
+def _print_detected(file: str, _image: Any, camera: Any, note: str | None, markers: list[Any], gates: list[Any]
+                    ) -> None:
+    print(f"{file}: {camera.width}x{camera.height}, {len(markers)} marker{'s' * (len(markers) != 1)}, "
+          f"{len(gates)} gate{'s' * (len(gates) != 1)}")
+    print(f"  camera: {camera.describe()}" + (f" ({note})" if note else ""))
+    for d in markers:
+        x, y, z = d.position
+        print(f"  marker {d.id}: distance {d.distance:.3f} m, bearing {math.degrees(d.bearing):+.1f} deg, "
+              f"x={x:.3f} y={y:+.3f} z={z:+.3f} m, facing {math.degrees(d.facing):+.1f} deg, "
+              f"reprojection {d.error:.2f} px")
+    for g in gates:
+        print(f"  gate {g.ids[0]}/{g.ids[1]}: centre x={g.center[0]:.3f} y={g.center[1]:+.3f} m, "
+              f"distance {g.distance:.3f} m, heading {math.degrees(g.heading):+.1f} deg, width {g.width:.3f} m")

@@ -111,8 +111,7 @@ def _check_sweep_usage(args: argparse.Namespace) -> None:
 
 def _sweep(args: argparse.Namespace, interrupts: Interrupts) -> int:
     from ..sweep.backends import BackendError
-    from ..sweep.folder import Folder, read_records
-    from ..sweep.runner import execute, plan
+    from ..sweep.runner import execute
 
     _check_sweep_usage(args)
     spec, base, where, name, flags = _spec(args)
@@ -121,30 +120,12 @@ def _sweep(args: argparse.Namespace, interrupts: Interrupts) -> int:
         raise UsageError(f"-o {args.out}: not a folder")
     flag_plugins = _flag_plugins(args)
     jobs = args.jobs or (len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
-    pool = None
     try:
-        if args.backend == "process":
-            from ..sweep.backends import local_pool
-
-            pool = local_pool(jobs)  # its processes start (and import) while the sweep is planned
-        p = plan(spec, base, name, where, out_dir.resolve(), flags=flags, flag_plugins=flag_plugins,
-                 max_runs=args.max_runs or MAX_RUNS)
-        folder = Folder(out_dir, p.inputs)
-        folder.check()
-        resume = read_records(out_dir / "sweep.jsonl", {job["key"] for job in p.jobs})
-        todo = [job for job in p.jobs if job["key"] not in resume.records]
-        folder.check_runs(job["id"] for job in todo)
-        if interrupts.stop():
-            raise KeyboardInterrupt
-        live = _start_live(args, p, todo, resume, out_dir.resolve(), jobs) if args.live else None
-    except BaseException as exc:
-        if pool is not None:
-            pool.terminate()
-            pool.join()
-        if isinstance(exc, KeyboardInterrupt):
-            print("fsmctl sweep: interrupted before any run started", file=sys.stderr)
-            return EXIT_INTERRUPTED
-        raise
+        planned = _plan(args, interrupts, (spec, base, name, where), flags, flag_plugins, out_dir, jobs)
+    except KeyboardInterrupt:
+        print("fsmctl sweep: interrupted before any run started", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    p, folder, resume, todo, pool, live = planned
     if not args.quiet:
         for warning in resume.warnings:
             print(warning, file=sys.stderr)
@@ -167,6 +148,38 @@ def _sweep(args: argparse.Namespace, interrupts: Interrupts) -> int:
     if live is None:
         return _report(args, p, result, out_dir)
     return _report_live(args, p, result, out_dir, live, interrupts)
+
+
+def _plan(args: argparse.Namespace, interrupts: Interrupts, sweep: tuple[Any, Path, str, str], flags: set[str],
+          flag_plugins: list[str], out_dir: Path, jobs: int) -> tuple[Any, Any, Any, list[dict[str, Any]], Any, Any]:
+    """Before any run: the pool's processes started (they import while the sweep is planned), the plan, the
+    output folder checked, the runs finished before, the runs to do and the live page (or ``None``); on any
+    error or Ctrl-C the pool is stopped again."""
+    from ..sweep.folder import Folder, read_records
+    from ..sweep.runner import plan
+
+    pool = None
+    try:
+        if args.backend == "process":
+            from ..sweep.backends import local_pool
+
+            pool = local_pool(jobs)
+        p = plan(*sweep, out_dir.resolve(), flags=flags, flag_plugins=flag_plugins,
+                 max_runs=args.max_runs or MAX_RUNS)
+        folder = Folder(out_dir, p.inputs)
+        folder.check()
+        resume = read_records(out_dir / "sweep.jsonl", {job["key"] for job in p.jobs})
+        todo = [job for job in p.jobs if job["key"] not in resume.records]
+        folder.check_runs(job["id"] for job in todo)
+        if interrupts.stop():
+            raise KeyboardInterrupt
+        live = _start_live(args, p, todo, resume, out_dir.resolve(), jobs) if args.live else None
+    except BaseException:
+        if pool is not None:
+            pool.terminate()
+            pool.join()
+        raise
+    return p, folder, resume, todo, pool, live
 
 
 def _report_live(args: argparse.Namespace, p: Any, result: Any, out_dir: Path, live: Any,
@@ -231,33 +244,61 @@ def _spec(args: argparse.Namespace) -> tuple[Any, Path, str, str, set[str]]:
     (as JSON pointers) the flags gave."""
     from pydantic import ValidationError
 
-    from ..sweep import overrides as O
-    from ..sweep.runner import CLI
-    from ..sweep.spec import SweepSpec, escape_pointer, read_spec_file
+    from ..sweep.spec import SweepSpec
 
-    data: dict[str, Any] = {}
-    base = Path.cwd()
-    where = CLI
-    name = Path(args.machine).stem if args.machine else "sweep"
+    data, base, where, name = _spec_file(args)
     flags: set[str] = set()
-    if args.spec is not None:
-        spec_path = Path(args.spec)
-        spec = read_spec_file(spec_path)
-        data = spec.model_dump(by_alias=True, exclude_unset=True)
-        base = spec_path.resolve().parent
-        where = str(spec_path)
-        name = spec.name or spec_path.stem
+    for key, value in _flag_keys(args):
+        data[key] = value
+        flags.add("/" + key)
+    data["set"] = _flag_sets(args, dict(data.get("set") or {}), flags)
+    data["vars"] = _flag_vars(args, dict(data.get("vars") or {}), flags)
+    if args.duration is not None:
+        data["duration"] = args.duration
+        flags.add("/duration")
+    if args.no_noise:
+        data["noise"] = False
+    data["outputs"] = {**(data.get("outputs") or {}),
+                       **{key: True for key in ("trace", "report", "plot", "video") if getattr(args, key)}}
+    try:
+        return SweepSpec.model_validate(data), base, where, name, flags
+    except ValidationError as err:
+        first = err.errors()[0]
+        raise UsageError(f"{'.'.join(map(str, first['loc']))}: {first['msg']}") from None
+
+
+def _spec_file(args: argparse.Namespace) -> tuple[dict[str, Any], Path, str, str]:
+    """The sweep file's keys as given, the folder its paths are relative to, its name for messages and the
+    sweep's name (without a file: none, the working folder, the command line and the machine's name)."""
+    from ..sweep.runner import CLI
+    from ..sweep.spec import read_spec_file
+
+    if args.spec is None:
+        return {}, Path.cwd(), CLI, Path(args.machine).stem if args.machine else "sweep"
+    spec_path = Path(args.spec)
+    spec = read_spec_file(spec_path)
+    return (spec.model_dump(by_alias=True, exclude_unset=True), spec_path.resolve().parent, str(spec_path),
+            spec.name or spec_path.stem)
+
+
+def _flag_keys(args: argparse.Namespace) -> list[tuple[str, Any]]:
+    """The sweep's keys given by --machine, --world and --seeds (paths made absolute; a pattern from here)."""
+    keys: list[tuple[str, Any]] = []
     if args.machine:
-        data["machine"] = str(Path(args.machine).resolve())
-        flags.add("/machine")
+        keys.append(("machine", str(Path(args.machine).resolve())))
     if args.world:
-        data["worlds"] = [str(Path(w).resolve()) if not any(c in w for c in "*?[") else str(Path.cwd() / w)
-                          for w in args.world]
-        flags.add("/worlds")
+        keys.append(("worlds", [str(Path(w).resolve()) if not any(c in w for c in "*?[") else str(Path.cwd() / w)
+                                for w in args.world]))
     if args.seeds:
-        data["seeds"] = args.seeds
-        flags.add("/seeds")
-    sets = dict(data.get("set") or {})
+        keys.append(("seeds", args.seeds))
+    return keys
+
+
+def _flag_sets(args: argparse.Namespace, sets: dict[str, Any], flags: set[str]) -> dict[str, Any]:
+    """The file's ``set`` with each ``--set PATH.PARAM=V1,V2`` added (a malformed one is a usage error)."""
+    from ..sweep import overrides as O
+    from ..sweep.spec import escape_pointer
+
     for text in args.overrides:
         try:
             o = O.parse(text)
@@ -265,30 +306,20 @@ def _spec(args: argparse.Namespace) -> tuple[Any, Path, str, str, set[str]]:
             raise UsageError(str(exc)) from None
         sets[f"{o.path}.{o.param}"] = list(o.values)
         flags.add(f"/set/{escape_pointer(f'{o.path}.{o.param}')}")
-    data["set"] = sets
-    variables = dict(data.get("vars") or {})
+    return sets
+
+
+def _flag_vars(args: argparse.Namespace, variables: dict[str, Any], flags: set[str]) -> dict[str, Any]:
+    """The file's ``vars`` with each ``--var NAME=V1,V2`` added (a malformed one is a usage error)."""
+    from ..sweep import overrides as O
+
     for text in args.variables:
         key, sep, values = text.partition("=")
         if not sep or not key.strip().isidentifier() or not values.strip():
             raise UsageError(f"--var {text!r}: write NAME=V1[,V2...], e.g. --var limit=1,2")
         variables[key.strip()] = [O.parse_value(v.strip()) for v in values.split(",")]
         flags.add(f"/vars/{key.strip()}")
-    data["vars"] = variables
-    if args.duration is not None:
-        data["duration"] = args.duration
-        flags.add("/duration")
-    if args.no_noise:
-        data["noise"] = False
-    outputs = dict(data.get("outputs") or {})
-    for key in ("trace", "report", "plot", "video"):
-        if getattr(args, key):
-            outputs[key] = True
-    data["outputs"] = outputs
-    try:
-        return SweepSpec.model_validate(data), base, where, name, flags
-    except ValidationError as err:
-        first = err.errors()[0]
-        raise UsageError(f"{'.'.join(map(str, first['loc']))}: {first['msg']}") from None
+    return variables
 
 
 def _flag_plugins(args: argparse.Namespace) -> list[str]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from typing import Any
 
 from fsm.model.errors import printable
 
@@ -19,24 +20,12 @@ def register(sub: Subcommands) -> None:
 
 
 def cmd_types(args: argparse.Namespace) -> int:
-    from fsm.model.document import param_info
-
     registry = registry_from(args)
-    rows = []
-    for kind, name, cls in registry.every():
-        if args.names and name not in args.names:
-            continue
-        doc = (cls.__doc__ or "").strip().splitlines()
-        row = {"kind": kind, "name": name, "doc": doc[0] if doc else "", "params": param_info(cls.Params)}
-        if kind == "state":
-            row["can_finish"] = bool(cls.can_finish)
-        rows.append(row)
+    rows = [_row(kind, name, cls) for kind, name, cls in registry.every() if not args.names or name in args.names]
     unknown = [n for n in args.names if n not in {r["name"] for r in rows}]
     if unknown:
-        hints = []
-        for n in unknown:
-            close = registry.suggest(n, "state") + registry.suggest(n, "transition") + registry.suggest(n, "condition")
-            hints.append(f"{n!r}" + (f" (did you mean {', '.join(close)}?)" if close else ""))
+        hints = [f"{n!r}" + (f" (did you mean {', '.join(close)}?)" if (close := _suggest(registry, n)) else "")
+                 for n in unknown]
         print(printable("fsmctl types: unknown type " + ", ".join(hints)), file=sys.stderr)
         return EXIT_FAIL
     if args.format == "json":
@@ -44,20 +33,39 @@ def cmd_types(args: argparse.Namespace) -> int:
         return EXIT_OK
     for heading, kind in (("States", "state"), ("Transitions", "transition"), ("Conditions", "condition")):
         group = [r for r in rows if r["kind"] == kind]
-        if not group:
-            continue
-        print(heading)
-        for r in group:
-            finish = " [finishes]" if r.get("can_finish") else ""
-            print(printable(f"  {r['name']}{finish}: {r['doc']}"))
-            for prm in r["params"]:
-                default = "required" if prm["required"] else f"default {json.dumps(prm.get('default'))}"
-                desc = f"  {prm['description']}" if prm["description"] else ""
-                print(printable(f"      {prm['name']}: {prm['type']} ({default}){desc}"))
-        print()
+        if group:
+            print(heading)
+            for r in group:
+                _print_type(r)
+            print()
     if not args.names:
         print("Every transition also takes: from, to, priority (default 0), preempt (default false), guard, set.")
         print("Every state also takes: set (on_enter, on_exit).")
         print("Every element may carry: description, layout. A condition is written in a guard or a Condition "
               "transition.")
     return EXIT_OK
+
+
+def _row(kind: str, name: str, cls: Any) -> dict[str, Any]:
+    """A type as ``--format json`` gives it: kind, name, the first line of its doc, its parameters."""
+    from fsm.model.document import param_info
+
+    doc = (cls.__doc__ or "").strip().splitlines()
+    row = {"kind": kind, "name": name, "doc": doc[0] if doc else "", "params": param_info(cls.Params)}
+    if kind == "state":
+        row["can_finish"] = bool(cls.can_finish)
+    return row
+
+
+def _suggest(registry: Any, name: str) -> list[str]:
+    return [close for kind in ("state", "transition", "condition") for close in registry.suggest(name, kind)]
+
+
+def _print_type(r: dict[str, Any]) -> None:
+    """A type and its parameters as text: each with its type, default (or required) and description."""
+    finish = " [finishes]" if r.get("can_finish") else ""
+    print(printable(f"  {r['name']}{finish}: {r['doc']}"))
+    for prm in r["params"]:
+        default = "required" if prm["required"] else f"default {json.dumps(prm.get('default'))}"
+        desc = f"  {prm['description']}" if prm["description"] else ""
+        print(printable(f"      {prm['name']}: {prm['type']} ({default}){desc}"))

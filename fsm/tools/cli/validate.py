@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -25,38 +26,56 @@ def register(sub: Subcommands) -> None:
     p.set_defaults(func=cmd_validate)
 
 
+#: What one file's check gives: its name, whether it is valid, its problems.
+Result = tuple[str, bool, list[Problem]]
+
+
 def cmd_validate(args: argparse.Namespace) -> int:
     registry = registry_from(args)
     pre = read_inputs(args.files)
-    results = []
+    results: list[Result] = []
     for file in args.files:
         name = input_name(file)
         problems = check_one(name, registry, pre)
         if args.strict:
             for p in problems:
                 p.severity = "error"
-        valid = not any(p.severity == "error" for p in problems)
-        results.append((name, valid, problems))
-    invalid = sum(1 for _, valid, _ in results if not valid)
-    if args.format == "json":
-        print(json.dumps([{"file": f, "valid": v, "problems": [p.to_dict() for p in ps]} for f, v, ps in results],
-                         indent=2))
-    elif args.format == "github":
-        for _, _, problems in results:
-            for p in problems:
-                print(printable(github_annotation(p)))
-    else:
-        for file, valid, problems in results:
-            for p in problems:
-                print(p, file=sys.stderr if p.severity == "error" else sys.stdout)
-            if not args.quiet:
-                errors = sum(1 for p in problems if p.severity == "error")
-                warnings = len(problems) - errors
-                state = "ok" if valid else f"{errors} error{'s' * (errors != 1)}"
-                if warnings:
-                    state += f", {warnings} warning{'s' * (warnings != 1)}"
-                print(printable(f"{file}: {state}"))
-    return EXIT_FAIL if invalid else EXIT_OK
+        results.append((name, not any(p.severity == "error" for p in problems), problems))
+    _PRINTERS[args.format](results, args.quiet)
+    return EXIT_OK if all(valid for _, valid, _ in results) else EXIT_FAIL
+
+
+def _print_json(results: list[Result], quiet: bool) -> None:
+    print(json.dumps([{"file": f, "valid": v, "problems": [p.to_dict() for p in ps]} for f, v, ps in results],
+                     indent=2))
+
+
+def _print_github(results: list[Result], quiet: bool) -> None:
+    """GitHub Actions' workflow commands: each problem an annotation on its file and line."""
+    for _, _, problems in results:
+        for p in problems:
+            print(printable(github_annotation(p)))
+
+
+def _print_text(results: list[Result], quiet: bool) -> None:
+    """Each problem (errors on stderr), then each file's count of errors and warnings unless ``quiet``."""
+    for file, valid, problems in results:
+        for p in problems:
+            print(p, file=sys.stderr if p.severity == "error" else sys.stdout)
+        if quiet:
+            continue
+        errors = sum(1 for p in problems if p.severity == "error")
+        warnings = len(problems) - errors
+        state = "ok" if valid else f"{errors} error{'s' * (errors != 1)}"
+        if warnings:
+            state += f", {warnings} warning{'s' * (warnings != 1)}"
+        print(printable(f"{file}: {state}"))
+
+
+#: ``--format``: how the results are printed.
+_PRINTERS: dict[str, Callable[[list[Result], bool], None]] = {
+    "json": _print_json, "github": _print_github, "text": _print_text,
+}
 
 
 def check_one(name: str, registry: Any, pre: dict[str, bytes]) -> list[Problem]:

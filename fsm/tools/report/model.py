@@ -35,47 +35,18 @@ def build_model(trace: Trace) -> dict[str, Any]:
     states, index = _states(trace)
     regions = _regions(trace, states, index)
     lanes = _lanes(trace, regions, states, index, t_end)
-    types: list[str] = []
-    transitions = []
-    for e in trace.events:
-        for tr in e.get("transitions", ()):
-            kind = str(tr.get("type"))
-            if kind not in types:
-                types.append(kind)
-            src = tr.get("from")
-            transitions.append([tr.get("time", e["time"]), e["tick"], index.get(src, -1) if src else -1,
-                                index[str(tr.get("to"))], types.index(kind)])
-    monitors = [[e["time"], m.get("owner"), m.get("behavior"), m.get("kind"), m.get("exception")]
-                for e in trace.events for m in e.get("monitors", ())]
-    pauses = [[e["time"], p, kind == "paused"] for e in trace.events for kind in ("paused", "resumed")
-              for p in e.get(kind, ())]
-    end = trace.end or {}
+    types, transitions = _transitions(trace, index)
     model: dict[str, Any] = {
-        "meta": {
-            "name": header.get("name") or (header.get("machine") or {}).get("name") or trace.name,
-            "source": header.get("source") or trace.name,
-            "trace": trace.name,
-            "version": trace.version,
-            "tral_fsm": header.get("tral_fsm"),
-            "dt": dt,
-            "t_end": t_end,
-            "ticks": trace.last_tick,
-            "outcome": end.get("outcome"),
-            "finished": end.get("finished"),
-            "interrupted": bool(end.get("interrupted")),
-            "error": (end.get("error") or {}).get("message") if isinstance(end.get("error"), dict) else None,
-            "cut_off": trace.version >= 2 and trace.end is None,
-            "seed": header.get("seed"),
-            "world_file": header.get("world_file"),
-            "overrides": header.get("overrides") or [],
-        },
+        "meta": _meta(trace, dt, t_end),
         "states": states,
         "regions": [{"path": r["path"], "label": r["label"]} for r in regions],
         "lanes": lanes,
         "types": types,
         "transitions": transitions,
-        "monitors": monitors,
-        "pauses": pauses,
+        "monitors": [[e["time"], m.get("owner"), m.get("behavior"), m.get("kind"), m.get("exception")]
+                     for e in trace.events for m in e.get("monitors", ())],
+        "pauses": [[e["time"], p, kind == "paused"] for e in trace.events for kind in ("paused", "resumed")
+                   for p in e.get(kind, ())],
         "keyframes": [[k["tick"], [index[a] for a in k["active"] if a in index], k["vars"]]
                       for k in trace.keyframes],
         "events": [[e["tick"], [index[a] for a in event_active(e) if a in index], e.get("vars", {}),
@@ -91,6 +62,47 @@ def build_model(trace: Trace) -> dict[str, Any]:
     model["map"] = _map(world, warnings) if world is not None else None
     model["meta"]["warnings"] = warnings
     return model
+
+
+def _transitions(trace: Trace, index: dict[str, int]) -> tuple[list[str], list[list[Any]]]:
+    """The transition types in the order they first fire, and each firing: [time, tick, from, to, type] (from is
+    -1 for an initial entry)."""
+    types: list[str] = []
+    transitions = []
+    for e in trace.events:
+        for tr in e.get("transitions", ()):
+            kind = str(tr.get("type"))
+            if kind not in types:
+                types.append(kind)
+            src = tr.get("from")
+            transitions.append([tr.get("time", e["time"]), e["tick"], index.get(src, -1) if src else -1,
+                                index[str(tr.get("to"))], types.index(kind)])
+    return types, transitions
+
+
+def _meta(trace: Trace, dt: float, t_end: float) -> dict[str, Any]:
+    """What the report's heading says of the run: the machine, the trace, its length and how it ended."""
+    header = trace.header
+    end = trace.end or {}
+    error = end.get("error")
+    return {
+        "name": header.get("name") or (header.get("machine") or {}).get("name") or trace.name,
+        "source": header.get("source") or trace.name,
+        "trace": trace.name,
+        "version": trace.version,
+        "tral_fsm": header.get("tral_fsm"),
+        "dt": dt,
+        "t_end": t_end,
+        "ticks": trace.last_tick,
+        "outcome": end.get("outcome"),
+        "finished": end.get("finished"),
+        "interrupted": bool(end.get("interrupted")),
+        "error": (error or {}).get("message") if isinstance(error, dict) else None,
+        "cut_off": trace.version >= 2 and trace.end is None,
+        "seed": header.get("seed"),
+        "world_file": header.get("world_file"),
+        "overrides": header.get("overrides") or [],
+    }
 
 
 def _guess_dt(trace: Trace) -> float:

@@ -36,22 +36,32 @@ def junit_xml(results: list[ScenarioResult | Invalid], suite: str = "fsmctl test
         case = ET.SubElement(ts, "testcase", name=r.name, classname=_classname(r.file), file=r.file,
                              time=f"{r.wall_time:.3f}" if isinstance(r, ScenarioResult) else "0")
         if isinstance(r, Invalid):
-            err = ET.SubElement(case, "error", type="invalid scenario",
-                                message=f"{len([p for p in r.problems if p.severity == 'error'])} problem(s)")
-            err.text = "\n".join(p.text for p in r.problems)
-        elif r.status in ("skipped", "xfailed"):  # as pytest's JUnit report: an expected failure is skipped
-            skip = ET.SubElement(case, "skipped", type="pytest.skip" if r.status == "skipped" else "pytest.xfail",
-                                 message=r.skipped if r.skipped is not None else f"xfail: {r.xfail}")
-            skip.text = r.summary_line()
-        elif not r.passed:
-            first = r.failures[0]
-            fail = ET.SubElement(case, "failure", type=first.kind, message=r.summary_line())
-            fail.text = "\n".join(line for f in r.failures for line in f.lines())
+            _invalid(case, r)
         else:
-            out = ET.SubElement(case, "system-out")
-            out.text = r.summary_line()
+            _outcome(case, r)
     ET.indent(root)
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + xml_safe(ET.tostring(root, encoding="unicode")) + "\n"
+
+
+def _invalid(case: ET.Element, r: Invalid) -> None:
+    err = ET.SubElement(case, "error", type="invalid scenario",
+                        message=f"{len([p for p in r.problems if p.severity == 'error'])} problem(s)")
+    err.text = "\n".join(p.text for p in r.problems)
+
+
+def _outcome(case: ET.Element, r: ScenarioResult) -> None:
+    """A run's outcome in its test case: skipped (an expected failure too, as pytest's JUnit report has it), its
+    failures, or its summary as its output."""
+    if r.status in ("skipped", "xfailed"):
+        skip = ET.SubElement(case, "skipped", type="pytest.skip" if r.status == "skipped" else "pytest.xfail",
+                             message=r.skipped if r.skipped is not None else f"xfail: {r.xfail}")
+        skip.text = r.summary_line()
+    elif not r.passed:
+        fail = ET.SubElement(case, "failure", type=r.failures[0].kind, message=r.summary_line())
+        fail.text = "\n".join(line for f in r.failures for line in f.lines())
+    else:
+        out = ET.SubElement(case, "system-out")
+        out.text = r.summary_line()
 
 
 #: Characters XML 1.0 does not allow anywhere, not even as character references (ElementTree writes them raw).

@@ -16,9 +16,11 @@ import json
 import math
 import os
 import sys
+import types
+import typing
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any, Literal, NamedTuple, Union
+from typing import TYPE_CHECKING, Annotated, Any, ClassVar, Literal, NamedTuple, Union
 
 from pydantic import Discriminator, Field, Tag, TypeAdapter, ValidationError
 
@@ -48,6 +50,11 @@ from .paths import active_matches as active_matches
 from .paths import state_matches as state_matches
 from .temporal import TEMPORAL_FUNCTIONS, FormulaError, compile_formula, formula_names
 
+if TYPE_CHECKING:
+    from collections.abc import Callable, Iterator
+
+    from pydantic_core import ErrorDetails
+
 #: Runs longer than this many ticks are refused (the limit of ``fsmctl run`` without ``--max-ticks``).
 MAX_TICKS = 10_000_000
 #: Length of a run whose scenario gives neither ``duration`` nor ``max_ticks`` (as ``fsmctl run``), seconds.
@@ -63,6 +70,19 @@ Value = Union[bool, int, float, str]  # noqa: UP007 - pydantic's strict union: t
 
 class ScenarioModel(ParamsBase):
     """Strict like machine documents: unknown keys, null, strings for numbers, NaN and infinity are errors."""
+
+    def state_names(self) -> list[StateName]:
+        """The states this element names, each with its JSON pointer inside the element."""
+        return []
+
+
+class StateName(NamedTuple):
+    """A state an expectation or input names: its id or path, where (a JSON pointer inside the element), and
+    whether it is the start of a path (``active``) rather than a state's id or the end of its path."""
+
+    name: str
+    pointer: str
+    prefix: bool = False
 
 
 # -- inputs --------------------------------------------------------------------------------------------
@@ -157,6 +177,9 @@ class OutcomeExpect(ScenarioModel):
                                           "('precondition_failed' for a step skipped by its precondition).")
     within: Window | None = Field(default=None, description=_WINDOW)
 
+    def state_names(self) -> list[StateName]:
+        return [] if self.state is None else [StateName(self.state, "/state")]
+
 
 class _Counted(ScenarioModel):
     """How often an event happens: exactly ``count``, or ``min`` and/or ``max``; at least once without them."""
@@ -165,23 +188,31 @@ class _Counted(ScenarioModel):
     count: Int | None = Field(default=None, ge=0, description="Exactly this many times.")
     min: Int | None = Field(default=None, ge=0, description="At least this many times.")
     max: Int | None = Field(default=None, ge=0, description="At most this many times.")
+    #: The key naming the state whose event is counted.
+    event: ClassVar[str]
+
+    def state_names(self) -> list[StateName]:
+        return [StateName(getattr(self, self.event), "/" + self.event)]
 
 
 class EnteredExpect(_Counted):
     """A state is entered and runs (an entry skipped by its precondition does not count: see ``skipped``)."""
 
+    event: ClassVar[str] = "entered"
     entered: str = Field(min_length=1, description="State id or path ('grip/closing' matches 'run/work/grip/closing').")
 
 
 class SkippedExpect(_Counted):
     """A state is entered and at once skipped because its precondition is false."""
 
+    event: ClassVar[str] = "skipped"
     skipped: str = Field(min_length=1, description="State id or path.")
 
 
 class ExitedExpect(_Counted):
     """A state is left (by a transition of its own level, with its parent, or by a restart)."""
 
+    event: ClassVar[str] = "exited"
     exited: str = Field(min_length=1, description="State id or path.")
 
 
@@ -205,11 +236,17 @@ class VisitsExpect(ScenarioModel):
     visits: list[Annotated[str, Field(min_length=1)]] = Field(
         min_length=1, description="State ids or paths ('grip/closing' matches 'run/work/grip/closing').")
 
+    def state_names(self) -> list[StateName]:
+        return [StateName(name, pointer("visits", k)) for k, name in enumerate(self.visits)]
+
 
 class NeverExpect(ScenarioModel):
     """None of these states is ever entered."""
 
     never: list[Annotated[str, Field(min_length=1)]] = Field(min_length=1, description="State ids or paths.")
+
+    def state_names(self) -> list[StateName]:
+        return [StateName(name, pointer("never", k)) for k, name in enumerate(self.never)]
 
 
 _FORMULA = ("A formula: an expression of the document language over the variables, signal_NAME and car_NAME, with "
@@ -234,6 +271,12 @@ class AtExpect(ScenarioModel):
         default=None, description="State id or path -> whether it is active and suspended while a monitor's "
                                   "exception sequence runs (not by a pause).")
     holds: str | None = Field(default=None, min_length=1, description="A formula true at that tick. " + _FORMULA)
+
+    def state_names(self) -> list[StateName]:
+        names = [StateName(self.active, "/active", True)] if isinstance(self.active, str) else \
+            [StateName(name, pointer("active", k), True) for k, name in enumerate(self.active or ())]
+        return names + [StateName(name, pointer(key, name)) for key in ("paused", "suspended")
+                        for name in getattr(self, key) or {}]
 
 
 class TemporalExpect(ScenarioModel):
@@ -295,6 +338,9 @@ class MonitorsExpect(ScenarioModel):
     """A monitor (or timeout) of a state fires during the run."""
 
     monitors: MonitorFired
+
+    def state_names(self) -> list[StateName]:
+        return [StateName(self.monitors.owner, "/monitors/owner")]
 
 
 _EXPECT_KEYS = ("outcome", "finished", "visits", "never", "transitions", "entered", "skipped", "exited", "invariant",
@@ -537,47 +583,65 @@ def matrix_problems(scenario: Scenario, spec: Any, name: str, max_runs: int | No
     m = scenario.matrix
     if m is None:
         return []
-    problems: list[Problem] = []
     if (m.vars is None) == (m.cases is None):
         return [Problem("a matrix has 'vars' (every combination of their values) or 'cases' (a list), one of them",
                         name, "/matrix", hint='"matrix": {"vars": {"speed": [0.2, 0.5]}}')]
-    n = case_count(m)
-    limit = MAX_RUNS if max_runs is None else max_runs
-    if n > limit:
-        how = (f"more than {MAX_RUNS:,} need --max-runs {n} (fsmctl test) or --fsm-max-runs {n} (pytest)"
-               if max_runs is None else f"more than --max-runs {max_runs}")
-        return [Problem(f"the matrix expands to {n:,} cases; {how}", name, "/matrix",
-                        hint="fewer values, or a table of 'cases'")]
-    declared = getattr(spec, "vars", {}) or {}
-    where: list[tuple[str, dict[str, Any]]] = []
+    too_large = _matrix_size_problem(m, name, max_runs)
+    if too_large is not None:
+        return [too_large]
+    problems: list[Problem] = []
     if m.cases is not None:
-        seen: set[str] = set()
-        for k, c in enumerate(m.cases):
-            if c.name in seen:
-                problems.append(Problem(f"two cases are named '{c.name}'", name, pointer("matrix", "cases", k, "name"),
-                                        hint="give each case its own name"))
-            seen.add(c.name)
-            where.append((pointer("matrix", "cases", k, "vars"), c.vars))
-            problems += _case_input_problems(c.inputs, scenario, name, pointer("matrix", "cases", k, "inputs"))
+        problems += _case_problems(m.cases, scenario, name)
+        where = [(pointer("matrix", "cases", k, "vars"), c.vars) for k, c in enumerate(m.cases)]
     else:
         where = [(pointer("matrix", "vars", v), {v: x}) for v, values in (m.vars or {}).items() for x in values]
+    problems += _matrix_var_problems(where, getattr(spec, "vars", {}) or {}, name)
+    unique: dict[str, Problem] = {}
+    for p in problems:
+        unique.setdefault(f"{p.pointer}:{p.message}", p)
+    return list(unique.values())
+
+
+def _matrix_size_problem(m: Matrix, name: str, max_runs: int | None) -> Problem | None:
+    n = case_count(m)
+    if n <= (MAX_RUNS if max_runs is None else max_runs):
+        return None
+    how = (f"more than {MAX_RUNS:,} need --max-runs {n} (fsmctl test) or --fsm-max-runs {n} (pytest)"
+           if max_runs is None else f"more than --max-runs {max_runs}")
+    return Problem(f"the matrix expands to {n:,} cases; {how}", name, "/matrix",
+                   hint="fewer values, or a table of 'cases'")
+
+
+def _case_problems(cases: list[MatrixCase], scenario: Scenario, name: str) -> list[Problem]:
+    """Cases named twice, and each case's inputs checked as the scenario's are."""
+    problems: list[Problem] = []
+    seen: set[str] = set()
+    for k, c in enumerate(cases):
+        if c.name in seen:
+            problems.append(Problem(f"two cases are named '{c.name}'", name, pointer("matrix", "cases", k, "name"),
+                                    hint="give each case its own name"))
+        seen.add(c.name)
+        problems += _case_input_problems(c.inputs, scenario, name, pointer("matrix", "cases", k, "inputs"))
+    return problems
+
+
+def _matrix_var_problems(where: list[tuple[str, dict[str, Any]]], declared: dict[str, Any], name: str
+                         ) -> list[Problem]:
+    """The matrix's variables the machine does not declare, or whose values are of another kind than its."""
+    problems: list[Problem] = []
     for ptr, values in where:
         for var, value in values.items():
             at = ptr if ptr.endswith("/" + var) else ptr + "/" + var
             if var not in declared:
-                close = difflib.get_close_matches(var, sorted(declared), n=2)
                 problems.append(Problem(f"the machine has no variable '{var}'", name, at,
-                                        hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close
-                                        else "variables: " + (", ".join(sorted(declared)) or "none")))
+                                        hint=did_you_mean(var, sorted(declared))
+                                        or "variables: " + (", ".join(sorted(declared)) or "none")))
                 continue
             want, got = kind_of(declared[var]), kind_of(value)
             if ANY not in (want, got) and want != got:
                 problems.append(Problem(f"'{var}' is {kind_phrase(want)} in the machine, this value is "
                                         f"{kind_phrase(got)}: {_shown_value(value)}", name, at))
-    unique: dict[str, Problem] = {}
-    for p in problems:
-        unique.setdefault(f"{p.pointer}:{p.message}", p)
-    return list(unique.values())
+    return problems
 
 
 def _case_input_problems(inputs: list[Any], scenario: Scenario, name: str, ptr: str) -> list[Problem]:
@@ -603,22 +667,8 @@ def load_scenario(file: str | Path, plugins: tuple[str, ...] = (), max_runs: int
         raise DiagramError([Problem("file is empty; a scenario is a JSON object", name, line=1, column=1,
                                     hint='{"machine": "m.json", "expect": [{"outcome": "succeeded"}]}')])
     data, source = parse_json_bytes(raw, name, path.parent, duplicates=repeated)
-    problems = list(repeated)
-    scenario: Scenario | None = None
-    if not isinstance(data, dict):
-        kind = "array" if isinstance(data, list) else type(data).__name__
-        problems.append(Problem(f"a scenario must be a JSON object, got {kind}", name,
-                                hint='{"machine": "m.json", "expect": [{"outcome": "succeeded"}]}'))
-    elif {"states", "initial", "root"} & data.keys() and "expect" not in data:
-        problems.append(Problem("this is a machine document (it has 'states' or 'initial'), not a scenario test",
-                                name, hint="run a machine with `fsmctl run FILE`; a scenario names it: "
-                                           f'{{"machine": "{path.name}", "expect": [{{"outcome": "succeeded"}}]}}'))
-    else:
-        try:
-            scenario = Scenario.model_validate(data)
-        except ValidationError as err:
-            problems += problems_from_errors(err, data, name)
-            problems += _partial_problems(data, path, name)
+    scenario, shape = _validated(data, path, name)
+    problems = repeated + shape
     loaded: LoadedScenario | None = None
     if scenario is not None:
         problems += timeline_problems(scenario, name)
@@ -641,6 +691,23 @@ def load_scenario(file: str | Path, plugins: tuple[str, ...] = (), max_runs: int
     return loaded
 
 
+def _validated(data: Any, path: Path, name: str) -> tuple[Scenario | None, list[Problem]]:
+    """The scenario the document's data is, or ``None`` and why not: not an object, a machine document, or the
+    models' problems (with the checks of the inputs and expectations whose shape is right)."""
+    if not isinstance(data, dict):
+        kind = "array" if isinstance(data, list) else type(data).__name__
+        return None, [Problem(f"a scenario must be a JSON object, got {kind}", name,
+                              hint='{"machine": "m.json", "expect": [{"outcome": "succeeded"}]}')]
+    if {"states", "initial", "root"} & data.keys() and "expect" not in data:
+        return None, [Problem("this is a machine document (it has 'states' or 'initial'), not a scenario test",
+                              name, hint="run a machine with `fsmctl run FILE`; a scenario names it: "
+                                         f'{{"machine": "{path.name}", "expect": [{{"outcome": "succeeded"}}]}}')]
+    try:
+        return Scenario.model_validate(data), []
+    except ValidationError as err:
+        return None, problems_from_errors(err, data, name) + _partial_problems(data, path, name)
+
+
 def _locate(problems: list[Problem], name: str, source: Source) -> None:
     """Line and column for the scenario file's own problems by the located-problems path machine documents take
     (:class:`fsm.model.problems.Problems`): an error in a formula points at its character in the JSON string."""
@@ -654,92 +721,90 @@ def _element_pointers(scenario: Scenario) -> set[str]:
             | {pointer("expect", i) for i in range(len(scenario.expect))} | {"/machine"})
 
 
-# -- shape problems --------------------------------------------------------------------------------------
-def _existing_prefix(data: Any, loc: list[Any]) -> list[Any]:
-    """The longest prefix of ``loc`` that is a path into ``data`` (pydantic appends union branch names)."""
-    out: list[Any] = []
-    node = data
-    for token in loc:
-        if isinstance(node, dict) and isinstance(token, str) and token in node:
-            node = node[token]
-        elif isinstance(node, list) and isinstance(token, int) and 0 <= token < len(node):
-            node = node[token]
-        else:
-            break
-        out.append(token)
-    return out
-
-
-def _short(value: Any) -> str:
-    text = json.dumps(value, ensure_ascii=False) if not isinstance(value, float) or math.isfinite(value) else str(value)
-    return text if len(text) <= 40 else text[:37] + "..."
-
-
-def _element(loc: list[Any]) -> str | None:
-    if len(loc) >= 2 and loc[0] in ("inputs", "expect") and isinstance(loc[1], int):
-        return f"{'input' if loc[0] == 'inputs' else 'expectation'} {loc[1]}"
-    return None
+# -- shape problems --------------------------------------------------------------------------------------------
+#: The discriminators' own errors: an object that is no input (expectation) at all.
+_KIND_ERRORS = ("input_kind", "expect_kind")
 
 
 def problems_from_errors(err: ValidationError, data: Any, name: str) -> list[Problem]:
-    """pydantic's errors as problems with JSON pointers (union tags removed) and "did you mean" hints; one
-    problem per location."""
-    problems: dict[str, Problem] = {}
+    """pydantic's errors as problems by the core's path, as a machine document's
+    (:func:`fsm.model.document.problems_from_validation`): each is reported at the object it belongs to (an
+    input, an expectation, a bounce, a matrix case), in its words and with "did you mean" among its keys."""
+    groups: dict[tuple[str, type[ScenarioModel]], tuple[Any, str | None, list[ErrorDetails]]] = {}
     for e in err.errors(include_url=False):
-        full = list(e["loc"])
-        loc = [t for t in full if not (isinstance(t, str) and t.startswith("<"))]
-        typ = e["type"]
-        loc, message, hint = _error_text(e, loc, data, _error_model(full, loc))
-        ptr = pointer(*loc[:-1]) if typ == "missing" else pointer(*loc)
-        if ptr in problems:
-            if typ not in ("missing", "extra_forbidden") and message not in problems[ptr].message:
-                problems[ptr].message += f" (or: {message})"
-            continue
-        problems[ptr] = Problem(message, name, ptr, element=_element(loc), hint=hint)
-    return list(problems.values())
+        at, model, node, rest = _owner(e, data)
+        group = groups.setdefault((pointer(*at), model), (node, _element(at), []))
+        group[2].append({**e, "loc": tuple(rest)})
+    problems: list[Problem] = []
+    for (base, model), (node, element, details) in groups.items():
+        found = problems_from_validation(details, source=Source(name=name), base=base, element=element, model=model,
+                                         kind="key", data=node)
+        if details[0]["type"] in _KIND_ERRORS and isinstance(node, dict) and node:
+            found[0].hint = f"this one has {', '.join(repr(k) for k in sorted(node))}"
+        problems += found
+    return problems
 
 
-def _error_model(full: list[Any], loc: list[Any]) -> type[ScenarioModel]:
-    """The model an error's location ends in (whose fields a "did you mean" hint offers)."""
+def _owner(e: ErrorDetails, data: Any) -> tuple[list[Any], type[ScenarioModel], Any, list[Any]]:
+    """Where an error's object starts in ``data`` (the innermost model its location passes through), that model,
+    the object, and the error's location from there on (the union tags, ``<signal>``, left out)."""
     model: type[ScenarioModel] = Scenario
-    for token in full:
-        if isinstance(token, str) and token in _MODELS:
-            model = _MODELS[token]
-    if model is TransitionsExpect and "transitions" in loc[2:3]:
-        model = TransitionCount if len(loc) > 3 else model
-    if model is PressInput and "bounce" in loc[2:3] and len(loc) > 3:
-        model = Bounce
-    if loc[:1] == ["matrix"] and model is Scenario:
-        model = MatrixCase if "cases" in loc[1:2] and len(loc) > 3 else Matrix
-    if loc[:1] == ["substitute"] and len(loc) > 2:
-        model = TransitionRef if "transition" in loc[2:3] and len(loc) > 3 else Substitution
-    return model
+    at: list[Any] = []
+    path: list[Any] = []
+    owner, node = data, data
+    expected: Any = Scenario
+    found = True
+    for token in e["loc"]:
+        if isinstance(token, str) and token.startswith("<"):
+            if found and token in _MODELS:  # the tagged union's branch: the object is this model
+                model = expected = _MODELS[token]
+                at, owner = list(path), node
+            continue
+        path.append(token)
+        found = found and _has(node, token)
+        if found:
+            node, expected = node[token], _unwrap(_inner(expected, token))
+            if isinstance(expected, type) and issubclass(expected, ScenarioModel) and isinstance(node, dict):
+                model, at, owner = expected, list(path), node
+    if e["type"] in _KIND_ERRORS:
+        at, owner = path, node
+    return at, model, owner, path[len(at):]
 
 
-def _error_text(e: Any, loc: list[Any], data: Any, model: type[ScenarioModel]
-                ) -> tuple[list[Any], str, str | None]:
-    """One pydantic error's location (cut where it leaves ``data``), message and hint."""
-    typ = e["type"]
-    if typ == "missing":
-        return loc, f"missing required key '{loc[-1]}'", None
-    if typ == "extra_forbidden":
-        fields = sorted({f.alias or n for n, f in model.model_fields.items()})
-        close = difflib.get_close_matches(str(loc[-1]), fields, n=2)
-        hint = ("did you mean " + " or ".join(f"'{c}'" for c in close) + "?") if close else \
-            "known: " + ", ".join(fields)
-        return loc, f"unknown key '{loc[-1]}'", hint
-    if typ in ("input_kind", "expect_kind"):
-        keys = sorted(e["input"]) if isinstance(e.get("input"), dict) else []
-        return loc, e["msg"], f"this one has {', '.join(repr(k) for k in keys)}" if keys else None
-    loc = _existing_prefix(data, loc)
-    message = e["msg"].replace("Value error, ", "")
-    if message.startswith("Input should") and loc:
-        message = f"'{loc[-1]}'" + message[len("Input"):]
-    elif message.startswith(("List should", "Dictionary should", "String should")) and loc:
-        message = f"'{loc[-1]}': " + message
-    if "input" in e and not isinstance(e["input"], (dict, list)):
-        message += f", got {_short(e['input'])}"
-    return loc, message, None
+def _has(node: Any, token: Any) -> bool:
+    if isinstance(node, dict):
+        return isinstance(token, str) and token in node
+    return isinstance(node, list) and isinstance(token, int) and 0 <= token < len(node)
+
+
+def _inner(annotation: Any, token: Any) -> Any:
+    """What a model's field, a list's item or a dict's value (``token`` into ``annotation``) should be."""
+    if isinstance(annotation, type) and issubclass(annotation, ScenarioModel):
+        fields = {f.alias or n: f for n, f in annotation.model_fields.items()}
+        return fields[token].annotation if token in fields else None
+    args = typing.get_args(annotation)
+    origin = typing.get_origin(annotation)
+    if origin is list and args:
+        return args[0]
+    return args[1] if origin is dict and len(args) == 2 else None
+
+
+def _unwrap(annotation: Any) -> Any:
+    """``annotation`` without ``Annotated`` and ``| None``."""
+    while True:
+        args = typing.get_args(annotation)
+        if typing.get_origin(annotation) is Annotated:
+            annotation = args[0]
+        elif typing.get_origin(annotation) in (Union, types.UnionType) and len(args) == 2 and type(None) in args:
+            annotation = args[0] if args[1] is type(None) else args[1]
+        else:
+            return annotation
+
+
+def _element(at: list[Any]) -> str | None:
+    if len(at) >= 2 and at[0] in ("inputs", "expect") and isinstance(at[1], int):
+        return f"{'input' if at[0] == 'inputs' else 'expectation'} {at[1]}"
+    return None
 
 
 # -- checks beyond shape -----------------------------------------------------------------------------------
@@ -854,36 +919,32 @@ def _input_problems(item: Any, name: str, ptr: str, label: str, end_time: float)
 
 
 def _expect_problems(exp: Any, name: str, ptr: str, label: str, end_time: float) -> list[Problem]:
-    """One expectation: its window, its counts, and the checks of its kind."""
+    """One expectation: its window, and the checks of its kind (:data:`_EXPECT_CHECKS`)."""
     problems: list[Problem] = []
-    within = getattr(exp, "within", None)
-    if within is None and isinstance(exp, MonitorsExpect):
-        within = exp.monitors.within
+    monitors = isinstance(exp, MonitorsExpect)
+    within = exp.monitors.within if monitors else getattr(exp, "within", None)
     if within is not None and within[1] < within[0]:
-        where = ptr + ("/monitors" if isinstance(exp, MonitorsExpect) else "") + "/within"
         problems.append(Problem(f"the window ends ({within[1]:g} s) before it starts ({within[0]:g} s)", name,
-                                where, element=label, hint="a window is [start, end] with start <= end"))
-    if isinstance(exp, _Counted):
-        problems += _count_problems(exp, name, ptr, label)
-    if isinstance(exp, InvariantExpect):
-        problems += _invariant_parse_problems(exp, name, ptr, label)
-    if isinstance(exp, TemporalExpect):
-        problems += _temporal_shape(exp, name, ptr, label, end_time)
-    if isinstance(exp, AtExpect):
-        problems += _at_problems(exp, name, ptr, label, end_time)
-    if isinstance(exp, TransitionsExpect):
-        problems += _transitions_problems(exp, name, ptr, label)
-    if isinstance(exp, MonitorsExpect):
-        problems += _count_problems(exp.monitors, name, ptr + "/monitors", label)
-        for k, at in enumerate(exp.monitors.at or ()):
-            if at > end_time + EPS:
-                problems.append(Problem(f"at {at:g} s is after the end of the run ({end_time:g} s)", name,
-                                        f"{ptr}/monitors/at/{k}", element=label,
-                                        hint="raise 'duration' (or 'max_ticks')"))
-    return problems
+                                ptr + ("/monitors" if monitors else "") + "/within", element=label,
+                                hint="a window is [start, end] with start <= end"))
+    check = _EXPECT_CHECKS.get(type(exp))
+    return problems + check(exp, name, ptr, label, end_time) if check is not None else problems
 
 
-def _invariant_parse_problems(exp: InvariantExpect, name: str, ptr: str, label: str) -> list[Problem]:
+def _monitors_problems(exp: MonitorsExpect, name: str, ptr: str, label: str, end_time: float) -> list[Problem]:
+    """A monitor expectation: its counts, and times after the end of the run."""
+    problems = _count_problems(exp.monitors, name, ptr + "/monitors", label)
+    return problems + [Problem(f"at {at:g} s is after the end of the run ({end_time:g} s)", name,
+                               f"{ptr}/monitors/at/{k}", element=label, hint="raise 'duration' (or 'max_ticks')")
+                       for k, at in enumerate(exp.monitors.at or ()) if at > end_time + EPS]
+
+
+def _counted_problems(exp: _Counted, name: str, ptr: str, label: str, end_time: float) -> list[Problem]:
+    return _count_problems(exp, name, ptr, label)
+
+
+def _invariant_parse_problems(exp: InvariantExpect, name: str, ptr: str, label: str, end_time: float
+                              ) -> list[Problem]:
     """An invariant that does not parse."""
     try:
         parse(exp.invariant, TEMPORAL_FUNCTIONS)
@@ -906,7 +967,8 @@ def _at_problems(exp: AtExpect, name: str, ptr: str, label: str, end_time: float
     return problems
 
 
-def _transitions_problems(exp: TransitionsExpect, name: str, ptr: str, label: str) -> list[Problem]:
+def _transitions_problems(exp: TransitionsExpect, name: str, ptr: str, label: str, end_time: float
+                          ) -> list[Problem]:
     """The bounds on the number of transitions: at least one, 'count' alone, 'min' <= 'max'."""
     c = exp.transitions
     if c.count is None and c.min is None and c.max is None:
@@ -921,41 +983,39 @@ def _transitions_problems(exp: TransitionsExpect, name: str, ptr: str, label: st
 
 
 def _temporal_shape(exp: TemporalExpect, name: str, ptr: str, label: str, end_time: float) -> list[Problem]:
-    """Which keys of a temporal expectation go together."""
-    problems: list[Problem] = []
+    """Which keys of a temporal expectation go together, and times after the end of the run."""
     modes = [k for k in ("always", "never", "eventually") if getattr(exp, k) is not None]
-
-    def bad(message: str, key: str = "", hint: str | None = None) -> None:
-        problems.append(Problem(message, name, ptr + (f"/{key}" if key else ""), element=label, hint=hint))
-
     if len(modes) != 1:
-        bad(f"give one of 'always', 'never' and 'eventually', not {' and '.join(repr(m) for m in modes)}",
-            hint='{"always": "x >= 0"}; two expectations for two formulas')
-        return problems
-    mode = modes[0]
+        return [Problem(f"give one of 'always', 'never' and 'eventually', not {' and '.join(repr(m) for m in modes)}",
+                        name, ptr, element=label, hint='{"always": "x >= 0"}; two expectations for two formulas')]
+    problems = [Problem(message, name, ptr + (f"/{key}" if key else ""), element=label, hint=hint)
+                for message, key, hint in _temporal_conflicts(exp, modes[0])]
+    problems += _count_problems(exp, name, ptr, label)
+    return problems + [Problem(f"at {at:g} s is after the end of the run ({end_time:g} s)", name, f"{ptr}/at/{k}",
+                               element=label, hint="raise 'duration' (or 'max_ticks')")
+                       for k, at in enumerate(exp.at or ()) if at > end_time + EPS]
+
+
+def _temporal_conflicts(exp: TemporalExpect, mode: str) -> Iterator[tuple[str, str, str | None]]:
+    """The keys of a temporal expectation that do not go with its mode or with each other: (message, key, hint)."""
     if exp.until is not None and mode != "always":
-        bad(f"'until' goes with 'always' ('{mode}' cannot take it)", "until",
-            hint='{"always": "not active(drive)", "until": "signal_start"}')
+        yield (f"'until' goes with 'always' ('{mode}' cannot take it)", "until",
+               '{"always": "not active(drive)", "until": "signal_start"}')
     if exp.until is not None and exp.after is not None:
-        bad("'until' and 'after' do not go together: give 'after' with 'ticks' for a span after a trigger", "until")
+        yield "'until' and 'after' do not go together: give 'after' with 'ticks' for a span after a trigger", \
+            "until", None
     for key in ("ticks", "seconds", "nth"):
         if getattr(exp, key) is not None and exp.after is None:
-            bad(f"'{key}' counts from a trigger: give 'after' too", key,
-                hint='{"eventually": "entered(B)", "after": "entered(A)", "ticks": 8}')
+            yield (f"'{key}' counts from a trigger: give 'after' too", key,
+                   '{"eventually": "entered(B)", "after": "entered(A)", "ticks": 8}')
     if exp.ticks is not None and exp.seconds is not None:
-        bad("give 'ticks' or 'seconds', not both", "seconds")
+        yield "give 'ticks' or 'seconds', not both", "seconds", None
     counted = [k for k in ("count", "min", "max", "at") if getattr(exp, k) is not None]
     if counted and (mode != "eventually" or exp.after is not None):
-        bad(f"'{counted[0]}' counts the ticks an 'eventually' (without 'after') holds at", counted[0],
-            hint='{"eventually": "rose(paused(cycle))", "count": 2}')
-    if exp.at is not None and (exp.count is not None or exp.min is not None or exp.max is not None):
-        bad("'at' lists every tick already: give it alone, or 'count', 'min' and/or 'max'", "at")
-    problems += _count_problems(exp, name, ptr, label)
-    for k, at in enumerate(exp.at or ()):
-        if at > end_time + EPS:
-            bad(f"at {at:g} s is after the end of the run ({end_time:g} s)", f"at/{k}",
-                hint="raise 'duration' (or 'max_ticks')")
-    return problems
+        yield (f"'{counted[0]}' counts the ticks an 'eventually' (without 'after') holds at", counted[0],
+               '{"eventually": "rose(paused(cycle))", "count": 2}')
+    if exp.at is not None and counted != ["at"]:
+        yield "'at' lists every tick already: give it alone, or 'count', 'min' and/or 'max'", "at", None
 
 
 def _count_problems(c: Any, name: str, ptr: str, label: str) -> list[Problem]:
@@ -964,6 +1024,14 @@ def _count_problems(c: Any, name: str, ptr: str, label: str) -> list[Problem]:
     if c.min is not None and c.max is not None and c.min > c.max:
         return [Problem(f"'min' {c.min} is greater than 'max' {c.max}", name, ptr, element=label)]
     return []
+
+
+#: The checks of each kind of expectation beyond its shape: (expectation, file, pointer, label, end of the run).
+_EXPECT_CHECKS: dict[type[ScenarioModel], Callable[[Any, str, str, str, float], list[Problem]]] = {
+    EnteredExpect: _counted_problems, SkippedExpect: _counted_problems, ExitedExpect: _counted_problems,
+    InvariantExpect: _invariant_parse_problems, TemporalExpect: _temporal_shape, AtExpect: _at_problems,
+    TransitionsExpect: _transitions_problems, MonitorsExpect: _monitors_problems,
+}
 
 
 def _world_problems(spec: Any, world_path: Path | None, machine_path: Path, base: Path, name: str) -> list[Problem]:
@@ -1000,11 +1068,10 @@ def _signal_warnings(scenario: Scenario, known: set[str], name: str) -> list[Pro
     for i, item in enumerate(scenario.inputs):
         sig = item.signal if isinstance(item, SignalInput) else item.press if isinstance(item, PressInput) else None
         if sig is not None and sig not in known:
-            close = difflib.get_close_matches(sig, sorted(known), n=2)
             problems.append(Problem(f"the machine reads no signal '{sig}'", name, pointer("inputs", i),
                                     element=f"input {i}", severity="warning",
-                                    hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close
-                                    else "signals it reads: " + (", ".join(sorted(known)) or "none")))
+                                    hint=did_you_mean(sig, sorted(known))
+                                    or "signals it reads: " + (", ".join(sorted(known)) or "none")))
     return problems
 
 
@@ -1017,22 +1084,8 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
     if problems:
         return None, problems
     machine_path = base / scenario.machine
-    if not machine_path.is_file():
-        return None, problems + [_missing_machine(machine_path, name)]
-    world_path = None
-    if scenario.world is not None:
-        world_path = base / scenario.world
-        if not world_path.is_file():
-            problems.append(Problem(f"world file not found: {world_path}", name, "/world",
-                                    hint="the world's path is relative to the scenario file"))
-    spec, machine_problems = check(str(machine_path), registry=registry)
-    errors = [p for p in machine_problems if p.severity == "error"]
-    if spec is None or errors:
-        problems.append(Problem(f"the machine {machine_path} has {len(errors) or 1} error(s), listed with it", name,
-                                "/machine"))
-        return None, problems + (errors or machine_problems)
-    problems += _world_problems(spec, world_path, machine_path, base, name)
-    if problems:
+    spec, world_path, problems = _checked_machine(scenario, base, name, registry)
+    if spec is None:
         return None, problems
     files = machine_files(spec)
     if scenario.substitute:
@@ -1055,6 +1108,28 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
     return LoadedScenario(file=name, scenario=scenario, spec=spec, registry=registry, dt=dt, end_tick=end_tick,
                           world_path=world_path, machine_files=files, plugin_files=plugin_files,
                           state_paths=paths, plants=plants, formulas=formulas), problems
+
+
+def _checked_machine(scenario: Scenario, base: Path, name: str, registry: Any
+                     ) -> tuple[Any, Path | None, list[Problem]]:
+    """The scenario's machine checked, with its world's path: (spec, world path, []); or ``None`` for the spec
+    and the problems: a missing machine or world file, the machine's errors, a world it cannot drive in."""
+    machine_path = base / scenario.machine
+    if not machine_path.is_file():
+        return None, None, [_missing_machine(machine_path, name)]
+    problems: list[Problem] = []
+    world_path = None if scenario.world is None else base / scenario.world
+    if world_path is not None and not world_path.is_file():
+        problems.append(Problem(f"world file not found: {world_path}", name, "/world",
+                                hint="the world's path is relative to the scenario file"))
+    spec, machine_problems = check(str(machine_path), registry=registry)
+    errors = [p for p in machine_problems if p.severity == "error"]
+    if spec is None or errors:
+        problems.append(Problem(f"the machine {machine_path} has {len(errors) or 1} error(s), listed with it", name,
+                                "/machine"))
+        return None, None, problems + (errors or machine_problems)
+    problems += _world_problems(spec, world_path, machine_path, base, name)
+    return (None if problems else spec), world_path, problems
 
 
 def invariant_kinds(spec: Any, signals: set[str], car: bool, scenario: Scenario) -> dict[str, str]:
@@ -1156,63 +1231,98 @@ def substituted(scenario: Scenario, machine_path: Path, registry: Any, name: str
     problems: list[Problem] = []
     touched: list[tuple[str, int]] = []  # (document pointer, substitution index)
     for k, sub in enumerate(scenario.substitute):
-        ptr = pointer("substitute", k)
-        given = [key for key in ("state", "type", "transition") if getattr(sub, key) is not None]
-        if len(given) != 1:
-            problems.append(Problem("a substitution names one of 'state', 'type' or 'transition'", name, ptr,
-                                    hint='{"state": "grip", "with": {"type": "Wait", "seconds": 1}}'))
-            continue
-        kind = sub.with_.get("type")
-        table = registry.transitions if sub.transition is not None else registry.states
-        if not isinstance(kind, str) or kind not in table:
-            known = sorted(table)
-            close = difflib.get_close_matches(str(kind), known, n=2)
-            what = "transition" if sub.transition is not None else "state"
-            problems.append(Problem(f"unknown {what} type {kind!r}" if kind is not None else
-                                    "the replacement needs a 'type'", name, ptr + "/with" + ("/type" if kind else ""),
-                                    hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close else
-                                    f"{what} types: " + ", ".join(known[:15])))
-            continue
-        hits = 0
-        for path, at, el in list(_elements(doc, "", "")):
-            if path is None:
-                if sub.transition is None:
-                    continue
-                tref = sub.transition
-                for j, tr in enumerate(el):
-                    if isinstance(tr, dict) and tr.get("from") == tref.from_ and tr.get("to") == tref.to and \
-                            (tref.type is None or tr.get("type") == tref.type):
-                        el[j] = {"from": tr["from"], "to": tr["to"], **sub.with_}
-                        touched.append((f"{at}/{j}", k))
-                        hits += 1
-                continue
-            if (sub.state is not None and state_matches(sub.state, path)) or \
-                    (sub.type is not None and el.get("type") == sub.type):
-                kept = {key: v for key, v in el.items() if key in _STEP_KEYS}
-                el.clear()
-                el.update({**kept, **sub.with_, "id": kept["id"]})
-                touched.append((at, k))
-                hits += 1
-        if not hits:
-            ref = sub.transition
-            what = (f"state '{sub.state}'" if sub.state is not None else f"state of type '{sub.type}'"
-                    if sub.type is not None or ref is None else f"transition from '{ref.from_}' to '{ref.to}'")
-            problems.append(Problem(f"the machine has no {what} to substitute", name, ptr,
-                                    hint="a state's id or the end of its path, as 'visits' names it"))
+        problem = _substitution_problem(sub, pointer("substitute", k), registry, name)
+        if problem is None:
+            replaced = _substitute(doc, sub)
+            touched += [(at, k) for at in replaced]
+            problem = None if replaced else _no_match(sub, pointer("substitute", k), name)
+        if problem is not None:
+            problems.append(problem)
     if problems:
         return None, problems
     spec, found = check(doc, registry=registry, base_dir=machine_path.parent)
     errors = [p for p in found if p.severity == "error"]
     if spec is not None and not errors:
         return spec, []
-    # one problem per place in the scenario: a substitution that matched five states says a misspelt key once
+    return None, _said_of_substitutions(errors or found, touched, name)
+
+
+def _substitution_problem(sub: Substitution, ptr: str, registry: Any, name: str) -> Problem | None:
+    """What is wrong with a substitution before it is applied: not one target, or a replacement of no known type."""
+    if sum(getattr(sub, key) is not None for key in ("state", "type", "transition")) != 1:
+        return Problem("a substitution names one of 'state', 'type' or 'transition'", name, ptr,
+                       hint='{"state": "grip", "with": {"type": "Wait", "seconds": 1}}')
+    kind = sub.with_.get("type")
+    what = "transition" if sub.transition is not None else "state"
+    known = sorted(registry.transitions if sub.transition is not None else registry.states)
+    if isinstance(kind, str) and kind in known:
+        return None
+    return Problem(f"unknown {what} type {kind!r}" if kind is not None else "the replacement needs a 'type'", name,
+                   ptr + "/with" + ("/type" if kind else ""),
+                   hint=did_you_mean(str(kind), known) or f"{what} types: " + ", ".join(known[:15]))
+
+
+def did_you_mean(word: str, known: list[str], n: int = 2) -> str | None:
+    """"did you mean 'a' or 'b'?" for the (at most ``n``) known words close to ``word``, or ``None``."""
+    close = difflib.get_close_matches(word, known, n=n)
+    return "did you mean " + " or ".join(repr(c) for c in close) + "?" if close else None
+
+
+def _substitute(doc: Any, sub: Substitution) -> list[str]:
+    """Apply one substitution to ``doc`` in place; the pointers of the elements it replaced."""
+    replaced: list[str] = []
+    for path, at, el in list(_elements(doc, "", "")):
+        if path is None:
+            replaced += _substitute_transitions(el, at, sub)
+        elif _state_hit(sub, path, el):
+            kept = {key: v for key, v in el.items() if key in _STEP_KEYS}
+            el.clear()
+            el.update({**kept, **sub.with_, "id": kept["id"]})
+            replaced.append(at)
+    return replaced
+
+
+def _state_hit(sub: Substitution, path: str, el: dict[str, Any]) -> bool:
+    if sub.state is not None:
+        return state_matches(sub.state, path)
+    return sub.type is not None and el.get("type") == sub.type
+
+
+def _substitute_transitions(transitions: list[Any], at: str, sub: Substitution) -> list[str]:
+    """Replace the transitions of one list that ``sub.transition`` names; their pointers."""
+    ref = sub.transition
+    if ref is None:
+        return []
+    replaced: list[str] = []
+    for j, tr in enumerate(transitions):
+        if isinstance(tr, dict) and (tr.get("from"), tr.get("to")) == (ref.from_, ref.to) and \
+                ref.type in (None, tr.get("type")):
+            transitions[j] = {"from": tr["from"], "to": tr["to"], **sub.with_}
+            replaced.append(f"{at}/{j}")
+    return replaced
+
+
+def _no_match(sub: Substitution, ptr: str, name: str) -> Problem:
+    ref = sub.transition
+    if sub.state is not None:
+        what = f"state '{sub.state}'"
+    elif sub.type is not None or ref is None:
+        what = f"state of type '{sub.type}'"
+    else:
+        what = f"transition from '{ref.from_}' to '{ref.to}'"
+    return Problem(f"the machine has no {what} to substitute", name, ptr,
+                   hint="a state's id or the end of its path, as 'visits' names it")
+
+
+def _said_of_substitutions(found: list[Problem], touched: list[tuple[str, int]], name: str) -> list[Problem]:
+    """The substituted machine's problems, each at the substitution that made it (under ``/with``); one problem per
+    place in the scenario: a substitution that matched five states says a misspelt key once."""
     grouped: dict[tuple[str, str, str | None], list[str]] = {}
-    for p in errors or found:
+    for p in found:
         where = next(((at, k) for at, k in touched
                       if p.pointer and (p.pointer == at or p.pointer.startswith(at + "/"))), None)
-        k = where[1] if where else 0
-        inner = p.pointer[len(where[0]):] if where and p.pointer else ""
-        at = pointer("substitute", k) + ("/with" + inner if where else "")
+        at = pointer("substitute", where[1]) + "/with" + p.pointer[len(where[0]):] if where else \
+            pointer("substitute", 0)
         grouped.setdefault((at, p.message, p.hint), []).append(p.element or "")
     out = []
     for (at, message, hint), elements in grouped.items():
@@ -1220,7 +1330,7 @@ def substituted(scenario: Scenario, machine_path: Path, registry: Any, name: str
         more = f" (in {len(elements)} states: {', '.join(named[:6])}{', ...' if len(named) > 6 else ''})" \
             if len(elements) > 1 and named else ""
         out.append(Problem(f"with this substitution the machine is invalid: {message}{more}", name, at, hint=hint))
-    return None, out
+    return out
 
 
 def _inline_includes(node: Any, base: Path, stack: list[str]) -> None:
@@ -1323,12 +1433,10 @@ def _plants(scenario: Scenario, registry: Any, name: str) -> tuple[list[tuple[ty
         cls = registry.plants.get(kind) if isinstance(kind, str) else None
         if cls is None:
             known = sorted(registry.plants)
-            close = difflib.get_close_matches(str(kind), known, n=2)
             problems.append(Problem(f"unknown plant type {kind!r}" if kind is not None else "a plant needs a 'type'",
                                     name, ptr + ("/type" if kind is not None else ""), element=f"plant {i}",
-                                    hint=("did you mean " + " or ".join(repr(c) for c in close) + "?") if close else
-                                    ("plant types: " + ", ".join(known)) if known else
-                                    "load the plugin that registers it (\"plugins\": [...])"))
+                                    hint=did_you_mean(str(kind), known) or ("plant types: " + ", ".join(known)
+                                    if known else "load the plugin that registers it (\"plugins\": [...])")))
             continue
         try:
             params = cls.Params.model_validate(raw)
@@ -1366,52 +1474,47 @@ def _plant_expression_problems(scenario: Scenario, spec: Any, plants: list[tuple
 
 def name_problems(scenario: Scenario, paths: list[str], name: str) -> list[Problem]:
     """The state names and paths of the scenario's expectations and pause inputs that name no state of ``paths``."""
-    problems = []
-    ids = sorted({p.rsplit("/", 1)[-1] for p in paths} | set(paths))
-    prefixes = {"/".join(p.split("/")[:k]) for p in paths for k in range(1, p.count("/") + 2)}
+    known = _KnownStates(paths)
+    problems: list[Problem] = []
     for i, exp in enumerate(scenario.expect):
-        ptr = pointer("expect", i)
-        names: list[tuple[str, str, bool]] = []
-        if isinstance(exp, VisitsExpect):
-            names = [(s, pointer("expect", i, "visits", k), False) for k, s in enumerate(exp.visits)]
-        elif isinstance(exp, NeverExpect):
-            names = [(s, pointer("expect", i, "never", k), False) for k, s in enumerate(exp.never)]
-        elif isinstance(exp, MonitorsExpect):
-            names = [(exp.monitors.owner, pointer("expect", i, "monitors", "owner"), False)]
-        elif isinstance(exp, (EnteredExpect, SkippedExpect, ExitedExpect)):
-            key = "entered" if isinstance(exp, EnteredExpect) else "skipped" if isinstance(exp, SkippedExpect) \
-                else "exited"
-            names = [(getattr(exp, key), pointer("expect", i, key), False)]
-        elif isinstance(exp, OutcomeExpect) and exp.state is not None:
-            names = [(exp.state, pointer("expect", i, "state"), False)]
-        elif isinstance(exp, AtExpect):
-            if exp.active is not None:
-                items = [exp.active] if isinstance(exp.active, str) else exp.active
-                names = [(s, ptr + "/active" + ("" if isinstance(exp.active, str) else f"/{k}"), True)
-                         for k, s in enumerate(items)]
-            for key in ("paused", "suspended"):
-                names += [(s, pointer("expect", i, key, s), False) for s in getattr(exp, key) or {}]
-        for item, at, prefix in names:
-            ok = item.strip("/") in prefixes if prefix else any(state_matches(item, p) for p in paths)
-            if not ok:
-                close = difflib.get_close_matches(item, sorted(prefixes) if prefix else ids, n=3)
-                hint = ("did you mean " + " or ".join(repr(c) for c in close) + "?") if close else \
-                    "states: " + ", ".join(paths[:12]) + (", ..." if len(paths) > 12 else "")
-                what = "no state path starts with" if prefix else "the machine has no state"
-                problems.append(Problem(f"{what} '{item}'", name, at, element=f"expectation {i}", hint=hint))
+        for state in exp.state_names():
+            unknown = known.unknown(state)
+            if unknown is not None:
+                problems.append(Problem(unknown[0], name, pointer("expect", i) + state.pointer,
+                                        element=f"expectation {i}", hint=unknown[1]))
     for i, inp in enumerate(scenario.inputs):
-        if isinstance(inp, (PauseInput, ResumeInput)):
-            key = "pause" if isinstance(inp, PauseInput) else "resume"
-            target = getattr(inp, key).strip("/")
-            if target not in paths:
-                close = difflib.get_close_matches(target, paths, n=3)
-                suffix = [p for p in paths if state_matches(target, p)]
-                hint = (f"a path from the top: {suffix[0]!r}" if len(suffix) == 1 else
-                        ("did you mean " + " or ".join(repr(c) for c in close) + "?") if close else
-                        "states: " + ", ".join(paths[:12]) + (", ..." if len(paths) > 12 else ""))
-                problems.append(Problem(f"the machine has no state at the path '{target}'", name,
-                                        pointer("inputs", i, key), element=f"input {i}", hint=hint))
+        key = "pause" if isinstance(inp, PauseInput) else "resume"
+        target = inp.pause if isinstance(inp, PauseInput) else inp.resume if isinstance(inp, ResumeInput) else None
+        if target is not None and target.strip("/") not in paths:
+            target = target.strip("/")
+            suffix = [p for p in paths if state_matches(target, p)]
+            hint = f"a path from the top: {suffix[0]!r}" if len(suffix) == 1 else \
+                did_you_mean(target, paths, n=3) or known.listed()
+            problems.append(Problem(f"the machine has no state at the path '{target}'", name,
+                                    pointer("inputs", i, key), element=f"input {i}", hint=hint))
     return problems
+
+
+class _KnownStates:
+    """A machine's state paths, to tell whether (and how nearly) a name an expectation gives is one of them."""
+
+    def __init__(self, paths: list[str]) -> None:
+        self.paths = paths
+        self.ids = sorted({p.rsplit("/", 1)[-1] for p in paths} | set(paths))
+        self.prefixes = {"/".join(p.split("/")[:k]) for p in paths for k in range(1, p.count("/") + 2)}
+
+    def unknown(self, state: StateName) -> tuple[str, str] | None:
+        """(message, hint) when ``state`` names no state (no path starting with it, for a prefix), else ``None``."""
+        if state.prefix and state.name.strip("/") in self.prefixes:
+            return None
+        if not state.prefix and any(state_matches(state.name, p) for p in self.paths):
+            return None
+        what = "no state path starts with" if state.prefix else "the machine has no state"
+        close = did_you_mean(state.name, sorted(self.prefixes) if state.prefix else self.ids, n=3)
+        return f"{what} '{state.name}'", close or self.listed()
+
+    def listed(self) -> str:
+        return "states: " + ", ".join(self.paths[:12]) + (", ..." if len(self.paths) > 12 else "")
 
 
 def _world_hint(machine: Path, base: Path) -> str:

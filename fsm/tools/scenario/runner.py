@@ -33,6 +33,7 @@ from .model import (
     MonitorsExpect,
     NeverExpect,
     OutcomeExpect,
+    Scenario,
     SkippedExpect,
     TemporalExpect,
     TransitionsExpect,
@@ -42,7 +43,7 @@ from .model import (
     formulas_of,
     state_matches,
 )
-from .temporal import Tick, Watch, compile_formula, tree_names
+from .temporal import Formula, Tick, Watch, compile_formula, tree_names
 from .timeline import expand, pause_changes
 
 if TYPE_CHECKING:
@@ -437,45 +438,46 @@ def make_temporal(loaded: LoadedScenario, machine: Machine, signals: tuple[str, 
     """The watches of the scenario's invariants, temporal expectations and ``at`` ... ``holds`` (all checked when
     the scenario was loaded), or None when it has none."""
     sc = loaded.scenario
-    dt = loaded.dt
     kinds: dict[str, str] = {}
     if any((i, k) not in loaded.formulas for i, exp in enumerate(sc.expect) for k, _t in formulas_of(exp)):
         kinds = formula_kinds(loaded.spec, set(signals), loaded.world_path is not None, sc)
-    paths = loaded.state_paths
     by_path = machine.states_by_path
-    watches: list[Any] = []
+    watches: list[Watch] = []
     outside: set[str] = set()
     outcome_paths: set[str] = set()
     for i, exp in enumerate(sc.expect):
-        texts = dict(formulas_of(exp))
-        if not texts:
-            continue
         formulas = {k: loaded.formulas[i, k].fresh() if (i, k) in loaded.formulas else
-                    compile_formula(v, kinds, paths) for k, v in texts.items()}
+                    compile_formula(v, kinds, loaded.state_paths) for k, v in formulas_of(exp)}
         for f in formulas.values():
             outcome_paths |= f.state_paths()
             outside |= {n for n in f.deps if n.startswith(("signal_", "car_"))}
             f.bind(by_path)
-        within = getattr(exp, "within", None)
-        first, last = (0, loaded.end_tick) if within is None else \
-            (_first_tick(within[0], dt), _last_tick(within[1], dt))
-        if isinstance(exp, InvariantExpect):
-            watches.append(Watch(i, "always", formulas["invariant"], first, last, label="invariant"))
-        elif isinstance(exp, AtExpect):
-            tick = min(tick_at(exp.at, dt), loaded.end_tick)
-            watches.append(Watch(i, "at", formulas["holds"], tick, tick, label=f"at {exp.at:g} s"))
-        elif isinstance(exp, TemporalExpect):
-            mode = next(k for k in ("always", "never", "eventually") if k in formulas)
-            span = exp.ticks if exp.ticks is not None else \
-                (tick_at(exp.seconds, dt) if exp.seconds is not None else None)
-            watches.append(Watch(i, mode, formulas[mode], first, last, until=formulas.get("until"),
-                                 after=formulas.get("after"), span=span, nth=exp.nth,
-                                 count=(exp.count, exp.min, exp.max),
-                                 at=None if exp.at is None else [tick_at(t, dt) for t in exp.at]))
+        if formulas:
+            watches += _watches(loaded, i, exp, formulas)
     if not watches:
         return None
     states = [by_path[p] for p in sorted(outcome_paths) if p in by_path]
-    return TemporalRun(watches, sorted(outside), states, dt)
+    return TemporalRun(watches, sorted(outside), states, loaded.dt)
+
+
+def _watches(loaded: LoadedScenario, i: int, exp: Any, formulas: dict[str, Formula]) -> list[Watch]:
+    """The watch of expectation ``i`` with compiled ``formulas``: an invariant, an ``at`` ... ``holds`` or a
+    temporal expectation (over its window, with its trigger, span and counts)."""
+    dt = loaded.dt
+    within = getattr(exp, "within", None)
+    first, last = (0, loaded.end_tick) if within is None else (_first_tick(within[0], dt), _last_tick(within[1], dt))
+    if isinstance(exp, InvariantExpect):
+        return [Watch(i, "always", formulas["invariant"], first, last, label="invariant")]
+    if isinstance(exp, AtExpect):
+        tick = min(tick_at(exp.at, dt), loaded.end_tick)
+        return [Watch(i, "at", formulas["holds"], tick, tick, label=f"at {exp.at:g} s")]
+    if not isinstance(exp, TemporalExpect):
+        return []
+    mode = next(k for k in ("always", "never", "eventually") if k in formulas)
+    span = exp.ticks if exp.ticks is not None else (tick_at(exp.seconds, dt) if exp.seconds is not None else None)
+    return [Watch(i, mode, formulas[mode], first, last, until=formulas.get("until"), after=formulas.get("after"),
+                  span=span, nth=exp.nth, count=(exp.count, exp.min, exp.max),
+                  at=None if exp.at is None else [tick_at(t, dt) for t in exp.at])]
 
 
 def count_verdict(n: int, c: Any) -> tuple[bool, str]:
@@ -593,45 +595,23 @@ def run_scenario(loaded: LoadedScenario, coverage: Any = None) -> ScenarioResult
         return result
     signals, sets = expand(sc, dt)
     pauses = pause_changes(sc, dt)
-    at_ticks = {min(tick_at(e.at, dt), loaded.end_tick) for e in sc.expect if isinstance(e, AtExpect)}
-    plan = compile_spec(loaded.spec)
-    stop = StopRules(max_ticks=loaded.end_tick)
-    if loaded.world_path is not None:
-        from fsm.sim import simulate
-
-        session = simulate(plan, world=loaded.world_path, seed=sc.seed, noise=sc.noise, dt=dt, stop=stop)
-    else:
-        session = Session.open(plan, dt=dt, stop=stop, record=False)
+    session = _open(loaded)
     machine = session.machine
     machine.ctx.vars.update(loaded.initial_vars)  # a matrix case's initial values: set before the start
-    plant_signals: list[str] = []
-    for cls, params in loaded.plants:
-        plant = cls(params)
-        plant.attach(machine)
-        plant_signals += list(plant.signals())
+    plant_signals = _attach_plants(loaded, machine)
     for change in signals:
         session.schedule(change.time, SetSignal(change.name, change.level))
     for s in sets:
         session.schedule(s.time, SetVars(s.values))
     for pc in pauses:
         session.schedule(pc.time, PauseState(pc.path, pc.paused))
-    watched_names = [e.state for e in sc.expect if isinstance(e, OutcomeExpect) and e.state is not None]
-    watched = [st for path, st in machine.states_by_path.items()
-               if any(state_matches(n, path) for n in watched_names)]
-
     read = signal_names(loaded.spec) | set(getattr(loaded.spec, "inputs", None) or ())
     names = tuple(sorted({c.name for c in signals} | set(plant_signals) | read))
-    rec = machine.add_listener(Recording(at_ticks, watched, temporal=make_temporal(loaded, machine, names)))
-    error: StateRuntimeError | None = None
+    at_ticks = {min(tick_at(e.at, dt), loaded.end_tick) for e in sc.expect if isinstance(e, AtExpect)}
+    rec = machine.add_listener(Recording(at_ticks, _watched(sc, machine),
+                                         temporal=make_temporal(loaded, machine, names)))
     t0 = time.perf_counter()
-    try:
-        session.start()
-        rec.on_tick(machine)
-        session.run()
-    except StateRuntimeError as exc:
-        error = exc
-        if traceback_wanted():
-            print_traceback(exc)
+    error = _run(session, rec)
     result.wall_time = time.perf_counter() - t0
     result.ticks = machine.ticks
     result.sim_time = round(machine.now, 9)
@@ -642,11 +622,49 @@ def run_scenario(loaded: LoadedScenario, coverage: Any = None) -> ScenarioResult
     if error is not None:
         result.failures.append(Failure(-1, loaded.file, "error", f"the machine failed: {error}", error.tick,
                                        error.time, check.trace(error.tick)))
-    for i, exp in enumerate(sc.expect):
-        failure = check.expectation(i, exp)
-        if failure is not None:
-            result.failures.append(failure)
+    result.failures += [f for i, exp in enumerate(sc.expect) if (f := check.expectation(i, exp)) is not None]
     return result
+
+
+def _open(loaded: LoadedScenario) -> Session:
+    """The run's session: the machine driving the simulated car in the scenario's world, or the machine alone."""
+    plan = compile_spec(loaded.spec)
+    stop = StopRules(max_ticks=loaded.end_tick)
+    if loaded.world_path is None:
+        return Session.open(plan, dt=loaded.dt, stop=stop, record=False)
+    from fsm.sim import simulate
+
+    sc = loaded.scenario
+    return simulate(plan, world=loaded.world_path, seed=sc.seed, noise=sc.noise, dt=loaded.dt, stop=stop)
+
+
+def _attach_plants(loaded: LoadedScenario, machine: Machine) -> list[str]:
+    """Attach the scenario's plants to the machine; the signals they write."""
+    signals: list[str] = []
+    for cls, params in loaded.plants:
+        plant = cls(params)
+        plant.attach(machine)
+        signals += list(plant.signals())
+    return signals
+
+
+def _watched(sc: Scenario, machine: Machine) -> list[Any]:
+    """The states whose outcomes an expectation names (``{"outcome": ..., "state": ...}``)."""
+    names = [e.state for e in sc.expect if isinstance(e, OutcomeExpect) and e.state is not None]
+    return [st for path, st in machine.states_by_path.items() if any(state_matches(n, path) for n in names)]
+
+
+def _run(session: Session, rec: Recording) -> StateRuntimeError | None:
+    """Start and run the session (the recording sees the first tick); the error a state raised, if one did."""
+    try:
+        session.start()
+        rec.on_tick(session.machine)
+        session.run()
+    except StateRuntimeError as exc:
+        if traceback_wanted():
+            print_traceback(exc)
+        return exc
+    return None
 
 
 def _shown(value: Any) -> str:
@@ -666,6 +684,28 @@ def _same(expected: Any, got: Any) -> bool:
         return expected == got or (isinstance(expected, float) and isinstance(got, float)
                                    and math.isclose(expected, got, rel_tol=1e-12, abs_tol=0.0))
     return type(expected) is type(got) and expected == got
+
+
+def _inactive(exp: AtExpect, active: tuple[str, ...]) -> list[str]:
+    """The states ``exp.active`` names that are not active, said as one problem."""
+    wanted = [exp.active] if isinstance(exp.active, str) else exp.active or []
+    missing = [w for w in wanted if not any(active_matches(w, p) for p in active)]
+    if not missing:
+        return []
+    return [f"expected {', '.join(repr(w) for w in missing)} active, active: " + (", ".join(active) or "(none)")]
+
+
+def _wrong_held(exp: AtExpect, snap: Snapshot) -> list[str]:
+    """The states of ``exp.paused`` and ``exp.suspended`` held (or not) other than expected."""
+    problems = []
+    for key, held in (("paused", snap.paused), ("suspended", snap.suspended)):
+        for name, want_held in (getattr(exp, key) or {}).items():
+            is_held = any(state_matches(name, p) for p in held)
+            if is_held != want_held:
+                shown = ", ".join(sorted(held)) or "none"
+                problems.append(f"expected '{name}' {'' if want_held else 'not '}{key}, it was "
+                                f"{'' if is_held else 'not '}({key}: {shown})")
+    return problems
 
 
 class Checker:
@@ -920,20 +960,8 @@ class Checker:
                  and self.inside(f.tick, c.within)]
         n = len(fired)
         ok, want = count_verdict(n, c)
-        if ok and c.at is not None:
-            times = [round(f.tick * self.dt, 9) for f in fired]
-            wanted = [tick_at(t, self.dt) for t in c.at]
-            got = [f.tick for f in fired]
-            if got != wanted:
-                first = next((k for k, (a, b) in enumerate(zip(got, wanted, strict=False)) if a != b),
-                             min(len(got), len(wanted)))
-                tick = got[first] if first < len(got) else (wanted[first] if first < len(wanted) else self.last_tick)
-                return self.failure(i, "monitors", f"expected the monitor of '{c.owner}' to fire at "
-                                                   f"{', '.join(f'{t:g}' for t in c.at)} s, it fired at "
-                                                   f"{', '.join(f'{t:g}' for t in times) or 'no time'} s",
-                                    min(tick, self.last_tick))
         if ok:
-            return None
+            return None if c.at is None else self._monitor_times(i, c, fired)
         what = ("" if c.behavior is None else f" with {c.behavior}") + ("" if c.within is None else
                                                                          f" {self.window(c.within)}")
         limit = c.count if c.count is not None else c.max
@@ -941,6 +969,21 @@ class Checker:
             min(_last_tick(c.within[1], self.dt), self.last_tick) if c.within is not None else self.last_tick
         return self.failure(i, "monitors", f"expected a monitor of '{c.owner}'{what} to fire {want}, it fired "
                                            f"{_times(n)}", tick)
+
+    def _monitor_times(self, i: int, c: Any, fired: list[MonitorFiring]) -> Failure | None:
+        """A monitor's firings at exactly the ticks of ``c.at``, or a failure at the first that differs."""
+        wanted = [tick_at(t, self.dt) for t in c.at]
+        got = [f.tick for f in fired]
+        if got == wanted:
+            return None
+        first = next((k for k, (a, b) in enumerate(zip(got, wanted, strict=False)) if a != b),
+                     min(len(got), len(wanted)))
+        tick = got[first] if first < len(got) else (wanted[first] if first < len(wanted) else self.last_tick)
+        times = [round(f.tick * self.dt, 9) for f in fired]
+        return self.failure(i, "monitors", f"expected the monitor of '{c.owner}' to fire at "
+                                           f"{', '.join(f'{t:g}' for t in c.at)} s, it fired at "
+                                           f"{', '.join(f'{t:g}' for t in times) or 'no time'} s",
+                            min(tick, self.last_tick))
 
     def visits(self, i: int, wanted: list[str]) -> Failure | None:
         entries = self.rec.entries
@@ -970,45 +1013,32 @@ class Checker:
 
     def at_check(self, i: int, exp: AtExpect) -> Failure | None:
         tick = tick_at(exp.at, self.dt)
-        shown_tick = tick
         snap = self.rec.snapshots.get(tick)
         if snap is None:  # the machine finished (or the run ended) before: it stays as it ended
             snap = self.rec.final(self.machine)
-        active, values = snap.active, snap.vars
-        problems = []
-        if exp.active is not None:
-            wanted = [exp.active] if isinstance(exp.active, str) else exp.active
-            missing = [w for w in wanted if not any(active_matches(w, p) for p in active)]
-            if missing:
-                problems.append(f"expected {', '.join(repr(w) for w in missing)} active, active: "
-                                + (", ".join(active) or "(none)"))
-        if exp.vars is not None:
-            for name, want in exp.vars.items():
-                got = values.get(name, _UNSET)
-                if isinstance(want, Approx):
-                    close = (isinstance(got, (int, float)) and not isinstance(got, bool)
-                             and abs(got - want.value) <= want.tolerance * (1 + 1e-12) + 1e-12)
-                    if not close:
-                        changed = [c for c in self.rec.var_changes if c.name == name and c.tick <= tick]
-                        since = f" (since {self.at(changed[-1].tick)})" if changed else ""
-                        problems.append(f"expected {name} = {want.value:g} ± {want.tolerance:g}, got "
-                                        f"{_shown(got)}{since}")
-                elif not _same(want, got):
-                    changed = [c for c in self.rec.var_changes if c.name == name and c.tick <= tick]
-                    since = f" (since {self.at(changed[-1].tick)})" if changed else ""
-                    problems.append(f"expected {name} = {_shown(want)}, got {_shown(got)}{since}")
-        for key, held in (("paused", snap.paused), ("suspended", snap.suspended)):
-            for name, want_held in (getattr(exp, key) or {}).items():
-                is_held = any(state_matches(name, p) for p in held)
-                if is_held != want_held:
-                    shown = ", ".join(sorted(held)) or "none"
-                    problems.append(f"expected '{name}' {'' if want_held else 'not '}{key}, it was "
-                                    f"{'' if is_held else 'not '}({key}: {shown})")
-        if exp.holds is not None:
-            verdict = self.verdicts[i][1]
-            if verdict is not None:
-                problems.append(verdict.message)
+        verdict = self.verdicts[i][1] if exp.holds is not None else None
+        problems = [*_inactive(exp, snap.active), *self._wrong_vars(exp, snap.vars, tick), *_wrong_held(exp, snap),
+                    *([verdict.message] if verdict is not None else [])]
         if not problems:
             return None
         ended = "" if tick <= self.last_tick else f" (the run ended before, at {self.at(self.last_tick)})"
-        return self.failure(i, f"at {exp.at:g} s", "; ".join(problems) + ended, min(shown_tick, self.last_tick))
+        return self.failure(i, f"at {exp.at:g} s", "; ".join(problems) + ended, min(tick, self.last_tick))
+
+    def _wrong_vars(self, exp: AtExpect, values: dict[str, Any], tick: int) -> list[str]:
+        """The variables of ``exp.vars`` without their expected value (or within its tolerance) at ``tick``."""
+        problems = []
+        for name, want in (exp.vars or {}).items():
+            got = values.get(name, _UNSET)
+            if isinstance(want, Approx):
+                if isinstance(got, (int, float)) and not isinstance(got, bool) \
+                        and abs(got - want.value) <= want.tolerance * (1 + 1e-12) + 1e-12:
+                    continue
+                expected = f"{want.value:g} ± {want.tolerance:g}"
+            elif _same(want, got):
+                continue
+            else:
+                expected = _shown(want)
+            changed = [c for c in self.rec.var_changes if c.name == name and c.tick <= tick]
+            since = f" (since {self.at(changed[-1].tick)})" if changed else ""
+            problems.append(f"expected {name} = {expected}, got {_shown(got)}{since}")
+        return problems

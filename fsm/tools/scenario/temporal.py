@@ -498,50 +498,68 @@ class Watch:
         if self.verdict is not None or (self.done and self.until is not None):
             return self.verdict
         last = min(self.last, end)
-        text = self.body.text
         if self.mode == "at":
-            if self.seen is None or self.seen[1]:
-                return None
-            tick = min(self.first, end)
-            ended = "" if self.first <= end else f" (the run ended before, at {at(end)})"
-            shown = self.seen[2]
-            return Verdict(f"'{text}' is false at {at(tick)}{ended}" + (f" ({shown})" if shown else ""), tick)
+            return self._at_verdict(end, at)
         if not self.checked:
-            return Verdict(f"the run ended at {at(end)}, before the window started: '{text}' was never checked", end)
+            return Verdict(f"the run ended at {at(end)}, before the window started: '{self.body.text}' was never "
+                           "checked", end)
         if self.until is not None:
-            return Verdict(f"'{self.until.text}' never held (until it does, '{text}' must hold); the run "
+            return Verdict(f"'{self.until.text}' never held (until it does, '{self.body.text}' must hold); the run "
                            f"ended at {at(end)}" if self.last >= end else
                            f"'{self.until.text}' never held by the end of the window at {at(last)}", last)
         if self.after is not None:
             return self._after_verdict(end, last, at)
         if self.mode != "eventually":
             return None
+        return self._eventually_verdict(last, at, times)
+
+    def _at_verdict(self, end: int, at: Callable[[int], str]) -> Verdict | None:
+        """Mode ``at``: the formula at its tick (or, if the run ended before, at the last tick)."""
+        if self.seen is None or self.seen[1]:
+            return None
+        tick = min(self.first, end)
+        ended = "" if self.first <= end else f" (the run ended before, at {at(end)})"
+        shown = self.seen[2]
+        return Verdict(f"'{self.body.text}' is false at {at(tick)}{ended}" + (f" ({shown})" if shown else ""), tick)
+
+    def _eventually_verdict(self, last: int, at: Callable[[int], str], times: Callable[[int], str]) -> Verdict | None:
+        """``eventually``: the ticks it held at, against ``at`` (exactly those), a count, or at least one."""
         runs = self.runs + ([(self.holding, last)] if self.holding >= 0 else [])
         n = sum(b - a + 1 for a, b in runs)
         hits = [t for a, b in runs for t in range(a, min(b, a + 100) + 1)][:100]
-        count, low, high = self.count
         shown = ", ".join(times(t) for t in hits[:6]) + (", ..." if n > 6 else "")
+        text = self.body.text
         if self.at is not None:
-            if hits != self.at:
-                return Verdict(f"expected '{text}' to hold at {', '.join(times(t) for t in self.at)} s, it "
-                               f"held at {shown or 'no tick'}" + (" s" if n else ""),
-                               min(next((a for a, b in zip(hits, self.at, strict=False) if a != b),
-                                        hits[len(self.at)] if len(hits) > len(self.at) else last), last))
+            return None if hits == self.at else self._exact_ticks_verdict(hits, shown, last, times)
+        if self.count == (None, None, None):
+            return None if n else Verdict(f"'{text}' never held (up to {at(last)})", last)
+        want = _outside(n, *self.count)
+        if want is None:
             return None
-        if count is None and low is None and high is None:
-            if n:
-                return None
-            return Verdict(f"'{text}' never held (up to {at(last)})", last)
-        ok = (count is None or n == count) and (low is None or n >= low) and (high is None or n <= high)
-        if ok:
-            return None
-        want = (f"exactly {_ticks(count)}" if count is not None else
-                " and ".join(x for x in (f"at least {_ticks(low)}" if low is not None else "",
-                                         f"at most {_ticks(high)}" if high is not None else "") if x))
-        limit = count if count is not None else high
+        limit = self.count[0] if self.count[0] is not None else self.count[2]
         tick = hits[limit] if limit is not None and n > limit and limit < len(hits) else last
         return Verdict(f"expected '{text}' to hold at {want}, it held at {_ticks(n)}"
                        + (f" (at {shown} s)" if n else ""), tick)
+
+
+    def _exact_ticks_verdict(self, hits: list[int], shown: str, last: int, times: Callable[[int], str]) -> Verdict:
+        """``eventually`` with ``at``: it held at other ticks than those listed; the verdict at the first that
+        differs."""
+        assert self.at is not None
+        differs = next((a for a, b in zip(hits, self.at, strict=False) if a != b),
+                       hits[len(self.at)] if len(hits) > len(self.at) else last)
+        return Verdict(f"expected '{self.body.text}' to hold at {', '.join(times(t) for t in self.at)} s, it "
+                       f"held at {shown or 'no tick'}" + (" s" if hits else ""), min(differs, last))
+
+def _outside(n: int, count: int | None, low: int | None, high: int | None) -> str | None:
+    """What was wanted, when ``n`` ticks are not exactly ``count`` or not within ``low`` and ``high``; else ``None``."""
+    if (count is None or n == count) and (low is None or n >= low) and (high is None or n <= high):
+        return None
+    if count is not None:
+        return f"exactly {_ticks(count)}"
+    bounds = [f"at least {_ticks(low)}" if low is not None else "",
+              f"at most {_ticks(high)}" if high is not None else ""]
+    return " and ".join(b for b in bounds if b)
 
 
 def _ticks(n: int) -> str:

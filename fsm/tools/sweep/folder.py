@@ -201,28 +201,14 @@ def jsonl_text(path: Path, records: list[dict[str, Any]]) -> bytes | None:
     done: set[str] = set()
     out: list[bytes] = []
     changed = False
-    fh = _open_regular(path)
-    data = b""
-    if fh is not None:
-        with fh:
-            try:
-                data = fh.read()
-            except OSError as exc:
-                raise DiagramError([Problem(f"cannot read: {_reason(exc)}", str(path))]) from None
-    for raw in data.split(b"\n"):
+    for raw in _read_all(path).split(b"\n"):
         if not raw:
             continue
-        rec = None
-        if len(raw) <= MAX_LINE:
-            try:
-                rec = json.loads(raw)
-            except ValueError:
-                rec = None
-        key = rec.get("key") if isinstance(rec, dict) else None
-        if isinstance(rec, dict) and isinstance(key, str) and key in by_key and key not in done:
+        rec = _line_record(raw)
+        if rec is not None and rec["key"] in by_key and rec["key"] not in done:
+            key = rec["key"]
             done.add(key)
-            flags = by_key[key].get("flags") or []
-            if flags != (rec.get("flags") or []):
+            if (by_key[key].get("flags") or []) != (rec.get("flags") or []):
                 raw = json.dumps(by_key[key], separators=(",", ":")).encode("utf-8")
                 changed = True
         out.append(raw)
@@ -231,6 +217,30 @@ def jsonl_text(path: Path, records: list[dict[str, Any]]) -> bytes | None:
     if not changed and not extra:
         return None
     return b"".join(line + b"\n" for line in out + extra)
+
+
+def _read_all(path: Path) -> bytes:
+    """The bytes of ``path`` (none when there is no such file), read by the rule of :func:`_open_regular`."""
+    fh = _open_regular(path)
+    if fh is None:
+        return b""
+    with fh:
+        try:
+            data: bytes = fh.read()
+        except OSError as exc:
+            raise DiagramError([Problem(f"cannot read: {_reason(exc)}", str(path))]) from None
+    return data
+
+
+def _line_record(raw: bytes) -> dict[str, Any] | None:
+    """A line as a JSON object with a text ``key`` (when it is not too long to read), else ``None``."""
+    if len(raw) > MAX_LINE:
+        return None
+    try:
+        rec = json.loads(raw)
+    except ValueError:
+        return None
+    return rec if isinstance(rec, dict) and isinstance(rec.get("key"), str) else None
 
 
 def _open_regular(path: Path) -> Any:

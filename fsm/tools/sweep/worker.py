@@ -98,27 +98,14 @@ class Dwell:
 
 
 def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], dict[str, float]]:
-    from fsm.loading.loader import check, uses_car
     from fsm.loading.loader import compile as compile_spec
-    from fsm.loading.registry import default_registry
-    from fsm.model.errors import DiagramError
-    from fsm.session.session import Session, StopRules
+    from fsm.session.session import StopRules
 
-    from ..recording import header_document, run_recorder  # the same trace as `fsmctl run --trace`
-    from .folder import OutFile, write_file
+    from ..recording import run_recorder  # the same trace as `fsmctl run --trace`
+    from .folder import OutFile
     from .overrides import apply
 
-    plugins = tuple(job.get("plugins") or ())
-    key = (job["machine"], plugins)
-    spec = _CHECKED.get(key)
-    if spec is None:  # each worker reads and checks the machine once (the files do not change during a sweep)
-        registry = default_registry(plugins)
-        spec, problems = check(job["machine"], registry=registry)
-        errors = [p for p in problems if p.severity == "error"]
-        if spec is None or errors:
-            raise DiagramError(errors or problems)
-        _CHECKED[key] = spec
-    spec = apply(spec, [(path, param, value) for path, param, value in job["sets"]])
+    spec = apply(_checked(job), [(path, param, value) for path, param, value in job["sets"]])
     plan = compile_spec(spec)
     out_dir = Path(job["out"]) if job.get("out") else None
     if out_dir is not None:
@@ -126,47 +113,21 @@ def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], d
     trace_file = OutFile(out_dir / "trace.jsonl", "w+") if out_dir and (job.get("trace") or job.get("report")) \
         else None
     session = None
-    sim: Simulation | None = None
     try:
-        stop = StopRules(job["duration"])
-        if job["world"] is not None or uses_car(spec):
-            from fsm.sim import simulate
-            from fsm.sim.loop import Simulation
-
-            session = simulate(plan, world=job["world"], seed=job["run_seed"], noise=job["noise"],
-                               variables=job["vars"], stop=stop)
-            assert isinstance(session.driver, Simulation)  # simulate() drives the session with the simulated car
-            sim = session.driver
-            car = session.car
-            if car.params.camera.enabled and (car.world.gates or car.world.markers):  # else no frame is rendered
-                _one_cv2_thread()
-        else:
-            session = Session.open(plan, variables=job["vars"], stop=stop)
-            car = None
-        document = None
-        if trace_file is not None:
-            if job["machine"] not in _DOCUMENTS:  # read and converted once per worker, as the check is
-                _DOCUMENTS[job["machine"]] = header_document(job["machine"])
-            document = _DOCUMENTS[job["machine"]]
+        session, sim = _open(job, plan, spec, StopRules(job["duration"]))
         session.record(run_recorder(
-            trace_file, job["machine"], car, world_file=job["world"], seed=job["run_seed"], noise=job["noise"],
-            overrides=job["overrides"], initial_vars=job["vars"], document=document))
+            trace_file, job["machine"], session.car if sim is not None else None, world_file=job["world"],
+            seed=job["run_seed"], noise=job["noise"], overrides=job["overrides"], initial_vars=job["vars"],
+            document=_document(job["machine"]) if trace_file is not None else None))
         dwell = session.add_listener(Dwell())
-        video = None
-        if sim is not None and out_dir is not None and job.get("video"):
-            from fsm.sim.render import VideoRecorder
-
-            video = VideoRecorder(sim, str(out_dir / "video.mp4"))
+        video = _video(sim, out_dir) if sim is not None and out_dir is not None and job.get("video") else None
         session.run()
         if sim is None:
             return session.summary(), [], dwell.result(session.now)
         result = session.summary()
         if video is not None:
             video.close()
-        if out_dir is not None and job.get("plot"):
-            from fsm.sim.render import plot_png
-
-            write_file(out_dir / "plot.png", plot_png(sim))
+        _plot(sim, out_dir, job)
         step = max(1, len(sim.track) // TRACK_POINTS)
         track = [[round(x, 3), round(y, 3), k] for _t, x, y, k in sim.track[::step]]
         result["states_seen"] = list(sim.states_seen)
@@ -176,6 +137,69 @@ def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], d
             if session is not None and session.recorder is not None:
                 session.finish()
             _finish_trace(trace_file, out_dir, job)
+
+
+def _checked(job: dict[str, Any]) -> Any:
+    """The job's machine, checked: each worker reads and checks a machine once (the files do not change during a
+    sweep)."""
+    from fsm.loading.loader import check
+    from fsm.loading.registry import default_registry
+    from fsm.model.errors import DiagramError
+
+    plugins = tuple(job.get("plugins") or ())
+    key = (job["machine"], plugins)
+    spec = _CHECKED.get(key)
+    if spec is None:
+        spec, problems = check(job["machine"], registry=default_registry(plugins))
+        errors = [p for p in problems if p.severity == "error"]
+        if spec is None or errors:
+            raise DiagramError(errors or problems)
+        _CHECKED[key] = spec
+    return spec
+
+
+def _open(job: dict[str, Any], plan: Any, spec: Any, stop: Any) -> tuple[Any, Simulation | None]:
+    """The run's session: with the simulated car (and its simulation) when there is a world or the machine drives
+    the car, else the machine alone."""
+    from fsm.loading.loader import uses_car
+    from fsm.session.session import Session
+
+    if job["world"] is None and not uses_car(spec):
+        return Session.open(plan, variables=job["vars"], stop=stop), None
+    from fsm.sim import simulate
+    from fsm.sim.loop import Simulation
+
+    session = simulate(plan, world=job["world"], seed=job["run_seed"], noise=job["noise"], variables=job["vars"],
+                       stop=stop)
+    assert isinstance(session.driver, Simulation)  # simulate() drives the session with the simulated car
+    car = session.car
+    if car.params.camera.enabled and (car.world.gates or car.world.markers):  # else no frame is rendered
+        _one_cv2_thread()
+    return session, session.driver
+
+
+def _document(machine: str) -> Any:
+    """The machine's document for the trace's header, read and converted once per worker, as the check is."""
+    from ..recording import header_document
+
+    if machine not in _DOCUMENTS:
+        _DOCUMENTS[machine] = header_document(machine)
+    return _DOCUMENTS[machine]
+
+
+def _video(sim: Simulation, out_dir: Path) -> Any:
+    from fsm.sim.render import VideoRecorder
+
+    return VideoRecorder(sim, str(out_dir / "video.mp4"))
+
+
+def _plot(sim: Simulation, out_dir: Path | None, job: dict[str, Any]) -> None:
+    if out_dir is not None and job.get("plot"):
+        from fsm.sim.render import plot_png
+
+        from .folder import write_file
+
+        write_file(out_dir / "plot.png", plot_png(sim))
 
 
 def _finish_trace(trace_file: Any, out_dir: Path | None, job: dict[str, Any]) -> None:

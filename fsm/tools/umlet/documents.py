@@ -231,61 +231,11 @@ class Documents:
         each step's arrow to the next blocking step, and arrows from a step to the non-blocking sequences that
         start after it. Unconnected non-blocking sequences start first; unconnected Sequences are exception
         sequences. A fork (two arrows to blocking steps), a cycle or an unconnected step is a located problem."""
-        states = {x["id"]: x for x in sub.get("states", []) if isinstance(x, dict) and isinstance(x.get("id"), str)}
-        boxes = {b.id: b for b in self.scene.levels[id(st.box)].states}
-        outs: dict[str, list[str]] = {}
-        into: dict[str, int] = {}
-        for tr in sub.get("transitions", []):
-            outs.setdefault(tr["from"], []).append(tr["to"])
-            into[tr["to"]] = into.get(tr["to"], 0) + 1
-
-        def detached(sid: str) -> bool:
-            x = states[sid]
-            return x.get("type") == "Sequence" and x.get("blocking") is False
-
-        def y(sid: str) -> float:
-            box = boxes.get(sid)
-            return box.box.y if box is not None else 0.0
-
-        order: list[str] = []
-        seen: set[str] = set()
-        cur = sub.get("initial") or None
-        while cur is not None and cur in states:
-            if cur in seen:
-                self.problem(boxes[cur].box.elem if cur in boxes else st.box.elem,
-                             f"the steps of sequence '{st.id}' form a cycle at '{cur}'",
-                             hint="a sequence runs its steps once each, in order (use repeat= to run them again)")
-                break
-            seen.add(cur)
-            order.append(cur)
-            back = [t for t in outs.get(cur, []) if t in seen]
-            if back:
-                self.problem(boxes[cur].box.elem if cur in boxes else st.box.elem,
-                             f"the steps of sequence '{st.id}' form a cycle: '{cur}' -> '{back[0]}'",
-                             hint="a sequence runs its steps once each, in order (use repeat= to run them again)")
-            nxt = sorted((t for t in outs.get(cur, []) if t not in seen), key=y)
-            for t in [t for t in nxt if detached(t)]:
-                order.append(t)
-                seen.add(t)
-            blocking = [t for t in nxt if not detached(t)]
-            if len(blocking) > 1:
-                self.problem(boxes[cur].box.elem if cur in boxes else st.box.elem,
-                             f"step '{cur}' of sequence '{st.id}' has arrows to several steps: "
-                             + ", ".join(f"'{b}'" for b in blocking),
-                             hint="steps run one after the other: one arrow to the next step (parallel work is a "
-                                  "non-blocking Sequence, blocking=false)")
-            cur = blocking[0] if blocking else None
-        first = [sid for sid in states if sid not in seen and detached(sid) and not into.get(sid)]
-        exceptions = [sid for sid in states if sid not in seen and sid not in first
-                      and states[sid].get("type") == "Sequence" and not into.get(sid) and not outs.get(sid)]
-        for sid in states:
-            if sid not in seen and sid not in first and sid not in exceptions:
-                self.problem(boxes[sid].box.elem if sid in boxes else st.box.elem,
-                             f"step '{sid}' of sequence '{st.id}' is not on the chain of steps",
-                             hint="connect it with an arrow from the step before it (only Sequence boxes may stand "
-                                  "alone: they are exception sequences)")
-        return ([states[sid] for sid in sorted(first, key=y) + order],
-                [states[sid] for sid in exceptions])
+        chain = _StepChain(self, st, sub)
+        order = chain.walk(sub.get("initial") or None)
+        first, exceptions = chain.unchained(set(order))
+        return ([chain.states[sid] for sid in sorted(first, key=chain.y) + order],
+                [chain.states[sid] for sid in exceptions])
 
     def can_finish(self, st: StateBox) -> bool:
         if st.composite and st.type in (None, "FSMState"):
@@ -299,53 +249,56 @@ class Documents:
     def state_doc(self, st: StateBox, ptr: str, origins: dict[str, RawElement]) -> dict[str, Any]:
         doc: dict[str, Any] = {"id": st.id}
         frames: list[Box] = []
-        if st.composite and st.type == "Parallel":
+        if not st.composite:
+            doc["type"] = st.type or "Idle"
+            doc.update(st.params)
+        elif st.type == "Parallel":
             doc["type"] = "Parallel"
             doc.update({k: v for k, v in st.params.items() if k != "regions"})
             doc["regions"], frames = self.regions(st, ptr, origins)
-        elif st.composite and st.type == "Sequence":
-            doc["type"] = "Sequence"
-            doc.update({k: v for k, v in st.params.items() if k not in ("steps", "exceptions")})
-            if "steps" in st.params or "exceptions" in st.params:
-                self.problem(st.box.elem, f"Sequence '{st.id}' both contains step boxes and gives 'steps' or "
-                                          "'exceptions' as text", hint="draw the steps inside the box, or write them "
-                                                                      "as text, not both")
-            lvl = self.scene.levels[id(st.box)]
-            sub = self.machine_doc(lvl, lvl.states, lvl.initials, ptr + "/steps", origins, meta={},
-                                   note=None, what=f"sequence '{st.id}'")
-            steps, exceptions = self.sequence_steps(st, sub)
-            doc["steps"] = steps
-            if exceptions:
-                doc["exceptions"] = exceptions
-        elif st.composite:
-            if st.type not in (None, "FSMState"):
-                self.problem(st.box.elem, f"a {st.type} state cannot contain other boxes",
-                             hint="boxes drawn inside a state form an FSMState's sub-machine (or, in a Parallel "
-                                  "state, its region frames); remove the type or move the boxes out")
-            if "machine" in st.params:
-                self.problem(st.box.elem, "the state both contains boxes and names a 'machine'",
-                             hint="draw the sub-machine inside the box or include it with machine=, not both")
-            lvl = self.scene.levels[id(st.box)]
-            meta = self.metadata(lvl.notes) or {}
-            sub = self.machine_doc(lvl, lvl.states, lvl.initials, ptr + "/machine", origins, meta=meta,
-                                   note=lvl.notes[0] if lvl.notes else None, what=f"composite '{st.id}'")
-            doc["type"] = "FSMState"
-            doc.update({k: v for k, v in st.params.items() if k != "machine"})
-            doc["machine"] = sub
+        elif st.type == "Sequence":
+            doc.update(self.sequence_doc(st, ptr, origins))
         else:
-            doc["type"] = st.type or "Idle"
-            doc.update(st.params)
+            doc.update(self.composite_doc(st, ptr, origins))
         if st.description and "description" not in doc:
             doc["description"] = st.description
         if st.box.elem is not None and st.box.w > 0:
-            lay = box_layout(st.box)
-            if st.box.role == "final":
-                lay["shape"] = "final"
-            elif st.box.role == "frame":
-                lay["shape"] = "frame"
-            if frames:
-                lay["frames"] = [box_layout(f) for f in frames]
-            doc["layout"] = lay
+            doc["layout"] = _state_layout(st.box, frames)
+        return doc
+
+    def sequence_doc(self, st: StateBox, ptr: str, origins: dict[str, RawElement]) -> dict[str, Any]:
+        """A Sequence box with step boxes inside: its steps and exception sequences."""
+        doc: dict[str, Any] = {"type": "Sequence"}
+        doc.update({k: v for k, v in st.params.items() if k not in ("steps", "exceptions")})
+        if "steps" in st.params or "exceptions" in st.params:
+            self.problem(st.box.elem, f"Sequence '{st.id}' both contains step boxes and gives 'steps' or "
+                                      "'exceptions' as text", hint="draw the steps inside the box, or write them "
+                                                                  "as text, not both")
+        lvl = self.scene.levels[id(st.box)]
+        sub = self.machine_doc(lvl, lvl.states, lvl.initials, ptr + "/steps", origins, meta={},
+                               note=None, what=f"sequence '{st.id}'")
+        steps, exceptions = self.sequence_steps(st, sub)
+        doc["steps"] = steps
+        if exceptions:
+            doc["exceptions"] = exceptions
+        return doc
+
+    def composite_doc(self, st: StateBox, ptr: str, origins: dict[str, RawElement]) -> dict[str, Any]:
+        """A box with boxes inside (not a Parallel or Sequence): an FSMState and its sub-machine."""
+        if st.type not in (None, "FSMState"):
+            self.problem(st.box.elem, f"a {st.type} state cannot contain other boxes",
+                         hint="boxes drawn inside a state form an FSMState's sub-machine (or, in a Parallel "
+                              "state, its region frames); remove the type or move the boxes out")
+        if "machine" in st.params:
+            self.problem(st.box.elem, "the state both contains boxes and names a 'machine'",
+                         hint="draw the sub-machine inside the box or include it with machine=, not both")
+        lvl = self.scene.levels[id(st.box)]
+        meta = self.metadata(lvl.notes) or {}
+        sub = self.machine_doc(lvl, lvl.states, lvl.initials, ptr + "/machine", origins, meta=meta,
+                               note=lvl.notes[0] if lvl.notes else None, what=f"composite '{st.id}'")
+        doc: dict[str, Any] = {"type": "FSMState"}
+        doc.update({k: v for k, v in st.params.items() if k != "machine"})
+        doc["machine"] = sub
         return doc
 
     def regions(self, st: StateBox, ptr: str, origins: dict[str, RawElement]) -> tuple[list[Any], list[Box]]:
@@ -416,3 +369,89 @@ def _ordered(doc: dict[str, Any], first: tuple[str, ...]) -> dict[str, Any]:
     if "layout" in doc:
         out["layout"] = doc["layout"]
     return out
+
+
+
+def _state_layout(box: Box, frames: list[Box]) -> dict[str, Any]:
+    """A state's ``layout``: its box, its shape when it is a final state or a frame, and its regions' frames."""
+    lay = box_layout(box)
+    if box.role in ("final", "frame"):
+        lay["shape"] = box.role
+    if frames:
+        lay["frames"] = [box_layout(f) for f in frames]
+    return lay
+
+_CYCLE_HINT = "a sequence runs its steps once each, in order (use repeat= to run them again)"
+
+
+class _StepChain:
+    """The steps of one Sequence box and the arrows between them, walked from the first step."""
+
+    def __init__(self, docs: Documents, st: StateBox, sub: dict[str, Any]) -> None:
+        self.problem = docs.problem
+        self.st = st
+        self.states = {x["id"]: x for x in sub.get("states", [])
+                       if isinstance(x, dict) and isinstance(x.get("id"), str)}
+        self.boxes = {b.id: b for b in docs.scene.levels[id(st.box)].states}
+        self.outs: dict[str, list[str]] = {}
+        self.into: dict[str, int] = {}
+        for tr in sub.get("transitions", []):
+            self.outs.setdefault(tr["from"], []).append(tr["to"])
+            self.into[tr["to"]] = self.into.get(tr["to"], 0) + 1
+
+    def detached(self, sid: str) -> bool:
+        """A non-blocking sequence: it starts after its step and runs beside the chain."""
+        x = self.states[sid]
+        return x.get("type") == "Sequence" and x.get("blocking") is False
+
+    def y(self, sid: str) -> float:
+        box = self.boxes.get(sid)
+        return box.box.y if box is not None else 0.0
+
+    def elem(self, sid: str) -> Any:
+        return self.boxes[sid].box.elem if sid in self.boxes else self.st.box.elem
+
+    def walk(self, cur: str | None) -> list[str]:
+        """The chain from ``cur``: each step, then the non-blocking sequences its arrows start; a cycle or a fork
+        is a problem (the walk stops at a cycle, and follows the first arrow of a fork)."""
+        order: list[str] = []
+        seen: set[str] = set()
+        while cur is not None and cur in self.states:
+            if cur in seen:
+                self.problem(self.elem(cur), f"the steps of sequence '{self.st.id}' form a cycle at '{cur}'",
+                             hint=_CYCLE_HINT)
+                break
+            seen.add(cur)
+            order.append(cur)
+            back = [t for t in self.outs.get(cur, []) if t in seen]
+            if back:
+                self.problem(self.elem(cur), f"the steps of sequence '{self.st.id}' form a cycle: '{cur}' -> "
+                                             f"'{back[0]}'", hint=_CYCLE_HINT)
+            nxt = sorted((t for t in self.outs.get(cur, []) if t not in seen), key=self.y)
+            detached = [t for t in nxt if self.detached(t)]
+            order += detached
+            seen.update(detached)
+            cur = self.next_step(cur, [t for t in nxt if not self.detached(t)])
+        return order
+
+    def next_step(self, cur: str, blocking: list[str]) -> str | None:
+        if len(blocking) > 1:
+            self.problem(self.elem(cur), f"step '{cur}' of sequence '{self.st.id}' has arrows to several steps: "
+                                         + ", ".join(f"'{b}'" for b in blocking),
+                         hint="steps run one after the other: one arrow to the next step (parallel work is a "
+                              "non-blocking Sequence, blocking=false)")
+        return blocking[0] if blocking else None
+
+    def unchained(self, seen: set[str]) -> tuple[list[str], list[str]]:
+        """The steps off the chain: non-blocking sequences nothing points to (they start first) and unconnected
+        Sequences (exception sequences); any other is a problem."""
+        alone = [sid for sid in self.states if sid not in seen and not self.into.get(sid)]
+        first = [sid for sid in alone if self.detached(sid)]
+        exceptions = [sid for sid in alone if sid not in first and self.states[sid].get("type") == "Sequence"
+                      and not self.outs.get(sid)]
+        for sid in self.states:
+            if sid not in seen and sid not in first and sid not in exceptions:
+                self.problem(self.elem(sid), f"step '{sid}' of sequence '{self.st.id}' is not on the chain of steps",
+                             hint="connect it with an arrow from the step before it (only Sequence boxes may stand "
+                                  "alone: they are exception sequences)")
+        return first, exceptions

@@ -41,60 +41,85 @@ def palette(registry: Any) -> str:
     x_state, x_trans = 20, 360
     ys, yt = y, y
     for kind, name, cls in registry:
-        if kind == "condition":
-            continue  # conditions are written inside a guard or a Condition transition, not drawn
-        infos = param_info(cls.Params)
-        lines: list[str] = []
-        comments: list[str] = []
-        doc = (cls.__doc__ or "").strip().split("\n")[0]
-        if doc:
-            comments.append(f"// {doc}")
-        composite = kind == "state" and bool(getattr(cls, "is_composite", False))
-        drawn = composite and any(info["name"] == "regions" for info in infos)
-        reserved = T.STATE_FACET_KEYS if kind == "state" else T.RELATION_FACET_KEYS
-        extra: dict[str, Any] = {}  # parameters UMLet would take for facets: in the JSON line
-        for info in infos:
-            if is_sequence(cls) and info["name"] in ("steps", "exceptions"):
-                comments.append("// steps: boxes drawn inside this box, chained by arrows from an initial marker; a "
-                                "non-blocking Sequence hangs off the step it follows" if info["name"] == "steps" else
-                                "// exceptions: Sequence boxes drawn inside this box with no arrow to or from them")
-                continue
-            if drawn and info["name"] == "regions":
-                comments.append("// regions: one UMLFrame per region inside this box, titled with the region's name "
-                                "(or file=PATH to include the region), holding its initial marker, states and arrows")
-                continue
-            if in_json(info["name"], reserved):
-                extra[info["name"]] = info.get("default")
-            elif "default" in info:
-                value = value_text(info["default"]) if info["default"] is not None else "null"
-                lines.append(f"{info['name']}={value}")
-            else:
-                lines.append(f"{info['name']}=")
-            req = "required" if info["required"] else "optional"
-            desc = f": {info['description']}" if info.get("description") else ""
-            comments.append(f"// {info['name']} ({info['type']}, {req}){desc}")
-        head = param_lines(name, extra, reserved, type_as_json=kind == "state")
         if kind == "state":
-            text = "\n".join([name, "--"] + head + lines + comments + (["valign=top"] if composite else []))
-            h = 40 + 20 * len(lines) + (80 if composite else 0)
-            w = 300 if composite else 220
-            frames: list[str] = []
-            if drawn:
-                top = ys + head_height(text)
-                h = int(top - ys) + 70 + 20
-                frames = [element("UMLFrame", x_state + 20 + 140 * i, top, 120, 70, f"region{i + 1}") for i in range(2)]
-            out.append(element("UMLState", x_state, ys, w, h, text))
-            out.extend(frames)
+            elements, h = _state_template(_Template(kind, name, cls), x_state, ys)
+            out += elements
             ys += h + 20
-        else:
-            text = "\n".join(["lt=->"] + head + lines + comments)
-            h = 40 + 20 * len(lines)
+        elif kind == "transition":
+            template = _Template(kind, name, cls)
+            text = "\n".join(["lt=->"] + template.head + template.lines + template.comments)
+            h = 40 + 20 * len(template.lines)
             out.append(relation([[x_trans + 10, yt + 10], [x_trans + 10, yt + h]], text))
             yt += h + 30
+        # conditions are written inside a guard or a Condition transition, not drawn
     y = max(ys, yt) + 10
     out.append(relation([[x_trans + 10, y + 10], [x_trans + 10, y + 60]],
                         "lt=->\nevent [guard] / action\n// a UML label: a Signal transition on 'event'"))
     return diagram(out)
+
+
+class _Template:
+    """The text of one type's template: its type line and the parameters UMLet cannot show as facets (``head``),
+    a ``name=default`` line per parameter, and a ``//`` comment for the type and each parameter."""
+
+    def __init__(self, kind: str, name: str, cls: Any) -> None:
+        infos = param_info(cls.Params)
+        doc = (cls.__doc__ or "").strip().split("\n")[0]
+        self.comments = [f"// {doc}"] if doc else []
+        self.lines: list[str] = []
+        self.composite = kind == "state" and bool(getattr(cls, "is_composite", False))
+        #: a composite with regions: they are drawn as frames, not written
+        self.drawn = self.composite and any(info["name"] == "regions" for info in infos)
+        reserved = T.STATE_FACET_KEYS if kind == "state" else T.RELATION_FACET_KEYS
+        extra: dict[str, Any] = {}  # parameters UMLet would take for facets: in the JSON line
+        for info in infos:
+            drawn = _drawn_comment(info["name"], is_sequence(cls), self.drawn)
+            if drawn is not None:
+                self.comments.append(drawn)
+                continue
+            if in_json(info["name"], reserved):
+                extra[info["name"]] = info.get("default")
+            else:
+                self.lines.append(_param_line(info))
+            req = "required" if info["required"] else "optional"
+            desc = f": {info['description']}" if info.get("description") else ""
+            self.comments.append(f"// {info['name']} ({info['type']}, {req}){desc}")
+        self.name = name
+        self.head = param_lines(name, extra, reserved, type_as_json=kind == "state")
+
+
+def _drawn_comment(param: str, sequence: bool, regions: bool) -> str | None:
+    """The comment of a parameter that is drawn rather than written (a Sequence's steps and exceptions, a
+    composite's regions), or ``None``."""
+    if sequence and param == "steps":
+        return ("// steps: boxes drawn inside this box, chained by arrows from an initial marker; a non-blocking "
+                "Sequence hangs off the step it follows")
+    if sequence and param == "exceptions":
+        return "// exceptions: Sequence boxes drawn inside this box with no arrow to or from them"
+    if regions and param == "regions":
+        return ("// regions: one UMLFrame per region inside this box, titled with the region's name (or file=PATH "
+                "to include the region), holding its initial marker, states and arrows")
+    return None
+
+
+def _param_line(info: dict[str, Any]) -> str:
+    """``name=default`` (``null`` written out), or ``name=`` for a required parameter."""
+    if "default" not in info:
+        return f"{info['name']}="
+    return f"{info['name']}={value_text(info['default']) if info['default'] is not None else 'null'}"
+
+
+def _state_template(t: _Template, x: int, y: int) -> tuple[list[str], int]:
+    """A state type's box (with two region frames for a composite with regions) at (x, y), and its height."""
+    text = "\n".join([t.name, "--"] + t.head + t.lines + t.comments + (["valign=top"] if t.composite else []))
+    h = 40 + 20 * len(t.lines) + (80 if t.composite else 0)
+    w = 300 if t.composite else 220
+    frames: list[str] = []
+    if t.drawn:
+        top = y + head_height(text)
+        h = int(top - y) + 70 + 20
+        frames = [element("UMLFrame", x + 20 + 140 * i, top, 120, 70, f"region{i + 1}") for i in range(2)]
+    return [element("UMLState", x, y, w, h, text), *frames], h
 
 
 _TYPE_NAME = re.compile(r'(?:"type"\s*:\s*"|^type=)([A-Za-z_][A-Za-z0-9_]*)', re.M)

@@ -297,30 +297,11 @@ class Relations:
         d_chain = scene.container_chain(dst)
         d_set = {id(c) for c in d_chain}
         common = next(c for c in s_chain if id(c) in d_set)
-        for chain, way in ((s_chain, "leaves"), (d_chain, "enters")):
-            for c in chain:
-                if c is common:
-                    break
-                if c is not None and id(c) in scene.region_frames:
-                    self.problem(elem, f"the arrow {way} {scene.box_name(c)} of Parallel "
-                                       f"'{scene.state_of[id(c.parent)].id}'",
-                                 hint="a region starts at its own initial pseudostate and ends in a Final state; "
-                                      "arrows into or out of the Parallel state end at its border, and Finished "
-                                      "transitions route on the regions' outcomes")
-                    return
-        # enter: the target must be reached through initial states from the common level
-        target = d
-        node = dst
-        while node.parent is not common:
-            owner = node.parent
-            assert owner is not None
-            lvl = scene.levels[id(owner)]
-            if lvl.initial_target is not None and lvl.initial_target.box is node:
-                node = owner
-                target = scene.state_of[id(owner)]
-            else:
-                self._pending_enter.setdefault(id(elem), (elem, node, owner))
-                return
+        if self.crosses_region(elem, s_chain, d_chain, common):
+            return
+        target = self.entry_target(elem, d, common)
+        if target is None:
+            return
         if src.parent is common:
             self.add_transition(scene.level_of(src), s, target, params, label, points, elem)
             return
@@ -333,16 +314,7 @@ class Relations:
             owner = node.parent
             assert owner is not None
             lvl = scene.levels[id(owner)]
-            final = lvl.finals_by_outcome.get(outcome)
-            if final is None:
-                taken = {st.id for st in lvl.states} | {f.id for f in lvl.finals_by_outcome.values()}
-                fid = outcome
-                n = 2
-                while fid in taken:
-                    fid = f"{outcome} ({n})"
-                    n += 1
-                final = StateBox(Box(elem, "final", 0, 0, 0, 0), id=fid, type="Final", params={"outcome": outcome})
-                lvl.finals_by_outcome[outcome] = final
+            final = _exit_final(lvl, outcome, elem)
             if first:
                 self.add_transition(lvl, current, final, params, label, points, elem)
                 first = False
@@ -354,9 +326,55 @@ class Relations:
         self.add_transition(scene.level_of(node), current, target, {"type": "Finished", "outcome": outcome},
                             T.Label(None, ""), None, None)
 
+    def crosses_region(self, elem: RawElement, s_chain: list[Any], d_chain: list[Any], common: Any) -> bool:
+        """Whether the arrow leaves or enters a region frame of a Parallel state (said as a problem)."""
+        scene = self.scene
+        for chain, way in ((s_chain, "leaves"), (d_chain, "enters")):
+            for c in chain:
+                if c is common:
+                    break
+                if c is not None and id(c) in scene.region_frames:
+                    self.problem(elem, f"the arrow {way} {scene.box_name(c)} of Parallel "
+                                       f"'{scene.state_of[id(c.parent)].id}'",
+                                 hint="a region starts at its own initial pseudostate and ends in a Final state; "
+                                      "arrows into or out of the Parallel state end at its border, and Finished "
+                                      "transitions route on the regions' outcomes")
+                    return True
+        return False
+
+    def entry_target(self, elem: RawElement, d: StateBox, common: Any) -> StateBox | None:
+        """The state an arrow to ``d`` enters at the common level: ``d`` must be reached through initial states
+        from there, else the arrow waits (``None``) to be said when nothing resolves it."""
+        scene = self.scene
+        target = d
+        node = d.box
+        while node.parent is not common:
+            owner = node.parent
+            assert owner is not None
+            lvl = scene.levels[id(owner)]
+            if lvl.initial_target is None or lvl.initial_target.box is not node:
+                self._pending_enter.setdefault(id(elem), (elem, node, owner))
+                return None
+            node = owner
+            target = scene.state_of[id(owner)]
+        return target
+
     def add_transition(self, level: Level, s: StateBox, d: StateBox, params: dict[str, Any] | None, label: T.Label,
                        points: list[Any] | None, elem: RawElement | None) -> None:
-        tr: dict[str, Any] = {}
+        try:
+            tr = self.transition_doc(params, label)
+        except T.TextError as exc:
+            self.problem(elem, str(exc), hint=exc.hint)
+            return
+        tr["_from"], tr["_to"] = s, d
+        if points is not None:
+            tr["layout"] = {"points": points}
+        level.transitions.append(tr)
+        level.trans_origin.append(elem)
+
+    def transition_doc(self, params: dict[str, Any] | None, label: T.Label) -> dict[str, Any]:
+        """A relation's transition: of the type its parameters name, else a Signal transition on its UML label's
+        event, else a completion; with the label's guard and actions. A TextError says what is wrong."""
         uml = label.uml or label.text
         try:
             event, guard, action = T.split_uml(uml) if uml else ("", None, None)
@@ -364,45 +382,62 @@ class Relations:
                 T.check_guard(guard)
             actions = T.parse_actions(action) if action is not None else None
         except T.TextError as exc:
-            self.problem(elem, f"label: {exc}",
-                         hint="a label is 'event [guard] / name = expression; ...' (see `fsmctl types` and the "
-                              "expression grammar in the documentation)")
-            return
+            raise T.TextError(f"label: {exc}", hint="a label is 'event [guard] / name = expression; ...' (see "
+                                                    "`fsmctl types` and the expression grammar in the "
+                                                    "documentation)") from None
         if params is not None:
-            typ = params.pop("type", None) if "type" in params else None
-            if not isinstance(typ, str) or not typ:
-                self.problem(elem, f"'type' must be a transition type name, got {typ!r}",
-                             hint="see `fsmctl types` for the transition types")
-                return
-            if label.uml and event:
-                self.problem(elem, f"label: the line {label.uml[:40]!r} after the parameters may only hold "
-                                   "'[guard] / action'; the type is given above it")
-                return
-            for key, value in (("guard", guard), ("set", actions)):
-                if value is not None and key in params:
-                    self.problem(elem, f"label: '{key}' is given both as a parameter and in the "
-                                       "'[guard] / action' line", hint="keep one of the two")
-                    return
-            params = self.scene.coerce_kv("transition", typ, params, label.kv_keys)
-            tr = {"type": typ, "from": "", "to": "", **params}
+            tr = self.typed_transition(params, label, event, {"guard": guard, "set": actions})
         elif event:
-            key, eq, value = event.partition("=")
-            if eq and key.strip().isidentifier() and value.strip():
-                self.problem(elem, f"label: {event!r} looks like a parameter, but the relation has no 'type=' line "
-                                   "(a signal's name has no '=')",
-                             hint=f"add the transition type above it, e.g. 'type=Finished' then '{event.strip()}' "
-                                  "(see `fsmctl types`)")
-                return
-            tr = {"type": "Signal", "from": "", "to": "", "signal": event, "label": label.text}
+            tr = _signal_transition(event, label)
         else:
             tr = {"type": "_completion", "from": "", "to": ""}
         if guard is not None:
             tr["guard"] = guard
         if actions is not None:
             tr["set"] = actions
-        tr["_from"], tr["_to"] = s, d
-        if points is not None:
-            tr["layout"] = {"points": points}
-        level.transitions.append(tr)
-        level.trans_origin.append(elem)
+        return tr
 
+    def typed_transition(self, params: dict[str, Any], label: T.Label, event: str, drawn: dict[str, Any]
+                         ) -> dict[str, Any]:
+        """A transition whose text gives its type and parameters; ``drawn``: the guard and actions of the
+        '[guard] / action' line, which the parameters may not give again."""
+        typ = params.pop("type", None) if "type" in params else None
+        if not isinstance(typ, str) or not typ:
+            raise T.TextError(f"'type' must be a transition type name, got {typ!r}",
+                              hint="see `fsmctl types` for the transition types")
+        if label.uml and event:
+            raise T.TextError(f"label: the line {label.uml[:40]!r} after the parameters may only hold "
+                              "'[guard] / action'; the type is given above it")
+        for key, value in drawn.items():
+            if value is not None and key in params:
+                raise T.TextError(f"label: '{key}' is given both as a parameter and in the '[guard] / action' "
+                                  "line", hint="keep one of the two")
+        params = self.scene.coerce_kv("transition", typ, params, label.kv_keys)
+        return {"type": typ, "from": "", "to": "", **params}
+
+
+def _signal_transition(event: str, label: T.Label) -> dict[str, Any]:
+    """A Signal transition on a UML label's event (which may not look like a parameter: a signal has no '=')."""
+    key, eq, value = event.partition("=")
+    if eq and key.strip().isidentifier() and value.strip():
+        raise T.TextError(f"label: {event!r} looks like a parameter, but the relation has no 'type=' line "
+                          "(a signal's name has no '=')",
+                          hint=f"add the transition type above it, e.g. 'type=Finished' then '{event.strip()}' "
+                               "(see `fsmctl types`)")
+    return {"type": "Signal", "from": "", "to": "", "signal": event, "label": label.text}
+
+
+def _exit_final(lvl: Level, outcome: str, elem: RawElement) -> StateBox:
+    """The Final state of ``lvl`` with ``outcome`` (an exit to a state outside), made the first time it is needed
+    with an id no state of the level has."""
+    final = lvl.finals_by_outcome.get(outcome)
+    if final is None:
+        taken = {st.id for st in lvl.states} | {f.id for f in lvl.finals_by_outcome.values()}
+        fid = outcome
+        n = 2
+        while fid in taken:
+            fid = f"{outcome} ({n})"
+            n += 1
+        final = StateBox(Box(elem, "final", 0, 0, 0, 0), id=fid, type="Final", params={"outcome": outcome})
+        lvl.finals_by_outcome[outcome] = final
+    return final

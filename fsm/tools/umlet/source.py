@@ -298,8 +298,18 @@ def _make_element(index: int, kind: Any, old: bool, coords: Any, text: Any, extr
                   problems: list[Problem], where: Callable[[], tuple[int | None, int | None]],
                   pointer: str | None) -> RawElement | None:
     at: list[float] = []  # x, y once they are read: the element is then named as everywhere else
-
-    def problem(message: str, hint: str | None = None) -> None:
+    try:
+        if not isinstance(kind, str) or not kind:
+            raise T.TextError("element without <id> (or old <type>): cannot tell what it is")
+        values = _coordinates(coords)
+        at.extend(values[:2])
+        if values[2] < 0 or values[3] < 0:
+            raise T.TextError(f"negative size w={values[2]:g}, h={values[3]:g}",
+                              "UMLet writes sizes of 0 or more pixels")
+        if not isinstance(text, (str, type(None))):
+            raise T.TextError("panel_attributes must be text")
+        points = _points(kind, extra)
+    except T.TextError as bad:
         line, col = where()
         if len(at) == 2:
             element = describe(RawElement(index, str(kind), old, at[0], at[1], 0, 0,
@@ -307,54 +317,45 @@ def _make_element(index: int, kind: Any, old: bool, coords: Any, text: Any, extr
         else:
             label = (text if isinstance(text, str) else "").strip().split("\n")[0][:40]
             element = f"{kind or 'element'} #{index + 1}" + (f" '{label}'" if label else "")
-        problems.append(Problem(message, name, pointer=pointer if pointer is not None else f"#{index}", line=line,
-                                column=col, element=element, hint=hint))
+        problems.append(Problem(str(bad), name, pointer=pointer if pointer is not None else f"#{index}", line=line,
+                                column=col, element=element, hint=bad.hint))
+        return None
+    text = (text or "").replace("\r\n", "\n").replace("\r", "\n")
+    line, col = where() if pointer is not None else (None, None)
+    return RawElement(index, kind, old, values[0], values[1], values[2], values[3], text, points, line, col, pointer)
 
-    if not isinstance(kind, str) or not kind:
-        problem("element without <id> (or old <type>): cannot tell what it is")
-        return None
+
+def _coordinates(coords: Any) -> list[float]:
+    """x, y, w, h of an element's ``<coordinates>``, each a number."""
     if not isinstance(coords, dict):
-        problem("element without <coordinates>")
-        return None
+        raise T.TextError("element without <coordinates>")
     values = []
     for key in ("x", "y", "w", "h"):
         v = _number(coords.get(key))
         if v is None:
             got = coords.get(key)
-            problem(f"coordinate <{key}> is not a number: {str(got)[:40]!r}" if got is not None
-                    else f"coordinate <{key}> is missing", hint="UMLet writes whole numbers of pixels")
-            return None
+            raise T.TextError(f"coordinate <{key}> is not a number: {str(got)[:40]!r}" if got is not None
+                       else f"coordinate <{key}> is missing", "UMLet writes whole numbers of pixels")
         values.append(v)
-    at.extend(values[:2])
-    if values[2] < 0 or values[3] < 0:
-        problem(f"negative size w={values[2]:g}, h={values[3]:g}", hint="UMLet writes sizes of 0 or more pixels")
+    return values
+
+
+def _points(kind: str, extra: Any) -> list[float] | None:
+    """A relation's points from ``<additional_attributes>`` (``x;y;x;y;...``); ``None`` for other elements."""
+    if extra is not None and not isinstance(extra, str):
+        raise T.TextError("additional_attributes must be text")
+    if kind != "Relation" or not extra or not extra.strip():
         return None
-    if text is None:
-        text = ""
-    if not isinstance(text, str):
-        problem("panel_attributes must be text")
-        return None
-    points: list[float] | None = None
-    if isinstance(extra, str) and extra.strip():
-        parts = [p for p in extra.strip().split(";") if p.strip() != ""]
-        nums = [_number(p) for p in parts]
-        if kind == "Relation":
-            if any(n is None for n in nums):
-                bad = next(p for p, n in zip(parts, nums, strict=True) if n is None)
-                problem(f"relation point {bad.strip()[:30]!r} is not a number",
-                        hint="additional_attributes holds x;y;x;y;... numbers")
-                return None
-            if len(nums) % 2:
-                problem(f"relation points come in x;y pairs, got {len(nums)} numbers: {extra.strip()[:60]!r}",
-                        hint="additional_attributes holds x;y;x;y;... numbers; draw the arrow again in UMLet")
-                return None
-            points = [n for n in nums if n is not None]  # every one is a number (checked above)
-    elif extra is not None and not isinstance(extra, str):
-        problem("additional_attributes must be text")
-        return None
-    text = text.replace("\r\n", "\n").replace("\r", "\n")
-    line, col = where() if pointer is not None else (None, None)
-    return RawElement(index, kind, old, values[0], values[1], values[2], values[3], text, points, line, col, pointer)
+    parts = [p for p in extra.strip().split(";") if p.strip() != ""]
+    nums = [_number(p) for p in parts]
+    bad = next((p for p, n in zip(parts, nums, strict=True) if n is None), None)
+    if bad is not None:
+        raise T.TextError(f"relation point {bad.strip()[:30]!r} is not a number",
+                   "additional_attributes holds x;y;x;y;... numbers")
+    if len(nums) % 2:
+        raise T.TextError(f"relation points come in x;y pairs, got {len(nums)} numbers: {extra.strip()[:60]!r}",
+                   "additional_attributes holds x;y;x;y;... numbers; draw the arrow again in UMLet")
+    return [n for n in nums if n is not None]
 
 
 # -- xml2json ---------------------------------------------------------------------------------------------
@@ -389,23 +390,7 @@ def parse_xml2json(raw: bytes, name: str) -> RawDiagram:
     problems: list[Problem] = []
     elements: list[RawElement] = []
     for index, (item, ptr) in enumerate(items):
-        if not isinstance(item, dict):
-            line, col = at(ptr)
-            problems.append(Problem("element must be an object", name, pointer=ptr, line=line, column=col))
-            continue
-        kind = item.get("id")
-        old = False
-        if not isinstance(kind, str) and isinstance(item.get("type"), str):
-            kind = item["type"].strip().rsplit(".", 1)[-1]
-            old = True
-        panel = item.get("panel_attributes")
-        if isinstance(panel, dict):  # "#text" when xml2json met mixed content
-            panel = panel.get("#text", "")
-        extra = item.get("additional_attributes")
-        if isinstance(extra, dict):
-            extra = extra.get("#text")
-        elem = _make_element(index, kind.strip() if isinstance(kind, str) else kind, old, item.get("coordinates"),
-                             panel, extra, name, problems, functools.partial(at, ptr), ptr)
+        elem = _xml2json_element(index, item, ptr, name, problems, functools.partial(at, ptr))
         if elem is not None:
             elements.append(elem)
     if problems:
@@ -414,6 +399,29 @@ def parse_xml2json(raw: bytes, name: str) -> RawDiagram:
         line, col = at("/diagram")
         raise fail(name, "the <diagram> has no elements: draw states and transitions in UMLet", line, col)
     return RawDiagram(name, zoom, elements, text=text, locate_json=locator)
+
+
+def _xml2json_element(index: int, item: Any, ptr: str, name: str, problems: list[Problem],
+                      at: Callable[[], tuple[int | None, int | None]]) -> RawElement | None:
+    """One element of the xml2json form (its kind in ``id``, or an old ``type``; ``#text`` where xml2json met
+    mixed content), or ``None`` with its problem added."""
+    if not isinstance(item, dict):
+        line, col = at()
+        problems.append(Problem("element must be an object", name, pointer=ptr, line=line, column=col))
+        return None
+    kind = item.get("id")
+    old = False
+    if not isinstance(kind, str) and isinstance(item.get("type"), str):
+        kind = item["type"].strip().rsplit(".", 1)[-1]
+        old = True
+    panel = item.get("panel_attributes")
+    if isinstance(panel, dict):
+        panel = panel.get("#text", "")
+    extra = item.get("additional_attributes")
+    if isinstance(extra, dict):
+        extra = extra.get("#text")
+    return _make_element(index, kind.strip() if isinstance(kind, str) else kind, old, item.get("coordinates"),
+                         panel, extra, name, problems, at, ptr)
 
 
 # -- naming elements in messages ----------------------------------------------------------------------------

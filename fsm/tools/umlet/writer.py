@@ -21,7 +21,7 @@ import textwrap
 from typing import Any
 from xml.sax.saxutils import escape
 
-from ..graph.layout import HEAD, Expansion, LevelLayout, inline_machine, lay_out, sequence_machine
+from ..graph.layout import HEAD, Expansion, LevelLayout, Node, inline_machine, lay_out, sequence_machine
 from . import text as T
 
 HEADER = '<?xml version="1.0" encoding="UTF-8" standalone="no"?>\n<diagram program="umlet" version="15.1">\n'
@@ -403,6 +403,22 @@ def export(doc: dict[str, Any], registry: Any = None) -> str:
     return diagram(out)
 
 
+def _node_element(n: Node, names: set[str], used: set[str]) -> tuple[str, str]:
+    """The UMLet element kind and text of a state: a final state as a special state (when its outcome is said by
+    its label, see :func:`final_special`), a frame drawn as such, else a state box."""
+    st = n.doc
+    if st.get("type") == "Final":
+        text = final_special(st, names, used)
+        if text is not None:
+            used.add(str(st.get("id")))
+            return "UMLSpecialState", text
+    text = state_text(st, n.sub is not None or n.regions)
+    shape = (st.get("layout") or {}).get("shape") if isinstance(st.get("layout"), dict) else None
+    if shape == "frame" and n.sub is not None and text == f"{st.get('id')}\nvalign=top":
+        return "UMLFrame", str(st.get("id"))
+    return "UMLState", text
+
+
 def _emit(level: LevelLayout, out: list[str], registry: Any, note_of: Any) -> None:
     names = {str(n.doc.get("id")) for n in level.nodes if n.doc.get("type") != "Final"}
     used: set[str] = set()
@@ -411,19 +427,7 @@ def _emit(level: LevelLayout, out: list[str], registry: Any, note_of: Any) -> No
         out.append(element("UMLSpecialState", mx, my, *level.marker_size, "type=initial"))
         out.append(relation(level.marker_points, "lt=->"))
     for n in level.nodes:
-        st = n.doc
-        text = None
-        kind = "UMLState"
-        if st.get("type") == "Final":
-            text = final_special(st, names, used)
-            if text is not None:
-                kind = "UMLSpecialState"
-                used.add(str(st.get("id")))
-        if text is None:
-            text = state_text(st, n.sub is not None or n.regions)
-            shape = (st.get("layout") or {}).get("shape") if isinstance(st.get("layout"), dict) else None
-            if shape == "frame" and n.sub is not None and text == f"{st.get('id')}\nvalign=top":
-                kind, text = "UMLFrame", str(st.get("id"))
+        kind, text = _node_element(n, names, used)
         out.append(element(kind, n.x, n.y, n.w, n.h, text))
         if n.sub is not None:
             _emit(n.sub, out, registry, note_of)

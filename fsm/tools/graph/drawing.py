@@ -82,7 +82,7 @@ def svg(doc: dict[str, Any], base: str | Path | None = None) -> str:
     where: dict[int, str] = {}
     _draw(level, body, "", where)
     for e, (rx, ry, rw, rh), lines in labels:
-        body.append(f'<g class="label" data-in={quoteattr(where.get(id(e), ""))}>')
+        body.append(f'<g class="label" data-in={quoteattr(where.get(id(e), ""))}{_ends(e, where.get(id(e), ""))}>')
         full = edge_label(e.doc)
         if lines != [full]:  # shortened or wrapped: the whole label on hover
             body.append(f"<title>{escape(full)}</title>")
@@ -547,6 +547,15 @@ def _draw_state(n: Node, attrs: str, body: list[str]) -> None:
     body.append("</g>")
 
 
+def _ends(e: Edge, prefix: str) -> str:
+    """An arrow's (and its label's) ``data-from`` and ``data-to``: the state paths of its two ends (a viewer's "fit"
+    shows a state with its arrows and their labels)."""
+    def path(n: Node) -> str:
+        return f"{prefix}/{n.id}" if prefix else n.id
+
+    return f" data-from={quoteattr(path(e.src))} data-to={quoteattr(path(e.dst))}"
+
+
 def _draw_arrows(level: LevelLayout, body: list[str], prefix: str, where: dict[int, str] | None) -> None:
     """The level's initial marker and arrows, in one group that names the composite they are drawn in."""
     body.append(f'<g class="level" data-in={quoteattr(prefix)}>')
@@ -559,7 +568,7 @@ def _draw_arrows(level: LevelLayout, body: list[str], prefix: str, where: dict[i
     for e in level.edges:
         pts = " ".join(f"{p[0]:.0f},{p[1]:.0f}" for p in e.points)
         dash = ' stroke-dasharray="5,3"' if e.doc.get("preempt") else ""
-        body.append(f'<polyline class="edge" points="{pts}" fill="none" stroke="#333"{dash} '
+        body.append(f'<polyline class="edge"{_ends(e, prefix)} points="{pts}" fill="none" stroke="#333"{dash} '
                     'stroke-linejoin="round" marker-end="url(#arrow)"/>')
         if where is not None:
             where[id(e)] = prefix

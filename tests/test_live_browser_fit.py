@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import shutil
+from itertools import pairwise
 from pathlib import Path
 from typing import Any
 
@@ -97,6 +98,31 @@ def test_fit_shows_a_small_machine_whole_centred_with_margins(browser: Any, tmp_
     assert left >= MARGIN - 1 and top >= MARGIN - 1 and right >= MARGIN - 1 and bottom >= MARGIN - 1
     assert abs(left - right) <= 1.5 and abs(top - bottom) <= 1.5, got["drawing"]  # centred both ways
     page.page.screenshot(path=str(tmp_path / "fit-counter.png"))
+
+
+def test_fit_grows_the_panel_for_a_tall_machine_up_to_the_window(browser: Any, tmp_path: Path) -> None:  # noqa: F811
+    """A column of seven states (about 220 x 870) is not readable in the panel's own 66 % of the window: the panel
+    grows (no taller than the window holds below the sticky bars) and shows it whole, centred, readable."""
+    states = [{"id": f"step{i}", "type": "Idle"} for i in range(6)] + [{"id": "end", "type": "Final"}]
+    ids = [st["id"] for st in states]
+    transitions = [{"type": "Timeout", "from": a, "to": b, "seconds": 1} for a, b in pairwise(ids)]
+    machine = tmp_path / "column.json"
+    machine.write_text(json.dumps({"name": "column", "initial": "step0", "states": states,
+                                   "transitions": transitions}))
+    _live, page = browser(str(machine), "--paused", size=SIZE)
+    got = fitted(page)
+    assert got["kind"] == "all" and len(got["places"]) == 7 + 6, got
+    assert got["panel"][3] > 0.66 * SIZE[1] + 20, got["panel"]
+    # scrolled up to the sticky bars (as a click on a found state or a focused field scrolls), all of it is seen
+    page.page.evaluate("document.getElementById('chart').scrollIntoView()")
+    box = page.page.evaluate("(function (r) { return [r.top, r.bottom]; })("
+                             "document.getElementById('chart').getBoundingClientRect())")
+    bars = page.page.evaluate("document.getElementById('toolbar').offsetHeight + "
+                              "document.getElementById('live-bar').offsetHeight")
+    assert bars <= box[0] and box[1] <= SIZE[1], (bars, box)
+    left, top, right, bottom = got["drawing"]
+    assert abs(left - right) <= 1.5 and abs(top - bottom) <= 1.5 and min(top, bottom) >= MARGIN - 1, got["drawing"]
+    page.page.screenshot(path=str(tmp_path / "fit-column.png"))
 
 
 def test_fit_on_the_gate_run_follows_the_run_a_rewind_and_a_hot_reload(browser: Any,  # noqa: F811

@@ -91,9 +91,9 @@
   // "fit": the largest of the whole drawing, the composites around the active state (outermost first), the active
   // state with the states its arrows join and their labels, or the state alone, that shows its smallest text at
   // READABLE px or more; shown whole, MARGIN px clear of the panel's sides, centred (then moved towards the
-  // drawing where the panel would show nothing beside it). The panel grows taller (up to the window below the
-  // sticky bars) when that makes a larger part readable. data-fit names the part, data-fit-kind what it is.
-  var READABLE = 9, MARGIN = 16, MAX_FIT = 1, minFont = null, baseHeight = null;
+  // drawing where the panel would show nothing beside it). The panel grows taller (up to what the window holds
+  // below the sticky bars) when that makes a larger part readable. data-fit names the part, data-fit-kind what.
+  var READABLE = 9, MARGIN = 16, MAX_FIT = 1, minFont = null;
   function smallestFont() {
     if (minFont === null) {
       minFont = Infinity;
@@ -146,11 +146,12 @@
     out.push([leaf, "state", own]);
     return out;
   }
-  function panelHeights() {  // the panel's own height (66vh in the style), and the most it may grow to
-    if (baseHeight === null) { box.style.height = ""; baseHeight = box.clientHeight || 400; }
-    var bars = 0;
+  function panelHeights() {  // the panel's own height (66vh in the style), and the most it may grow to: what the
+    // window holds below the sticky bars (all of the panel is seen once it is scrolled up to them)
+    box.style.height = "";  // the style's height for this window (it changes with the window)
+    var base = box.clientHeight || 400, bars = 0;
     ["toolbar", "live-bar"].forEach(function (id) { var el = $(id); if (el) bars += el.offsetHeight; });
-    return [baseHeight, Math.max(baseHeight, window.innerHeight - bars - 8)];
+    return [base, Math.max(base, Math.floor(window.innerHeight - bars - 12))];
   }
   function fitAll() {
     var W = box.clientWidth || 600, f = smallestFont(), hs = panelHeights(), parts = fitParts();

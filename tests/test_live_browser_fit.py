@@ -8,6 +8,7 @@ chart panel's):
   (a composite, or the state with the states its arrows join and their labels): every box and label of that part
   inside the panel with the margin, its text at least 9 px, and no side of the panel empty while the opposite side
   cuts the drawing off (the "empty left third" of the last round);
+* "whole" shows every box and label of the drawing inside the panel, centred, however small;
 * the part follows the active state through steps and a rewind, a drag unticks "fit" and ticking it fits again,
   and after a hot reload (which reloads the page) the page is fitted again, or keeps the view the user left.
 """
@@ -32,7 +33,8 @@ MARGIN = 16
 PLACES = """(function () {
   var c = document.getElementById('chart'), b = c.getBoundingClientRect(), svg = c.querySelector('svg');
   var part = c.dataset.fit, kind = c.dataset.fitKind, k = svg.getScreenCTM().a;
-  function inPart(p) { return kind === 'all' || p === part || (kind === 'composite' && p.indexOf(part + '/') === 0); }
+  var all = kind === 'all' || kind === 'whole';
+  function inPart(p) { return all || p === part || (kind === 'composite' && p.indexOf(part + '/') === 0); }
   var ends = {}, out = [];
   svg.querySelectorAll('polyline.edge').forEach(function (e) {
     if (kind !== 'around') return;
@@ -51,7 +53,7 @@ PLACES = """(function () {
   });
   svg.querySelectorAll('g.label').forEach(function (g) {
     var f = g.getAttribute('data-from'), t = g.getAttribute('data-to'), within = g.getAttribute('data-in');
-    var mine = kind === 'all' || (kind === 'composite' && (within === part || within.indexOf(part + '/') === 0)) ||
+    var mine = all || (kind === 'composite' && (within === part || within.indexOf(part + '/') === 0)) ||
       (kind === 'around' && (f === part || t === part));
     if (mine) add(f + ' -> ' + t, g.querySelector('rect'));
   });
@@ -135,6 +137,17 @@ def test_fit_on_the_gate_run_follows_the_run_a_rewind_and_a_hot_reload(browser: 
     p = page.page
     first = fitted(page)  # fitted from the start
     assert part_of(first, page.status()["active"][0]), first["part"]
+    # "whole": every box and label of the drawing in the panel, centred, however small (and "fit" unticked)
+    p.click("#fit-whole")
+    whole = p.evaluate(PLACES)
+    assert whole["kind"] == "whole" and not whole["fit"] and len(whole["places"]) >= 30 + 40, whole["kind"]
+    outside = [place for place in whole["places"] if min(place[1:]) < MARGIN - 1.5]
+    assert not outside, outside
+    left, top, right, bottom = whole["drawing"]
+    assert abs(left - right) <= 1.5 and abs(top - bottom) <= 1.5 and min(whole["drawing"]) >= MARGIN - 1, whole
+    p.screenshot(path=str(tmp_path / "whole.png"))
+    p.check("#fit")
+    assert fitted(page)["places"] == first["places"]
     step_to(page, 600)
     at600 = fitted(page)
     active = page.status()["active"][0]

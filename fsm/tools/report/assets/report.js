@@ -166,12 +166,15 @@
     }
     pick = pick || parts[parts.length - 1];  // nothing is readable whole: the smallest part, whole
     box.style.height = height + "px";
-    var H = box.clientHeight || height, t = pick[2];
+    frame(pick[2]);
+    box.dataset.fit = pick[0];
+    box.dataset.fitKind = pick[1];
+  }
+  function frame(t) {  // the drawing-space box ``t`` shown whole in the panel, MARGIN px clear of its sides
+    var W = box.clientWidth || 600, H = box.clientHeight || 400;
     var k = Math.min((W - 2 * MARGIN) / t.w, (H - 2 * MARGIN) / t.h, MAX_FIT);
     var w = W / k, h = H / k, m = MARGIN / k;
     vb = { x: placed(t.x, t.w, w, m, full.x, full.w), y: placed(t.y, t.h, h, m, full.y, full.h), w: w, h: h };
-    box.dataset.fit = pick[0];
-    box.dataset.fitKind = pick[1];
     applyView();
   }
   // where a view of length ``len`` starts on one axis: the part (at ``at``, of length ``size``) centred, then moved
@@ -235,6 +238,14 @@
       if (box.dataset.dragged) { delete box.dataset.dragged; ev.stopPropagation(); }
     }, true);
   }
+  // "whole": the whole drawing in the panel as it is, however small its text; "fit" is unticked (it would follow)
+  $("fit-whole").addEventListener("click", function () {
+    if (!svg) return;
+    $("fit").checked = false;
+    frame(full);
+    box.dataset.fit = "all";
+    box.dataset.fitKind = "whole";
+  });
   $("fit").addEventListener("change", function () { if (!svg) return; if (this.checked) fitAll(); lastLeaf = null; setTime(cursor); });
   window.addEventListener("resize", function () { if (svg && $("fit").checked) fitAll(); else if (svg) { vb.h = vb.w * boxAspect(); applyView(); } });
   // search by name: states whose path holds the text are marked; Enter shows the next one

@@ -3,8 +3,9 @@
 For every diagram in ``diagrams/`` (the ``.uxf`` where there is one, else the ``.json``) and every file of the
 real UMLet corpus that converts (found where ``tests/helpers.py`` finds it, or in ``$TRAL_UXF_CORPUS``), draws it
 with ``fsmctl graph --format svg`` and counts what :mod:`fsm.tools.graph.quality` counts: box/box overlaps, arrows
-through boxes (not their ends nor a composite they are drawn in), labels over boxes, labels over labels, arrow
-crossings, arrows running on top of each other. Prints a Markdown table and the totals.
+through boxes (not their ends nor a composite they are drawn in) or along them, labels over boxes, labels over
+labels or closer than ``LABEL_GAP``, labels over arrows, arrow crossings, arrows running on top of each other or side
+by side closer than ``SPACING``. Prints a Markdown table and the totals.
 
 Run: ``.venv/bin/python benchmarks/bench_drawing.py`` (``--fsmctl PATH``: draw with another checkout's
 ``fsmctl``, e.g. to measure before a change; the counting is always this checkout's).
@@ -17,6 +18,7 @@ import os
 import subprocess
 import sys
 import tempfile
+from dataclasses import fields
 from pathlib import Path
 
 from fsm.tools.graph.quality import Quality, measure, table
@@ -59,9 +61,8 @@ def main() -> int:
                 continue  # a corpus file the converter refuses: nothing drawn
             q = measure(text)
             rows.append((name, q))
-            for k in ("boxes", "edges", "box_overlaps", "edge_through_box", "label_box", "label_label", "crossings",
-                      "along"):
-                setattr(total, k, getattr(total, k) + getattr(q, k))
+            for f in fields(Quality):
+                setattr(total, f.name, getattr(total, f.name) + getattr(q, f.name))
     rows.append(("**total**", total))
     print(table(rows))
     return 0

@@ -48,7 +48,7 @@ def _boxes(svg: str) -> dict[str, tuple[float, float, float, float]]:
 
 
 FAULTS = ("box_overlaps", "edge_through_box", "edge_grazes_box", "label_box", "label_label", "label_stacked",
-          "label_edge")
+          "label_edge", "label_close", "parallel_close")
 
 
 @pytest.mark.parametrize("name", ["hallway_lap.uxf", "lap.uxf", "gate_run.uxf", "gate_side.uxf", "gate_home.uxf",
@@ -128,3 +128,29 @@ def test_the_metric_counts_labels_on_arrows_stacked_labels_and_arrows_along_boxe
     body += label.format(x=400, y=300) + label.format(x=400, y=330)  # apart
     q = measure(f'<svg xmlns="http://www.w3.org/2000/svg">{body}</svg>')
     assert (q.label_edge, q.label_stacked, q.label_label, q.edge_grazes_box, q.edge_through_box) == (1, 1, 0, 1, 0), q
+
+
+def test_the_metric_counts_close_labels_and_close_parallel_runs():
+    """Labels of different arrows closer than ``LABEL_GAP`` (here 6 px apart, and 2 px: stacked too), and parallel
+    runs of two arrows closer than ``SPACING`` (12 px apart), not those at the spacing or on top of each other."""
+    label = '<g class="label" data-in=""><rect class="label" x="{x}" y="{y}" width="60" height="15"/></g>'
+    lines = '<g class="level" data-in="">' + "".join(
+        f'<polyline class="edge" points="{pts}"/>' for pts in (
+            "0,300 200,300", "20,312 220,312",  # 12 apart along 180: close
+            "0,400 200,400", "0,416 200,416",  # 16 apart: at the spacing
+            "0,500 200,500", "50,500 250,500",  # on top of each other: "along", not close
+            "0,600 200,600", "0,610 10,640",  # not parallel
+        )) + "</g>"
+    body = lines + label.format(x=400, y=0) + label.format(x=400, y=21)  # 6 apart
+    body += label.format(x=400, y=100) + label.format(x=400, y=117)  # 2 apart: stacked, and close
+    body += label.format(x=400, y=200) + label.format(x=470, y=200)  # 10 apart: not close
+    q = measure(f'<svg xmlns="http://www.w3.org/2000/svg">{body}</svg>')
+    assert (q.parallel_close, q.along, q.label_close, q.label_stacked, q.label_label) == (1, 1, 2, 1, 0), q
+
+
+def test_the_gate_run_keeps_its_arrows_apart_and_fewer_crossings():
+    """The gate run of the last round had two arrows into ``approach`` 8 px apart (their long runs 12 px), two
+    "Finished" labels 6 px apart beside ``view``, and 9 crossings; the router's lanes are now ``SPACING`` apart."""
+    q = measure(_drawn(ROOT / "diagrams" / "gate_run.uxf"))
+    assert (q.parallel_close, q.label_close) == (0, 0), q
+    assert q.crossings <= 7, q

@@ -15,7 +15,7 @@ from typing import Any
 from xml.sax.saxutils import escape, quoteattr
 
 from .buckets import Buckets
-from .geometry import segment_hits_box, segments_cross
+from .geometry import LABEL_GAP, segment_hits_box, segments_cross
 from .includes import expander
 from .labels import (
     BOX_MARGIN,
@@ -82,7 +82,7 @@ def svg(doc: dict[str, Any], base: str | Path | None = None) -> str:
     where: dict[int, str] = {}
     _draw(level, body, "", where)
     for e, (rx, ry, rw, rh), lines in labels:
-        body.append(f'<g class="label" data-in={quoteattr(where.get(id(e), ""))}>')
+        body.append(f'<g class="label" data-in={quoteattr(where.get(id(e), ""))}{_ends(e, where.get(id(e), ""))}>')
         full = edge_label(e.doc)
         if lines != [full]:  # shortened or wrapped: the whole label on hover
             body.append(f"<title>{escape(full)}</title>")
@@ -210,8 +210,9 @@ def _label_shapes(text: str) -> list[tuple[list[str], float, float, float]]:
     return out
 
 
-#: Labels closer than this (px) read as one stacked label: a place that close to another costs a little more.
-STACKED = 6.0
+#: What a place closer than ``LABEL_GAP`` to another label costs: two labels that close read as one label, or as
+#: labels of the same arrow (a few rings further out cost less).
+NEAR_LABEL = 1200.0
 #: What a label costs for each arrow running through it: more than any place near its arrow, less than a box.
 CROSSED = 20000.0
 #: Rings from this one on are tried only when every place beside the arrow lies across something: the label goes
@@ -253,7 +254,10 @@ def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
     """
     placed = _Placed()
     out: list[tuple[Edge, Rect, list[str]]] = []
-    for e, container, ancestors in scene.edges:
+    def arrow_length(item: tuple[Edge, Rect | None, tuple[int, ...]]) -> float:
+        return sum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in pairwise(item[0].points))
+
+    for e, container, ancestors in sorted(scene.edges, key=arrow_length):
         text = short_edge_label(e.doc)
         if not text or len(e.points) < 2:
             continue
@@ -365,12 +369,12 @@ class _Near:
         return self._on_arrows(found, k, r, anchor, cost, limit)
 
     def _on_labels(self, air: Rect) -> float:
-        """Over a label placed before; or stacked right next to one (within ``STACKED`` px), which reads as one
-        label of two lines whose arrows cannot be told apart."""
+        """Over a label placed before; or closer to one than ``LABEL_GAP`` (``air`` is 2 px larger than the label),
+        which reads as one label of two lines, or as labels of one arrow."""
         x0, y0, x1, y1 = air
         cost = 0.0
         placed = self.placed.rects
-        m = STACKED
+        m = LABEL_GAP - 2 + 0.5
         for i in self.placed.grid.near(x0 - m, y0 - m, x1 + m, y1 + m):
             ox, oy, ow, oh = placed[i]
             ox1, oy1 = ox + ow, oy + oh
@@ -379,7 +383,7 @@ class _Near:
             if w > 0 and h > 0:
                 cost += 1e6 + w * h * 100
             elif w > -m and h > -m:
-                cost += 400
+                cost += NEAR_LABEL
         return cost
 
     def _on_boxes(self, found: list[int], air: Rect) -> tuple[int, float]:
@@ -547,6 +551,15 @@ def _draw_state(n: Node, attrs: str, body: list[str]) -> None:
     body.append("</g>")
 
 
+def _ends(e: Edge, prefix: str) -> str:
+    """An arrow's (and its label's) ``data-from`` and ``data-to``: the state paths of its two ends (a viewer's "fit"
+    shows a state with its arrows and their labels)."""
+    def path(n: Node) -> str:
+        return f"{prefix}/{n.id}" if prefix else n.id
+
+    return f" data-from={quoteattr(path(e.src))} data-to={quoteattr(path(e.dst))}"
+
+
 def _draw_arrows(level: LevelLayout, body: list[str], prefix: str, where: dict[int, str] | None) -> None:
     """The level's initial marker and arrows, in one group that names the composite they are drawn in."""
     body.append(f'<g class="level" data-in={quoteattr(prefix)}>')
@@ -559,7 +572,7 @@ def _draw_arrows(level: LevelLayout, body: list[str], prefix: str, where: dict[i
     for e in level.edges:
         pts = " ".join(f"{p[0]:.0f},{p[1]:.0f}" for p in e.points)
         dash = ' stroke-dasharray="5,3"' if e.doc.get("preempt") else ""
-        body.append(f'<polyline class="edge" points="{pts}" fill="none" stroke="#333"{dash} '
+        body.append(f'<polyline class="edge"{_ends(e, prefix)} points="{pts}" fill="none" stroke="#333"{dash} '
                     'stroke-linejoin="round" marker-end="url(#arrow)"/>')
         if where is not None:
             where[id(e)] = prefix

@@ -4,8 +4,17 @@ segments ``(x0, y0, x1, y1)``."""
 
 from __future__ import annotations
 
+import math
+
 Box = tuple[float, float, float, float]
 Segment = tuple[float, float, float, float]
+
+#: How close two labels of different arrows may stand before they seem to belong together (the label placer keeps
+#: them this far apart where it can, the quality metric counts the pairs that are closer).
+LABEL_GAP = 10.0
+#: How close two parallel runs of different arrows may be (the router keeps its lanes this far apart, the metric
+#: counts the runs that are closer).
+SPACING = 16.0
 
 
 def segment_hits_box(x0: float, y0: float, x1: float, y1: float, box: Box, shrink: float = 0.0) -> bool:
@@ -40,9 +49,24 @@ def segments_cross(a: Segment, b: Segment) -> bool:
             and _orient(a, b[0], b[1]) * _orient(a, b[2], b[3]) < 0)
 
 
+def parallel_gap(a: Segment, b: Segment, run: float) -> float:
+    """How far apart two parallel segments run side by side for more than ``run`` (infinity when they are not
+    parallel, or do not run side by side that long)."""
+    ax, ay, bx, by = a
+    dx, dy = bx - ax, by - ay
+    la, lb = math.hypot(dx, dy), math.hypot(b[2] - b[0], b[3] - b[1])
+    if la < 1e-9 or lb < 1e-9 or abs(dx * (b[3] - b[1]) - dy * (b[2] - b[0])) > 0.05 * la * lb:
+        return math.inf
+    t0 = ((b[0] - ax) * dx + (b[1] - ay) * dy) / la
+    t1 = ((b[2] - ax) * dx + (b[3] - ay) * dy) / la
+    if min(la, max(t0, t1)) - max(0.0, min(t0, t1)) <= run:
+        return math.inf
+    return min(abs(dx * (py - ay) - dy * (px - ax)) / la for px, py in ((b[0], b[1]), (b[2], b[3])))
+
+
 def _orient(s: Segment, x: float, y: float) -> float:
     """Which side of the line through ``s`` the point is on (the sign of the cross product)."""
     return (s[2] - s[0]) * (y - s[1]) - (s[3] - s[1]) * (x - s[0])
 
 
-__all__ = ["Box", "Segment", "segment_hits_box", "segments_cross"]
+__all__ = ["LABEL_GAP", "SPACING", "Box", "Segment", "parallel_gap", "segment_hits_box", "segments_cross"]

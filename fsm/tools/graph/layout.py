@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from itertools import pairwise
 from typing import Any
 
-from .geometry import segment_hits_box, segments_cross
+from .geometry import SPACING, parallel_gap, segment_hits_box, segments_cross
 
 GRID = 10
 GAP_X, GAP_Y = 80, 80
@@ -764,6 +764,7 @@ def _route(level: LevelLayout, drawing: bool = False) -> None:
     if drawing:
         _separate_duplicates(level)
         _reroute(level)
+        _spread_pairs(level)
 
 
 def _separate_duplicates(level: LevelLayout) -> None:
@@ -788,6 +789,49 @@ def _separate_duplicates(level: LevelLayout) -> None:
         e.points = e.points[:i + 1] + [bend] + e.points[i + 1:]
 
 
+def _spread_pairs(level: LevelLayout) -> None:
+    """Two straight arrows between the same two boxes (a stored diagram's pair, drawn a little apart) that run side
+    by side closer than ``SPACING`` are moved apart to ``SPACING``, each by half, their ends kept on the boxes; two
+    that cross swap their ends on one box."""
+    straight: dict[tuple[int, int], list[Edge]] = {}
+    for e in level.edges:
+        if e.src is not e.dst and len(e.points) == 2:
+            straight.setdefault((min(id(e.src), id(e.dst)), max(id(e.src), id(e.dst))), []).append(e)
+    for pair in straight.values():
+        for i, e in enumerate(pair):
+            for f in pair[i + 1:]:
+                (a0, a1), (a2, a3) = e.points
+                (b0, b1), (b2, b3) = f.points
+                a, b = (a0, a1, a2, a3), (b0, b1, b2, b3)
+                if segments_cross(a, b):  # the two cross: each takes the other's end on one of the boxes
+                    j = 0 if f.src is e.src else 1
+                    e.points[0], f.points[j] = f.points[j], e.points[0]
+                    continue
+                gap = parallel_gap(a, b, 0.0)
+                if not 0.5 < gap < SPACING:
+                    continue
+                dx, dy = a[2] - a[0], a[3] - a[1]
+                length = math.hypot(dx, dy)
+                nx, ny = -dy / length, dx / length
+                if (b[0] - a[0]) * nx + (b[1] - a[1]) * ny < 0:  # the normal points from e towards f
+                    nx, ny = -nx, -ny
+                half = (SPACING - gap) / 2 + 1  # whole units: the SVG rounds the points
+                _shift_straight(e, -nx * half, -ny * half)
+                _shift_straight(f, nx * half, ny * half)
+
+
+def _shift_straight(e: Edge, sx: float, sy: float) -> None:
+    """The straight arrow ``e`` moved by (``sx``, ``sy``), its ends where the moved line leaves and enters its boxes."""
+    (ax, ay), (bx, by) = e.points
+    length = math.hypot(bx - ax, by - ay) or 1.0
+    ux, uy = (bx - ax) / length * 6, (by - ay) / length * 6  # a few units back into each box
+    s_in = (ax + sx - ux, ay + sy - uy)
+    t_in = (bx + sx + ux, by + sy + uy)
+    p = _exit_point((e.src.x, e.src.y, e.src.w, e.src.h), *s_in, *t_in)
+    q = _exit_point((e.dst.x, e.dst.y, e.dst.w, e.dst.h), *t_in, *s_in)
+    e.points = [[round(p[0], 1), round(p[1], 1)], [round(q[0], 1), round(q[1], 1)]]
+
+
 #: Routing around boxes (drawing only): how far a detour keeps from a box, what a bend costs (in drawing
 #: units of length), and the most boxes a level may have for its arrows to be routed (the grid grows with the
 #: square of it).
@@ -799,6 +843,9 @@ Seg = tuple[float, float, float, float]
 ROUTE_PASSES = 2
 #: What crossing another arrow costs a routed arrow, in drawing units of length.
 CROSS = 600.0
+#: What running beside an arrow routed before, closer than ``SPACING``, costs, as a share of ``CROSS`` (running on it
+#: costs all of ``CROSS``): less than a crossing, so that keeping apart never costs a crossing more.
+BESIDE = 0.2
 
 
 def _reroute(level: LevelLayout) -> None:
@@ -872,13 +919,15 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
     across_v = [(a[0], min(a[1], a[3]), max(a[1], a[3])) for a in routed if a[0] == a[2] and a[1] != a[3]]
     c = CLEARANCE
     s, t = boxes[si], boxes[ti]
-    off = (k % 3 - 1) * 8
-    start = (s[0] + s[2] / 2 + off, s[1] + s[3] / 2 + off)
-    goal = (t[0] + t[2] / 2 + off, t[1] + t[3] / 2 + off)
-    # two lanes beside every side, so that a second arrow along a box need not run on top of the first
-    xs = sorted({v for x, _, w, _ in boxes for v in (x - c, x - 2 * c, x + w + c, x + w + 2 * c)}
+    off = (k % 3 - 1) * SPACING
+    start = (s[0] + s[2] / 2 + _within(off, s[2]), s[1] + s[3] / 2 + _within(off, s[3]))
+    goal = (t[0] + t[2] / 2 + _within(off, t[2]), t[1] + t[3] / 2 + _within(off, t[3]))
+    # two lanes beside every side, SPACING apart, so that a second arrow along a box need not run on (or right
+    # beside) the first
+    far = c + SPACING
+    xs = sorted({v for x, _, w, _ in boxes for v in (x - c, x - far, x + w + c, x + w + far)}
                 | {start[0], goal[0]})
-    ys = sorted({v for _, y, _, h in boxes for v in (y - c, y - 2 * c, y + h + c, y + h + 2 * c)}
+    ys = sorted({v for _, y, _, h in boxes for v in (y - c, y - far, y + h + c, y + h + far)}
                 | {start[1], goal[1]})
 
     def free(a: tuple[float, float], b: tuple[float, float], key: Seg) -> bool:
@@ -982,11 +1031,19 @@ def _cut(corners: list[tuple[float, float]], s: Seg, t: Seg) -> list[list[float]
 
 
 def _shared(used: dict[tuple[int, float], list[tuple[float, float]]], a: tuple[float, float],
-            b: tuple[float, float]) -> int:
-    """How many routed runs the run ``a``-``b`` would lie on (for some length)."""
-    line, lo, hi = ((0, a[1]), a[0], b[0]) if a[1] == b[1] else ((1, a[0]), a[1], b[1])
+            b: tuple[float, float]) -> float:
+    """How many routed runs the run ``a``-``b`` would lie on (for some length), plus ``BESIDE`` for each it would
+    run beside closer than ``SPACING``."""
+    (axis, at), lo, hi = ((0, a[1]), a[0], b[0]) if a[1] == b[1] else ((1, a[0]), a[1], b[1])
     lo, hi = min(lo, hi), max(lo, hi)
-    return sum(1 for s0, s1 in used.get(line, ()) if min(hi, s1) - max(lo, s0) > 1)
+    return sum(1 if line == at else BESIDE for (other, line), spans in used.items()
+               if other == axis and abs(line - at) < SPACING for s0, s1 in spans if min(hi, s1) - max(lo, s0) > 1)
+
+
+def _within(off: float, size: float) -> float:
+    """An arrow end's offset from the middle of a box side ``size`` long, kept a little inside the box."""
+    lim = max(0.0, size / 2 - 6)
+    return max(-lim, min(lim, off))
 
 
 def _inside_box(p: tuple[float, float], r: tuple[float, float, float, float]) -> bool:

@@ -15,7 +15,10 @@ measures any version of the drawing code the same way. Counted:
 * ``edge_grazes_box``: (arrow, box) pairs where the arrow, not through the box, runs along its border closer than
   ``GRAZE`` (it looks as if it went in);
 * ``crossings``: points where two arrows cross;
-* ``along``: pairs of segments of two arrows that run on top of each other for some length.
+* ``along``: pairs of segments of two arrows that run on top of each other for some length;
+* ``parallel_close``: pairs of segments of two arrows that run side by side, parallel, closer than ``SPACING`` (but
+  not on top of each other) for more than ``RUN`` (they read as one thick arrow, or cannot be told apart);
+* ``label_close``: pairs of labels closer than ``LABEL_GAP`` (stacked ones too): whose label is whose is unclear.
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ from itertools import pairwise
 from xml.etree import ElementTree
 
 from .buckets import Buckets
-from .geometry import segment_hits_box, segments_cross
+from .geometry import LABEL_GAP, SPACING, parallel_gap, segment_hits_box, segments_cross
 
 NS = "{http://www.w3.org/2000/svg}"
 Rect = tuple[float, float, float, float]
@@ -35,6 +38,8 @@ TOLERANCE = 2.0
 GRAZE = 3.0
 #: How close two labels may stand.
 STACKED = 4.0
+#: How long two parallel runs of arrows closer than ``SPACING`` may run side by side.
+RUN = 12.0
 
 
 @dataclass
@@ -48,13 +53,16 @@ class Quality:
     edge_grazes_box: int = 0
     crossings: int = 0
     along: int = 0
+    parallel_close: int = 0
+    label_close: int = 0
     boxes: int = 0
     edges: int = 0
     labels: int = 0
 
     def row(self) -> tuple[int, ...]:
         return (self.boxes, self.edges, self.box_overlaps, self.edge_through_box, self.edge_grazes_box,
-                self.label_box, self.label_label, self.label_stacked, self.label_edge, self.crossings, self.along)
+                self.label_box, self.label_label, self.label_stacked, self.label_close, self.label_edge,
+                self.crossings, self.along, self.parallel_close)
 
 
 @dataclass
@@ -127,11 +135,11 @@ def measure(svg_text: str) -> Quality:
         grid.add_rect(*b.rect)
     q.box_overlaps = _box_overlaps(d.boxes, grid)
     segs, all_segs = _edges_against_boxes(d, grid, q)
-    q.crossings, q.along = _crossings(segs, all_segs)
+    q.crossings, q.along, q.parallel_close = _crossings(segs, all_segs)
     q.label_box = sum(_label_on_box(d.boxes, grid, within, r) for within, r in d.labels)
     q.label_edge = sum(len({all_segs[j][0] for j in segs.near(r[0], r[1], r[0] + r[2], r[1] + r[3])
                             if segment_hits_box(*all_segs[j][1], r, TOLERANCE)}) for _, r in d.labels)
-    q.label_label, q.label_stacked = _label_overlaps([r for _, r in d.labels])
+    q.label_label, q.label_stacked, q.label_close = _label_overlaps([r for _, r in d.labels])
     return q
 
 
@@ -211,11 +219,14 @@ def _edges_against_boxes(d: _Drawing, grid: Buckets, q: Quality) -> tuple[Bucket
     return segs, all_segs
 
 
-def _crossings(segs: Buckets, all_segs: list[tuple[int, Seg]]) -> tuple[int, int]:
-    """Points where two arrows cross, and pairs of segments of two arrows on top of each other."""
-    crossings = along = 0
+def _crossings(segs: Buckets, all_segs: list[tuple[int, Seg]]) -> tuple[int, int, int]:
+    """Points where two arrows cross, pairs of segments of two arrows on top of each other, and pairs that run
+    side by side closer than ``SPACING``."""
+    crossings = along = close = 0
+    m = SPACING
     for i, (k, seg) in enumerate(all_segs):
-        for j in segs.near(min(seg[0], seg[2]), min(seg[1], seg[3]), max(seg[0], seg[2]), max(seg[1], seg[3])):
+        for j in segs.near(min(seg[0], seg[2]) - m, min(seg[1], seg[3]) - m, max(seg[0], seg[2]) + m,
+                           max(seg[1], seg[3]) + m):
             k2, seg2 = all_segs[j]
             if j <= i or k2 == k:
                 continue
@@ -223,7 +234,9 @@ def _crossings(segs: Buckets, all_segs: list[tuple[int, Seg]]) -> tuple[int, int
                 crossings += 1
             elif _along(seg, seg2):
                 along += 1
-    return crossings, along
+            elif parallel_gap(seg, seg2, RUN) < SPACING:
+                close += 1
+    return crossings, along, close
 
 
 def _label_on_box(boxes: list[_Box], grid: Buckets, within: str, r: Rect) -> bool:
@@ -238,26 +251,29 @@ def _label_on_box(boxes: list[_Box], grid: Buckets, within: str, r: Rect) -> boo
     return False
 
 
-def _label_overlaps(rects: list[Rect]) -> tuple[int, int]:
-    """Pairs of labels that overlap, and pairs that do not but stand closer than ``STACKED``."""
+def _label_overlaps(rects: list[Rect]) -> tuple[int, int, int]:
+    """Pairs of labels that overlap, pairs that do not but stand closer than ``STACKED``, and pairs that do not
+    overlap but stand closer than ``LABEL_GAP``."""
     placed = Buckets()
     for r in rects:
         placed.add_rect(*r)
-    over = stacked = 0
-    m = STACKED
+    over = stacked = close = 0
+    m = LABEL_GAP
     for i, r in enumerate(rects):
         for j in placed.near(r[0] - m, r[1] - m, r[0] + r[2] + m, r[1] + r[3] + m):
             if j <= i:
                 continue
             if _overlap(r, rects[j]):
                 over += 1
-            elif _overlap(r, rects[j], -m):
-                stacked += 1
-    return over, stacked
+                continue
+            stacked += _overlap(r, rects[j], -STACKED)
+            close += _overlap(r, rects[j], -m)
+    return over, stacked, close
 
 
 HEADER = ("boxes", "arrows", "box/box", "arrow/box", "arrow along box", "label/box", "label/label", "labels stacked",
-          "label/arrow", "crossings", "arrow along arrow")
+          f"labels < {LABEL_GAP:g} apart", "label/arrow", "crossings", "arrow along arrow",
+          f"parallel runs < {SPACING:g} apart")
 
 
 def table(rows: list[tuple[str, Quality | str]]) -> str:

@@ -83,20 +83,17 @@
   } else {
     $("chart").textContent = "No drawing: the trace carries no machine document that can be drawn.";
   }
-  // The drawing is seen through its viewBox: the wheel zooms about the pointer, a drag pans, "fit" shows it all;
+  // The drawing is seen through its viewBox: the wheel zooms about the pointer, a drag pans, "fit" shows what fits;
   // following the active state moves the view to it (at a readable scale when the whole drawing is not).
   var full = null, vb = null, box = $("chart");
   function applyView() { if (svg && vb) svg.setAttribute("viewBox", vb.x + " " + vb.y + " " + vb.w + " " + vb.h); }
   function boxAspect() { return (box.clientHeight || 400) / (box.clientWidth || 600); }
-  function fitBox(r) {  // r: a drawing-space box, shown whole and centred
-    var a = boxAspect(), w = r.w, h = r.h;
-    if (h / w > a) w = h / a; else h = w * a;
-    vb = { x: r.x - (w - r.w) / 2, y: r.y - (h - r.h) / 2, w: w, h: h };
-    applyView();
-  }
-  // "fit": the whole drawing when its smallest text stays readable (READABLE px), else the largest composite
-  // around the active state that does (a tall machine fitted whole is an unreadable strip)
-  var READABLE = 9, minFont = null;
+  // "fit": the largest of the whole drawing, the composites around the active state (outermost first), the active
+  // state with the states its arrows join and their labels, or the state alone, that shows its smallest text at
+  // READABLE px or more; shown whole, MARGIN px clear of the panel's sides, centred (then moved towards the
+  // drawing where the panel would show nothing beside it). The panel grows taller (up to what the window holds
+  // below the sticky bars) when that makes a larger part readable. data-fit names the part, data-fit-kind what.
+  var READABLE = 9, MARGIN = 16, MAX_FIT = 1, minFont = null;
   function smallestFont() {
     if (minFont === null) {
       minFont = Infinity;
@@ -108,25 +105,86 @@
     }
     return minFont;
   }
+  function union(r, s) {  // drawing-space boxes {x, y, w, h}; r may be null
+    if (!s || !(s.width || s.height || s.w || s.h)) return r;
+    var b = s.w !== undefined ? s : { x: s.x, y: s.y, w: s.width, h: s.height };
+    if (!r) return { x: b.x, y: b.y, w: b.w, h: b.h };
+    var x0 = Math.min(r.x, b.x), y0 = Math.min(r.y, b.y);
+    return { x: x0, y: y0, w: Math.max(r.x + r.w, b.x + b.w) - x0, h: Math.max(r.y + r.h, b.y + b.h) - y0 };
+  }
+  function shownBox(els) {  // the union of the boxes of the elements not folded away
+    var r = null;
+    Array.prototype.forEach.call(els, function (el) { if (!el.closest(".hidden")) r = union(r, el.getBBox()); });
+    return r;
+  }
+  function attrIs(name, value) { return "[" + name + "=\"" + value.replace(/["\\]/g, "\\$&") + "\"]"; }
+  function fitParts() {  // [path, kind, drawing-space box], largest first
+    var out = [["all", "all", full]];
+    var leaf = current && current.active.length ? current.active[0] : (S.length ? S[0] : "");
+    if (!leaf) return out;
+    var parts = leaf.split("/");
+    for (var n = 1; n < parts.length; n++) {
+      var p = parts.slice(0, n).join("/"), gs = groups[p];
+      if (!gs || !gs.length || gs[0].classList.contains("hidden") || !gs[0].classList.contains("composite")) continue;
+      var r = shownBox(gs.map(function (g) { return g.querySelector("rect") || g; }));
+      r = union(r, shownBox(svg.querySelectorAll("g.label" + attrIs("data-in", p) + ", g.label[data-in^=\"" +
+        (p + "/").replace(/["\\]/g, "\\$&") + "\"]")));
+      if (r) out.push([p, "composite", r]);
+    }
+    var own = groups[leaf] && !groups[leaf][0].classList.contains("hidden") ? shownBox([groups[leaf][0]]) : null;
+    if (!own) return out;
+    var ends = attrIs("data-from", leaf) + "," + attrIs("data-to", leaf);
+    var around = union(own, shownBox(Array.prototype.filter.call(svg.querySelectorAll("polyline.edge, g.label"),
+      function (el) { return el.matches(ends); })));
+    Array.prototype.forEach.call(svg.querySelectorAll("polyline.edge"), function (e) {
+      if (!e.matches(ends)) return;
+      var other = e.getAttribute("data-from") === leaf ? e.getAttribute("data-to") : e.getAttribute("data-from");
+      var g = groups[other] && groups[other][0];
+      if (g && !g.classList.contains("composite")) around = union(around, shownBox([g]));
+    });
+    if (around.w > own.w || around.h > own.h) out.push([leaf, "around", around]);
+    out.push([leaf, "state", own]);
+    return out;
+  }
+  function panelHeights() {  // the panel's own height (66vh in the style), and the most it may grow to: what the
+    // window holds below the sticky bars (all of the panel is seen once it is scrolled up to them)
+    box.style.height = "";  // the style's height for this window (it changes with the window)
+    var base = box.clientHeight || 400, bars = 0;
+    ["toolbar", "live-bar"].forEach(function (id) { var el = $(id); if (el) bars += el.offsetHeight; });
+    return [base, Math.max(base, Math.floor(window.innerHeight - bars - 12))];
+  }
   function fitAll() {
-    fitBox(full);
-    box.dataset.fit = "all";
-    if (scale() * smallestFont() >= READABLE - 1e-6) return;
-    var leaf = current && current.active.length ? current.active[0] : (S.length ? S[0] : ""), parts = leaf.split("/");
-    for (var n = 1; n <= parts.length; n++) {
-      var gs = groups[parts.slice(0, n).join("/")];
-      if (!gs || !gs.length || gs[0].classList.contains("hidden")) continue;
-      var r = gs[0].getBBox(), pad = 12, k = Math.min((box.clientWidth || 600) / (r.width + 2 * pad), (box.clientHeight || 400) / (r.height + 2 * pad));
-      if (n < parts.length && k * smallestFont() >= READABLE) {  // a composite around the state, fitted whole
-        fitBox({ x: r.x - pad, y: r.y - pad, w: r.width + 2 * pad, h: r.height + 2 * pad });
-        box.dataset.fit = parts.slice(0, n).join("/");
-        return;
-      }
-      if (n === parts.length) {  // no composite around it fits readably: the state at a readable scale, centred
-        centreOn(r, (READABLE + 2) / smallestFont());
-        box.dataset.fit = leaf;
+    var W = box.clientWidth || 600, f = smallestFont(), hs = panelHeights(), parts = fitParts();
+    var pick = null, height = hs[0];
+    for (var i = 0; i < parts.length && !pick; i++) {
+      var r = parts[i][2], kw = (W - 2 * MARGIN) / r.w;
+      if (Math.min(kw, (hs[0] - 2 * MARGIN) / r.h) * f >= READABLE - 1e-6) pick = parts[i];
+      else if (Math.min(kw, (hs[1] - 2 * MARGIN) / r.h) * f >= READABLE - 1e-6) {
+        pick = parts[i];
+        height = Math.ceil(Math.min(kw, (hs[1] - 2 * MARGIN) / r.h, MAX_FIT) * r.h + 2 * MARGIN);
       }
     }
+    pick = pick || parts[parts.length - 1];  // nothing is readable whole: the smallest part, whole
+    box.style.height = height + "px";
+    frame(pick[2]);
+    box.dataset.fit = pick[0];
+    box.dataset.fitKind = pick[1];
+  }
+  function frame(t) {  // the drawing-space box ``t`` shown whole in the panel, MARGIN px clear of its sides
+    var W = box.clientWidth || 600, H = box.clientHeight || 400;
+    var k = Math.min((W - 2 * MARGIN) / t.w, (H - 2 * MARGIN) / t.h, MAX_FIT);
+    var w = W / k, h = H / k, m = MARGIN / k;
+    vb = { x: placed(t.x, t.w, w, m, full.x, full.w), y: placed(t.y, t.h, h, m, full.y, full.h), w: w, h: h };
+    applyView();
+  }
+  // where a view of length ``len`` starts on one axis: the part (at ``at``, of length ``size``) centred, then moved
+  // towards the drawing (``d0``, ``dlen``) so that no side shows nothing while the other cuts the drawing off,
+  // the part always ``m`` clear of both sides
+  function placed(at, size, len, m, d0, dlen) {
+    var v = at + size / 2 - len / 2;
+    if (len >= dlen) v = Math.min(Math.max(d0 + dlen / 2 - len / 2, at + size + m - len), at - m);
+    else v = Math.min(Math.max(Math.min(Math.max(v, d0), d0 + dlen - len), at + size + m - len), at - m);
+    return v;
   }
   function scale() { return (box.clientWidth || 600) / vb.w; }  // screen px per drawing unit
   function centreOn(r, zoomTo) {  // r: a drawing-space box
@@ -135,16 +193,26 @@
     vb = { x: r.x + r.width / 2 - w / 2, y: r.y + r.height / 2 - h / 2, w: w, h: h };
     applyView();
   }
+  // the view outlives a reload of the page (a hot reload's, or the user's): fitted, or where the user left it
+  var VIEW_KEY = "tral-chart-view:" + location.pathname;
   if (svg) {
     var v = svg.viewBox.baseVal;
     full = { x: v.x, y: v.y, w: v.width || svg.width.baseVal.value, h: v.height || svg.height.baseVal.value };
     svg.removeAttribute("width"); svg.removeAttribute("height");
     svg.setAttribute("preserveAspectRatio", "xMidYMid meet");
     box.classList.add("zoomable");
-    fitAll();
-    // fit when it stays readable (at least 0.45 of its size), else a readable scale that follows the active state
-    if (scale() >= 0.45) $("fit").checked = true;
-    else { vb.w = (box.clientWidth || 600); vb.h = vb.w * boxAspect(); vb.x = full.x; vb.y = full.y; applyView(); }
+    var kept = null;
+    try { kept = JSON.parse(sessionStorage.getItem(VIEW_KEY) || "null"); } catch (e) { kept = null; }
+    if (kept && !kept.fit && kept.vb && kept.height > 0) {
+      $("fit").checked = false;
+      box.style.height = kept.height + "px";
+      vb = kept.vb; vb.h = vb.w * boxAspect();
+      applyView();
+    } else { $("fit").checked = true; fitAll(); }
+    window.addEventListener("pagehide", function () {
+      var view = JSON.stringify({ fit: $("fit").checked, vb: vb, height: box.clientHeight });
+      try { sessionStorage.setItem(VIEW_KEY, view); } catch (e) { /* no storage: the next page fits */ }
+    });
     box.addEventListener("wheel", function (ev) {
       ev.preventDefault();
       var r = box.getBoundingClientRect(), fx = (ev.clientX - r.left) / r.width, fy = (ev.clientY - r.top) / r.height;
@@ -170,6 +238,14 @@
       if (box.dataset.dragged) { delete box.dataset.dragged; ev.stopPropagation(); }
     }, true);
   }
+  // "whole": the whole drawing in the panel as it is, however small its text; "fit" is unticked (it would follow)
+  $("fit-whole").addEventListener("click", function () {
+    if (!svg) return;
+    $("fit").checked = false;
+    frame(full);
+    box.dataset.fit = "all";
+    box.dataset.fitKind = "whole";
+  });
   $("fit").addEventListener("change", function () { if (!svg) return; if (this.checked) fitAll(); lastLeaf = null; setTime(cursor); });
   window.addEventListener("resize", function () { if (svg && $("fit").checked) fitAll(); else if (svg) { vb.h = vb.w * boxAspect(); applyView(); } });
   // search by name: states whose path holds the text are marked; Enter shows the next one
@@ -318,8 +394,10 @@
         if (gs) gs.forEach(function (g) { g.classList.add("active"); shown.push(g); if (n === parts.length && !leaf) leaf = g; });
       }
     });
-    if (svg && $("fit").checked && box.dataset.fit && box.dataset.fit !== "all" && leaf && leaf !== lastLeaf &&
-        !(current.active[0] === box.dataset.fit || current.active[0].indexOf(box.dataset.fit + "/") === 0)) fitAll();
+    // "fit" follows the active state out of the part it shows (a composite's states stay in their composite's view)
+    var part = box.dataset.fit, at = current.active[0];
+    if (svg && $("fit").checked && part && part !== "all" && leaf && leaf !== lastLeaf && at !== part &&
+        !(box.dataset.fitKind === "composite" && at && at.indexOf(part + "/") === 0)) fitAll();
     if ($("follow").checked && leaf && leaf !== lastLeaf && !leaf.classList.contains("hidden") && svg && !$("fit").checked) {
       var r = leaf.getBBox();  // moved to it when it is not wholly in view
       if (r.x < vb.x || r.x + r.width > vb.x + vb.w || r.y < vb.y || r.y + r.height > vb.y + vb.h) centreOn(r, null);

@@ -409,12 +409,16 @@ class Simulation:
         car = self.car
         ctx = self.machine.ctx
         now = ctx._now  # the machine's time slot: the property costs a call each tick
-        x, y, th = car.true_pose()
-        if car.sample != self._err_sample:
+        leaf = None
+        if car.sample != self._err_sample:  # a new sensor sample: measure it on a straight
             self._err_sample = car.sample
             leaf = self._straight
-            if leaf is not None:
-                self._measure(leaf, (x, y, th))
+        if leaf is None:
+            x, y = car.true_position()  # the heading is not needed
+        else:
+            pose = car.true_pose()
+            x, y = pose[0], pose[1]
+            self._measure(leaf, pose)
         if self.gate_log is not None:
             self.gate_log.update(now, x, y)
         self.lap_log.update(now, x, y)

@@ -128,7 +128,7 @@ class SimCar:
         "rng", "noise", "wheelbase", "max_steering_angle", "length", "width", "_pose", "_pose_step", "_apart",
         "collisions", "contact_steps", "_touching", "_cmd_steer", "_cmd_speed", "_servo", "_moving", "_v", "_offset",
         "_rate_dt", "_half_band", "_lag", "_pending", "_servo_cmd", "_acc_dt", "_dec_dt", "_max_speed", "_delta",
-        "_k_beta", "_k_w", "_units", "_travel", "_min_r", "_max_r", "_cos_inc", "_sd0", "_sd1", "_outliers",
+        "_k_beta", "_k_w", "_w", "_units", "_travel", "_min_r", "_max_r", "_cos_inc", "_sd0", "_sd1", "_outliers",
         "_dropouts", "_half", "_tan_half", "_res", "sensor_every", "left", "right", "front", "sample", "distance",
         "hall", "speed", "steering", "steps", "time", "min_clearance", "_clear_bounds", "_half_diagonal", "_odo_scale",
         "_odo_offset", "_odo_hall", "_odo_delta", "_odo_tan", "_odo_beta", "_odo_cos", "_odo", "_view", "_frame",
@@ -203,6 +203,7 @@ class SimCar:
         self._delta: float | None = None
         self._k_beta = 0.0
         self._k_w = 0.0
+        self._w = 0.0  # the control body's angular velocity, as last set
         self._units = p.hall_units_per_m
         self._travel = 0.0
         # sensors
@@ -350,7 +351,7 @@ class SimCar:
         self._v = 0.0
         self.speed = 0.0
         self.control.velocity = (0.0, 0.0)
-        self.control.angular_velocity = 0.0
+        self.control.angular_velocity = self._w = 0.0
         self.body.velocity = (0.0, 0.0)
         self.body.angular_velocity = 0.0
 
@@ -416,12 +417,15 @@ class SimCar:
             body, control, space = c
             th = _get_angle(body) + self._k_beta
             _set_velocity(control, (v * math.cos(th), v * math.sin(th)))
-            _set_angular_velocity(control, v * self._k_w)
+            w = v * self._k_w
+            if w != self._w or w == 0.0:  # a kinematic body keeps its velocity: set it when it changes (or is 0)
+                _set_angular_velocity(control, w)
+                self._w = w
             _space_step(space, PHYSICS_DT)
         else:
             th = self.body.angle + self._k_beta
             self.control.velocity = (v * math.cos(th), v * math.sin(th))
-            self.control.angular_velocity = v * self._k_w
+            self.control.angular_velocity = self._w = v * self._k_w
             self.space.step(PHYSICS_DT)
         if self._touching:
             self.contact_steps += 1

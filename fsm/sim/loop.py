@@ -199,7 +199,10 @@ class Track:
             self._points = points = array("f", (v for i in range(0, len(points), 6) for v in points[i:i + 3]))
             self.every *= 2
             self.period *= 2
-        points.extend((x, y, k))
+        append = points.append  # three appends: half the time of extending by a tuple
+        append(x)
+        append(y)
+        append(k)
 
     def __len__(self) -> int:
         return len(self._points) // 3

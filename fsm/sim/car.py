@@ -41,10 +41,6 @@ WALL_RADIUS = 0.005
 #: many sectors of directions): see :class:`BeamIndex`
 BEAM_CELL = 1.0
 BEAM_SECTORS = 16
-#: The clearance's queries of the walls look this much further than needed (m), and a bound is trusted only this
-#: far above what it must exceed (m; chipmunk's distances round at 1e-16)
-CLEAR_SLACK = 0.5
-CLEAR_EPS = 1e-9
 #: Radius of the posts markers stand on (physical obstacles), m.
 POST_RADIUS = 0.02
 #: Markers farther than this from the camera are never rendered (they would be a few pixels), m.
@@ -130,9 +126,9 @@ class SimCar:
         "_rate_dt", "_half_band", "_lag", "_pending", "_servo_cmd", "_acc_dt", "_dec_dt", "_max_speed", "_delta",
         "_k_beta", "_k_w", "_w", "_units", "_travel", "_min_r", "_max_r", "_cos_inc", "_sd0", "_sd1", "_outliers",
         "_dropouts", "_half", "_tan_half", "_res", "sensor_every", "left", "right", "front", "sample", "distance",
-        "hall", "speed", "steering", "steps", "time", "min_clearance", "_clear_bounds", "_half_diagonal", "_odo_scale",
-        "_odo_offset", "_odo_hall", "_odo_delta", "_odo_tan", "_odo_beta", "_odo_cos", "_odo", "_view", "_frame",
-        "_cam", "camera_frames", "rendered_frames", "gate_memory", "camera_every", "_cam_seed")
+        "hall", "speed", "steering", "steps", "time", "min_clearance", "_half_diagonal", "_odo_scale", "_odo_offset",
+        "_odo_hall", "_odo_delta", "_odo_tan", "_odo_beta", "_odo_cos", "_odo", "_view", "_frame", "_cam",
+        "camera_frames", "rendered_frames", "gate_memory", "camera_every", "_cam_seed")
 
     def __init__(self, world: World, *, seed: int = 0, noise: bool = True) -> None:
         p = world.car
@@ -244,9 +240,6 @@ class SimCar:
         self.min_clearance = math.inf
         self._by_name = {sensor.name: sensor for sensor in self.sensors}
         self._outline = self._outline_points()
-        #: per point of the clearance (the centre, then the outline): where the walls were last asked, and the
-        #: distance to them there (or how far they were asked to look): a lower bound of it nearby
-        self._clear_bounds = [0.0, 0.0, -math.inf] * (1 + len(self._outline))
         self._half_diagonal = math.hypot(p.length, p.width) / 2
         self._make_queries()
         # odometry: dead reckoning from the hall sensor and the steering model (its own seeded errors)
@@ -635,9 +628,10 @@ class SimCar:
                     best = round(best / res) * res
             setattr(self, sensor.name, best)
         self.sample += 1
-        reach = self.min_clearance + self._half_diagonal
+        clear = self.min_clearance
+        reach = clear + self._half_diagonal
         # The body can only be nearer than the clearance so far if its centre is within that plus its half diagonal.
-        if self._wall_within(0, x, y, reach) < reach:
+        if self._nearest(self.space, x, y, reach) < reach:
             self._clearance_near(x, y, c, s)
 
     def _ray_echo(self, ox: float, oy: float, c: float, s: float, rays: Iterable[tuple[float, float]]) -> float:
@@ -667,27 +661,14 @@ class SimCar:
     def _clearance_near(self, x: float, y: float, c: float, s: float) -> None:
         """The body's clearance to the walls, where its centre (x, y, turned by cos ``c``, sin ``s``) is near
         enough for it to be below the smallest so far: the nearest wall to each point of the outline."""
+        nearest = self._nearest
         clear = self.min_clearance
-        for k, (px, py) in enumerate(self._outline, 1):
-            d = self._wall_within(k, x + c * px - s * py, y + s * px + c * py, clear)
+        reach = clear if clear != math.inf else 1e3
+        for px, py in self._outline:
+            d = nearest(self.space, x + c * px - s * py, y + s * px + c * py, reach)
             if d < clear:
                 clear = d
         self.min_clearance = clear
-
-    def _wall_within(self, k: int, x: float, y: float, limit: float) -> float:
-        """The distance from (x, y), point ``k`` of the clearance (0: the centre, then the outline), to the nearest
-        wall if it is below ``limit``, else ``inf`` or a distance at least ``limit``. The walls stand still, so the
-        distance changes no faster than the point moves: the distance found at the point's last query, less how far
-        it has moved since, bounds it from below, and the walls are asked only when that bound is below ``limit``
-        (they are then asked to look :data:`CLEAR_SLACK` further, so that what they answer bounds the next ones)."""
-        bounds = self._clear_bounds
-        i = 3 * k
-        if bounds[i + 2] - math.hypot(x - bounds[i], y - bounds[i + 1]) > limit + CLEAR_EPS:
-            return math.inf
-        reach = limit + CLEAR_SLACK
-        d = self._nearest(self.space, x, y, reach)
-        bounds[i:i + 3] = x, y, d if d < reach else reach
-        return d
 
     def _beam_echo(self, ox: float, oy: float, ux: float, uy: float) -> float:
         """The ``beam`` model: the distance from a sensor at (ox, oy) looking along the unit vector (ux, uy) to the

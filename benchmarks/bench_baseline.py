@@ -22,7 +22,8 @@ Workloads (each the same code on both sides):
 
 Budgets (issue 21): load at least 2x faster than transitions' Machine and at most 10 ms; flat and nested at
 least as fast as the base; guard / guard+set at most 30 % / 50 % below the plain ring (this checkout); the lap
-at least 90 % of the base's real-time factor.
+(issue 36) at least the base's real-time factor, by wall clock, and also shown by the run's own processor time
+(``time.thread_time``), which the other jobs of a busy machine disturb less.
 """
 
 from __future__ import annotations
@@ -140,11 +141,12 @@ elif workload in ("guard", "guard+set", "plain"):
     print(json.dumps({"rate": rate(guard_ring(workload), True)}))
 elif workload == "lap":
     from bench_sim import run_once
-    factors = []
+    factors, cpu = [], []
     for _ in range(2):
         sim_time, wall, _m = run_once(0)
         factors.append(sim_time / wall)
-    print(json.dumps({"factor": max(factors)}))
+        cpu.append(sim_time / _m["cpu_time"])
+    print(json.dumps({"factor": max(factors), "cpu_factor": max(cpu)}))
 '''
 
 
@@ -269,8 +271,11 @@ def report(runs: dict[tuple[str, str], list[dict[str, Any]]], chosen: list[str],
                       f"plain {plain:,.0f} | <= {budget:.0%}: {'pass' if loss <= budget else 'MISS'} |")
     if "lap" in chosen:
         b, m = median(runs["lap", "base"], "factor"), median(runs["lap", "main"], "factor")
-        print(f"| hallway lap, no camera (x real time) | {b:.0f} | {m:.0f} | {m / b:.2f} | >= 0.90: "
-              f"{'pass' if m >= 0.9 * b else 'MISS'} |")
+        print(f"| hallway lap, no camera (x real time) | {b:.0f} | {m:.0f} | {m / b:.2f} | >= 1.00: "
+              f"{'pass' if m >= b else 'MISS'} |")
+        b, m = median(runs["lap", "base"], "cpu_factor"), median(runs["lap", "main"], "cpu_factor")
+        print(f"| hallway lap, no camera (x the run's own processor time) | {b:.0f} | {m:.0f} | {m / b:.2f} | |")
+    print(f"\nload average at the end: {os.getloadavg()[0]:.1f}")
 
 
 if __name__ == "__main__":

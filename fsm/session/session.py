@@ -362,28 +362,33 @@ class Session:
             ctx = machine.ctx
             end = (stop_rules or self.stop_rules).end_tick(ctx.tick, self.dt)
             driver = self.driver
-            realtime = bool(getattr(machine.clock, "realtime", False))
+            clock = machine.clock
+            realtime = bool(getattr(clock, "realtime", False))
             observers = bool(self._observers)
             inputs = self._inputs
             tick = machine.tick
+            dt = machine.dt
+            if driver is not None:  # bound once: the lap calls them 80 times a simulated second
+                before_tick, after_tick, should_stop = driver.before_tick, driver.after_tick, driver.should_stop
             stopped = "finished"
             while True:
                 if machine.finished:
                     break
-                if ctx.tick >= end:
+                n = ctx.tick
+                if n >= end:
                     stopped = "limit"
                     break
-                n = ctx.tick + 1
+                n += 1
                 if inputs and inputs[0].tick <= n:
                     self._apply_inputs(n)
                 if realtime:
-                    machine.clock.wait_for(n)
+                    clock.wait_for(n)
                 if driver is not None:
-                    driver.before_tick(machine.clock.time_at(n) if realtime else n * machine.dt)
+                    before_tick(clock.time_at(n) if realtime else n * dt)
                 tick()
                 if driver is not None:
-                    driver.after_tick()
-                    why = driver.should_stop()
+                    after_tick()
+                    why = should_stop()
                     if why is not None:
                         stopped = why
                         break

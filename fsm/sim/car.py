@@ -27,6 +27,10 @@ try:  # pymunk's own cffi binding: the same C calls as Space.*_query_*, without 
     from pymunk._chipmunk import lib as _lib
 except ImportError:  # pragma: no cover - other pymunk builds: the public API (about half as fast)
     _ffi = _lib = None
+if _lib is not None:  # the calls of a physics step, bound once (a lookup on the cffi module costs as much as a call)
+    _get_angle, _get_position = _lib.cpBodyGetAngle, _lib.cpBodyGetPosition
+    _set_velocity, _set_angular_velocity, _space_step = (_lib.cpBodySetVelocity, _lib.cpBodySetAngularVelocity,
+                                                         _lib.cpSpaceStep)
 
 #: Physics step, seconds (fixed, independent of the machine's tick).
 PHYSICS_DT = 0.01
@@ -120,7 +124,7 @@ class SimCar:
         "rng", "noise", "wheelbase", "max_steering_angle", "length", "width", "_pose", "_pose_step", "_apart",
         "collisions", "contact_steps", "_touching", "_cmd_steer", "_cmd_speed", "_servo", "_moving", "_v", "_offset",
         "_rate_dt", "_half_band", "_lag", "_pending", "_servo_cmd", "_acc_dt", "_dec_dt", "_max_speed", "_delta",
-        "_k_beta", "_k_w", "_units", "_travel", "_min_r", "_max_r", "_cos_inc", "_sd0", "_sd1", "_outliers",
+        "_k_beta", "_k_w", "_w", "_units", "_travel", "_min_r", "_max_r", "_cos_inc", "_sd0", "_sd1", "_outliers",
         "_dropouts", "_half", "_tan_half", "_res", "sensor_every", "left", "right", "front", "sample", "distance",
         "hall", "speed", "steering", "steps", "time", "min_clearance", "_half_diagonal", "_odo_scale", "_odo_offset",
         "_odo_hall", "_odo_delta", "_odo_tan", "_odo_beta", "_odo_cos", "_odo", "_view", "_frame", "_cam",
@@ -195,6 +199,7 @@ class SimCar:
         self._delta: float | None = None
         self._k_beta = 0.0
         self._k_w = 0.0
+        self._w = 0.0  # the control body's angular velocity, as last set
         self._units = p.hall_units_per_m
         self._travel = 0.0
         # sensors
@@ -276,12 +281,26 @@ class SimCar:
             return self._pose
         return self._read_pose()
 
+    def true_position(self) -> tuple[float, float]:
+        """Ground truth: x, y of :meth:`true_pose` (one read of chipmunk fewer when :meth:`sense` did not run in this
+        step)."""
+        if self._pose_step == self.steps:
+            pose = self._pose
+            return pose[0], pose[1]
+        c = self._c
+        if c is not None:
+            p = _get_position(c[0])
+            return p.x, p.y
+        x, y = self.body.position
+        return x, y
+
     def _read_pose(self) -> tuple[float, float, float]:
         """The body's pose from chipmunk: x, y, angle (world frame)."""
         c = self._c
         if c is not None:
-            p = _lib.cpBodyGetPosition(c[0])
-            return p.x, p.y, _lib.cpBodyGetAngle(c[0])
+            body = c[0]
+            p = _get_position(body)
+            return p.x, p.y, _get_angle(body)
         x, y = self.body.position
         return x, y, self.body.angle
 
@@ -325,13 +344,17 @@ class SimCar:
         self._v = 0.0
         self.speed = 0.0
         self.control.velocity = (0.0, 0.0)
-        self.control.angular_velocity = 0.0
+        self.control.angular_velocity = self._w = 0.0
         self.body.velocity = (0.0, 0.0)
         self.body.angular_velocity = 0.0
 
     def camera(self) -> CameraView | None:
         """The latest camera detections (``None`` when the car has no camera)."""
-        return self._view
+        view = self._view
+        if view is not None and view.frame != self.camera_frames:  # frames of a world without markers (see step)
+            frames = self.camera_frames
+            view = self._view = CameraView(frames * self.camera_every * PHYSICS_DT, frames)
+        return view
 
     def camera_frame(self) -> Any:
         """The latest rendered camera frame as the detector saw it (grey, not annotated), or ``None`` (no camera, or
@@ -352,25 +375,28 @@ class SimCar:
     # -- physics ------------------------------------------------------------------------------------
     def step(self) -> None:
         """One physics step of 0.01 s: servo, speed controller, bicycle model, pymunk, hall, sensors."""
-        pending = self._pending
+        steps = self.steps
         if self._lag:
-            while pending and pending[0][0] <= self.steps:
+            pending = self._pending
+            while pending and pending[0][0] <= steps:
                 self._servo_cmd = pending.popleft()[1]
             target = self._servo_cmd
         else:
             target = self._servo_cmd = self._cmd_steer
         s = self._servo
         d = target - s
-        if d > self._half_band or d < -self._half_band or (s != target and self._moving):
+        half = self._half_band
+        if d > half or d < -half or (s != target and self._moving):
             # outside the dead band the servo drives to the command at its rate limit, and on until it is there
             lim = self._rate_dt
             s = s + lim if d > lim else s - lim if d < -lim else target
             self._servo = s
             self._moving = s != target
         v = self._v
-        d = self._cmd_speed - v
+        command = self._cmd_speed
+        d = command - v
         lim = self._acc_dt if (v >= 0.0 and d > 0.0) or (v <= 0.0 and d < 0.0) else self._dec_dt
-        v = v + lim if d > lim else v - lim if d < -lim else self._cmd_speed
+        v = v + lim if d > lim else v - lim if d < -lim else command
         self._v = v
         delta = (s + self._offset) * self.max_steering_angle
         if delta != self._delta:
@@ -380,31 +406,38 @@ class SimCar:
             self._k_beta = beta
             self._k_w = math.cos(beta) * t / self.wheelbase
         c = self._c
-        if c is not None and self.steps:  # the first step through pymunk: it checks the bodies added
-            th = _lib.cpBodyGetAngle(c[0]) + self._k_beta
-            _lib.cpBodySetVelocity(c[1], (v * math.cos(th), v * math.sin(th)))
-            _lib.cpBodySetAngularVelocity(c[1], v * self._k_w)
-            _lib.cpSpaceStep(c[2], PHYSICS_DT)
+        if c is not None and steps:  # the first step through pymunk: it checks the bodies added
+            body, control, space = c
+            th = _get_angle(body) + self._k_beta
+            _set_velocity(control, (v * math.cos(th), v * math.sin(th)))
+            w = v * self._k_w
+            if w != self._w or w == 0.0:  # a kinematic body keeps its velocity: set it when it changes (or is 0)
+                _set_angular_velocity(control, w)
+                self._w = w
+            _space_step(space, PHYSICS_DT)
         else:
-            control = self.control
             th = self.body.angle + self._k_beta
-            control.velocity = (v * math.cos(th), v * math.sin(th))
-            control.angular_velocity = v * self._k_w
+            self.control.velocity = (v * math.cos(th), v * math.sin(th))
+            self.control.angular_velocity = self._w = v * self._k_w
             self.space.step(PHYSICS_DT)
         if self._touching:
             self.contact_steps += 1
-        self.steps += 1
-        self.time = self.steps * PHYSICS_DT
-        self._travel += abs(v) * PHYSICS_DT
-        self.hall = h = int(self._travel * self._units)
-        self.distance = h / self._units
+        self.steps = steps = steps + 1
+        self.time = steps * PHYSICS_DT
+        self._travel = travel = self._travel + abs(v) * PHYSICS_DT
+        units = self._units
+        self.hall = h = int(travel * units)
+        self.distance = h / units
         self.speed = v
         if h != self._odo_hall:  # dead reckoning moves only with the hall count
             self._odometry(h)
-        if self.steps % self.sensor_every == 0:
+        if steps % self.sensor_every == 0:
             self.sense()
-        if self._view is not None and self.steps % self.camera_every == 0:
-            self.capture()
+        if self._view is not None and steps % self.camera_every == 0:
+            if self._markers:
+                self.capture()
+            else:  # a world without markers: nothing is ever in view, and camera() makes the frame's view when asked
+                self.camera_frames += 1
 
     def _odometry(self, hall: int) -> None:
         """Dead reckoning for one step: hall units travelled and the steering servo as the car's model of it (its
@@ -673,45 +706,42 @@ class SimCar:
             best = self._max_r
         tan_h = self._tan_half
         cos_inc = self._cos_inc
+        reach = best + WALL_RADIUS
+        x_lo, x_hi, y_lo, y_hi = ox - reach, ox + reach, oy - reach, oy + reach
         for ax, ay, bx, by, lox, hix, loy, hiy in segments:
-            reach = best + WALL_RADIUS
-            if lox > ox + reach or hix < ox - reach or loy > oy + reach or hiy < oy - reach:
+            if lox > x_hi or hix < x_lo or loy > y_hi or hiy < y_lo:
                 continue  # its bounding box is farther than the nearest echo so far
             # in the sensor's frame: x along the beam, y to its left
             rx, ry = ax - ox, ay - oy
-            x0, y0 = rx * ux + ry * uy, -rx * uy + ry * ux
+            x0 = rx * ux + ry * uy
+            y0 = -rx * uy + ry * ux
             rx, ry = bx - ox, by - oy
-            x1, y1 = rx * ux + ry * uy, -rx * uy + ry * ux
-            if (x0 <= 0.0 and x1 <= 0.0) or (x0 >= best and x1 >= best):
+            x1 = rx * ux + ry * uy
+            if x0 <= 0.0 and x1 <= 0.0 or x0 >= best and x1 >= best:
                 continue  # behind the sensor, or every point farther along the beam than the nearest echo
-            # clip P(t) = P0 + t (P1 - P0), t in [0, 1], to the cone |y| <= x tan_h
+            # clip P(t) = P0 + t (P1 - P0), t in [0, 1], to the cone |y| <= x tan_h: f + t df <= 0 on either side
+            # (a side that leaves nothing ends the segment: the other side can only narrow the range further)
+            ex, ey = x1 - x0, (-rx * uy + ry * ux) - y0
+            xt, et = x0 * tan_h, ex * tan_h
             t0, t1 = 0.0, 1.0
-            ex, ey = x1 - x0, y1 - y0
-            for f0, df in ((y0 - x0 * tan_h, ey - ex * tan_h), (-y0 - x0 * tan_h, -ey - ex * tan_h)):
-                # f0 + t df <= 0
-                if df == 0.0:
-                    if f0 > 0.0:
-                        t0, t1 = 1.0, 0.0
-                elif df > 0.0:
-                    t1 = min(t1, -f0 / df)
-                else:
-                    t0 = max(t0, -f0 / df)
-            if t0 > t1:
-                continue
-            ll = ex * ex + ey * ey
-            if ll == 0.0:
-                continue
-            t = -(x0 * ex + y0 * ey) / ll  # the foot of the perpendicular from the sensor
-            t = t0 if t < t0 else t1 if t > t1 else t
-            px, py = x0 + t * ex, y0 + t * ey
-            d = math.hypot(px, py) - WALL_RADIUS
-            if d >= best or d <= 0.0:
-                if d <= 0.0:
-                    return self._min_r
-                continue
-            if abs(x0 * ey - y0 * ex) / math.sqrt(ll) < cos_inc * (d + WALL_RADIUS):
-                continue  # too oblique: the echo is reflected away
-            best = d
+            for side in _SIDES:  # the left edge, then the right one
+                f, df = side * y0 - xt, side * ey - et
+                if df > 0.0:
+                    t = -f / df
+                    t1 = t if t < t1 else t1
+                elif df < 0.0:
+                    t = -f / df
+                    t0 = t if t > t0 else t0
+                elif f > 0.0:
+                    t0 = 2.0  # nothing of it is on this edge's inner side
+            if t0 <= t1:
+                d = _cone_echo(x0, y0, ex, ey, t0, t1, cos_inc)
+                if d < best:
+                    if d <= 0.0:
+                        return self._min_r
+                    best = d
+                    reach = best + WALL_RADIUS
+                    x_lo, x_hi, y_lo, y_hi = ox - reach, ox + reach, oy - reach, oy + reach
         return best
 
     def _make_queries(self) -> None:
@@ -809,6 +839,25 @@ def _impulses_agree(joints: tuple[Any, ...], layout: tuple[tuple[int, int], ...]
     i, j = layout[0][0] // 8 + 12, layout[1][0] // 8 + 5
     return bool(math.isclose(math.sqrt(p[i] * p[i] + p[i + 1] * p[i + 1]), pivot.impulse, rel_tol=1e-9, abs_tol=1e-300)
                 and math.isclose(abs(g[j]), gear.impulse, rel_tol=1e-9, abs_tol=1e-300))
+
+
+#: the signs of y on the cone's two edges (see SimCar._wall_echo)
+_SIDES = (1.0, -1.0)
+
+
+def _cone_echo(x0: float, y0: float, ex: float, ey: float, t0: float, t1: float, cos_inc: float) -> float:
+    """The echo of the wall segment P(t) = (x0, y0) + t (ex, ey) (the sensor's frame, the sensor at the origin) over
+    t0 <= t <= t1 (its part in the cone): the distance to its nearest point there, or ``inf`` when it has no length
+    or meets the beam too obliquely; at most 0 when the sensor touches it."""
+    ll = ex * ex + ey * ey
+    if ll == 0.0:
+        return math.inf
+    t = -(x0 * ex + y0 * ey) / ll  # the foot of the perpendicular from the sensor
+    t = t0 if t < t0 else t1 if t > t1 else t
+    d = math.hypot(x0 + t * ex, y0 + t * ey) - WALL_RADIUS
+    if d > 0.0 and abs(x0 * ey - y0 * ex) / math.sqrt(ll) < cos_inc * (d + WALL_RADIUS):
+        return math.inf  # too oblique: the echo is reflected away
+    return d
 
 
 class BeamIndex:

@@ -199,7 +199,10 @@ class Track:
             self._points = points = array("f", (v for i in range(0, len(points), 6) for v in points[i:i + 3]))
             self.every *= 2
             self.period *= 2
-        points.extend((x, y, k))
+        append = points.append  # three appends: half the time of extending by a tuple
+        append(x)
+        append(y)
+        append(k)
 
     def __len__(self) -> int:
         return len(self._points) // 3
@@ -409,12 +412,16 @@ class Simulation:
         car = self.car
         ctx = self.machine.ctx
         now = ctx._now  # the machine's time slot: the property costs a call each tick
-        x, y, th = car.true_pose()
-        if car.sample != self._err_sample:
+        leaf = None
+        if car.sample != self._err_sample:  # a new sensor sample: measure it on a straight
             self._err_sample = car.sample
             leaf = self._straight
-            if leaf is not None:
-                self._measure(leaf, (x, y, th))
+        if leaf is None:
+            x, y = car.true_position()  # the heading is not needed
+        else:
+            pose = car.true_pose()
+            x, y = pose[0], pose[1]
+            self._measure(leaf, pose)
         if self.gate_log is not None:
             self.gate_log.update(now, x, y)
         self.lap_log.update(now, x, y)

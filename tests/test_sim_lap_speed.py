@@ -1,0 +1,82 @@
+"""What the lap's speed-ups must not change: the beam echoes from the wall index, with the cone clipped in place and
+the bounding box kept between walls, are those of the plain computation over every wall, to the last bit."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+import fsm
+from fsm.sim.car import WALL_RADIUS, SimCar
+from fsm.sim.loop import Simulation
+from fsm.sim.world import load_world
+
+ROOT = Path(__file__).resolve().parents[1]
+HALLWAY = ROOT / "diagrams" / "worlds" / "hallway.json"
+LAP = ROOT / "diagrams" / "hallway_lap.json"
+
+
+def every_wall_echo(car: SimCar, ox: float, oy: float, ux: float, uy: float, best: float | None = None) -> float:
+    """The beam's echo from the walls, each wall of the world in turn through the cone (no index, no bounding boxes
+    kept between walls, the clip written out as intervals): the computation the car's must agree with."""
+    assert car._beam is not None
+    best = car._max_r if best is None else best
+    tan_h = car._tan_half
+    for ax, ay, bx, by, *_box in car._beam[0]:
+        rx, ry = ax - ox, ay - oy
+        x0, y0 = rx * ux + ry * uy, -rx * uy + ry * ux
+        rx, ry = bx - ox, by - oy
+        x1, y1 = rx * ux + ry * uy, -rx * uy + ry * ux
+        if (x0 <= 0.0 and x1 <= 0.0) or (x0 >= best and x1 >= best):
+            continue
+        t0, t1 = 0.0, 1.0
+        ex, ey = x1 - x0, y1 - y0
+        for f0, df in ((y0 - x0 * tan_h, ey - ex * tan_h), (-y0 - x0 * tan_h, -ey - ex * tan_h)):
+            if df == 0.0:
+                if f0 > 0.0:
+                    t0, t1 = 1.0, 0.0
+            elif df > 0.0:
+                t1 = min(t1, -f0 / df)
+            else:
+                t0 = max(t0, -f0 / df)
+        ll = ex * ex + ey * ey
+        if t0 > t1 or ll == 0.0:
+            continue
+        t = min(max(-(x0 * ex + y0 * ey) / ll, t0), t1)
+        d = math.hypot(x0 + t * ex, y0 + t * ey) - WALL_RADIUS
+        if d <= 0.0:
+            return car._min_r
+        if d < best and abs(x0 * ey - y0 * ex) / math.sqrt(ll) >= car._cos_inc * (d + WALL_RADIUS):
+            best = d
+    return best
+
+
+def lap(seed: int, plain: bool, seconds: float) -> list[tuple[Any, ...]]:
+    """The hallway lap's sensor readings, clearance, pose and state at every tick; ``plain``: the car asks every
+    wall for every echo."""
+    car = SimCar(load_world(HALLWAY), seed=seed)
+    asked = [0]
+    if plain:
+        def echo(*a: float) -> float:
+            asked[0] += 1
+            return every_wall_echo(car, *a)
+
+        car._wall_echo = echo  # type: ignore[method-assign,assignment]
+    sim = Simulation(fsm.load(LAP, car=car), car)
+    seen: list[tuple[Any, ...]] = []
+    sim.add_observer(sim.machine.dt, lambda s: seen.append(
+        (car.left, car.right, car.front, car.min_clearance, car.true_pose(), car.pose(), s.machine.active_path)))
+    sim.run(duration=seconds)
+    assert not plain or asked[0] == 3 * (car.sample - 1)  # the plain echo served every sensor of every sample
+    return seen
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_the_lap_reads_what_the_plain_beam_computation_gives(seed: int) -> None:
+    fast, plain = lap(seed, False, 45.0), lap(seed, True, 45.0)
+    assert len(fast) == len(plain) == 3601
+    assert fast == plain
+    assert len({row[:3] for row in fast}) > 100  # the readings changed along the way

@@ -4,6 +4,8 @@ themselves without the runtime noticing. The old names still read the record for
 
 from __future__ import annotations
 
+import textwrap
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -11,6 +13,7 @@ import pytest
 import fsm
 from fsm.runtime.region import StateWiring, TransitionWiring, transition_wiring, wiring
 from fsm.runtime.state import Life
+from test_typing import error_lines, typecheck
 
 #: What the base classes put in an instance: identity, parameters, how it finished, its predicates, the record.
 STATE_BASE = {"id", "params", "path", "finished", "outcome", "predicates", "_fsm"}
@@ -205,3 +208,85 @@ def test_a_state_in_no_machine_keeps_its_clock_and_finishes() -> None:
         assert lone.region is None and lone.regions == ()  # type: ignore[attr-defined]
     record = wiring(lone)
     assert record.completed and record.state is lone and wiring(lone) is record
+
+
+# -- the plugin contract type-checks written the natural way -------------------------------------------------------
+PLUGIN = textwrap.dedent('''
+    from collections.abc import Callable
+    from typing import Any
+
+    from fsm import Context, Machine, State, StateParams, Transition, TransitionParams
+    from fsm.model.params import ConditionParams
+    from fsm.runtime.condition import Condition
+    from fsm.runtime.context import MachineView, StateView
+
+
+    class FollowParams(StateParams):
+        leader: str
+
+
+    class Follow(State[FollowParams]):
+        can_finish = True
+        leader: State[Any]
+
+        def bind(self, machine: Machine) -> None:
+            self.leader = machine.state(self.params.leader)
+
+        def tick(self, ctx: Context) -> None:
+            if self.leader.finished:
+                self.finish("succeeded")
+
+
+    class Watch(State[FollowParams]):
+        leader: StateView
+
+        def bind(self, machine: MachineView) -> None:
+            self.leader = machine.resolve(self.params.leader)
+
+
+    class Joined(Transition[TransitionParams]):
+        other: State[Any]
+
+        def bind(self, machine: Machine) -> None:
+            self.other = machine.state("a")
+
+        def holds(self, ctx: Context) -> bool:
+            return self.other.active
+
+
+    class Near(Condition[ConditionParams]):
+        def bind(self, machine: Machine, owner: State[Any]) -> None:
+            super().bind(machine, owner)
+
+        def holds(self, ctx: Context) -> bool:
+            return True
+
+
+    class Own(State[StateParams]):
+        region: str
+        transitions: int
+        supervisor: str | None
+
+        def on_enter(self, ctx: Context) -> None:
+            self.region, self.transitions, self.supervisor = "north", 1, None
+            until: Callable[[Context], bool] | None = self.predicates.get("until")
+
+
+    class Wrong(State[StateParams]):
+        def bind(self, machine: Machine, extra: int) -> None:  # error: not the contract's signature
+            pass
+
+
+    old: int = Own("x").checks  # error: the old name is not offered to type checkers
+''')
+
+
+def test_the_plugin_contract_type_checks_written_the_natural_way(tmp_path: Path) -> None:
+    """``bind(machine: Machine)`` and ``bind(machine: MachineView)`` are both accepted by mypy strict, as are a
+    plugin's own ``region``/``transitions``/``supervisor``; a ``bind`` of another signature is not."""
+    plugin = tmp_path / "natural_plugin.py"
+    plugin.write_text(PLUGIN)
+    done = typecheck(str(plugin))
+    expected, found = error_lines(PLUGIN, done)
+    assert found == expected, done.stdout + done.stderr
+    assert 'Signature of "bind" incompatible with supertype' in done.stdout

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar, cast
 from fsm.model.params import StateParams, adopt_generic_params
 
 if TYPE_CHECKING:
-    from fsm.runtime.context import Context, MachineView
+    from fsm.runtime.context import Context
 
 P = TypeVar("P", bound=StateParams)
 #: The predicates of a state whose type has no condition parameters (shared; the builder gives others their own).
@@ -174,8 +174,10 @@ class State(Generic[P]):
     def on_resume(self, ctx: Context) -> None:
         """Called when a pause ends and the state is ticked again: restart what ``on_pause`` stopped."""
 
-    def bind(self, machine: MachineView) -> None:
-        """Called once when the machine is built, to resolve references to other states (``Join``)."""
+    def bind(self, machine: Any) -> None:
+        """Called once when the machine is built, to resolve references to other states (``Join``). ``machine`` is
+        the :class:`fsm.Machine` being built; an override annotates it ``Machine``, or ``MachineView``
+        (:mod:`fsm.runtime.context`, what the runtime's own types use of it): both type-check."""
 
     def tick_method(self) -> Hook | None:
         """What ticking this state calls (fixed when the machine is built), or None when its class keeps the base's

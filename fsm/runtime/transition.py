@@ -9,7 +9,7 @@ from fsm.model.params import TransitionParams, adopt_generic_params
 
 if TYPE_CHECKING:
     from fsm.runtime.condition import Condition
-    from fsm.runtime.context import Context, MachineView
+    from fsm.runtime.context import Context
     from fsm.runtime.state import State
 
 P = TypeVar("P", bound=TransitionParams)
@@ -134,8 +134,9 @@ class Transition(Generic[P]):
     def action(self, ctx: Context) -> None:
         """Called while firing, after the source's exit and before the target's entry."""
 
-    def bind(self, machine: MachineView) -> None:
-        """Called once when the machine is built, to resolve references to other states (``InState``)."""
+    def bind(self, machine: Any) -> None:
+        """Called once when the machine is built, to resolve references to other states (``InState``); ``machine``
+        is the :class:`fsm.Machine`, annotated ``Machine`` or ``MachineView`` in an override (see ``State.bind``)."""
 
     def describe(self) -> str:
         """One line for traces and messages."""

@@ -12,7 +12,7 @@ import pytest
 
 import fsm
 from fsm.runtime.region import StateWiring, TransitionWiring, transition_wiring, wiring
-from fsm.runtime.state import Life
+from fsm.runtime.state import Life, use_record
 from test_typing import error_lines, typecheck
 
 #: What the base classes put in an instance: identity, parameters, how it finished, its predicates, the record.
@@ -201,13 +201,27 @@ def test_the_old_names_read_the_record_with_a_warning() -> None:
 
 def test_a_state_in_no_machine_keeps_its_clock_and_finishes() -> None:
     lone = Counter("lone")
-    assert type(lone._fsm) is Life and lone.active and not lone.paused
+    assert isinstance(lone._fsm, StateWiring), "made with its record: the runtime is imported"
+    assert lone.active and not lone.paused and wiring(lone).region is None
     lone.finish("succeeded")
     assert lone.finished and lone.outcome == "succeeded" and lone._fsm.completed
     with pytest.warns(DeprecationWarning):
         assert lone.region is None and lone.regions == ()  # type: ignore[attr-defined]
-    record = wiring(lone)
-    assert record.completed and record.state is lone and wiring(lone) is record
+
+
+def test_a_state_made_before_the_runtime_is_wired_when_asked() -> None:
+    """Made with the base record (:class:`Life`, what ``fsm.runtime.state`` alone knows), a state gets its full
+    record from ``wiring`` the first time, keeping its clock and how it finished."""
+    use_record(Life)
+    try:
+        early = Counter("early")
+    finally:
+        use_record(StateWiring)
+    assert type(early._fsm) is Life and early.active
+    early.finish("succeeded")
+    record = wiring(early)
+    assert isinstance(record, StateWiring) and record.completed and record.state is early
+    assert wiring(early) is record and early._fsm is record
 
 
 # -- the plugin contract type-checks written the natural way -------------------------------------------------------

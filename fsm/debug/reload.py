@@ -2,9 +2,9 @@
 
 The new machine shares the old one's context (variables, signals, car, plants) and clock, and takes over the active
 configuration by state path: each level's active state is the state at the same path in the new machine
-(:meth:`State.take_over <fsm.runtime.state.State.take_over>`: its entry time, pause and finishing carried over, its
-transitions armed afresh, the type's ``on_enter`` run with the new parameters; no document ``set`` action runs, so
-the variables stay as they are). A level whose active state no longer exists enters its initial state (a
+(:meth:`StateWiring.take_over <fsm.runtime.region.StateWiring.take_over>`: its entry time, pause and finishing carried
+over, its transitions armed afresh, the type's ``on_enter`` run with the new parameters; no document ``set`` action
+runs, so the variables stay as they are). A level whose active state no longer exists enters its initial state (a
 transition from nowhere in the trace, as at the start) and is listed in :attr:`Swap.missing`: a debugger pauses
 there and says so. A level new in the document (a parallel region added to an active composite) starts at its
 initial state. The old active states' ``on_exit`` run first (the type's own, innermost first: resources

@@ -18,7 +18,7 @@ from fsm.runtime.composite import Composite
 from fsm.runtime.condition import Condition
 from fsm.runtime.context import Context
 from fsm.runtime.machine import Machine
-from fsm.runtime.region import Region, TransitionWiring, Until, wiring
+from fsm.runtime.region import Region, StateWiring, TransitionWiring, Until, transition_wiring, wiring
 from fsm.runtime.state import State
 from fsm.runtime.supervisor import Monitor, Supervisor, supervisor_of
 from fsm.runtime.transition import Transition
@@ -49,8 +49,8 @@ class _Builder:
     def __init__(self) -> None:
         self.states: dict[str, State[Any]] = {}
         self.regions: list[Region] = []
-        #: each state with its plan, in build order (for binding)
-        self.built: list[tuple[State[Any], StatePlan]] = []
+        #: each state's record, in build order (for binding)
+        self.built: list[StateWiring] = []
         #: the states with a supervisor
         self.supervised: list[tuple[State[Any], StatePlan]] = []
         #: each condition object with the state it belongs to
@@ -67,17 +67,15 @@ class _Builder:
                 continue
             source = wiring(states[sp.id])
             regular = sp.regular
-            # one transition out of a state is the usual case: built without a comprehension's frame
-            source.regular = (transition(regular[0], states),) if len(regular) == 1 else \
-                tuple([transition(tp, states) for tp in regular])
-            if sp.preempt:
-                source.preempt = tuple([transition(tp, states) for tp in sp.preempt])
-                ordered = sorted(source.preempt + source.regular, key=_position)
-            elif len(source.regular) > 1:
-                ordered = sorted(source.regular, key=_position)
-            else:
-                ordered = list(source.regular)
-            source.transitions = [t.transition for t in ordered]
+            if len(regular) == 1 and not sp.preempt:
+                # one transition out of a state is the usual case: built without a comprehension's frame
+                only = transition(regular[0], states)
+                source.regular = (only,)
+                source.transitions = [only.transition]
+                continue
+            source.regular = tuple([transition(tp, states) for tp in regular])
+            source.preempt = tuple([transition(tp, states) for tp in sp.preempt])
+            source.transitions = [t.transition for t in sorted(source.preempt + source.regular, key=_position)]
         return region
 
     def state(self, plan: StatePlan) -> State[Any]:
@@ -85,7 +83,7 @@ class _Builder:
         obj.path = plan.path
         record = wiring(obj)
         self.states[plan.path] = obj
-        self.built.append((obj, plan))
+        self.built.append(record)
         if plan.regions:
             regions = [self.region(rp, obj) for rp in plan.regions]
             assert isinstance(obj, Composite)  # only composites have regions
@@ -140,7 +138,7 @@ class _Builder:
     def transition(self, plan: TransitionPlan, states: dict[str, State[Any]]) -> TransitionWiring:
         source = states[plan.source]
         made: Transition[Any] = plan.cls(plan.params, source, states[plan.target], plan.position)
-        t = wiring(source).link(made)
+        t = transition_wiring(made)
         guard = plan.guard
         if not plan.conditions and guard.expression is None and guard.condition is None and plan.assign is None:
             return t
@@ -171,14 +169,15 @@ class _Builder:
                         _supervise_caller(obj, machine)
         for condition, owner in self.conditions:
             condition.bind(machine, owner)
-        for obj, _plan in self.built:
-            for t in wiring(obj).transitions:
+        for record in self.built:
+            for t in record.transitions:
                 if t.binds_references:
                     t.bind(machine)
-            if obj.binds_references:
-                obj.bind(machine)
-        for obj, _plan in self.built:
-            wiring(obj).seal()
+            state = record.state
+            if state.binds_references:
+                state.bind(machine)
+        for record in self.built:
+            record.seal()
 
 
 def _position(t: TransitionWiring) -> int:

@@ -18,8 +18,8 @@ from typing import TYPE_CHECKING, Any, NamedTuple, Protocol, overload
 from fsm.model.errors import StateRuntimeError
 from fsm.model.expr import VarOp
 from fsm.model.plan import ActionKind, GuardKind
-from fsm.runtime.state import Hook, Life
-from fsm.runtime.transition import Link
+from fsm.runtime.state import Hook, Life, use_record
+from fsm.runtime.transition import Link, use_link
 from fsm.runtime.verdict import Verdict
 
 if TYPE_CHECKING:
@@ -86,10 +86,13 @@ def wiring(state: State[Any]) -> StateWiring:
 
 
 def transition_wiring(transition: Transition[Any]) -> TransitionWiring:
-    """The wiring record of ``transition``, made by :meth:`StateWiring.link` (its source's, when built)."""
+    """The wiring record of ``transition`` (made when first asked, if the transition was made before this module was
+    imported)."""
     record = transition._fsm
-    assert isinstance(record, TransitionWiring), f"{transition!r} is not part of a machine"
-    return record
+    if isinstance(record, TransitionWiring):
+        return record
+    wired = transition._fsm = TransitionWiring(transition, record.index)
+    return wired
 
 
 class StateWiring(Life):
@@ -101,11 +104,8 @@ class StateWiring(Life):
                  "exit_action", "complete_action", "tick_hook", "enter_hook", "exit_hook", "arms", "watched",
                  "resets", "is_final")
 
-    def __init__(self, state: State[Any], life: Life | None = None) -> None:
-        super().__init__(state)
-        if life is not None:
-            self.entered_at, self.paused, self.frozen_since = life.entered_at, life.paused, life.frozen_since
-            self.completed, self.completion_ran = life.completed, life.completion_ran
+    def __init__(self, state: State[Any], before: Life | None = None) -> None:
+        Life.__init__(self, state, before)  # not super(): a state made is a record made (about 1,000 states a load)
         self.region: Region | None = None
         self.regions: tuple[Region, ...] = ()
         self.transitions: list[Transition[Any]] = []
@@ -133,12 +133,6 @@ class StateWiring(Life):
         self.resets: tuple[Condition[Any], ...] = ()
         self.is_final = type(state).is_final
 
-    def link(self, transition: Transition[Any]) -> TransitionWiring:
-        """The record of ``transition`` (out of this state), made now: its target's record is its target."""
-        record = TransitionWiring(transition, transition._fsm.index, wiring(transition.target))
-        transition._fsm = record
-        return record
-
     @property
     def active(self) -> bool:
         """True while the state and all its ancestors are active."""
@@ -161,7 +155,9 @@ class StateWiring(Life):
         state = self.state
         cls = type(state)
         if self.transitions:
-            self.arms = tuple(arm for t in self.transitions if (arm := transition_wiring(t).arm) is not None)
+            links = self.regular if not self.preempt and len(self.regular) == 1 else \
+                sorted(self.preempt + self.regular, key=_index)  # in document order, as ``transitions``
+            self.arms = tuple(arm for t in links if (arm := t.arm) is not None)
         supervised = self.supervisor is not None
         self.watched = supervised or bool(self.preempt)
         tick = state.tick_method() if cls._overrides_tick or self.regions else None
@@ -326,9 +322,10 @@ class TransitionWiring(Link):
 
     __slots__ = ("target", "kind", "compare", "test", "effect", "counter", "run", "assign", "arm")
 
-    def __init__(self, transition: Transition[Any], index: int, target: StateWiring) -> None:
+    def __init__(self, transition: Transition[Any], index: int) -> None:
         super().__init__(transition, index)
-        self.target = target
+        target = transition.target._fsm
+        self.target = target if isinstance(target, StateWiring) else wiring(transition.target)
         cls = type(transition)
         if cls.unconditional:
             self.kind = GuardKind.ALWAYS
@@ -476,7 +473,8 @@ class Region:
         #: the machine's listeners (its own list, shared by every level)
         self.listeners: Sequence[EntryListener] = ()
         for state in states.values():
-            wiring(state).region = self
+            record = state._fsm  # made by the state (use_record below): wiring() only for one made before
+            (record if isinstance(record, StateWiring) else wiring(state)).region = self
 
     #: The state a start enters.
     initial = RecordOf("first")
@@ -641,3 +639,12 @@ class Region:
 
     def __repr__(self) -> str:
         return f"<Region {self.path!r} active={self.current.state.id!r}>"
+
+
+def _index(link: Link) -> int:
+    return link.index
+
+
+use_record(StateWiring)
+use_link(TransitionWiring)
+

@@ -1,8 +1,9 @@
 """State: the base class of every state type, its lifecycle hooks and finishing with an outcome.
 
 What the runtime keeps of a state besides its identity and parameters (its level, sub-levels, transitions,
-supervisor, the hooks it calls, its clock) is its *wiring record*, one slot (``_fsm``): a :class:`Life` here, made
-a :class:`fsm.runtime.region.StateWiring` when the machine is built. A plugin author's ``self.`` therefore holds
+supervisor, the hooks it calls, its clock) is its *wiring record*, one slot (``_fsm``): a
+:class:`fsm.runtime.region.StateWiring`, of which this module knows the base, :class:`Life` (see
+:func:`use_record`). A plugin author's ``self.`` therefore holds
 ``id``, ``path``, ``params``, ``finished``, ``outcome`` and ``predicates`` of the base, and the author's own names
 (``region``, ``transitions`` or ``supervisor`` among them, if they like). This module names none of the classes a
 state is linked to: the record's type lives above it, with the region.
@@ -28,26 +29,44 @@ Hook = Callable[["Context"], None]
 
 
 class Life:
-    """The wiring record of a state that is not (yet) part of a machine: its clock and how it finished by itself.
-    The builder replaces it by a :class:`fsm.runtime.region.StateWiring` (a subclass, with the state's links)."""
+    """The part of a state's wiring record this module knows: its clock and how it finished by itself. A state is
+    made with the full record, a :class:`fsm.runtime.region.StateWiring` (a subclass, with the state's links), once
+    the runtime's region module is imported (:func:`use_record`); before, with this, which that module's ``wiring``
+    replaces when first asked."""
 
     __slots__ = ("state", "entered_at", "paused", "frozen_since", "completed", "completion_ran")
 
-    def __init__(self, state: State[Any]) -> None:
+    def __init__(self, state: State[Any], before: Life | None = None) -> None:
         self.state = state
-        self.entered_at = 0.0
-        self.paused = False
-        #: Machine time since which this state's clock stands still (it or an ancestor is paused, or it is
-        #: suspended while a monitor's exception sequence runs), else None.
-        self.frozen_since: float | None = None
-        #: It called :meth:`State.finish` since its last entry (``set.on_complete`` runs then), and whether that ran.
-        self.completed = False
-        self.completion_ran = False
+        if before is None:
+            self.entered_at = 0.0
+            self.paused = False
+            #: Machine time since which this state's clock stands still (it or an ancestor is paused, or it is
+            #: suspended while a monitor's exception sequence runs), else None.
+            self.frozen_since: float | None = None
+            #: It called :meth:`State.finish` since its last entry (``set.on_complete`` runs then), and whether that
+            #: ran.
+            self.completed = False
+            self.completion_ran = False
+        else:
+            self.entered_at, self.paused, self.frozen_since = before.entered_at, before.paused, before.frozen_since
+            self.completed, self.completion_ran = before.completed, before.completion_ran
 
     @property
     def active(self) -> bool:
         """A state in no machine level is active."""
         return True
+
+
+#: The class of the record a state is made with (see :class:`Life`).
+_record: type[Life] = Life
+
+
+def use_record(record: type[Life]) -> None:
+    """Make states with ``record`` from now on: the runtime's region module gives its full record when imported, so
+    that a state built into a machine is made wired rather than wired afterwards (a record made once)."""
+    global _record
+    _record = record
 
 
 class Renamed:
@@ -143,7 +162,7 @@ class State(Generic[P]):
         #: The type's condition parameters, built: ``predicates[name](ctx) -> bool``.
         self.predicates: dict[str, Callable[[Context], bool]] = _NO_PREDICATES
         #: The runtime's record of this state (its links and clock); see the module's docstring.
-        self._fsm: Life = Life(self)
+        self._fsm: Life = _record(self)
 
     @property
     def type_name(self) -> str:

@@ -18,14 +18,25 @@ _NO_CONDITIONS: dict[str, Any] = {}
 
 
 class Link:
-    """The wiring record of a transition not (yet) part of a machine: the transition and its place among its source's
-    transitions (document order). The builder replaces it by a :class:`fsm.runtime.region.TransitionWiring`."""
+    """The part of a transition's wiring record this module knows: the transition and its place among its source's
+    transitions (document order). A transition is made with the full record, a
+    :class:`fsm.runtime.region.TransitionWiring`, once the runtime's region module is imported (:func:`use_link`)."""
 
     __slots__ = ("transition", "index")
 
     def __init__(self, transition: Transition[Any], index: int) -> None:
         self.transition = transition
         self.index = index
+
+
+#: The class of the record a transition is made with (see :class:`Link`).
+_link: type[Link] = Link
+
+
+def use_link(link: type[Link]) -> None:
+    """Make transitions with ``link`` from now on (the runtime's region module gives its full record when imported)."""
+    global _link
+    _link = link
 
 
 class Transition(Generic[P]):
@@ -90,7 +101,7 @@ class Transition(Generic[P]):
         self.conditions: dict[str, Condition[Any]] = _NO_CONDITIONS
         #: The runtime's record of this transition: its place among its source's transitions here, and how the
         #: region decides and fires it once the machine is built (a :class:`fsm.runtime.region.TransitionWiring`).
-        self._fsm: Link = Link(self, index)
+        self._fsm: Link = _link(self, index)
 
     @property
     def type_name(self) -> str:

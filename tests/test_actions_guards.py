@@ -11,6 +11,7 @@ import pytest
 import fsm
 from fsm import State, StateParams, register_state
 from fsm.loading.registry import Registry, default_registry, using
+from fsm.runtime.region import wiring
 from fsm.trace.recorder import Recorder, summary
 from helpers import trace_events
 
@@ -145,7 +146,7 @@ def test_machine_without_guards_pays_nothing() -> None:
                 [{"type": "Always", "from": "a", "to": "b"}, {"type": "Always", "from": "b", "to": "a"}])
     from fsm.model.plan import ActionKind, GuardKind
 
-    state = m.root.states["a"]
+    state = wiring(m.root.states["a"])
     assert state.enter_hook is None and state.exit_hook is None
     assert state.regular[0].kind is GuardKind.ALWAYS and state.regular[0].effect is ActionKind.NONE
 
@@ -161,7 +162,7 @@ def test_inline_guard_and_counter_agree_with_their_closures(op: str) -> None:
         for n in (1, 2, 3, 2.5, -7):
             m = machine([{"id": "a", "type": "Idle"}, {"id": "b", "type": "Idle"}],
                         [{"type": "Always", "from": "a", "to": "b", "guard": text, "set": {"k": "n * 3"}}], n=n, k=0)
-            tr = m.root.states["a"].regular[0]
+            tr = wiring(m.root.states["a"]).regular[0]
             assert tr.kind is GuardKind.COMPARE and tr.effect is ActionKind.COUNTER, "the inline paths are not taken"
             assert tr.test is not None
             fsm.run(m, max_ticks=1)
@@ -180,7 +181,7 @@ def test_inline_guard_keeps_the_kind_check_and_an_added_action_ends_the_inline_c
         fsm.run(m, max_ticks=1)
     m = machine([{"id": "a", "type": "Idle"}, {"id": "b", "type": "Idle"}],
                 [{"type": "Always", "from": "a", "to": "b", "set": {"k": "n + 1"}}], n=0, k=0)
-    tr = m.root.states["a"].regular[0]
+    tr = wiring(m.root.states["a"]).regular[0]
     seen: list[int] = []
     tr.then(lambda ctx: seen.append(ctx.vars["k"]))
     assert tr.counter is None

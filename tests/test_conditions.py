@@ -12,6 +12,7 @@ import fsm
 from fsm.loading.registry import Registry, default_registry, register_condition, using
 from fsm.model.params import ConditionParams
 from fsm.runtime.condition import Condition
+from fsm.runtime.region import wiring
 
 REG = default_registry()
 DT = 0.0125
@@ -139,9 +140,9 @@ def test_in_state_syncs_parallel_regions() -> None:
 
 def test_each_transition_has_its_own_condition_state() -> None:
     m = counter({"type": "SignalEdge", "signal": "button", "debounce": 0.03})
-    t1 = m.root.states["wait"].transitions[0]
+    t1 = wiring(m.root.states["wait"]).transitions[0]
     other = counter({"type": "SignalEdge", "signal": "button", "debounce": 0.03})
-    assert t1.conditions["condition"] is not other.root.states["wait"].transitions[0].conditions["condition"]
+    assert t1.conditions["condition"] is not wiring(other.root.states["wait"]).transitions[0].conditions["condition"]
 
 
 def test_a_condition_type_of_ones_own() -> None:

@@ -343,9 +343,11 @@ def test_umlet_and_graph_source_names_no_cli(package: str) -> None:
 
 REPO = Path(__file__).resolve().parents[1]
 #: The documented exceptions (docs/architecture.md, "Layering rules"), where a property would cost a call per tick:
-#: the Context's time slots, and pymunk's cffi handles for the car's ray queries, physics step and pose reads. File ->
-#: attributes it may read.
-PRIVATE_READS = {"fsm/runtime/machine.py": {"_now", "_tick", "_dt", "_pending"}, "fsm/runtime/region.py": {"_now"},
+#: the Context's time slots, and pymunk's cffi handles for the car's ray queries, physics step and pose reads; and
+#: the one slot of a state's or a transition's wiring record (``_fsm``), which only the module of the records reads
+#: (everyone else calls its ``wiring`` and ``transition_wiring``). File -> attributes it may read.
+PRIVATE_READS = {"fsm/runtime/machine.py": {"_now", "_tick", "_dt", "_pending"},
+                 "fsm/runtime/region.py": {"_now", "_fsm"},
                  "fsm/trace/recorder.py": {"_tick"}, "fsm/transitions/generic.py": {"_now"},
                  "fsm/transitions/conditions.py": {"_now"},
                  "fsm/sim/car.py": {"_space", "_body", "_constraint"}, "fsm/sim/loop.py": {"_now", "_tick"}}
@@ -414,13 +416,10 @@ def test_the_private_name_check_finds_a_foreign_read() -> None:
 
 #: The folders of the core and the package root, whose modules the import graph holds.
 CORE_LAYERS_DOC = REPO / "docs" / "architecture.md"
-#: The intra-layer imports of the runtime that still close cycles: all of them type-only (``if TYPE_CHECKING``), the
-#: runtime's classes naming each other in hints (a state its region, supervisor, transitions, conditions). Issue 31
-#: leaves them; the list may only shrink (each entry must still exist and stay type-only).
-TYPE_ONLY_CYCLE_EDGES = frozenset({
-    ("fsm.runtime.state", "fsm.runtime.condition"), ("fsm.runtime.state", "fsm.runtime.region"),
-    ("fsm.runtime.state", "fsm.runtime.supervisor"), ("fsm.runtime.state", "fsm.runtime.transition"),
-})
+#: The intra-layer imports of the runtime that close cycles, all of them type-only (``if TYPE_CHECKING``). Issue 31
+#: emptied it (a state names none of the classes it is linked to: its wiring record, typed with them, lives with the
+#: region); it may only shrink, so it stays empty.
+TYPE_ONLY_CYCLE_EDGES: frozenset[tuple[str, str]] = frozenset()
 
 
 def layer_order(text: str) -> list[str]:

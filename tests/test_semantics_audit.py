@@ -16,6 +16,7 @@ import fsm
 from fsm import DiagramError, Registry, State, StateRuntimeError, Transition
 from fsm.loading.registry import default_registry
 from fsm.model.params import StateParams, TransitionParams
+from fsm.runtime.region import wiring
 from fsm.trace.recorder import Recorder
 
 LOG: list[str] = []
@@ -90,7 +91,7 @@ class PauseMyOwner(State):
 
     def tick(self, ctx):
         LOG.append(f"tick {self.path}")
-        ctx.machine.pause(self.region.owner.path)
+        ctx.machine.pause(wiring(self).region.owner.path)
 
 
 @pytest.fixture()
@@ -167,8 +168,8 @@ def test_include_used_twice_builds_separate_state_objects(tmp_path, registry):
         [tr("Finished", "one", "two"), tr("Finished", "two", "done")])))
     m = fsm.load(tmp_path / "main.json", registry=registry)
     assert m.state("one/w") is not m.state("two/w")
-    assert m.state("one").regions[0] is not m.state("two").regions[0]
-    assert m.state("two/w").region.owner is m.state("two")
+    assert wiring(m.state("one")).regions[0] is not wiring(m.state("two")).regions[0]
+    assert wiring(m.state("two/w")).region.owner is m.state("two")
     fsm.run(m, max_ticks=2)
     assert m.active_path == "two/w"
     assert m.state("one/w").finished and not m.state("two/w").finished

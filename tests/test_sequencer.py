@@ -11,6 +11,7 @@ import pytest
 import fsm
 from fsm import DiagramError
 from fsm.loading.registry import Registry, default_registry
+from fsm.runtime.supervisor import supervisor_of
 
 DT = 0.0125
 
@@ -548,7 +549,8 @@ def test_rule_1_the_timeout_is_checked_before_the_owners_other_monitors_and_one_
     assert fsm.run(m, duration=5).outcome == "succeeded"
     assert log.monitors == [(1.0, "main/w", "abortOwner")]
     assert m.state("main/w").outcome == "timeout"  # the timeout, not the first monitor
-    assert [mon.fired for mon in m.state("main/w").supervisor.monitors] == [1, 0, 0]  # type: ignore[union-attr]
+    supervisor = supervisor_of(m.state("main/w"))
+    assert supervisor is not None and [mon.fired for mon in supervisor.monitors] == [1, 0, 0]
 
 
 def test_rule_2_an_exception_sequence_busy_for_another_owner_makes_the_firing_wait() -> None:

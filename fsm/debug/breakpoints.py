@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 
 from fsm.model.expr import BOOL, NUMBER, ExprError, ExprRuntimeError, compile_expr, kind_of
 from fsm.runtime.machine import Listener
+from fsm.runtime.supervisor import supervisor_of
 
 if TYPE_CHECKING:
     from fsm.runtime.context import Context
@@ -133,7 +134,8 @@ def make_breakpoint(number: int, spec: Any, machine: Machine, signals: Iterable[
     if kind not in KINDS:
         raise BreakpointError(f"unknown breakpoint kind {kind!r} (one of {', '.join(KINDS)})")
     states = list(machine.states_by_path)
-    owners = [p for p, s in machine.states_by_path.items() if s.supervisor is not None and s.supervisor.monitors]
+    supervisors = {p: w for p, s in machine.states_by_path.items() if (w := supervisor_of(s)) is not None}
+    owners = [p for p, w in supervisors.items() if w.monitors]
     if kind in ("enter", "leave"):
         state = _glob(spec, "state", states, "state")
         return Breakpoint(number, {"kind": kind, "state": state}, f"{'entering' if kind == 'enter' else 'leaving'} "
@@ -148,7 +150,7 @@ def make_breakpoint(number: int, spec: Any, machine: Machine, signals: Iterable[
         if kind != "monitor":
             what = "exception sequence starting" if kind == "exception" else "timeout expiring"
             return Breakpoint(number, {"kind": kind, "owner": owner}, f"{what} in {owner}")
-        labels = [m.label for p in owners for m in machine.states_by_path[p].supervisor.monitors]  # type: ignore[union-attr]
+        labels = [m.label for p in owners for m in supervisors[p].monitors]
         label = _glob(spec, "monitor", labels, "monitor")
         return Breakpoint(number, {"kind": kind, "owner": owner, "monitor": label},
                           f"monitor {label} of {owner} firing")

@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 from fsm.debug.breakpoints import expression_kinds, expression_values
 from fsm.model.expr import BOOL, ExprError, ExprRuntimeError, compile_expr
 from fsm.model.plan import GuardKind
+from fsm.runtime.region import TransitionWiring, wiring
 
 if TYPE_CHECKING:
     from fsm.runtime.context import Context
@@ -161,7 +162,7 @@ def _read(tr: Transition[Any], guard: str | None, values: dict[str, Any], ctx: C
     variable = getattr(params, "variable", None)
     if isinstance(variable, str) and variable in values:
         read[variable] = values[variable]
-    entered = tr.source.entered_at
+    entered = wiring(tr.source).entered_at
     if entered is not None:
         read["time_in_state"] = round(ctx.now - entered, 9)
     return read
@@ -176,12 +177,14 @@ def explain_next(session: Session, signals: Iterable[str] = ()) -> Explanation:
     signals = tuple(signals)
     states = _states_on(machine)
     tick = session.ticks + 1
-    saved: list[tuple[Transition[Any], Any, Any]] = []
+    saved: list[tuple[TransitionWiring, Any, Any]] = []
     table: list[tuple[str, list[Check]]] = []
     pairs: list[tuple[Transition[Any], Check]] = []
     for state in states:
         mine: list[Check] = []
-        for tr in (*state.preempt, *state.regular):
+        record = wiring(state)
+        for link in (*record.preempt, *record.regular):
+            tr = link.transition
             params = {k: v for k, v in tr.params.model_dump(exclude_none=True).items() if k not in _COMMON}
             guard_field = tr.params.guard
             guard = guard_field if isinstance(guard_field, str) else None
@@ -190,8 +193,8 @@ def explain_next(session: Session, signals: Iterable[str] = ()) -> Explanation:
                           bool(tr.params.preempt))
             mine.append(check)
             pairs.append((tr, check))
-            saved.append((tr, tr.kind, tr.test))
-            tr.kind, tr.test = GuardKind.CALL, _recording(tr, check, guard, machine, signals)
+            saved.append((link, link.kind, link.test))
+            link.kind, link.test = GuardKind.CALL, _recording(link, check, guard, machine, signals)
         table.append((state.path, mine))
     watch = _Watch()
     machine.add_listener(watch)
@@ -201,8 +204,8 @@ def explain_next(session: Session, signals: Iterable[str] = ()) -> Explanation:
         session.run(stop_rules=StopRules(max_ticks=1))
     finally:
         machine.remove_listener(watch)
-        for tr, kind, test in saved:
-            tr.kind, tr.test = kind, test
+        for link, kind, test in saved:
+            link.kind, link.test = kind, test
     fired = {id(tr) for _src, _dst, tr in watch.transitions if tr is not None}
     fired_checks = {id(check) for tr, check in pairs if id(tr) in fired}
     left = {src for src, _dst, _tr in watch.transitions if src is not None}
@@ -234,10 +237,10 @@ def explain_next(session: Session, signals: Iterable[str] = ()) -> Explanation:
         [f"monitor {label} of {owner}" for owner, label in watch.monitors], paused)
 
 
-def _recording(tr: Transition[Any], check: Check, guard: str | None, machine: Machine,
+def _recording(link: TransitionWiring, check: Check, guard: str | None, machine: Machine,
                signals: tuple[str, ...]) -> Callable[[Context], bool]:
-    """``tr``'s check as it was (by its kind), keeping its answer and what it read in ``check``."""
-    kind, test, compare = tr.kind, tr.test, tr.compare
+    """The check of ``link``'s transition as it was (by its kind), keeping its answer and what it read in ``check``."""
+    kind, test, compare, tr = link.kind, link.test, link.compare, link.transition
     guard_fn = _guard_test(guard, machine, signals) if guard else None
 
     def recorded(ctx: Context) -> bool:

@@ -2,9 +2,9 @@
 
 The new machine shares the old one's context (variables, signals, car, plants) and clock, and takes over the active
 configuration by state path: each level's active state is the state at the same path in the new machine
-(:meth:`State.take_over <fsm.runtime.state.State.take_over>`: its entry time, pause and finishing carried over, its
-transitions armed afresh, the type's ``on_enter`` run with the new parameters; no document ``set`` action runs, so
-the variables stay as they are). A level whose active state no longer exists enters its initial state (a
+(:meth:`StateWiring.take_over <fsm.runtime.region.StateWiring.take_over>`: its entry time, pause and finishing carried
+over, its transitions armed afresh, the type's ``on_enter`` run with the new parameters; no document ``set`` action
+runs, so the variables stay as they are). A level whose active state no longer exists enters its initial state (a
 transition from nowhere in the trace, as at the start) and is listed in :attr:`Swap.missing`: a debugger pauses
 there and says so. A level new in the document (a parallel region added to an active composite) starts at its
 initial state. The old active states' ``on_exit`` run first (the type's own, innermost first: resources
@@ -22,7 +22,7 @@ from fsm.loading.building import build
 from fsm.model.errors import StateRuntimeError
 from fsm.model.plan import MachinePlan
 from fsm.runtime.machine import Machine
-from fsm.runtime.region import Region
+from fsm.runtime.region import Region, wiring
 from fsm.runtime.state import State
 
 
@@ -52,8 +52,8 @@ def running_exception(machine: Machine) -> str | None:
     """The path of an active state whose monitor's exception sequence is running, or None."""
     for region in machine.regions:
         if region.started:
-            supervisor = region.active.supervisor
-            if supervisor is not None and supervisor.running is not None:
+            supervisor = region.current.supervisor
+            if supervisor is not None and supervisor.level is not None:
                 return region.active.path
     return None
 
@@ -105,9 +105,9 @@ def _place(region: Region, old_regions: dict[str, Region], active: dict[str, Sta
         return
     region.active = target
     region.started = True
-    target.take_over(ctx, active[target.path])
+    wiring(target).take_over(ctx, wiring(active[target.path]))
     swap.kept.append(target.path)
-    for sub in target.regions:
+    for sub in wiring(target).regions:
         was = old_regions.get(sub.path)
         if was is None or was.started:  # a level the old machine had stopped (a halted composite) stays stopped
             _place(sub, old_regions, active, ctx, swap)

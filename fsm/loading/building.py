@@ -18,9 +18,9 @@ from fsm.runtime.composite import Composite
 from fsm.runtime.condition import Condition
 from fsm.runtime.context import Context
 from fsm.runtime.machine import Machine
-from fsm.runtime.region import Region
-from fsm.runtime.state import State, Until
-from fsm.runtime.supervisor import Monitor, Supervisor
+from fsm.runtime.region import Region, StateWiring, TransitionWiring, Until, transition_wiring, wiring
+from fsm.runtime.state import State
+from fsm.runtime.supervisor import Monitor, Supervisor, supervisor_of
 from fsm.runtime.transition import Transition
 from fsm.sequencer.checks import CALLER_BEHAVIORS
 
@@ -49,8 +49,8 @@ class _Builder:
     def __init__(self) -> None:
         self.states: dict[str, State[Any]] = {}
         self.regions: list[Region] = []
-        #: each state with its plan, in build order (for binding)
-        self.built: list[tuple[State[Any], StatePlan]] = []
+        #: each state's record, in build order (for binding)
+        self.built: list[StateWiring] = []
         #: the states with a supervisor
         self.supervised: list[tuple[State[Any], StatePlan]] = []
         #: each condition object with the state it belongs to
@@ -61,53 +61,51 @@ class _Builder:
         region = Region(plan.name, plan.path, states, states[plan.initial])
         region.owner = owner
         self.regions.append(region)
-        for obj in states.values():
-            obj.region = region
         transition = self.transition
         for sp in plan.states:
             if not sp.regular and not sp.preempt:
                 continue
-            source = states[sp.id]
+            source = wiring(states[sp.id])
             regular = sp.regular
-            # one transition out of a state is the usual case: built without a comprehension's frame
-            source.regular = (transition(regular[0], states),) if len(regular) == 1 else \
-                tuple([transition(tp, states) for tp in regular])
-            if sp.preempt:
-                source.preempt = tuple([transition(tp, states) for tp in sp.preempt])
-                source.transitions = sorted(source.preempt + source.regular, key=_position)
-            elif len(source.regular) > 1:
-                source.transitions = sorted(source.regular, key=_position)
-            else:
-                source.transitions = list(source.regular)
+            if len(regular) == 1 and not sp.preempt:
+                # one transition out of a state is the usual case: built without a comprehension's frame
+                only = transition(regular[0], states)
+                source.regular = (only,)
+                source.transitions = [only.transition]
+                continue
+            source.regular = tuple([transition(tp, states) for tp in regular])
+            source.preempt = tuple([transition(tp, states) for tp in sp.preempt])
+            source.transitions = [t.transition for t in sorted(source.preempt + source.regular, key=_position)]
         return region
 
     def state(self, plan: StatePlan) -> State[Any]:
         obj: State[Any] = plan.cls(plan.id, plan.params)
         obj.path = plan.path
+        record = wiring(obj)
         self.states[plan.path] = obj
-        self.built.append((obj, plan))
+        self.built.append(record)
         if plan.regions:
             regions = [self.region(rp, obj) for rp in plan.regions]
             assert isinstance(obj, Composite)  # only composites have regions
             obj.attach_regions(regions, plan)
         if plan.on_enter is not None or plan.on_exit is not None or plan.on_complete is not None:
-            obj.entry_action = plan.on_enter
-            obj.exit_action = plan.on_exit
-            obj.complete_action = plan.on_complete
+            record.entry_action = plan.on_enter
+            record.exit_action = plan.on_exit
+            record.complete_action = plan.on_complete
         if plan.checks:
             resets: list[Condition[Any]] = []
-            checks = {}
+            predicates = {}
             for key, check in plan.checks.items():
                 holds, conditions = self.predicate(check, obj)
-                checks[key] = holds
+                predicates[key] = holds
                 resets.extend(conditions)
-            obj.checks = checks
-            obj.resets = tuple(resets)
+            obj.predicates = predicates
+            record.resets = tuple(resets)
         sup = plan.supervision
         if sup is not None:
             if sup.until is not None:
                 holds, conditions = self.predicate(sup.until, obj)
-                obj.until = Until(holds, conditions)
+                record.until = Until(holds, conditions)
             if sup.watches:
                 self.supervise(obj, plan)
                 self.supervised.append((obj, plan))
@@ -127,7 +125,7 @@ class _Builder:
         for m in monitors:
             if m.kind == "timeout":
                 m.holds = supervisor.timed_out
-        obj.supervisor = supervisor
+        wiring(obj).supervisor = supervisor
 
     def predicate(self, check: Predicate, owner: State[Any]) -> tuple[Any, tuple[Condition[Any], ...]]:
         """``(holds(ctx), condition objects)`` of a step condition: an expression, or a condition object."""
@@ -137,9 +135,10 @@ class _Builder:
             return condition.holds, (condition,)
         return E.on_context(check), ()
 
-    def transition(self, plan: TransitionPlan, states: dict[str, State[Any]]) -> Transition[Any]:
+    def transition(self, plan: TransitionPlan, states: dict[str, State[Any]]) -> TransitionWiring:
         source = states[plan.source]
-        t: Transition[Any] = plan.cls(plan.params, source, states[plan.target], plan.position)
+        made: Transition[Any] = plan.cls(plan.params, source, states[plan.target], plan.position)
+        t = transition_wiring(made)
         guard = plan.guard
         if not plan.conditions and guard.expression is None and guard.condition is None and plan.assign is None:
             return t
@@ -160,7 +159,7 @@ class _Builder:
         """Once everything exists: references, supervisors (exception sequences, callers), conditions' owners;
         then every state's hooks are sealed."""
         for obj, _plan in self.supervised:
-            supervisor = obj.supervisor
+            supervisor = supervisor_of(wiring(obj))
             if supervisor is not None:
                 supervisor.machine = machine
                 for m in supervisor.monitors:
@@ -170,17 +169,18 @@ class _Builder:
                         _supervise_caller(obj, machine)
         for condition, owner in self.conditions:
             condition.bind(machine, owner)
-        for obj, _plan in self.built:
-            for t in obj.transitions:
+        for record in self.built:
+            for t in record.transitions:
                 if t.binds_references:
                     t.bind(machine)
-            if obj.binds_references:
-                obj.bind(machine)
-        for obj, _plan in self.built:
-            obj.seal()
+            state = record.state
+            if state.binds_references:
+                state.bind(machine)
+        for record in self.built:
+            record.seal()
 
 
-def _position(t: Transition[Any]) -> int:
+def _position(t: TransitionWiring) -> int:
     return t.index
 
 
@@ -190,10 +190,11 @@ def _never(ctx: Context) -> bool:
 
 def _supervise_caller(state: State[Any], machine: Machine) -> None:
     """A ``...CallerOfOwner`` behaviour acts on the state that contains ``state``: it needs a supervisor too."""
-    caller = state.region.owner if state.region is not None else None
-    if caller is not None and caller.supervisor is None:
-        caller.supervisor = Supervisor(caller, [])
-        caller.supervisor.machine = machine
+    region = wiring(state).region
+    caller = region.owner if region is not None else None
+    if caller is not None and wiring(caller).supervisor is None:
+        supervisor = wiring(caller).supervisor = Supervisor(caller, [])
+        supervisor.machine = machine
 
 
 def _exception_region(state: State[Any], name: str) -> Region | None:

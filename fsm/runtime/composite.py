@@ -5,12 +5,12 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any, ClassVar, TypeVar
 
 from fsm.model.params import StateParams
+from fsm.runtime.region import Region, wiring
 from fsm.runtime.state import State
 
 if TYPE_CHECKING:
     from fsm.model.plan import StatePlan
     from fsm.runtime.context import Context
-    from fsm.runtime.region import Region
     from fsm.runtime.state import Hook
 
 P = TypeVar("P", bound=StateParams)
@@ -47,7 +47,7 @@ class Composite(State[P]):
 
     def attach_regions(self, regions: list[Region], plan: StatePlan) -> None:
         """Take the built regions (in the order of ``plan.regions``) as this state's sub-machines."""
-        self.regions = tuple(regions)
+        wiring(self).regions = tuple(regions)
 
     @classmethod
     def composite_outcomes(cls, params: P, regions: list[set[str] | None]) -> set[str] | None:
@@ -74,28 +74,36 @@ class Composite(State[P]):
         return out
 
     def tick(self, ctx: Context) -> None:
-        for region in self.regions:
+        regions = wiring(self).regions
+        for region in regions:
             region.tick(ctx)
         if not self.finished:
-            self._join()
+            self._join(regions)
 
     def tick_method(self) -> Hook | None:
-        """A composite of one region (an ``FSMState``) ticks it and finishes with its Final state's outcome, without
-        the general join; other composites tick as their class says."""
-        if type(self).tick is Composite.tick and len(self.regions) == 1:
-            return self._tick_one
-        return super().tick_method()
+        """A composite that keeps the base's tick ticks its regions, bound once (an ``FSMState``, of one region,
+        finishes with its Final state's outcome without the general join); others tick as their class says."""
+        if type(self).tick is not Composite.tick:
+            return super().tick_method()
+        regions = wiring(self).regions
+        if len(regions) != 1:
+            def tick_all(ctx: Context) -> None:
+                for level in regions:
+                    level.tick(ctx)
+                if not self.finished:
+                    self._join(regions)
+            return tick_all
+        region = regions[0]
 
-    def _tick_one(self, ctx: Context) -> None:
-        region = self.regions[0]
-        region.tick(ctx)
-        if not self.finished:
-            active = region.active
-            if active.is_final:
-                self.finish(active.outcome or "succeeded")
+        def tick_one(ctx: Context) -> None:
+            region.tick(ctx)
+            if not self.finished:
+                active = region.current
+                if active.is_final:
+                    self.finish(active.state.outcome or "succeeded")
+        return tick_one
 
-    def _join(self) -> None:
-        regions = self.regions
+    def _join(self, regions: tuple[Region, ...]) -> None:
         if len(regions) == 1:
             active = regions[0].active
             if active.is_final:

@@ -13,7 +13,7 @@ from fsm.model.params import ConditionParams, adopt_generic_params
 
 if TYPE_CHECKING:
     from fsm.model.expr import Compiled
-    from fsm.runtime.context import Context, MachineView
+    from fsm.runtime.context import Context
     from fsm.runtime.state import State
 
 P = TypeVar("P", bound=ConditionParams)
@@ -52,8 +52,9 @@ class Condition(Generic[P]):
         self.children = tuple(children or ())
         self.exprs = exprs or {}
 
-    def bind(self, machine: MachineView, owner: State[Any]) -> None:
-        """Called once when the machine is built; resolve references here. Binds the children too."""
+    def bind(self, machine: Any, owner: State[Any]) -> None:
+        """Called once when the machine is built; resolve references here. Binds the children too. ``machine`` is the
+        :class:`fsm.Machine`, annotated ``Machine`` or ``MachineView`` in an override (see ``State.bind``)."""
         self.owner = owner
         for child in self.children:
             child.bind(machine, owner)

@@ -14,12 +14,12 @@ from fsm.model.paths import resolve_path
 from fsm.runtime.clock import DEFAULT_DURATION, Clock, SimulatedClock
 from fsm.runtime.context import Context, StateView, check_signal_name, shown_value, signal_level
 from fsm.runtime.debounce import Debounced
+from fsm.runtime.region import Region, wiring
 from fsm.runtime.state import State
 from fsm.runtime.supervisor import Restart
 from fsm.runtime.transition import Transition
 
 if TYPE_CHECKING:
-    from fsm.runtime.region import Region
     from fsm.runtime.supervisor import Monitor
 
 #: What a listener's ``on_transition`` gets as the ``transition`` that entered a state (``None`` for an initial
@@ -126,7 +126,7 @@ class Machine:
         for region in self.regions:
             region.listeners = self.listeners
         #: Top-level states without outgoing transitions: one that finishes ends the machine.
-        self._terminal = frozenset(s for s in root.states.values() if not s.transitions and not s.is_final)
+        self._terminal = frozenset(s for s in root.states.values() if not wiring(s).transitions and not s.is_final)
 
     # -- running --------------------------------------------------------------------------------
     def start(self) -> None:
@@ -195,8 +195,11 @@ class Machine:
         has finished (a root ``Sequence`` ends the machine with its outcome)."""
         if not self.started:
             return False
-        active = self.root.active
-        return active.is_final or (active.finished and active in self._terminal)
+        active = self.root.current
+        if active.is_final:
+            return True
+        state = active.state
+        return state.finished and state in self._terminal
 
     @property
     def outcome(self) -> str | None:
@@ -274,15 +277,17 @@ class Machine:
         if not self.started:
             self.start()
         state = self.root.active if not path else self.state(path)
-        if not state.active:
+        record = wiring(state)
+        if not record.active:
             raise ValueError(f"cannot pause '{path}': it is not active")
-        if state.paused:
+        if record.paused:
             return
-        state.paused = True
+        record.paused = True
         now = self.ctx.now
         for sub in self._active_subtree(state):
-            if sub.frozen_since is None:  # already frozen by an earlier pause below: keep that time
-                sub.frozen_since = now
+            held = wiring(sub)
+            if held.frozen_since is None:  # already frozen by an earlier pause below: keep that time
+                held.frozen_since = now
                 if type(sub).on_pause is not State.on_pause:
                     sub.on_pause(self.ctx)
         if self.listeners:
@@ -296,11 +301,12 @@ class Machine:
         """
         _check_path(path)
         state = self.root.active if not path else self.state(path)
-        if not state.paused:
+        record = wiring(state)
+        if not record.paused:
             return
-        state.paused = False
+        record.paused = False
         now = self.ctx.now
-        held = any(s.paused for s in self._ancestors(state))
+        held = any(wiring(s).paused for s in self._ancestors(state))
         if not held:
             self.thaw(state, now)
         if self.listeners:
@@ -309,22 +315,23 @@ class Machine:
     def thaw(self, state: State[Any], now: float) -> None:
         """Unfreeze ``state`` and its subtree after a pause or a suspension, stopping at states that are paused
         themselves: their clocks go on from where they stood (the frozen time is not counted)."""
-        if state.frozen_since is not None:
-            state.entered_at += now - state.frozen_since
-            state.frozen_since = None
-            if state.paused is False and type(state).on_resume is not State.on_resume:
+        record = wiring(state)
+        if record.frozen_since is not None:
+            record.entered_at += now - record.frozen_since
+            record.frozen_since = None
+            if record.paused is False and type(state).on_resume is not State.on_resume:
                 state.on_resume(self.ctx)
         for region in _inner_regions(state):
-            if region.started and not region.active.paused:
+            if region.started and not region.current.paused:
                 self.thaw(region.active, now)
 
     @staticmethod
     def _ancestors(state: State[Any]) -> list[State[Any]]:
         out = []
-        region = state.region
+        region = wiring(state).region
         while region is not None and region.owner is not None:
             out.append(region.owner)
-            region = region.owner.region
+            region = wiring(region.owner).region
         return out
 
     def _active_subtree(self, state: State[Any]) -> list[State[Any]]:
@@ -416,10 +423,12 @@ class Machine:
 
 def _inner_regions(state: State[Any]) -> tuple[Region, ...]:
     """The regions below ``state``: its own and the exception sequence running for it, if any."""
-    w = state.supervisor
-    if w is not None and w.running is not None:
-        return state.regions + (w.running.region,)
-    return state.regions
+    record = wiring(state)
+    w = record.supervisor
+    running = w.level if w is not None else None
+    if running is not None:
+        return record.regions + (running,)
+    return record.regions
 
 
 # -- argument checks (shared with Context.set_signal) --------------------------------------------------

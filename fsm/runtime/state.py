@@ -1,33 +1,92 @@
-"""State: the base class of every state type, its lifecycle hooks and finishing with an outcome."""
+"""State: the base class of every state type, its lifecycle hooks and finishing with an outcome.
+
+What the runtime keeps of a state besides its identity and parameters (its level, sub-levels, transitions,
+supervisor, the hooks it calls, its clock) is its *wiring record*, one slot (``_fsm``): a
+:class:`fsm.runtime.region.StateWiring`, of which this module knows the base, :class:`Life` (see
+:func:`use_record`). A plugin author's ``self.`` therefore holds
+``id``, ``path``, ``params``, ``finished``, ``outcome`` and ``predicates`` of the base, and the author's own names
+(``region``, ``transitions`` or ``supervisor`` among them, if they like). This module names none of the classes a
+state is linked to: the record's type lives above it, with the region.
+"""
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, ClassVar, Generic, NamedTuple, TypeVar, cast
+from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar, cast
 
-from fsm.model.errors import StateRuntimeError
 from fsm.model.params import StateParams, adopt_generic_params
 
 if TYPE_CHECKING:
-    from fsm.runtime.condition import Condition
-    from fsm.runtime.context import Context, MachineView
-    from fsm.runtime.region import Region
-    from fsm.runtime.supervisor import Supervisor
-    from fsm.runtime.transition import Transition
+    from fsm.runtime.context import Context
 
 P = TypeVar("P", bound=StateParams)
-#: The checks of a state whose type has no condition parameters (shared; the builder gives others their own).
-_NO_CHECKS: dict[str, Any] = {}
+#: The predicates of a state whose type has no condition parameters (shared; the builder gives others their own).
+_NO_PREDICATES: dict[str, Any] = {}
 
 #: A hook the runtime calls with the context (``None`` where there is nothing to do).
 Hook = Callable[["Context"], None]
 
 
-class Until(NamedTuple):
-    """A state's exit condition, built: ``holds(ctx)`` and the condition objects to reset on each entry."""
+class Life:
+    """The part of a state's wiring record this module knows: its clock and how it finished by itself. A state is
+    made with the full record, a :class:`fsm.runtime.region.StateWiring` (a subclass, with the state's links), once
+    the runtime's region module is imported (:func:`use_record`); before, with this, which that module's ``wiring``
+    replaces when first asked."""
 
-    holds: Callable[[Context], bool]
-    conditions: tuple[Condition[Any], ...]
+    __slots__ = ("state", "entered_at", "paused", "frozen_since", "completed", "completion_ran")
+
+    def __init__(self, state: State[Any], before: Life | None = None) -> None:
+        self.state = state
+        if before is None:
+            self.entered_at = 0.0
+            self.paused = False
+            #: Machine time since which this state's clock stands still (it or an ancestor is paused, or it is
+            #: suspended while a monitor's exception sequence runs), else None.
+            self.frozen_since: float | None = None
+            #: It called :meth:`State.finish` since its last entry (``set.on_complete`` runs then), and whether that
+            #: ran.
+            self.completed = False
+            self.completion_ran = False
+        else:
+            self.entered_at, self.paused, self.frozen_since = before.entered_at, before.paused, before.frozen_since
+            self.completed, self.completion_ran = before.completed, before.completion_ran
+
+    @property
+    def active(self) -> bool:
+        """A state in no machine level is active."""
+        return True
+
+
+#: The class of the record a state is made with (see :class:`Life`).
+_record: type[Life] = Life
+
+
+def use_record(record: type[Life]) -> None:
+    """Make states with ``record`` from now on: the runtime's region module gives its full record when imported, so
+    that a state built into a machine is made wired rather than wired afterwards (a record made once)."""
+    global _record
+    _record = record
+
+
+class Renamed:
+    """A deprecated name of an attribute: reading it warns (``DeprecationWarning``) and reads ``new`` of the object
+    (or with ``record``, of its wiring record; ``default`` before it is built). A non-data descriptor: a subclass
+    or an instance that assigns the old name for its own use owns it, and the runtime never reads it."""
+
+    def __init__(self, old: str, new: str, *, record: bool = False, default: Any = None,
+                 until: str = "the next release") -> None:
+        self.old, self.new, self.record, self.default, self.until = old, new, record, default, until
+
+    def __get__(self, obj: Any, owner: type | None = None) -> Any:
+        if obj is None:
+            return self
+        where = "fsm.runtime.region.wiring(state)" if self.record else type(obj).__qualname__
+        warnings.warn(f"{type(obj).__qualname__}.{self.old} is deprecated (removed in {self.until}): read "
+                      f"{where}.{self.new}", DeprecationWarning, stacklevel=2)
+        if self.record:
+            return getattr(obj._fsm, self.new, self.default)
+        return getattr(obj, self.new)
 
 
 class State(Generic[P]):
@@ -41,37 +100,12 @@ class State(Generic[P]):
     ``State`` is generic over its parameters: ``class Wait(State[WaitParams])`` types ``self.params.seconds`` and
     makes ``WaitParams`` the type's ``Params`` (what the document is checked against); a ``Params`` declared as
     well must agree with it (be it or a subclass), else registering the class is a ``RegistrationError``.
+
+    What an instance holds of the base: ``id``, ``path``, ``params``, ``finished``, ``outcome``, ``predicates``,
+    and one slot of runtime wiring (``_fsm``, see :func:`fsm.runtime.region.wiring`); every other name is yours.
     """
 
-    __slots__ = (
-        "id",
-        "params",
-        "path",
-        "region",
-        "regions",
-        "finished",
-        "outcome",
-        "entered_at",
-        "paused",
-        "frozen_since",
-        "preempt",
-        "regular",
-        "transitions",
-        "supervisor",
-        "until",
-        "entry_action",
-        "exit_action",
-        "tick_hook",
-        "enter_hook",
-        "exit_hook",
-        "arms",
-        "watched",
-        "checks",
-        "resets",
-        "complete_action",
-        "completed",
-        "completion_ran",
-    )
+    __slots__ = ("id", "params", "path", "finished", "outcome", "predicates", "_fsm")
 
     #: The parameters' model: the generic argument (``class Wait(State[WaitParams])``) unless declared.
     Params: ClassVar[type[StateParams]] = StateParams
@@ -94,13 +128,22 @@ class State(Generic[P]):
     #: Names of parameters that hold assignments (``{"var": "expression"}``) run on entry, like ``set.on_enter``.
     assignment_fields: ClassVar[tuple[str, ...]] = ()
     #: Names of parameters that hold conditions (an expression or a condition object, like ``until``); the built
-    #: state finds each as ``self.checks[name](ctx)``.
+    #: state finds each as ``self.predicates[name](ctx)``.
     condition_fields: ClassVar[tuple[str, ...]] = ()
     # Which hooks a class overrides, found once per class (``__init_subclass__``) rather than per state built.
     _overrides_enter: ClassVar[bool] = False
     _overrides_exit: ClassVar[bool] = False
     _overrides_tick: ClassVar[bool] = False
     binds_references: ClassVar[bool] = False
+
+    if not TYPE_CHECKING:  # hidden from type checkers: a plugin's own attribute of one of these names type-checks
+        #: Deprecated names, read for one release with a ``DeprecationWarning``: ``checks`` is ``predicates``; the
+        #: links are in the wiring record (:func:`fsm.runtime.region.wiring`).
+        checks = Renamed("checks", "predicates")
+        region = Renamed("region", "region", record=True)
+        regions = Renamed("regions", "regions", record=True, default=())
+        transitions = Renamed("transitions", "transitions", record=True, default=[])
+        supervisor = Renamed("supervisor", "supervisor", record=True)
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -114,42 +157,12 @@ class State(Generic[P]):
         self.id = id
         self.params: P = params if params is not None else cast(P, self.Params(id=id, type=type(self).__name__))
         self.path = id
-        self.region: Region | None = None
-        self.regions: tuple[Region, ...] = ()
         self.finished = False
         self.outcome: str | None = None
-        self.entered_at = 0.0
-        self.paused = False
-        #: Machine time since which this state's clock stands still (it or an ancestor is paused, or it is
-        #: suspended while a monitor's exception sequence runs), else None.
-        self.frozen_since: float | None = None
-        self.preempt: tuple[Transition[Any], ...] = ()
-        self.regular: tuple[Transition[Any], ...] = ()
-        self.transitions: list[Transition[Any]] = []
-        #: Monitors, timeout and precondition (:class:`fsm.runtime.supervisor.Supervisor`), or None.
-        self.supervisor: Supervisor | None = None
-        #: The exit condition (``until``), or None.
-        self.until: Until | None = None
-        #: The document's ``set`` of this state, compiled, or None.
-        self.entry_action: Hook | None = None
-        self.exit_action: Hook | None = None
-        # What the runtime calls, fixed when the machine is built (seal): None where the base does nothing.
-        self.tick_hook: Hook | None = None
-        self.enter_hook: Hook | None = None
-        self.exit_hook: Hook | None = None
-        #: The outgoing transitions' hooks run on each entry (their references, their conditions' resets).
-        self.arms: tuple[Hook, ...] = ()
-        #: Whether anything is checked before the tick: a supervisor or preemptive transitions (fixed by seal).
-        self.watched = False
-        #: The type's condition parameters, built: ``checks[name](ctx) -> bool``.
-        self.checks: dict[str, Callable[[Context], bool]] = _NO_CHECKS
-        #: Condition objects of ``checks`` to reset on each entry.
-        self.resets: tuple[Condition[Any], ...] = ()
-        #: The document's ``set.on_complete``, compiled, or None; run when the state is left after it finished
-        #: by itself (``completed``: it called :meth:`finish`), not when aborted, timed out, skipped or restarted.
-        self.complete_action: Hook | None = None
-        self.completed = False
-        self.completion_ran = False
+        #: The type's condition parameters, built: ``predicates[name](ctx) -> bool``.
+        self.predicates: dict[str, Callable[[Context], bool]] = _NO_PREDICATES
+        #: The runtime's record of this state (its links and clock); see the module's docstring.
+        self._fsm: Life = _record(self)
 
     @property
     def type_name(self) -> str:
@@ -180,190 +193,38 @@ class State(Generic[P]):
     def on_resume(self, ctx: Context) -> None:
         """Called when a pause ends and the state is ticked again: restart what ``on_pause`` stopped."""
 
-    def bind(self, machine: MachineView) -> None:
-        """Called once when the machine is built, to resolve references to other states (``Join``)."""
+    def bind(self, machine: Any) -> None:
+        """Called once when the machine is built, to resolve references to other states (``Join``). ``machine`` is
+        the :class:`fsm.Machine` being built; an override annotates it ``Machine``, or ``MachineView``
+        (:mod:`fsm.runtime.context`, what the runtime's own types use of it): both type-check."""
+
+    def tick_method(self) -> Hook | None:
+        """What ticking this state calls (fixed when the machine is built), or None when its class keeps the base's
+        empty tick; a composite ticks its regions."""
+        return self.tick if type(self)._overrides_tick else None
 
     # -- API for subclasses ---------------------------------------------------------------------
     def finish(self, outcome: str = "succeeded") -> None:
         """Mark the state finished with ``outcome``; ``Finished`` transitions out of it can now fire."""
         self.finished = True
         self.outcome = outcome
-        self.completed = True
+        self._fsm.completed = True
 
     def time_in_state(self, ctx: Context) -> float:
         """Seconds on the machine's clock since the state was entered, paused time excluded."""
-        since = self.frozen_since
-        return (ctx.now if since is None else since) - self.entered_at
+        life = self._fsm
+        since = life.frozen_since
+        return (ctx.now if since is None else since) - life.entered_at
 
     @property
     def active(self) -> bool:
         """True while this state and all its ancestors are active."""
-        state: State[Any] | None = self
-        while state is not None:
-            region = state.region
-            if region is None:
-                return True
-            if region.active is not state or not region.started:
-                return False
-            state = region.owner
-        return True
+        return self._fsm.active
 
-    # -- the runtime ----------------------------------------------------------------------------
-    def seal(self) -> None:
-        """Fix the hooks the runtime calls, once the machine is built: ``None`` where there is nothing to do, so
-        a plain state costs the tick loop one test per hook."""
-        cls = type(self)
-        if self.transitions:
-            self.arms = tuple(arm for t in self.transitions if (arm := t.arm) is not None)
-        supervised = self.supervisor is not None
-        self.watched = supervised or bool(self.preempt)
-        tick = self.tick_method() if cls._overrides_tick or self.regions else None
-        self.tick_hook = tick if self.until is None else self._until_tick(tick, self.until.holds)
-        if self.complete_action is not None:
-            self.tick_hook = self._completing_tick(self.tick_hook, self.complete_action)
-        plain_enter = not (cls._overrides_enter or self.regions or self.arms or self.can_finish or self.resets
-                           or self.entry_action is not None or supervised or self.until is not None)
-        self.enter_hook = None if plain_enter else self._enter
-        self.exit_hook = self._exit if (cls._overrides_exit or self.regions or self.exit_action is not None) else None
-
-    def tick_method(self) -> Hook | None:
-        """What ticking this state calls, or None when its class keeps the base's empty tick."""
-        return self.tick if type(self)._overrides_tick else None
-
-    def leave(self, ctx: Context) -> None:
-        """Exit as a transition or an outer level does, and drop a pause or suspension it was held in."""
-        if self.exit_hook is not None:
-            self.exit_hook(ctx)
-        self.release()
-
-    def release(self) -> None:
-        """No longer paused or frozen (the state was left while held)."""
-        self.paused = False
-        self.frozen_since = None
-
-    def take_over(self, ctx: Context, old: State[Any]) -> None:
-        """Become active in place of ``old``, the state at the same path in the machine a hot reload replaces
-        (:mod:`fsm.debug.reload`), between two ticks. Carried over: its clock (entry time, pause, freeze), whether it
-        finished and with which outcome, its timeout's reset; armed afresh: its outgoing transitions and its
-        conditions; run: the type's ``on_enter`` with the new parameters, unless it had finished. The document's
-        ``set`` actions are not run (the variables stay as they are). Its sub-levels are the caller's."""
-        self.entered_at = old.entered_at
-        self.paused = old.paused
-        self.frozen_since = old.frozen_since
-        self.finished, self.outcome = old.finished, old.outcome
-        self.completed, self.completion_ran = old.completed, old.completion_ran
-        phase = "until"
-        try:
-            for condition in self.resets:
-                condition.reset(ctx)
-            if self.until is not None:
-                for condition in self.until.conditions:
-                    condition.reset(ctx)
-            supervisor = self.supervisor
-            if supervisor is not None:
-                phase = "precondition"
-                supervisor.arm(ctx)
-                before = old.supervisor
-                supervisor.halted = before.halted if before is not None else False
-                supervisor.reset_at = before.reset_at if before is not None else 0.0
-            phase = "on_source_enter"
-            for arm in self.arms:
-                arm(ctx)
-            if not old.finished:
-                phase = "on_enter"
-                self.on_enter(ctx)
-        except StateRuntimeError:
-            raise
-        except Exception as exc:
-            raise StateRuntimeError.of(self, phase, ctx, exc) from exc
-
-    def _enter(self, ctx: Context) -> None:
-        """Enter: reset finishing, arm the outgoing transitions, ``on_enter``, then the sub-machines."""
-        self.finished = False
-        self.outcome = None
-        self.completed = self.completion_ran = False
-        phase = "set on_enter"
-        try:
-            for condition in self.resets:
-                condition.reset(ctx)
-            if self.until is not None:
-                phase = "until"
-                for condition in self.until.conditions:
-                    condition.reset(ctx)
-            if self.supervisor is not None:
-                phase = "precondition"
-                if not self.supervisor.arm(ctx):
-                    self.finished = True
-                    self.outcome = "precondition_failed"
-                    machine = ctx.machine
-                    if machine is not None and machine.listeners:
-                        machine.notify_skipped(self)
-                    return
-                phase = "set on_enter"
-            if self.entry_action is not None:
-                self.entry_action(ctx)
-            phase = "on_source_enter"
-            for arm in self.arms:
-                arm(ctx)
-            phase = "on_enter"
-            self.on_enter(ctx)
-            if self.completed and self.complete_action is not None:  # finished on entry (a Final, a SetVar)
-                phase = "set on_complete"
-                self.completion_ran = True
-                self.complete_action(ctx)
-        except StateRuntimeError:
-            raise
-        except Exception as exc:
-            raise StateRuntimeError.of(self, phase, ctx, exc) from exc
-        for region in self.regions:
-            region.start(ctx)
-
-    def _until_tick(self, tick: Hook | None, until: Callable[[Context], bool]) -> Hook:
-        """The tick with the exit condition checked after it: the state finishes when ``until`` holds."""
-        if tick is None:
-            def check(ctx: Context) -> None:
-                if not self.finished and until(ctx):
-                    self.finish("succeeded")
-            return check
-
-        def tick_then_check(ctx: Context) -> None:
-            tick(ctx)
-            if not self.finished and until(ctx):
-                self.finish("succeeded")
-        return tick_then_check
-
-    def _completing_tick(self, tick: Hook | None, complete: Hook) -> Hook:
-        """The tick followed by ``set.on_complete`` in the tick the state finishes by itself (once per entry)."""
-        def tick_then_complete(ctx: Context) -> None:
-            if tick is not None:
-                tick(ctx)
-            if self.completed and not self.completion_ran:
-                self.completion_ran = True
-                try:
-                    complete(ctx)
-                except StateRuntimeError:
-                    raise
-                except Exception as exc:
-                    raise StateRuntimeError.of(self, "set on_complete", ctx, exc) from exc
-        return tick_then_complete
-
-    def _exit(self, ctx: Context) -> None:
-        """Exit: sub-machines first (innermost first; parallel regions in reverse order), then ``on_exit``."""
-        for region in reversed(self.regions):
-            region.stop(ctx)
-        supervisor = self.supervisor
-        if supervisor is not None and supervisor.halted and self.outcome == "precondition_failed":
-            return  # skipped by its precondition: it was never entered, so it is not exited either
-        phase = "on_exit"
-        try:
-            self.on_exit(ctx)
-            if self.exit_action is not None:
-                phase = "set on_exit"
-                self.exit_action(ctx)
-        except StateRuntimeError:
-            raise
-        except Exception as exc:
-            raise StateRuntimeError.of(self, phase, ctx, exc) from exc
+    @property
+    def paused(self) -> bool:
+        """True while paused (by ``Machine.pause`` or a pause button)."""
+        return self._fsm.paused
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.path!r}>"

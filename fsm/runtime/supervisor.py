@@ -12,13 +12,13 @@ from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
 
 from fsm.model.expr import ExprRuntimeError
+from fsm.runtime.region import Region, StateWiring, wiring
 from fsm.runtime.state import State
 from fsm.runtime.verdict import Verdict
 
 if TYPE_CHECKING:
     from fsm.runtime.condition import Condition
     from fsm.runtime.context import Context
-    from fsm.runtime.region import Region
 
 #: Slack for timeouts computed from ticks (80 ticks of 0.0125 s are 1 s).
 _EPS = 5e-10
@@ -122,6 +122,12 @@ class Supervisor:
         self.machine: MonitorListeners | None = None
         self.halted = False
 
+    @property
+    def level(self) -> Region | None:
+        """The exception sequence's level running for the owner, or None."""
+        running = self.running
+        return None if running is None else running.region
+
     # -- entry -------------------------------------------------------------------------------------
     def arm(self, ctx: Context) -> bool:
         """Called on each entry of the owner: fresh timeout, conditions reset. Returns False when the
@@ -200,7 +206,8 @@ class Supervisor:
         if behavior == "restartOwner":
             restart(owner, ctx, m)
             return Verdict.CONSUMED
-        caller = owner.region.owner if owner.region is not None else None
+        level = wiring(owner).region
+        caller = level.owner if level is not None else None
         unsuspend(owner, ctx, self.machine)
         if caller is None:  # the checks refuse this; a hand-built machine gets the owner's own behaviour
             caller = owner
@@ -212,32 +219,45 @@ class Supervisor:
 
 
 # -- what behaviours do to a state ------------------------------------------------------------------------
+def supervisor_of(state: State[Any] | StateWiring) -> Supervisor | None:
+    """The supervisor of a state, or of the state of a record (which holds it as what the tick uses of it,
+    :class:`fsm.runtime.region.Supervising`), or None."""
+    supervisor = (state if isinstance(state, StateWiring) else wiring(state)).supervisor
+    assert supervisor is None or isinstance(supervisor, Supervisor)
+    return supervisor
+
+
 def suspend(state: State[Any], ctx: Context) -> None:
     """Freeze ``state`` and its active subtree (not ticked, clocks stand still) while an exception sequence runs."""
     now = ctx.now
-    todo = [state]
+    top = wiring(state)
+    todo = [top]
     while todo:
         s = todo.pop()
         if s.frozen_since is None:
             s.frozen_since = now
-            if type(s).on_pause is not State.on_pause:
-                s.on_pause(ctx)
-        todo.extend(r.active for r in s.regions if r.started)
+            sub = s.state
+            if type(sub).on_pause is not State.on_pause:
+                sub.on_pause(ctx)
+        todo.extend(r.current for r in s.regions if r.started)
         w = s.supervisor
-        if s is not state and w is not None and w.running is not None:
-            todo.append(w.running.region.active)  # an exception sequence running further down stands still too
+        running = w.level if w is not None and s is not top else None
+        if running is not None:
+            todo.append(running.current)  # an exception sequence running further down stands still too
 
 
 def unsuspend(state: State[Any], ctx: Context, machine: MonitorListeners | None) -> None:
     """Undo :func:`suspend` (states held by a pause stay frozen until resumed); ``machine`` thaws it (the
     supervisor's, bound when the machine is built)."""
-    if state.frozen_since is None:
+    record = wiring(state)
+    if record.frozen_since is None:
         return
-    s: Any = state
+    s: StateWiring | None = record
     while s is not None:  # an ancestor's pause keeps the subtree frozen: Machine.resume thaws it later
         if s.paused:
             return
-        s = s.region.owner if s.region is not None else None
+        level = s.region
+        s = wiring(level.owner) if level is not None and level.owner is not None else None
     assert machine is not None, "a supervisor is bound to its machine when the machine is built"
     machine.thaw(state, ctx.now)
 
@@ -245,9 +265,10 @@ def unsuspend(state: State[Any], ctx: Context, machine: MonitorListeners | None)
 def abort(state: State[Any], outcome: str, ctx: Context) -> None:
     """End ``state`` where it is: everything inside it is left (innermost first), it is finished with
     ``outcome`` and halted (no longer ticked) until its own level leaves it by a transition."""
-    for region in reversed(state.regions):
+    record = wiring(state)
+    for region in reversed(record.regions):
         region.stop(ctx)
-    w = state.supervisor
+    w = supervisor_of(record)
     if w is not None:
         if w.running is not None:
             w.running.region.stop(ctx)
@@ -262,25 +283,26 @@ def abort(state: State[Any], outcome: str, ctx: Context) -> None:
 
 def restart(state: State[Any], ctx: Context, monitor: Monitor | None = None) -> None:
     """Leave ``state`` (its subtree first) and enter it again from its start, with a fresh timeout."""
-    w = state.supervisor
+    record = wiring(state)
+    w = supervisor_of(record)
     if w is not None and w.running is not None:
         w.running.region.stop(ctx)
         w.running = None
-    if state.exit_hook is not None:
-        state.leave(ctx)
+    if record.exit_hook is not None:
+        record.leave(ctx)
     else:
-        for sub in reversed(state.regions):
+        for sub in reversed(record.regions):
             sub.stop(ctx)
-        state.frozen_since = None
-        state.paused = False
-    state.entered_at = ctx.now
-    region = state.region
+        record.frozen_since = None
+        record.paused = False
+    record.entered_at = ctx.now
+    region = record.region
     if region is not None and region.listeners:
         marker = Restart(state, monitor)
         for listener in region.listeners:
             listener.on_transition(ctx, state, state, marker)
-    if state.enter_hook is not None:
-        state.enter_hook(ctx)
+    if record.enter_hook is not None:
+        record.enter_hook(ctx)
     else:
         state.finished = False
         state.outcome = None

@@ -3,21 +3,40 @@
 from __future__ import annotations
 
 import warnings
-from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
 
-from fsm.model.expr import VarOp
 from fsm.model.params import TransitionParams, adopt_generic_params
-from fsm.model.plan import ActionKind, GuardKind
 
 if TYPE_CHECKING:
     from fsm.runtime.condition import Condition
-    from fsm.runtime.context import Context, MachineView
+    from fsm.runtime.context import Context
     from fsm.runtime.state import State
 
 P = TypeVar("P", bound=TransitionParams)
 #: The conditions of a transition that has none (shared; ``apply_conditions`` makes a transition its own).
 _NO_CONDITIONS: dict[str, Any] = {}
+
+
+class Link:
+    """The part of a transition's wiring record this module knows: the transition and its place among its source's
+    transitions (document order). A transition is made with the full record, a
+    :class:`fsm.runtime.region.TransitionWiring`, once the runtime's region module is imported (:func:`use_link`)."""
+
+    __slots__ = ("transition", "index")
+
+    def __init__(self, transition: Transition[Any], index: int) -> None:
+        self.transition = transition
+        self.index = index
+
+
+#: The class of the record a transition is made with (see :class:`Link`).
+_link: type[Link] = Link
+
+
+def use_link(link: type[Link]) -> None:
+    """Make transitions with ``link`` from now on (the runtime's region module gives its full record when imported)."""
+    global _link
+    _link = link
 
 
 class Transition(Generic[P]):
@@ -29,14 +48,13 @@ class Transition(Generic[P]):
     ``action`` runs while firing, between the source's exit and the target's entry.
 
     A document may add a ``guard`` (an expression or a condition, asked before ``holds``: both must hold)
-    and a ``set`` (assignments run after ``action``); the build stage applies them with
-    :meth:`apply_guard`, :meth:`apply_conditions` and :meth:`apply_set`.
-    How the region decides and fires is explicit: ``kind`` (always, an inline ``variable OP constant``
-    comparison, or a call of ``test``) and ``effect`` (nothing, an inline counter, or a call of ``run``).
+    and a ``set`` (assignments run after ``action``); the build stage applies them to the transition's wiring
+    record (:class:`fsm.runtime.region.TransitionWiring`), which says how the region decides and fires it.
+    What an instance holds of the base: ``params``, ``source``, ``target``, ``conditions`` and that record
+    (``_fsm``); every other name is the subclass's.
     """
 
-    __slots__ = ("params", "source", "target", "index", "kind", "compare", "test", "effect", "counter", "run",
-                 "assign", "conditions", "arm")
+    __slots__ = ("params", "source", "target", "conditions", "_fsm")
 
     #: The parameters' model: the generic argument (``class Near(Transition[NearParams])``) unless declared.
     Params: ClassVar[type[TransitionParams]] = TransitionParams
@@ -79,100 +97,21 @@ class Transition(Generic[P]):
         self.params = params
         self.source = source
         self.target = target
-        self.index = index
-        cls = type(self)
-        #: How the region decides: ALWAYS, COMPARE (``compare`` inline) or CALL (``test(ctx)``).
-        if cls.unconditional:
-            self.kind = GuardKind.ALWAYS
-            self.test: Callable[[Context], bool] | None = None
-        else:
-            self.kind = GuardKind.CALL
-            self.test = self.holds
-        self.compare: VarOp | None = None
-        #: What firing runs: NONE, COUNTER (``counter`` inline) or CALL (``run(ctx)``).
-        if cls._overrides_action:
-            self.effect = ActionKind.CALL
-            self.run: Callable[[Context], None] | None = self.action
-        else:
-            self.effect = ActionKind.NONE
-            self.run = None
-        self.counter: tuple[str, VarOp] | None = None
-        #: The document's ``set``, compiled (kept to combine it with further actions, see ``then``).
-        self.assign: Callable[[Context], None] | None = None
-        #: Condition objects by parameter name (a condition guard is ``"guard"``).
+        #: Condition objects by parameter name (a condition guard is ``"guard"``), bound when the machine is built.
         self.conditions: dict[str, Condition[Any]] = _NO_CONDITIONS
-        #: Run on each entry of the source: the type's ``on_source_enter`` and the conditions' resets.
-        self.arm: Callable[[Context], None] | None = self.on_source_enter if cls._overrides_source_enter else None
+        #: The runtime's record of this transition: its place among its source's transitions here, and how the
+        #: region decides and fires it once the machine is built (a :class:`fsm.runtime.region.TransitionWiring`).
+        self._fsm: Link = _link(self, index)
 
     @property
     def type_name(self) -> str:
         """The registered type name this transition was built as (its document's ``type``)."""
         return self.params.type
 
-    # -- built from the plan --------------------------------------------------------------------------
-    def apply_guard(self, guard: Callable[[Context], bool] | None, compare: VarOp | None = None) -> None:
-        """Add the document's guard: asked first, then the type's ``holds`` (an ``Always`` has none). With
-        ``compare`` (a guard ``variable OP constant`` on an ``Always``) the region runs it inline."""
-        if compare is not None and type(self).unconditional:
-            self.kind = GuardKind.COMPARE
-            self.compare = compare
-        if guard is None:
-            return
-        check = self.test
-        self.test = guard if check is None else (lambda ctx: guard(ctx) and check(ctx))
-        if self.kind is GuardKind.ALWAYS:
-            self.kind = GuardKind.CALL
-
-    def apply_conditions(self, conditions: dict[str, Condition[Any]]) -> None:
-        """Keep the condition objects, reset each time the source is entered."""
-        self.conditions = {**self.conditions, **conditions}
-        resets = tuple(c.reset for c in conditions.values())
-        own = self.arm
-
-        def arm(ctx: Context) -> None:
-            for reset in resets:
-                reset(ctx)
-            if own is not None:
-                own(ctx)
-        self.arm = arm
-
-    def apply_set(self, assign: Callable[[Context], None], counter: tuple[str, VarOp] | None = None) -> None:
-        """Add the document's ``set`` (after the type's ``action``); a lone counter runs inline."""
-        self.assign = assign
-        if self.effect is ActionKind.NONE and counter is not None:
-            self.effect = ActionKind.COUNTER
-            self.counter = counter
-            return
-        self.then(assign)
-
-    def then(self, run: Callable[[Context], None]) -> None:
-        """Run ``run(ctx)`` while firing, after what already runs there (the type's action, the ``set``)."""
-        before = self.run
-        if self.effect is ActionKind.COUNTER:
-            before = self.assign
-        if before is None:
-            self.run = run
-        else:
-            def both(ctx: Context) -> None:
-                before(ctx)
-                run(ctx)
-            self.run = both
-        self.effect = ActionKind.CALL
-        self.counter = None
-
-    def fires(self, ctx: Context) -> bool:
-        """Whether the transition fires now, by its kind (the region runs the same inline)."""
-        kind = self.kind
-        if kind is GuardKind.ALWAYS:
-            return True
-        if kind is GuardKind.COMPARE:
-            assert self.compare is not None
-            name, op, const, _swapped, read = self.compare
-            v = ctx.vars
-            x = v[name] if name in v else read(v)
-            return bool(op(x if type(x) in (int, float) else read(v), const))
-        assert self.test is not None
-        return bool(self.test(ctx))
+    @property
+    def index(self) -> int:
+        """Its place among its source's transitions (document order; the trace's ``#index``)."""
+        return self._fsm.index
 
     # -- hooks for subclasses ---------------------------------------------------------------------------
     @classmethod
@@ -206,8 +145,9 @@ class Transition(Generic[P]):
     def action(self, ctx: Context) -> None:
         """Called while firing, after the source's exit and before the target's entry."""
 
-    def bind(self, machine: MachineView) -> None:
-        """Called once when the machine is built, to resolve references to other states (``InState``)."""
+    def bind(self, machine: Any) -> None:
+        """Called once when the machine is built, to resolve references to other states (``InState``); ``machine``
+        is the :class:`fsm.Machine`, annotated ``Machine`` or ``MachineView`` in an override (see ``State.bind``)."""
 
     def describe(self) -> str:
         """One line for traces and messages."""

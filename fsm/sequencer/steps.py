@@ -17,12 +17,13 @@ from pydantic import Field
 
 from fsm.model.params import Assignments, ConditionField, Int, StateParams
 from fsm.runtime.composite import Composite
+from fsm.runtime.region import Region, StateWiring, transition_wiring, wiring
 from fsm.runtime.state import State
+from fsm.runtime.supervisor import supervisor_of
 
 if TYPE_CHECKING:
     from fsm.model.plan import StatePlan
     from fsm.runtime.context import Context, MachineView
-    from fsm.runtime.region import Region
 
 #: Slack for times computed from ticks (80 ticks of 0.0125 s are 1 s).
 _EPS = 5e-10
@@ -59,7 +60,7 @@ class Sequence(Composite[SequenceParams]):
     Outcome "succeeded"; with the step-common keys also "aborted", "timeout" or "precondition_failed"."""
 
     __slots__ = ("chain", "last", "detached", "running", "done", "exceptions", "repeat", "iteration", "epoch",
-                 "tail")
+                 "tail", "record")
 
     signal_refs = ("pause_signal",)
     condition_fields = ("repeat_while",)
@@ -81,6 +82,8 @@ class Sequence(Composite[SequenceParams]):
         #: bumped on each entry: a tick that sees it change was interrupted by a restart from inside
         self.epoch = 0
         self.tail = False
+        #: its wiring record (its regions change as non-blocking sequences start and end)
+        self.record: StateWiring = wiring(self)
 
     @classmethod
     def submachines(cls, params: SequenceParams) -> list[tuple[str | None, Any, str]]:
@@ -99,13 +102,13 @@ class Sequence(Composite[SequenceParams]):
         self.chain = regions[0]
         self.detached = [(after, regions[1 + i]) for i, after in enumerate(layout.detached_after)]
         self.exceptions = dict(zip(layout.exception_ids, regions[1 + n:], strict=True))
-        self.regions = (self.chain,)
+        self.record.regions = (self.chain,)
         steps = list(self.chain.states.values())
         self.last = steps[-1]
         for after, region in self.detached:
             if after < 0 or after == len(steps) - 1:
                 continue
-            link = next(t for t in steps[after].transitions if t.target is steps[after + 1])
+            link = next(t for t in wiring(steps[after]).transitions if t.target is steps[after + 1])
             _start_on(link, self, region)
 
     def bind(self, machine: MachineView) -> None:
@@ -127,7 +130,7 @@ class Sequence(Composite[SequenceParams]):
         self.done = {}
         self.tail = False
         self.running = [r for after, r in self.detached if after < 0]
-        self.regions = (chain, *self.running)
+        self.record.regions = (chain, *self.running)
 
     def start_detached(self, region: Region, ctx: Context) -> None:
         """The chain passed the place of a non-blocking sequence: it starts beside the chain."""
@@ -136,12 +139,13 @@ class Sequence(Composite[SequenceParams]):
         if region.started:  # still running from before (a repeat): it goes on
             return
         self.running.append(region)
-        self.regions = (*self.regions, region)
+        record = self.record
+        record.regions = (*record.regions, region)
         region.start(ctx)
 
     def tick(self, ctx: Context) -> None:
         epoch = self.epoch
-        for region in self.regions:
+        for region in self.record.regions:
             region.tick(ctx)
             if self.epoch != epoch or self.finished:
                 return  # restarted or aborted from inside
@@ -160,7 +164,7 @@ class Sequence(Composite[SequenceParams]):
             return  # the last step is done; waiting for the non-blocking sequences (implicit join)
         self.iteration += 1
         again = self.repeat == 0 or self.iteration < self.repeat
-        repeat_while = self.checks.get("repeat_while")
+        repeat_while = self.predicates.get("repeat_while")
         if repeat_while is not None:
             again = (self.repeat == 0 or self.iteration < self.repeat or "repeat" not in self.params.model_fields_set) \
                 and repeat_while(ctx)
@@ -178,16 +182,17 @@ class Sequence(Composite[SequenceParams]):
         self.done[state.id] = state.outcome or "succeeded"
         region.stop(ctx)
         self.running.remove(region)
-        self.regions = tuple(r for r in self.regions if r is not region)
+        record = self.record
+        record.regions = tuple(r for r in record.regions if r is not region)
 
     def on_exit(self, ctx: Context) -> None:
         self.running = []
-        self.regions = () if self.chain is None else (self.chain,)
+        self.record.regions = () if self.chain is None else (self.chain,)
 
 
 def _start_on(link: Any, seq: Sequence, region: Region) -> None:
     """Make the chain's link ``link`` start the non-blocking sequence in ``region`` when it fires."""
-    link.then(lambda ctx: seq.start_detached(region, ctx))
+    transition_wiring(link).then(lambda ctx: seq.start_detached(region, ctx))
 
 
 class Step(State[StateParams]):
@@ -197,7 +202,7 @@ class Step(State[StateParams]):
     can_finish = True
 
     def tick(self, ctx: Context) -> None:
-        if self.until is None:
+        if wiring(self).until is None:
             self.finish("succeeded")
 
 
@@ -272,8 +277,9 @@ class ResetTimeout(State[ResetTimeoutParams]):
 
     def on_enter(self, ctx: Context) -> None:
         target = self.target
-        if target is not None and target.supervisor is not None and target.active:
-            target.supervisor.reset_timeout(ctx)
+        supervisor = supervisor_of(wiring(target)) if target is not None else None
+        if target is not None and supervisor is not None and target.active:
+            supervisor.reset_timeout(ctx)
         self.finish("succeeded")
 
 
@@ -313,12 +319,12 @@ class Join(State[JoinParams]):
 
 def enclosing_sequence(state: State[Any]) -> Sequence | None:
     """The nearest Sequence that contains ``state``."""
-    region = state.region
+    region = wiring(state).region
     while region is not None and region.owner is not None:
         owner = region.owner
         if isinstance(owner, Sequence):
             return owner
-        region = owner.region
+        region = wiring(owner).region
     return None
 
 

@@ -23,6 +23,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from fsm.runtime.supervisor import supervisor_of
 from fsm.session.session import Input, PauseState, SetSignal, SetVars
 from fsm.trace.recorder import input_json
 
@@ -144,7 +145,7 @@ def find_monitor(machine: Machine, owner: str, monitor: str) -> Monitor | str:
         state = machine.state(owner)
     except (KeyError, TypeError) as exc:
         return str(exc).strip("'\"")
-    supervisor = state.supervisor
+    supervisor = supervisor_of(state)
     monitors = supervisor.monitors if supervisor is not None else ()
     if not monitors:
         return f"state '{owner}' has no monitor and no timeout"

@@ -54,16 +54,19 @@ _FIELDS: dict[str, tuple[str, ...]] = {
     "fsm.runtime.machine.Machine": ("root", "clock", "ctx", "regions", "listeners", "started", "_sim", "_dt",
                                     "_schedule", "_schedule_seq", "_toggles", "_terminal"),
 }
-#: What the runtime fixes when it builds a machine and never changes while it runs (the hooks ``State.seal``
+#: What the runtime fixes when it builds a machine and never changes while it runs (the hooks ``StateWiring.seal``
 #: chooses, the compiled guards, names and paths), by class: a snapshot neither reads nor restores them (about
 #: half of what a machine's objects hold). The objects they lead to are reached through other attributes.
 _BUILT: dict[str, tuple[str, ...]] = {
-    "fsm.runtime.state.State": ("id", "params", "path", "region", "preempt", "regular", "entry_action", "exit_action",
-                                "tick_hook", "enter_hook", "exit_hook", "arms", "watched", "checks", "resets",
-                                "complete_action"),
-    "fsm.runtime.transition.Transition": ("params", "source", "target", "index", "kind", "compare", "test",
-                                          "effect", "run", "assign", "arm"),
-    "fsm.runtime.region.Region": ("name", "path", "initial", "owner"),
+    "fsm.runtime.state.State": ("id", "params", "path", "predicates"),
+    "fsm.runtime.state.Life": ("state",),
+    "fsm.runtime.region.StateWiring": ("region", "preempt", "regular", "entry_action", "exit_action", "tick_hook",
+                                       "enter_hook", "exit_hook", "arms", "watched", "resets", "complete_action",
+                                       "is_final"),
+    "fsm.runtime.transition.Transition": ("params", "source", "target"),
+    "fsm.runtime.transition.Link": ("transition", "index"),
+    "fsm.runtime.region.TransitionWiring": ("target", "kind", "compare", "test", "effect", "run", "assign", "arm"),
+    "fsm.runtime.region.Region": ("name", "path", "first", "owner"),
     "fsm.runtime.supervisor.Monitor": ("behavior", "exception_id", "label", "kind"),
     "fsm.runtime.supervisor.Supervisor": ("owner", "precondition"),
     "fsm.runtime.machine.Machine": ("name", "states_by_path"),

@@ -465,9 +465,10 @@ class Simulation:
         m = self.machine
         self.active_path = m.active_path
         self.lap_log.state(m.ctx.now, self.active_path)
-        state = m.root.active
-        while state.regions:
-            state = state.regions[0].active
+        record = m.root.current
+        while record.regions:
+            record = record.regions[0].current
+        state = record.state
         if state is not self.leaf:
             self.leaf = state
             self._leaf_d0 = self.car.distance

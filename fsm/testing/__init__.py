@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from fsm.model.errors import DiagramError
+from fsm.runtime.region import wiring
 from fsm.session.session import NEVER, PauseState, Session, SetSignal, SetVars, StopRules, tick_at
 
 __all__ = ["MachineTest", "ScenarioError"]
@@ -126,9 +127,10 @@ class MachineTest:
         for k in range(1, len(parts) + 1):
             prefix = "/".join(parts[:k])
             st = self.machine.states_by_path.get(prefix)
-            if st is not None and st.region is not None:
-                saved.append((st.region, st.region.initial))
-                st.region.initial = st
+            region = wiring(st).region if st is not None else None
+            if st is not None and region is not None:
+                saved.append((region, region.initial))
+                region.initial = st
         try:
             self.session.start()
         finally:

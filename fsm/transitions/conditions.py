@@ -12,6 +12,7 @@ from fsm.loading.registry import register_condition, register_transition
 from fsm.model.params import ConditionField, ConditionParams, TransitionParams
 from fsm.runtime.condition import Condition
 from fsm.runtime.debounce import Debounced
+from fsm.runtime.region import wiring
 from fsm.runtime.transition import Transition
 
 if TYPE_CHECKING:
@@ -193,7 +194,8 @@ class InStateCondition(Condition[IP]):
 
     def bind(self, machine: MachineView, owner: State[Any]) -> None:
         super().bind(machine, owner)
-        scope = owner.region.path if owner.region is not None else ""
+        region = wiring(owner).region
+        scope = region.path if region is not None else ""
         self.other: StateView = machine.resolve(self.params.state, scope)
 
     def holds(self, ctx: Context) -> bool:

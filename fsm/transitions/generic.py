@@ -8,6 +8,7 @@ from pydantic import Field
 
 from fsm.loading.registry import register_transition
 from fsm.model.params import TransitionParams
+from fsm.runtime.region import wiring
 from fsm.runtime.transition import Transition
 
 if TYPE_CHECKING:
@@ -56,13 +57,15 @@ class TimeoutParams(TransitionParams):
 class Timeout(Transition[TimeoutParams]):
     """Fires when the source has been active for `seconds` (machine time, paused time excluded)."""
 
-    __slots__ = ("seconds",)
+    __slots__ = ("seconds", "clock")
     Params = TimeoutParams
 
     def __init__(self, params: TimeoutParams, source: State[Any], target: State[Any], index: int = 0) -> None:
         super().__init__(params, source, target, index)
         # Half a nanosecond of slack: 80 ticks of 0.0125 s are 1 s, however the floats round.
         self.seconds = params.seconds - 5e-10
+        #: the source's record, which holds its entry time (read each tick: bound once)
+        self.clock = wiring(source)
 
     def holds(self, ctx: Context) -> bool:
-        return ctx._now - self.source.entered_at >= self.seconds  # the time slot: ctx.now costs a call per tick
+        return ctx._now - self.clock.entered_at >= self.seconds  # the time slot: ctx.now costs a call per tick

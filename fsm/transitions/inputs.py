@@ -10,6 +10,7 @@ from pydantic import Field
 from fsm.loading.checking import value_kind
 from fsm.loading.registry import register_transition
 from fsm.model.params import TransitionParams
+from fsm.runtime.region import wiring
 from fsm.runtime.transition import Transition
 
 if TYPE_CHECKING:
@@ -120,7 +121,8 @@ class InState(Transition[InStateParams]):
         self._other: StateView | None = None
 
     def bind(self, machine: MachineView) -> None:
-        scope = self.source.region.path if self.source.region is not None else ""
+        region = wiring(self.source).region
+        scope = region.path if region is not None else ""
         self._other = machine.resolve(self.params.state, scope)
 
     def holds(self, ctx: Context) -> bool:

@@ -16,6 +16,7 @@ from typing import Any
 import fsm
 from fsm import __version__
 from fsm.loading.loader import uses_car
+from fsm.runtime.region import wiring
 from fsm.trace.replay import Trace
 
 from ..graph import svg
@@ -79,7 +80,7 @@ def coverage_of(trace: Trace, warnings: list[str]) -> Any:
             entries[str(tr.get("to"))] = entries.get(str(tr.get("to")), 0) + 1
             src = tr.get("from")
             state = machine.states_by_path.get(src) if isinstance(src, str) else None
-            for t in state.transitions if state is not None else ():
+            for t in wiring(state).transitions if state is not None else ():
                 if t.target.path == tr.get("to") and t.type_name == tr.get("type"):
                     fired.add((t.source.path, t.index))
     monitors = {(str(m.get("owner")), str(m.get("monitor")), str(m.get("kind")))

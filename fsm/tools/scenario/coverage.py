@@ -11,6 +11,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from fsm.runtime.region import wiring
+from fsm.runtime.supervisor import supervisor_of
+
 if TYPE_CHECKING:
     from fsm.runtime.machine import Machine
 
@@ -67,10 +70,10 @@ class Coverage:
             before = cov.states.get(path, "never")
             cov.states[path] = "ran" if "ran" in (now, before) else "skipped" if "skipped" in (now, before) else \
                 "never"
-            for tr in state.transitions:
+            for tr in wiring(state).transitions:
                 label = _transition_label(tr)
                 cov.transitions[label] = cov.transitions.get(label, False) or (path, tr.index) in fired
-            supervisor = state.supervisor
+            supervisor = supervisor_of(state)
             for m in supervisor.monitors if supervisor is not None else ():
                 label = f"{path}: {m.kind} {m.label} ({m.behavior})"
                 cov.monitors[label] = cov.monitors.get(label, False) or (path, m.label, m.kind) in fired_monitors

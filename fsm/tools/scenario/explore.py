@@ -24,6 +24,8 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from fsm.runtime.machine import Listener
+from fsm.runtime.region import transition_wiring, wiring
+from fsm.runtime.supervisor import supervisor_of
 from fsm.session.session import Session, SetSignal, SetVars, StopRules, ticks_for
 
 if TYPE_CHECKING:
@@ -155,8 +157,8 @@ class Explorer:
         out = []
         for path, state in machine.states_by_path.items():
             out.append(f"state {path}")
-            out += [f"transition {path}#{t.index}" for t in state.transitions]
-            w = state.supervisor
+            out += [f"transition {path}#{transition_wiring(t).index}" for t in wiring(state).transitions]
+            w = supervisor_of(state)
             out += [f"monitor {path}: {m.kind} {m.label}" for m in (w.monitors if w is not None else ())]
         return out
 

@@ -19,6 +19,7 @@ from fsm.model.errors import StateRuntimeError, print_traceback, traceback_wante
 from fsm.model.expr import ExprRuntimeError, parse
 from fsm.model.jsonpos import pointer
 from fsm.runtime.machine import Listener
+from fsm.runtime.region import wiring
 from fsm.session.session import PauseState, Session, SetSignal, SetVars, StopRules, tick_at
 
 from .model import (
@@ -141,9 +142,9 @@ def held_states(machine: Machine) -> tuple[frozenset[str], frozenset[str]]:
         held = held or state.paused
         if held:
             paused.add(state.path)
-        elif state.frozen_since is not None:
+        elif wiring(state).frozen_since is not None:
             suspended.add(state.path)
-        todo.extend((r.active, held) for r in state.regions if r.started)
+        todo.extend((r.active, held) for r in wiring(state).regions if r.started)
     return frozenset(paused), frozenset(suspended)
 
 
@@ -366,7 +367,7 @@ class TemporalRun:
         for path, st in self.outcome_states:
             outcome = st.outcome
             if outcome is not None:
-                key = (st.entered_at, outcome)
+                key = (wiring(st).entered_at, outcome)
                 if self._outcome_keys.get(path) != key:
                     self._outcome_keys[path] = key
                     now.outcomes[path] = (tick, outcome)

@@ -37,6 +37,7 @@ from fsm.model.expr import (
     parse,
     unparse,
 )
+from fsm.runtime.region import wiring
 
 from .paths import state_matches
 
@@ -142,10 +143,11 @@ def _held(state: Any, paused: bool) -> bool:
     exception sequence runs, and not by a pause."""
     s = state
     while s is not None:
-        if s.paused:
+        record = wiring(s)
+        if record.paused:
             return paused
-        s = s.region.owner if s.region is not None else None
-    return False if paused else state.frozen_since is not None
+        s = record.region.owner if record.region is not None else None
+    return False if paused else wiring(state).frozen_since is not None
 
 
 class Formula:

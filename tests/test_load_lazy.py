@@ -121,3 +121,38 @@ def test_installed_plugins_load_when_a_document_names_a_type_no_builtin_has() ->
     assert registry.states["Idle"] and calls == []
     assert registry.transitions.get("Beam") is None and calls == ["loaded"]
     assert registry.states.get("Nope") is None and calls == ["loaded"], "loaded once"
+
+
+def test_null_is_refused_by_pydantic_core_with_one_problem_per_field() -> None:
+    """No field takes null: refused by the validator's types (no Python validator per field), worded once per field,
+    also for a field of several types."""
+    _spec, problems = fsm.check({"initial": "a", "states": [
+        {"id": "a", "type": "Idle", "description": None, "until": None},
+        {"id": "b", "type": "Idle"}],
+        "transitions": [{"type": "Always", "from": "a", "to": "b", "priority": None, "guard": None}]})
+    got = sorted((p.pointer, p.message, p.hint) for p in problems)
+    assert got == [
+        ("/states/0/description", "'description' may not be null", "leave the key out to get its default"),
+        ("/states/0/until", "'until' may not be null", "leave the key out to get its default"),
+        ("/transitions/0/guard", "'guard' may not be null", "leave the key out to get its default"),
+        ("/transitions/0/priority", "'priority' may not be null", "leave the key out to get its default: 0")]
+
+
+def test_validating_an_element_runs_no_python_code() -> None:
+    registry = Registry.with_builtins()
+    idle, always = registry.states["Idle"].Params, registry.transitions["Always"].Params
+    idle.model_validate({"id": "x", "type": "Idle"})
+    always.model_validate({"type": "Always", "from": "a", "to": "b"})  # the validators built
+    calls: list[str] = []
+
+    def profile(frame: Any, event: str, arg: Any) -> None:
+        if event == "call" and "/fsm/" in frame.f_code.co_filename:
+            calls.append(f"{frame.f_code.co_filename}:{frame.f_code.co_name}")
+
+    sys.setprofile(profile)
+    try:
+        idle.__pydantic_validator__.validate_python({"id": "x", "type": "Idle", "description": "d"})
+        always.__pydantic_validator__.validate_python({"type": "Always", "from": "a", "to": "b", "preempt": True})
+    finally:
+        sys.setprofile(None)
+    assert calls == []

@@ -39,7 +39,7 @@ PLANT_GROUP = "fsm.plants"
 #: The built-in types by the module whose decorators register them: ``module -> {kind: names}``. A registry with the
 #: built-ins knows these names at once and imports a module when one of its names is first looked up, so a document
 #: pays only for the types it uses (the car's states, the marker transitions and their imports stay unloaded for a
-#: ring of Idle states). ``tests/test_registry.py`` checks it against what the modules really register.
+#: ring of Idle states). ``tests/test_load_lazy.py`` checks it against what the modules really register.
 BUILTIN_MODULES: dict[str, dict[str, tuple[str, ...]]] = {
     "fsm.states.generic": {"state": ("Idle", "Final")},
     "fsm.states.composites": {"state": ("FSMState", "Parallel")},
@@ -144,7 +144,6 @@ class TypeTable(dict[str, V], Generic[V]):
 
     def __reduce__(self) -> Any:
         return (dict, (dict(self.items()),))
-
 
 
 def lazy_exports(package: str, names: dict[str, str]) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:

@@ -18,7 +18,11 @@ Workloads (each the same code on both sides):
   guard       the flat ring with a guard ``n >= 0`` on every transition; ``guard+set`` adds ``n = n + 1``
   lap         the hallway lap without camera (three laps, 200 s simulated), x real time
 
-    python benchmarks/bench_baseline.py [--base 2a4832e] [--rounds 3] [--only load,flat]
+    python benchmarks/bench_baseline.py [--base 2a4832e] [--rounds 3] [--only load,flat] [--instructions]
+
+``--instructions`` adds what a fresh process pays, counted by callgrind on both sides (needs valgrind): ``import fsm``
+and its loader, then the first load of the ring, then a second (the cold load), so a busy machine gives the same
+figures as a quiet one. Both trees are compiled to ``__pycache__`` first, as an installation is.
 
 Budgets (issue 21): load at least 2x faster than transitions' Machine and at most 10 ms; flat and nested at
 least as fast as the base; guard / guard+set at most 30 % / 50 % below the plain ring (this checkout); the lap
@@ -29,6 +33,7 @@ least as fast as the base; guard / guard+set at most 30 % / 50 % below the plain
 from __future__ import annotations
 
 import argparse
+import compileall
 import json
 import os
 import shutil
@@ -160,7 +165,16 @@ def base_tree(commit: str, where: Path) -> Path:
         link = tree / "fsm" / name
         if not link.exists():
             link.symlink_to(target)
+    compiled(tree)
     return tree
+
+
+def compiled(tree: Path) -> None:
+    """The tree's modules compiled to ``__pycache__`` as an installation has them: a fresh worktree has none, and with
+    ``PYTHONDONTWRITEBYTECODE`` set every process would compile its imports again (tens of ms on either side)."""
+    for folder in ("fsm", "states", "transitions", "tools"):
+        if (tree / folder).is_dir():
+            compileall.compile_dir(str(tree / folder), quiet=2)
 
 
 def probe(workload: str, tree: Path | None, ring: Path | None = None, cache: Path | None = None) -> dict[str, Any]:
@@ -192,6 +206,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--base", default="2a4832e", help="the commit to compare with (default 2a4832e)")
     ap.add_argument("--rounds", type=int, default=3, help="rounds, each running every workload on both sides")
     ap.add_argument("--only", default=",".join(WORKLOADS), help="comma-separated workloads: " + ", ".join(WORKLOADS))
+    ap.add_argument("--instructions", action="store_true",
+                    help="also count with valgrind what a fresh process pays to import fsm and for its first load")
     args = ap.parse_args(argv)
     chosen = [w for w in args.only.split(",") if w]
     unknown = [w for w in chosen if w not in WORKLOADS]
@@ -201,6 +217,7 @@ def main(argv: list[str] | None = None) -> int:
     where = Path(tempfile.mkdtemp(prefix="tral-base-"))
     try:
         tree = base_tree(args.base, where)
+        compiled(REPO)
         ring = where / "ring1000.json"
         sys.path.insert(0, str(BENCH))
         from peers.tral_fsm import ring_doc
@@ -218,11 +235,56 @@ def main(argv: list[str] | None = None) -> int:
                     runs.setdefault((workload, side), []).append(probe(workload, path, ring, where / "cache"))
             print(f"round {r + 1} of {args.rounds} done", file=sys.stderr)
         report(runs, chosen, args.base)
+        if args.instructions:
+            first_instructions(tree, ring, args.base)
     finally:
         subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(where / "base")],
                        capture_output=True)
         shutil.rmtree(where, ignore_errors=True)
     return 0
+
+
+#: A fresh process up to a stage: 0 the interpreter's start, 1 ``import fsm`` and its loader, 2 the first load of
+#: the ring, 3 a second load (``sys.argv[1]``: the stage, ``sys.argv[2]``: the ring).
+FIRST_STAGES = r'''
+import sys
+stage, ring = int(sys.argv[1]), sys.argv[2]
+if BASE:
+    from pathlib import Path
+    sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(BENCH).resolve().parent]
+if stage >= 1:
+    import fsm
+    load = fsm.load
+for _ in range(stage - 1):
+    load(ring)
+'''
+
+
+def first_instructions(tree: Path, ring: Path, base: str) -> None:
+    """Instructions (callgrind, ``PYTHONHASHSEED=0``, the cache off) of ``import fsm``, the first and a second load
+    of the ring in a fresh process, on both sides: the stages' differences, so the interpreter's start cancels."""
+    from bench_instructions import callgrind
+
+    counts: dict[str, list[int]] = {}
+    for side, path in (("base", tree), ("main", None)):
+        env = dict(os.environ, PYTHONHASHSEED="0", FSM_NO_CACHE="1")
+        code = f"BENCH = {str(BENCH)!r}\nBASE = {path is not None}\n" + FIRST_STAGES
+        if path is not None:
+            env["PYTHONPATH"] = str(path)
+            code = ("import sys\nsys.meta_path[:] = [f for f in sys.meta_path if 'editable' not in "
+                    "type(f).__module__.lower()]\n" + code)
+        else:
+            env.pop("PYTHONPATH", None)
+        counts[side] = [callgrind(["-c", code, str(stage), str(ring)], env, path or REPO, f"stage {stage} on {side}")
+                        for stage in range(4)]
+    print(f"\n| fresh process, instructions (M) | {base} | this checkout | ratio |")
+    print("|---|---:|---:|---:|")
+    for stage, what in ((1, "`import fsm` and its loader"), (2, "then the first load of the ring"),
+                        (3, "then a second load (the cold load)")):
+        b, m = (counts[s][stage] - counts[s][stage - 1] for s in ("base", "main"))
+        print(f"| {what} | {b / 1e6:,.1f} | {m / 1e6:,.1f} | {m / b:.2f} |")
+    b, m = (counts[s][2] - counts[s][0] for s in ("base", "main"))
+    print(f"| import and first load together | {b / 1e6:,.1f} | {m / 1e6:,.1f} | {m / b:.2f} |")
 
 
 def median(runs: list[dict[str, Any]], key: str) -> float:

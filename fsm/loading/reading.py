@@ -92,8 +92,9 @@ def _reader_by_suffix(path: Path) -> Reader:
     return reader or read_json
 
 
-#: Suffixes no entry point provides a reader for (read as JSON), so the lookup is made once per process.
-_NO_READER: set[str] = set()
+#: Suffixes no entry point provides a reader for (read as JSON), so the lookup is made once per process. ``.json`` is
+#: the core's own format: a JSON document is read without looking at the installed distributions at all.
+_NO_READER: set[str] = {".json"}
 
 
 def read_json(path: Path) -> tuple[Any, Source]:

@@ -9,17 +9,21 @@ from __future__ import annotations
 import difflib
 import importlib
 import importlib.util
+import inspect
 import os
 import sys
 import traceback
 from collections.abc import Callable, Iterator
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
 from fsm.model.errors import RegistrationError, UsageError
 from fsm.model.params import ConditionParams, StateParams, TransitionParams
 from fsm.runtime.condition import Condition
 from fsm.runtime.state import State
 from fsm.runtime.transition import Transition
+
+if TYPE_CHECKING:
+    from _collections_abc import dict_items, dict_keys, dict_values
 
 S = TypeVar("S", bound=type[State[Any]])
 T = TypeVar("T", bound=type[Transition[Any]])
@@ -32,6 +36,132 @@ TRANSITION_GROUP = "fsm.transitions"
 CONDITION_GROUP = "fsm.conditions"
 PLANT_GROUP = "fsm.plants"
 
+#: The built-in types by the module whose decorators register them: ``module -> {kind: names}``. A registry with the
+#: built-ins knows these names at once and imports a module when one of its names is first looked up, so a document
+#: pays only for the types it uses (the car's states, the marker transitions and their imports stay unloaded for a
+#: ring of Idle states). ``tests/test_load_lazy.py`` checks it against what the modules really register.
+BUILTIN_MODULES: dict[str, dict[str, tuple[str, ...]]] = {
+    "fsm.states.generic": {"state": ("Idle", "Final")},
+    "fsm.states.composites": {"state": ("FSMState", "Parallel")},
+    "fsm.states.sequence": {"state": ("Sequence", "Step", "Wait", "SetVar", "ResetTimeout", "Join", "Call")},
+    "fsm.states.driving": {"state": ("BasicFollowWall", "FollowWall", "FollowWallRamp", "ApproachPoint", "Motor",
+                                     "Stop")},
+    "fsm.states.gate_driving": {"state": ("ArucoGateApproach", "ArucoGateCenter", "AlignHeading")},
+    "fsm.states.plants": {"plant": ("Integrator", "Queue", "Button", "TimerSensor")},
+    "fsm.transitions.generic": {"transition": ("Always", "Finished", "Timeout")},
+    "fsm.transitions.inputs": {"transition": ("Signal", "Var", "InState")},
+    "fsm.transitions.car": {"transition": ("Distance", "SensorLevel", "PassPoint"),
+                            "condition": ("Sensor", "Travelled")},
+    "fsm.transitions.conditions": {"transition": ("Condition",),
+                                   "condition": ("SignalHigh", "SignalLow", "SignalEdge", "Expr", "TimeSince",
+                                                 "InState", "Outcome", "All", "Any", "Not")},
+    "fsm.transitions.markers": {"transition": ("ArucoGateFound", "ArucoMarkerFound", "ArucoMarkerUnpaired")},
+    "fsm.transitions.topics": {"condition": ("TopicQuiet",)},
+}
+
+V = TypeVar("V")
+
+
+class TypeTable(dict[str, V], Generic[V]):
+    """One name space of a :class:`Registry`: the registered classes by name, a ``dict`` to its users.
+
+    Besides the classes registered, it may hold names whose class is not imported yet (a built-in type's module, see
+    :data:`BUILTIN_MODULES`), and the registry may have installed plugins still to load: looking a name up imports
+    what it needs (its module; the plugins when no built-in has that name), and listing the table (iterating, its
+    length, comparing, copying) loads everything first, so every reader sees the full table."""
+
+    __slots__ = ("_owner", "pending")
+
+    def __init__(self, owner: Registry) -> None:
+        super().__init__()
+        self._owner = owner
+        #: Names known but not imported yet: name -> the module that registers it.
+        self.pending: dict[str, str] = {}
+
+    # -- one name: what it needs, no more
+    def get(self, name: str, default: Any = None) -> Any:
+        found = dict.get(self, name)
+        if found is None and self._owner.fill(self, name):
+            found = dict.get(self, name)
+        return default if found is None else found
+
+    def __missing__(self, name: str) -> V:
+        if self._owner.fill(self, name):
+            return dict.__getitem__(self, name)
+        raise KeyError(name)
+
+    def __contains__(self, name: object) -> bool:
+        return isinstance(name, str) and self.get(name) is not None
+
+    def __setitem__(self, name: str, cls: V) -> None:
+        self.pending.pop(name, None)
+        dict.__setitem__(self, name, cls)
+
+    def __delitem__(self, name: str) -> None:
+        self.get(name)
+        dict.__delitem__(self, name)
+
+    def pop(self, name: str, *default: Any) -> Any:
+        self.get(name)
+        return dict.pop(self, name, *default)
+
+    # -- the whole table: everything loaded first
+    def complete(self) -> TypeTable[V]:
+        """This table with every pending name imported and the registry's plugins loaded."""
+        self._owner.complete()
+        return self
+
+    def __iter__(self) -> Iterator[str]:
+        return dict.__iter__(self.complete())
+
+    def __len__(self) -> int:
+        return dict.__len__(self.complete())
+
+    def keys(self) -> dict_keys[str, V]:
+        return dict.keys(self.complete())
+
+    def values(self) -> dict_values[str, V]:
+        return dict.values(self.complete())
+
+    def items(self) -> dict_items[str, V]:
+        return dict.items(self.complete())
+
+    def copy(self) -> dict[str, V]:
+        return dict(dict.items(self.complete()))
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, TypeTable):
+            other.complete()
+        return dict.__eq__(self.complete(), other)
+
+    def __ne__(self, other: object) -> bool:
+        return not self == other
+
+    __hash__ = None
+
+    def __repr__(self) -> str:
+        return dict.__repr__(self.complete())
+
+    def __reduce__(self) -> Any:
+        return (dict, (dict(self.items()),))
+
+
+def lazy_exports(package: str, names: dict[str, str]) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:
+    """``__getattr__`` and ``__dir__`` for a type library's package (``fsm.states``) that offers its modules' classes
+    by name, each module imported when one of its names is first asked for (PEP 562): ``names`` maps a class's name
+    to its module in the package."""
+
+    def get(name: str) -> Any:
+        if name not in names:
+            raise AttributeError(f"module {package!r} has no attribute {name!r}")
+        value = getattr(importlib.import_module(f"{package}.{names[name]}"), name)
+        setattr(sys.modules[package], name, value)  # asked once: later look-ups find it without this function
+        return value
+
+    def listing() -> list[str]:
+        return sorted(set(vars(sys.modules[package])) | set(names))
+
+    return get, listing
 
 class Registry:
     """Name spaces of types: states, transitions, conditions and plants; a name may not be registered twice in one.
@@ -43,13 +173,72 @@ class Registry:
     """
 
     def __init__(self) -> None:
-        self.states: dict[str, type[State[Any]]] = {}
-        self.transitions: dict[str, type[Transition[Any]]] = {}
-        self.conditions: dict[str, type[Condition[Any]]] = {}
-        self.plants: dict[str, type[Any]] = {}
+        self.states: TypeTable[type[State[Any]]] = TypeTable(self)
+        self.transitions: TypeTable[type[Transition[Any]]] = TypeTable(self)
+        self.conditions: TypeTable[type[Condition[Any]]] = TypeTable(self)
+        self.plants: TypeTable[type[Any]] = TypeTable(self)
         self._loaded_plugins: set[str] = set()
         #: (kind, name) -> the installed distribution whose entry point registered the type
         self.installed_by: dict[tuple[str, str], str] = {}
+        #: Whether the installed plugins (entry points) are still to be loaded, on the first name no table knows.
+        self._entry_points_due = False
+
+    def _tables(self) -> dict[str, TypeTable[Any]]:
+        return {"state": self.states, "transition": self.transitions, "condition": self.conditions,
+                "plant": self.plants}
+
+    # -- what is loaded when ----------------------------------------------------------------------
+    def add_builtins(self) -> None:
+        """Know the built-in types (:data:`BUILTIN_MODULES`) by name; each module is imported when one of its names
+        is first looked up. A name registered already keeps its class."""
+        tables = self._tables()
+        for module, kinds in BUILTIN_MODULES.items():
+            for kind, names in kinds.items():
+                table = tables[kind]
+                for name in names:
+                    if not dict.__contains__(table, name):
+                        table.pending[name] = module
+
+    def defer_entry_points(self) -> None:
+        """Load the installed plugins (:meth:`load_entry_points`) only when needed: at the first name no table
+        knows, or when a table is listed. A document of built-in types then imports no plugin."""
+        self._entry_points_due = True
+
+    def fill(self, table: TypeTable[Any], name: str) -> bool:
+        """Load what ``name`` needs in ``table``: its built-in module, else the deferred plugins; whether it is
+        there now."""
+        module = table.pending.get(name)
+        if module is not None:
+            self._import_builtin(module)
+        else:
+            self._load_due_entry_points()
+        return dict.__contains__(table, name)
+
+    def _load_due_entry_points(self) -> None:
+        if self._entry_points_due:
+            self._entry_points_due = False
+            self.load_entry_points()
+
+    def complete(self) -> None:
+        """Every pending built-in module imported and the deferred plugins loaded (a table is listed)."""
+        for table in self._tables().values():
+            while table.pending:
+                self._import_builtin(next(iter(table.pending.values())))
+        self._load_due_entry_points()
+
+    def _import_builtin(self, module: str) -> None:
+        """Import a built-in module into this registry: its decorators register here, and when it was imported
+        before (for another registry) the classes it declared then are added."""
+        tables = self._tables()
+        names = [(kind, name) for kind, table in tables.items() for name, mod in table.pending.items() if mod == module]
+        for kind, name in names:
+            del tables[kind].pending[name]
+        if module not in sys.modules:
+            with using(self):
+                importlib.import_module(module)
+        for kind, name, cls, by in _DECLARED:
+            if by == module and (kind, name) in names and not dict.__contains__(tables[kind], name):
+                dict.__setitem__(tables[kind], name, cls)
 
     # -- registration ---------------------------------------------------------------------------
     def add_state(self, cls: type[State[Any]], name: str | None = None) -> type[State[Any]]:
@@ -71,17 +260,19 @@ class Registry:
         if not (isinstance(cls, type) and issubclass(cls, base)):
             raise RegistrationError(f"{cls!r} is not a subclass of fsm.{base.__name__}")
         self._check_params(cls, name, params_base)
+        pending = table.pending.get(name) if isinstance(table, TypeTable) else None
+        if pending is not None:  # a built-in of that name: its class first, then the check below sees a clash
+            self._import_builtin(pending)
         if self._check_free(table, name, cls, kind):
-            table[name] = cls
+            dict.__setitem__(table, name, cls)
         return cls
 
     @classmethod
     def with_builtins(cls) -> Registry:
-        """A fresh registry holding the built-in state, transition and condition types (no plugins)."""
+        """A fresh registry holding the built-in state, transition and condition types (no plugins); each type's
+        module is imported when the type is first looked up."""
         registry = cls()
-        for kind, name, type_ in builtin_types():
-            {"state": registry.add_state, "transition": registry.add_transition,
-             "condition": registry.add_condition, "plant": registry.add_plant}[kind](type_, name)
+        registry.add_builtins()
         return registry
 
     def name_of(self, cls: type) -> str | None:
@@ -114,7 +305,7 @@ class Registry:
         """True when ``name`` is free; False when it holds ``cls`` already (the same class, or the same definition
         imported again under another module name: an entry point's module and ``--plugin`` its file); a
         :class:`RegistrationError` naming both classes when it holds another one."""
-        other = table.get(name)
+        other = dict.get(table, name)
         if other is None:
             return True
         if same_definition(other, cls):
@@ -162,6 +353,7 @@ class Registry:
         """
         if module in self._loaded_plugins:
             return
+        self._load_due_entry_points()  # the installed plugins first: a --plugin type clashing with one is the error
         with using(self):
             _import_plugin(module)
         self._loaded_plugins.add(module)
@@ -182,7 +374,7 @@ class Registry:
                 key = f"{group}:{ep.name}={ep.value}"
                 if key in self._loaded_plugins:
                     continue
-                before = {(kind, name) for kind, name, _ in self.every()}
+                before = self._registered()
                 try:
                     with using(self):
                         obj = ep.load()
@@ -196,8 +388,12 @@ class Registry:
                         add(obj, ep.name)
                 self._loaded_plugins.add(key)
                 dist = getattr(getattr(ep, "dist", None), "name", None) or ep.value
-                for added in {(kind, name) for kind, name, _ in self.every()} - before:
+                for added in self._registered() - before:
                     self.installed_by[added] = dist
+
+    def _registered(self) -> set[tuple[str, str]]:
+        """``(kind, name)`` of the types registered so far (imported, not pending)."""
+        return {(kind, name) for kind, table in self._tables().items() for name in dict.keys(table)}
 
     def without_installed(self) -> Registry:
         """A copy without the types installed plugins (entry points) registered: what a palette holds when it
@@ -226,8 +422,6 @@ def _source_file(cls: type) -> str | None:
 
 def _described(cls: type) -> str:
     """``module.Class (file:line)`` for a message naming a class."""
-    import inspect
-
     where = ""
     try:
         file = inspect.getsourcefile(cls)
@@ -327,19 +521,27 @@ def _import_plugin(plugin: str) -> None:
 # -- the process-wide registry and its decorators ---------------------------------------------------
 _current: list[Registry] = [Registry()]
 _builtins_loaded = False
-#: Every registration a decorator made in this process: (kind, name, class).
-_DECLARED: list[tuple[str, str, type]] = []
+#: Every registration a decorator made in this process: (kind, name, class, the module whose code registered it).
+_DECLARED: list[tuple[str, str, type, str]] = []
 
 
 def builtin_types() -> list[tuple[str, str, type]]:
-    """``(kind, name, class)`` of the built-in types: those tral-fsm's own modules register."""
-    importlib.import_module("fsm.states")
-    importlib.import_module("fsm.transitions")
-    return [(kind, name, cls) for kind, name, cls in _DECLARED if cls.__module__.startswith("fsm.")]
+    """``(kind, name, class)`` of the built-in types: those tral-fsm's own modules register (all imported)."""
+    for module in BUILTIN_MODULES:
+        importlib.import_module(module)
+    return [(kind, name, cls) for kind, name, cls, by in _DECLARED if by in BUILTIN_MODULES]
 
 
 def _declare(kind: str, name: str | None, cls: type) -> None:
-    _DECLARED.append((kind, name or cls.__name__, cls))
+    _DECLARED.append((kind, name or cls.__name__, cls, _registering_module()))
+
+
+def _registering_module() -> str:
+    """The module whose code called the decorator (the first frame outside this module)."""
+    frame = inspect.currentframe()
+    while frame is not None and frame.f_globals.get("__name__") == __name__:
+        frame = frame.f_back
+    return str(frame.f_globals.get("__name__", "")) if frame is not None else ""
 
 
 class using:
@@ -407,9 +609,7 @@ def default_registry(plugins: list[str] | tuple[str, ...] = (), entry_points: bo
     registry = _current[0]
     if not _builtins_loaded:
         _builtins_loaded = True
-        with using(registry):
-            importlib.import_module("fsm.states")
-            importlib.import_module("fsm.transitions")
+        registry.add_builtins()
     if entry_points and not _entry_points_loaded:
         _load_entry_points(registry)
     for module in plugins:
@@ -421,9 +621,10 @@ _entry_points_loaded = False
 
 
 def _load_entry_points(registry: Registry) -> None:
+    """The installed plugins, loaded when a document names a type no built-in has or the types are listed."""
     global _entry_points_loaded
     _entry_points_loaded = True
-    registry.load_entry_points()
+    registry.defer_entry_points()
 
 
 def register_plant(cls: Any = None, *, name: str | None = None) -> Any:

@@ -334,7 +334,9 @@ def problems_from_validation(
             ptr = base + pointer(*loc)
             where = "/".join(str(x) for x in loc)
             got = _short(e.get("input"))
-            if typ == "value_error" and e.get("input", 0) is None and loc:
+            if e.get("input", 0) is None and loc:  # every branch of the field refuses null (no field takes it)
+                if ptr in at_pointer:
+                    continue
                 message = f"'{where}' may not be null"
                 default = _field_default(model, str(loc[-1]))
                 hint = ("leave the key out to get its default" + (f": {default}" if default else "")

@@ -4,7 +4,16 @@ from __future__ import annotations
 
 from typing import Annotated, Any, ClassVar, Literal, TypeVar, get_args
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, WithJsonSchema, field_validator
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    GetCoreSchemaHandler,
+    WithJsonSchema,
+    field_validator,
+)
+from pydantic_core import CoreSchema
 
 
 def _finite(value: Any, depth: int = 0) -> bool:
@@ -33,6 +42,28 @@ def _integral(value: Any) -> Any:
 Int = Annotated[int, BeforeValidator(_integral)]
 
 
+#: The core schemas that wrap a field's own schema under ``"schema"`` (a default, a validator function around it).
+_WRAPPERS = ("default", "function-before", "function-after", "function-wrap")
+
+
+def _refuse_null(schema: Any, cls: type) -> None:
+    """Drop the ``nullable`` wrapper of each field of ``cls``'s model schema (in place)."""
+    node = schema
+    while isinstance(node, dict) and not (node.get("type") == "model" and node.get("cls") is cls):
+        node = node.get("schema")  # the model under a definitions or validator wrapper
+    fields = node.get("schema", {}).get("fields", {}) if isinstance(node, dict) else {}
+    for field in fields.values():
+        parent = field
+        while isinstance(parent.get("schema"), dict):
+            inner = parent["schema"]
+            if inner.get("type") == "nullable":
+                parent["schema"] = inner["schema"]
+                break
+            if inner.get("type") not in _WRAPPERS:
+                break
+            parent = inner
+
+
 class ParamsBase(BaseModel):
     """Common configuration: unknown keys are errors, strings are not numbers, NaN and infinity are refused."""
 
@@ -57,14 +88,15 @@ class ParamsBase(BaseModel):
             raise ValueError("the layout holds NaN or infinity; coordinates are finite numbers")
         return value
 
-    @field_validator("*", mode="before")
     @classmethod
-    def _no_null(cls, value: Any) -> Any:
-        """``null`` is never a parameter's value: an optional parameter is left out to get its default
-        (the generated JSON Schema says the same: no field there accepts null)."""
-        if value is None:
-            raise ValueError("null is not allowed here; leave the key out to get its default")
-        return value
+    def __get_pydantic_core_schema__(cls, source: type[BaseModel], handler: GetCoreSchemaHandler) -> CoreSchema:
+        """``null`` is never a parameter's value: an optional parameter is left out to get its default (the
+        generated JSON Schema says the same: no field there accepts null). The model's validator is built without
+        the ``nullable`` branch of its fields, so pydantic-core refuses null as a wrong type, with no Python call per
+        field (``fsm.model.document.problems_from_validation`` words it as "may not be null")."""
+        schema = handler(source)
+        _refuse_null(schema, cls)
+        return schema
 
 
 #: A condition object (``{"type": "SignalHigh", ...}``); checked against the registered condition types by the

@@ -106,8 +106,8 @@ class _Batch:
                 cols.append(repeat(get(value), n))
         if not cols:
             return [0] * n
-        tops = list(cols[0]) if len(cols) == 1 else list(map(max, *cols))
-        return [t + 1 for t in tops]
+        highest: list[int] = list(cols[0]) if len(cols) == 1 else list(map(max, *cols))
+        return [t + 1 for t in highest]
 
 
 class _Flattener:

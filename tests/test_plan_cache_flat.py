@@ -8,7 +8,9 @@ from __future__ import annotations
 import dataclasses
 import enum
 import json
+import os
 import pickle
+import threading
 import types
 from pathlib import Path
 from typing import Any
@@ -134,6 +136,7 @@ def test_a_big_machine_is_stored_as_columns_not_objects(folder: Path, tmp_path: 
     path = tmp_path / "ring.json"
     path.write_text(json.dumps(doc))
     loader.compile(path)
+    cache.flush()
     (entry,) = folder.iterdir()
     data = entry.read_bytes()
     start = len(cache.MAGIC) + 4
@@ -175,3 +178,30 @@ def test_a_forged_table_names_only_allowed_classes() -> None:
                                    ["record", 1, [["C", 0], ["K", 1]]]], 1]
     with pytest.raises(ValueError):
         flat.unflatten(pickle.dumps(not_a_record), allowed, {})
+
+
+def test_a_miss_returns_before_the_file_is_written(folder: Path, tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """The writer runs beside the caller: the load is back while the file is still being made (none there yet,
+    not even half of one), the process's next read of it waits for it, and so does a fork."""
+    gate = threading.Event()
+    real = flat.flatten
+
+    def slow(*args: Any) -> bytes:
+        assert gate.wait(10)
+        return real(*args)
+
+    monkeypatch.setattr(flat, "flatten", slow)
+    path = tmp_path / "m.json"
+    path.write_text(json.dumps({"initial": "a", "states": [{"id": "a", "type": "Idle"}]}))
+    assert loader.compile(path).root.initial == "a"  # returned while the writer waits
+    assert not folder.exists() or not any(folder.iterdir())
+    threading.Timer(0.2, gate.set).start()
+    pid = os.fork()  # waits for the writer first
+    if pid == 0:
+        os._exit(0 if cache.file_of(str(path)).exists() else 1)
+    assert os.waitpid(pid, 0)[1] == 0
+    assert [f.name for f in folder.iterdir()] == [cache.file_of(str(path)).name]
+    cache._KEPT.clear()
+    doc = cache.document(str(path))
+    assert doc is not None and cache.lookup(str(path), default_registry(), doc) is not None

@@ -42,6 +42,7 @@ import os
 import pickle
 import sys
 import tempfile
+import threading
 import time
 import types
 from collections.abc import Callable
@@ -302,9 +303,14 @@ class _Special:
         return "_action", (pairs,)
 
 
-def store(name: str, registry: Registry, entry: Entry, token: str) -> bool:
-    """Write the cache file of the document ``name``; False (and nothing written) when the result holds something
-    the cache cannot keep as data or the folder cannot be written."""
+def store(name: str, registry: Registry, entry: Entry, token: str, *, background: bool = True) -> bool:
+    """Keep a load's result in memory and write the cache file of the document ``name``; False (and nothing
+    written) when the result cannot be kept.
+
+    The file is written in a thread of its own by default (:func:`flush` waits for it), so a miss returns as soon as
+    the load is done: the writing never delays the result, a reader of the same file in this process waits for it,
+    and the process waits for it before it ends or forks (a file is complete or absent, never half written).
+    ``background=False`` writes before returning, and says whether the file was written."""
     key = registry_key(registry)
     if key is None:
         return False
@@ -314,21 +320,63 @@ def store(name: str, registry: Registry, entry: Entry, token: str) -> bool:
             texts.setdefault(level.source.name, level.source.text)
     if name not in texts:
         return False
+    files = [[name, _digest(texts[name]), token]] + [[n, _digest(t)] for n, t in texts.items() if n != name]
+    keep(name, key, files, entry._replace(problems=[dataclasses.replace(p) for p in entry.problems]))
+    job = (file_of(name), key, files, entry, texts, _allowed(registry, key))
+    if not background:
+        return _write(*job)
+    thread = threading.Thread(target=_write_in_background, args=(name, *job), name="tral-fsm plan cache")
+    with _PENDING_LOCK:
+        _PENDING.setdefault(name, []).append(thread)
+    thread.start()
+    return True
+
+
+def _write(target: Path, key: str, files: list[list[str]], entry: Entry, texts: dict[str, str],
+           allowed: dict[tuple[str, str], type]) -> bool:
     try:
         payload = flat.flatten(
             (entry.spec, (entry.analysis.expressions, entry.analysis.paths, entry.analysis.wants), entry.problems,
-             entry.plan), _allowed(registry, key), _Special(entry, texts).table())
+             entry.plan), allowed, _Special(entry, texts).table())
     except (_NotCachable, flat.Unflattenable, pickle.PicklingError, TypeError, AttributeError, RecursionError):
         return False
-    files = [[name, _digest(texts[name]), token]] + [[n, _digest(t)] for n, t in texts.items() if n != name]
     header = json.dumps({"key": key, "files": files, "kinds": dict(entry.analysis.kinds),
                          "payload": hashlib.sha256(payload).hexdigest()}).encode()
-    keep(name, key, files, entry._replace(problems=[dataclasses.replace(p) for p in entry.problems]))
-    target = file_of(name)
     written = write_atomic(target, MAGIC + len(header).to_bytes(4, "big") + header + payload)
     if written:
         prune(target.parent)
     return written
+
+
+def _write_in_background(name: str, *job: Any) -> None:
+    try:
+        _write(*job)
+    except Exception:  # noqa: BLE001 - the cache's failures are never errors; the next load writes it again
+        pass
+    finally:
+        with _PENDING_LOCK:
+            mine = _PENDING.get(name, [])
+            if threading.current_thread() in mine:
+                mine.remove(threading.current_thread())
+            if not mine:
+                _PENDING.pop(name, None)
+
+
+#: The cache files being written in the background, by document.
+_PENDING: dict[str, list[threading.Thread]] = {}
+_PENDING_LOCK = threading.Lock()
+
+
+def flush(name: str | None = None) -> None:
+    """Wait until the cache files being written in the background (of the document ``name``, or all) are written."""
+    with _PENDING_LOCK:
+        threads = [t for n, ts in _PENDING.items() if name is None or n == name for t in ts]
+    for thread in threads:
+        if thread is not threading.current_thread():
+            thread.join()
+
+
+os.register_at_fork(before=flush)  # a child never inherits a writer stopped halfway
 
 
 #: The most cache files kept: beyond it, the least recently used go (a file is touched when it is read).
@@ -428,6 +476,7 @@ def lookup(name: str, registry: Registry, doc: Document) -> Entry | None:
     if kept is not None and kept[0] == key and _texts(kept[1], name, doc) is not None:
         entry = kept[2]
         return entry._replace(problems=[dataclasses.replace(p) for p in entry.problems])
+    flush(name)  # this process's own write of it, if one is under way
     try:
         with open(file_of(name), "rb") as fh:
             if os.fstat(fh.fileno()).st_uid != os.geteuid():
@@ -497,4 +546,4 @@ def keep(name: str, key: str, files: list[list[str]], entry: Entry) -> None:
 
 
 __all__ = ["CACHE_DIR_ENV", "Document", "Entry", "LOADER_VERSION", "NO_CACHE_ENV", "document", "enabled", "file_of",
-           "folder", "lookup", "prune", "registry_key", "store", "text_of", "write_atomic"]
+           "flush", "folder", "lookup", "prune", "registry_key", "store", "text_of", "write_atomic"]

@@ -207,12 +207,14 @@ class _Flattener:
             if len(set(map(id, col))) == 1:
                 return ("C", self.ref(col[0]))
             return ("N", list(map(self.ref, col)))
-        if kinds <= _PLAIN_SET and (not any(col) or all(map(plain, col))):  # (empty containers: plain)
+        empty = kinds <= _PLAIN_SET and not any(col)  # (empty containers and falsy scalars: plain)
+        flags = [True] * len(col) if empty else list(map(plain, col))
+        if all(flags):
             first = col[0]
             if type(first) in (tuple, frozenset) and all(c is first for c in col) and _immutable(first):
                 return ("K", first)
             return ("L", list(col))
-        return ("N", list(map(self.node, col)))
+        return ("N", [self.lit(v) if f else self.ref(v) for v, f in zip(col, flags, strict=True)])
 
     # -- batches
     def run(self, root: Any) -> int:

@@ -35,6 +35,8 @@ document could. A file not owned by the current user is not read.
 
 from __future__ import annotations
 
+import _thread
+import atexit
 import dataclasses
 import hashlib
 import json
@@ -325,10 +327,12 @@ def store(name: str, registry: Registry, entry: Entry, token: str, *, background
     job = (file_of(name), key, files, entry, texts, _allowed(registry, key))
     if not background:
         return _write(*job)
-    thread = threading.Thread(target=_write_in_background, args=(name, *job), name="tral-fsm plan cache")
+    done = threading.Event()
     with _PENDING_LOCK:
-        _PENDING.setdefault(name, []).append(thread)
-    thread.start()
+        _PENDING.setdefault(name, []).append(done)
+    # A bare thread: threading.Thread.start() would wait for the new thread to run, and then for the interpreter
+    # lock, before the load could return. The interpreter's end (atexit) and a fork wait for it instead.
+    _thread.start_new_thread(_write_in_background, (name, done, *job))
     return True
 
 
@@ -348,35 +352,36 @@ def _write(target: Path, key: str, files: list[list[str]], entry: Entry, texts: 
     return written
 
 
-def _write_in_background(name: str, *job: Any) -> None:
+def _write_in_background(name: str, done: threading.Event, *job: Any) -> None:
     try:
         _write(*job)
-    except Exception:  # noqa: BLE001 - the cache's failures are never errors; the next load writes it again
+    except BaseException:  # noqa: BLE001 - the cache's failures are never errors; the next load writes it again
         pass
     finally:
         with _PENDING_LOCK:
             mine = _PENDING.get(name, [])
-            if threading.current_thread() in mine:
-                mine.remove(threading.current_thread())
+            if done in mine:
+                mine.remove(done)
             if not mine:
                 _PENDING.pop(name, None)
+        done.set()
 
 
-#: The cache files being written in the background, by document.
-_PENDING: dict[str, list[threading.Thread]] = {}
+#: The cache files being written in the background, by document: each write's "done".
+_PENDING: dict[str, list[threading.Event]] = {}
 _PENDING_LOCK = threading.Lock()
 
 
 def flush(name: str | None = None) -> None:
     """Wait until the cache files being written in the background (of the document ``name``, or all) are written."""
     with _PENDING_LOCK:
-        threads = [t for n, ts in _PENDING.items() if name is None or n == name for t in ts]
-    for thread in threads:
-        if thread is not threading.current_thread():
-            thread.join()
+        events = [e for n, es in _PENDING.items() if name is None or n == name for e in es]
+    for event in events:
+        event.wait()
 
 
-os.register_at_fork(before=flush)  # a child never inherits a writer stopped halfway
+atexit.register(flush)  # the process ends with its files written, never half of one
+os.register_at_fork(before=flush)  # and a child never inherits a writer stopped halfway
 
 
 #: The most cache files kept: beyond it, the least recently used go (a file is touched when it is read).

@@ -323,7 +323,9 @@ def store(name: str, registry: Registry, entry: Entry, token: str, *, background
     if name not in texts:
         return False
     files = [[name, _digest(texts[name]), token]] + [[n, _digest(t)] for n, t in texts.items() if n != name]
-    keep(name, key, files, entry._replace(problems=[dataclasses.replace(p) for p in entry.problems]))
+    # the problems copied: a caller adds to the ones it was given while the writer may still be reading these
+    entry = entry._replace(problems=[dataclasses.replace(p) for p in entry.problems])
+    keep(name, key, files, entry)
     job = (file_of(name), key, files, entry, texts, _allowed(registry, key))
     if not background:
         return _write(*job)

@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import enum
 import json
+import math
 import os
 import pickle
 import threading
@@ -24,7 +25,7 @@ from fsm.loading.compiling import ACTIONS
 from fsm.loading.registry import default_registry
 from fsm.model import expr as E
 from fsm.model.document import Source
-from fsm.model.plan import NOTHING
+from fsm.model.plan import NOTHING, SupervisionPlan
 from helpers import CORPUS, needs_corpus
 
 REPO = Path(__file__).resolve().parents[1]
@@ -205,3 +206,16 @@ def test_a_miss_returns_before_the_file_is_written(folder: Path, tmp_path: Path,
     cache._KEPT.clear()
     doc = cache.document(str(path))
     assert doc is not None and cache.lookup(str(path), default_registry(), doc) is not None
+
+
+def test_equal_values_that_differ_stay_apart() -> None:
+    """0.0 and -0.0 are equal, True and 1 too: a constant column or a shared literal keeps them apart."""
+    allowed = {(SupervisionPlan.__module__, "SupervisionPlan"): SupervisionPlan}
+    plans = [SupervisionPlan(timeout=0.0), SupervisionPlan(timeout=-0.0), SupervisionPlan(timeout=1),
+             SupervisionPlan(timeout=True)]
+    back = flat.unflatten(flat.flatten([plans, [SupervisionPlan(timeout=-0.0)] * 2, [0.0, -0.0, plans[0]]],
+                                       allowed, {}), allowed, {})
+    assert [math.copysign(1, p.timeout) for p in back[0][:2]] == [1, -1]
+    assert [type(p.timeout) for p in back[0]] == [float, float, int, bool]
+    assert math.copysign(1, back[1][0].timeout) == -1
+    assert [math.copysign(1, v) for v in back[2][:2]] == [1, -1]

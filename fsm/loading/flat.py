@@ -47,8 +47,9 @@ class Unflattenable(Exception):
 
 def plain(value: Any) -> bool:
     """Whether ``value`` is plain data: a scalar, or a tuple, list, set or dict (of exactly those types) of plain
-    data. (Asked of ``marshal``, which writes exactly those types in C and refuses subclasses; what else it would
-    write, such as bytes, pickles as a class the reader refuses, so such a file is never used.)"""
+    data. (Asked of ``marshal``, which writes exactly those types in C and refuses subclasses; of what else it
+    writes, bytes read back as they are, a bytearray pickles as a class the reader refuses and a code object does
+    not pickle, so no such file is ever used.)"""
     kind = type(value)
     if kind in _SCALAR_SET:
         return True
@@ -130,8 +131,10 @@ class _Flattener:
     def lit(self, value: Any) -> int:
         """A plain value as a node of its own (in a column of references); equal scalars and equal sets shared."""
         kind = type(value)
-        if kind in _SCALAR_SET:
-            key: Any = (kind, value)
+        if kind is float:
+            key: Any = (kind, repr(value))  # 0.0 == -0.0, but they are two values
+        elif kind in _SCALAR_SET:
+            key = (kind, value)
         elif kind is set or kind is frozenset:
             key = (kind, frozenset(value))
         else:
@@ -200,8 +203,9 @@ class _Flattener:
         literals)."""
         kinds = set(map(type, col))
         if kinds <= _SCALAR_SET:
-            if len(kinds) == 1 and col.count(col[0]) == len(col):
-                return ("K", col[0])
+            first = col[0]
+            if len(kinds) == 1 and col.count(first) == len(col) and (kinds != {float} or all(c is first for c in col)):
+                return ("K", first)  # (floats: the same object, as 0.0 == -0.0)
             return ("L", list(col))
         if not kinds & _PLAIN_SET:
             if len(set(map(id, col))) == 1:

@@ -93,7 +93,7 @@ def test_second_load_is_a_hit_and_runs_as_the_first(folder: Path, tmp_path: Path
                                                     monkeypatch: pytest.MonkeyPatch) -> None:
     path = machine_files(tmp_path)
     expected = run_trace(fsm.load(path, dt=0.05))
-    assert hit(path) and len(list(folder.iterdir())) == 1
+    assert hit(path) and len(list(folder.iterdir())) == 1  # (the lookup waits for the background writer)
     loader._LAST.clear()
 
     def no_parse(*_args: Any, **_kw: Any) -> Any:
@@ -112,6 +112,7 @@ def test_a_process_reuses_what_it_read_until_a_file_changes(folder: Path, tmp_pa
     path = machine_files(tmp_path)
     loader.compile(path)
     loader._LAST.clear()
+    cache.flush()
     shutil.rmtree(folder)  # answered from memory now, as long as the texts and the key are the same
     spec, problems = fsm.check(path)
     assert spec is not None and [p.severity for p in problems] == ["warning"]
@@ -210,6 +211,7 @@ def test_a_changed_loader_version_misses(folder: Path, tmp_path: Path, monkeypat
 def test_a_corrupt_cache_file_is_ignored_and_rewritten(folder: Path, tmp_path: Path, damage: str) -> None:
     path = machine_files(tmp_path)
     loader.compile(path)
+    cache.flush()  # the file is written in the background
     (entry,) = folder.iterdir()
     data = entry.read_bytes()
     entry.write_bytes({"garbage": b"\x80\x05not a cache file", "truncated": data[: len(data) // 2], "empty": b"",
@@ -225,6 +227,7 @@ def test_a_forged_cache_file_runs_no_code(folder: Path, tmp_path: Path) -> None:
     """A file with the right key and checksum whose payload names a function: refused, never called."""
     path = machine_files(tmp_path)
     loader.compile(path)
+    cache.flush()  # the file is written in the background
     (entry,) = folder.iterdir()
     data = entry.read_bytes()
     start = len(cache.MAGIC) + 4
@@ -360,6 +363,7 @@ def test_the_machine_chosen_in_a_diagram_is_part_of_the_key(folder: Path, tmp_pa
         finally:
             reader.PRESELECTED.reset(token)
         assert spec is not None and spec.initial == name, problems
+        cache.flush()
         assert [f.name for f in folder.iterdir()] == [cache.file_of(str(src)).name]
     for name in ("wait", "other"):
         assert main(["graph", str(src), "--machine", name, "--format", "dot"]) == 0
@@ -375,6 +379,7 @@ def test_the_folder_keeps_the_most_recently_used_files(folder: Path, tmp_path: P
              for i in range(3)]
     for i, path in enumerate(paths):
         loader.compile(path)
+        cache.flush()
         os.utime(cache.file_of(str(path)), (1_000_000 + i, 1_000_000 + i))
     assert hit(paths[0])  # read: now the most recently used
     stale = folder / ".left-behind.tmp"
@@ -383,6 +388,7 @@ def test_the_folder_keeps_the_most_recently_used_files(folder: Path, tmp_path: P
     fresh = folder / ".being-written.tmp"
     fresh.write_bytes(b"half")
     loader.compile(write(tmp_path / "d3.json", {"initial": "b", "states": [{"id": "b", "type": "Idle"}]}))
+    cache.flush()
     left = sorted(f.name for f in folder.iterdir())
     assert cache.file_of(str(paths[1])).name not in left  # the least recently used
     assert {cache.file_of(str(p)).name for p in (paths[0], paths[2])} <= set(left)

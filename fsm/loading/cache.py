@@ -26,28 +26,32 @@ is skipped. The folder keeps the :data:`MAX_FILES` most recently used files.
 **Data only.** A plan holds compiled closures (expressions, ``set`` actions); the cache holds none of them: an
 expression is kept as its text and the kind it was checked for, and compiled again when the file is read; an action
 as its ``(variable, expression)`` pairs; a file's locator as nothing (made again from the text, read anyway for the
-key). The rest is pickled data read back by an unpickler that resolves only the document model's classes and the
-registry's own types and parameter models (nothing else: no function, no module, no builtin), so a forged cache
-file cannot run code beyond creating those objects; what it can do is describe a different machine, as editing the
+key). The rest is stored in the flat form of :mod:`fsm.loading.flat`: tables of plain values, one per kind of object,
+unpickled with every class refused, classes named by ``(module, name)`` in an allow-list (the document model's
+classes and the registry's own types and parameter models), objects made in bulk without running any constructor.
+A forged cache file therefore cannot run code; what it can do is describe a different machine, as editing the
 document could. A file not owned by the current user is not read.
 """
 
 from __future__ import annotations
 
+import _thread
+import atexit
 import dataclasses
 import hashlib
-import io
 import json
 import os
 import pickle
 import sys
 import tempfile
+import threading
 import time
 import types
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NamedTuple
 
+from fsm.loading import flat
 from fsm.loading.checking import Analysis
 from fsm.loading.compiling import ACTIONS
 from fsm.loading.reading import STDIN_NAME, cache_key, preloaded_copy, read_file_bytes
@@ -64,14 +68,15 @@ CACHE_DIR_ENV = "FSM_CACHE_DIR"
 #: ``1``: neither read nor write the cache.
 NO_CACHE_ENV = "FSM_NO_CACHE"
 #: The cache file's format; a new one misses every older file.
-FORMAT = 1
+FORMAT = 2
 MAGIC = b"tral-fsm plan cache\n"
 #: The loader's version as far as the cache is concerned (the package's, and the format).
 LOADER_VERSION = f"{VERSION}/{FORMAT}"
 #: The modules whose source decides what a load makes of a document (their files are part of the key).
 LOADER_MODULES = ("fsm.model.document", "fsm.model.params", "fsm.model.plan", "fsm.model.expr", "fsm.model.errors",
                   "fsm.model.problems", "fsm.loading.parsing", "fsm.loading.checking", "fsm.loading.outcomes",
-                  "fsm.loading.compiling", "fsm.loading.cache", "fsm.sequencer.layout", "fsm.sequencer.checks")
+                  "fsm.loading.compiling", "fsm.loading.cache", "fsm.loading.flat", "fsm.sequencer.layout",
+                  "fsm.sequencer.checks")
 #: The modules of the document model whose classes a cache file may hold.
 MODEL_MODULES = ("fsm.model.document", "fsm.model.params", "fsm.model.plan", "fsm.model.errors")
 
@@ -154,8 +159,9 @@ def _allowed(registry: Registry, key: str) -> dict[tuple[str, str], type]:
     """The classes a cache file may name: the model's data classes, the registered types and the parameter
     models and enums of their modules (made once per registry key in a process)."""
     known = _ALLOWED.get(key)
-    if known is not None:
-        return known
+    types_ = _types_of(registry)
+    if known is not None and all(known.get((cls.__module__, cls.__qualname__)) is cls for _k, _n, cls in types_):
+        return known  # (a plugin file imported again makes new classes under the same names and sources)
     allowed: dict[tuple[str, str], type] = {}
 
     def add_module(module: str, keep: Callable[[type], bool]) -> None:
@@ -169,7 +175,7 @@ def _allowed(registry: Registry, key: str) -> dict[tuple[str, str], type]:
 
     from pydantic import BaseModel
 
-    for _kind, _name, cls in _types_of(registry):
+    for _kind, _name, cls in types_:
         allowed[(cls.__module__, cls.__qualname__)] = cls
         params = getattr(cls, "Params", None)
         for module in {cls.__module__, getattr(params, "__module__", cls.__module__)}:
@@ -254,77 +260,59 @@ class _Locator:
 
 
 # -- writing -------------------------------------------------------------------------------------------------------
-class _Writer(pickle.Pickler):
-    """Pickles a load's result as data: sources, expressions and actions as what they are made of, each once
-    (a reduction is memoized: the thousand states of one file share one source)."""
+class _Special:
+    """What of a load's result is not data, as the name of the reader's maker and its arguments: a source as its
+    file's name, an expression as its text and the kind it was checked for, an action as its ``(variable,
+    expression)`` pairs, a comparison as the expression it belongs to (each made again when the file is read)."""
 
-    def __init__(self, out: io.BytesIO, entry: Entry, texts: dict[str, str], allowed: dict[tuple[str, str], type]):
-        super().__init__(out, protocol=pickle.HIGHEST_PROTOCOL)
+    def __init__(self, entry: Entry, texts: dict[str, str]) -> None:
         self.texts = texts
-        self.allowed = allowed
         self.expr_keys = {id(c): key for key, c in entry.analysis.expressions.items()}
         self.wants = entry.analysis.wants
         self.var_ops = {id(c.var_op): c for c in entry.analysis.expressions.values() if c.var_op is not None}
-        #: the kinds of plain data met so far (parameter models, specs, plans): pickled as they are, asked once
-        self.plain: set[type] = set()
 
-    def reducer_override(self, obj: Any) -> Any:
-        kind = type(obj)
-        if kind in self.plain:
-            return NotImplemented
-        if kind is Source:
-            if obj.name not in self.texts or obj.text != self.texts[obj.name]:
-                raise _NotCachable(f"a source not read from a file: {obj.name}")
-            return _source, (obj.name,)
-        if kind is E.Compiled:
-            return self.expression(obj)
-        if kind is E.VarOp:
-            if id(obj) not in self.var_ops:
-                raise _NotCachable("a comparison of no expression")
-            return _var_op, (self.var_ops[id(obj)],)
-        if kind is types.MappingProxyType:
-            return (_nothing, ()) if obj is NOTHING else (_proxy, (dict(obj),))
-        if kind is types.FunctionType:
-            if obj in _REFERENCES:
-                return NotImplemented
-            pairs = ACTIONS.get(obj)
-            if pairs is None:
-                raise _NotCachable(f"a function: {obj!r}")
-            return _action, (pairs,)
-        if isinstance(obj, type):
-            if self.allowed.get((obj.__module__, obj.__qualname__)) is not obj:
-                raise _NotCachable(f"a class the cache does not read back: {obj.__module__}.{obj.__qualname__}")
-            return NotImplemented
-        if callable(obj):
-            raise _NotCachable(f"code: {obj!r}")
-        self.plain.add(kind)
-        return NotImplemented
+    def table(self) -> flat.Special:
+        return {Source: self.source, E.Compiled: self.expression, E.VarOp: self.var_op,
+                types.MappingProxyType: self.proxy, types.FunctionType: self.action}
 
-    def expression(self, c: E.Compiled) -> Any:
-        key = self.expr_keys.get(id(c))
-        if c.constant:
-            return _constant, (c.value,)
+    def source(self, obj: Source) -> tuple[str, tuple[Any, ...]]:
+        if obj.name not in self.texts or obj.text != self.texts[obj.name]:
+            raise _NotCachable(f"a source not read from a file: {obj.name}")
+        return "_source", (obj.name,)
+
+    def expression(self, obj: E.Compiled) -> tuple[str, tuple[Any, ...]]:
+        if obj.constant:
+            return "_constant", (obj.value,)
+        key = self.expr_keys.get(id(obj))
         if key is None:
-            raise _NotCachable(f"an expression of no analysis: {c.text}")
-        return _expression, (c.text, self.wants.get(key))
+            raise _NotCachable(f"an expression of no analysis: {obj.text}")
+        return "_expression", (obj.text, self.wants.get(key))
+
+    def var_op(self, obj: E.VarOp) -> tuple[str, tuple[Any, ...]]:
+        if id(obj) not in self.var_ops:
+            raise _NotCachable("a comparison of no expression")
+        return "_var_op", (self.var_ops[id(obj)],)
+
+    @staticmethod
+    def proxy(obj: types.MappingProxyType[Any, Any]) -> tuple[str, tuple[Any, ...]]:
+        return ("_nothing", ()) if obj is NOTHING else ("_proxy", (dict(obj),))
+
+    @staticmethod
+    def action(obj: Callable[..., Any]) -> tuple[str, tuple[Any, ...]]:
+        pairs = ACTIONS.get(obj)
+        if pairs is None:
+            raise _NotCachable(f"a function: {obj!r}")
+        return "_action", (pairs,)
 
 
-def _reference(name: str) -> Callable[..., Any]:
-    def made_by_the_reader(*_args: Any) -> Any:
-        raise RuntimeError("a name in cache files only; the cache's reader makes the object")
-    made_by_the_reader.__name__ = made_by_the_reader.__qualname__ = name
-    return made_by_the_reader
+def store(name: str, registry: Registry, entry: Entry, token: str, *, background: bool = True) -> bool:
+    """Keep a load's result in memory and write the cache file of the document ``name``; False (and nothing
+    written) when the result cannot be kept.
 
-
-#: Names the writer puts in a cache file for what is made again when it is read (see ``_Reader.find_class``).
-_source, _expression, _constant, _var_op, _nothing, _proxy, _action = (
-    _reference(n) for n in ("_source", "_expression", "_constant", "_var_op", "_nothing", "_proxy", "_action"))
-_REFERENCES = frozenset([_source, _expression, _constant, _var_op, _nothing, _proxy, _action])
-
-
-def store(name: str, registry: Registry, entry: Entry, token: str) -> bool:
-    """Write the cache file of the document ``name``; False (and nothing written) when the result holds something
-    the cache cannot keep as data or the folder cannot be written."""
+    The file is written in a thread of its own by default (:func:`flush` waits for it), so a miss returns as soon as
+    the load is done: the writing never delays the result, a reader of the same file in this process waits for it,
+    and the process waits for it before it ends or forks (a file is complete or absent, never half written).
+    ``background=False`` writes before returning, and says whether the file was written."""
     key = registry_key(registry)
     if key is None:
         return False
@@ -334,23 +322,68 @@ def store(name: str, registry: Registry, entry: Entry, token: str) -> bool:
             texts.setdefault(level.source.name, level.source.text)
     if name not in texts:
         return False
-    out = io.BytesIO()
-    try:
-        _Writer(out, entry, texts, _allowed(registry, key)).dump(
-            (entry.spec, (entry.analysis.expressions, entry.analysis.paths, entry.analysis.wants), entry.problems,
-             entry.plan))
-    except (_NotCachable, pickle.PicklingError, TypeError, AttributeError, RecursionError):
-        return False
-    payload = out.getvalue()
     files = [[name, _digest(texts[name]), token]] + [[n, _digest(t)] for n, t in texts.items() if n != name]
+    # the problems copied: a caller adds to the ones it was given while the writer may still be reading these
+    entry = entry._replace(problems=[dataclasses.replace(p) for p in entry.problems])
+    keep(name, key, files, entry)
+    job = (file_of(name), key, files, entry, texts, _allowed(registry, key))
+    if not background:
+        return _write(*job)
+    done = threading.Event()
+    with _PENDING_LOCK:
+        _PENDING.setdefault(name, []).append(done)
+    # A bare thread: threading.Thread.start() would wait for the new thread to run, and then for the interpreter
+    # lock, before the load could return. The interpreter's end (atexit) and a fork wait for it instead.
+    _thread.start_new_thread(_write_in_background, (name, done, *job))
+    return True
+
+
+def _write(target: Path, key: str, files: list[list[str]], entry: Entry, texts: dict[str, str],
+           allowed: dict[tuple[str, str], type]) -> bool:
+    try:
+        payload = flat.flatten(
+            (entry.spec, (entry.analysis.expressions, entry.analysis.paths, entry.analysis.wants), entry.problems,
+             entry.plan), allowed, _Special(entry, texts).table())
+    except (_NotCachable, flat.Unflattenable, pickle.PicklingError, TypeError, AttributeError, RecursionError):
+        return False
     header = json.dumps({"key": key, "files": files, "kinds": dict(entry.analysis.kinds),
                          "payload": hashlib.sha256(payload).hexdigest()}).encode()
-    keep(name, key, files, entry._replace(problems=[dataclasses.replace(p) for p in entry.problems]))
-    target = file_of(name)
     written = write_atomic(target, MAGIC + len(header).to_bytes(4, "big") + header + payload)
     if written:
         prune(target.parent)
     return written
+
+
+def _write_in_background(name: str, done: threading.Event, *job: Any) -> None:
+    try:
+        _write(*job)
+    except BaseException:  # noqa: BLE001 - the cache's failures are never errors; the next load writes it again
+        pass
+    finally:
+        with _PENDING_LOCK:
+            mine = _PENDING.get(name, [])
+            if done in mine:
+                mine.remove(done)
+            if not mine:
+                _PENDING.pop(name, None)
+        done.set()
+
+
+#: The cache files being written in the background, by document: each write's "done".
+_PENDING: dict[str, list[threading.Event]] = {}
+_PENDING_LOCK = threading.Lock()
+
+
+def flush(name: str | None = None) -> None:
+    """Wait until the cache files being written in the background (of the document ``name``, or all) are written."""
+    with _PENDING_LOCK:
+        events = [e for n, es in _PENDING.items() if name is None or n == name for e in es]
+    for event in events:
+        event.wait()
+
+
+atexit.register(flush)  # the process ends with its files written, never half of one
+os.register_at_fork(before=flush)  # and a child never inherits a writer stopped halfway
 
 
 #: The most cache files kept: beyond it, the least recently used go (a file is touched when it is read).
@@ -407,33 +440,18 @@ def write_atomic(target: Path, data: bytes) -> bool:
 
 
 # -- reading -------------------------------------------------------------------------------------------------------
-class _Reader(pickle.Unpickler):
-    """Reads a cache file's payload back: only allowed classes; sources, expressions and actions made again."""
+def _makers(texts: dict[str, str], kinds: dict[str, str]) -> dict[str, Callable[..., Any]]:
+    """What the reader makes again of what the writer stored as a name and arguments (see :class:`_Special`)."""
 
-    def __init__(self, data: bytes, allowed: dict[tuple[str, str], type], texts: dict[str, str],
-                 kinds: dict[str, str]) -> None:
-        super().__init__(io.BytesIO(data))
-        self.allowed = allowed
-        self.texts = texts
-        self.kinds = kinds
-        self.made: dict[str, Callable[..., Any]] = {
-            "_source": self.source, "_expression": self.expression, "_constant": E.constant,
-            "_var_op": _var_op_of, "_nothing": _the_nothing, "_proxy": types.MappingProxyType, "_action": _action_of}
-
-    def find_class(self, module: str, name: str) -> Any:
-        if module == __name__ and name in self.made:
-            return self.made[name]
-        cls = self.allowed.get((module, name))
-        if cls is None:
-            raise pickle.UnpicklingError(f"a cache file may not name {module}.{name}")
-        return cls
-
-    def source(self, name: str) -> Source:
-        text = self.texts[name]
+    def source(name: str) -> Source:
+        text = texts[name]
         return Source(name=name, directory=Path(name).parent, text=text, locator=_Locator(name, text))
 
-    def expression(self, text: str, want: str | None) -> E.Compiled:
-        return E.compile_expr(text, self.kinds, want)
+    def expression(text: str, want: str | None) -> E.Compiled:
+        return E.compile_expr(text, kinds, want)
+
+    return {"_source": source, "_expression": expression, "_constant": E.constant, "_var_op": _var_op_of,
+            "_nothing": _the_nothing, "_proxy": types.MappingProxyType, "_action": _action_of, "_enum": flat.make_enum}
 
 
 def _var_op_of(c: E.Compiled) -> E.VarOp | None:
@@ -465,6 +483,7 @@ def lookup(name: str, registry: Registry, doc: Document) -> Entry | None:
     if kept is not None and kept[0] == key and _texts(kept[1], name, doc) is not None:
         entry = kept[2]
         return entry._replace(problems=[dataclasses.replace(p) for p in entry.problems])
+    flush(name)  # this process's own write of it, if one is under way
     try:
         with open(file_of(name), "rb") as fh:
             if os.fstat(fh.fileno()).st_uid != os.geteuid():
@@ -498,7 +517,8 @@ def _read(data: bytes, name: str, registry: Registry, doc: Document, key: str) -
     if texts is None or hashlib.sha256(payload).hexdigest() != header["payload"]:
         return None
     kinds = header["kinds"]
-    spec, (expressions, paths, wants), problems, plan = _Reader(payload, _allowed(registry, key), texts, kinds).load()
+    spec, (expressions, paths, wants), problems, plan = flat.unflatten(payload, _allowed(registry, key),
+                                                                      _makers(texts, kinds))
     if not isinstance(spec, MachineSpec) or not isinstance(plan, MachinePlan) or not isinstance(problems, list):
         return None
     entry = Entry(spec, Analysis(kinds, expressions, paths, wants), problems, plan)
@@ -533,4 +553,4 @@ def keep(name: str, key: str, files: list[list[str]], entry: Entry) -> None:
 
 
 __all__ = ["CACHE_DIR_ENV", "Document", "Entry", "LOADER_VERSION", "NO_CACHE_ENV", "document", "enabled", "file_of",
-           "folder", "lookup", "prune", "registry_key", "store", "text_of", "write_atomic"]
+           "flush", "folder", "lookup", "prune", "registry_key", "store", "text_of", "write_atomic"]

@@ -1,0 +1,221 @@
+"""The plan cache's stored form (fsm/loading/flat.py): what a cache file gives back is the load's result object for
+object (every spec, parameter model, plan record, expression and action, with the same objects shared), for every
+diagram the project ships and real UMLet files; the form is plain data (tables of columns), refused when it names
+anything else."""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import json
+import math
+import os
+import pickle
+import threading
+import types
+from pathlib import Path
+from typing import Any
+
+import pytest
+from pydantic import BaseModel
+
+import test_plan_cache
+from fsm.loading import cache, flat, loader
+from fsm.loading.compiling import ACTIONS
+from fsm.loading.registry import default_registry
+from fsm.model import expr as E
+from fsm.model.document import Source
+from fsm.model.plan import NOTHING, SupervisionPlan
+from helpers import CORPUS, needs_corpus
+
+REPO = Path(__file__).resolve().parents[1]
+DIAGRAMS = sorted(p for p in (REPO / "diagrams").rglob("*") if p.suffix in (".json", ".uxf")
+                  and not p.name.endswith(".scenario.json") and "worlds" not in p.parts
+                  and p.name != "TRAL_State-Machine.uxf")  # the palette to draw from, not a machine
+PLUGIN = REPO / "examples" / "eeros" / "eeros_plant.py"
+
+
+#: An empty cache folder of each test's own, the cache switched on (the plan cache's tests' fixture).
+folder = test_plan_cache.folder
+
+
+class Same:
+    """Compares two object graphs: equal values, the same classes, and objects shared in the first shared alike
+    in the second."""
+
+    def __init__(self) -> None:
+        self.pairs: dict[int, Any] = {}
+        self.kept: list[Any] = []
+
+    def __call__(self, a: Any, b: Any, where: str = "") -> None:  # noqa: C901 - one case per kind
+        assert type(a) is type(b), f"{where}: {type(a).__name__} against {type(b).__name__}"
+        if isinstance(a, (type, types.BuiltinFunctionType)) or isinstance(a, (str, int, float, bool, type(None),
+                                                                              enum.Enum)):
+            assert a == b or a is b, f"{where}: {a!r} against {b!r}"
+            return
+        if id(a) in self.pairs:
+            assert self.pairs[id(a)] is b, f"{where}: shared in the load, not shared from the cache"
+            return
+        self.pairs[id(a)] = b
+        self.kept.append(a)
+        kind = type(a)
+        if kind is Source:
+            assert (a.name, a.text, a.directory) == (b.name, b.text, b.directory), where
+        elif kind is E.Compiled:
+            assert (a.text, a.kind, a.constant, a.value) == (b.text, b.kind, b.constant, b.value), where
+            self(a.var_op, b.var_op, f"{where}.var_op")
+        elif kind is types.FunctionType:
+            assert a.__qualname__ == b.__qualname__, where
+            if a in ACTIONS:
+                self(ACTIONS[a], ACTIONS[b], f"{where}()")
+        elif kind is types.MappingProxyType:
+            assert (a is NOTHING) == (b is NOTHING), where
+            self(dict(a), dict(b), where)
+        elif kind is dict:
+            assert list(a) == list(b), f"{where}: keys {list(a)} against {list(b)}"
+            for k in a:
+                self(a[k], b[k], f"{where}[{k!r}]")
+        elif kind in (list, tuple) or (isinstance(a, tuple) and hasattr(kind, "_fields")):
+            assert len(a) == len(b), where
+            for i, (x, y) in enumerate(zip(a, b, strict=True)):
+                self(x, y, f"{where}[{i}]")
+        elif kind in (set, frozenset):
+            assert a == b, where
+        elif isinstance(a, BaseModel):
+            assert a.__pydantic_fields_set__ == b.__pydantic_fields_set__, where
+            assert (a.__pydantic_extra__, a.__pydantic_private__) == (b.__pydantic_extra__, b.__pydantic_private__)
+            self(a.__dict__, b.__dict__, f"{where}<{kind.__name__}>")
+            assert a == b, where
+        elif dataclasses.is_dataclass(a):
+            self(vars(a), vars(b), f"{where}<{kind.__name__}>")
+        else:
+            raise AssertionError(f"{where}: nothing to compare {kind.__name__} with")
+
+
+def same_entry(path: Path) -> None:
+    """Load ``path`` (a miss: checked, compiled, written), then read the file back; the two results are alike."""
+    registry = default_registry((str(PLUGIN),))  # the EEROS cases' axis and gripper types
+    fresh = loader.compile(path, registry=registry)
+    first = cache._KEPT[str(path)][2]
+    assert first.plan is fresh
+    cache._KEPT.clear()
+    doc = cache.document(str(path))
+    assert doc is not None
+    again = cache.lookup(str(path), registry, doc)
+    assert again is not None, f"{path.name}: not read back from its cache file"
+    compare = Same()
+    compare((first.spec, first.analysis, first.problems, first.plan),
+            (again.spec, again.analysis, again.problems, again.plan), path.name)
+
+
+@pytest.mark.parametrize("path", DIAGRAMS, ids=lambda p: str(p.relative_to(REPO / "diagrams")))
+def test_every_diagram_reads_back_as_it_was_loaded(folder: Path, path: Path) -> None:
+    same_entry(path)
+
+
+@needs_corpus
+def test_real_umlet_files_read_back_as_they_were_loaded(folder: Path) -> None:
+    done = 0
+    for path in sorted(CORPUS.glob("*.uxf")):
+        try:
+            loader.compile(path, registry=default_registry((str(PLUGIN),)))
+        except Exception:  # noqa: BLE001 - a drawing this loader refuses is not cached; the others are compared
+            continue
+        loader._LAST.clear()
+        cache._KEPT.clear()
+        same_entry(path)
+        done += 1
+    assert done >= 2  # the corpus drawings this loader takes without errors
+
+
+def test_a_big_machine_is_stored_as_columns_not_objects(folder: Path, tmp_path: Path) -> None:
+    """1000 states: one batch per kind of record, each column a constant or one list, and the form is plain data
+    (it unpickles with every class refused)."""
+    n = 1000
+    doc = {"initial": "s0", "states": [{"id": f"s{i}", "type": "Idle"} for i in range(n)],
+           "transitions": [{"type": "Always", "from": f"s{i}", "to": f"s{(i + 1) % n}"} for i in range(n)]}
+    path = tmp_path / "ring.json"
+    path.write_text(json.dumps(doc))
+    loader.compile(path)
+    cache.flush()
+    (entry,) = folder.iterdir()
+    data = entry.read_bytes()
+    start = len(cache.MAGIC) + 4
+    size = int.from_bytes(data[len(cache.MAGIC):start], "big")
+    version, batches, _root = flat._PlainOnly(__import__("io").BytesIO(data[start + size:])).load()
+    assert version == flat.VERSION
+    big = [b for b in batches if b[0] in ("record", "object", "model") and b[-2] == n]
+    assert len(big) == 6  # state and transition: spec, parameters, plan
+    assert len(batches) < 30  # one per kind of object and height, not one per object
+    for b in big:
+        assert all(column[0] in ("K", "C", "L", "R") for column in b[-1])
+    same_entry(path)
+
+
+class Evil:
+    def __reduce__(self) -> Any:
+        return (print, ("ran",))
+
+
+def test_the_form_refuses_what_is_not_data() -> None:
+    with pytest.raises(flat.Unflattenable):
+        flat.flatten(Evil(), {}, {})
+    with pytest.raises(flat.Unflattenable):
+        flat.flatten([Source], {}, {})  # a class not allowed
+    forged = pickle.dumps([flat.VERSION, [["lit", [Evil()]]], 0])
+    with pytest.raises(pickle.UnpicklingError):
+        flat.unflatten(forged, {}, {})
+    plain = {"a": [1, 2.5, "x", None, True], "b": (frozenset({1}), {"k": ()})}
+    assert flat.unflatten(flat.flatten(plain, {}, {}), {}, {}) == plain
+
+
+def test_a_forged_table_names_only_allowed_classes() -> None:
+    """A batch whose class column is not an allowed class, or whose columns do not fit, is refused."""
+    allowed = {(Source.__module__, "Source"): Source}
+    bad_class = [flat.VERSION, [["lit", []], ["class", [("os", "system")]]], 0]
+    with pytest.raises(pickle.UnpicklingError):
+        flat.unflatten(pickle.dumps(bad_class), allowed, {})
+    not_a_record = [flat.VERSION, [["lit", []], ["class", [(Source.__module__, "Source")]],
+                                   ["record", 1, [["C", 0], ["K", 1]]]], 1]
+    with pytest.raises(ValueError):
+        flat.unflatten(pickle.dumps(not_a_record), allowed, {})
+
+
+def test_a_miss_returns_before_the_file_is_written(folder: Path, tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """The writer runs beside the caller: the load is back while the file is still being made (none there yet,
+    not even half of one), the process's next read of it waits for it, and so does a fork."""
+    gate = threading.Event()
+    real = flat.flatten
+
+    def slow(*args: Any) -> bytes:
+        assert gate.wait(10)
+        return real(*args)
+
+    monkeypatch.setattr(flat, "flatten", slow)
+    path = tmp_path / "m.json"
+    path.write_text(json.dumps({"initial": "a", "states": [{"id": "a", "type": "Idle"}]}))
+    assert loader.compile(path).root.initial == "a"  # returned while the writer waits
+    assert not folder.exists() or not any(folder.iterdir())
+    threading.Timer(0.2, gate.set).start()
+    pid = os.fork()  # waits for the writer first
+    if pid == 0:
+        os._exit(0 if cache.file_of(str(path)).exists() else 1)
+    assert os.waitpid(pid, 0)[1] == 0
+    assert [f.name for f in folder.iterdir()] == [cache.file_of(str(path)).name]
+    cache._KEPT.clear()
+    doc = cache.document(str(path))
+    assert doc is not None and cache.lookup(str(path), default_registry(), doc) is not None
+
+
+def test_equal_values_that_differ_stay_apart() -> None:
+    """0.0 and -0.0 are equal, True and 1 too: a constant column or a shared literal keeps them apart."""
+    allowed = {(SupervisionPlan.__module__, "SupervisionPlan"): SupervisionPlan}
+    plans = [SupervisionPlan(timeout=0.0), SupervisionPlan(timeout=-0.0), SupervisionPlan(timeout=1),
+             SupervisionPlan(timeout=True)]
+    back = flat.unflatten(flat.flatten([plans, [SupervisionPlan(timeout=-0.0)] * 2, [0.0, -0.0, plans[0]]],
+                                       allowed, {}), allowed, {})
+    assert [math.copysign(1, p.timeout) for p in back[0][:2]] == [1, -1]
+    assert [type(p.timeout) for p in back[0]] == [float, float, int, bool]
+    assert math.copysign(1, back[1][0].timeout) == -1
+    assert [math.copysign(1, v) for v in back[2][:2]] == [1, -1]

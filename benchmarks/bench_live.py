@@ -177,6 +177,41 @@ class LiveRun:
         self.thread.join(10)
 
 
+def controller_round(watches: int, snapshots: bool = True) -> float:
+    """The lap under :meth:`Controller.loop` in this thread (no server, no page), as ``fsmctl run --live`` runs it
+    (with its per-chunk ``stop``): processor time per tick in us."""
+    from fsm.debug.control import SNAPSHOT_PERIOD, Controller
+
+    session, _ = make_session()
+    session.start()
+    controller = Controller(session, factory=lambda: make_session()[0], speed=None,
+                            snapshot_period=SNAPSHOT_PERIOD if snapshots else None)
+    for text in WATCHES[:watches]:
+        controller.send("watch", {"expr": text})
+    halt = threading.Event()
+    c0 = time.process_time()
+    controller.loop(stop=lambda: halt.is_set() or controller.ended is not None)
+    return (time.process_time() - c0) / session.ticks * 1e6
+
+
+def in_process(rounds: int) -> int:
+    """``--no-server``: plain against the controller's loop, alone and with the ten watches, alternated in one
+    process: what the live loop itself costs per tick, without the server's thread and the page."""
+    cases = {"plain (session.run)": lambda: plain()[1], "Controller.loop": lambda: controller_round(0),
+             "Controller.loop, snapshots off": lambda: controller_round(0, snapshots=False),
+             "Controller.loop, 10 watches": lambda: controller_round(len(WATCHES))}
+    times: dict[str, list[float]] = {name: [] for name in cases}
+    for _ in range(rounds):
+        for name, case in cases.items():
+            times[name].append(case())
+    best = min(times["plain (session.run)"])
+    print("| the hallway lap, in one process | processor us/tick median | best | against plain (best) |")
+    print("|---|---:|---:|---:|")
+    for name, got in times.items():
+        print(f"| {name} | {statistics.median(got):.2f} | {min(got):.2f} | {min(got) / best - 1:+.1%} |")
+    return 0
+
+
 def browser_cpu() -> float:
     """Processor seconds used so far by the Chromium processes this benchmark started (its descendants on Linux;
     0 where /proc is missing): what the page costs the machine, however busy it is."""
@@ -285,12 +320,16 @@ def main() -> int:
     ap.add_argument("--instructions", action="store_true",
                     help="count instructions with valgrind instead (plain against live with no page): the same "
                          "figures however busy the machine is; a few minutes")
+    ap.add_argument("--no-server", type=int, metavar="ROUNDS", default=0,
+                    help="the live loop alone (no server, no page), alternated with the plain run in one process")
     ap.add_argument("--probe", nargs=2, metavar=("MODE", "N"), help=argparse.SUPPRESS)  # one counted process
     args = ap.parse_args()
     if args.probe:
         return probe(args.probe[0], int(args.probe[1]))
     if args.instructions:
         return count_instructions()
+    if args.no_server:
+        return in_process(args.no_server)
     results: dict[str, Any] = {"plain": [], "live_no_page": [], "live_one_page": [], "step_ms_tick0": [],
                                "step_ms_tick8000": []}
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")

@@ -19,8 +19,11 @@ commands that arrived meanwhile, so debugging never changes what a tick does:
 compiled
   plan): the machine replaced between two ticks, keeping the variables and the active states by path; an active
   state that no longer exists pauses the run there; a ``reload`` line in the trace and a rewind does it again;
-- ``watch`` / ``unwatch`` / ``watched``: expressions whose values are kept after every tick (``watched`` messages
-  carry the new ones; nothing is evaluated while there is none);
+- ``watch`` / ``unwatch`` / ``watched``: expressions whose values are kept for the ticks a page can see: the tick
+  of every status published (after each chunk of ticks, at most :data:`CHUNK` apart, and wherever the run pauses: a
+  step's end, a breakpoint, a rewind), never on the ticks between, which nobody reads (``watched`` messages carry
+  the new ones; nothing is evaluated while there is none). An expression breakpoint is tested after every tick;
+  a watch is not;
 - ``why``: what a tick did and why (:mod:`fsm.debug.explain`), by re-simulation, the run untouched;
 - ``rewind``: back to an earlier tick: the nearest snapshot at or before it restored (:mod:`fsm.session.snapshot`:
   taken every :data:`SNAPSHOT_PERIOD` simulated seconds or less often, so that taking them costs the run at most
@@ -290,10 +293,6 @@ class Controller:
 
     def _until(self, session: Session) -> bool:
         """After each tick: a breakpoint hit, the end of a step to a transition, or a command waiting."""
-        if self.watches:  # (inline: this runs after every tick while a watch exists)
-            entry = (session.ticks, self._watch_row(session.machine.ctx))
-            self.watch_log.append(entry)
-            self._watch_new.append(entry)
         watch = self._watch
         if not self.breakpoints and not self._to_transition:  # nothing looks: keep the tick cheap
             if watch.moved:
@@ -323,9 +322,9 @@ class Controller:
         return self._interrupt
 
     def _note_watches(self, session: Session) -> None:
-        """The watch expressions' values after this tick: one call of the generated function, which keeps the last
-        row (the same object) when nothing read moved. Rows are tuples of plain values, which the garbage collector
-        stops tracking: a long log costs it nothing."""
+        """The watch expressions' values after this tick (between two ticks: what the trace says at it): one call
+        of the generated function, which keeps the last row (the same object) when nothing read moved. Rows are
+        tuples of plain values, which the garbage collector stops tracking: a long log costs it nothing."""
         entry = (session.ticks, self._watch_row(session.machine.ctx))
         self.watch_log.append(entry)
         self._watch_new.append(entry)
@@ -462,8 +461,8 @@ class Controller:
         return {}
 
     def _cmd_watch(self, args: dict[str, Any]) -> dict[str, Any]:
-        """``expr``: an expression of the document's language, whose value is kept after every tick from now on
-        (plotted by the page); an expression that does not parse is refused with its column."""
+        """``expr``: an expression of the document's language, whose value is kept from now on at the ticks a page
+        can see (plotted by the page); an expression that does not parse is refused with its column."""
         if len(self.watches) >= MAX_WATCHES:
             raise ValueError(f"at most {MAX_WATCHES} watch expressions; remove one first")
         watch = compile_watch(args.get("expr"), self.session.machine, self.signals)
@@ -612,6 +611,8 @@ class Controller:
         self.session = session
         self.log = keep
         self.reloads = [r for r in self.reloads if snap is not None and r[0] <= snap.tick]
+        while self.watch_log and self.watch_log[-1][0] > tick:  # the same run up to ``tick``: kept
+            self.watch_log.pop()
         self.ended = self.error = self.hit = None
         self.paused = True
         self._budget = 0
@@ -683,7 +684,7 @@ class Controller:
         for bp in self.breakpoints:
             if bp.test is not None and bp.enabled:  # "becomes true" counts from here
                 bp.last = bp.test(values) is True
-        while self.watch_log and self.watch_log[-1][0] > session.ticks:  # the same run up to here: kept
+        while self.watch_log and self.watch_log[-1][0] > session.ticks:  # (an error ended the run before ``tick``)
             self.watch_log.pop()
         self._watch_new = []
 
@@ -751,6 +752,8 @@ class Controller:
     def _publish(self) -> None:
         session = self.session
         machine = session.machine
+        if self.watches and machine.started and (not self.watch_log or self.watch_log[-1][0] < session.ticks):
+            self._note_watches(session)  # the ticks a page can show, and only those
         if self.ended is not None:
             state = "ended"
         elif self.paused and not self._budget:

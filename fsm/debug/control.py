@@ -136,6 +136,8 @@ class Controller:
         self._shown: dict[str, Any] = {}  # the last snapshot published, without its seq
         self._replied = False  # a command was answered since (its reply is news even if the status is not)
         self._flushed = 0.0
+        self._inputs_key: tuple[int, int, int] = (0, -1, 0)
+        self._inputs_list: list[list[Any]] = []
         self._watch = Watch()
         self._active: set[str] = set()
         #: ticks ran with no breakpoint and no step to a transition: ``_active`` is older than the machine
@@ -196,7 +198,7 @@ class Controller:
             if not ticks:
                 self._idle(wait)
                 continue
-            self._run(ticks, stop)
+            self._run(ticks)
             self._snapshot()
             self._publish()
         self._publish()
@@ -239,16 +241,25 @@ class Controller:
             return 0, max((session.ticks + 1 - tick0) * dt / self.speed - (now - wall0), 0.0005)
         return min(n, CHUNK, left), 0.0
 
-    def _run(self, ticks: int, stop: Callable[[], bool] | None) -> None:
+    def _run(self, ticks: int) -> None:
+        """Run a chunk of ``ticks``. The session's loop calls the controller after a tick only while something
+        looks at every tick (a breakpoint, a step to the next transition): then once, through :meth:`_looker`, and
+        the listener noting transitions is attached. Otherwise the ticks run as in a plain run, and commands,
+        ``stop()`` (Ctrl-C) and watches wait for the end of the chunk (at most :data:`CHUNK` ticks)."""
         session = self.session
         before = session.ticks
         self._interrupt = False
+        looking = bool(self.breakpoints) or self._to_transition
+        self._look(session.machine, looking)
         try:
-            result = session.run(until=self._until, stop=stop, stop_rules=StopRules(max_ticks=ticks))
+            result = session.run(until=self._looker() if looking else None, stop_rules=StopRules(max_ticks=ticks))
         except StateRuntimeError as exc:
             if not self._undo_injection(exc):
                 self._failed(exc)
             return
+        finally:
+            if not looking:
+                self._stale = True
         if self._budget > 0:
             self._budget = max(0, self._budget - (session.ticks - before))
             if not self._budget:
@@ -291,35 +302,59 @@ class Controller:
         self.error = str(exc)
         self._budget = 0
 
-    def _until(self, session: Session) -> bool:
-        """After each tick: a breakpoint hit, the end of a step to a transition, or a command waiting."""
+    def _look(self, machine: Any, looking: bool) -> None:
+        """Attach the listener noting each tick's transitions while something looks at them, detach it otherwise (a
+        listener costs the machine a call after every tick); what is active now is where looking starts from."""
         watch = self._watch
-        if not self.breakpoints and not self._to_transition:  # nothing looks: keep the tick cheap
-            if watch.moved:
-                watch.clear()
-                self._stale = True
-            return self._interrupt
-        if self._stale:  # what is active now is where the next tick starts from
+        listeners = machine.listeners
+        attached = any(listener is watch for listener in listeners)
+        if looking and not attached:
+            watch.clear()
+            listeners.append(watch)
             self._resync()
-        happened = None
-        if watch.moved:
-            happened = self._happened()
-        if self.breakpoints:
-            found = hits(self.breakpoints, happened, session.machine, self.signals)
-            if found:
-                for bp, _why in found:
-                    bp.hits += 1
-                bp, why = found[0]
-                self._pause_at({"breakpoint": bp.id, "text": bp.text, "why": why,
-                                "also": [b.id for b, _ in found[1:]]})
+        elif looking and self._stale:
+            watch.clear()
+            self._resync()
+        elif not looking and attached:
+            listeners[:] = [listener for listener in listeners if listener is not watch]
+
+    def _looker(self) -> Callable[[Session], bool]:
+        """The session's per-tick hook for one chunk, while something looks (see :meth:`_run`): after each tick, a
+        breakpoint hit or the end of a step to a transition ends the chunk, as does a command waiting. What cannot
+        change within a chunk is bound once."""
+        watch = self._watch
+        breakpoints = self.breakpoints
+        to_transition = self._to_transition
+        happened_now = self._happened
+
+        def after_tick(session: Session) -> bool:
+            happened = happened_now() if watch.moved else None
+            if breakpoints and self._breakpoint_hit(session, happened):
                 return True
-        if self._to_transition and happened is not None and (
-                any(src is not None for src, _dst, _type in happened.transitions) or happened.monitors):
-            what = [f"{s} -> {d}" for s, d, _t in happened.transitions if s is not None]
-            what += [f"monitor {label} of {owner}" for owner, label, _k, _e in happened.monitors]
-            self._pause_at({"breakpoint": None, "text": "step to the next transition", "why": "; ".join(what)})
-            return True
-        return self._interrupt
+            if to_transition and happened is not None and self._transition_seen(happened):
+                return True
+            return self._interrupt
+
+        return after_tick
+
+    def _breakpoint_hit(self, session: Session, happened: Happened | None) -> bool:
+        found = hits(self.breakpoints, happened, session.machine, self.signals)
+        if not found:
+            return False
+        for bp, _why in found:
+            bp.hits += 1
+        bp, why = found[0]
+        self._pause_at({"breakpoint": bp.id, "text": bp.text, "why": why, "also": [b.id for b, _ in found[1:]]})
+        return True
+
+    def _transition_seen(self, happened: Happened) -> bool:
+        """A step to the next transition ends at the tick one fired (a monitor too)."""
+        if not (any(src is not None for src, _dst, _type in happened.transitions) or happened.monitors):
+            return False
+        what = [f"{s} -> {d}" for s, d, _t in happened.transitions if s is not None]
+        what += [f"monitor {label} of {owner}" for owner, label, _k, _e in happened.monitors]
+        self._pause_at({"breakpoint": None, "text": "step to the next transition", "why": "; ".join(what)})
+        return True
 
     def _note_watches(self, session: Session) -> None:
         """The watch expressions' values after this tick (between two ticks: what the trace says at it): one call
@@ -744,9 +779,20 @@ class Controller:
             self.reloads = [r for r in self.reloads if r[0] > first]
         session.forget_applied(first)
 
+    def _inputs_shown(self) -> list[list[Any]]:
+        """The last 200 inputs as a page lists them, described again only when the log changed (a status is
+        published after every chunk of ticks)."""
+        log = self.log
+        key = (id(log), len(log), id(log[-1][1]) if log else 0)
+        if key != self._inputs_key:
+            self._inputs_key = key
+            self._inputs_list = [[t, item.describe()] for t, item in log[-200:]]
+        return self._inputs_list
+
     def _attach(self, session: Session) -> None:
+        """A new listener for ``session``'s transitions (attached to its machine by :meth:`_look` while something
+        looks at them)."""
         self._watch = Watch()
-        session.add_listener(self._watch)
 
     # -- what a watcher sees ----------------------------------------------------------------------------------------
     def _publish(self) -> None:
@@ -766,7 +812,7 @@ class Controller:
             "speed": self.speed, "active": machine.active_paths if machine.started else [],
             "hit": self.hit, "end_tick": self._end if self._end < 2**62 else None,
             "breakpoints": [bp.to_json() for bp in self.breakpoints],
-            "inputs": [[t, item.describe()] for t, item in self.log[-200:]],
+            "inputs": self._inputs_shown(),
             "can_rewind": (self.factory is not None or bool(self.snapshots)) and self.horizon > 0,
             "rewind_from": self.earliest,
             "watches": [{"id": number, "text": text} for number, text, _fn in self.watches],

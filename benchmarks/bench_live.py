@@ -140,12 +140,27 @@ class LiveRun:
         run's thread, the server's and this one's polling: what the run costs here, however busy the machine)."""
         controller = self.controller
         ticks0 = controller.session.ticks
+        threads0 = self.thread_times()
         c0, t0 = time.process_time(), time.perf_counter()
         controller.send("resume")
         while controller.ended is None:
             time.sleep(0.02)
         ticks = controller.session.ticks - ticks0
-        return ticks / (time.perf_counter() - t0), (time.process_time() - c0) / ticks * 1e6
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        #: the run's thread and the server's, processor time per tick in us
+        self.threads = tuple((b - a) / ticks * 1e6 for a, b in zip(threads0, self.thread_times(), strict=True))
+        return ticks / wall, cpu / ticks * 1e6
+
+    def thread_times(self) -> tuple[float, float]:
+        """Processor seconds used so far by the run's thread and by the server's (0 where the platform cannot
+        tell)."""
+        out = []
+        for thread in (self.runner, self.thread):
+            try:
+                out.append(time.clock_gettime(time.pthread_getcpuclockid(thread.ident or 0)))
+            except (AttributeError, OSError):
+                out.append(0.0)
+        return out[0], out[1]
 
     def rewind(self, tick: int) -> float:
         """Seconds from the rewind command to the controller's notice that it is there."""
@@ -346,6 +361,7 @@ def main() -> int:
             live = LiveRun()
             try:
                 results["live_no_page"].append(live.run())
+                results.setdefault("threads_no_page", []).append(live.threads)
                 results.setdefault("snapshots", []).append(snapshot_figures(live.controller))
                 results.setdefault("rewind_10000_s", []).append(live.rewind(10_000))
                 results.setdefault("why_10000_s", []).append(live.why(10_000))
@@ -377,6 +393,7 @@ def main() -> int:
                     results["step_ms_tick8000"] = step_latency(page, args.steps)
                 b0, t0 = browser_cpu(), live.controller.session.ticks
                 results["live_one_page"].append(live.run())
+                results.setdefault("threads_one_page", []).append(live.threads)
                 results.setdefault("browser_ms_per_1000_ticks", []).append(
                     (browser_cpu() - b0) * 1e6 / max(1, live.controller.session.ticks - t0))
             finally:
@@ -416,6 +433,11 @@ def main() -> int:
           f"held")
     if results["live_one_page"]:
         row("live, one Chromium page", results["live_one_page"])
+        for key, what in (("threads_no_page", "no page"), ("threads_one_page", "one Chromium page")):
+            runs = results[key]
+            print(f"\nlive, {what}: the run's thread {statistics.median(r for r, _s in runs):.2f} us a tick (median), "
+                  f"the server's thread {statistics.median(s for _r, s in runs):.3f} us a tick (median; processor "
+                  "time of each thread)")
         bc = results["browser_ms_per_1000_ticks"]
         print(f"\nChromium's processor time while the page follows the run: median {statistics.median(bc):.0f} ms, "
               f"least {min(bc):.0f} ms per 1,000 ticks (the run itself: {min(c for _, c in base):.0f} ms per 1,000 "

@@ -124,6 +124,10 @@ class Controller:
         self.snapshot: dict[str, Any] = {}
         #: called (from the loop's thread) after each new snapshot: a watcher's wake-up
         self.notify: Callable[[], None] | None = None
+        #: whether the last snapshot needs a watcher now (the run paused or ended, a reply or notice waits) or only
+        #: tells a running run's progress, which a watcher may pick up at its own pace (a page redraws at most 30
+        #: times a second; a status is published after every chunk, hundreds of times a second at full speed)
+        self.urgent = True
         self._commands: deque[tuple[str, dict[str, Any], Any]] = deque()
         self._wake = threading.Condition()
         self._interrupt = False
@@ -779,6 +783,15 @@ class Controller:
             self.reloads = [r for r in self.reloads if r[0] > first]
         session.forget_applied(first)
 
+    def _news(self) -> bool:
+        """Whether a reply or a notice came since the last status: a message waits whose kind is not ``watched``
+        (which every status with watches ends with). Read from the loop's thread while a watcher takes messages
+        from the left."""
+        try:
+            return bool(self.messages) and self.messages[-1].get("kind") != "watched"
+        except IndexError:  # taken meanwhile
+            return False
+
     def _inputs_shown(self) -> list[list[Any]]:
         """The last 200 inputs as a page lists them, described again only when the log changed (a status is
         published after every chunk of ticks)."""
@@ -798,6 +811,7 @@ class Controller:
     def _publish(self) -> None:
         session = self.session
         machine = session.machine
+        news = self._news()
         if self.watches and machine.started and (not self.watch_log or self.watch_log[-1][0] < session.ticks):
             self._note_watches(session)  # the ticks a page can show, and only those
         if self.ended is not None:
@@ -827,6 +841,7 @@ class Controller:
         self._shown = snapshot
         self._seq += 1
         self.snapshot = {"seq": self._seq, **snapshot}
+        self.urgent = state != "running" or news
         recorder = session.recorder
         now = self.clock()
         if recorder is not None and (state != "running" or now - self._flushed > FLUSH):

@@ -18,13 +18,21 @@
 
 Speed lost is shown twice: from the ticks per second (wall clock: what the user sees, but on a shared machine as
 noisy as its load) and from this process's processor time per tick (``time.process_time``: the run's thread, the
-server's and the bench's polling; steadier under load, blind to what Chromium takes from the run's core).
+server's and the bench's polling; steadier under load, blind to what Chromium takes from the run's core). The
+run's thread and the server's are also shown on their own (each thread's processor time per tick), and Chromium's
+processes' processor time per 1,000 ticks.
+
+``--no-server ROUNDS``: the lap plain against ``Controller.loop`` in the same thread (no server, no page), alone,
+with snapshots off and with the ten watches, alternated round by round in one process: the live loop's own cost
+per tick, by processor time.
 
 Each run starts paused; the clock starts at "resume" and stops when the controller says the run has ended (looked
 at every 20 ms from the main thread: at most 20 ms on a run of seconds). Two cores shared with Chromium: the page
 figures include the browser's own work. Not a timed test: CI does not run it.
 
     .venv/bin/python benchmarks/bench_live.py [--repeat 3] [--steps 30] [--no-browser] [--json FILE]
+    .venv/bin/python benchmarks/bench_live.py --no-server 7
+    .venv/bin/python benchmarks/bench_live.py --instructions
 """
 
 from __future__ import annotations

@@ -297,6 +297,39 @@ def test_a_breakpoint_removed_by_its_number_fires_no_more(lap: Any) -> None:
     assert snap["hit"] is None
 
 
+def test_the_controller_is_called_per_tick_only_while_something_looks(lap: Any) -> None:
+    """Issue 33 (the live loop's cost per tick): with no breakpoint and no step to a transition, a chunk of ticks
+    runs as a plain run (no per-tick hook, no listener of transitions); a breakpoint attaches both from the states
+    active when it was added, and its removal detaches them again."""
+    from fsm.debug.breakpoints import Watch
+
+    controller, _ = lap
+    looked: list[int] = []
+    looker = controller._looker
+
+    def counted() -> Any:
+        looked.append(controller.session.ticks)
+        return looker()
+
+    controller._looker = counted  # type: ignore[method-assign]
+
+    def watching() -> bool:
+        return any(isinstance(listener, Watch) for listener in controller.session.machine.listeners)
+
+    controller.send("step", {"n": 700})
+    wait(controller, lambda s: s["tick"] == 700 and s["state"] == "paused")
+    assert looked == [] and not watching()
+    controller.send("break", {"spec": {"kind": "enter", "state": "lap2"}}, 1)
+    controller.send("resume")
+    snap = wait(controller, lambda s: s["hit"] is not None)
+    assert looked and looked[0] == 700 and watching()
+    assert snap["hit"]["why"] == "entered lap2"
+    controller.send("unbreak", {"breakpoint": snap["hit"]["breakpoint"]}, 2)
+    controller.send("step", {"n": 10})
+    wait(controller, lambda s: s["tick"] == snap["tick"] + 10 and s["state"] == "paused")
+    assert not watching() and looked[-1] < snap["tick"]
+
+
 @pytest.mark.parametrize(("values", "field", "words"), [
     ({"prob": 1}, "name", "has no variable 'prob' (did you mean 'probe'?)"),
     ({"probe": "text"}, "value", "'probe' holds a whole number (0); 'text' is a text"),

@@ -188,6 +188,7 @@ def test_a_running_runs_progress_wakes_no_one_and_the_stream_is_not_deflated() -
     session.record(run_recorder(buffer, str(lap), session.car, world_file=world))
     session.start()
     controller = Controller(session, speed=None, paused=True, snapshot_period=None)
+    controller.send("watch", {"expr": "car_front"})
     server = LiveServer(Source(buffer, controller), live_page(json.loads(buffer.first_line()), lap.name), None)
     wakes = 0
     woken = server._woken
@@ -241,3 +242,7 @@ def test_a_running_runs_progress_wakes_no_one_and_the_stream_is_not_deflated() -
     assert published > 10 and wakes < published / 4, (wakes, published)
     assert len(running) <= 3 * (FAST_RATE * span + 2), (len(running), span)  # trace and status per send at most
     assert reply_s < 5.0  # at once, not after the run (a reply wakes the pages; loose: the machine may be busy)
+    watched = [m for _t, m in got if m is not None and m.get("kind") == "watched"]
+    rows = [row for m in watched for row in m["rows"]]
+    assert len(rows) > 2 * len(watched)  # a row per status published, a message per send
+    assert [t for t, _v in rows] == sorted({t for t, _v in rows})

@@ -85,9 +85,6 @@ IDLE = 0.1
 #: rewind re-simulates about a tenth of a second at most; see docs/performance.md).
 SNAPSHOT_PERIOD = 30.0
 SNAPSHOT_SHARE = 0.02
-#: What a snapshot is taken to cost (s of processor time) before the first one was measured (the hallway lap's:
-#: 1.8-3.2 ms), so that the first one keeps to the share as the later ones do instead of coming at the first period
-SNAPSHOT_GUESS = 0.002
 #: How far back (simulated seconds) a live run can be rewound by default: its rewind history is kept for this long.
 DEFAULT_HORIZON = 1800.0
 
@@ -169,8 +166,8 @@ class Controller:
         #: the snapshots kept (oldest first), what one costs (s of this thread's processor time) and this thread's
         #: processor time when the last one was taken
         self.snapshots: list[Snapshot] = []
-        self._snap_cost = SNAPSHOT_GUESS
-        self._snap_wall = 0.0  # (set when the loop starts, in its thread)
+        self._snap_cost = 0.0
+        self._snap_wall = 0.0
         #: the earliest tick a rewind reaches (above 0 once the horizon let the start go)
         self.earliest = 0
         #: whether inputs older than the horizon were let go (Why re-simulates from the start: it needs them all)
@@ -192,8 +189,6 @@ class Controller:
     def loop(self, stop: Callable[[], bool] | None = None) -> None:
         """Run until a ``stop`` command or ``stop()`` (checked between chunks: Ctrl-C); while paused or after the
         run ended, wait for commands (a rewind makes an ended run go on)."""
-        if not self._snap_wall:  # the first snapshot's share counts from here
-            self._snap_wall = time.thread_time()
         self._start()
         while True:
             self._drain()
@@ -763,7 +758,7 @@ class Controller:
         self.snapshots.append(snap)
         self._snap_wall = time.thread_time()
         cost = self._snap_wall - t0
-        self._snap_cost = min(cost, 2 * self._snap_cost)
+        self._snap_cost = cost if not self._snap_cost else min(cost, 2 * self._snap_cost)
         self._forget()
 
     def _forget(self) -> None:

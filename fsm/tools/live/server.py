@@ -294,7 +294,7 @@ class LiveServer:
         if self._waking or not self.clients or self._loop is None:
             return
         controller = self.source.controller
-        if controller is not None and not controller.urgent:
+        if controller is not None and not getattr(controller, "urgent", True):  # (a stand-in may not say)
             return
         self._waking = True
         try:

@@ -18,13 +18,21 @@
 
 Speed lost is shown twice: from the ticks per second (wall clock: what the user sees, but on a shared machine as
 noisy as its load) and from this process's processor time per tick (``time.process_time``: the run's thread, the
-server's and the bench's polling; steadier under load, blind to what Chromium takes from the run's core).
+server's and the bench's polling; steadier under load, blind to what Chromium takes from the run's core). The
+run's thread and the server's are also shown on their own (each thread's processor time per tick), and Chromium's
+processes' processor time per 1,000 ticks.
+
+``--no-server ROUNDS``: the lap plain against ``Controller.loop`` in the same thread (no server, no page), alone,
+with snapshots off and with the ten watches, alternated round by round in one process: the live loop's own cost
+per tick, by processor time.
 
 Each run starts paused; the clock starts at "resume" and stops when the controller says the run has ended (looked
 at every 20 ms from the main thread: at most 20 ms on a run of seconds). Two cores shared with Chromium: the page
 figures include the browser's own work. Not a timed test: CI does not run it.
 
     .venv/bin/python benchmarks/bench_live.py [--repeat 3] [--steps 30] [--no-browser] [--json FILE]
+    .venv/bin/python benchmarks/bench_live.py --no-server 7
+    .venv/bin/python benchmarks/bench_live.py --instructions
 """
 
 from __future__ import annotations
@@ -140,12 +148,27 @@ class LiveRun:
         run's thread, the server's and this one's polling: what the run costs here, however busy the machine)."""
         controller = self.controller
         ticks0 = controller.session.ticks
+        threads0 = self.thread_times()
         c0, t0 = time.process_time(), time.perf_counter()
         controller.send("resume")
         while controller.ended is None:
             time.sleep(0.02)
         ticks = controller.session.ticks - ticks0
-        return ticks / (time.perf_counter() - t0), (time.process_time() - c0) / ticks * 1e6
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        #: the run's thread and the server's, processor time per tick in us
+        self.threads = tuple((b - a) / ticks * 1e6 for a, b in zip(threads0, self.thread_times(), strict=True))
+        return ticks / wall, cpu / ticks * 1e6
+
+    def thread_times(self) -> tuple[float, float]:
+        """Processor seconds used so far by the run's thread and by the server's (0 where the platform cannot
+        tell)."""
+        out = []
+        for thread in (self.runner, self.thread):
+            try:
+                out.append(time.clock_gettime(time.pthread_getcpuclockid(thread.ident or 0)))
+            except (AttributeError, OSError):
+                out.append(0.0)
+        return out[0], out[1]
 
     def rewind(self, tick: int) -> float:
         """Seconds from the rewind command to the controller's notice that it is there."""
@@ -175,6 +198,41 @@ class LiveRun:
         asyncio.run_coroutine_threadsafe(self.server.close(), self.loop).result(60)
         self.loop.call_soon_threadsafe(self.loop.stop)
         self.thread.join(10)
+
+
+def controller_round(watches: int, snapshots: bool = True) -> float:
+    """The lap under :meth:`Controller.loop` in this thread (no server, no page), as ``fsmctl run --live`` runs it
+    (with its per-chunk ``stop``): processor time per tick in us."""
+    from fsm.debug.control import SNAPSHOT_PERIOD, Controller
+
+    session, _ = make_session()
+    session.start()
+    controller = Controller(session, factory=lambda: make_session()[0], speed=None,
+                            snapshot_period=SNAPSHOT_PERIOD if snapshots else None)
+    for text in WATCHES[:watches]:
+        controller.send("watch", {"expr": text})
+    halt = threading.Event()
+    c0 = time.process_time()
+    controller.loop(stop=lambda: halt.is_set() or controller.ended is not None)
+    return (time.process_time() - c0) / session.ticks * 1e6
+
+
+def in_process(rounds: int) -> int:
+    """``--no-server``: plain against the controller's loop, alone and with the ten watches, alternated in one
+    process: what the live loop itself costs per tick, without the server's thread and the page."""
+    cases = {"plain (session.run)": lambda: plain()[1], "Controller.loop": lambda: controller_round(0),
+             "Controller.loop, snapshots off": lambda: controller_round(0, snapshots=False),
+             "Controller.loop, 10 watches": lambda: controller_round(len(WATCHES))}
+    times: dict[str, list[float]] = {name: [] for name in cases}
+    for _ in range(rounds):
+        for name, case in cases.items():
+            times[name].append(case())
+    best = min(times["plain (session.run)"])
+    print("| the hallway lap, in one process | processor us/tick median | best | against plain (best) |")
+    print("|---|---:|---:|---:|")
+    for name, got in times.items():
+        print(f"| {name} | {statistics.median(got):.2f} | {min(got):.2f} | {min(got) / best - 1:+.1%} |")
+    return 0
 
 
 def browser_cpu() -> float:
@@ -285,12 +343,16 @@ def main() -> int:
     ap.add_argument("--instructions", action="store_true",
                     help="count instructions with valgrind instead (plain against live with no page): the same "
                          "figures however busy the machine is; a few minutes")
+    ap.add_argument("--no-server", type=int, metavar="ROUNDS", default=0,
+                    help="the live loop alone (no server, no page), alternated with the plain run in one process")
     ap.add_argument("--probe", nargs=2, metavar=("MODE", "N"), help=argparse.SUPPRESS)  # one counted process
     args = ap.parse_args()
     if args.probe:
         return probe(args.probe[0], int(args.probe[1]))
     if args.instructions:
         return count_instructions()
+    if args.no_server:
+        return in_process(args.no_server)
     results: dict[str, Any] = {"plain": [], "live_no_page": [], "live_one_page": [], "step_ms_tick0": [],
                                "step_ms_tick8000": []}
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -307,6 +369,7 @@ def main() -> int:
             live = LiveRun()
             try:
                 results["live_no_page"].append(live.run())
+                results.setdefault("threads_no_page", []).append(live.threads)
                 results.setdefault("snapshots", []).append(snapshot_figures(live.controller))
                 results.setdefault("rewind_10000_s", []).append(live.rewind(10_000))
                 results.setdefault("why_10000_s", []).append(live.why(10_000))
@@ -338,6 +401,7 @@ def main() -> int:
                     results["step_ms_tick8000"] = step_latency(page, args.steps)
                 b0, t0 = browser_cpu(), live.controller.session.ticks
                 results["live_one_page"].append(live.run())
+                results.setdefault("threads_one_page", []).append(live.threads)
                 results.setdefault("browser_ms_per_1000_ticks", []).append(
                     (browser_cpu() - b0) * 1e6 / max(1, live.controller.session.ticks - t0))
             finally:
@@ -377,6 +441,11 @@ def main() -> int:
           f"held")
     if results["live_one_page"]:
         row("live, one Chromium page", results["live_one_page"])
+        for key, what in (("threads_no_page", "no page"), ("threads_one_page", "one Chromium page")):
+            runs = results[key]
+            print(f"\nlive, {what}: the run's thread {statistics.median(r for r, _s in runs):.2f} us a tick (median), "
+                  f"the server's thread {statistics.median(s for _r, s in runs):.3f} us a tick (median; processor "
+                  "time of each thread)")
         bc = results["browser_ms_per_1000_ticks"]
         print(f"\nChromium's processor time while the page follows the run: median {statistics.median(bc):.0f} ms, "
               f"least {min(bc):.0f} ms per 1,000 ticks (the run itself: {min(c for _, c in base):.0f} ms per 1,000 "

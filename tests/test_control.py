@@ -16,7 +16,7 @@ from typing import Any
 import pytest
 
 from fsm.debug.breakpoints import BreakpointError, make_breakpoint
-from fsm.debug.control import Controller
+from fsm.debug.control import CHUNK, Controller
 from fsm.session.inputs import (
     FinishState,
     FireMonitor,
@@ -184,6 +184,12 @@ def wait(controller: Controller, pred: Callable[[dict[str, Any]], bool], seconds
     raise AssertionError(f"not reached: {controller.snapshot}")
 
 
+def step_one(controller: Controller, tick: int) -> None:
+    """One step of one tick, to ``tick``, as a person clicks Step 1."""
+    controller.send("step", {"n": 1})
+    wait(controller, lambda s: s["tick"] == tick and s["state"] == "paused")
+
+
 def replies(controller: Controller) -> list[dict[str, Any]]:
     return [m for m in list(controller.messages) if m["kind"] == "reply"]
 
@@ -291,6 +297,39 @@ def test_a_breakpoint_removed_by_its_number_fires_no_more(lap: Any) -> None:
     assert snap["hit"] is None
 
 
+def test_the_controller_is_called_per_tick_only_while_something_looks(lap: Any) -> None:
+    """Issue 33 (the live loop's cost per tick): with no breakpoint and no step to a transition, a chunk of ticks
+    runs as a plain run (no per-tick hook, no listener of transitions); a breakpoint attaches both from the states
+    active when it was added, and its removal detaches them again."""
+    from fsm.debug.breakpoints import Watch
+
+    controller, _ = lap
+    looked: list[int] = []
+    looker = controller._looker
+
+    def counted() -> Any:
+        looked.append(controller.session.ticks)
+        return looker()
+
+    controller._looker = counted  # type: ignore[method-assign]
+
+    def watching() -> bool:
+        return any(isinstance(listener, Watch) for listener in controller.session.machine.listeners)
+
+    controller.send("step", {"n": 700})
+    wait(controller, lambda s: s["tick"] == 700 and s["state"] == "paused")
+    assert looked == [] and not watching()
+    controller.send("break", {"spec": {"kind": "enter", "state": "lap2"}}, 1)
+    controller.send("resume")
+    snap = wait(controller, lambda s: s["hit"] is not None)
+    assert looked and looked[0] == 700 and watching()
+    assert snap["hit"]["why"] == "entered lap2"
+    controller.send("unbreak", {"breakpoint": snap["hit"]["breakpoint"]}, 2)
+    controller.send("step", {"n": 10})
+    wait(controller, lambda s: s["tick"] == snap["tick"] + 10 and s["state"] == "paused")
+    assert not watching() and looked[-1] < snap["tick"]
+
+
 @pytest.mark.parametrize(("values", "field", "words"), [
     ({"prob": 1}, "name", "has no variable 'prob' (did you mean 'probe'?)"),
     ({"probe": "text"}, "value", "'probe' holds a whole number (0); 'text' is a text"),
@@ -332,7 +371,7 @@ def test_a_signal_no_condition_reads_is_refused_and_one_it_reads_is_taken() -> N
         thread.join(10)
 
 
-def test_watch_expressions_are_kept_after_every_tick_and_cost_nothing_without(lap: Any) -> None:
+def test_watch_expressions_are_kept_at_the_ticks_a_page_sees_and_cost_nothing_without(lap: Any) -> None:
     controller, _ = lap
     controller.send("step", {"n": 10})
     wait(controller, lambda s: s["tick"] == 10 and s["state"] == "paused")
@@ -346,32 +385,34 @@ def test_watch_expressions_are_kept_after_every_tick_and_cost_nothing_without(la
     assert answers[1]["ok"] and answers[2]["ok"] and not answers[3]["ok"] and answers[3]["column"] == 12
     assert [w["text"] for w in snap["watches"]] == ["car_right", "probe + 1"]
     rows = list(controller.watch_log)
-    assert [t for t, _ in rows] == list(range(10, 41))  # from the tick it was added, then every tick
+    assert [t for t, _ in rows] == [10, 40]  # when added, and where the step paused: not the ticks between
     assert all(row[1] == 1 for _t, row in rows)
     sent = [r for m in controller.messages if m["kind"] == "watched" for r in m["rows"]]
     assert [t for t, _ in sent] == [t for t, _ in rows]
     assert rows[-1][1][0] == controller.session.car.right  # the reading the machine sees now
-    assert len({row[0] for _t, row in rows}) > 1  # and it moved
+    controller.send("step", {"n": 600})  # chunks of CHUNK ticks: a row at the end of each (what a page can show)
+    wait(controller, lambda s: s["tick"] == 640 and s["state"] == "paused")
+    assert [t for t, _ in controller.watch_log] == [10, 40, 40 + CHUNK, 40 + 2 * CHUNK, 640]
     controller.send("rewind", {"tick": 20}, 4)
     wait(controller, lambda s: s["tick"] == 20)
-    assert [t for t, _ in controller.watch_log][-1] == 20
+    assert [t for t, _ in controller.watch_log] == [10, 20]  # the later ones belong to the run rewound
     controller.send("unwatch", {"watch": 1}, 5)
     snap = wait(controller, lambda s: [w["text"] for w in s["watches"]] == ["probe + 1"])
 
 
-def test_watch_values_are_exact_per_tick_and_a_tick_where_nothing_read_moved_reuses_its_row(lap: Any) -> None:
-    """Each tick's row is what the expressions give for that tick's variables and readings (an injected variable
-    shows from the tick it applied before); a tick where none of the names read changed keeps the last row."""
+def test_watch_values_are_those_of_their_tick_and_a_row_where_nothing_read_moved_is_reused(lap: Any) -> None:
+    """Each row is what the expressions give for that tick's variables and readings (an injected variable shows
+    from the tick it applied before); a row where none of the names read changed is the last row."""
     controller, _ = lap
     for n, text in enumerate(("probe", "car_right", "probe * 2 + car_right", "car_right < probe")):
         controller.send("watch", {"expr": text}, n)
-    controller.send("step", {"n": 20})
-    wait(controller, lambda s: s["tick"] == 20 and s["state"] == "paused")
+    for tick in range(1, 21):
+        step_one(controller, tick)
     controller.send("input", {"input": {"kind": "set", "values": {"probe": 5}}}, 9)
-    controller.send("step", {"n": 40})
-    wait(controller, lambda s: s["tick"] == 60 and s["state"] == "paused")
+    for tick in range(21, 61):
+        step_one(controller, tick)
     rows = list(controller.watch_log)
-    assert [t for t, _ in rows] == list(range(61))  # tick 0 (the start) on
+    assert [t for t, _ in rows] == list(range(61))  # a step of one tick at a time: each tick shown
     assert [row[0] for _t, row in rows] == [0] * 21 + [5] * 40  # the set applies before tick 21
     for _t, (probe, right, total, below) in rows:
         assert total == probe * 2 + right and below is (right < probe)
@@ -383,17 +424,17 @@ def test_watch_values_are_exact_per_tick_and_a_tick_where_nothing_read_moved_reu
     controller.send("watch", {"expr": "car_left"}, 10)  # one more: every row has its column from now on
     controller.send("step", {"n": 2})
     wait(controller, lambda s: s["tick"] == 62 and s["state"] == "paused")
-    assert [len(row) for _t, row in controller.watch_log] == [5, 5, 5]  # 60 (when added), 61, 62
+    assert [len(row) for _t, row in controller.watch_log] == [5, 5]  # 60 (when added), 62
     assert controller.watch_log[-1][1][4] == controller.session.car.left
 
 
-def test_a_watched_list_is_read_afresh_at_every_tick(lap: Any) -> None:
+def test_a_watched_list_is_read_afresh_at_every_row(lap: Any) -> None:
     """A list changes in place (equal to itself though changed): a watch reading one never keeps an old row."""
     controller, _ = lap
     controller.session.machine.ctx.vars["gates"] = []
     controller.send("watch", {"expr": "gates"}, 1)
-    controller.send("step", {"n": 5})
-    wait(controller, lambda s: s["tick"] == 5 and s["state"] == "paused")
+    for tick in range(1, 6):
+        step_one(controller, tick)
     rows = [row for _t, row in controller.watch_log]
     assert len(rows) == 6 and all(rows[k] is not rows[k - 1] for k in range(1, 6))
 

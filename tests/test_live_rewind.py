@@ -15,7 +15,7 @@ from typing import Any, cast
 
 import pytest
 
-from fsm.debug.control import Controller
+from fsm.debug.control import CHUNK, Controller
 from fsm.session.session import Session, SetSignal, StopRules
 from fsm.tools.live.stream import TraceFile
 from fsm.trace.recorder import Recorder
@@ -319,7 +319,7 @@ def test_a_live_run_past_its_horizon_retains_under_100_kb_in_20000_more_ticks() 
         retained = tracemalloc.get_traced_memory()[0] - before
     finally:
         tracemalloc.stop()
-    assert session.ticks == 24_000
+    assert 24_000 <= session.ticks < 24_000 + CHUNK  # stop() is looked at between chunks of ticks
     # none is taken while the car touches a wall (this machine scrapes the hallway's corners about half the time)
     assert 1 <= len(controller.snapshots) <= 5 and controller.earliest >= 24_000 - 800 - 2_000
     assert len(controller.log) <= 3 and len(session.applied) <= 3

@@ -164,3 +164,86 @@ def test_a_paused_runs_pages_are_answered_at_once_a_running_runs_at_the_page_rat
     assert _pause_before_next({"state": "running", "speed": 1.0}, 0.0) == pytest.approx(1 / MAX_RATE)
     assert _pause_before_next({"state": "running", "speed": None}, 0.05) == pytest.approx(1 / FAST_RATE - 0.05)
     assert _pause_before_next({"state": "running", "speed": 1.0}, 1.0) == 0.0
+
+
+def test_a_running_runs_progress_wakes_no_one_and_the_stream_is_not_deflated() -> None:
+    """Issue 33 (the page's cost per tick): a status is published after every chunk of ticks, hundreds of times a
+    second at full speed; only a pause, a reply or a notice wakes the server's thread for it, a running run's pages
+    are sent what is new at their own rate. The stream is sent as it is: a client that offers per-message deflate
+    (aiohttp's, as browsers do) gets none, so neither side compresses the trace. A reply still comes at once."""
+    import threading
+    import time
+
+    import aiohttp
+
+    from fsm.debug.control import Controller
+    from fsm.sim import simulate
+    from fsm.tools.live.page import live_page
+    from fsm.tools.live.server import FAST_RATE, LiveServer, Source
+    from fsm.tools.live.stream import LineBuffer
+    from fsm.tools.recording import run_recorder
+
+    lap, world = REPO / "diagrams" / "hallway_lap.json", REPO / "diagrams" / "worlds" / "hallway.json"
+    session = simulate(str(lap), world=world)
+    buffer = LineBuffer()
+    session.record(run_recorder(buffer, str(lap), session.car, world_file=world))
+    session.start()
+    controller = Controller(session, speed=None, paused=True, snapshot_period=None)
+    controller.send("watch", {"expr": "car_front"})
+    server = LiveServer(Source(buffer, controller), live_page(json.loads(buffer.first_line()), lap.name), None)
+    wakes = 0
+    woken = server._woken
+
+    def counted() -> None:
+        nonlocal wakes
+        wakes += 1
+        woken()
+
+    server._woken = counted  # type: ignore[method-assign]
+    published = 0
+    publish = controller._publish
+
+    def counting() -> None:
+        nonlocal published
+        published += 1
+        publish()
+
+    controller._publish = counting  # type: ignore[method-assign]
+
+    async def main() -> tuple[str | None, list[tuple[float, Any]], float]:
+        port = await server.start("127.0.0.1", 0)
+        runner = threading.Thread(target=controller.loop, daemon=True)
+        runner.start()
+        got: list[tuple[float, Any]] = []
+        try:
+            async with aiohttp.ClientSession() as client, client.ws_connect(
+                    f"http://127.0.0.1:{port}/ws", compress=15) as ws:
+                extensions = ws._response.headers.get("Sec-WebSocket-Extensions")
+                await ws.send_str(json.dumps({"cmd": "resume", "id": 1}))
+                paused_at = 0.0
+                async for msg in ws:
+                    now = time.monotonic()
+                    data = json.loads(msg.data) if msg.type == aiohttp.WSMsgType.TEXT else None
+                    got.append((now, data))
+                    if data and data.get("kind") == "status" and data["tick"] > 4000 and not paused_at:
+                        await ws.send_str(json.dumps({"cmd": "pause", "id": 2}))
+                        paused_at = now
+                    if data and data.get("kind") == "reply" and data["id"] == 2:
+                        return extensions, got, now - paused_at
+        finally:
+            controller.send("stop")
+            runner.join(10)
+            await server.close()
+        raise AssertionError("no reply to pause")
+
+    extensions, got, reply_s = asyncio.run(main())
+    assert extensions is None  # offered, not taken
+    running = [t for t, m in got if m is None or m.get("kind") == "status" and m.get("state") == "running"]
+    span = running[-1] - running[0]
+    assert published > 10 and wakes < published / 4, (wakes, published)
+    assert len(running) <= 3 * (FAST_RATE * span + 2), (len(running), span)  # trace and status per send at most
+    assert reply_s < 5.0  # at once, not after the run (a reply wakes the pages; loose: the machine may be busy)
+    watched = [m for _t, m in got if m is not None and m.get("kind") == "watched"]
+    rows = [row for m in watched for row in m["rows"]]
+    assert len(rows) > 2 * len(watched)  # a row per status published, a message per send
+    assert [t for t, _v in rows] == sorted({t for t, _v in rows})

@@ -86,3 +86,77 @@ def test_a_bad_watch_is_refused_with_its_column() -> None:
         compile_watch("nope * 2", machine)
     with pytest.raises(BreakpointError):
         compile_watch("  ", machine)
+
+
+def test_the_values_a_page_is_shown_are_the_trace_s_at_every_pause_and_sample() -> None:
+    """Watches are evaluated on the ticks a page can show (each status: every chunk of ticks, every pause), not on
+    every tick: what the page is sent at those ticks is what the trace says there (the car's readings in its
+    samples and events, the variables), at breakpoints, after an injection, after steps and while running."""
+    import json
+    import threading
+    import time
+    from pathlib import Path
+
+    from fsm.debug.control import Controller
+    from fsm.sim import simulate
+    from fsm.tools.live.stream import LineBuffer
+    from fsm.tools.recording import run_recorder
+    from fsm.trace.replay import parse_trace
+
+    repo = Path(__file__).resolve().parents[1]
+    lap, world = repo / "diagrams" / "hallway_lap.json", repo / "diagrams" / "worlds" / "hallway.json"
+    session = simulate(str(lap), world=world)
+    session.machine.ctx.vars["probe"] = 0
+    buffer = LineBuffer()
+    session.record(run_recorder(buffer, str(lap), session.car, world_file=world))
+    controller = Controller(session, speed=None, paused=True)
+    thread = threading.Thread(target=controller.loop, daemon=True)
+    thread.start()
+
+    def until(pred: Any) -> dict[str, Any]:
+        end = time.monotonic() + 30
+        while time.monotonic() < end:
+            if controller.snapshot and pred(controller.snapshot):
+                return controller.snapshot
+            time.sleep(0.002)
+        raise AssertionError(controller.snapshot)
+
+    try:
+        for text in ("car_front", "car_left + car_right", "car_distance", "probe * 2", "car_speed < 0.5"):
+            controller.send("watch", {"expr": text})
+        controller.send("break", {"spec": {"kind": "enter", "state": "lap1/*/settle"}})
+        controller.send("break", {"spec": {"kind": "expr", "expr": "car_distance > 30"}})
+        controller.send("resume")
+        hit1 = until(lambda s: s["hit"] is not None)["tick"]
+        controller.send("input", {"input": {"kind": "set", "values": {"probe": 3}}})
+        controller.send("step", {"n": 7})
+        until(lambda s: s["tick"] == hit1 + 7 and s["state"] == "paused")
+        controller.send("resume")
+        hit2 = until(lambda s: s["hit"] is not None and s["tick"] > hit1 + 7)["tick"]
+        controller.send("step", {"n": 1000})
+        until(lambda s: s["tick"] == hit2 + 1000 or (s["hit"] is not None and s["tick"] > hit2))
+    finally:
+        controller.send("stop")
+        thread.join(10)
+    session = controller.session
+    session.finish()
+    trace = parse_trace(buffer.text().encode("utf-8"))
+    car = {line["tick"]: line["car"] for line in [*trace.samples, *trace.events] if "car" in line}
+    sent = [tuple(r) for m in list(controller.messages) if m["kind"] == "watched" for r in m["rows"]]
+    assert sent == list(controller.watch_log)
+    ticks = [t for t, _row in sent]
+    assert ticks == sorted(set(ticks)) and hit1 in ticks and hit2 in ticks and hit1 + 7 in ticks
+    assert len(ticks) < session.ticks / 20  # not every tick
+    compared = []
+    for tick, (front, sides, distance, probe2, slow) in sent:
+        assert probe2 == 2 * trace.at(tick)[1]["probe"]
+        here = car.get(tick)
+        if here is None:
+            continue
+        compared.append(tick)
+        assert front == pytest.approx(here["front"], abs=2e-4)
+        assert distance == pytest.approx(here["distance"], abs=2e-4)
+        assert sides == pytest.approx(here["left"] + here["right"], abs=4e-4)
+        assert slow is (here["speed"] < 0.5) or abs(here["speed"] - 0.5) < 2e-4
+    assert hit1 in compared and hit2 in compared  # a breakpoint's tick has its event line, with the car
+    assert len(compared) >= 8, json.dumps(ticks)  # the chunks' ends fall on sampled ticks while running

@@ -19,8 +19,11 @@ commands that arrived meanwhile, so debugging never changes what a tick does:
 compiled
   plan): the machine replaced between two ticks, keeping the variables and the active states by path; an active
   state that no longer exists pauses the run there; a ``reload`` line in the trace and a rewind does it again;
-- ``watch`` / ``unwatch`` / ``watched``: expressions whose values are kept after every tick (``watched`` messages
-  carry the new ones; nothing is evaluated while there is none);
+- ``watch`` / ``unwatch`` / ``watched``: expressions whose values are kept for the ticks a page can see: the tick
+  of every status published (after each chunk of ticks, at most :data:`CHUNK` apart, and wherever the run pauses: a
+  step's end, a breakpoint, a rewind), never on the ticks between, which nobody reads (``watched`` messages carry
+  the new ones; nothing is evaluated while there is none). An expression breakpoint is tested after every tick;
+  a watch is not;
 - ``why``: what a tick did and why (:mod:`fsm.debug.explain`), by re-simulation, the run untouched;
 - ``rewind``: back to an earlier tick: the nearest snapshot at or before it restored (:mod:`fsm.session.snapshot`:
   taken every :data:`SNAPSHOT_PERIOD` simulated seconds or less often, so that taking them costs the run at most
@@ -121,6 +124,10 @@ class Controller:
         self.snapshot: dict[str, Any] = {}
         #: called (from the loop's thread) after each new snapshot: a watcher's wake-up
         self.notify: Callable[[], None] | None = None
+        #: whether the last snapshot needs a watcher now (the run paused or ended, a reply or notice waits) or only
+        #: tells a running run's progress, which a watcher may pick up at its own pace (a page redraws at most 30
+        #: times a second; a status is published after every chunk, hundreds of times a second at full speed)
+        self.urgent = True
         self._commands: deque[tuple[str, dict[str, Any], Any]] = deque()
         self._wake = threading.Condition()
         self._interrupt = False
@@ -133,6 +140,8 @@ class Controller:
         self._shown: dict[str, Any] = {}  # the last snapshot published, without its seq
         self._replied = False  # a command was answered since (its reply is news even if the status is not)
         self._flushed = 0.0
+        self._inputs_key: tuple[int, int, int] = (0, -1, 0)
+        self._inputs_list: list[list[Any]] = []
         self._watch = Watch()
         self._active: set[str] = set()
         #: ticks ran with no breakpoint and no step to a transition: ``_active`` is older than the machine
@@ -193,7 +202,7 @@ class Controller:
             if not ticks:
                 self._idle(wait)
                 continue
-            self._run(ticks, stop)
+            self._run(ticks)
             self._snapshot()
             self._publish()
         self._publish()
@@ -236,16 +245,25 @@ class Controller:
             return 0, max((session.ticks + 1 - tick0) * dt / self.speed - (now - wall0), 0.0005)
         return min(n, CHUNK, left), 0.0
 
-    def _run(self, ticks: int, stop: Callable[[], bool] | None) -> None:
+    def _run(self, ticks: int) -> None:
+        """Run a chunk of ``ticks``. The session's loop calls the controller after a tick only while something
+        looks at every tick (a breakpoint, a step to the next transition): then once, through :meth:`_looker`, and
+        the listener noting transitions is attached. Otherwise the ticks run as in a plain run, and commands,
+        ``stop()`` (Ctrl-C) and watches wait for the end of the chunk (at most :data:`CHUNK` ticks)."""
         session = self.session
         before = session.ticks
         self._interrupt = False
+        looking = bool(self.breakpoints) or self._to_transition
+        self._look(session.machine, looking)
         try:
-            result = session.run(until=self._until, stop=stop, stop_rules=StopRules(max_ticks=ticks))
+            result = session.run(until=self._looker() if looking else None, stop_rules=StopRules(max_ticks=ticks))
         except StateRuntimeError as exc:
             if not self._undo_injection(exc):
                 self._failed(exc)
             return
+        finally:
+            if not looking:
+                self._stale = True
         if self._budget > 0:
             self._budget = max(0, self._budget - (session.ticks - before))
             if not self._budget:
@@ -288,44 +306,64 @@ class Controller:
         self.error = str(exc)
         self._budget = 0
 
-    def _until(self, session: Session) -> bool:
-        """After each tick: a breakpoint hit, the end of a step to a transition, or a command waiting."""
-        if self.watches:  # (inline: this runs after every tick while a watch exists)
-            entry = (session.ticks, self._watch_row(session.machine.ctx))
-            self.watch_log.append(entry)
-            self._watch_new.append(entry)
+    def _look(self, machine: Any, looking: bool) -> None:
+        """Attach the listener noting each tick's transitions while something looks at them, detach it otherwise (a
+        listener costs the machine a call after every tick); what is active now is where looking starts from."""
         watch = self._watch
-        if not self.breakpoints and not self._to_transition:  # nothing looks: keep the tick cheap
-            if watch.moved:
-                watch.clear()
-                self._stale = True
-            return self._interrupt
-        if self._stale:  # what is active now is where the next tick starts from
+        listeners = machine.listeners
+        attached = any(listener is watch for listener in listeners)
+        if looking and not attached:
+            watch.clear()
+            listeners.append(watch)
             self._resync()
-        happened = None
-        if watch.moved:
-            happened = self._happened()
-        if self.breakpoints:
-            found = hits(self.breakpoints, happened, session.machine, self.signals)
-            if found:
-                for bp, _why in found:
-                    bp.hits += 1
-                bp, why = found[0]
-                self._pause_at({"breakpoint": bp.id, "text": bp.text, "why": why,
-                                "also": [b.id for b, _ in found[1:]]})
+        elif looking and self._stale:
+            watch.clear()
+            self._resync()
+        elif not looking and attached:
+            listeners[:] = [listener for listener in listeners if listener is not watch]
+
+    def _looker(self) -> Callable[[Session], bool]:
+        """The session's per-tick hook for one chunk, while something looks (see :meth:`_run`): after each tick, a
+        breakpoint hit or the end of a step to a transition ends the chunk, as does a command waiting. What cannot
+        change within a chunk is bound once."""
+        watch = self._watch
+        breakpoints = self.breakpoints
+        to_transition = self._to_transition
+        happened_now = self._happened
+
+        def after_tick(session: Session) -> bool:
+            happened = happened_now() if watch.moved else None
+            if breakpoints and self._breakpoint_hit(session, happened):
                 return True
-        if self._to_transition and happened is not None and (
-                any(src is not None for src, _dst, _type in happened.transitions) or happened.monitors):
-            what = [f"{s} -> {d}" for s, d, _t in happened.transitions if s is not None]
-            what += [f"monitor {label} of {owner}" for owner, label, _k, _e in happened.monitors]
-            self._pause_at({"breakpoint": None, "text": "step to the next transition", "why": "; ".join(what)})
-            return True
-        return self._interrupt
+            if to_transition and happened is not None and self._transition_seen(happened):
+                return True
+            return self._interrupt
+
+        return after_tick
+
+    def _breakpoint_hit(self, session: Session, happened: Happened | None) -> bool:
+        found = hits(self.breakpoints, happened, session.machine, self.signals)
+        if not found:
+            return False
+        for bp, _why in found:
+            bp.hits += 1
+        bp, why = found[0]
+        self._pause_at({"breakpoint": bp.id, "text": bp.text, "why": why, "also": [b.id for b, _ in found[1:]]})
+        return True
+
+    def _transition_seen(self, happened: Happened) -> bool:
+        """A step to the next transition ends at the tick one fired (a monitor too)."""
+        if not (any(src is not None for src, _dst, _type in happened.transitions) or happened.monitors):
+            return False
+        what = [f"{s} -> {d}" for s, d, _t in happened.transitions if s is not None]
+        what += [f"monitor {label} of {owner}" for owner, label, _k, _e in happened.monitors]
+        self._pause_at({"breakpoint": None, "text": "step to the next transition", "why": "; ".join(what)})
+        return True
 
     def _note_watches(self, session: Session) -> None:
-        """The watch expressions' values after this tick: one call of the generated function, which keeps the last
-        row (the same object) when nothing read moved. Rows are tuples of plain values, which the garbage collector
-        stops tracking: a long log costs it nothing."""
+        """The watch expressions' values after this tick (between two ticks: what the trace says at it): one call
+        of the generated function, which keeps the last row (the same object) when nothing read moved. Rows are
+        tuples of plain values, which the garbage collector stops tracking: a long log costs it nothing."""
         entry = (session.ticks, self._watch_row(session.machine.ctx))
         self.watch_log.append(entry)
         self._watch_new.append(entry)
@@ -462,8 +500,8 @@ class Controller:
         return {}
 
     def _cmd_watch(self, args: dict[str, Any]) -> dict[str, Any]:
-        """``expr``: an expression of the document's language, whose value is kept after every tick from now on
-        (plotted by the page); an expression that does not parse is refused with its column."""
+        """``expr``: an expression of the document's language, whose value is kept from now on at the ticks a page
+        can see (plotted by the page); an expression that does not parse is refused with its column."""
         if len(self.watches) >= MAX_WATCHES:
             raise ValueError(f"at most {MAX_WATCHES} watch expressions; remove one first")
         watch = compile_watch(args.get("expr"), self.session.machine, self.signals)
@@ -612,6 +650,8 @@ class Controller:
         self.session = session
         self.log = keep
         self.reloads = [r for r in self.reloads if snap is not None and r[0] <= snap.tick]
+        while self.watch_log and self.watch_log[-1][0] > tick:  # the same run up to ``tick``: kept
+            self.watch_log.pop()
         self.ended = self.error = self.hit = None
         self.paused = True
         self._budget = 0
@@ -683,7 +723,7 @@ class Controller:
         for bp in self.breakpoints:
             if bp.test is not None and bp.enabled:  # "becomes true" counts from here
                 bp.last = bp.test(values) is True
-        while self.watch_log and self.watch_log[-1][0] > session.ticks:  # the same run up to here: kept
+        while self.watch_log and self.watch_log[-1][0] > session.ticks:  # (an error ended the run before ``tick``)
             self.watch_log.pop()
         self._watch_new = []
 
@@ -743,14 +783,37 @@ class Controller:
             self.reloads = [r for r in self.reloads if r[0] > first]
         session.forget_applied(first)
 
+    def _news(self) -> bool:
+        """Whether a reply or a notice came since the last status: a message waits whose kind is not ``watched``
+        (which every status with watches ends with). Read from the loop's thread while a watcher takes messages
+        from the left."""
+        try:
+            return bool(self.messages) and self.messages[-1].get("kind") != "watched"
+        except IndexError:  # taken meanwhile
+            return False
+
+    def _inputs_shown(self) -> list[list[Any]]:
+        """The last 200 inputs as a page lists them, described again only when the log changed (a status is
+        published after every chunk of ticks)."""
+        log = self.log
+        key = (id(log), len(log), id(log[-1][1]) if log else 0)
+        if key != self._inputs_key:
+            self._inputs_key = key
+            self._inputs_list = [[t, item.describe()] for t, item in log[-200:]]
+        return self._inputs_list
+
     def _attach(self, session: Session) -> None:
+        """A new listener for ``session``'s transitions (attached to its machine by :meth:`_look` while something
+        looks at them)."""
         self._watch = Watch()
-        session.add_listener(self._watch)
 
     # -- what a watcher sees ----------------------------------------------------------------------------------------
     def _publish(self) -> None:
         session = self.session
         machine = session.machine
+        news = self._news()
+        if self.watches and machine.started and (not self.watch_log or self.watch_log[-1][0] < session.ticks):
+            self._note_watches(session)  # the ticks a page can show, and only those
         if self.ended is not None:
             state = "ended"
         elif self.paused and not self._budget:
@@ -763,7 +826,7 @@ class Controller:
             "speed": self.speed, "active": machine.active_paths if machine.started else [],
             "hit": self.hit, "end_tick": self._end if self._end < 2**62 else None,
             "breakpoints": [bp.to_json() for bp in self.breakpoints],
-            "inputs": [[t, item.describe()] for t, item in self.log[-200:]],
+            "inputs": self._inputs_shown(),
             "can_rewind": (self.factory is not None or bool(self.snapshots)) and self.horizon > 0,
             "rewind_from": self.earliest,
             "watches": [{"id": number, "text": text} for number, text, _fn in self.watches],
@@ -778,6 +841,7 @@ class Controller:
         self._shown = snapshot
         self._seq += 1
         self.snapshot = {"seq": self._seq, **snapshot}
+        self.urgent = state != "running" or news
         recorder = session.recorder
         now = self.clock()
         if recorder is not None and (state != "running" or now - self._flushed > FLUSH):

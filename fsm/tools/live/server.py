@@ -237,7 +237,10 @@ class LiveServer:
         it came to is refused here too)."""
         if not origin_allowed(request.headers.get("Origin"), {request.host.lower()}):
             return web.Response(status=403, text="forbidden: a page of another site\n", headers=HEADERS)
-        ws = web.WebSocketResponse(heartbeat=30, max_msg_size=MAX_COMMAND)
+        # no per-message deflate: the stream is mostly the trace's lines, which compressing cost the server's thread
+        # (the run's core, under the interpreter's lock) about half a microsecond a tick and the page as much again
+        # to inflate, to save bandwidth that loopback and a local network do not lack
+        ws = web.WebSocketResponse(heartbeat=30, max_msg_size=MAX_COMMAND, compress=False)
         await ws.prepare(request)
         self._numbers += 1
         client = _Client(ws, self._numbers)
@@ -284,8 +287,14 @@ class LiveServer:
 
     # -- the stream ---------------------------------------------------------------------------------------------------
     def _notify(self) -> None:
-        """From the run's thread: something new to send (coalesced: one wake-up pending at a time)."""
+        """From the run's thread: something new to send (coalesced: one wake-up pending at a time). A running run's
+        progress alone wakes nobody: the pump looks at :data:`MAX_RATE` times a second anyway, and waking this
+        thread after every chunk of ticks (hundreds of times a second) takes the interpreter from the run each time;
+        a pause, a reply or a notice wakes the pages at once."""
         if self._waking or not self.clients or self._loop is None:
+            return
+        controller = self.source.controller
+        if controller is not None and not getattr(controller, "urgent", True):  # (a stand-in may not say)
             return
         self._waking = True
         try:
@@ -303,8 +312,10 @@ class LiveServer:
         assert self._wake is not None
         while not self._closing:
             try:
-                # no page: once a second (what the run said meanwhile is for nobody), not MAX_RATE times
-                await asyncio.wait_for(self._wake.wait(), 1 / MAX_RATE if self.clients else 1.0)
+                # no page, or a running run (whose pages' senders look at it at their own rate): once a second, else
+                # MAX_RATE times (what the run said meanwhile is for nobody, or picked up by the senders)
+                await asyncio.wait_for(self._wake.wait(), 1 / MAX_RATE if self.clients and not _running(
+                    self.source.controller) else 1.0)
             except asyncio.TimeoutError:
                 pass
             self._wake.clear()
@@ -355,16 +366,35 @@ class LiveServer:
                 if text:
                     await ws.send_bytes(text.encode("utf-8"))
                 outbox, client.outbox = client.outbox, []
-                for message in outbox:
+                for message in _batched(outbox):
                     await ws.send_str(dumps(message))
                 if snapshot is not None and snapshot.get("seq") != seq:
                     seq = snapshot["seq"]
                     await ws.send_str(json.dumps({"kind": "status", **snapshot}, allow_nan=False, default=str))
                 await asyncio.sleep(_pause_before_next(snapshot, loop.time() - started))
+                if snapshot is not None and snapshot.get("state") == "running":
+                    client.wake.clear()  # a running run: looked at again at the page's rate, woken or not
+                    continue
                 await client.wake.wait()
                 client.wake.clear()
         except (ConnectionError, asyncio.CancelledError, RuntimeError):
             return
+
+
+def _batched(messages: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """``messages`` with each run of ``watched`` ones (one per status published: hundreds a second at full speed)
+    sent as one, rows in order: one encoding and one message per send, not per chunk of ticks."""
+    out: list[dict[str, Any]] = []
+    for message in messages:
+        if message.get("kind") == "watched" and out and out[-1].get("kind") == "watched":
+            out[-1] = {"kind": "watched", "rows": out[-1]["rows"] + message["rows"]}
+        else:
+            out.append(message)
+    return out
+
+
+def _running(controller: Controller | None) -> bool:
+    return controller is not None and controller.snapshot.get("state") == "running"
 
 
 def _pause_before_next(snapshot: dict[str, Any] | None, spent: float) -> float:

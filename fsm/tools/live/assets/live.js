@@ -363,10 +363,10 @@
     if (watchRows.length > 100000) watchRows = watchRows.slice(-100000);
     showWatches();
   }
-  function watchValueAt(k, tick) {  // the value after the last tick at or before ``tick``
+  function watchRowAt(tick) {  // the row of the last tick at or before ``tick`` (rows come for the ticks shown)
     var lo = 0, hi = watchRows.length - 1, at = -1;
     while (lo <= hi) { var mid = (lo + hi) >> 1; if (watchRows[mid][0] <= tick) { at = mid; lo = mid + 1; } else hi = mid - 1; }
-    return at < 0 ? undefined : watchRows[at][1][k];
+    return at < 0 ? undefined : watchRows[at];
   }
   function showWatches() {
     var list = status ? status.watches || [] : [], body = $("watches").tBodies[0], tick = R.current().tick;
@@ -388,10 +388,14 @@
       });
       drawWatchPlot(true);
     }
+    var at = watchRowAt(tick);
     Array.prototype.forEach.call(body.rows, function (row, k) {
-      var v = watchValueAt(k, tick);
-      row.cells[1].textContent = v === undefined ? "–" : (typeof v === "number" ? String(+v.toPrecision(6)) : JSON.stringify(v));
-      row.cells[1].dataset.tick = tick;
+      var v = at === undefined ? undefined : at[1][k], cell = row.cells[1];
+      cell.textContent = v === undefined ? "–" : (typeof v === "number" ? String(+v.toPrecision(6)) : JSON.stringify(v));
+      cell.dataset.tick = tick;
+      // watches are evaluated at the ticks the page is sent (every tick when stepping one at a time), not between
+      cell.title = at !== undefined && at[0] !== tick ? "the value after tick " + at[0] + ", the last tick at or " +
+        "before " + tick + " the page was sent while the run ran" : "";
     });
     drawWatchPlot(false);
   }

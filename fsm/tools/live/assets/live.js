@@ -353,7 +353,7 @@
   }
   $("why-box").addEventListener("toggle", function () { whyAsked = null; askWhy(); });
 
-  // -- watch expressions: their values after every tick, from the server; a plot of those ticked ----------------
+  // -- watch expressions: values at the ticks the server sends (pauses, steps, statuses); a plot of those ticked --
   var watchRows = [], watchShown = "", watchPlot = null, plotted = {};
   function addWatched(rows) {
     rows.forEach(function (r) {  // a rewind drops the later ones: the rows come in tick order again

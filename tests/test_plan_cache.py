@@ -394,3 +394,63 @@ def test_the_folder_keeps_the_most_recently_used_files(folder: Path, tmp_path: P
     assert {cache.file_of(str(p)).name for p in (paths[0], paths[2])} <= set(left)
     assert ".left-behind.tmp" not in left and ".being-written.tmp" in left
     assert len([n for n in left if n.endswith(".plan")]) == 3
+
+
+FRESH_LOAD = """
+import json, sys
+from fsm.loading import cache, loader
+real_parse = loader.parse
+parsed = []
+loader.parse = lambda *a, **k: parsed.append(1) or real_parse(*a, **k)
+loader.compile(sys.argv[1])
+cache.flush()
+print(json.dumps({"parsed": bool(parsed), "modules": sorted(m for m in sys.modules if m.startswith("fsm."))}))
+"""
+
+
+def test_a_fresh_process_reads_the_cache_importing_only_the_types_it_uses(folder: Path, tmp_path: Path) -> None:
+    """The key does not import every type: a hit in a fresh process imports the modules of the types the machine
+    uses (Idle, Final, Always, Timeout, Finished here), not the car's or the markers'."""
+    path = machine_files(tmp_path)
+    env = {**os.environ, cache.CACHE_DIR_ENV: str(folder)}
+    env.pop(cache.NO_CACHE_ENV, None)
+    first, second = (json.loads(subprocess.run([sys.executable, "-c", FRESH_LOAD, str(path)], env=env, check=True,
+                                               capture_output=True, text=True).stdout) for _ in range(2))
+    assert first["parsed"] and not second["parsed"]  # the second process read the file the first wrote
+    for unused in ("fsm.states.driving", "fsm.transitions.markers", "fsm.transitions.car", "fsm.states.plants"):
+        assert unused not in first["modules"] and unused not in second["modules"], unused
+    assert "fsm.states.generic" in second["modules"] and "fsm.transitions.generic" in second["modules"]
+
+
+class Blink(fsm.State[fsm.StateParams]):
+    """A type an installed plugin would register (defined here, so its source file is this test's)."""
+
+
+def deferred_plugin_registry() -> Registry:
+    """A registry as a fresh process has it: built-ins by name, the installed plugins (here: Blink) still due."""
+    registry = Registry.with_builtins()
+    registry.load_entry_points = lambda: registry.add_state(Blink)  # type: ignore[method-assign,assignment]
+    registry.defer_entry_points()
+    return registry
+
+
+def test_a_machine_of_an_installed_plugins_type_is_a_hit_in_a_process_that_has_not_loaded_it(
+        folder: Path, tmp_path: Path) -> None:
+    """The plugins a load needed are loaded before the key is compared, so a machine of a plugin's type is read
+    from the cache by a process whose plugins are still due, as a fresh process's are."""
+    path = write(tmp_path / "blink.json", {"initial": "a", "states": [{"id": "a", "type": "Blink"},
+                                                                          {"id": "b", "type": "Final"}],
+                                           "transitions": [{"type": "Always", "from": "a", "to": "b"}]})
+    loader.compile(path, registry=deferred_plugin_registry())
+    cache.flush()
+    fresh = deferred_plugin_registry()
+    assert fresh.plugins_due()
+    assert hit(path, fresh) and not fresh.plugins_due()
+    loaded = deferred_plugin_registry()
+    loaded.complete()
+    assert hit(path, loaded)  # a process that had loaded them first: the same key
+    only_builtins = write(tmp_path / "plain.json", {"initial": "a", "states": [{"id": "a", "type": "Idle"}]})
+    loader.compile(only_builtins, registry=deferred_plugin_registry())
+    cache.flush()
+    untouched = deferred_plugin_registry()
+    assert hit(only_builtins, untouched) and untouched.plugins_due()  # no plugin loaded for built-in types

@@ -7,9 +7,14 @@ checking and compiling again.
 **The key.** A cache file is used only when everything a load depends on is what it was when the file was written:
 
 - the text of the document and of every file it includes (SHA-256 of each, read again on every load);
-- the registry's types: every registered name with its class's module and qualified name, and each of those
-  modules' source file (modification time in nanoseconds and size, as ``__pycache__`` does), so a plugin whose
-  source changes, a type registered under another name or another class misses;
+- the registry's types: every registered name; a plugin's with its class's module and qualified name and that
+  module's source file (modification time in nanoseconds and size, as ``__pycache__`` does), the built-ins with
+  the source files of their packages (``fsm/states``, ``fsm/transitions``, ``fsm/sequencer``), so a plugin whose
+  source changes, a type registered under another name or another class misses. Making the key imports nothing:
+  a built-in counts by its name whether its module is imported yet or not, and a read imports only the types the
+  load that wrote the file had imported (a fresh process pays for the types its machine uses, not for all). The
+  installed plugins count once loaded; a file written by a load that needed them loads them before its key is
+  compared, so a machine of an installed plugin's type is read back by a fresh process too;
 - the loader's version: the package's version, this file format, and the source files of the modules that parse,
   check and compile (a changed loader in a development checkout misses too).
 
@@ -130,38 +135,82 @@ def _source_stamp(module: str) -> list[Any] | None:
     return [module, path, st.st_mtime_ns, st.st_size]
 
 
-def _types_of(registry: Registry) -> list[tuple[str, str, type]]:
-    tables = (("state", registry.states), ("transition", registry.transitions), ("condition", registry.conditions),
-              ("plant", registry.plants))
-    return [(kind, name, cls) for kind, table in tables for name, cls in sorted(table.items())]
+#: The packages of the built-in types: their files' stamps stand for every built-in name in the key, imported or
+#: not, so the key is the same before a load imports the types it uses and after (the registry is lazy).
+BUILTIN_PACKAGES = ("fsm.states", "fsm.transitions", "fsm.sequencer")
+
+
+def _tables(registry: Registry) -> tuple[tuple[str, Any], ...]:
+    return (("state", registry.states), ("transition", registry.transitions), ("condition", registry.conditions),
+            ("plant", registry.plants))
+
+
+def _loaded_types(registry: Registry) -> list[tuple[str, str, type]]:
+    """The types the registry has imported, without importing the others (a table listed imports them all)."""
+    return [(kind, name, cls) for kind, table in _tables(registry) for name, cls in sorted(dict.items(table))]
+
+
+def _is_builtin(cls: type) -> bool:
+    return cls.__module__.rpartition(".")[0] in BUILTIN_PACKAGES
+
+
+def _builtin_stamps() -> list[Any]:
+    """``[package, file, mtime_ns, size]`` of every source file of the built-in types' packages (found by their
+    folders, nothing imported)."""
+    root = Path(__file__).resolve().parent.parent
+    stamps: list[Any] = []
+    for package in BUILTIN_PACKAGES:
+        for path in sorted((root / package.split(".", 1)[1]).glob("*.py")):
+            try:
+                st = path.stat()
+            except OSError:
+                continue
+            stamps.append([package, path.name, st.st_mtime_ns, st.st_size])
+    return stamps
 
 
 def registry_key(registry: Registry) -> str | None:
     """The key of the registry's types and the loader's version; None when a type has no source file to stamp
-    (such a registry's loads are not cached)."""
+    (such a registry's loads are not cached).
+
+    Built-in names count by name, whether imported yet or not, and their packages' files by their stamps; a plugin's
+    type counts by its class and module once it is registered (installed plugins are loaded when a document needs
+    one; a cache file says whether its load had them, see :func:`lookup`). Nothing is imported to make the key."""
     entries: list[Any] = [LOADER_VERSION]
     modules = set(LOADER_MODULES)
-    for kind, name, cls in _types_of(registry):
-        entries.append([kind, name, cls.__module__, cls.__qualname__])
-        modules.add(cls.__module__)
-        params = getattr(cls, "Params", None)
-        if isinstance(params, type):
-            modules.add(params.__module__)
+    for kind, table in _tables(registry):
+        names: dict[str, list[str] | None] = {name: None for name in table.pending}
+        for name, cls in dict.items(table):
+            if _is_builtin(cls):
+                names[name] = None
+                continue
+            names[name] = [cls.__module__, cls.__qualname__]
+            modules.add(cls.__module__)
+            params = getattr(cls, "Params", None)
+            if isinstance(params, type) and not _is_builtin(params):
+                modules.add(params.__module__)
+        entries.extend([kind, name, names[name]] for name in sorted(names))
     for module in sorted(modules):
         stamp = _source_stamp(module)
         if stamp is None:
             return None
         entries.append(stamp)
+    entries.append(_builtin_stamps())
     return hashlib.sha256(json.dumps(entries).encode("utf-8", "surrogatepass")).hexdigest()
 
 
+def _has_plugins(registry: Registry) -> bool:
+    return any(not _is_builtin(cls) for _k, _n, cls in _loaded_types(registry))
+
+
 def _allowed(registry: Registry, key: str) -> dict[tuple[str, str], type]:
-    """The classes a cache file may name: the model's data classes, the registered types and the parameter
-    models and enums of their modules (made once per registry key in a process)."""
+    """The classes a cache file may name: the model's data classes, the registered types imported so far and the
+    parameter models and enums of their modules (made once per registry key and set of imported types)."""
+    types_ = _loaded_types(registry)
     known = _ALLOWED.get(key)
-    types_ = _types_of(registry)
-    if known is not None and all(known.get((cls.__module__, cls.__qualname__)) is cls for _k, _n, cls in types_):
-        return known  # (a plugin file imported again makes new classes under the same names and sources)
+    if known is not None and known[0] == len(types_) and all(
+            known[1].get((cls.__module__, cls.__qualname__)) is cls for _k, _n, cls in types_):
+        return known[1]  # (a plugin file imported again makes new classes under the same names and sources)
     allowed: dict[tuple[str, str], type] = {}
 
     def add_module(module: str, keep: Callable[[type], bool]) -> None:
@@ -182,11 +231,11 @@ def _allowed(registry: Registry, key: str) -> dict[tuple[str, str], type]:
             if module in sys.modules:
                 add_module(module, lambda c: issubclass(c, (BaseModel, Enum)))
     _ALLOWED.clear()  # one registry in a process, as a rule: keep the last
-    _ALLOWED[key] = allowed
+    _ALLOWED[key] = (len(types_), allowed)
     return allowed
 
 
-_ALLOWED: dict[str, dict[tuple[str, str], type]] = {}
+_ALLOWED: dict[str, tuple[int, dict[tuple[str, str], type]]] = {}
 
 
 # -- the texts read ----------------------------------------------------------------------------------------------
@@ -326,7 +375,8 @@ def store(name: str, registry: Registry, entry: Entry, token: str, *, background
     # the problems copied: a caller adds to the ones it was given while the writer may still be reading these
     entry = entry._replace(problems=[dataclasses.replace(p) for p in entry.problems])
     keep(name, key, files, entry)
-    job = (file_of(name), key, files, entry, texts, _allowed(registry, key))
+    used = [[kind, name_] for kind, name_, _cls in _loaded_types(registry)]  # what a read imports first
+    job = (file_of(name), key, files, entry, texts, _allowed(registry, key), used, _has_plugins(registry))
     if not background:
         return _write(*job)
     done = threading.Event()
@@ -339,7 +389,7 @@ def store(name: str, registry: Registry, entry: Entry, token: str, *, background
 
 
 def _write(target: Path, key: str, files: list[list[str]], entry: Entry, texts: dict[str, str],
-           allowed: dict[tuple[str, str], type]) -> bool:
+           allowed: dict[tuple[str, str], type], used: list[list[str]], plugins: bool) -> bool:
     try:
         payload = flat.flatten(
             (entry.spec, (entry.analysis.expressions, entry.analysis.paths, entry.analysis.wants), entry.problems,
@@ -347,6 +397,7 @@ def _write(target: Path, key: str, files: list[list[str]], entry: Entry, texts: 
     except (_NotCachable, flat.Unflattenable, pickle.PicklingError, TypeError, AttributeError, RecursionError):
         return False
     header = json.dumps({"key": key, "files": files, "kinds": dict(entry.analysis.kinds),
+                         "types": used, "plugins": plugins,
                          "payload": hashlib.sha256(payload).hexdigest()}).encode()
     written = write_atomic(target, MAGIC + len(header).to_bytes(4, "big") + header + payload)
     if written:
@@ -510,7 +561,16 @@ def _read(data: bytes, name: str, registry: Registry, doc: Document, key: str) -
     size = int.from_bytes(data[len(MAGIC):start], "big")
     header = json.loads(data[start:start + size])
     if header.get("key") != key:
-        return None
+        if not (header.get("plugins") is True and registry.plugins_due()):
+            return None
+        registry.load_due_plugins()  # the load that wrote it needed the installed plugins: so does this one
+        if header.get("key") != registry_key(registry):
+            return None
+    tables = dict(_tables(registry))
+    for kind, type_name in header["types"]:  # the types the load had imported, imported here (no others)
+        if tables[kind].get(type_name) is None:
+            return None
+    key = header["key"]
     files = header["files"]
     texts = _texts(files, name, doc)
     payload = data[start + size:]

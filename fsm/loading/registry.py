@@ -214,6 +214,14 @@ class Registry:
             self._load_due_entry_points()
         return dict.__contains__(table, name)
 
+    def plugins_due(self) -> bool:
+        """Whether the installed plugins are still to be loaded (on the first name no table knows)."""
+        return self._entry_points_due
+
+    def load_due_plugins(self) -> None:
+        """Load the installed plugins now if they are still to be loaded."""
+        self._load_due_entry_points()
+
     def _load_due_entry_points(self) -> None:
         if self._entry_points_due:
             self._entry_points_due = False

@@ -13,7 +13,7 @@ import pytest
 import fsm
 from fsm.runtime.region import StateWiring, TransitionWiring, transition_wiring, wiring
 from fsm.runtime.state import Life, use_record
-from test_typing import error_lines, typecheck
+from test_typing import errors_where_marked
 
 #: What the base classes put in an instance: identity, parameters, how it finished, its predicates, the record.
 STATE_BASE = {"id", "params", "path", "finished", "outcome", "predicates", "_fsm"}
@@ -298,9 +298,5 @@ PLUGIN = textwrap.dedent('''
 def test_the_plugin_contract_type_checks_written_the_natural_way(tmp_path: Path) -> None:
     """``bind(machine: Machine)`` and ``bind(machine: MachineView)`` are both accepted by mypy strict, as are a
     plugin's own ``region``/``transitions``/``supervisor``; a ``bind`` of another signature is not."""
-    plugin = tmp_path / "natural_plugin.py"
-    plugin.write_text(PLUGIN)
-    done = typecheck(str(plugin))
-    expected, found = error_lines(PLUGIN, done)
-    assert found == expected, done.stdout + done.stderr
+    done = errors_where_marked(tmp_path / "natural_plugin.py", PLUGIN)
     assert 'Signature of "bind" incompatible with supertype' in done.stdout

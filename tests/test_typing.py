@@ -94,11 +94,15 @@ def test_parameters_are_typed_for_plugin_authors(tmp_path: Path) -> None:
     assert '"WaitParams" has no attribute "nope"' in done.stdout
 
 
-def error_lines(source: str, done: subprocess.CompletedProcess[str]) -> tuple[list[int], list[int]]:
-    """The lines of ``source`` marked ``# error``, and those mypy reported errors on."""
+def errors_where_marked(path: Path, source: str) -> subprocess.CompletedProcess[str]:
+    """Write ``source`` to ``path``, run mypy strict on it and check that it reports errors on exactly the lines
+    marked ``# error``; mypy's run, for what else a test reads of it."""
+    path.write_text(source)
+    done = typecheck(str(path))
     expected = [n for n, line in enumerate(source.splitlines(), 1) if "# error" in line]
     found = sorted({int(line.split(":")[1]) for line in done.stdout.splitlines() if ": error:" in line})
-    return expected, found
+    assert found == expected, done.stdout + done.stderr
+    return done
 
 
 def test_listeners_and_clocks_are_typed(tmp_path: Path) -> None:
@@ -150,11 +154,7 @@ def test_listeners_and_clocks_are_typed(tmp_path: Path) -> None:
             due: float = machine.clock.time_at(3)
             period: int = machine.clock.dt  # error: a float
     ''')
-    sample = tmp_path / "listening.py"
-    sample.write_text(source)
-    done = typecheck(str(sample))
-    expected, found = error_lines(source, done)
-    assert found == expected, done.stdout + done.stderr
+    done = errors_where_marked(tmp_path / "listening.py", source)
     assert 'Argument 4 of "on_transition" is incompatible with supertype' in done.stdout
 
 

@@ -199,10 +199,6 @@ def registry_key(registry: Registry) -> str | None:
     return hashlib.sha256(json.dumps(entries).encode("utf-8", "surrogatepass")).hexdigest()
 
 
-def _has_plugins(registry: Registry) -> bool:
-    return any(not _is_builtin(cls) for _k, _n, cls in _loaded_types(registry))
-
-
 def _allowed(registry: Registry, key: str) -> dict[tuple[str, str], type]:
     """The classes a cache file may name: the model's data classes, the registered types imported so far and the
     parameter models and enums of their modules (made once per registry key and set of imported types)."""
@@ -375,8 +371,10 @@ def store(name: str, registry: Registry, entry: Entry, token: str, *, background
     # the problems copied: a caller adds to the ones it was given while the writer may still be reading these
     entry = entry._replace(problems=[dataclasses.replace(p) for p in entry.problems])
     keep(name, key, files, entry)
-    used = [[kind, name_] for kind, name_, _cls in _loaded_types(registry)]  # what a read imports first
-    job = (file_of(name), key, files, entry, texts, _allowed(registry, key), used, _has_plugins(registry))
+    loaded = _loaded_types(registry)
+    used = [[kind, name_] for kind, name_, _cls in loaded]  # what a read imports first
+    plugins = any(not _is_builtin(cls) for _k, _n, cls in loaded)
+    job = (file_of(name), key, files, entry, texts, _allowed(registry, key), used, plugins)
     if not background:
         return _write(*job)
     done = threading.Event()

@@ -211,7 +211,7 @@ class Registry:
         if module is not None:
             self._import_builtin(module)
         else:
-            self._load_due_entry_points()
+            self.load_due_plugins()
         return dict.__contains__(table, name)
 
     def plugins_due(self) -> bool:
@@ -220,9 +220,6 @@ class Registry:
 
     def load_due_plugins(self) -> None:
         """Load the installed plugins now if they are still to be loaded."""
-        self._load_due_entry_points()
-
-    def _load_due_entry_points(self) -> None:
         if self._entry_points_due:
             self._entry_points_due = False
             self.load_entry_points()
@@ -232,7 +229,7 @@ class Registry:
         for table in self._tables().values():
             while table.pending:
                 self._import_builtin(next(iter(table.pending.values())))
-        self._load_due_entry_points()
+        self.load_due_plugins()
 
     def _import_builtin(self, module: str) -> None:
         """Import a built-in module into this registry: its decorators register here, and when it was imported
@@ -361,7 +358,7 @@ class Registry:
         """
         if module in self._loaded_plugins:
             return
-        self._load_due_entry_points()  # the installed plugins first: a --plugin type clashing with one is the error
+        self.load_due_plugins()  # the installed plugins first: a --plugin type clashing with one is the error
         with using(self):
             _import_plugin(module)
         self._loaded_plugins.add(module)

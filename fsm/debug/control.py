@@ -57,6 +57,7 @@ from fsm.debug.breakpoints import (
 )
 from fsm.debug.inject import check_injection
 from fsm.debug.reload import ReloadRefused, swap_machine
+from fsm.debug.resim import MAX_COLUMNS, MAX_RANGE, Rows, aside, exact_now, rows_between
 from fsm.debug.watch import WatchExpr, compile_watch, row_function
 from fsm.model.errors import DiagramError, StateRuntimeError
 from fsm.session.inputs import InputError, input_from_json
@@ -529,6 +530,83 @@ class Controller:
         """The watch expressions' values so far (a page that joins late, or reconnects)."""
         return {"rows": list(self.watch_log)}
 
+    def _cmd_watch_values(self, args: dict[str, Any]) -> dict[str, Any]:
+        """The watch expressions' exact values at every tick from ``from`` to ``to`` (default: the current tick),
+        computed by re-simulation (:meth:`watch_values`), at most :data:`~fsm.debug.resim.MAX_RANGE` ticks (a longer
+        range: its last ones, and ``clipped`` says so); ``width``: a plot's pixel columns (more than twice as many
+        ticks: each column's least and greatest value). Costs as much as running those ticks, and only when asked."""
+        now = self.session.ticks
+        last = _tick(args, "to", now, now)
+        first = _tick(args, "from", last, now)
+        width = args.get("width")
+        if width is not None and (isinstance(width, bool) or not isinstance(width, int)
+                                  or not 1 <= width <= MAX_COLUMNS):
+            raise ValueError(f"watch_values: a width is 1 to {MAX_COLUMNS} pixel columns, got {width!r}")
+        if first > last:
+            raise ValueError(f"watch_values: from ({first}) is after to ({last})")
+        if not self.watches:
+            raise ValueError("watch_values: there is no watch expression; add one first")
+        clipped: list[str] = []
+        if first < self.earliest:
+            if last < self.earliest:
+                raise ValueError(self._beyond_horizon(first))
+            clipped.append(f"ticks before {self.earliest} are beyond the rewind horizon (--rewind-horizon "
+                           f"{self.horizon:g} s)")
+            first = self.earliest
+        if last - first + 1 > MAX_RANGE:
+            clipped.append(f"at most {MAX_RANGE} ticks a request: ticks {first} to {last - MAX_RANGE} left out")
+            first = last - MAX_RANGE + 1
+        answer = self.watch_values(first, last).to_json(width)
+        answer.update(watches=[number for number, _text, _w in self.watches], clipped="; ".join(clipped) or None)
+        return answer
+
+    def watch_values(self, first: int, last: int) -> Rows:
+        """The watches' rows after each tick from ``first`` to ``last`` (at most the current tick), the run itself
+        untouched: at the current tick, read from the run; else re-simulated from the latest snapshot at or before
+        ``first`` (restored in the run's own objects, which are given back as they are now:
+        :func:`~fsm.debug.resim.aside`), or, where there is none or the run cannot be snapshotted now (the car
+        touches a wall), from a run built afresh with the inputs given, as Why does. Hot reloads on the way are done
+        again. Raises ValueError saying why when neither can be done (the inputs before the rewind horizon let go)."""
+        row = row_function([w for _n, _t, w in self.watches])
+        session = self.session
+        out = Rows(first, last)
+        if first == last == session.ticks and session.machine.started:
+            out.source = "live"
+            out.add(first, row(session.machine.ctx))
+            return out
+        snap = next((snap for snap in reversed(self.snapshots) if snap.tick <= first), None)
+        if snap is not None and snap.extra.get("session") is session and exact_now(session):
+            with aside(session) as quiet:
+                restore(snap)
+                quiet()
+                given = {id(item) for _t, item in self.log}
+                session.keep_scheduled(lambda item: id(item) not in given)
+                for t, item in self.log:
+                    if snap.tick < t <= last:
+                        session.schedule_tick(t, item)
+                rows_between(session, row, first, last, out, [(at, plan) for at, plan, _i in self.reloads
+                                                              if at > snap.tick])
+            out.source = f"snapshot at tick {snap.tick}"
+            return out
+        if self.fresh is None:
+            raise ValueError("this run cannot be re-simulated (it was not started with a way to build it again)")
+        if self._forgot_inputs or self.earliest:
+            raise ValueError(f"tick {first} cannot be computed now: the car touches a wall at the current tick, so "
+                             "the run cannot be snapshotted to re-simulate from an earlier one, and its inputs before "
+                             f"tick {self.earliest} are beyond the rewind horizon; step on a few ticks and ask again")
+        fresh = self.fresh()
+        for t, item in self.log:
+            if t <= last:
+                fresh.schedule_tick(t, item)
+        try:
+            fresh.start()
+        except StateRuntimeError as exc:
+            out.stopped = f"the run raised at its start: {exc}"
+            return out
+        rows_between(fresh, row, first, last, out, [(at, plan) for at, plan, _i in self.reloads])
+        out.source = "start"
+        return out
+
     def _cmd_input(self, args: dict[str, Any]) -> dict[str, Any]:
         self._going_on()
         item = input_from_json(args.get("input"))
@@ -850,6 +928,13 @@ class Controller:
         notify = self.notify
         if notify is not None:
             notify()
+
+
+def _tick(args: dict[str, Any], key: str, default: int, now: int) -> int:
+    tick = args.get(key, default)
+    if isinstance(tick, bool) or not isinstance(tick, int) or not 0 <= tick <= now:
+        raise ValueError(f"watch_values: {key} is a tick from 0 to the current {now}, got {tick!r}")
+    return tick
 
 
 __all__ = ["CHUNK", "Controller"]

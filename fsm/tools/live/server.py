@@ -45,7 +45,7 @@ FAST_RATE = 5
 MAX_COMMAND = 64 * 1024
 #: Commands a page may send.
 COMMANDS = ("pause", "resume", "step", "step_transition", "speed", "stop", "break", "unbreak", "input", "rewind",
-            "why", "watch", "unwatch", "watched")
+            "why", "watch", "unwatch", "watched", "watch_values")
 #: What every answer carries: no caching, no sniffing, no referrer, nothing loaded from elsewhere.
 #: The page's Content-Security-Policy: nothing from elsewhere, no frame around it, its own WebSocket only.
 CSP = ("default-src 'none'; img-src data:; style-src 'unsafe-inline'; script-src 'unsafe-inline'; "

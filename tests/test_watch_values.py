@@ -1,0 +1,132 @@
+"""Watch values per tick, computed on request by re-simulation (fsm/debug/resim.py, Controller.watch_values): the
+values a page is given for a range are, tick by tick, those of a plain run of the same document read directly after
+every tick, whichever way they were computed (from a snapshot, from the start, at the current tick), and asking
+leaves the run exactly as it was."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import pytest
+
+from fsm.session.session import Session, StopRules
+from test_live_rewind import ask, eeros_plan, eeros_session, lap_session, running, state_of, step_to, trace_lines
+
+EXPRS = ["car_front", "car_left + car_right", "car_distance * 2", "car_speed < 0.5", "car_steering"]
+INJECTED = {"kind": "force", "sensor": "front", "value": 2.9, "ticks": 40}
+
+
+def _read(session: Session) -> tuple[Any, ...]:
+    """What the watches say, read straight from the car and the variables (not through the watch code)."""
+    car = session.machine.ctx.car
+    return (car.front, car.left + car.right, car.distance * 2, car.speed < 0.5, car.steering)
+
+
+@pytest.fixture(scope="module")
+def plain() -> dict[int, tuple[Any, ...]]:
+    """The hallway lap run tick by tick, the force injected before tick 701, read after every tick."""
+    from fsm.session.inputs import input_from_json
+
+    session = lap_session()
+    session.schedule_tick(701, input_from_json(INJECTED))
+    session.start()
+    out = {0: _read(session)}
+    for _ in range(2400):
+        session.run(stop_rules=StopRules(max_ticks=1))
+        out[session.ticks] = _read(session)
+    return out
+
+
+def _values(reply: dict[str, Any]) -> dict[int, tuple[Any, ...]]:
+    assert not reply["reduced"] and reply["stopped"] is None
+    return {t: tuple(vals) for t, *vals in zip(reply["ticks"], *reply["series"], strict=True)}
+
+
+def _expect(plain: dict[int, tuple[Any, ...]], first: int, last: int) -> dict[int, tuple[Any, ...]]:
+    return {t: plain[t] for t in range(first, last + 1)}
+
+
+def test_a_range_s_values_are_a_plain_run_s_tick_by_tick_and_the_run_is_untouched(
+        plain: dict[int, tuple[Any, ...]], monkeypatch: pytest.MonkeyPatch) -> None:
+    with running(lap_session, snapshot_period=3.0, snapshot_share=1.0) as subject, \
+            running(lap_session, snapshot_period=3.0, snapshot_share=1.0) as reference:
+        for controller in (subject, reference):
+            step_to(controller, 700)
+            ask(controller, "input", {"input": INJECTED})
+        for text in EXPRS:
+            ask(subject, "watch", {"expr": text})
+        step_to(subject, 2400)
+        nearest = max(s.tick for s in subject.snapshots if s.tick <= 1000)
+        from_snapshot = ask(subject, "watch_values", {"from": 1000, "to": 2300})
+        assert from_snapshot["source"] == f"snapshot at tick {nearest}" and from_snapshot["watches"] == [1, 2, 3, 4, 5]
+        assert _values(from_snapshot) == _expect(plain, 1000, 2300)
+        from_start = ask(subject, "watch_values", {"from": 0, "to": 2400})
+        assert from_start["source"] == "start" and _values(from_start) == _expect(plain, 0, 2400)
+        here = ask(subject, "watch_values", {})
+        assert here["source"] == "live" and _values(here) == _expect(plain, 2400, 2400)
+        one = ask(subject, "watch_values", {"from": 1234, "to": 1234})
+        assert _values(one) == _expect(plain, 1234, 1234)
+        # the car touches a wall now (it cannot be snapshotted exactly): from the start, the same values
+        monkeypatch.setattr("fsm.debug.control.exact_now", lambda session: False)
+        touching = ask(subject, "watch_values", {"from": 1500, "to": 1600})
+        assert touching["source"] == "start" and _values(touching) == _expect(plain, 1500, 1600)
+        monkeypatch.undo()
+        # more ticks than twice the plot's columns: each column's least and greatest of the exact values
+        reduced = ask(subject, "watch_values", {"from": 0, "to": 2400, "width": 100})
+        assert reduced["reduced"] and reduced["computed"] == 2401 and len(reduced["ticks"]) == 200
+        fronts = [plain[t][0] for t in range(0, 2401)]
+        assert min(x for x in reduced["series"][0]) == min(fronts) and max(reduced["series"][0]) == max(fronts)
+        assert set(reduced["series"][3]) <= {0.0, 1.0}
+        # asked or not, the run goes on the same, and writes the same trace
+        step_to(subject, 2450)
+        step_to(reference, 2450)
+        assert state_of(subject.session) == state_of(reference.session)
+        assert trace_lines(subject.session) == trace_lines(reference.session)
+
+
+def test_values_across_a_hot_reload_are_those_of_the_reloaded_run() -> None:
+    """The EEROS pause case reloaded at tick 651: a range across it, from a snapshot before it, is done again with
+    the reload; the reference is a plain run reloaded at the same tick, its variables read after every tick."""
+    from fsm.debug.reload import swap_machine
+
+    with running(eeros_session, snapshot_period=1.0, snapshot_share=1.0) as subject:
+        ask(subject, "watch", {"expr": "cycles * 10"})
+        ask(subject, "watch", {"expr": "axis_x"})
+        step_to(subject, 650)
+        ask(subject, "reload", {"plan": eeros_plan(), "info": {"file": "case4_pause.json"}})
+        step_to(subject, 900)
+        reply = ask(subject, "watch_values", {"from": 560, "to": 900})
+        assert reply["source"].startswith("snapshot at tick") and int(reply["source"].split()[-1]) < 650
+    session = eeros_session()
+    session.start()
+    want: dict[int, tuple[Any, ...]] = {}
+    while session.ticks < 900:
+        if session.ticks == 650:
+            session.replace_machine(swap_machine(session.machine, eeros_plan()).machine)
+        session.run(stop_rules=StopRules(max_ticks=1))
+        ctx = session.machine.ctx
+        want[session.ticks] = (ctx.vars["cycles"] * 10, ctx.vars["axis_x"])
+    assert _values(reply) == {t: want[t] for t in range(560, 901)}
+
+
+@pytest.mark.parametrize(("args", "error"), [
+    ({"from": 10, "to": 5}, "from (10) is after to (5)"),
+    ({"to": 99_999}, "to is a tick from 0 to the current 300"),
+    ({"from": -1}, "from is a tick from 0"),
+    ({"from": 0, "width": 0}, "a width is 1 to 4000"),
+    ({"from": True}, "from is a tick"),
+])
+def test_a_bad_request_is_refused_with_what_is_wrong(args: dict[str, Any], error: str) -> None:
+    with running(lap_session, snapshot_period=None) as controller:
+        step_to(controller, 300)
+        controller.send("watch_values", {}, "none")
+        controller.send("watch", {"expr": "car_front"})
+        controller.send("watch_values", args, "bad")
+        end = time.monotonic() + 20
+        while not {"none", "bad"} <= {m.get("id") for m in list(controller.messages)}:
+            assert time.monotonic() < end
+            time.sleep(0.002)
+        replies = {m.get("id"): m for m in list(controller.messages) if m.get("kind") == "reply"}
+        assert not replies["none"]["ok"] and "no watch expression" in replies["none"]["error"]
+        assert not replies["bad"]["ok"] and error in replies["bad"]["error"], replies["bad"]

@@ -11,7 +11,7 @@ from typing import Any
 import pytest
 
 from fsm.session.session import Session, StopRules
-from test_live_rewind import ask, eeros_plan, eeros_session, lap_session, running, state_of, step_to, trace_lines
+from test_live_rewind import LAP, ask, eeros_plan, eeros_session, lap_session, running, state_of, step_to, trace_lines
 
 EXPRS = ["car_front", "car_left + car_right", "car_distance * 2", "car_speed < 0.5", "car_steering"]
 INJECTED = {"kind": "force", "sensor": "front", "value": 2.9, "ticks": 40}
@@ -130,3 +130,43 @@ def test_a_bad_request_is_refused_with_what_is_wrong(args: dict[str, Any], error
         replies = {m.get("id"): m for m in list(controller.messages) if m.get("kind") == "reply"}
         assert not replies["none"]["ok"] and "no watch expression" in replies["none"]["error"]
         assert not replies["bad"]["ok"] and error in replies["bad"]["error"], replies["bad"]
+
+
+@pytest.fixture(scope="module")
+def lap_trace(tmp_path_factory: pytest.TempPathFactory) -> Any:
+    from fsm.tools.cli import main
+
+    path = tmp_path_factory.mktemp("watch") / "lap.jsonl"
+    assert main(["run", str(LAP), "--duration", "6", "--trace", str(path), "-q"]) == 0
+    return path
+
+
+def test_fsmctl_watch_prints_every_tick_s_values_as_a_plain_run_has_them(
+        lap_trace: Any, plain: dict[int, tuple[Any, ...]], capsys: pytest.CaptureFixture[str]) -> None:
+    import csv
+
+    from helpers import cli
+
+    code, out, err = cli(capsys, "watch", str(lap_trace), *EXPRS, "--from", "150", "--to", "480", "--csv")
+    assert code == 0, err
+    rows = list(csv.reader(out.splitlines()))
+    assert rows[0] == ["tick", "time", *EXPRS]
+    got = {int(r[0]): (float(r[2]), float(r[3]), float(r[4]), r[5] == "true", float(r[6])) for r in rows[1:]}
+    assert got == _expect(plain, 150, 480)  # every digit (the trace's run is the fixture's before its injection)
+    code, out, err = cli(capsys, "watch", str(lap_trace), "car_front", "--from", "478")
+    assert code == 0 and out.splitlines() == ["tick    time  car_front", " 478  5.9750          3",
+                                              " 479  5.9875          3", " 480  6.0000          3"], out
+
+
+@pytest.mark.parametrize(("args", "error"), [
+    (["car_front", "nope * 2"], "expression 2 'nope * 2', column 1: unknown variable 'nope'"),
+    (["car_front +"], "expression 1 'car_front +', column 12: "),
+    (["car_front", "--to", "99999"], "--to 99999: the trace's ticks are 0 to 480"),
+    (["car_front", "--from", "9", "--to", "3"], "--from 9 is after --to 3"),
+])
+def test_fsmctl_watch_refuses_a_bad_expression_or_range_with_where(
+        lap_trace: Any, args: list[str], error: str, capsys: pytest.CaptureFixture[str]) -> None:
+    from helpers import cli
+
+    code, out, err = cli(capsys, "watch", str(lap_trace), *args)
+    assert code == 1 and out == "" and error in err and "Traceback" not in err, err

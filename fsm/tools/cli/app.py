@@ -20,7 +20,7 @@ from .common import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, version
 
 #: The command modules, in the order ``fsmctl --help`` lists them.
 COMMANDS = ("validate", "run", "test", "sweep", "report", "types", "schema", "convert", "export", "palette", "graph",
-            "detect", "sim", "replay", "explain", "new")
+            "detect", "sim", "replay", "explain", "watch", "new")
 
 
 #: ``fsmctl --help`` ends with this (docs/cli.md says the same).

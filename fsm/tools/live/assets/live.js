@@ -106,7 +106,7 @@
       else if (m.kind === "bye") bye = m.why || "the run has ended";
       else if (m.kind === "watched") addWatched(m.rows);
       else if (m.kind === "hit") { hits.push(m); logDirty = true; schedule(); }
-      else if (m.kind === "reset") { model.reset(); status = null; statusShown = true; followEnd = null; dirty = true; }
+      else if (m.kind === "reset") { forgetExact(); model.reset(); status = null; statusShown = true; followEnd = null; dirty = true; }
       else if (m.kind === "status") {  // redrawn when the run moved on or changed state, not for a breakpoint's count
         if (!status || m.tick !== status.tick || m.state !== status.state) dirty = true;
         status = m;
@@ -126,6 +126,7 @@
       else if (m.kind === "reply" && m.command === "reload") { if (!m.ok) showReload({ ok: false, file: "", errors: [m.error] }); }
       else if (m.kind === "reply") { var done = pending[m.id]; delete pending[m.id]; if (done) done(m); else if (!m.ok) notice(m.error); }
       else if (m.kind === "rewound") {
+        forgetExact();
         var said = [];
         if (m.dropped) said.push(m.dropped + " later input" + (m.dropped === 1 ? "" : "s") + " dropped");
         if (m.reloads_dropped) said.push(m.reloads_dropped + " later hot reload" + (m.reloads_dropped === 1 ? "" : "s") +
@@ -353,8 +354,16 @@
   }
   $("why-box").addEventListener("toggle", function () { whyAsked = null; askWhy(); });
 
-  // -- watch expressions: values at the ticks the server sends (pauses, steps, statuses); a plot of those ticked --
+  // -- watch expressions. While the run runs, the server sends each watch's value at the ticks of its statuses (at
+  // most a chunk of ticks apart): the cell shows the last one, labelled with its tick. Wherever the cursor stands
+  // still on a tick the run is not running at (paused, stepped, a click on a plot, a log line or a trace row, a
+  // rewind), the page asks the server for the exact values at that tick, which it re-simulates. A watch's plot
+  // asks for its values at every tick of the run so far (re-simulated on request, reduced on the server to the
+  // least and greatest value per pixel column when there are more ticks than columns). Nothing is asked while the
+  // run runs and the cursor follows it.
   var watchRows = [], watchShown = "", watchPlot = null, plotted = {};
+  var exact = {}, exactKey = "", asking = null, wanted = null;  // exact values by tick, for the watches of exactKey
+  var plotData = null, plotAsking = false, plotWanted = false;
   function addWatched(rows) {
     rows.forEach(function (r) {  // a rewind drops the later ones: the rows come in tick order again
       while (watchRows.length && watchRows[watchRows.length - 1][0] >= r[0]) watchRows.pop();
@@ -368,6 +377,26 @@
     while (lo <= hi) { var mid = (lo + hi) >> 1; if (watchRows[mid][0] <= tick) { at = mid; lo = mid + 1; } else hi = mid - 1; }
     return at < 0 ? undefined : watchRows[at];
   }
+  function forgetExact() { exact = {}; plotData = null; }  // a rewind forks the run, a reload changes it
+  function shown(v) { return v === undefined ? "–" : (typeof v === "number" ? String(+v.toPrecision(6)) : JSON.stringify(v)); }
+  function following() {  // the cursor rides along with a running run: no exact value asked for
+    return !!status && status.state === "running" && Math.abs(R.cursor() - R.end()) < 2 * (R.dt || 0.0125);
+  }
+  function askExact(tick) {
+    if (asking !== null) { wanted = tick; return; }
+    asking = tick; wanted = null;
+    var key = exactKey;
+    send("watch_values", { from: tick, to: tick }, function (m) {
+      asking = null;
+      if (key === exactKey) {
+        if (!m.ok) exact[tick] = { error: m.error };
+        else if (!m.computed) exact[tick] = { error: m.stopped || "not computed" };
+        else exact[tick] = { row: m.series.map(function (s) { return s[0]; }), source: m.source };
+      }
+      if (wanted !== null && wanted !== tick && exact[wanted] === undefined) askExact(wanted);
+      showWatches();
+    });
+  }
   function showWatches() {
     var list = status ? status.watches || [] : [], body = $("watches").tBodies[0], tick = R.current().tick;
     var key = JSON.stringify(list);
@@ -378,7 +407,7 @@
         var row = body.insertRow(); row.dataset.id = w.id;
         row.insertCell().textContent = w.text;
         var v = row.insertCell(); v.className = "value";
-        var pc = row.insertCell(), box = document.createElement("input"); box.type = "checkbox"; box.title = "plot it";
+        var pc = row.insertCell(), box = document.createElement("input"); box.type = "checkbox"; box.title = "plot its value at every tick";
         box.checked = !!plotted[w.id];
         box.addEventListener("change", function () { plotted[w.id] = this.checked; drawWatchPlot(true); });
         var label = document.createElement("label"); label.appendChild(box); label.appendChild(document.createTextNode(" plot")); pc.appendChild(label);
@@ -386,34 +415,69 @@
         b.addEventListener("click", function () { delete plotted[w.id]; send("unwatch", { watch: w.id }, reply); });
         row.insertCell().appendChild(b);
       });
+      var ids = JSON.stringify(list.map(function (w) { return w.id; }));
+      if (ids !== exactKey) { exactKey = ids; forgetExact(); }
       drawWatchPlot(true);
     }
-    var at = watchRowAt(tick);
+    var at = watchRowAt(tick), got = exact[tick], info = $("watch-at");
+    if (at !== undefined && at[0] === tick && got === undefined) got = { row: at[1], source: "the run" };  // sent at this very tick
+    if (!list.length) info.textContent = "";
+    else if (got !== undefined && got.row) info.textContent = "Values after tick " + tick + " (exact).";
+    else if (got !== undefined) info.textContent = "Tick " + tick + ": " + got.error;
+    else if (following()) info.textContent = at === undefined ? "" : "Values after tick " + at[0] + ", the last sent while the run runs (pause for the exact value at any tick).";
+    else { info.textContent = "Tick " + tick + ": computing the exact values…"; askExact(tick); }
+    info.dataset.tick = tick;
+    info.dataset.exact = got !== undefined && got.row ? "1" : "0";
     Array.prototype.forEach.call(body.rows, function (row, k) {
-      var v = at === undefined ? undefined : at[1][k], cell = row.cells[1];
-      cell.textContent = v === undefined ? "–" : (typeof v === "number" ? String(+v.toPrecision(6)) : JSON.stringify(v));
-      cell.dataset.tick = tick;
-      // watches are evaluated at the ticks the page is sent (every tick when stepping one at a time), not between
-      cell.title = at !== undefined && at[0] !== tick ? "the value after tick " + at[0] + ", the last tick at or " +
-        "before " + tick + " the page was sent while the run ran" : "";
+      var cell = row.cells[1], v = got !== undefined && got.row ? got.row[k] : (at === undefined ? undefined : at[1][k]);
+      cell.textContent = got !== undefined && !got.row ? "?" : shown(v);
+      cell.dataset.tick = got !== undefined && got.row ? tick : (at === undefined ? "" : at[0]);
+      cell.dataset.exact = got !== undefined && got.row ? "1" : "0";
+      cell.dataset.value = v === undefined ? "" : JSON.stringify(v);
+      cell.title = got !== undefined && got.row ? "the exact value after tick " + tick : (got !== undefined ? got.error :
+        (at !== undefined ? "the value after tick " + at[0] + ", the last tick at or before " + tick + " the page was sent" : ""));
     });
     drawWatchPlot(false);
   }
+  function askPlot() {  // every tick of the run so far (the server keeps the last 50,000 and reduces per pixel column)
+    if (plotAsking) { plotWanted = true; return; }
+    var box = $("watch-plot"), to = status ? status.tick : 0, key = exactKey;
+    plotAsking = true; plotWanted = false;
+    box.dataset.state = "computing";
+    send("watch_values", { from: 0, to: to, width: Math.max(100, Math.min(4000, Math.round(box.clientWidth || 400))) }, function (m) {
+      plotAsking = false;
+      if (key === exactKey) plotData = m.ok ? m : { error: m.error, to: to };
+      drawWatchPlot(true);
+      if (plotWanted) askPlot();
+    });
+  }
   function drawWatchPlot(rebuild) {
-    var list = status ? status.watches || [] : [], box = $("watch-plot");
+    var list = status ? status.watches || [] : [], box = $("watch-plot"), note = $("watch-plot-note");
     var chosen = list.map(function (w, k) { return [w, k]; }).filter(function (p) { return plotted[p[0].id]; });
-    if (!chosen.length || typeof uPlot === "undefined") { box.textContent = ""; watchPlot = null; return; }
-    var dt = R.dt || 0.0125, xs = watchRows.map(function (r) { return r[0] * dt; });
+    if (!chosen.length || typeof uPlot === "undefined") { box.textContent = ""; note.textContent = ""; watchPlot = null; box.dataset.points = "0"; return; }
+    // asked again when the run stands at another tick than the values were computed to (never while it runs)
+    if (!plotAsking && status && status.state !== "running" && (!plotData || plotData.to !== status.tick)) { askPlot(); }
+    if (!plotData || plotData.error || !plotData.series) {
+      box.textContent = ""; watchPlot = null; box.dataset.points = "0";
+      note.textContent = plotData && plotData.error ? "Plot: " + plotData.error : (plotAsking ? "Plot: computing the values at every tick…" : "Plot: shown when the run pauses.");
+      return;
+    }
+    if (!rebuild && watchPlot) return;
+    var d = plotData, dt = R.dt || 0.0125, xs = d.ticks.map(function (t) { return t * dt; });
     var data = [xs].concat(chosen.map(function (p) {
-      return watchRows.map(function (r) { var v = r[1][p[1]]; return typeof v === "boolean" ? (v ? 1 : 0) : (typeof v === "number" ? v : null); });
+      var k = d.watches.indexOf(p[0].id);
+      return k < 0 ? xs.map(function () { return null; }) : d.series[k].map(function (v) { return typeof v === "boolean" ? (v ? 1 : 0) : (typeof v === "number" ? v : null); });
     }));
-    if (rebuild || !watchPlot) {
-      box.textContent = "";
-      var palette = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e"];
-      watchPlot = new uPlot({ title: "Watch expressions", width: Math.max(240, box.clientWidth - 4), height: 160,
-        series: [{}].concat(chosen.map(function (p, i) { return { label: p[0].text, stroke: palette[i % palette.length], width: 1.2 }; })),
-        scales: { x: { time: false } }, axes: [{ label: "s" }, {}], legend: { live: false } }, data, box);
-    } else watchPlot.setData(data);
+    note.textContent = "Plot: " + (d.reduced ? "each pixel column's least and greatest value of " : "the value at each of ") + d.computed +
+      " ticks (" + d.from + " to " + d.to + "), computed when asked" + (d.stopped ? "; " + d.stopped : "") + (d.clipped ? "; " + d.clipped : "") +
+      (status && status.state === "running" ? "; updated when the run pauses" : "") + ".";
+    box.dataset.points = String(xs.length); box.dataset.reduced = d.reduced ? "1" : "0";
+    box.dataset.from = d.from; box.dataset.to = d.to; box.dataset.state = "drawn";
+    box.textContent = "";
+    var palette = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e"];
+    watchPlot = new uPlot({ title: "Watch expressions", width: Math.max(240, box.clientWidth - 4), height: 160,
+      series: [{}].concat(chosen.map(function (p, i) { return { label: p[0].text, stroke: palette[i % palette.length], width: 1.2 }; })),
+      scales: { x: { time: false } }, axes: [{ label: "s" }, {}], legend: { live: false } }, data, box);
   }
   $("watch-form").addEventListener("submit", function (ev) {
     ev.preventDefault();
@@ -468,6 +532,7 @@
 
   // for tests and the console
   window.tralLive = { model: model, status: function () { return status; }, send: send,
+                      watchRows: function () { return watchRows; }, watchPlot: function () { return plotData; },
                       drawn: function () { return document.body.dataset.drawn | 0; } };
   var reloaded = sessionStorage.getItem("tral-reloaded");  // the page was rebuilt after a hot reload: say so
   if (reloaded) { sessionStorage.removeItem("tral-reloaded"); showReload({ ok: true, file: "", tick: "", text: "" }); $("reload").textContent = reloaded.replace("The statechart is being redrawn.", "The statechart was redrawn."); }

@@ -21,9 +21,11 @@ compiled
   state that no longer exists pauses the run there; a ``reload`` line in the trace and a rewind does it again;
 - ``watch`` / ``unwatch`` / ``watched``: expressions whose values are kept for the ticks a page can see: the tick
   of every status published (after each chunk of ticks, at most :data:`CHUNK` apart, and wherever the run pauses: a
-  step's end, a breakpoint, a rewind), never on the ticks between, which nobody reads (``watched`` messages carry
-  the new ones; nothing is evaluated while there is none). An expression breakpoint is tested after every tick;
-  a watch is not;
+  step's end, a breakpoint, a rewind), never on the ticks between (``watched`` messages carry the new ones; nothing
+  is evaluated while there is none). An expression breakpoint is tested after every tick; a watch is not;
+- ``watch_values``: the watches' exact values at every tick of a range, computed when asked by re-simulation
+  (:mod:`fsm.debug.resim`: from the latest snapshot before the range, or from the start), the run untouched: what
+  the page shows at the cursor's tick and plots;
 - ``why``: what a tick did and why (:mod:`fsm.debug.explain`), by re-simulation, the run untouched;
 - ``rewind``: back to an earlier tick: the nearest snapshot at or before it restored (:mod:`fsm.session.snapshot`:
   taken every :data:`SNAPSHOT_PERIOD` simulated seconds or less often, so that taking them costs the run at most
@@ -594,10 +596,7 @@ class Controller:
             raise ValueError(f"tick {first} cannot be computed now: the car touches a wall at the current tick, so "
                              "the run cannot be snapshotted to re-simulate from an earlier one, and its inputs before "
                              f"tick {self.earliest} are beyond the rewind horizon; step on a few ticks and ask again")
-        fresh = self.fresh()
-        for t, item in self.log:
-            if t <= last:
-                fresh.schedule_tick(t, item)
+        fresh = self._fresh(last)
         try:
             fresh.start()
         except StateRuntimeError as exc:
@@ -679,16 +678,23 @@ class Controller:
         if self._forgot_inputs or self.earliest:
             raise ValueError("why: Why re-simulates the run from its start, and its inputs before tick "
                              f"{self.earliest} are beyond the rewind horizon (--rewind-horizon {self.horizon:g} s)")
-        session = self.fresh()
-        for t, item in self.log:
-            if t <= tick:
-                session.schedule_tick(t, item)
+        session = self._fresh(tick)
         session.start()
         if tick > 1:
             session.run(stop_rules=StopRules(max_ticks=tick - 1))
         if session.ticks != tick - 1:
             raise ValueError(f"why: the re-simulated run ended at tick {session.ticks}, before tick {tick}")
         return {"why": explain_next(session, self.signals).to_json()}
+
+    def _fresh(self, last: int) -> Session:
+        """The run built afresh (not recorded, not started) with the inputs given up to tick ``last`` scheduled: what
+        Why and watch values re-simulate from the start."""
+        assert self.fresh is not None
+        session = self.fresh()
+        for t, item in self.log:
+            if t <= last:
+                session.schedule_tick(t, item)
+        return session
 
     def _cmd_rewind(self, args: dict[str, Any]) -> dict[str, Any]:
         tick = args.get("tick")

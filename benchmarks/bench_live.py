@@ -13,6 +13,9 @@
 - **live, 10 watch expressions**: the live run, no page, with ten watch expressions evaluated after every tick
   (target: at most 10 % slower than plain); "why" and watches cost nothing while none is asked (the no-page row);
 - **why**: after the rewind, the explanation of tick 10,000 (a re-simulation to it, the run untouched);
+- **watch values on request** (``--range ROUNDS``): what a page's plot or cursor asks of a paused run, the ten
+  watches' values at every tick of 10,000 ticks, re-simulated (from a snapshot, from the start, reduced per pixel
+  column);
 - **step to redrawn page**: with the run paused and the page connected, the time from a click on "Step 1" to the
   page showing the new tick (the page's own clock, ``performance.now``; target under 100 ms).
 
@@ -33,6 +36,7 @@ figures include the browser's own work. Not a timed test: CI does not run it.
     .venv/bin/python benchmarks/bench_live.py [--repeat 3] [--steps 30] [--no-browser] [--json FILE]
     .venv/bin/python benchmarks/bench_live.py --no-server 7
     .venv/bin/python benchmarks/bench_live.py --instructions
+    .venv/bin/python benchmarks/bench_live.py --range 5
 """
 
 from __future__ import annotations
@@ -235,6 +239,61 @@ def in_process(rounds: int) -> int:
     return 0
 
 
+def _reply(controller: Any, name: str, args: dict[str, Any]) -> dict[str, Any]:
+    """Send a command to a controller looping in another thread and wait for its reply."""
+    ident = f"{name}-{time.monotonic_ns()}"
+    controller.send(name, args, ident)
+    while True:
+        for message in list(controller.messages):
+            if message.get("id") == ident:
+                if not message["ok"]:
+                    raise SystemExit(f"{name}: {message['error']}")
+                return message  # type: ignore[no-any-return]
+        time.sleep(0.0005)
+
+
+def range_request(rounds: int) -> int:
+    """``--range ROUNDS``: the ten watches' values at every tick of 10,000 ticks, asked of a paused live run at tick
+    16,000 of the lap (the controller's ``watch_values``, what the page's plot and cursor ask): re-simulated from the
+    latest snapshot before the range, from the start, and reduced to 800 pixel columns; wall and processor time of
+    the request (median of ``rounds``), and the instructions' worth of ticks (ticks re-simulated)."""
+    from fsm.debug.control import Controller
+
+    session, _ = make_session()
+    controller = Controller(session, factory=lambda: make_session()[0], speed=None, paused=True)
+    thread = threading.Thread(target=controller.loop, daemon=True)
+    thread.start()
+    try:
+        for text in WATCHES:
+            _reply(controller, "watch", {"expr": text})
+        _reply(controller, "step", {"n": 16_000})
+        while controller.snapshot.get("tick") != 16_000 or controller.snapshot.get("state") != "paused":
+            time.sleep(0.005)
+        snaps = [s.tick for s in controller.snapshots]
+        cases = {"10,000 ticks (6,000-15,999), from a snapshot": {"from": 6_000, "to": 15_999},
+                 "10,000 ticks (0-9,999), from the start": {"from": 0, "to": 9_999},
+                 "10,000 ticks (6,000-15,999), reduced to 800 columns": {"from": 6_000, "to": 15_999, "width": 800},
+                 "one tick (12,345): the cursor's cell": {"from": 12_345, "to": 12_345}}
+        print(f"snapshots at ticks {snaps}")
+        print("| watch_values request, 10 watches, lap paused at tick 16,000 | source | wall ms median | best | "
+              "processor ms median |")
+        print("|---|---|---:|---:|---:|")
+        for name, args in cases.items():
+            walls, cpus, source = [], [], ""
+            for _ in range(rounds):
+                w0, c0 = time.perf_counter(), time.process_time()
+                answer = _reply(controller, "watch_values", args)
+                walls.append((time.perf_counter() - w0) * 1e3)
+                cpus.append((time.process_time() - c0) * 1e3)
+                source = answer["source"]
+            print(f"| {name} | {source} | {statistics.median(walls):.0f} | {min(walls):.0f} | "
+                  f"{statistics.median(cpus):.0f} |")
+    finally:
+        controller.send("stop")
+        thread.join(20)
+    return 0
+
+
 def browser_cpu() -> float:
     """Processor seconds used so far by the Chromium processes this benchmark started (its descendants on Linux;
     0 where /proc is missing): what the page costs the machine, however busy it is."""
@@ -345,6 +404,8 @@ def main() -> int:
                          "figures however busy the machine is; a few minutes")
     ap.add_argument("--no-server", type=int, metavar="ROUNDS", default=0,
                     help="the live loop alone (no server, no page), alternated with the plain run in one process")
+    ap.add_argument("--range", type=int, metavar="ROUNDS", default=0,
+                    help="the time to answer a page's request for the watches' values at 10,000 ticks")
     ap.add_argument("--probe", nargs=2, metavar=("MODE", "N"), help=argparse.SUPPRESS)  # one counted process
     args = ap.parse_args()
     if args.probe:
@@ -353,6 +414,8 @@ def main() -> int:
         return count_instructions()
     if args.no_server:
         return in_process(args.no_server)
+    if args.range:
+        return range_request(args.range)
     results: dict[str, Any] = {"plain": [], "live_no_page": [], "live_one_page": [], "step_ms_tick0": [],
                                "step_ms_tick8000": []}
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")

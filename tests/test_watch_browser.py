@@ -5,6 +5,7 @@ of the run so far. Both are compared with a plain run of the same document, read
 
 from __future__ import annotations
 
+import json
 from typing import Any
 
 from fsm.session.session import StopRules
@@ -13,6 +14,23 @@ from test_live_browser import browser, chromium  # noqa: F401 (the fixtures)
 
 LAP = str(REPO / "diagrams" / "hallway_lap.json")
 TICKS = 600
+
+
+class Commands:
+    """The page's WebSocket through the test: the commands the page sends, in order."""
+
+    def __init__(self) -> None:
+        self.sent: list[dict[str, Any]] = []
+
+    def __call__(self, route: Any) -> None:
+        server = route.connect_to_server()
+
+        def from_page(message: Any) -> None:
+            if isinstance(message, str):
+                self.sent.append(json.loads(message))
+            server.send(message)
+
+        route.on_message(from_page)
 
 
 def _plain() -> dict[int, tuple[float, float]]:
@@ -29,7 +47,8 @@ def _plain() -> dict[int, tuple[float, float]]:
 
 def test_the_cell_shows_the_exact_value_at_a_clicked_tick_and_the_plot_every_tick(browser: Any,  # noqa: F811
                                                                                     tmp_path: Any) -> None:
-    live, page = browser(LAP, "--paused", "--speed", "max", size=(1600, 1000))
+    commands = Commands()
+    live, page = browser(LAP, "--paused", "--speed", "max", size=(1600, 1000), sockets=commands)
     p = page.page
     for text in ("car_front", "car_distance * 2"):
         p.fill("#watch-expr", text)
@@ -65,6 +84,17 @@ def test_the_cell_shows_the_exact_value_at_a_clicked_tick_and_the_plot_every_tic
     assert "the value at each of 601 ticks (0 to 600)" in (p.text_content("#watch-plot-note") or "")
     p.screenshot(path=str(tmp_path / "watch.png"))
     p.locator("#watch-box").screenshot(path=str(tmp_path / "watch-box.png"))
+    # the run resumed to its end: nothing is asked while it runs; when it has ended, the plot asks once, for every
+    # tick of the run (more than the plot's columns: each column's least and greatest value)
+    before = len(commands.sent)
+    p.click("#run-resume")
+    end = page.until("(window.tralLive.status() || {}).state === 'ended' && window.tralLive.status().tick", 60)
+    page.until(f"document.getElementById('watch-plot').dataset.to === '{end}'")
+    asked = [c for c in commands.sent[before:] if c["cmd"] != "resume"]
+    assert [(c["cmd"], c["from"], c["to"]) for c in asked] == [("watch_values", 0, end)], asked
+    data = p.evaluate("window.tralLive.watchPlot()")
+    assert data["reduced"] is True and data["computed"] == end + 1 and data["ticks"][-1] == end
+    assert p.get_attribute("#watch-plot", "data-points") == str(2 * asked[0]["width"])
     p.click("#run-stop")
     code, _out, err = live.wait()
     assert code == 0, err

@@ -46,8 +46,8 @@ def rebuild(trace: Any) -> Any:
         raise FsmError(f"{trace.name}: the trace's header holds no machine document: it cannot be re-simulated "
                        "(write it with fsmctl run --trace)")
     if trace.reloads:
-        raise FsmError(f"{trace.name}: the run was hot-reloaded at tick {trace.reloads[0].get('tick')}: explain "
-                       "re-simulates one machine only; explain the trace of a run without a reload")
+        raise FsmError(f"{trace.name}: the run was hot-reloaded at tick {trace.reloads[0].get('tick')}: a trace is "
+                       "re-simulated with one machine only; use the trace of a run without a reload")
     dt = header.get("dt")
     try:
         if header.get("world_file") or header.get("world"):

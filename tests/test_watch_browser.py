@@ -95,6 +95,24 @@ def test_the_cell_shows_the_exact_value_at_a_clicked_tick_and_the_plot_every_tic
     data = p.evaluate("window.tralLive.watchPlot()")
     assert data["reduced"] is True and data["computed"] == end + 1 and data["ticks"][-1] == end
     assert p.get_attribute("#watch-plot", "data-points") == str(2 * asked[0]["width"])
+    # a drag across the watch plot: every tick of that range, not reduced
+    over = p.query_selector("#watch-plot .u-over")
+    assert over is not None
+    over.scroll_into_view_if_needed()
+    box = over.bounding_box()
+    assert box is not None
+    y = box["y"] + box["height"] / 2
+    p.mouse.move(box["x"] + box["width"] * 0.40, y)
+    p.mouse.down()
+    p.mouse.move(box["x"] + box["width"] * 0.44, y, steps=4)
+    p.mouse.up()
+    page.until("document.getElementById('watch-plot').dataset.reduced === '0' && "
+               "document.getElementById('watch-plot').dataset.state === 'drawn'")
+    data = p.evaluate("window.tralLive.watchPlot()")
+    first, last = data["from"], data["to"]
+    assert 0.35 * end < first < last < 0.5 * end and data["ticks"] == list(range(first, last + 1))
+    assert "double-click for the whole run" in (p.text_content("#watch-plot-note") or "")
+    p.locator("#watch-box").screenshot(path=str(tmp_path / "watch-range.png"))
     p.click("#run-stop")
     code, _out, err = live.wait()
     assert code == 0, err

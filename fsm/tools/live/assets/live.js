@@ -363,7 +363,8 @@
   // run runs and the cursor follows it.
   var watchRows = [], watchShown = "", watchPlot = null, plotted = {};
   var exact = {}, exactKey = "", asking = null, wanted = null;  // exact values by tick, for the watches of exactKey
-  var plotData = null, plotAsking = false, plotWanted = false;
+  // the plot's values, and the range a drag across it chose (null: the run so far)
+  var plotData = null, plotAsking = false, plotWanted = false, plotRange = null, dragged = false;
   function addWatched(rows) {
     rows.forEach(function (r) {  // a rewind drops the later ones: the rows come in tick order again
       while (watchRows.length && watchRows[watchRows.length - 1][0] >= r[0]) watchRows.pop();
@@ -377,7 +378,7 @@
     while (lo <= hi) { var mid = (lo + hi) >> 1; if (watchRows[mid][0] <= tick) { at = mid; lo = mid + 1; } else hi = mid - 1; }
     return at < 0 ? undefined : watchRows[at];
   }
-  function forgetExact() { exact = {}; plotData = null; }  // a rewind forks the run, a reload changes it
+  function forgetExact() { exact = {}; plotData = null; plotRange = null; }  // a rewind forks the run, a reload changes it
   function shown(v) { return v === undefined ? "–" : (typeof v === "number" ? String(+v.toPrecision(6)) : JSON.stringify(v)); }
   function following() {  // the cursor rides along with a running run: no exact value asked for
     return !!status && status.state === "running" && Math.abs(R.cursor() - R.end()) < 2 * (R.dt || 0.0125);
@@ -441,10 +442,11 @@
   }
   function askPlot() {  // every tick of the run so far (the server keeps the last 50,000 and reduces per pixel column)
     if (plotAsking) { plotWanted = true; return; }
-    var box = $("watch-plot"), to = status ? status.tick : 0, key = exactKey;
+    var box = $("watch-plot"), now = status ? status.tick : 0, key = exactKey;
+    var from = plotRange ? Math.min(plotRange.from, now) : 0, to = plotRange ? Math.min(plotRange.to, now) : now;
     plotAsking = true; plotWanted = false;
     box.dataset.state = "computing";
-    send("watch_values", { from: 0, to: to, width: Math.max(100, Math.min(4000, Math.round(box.clientWidth || 400))) }, function (m) {
+    send("watch_values", { from: from, to: to, width: Math.max(100, Math.min(4000, Math.round(box.clientWidth || 400))) }, function (m) {
       plotAsking = false;
       if (key === exactKey) plotData = m.ok ? m : { error: m.error, to: to };
       drawWatchPlot(true);
@@ -456,7 +458,7 @@
     var chosen = list.map(function (w, k) { return [w, k]; }).filter(function (p) { return plotted[p[0].id]; });
     if (!chosen.length || typeof uPlot === "undefined") { box.textContent = ""; note.textContent = ""; watchPlot = null; box.dataset.points = "0"; return; }
     // asked again when the run stands at another tick than the values were computed to (never while it runs)
-    if (!plotAsking && status && status.state !== "running" && (!plotData || plotData.to !== status.tick)) { askPlot(); }
+    if (!plotAsking && status && status.state !== "running" && !plotRange && (!plotData || plotData.to !== status.tick)) { askPlot(); }
     if (!plotData || plotData.error || !plotData.series) {
       box.textContent = ""; watchPlot = null; box.dataset.points = "0";
       note.textContent = plotData && plotData.error ? "Plot: " + plotData.error : (plotAsking ? "Plot: computing the values at every tick…" : "Plot: shown when the run pauses.");
@@ -470,14 +472,29 @@
     }));
     note.textContent = "Plot: " + (d.reduced ? "each pixel column's least and greatest value of " : "the value at each of ") + d.computed +
       " ticks (" + d.from + " to " + d.to + "), computed when asked" + (d.stopped ? "; " + d.stopped : "") + (d.clipped ? "; " + d.clipped : "") +
-      (status && status.state === "running" ? "; updated when the run pauses" : "") + ".";
+      (plotRange ? "; double-click for the whole run" : "; drag across it for every tick of a range") +
+      (status && status.state === "running" && !plotRange ? "; updated when the run pauses" : "") + ".";
     box.dataset.points = String(xs.length); box.dataset.reduced = d.reduced ? "1" : "0";
     box.dataset.from = d.from; box.dataset.to = d.to; box.dataset.state = "drawn";
     box.textContent = "";
     var palette = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e"];
     watchPlot = new uPlot({ title: "Watch expressions", width: Math.max(240, box.clientWidth - 4), height: 160,
       series: [{}].concat(chosen.map(function (p, i) { return { label: p[0].text, stroke: palette[i % palette.length], width: 1.2 }; })),
-      scales: { x: { time: false } }, axes: [{ label: "s" }, {}], legend: { live: false } }, data, box);
+      scales: { x: { time: false } }, axes: [{ label: "s" }, {}], legend: { live: false },
+      // a drag chooses a range, whose every tick the server computes; a click puts the run's cursor there
+      cursor: { drag: { x: true, y: false, setScale: false } },
+      hooks: { setSelect: [function (u) {
+        if (u.select.width < 4) return;
+        var a = u.posToVal(u.select.left, "x"), b = u.posToVal(u.select.left + u.select.width, "x");
+        u.setSelect({ left: 0, width: 0, top: 0, height: 0 }, false);
+        dragged = true;  // the click that ends the drag is no click
+        plotRange = { from: Math.max(0, Math.round(a / dt)), to: Math.max(0, Math.round(b / dt)) };
+        askPlot();
+      }] } }, data, box);
+    watchPlot.over.addEventListener("click", function (ev) {
+      if (dragged) { dragged = false; return; }
+      followEnd = null; R.setTime(watchPlot.posToVal(ev.offsetX, "x")); showWatches(); });
+    watchPlot.over.addEventListener("dblclick", function () { if (plotRange) { plotRange = null; askPlot(); } });
   }
   $("watch-form").addEventListener("submit", function (ev) {
     ev.preventDefault();

@@ -170,3 +170,28 @@ def test_fsmctl_watch_refuses_a_bad_expression_or_range_with_where(
 
     code, out, err = cli(capsys, "watch", str(lap_trace), *args)
     assert code == 1 and out == "" and error in err and "Traceback" not in err, err
+
+
+def test_beyond_the_horizon_a_request_says_why_or_is_clipped(monkeypatch: pytest.MonkeyPatch) -> None:
+    with running(lap_session, snapshot_period=2.0, snapshot_share=1.0, horizon=10.0) as controller:
+        ask(controller, "watch", {"expr": "car_front"})
+        step_to(controller, 2400)
+        earliest = controller.earliest
+        assert earliest > 0
+        controller.send("watch_values", {"from": 5, "to": 10}, "far")
+        end = time.monotonic() + 20
+        while not any(m.get("id") == "far" for m in list(controller.messages)):
+            assert time.monotonic() < end
+            time.sleep(0.002)
+        far = next(m for m in list(controller.messages) if m.get("id") == "far")
+        assert not far["ok"] and "beyond the rewind horizon" in far["error"]
+        part = ask(controller, "watch_values", {"from": 0, "to": earliest + 5})
+        assert part["from"] == earliest and "beyond the rewind horizon" in part["clipped"]
+        assert part["ticks"] == list(range(earliest, earliest + 6)) and part["stopped"] is None
+        monkeypatch.setattr("fsm.debug.control.exact_now", lambda session: False)
+        controller.send("watch_values", {"from": earliest + 10, "to": earliest + 20}, "wall")
+        while not any(m.get("id") == "wall" for m in list(controller.messages)):
+            assert time.monotonic() < end
+            time.sleep(0.002)
+        wall = next(m for m in list(controller.messages) if m.get("id") == "wall")
+        assert not wall["ok"] and "the car touches a wall at the current tick" in wall["error"]

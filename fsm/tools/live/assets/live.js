@@ -480,7 +480,7 @@
     var palette = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e"];
     watchPlot = new uPlot({ title: "Watch expressions", width: Math.max(240, box.clientWidth - 4), height: 160,
       series: [{}].concat(chosen.map(function (p, i) { return { label: p[0].text, stroke: palette[i % palette.length], width: 1.2 }; })),
-      scales: { x: { time: false } }, axes: [{ label: "s" }, {}], legend: { live: false },
+      scales: { x: { time: false } }, axes: [{ label: "time (s)" }, {}], legend: { live: false },
       // a drag chooses a range, whose every tick the server computes; a click puts the run's cursor there
       cursor: { drag: { x: true, y: false, setScale: false } },
       hooks: { setSelect: [function (u) {

@@ -197,3 +197,31 @@ def test_beyond_the_horizon_a_request_says_why_or_is_clipped(monkeypatch: pytest
             time.sleep(0.002)
         wall = next(m for m in list(controller.messages) if m.get("id") == "wall")
         assert not wall["ok"] and "the car touches a wall at the current tick" in wall["error"]
+
+
+def test_why_re_simulates_the_same_way_from_a_snapshot_or_the_start_and_across_a_reload(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The live Why goes through the same re-simulation as watch values: from a snapshot it says what fsmctl
+    explain says of the run's trace, from the start too, and a tick after a hot reload is explained."""
+    from fsm.tools.cli.explain import explain_trace
+    from fsm.trace.replay import parse_trace
+
+    with running(lap_session, snapshot_period=3.0, snapshot_share=1.0) as subject:
+        step_to(subject, 2400)
+        recorder = subject.session.recorder
+        assert recorder is not None
+        recorder.flush_samples(subject.session.machine)
+        trace = parse_trace(recorder.out.text().encode("utf-8"))
+        first = min(s.tick for s in subject.snapshots)
+        tick = next(e["tick"] for e in trace.events if e["tick"] > first + 1 and e.get("transitions"))
+        want = explain_trace(trace, tick).to_json()
+        assert ask(subject, "why", {"tick": tick})["why"] == want
+        monkeypatch.setattr("fsm.debug.control.exact_now", lambda session: False)
+        assert ask(subject, "why", {"tick": tick})["why"] == want
+        monkeypatch.undo()
+    with running(eeros_session, snapshot_period=1.0, snapshot_share=1.0) as subject:
+        step_to(subject, 650)
+        ask(subject, "reload", {"plan": eeros_plan(), "info": {"file": "case4_pause.json"}})
+        step_to(subject, 700)
+        assert ask(subject, "why", {"tick": 651})["why"]["tick"] == 651
+        assert ask(subject, "why", {"tick": 690})["why"]["tick"] == 690

@@ -44,7 +44,8 @@ from __future__ import annotations
 import threading
 import time
 from collections import deque
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
 from typing import Any
 
 from fsm.debug.breakpoints import (
@@ -564,11 +565,7 @@ class Controller:
 
     def watch_values(self, first: int, last: int) -> Rows:
         """The watches' rows after each tick from ``first`` to ``last`` (at most the current tick), the run itself
-        untouched: at the current tick, read from the run; else re-simulated from the latest snapshot at or before
-        ``first`` (restored in the run's own objects, which are given back as they are now:
-        :func:`~fsm.debug.resim.aside`), or, where there is none or the run cannot be snapshotted now (the car
-        touches a wall), from a run built afresh with the inputs given, as Why does. Hot reloads on the way are done
-        again. Raises ValueError saying why when neither can be done (the inputs before the rewind horizon let go)."""
+        untouched: at the current tick, read from the run; else re-simulated (:meth:`_resimulated`)."""
         row = row_function([w for _n, _t, w in self.watches])
         session = self.session
         out = Rows(first, last)
@@ -576,6 +573,20 @@ class Controller:
             out.source = "live"
             out.add(first, row(session.machine.ctx))
             return out
+        with self._resimulated(first, last) as (again, reloads, source):
+            out.source = source
+            rows_between(again, row, first, last, out, reloads)
+        return out
+
+    @contextmanager
+    def _resimulated(self, first: int, last: int) -> Iterator[tuple[Session, list[tuple[int, Any]], str]]:
+        """The run standing between two ticks at or before ``first``, to be run on to ``last`` at most, with the hot
+        reloads to do again on the way and where it came from; the run itself is untouched. From the latest snapshot
+        at or before ``first``, restored in the run's own objects, which are given back as they are now afterwards
+        (:func:`~fsm.debug.resim.aside`); or, where there is none or the run cannot be snapshotted now (the car
+        touches a wall), a run built afresh with the inputs given. Raises ValueError saying why when neither can be
+        done (the inputs before the rewind horizon let go)."""
+        session = self.session
         snap = next((snap for snap in reversed(self.snapshots) if snap.tick <= first), None)
         if snap is not None and snap.extra.get("session") is session and exact_now(session):
             with aside(session) as quiet:
@@ -586,25 +597,22 @@ class Controller:
                 for t, item in self.log:
                     if snap.tick < t <= last:
                         session.schedule_tick(t, item)
-                rows_between(session, row, first, last, out, [(at, plan) for at, plan, _i in self.reloads
-                                                              if at > snap.tick])
-            out.source = f"snapshot at tick {snap.tick}"
-            return out
+                yield session, [(at, plan) for at, plan, _i in self.reloads if at > snap.tick], \
+                    f"snapshot at tick {snap.tick}"
+            return
         if self.fresh is None:
             raise ValueError("this run cannot be re-simulated (it was not started with a way to build it again)")
         if self._forgot_inputs or self.earliest:
-            raise ValueError(f"tick {first} cannot be computed now: the car touches a wall at the current tick, so "
-                             "the run cannot be snapshotted to re-simulate from an earlier one, and its inputs before "
-                             f"tick {self.earliest} are beyond the rewind horizon; step on a few ticks and ask again")
+            raise ValueError(f"tick {first} cannot be re-simulated now: the car touches a wall at the current tick, "
+                             "so the run cannot be snapshotted to re-simulate from an earlier one, and its inputs "
+                             f"before tick {self.earliest} are beyond the rewind horizon; step on a few ticks and ask "
+                             "again")
         fresh = self._fresh(last)
         try:
             fresh.start()
         except StateRuntimeError as exc:
-            out.stopped = f"the run raised at its start: {exc}"
-            return out
-        rows_between(fresh, row, first, last, out, [(at, plan) for at, plan, _i in self.reloads])
-        out.source = "start"
-        return out
+            raise ValueError(f"the run raised at its start: {exc}") from None
+        yield fresh, [(at, plan) for at, plan, _i in self.reloads], "start"
 
     def _cmd_input(self, args: dict[str, Any]) -> dict[str, Any]:
         self._going_on()
@@ -662,29 +670,23 @@ class Controller:
         return swap
 
     def _cmd_why(self, args: dict[str, Any]) -> dict[str, Any]:
-        """Why tick ``tick`` (default: the last one run) did what it did (:mod:`fsm.debug.explain`): the run built
-        afresh and re-simulated to just before it with the inputs given, as a rewind does; the run itself is not
-        touched. Costs as much as running to that tick, and only when asked."""
+        """Why tick ``tick`` (default: the last one run) did what it did (:mod:`fsm.debug.explain`): the run
+        re-simulated to just before it as watch values are (:meth:`_resimulated`: from a snapshot or from the start,
+        hot reloads done again), then that tick run with its checks kept; the run itself is not touched. Costs as
+        much as running those ticks, and only when asked."""
         from fsm.debug.explain import explain_next
 
         now = self.session.ticks
         tick = args.get("tick", now)
         if isinstance(tick, bool) or not isinstance(tick, int) or not 1 <= tick <= now:
             raise ValueError(f"why: a tick from 1 to the current {now}, got {tick!r}")
-        if self.fresh is None:
-            raise ValueError("this run cannot be re-simulated (it was not started with a way to build it again)")
-        if any(at <= tick for at, _plan, _info in self.reloads):
-            raise ValueError("why: the run was hot-reloaded before this tick; Why re-simulates one machine only")
-        if self._forgot_inputs or self.earliest:
-            raise ValueError("why: Why re-simulates the run from its start, and its inputs before tick "
-                             f"{self.earliest} are beyond the rewind horizon (--rewind-horizon {self.horizon:g} s)")
-        session = self._fresh(tick)
-        session.start()
-        if tick > 1:
-            session.run(stop_rules=StopRules(max_ticks=tick - 1))
-        if session.ticks != tick - 1:
-            raise ValueError(f"why: the re-simulated run ended at tick {session.ticks}, before tick {tick}")
-        return {"why": explain_next(session, self.signals).to_json()}
+        if tick - 1 < self.earliest:
+            raise ValueError(f"why: {self._beyond_horizon(tick - 1)}")
+        with self._resimulated(tick - 1, tick) as (session, reloads, _source):
+            before = rows_between(session, lambda ctx: (), tick - 1, tick - 1, Rows(tick - 1, tick - 1), reloads)
+            if before.stopped is not None or session.ticks != tick - 1:
+                raise ValueError(f"why: the re-simulation did not get to tick {tick}: {before.stopped}")
+            return {"why": explain_next(session, self.signals).to_json()}
 
     def _fresh(self, last: int) -> Session:
         """The run built afresh (not recorded, not started) with the inputs given up to tick ``last`` scheduled: what

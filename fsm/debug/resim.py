@@ -116,7 +116,8 @@ def rows_between(session: Session, row: Callable[[Any], Row], first: int, last: 
                  reloads: Iterable[tuple[int, Any]] = ()) -> Rows:
     """Run ``session`` (started, standing at a tick at or before ``first``) to tick ``last``, adding the row after
     each tick from ``first`` on to ``out``; ``reloads`` (the tick before which each applied, its plan) are done again
-    on the way. Stops short (``out.stopped`` says why) where the run ends or raises."""
+    on the way, up to the one before tick ``last + 1`` (the session then stands where that tick would start). Stops
+    short (``out.stopped`` says why) where the run ends or raises."""
     from fsm.session.session import StopRules
 
     def keep(s: Session) -> bool:
@@ -129,7 +130,7 @@ def rows_between(session: Session, row: Callable[[Any], Row], first: int, last: 
         out.add(session.ticks, row(session.machine.ctx))
     try:
         for at, plan in sorted(reloads, key=lambda r: r[0]):
-            if at > last:
+            if at > last + 1:
                 break
             if session.ticks < at - 1 and not _run(session, keep, at - 1 - session.ticks, out, StopRules):
                 return out

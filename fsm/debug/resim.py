@@ -21,7 +21,6 @@ as in a rewind's re-simulation: a live run has no video).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -75,40 +74,36 @@ class Rows:
         return out
 
 
-def _number(v: Any) -> float | None:
-    if v is True or v is False:
-        return float(v)
-    if type(v) in (int, float) and not math.isnan(v):
-        return float(v)
-    return None
+def _numbers(rows: list[Row], k: int) -> list[float | None]:
+    """Watch ``k``'s values as numbers: a boolean as 0 or 1, text, a list or NaN as ``None``."""
+    out: list[float | None] = []
+    for row in rows:
+        v = row[k]
+        t = type(v)
+        out.append(float(v) if (t is float or t is int or t is bool) and v == v else None)
+    return out
 
 
 def reduce_rows(ticks: list[int], rows: list[Row], count: int, width: int) -> tuple[list[int], list[list[Any]]]:
     """``rows`` in ``width`` columns of consecutive ticks: each column two points (its first and last tick) carrying
     its least and greatest number of each watch, in the order they came (``None`` for a column with none)."""
     n = len(ticks)
-    xs: list[int] = []
-    series: list[list[Any]] = [[] for _ in range(count)]
-    for c in range(width):
-        lo, hi = c * n // width, (c + 1) * n // width
-        if lo >= hi:
-            continue
-        xs += [ticks[lo], ticks[hi - 1]]
-        for k in range(count):
-            best: tuple[float, int] | None = None
-            worst: tuple[float, int] | None = None
-            for i in range(lo, hi):
-                v = _number(rows[i][k])
-                if v is None:
-                    continue
-                if best is None or v < best[0]:
-                    best = (v, i)
-                if worst is None or v > worst[0]:
-                    worst = (v, i)
-            if best is None or worst is None:
-                series[k] += [None, None]
-            else:
-                series[k] += [best[0], worst[0]] if best[1] <= worst[1] else [worst[0], best[0]]
+    bounds = [(c * n // width, (c + 1) * n // width) for c in range(width)]
+    bounds = [(lo, hi) for lo, hi in bounds if lo < hi]
+    xs = [t for lo, hi in bounds for t in (ticks[lo], ticks[hi - 1])]
+    series: list[list[Any]] = []
+    for k in range(count):
+        numbers = _numbers(rows, k)
+        out: list[Any] = []
+        for lo, hi in bounds:
+            part = numbers[lo:hi]
+            found = [v for v in part if v is not None]
+            if not found:
+                out += [None, None]
+                continue
+            least, most = min(found), max(found)
+            out += [least, most] if part.index(least) <= part.index(most) else [most, least]
+        series.append(out)
     return xs, series
 
 

@@ -100,6 +100,7 @@
         opened = true; attempts = 0;
         setControls(live);
         watchRows = []; hits = [];
+        asking = null; plotAsking = false; forgetExact();  // requests of a dropped socket get no answer
         if (live) send("watched", {}, function (r) { if (r.ok) { watchRows = []; addWatched(r.rows); } });
         if (!live) $("live-bar").classList.add("static");
       }
@@ -384,6 +385,7 @@
     return !!status && status.state === "running" && Math.abs(R.cursor() - R.end()) < 2 * (R.dt || 0.0125);
   }
   function askExact(tick) {
+    if (!ws || ws.readyState !== 1) return;
     if (asking !== null) { wanted = tick; return; }
     asking = tick; wanted = null;
     var key = exactKey;
@@ -441,6 +443,7 @@
     drawWatchPlot(false);
   }
   function askPlot() {  // every tick of the run so far (the server keeps the last 50,000 and reduces per pixel column)
+    if (!ws || ws.readyState !== 1) return;
     if (plotAsking) { plotWanted = true; return; }
     var box = $("watch-plot"), now = status ? status.tick : 0, key = exactKey;
     var from = plotRange ? Math.min(plotRange.from, now) : 0, to = plotRange ? Math.min(plotRange.to, now) : now;

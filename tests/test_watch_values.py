@@ -11,7 +11,18 @@ from typing import Any
 import pytest
 
 from fsm.session.session import Session, StopRules
-from test_live_rewind import LAP, ask, eeros_plan, eeros_session, lap_session, running, state_of, step_to, trace_lines
+from test_live_rewind import (
+    LAP,
+    ask,
+    compare_tick_by_tick,
+    eeros_plan,
+    eeros_session,
+    lap_session,
+    running,
+    state_of,
+    step_to,
+    trace_lines,
+)
 
 EXPRS = ["car_front", "car_left + car_right", "car_distance * 2", "car_speed < 0.5", "car_steering"]
 INJECTED = {"kind": "force", "sensor": "front", "value": 2.9, "ticks": 40}
@@ -78,11 +89,16 @@ def test_a_range_s_values_are_a_plain_run_s_tick_by_tick_and_the_run_is_untouche
         fronts = [plain[t][0] for t in range(0, 2401)]
         assert min(x for x in reduced["series"][0]) == min(fronts) and max(reduced["series"][0]) == max(fronts)
         assert set(reduced["series"][3]) <= {0.0, 1.0}
-        # asked or not, the run goes on the same, and writes the same trace
+        # asked or not, the run goes on the same, writes the same trace and keeps the same track; and a rewind to a
+        # snapshot between the one the values came from and the current tick finds it whole (its track too)
         step_to(subject, 2450)
         step_to(reference, 2450)
         assert state_of(subject.session) == state_of(reference.session)
         assert trace_lines(subject.session) == trace_lines(reference.session)
+        compare_tick_by_tick(subject, reference, 3)
+        for controller in (subject, reference):
+            ask(controller, "rewind", {"tick": 2300})
+        compare_tick_by_tick(subject, reference, 3)
 
 
 def test_values_across_a_hot_reload_are_those_of_the_reloaded_run() -> None:

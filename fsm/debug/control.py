@@ -589,9 +589,8 @@ class Controller:
         session = self.session
         snap = next((snap for snap in reversed(self.snapshots) if snap.tick <= first), None)
         if snap is not None and snap.extra.get("session") is session and exact_now(session):
-            with aside(session) as quiet:
-                restore(snap)
-                quiet()
+            with aside(session) as start:
+                start(snap)
                 given = {id(item) for _t, item in self.log}
                 session.keep_scheduled(lambda item: id(item) not in given)
                 for t, item in self.log:

@@ -16,11 +16,14 @@ tick in it).
 :func:`aside` lets the controller re-simulate from a snapshot in the run's own objects (a snapshot is restored in
 place) and give the run back as it was: the run's state now is snapshotted first and restored after, the recorder
 and the controller's listener detached meanwhile (no trace line is written twice; the session's observers are called
-as in a rewind's re-simulation: a live run has no video).
+as in a rewind's re-simulation: a live run has no video). What a snapshot shares with the run rather than copies
+(the track's array of points, which a restore cuts in place) is copied for the re-simulation, so neither the run
+nor its other snapshots lose what they hold.
 """
 
 from __future__ import annotations
 
+from array import array
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -29,7 +32,7 @@ from typing import TYPE_CHECKING, Any
 from fsm.debug.breakpoints import Watch
 from fsm.debug.reload import ReloadRefused, swap_machine
 from fsm.model.errors import DiagramError, StateRuntimeError
-from fsm.session.snapshot import restore, take
+from fsm.session.snapshot import Snapshot, restore, take
 
 if TYPE_CHECKING:
     from fsm.session.session import Session
@@ -163,27 +166,45 @@ def exact_now(session: Session) -> bool:
 
 
 @contextmanager
-def aside(session: Session) -> Iterator[Callable[[], None]]:
+def aside(session: Session) -> Iterator[Callable[[Snapshot], None]]:
     """Re-simulate in ``session``'s own objects and give it back as it is now (see the module docstring). The body
-    restores a snapshot, calls the function it is given (the recorder and the controller's listener off until the
-    end), and runs from there. Only between two ticks, on the loop's thread, when :func:`exact_now`."""
+    calls the function it is given with the snapshot to start from (restored, the recorder and the controller's
+    listener off until the end) and runs from there. Only between two ticks, on the loop's thread, when
+    :func:`exact_now`."""
     recorder = session.recorder
     out: Any = recorder.out if recorder is not None else None
     here = take([session], session.ticks, shared=[x for x in (out, session.machine.listeners) if x is not None])
     lists: list[tuple[list[Any], list[Any]]] = []
 
-    def quiet() -> None:
+    def start(snap: Snapshot) -> None:
+        restore(_own(snap))
         listeners = session.machine.listeners
         lists.append((listeners, list(listeners)))
         listeners[:] = [x for x in listeners if x is not session.recorder and not isinstance(x, Watch)]
         session.recorder = None
 
     try:
-        yield quiet
+        yield start
     finally:
         for listeners, saved in reversed(lists):
             listeners[:] = saved
         restore(here)
+
+
+def _own(snap: Snapshot) -> Snapshot:
+    """``snap`` with the arrays its hooks' states share with the run copied (the car's track keeps its points in
+    one array that only grows, and a restore of an older snapshot cuts it in place: the re-simulation works on a
+    copy, and the array the run and its other snapshots share stays whole)."""
+    return Snapshot(snap.tick, snap.entries, [(obj, _copied(state)) for obj, state in snap.hooks], snap.generators,
+                    snap.extra)
+
+
+def _copied(state: Any) -> Any:
+    if isinstance(state, array):
+        return array(state.typecode, state)
+    if type(state) is tuple:
+        return tuple(_copied(x) for x in state)
+    return state
 
 
 __all__ = ["MAX_COLUMNS", "MAX_RANGE", "Rows", "aside", "exact_now", "reduce_rows", "rows_between"]

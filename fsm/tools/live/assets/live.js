@@ -290,20 +290,25 @@
     if (t === "true") return true;
     if (t === "false") return false;
     if (t !== "" && isFinite(Number(t))) return Number(t);
+    if (/^[\[{]/.test(t)) { try { return JSON.parse(t); } catch (e) { /* not JSON: sent as the text it is */ } }
     return text;
+  }
+  function number(text) {  // "" or not a number: null, which the server refuses by name ("1e9" stays 1e9, not 1)
+    var t = text.trim(), n = Number(t);
+    return t === "" || !isFinite(n) ? null : n;
   }
   $("inject-form").addEventListener("submit", function (ev) {
     ev.preventDefault();
     var kind = $("inject-kind").value, a = $("inject-a").value.trim(), b = $("inject-b").value, c = $("inject-c").value, input;
     if (kind === "set") { input = { kind: "set", values: {} }; input.values[a] = value(b); }
     else if (kind === "signal") input = { kind: "signal", name: a, value: !/^(0|false|low|off)$/i.test(b.trim()) };
-    else if (kind === "force") input = { kind: "force", sensor: a, value: Number(b), ticks: parseInt(c, 10) };
+    else if (kind === "force") input = { kind: "force", sensor: a, value: number(b), ticks: number(c) };
     else if (kind === "monitor") input = { kind: "monitor", owner: a, monitor: b.trim() };
     else if (kind === "finish") input = { kind: "finish", path: a, outcome: b.trim() || "succeeded" };
     else input = { kind: "pause", path: a, paused: kind === "pause" };
     $("inject-error").hidden = true;  // until this one's answer
     send("input", { input: input }, function (m) {
-      var box = $("inject-error"), field = { name: "inject-a", value: "inject-b" }[m.field];
+      var box = $("inject-error"), field = { name: "inject-a", sensor: "inject-a", value: "inject-b", ticks: "inject-c" }[m.field];
       box.hidden = m.ok;
       box.textContent = m.ok ? "" : m.error;
       box.dataset.field = m.ok ? "" : (m.field || "");

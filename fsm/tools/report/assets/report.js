@@ -730,7 +730,11 @@
       var o = p.u.over, x = p.u.valToPos(cursor, "x");
       // only inside the plot's own area (its x scale can end before the cursor: the last sample is older)
       p.line.style.display = !isFinite(x) || x < 0 || x > o.clientWidth || cursor < w0() || cursor > w1() ? "none" : "";
-      p.line.style.left = (o.offsetLeft + x) + "px"; p.line.style.top = o.offsetTop + "px"; p.line.style.height = o.clientHeight + "px";
+      // where the plot area is inside the plot's box (offsetTop would be relative to uPlot's own wrapper, which
+      // put the line over the title and short of the x axis)
+      var box = p.div.getBoundingClientRect(), area = o.getBoundingClientRect();
+      p.line.style.left = (area.left - box.left - p.div.clientLeft + x) + "px";
+      p.line.style.top = (area.top - box.top - p.div.clientTop) + "px"; p.line.style.height = area.height + "px";
     });
   }
 

@@ -160,7 +160,7 @@
     var st = status, el = $("run-state");
     el.className = st.state;
     var text = st.state;
-    if (st.state === "ended") text += ": " + (st.ended === "finished" ? "finished with " + st.outcome : st.ended) + (st.error ? " (" + st.error + ")" : "");
+    if (st.state === "ended") text += ": " + (st.ended === "finished" ? "finished, outcome " + st.outcome : st.ended) + (st.error ? " (" + st.error + ")" : "");
     el.textContent = text;
     var tick = $("run-tick");
     tick.textContent = "tick " + st.tick + " (" + st.time.toFixed(3) + " s)" + (st.active.length ? "  " + st.active.join(", ") : "");
@@ -455,7 +455,8 @@
     var key = JSON.stringify(lines);
     if (key === logShown) return;
     logShown = key;
-    var body = $("log").tBodies[0];
+    var box = $("log"), body = box.tBodies[0];  // the table scrolls (#log-box table)
+    var atEnd = box.scrollTop + box.clientHeight >= box.scrollHeight - 4;  // the newest lines stay in view
     body.textContent = "";
     lines.forEach(function (l) {
       var row = body.insertRow(); row.className = "log-" + l[1]; row.dataset.tick = l[0]; row.dataset.kind = l[1];
@@ -464,6 +465,7 @@
       row.insertCell().textContent = l[2];
       row.addEventListener("click", function () { followEnd = null; R.setTime(l[0] * dt); showWatches(); });
     });
+    if (atEnd) box.scrollTop = box.scrollHeight;  // unless the user scrolled up to read
   }
   var cursorSeen = null;  // the watch values follow the cursor, wherever it was moved from
   setInterval(function () { var c = R.cursor(); if (c !== cursorSeen && status && (status.watches || []).length) { cursorSeen = c; showWatches(); } }, 200);

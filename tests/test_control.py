@@ -83,12 +83,13 @@ def test_every_input_is_a_line_of_the_trace_and_the_run_replays_from_it() -> Non
 
 
 def test_inputs_go_to_json_and_back_and_bad_ones_say_what_is_wrong() -> None:
-    for item in (SetVars({"n": 1, "s": "x"}), SetSignal("go", False), PauseState("a/b"), ForceSensor("front", 0.2, 40),
+    for item in (SetVars({"n": 1, "s": "x", "seen": ["a", "b"], "at": {"x": 1.5}}), SetSignal("go", False),
+                 PauseState("a/b"), ForceSensor("front", 0.2, 40),
                  FireMonitor("cycle", "jam"), FinishState("grip", "failed")):
         assert input_from_json(json.loads(json.dumps(input_to_json(item)))) == item
     for bad, words in [(None, "JSON object"), ({"kind": "explode"}, "unknown input kind"),
                        ({"kind": "set", "values": {"1x": 1}}, "not a name"),
-                       ({"kind": "set", "values": {"n": [1]}}, "a value is"),
+                       ({"kind": "set", "values": {"n": [[1]]}}, "a value is"),
                        ({"kind": "force", "sensor": "roof", "value": 1, "ticks": 1}, "'sensor' must be"),
                        ({"kind": "force", "sensor": "left", "value": float("nan"), "ticks": 1}, "finite"),
                        ({"kind": "force", "sensor": "left", "value": 1, "ticks": 0}, "'ticks'"),
@@ -351,6 +352,47 @@ def test_an_injected_value_is_checked_like_a_document(lap: Any, values: dict[str
     controller.send("step", {"n": 5})
     snap = wait(controller, lambda s: s["tick"] == 5 and s["state"] == "paused")
     assert snap["inputs"] == [[1, "set probe = 3"]] and snap["ended"] is None
+
+
+@pytest.mark.parametrize(("force", "field", "words"), [
+    ({"sensor": "front", "value": 1e308, "ticks": 5}, "value", "force front: 1e+308 m is not a reading a car gives"),
+    ({"sensor": "speed", "value": -50, "ticks": 5}, "value", "from -20 to 20 m/s"),
+    ({"sensor": "front", "value": 0.3, "ticks": 10**9}, "ticks", "force front: 'ticks' must be a whole number"),
+    ({"sensor": "front", "value": 0.3, "ticks": 2.5}, "ticks", "got 2.5"),
+    ({"sensor": "front", "value": None, "ticks": 5}, "value", "'value' must be a finite number, got None"),
+    ({"sensor": "roof", "value": 1, "ticks": 5}, "sensor", "'sensor' must be one of"),
+])
+def test_a_forced_reading_no_car_gives_is_refused_at_its_field(lap: Any, force: dict[str, Any], field: str,
+                                                               words: str) -> None:
+    """A page's "1e9" ticks once became 1 tick, and a front reading of 1e308 m was taken (issue 33's tryout): each
+    is refused, naming the field, and nothing is submitted."""
+    controller, _ = lap
+    controller.send("input", {"input": {"kind": "force", **force}}, 1)
+    wait(controller, lambda s: bool(replies(controller)))
+    answer = replies(controller)[0]
+    assert not answer["ok"] and answer["field"] == field and words in answer["error"], answer
+    controller.send("step", {"n": 3})
+    snap = wait(controller, lambda s: s["tick"] == 3 and s["state"] == "paused")
+    assert snap["inputs"] == [] and snap["ended"] is None
+
+
+def test_a_list_variable_takes_a_list_of_its_kind(lap: Any) -> None:
+    """A list variable was refused whatever the page sent, and told to "inject a list", which the page could not
+    write. A list of the kind it holds is taken (whole numbers given as 2.0 made 2); one of another kind is not."""
+    controller, _ = lap
+    controller.session.machine.ctx.vars["gates"] = [1]
+    controller.send("input", {"input": {"kind": "set", "values": {"gates": [1, "x"]}}}, 1)
+    controller.send("input", {"input": {"kind": "set", "values": {"gates": 3}}}, 2)
+    controller.send("input", {"input": {"kind": "set", "values": {"gates": [2.0, 3]}}}, 3)
+    wait(controller, lambda s: len(replies(controller)) == 3)
+    answers = {r["id"]: r for r in replies(controller)}
+    assert not answers[1]["ok"] and answers[1]["field"] == "value"
+    assert "written as JSON, such as [1]" in answers[2]["error"]
+    assert answers[3]["ok"], answers[3]
+    controller.send("step", {"n": 2})
+    snap = wait(controller, lambda s: s["tick"] == 2 and s["state"] == "paused")
+    assert snap["inputs"] == [[1, "set gates = [2, 3]"]] and snap["ended"] is None
+    assert controller.session.machine.ctx.vars["gates"] == [2, 3]
 
 
 def test_a_signal_no_condition_reads_is_refused_and_one_it_reads_is_taken() -> None:

@@ -233,7 +233,7 @@ def test_an_injected_variable_makes_the_run_diverge_and_the_trace_replays_it(bro
     shown = page.drawn_at(41)
     assert shown["active"] == ["<img src=x onerror=alert(1)>"] and shown["vars"] == {"n": 60}
     assert "outcome over" not in (page.page.text_content("#meta") or "")  # the end line comes with Stop
-    assert page.page.text_content("#run-state") == "ended: finished with over"
+    assert page.page.text_content("#run-state") == "ended: finished, outcome over"
     assert page.page.text_content("#active") == "<img src=x onerror=alert(1)>"
     assert page.page.evaluate("document.querySelectorAll('#chart img, #active img, #meta img').length") == 0
     assert page.page.eval_on_selector_all("#inputs tbody tr", "rows => rows.map(r => r.textContent)") == \
@@ -277,7 +277,7 @@ def test_a_hot_reload_shows_a_broken_file_located_and_swaps_a_fixed_one(browser:
     page.page.select_option("#run-speed", "max")
     page.page.click("#run-resume")
     page.until("(window.tralLive.status() || {}).state === 'ended'")
-    assert page.page.text_content("#run-state") == "ended: finished with done"
+    assert page.page.text_content("#run-state") == "ended: finished, outcome done"
     assert page.page.eval_on_selector_all("#inputs tbody tr", "rows => rows.map(r => r.textContent)") == \
         [f"42reload of {machine}: kept count"]
     page.page.screenshot(path=str(tmp_path / "reload-swapped.png"))

@@ -77,16 +77,35 @@ def test_a_tick_the_trace_does_not_have_is_one_message(lap_trace: Path, args: li
     assert code == 1 and words in err and "Traceback" not in err and out == ""
 
 
-def test_a_trace_whose_world_changed_since_is_told_not_explained(lap_trace: Path, tmp_path: Path,
-                                                               capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_trace_is_explained_from_its_header_world_from_any_folder(lap_trace: Path, tmp_path: Path,
+                                                                   monkeypatch: pytest.MonkeyPatch,
+                                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    """The header holds the world as the run loaded it: a trace whose world file is named relative to another
+    folder, or was changed since, is re-simulated as it ran (issue 33's tryout: ``cd / && fsmctl explain`` said
+    "world file not found")."""
     text = lap_trace.read_text().splitlines()
     header = json.loads(text[0])
     world = json.loads(Path(header["world_file"]).read_text())
-    world["start"]["y"] = 0.7  # the car starts elsewhere: another run
+    world["start"]["y"] = 0.7  # the file now says another start: not the run's
     world.pop("$schema", None)
-    other = tmp_path / "world.json"
-    other.write_text(json.dumps(world))
-    header["world_file"] = str(other)
+    (tmp_path / "worlds").mkdir()
+    (tmp_path / "worlds" / "hallway.json").write_text(json.dumps(world))
+    header["world_file"] = "worlds/hallway.json"
+    moved = tmp_path / "moved.jsonl"
+    moved.write_text("\n".join([json.dumps(header), *text[1:]]) + "\n")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    code, out, err = cli(capsys, "explain", str(moved), "--tick", "828")
+    assert code == 0, err
+    assert out.splitlines()[-1] == "  fired: lap1/bottom_slow -> lap1/bottom_turn"
+
+
+def test_a_trace_whose_world_is_not_the_runs_is_told_not_explained(lap_trace: Path, tmp_path: Path,
+                                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    text = lap_trace.read_text().splitlines()
+    header = json.loads(text[0])
+    header["world"]["start"]["y"] = 0.7  # the car starts elsewhere: another run
     changed = tmp_path / "changed.jsonl"
     changed.write_text("\n".join([json.dumps(header), *text[1:]]) + "\n")
     code, _out, err = cli(capsys, "explain", str(changed), "--tick", "828")

@@ -8,6 +8,8 @@ import asyncio
 import http.client
 import json
 import socket
+import threading
+import time
 from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
@@ -121,6 +123,32 @@ def test_ctrl_c_ends_the_server_and_keeps_the_trace(counter: Path, tmp_path: Pat
         live.close()
     assert code == 130
     assert read_trace(trace).end["interrupted"] is True  # type: ignore[index]
+
+
+def test_ctrl_c_tells_a_page_the_runs_last_tick_and_that_it_stopped(counter: Path, tmp_path: Path) -> None:
+    """A page watching a run that Ctrl-C stops gets the trace's last lines and a last status that says "stopped",
+    then the bye (issue 33's tryout: the page went on saying "running tick 124" when the trace had 126)."""
+    trace = tmp_path / "t.jsonl"
+    live = Live(str(counter), "--trace", str(trace))
+    got: list[Any] = []
+    try:
+        url = live.base.replace("http", "ws") + f"/ws?token={live.token}"
+        listener = threading.Thread(target=lambda: got.extend(asyncio.run(socket_talk(url, []))), daemon=True)
+        listener.start()
+        time.sleep(0.5)  # the run, at real time, ends by itself after 2 s: stopped well before
+        code, _out, _err = live.interrupt()
+        listener.join(10)
+    finally:
+        live.close()
+    assert code == 130
+    texts = [json.loads(m) for m in got if isinstance(m, str)]
+    statuses = [t for t in texts if t["kind"] == "status"]
+    assert texts[-1]["kind"] == "bye" and "Ctrl-C" in texts[-1]["why"]
+    end = read_trace(trace).end
+    assert end is not None and statuses[-1]["state"] == "stopped" and statuses[-1]["tick"] == end["tick"], statuses
+    lines = b"".join(m for m in got if isinstance(m, bytes)).decode().splitlines()
+    written = trace.read_text().splitlines()
+    assert lines == written[:len(lines)] and len(lines) >= len(written) - 1  # all but the end line, written after
 
 
 def test_a_port_in_use_is_one_message_naming_it(counter: Path, tmp_path: Path,

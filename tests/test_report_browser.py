@@ -129,6 +129,15 @@ def test_the_report_replays_the_trace_at_the_dragged_cursor(mission_report: tupl
                 checked += 1
             p.page.mouse.up()
             assert checked == 7 and p.current()["time"] > 0.9 * trace.end["time"]
+            # each plot's cursor line runs from the top of its plot area to its x axis, at the cursor's time (it
+            # once started over the title and stopped short of the axis)
+            for line, area in p.page.eval_on_selector_all(".plot", """plots => plots.map(d => {
+                const l = d.querySelector('.cursor').getBoundingClientRect();
+                const a = d.querySelector('.u-over').getBoundingClientRect();
+                return [[l.top, l.bottom, l.left], [a.top, a.bottom, a.left, a.right]];
+            })"""):
+                assert line[:2] == pytest.approx(area[:2], abs=1), (line, area)
+                assert area[2] <= line[2] <= area[3]
 
             # Home, then Right: the first transition after the initial entries; Left goes back
             p.page.keyboard.press("Home")

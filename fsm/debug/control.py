@@ -123,6 +123,8 @@ class Controller:
         #: the last breakpoint hit (or step that ended at a transition), shown until the run goes on
         self.hit: dict[str, Any] | None = None
         self.quit = False
+        #: the loop has returned (Stop, Ctrl-C): its last status says "stopped", not "running"
+        self.stopped = False
         #: replies to commands and notices, for whoever watches (taken from the left)
         self.messages: deque[dict[str, Any]] = deque()
         self.snapshot: dict[str, Any] = {}
@@ -209,6 +211,7 @@ class Controller:
             self._run(ticks)
             self._snapshot()
             self._publish()
+        self.stopped = True  # the last status says so: a page must not go on showing "running"
         self._publish()
 
     def _start(self) -> None:
@@ -901,6 +904,8 @@ class Controller:
             self._note_watches(session)  # the ticks a page can show, and only those
         if self.ended is not None:
             state = "ended"
+        elif self.stopped:
+            state = "stopped"
         elif self.paused and not self._budget:
             state = "paused"
         else:

@@ -14,7 +14,7 @@ from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any
 
 from fsm.loading.checking import value_kind
-from fsm.session.inputs import InputError, check_input
+from fsm.session.inputs import ForceSensor, InputError, check_input
 from fsm.session.session import Input, SetSignal, SetVars
 
 if TYPE_CHECKING:
@@ -24,10 +24,14 @@ if TYPE_CHECKING:
 class Refused(InputError):
     """An injection refused: ``message`` says why, ``field`` which field (``name``, ``value`` or ``None``)."""
 
-    def __init__(self, message: str, field: str | None = None) -> None:
-        super().__init__(message)
-        self.message = message
-        self.field = field
+
+#: What each forceable reading can be on a car of ours, and in what unit: the sonars' range (a world allows at
+#: most 10 m), the odometer's distance and the speed (a world allows at most 20 m/s). A force outside it is a
+#: reading no car gives, so the machine would be tested against something that cannot happen.
+FORCE_LIMITS: dict[str, tuple[float, float, str]] = {
+    "left": (0.0, 10.0, "m"), "right": (0.0, 10.0, "m"), "front": (0.0, 10.0, "m"),
+    "distance": (0.0, 1e6, "m"), "speed": (-20.0, 20.0, "m/s"),
+}
 
 
 def kind_of(value: Any) -> str:
@@ -43,6 +47,11 @@ def fits(current: Any, value: Any) -> bool:
     """Whether ``value`` may replace ``current`` (a variable's value now) without changing what it is."""
     if current is None:
         return isinstance(value, (bool, int, float, str))  # unset yet: any plain value
+    if isinstance(current, list):  # a list stays a list of what it holds (any plain values while it is empty)
+        return isinstance(value, list) and all(fits(current[0] if current else None, item) for item in value)
+    if isinstance(current, dict):  # an object keeps its keys, each value of its kind
+        return (isinstance(value, dict) and value.keys() == current.keys()
+                and all(fits(current[key], item) for key, item in value.items()))
     if isinstance(current, bool) or isinstance(value, bool):
         return isinstance(current, bool) and isinstance(value, bool)
     if isinstance(current, int):
@@ -51,7 +60,7 @@ def fits(current: Any, value: Any) -> bool:
         return isinstance(value, (int, float))
     if isinstance(current, str):
         return isinstance(value, str)
-    return False  # a list, an object, anything else: not from a form's field
+    return False
 
 
 def _nearest(name: str, known: Iterable[str]) -> str:
@@ -81,9 +90,16 @@ def check_injection(item: Input, machine: Machine, signals: Iterable[str]) -> In
             current = variables[name]
             if not fits(current, value):
                 raise Refused(f"set {name}: '{name}' holds {kind_of(current)} ({_short(current)}); {_short(value)} is "
-                              f"{kind_of(value)}. Inject {kind_of(current)}, or change the document", "value")
-            values[name] = int(value) if isinstance(current, int) and not isinstance(current, bool) else value
+                              f"{kind_of(value)}. Inject {kind_of(current)}{_written(current)}, or change the "
+                              "document", "value")
+            values[name] = _as_current(current, value)
         return SetVars(values)
+    if isinstance(item, ForceSensor):
+        low, high, unit = FORCE_LIMITS[item.sensor]
+        if not low <= item.value <= high:
+            raise Refused(f"force {item.sensor}: {item.value:g} {unit} is not a reading a car gives; force "
+                          f"{item.sensor} to a value from {low:g} to {high:g} {unit}", "value")
+        return item
     if isinstance(item, SetSignal):
         read = sorted(set(signals))
         if item.name not in read:
@@ -92,9 +108,29 @@ def check_injection(item: Input, machine: Machine, signals: Iterable[str]) -> In
     return item
 
 
+def _written(current: Any) -> str:
+    """How the page's value field takes a value like ``current`` when it is not a plain one."""
+    if isinstance(current, list):
+        return " written as JSON, such as " + (f"[{_short(current[0])}]" if current else "[]")
+    if isinstance(current, dict):
+        return " written as JSON with the keys " + ", ".join(sorted(map(str, current)))
+    return ""
+
+
+def _as_current(current: Any, value: Any) -> Any:
+    """``value`` in ``current``'s form: a whole number given as ``3.0`` made ``3``, in a list or object too."""
+    if isinstance(current, int) and not isinstance(current, bool):
+        return int(value)
+    if isinstance(current, list) and current:
+        return [_as_current(current[0], item) for item in value]
+    if isinstance(current, dict):
+        return {key: _as_current(current[key], item) for key, item in value.items()}
+    return value
+
+
 def _short(value: Any) -> str:
     text = repr(value)
     return text if len(text) <= 40 else text[:37] + "..."
 
 
-__all__ = ["Refused", "check_injection", "fits", "kind_of"]
+__all__ = ["FORCE_LIMITS", "Refused", "check_injection", "fits", "kind_of"]

@@ -39,7 +39,13 @@ MAX_FORCE_TICKS = 10_000_000
 
 
 class InputError(ValueError):
-    """An input that cannot be applied or read back; the message says which field and why."""
+    """An input that cannot be applied or read back; the message says which field and why, ``field`` names it
+    (the input's key, for a form to point at) when one field is wrong."""
+
+    def __init__(self, message: str, field: str | None = None) -> None:
+        super().__init__(message)
+        self.message = message
+        self.field = field
 
 
 # -- faults ----------------------------------------------------------------------------------------------------
@@ -216,11 +222,25 @@ def _set(data: Mapping[str, Any]) -> Input:
     for name, value in values.items():
         if not isinstance(name, str) or not name.isidentifier():
             raise InputError(f"variable name {name!r} is not a name (letters, digits, _)")
-        if isinstance(value, float) and not math.isfinite(value):
-            raise InputError(f"variable {name}: {value!r} is not a finite number")
-        if not isinstance(value, (bool, int, float, str)):
-            raise InputError(f"variable {name}: a value is a number, true/false or a text")
+        why = _not_plain(value, 2)
+        if why:
+            raise InputError(f"variable {name}: {why}", "value")
     return SetVars(dict(values))
+
+
+def _not_plain(value: Any, depth: int) -> str:
+    """Why ``value`` is not a value a variable may be set to ('' when it is): a number (finite), true/false, a
+    text, or a list or object of those (one level deep, at most 1,000 items)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return f"{value!r} is not a finite number"
+    if isinstance(value, (bool, int, float)) or (isinstance(value, str) and len(value) <= 1000):
+        return ""
+    if depth > 1 and isinstance(value, (list, Mapping)) and len(value) <= 1000:
+        items = value.values() if isinstance(value, Mapping) else value
+        if isinstance(value, Mapping) and not all(isinstance(key, str) for key in value):
+            return "an object's keys are texts"
+        return next((why for why in (_not_plain(item, depth - 1) for item in items) if why), "")
+    return "a value is a number, true/false, a text of at most 1,000 characters, or a list or object of those"
 
 
 def _signal(data: Mapping[str, Any]) -> Input:
@@ -234,12 +254,13 @@ def _pause(data: Mapping[str, Any]) -> Input:
 def _force(data: Mapping[str, Any]) -> Input:
     sensor = data.get("sensor")
     if sensor not in FORCEABLE:
-        raise InputError(f"'sensor' must be one of {', '.join(FORCEABLE)}")
+        raise InputError(f"force {sensor}: 'sensor' must be one of {', '.join(FORCEABLE)}", "sensor")
     value, ticks = data.get("value"), data.get("ticks")
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise InputError("'value' must be a finite number")
+        raise InputError(f"force {sensor}: 'value' must be a finite number, got {value!r}", "value")
     if isinstance(ticks, bool) or not isinstance(ticks, int) or not 1 <= ticks <= MAX_FORCE_TICKS:
-        raise InputError(f"'ticks' must be a whole number from 1 to {MAX_FORCE_TICKS}")
+        raise InputError(f"force {sensor}: 'ticks' must be a whole number from 1 to {MAX_FORCE_TICKS:,}, got "
+                         f"{ticks!r}", "ticks")
     return ForceSensor(str(sensor), float(value), ticks)
 
 

@@ -4,8 +4,9 @@ The run is built again from what the trace's header holds (the machine's documen
 noise, the tick), its recorded inputs scheduled at their ticks, and run to just before tick N, as the live
 debugger's rewind does; then tick N is run with every check of the active states' transitions kept
 (:mod:`fsm.debug.explain`). The re-simulation is compared with the trace: the states active before N and what
-fired at N must be what the trace says, or the command says where they part (a world file changed since, a run
-of another version).
+fired at N must be what the trace says, or the command says where they part (a type's code changed since, a run
+of another version). The machine and the world come from the header, so the files they were read from may have
+moved or changed.
 """
 
 from __future__ import annotations
@@ -52,8 +53,14 @@ def rebuild(trace: Any) -> Any:
     try:
         if header.get("world_file") or header.get("world"):
             from fsm.sim import simulate
+            from fsm.sim.world import parse_world
 
-            session = simulate(document, world=header.get("world_file"), seed=int(header.get("seed") or 0),
+            # the world as the run loaded it, from the header: a trace explains from any folder, and a world
+            # file changed since does not change the run (a header without it names the world's file)
+            world = header.get("world")
+            world = (parse_world(world, f"{trace.name}: the header's world") if isinstance(world, dict)
+                     else header.get("world_file"))
+            session = simulate(document, world=world, seed=int(header.get("seed") or 0),
                                noise=bool(header.get("noise", True)), dt=float(dt) if dt else None)
         else:
             session = Session.open(document, dt=float(dt) if dt else None)
@@ -81,13 +88,13 @@ def explain_trace(trace: Any, tick: int) -> Any:
         session.run(stop_rules=StopRules(max_ticks=tick - 1))
     if session.ticks != tick - 1:
         raise FsmError(f"{trace.name}: the re-simulated run ended at tick {session.ticks}, before tick {tick}: it "
-                       "is not the run the trace recorded (a world or machine file changed since?)")
+                       "is not the run the trace recorded (a type's code or tral-fsm changed since?)")
     active = session.machine.active_paths
     recorded = trace.at(tick - 1)[0]
     if sorted(active) != sorted(recorded):
         raise FsmError(f"{trace.name}: at tick {tick - 1} the re-simulated run is in {', '.join(active)}, the trace "
-                       f"says {', '.join(recorded)}: it is not the run the trace recorded (a world or machine file "
-                       "changed since?)")
+                       f"says {', '.join(recorded)}: it is not the run the trace recorded (a type's code or "
+                       "tral-fsm changed since?)")
     signals = {str(i["input"].get("name")) for i in trace.inputs if i.get("input", {}).get("kind") == "signal"}
     explanation = explain_next(session, sorted(signals | set(session.machine.ctx.signals)))
     fired = sorted(f"{t['from']} -> {t['to']}" for e in trace.events if e["tick"] == tick

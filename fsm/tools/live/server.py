@@ -155,6 +155,11 @@ class _Client:
     number: int
     wake: asyncio.Event = field(default_factory=asyncio.Event)
     outbox: list[dict[str, Any]] = field(default_factory=list)
+    #: what this page has been sent: the trace buffer and how far into it, the last status's number
+    buffer: LineBuffer | None = None
+    cursor: int = 0
+    seq: int = -1
+    sender: asyncio.Task[None] | None = None
 
 
 class LiveServer:
@@ -219,7 +224,11 @@ class LiveServer:
             await asyncio.wait({self._pump}, timeout=1.0)
         bye = json.dumps({"kind": "bye", "why": why})
         for client in list(self.clients.values()):
+            if client.sender is not None:  # this page's last lines and status come from here, then the bye
+                client.sender.cancel()
+                await asyncio.wait({client.sender}, timeout=1.0)
             try:
+                await asyncio.wait_for(self._flush(client), 1.0)
                 await asyncio.wait_for(client.ws.send_str(bye), 1.0)
             except (ConnectionError, RuntimeError, asyncio.TimeoutError):
                 pass  # that page has gone already
@@ -247,7 +256,7 @@ class LiveServer:
         self.clients[client.number] = client
         if self._wake is not None:
             self._wake.set()  # the pump looks at the run at its page rate again
-        sender = asyncio.create_task(self._send_loop(client))
+        sender = client.sender = asyncio.create_task(self._send_loop(client))
         try:
             async for msg in ws:
                 if msg.type == WSMsgType.TEXT:
@@ -344,33 +353,11 @@ class LiveServer:
         for it, the status when it changed."""
         loop = asyncio.get_running_loop()
         ws = client.ws
-        buffer: LineBuffer | None = None
-        cursor = 0
-        seq = -1
         try:
             await ws.send_str(json.dumps({"kind": "hello", "live": self.source.controller is not None}))
             while not ws.closed:
                 started = loop.time()
-                controller = self.source.controller
-                snapshot = controller.snapshot if controller is not None else None
-                # what the run said before this status goes first (a step's reply before the status after it): the
-                # sender no longer waits between two sends while the run is paused, so it does not wait for the pump
-                self._dispatch()
-                current = self.source.buffer
-                if current is not buffer:
-                    if buffer is not None:  # a rewind: the page starts again, and is told the status again after
-                        await ws.send_str('{"kind":"reset"}')
-                        seq = -1
-                    buffer, cursor = current, 0
-                text, cursor = current.since(cursor)
-                if text:
-                    await ws.send_bytes(text.encode("utf-8"))
-                outbox, client.outbox = client.outbox, []
-                for message in _batched(outbox):
-                    await ws.send_str(dumps(message))
-                if snapshot is not None and snapshot.get("seq") != seq:
-                    seq = snapshot["seq"]
-                    await ws.send_str(json.dumps({"kind": "status", **snapshot}, allow_nan=False, default=str))
+                snapshot = await self._flush(client)
                 await asyncio.sleep(_pause_before_next(snapshot, loop.time() - started))
                 if snapshot is not None and snapshot.get("state") == "running":
                     client.wake.clear()  # a running run: looked at again at the page's rate, woken or not
@@ -379,6 +366,33 @@ class LiveServer:
                 client.wake.clear()
         except (ConnectionError, asyncio.CancelledError, RuntimeError):
             return
+
+
+    async def _flush(self, client: _Client) -> dict[str, Any] | None:
+        """Send ``client`` what it has not had: the trace's new lines, the messages for it, the status if it
+        changed. Gives the status looked at (``None`` for a finished run's trace)."""
+        ws = client.ws
+        controller = self.source.controller
+        snapshot = controller.snapshot if controller is not None else None
+        # what the run said before this status goes first (a step's reply before the status after it): the sender
+        # no longer waits between two sends while the run is paused, so it does not wait for the pump
+        self._dispatch()
+        current = self.source.buffer
+        if current is not client.buffer:
+            if client.buffer is not None:  # a rewind: the page starts again, and is told the status again after
+                client.buffer, client.seq = current, -1
+                await ws.send_str('{"kind":"reset"}')
+            client.buffer, client.cursor = current, 0
+        text, client.cursor = current.since(client.cursor)
+        if text:
+            await ws.send_bytes(text.encode("utf-8"))
+        outbox, client.outbox = client.outbox, []
+        for message in _batched(outbox):
+            await ws.send_str(dumps(message))
+        if snapshot is not None and snapshot.get("seq") != client.seq:
+            client.seq = snapshot["seq"]
+            await ws.send_str(json.dumps({"kind": "status", **snapshot}, allow_nan=False, default=str))
+        return snapshot
 
 
 def _batched(messages: list[dict[str, Any]]) -> list[dict[str, Any]]:

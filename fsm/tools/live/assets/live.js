@@ -162,7 +162,7 @@
     var st = status, el = $("run-state");
     el.className = st.state;
     var text = st.state;
-    if (st.state === "ended") text += ": " + (st.ended === "finished" ? "finished with " + st.outcome : st.ended) + (st.error ? " (" + st.error + ")" : "");
+    if (st.state === "ended") text += ": " + (st.ended === "finished" ? "finished, outcome " + st.outcome : st.ended) + (st.error ? " (" + st.error + ")" : "");
     el.textContent = text;
     var tick = $("run-tick");
     tick.textContent = "tick " + st.tick + " (" + st.time.toFixed(3) + " s)" + (st.active.length ? "  " + st.active.join(", ") : "");
@@ -292,20 +292,25 @@
     if (t === "true") return true;
     if (t === "false") return false;
     if (t !== "" && isFinite(Number(t))) return Number(t);
+    if (/^[\[{]/.test(t)) { try { return JSON.parse(t); } catch (e) { /* not JSON: sent as the text it is */ } }
     return text;
+  }
+  function number(text) {  // "" or not a number: null, which the server refuses by name ("1e9" stays 1e9, not 1)
+    var t = text.trim(), n = Number(t);
+    return t === "" || !isFinite(n) ? null : n;
   }
   $("inject-form").addEventListener("submit", function (ev) {
     ev.preventDefault();
     var kind = $("inject-kind").value, a = $("inject-a").value.trim(), b = $("inject-b").value, c = $("inject-c").value, input;
     if (kind === "set") { input = { kind: "set", values: {} }; input.values[a] = value(b); }
     else if (kind === "signal") input = { kind: "signal", name: a, value: !/^(0|false|low|off)$/i.test(b.trim()) };
-    else if (kind === "force") input = { kind: "force", sensor: a, value: Number(b), ticks: parseInt(c, 10) };
+    else if (kind === "force") input = { kind: "force", sensor: a, value: number(b), ticks: number(c) };
     else if (kind === "monitor") input = { kind: "monitor", owner: a, monitor: b.trim() };
     else if (kind === "finish") input = { kind: "finish", path: a, outcome: b.trim() || "succeeded" };
     else input = { kind: "pause", path: a, paused: kind === "pause" };
     $("inject-error").hidden = true;  // until this one's answer
     send("input", { input: input }, function (m) {
-      var box = $("inject-error"), field = { name: "inject-a", value: "inject-b" }[m.field];
+      var box = $("inject-error"), field = { name: "inject-a", sensor: "inject-a", value: "inject-b", ticks: "inject-c" }[m.field];
       box.hidden = m.ok;
       box.textContent = m.ok ? "" : m.error;
       box.dataset.field = m.ok ? "" : (m.field || "");
@@ -534,7 +539,8 @@
     var key = JSON.stringify(lines);
     if (key === logShown) return;
     logShown = key;
-    var body = $("log").tBodies[0];
+    var box = $("log"), body = box.tBodies[0];  // the table scrolls (#log-box table)
+    var atEnd = box.scrollTop + box.clientHeight >= box.scrollHeight - 4;  // the newest lines stay in view
     body.textContent = "";
     lines.forEach(function (l) {
       var row = body.insertRow(); row.className = "log-" + l[1]; row.dataset.tick = l[0]; row.dataset.kind = l[1];
@@ -543,6 +549,7 @@
       row.insertCell().textContent = l[2];
       row.addEventListener("click", function () { followEnd = null; R.setTime(l[0] * dt); showWatches(); });
     });
+    if (atEnd) box.scrollTop = box.scrollHeight;  // unless the user scrolled up to read
   }
   var cursorSeen = null;  // the watch values follow the cursor, wherever it was moved from
   setInterval(function () { var c = R.cursor(); if (c !== cursorSeen && status && (status.watches || []).length) { cursorSeen = c; showWatches(); } }, 200);

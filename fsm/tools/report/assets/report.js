@@ -561,7 +561,7 @@
   window.addEventListener("mouseup", function () { dragging = false; });
 
   // -- map -------------------------------------------------------------------------------------------------
-  var map = $("map"), mapBg = document.createElement("canvas"), view = null;
+  var map = $("map"), mapBg = document.createElement("canvas"), view = null, SCALE_STRIP = 20;
   function drawMapBg() {
     trackDrawn = 0;
     map.dataset.redrawn = String((map.dataset.redrawn | 0) + 1);  // whole redraws (tests: a step adds to the track)
@@ -576,6 +576,8 @@
     var s = w / (x1 - x0), h = Math.min(Math.max((y1 - y0) * s, 120), 700);
     s = Math.min(s, h / (y1 - y0));
     view = { s: s, x0: x0, y1: y1 };
+    var world = h;  // the world's part; below it a strip for the scale bar, clear of the walls at the map's edge
+    if (D.map) h += SCALE_STRIP;
     map.style.height = h + "px";
     resize([map, mapBg], Math.round(w * ratio), Math.round(h * ratio));
     var c = mapBg.getContext("2d");
@@ -605,9 +607,9 @@
       c.fillStyle = "#07a";
       D.map.markers.forEach(function (m) { c.fillRect(X(m.p[0]) - 3, Y(m.p[1]) - 3, 6, 6); label("#" + m.id, X(m.p[0]) + 4, Y(m.p[1]) - 4); });
     }
-    if (D.map) {  // a scale bar in metres (1, 2, 5, 10 ...: about a fifth of the map's width), bottom left
+    if (D.map) {  // a scale bar in metres (1, 2, 5, 10 ...: about a fifth of the map's width), below the world, left
       var metres = [0.5, 1, 2, 5, 10, 20, 50, 100].filter(function (m) { return m * s <= w / 4; }).pop() || 0.5;
-      var bx = 8, by = h - 8;
+      var bx = 8, by = world + SCALE_STRIP - 6;
       c.strokeStyle = "#222"; c.lineWidth = 2; c.beginPath();
       c.moveTo(bx, by - 4); c.lineTo(bx, by); c.lineTo(bx + metres * s, by); c.lineTo(bx + metres * s, by - 4); c.stroke();
       c.fillStyle = "#222"; c.font = "10px Helvetica, Arial, sans-serif";
@@ -730,7 +732,11 @@
       var o = p.u.over, x = p.u.valToPos(cursor, "x");
       // only inside the plot's own area (its x scale can end before the cursor: the last sample is older)
       p.line.style.display = !isFinite(x) || x < 0 || x > o.clientWidth || cursor < w0() || cursor > w1() ? "none" : "";
-      p.line.style.left = (o.offsetLeft + x) + "px"; p.line.style.top = o.offsetTop + "px"; p.line.style.height = o.clientHeight + "px";
+      // where the plot area is inside the plot's box (offsetTop would be relative to uPlot's own wrapper, which
+      // put the line over the title and short of the x axis)
+      var box = p.div.getBoundingClientRect(), area = o.getBoundingClientRect();
+      p.line.style.left = (area.left - box.left - p.div.clientLeft + x) + "px";
+      p.line.style.top = (area.top - box.top - p.div.clientTop) + "px"; p.line.style.height = area.height + "px";
     });
   }
 

@@ -243,6 +243,18 @@ def test_every_control_as_a_person_uses_it(browser: Any, tmp_path: Path) -> None
     # -- why: the panel, opened while paused, says what the last tick did (compared with explain below) ------------
     p.click("#why-box summary")
     page.until(f"document.getElementById('why-box').dataset.tick === '{last['tick']}'")
+    # while the run goes on, the panel says that what it shows is an earlier tick's; at the next pause, this one's
+    # (the cursor stays where the log line put it: the statuses are waited for, not the cursor)
+    p.select_option("#run-speed", "1")
+    page.until("window.tralLive.status().speed === 1")
+    p.click("#run-resume")
+    page.until("document.getElementById('why').classList.contains('stale')")
+    assert f"below is tick {last['tick']}" in (p.text_content("#why-info") or "")
+    p.click("#run-pause")
+    page.until(f"window.tralLive.status().state === 'paused' && window.tralLive.status().tick > {last['tick']}")
+    last = page.status()
+    page.until(f"document.getElementById('why-box').dataset.tick === '{last['tick']}' && "
+               "!document.getElementById('why').classList.contains('stale')")
     why_rows = p.eval_on_selector_all("#why tbody tr:not(.state)", "rows => rows.map(r => r.dataset.verdict)")
     p.screenshot(path=str(tmp_path / "controls.png"))
     assert page.until(wide)  # after breakpoints, rewinds and a reconnect, the page is no wider than the window

@@ -323,7 +323,17 @@
   var whyAsked = null;
   function askWhy() {
     if ($("why-box").open && !live) { $("why-info").textContent = "A finished run's trace: fsmctl explain TRACE --tick N says why a tick did what it did."; return; }
-    if (!$("why-box").open || !status || status.state === "running") return;
+    if (!$("why-box").open || !status) return;
+    if (status.state === "running") {  // what is shown was asked at a pause: said to be old, dimmed, asked anew
+      if ($("why-box").dataset.tick && !$("why").classList.contains("stale")) {
+        $("why").classList.add("stale");
+        $("why-info").className = "";
+        $("why-info").textContent = "The run has gone on: below is tick " + $("why-box").dataset.tick +
+          ". Why is asked again when the run pauses.";
+      }
+      whyAsked = null;
+      return;
+    }
     if (status.tick < 1) { $("why-info").textContent = "No tick has run yet: step once, and Why says what it did."; return; }
     var key = status.tick + "|" + status.inputs.length + "|" + status.state;
     if (key === whyAsked) return;
@@ -334,6 +344,7 @@
   function showWhy(m) {
     var body = $("why").tBodies[0], info = $("why-info");
     body.textContent = "";
+    $("why").classList.remove("stale");
     if (!m.ok) { info.textContent = m.error; info.className = "error"; return; }
     var w = m.why;
     info.className = "";

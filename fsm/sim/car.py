@@ -411,8 +411,11 @@ class SimCar:
         v = self._v
         command = self._cmd_speed
         d = command - v
-        lim = self._acc_dt if (v >= 0.0 and d > 0.0) or (v <= 0.0 and d < 0.0) else self._dec_dt
-        v = v + lim if d > lim else v - lim if d < -lim else command
+        if d:  # at the commanded speed (most steps) the limits below would give the command itself
+            lim = self._acc_dt if (v >= 0.0 and d > 0.0) or (v <= 0.0 and d < 0.0) else self._dec_dt
+            v = v + lim if d > lim else v - lim if d < -lim else command
+        else:
+            v = command
         self._v = v
         delta = (s + self._offset) * self.max_steering_angle
         if delta != self._delta:

@@ -55,9 +55,19 @@ def every_wall_echo(car: SimCar, ox: float, oy: float, ux: float, uy: float, bes
     return best
 
 
+def every_point_clearance(car: SimCar, x: float, y: float, c: float, s: float, centre: float = 0.0) -> None:
+    """The clearance with every point of the outline asked (no bound from the centre's distance)."""
+    clear = car.min_clearance
+    reach = clear if clear != math.inf else 1e3
+    for px, py, _r in car._outline:
+        clear = min(clear, car._nearest(car.space, x + c * px - s * py, y + s * px + c * py, reach))
+    car.min_clearance = clear
+
+
 def lap(seed: int, plain: bool, seconds: float, calls: bool = False) -> list[tuple[Any, ...]]:
     """The hallway lap's sensor readings, clearance, pose and state at every tick; ``plain``: the car asks every
-    wall for every echo; ``calls``: the car reads and sets its bodies through chipmunk's functions."""
+    wall for every echo and every point of its outline for the clearance; ``calls``: the car reads and sets its
+    bodies through chipmunk's functions."""
     car = SimCar(load_world(HALLWAY), seed=seed)
     if calls:
         assert car._mem is not None  # this pymunk build's layout was found: the test compares the two ways
@@ -69,6 +79,7 @@ def lap(seed: int, plain: bool, seconds: float, calls: bool = False) -> list[tup
             return every_wall_echo(car, *a)
 
         car._wall_echo = echo  # type: ignore[method-assign,assignment]
+        car._clearance_near = lambda *a: every_point_clearance(car, *a)  # type: ignore[method-assign]
     sim = Simulation(fsm.load(LAP, car=car), car)
     seen: list[tuple[Any, ...]] = []
     sim.add_observer(sim.machine.dt, lambda s: seen.append(
@@ -112,3 +123,30 @@ def test_the_bodies_fields_in_chipmunks_memory_are_what_pymunk_reads_and_writes(
     space.add(body, control)
     space.step(0.01)
     assert control.position == (0.0075, -0.005) and angle[0] == body.angle
+
+
+@pytest.mark.parametrize("heading", [0.0, -3.0])
+def test_the_clearance_past_posts_and_into_a_wall_is_what_every_point_of_the_outline_gives(heading: float) -> None:
+    """The clearance skips the points of the outline that the centre's distance puts beyond the smallest so far; a
+    car that drives past posts a few millimetres closer each (each a new smallest clearance, from the corners and the
+    middle of the side), then (heading -3) into the wall, measures what asking every point does, at every sample."""
+    from fsm.sim.world import parse_world
+
+    posts = [{"type": "circle", "center": [4.0 + 1.5 * k, 0.5 + 0.004 * k], "radius": 0.05} for k in range(12)]
+    world = parse_world({"walls": [{"points": [[0, 0], [30, 0], [30, 2], [0, 2]], "closed": True}],
+                         "obstacles": posts, "start": {"x": 2.0, "y": 0.8, "heading": heading},
+                         "car": {"steering_offset": 0.0}})
+
+    def run(plain: bool) -> list[float]:
+        car = SimCar(world, seed=1)
+        if plain:
+            car._clearance_near = lambda *a: every_point_clearance(car, *a)  # type: ignore[method-assign]
+        car.set_speed(1.0)
+        seen = []
+        for _ in range(2000):
+            car.step()
+            seen.append(car.min_clearance)
+        return seen
+
+    fast = run(False)
+    assert fast == run(True) and len(set(fast)) > 12

@@ -402,7 +402,7 @@ class SimCar:
         s = self._servo
         d = target - s
         half = self._half_band
-        if d > half or d < -half or (s != target and self._moving):
+        if d and (d > half or d < -half) or (s != target and self._moving):
             # outside the dead band the servo drives to the command at its rate limit, and on until it is there
             lim = self._rate_dt
             s = s + lim if d > lim else s - lim if d < -lim else target
@@ -658,8 +658,9 @@ class SimCar:
         clear = self.min_clearance
         reach = clear + self._half_diagonal
         # The body can only be nearer than the clearance so far if its centre is within that plus its half diagonal.
-        if self._nearest(self.space, x, y, reach) < reach:
-            self._clearance_near(x, y, c, s)
+        centre = self._nearest(self.space, x, y, reach)
+        if centre < reach:
+            self._clearance_near(x, y, c, s, centre)
 
     def _ray_echo(self, ox: float, oy: float, c: float, s: float, rays: Iterable[tuple[float, float]]) -> float:
         """The ``rays`` model: the nearest echo along the sensor's rays (directions in the car's frame, the car
@@ -685,13 +686,18 @@ class SimCar:
                 best = r
         return best
 
-    def _clearance_near(self, x: float, y: float, c: float, s: float) -> None:
+    def _clearance_near(self, x: float, y: float, c: float, s: float, centre: float = 0.0) -> None:
         """The body's clearance to the walls, where its centre (x, y, turned by cos ``c``, sin ``s``) is near
-        enough for it to be below the smallest so far: the nearest wall to each point of the outline."""
+        enough for it to be below the smallest so far: the nearest wall to each point of the outline. ``centre`` is
+        the centre's distance to the nearest wall: a point ``r`` from the centre is at least ``centre - r`` from any
+        wall, so a point that cannot be nearer than the clearance so far (a nanometre of slack for rounding) is not
+        asked (on a straight, the middles of the sides)."""
         nearest = self._nearest
         clear = self.min_clearance
         reach = clear if clear != math.inf else 1e3
-        for px, py in self._outline:
+        for px, py, r in self._outline:
+            if centre - r - 1e-9 >= clear:
+                continue
             d = nearest(self.space, x + c * px - s * py, y + s * px + c * py, reach)
             if d < clear:
                 clear = d
@@ -819,9 +825,12 @@ class SimCar:
             self._ray = ray
             self._nearest = nearest
 
-    def _outline_points(self) -> list[tuple[float, float]]:
+    def _outline_points(self) -> list[tuple[float, float, float]]:
+        """The points of the body's outline whose clearance is measured: x, y in the car's frame and the distance
+        from its centre."""
         hl, hw = self.length / 2, self.width / 2
-        return [(-hl, -hw), (hl, -hw), (hl, hw), (-hl, hw), (0.0, hw), (0.0, -hw)]
+        return [(px, py, math.hypot(px, py)) for px, py in ((-hl, -hw), (hl, -hw), (hl, hw), (-hl, hw), (0.0, hw),
+                                                               (0.0, -hw))]
 
     # -- ground truth for metrics -----------------------------------------------------------------------
     def true_distance(self, side: str, pose: tuple[float, float, float] | None = None) -> float:

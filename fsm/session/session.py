@@ -374,7 +374,7 @@ class Session:
             while True:
                 if machine.finished:
                     break
-                n = ctx._tick  # the property costs a call a tick
+                n = ctx.tick
                 if n >= end:
                     stopped = "limit"
                     break

@@ -982,9 +982,9 @@ class BeamIndex:
             ys = [0.0] + [reach * math.sin(a) for a in angles]
             self.wedges.append((min(xs) - margin, max(xs) + margin, min(ys) - margin, max(ys) + margin))
         self.cells: dict[tuple[int, int, int], tuple[tuple[float, ...], ...]] = {}
-        #: per column of cells and sector: the segments whose box meets the column's x range (what a cell's filling
-        #: then narrows by its y range, instead of going through every segment)
-        self.columns: dict[tuple[int, int], tuple[tuple[float, ...], ...]] = {}
+        #: each distinct list of segments once: neighbouring cells mostly hold the same walls, and a long run keeps
+        #: filling cells where its track wanders (memory per cell: its key and a reference)
+        self._shared: dict[tuple[tuple[float, ...], ...], tuple[tuple[float, ...], ...]] = {}
 
     def near(self, ox: float, oy: float, ux: float, uy: float) -> tuple[tuple[float, ...], ...]:
         """The segments a sensor at (ox, oy) looking along (ux, uy) may echo from."""
@@ -994,10 +994,9 @@ class BeamIndex:
         if found is None:
             i, j, k = key
             wx0, wx1, wy0, wy1 = self.wedges[k]
-            column = self.columns.get((i, k))
-            if column is None:
-                x0, x1 = i * BEAM_CELL + wx0, (i + 1) * BEAM_CELL + wx1
-                column = self.columns[i, k] = tuple(seg for seg in self.segments if seg[4] <= x1 and seg[5] >= x0)
+            x0, x1 = i * BEAM_CELL + wx0, (i + 1) * BEAM_CELL + wx1
             y0, y1 = j * BEAM_CELL + wy0, (j + 1) * BEAM_CELL + wy1
-            found = self.cells[key] = tuple(seg for seg in column if seg[6] <= y1 and seg[7] >= y0)
+            found = tuple(seg for seg in self.segments
+                          if seg[4] <= x1 and seg[5] >= x0 and seg[6] <= y1 and seg[7] >= y0)
+            found = self.cells[key] = self._shared.setdefault(found, found)
         return found

@@ -166,6 +166,32 @@ def test_driving_into_a_wall_counts_one_collision_and_the_wall_holds() -> None:
     assert car.min_clearance < 0.01
 
 
+def test_a_bump_into_a_wall_through_chipmunks_memory_is_the_bump_through_its_functions() -> None:
+    """The car sets its control body's velocities and reads its pose in chipmunk's memory; through chipmunk's
+    functions (``_mem`` None: other pymunk builds) a run with contacts, steering and a stop is the same to the bit."""
+
+    def bump(direct: bool) -> list[tuple[Any, ...]]:
+        car = SimCar(corridor(steering_offset=0.0))
+        assert car._mem is not None  # the layout was found on this pymunk build
+        if not direct:
+            car._mem = None
+        car.body.angle = math.radians(-30)
+        car.set_speed(1.0)
+        seen = []
+        for k in range(400):
+            if k == 150:
+                car.set_steering(0.6)
+            if k == 300:
+                car.set_speed(-0.5)
+            car.step()
+            seen.append((car.true_pose(), car.true_position(), car.right, car.min_clearance, car.contact_steps,
+                         car.control.velocity, car.control.angular_velocity))
+        assert car.collisions >= 1
+        return seen
+
+    assert bump(True) == bump(False)
+
+
 def test_emergency_stop_stops_at_once() -> None:
     car = SimCar(corridor())
     car.set_speed(1.0)

@@ -39,8 +39,8 @@ WALL, CAR = 1, 2
 WALL_RADIUS = 0.005
 #: the beam model files the walls by where the sensor is (square cells of this side, m) and where it looks (this
 #: many sectors of directions): see :class:`BeamIndex`
-BEAM_CELL = 1.0
-BEAM_SECTORS = 16
+BEAM_CELL = 0.5
+BEAM_SECTORS = 32
 #: Radius of the posts markers stand on (physical obstacles), m.
 POST_RADIUS = 0.02
 #: Markers farther than this from the camera are never rendered (they would be a few pixels), m.
@@ -117,7 +117,7 @@ class SimCar:
     #: index is a cache whose contents do not depend on when it was filled)
     __snapshot_skip__ = ("world", "params", "space", "_nominal", "body", "shape", "control", "_c", "_query",
                          "sensors", "_beam", "_beam_index", "_by_name", "_outline", "_ray", "_nearest", "_markers",
-                         "_specs", "_joints")
+                         "_specs", "_joints", "_mem")
     #: what a snapshot reads and restores, by name (reading ``__dict__`` would cost CPython 3.11 the fast path of
     #: every attribute of the car from then on); a test checks that it names every attribute the car sets
     __snapshot_fields__ = (
@@ -175,6 +175,14 @@ class SimCar:
         self._c: tuple[Any, Any, Any] | None = None
         if _lib is not None:
             self._c = (self.body._body, self.control._body, self.space._space)
+        #: The body's angle and position and the control body's velocity and angular velocity as chipmunk keeps
+        #: them, read and written in its memory (see :func:`_body_fields`), and the space: what ``cpBodyGetAngle``,
+        #: ``cpBodyGetPosition``, ``cpBodySetVelocity`` and ``cpBodySetAngularVelocity`` read and write, without a
+        #: call (each releases and takes the GIL and converts its arguments); None where the layout is not found.
+        self._mem: tuple[Any, Any, Any, Any, Any] | None = None
+        if self._c is not None:
+            fields = _body_fields(self._c[0], self._c[1])
+            self._mem = None if fields is None else (*fields, self._c[2])
         self._query = pymunk.ShapeFilter(group=_CAR_GROUP)
         self.collisions = 0
         self.contact_steps = 0
@@ -287,15 +295,23 @@ class SimCar:
         if self._pose_step == self.steps:
             pose = self._pose
             return pose[0], pose[1]
+        mem = self._mem
+        if mem is not None:
+            p = mem[1]
+            return p[0], p[1]
         c = self._c
         if c is not None:
-            p = _get_position(c[0])
-            return p.x, p.y
+            q = _get_position(c[0])
+            return q.x, q.y
         x, y = self.body.position
         return x, y
 
     def _read_pose(self) -> tuple[float, float, float]:
         """The body's pose from chipmunk: x, y, angle (world frame)."""
+        mem = self._mem
+        if mem is not None:
+            p = mem[1]
+            return p[0], p[1], mem[0][0]
         c = self._c
         if c is not None:
             body = c[0]
@@ -386,7 +402,7 @@ class SimCar:
         s = self._servo
         d = target - s
         half = self._half_band
-        if d > half or d < -half or (s != target and self._moving):
+        if d and (d > half or d < -half) or (s != target and self._moving):
             # outside the dead band the servo drives to the command at its rate limit, and on until it is there
             lim = self._rate_dt
             s = s + lim if d > lim else s - lim if d < -lim else target
@@ -395,8 +411,11 @@ class SimCar:
         v = self._v
         command = self._cmd_speed
         d = command - v
-        lim = self._acc_dt if (v >= 0.0 and d > 0.0) or (v <= 0.0 and d < 0.0) else self._dec_dt
-        v = v + lim if d > lim else v - lim if d < -lim else command
+        if d:  # at the commanded speed (most steps) the limits below would give the command itself
+            lim = self._acc_dt if (v >= 0.0 and d > 0.0) or (v <= 0.0 and d < 0.0) else self._dec_dt
+            v = v + lim if d > lim else v - lim if d < -lim else command
+        else:
+            v = command
         self._v = v
         delta = (s + self._offset) * self.max_steering_angle
         if delta != self._delta:
@@ -405,8 +424,16 @@ class SimCar:
             beta = math.atan(0.5 * t)
             self._k_beta = beta
             self._k_w = math.cos(beta) * t / self.wheelbase
+        mem = self._mem
         c = self._c
-        if c is not None and steps:  # the first step through pymunk: it checks the bodies added
+        if mem is not None and steps:  # the first step through pymunk: it checks the bodies added
+            angle, _position, velocity, spin, space = mem
+            th = angle[0] + self._k_beta
+            velocity[0] = v * math.cos(th)
+            velocity[1] = v * math.sin(th)
+            spin[0] = self._w = v * self._k_w  # a kinematic body's: chipmunk never changes it
+            _space_step(space, PHYSICS_DT)
+        elif c is not None and steps:
             body, control, space = c
             th = _get_angle(body) + self._k_beta
             _set_velocity(control, (v * math.cos(th), v * math.sin(th)))
@@ -631,8 +658,9 @@ class SimCar:
         clear = self.min_clearance
         reach = clear + self._half_diagonal
         # The body can only be nearer than the clearance so far if its centre is within that plus its half diagonal.
-        if self._nearest(self.space, x, y, reach) < reach:
-            self._clearance_near(x, y, c, s)
+        centre = self._nearest(self.space, x, y, reach)
+        if centre < reach:
+            self._clearance_near(x, y, c, s, centre)
 
     def _ray_echo(self, ox: float, oy: float, c: float, s: float, rays: Iterable[tuple[float, float]]) -> float:
         """The ``rays`` model: the nearest echo along the sensor's rays (directions in the car's frame, the car
@@ -658,13 +686,18 @@ class SimCar:
                 best = r
         return best
 
-    def _clearance_near(self, x: float, y: float, c: float, s: float) -> None:
+    def _clearance_near(self, x: float, y: float, c: float, s: float, centre: float = 0.0) -> None:
         """The body's clearance to the walls, where its centre (x, y, turned by cos ``c``, sin ``s``) is near
-        enough for it to be below the smallest so far: the nearest wall to each point of the outline."""
+        enough for it to be below the smallest so far: the nearest wall to each point of the outline. ``centre`` is
+        the centre's distance to the nearest wall: a point ``r`` from the centre is at least ``centre - r`` from any
+        wall, so a point that cannot be nearer than the clearance so far (a nanometre of slack for rounding) is not
+        asked (on a straight, the middles of the sides)."""
         nearest = self._nearest
         clear = self.min_clearance
         reach = clear if clear != math.inf else 1e3
-        for px, py in self._outline:
+        for px, py, r in self._outline:
+            if centre - r - 1e-9 >= clear:
+                continue
             d = nearest(self.space, x + c * px - s * py, y + s * px + c * py, reach)
             if d < clear:
                 clear = d
@@ -714,26 +747,34 @@ class SimCar:
             # in the sensor's frame: x along the beam, y to its left
             rx, ry = ax - ox, ay - oy
             x0 = rx * ux + ry * uy
-            y0 = -rx * uy + ry * ux
-            rx, ry = bx - ox, by - oy
-            x1 = rx * ux + ry * uy
+            qx, qy = bx - ox, by - oy
+            x1 = qx * ux + qy * uy
             if x0 <= 0.0 and x1 <= 0.0 or x0 >= best and x1 >= best:
                 continue  # behind the sensor, or every point farther along the beam than the nearest echo
+            y0 = -rx * uy + ry * ux
             # clip P(t) = P0 + t (P1 - P0), t in [0, 1], to the cone |y| <= x tan_h: f + t df <= 0 on either side
             # (a side that leaves nothing ends the segment: the other side can only narrow the range further)
-            ex, ey = x1 - x0, (-rx * uy + ry * ux) - y0
+            ex, ey = x1 - x0, (-qx * uy + qy * ux) - y0
             xt, et = x0 * tan_h, ex * tan_h
             t0, t1 = 0.0, 1.0
-            for side in _SIDES:  # the left edge, then the right one
-                f, df = side * y0 - xt, side * ey - et
-                if df > 0.0:
-                    t = -f / df
-                    t1 = t if t < t1 else t1
-                elif df < 0.0:
-                    t = -f / df
-                    t0 = t if t > t0 else t0
-                elif f > 0.0:
-                    t0 = 2.0  # nothing of it is on this edge's inner side
+            f, df = y0 - xt, ey - et  # the left edge, y = x tan_h
+            if df > 0.0:
+                t = -f / df
+                t1 = t if t < 1.0 else 1.0
+            elif df < 0.0:
+                t = -f / df
+                t0 = t if t > 0.0 else 0.0
+            elif f > 0.0:
+                continue  # parallel to the edge, all of it outside
+            f, df = -y0 - xt, -ey - et  # the right one, y = -x tan_h
+            if df > 0.0:
+                t = -f / df
+                t1 = t if t < t1 else t1
+            elif df < 0.0:
+                t = -f / df
+                t0 = t if t > t0 else t0
+            elif f > 0.0:
+                continue
             if t0 <= t1:
                 d = _cone_echo(x0, y0, ex, ey, t0, t1, cos_inc)
                 if d < best:
@@ -784,9 +825,12 @@ class SimCar:
             self._ray = ray
             self._nearest = nearest
 
-    def _outline_points(self) -> list[tuple[float, float]]:
+    def _outline_points(self) -> list[tuple[float, float, float]]:
+        """The points of the body's outline whose clearance is measured: x, y in the car's frame and the distance
+        from its centre."""
         hl, hw = self.length / 2, self.width / 2
-        return [(-hl, -hw), (hl, -hw), (hl, hw), (-hl, hw), (0.0, hw), (0.0, -hw)]
+        return [(px, py, math.hypot(px, py)) for px, py in ((-hl, -hw), (hl, -hw), (hl, hw), (-hl, hw), (0.0, hw),
+                                                               (0.0, -hw))]
 
     # -- ground truth for metrics -----------------------------------------------------------------------
     def true_distance(self, side: str, pose: tuple[float, float, float] | None = None) -> float:
@@ -841,8 +885,67 @@ def _impulses_agree(joints: tuple[Any, ...], layout: tuple[tuple[int, int], ...]
                 and math.isclose(abs(g[j]), gear.impulse, rel_tol=1e-9, abs_tol=1e-300))
 
 
-#: the signs of y on the cone's two edges (see SimCar._wall_echo)
-_SIDES = (1.0, -1.0)
+#: Where chipmunk keeps a body's angle, the x of its position and of its velocity, and its angular velocity (indices
+#: of doubles from the body's start), found once (see _body_layout); None when they cannot be found.
+_body: list[tuple[int, int, int, int] | None] = []
+
+
+def _body_layout() -> tuple[int, int, int, int] | None:
+    """Where a body's angle, position (the x of its transform's translation, what ``cpBodyGetPosition`` returns),
+    velocity and angular velocity are in chipmunk's memory. Found on a probe body whose centre of gravity is off
+    its origin (so that its position and its centre's differ) by setting known values through chipmunk and looking
+    for them; None if any is not found once."""
+    if _body:
+        return _body[0]
+    found: tuple[int, int, int, int] | None = None
+    if _lib is not None:
+        probe = pymunk.Body(1.0, 1.0)
+        probe.center_of_gravity = (0.375, -0.625)
+        b = probe._body
+        _lib.cpBodySetAngle(b, 0.123456789)
+        _lib.cpBodySetPosition(b, (4.5678, -7.8912))
+        _lib.cpBodySetVelocity(b, (0.314159, -0.271828))
+        _lib.cpBodySetAngularVelocity(b, 0.577215)
+        d = _ffi.cast("double *", b)
+        pos = _lib.cpBodyGetPosition(b)
+        spots = [[i for i in range(2, 60) if d[i] == 0.123456789],
+                 [i for i in range(2, 60) if d[i] == pos.x and d[i + 1] == pos.y],
+                 [i for i in range(2, 60) if d[i] == 0.314159 and d[i + 1] == -0.271828],
+                 [i for i in range(2, 60) if d[i] == 0.577215]]
+        if all(len(spot) == 1 for spot in spots):
+            found = (spots[0][0], spots[1][0], spots[2][0], spots[3][0])
+    _body.append(found)
+    return found
+
+
+def _body_fields(body: Any, control: Any) -> tuple[Any, Any, Any, Any] | None:
+    """Pointers into chipmunk's memory: ``body``'s angle and position (x, y), ``control``'s velocity (x, y) and
+    angular velocity; ``None`` where the layout is not found or a read disagrees with chipmunk's own functions.
+
+    Writing the velocities there is what ``cpBodySetVelocity`` and ``cpBodySetAngularVelocity`` do for a kinematic
+    body (they only wake a *dynamic* body, and check the values in debug builds)."""
+    layout = _body_layout()
+    if layout is None:
+        return None
+    a, p, v, w = layout
+    bd, cd = _ffi.cast("double *", body), _ffi.cast("double *", control)
+    pos, vel = _lib.cpBodyGetPosition(body), _lib.cpBodyGetVelocity(control)
+    if (bd[a], bd[p], bd[p + 1], cd[v], cd[v + 1], cd[w]) != (
+            _lib.cpBodyGetAngle(body), pos.x, pos.y, vel.x, vel.y, _lib.cpBodyGetAngularVelocity(control)):
+        return None
+    return bd + a, bd + p, cd + v, cd + w
+
+
+def _clip(f: float, df: float, t0: float, t1: float) -> tuple[float, float]:
+    """[t0, t1] narrowed to where f + t df <= 0 (one edge of the cone, see SimCar._wall_echo); t0 > t1 when nothing
+    is left."""
+    if df > 0.0:
+        t = -f / df
+        return t0, t if t < t1 else t1
+    if df < 0.0:
+        t = -f / df
+        return t if t > t0 else t0, t1
+    return (2.0 if f > 0.0 else t0), t1  # parallel to the edge: all of it on one side
 
 
 def _cone_echo(x0: float, y0: float, ex: float, ey: float, t0: float, t1: float, cos_inc: float) -> float:
@@ -879,6 +982,9 @@ class BeamIndex:
             ys = [0.0] + [reach * math.sin(a) for a in angles]
             self.wedges.append((min(xs) - margin, max(xs) + margin, min(ys) - margin, max(ys) + margin))
         self.cells: dict[tuple[int, int, int], tuple[tuple[float, ...], ...]] = {}
+        #: each distinct list of segments once: neighbouring cells mostly hold the same walls, and a long run keeps
+        #: filling cells where its track wanders (memory per cell: its key and a reference)
+        self._shared: dict[tuple[tuple[float, ...], ...], tuple[tuple[float, ...], ...]] = {}
 
     def near(self, ox: float, oy: float, ux: float, uy: float) -> tuple[tuple[float, ...], ...]:
         """The segments a sensor at (ox, oy) looking along (ux, uy) may echo from."""
@@ -890,6 +996,7 @@ class BeamIndex:
             wx0, wx1, wy0, wy1 = self.wedges[k]
             x0, x1 = i * BEAM_CELL + wx0, (i + 1) * BEAM_CELL + wx1
             y0, y1 = j * BEAM_CELL + wy0, (j + 1) * BEAM_CELL + wy1
-            found = self.cells[key] = tuple(seg for seg in self.segments
-                                            if seg[4] <= x1 and seg[5] >= x0 and seg[6] <= y1 and seg[7] >= y0)
+            found = tuple(seg for seg in self.segments
+                          if seg[4] <= x1 and seg[5] >= x0 and seg[6] <= y1 and seg[7] >= y0)
+            found = self.cells[key] = self._shared.setdefault(found, found)
         return found

@@ -400,11 +400,12 @@ class Simulation:
 
     def before_tick(self, time_s: float) -> None:
         """Physics up to the tick's time, never past it: the machine sees the past, as on a car."""
-        car = self.car
         target = time_s + 1e-9
-        step = car.step
-        while (car.steps + 1) * PHYSICS_DT <= target:
+        step = self.car.step
+        n = self.car.steps + 1  # the car's step count after its next step (a step counts one)
+        while n * PHYSICS_DT <= target:
             step()
+            n += 1
 
     def after_tick(self) -> None:
         if self._flag.changed:

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple, TextIO
 
 from fsm.model.errors import Problem, UsageError, printable
 
+from .. import did_you_mean
 from .common import EXIT_FAIL, EXIT_OK, Subcommands, registry_from
 
 if TYPE_CHECKING:
@@ -365,11 +366,8 @@ def _explore_inputs(args: argparse.Namespace, target: _Target, values: dict[str,
     declared = dict(getattr(spec, "vars", {}) or {})
     for name in values:
         if name not in declared:
-            import difflib
-
-            close = difflib.get_close_matches(name, sorted(declared), n=2)
-            raise UsageError(f"--var {name}: the machine has no variable '{name}'"
-                             + (f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""))
+            close = did_you_mean(name, sorted(declared))
+            raise UsageError(f"--var {name}: the machine has no variable '{name}'" + (f" ({close})" if close else ""))
     signals = sorted(set(getattr(spec, "inputs", None) or ()) | set(signal_names(spec)))
     for _cls, params in target.plants:
         signals = [s for s in signals if s not in _cls(params).signals()]  # a plant drives them, not the search

@@ -62,6 +62,15 @@ class TextError(ValueError):
 STATE_BOX_FORM = 'a state box is its name, a line --, then "type": "TypeName", "param": value, ..., one per line'
 
 
+def numbered(name: str, taken: set[str] | list[str]) -> str:
+    """``name``, or the first of ``name (2)``, ``name (3)``, ... not ``taken`` (machines of one diagram, final states
+    of one level)."""
+    unique, n = name, 2
+    while unique in taken:
+        unique, n = f"{name} ({n})", n + 1
+    return unique
+
+
 def is_style(line: str, keys: set[str] = _STYLE_KEYS) -> bool:
     stripped = line.strip()
     if stripped.startswith("//"):

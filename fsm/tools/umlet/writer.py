@@ -180,24 +180,25 @@ def state_text(st: dict[str, Any], composite: bool) -> str:
     free = None
     if isinstance(desc, str) and _safe_free_text(desc):
         free = params.pop("description")
+    top = ["valign=top"] if composite else []
     if not _safe_name(sid):
         frag = json.dumps({"id": sid, "type": typ, **params}, ensure_ascii=False)[1:-1]
-        lines = [frag] + (["--", free] if free else [])
-        return "\n".join(lines) + ("\nvalign=top" if composite else "")
+        return "\n".join(_sections([frag], [free] if free else None) + top)
     activities = activity_lines(params.get("set"))
     if activities is not None:
         params.pop("set")
-    lines = [sid]
     implied = "FSMState" if composite and typ != "Sequence" else "Idle"
-    if params or typ != implied:
-        lines += ["--"] + param_lines(typ, params, T.STATE_FACET_KEYS, type_as_json=True)
-    if activities:
-        lines += ["--"] + activities
-    if free:
-        lines += ["--", free]
-    if composite:
-        lines.append("valign=top")
-    return "\n".join(lines)
+    shown = param_lines(typ, params, T.STATE_FACET_KEYS, type_as_json=True) if params or typ != implied else None
+    return "\n".join(_sections([sid], shown, activities, [free] if free else None) + top)
+
+
+def _sections(head: list[str], *sections: list[str] | None) -> list[str]:
+    """The lines of a box: ``head``, then each section that has lines after a ``--`` separator."""
+    lines = list(head)
+    for section in sections:
+        if section:
+            lines += ["--", *section]
+    return lines
 
 
 def drawn_regions(st: dict[str, Any]) -> list[dict[str, Any]] | None:
@@ -244,12 +245,7 @@ def note_text(machine: dict[str, Any], role: str) -> str | None:
         kv.append(f"{key}={json.dumps(value, ensure_ascii=False) if key in ('vars', 'inputs') else value_text(value)}")
     if not kv and free is None and role != "top":
         return None
-    lines = [T.MACHINE_NOTE_TITLE]
-    if kv:
-        lines += ["--"] + kv
-    if free is not None:
-        lines += ["--", free]
-    return "\n".join(lines + ["style=wordwrap"])
+    return "\n".join(_sections([T.MACHINE_NOTE_TITLE], kv, None if free is None else [free]) + ["style=wordwrap"])
 
 
 def _safe_note_text(text: str) -> bool:

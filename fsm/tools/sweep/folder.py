@@ -160,13 +160,7 @@ def read_records(path: Path, keys: set[str] | None = None) -> Resume:
     with fh:
         offset = 0
         number = 0
-        while True:
-            try:
-                line = fh.readline(MAX_LINE + 1)
-            except OSError as exc:
-                raise DiagramError([Problem(f"cannot read: {_reason(exc)}", str(path))]) from None
-            if not line:
-                break
+        while line := _read_line(fh, path):
             number += 1
             start, offset = offset, offset + len(line)
             if len(line) > MAX_LINE and not line.endswith(b"\n"):
@@ -179,22 +173,38 @@ def read_records(path: Path, keys: set[str] | None = None) -> Resume:
                     f"{path}:{number}: warning: the last line has no end of line ({len(line)} bytes left by a sweep "
                     "that was stopped while writing it): removed; its run runs again")
                 break
-            rec, why, source = _record(line, path)
-            if rec is None:
-                bad.append((str(number), why))
-                continue
-            if keys is not None and rec["key"] not in keys or not rec["ok"]:
-                continue  # another grid's run, or a run that raised: it runs again
-            problem = _reuse_problem(rec, line, source)
-            if problem is not None:
-                bad.append((f"{number}:{problem.column}" if problem.column else str(number), problem.message))
-                continue
-            resume.records[rec["key"]] = rec
+            wrong = _take(resume, line, path, keys)
+            if wrong is not None:
+                bad.append((f"{number}{wrong[0]}", wrong[1]))
     if bad:
         more = f", and {len(bad) - 1} more line{'s' * (len(bad) > 2)} like it" if len(bad) > 1 else ""
         resume.warnings.insert(0, f"{path}:{bad[0][0]}: warning: not the record of a finished run ({bad[0][1]}){more}: "
                                   "ignored; such a run runs again")
     return resume
+
+
+def _read_line(fh: Any, path: Path) -> bytes:
+    """The next line of sweep.jsonl, at most one byte over :data:`MAX_LINE` (``b""`` at the end)."""
+    try:
+        line: bytes = fh.readline(MAX_LINE + 1)
+    except OSError as exc:
+        raise DiagramError([Problem(f"cannot read: {_reason(exc)}", str(path))]) from None
+    return line
+
+
+def _take(resume: Resume, line: bytes, path: Path, keys: set[str] | None) -> tuple[str, str] | None:
+    """A whole line into ``resume`` when it is the record of a finished run of this grid; a line that is no such
+    record: where in the line (``""``, or ``:column``) and why."""
+    rec, why, source = _record(line, path)
+    if rec is None:
+        return "", why
+    if keys is not None and rec["key"] not in keys or not rec["ok"]:
+        return None  # another grid's run, or a run that raised: it runs again
+    problem = _reuse_problem(rec, line, source)
+    if problem is not None:
+        return (f":{problem.column}" if problem.column else ""), problem.message
+    resume.records[rec["key"]] = rec
+    return None
 
 
 def jsonl_text(path: Path, records: list[dict[str, Any]]) -> bytes | None:

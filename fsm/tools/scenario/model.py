@@ -1346,28 +1346,39 @@ def _inline_includes(node: Any, base: Path, stack: list[str]) -> None:
     subs: list[tuple[Any, Any]] = []
     for el in [*(node.get("states") or []), *(node.get("steps") or []), *(node.get("exceptions") or []),
                *(node.get("sequences") or [])]:
-        if not isinstance(el, dict):
-            continue
-        if "machine" in el:
-            subs.append((el, "machine"))
-        regions = el.get("regions")
-        if isinstance(regions, list):
-            subs += [(regions, i) for i in range(len(regions))]
-        _inline_includes(el, base, stack)
+        if isinstance(el, dict):
+            subs += _machine_slots(el)
+            _inline_includes(el, base, stack)
     for holder, key in subs:
         sub = holder[key]
         if isinstance(sub, dict) and isinstance(sub.get("file"), str) and len(sub) == 1 and len(stack) < 32:
-            path = os.path.realpath(base / sub["file"])
-            if path in stack or not os.path.isfile(path):
-                continue
-            try:
-                data, _source = reader_for(Path(path))(Path(path))
-            except (DiagramError, OSError):
-                continue
-            _inline_includes(data, Path(path).parent, [*stack, path])
-            holder[key] = data
+            _inline_one(holder, key, base, stack)
         else:
             _inline_includes(sub, base, stack)
+
+
+def _machine_slots(el: dict[str, Any]) -> list[tuple[Any, Any]]:
+    """Where a state holds a machine: its ``machine`` and each of its ``regions``, as (holder, key)."""
+    slots: list[tuple[Any, Any]] = [(el, "machine")] if "machine" in el else []
+    regions = el.get("regions")
+    if isinstance(regions, list):
+        slots += [(regions, i) for i in range(len(regions))]
+    return slots
+
+
+def _inline_one(holder: Any, key: Any, base: Path, stack: list[str]) -> None:
+    """The machine of the include ``holder[key]`` in its place, when its file is there, readable and not one of the
+    files being inlined (a cycle)."""
+    path = os.path.realpath(base / holder[key]["file"])
+    if path in stack or not os.path.isfile(path):
+        return
+    try:
+        data, _source = reader_for(Path(path))(Path(path))
+    except (DiagramError, OSError):
+        return
+    _inline_includes(data, Path(path).parent, [*stack, path])
+    holder[key] = data
+
 
 def _load_plugins(scenario: Scenario, base: Path, name: str, registry: Any) -> tuple[list[str], list[Problem]]:
     """Import the scenario's ``plugins`` into ``registry``: the files they were loaded from, and a problem at

@@ -9,7 +9,7 @@ import json
 import math
 import os
 import time
-from collections.abc import Container
+from collections.abc import Callable, Container
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -486,11 +486,20 @@ def count_verdict(n: int, c: Any) -> tuple[bool, str]:
     it wanted, in words."""
     if c.count is None and c.min is None and c.max is None:
         return n >= 1, "at least once"
-    ok = (c.count is None or n == c.count) and (c.min is None or n >= c.min) and (c.max is None or n <= c.max)
-    want = (f"exactly {_times(c.count)}" if c.count is not None else
-            " and ".join(x for x in (f"at least {_times(c.min)}" if c.min is not None else "",
-                                     f"at most {_times(c.max)}" if c.max is not None else "") if x))
-    return ok, want
+    return _within(n, c), _bounds(c, _times)
+
+
+def _within(n: int, c: Any) -> bool:
+    """Whether ``n`` meets ``c``'s ``count``, ``min`` and ``max`` (each ``None``: no bound)."""
+    return (c.count is None or n == c.count) and (c.min is None or n >= c.min) and (c.max is None or n <= c.max)
+
+
+def _bounds(c: Any, words: Callable[[int], str]) -> str:
+    """``c``'s bounds in words: "exactly N", or "at least A and at most B" (a number in ``words``)."""
+    if c.count is not None:
+        return f"exactly {words(c.count)}"
+    return " and ".join(x for x in (f"at least {words(c.min)}" if c.min is not None else "",
+                                    f"at most {words(c.max)}" if c.max is not None else "") if x)
 
 def _times(n: int) -> str:
     return "once" if n == 1 else f"{n} times"
@@ -863,12 +872,9 @@ class Checker:
         """The number of transitions fired is within the bounds."""
         c = exp.transitions
         n = self.machine.transition_count
-        want = (f"exactly {c.count}" if c.count is not None else
-                " and ".join(x for x in (f"at least {c.min}" if c.min is not None else "",
-                                         f"at most {c.max}" if c.max is not None else "") if x))
-        ok = (c.count is None or n == c.count) and (c.min is None or n >= c.min) and (c.max is None or n <= c.max)
-        if ok:
+        if _within(n, c):
             return None
+        want = _bounds(c, str)
         fired = [e for e in self.rec.entries if e.kind != "initial"]
         limit = c.count if c.count is not None else c.max
         tick = fired[limit].tick if limit is not None and n > limit else self.last_tick

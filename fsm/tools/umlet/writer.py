@@ -304,24 +304,43 @@ def _reads_back(label: str, signal: str, guard: Any, assignments: Any) -> bool:
 
 
 def transition_text(tr: dict[str, Any], source: dict[str, Any] | None, registry: Any) -> str:
+    """The text of a transition's arrow: a UML label that reads back as this Signal transition, else its type (left
+    out where the source implies it: Finished from a state that finishes, Always from one that does not) and
+    parameters, with its guard and ``set`` as a ``[guard] / action`` line where they read back so."""
     typ = str(tr.get("type"))
     params = {k: v for k, v in tr.items() if k not in _COMMON_TRANSITION}
-    if typ == "Signal" and set(params) - {"guard", "set"} == {"signal", "label"} and isinstance(params["label"], str):
-        label = params["label"]
-        if _reads_back(label, params["signal"], params.get("guard"), params.get("set")):
-            return "lt=->\n" + label
-    tail = None
-    if "guard" in params or "set" in params:
-        tail = guard_action_text(params.get("guard"), params.get("set"))
-        if tail is not None:
-            params.pop("guard", None)
-            params.pop("set", None)
-    if not params and source is not None:
-        can = _can_finish(source, registry)
-        if (typ == "Finished" and can) or (typ == "Always" and not can):
-            return "lt=->" + (f"\n{tail}" if tail else "")
-    return "\n".join(["lt=->"] + param_lines(typ, params, T.RELATION_FACET_KEYS, type_as_json=False)
-                     + ([tail] if tail else []))
+    label = _signal_label(typ, params)
+    if label is not None:
+        return "lt=->\n" + label
+    tail = _guard_action_line(params)
+    implied = not params and source is not None and _implied_type(typ, source, registry)
+    shown = [] if implied else param_lines(typ, params, T.RELATION_FACET_KEYS, type_as_json=False)
+    return "\n".join(["lt=->", *shown, *([tail] if tail else [])])
+
+
+def _signal_label(typ: str, params: dict[str, Any]) -> str | None:
+    """A Signal transition's own UML label, when it converts back to exactly its signal, guard and ``set``."""
+    if typ != "Signal" or set(params) - {"guard", "set"} != {"signal", "label"} or not isinstance(params["label"], str):
+        return None
+    label: str = params["label"]
+    return label if _reads_back(label, params["signal"], params.get("guard"), params.get("set")) else None
+
+
+def _guard_action_line(params: dict[str, Any]) -> str | None:
+    """``[guard] / action`` for the guard and ``set`` among ``params`` (taken out of them), when they read back."""
+    if "guard" not in params and "set" not in params:
+        return None
+    tail = guard_action_text(params.get("guard"), params.get("set"))
+    if tail is not None:
+        params.pop("guard", None)
+        params.pop("set", None)
+    return tail
+
+
+def _implied_type(typ: str, source: dict[str, Any], registry: Any) -> bool:
+    """Whether an arrow without text from ``source`` means ``typ``: Finished when it can finish, else Always."""
+    can = _can_finish(source, registry)
+    return (typ == "Finished" and can) or (typ == "Always" and not can)
 
 
 def final_special(st: dict[str, Any], level_names: set[str], used: set[str]) -> str | None:

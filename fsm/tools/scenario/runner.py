@@ -913,22 +913,27 @@ class Checker:
         if ok:
             return None
         win = self.window(c.within)
-        shown = ", ".join(f"{self.t(t):g}" for t, _p in inside[:6]) + (", ..." if n > 6 else "")
         msg = f"expected {what} {want}{' ' + win if win else ''}, it happened {_times(n)}"
         if n:
-            msg += f" (at {shown} s)"
+            msg += f" (at {self._times_of(inside, 6)} s)"
         outside = [e for e in events if not self.inside(e[0], c.within)]
         if outside:
             msg += (f"; outside the window at {', '.join(f'{self.t(t):g}' for t, _p in outside[:4])} s"
                     + (", ..." if len(outside) > 4 else ""))
-        limit = c.count if c.count is not None else c.max
-        if limit is not None and n > limit:
-            tick = inside[limit][0]
-        elif c.within is not None:
-            tick = min(_last_tick(c.within[1], self.dt), self.last_tick)
-        else:
-            tick = self.last_tick
-        return self.failure(i, kind, msg, tick)
+        return self.failure(i, kind, msg, self._count_tick(c, inside))
+
+    def _times_of(self, events: list[tuple[int, str]], shown: int) -> str:
+        """The times of the first ``shown`` events in seconds, "..." after them when there are more."""
+        return ", ".join(f"{self.t(t):g}" for t, _p in events[:shown]) + (", ..." if len(events) > shown else "")
+
+    def _count_tick(self, c: Any, inside: list[tuple[int, str]]) -> int:
+        """Where a count failed: at the event one too many, else at the end of the window (or of the run)."""
+        limit: int | None = c.count if c.count is not None else c.max
+        if limit is not None and len(inside) > limit:
+            return inside[limit][0]
+        if c.within is not None:
+            return min(_last_tick(c.within[1], self.dt), self.last_tick)
+        return self.last_tick
 
     def state_outcome(self, i: int, exp: OutcomeExpect) -> Failure | None:
         assert exp.state is not None

@@ -96,12 +96,12 @@ def test_a_misspelt_set_names_the_states_type_at_exit_2(capsys: pytest.CaptureFi
     code, _, err = fsmctl(capsys, "run", CORNER, "--set", "follow.sped=1")
     assert code == 2
     assert err == ("fsmctl: error: --set follow.sped=1: 'follow' (FollowWall) has no parameter 'sped'; "
-                   "did you mean speed?\n")
+                   "did you mean 'speed'?\n")
     code, _, err = fsmctl(capsys, "sweep", "--machine", CORNER, "--set", "follow.sped=1,2", "-o",
                           str(tmp_path / "out"))
     assert code == 2
     assert err == ("fsmctl sweep: error: --set follow.sped=1,2: 'follow' (FollowWall) has no parameter 'sped'; "
-                   "did you mean speed?\n")
+                   "did you mean 'speed'?\n")
     assert not (tmp_path / "out").exists()
 
 

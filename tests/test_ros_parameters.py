@@ -87,6 +87,6 @@ def test_a_tunable_that_names_nothing_is_a_usage_error(capsys: pytest.CaptureFix
     machine.write_text(json.dumps(DRIVE), encoding="utf-8")
     profile = str(twist_profile(tmp_path))
     code, _out, err = cli(capsys, "run", str(machine), "--ros", profile, "--via", "rclpy", "--tunable", "drive.sped")
-    assert code == 2 and "--tunable drive.sped" in err and "did you mean speed" in err, err
+    assert code == 2 and "--tunable drive.sped" in err and "did you mean 'speed'" in err, err
     code, _out, err = cli(capsys, "run", str(machine), "--ros", profile, "--via", "zenoh", "--tunable", "drive.speed")
     assert code == 2 and "--via rclpy" in err

@@ -120,8 +120,8 @@ def test_running_again_skips_finished_runs(tmp_path: Path, capsys: pytest.Captur
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--set", "folow.speed=1"], "no state at path 'folow'; did you mean follow"),
-    (["--set", "follow.sped=1"], "has no parameter 'sped'; did you mean speed"),
+    (["--set", "folow.speed=1"], "no state at path 'folow'; did you mean 'follow'"),
+    (["--set", "follow.sped=1"], "has no parameter 'sped'; did you mean 'speed'"),
     (["--set", "follow.speed=fast"], 'speed="fast" is not valid for \'follow\''),
     (["--world", "nowhere/*.json"], "matches no file"),
     (["--seeds", "5:2"], "seeds '5:2': write START:STOP"),

@@ -25,7 +25,7 @@ import stat
 import sys
 import tempfile
 import threading
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from typing import IO, Any
 
 from fsm.model.errors import FsmError, UsageError
@@ -411,14 +411,7 @@ class Outputs:
 
 def check_distinct(outputs: list[Output], inputs: Iterable[str | os.PathLike[str]]) -> None:
     """Refuse an output that is the same file as an input, and two outputs that name the same file."""
-    seen_inputs: dict[tuple[int, int], str] = {}
-    for p in inputs:
-        p = os.fspath(p)
-        if p == "-":
-            continue
-        ident = identity(p)
-        if ident is not None:
-            seen_inputs.setdefault(ident, p)
+    seen_inputs = _input_identities(inputs)
     taken: dict[object, Output] = {}
     for out in outputs:
         if out.kind == "special":
@@ -439,6 +432,17 @@ def check_distinct(outputs: list[Output], inputs: Iterable[str | os.PathLike[str
         taken[key] = out
 
 
+def _input_identities(inputs: Iterable[str | os.PathLike[str]]) -> dict[tuple[int, int], str]:
+    """The identity of each input file that exists (standard input left out), with the first name given for it."""
+    seen: dict[tuple[int, int], str] = {}
+    for given in inputs:
+        p = os.fspath(given)
+        ident = identity(p) if p != STDOUT else None
+        if ident is not None:
+            seen.setdefault(ident, p)
+    return seen
+
+
 def check_new_folder(name: str, option: str, inputs: Iterable[str | os.PathLike[str]] = (),
                      outputs: Iterable[Output] = ()) -> str:
     """Check ``name`` as an output that is a whole new folder (a rosbag2 bag): it must not exist yet (not as a
@@ -455,23 +459,10 @@ def check_new_folder(name: str, option: str, inputs: Iterable[str | os.PathLike[
         raise fail("the folder name contains a NUL byte")
     path = os.path.abspath(name)
     ident = identity(path)
-    for p in inputs:
-        p = os.fspath(p)
-        if p != STDOUT and ident is not None and identity(p) == ident:
-            raise fail(f"is the input {p}", "name a new folder for the output")
-    try:
-        st = os.lstat(path)
-    except FileNotFoundError:
-        st = None
-    except OSError as exc:
-        if exc.errno == errno.ENOTDIR:
-            raise fail("a folder on the path is not a folder") from None
-        raise fail(os_reason(exc)) from None
-    if st is not None:
-        if stat.S_ISLNK(st.st_mode):
-            raise fail("is a symbolic link", "name a new folder; the output is never written through a link")
-        what = "an existing folder" if stat.S_ISDIR(st.st_mode) else f"an existing {_kind_of(st.st_mode)[2:]}"
-        raise fail(f"is {what}", "the output is a new folder: remove it or name another")
+    inputs_by_identity = _input_identities(inputs) if ident is not None else {}
+    if ident in inputs_by_identity:
+        raise fail(f"is the input {inputs_by_identity[ident]}", "name a new folder for the output")
+    _refuse_existing(path, fail)
     parent = os.path.dirname(path)
     if not os.path.isdir(parent):
         raise fail(f"the folder {os.path.dirname(name) or parent} does not exist", "create it first")
@@ -482,6 +473,22 @@ def check_new_folder(name: str, option: str, inputs: Iterable[str | os.PathLike[
         if out.kind == "file" and os.path.realpath(out.target) == real:
             raise fail(f"names the same file as {out.option}", "give each output its own name")
     return path
+
+
+def _refuse_existing(path: str, fail: Callable[..., UsageError]) -> None:
+    """Refuse a new folder's ``path`` when something is there (a folder, a file, a link, even a dangling one)."""
+    try:
+        st = os.lstat(path)
+    except FileNotFoundError:
+        return
+    except OSError as exc:
+        if exc.errno == errno.ENOTDIR:
+            raise fail("a folder on the path is not a folder") from None
+        raise fail(os_reason(exc)) from None
+    if stat.S_ISLNK(st.st_mode):
+        raise fail("is a symbolic link", "name a new folder; the output is never written through a link")
+    what = "an existing folder" if stat.S_ISDIR(st.st_mode) else f"an existing {_kind_of(st.st_mode)[2:]}"
+    raise fail(f"is {what}", "the output is a new folder: remove it or name another")
 
 
 def write_output(name: str, data: str | bytes, option: str = "-o",

@@ -116,21 +116,31 @@ def check_output(src: Path, out: str, doc: dict[str, Any], fmt: str) -> int:
 
 
 def first_difference(a: object, b: object, path: str = "") -> str:
+    """Where the committed document ``a`` first differs from what the diagram converts to (``b``), in words."""
+    found = None
     if isinstance(a, dict) and isinstance(b, dict):
-        for key in list(a) + [k for k in b if k not in a]:
-            if key not in a:
-                return f"{path}/{key} is missing"
-            if key not in b:
-                return f"{path}/{key} is not in the diagram"
-            if a[key] != b[key]:
-                return first_difference(a[key], b[key], f"{path}/{key}")
-    if isinstance(a, list) and isinstance(b, list):
-        for i, (x, y) in enumerate(zip(a, b, strict=False)):
-            if x != y:
-                return first_difference(x, y, f"{path}/{i}")
-        if len(a) != len(b):
-            return f"{path or '/'} has {len(a)} items, the diagram {len(b)}"
-    return f"{path or '/'} differs"
+        found = _dict_difference(a, b, path)
+    elif isinstance(a, list) and isinstance(b, list):
+        found = _list_difference(a, b, path)
+    return found or f"{path or '/'} differs"
+
+
+def _dict_difference(a: dict[Any, Any], b: dict[Any, Any], path: str) -> str | None:
+    for key in list(a) + [k for k in b if k not in a]:
+        if key not in a:
+            return f"{path}/{key} is missing"
+        if key not in b:
+            return f"{path}/{key} is not in the diagram"
+        if a[key] != b[key]:
+            return first_difference(a[key], b[key], f"{path}/{key}")
+    return None
+
+
+def _list_difference(a: list[Any], b: list[Any], path: str) -> str | None:
+    for i, (x, y) in enumerate(zip(a, b, strict=False)):
+        if x != y:
+            return first_difference(x, y, f"{path}/{i}")
+    return f"{path or '/'} has {len(a)} items, the diagram {len(b)}" if len(a) != len(b) else None
 
 
 def report(problems: list[Problem], fmt: str) -> None:

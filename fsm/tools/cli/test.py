@@ -17,10 +17,12 @@ from typing import TYPE_CHECKING, Any, NamedTuple, TextIO
 
 from fsm.model.errors import Problem, UsageError, printable
 
+from .. import did_you_mean
 from .common import EXIT_FAIL, EXIT_OK, Subcommands, registry_from
 
 if TYPE_CHECKING:
     from ..files import Output, Outputs
+    from ..scenario.coverage import Coverage
     from ..scenario.junit import Invalid
     from ..scenario.model import LoadedScenario
     from ..scenario.runner import ScenarioResult
@@ -84,11 +86,7 @@ def cmd_test(args: argparse.Namespace) -> int:
     cov_out = outputs.add(args.coverage_json, "--coverage-json")
     if args.junit == "-" and args.coverage_json == "-":
         raise UsageError("--junit and --coverage-json cannot both write to standard output")
-    coverage = None
-    if args.coverage or args.coverage_json is not None or args.fail_under is not None:
-        from ..scenario.coverage import Coverage
-
-        coverage = Coverage()
+    coverage = _coverage(args)
     for out in outputs.items:  # a directory, a missing folder, a scenario: said before any plugin is imported
         out.classify()
     check_distinct(outputs.items, args.scenarios)
@@ -105,6 +103,15 @@ def cmd_test(args: argparse.Namespace) -> int:
     finally:
         outputs.discard()
     return EXIT_OK if ok else EXIT_FAIL
+
+
+def _coverage(args: argparse.Namespace) -> Coverage | None:
+    """The coverage to gather, when --coverage, --coverage-json or --fail-under asks for it."""
+    if not (args.coverage or args.coverage_json is not None or args.fail_under is not None):
+        return None
+    from ..scenario.coverage import Coverage
+
+    return Coverage()
 
 
 def _run_load(ld: _Load, coverage: Any, quiet: bool, report: TextIO) -> list[ScenarioResult | Invalid]:
@@ -365,11 +372,8 @@ def _explore_inputs(args: argparse.Namespace, target: _Target, values: dict[str,
     declared = dict(getattr(spec, "vars", {}) or {})
     for name in values:
         if name not in declared:
-            import difflib
-
-            close = difflib.get_close_matches(name, sorted(declared), n=2)
-            raise UsageError(f"--var {name}: the machine has no variable '{name}'"
-                             + (f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""))
+            close = did_you_mean(name, sorted(declared))
+            raise UsageError(f"--var {name}: the machine has no variable '{name}'" + (f" ({close})" if close else ""))
     signals = sorted(set(getattr(spec, "inputs", None) or ()) | set(signal_names(spec)))
     for _cls, params in target.plants:
         signals = [s for s in signals if s not in _cls(params).signals()]  # a plant drives them, not the search

@@ -30,7 +30,13 @@ def cmd_types(args: argparse.Namespace) -> int:
         return EXIT_FAIL
     if args.format == "json":
         print(json.dumps(rows, indent=2))
-        return EXIT_OK
+    else:
+        _print_text(rows, every=not args.names)
+    return EXIT_OK
+
+
+def _print_text(rows: list[dict[str, Any]], every: bool) -> None:
+    """The types as text, grouped by kind; after ``every`` type, what all of them take besides."""
     for heading, kind in (("States", "state"), ("Transitions", "transition"), ("Conditions", "condition")):
         group = [r for r in rows if r["kind"] == kind]
         if group:
@@ -38,12 +44,11 @@ def cmd_types(args: argparse.Namespace) -> int:
             for r in group:
                 _print_type(r)
             print()
-    if not args.names:
+    if every:
         print("Every transition also takes: from, to, priority (default 0), preempt (default false), guard, set.")
         print("Every state also takes: set (on_enter, on_exit).")
         print("Every element may carry: description, layout. A condition is written in a guard or a Condition "
               "transition.")
-    return EXIT_OK
 
 
 def _row(kind: str, name: str, cls: Any) -> dict[str, Any]:

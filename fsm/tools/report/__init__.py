@@ -9,6 +9,7 @@ what it shows. May import the core, the graph drawing and the simulator's world 
 from __future__ import annotations
 
 import json
+from collections import Counter
 from html import escape
 from importlib import resources
 from typing import Any
@@ -57,38 +58,42 @@ def coverage_of(trace: Trace, warnings: list[str]) -> Any:
     """The run's coverage (:class:`fsm.tools.scenario.coverage.Coverage`) of the machine in the trace's header:
     states entered, transitions and monitors fired; ``None`` with a warning when the machine cannot be built."""
     doc = trace.header.get("machine")
-    if not isinstance(doc, dict):
+    machine = _structure(doc, warnings) if isinstance(doc, dict) else None
+    if machine is None:
         return None
-
-    try:
-        car = None
-        if uses_car(fsm.check(doc)[0]):  # only its structure is needed: a car with nothing behind it
-            from fsm.sim.fake import FakeCar
-
-            car = FakeCar()
-        machine = fsm.load(doc, car=car)
-    except Exception as exc:  # a type from a plugin this process does not have: the rest of the report stands
-        warnings.append(f"the machine in the trace cannot be built ({type(exc).__name__}): no coverage")
-        return None
-    entries: dict[str, int] = {}
-    skips: dict[str, int] = {}
-    fired: set[tuple[str, int]] = set()
-    for e in trace.events:
-        for path in e.get("skipped", ()):
-            skips[str(path)] = skips.get(str(path), 0) + 1
-        for tr in e.get("transitions", ()):
-            entries[str(tr.get("to"))] = entries.get(str(tr.get("to")), 0) + 1
-            src = tr.get("from")
-            state = machine.states_by_path.get(src) if isinstance(src, str) else None
-            for t in wiring(state).transitions if state is not None else ():
-                if t.target.path == tr.get("to") and t.type_name == tr.get("type"):
-                    fired.add((t.source.path, t.index))
+    events = trace.events
+    entries = Counter(str(tr.get("to")) for e in events for tr in e.get("transitions", ()))
+    skips = Counter(str(path) for e in events for path in e.get("skipped", ()))
+    fired = {hit for e in events for tr in e.get("transitions", ()) for hit in _fired(machine, tr)}
     monitors = {(str(m.get("owner")), str(m.get("monitor")), str(m.get("kind")))
-                for e in trace.events for m in e.get("monitors", ())}
+                for e in events for m in e.get("monitors", ())}
     cov = Coverage()
     ran = {p for p, n in entries.items() if n > skips.get(p, 0)}  # a skipped entry ran nothing
     cov.add_reached(machine, ran, set(skips) - ran, fired, monitors, key=str(trace.name))
     return cov
+
+
+def _structure(doc: dict[str, Any], warnings: list[str]) -> Any:
+    """The machine of a trace's header, built for its structure (a car machine on a car with nothing behind it),
+    or ``None`` with a warning."""
+    try:
+        car = None
+        if uses_car(fsm.check(doc)[0]):
+            from fsm.sim.fake import FakeCar
+
+            car = FakeCar()
+        return fsm.load(doc, car=car)
+    except Exception as exc:  # a type from a plugin this process does not have: the rest of the report stands
+        warnings.append(f"the machine in the trace cannot be built ({type(exc).__name__}): no coverage")
+        return None
+
+
+def _fired(machine: Any, tr: dict[str, Any]) -> list[tuple[str, int]]:
+    """(source path, index) of the machine's transitions a trace line's transition ``tr`` can be."""
+    src = tr.get("from")
+    state = machine.states_by_path.get(src) if isinstance(src, str) else None
+    return [(t.source.path, t.index) for t in (wiring(state).transitions if state is not None else ())
+            if t.target.path == tr.get("to") and t.type_name == tr.get("type")]
 
 
 def coverage_section(cov: Any) -> str:

@@ -43,14 +43,7 @@ def build_model(trace: Trace) -> dict[str, Any]:
         "lanes": lanes,
         "types": types,
         "transitions": transitions,
-        "monitors": [[e["time"], m.get("owner"), m.get("behavior"), m.get("kind"), m.get("exception")]
-                     for e in trace.events for m in e.get("monitors", ())],
-        "pauses": [[e["time"], p, kind == "paused"] for e in trace.events for kind in ("paused", "resumed")
-                   for p in e.get(kind, ())],
-        "keyframes": [[k["tick"], [index[a] for a in k["active"] if a in index], k["vars"]]
-                      for k in trace.keyframes],
-        "events": [[e["tick"], [index[a] for a in event_active(e) if a in index], e.get("vars", {}),
-                    e.get("unset", [])] for e in trace.events],
+        **_timeline(trace, index),
     }
     samples, plots = _samples(trace)
     if samples is None and trace.version >= 2:
@@ -62,6 +55,22 @@ def build_model(trace: Trace) -> dict[str, Any]:
     model["map"] = _map(world, warnings) if world is not None else None
     model["meta"]["warnings"] = warnings
     return model
+
+
+def _timeline(trace: Trace, index: dict[str, int]) -> dict[str, list[list[Any]]]:
+    """The trace's lines in the page's form: monitor firings, pauses and resumes, keyframes and events (the
+    active states as indexes)."""
+    events = trace.events
+    return {
+        "monitors": [[e["time"], m.get("owner"), m.get("behavior"), m.get("kind"), m.get("exception")]
+                     for e in events for m in e.get("monitors", ())],
+        "pauses": [[e["time"], p, kind == "paused"] for e in events for kind in ("paused", "resumed")
+                   for p in e.get(kind, ())],
+        "keyframes": [[k["tick"], [index[a] for a in k["active"] if a in index], k["vars"]]
+                      for k in trace.keyframes],
+        "events": [[e["tick"], [index[a] for a in event_active(e) if a in index], e.get("vars", {}),
+                    e.get("unset", [])] for e in events],
+    }
 
 
 def _transitions(trace: Trace, index: dict[str, int]) -> tuple[list[str], list[list[Any]]]:
@@ -158,15 +167,7 @@ def _regions(trace: Trace, states: list[str], index: dict[str, int]) -> list[Reg
     """The machine's regions (from the header; for an older trace, one per parent path), outermost first, each
     with the indexes of its states."""
     name = trace.header.get("name") or "machine"
-    found = trace.header.get("regions")
-    if isinstance(found, list) and found:
-        members = [(str(r.get("path", "")), [index[s] for s in r.get("states", ()) if s in index])
-                   for r in found if isinstance(r, dict)]
-    else:
-        by_parent: dict[str, list[int]] = {}
-        for i, path in enumerate(states):
-            by_parent.setdefault(path.rpartition("/")[0], []).append(i)
-        members = list(by_parent.items())
+    members = _members(trace.header.get("regions"), states, index)
     members.sort(key=lambda m: [part for part in m[0].split("/") if part])
     paths = [path for path, _ in members]
     regions: list[Region] = []
@@ -177,6 +178,18 @@ def _regions(trace: Trace, states: list[str], index: dict[str, int]) -> list[Reg
             label += ": " + ", ".join(steps[:3]) + (", …" if len(steps) > 3 else "")
         regions.append(Region(path=path, states=indexes, label=label))
     return regions
+
+
+def _members(found: Any, states: list[str], index: dict[str, int]) -> list[tuple[str, list[int]]]:
+    """Each region's path and the indexes of its states: the header's regions (``found``), or for an older trace
+    one per parent path."""
+    if isinstance(found, list) and found:
+        return [(str(r.get("path", "")), [index[s] for s in r.get("states", ()) if s in index])
+                for r in found if isinstance(r, dict)]
+    by_parent: dict[str, list[int]] = {}
+    for i, path in enumerate(states):
+        by_parent.setdefault(path.rpartition("/")[0], []).append(i)
+    return list(by_parent.items())
 
 
 def _lanes(trace: Trace, regions: list[Region], states: list[str], index: dict[str, int],

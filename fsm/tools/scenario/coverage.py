@@ -33,11 +33,27 @@ class MachineCoverage:
     monitors: dict[str, bool] = field(default_factory=dict)
     scenarios: int = 0
 
+    def reached(self, path: str, status: str) -> None:
+        """State ``path`` reached as ``status`` by one more run: the most a run did counts (ran over skipped over
+        never entered)."""
+        self.states[path] = max(self.states.get(path, "never"), status, key=_RANK.__getitem__)
+
+    def fired(self, transitions: dict[str, bool], monitors: dict[str, bool]) -> None:
+        """Transitions and monitors (label -> fired) of one more run: fired once is fired."""
+        for label, hit in transitions.items():
+            self.transitions[label] = self.transitions.get(label, False) or hit
+        for label, hit in monitors.items():
+            self.monitors[label] = self.monitors.get(label, False) or hit
+
     def counts(self) -> dict[str, tuple[int, int]]:
         """(covered, total) of states, transitions and monitors."""
         return {"states": (sum(1 for v in self.states.values() if v == "ran"), len(self.states)),
                 "transitions": (sum(self.transitions.values()), len(self.transitions)),
                 "monitors": (sum(self.monitors.values()), len(self.monitors))}
+
+
+#: How much of a state a run reached, least first.
+_RANK = {"never": 0, "skipped": 1, "ran": 2}
 
 
 def _transition_label(tr: Any) -> str:
@@ -60,40 +76,32 @@ class Coverage:
                     fired_monitors: set[tuple[str, str, str]], key: str | None = None) -> None:
         """Add one run of ``machine`` that entered and ran the states ``ran``, skipped ``skipped``, fired the
         transitions ``fired`` ((source path, index)) and the monitors ``fired_monitors`` ((owner, label, kind))."""
-        key = key or machine.name or "machine"
+        cov = self._of(key or machine.name or "machine")
+        cov.scenarios += 1
+        for path, state in machine.states_by_path.items():
+            cov.reached(path, "ran" if path in ran else "skipped" if path in skipped else "never")
+            supervisor = supervisor_of(state)
+            cov.fired({_transition_label(tr): (path, tr.index) in fired for tr in wiring(state).transitions},
+                      {f"{path}: {m.kind} {m.label} ({m.behavior})": (path, m.label, m.kind) in fired_monitors
+                       for m in (supervisor.monitors if supervisor is not None else ())})
+
+    def _of(self, key: str) -> MachineCoverage:
+        """The coverage of the machine ``key`` (new when no run of it was added yet)."""
         cov = self.machines.get(key)
         if cov is None:
             cov = self.machines[key] = MachineCoverage(key)
-        cov.scenarios += 1
-        for path, state in machine.states_by_path.items():
-            now = "ran" if path in ran else "skipped" if path in skipped else "never"
-            before = cov.states.get(path, "never")
-            cov.states[path] = "ran" if "ran" in (now, before) else "skipped" if "skipped" in (now, before) else \
-                "never"
-            for tr in wiring(state).transitions:
-                label = _transition_label(tr)
-                cov.transitions[label] = cov.transitions.get(label, False) or (path, tr.index) in fired
-            supervisor = supervisor_of(state)
-            for m in supervisor.monitors if supervisor is not None else ():
-                label = f"{path}: {m.kind} {m.label} ({m.behavior})"
-                cov.monitors[label] = cov.monitors.get(label, False) or (path, m.label, m.kind) in fired_monitors
+        return cov
 
     def merge_json(self, data: dict[str, Any]) -> None:
         """Add the coverage another process reported (:meth:`to_json`; a pytest-xdist worker's): a state counts as
         reached when either reached it, a transition or monitor as fired when either fired it."""
-        rank = {"never": 0, "skipped": 1, "ran": 2}
         for m in data.get("machines", []):
-            cov = self.machines.get(m["machine"])
-            if cov is None:
-                cov = self.machines[m["machine"]] = MachineCoverage(m["machine"])
+            cov = self._of(m["machine"])
             cov.scenarios += m["runs"]
             for s in m["states"]:
-                before = cov.states.get(s["path"], "never")
-                cov.states[s["path"]] = max(before, s["status"], key=rank.__getitem__)
-            for t in m["transitions"]:
-                cov.transitions[t["transition"]] = cov.transitions.get(t["transition"], False) or t["fired"]
-            for mon in m["monitors"]:
-                cov.monitors[mon["monitor"]] = cov.monitors.get(mon["monitor"], False) or mon["fired"]
+                cov.reached(s["path"], s["status"])
+            cov.fired({t["transition"]: t["fired"] for t in m["transitions"]},
+                      {mon["monitor"]: mon["fired"] for mon in m["monitors"]})
 
     def totals(self) -> dict[str, tuple[int, int]]:
         out = {"states": (0, 0), "transitions": (0, 0), "monitors": (0, 0)}

@@ -20,6 +20,7 @@ import math
 import os
 import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -163,6 +164,8 @@ class Explorer:
         return out
 
     def search(self, max_runs: int, deadline: float | None = None) -> ExploreResult:
+        """Breadth first over input sequences (a wait or an action per slot) until every target is reached (and,
+        with invariants, one breaks) or ``max_runs`` runs or ``deadline`` seconds are spent."""
         t0 = time.perf_counter()
         first, machine = self.run(())
         result = ExploreResult(self.targets(machine), runs=1)
@@ -172,31 +175,47 @@ class Explorer:
         wanted = set(result.targets)
         queue: deque[tuple[Action, ...]] = deque([()])
         actions = self.space.actions()
-        slots = self.space.slots
-        hunting = bool(self.invariants)  # with invariants, every path is extended until one breaks (or the budget)
-        while queue and (not wanted <= set(result.reached) or (hunting and result.violation is None)):
-            prefix = queue.popleft()
-            for gap, action in itertools.product(range(slots - len(prefix)), actions):
-                if result.runs >= max_runs or (deadline is not None and time.perf_counter() - t0 > deadline):
-                    result.exhausted = True
-                    break
-                path = (*prefix, *([WAIT] * gap), action)
-                reach, _m = self.run(path)
-                result.runs += 1
-                self._violation(result, path, reach)
-                new = [t for t in reach.targets() if t not in result.reached]
-                for t in new:
-                    result.reached[t] = path
-                if new or (hunting and result.violation is None):
-                    queue.append(path)
-                if hunting and result.violation is not None and wanted <= set(result.reached):
-                    break
-            if result.exhausted:
-                break
+
+        def over_budget() -> bool:
+            return result.runs >= max_runs or (deadline is not None and time.perf_counter() - t0 > deadline)
+
+        while queue and not result.exhausted and not self._done(result, wanted):
+            self._extend(result, queue, actions, wanted, over_budget)
         if result.violation is not None:
             result.violation = self._minimal(*result.violation)
         result.seconds = time.perf_counter() - t0
         return result
+
+    def _done(self, result: ExploreResult, wanted: set[str]) -> bool:
+        """Every target reached and, with invariants (every path is extended until one breaks), one broken."""
+        return wanted <= set(result.reached) and not (self.invariants and result.violation is None)
+
+    def _extend(self, result: ExploreResult, queue: deque[tuple[Action, ...]], actions: list[Action],
+                wanted: set[str], over_budget: Callable[[], bool]) -> None:
+        """Run the next prefix of the queue followed by each action after each number of waits; a path that reached
+        something new (or any, while hunting for a broken invariant) is queued to be extended in turn."""
+        prefix = queue.popleft()
+        hunting = bool(self.invariants)
+        for gap, action in itertools.product(range(self.space.slots - len(prefix)), actions):
+            if over_budget():
+                result.exhausted = True
+                return
+            path = (*prefix, *([WAIT] * gap), action)
+            if self._try(result, path) or (hunting and result.violation is None):
+                queue.append(path)
+            if hunting and result.violation is not None and wanted <= set(result.reached):
+                return
+
+    def _try(self, result: ExploreResult, path: tuple[Action, ...]) -> bool:
+        """One run of ``path`` into ``result`` (its first broken invariant, the targets it reached first); whether
+        it reached a target no path had."""
+        reach, _m = self.run(path)
+        result.runs += 1
+        self._violation(result, path, reach)
+        new = [t for t in reach.targets() if t not in result.reached]
+        for t in new:
+            result.reached[t] = path
+        return bool(new)
 
     def _violation(self, result: ExploreResult, path: tuple[Action, ...], reach: _Reach) -> None:
         if result.violation is None and reach.violation is not None:

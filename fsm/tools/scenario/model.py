@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import difflib
 import itertools
 import json
 import math
@@ -46,6 +45,7 @@ from fsm.model.problems import Problems
 from fsm.session.session import NEVER, ticks_for
 from fsm.states.plants import plant_problems, written_vars
 
+from .. import did_you_mean
 from .paths import active_matches as active_matches
 from .paths import state_matches as state_matches
 from .temporal import TEMPORAL_FUNCTIONS, FormulaError, compile_formula, formula_names
@@ -672,23 +672,33 @@ def load_scenario(file: str | Path, plugins: tuple[str, ...] = (), max_runs: int
     loaded: LoadedScenario | None = None
     if scenario is not None:
         problems += timeline_problems(scenario, name)
-        if not problems:
-            loaded, more = _load_machine(scenario, path, name, plugins)
-            problems += more
-            if loaded is not None:
-                problems += matrix_problems(scenario, loaded.spec, name, max_runs)
-        elif not (path.parent / scenario.machine).is_file():
-            problems.append(_missing_machine(path.parent / scenario.machine, name))
-    if problems:
-        errors = [p for p in problems if p.severity == "error"]
-        _locate(problems, name, source)
-        if errors:
-            raise DiagramError(sorted(problems, key=lambda p: (p.file != name, p.file or "", p.line or 0,
-                                                               p.column or 0)))
-    assert loaded is not None
+        loaded, more = _machine_unless_errors(scenario, path, name, problems, plugins, max_runs)
+        problems += more
+    _locate(problems, name, source)
+    if loaded is None or errors_of(problems):
+        raise DiagramError(sorted(problems, key=lambda p: (p.file != name, p.file or "", p.line or 0, p.column or 0)))
     loaded.positions = source.locator(_element_pointers(loaded.scenario))
     loaded.warnings = [p for p in problems if p.severity != "error"]
     return loaded
+
+
+def _machine_unless_errors(scenario: Scenario, path: Path, name: str, found: list[Problem],
+                           plugins: tuple[str, ...], max_runs: int | None) -> tuple[LoadedScenario | None,
+                                                                                    list[Problem]]:
+    """The scenario's machine loaded, when the scenario itself has no error so far (warnings do not stop it), with
+    the matrix's problems; after an error, only whether the machine's file is missing."""
+    if errors_of(found):
+        machine = path.parent / scenario.machine
+        return None, [] if machine.is_file() else [_missing_machine(machine, name)]
+    loaded, problems = _load_machine(scenario, path, name, plugins)
+    if loaded is not None:
+        problems += matrix_problems(scenario, loaded.spec, name, max_runs)
+    return loaded, problems
+
+
+def errors_of(problems: list[Problem]) -> list[Problem]:
+    """The problems that are errors (the rest are warnings, which do not stop a scenario)."""
+    return [p for p in problems if p.severity == "error"]
 
 
 def _validated(data: Any, path: Path, name: str) -> tuple[Scenario | None, list[Problem]]:
@@ -1123,7 +1133,7 @@ def _checked_machine(scenario: Scenario, base: Path, name: str, registry: Any
         problems.append(Problem(f"world file not found: {world_path}", name, "/world",
                                 hint="the world's path is relative to the scenario file"))
     spec, machine_problems = check(str(machine_path), registry=registry)
-    errors = [p for p in machine_problems if p.severity == "error"]
+    errors = errors_of(machine_problems)
     if spec is None or errors:
         problems.append(Problem(f"the machine {machine_path} has {len(errors) or 1} error(s), listed with it", name,
                                 "/machine"))
@@ -1241,7 +1251,7 @@ def substituted(scenario: Scenario, machine_path: Path, registry: Any, name: str
     if problems:
         return None, problems
     spec, found = check(doc, registry=registry, base_dir=machine_path.parent)
-    errors = [p for p in found if p.severity == "error"]
+    errors = errors_of(found)
     if spec is not None and not errors:
         return spec, []
     return None, _said_of_substitutions(errors or found, touched, name)
@@ -1260,12 +1270,6 @@ def _substitution_problem(sub: Substitution, ptr: str, registry: Any, name: str)
     return Problem(f"unknown {what} type {kind!r}" if kind is not None else "the replacement needs a 'type'", name,
                    ptr + "/with" + ("/type" if kind else ""),
                    hint=did_you_mean(str(kind), known) or f"{what} types: " + ", ".join(known[:15]))
-
-
-def did_you_mean(word: str, known: list[str], n: int = 2) -> str | None:
-    """"did you mean 'a' or 'b'?" for the (at most ``n``) known words close to ``word``, or ``None``."""
-    close = difflib.get_close_matches(word, known, n=n)
-    return "did you mean " + " or ".join(repr(c) for c in close) + "?" if close else None
 
 
 def _substitute(doc: Any, sub: Substitution) -> list[str]:
@@ -1342,28 +1346,39 @@ def _inline_includes(node: Any, base: Path, stack: list[str]) -> None:
     subs: list[tuple[Any, Any]] = []
     for el in [*(node.get("states") or []), *(node.get("steps") or []), *(node.get("exceptions") or []),
                *(node.get("sequences") or [])]:
-        if not isinstance(el, dict):
-            continue
-        if "machine" in el:
-            subs.append((el, "machine"))
-        regions = el.get("regions")
-        if isinstance(regions, list):
-            subs += [(regions, i) for i in range(len(regions))]
-        _inline_includes(el, base, stack)
+        if isinstance(el, dict):
+            subs += _machine_slots(el)
+            _inline_includes(el, base, stack)
     for holder, key in subs:
         sub = holder[key]
         if isinstance(sub, dict) and isinstance(sub.get("file"), str) and len(sub) == 1 and len(stack) < 32:
-            path = os.path.realpath(base / sub["file"])
-            if path in stack or not os.path.isfile(path):
-                continue
-            try:
-                data, _source = reader_for(Path(path))(Path(path))
-            except (DiagramError, OSError):
-                continue
-            _inline_includes(data, Path(path).parent, [*stack, path])
-            holder[key] = data
+            _inline_one(holder, key, base, stack)
         else:
             _inline_includes(sub, base, stack)
+
+
+def _machine_slots(el: dict[str, Any]) -> list[tuple[Any, Any]]:
+    """Where a state holds a machine: its ``machine`` and each of its ``regions``, as (holder, key)."""
+    slots: list[tuple[Any, Any]] = [(el, "machine")] if "machine" in el else []
+    regions = el.get("regions")
+    if isinstance(regions, list):
+        slots += [(regions, i) for i in range(len(regions))]
+    return slots
+
+
+def _inline_one(holder: Any, key: Any, base: Path, stack: list[str]) -> None:
+    """The machine of the include ``holder[key]`` in its place, when its file is there, readable and not one of the
+    files being inlined (a cycle)."""
+    path = os.path.realpath(base / holder[key]["file"])
+    if path in stack or not os.path.isfile(path):
+        return
+    try:
+        data, _source = reader_for(Path(path))(Path(path))
+    except (DiagramError, OSError):
+        return
+    _inline_includes(data, Path(path).parent, [*stack, path])
+    holder[key] = data
+
 
 def _load_plugins(scenario: Scenario, base: Path, name: str, registry: Any) -> tuple[list[str], list[Problem]]:
     """Import the scenario's ``plugins`` into ``registry``: the files they were loaded from, and a problem at

@@ -9,7 +9,7 @@ import json
 import math
 import os
 import time
-from collections.abc import Container
+from collections.abc import Callable, Container
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -486,11 +486,20 @@ def count_verdict(n: int, c: Any) -> tuple[bool, str]:
     it wanted, in words."""
     if c.count is None and c.min is None and c.max is None:
         return n >= 1, "at least once"
-    ok = (c.count is None or n == c.count) and (c.min is None or n >= c.min) and (c.max is None or n <= c.max)
-    want = (f"exactly {_times(c.count)}" if c.count is not None else
-            " and ".join(x for x in (f"at least {_times(c.min)}" if c.min is not None else "",
-                                     f"at most {_times(c.max)}" if c.max is not None else "") if x))
-    return ok, want
+    return _within(n, c), _bounds(c, _times)
+
+
+def _within(n: int, c: Any) -> bool:
+    """Whether ``n`` meets ``c``'s ``count``, ``min`` and ``max`` (each ``None``: no bound)."""
+    return (c.count is None or n == c.count) and (c.min is None or n >= c.min) and (c.max is None or n <= c.max)
+
+
+def _bounds(c: Any, words: Callable[[int], str]) -> str:
+    """``c``'s bounds in words: "exactly N", or "at least A and at most B" (a number in ``words``)."""
+    if c.count is not None:
+        return f"exactly {words(c.count)}"
+    return " and ".join(x for x in (f"at least {words(c.min)}" if c.min is not None else "",
+                                    f"at most {words(c.max)}" if c.max is not None else "") if x)
 
 def _times(n: int) -> str:
     return "once" if n == 1 else f"{n} times"
@@ -863,12 +872,9 @@ class Checker:
         """The number of transitions fired is within the bounds."""
         c = exp.transitions
         n = self.machine.transition_count
-        want = (f"exactly {c.count}" if c.count is not None else
-                " and ".join(x for x in (f"at least {c.min}" if c.min is not None else "",
-                                         f"at most {c.max}" if c.max is not None else "") if x))
-        ok = (c.count is None or n == c.count) and (c.min is None or n >= c.min) and (c.max is None or n <= c.max)
-        if ok:
+        if _within(n, c):
             return None
+        want = _bounds(c, str)
         fired = [e for e in self.rec.entries if e.kind != "initial"]
         limit = c.count if c.count is not None else c.max
         tick = fired[limit].tick if limit is not None and n > limit else self.last_tick
@@ -907,22 +913,27 @@ class Checker:
         if ok:
             return None
         win = self.window(c.within)
-        shown = ", ".join(f"{self.t(t):g}" for t, _p in inside[:6]) + (", ..." if n > 6 else "")
         msg = f"expected {what} {want}{' ' + win if win else ''}, it happened {_times(n)}"
         if n:
-            msg += f" (at {shown} s)"
+            msg += f" (at {self._times_of(inside, 6)} s)"
         outside = [e for e in events if not self.inside(e[0], c.within)]
         if outside:
             msg += (f"; outside the window at {', '.join(f'{self.t(t):g}' for t, _p in outside[:4])} s"
                     + (", ..." if len(outside) > 4 else ""))
-        limit = c.count if c.count is not None else c.max
-        if limit is not None and n > limit:
-            tick = inside[limit][0]
-        elif c.within is not None:
-            tick = min(_last_tick(c.within[1], self.dt), self.last_tick)
-        else:
-            tick = self.last_tick
-        return self.failure(i, kind, msg, tick)
+        return self.failure(i, kind, msg, self._count_tick(c, inside))
+
+    def _times_of(self, events: list[tuple[int, str]], shown: int) -> str:
+        """The times of the first ``shown`` events in seconds, "..." after them when there are more."""
+        return ", ".join(f"{self.t(t):g}" for t, _p in events[:shown]) + (", ..." if len(events) > shown else "")
+
+    def _count_tick(self, c: Any, inside: list[tuple[int, str]]) -> int:
+        """Where a count failed: at the event one too many, else at the end of the window (or of the run)."""
+        limit: int | None = c.count if c.count is not None else c.max
+        if limit is not None and len(inside) > limit:
+            return inside[limit][0]
+        if c.within is not None:
+            return min(_last_tick(c.within[1], self.dt), self.last_tick)
+        return self.last_tick
 
     def state_outcome(self, i: int, exp: OutcomeExpect) -> Failure | None:
         assert exp.state is not None

@@ -18,7 +18,6 @@ messages are the language's own. Everything is checked when the scenario is load
 
 from __future__ import annotations
 
-import difflib
 import itertools
 import json
 from collections.abc import Callable
@@ -39,6 +38,7 @@ from fsm.model.expr import (
 )
 from fsm.runtime.region import wiring
 
+from .. import did_you_mean
 from .paths import state_matches
 
 #: State predicates (true/false) and the text term ``outcome``.
@@ -253,8 +253,7 @@ def compile_formula(text: str, kinds: dict[str, str], paths: list[str], want: st
                                        f"('cycle/*' for any state below cycle)", arg.column)
                 found = matching_paths(state.strip(), paths)
                 if not found:
-                    close = difflib.get_close_matches(state, ids, n=3)
-                    hint = ("did you mean " + " or ".join(repr(c) for c in close) + "?") if close else \
+                    hint = did_you_mean(state, ids, n=3) or \
                         "states: " + ", ".join(paths[:12]) + (", ..." if len(paths) > 12 else "")
                     raise FormulaError(f"the machine has no state '{state}'", arg.column, hint)
                 kind = TEXT if fname == "outcome" else BOOL
@@ -280,9 +279,7 @@ def compile_formula(text: str, kinds: dict[str, str], paths: list[str], want: st
         if exc.message.startswith("unknown variable"):
             unknown = exc.message.split("'")[1]
             known = sorted(kinds) + list(TEMPORAL_FUNCTIONS)
-            close = difflib.get_close_matches(unknown, known, n=3)
-            hint = ("did you mean " + " or ".join(close) + "?") if close else \
-                "names: " + (", ".join(sorted(kinds)[:12]) or "none")
+            hint = did_you_mean(unknown, known, n=3) or "names: " + (", ".join(sorted(kinds)[:12]) or "none")
             if unknown in ids:
                 hint = f"'{unknown}' is a state: write active({unknown}) or entered({unknown})"
             raise FormulaError(exc.message, exc.column, hint) from None

@@ -15,13 +15,19 @@ import math
 import os
 import re
 import stat
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Annotated, Any
+
+from pydantic import AfterValidator, BaseModel, ConfigDict, GetCoreSchemaHandler, ValidationError
+from pydantic_core import CoreSchema
 
 from fsm.loading.reading import parse_json_bytes
+from fsm.model.document import Source, problems_from_validation
 from fsm.model.errors import DiagramError, FsmError, Problem, UsageError
+from fsm.model.params import ParamsBase
+from fsm.model.problems import Problems
 
 from ..files import os_reason
 
@@ -150,22 +156,16 @@ def read_records(path: Path, keys: set[str] | None = None) -> Resume:
     fh = _open_regular(path)
     if fh is None:
         return resume
-    bad: list[tuple[int, str]] = []
+    bad: list[tuple[str, str]] = []  # (line or line:column, why)
     with fh:
         offset = 0
         number = 0
-        while True:
-            try:
-                line = fh.readline(MAX_LINE + 1)
-            except OSError as exc:
-                raise DiagramError([Problem(f"cannot read: {_reason(exc)}", str(path))]) from None
-            if not line:
-                break
+        while line := _read_line(fh, path):
             number += 1
             start, offset = offset, offset + len(line)
             if len(line) > MAX_LINE and not line.endswith(b"\n"):
                 offset += _skip_line(fh)
-                bad.append((number, f"more than {MAX_LINE // 1048576} MiB without an end of line"))
+                bad.append((str(number), f"more than {MAX_LINE // 1048576} MiB without an end of line"))
                 continue
             if not line.endswith(b"\n"):
                 resume.cut_at = start
@@ -173,24 +173,38 @@ def read_records(path: Path, keys: set[str] | None = None) -> Resume:
                     f"{path}:{number}: warning: the last line has no end of line ({len(line)} bytes left by a sweep "
                     "that was stopped while writing it): removed; its run runs again")
                 break
-            rec, why = _record(line, path, number)
-            if rec is None:
-                bad.append((number, why))
-                continue
-            if keys is not None and rec["key"] not in keys or not rec["ok"]:
-                continue  # another grid's run, or a run that raised: it runs again
-            problem = record_problem(rec)
-            if problem is None and _SURROGATE.search(line) and not _unicode(rec):
-                problem = "text that is not Unicode (a lone surrogate)"
-            if problem is not None:
-                bad.append((number, problem))
-                continue
-            resume.records[rec["key"]] = rec
+            wrong = _take(resume, line, path, keys)
+            if wrong is not None:
+                bad.append((f"{number}{wrong[0]}", wrong[1]))
     if bad:
         more = f", and {len(bad) - 1} more line{'s' * (len(bad) > 2)} like it" if len(bad) > 1 else ""
         resume.warnings.insert(0, f"{path}:{bad[0][0]}: warning: not the record of a finished run ({bad[0][1]}){more}: "
                                   "ignored; such a run runs again")
     return resume
+
+
+def _read_line(fh: Any, path: Path) -> bytes:
+    """The next line of sweep.jsonl, at most one byte over :data:`MAX_LINE` (``b""`` at the end)."""
+    try:
+        line: bytes = fh.readline(MAX_LINE + 1)
+    except OSError as exc:
+        raise DiagramError([Problem(f"cannot read: {_reason(exc)}", str(path))]) from None
+    return line
+
+
+def _take(resume: Resume, line: bytes, path: Path, keys: set[str] | None) -> tuple[str, str] | None:
+    """A whole line into ``resume`` when it is the record of a finished run of this grid; a line that is no such
+    record: where in the line (``""``, or ``:column``) and why."""
+    rec, why, source = _record(line, path)
+    if rec is None:
+        return "", why
+    if keys is not None and rec["key"] not in keys or not rec["ok"]:
+        return None  # another grid's run, or a run that raised: it runs again
+    problem = _reuse_problem(rec, line, source)
+    if problem is not None:
+        return (f":{problem.column}" if problem.column else ""), problem.message
+    resume.records[rec["key"]] = rec
+    return None
 
 
 def jsonl_text(path: Path, records: list[dict[str, Any]]) -> bytes | None:
@@ -278,20 +292,29 @@ def _skip_line(fh: Any) -> int:
             return skipped
 
 
-def _record(line: bytes, path: Path, number: int) -> tuple[dict[str, Any] | None, str]:
-    """One line as a record with a text ``key`` and ``id`` and a boolean ``ok``, or ``None`` and why not."""
+def _record(line: bytes, path: Path) -> tuple[dict[str, Any] | None, str, Source | None]:
+    """One line as a record with a text ``key`` and ``id`` and a boolean ``ok`` and its source (to locate its
+    problems in), or ``None`` and why not."""
     if not line.strip():
-        return None, "an empty line"
+        return None, "an empty line", None
     try:
-        rec, _source = parse_json_bytes(line, str(path))
+        rec, source = parse_json_bytes(line, str(path))
     except DiagramError as exc:
-        return None, " ".join(exc.problems[0].message.split())[:200] if exc.problems else "not JSON"
+        return None, " ".join(exc.problems[0].message.split())[:200] if exc.problems else "not JSON", None
     if not isinstance(rec, dict):
-        return None, f"a JSON {type(rec).__name__}, not an object"
+        return None, f"a JSON {type(rec).__name__}, not an object", None
     for name, kind in (("key", str), ("id", str), ("ok", bool)):
         if not isinstance(rec.get(name), kind):
-            return None, f"no {kind.__name__} '{name}'"
-    return rec, ""
+            return None, f"no {kind.__name__} '{name}'", None
+    return rec, "", source
+
+
+def _reuse_problem(rec: dict[str, Any], line: bytes, source: Source | None) -> Problem | None:
+    """Why a finished run's record (read from ``line``) cannot be reused: its shape, or text that is not Unicode."""
+    problem = record_problem(rec, source)
+    if problem is None and _SURROGATE.search(line) and not _unicode(rec):
+        problem = Problem("text that is not Unicode (a lone surrogate)")
+    return problem
 
 
 def _number(value: Any, bound: float | None = MAX_COORDINATE) -> bool:
@@ -305,34 +328,67 @@ def _number(value: Any, bound: float | None = MAX_COORDINATE) -> bool:
     return bound is None or (math.isfinite(number) and abs(number) <= bound)
 
 
-#: The fields of a finished run's record, by type (what sweep.csv and sweep.html read from it).
-_FIELDS: dict[str, tuple[type, ...]] = {"index": (int,), "seed": (int,), "run_seed": (int,), "params": (dict,),
-                                        "command": (str,), "summary": (dict,), "world": (str, type(None))}
-_OPTIONAL: dict[str, tuple[type, ...]] = {"states": (list,), "track": (list,), "dwell": (dict,), "files": (list,),
-                                          "seconds": (int, float), "error": (str,), "traceback": (str,)}
+def _checked(test: Callable[[Any], bool], words: str) -> AfterValidator:
+    """A field validator that refuses a value ``test`` rejects, in ``words``."""
+    def check(value: Any) -> Any:
+        if not test(value):
+            raise ValueError(words)
+        return value
+    return AfterValidator(check)
 
 
-def record_problem(rec: dict[str, Any]) -> str | None:
-    """Why a finished run's record cannot be reused in the reports (a wrong type, a trajectory that is not
-    points), or ``None``."""
-    for name, kinds in _FIELDS.items():
-        value = rec.get(name)
-        if isinstance(value, bool) or not isinstance(value, kinds):
-            return f"'{name}' is missing or not {'/'.join(k.__name__ for k in kinds)}"
-    for name, kinds in _OPTIONAL.items():
-        value = rec.get(name)
-        if name in rec and (isinstance(value, bool) or not isinstance(value, kinds)):
-            return f"'{name}' is not {'/'.join(k.__name__ for k in kinds)}"
-    if not all(isinstance(f, str) for f in rec.get("files") or []):
-        return "'files' is not a list of names"
-    for p in rec.get("track") or []:
-        if not (isinstance(p, list) and len(p) >= 2 and _number(p[0]) and _number(p[1])):
-            return "'track' is not a list of points"
-    if not all(_number(v, 1e12) for v in (rec.get("dwell") or {}).values()):
-        return "'dwell' is not seconds per state"
-    rms = rec["summary"].get("wall_error_rms_m")
-    if rms is not None and not (isinstance(rms, float) or _number(rms, 1e300)):
-        return "'summary.wall_error_rms_m' is not a number"
+def _point(p: list[Any]) -> bool:
+    return len(p) >= 2 and _number(p[0]) and _number(p[1])
+
+
+def _rms(value: Any) -> bool:
+    return value is None or isinstance(value, float) or _number(value, 1e300)
+
+
+class _Record(ParamsBase):
+    """What sweep.csv and sweep.html read from a finished run's record; the record's other keys (``key``, ``id``,
+    ``ok``, ``flags``, ...) are its own. Strict: a bool is no number, null no list."""
+
+    model_config = ConfigDict(extra="allow", allow_inf_nan=True, frozen=False)
+
+    @classmethod
+    def __get_pydantic_core_schema__(cls, source: type[BaseModel], handler: GetCoreSchemaHandler) -> CoreSchema:
+        """A record is no machine document: ``world`` is null for a run without a world."""
+        return handler(source)
+
+
+class RunSummary(_Record):
+    wall_error_rms_m: Annotated[Any, _checked(_rms, "not a number")] = None
+
+
+class FinishedRun(_Record):
+    index: int
+    seed: int
+    run_seed: int
+    params: dict[str, Any]
+    command: str
+    summary: RunSummary
+    world: str | None = None
+    states: list[Any] = []
+    track: list[Annotated[list[Any], _checked(_point, f"not a point (x, y within {MAX_COORDINATE:g} m)")]] = []
+    dwell: dict[str, Annotated[Any, _checked(lambda v: _number(v, 1e12), "not seconds")]] = {}
+    files: list[str] = []
+    seconds: int | float = 0
+    error: str = ""
+    traceback: str = ""
+
+
+def record_problem(rec: dict[str, Any], source: Source | None = None) -> Problem | None:
+    """Why a finished run's record cannot be reused in the reports (a wrong type, a trajectory that is not points),
+    by the located-problems path machine documents take: the first problem, at its place in ``source`` (the
+    record's line), or ``None``."""
+    try:
+        FinishedRun.model_validate(rec)
+    except ValidationError as err:
+        found = Problems()
+        found.extend(problems_from_validation(err, source=source or Source(name=""), base="", element=None,
+                                              model=FinishedRun, kind="field", data=rec), source)
+        return found.located()[0]
     return None
 
 

@@ -9,7 +9,6 @@ included three times) is copied along the path, so ``lap1/bottom.speed`` leaves 
 from __future__ import annotations
 
 import copy
-import difflib
 import json
 from dataclasses import dataclass
 from typing import Any
@@ -18,6 +17,8 @@ from pydantic import ValidationError
 
 from fsm.model.document import MachineSpec, StateSpec, SubMachine
 from fsm.model.params import StateParams
+
+from .. import did_you_mean
 
 #: Keys an override may not change: identity, layout, and what the loader compiled (conditions, assignments).
 FIXED = {"id", "type", "layout", "description", "set", *StateParams.STEP_KEYS}
@@ -81,16 +82,14 @@ def check(spec: MachineSpec, override: Override) -> None:
     by_path = paths(spec)
     st = by_path.get(override.path)
     if st is None:
-        close = difflib.get_close_matches(override.path, list(by_path), n=3)
-        hint = f"; did you mean {', '.join(close)}?" if close else f"; states: {', '.join(list(by_path)[:10])}"
-        raise OverrideError(f"--set {override.text}: no state at path '{override.path}'{hint}")
+        hint = did_you_mean(override.path, by_path, n=3) or f"states: {', '.join(list(by_path)[:10])}"
+        raise OverrideError(f"--set {override.text}: no state at path '{override.path}'; {hint}")
     own = {f.alias or n for n, f in st.cls.Params.model_fields.items()} - FIXED
     if override.param not in own:
-        close = difflib.get_close_matches(override.param, sorted(own), n=3)
-        hint = (f"; did you mean {', '.join(close)}?" if close else
-                f"; its parameters: {', '.join(sorted(own)) or 'none that can be set'}")
+        hint = (did_you_mean(override.param, sorted(own), n=3)
+                or f"its parameters: {', '.join(sorted(own)) or 'none that can be set'}")
         raise OverrideError(f"--set {override.text}: '{override.path}' ({st.params.type}) has no parameter "
-                            f"'{override.param}'{hint}")
+                            f"'{override.param}'; {hint}")
     for value in override.values:
         _validated(st, override.param, value, override.text)
 

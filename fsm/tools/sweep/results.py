@@ -251,34 +251,38 @@ def _map_xy(p: Any, x0: float, y1: float, scale: float) -> str:
 
 
 def _trajectories(records: list[dict[str, Any]], worlds: dict[str, Any]) -> str:
+    """One small map per run with a track, grouped by world, the world's walls under each."""
     by_world: dict[str, list[dict[str, Any]]] = defaultdict(list)
     for r in records:
         if r.get("track"):
             by_world[str(r.get("world"))].append(r)
     if not by_world:
         return ""
-    out = ["<h2>Trajectories (ground truth), one small map per run</h2>"]
-    for world, recs in sorted(by_world.items()):
-        walls = worlds.get(world) or []
-        pts = [(x, y) for w in walls for x, y in w] + [(p[0], p[1]) for r in recs for p in r["track"]]
-        if not pts:
-            continue
-        x0, x1 = min(p[0] for p in pts) - 0.3, max(p[0] for p in pts) + 0.3
-        y0, y1 = min(p[1] for p in pts) - 0.3, max(p[1] for p in pts) + 0.3
-        w = 220
-        h = max(60, int(w * (y1 - y0) / max(x1 - x0, 1e-6)))
-        sx = w / (x1 - x0)
-        wall_svg = "".join(f"<polyline points='{' '.join(_map_xy(p, x0, y1, sx) for p in line)}' fill='none' "
-                           "stroke='#333' stroke-width='1.5'/>" for line in walls)
-        out.append(f"<h3>{_e(Path(world).name)}</h3><div class=multiples>")
-        for r in recs:
-            colour = "#2a8f4a" if success(r) else "#c83a2e"
-            path = " ".join(_map_xy(p, x0, y1, sx) for p in r["track"])
-            label = ", ".join(f"{k}={v}" for k, v in r["params"].items())
-            out.append(f"<figure><svg width='{w}' height='{h}' viewBox='0 0 {w} {h}' role='img'>{wall_svg}"
-                       f"<polyline points='{path}' fill='none' stroke='{colour}' stroke-width='1.2'/></svg>"
-                       f"<figcaption>{_e(r['id'])} seed {_e(r['seed'])} {_e(label)}</figcaption></figure>")
-        out.append("</div>")
+    maps = [_world_maps(world, recs, worlds.get(world) or []) for world, recs in sorted(by_world.items())]
+    return "<h2>Trajectories (ground truth), one small map per run</h2>" + "".join(maps)
+
+
+def _world_maps(world: str, recs: list[dict[str, Any]], walls: list[Any]) -> str:
+    """The maps of the runs in one world, each framed to the walls and every run's track (none: nothing)."""
+    pts = [(x, y) for w in walls for x, y in w] + [(p[0], p[1]) for r in recs for p in r["track"]]
+    if not pts:
+        return ""
+    xs, ys = [p[0] for p in pts], [p[1] for p in pts]
+    x0, x1, y0, y1 = min(xs) - 0.3, max(xs) + 0.3, min(ys) - 0.3, max(ys) + 0.3
+    w = 220
+    h = max(60, int(w * (y1 - y0) / max(x1 - x0, 1e-6)))
+    sx = w / (x1 - x0)
+    wall_svg = "".join(f"<polyline points='{' '.join(_map_xy(p, x0, y1, sx) for p in line)}' fill='none' "
+                       "stroke='#333' stroke-width='1.5'/>" for line in walls)
+    out = [f"<h3>{_e(Path(world).name)}</h3><div class=multiples>"]
+    for r in recs:
+        colour = "#2a8f4a" if success(r) else "#c83a2e"
+        path = " ".join(_map_xy(p, x0, y1, sx) for p in r["track"])
+        label = ", ".join(f"{k}={v}" for k, v in r["params"].items())
+        out.append(f"<figure><svg width='{w}' height='{h}' viewBox='0 0 {w} {h}' role='img'>{wall_svg}"
+                   f"<polyline points='{path}' fill='none' stroke='{colour}' stroke-width='1.2'/></svg>"
+                   f"<figcaption>{_e(r['id'])} seed {_e(r['seed'])} {_e(label)}</figcaption></figure>")
+    out.append("</div>")
     return "".join(out)
 
 

@@ -249,20 +249,10 @@ def _set_axes(sets: dict[str, list[Any]]) -> list[tuple[str, str, list[Any]]]:
 
 
 def _job(run: Run, spec: SweepSpec, machine: Path, plugins: list[str], out_dir: Path) -> dict[str, Any]:
+    """What a worker needs to run ``run`` (and the record keeps), with the command that runs it alone."""
     wants = spec.outputs.trace or spec.outputs.report or spec.outputs.plot or spec.outputs.video
-    cmd = ["fsmctl"] + [a for p in plugins for a in ("--plugin", p)] + ["run", str(machine)]
-    if run.world is not None:
-        cmd += ["--world", str(run.world), "--seed", str(run.run_seed)]
-    if not spec.noise:
-        cmd.append("--no-noise")
-    if spec.duration is not None:
-        cmd += ["--duration", repr(float(spec.duration))]  # every digit: the run alone stops where the sweep's did
     overrides = [f"{path}.{param}={json.dumps(value)}" for path, param, value in run.sets]
-    for text in overrides:
-        cmd += ["--set", text]
-    for name, value in run.variables.items():
-        cmd += ["--var", f"{name}={json.dumps(value)}"]
-    cmd += ["--summary", "summary.json"]
+    cmd = _command(run, spec, machine, plugins, overrides)
     return {"id": run.id, "index": run.index, "key": run.key, "machine": str(machine), "plugins": plugins,
             "world": str(run.world) if run.world is not None else None, "seed": run.seed, "run_seed": run.run_seed,
             "sets": [list(s) for s in run.sets], "overrides": overrides, "vars": run.variables, "params": run.params,
@@ -271,6 +261,20 @@ def _job(run: Run, spec: SweepSpec, machine: Path, plugins: list[str], out_dir: 
             "trace": spec.outputs.trace, "report": spec.outputs.report, "plot": spec.outputs.plot,
             "video": spec.outputs.video,
             "command": shlex.join(cmd)}
+
+
+def _command(run: Run, spec: SweepSpec, machine: Path, plugins: list[str], overrides: list[str]) -> list[str]:
+    """The ``fsmctl run`` command line that reproduces ``run`` alone (its summary in summary.json)."""
+    cmd = ["fsmctl"] + [a for p in plugins for a in ("--plugin", p)] + ["run", str(machine)]
+    if run.world is not None:
+        cmd += ["--world", str(run.world), "--seed", str(run.run_seed)]
+    if not spec.noise:
+        cmd.append("--no-noise")
+    if spec.duration is not None:
+        cmd += ["--duration", repr(float(spec.duration))]  # every digit: the run alone stops where the sweep's did
+    cmd += [a for text in overrides for a in ("--set", text)]
+    cmd += [a for name, value in run.variables.items() for a in ("--var", f"{name}={json.dumps(value)}")]
+    return cmd + ["--summary", "summary.json"]
 
 
 @dataclass

@@ -102,16 +102,11 @@ def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], d
     from fsm.session.session import StopRules
 
     from ..recording import run_recorder  # the same trace as `fsmctl run --trace`
-    from .folder import OutFile
     from .overrides import apply
 
     spec = apply(_checked(job), [(path, param, value) for path, param, value in job["sets"]])
     plan = compile_spec(spec)
-    out_dir = Path(job["out"]) if job.get("out") else None
-    if out_dir is not None:
-        out_dir.mkdir(parents=True, exist_ok=True)
-    trace_file = OutFile(out_dir / "trace.jsonl", "w+") if out_dir and (job.get("trace") or job.get("report")) \
-        else None
+    out_dir, trace_file = _out_files(job)
     session = None
     try:
         session, sim = _open(job, plan, spec, StopRules(job["duration"]))
@@ -122,21 +117,37 @@ def _simulate(job: dict[str, Any]) -> tuple[dict[str, Any], list[list[float]], d
         dwell = session.add_listener(Dwell())
         video = _video(sim, out_dir) if sim is not None and out_dir is not None and job.get("video") else None
         session.run()
-        if sim is None:
-            return session.summary(), [], dwell.result(session.now)
         result = session.summary()
-        if video is not None:
-            video.close()
-        _plot(sim, out_dir, job)
-        step = max(1, len(sim.track) // TRACK_POINTS)
-        track = [[round(x, 3), round(y, 3), k] for _t, x, y, k in sim.track[::step]]
-        result["states_seen"] = list(sim.states_seen)
+        track = [] if sim is None else _car_outputs(sim, result, video, out_dir, job)
         return result, track, dwell.result(session.now)
     finally:
         if trace_file is not None:
             if session is not None and session.recorder is not None:
                 session.finish()
             _finish_trace(trace_file, out_dir, job)
+
+
+def _out_files(job: dict[str, Any]) -> tuple[Path | None, Any]:
+    """The run's folder (made) when it writes anything there, and its trace file when a trace or report is wanted."""
+    from .folder import OutFile
+
+    if not job.get("out"):
+        return None, None
+    out_dir = Path(job["out"])
+    out_dir.mkdir(parents=True, exist_ok=True)
+    return out_dir, OutFile(out_dir / "trace.jsonl", "w+") if job.get("trace") or job.get("report") else None
+
+
+def _car_outputs(sim: Any, result: dict[str, Any], video: Any, out_dir: Path | None,
+                 job: dict[str, Any]) -> list[list[float]]:
+    """A run of the car: its video closed, its plot drawn, the states it saw added to ``result``; its track (at
+    most :data:`TRACK_POINTS` points)."""
+    if video is not None:
+        video.close()
+    _plot(sim, out_dir, job)
+    step = max(1, len(sim.track) // TRACK_POINTS)
+    result["states_seen"] = list(sim.states_seen)
+    return [[round(x, 3), round(y, 3), k] for _t, x, y, k in sim.track[::step]]
 
 
 def _checked(job: dict[str, Any]) -> Any:

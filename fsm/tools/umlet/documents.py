@@ -10,6 +10,7 @@ the positions of its boxes under ``layout`` and, per JSON pointer, the element i
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
@@ -57,16 +58,17 @@ class Documents:
             level = scene.levels[id(frame)] if frame is not None else top
             doc = self.machine_doc(level, states, initials, "", origins, meta=meta or {}, name=name,
                                    note=notes[0] if notes else None, frame=frame, what="the diagram")
-            label = name if isinstance(name, str) and name else stem
-            base_label, n = label, 2
-            while label in self.names:
-                label = f"{base_label} ({n})"
-                n += 1
-            if label != base_label and doc.get("name") == base_label:
-                doc["name"] = label
             self.docs.append(doc)
-            self.names.append(label)
+            self.names.append(self._unique_label(name if isinstance(name, str) and name else stem, doc))
             self.origins.append(origins)
+
+    def _unique_label(self, label: str, doc: dict[str, Any]) -> str:
+        """``label``, numbered (``lap (2)``) when an earlier machine of the diagram has it; a document named so is
+        renamed too."""
+        unique = T.numbered(label, self.names)
+        if unique != label and doc.get("name") == label:
+            doc["name"] = unique
+        return unique
 
     def split_top(self, top: Level) -> list[tuple[str, list[StateBox], list[Box], Box | None]]:
         """Top-level machines: a frame that nothing attaches to holds one; else connected parts with an initial."""
@@ -74,30 +76,21 @@ class Documents:
         stem = Path(scene.name).stem
         frames = [st for st in top.states if id(st.box) in scene.machine_frames]
         plain = [st for st in top.states if id(st.box) not in scene.machine_frames]
-        out: list[tuple[str, list[StateBox], list[Box], Box | None]] = []
-        for fr in frames:
-            lvl = scene.levels.get(id(fr.box))
-            if lvl is None:
-                continue
-            out.append((fr.id or stem, lvl.states, lvl.initials, fr.box))
+        out: list[tuple[str, list[StateBox], list[Box], Box | None]] = [
+            (fr.id or stem, lvl.states, lvl.initials, fr.box) for fr in frames
+            if (lvl := scene.levels.get(id(fr.box))) is not None]
         if not plain and not top.initials:
             return out
         if len(top.initials) <= 1:
             out.insert(0, (stem, plain, top.initials, None))
             return out
-        # several initial markers at the top: connected components
-        parent: dict[int, int] = {}
+        return out + self._connected(top, plain)
 
-        def find(k: int) -> int:
-            while parent.setdefault(k, k) != k:
-                parent[k] = parent[parent[k]]
-                k = parent[k]
-            return k
-
-        for tr in top.transitions:
-            a, b = find(id(tr["_from"])), find(id(tr["_to"]))
-            if a != b:
-                parent[a] = b
+    def _connected(self, top: Level, plain: list[StateBox]) -> list[tuple[str, list[StateBox], list[Box], None]]:
+        """Several initial markers at the top: a machine for each part the transitions connect, named after the
+        state its marker leads to; a part that no marker leads to is said."""
+        scene = self.scene
+        find = _union_find((id(tr["_from"]), id(tr["_to"])) for tr in top.transitions)
         comps: dict[int, list[StateBox]] = {}
         for st in plain:
             comps.setdefault(find(id(st)), []).append(st)
@@ -106,6 +99,7 @@ class Documents:
             marker = scene.markers.get(id(m))
             if marker is not None:
                 marker_of.setdefault(find(id(marker.target)), []).append(m)
+        out: list[tuple[str, list[StateBox], list[Box], None]] = []
         for root, states in comps.items():
             markers = marker_of.get(root, [])
             if not markers:
@@ -455,3 +449,20 @@ class _StepChain:
                              hint="connect it with an arrow from the step before it (only Sequence boxes may stand "
                                   "alone: they are exception sequences)")
         return first, exceptions
+
+
+def _union_find(pairs: Iterable[tuple[int, int]]) -> Callable[[int], int]:
+    """The root of each element's part, the ``pairs`` joining elements into parts."""
+    parent: dict[int, int] = {}
+
+    def find(k: int) -> int:
+        while parent.setdefault(k, k) != k:
+            parent[k] = parent[parent[k]]
+            k = parent[k]
+        return k
+
+    for a, b in pairs:
+        ra, rb = find(a), find(b)
+        if ra != rb:
+            parent[ra] = rb
+    return find

@@ -100,25 +100,35 @@ def nest(boxes: list[Box]) -> None:
         return
     grid = Grid(containers, 0.0)
     for b in boxes:
-        best: Box | None = None
-        for c in grid.near(b.x, b.y):
-            if c is not b and c.contains_box(b) and (best is None or c.area < best.area):
-                best = c
-        b.parent = best
+        b.parent = _smallest_container(b, grid)
     for b in boxes:
         if b.parent is not None:
             b.parent.children.append(b)
-    # depths, iteratively (no recursion limit on deep nesting)
     for b in boxes:
-        chain = []
-        node: Box | None = b
-        while node is not None and node.depth == 0 and node.parent is not None:
-            chain.append(node)
-            node = node.parent
-        base = node.depth if node is not None else -1
-        for n in reversed(chain):
-            base += 1
-            n.depth = base
+        _set_depth(b)
+
+
+def _smallest_container(b: Box, grid: Grid) -> Box | None:
+    """The smallest container (other than ``b``) that holds ``b``, or ``None``."""
+    best: Box | None = None
+    for c in grid.near(b.x, b.y):
+        if c is not b and c.contains_box(b) and (best is None or c.area < best.area):
+            best = c
+    return best
+
+
+def _set_depth(b: Box) -> None:
+    """The nesting depth of ``b`` and of its containers that have none yet, iteratively (no recursion limit on
+    deep nesting)."""
+    chain = []
+    node: Box | None = b
+    while node is not None and node.depth == 0 and node.parent is not None:
+        chain.append(node)
+        node = node.parent
+    base = node.depth if node is not None else -1
+    for n in reversed(chain):
+        base += 1
+        n.depth = base
 
 
 @dataclass
@@ -149,15 +159,8 @@ class Attacher:
             elif d <= LENIENT:
                 lenient.append((b, d))
         for rule, cands in (("umlet", strict), ("lenient", lenient)):
-            if not cands:
-                continue
-            deepest = max(b.depth for b, _ in cands)
-            cands = [(b, d) for b, d in cands if b.depth == deepest]
-            best = min(d for _, d in cands)
-            winners = [b for b, d in cands if d - best < 1e-9]
-            if len(winners) > 1:
-                return Attachment(None, "ambiguous", winners, best)
-            return Attachment(winners[0], rule, [], best)
+            if cands:
+                return _closest(rule, cands)
         return Attachment(None, "none")
 
     def nearest(self, px: float, py: float) -> tuple[Box | None, float]:
@@ -168,3 +171,15 @@ class Attacher:
             if d < best_d:
                 best, best_d = b, d
         return best, best_d
+
+
+def _closest(rule: str, cands: list[tuple[Box, float]]) -> Attachment:
+    """Among the candidate boxes (with their distances) the innermost closest one, found by ``rule``; several as
+    close: ambiguous."""
+    deepest = max(b.depth for b, _ in cands)
+    cands = [(b, d) for b, d in cands if b.depth == deepest]
+    best = min(d for _, d in cands)
+    winners = [b for b, d in cands if d - best < 1e-9]
+    if len(winners) > 1:
+        return Attachment(None, "ambiguous", winners, best)
+    return Attachment(winners[0], rule, [], best)

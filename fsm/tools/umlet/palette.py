@@ -125,22 +125,29 @@ def _state_template(t: _Template, x: int, y: int) -> tuple[list[str], int]:
 _TYPE_NAME = re.compile(r'(?:"type"\s*:\s*"|^type=)([A-Za-z_][A-Za-z0-9_]*)', re.M)
 
 
+#: The UMLet element that draws each kind of type.
+_KIND_OF_ELEMENT = {"UMLState": "state", "Relation": "transition"}
+
+
+def _types_drawn(raw: bytes, name: str) -> set[tuple[str, str]] | None:
+    """(kind, type) of every state box and arrow in the diagram that names its type; ``None`` when the diagram does
+    not read (the machine check says why)."""
+    try:
+        diagram = parse_raw(raw, name)
+    except DiagramError:
+        return None
+    return {(kind, m.group(1)) for el in diagram.elements if (kind := _KIND_OF_ELEMENT.get(el.kind)) is not None
+            for m in _TYPE_NAME.finditer(el.text)}
+
+
 def palette_problems(raw: bytes, name: str, registry: Any) -> list[Problem] | None:
     """``None`` unless the diagram is a palette: it holds a template of every built-in state and transition
     type (no machine uses them all). A palette is valid when it is exactly what ``fsmctl palette`` generates."""
     builtin = {(kind, n) for kind, n, cls in registry if cls.__module__.startswith("fsm.")}
     if not builtin:
         return None
-    try:
-        diagram = parse_raw(raw, name)
-    except DiagramError:
-        return None  # the machine check reports it
-    found: set[tuple[str, str]] = set()
-    for el in diagram.elements:
-        kind = "state" if el.kind == "UMLState" else "transition" if el.kind == "Relation" else None
-        if kind is not None:
-            found.update((kind, m.group(1)) for m in _TYPE_NAME.finditer(el.text))
-    if not builtin <= found:
+    found = _types_drawn(raw, name)
+    if found is None or not builtin <= found:
         return None
     text = raw.decode("utf-8", errors="replace")
     if text == palette(registry):

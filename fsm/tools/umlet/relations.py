@@ -53,8 +53,8 @@ class Relations:
 
     # -- endpoints ------------------------------------------------------------------------------------------
     def attach(self) -> list[Attached]:
+        """Each arrow (a relation with one arrowhead) with the boxes its ends stick to, source first."""
         out = []
-        s = self.scene.scale
         for elem in self.scene.relations:
             rel = T.parse_relation(elem.text)
             if not (rel.start_head or rel.end_head):
@@ -63,23 +63,10 @@ class Relations:
                 self.problem(elem, f"arrowheads at both ends (lt={rel.lt}): which way does the transition go?",
                              hint="use lt=-> or lt=<-")
                 continue
-            pts = elem.points
-            if not pts or len(pts) < 4:
-                n = 0 if not pts else len(pts) // 2
-                self.problem(elem, f"a relation needs at least two points, this one has {n}",
-                             hint="draw the arrow again in UMLet")
+            found = self._points(elem, rel)
+            if found is None:
                 continue
-            if elem.old:  # integers at the stored zoom, relative to the origin
-                absolute = [[(elem.x + pts[i]) * s, (elem.y + pts[i + 1]) * s] for i in range(0, len(pts), 2)]
-                probes = [tuple(p) for p in absolute]
-            else:  # relative to the origin, stored at zoom 10 whatever zoom_level says
-                ox, oy = int(elem.x * s), int(elem.y * s)
-                absolute = [[ox + pts[i], oy + pts[i + 1]] for i in range(0, len(pts), 2)]
-                # Stickables.getAbsolutePosition: realRectangle.x + (int) px
-                probes = [(ox + int(pts[i]), oy + int(pts[i + 1])) for i in range(0, len(pts), 2)]
-            if rel.start_head:
-                absolute.reverse()
-                probes.reverse()
+            absolute, probes = found
             ends = []
             for probe, point in ((probes[0], absolute[0]), (probes[-1], absolute[-1])):
                 ends.append((self.attacher.attach(probe[0], probe[1], elem.old), point))
@@ -89,6 +76,27 @@ class Relations:
             dst_box = self.check_end(elem, ends[1], "target")
             out.append(Attached(elem, rel, src_box, dst_box, [[num(x), num(y)] for x, y in absolute]))
         return out
+
+    def _points(self, elem: RawElement, rel: T.RelationText) -> tuple[list[list[Any]], list[tuple[Any, ...]]] | None:
+        """An arrow's points in the scene, source first, and where UMLet probes for the box each point sticks to;
+        ``None`` (said) for an arrow of fewer than two points."""
+        pts, s = elem.points, self.scene.scale
+        if not pts or len(pts) < 4:
+            self.problem(elem, f"a relation needs at least two points, this one has {len(pts or ()) // 2}",
+                         hint="draw the arrow again in UMLet")
+            return None
+        if elem.old:  # integers at the stored zoom, relative to the origin
+            absolute = [[(elem.x + pts[i]) * s, (elem.y + pts[i + 1]) * s] for i in range(0, len(pts), 2)]
+            probes = [tuple(p) for p in absolute]
+        else:  # relative to the origin, stored at zoom 10 whatever zoom_level says
+            ox, oy = int(elem.x * s), int(elem.y * s)
+            absolute = [[ox + pts[i], oy + pts[i + 1]] for i in range(0, len(pts), 2)]
+            # Stickables.getAbsolutePosition: realRectangle.x + (int) px
+            probes = [(ox + int(pts[i]), oy + int(pts[i + 1])) for i in range(0, len(pts), 2)]
+        if rel.start_head:
+            absolute.reverse()
+            probes.reverse()
+        return absolute, probes
 
     def at_note(self, elem: RawElement, rel: T.RelationText, ends: list[Any], probes: Any) -> bool:
         """Whether an end that attaches to no state attaches to a note: a dashed arrow is then the note's anchor
@@ -179,7 +187,6 @@ class Relations:
 
     def relation(self, elem: RawElement, rel: T.RelationText, src: Any, dst: Any, points: list[Any]) -> None:
         """An arrow with its attached ends: a transition, an initial marker's arrow, or a problem said."""
-        scene = self.scene
         if src is False or dst is False:
             return  # ambiguous: reported
         try:
@@ -187,13 +194,7 @@ class Relations:
         except T.TextError as exc:
             self.problem(elem, f"label: {exc}", hint=exc.hint)
             return
-        params = dict(label.params) if label.params is not None else None
-        explicit: dict[str, Any] = {}
-        if params is not None:
-            for key in ("from", "to"):
-                if key in params:
-                    explicit[key] = params.pop(key)
-            params.pop("id", None)
+        params, explicit = _label_ends(label)
         ends = self.named_ends(elem, src, dst, explicit)
         if ends is None:
             return
@@ -206,15 +207,19 @@ class Relations:
         if source.role == "initial":
             self.initial(elem, source, target, points)
             return
-        if source.role == "unsupported" or target.role == "unsupported":
-            return  # the pseudostate is reported
-        s_state = scene.state_of.get(id(source))
-        d_state = scene.state_of.get(id(target))
-        if s_state is None or d_state is None:
-            return  # their text did not parse: reported
-        if id(source) in scene.machine_frames or id(target) in scene.machine_frames:
-            return
-        self.transition(elem, s_state, d_state, params, label, points)
+        states = self._states_of(source, target)
+        if states is not None:
+            self.transition(elem, *states, params, label, points)
+
+    def _states_of(self, source: Box, target: Box) -> tuple[StateBox, StateBox] | None:
+        """The states a transition joins; ``None`` where none is drawn: an unsupported pseudostate (said), a box
+        whose text did not parse (said), a machine's frame."""
+        scene = self.scene
+        if "unsupported" in (source.role, target.role) or \
+                id(source) in scene.machine_frames or id(target) in scene.machine_frames:
+            return None
+        s_state, d_state = scene.state_of.get(id(source)), scene.state_of.get(id(target))
+        return None if s_state is None or d_state is None else (s_state, d_state)
 
     def named_ends(self, elem: RawElement, src: Box | None, dst: Box | None,
                    explicit: dict[str, Any]) -> tuple[Box | None, Box | None] | None:
@@ -441,3 +446,13 @@ def _exit_final(lvl: Level, outcome: str, elem: RawElement) -> StateBox:
         final = StateBox(Box(elem, "final", 0, 0, 0, 0), id=fid, type="Final", params={"outcome": outcome})
         lvl.finals_by_outcome[outcome] = final
     return final
+
+
+def _label_ends(label: T.Label) -> tuple[dict[str, Any] | None, dict[str, Any]]:
+    """A label's parameters without the ``from`` and ``to`` it names (returned apart) and its ``id``."""
+    if label.params is None:
+        return None, {}
+    params = dict(label.params)
+    explicit: dict[str, Any] = {key: params.pop(key) for key in ("from", "to") if key in params}
+    params.pop("id", None)
+    return params, explicit

@@ -227,34 +227,17 @@ class Scene:
                    float(int(elem.h * s)))
 
     def read_states(self) -> None:
+        """The state each frame, state and final box is (a box whose text is wrong has none), the keys of each
+        machine note; the frames that are a Parallel state's regions."""
+        readers = {"frame": _frame_state, "state": self.read_state, "final": _final_state}
         for box in self.boxes:
-            elem = box.elem
-            if box.role == "frame":
-                title = []
-                for ln in elem.text.split("\n"):
-                    if T.SEPARATOR.match(ln):
-                        break
-                    if not T.is_style(ln, T.BOX_STYLE_KEYS) and ln.strip():
-                        title.append(ln.strip())
-                self.state_of[id(box)] = StateBox(box, id=" ".join(title))
-            elif box.role == "state":
-                st = self.read_state(box)
-                if st is not None:
-                    self.state_of[id(box)] = st
-            elif box.role == "final":
-                st = StateBox(box, type="Final")
-                if elem.kind == "UMLSpecialState":
-                    _, label = T.special_kind(elem.text)
-                else:
-                    label = " ".join(ln.strip() for ln in elem.text.split("\n")
-                                     if ln.strip() and not T.is_style(ln, T.BOX_STYLE_KEYS))
-                if label:
-                    st.params = {"outcome": label}
+            read = readers.get(box.role)
+            st = read(box) if read is not None else None
+            if st is not None:
                 self.state_of[id(box)] = st
-            elif box.role == "note":
-                meta = self.read_note(elem)
-                if meta is not None:
-                    self.note_of[id(box)] = meta
+            meta = self.read_note(box.elem) if box.role == "note" else None
+            if meta is not None:
+                self.note_of[id(box)] = meta
         for box in self.boxes:
             if box.role == "frame" and self.is_parallel(box.parent):
                 self.region_frames.add(id(box))
@@ -353,43 +336,69 @@ class Scene:
         return out
 
     def make_levels(self) -> None:
+        """A level (a machine) at the top and in each box that holds more than notes; each note, initial marker
+        and state put in the level it is drawn in; final states named."""
         self.levels[0] = Level(None)
         for box in self.boxes:
             if box.container and any(c.role != "note" for c in box.children):
                 self.levels[id(box)] = Level(box)
         for box in self.boxes:
             if box.role == "note":
-                parent = box.parent
-                level = self.levels.get(id(parent)) if parent is not None else self.levels[0]
-                if level is None:
-                    assert parent is not None
-                    self.problem(box.elem, f"machine note inside {self.box_name(parent)}, which holds no machine",
-                                 hint="move the note into the composite state or region frame whose machine it "
-                                      "describes, or outside every box for the diagram's own machine")
-                elif id(box) in self.note_of:
-                    level.notes.append(box)
-                continue
-            level = self.level_of(box)
-            if box.role == "initial":
-                level.initials.append(box)
-            elif box.role in ("state", "frame", "final"):
-                st = self.state_of.get(id(box))
-                if st is not None:
-                    level.states.append(st)
-                    if id(box) in self.levels:
-                        st.composite = True
+                self._place_note(box)
+            elif box.role == "initial":
+                self.level_of(box).initials.append(box)
+            elif box.role in ("state", "frame", "final") and id(box) in self.state_of:
+                st = self.state_of[id(box)]
+                self.level_of(box).states.append(st)
+                st.composite = st.composite or id(box) in self.levels
+        for level in self.levels.values():
+            _name_finals(level)
 
-        for level in self.levels.values():  # final states: id from the outcome label, unique in their level
-            taken = {st.id for st in level.states if st.box.role != "final"}
-            for st in level.states:
-                if st.box.role == "final":
-                    base = st.params.get("outcome") or "final"
-                    fid, n = base, 2
-                    while fid in taken:
-                        fid = f"{base} ({n})"
-                        n += 1
-                    st.id = fid
-                    taken.add(fid)
+    def _place_note(self, box: Box) -> None:
+        """A machine note into the level of the box it is drawn in; inside a box that holds no machine it is said."""
+        parent = box.parent
+        level = self.levels.get(id(parent)) if parent is not None else self.levels[0]
+        if level is None:
+            assert parent is not None
+            self.problem(box.elem, f"machine note inside {self.box_name(parent)}, which holds no machine",
+                         hint="move the note into the composite state or region frame whose machine it "
+                              "describes, or outside every box for the diagram's own machine")
+        elif id(box) in self.note_of:
+            level.notes.append(box)
+
+
+def _frame_state(box: Box) -> StateBox:
+    """A frame's state, named by the title lines above its first separator."""
+    title = []
+    for ln in box.elem.text.split("\n"):
+        if T.SEPARATOR.match(ln):
+            break
+        if not T.is_style(ln, T.BOX_STYLE_KEYS) and ln.strip():
+            title.append(ln.strip())
+    return StateBox(box, id=" ".join(title))
+
+
+def _final_state(box: Box) -> StateBox:
+    """A final state; its label (a special state's, or the box's text) is its outcome."""
+    elem = box.elem
+    st = StateBox(box, type="Final")
+    if elem.kind == "UMLSpecialState":
+        _, label = T.special_kind(elem.text)
+    else:
+        label = " ".join(ln.strip() for ln in elem.text.split("\n")
+                         if ln.strip() and not T.is_style(ln, T.BOX_STYLE_KEYS))
+    if label:
+        st.params = {"outcome": label}
+    return st
+
+
+def _name_finals(level: Level) -> None:
+    """Final states take their outcome label as id (else ``final``), numbered to be unique in their level."""
+    taken = {st.id for st in level.states if st.box.role != "final"}
+    for st in level.states:
+        if st.box.role == "final":
+            st.id = T.numbered(st.params.get("outcome") or "final", taken)
+            taken.add(st.id)
 
 
 def _text_fields(model: Any) -> set[str]:

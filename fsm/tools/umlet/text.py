@@ -62,6 +62,15 @@ class TextError(ValueError):
 STATE_BOX_FORM = 'a state box is its name, a line --, then "type": "TypeName", "param": value, ..., one per line'
 
 
+def numbered(name: str, taken: set[str] | list[str]) -> str:
+    """``name``, or the first of ``name (2)``, ``name (3)``, ... not ``taken`` (machines of one diagram, final states
+    of one level)."""
+    unique, n = name, 2
+    while unique in taken:
+        unique, n = f"{name} ({n})", n + 1
+    return unique
+
+
 def is_style(line: str, keys: set[str] = _STYLE_KEYS) -> bool:
     stripped = line.strip()
     if stripped.startswith("//"):
@@ -479,29 +488,36 @@ def parse_machine_note(text: str) -> MachineNote:
     free: list[str] = []
     for comp in [rest] + compartments:
         lines = [ln for ln in comp if ln.strip()]
-        if not lines:
-            continue
-        m = _NOTE_KEY_VALUE.match(lines[0])
-        if m and m.group(1) in MACHINE_KEYS:
-            for ln in lines:
-                m = _NOTE_KEY_VALUE.match(ln)
-                if not m or m.group(1) not in MACHINE_KEYS:
-                    raise TextError(f"line {ln.strip()[:40]!r} is not one of the machine's key=value lines "
-                                    f"({', '.join(MACHINE_KEYS)}); free text goes after another -- line")
-                if m.group(1) in values:
-                    raise TextError(f"'{m.group(1)}' is given twice")
-                values[m.group(1)] = m.group(2).strip()
-        else:
+        if lines and note_key_line(lines[0]):
+            _add_key_values(lines, values)
+        elif lines:
             free.append("\n".join(ln.rstrip() for ln in comp).strip("\n"))
     if free and "description" in values:
         raise TextError("the description is given twice: as description= and as free text")
     return MachineNote(values, "\n".join(free) if free else None)
 
 
+def _add_key_values(lines: list[str], values: dict[str, str]) -> None:
+    """A compartment of a machine note's ``key=value`` lines into ``values``: each a machine key, given once."""
+    for ln in lines:
+        kv = _note_key_value(ln)
+        if kv is None:
+            raise TextError(f"line {ln.strip()[:40]!r} is not one of the machine's key=value lines "
+                            f"({', '.join(MACHINE_KEYS)}); free text goes after another -- line")
+        if kv[0] in values:
+            raise TextError(f"'{kv[0]}' is given twice")
+        values[kv[0]] = kv[1]
+
+
+def _note_key_value(line: str) -> tuple[str, str] | None:
+    """The key (one of :data:`MACHINE_KEYS`) and the value text of a machine note's ``key=value`` line."""
+    m = _NOTE_KEY_VALUE.match(line)
+    return (m.group(1), m.group(2).strip()) if m and m.group(1) in MACHINE_KEYS else None
+
+
 def note_key_line(line: str) -> bool:
     """Whether ``line`` would be read as one of a machine note's ``key=value`` lines."""
-    m = _NOTE_KEY_VALUE.match(line)
-    return bool(m and m.group(1) in MACHINE_KEYS)
+    return _note_key_value(line) is not None
 
 
 def include_title(title: str) -> str | None:

@@ -180,24 +180,25 @@ def state_text(st: dict[str, Any], composite: bool) -> str:
     free = None
     if isinstance(desc, str) and _safe_free_text(desc):
         free = params.pop("description")
+    top = ["valign=top"] if composite else []
     if not _safe_name(sid):
         frag = json.dumps({"id": sid, "type": typ, **params}, ensure_ascii=False)[1:-1]
-        lines = [frag] + (["--", free] if free else [])
-        return "\n".join(lines) + ("\nvalign=top" if composite else "")
+        return "\n".join(_sections([frag], [free] if free else None) + top)
     activities = activity_lines(params.get("set"))
     if activities is not None:
         params.pop("set")
-    lines = [sid]
     implied = "FSMState" if composite and typ != "Sequence" else "Idle"
-    if params or typ != implied:
-        lines += ["--"] + param_lines(typ, params, T.STATE_FACET_KEYS, type_as_json=True)
-    if activities:
-        lines += ["--"] + activities
-    if free:
-        lines += ["--", free]
-    if composite:
-        lines.append("valign=top")
-    return "\n".join(lines)
+    shown = param_lines(typ, params, T.STATE_FACET_KEYS, type_as_json=True) if params or typ != implied else None
+    return "\n".join(_sections([sid], shown, activities, [free] if free else None) + top)
+
+
+def _sections(head: list[str], *sections: list[str] | None) -> list[str]:
+    """The lines of a box: ``head``, then each section that has lines after a ``--`` separator."""
+    lines = list(head)
+    for section in sections:
+        if section:
+            lines += ["--", *section]
+    return lines
 
 
 def drawn_regions(st: dict[str, Any]) -> list[dict[str, Any]] | None:
@@ -244,12 +245,7 @@ def note_text(machine: dict[str, Any], role: str) -> str | None:
         kv.append(f"{key}={json.dumps(value, ensure_ascii=False) if key in ('vars', 'inputs') else value_text(value)}")
     if not kv and free is None and role != "top":
         return None
-    lines = [T.MACHINE_NOTE_TITLE]
-    if kv:
-        lines += ["--"] + kv
-    if free is not None:
-        lines += ["--", free]
-    return "\n".join(lines + ["style=wordwrap"])
+    return "\n".join(_sections([T.MACHINE_NOTE_TITLE], kv, None if free is None else [free]) + ["style=wordwrap"])
 
 
 def _safe_note_text(text: str) -> bool:
@@ -308,24 +304,43 @@ def _reads_back(label: str, signal: str, guard: Any, assignments: Any) -> bool:
 
 
 def transition_text(tr: dict[str, Any], source: dict[str, Any] | None, registry: Any) -> str:
+    """The text of a transition's arrow: a UML label that reads back as this Signal transition, else its type (left
+    out where the source implies it: Finished from a state that finishes, Always from one that does not) and
+    parameters, with its guard and ``set`` as a ``[guard] / action`` line where they read back so."""
     typ = str(tr.get("type"))
     params = {k: v for k, v in tr.items() if k not in _COMMON_TRANSITION}
-    if typ == "Signal" and set(params) - {"guard", "set"} == {"signal", "label"} and isinstance(params["label"], str):
-        label = params["label"]
-        if _reads_back(label, params["signal"], params.get("guard"), params.get("set")):
-            return "lt=->\n" + label
-    tail = None
-    if "guard" in params or "set" in params:
-        tail = guard_action_text(params.get("guard"), params.get("set"))
-        if tail is not None:
-            params.pop("guard", None)
-            params.pop("set", None)
-    if not params and source is not None:
-        can = _can_finish(source, registry)
-        if (typ == "Finished" and can) or (typ == "Always" and not can):
-            return "lt=->" + (f"\n{tail}" if tail else "")
-    return "\n".join(["lt=->"] + param_lines(typ, params, T.RELATION_FACET_KEYS, type_as_json=False)
-                     + ([tail] if tail else []))
+    label = _signal_label(typ, params)
+    if label is not None:
+        return "lt=->\n" + label
+    tail = _guard_action_line(params)
+    implied = not params and source is not None and _implied_type(typ, source, registry)
+    shown = [] if implied else param_lines(typ, params, T.RELATION_FACET_KEYS, type_as_json=False)
+    return "\n".join(["lt=->", *shown, *([tail] if tail else [])])
+
+
+def _signal_label(typ: str, params: dict[str, Any]) -> str | None:
+    """A Signal transition's own UML label, when it converts back to exactly its signal, guard and ``set``."""
+    if typ != "Signal" or set(params) - {"guard", "set"} != {"signal", "label"} or not isinstance(params["label"], str):
+        return None
+    label: str = params["label"]
+    return label if _reads_back(label, params["signal"], params.get("guard"), params.get("set")) else None
+
+
+def _guard_action_line(params: dict[str, Any]) -> str | None:
+    """``[guard] / action`` for the guard and ``set`` among ``params`` (taken out of them), when they read back."""
+    if "guard" not in params and "set" not in params:
+        return None
+    tail = guard_action_text(params.get("guard"), params.get("set"))
+    if tail is not None:
+        params.pop("guard", None)
+        params.pop("set", None)
+    return tail
+
+
+def _implied_type(typ: str, source: dict[str, Any], registry: Any) -> bool:
+    """Whether an arrow without text from ``source`` means ``typ``: Finished when it can finish, else Always."""
+    can = _can_finish(source, registry)
+    return (typ == "Finished" and can) or (typ == "Always" and not can)
 
 
 def final_special(st: dict[str, Any], level_names: set[str], used: set[str]) -> str | None:

@@ -177,7 +177,8 @@ def test_fsmctl_watch_prints_every_tick_s_values_as_a_plain_run_has_them(
 
 
 @pytest.mark.parametrize(("args", "error"), [
-    (["car_front", "nope * 2"], "expression 2 'nope * 2', column 1: unknown variable 'nope'"),
+    (["car_front", "nope * 2"], "expression 2 'nope * 2', column 1: unknown variable 'nope' (known: car_"),
+    (["car_frnt"], "unknown variable 'car_frnt' (did you mean car_front"),
     (["car_front +"], "expression 1 'car_front +', column 12: "),
     (["car_front", "--to", "99999"], "--to 99999: the trace's ticks are 0 to 480"),
     (["car_front", "--from", "9", "--to", "3"], "--from 9 is after --to 3"),

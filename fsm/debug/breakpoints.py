@@ -160,7 +160,7 @@ def make_breakpoint(number: int, spec: Any, machine: Machine, signals: Iterable[
     try:
         compiled = compile_expr(text, expression_kinds(machine, signals), want=BOOL)
     except ExprError as exc:
-        raise BreakpointError(_with_names(exc.message, machine, signals), exc.column) from None
+        raise BreakpointError(with_names(exc.message, machine, signals), exc.column) from None
     bp = Breakpoint(number, {"kind": kind, "expr": text}, f"{text} becomes true", test=compiled.fn)
     bp.last = _value(bp, expression_values(machine, signals)) is True
     return bp
@@ -175,7 +175,7 @@ def expression_kinds(machine: Machine, signals: Iterable[str] = ()) -> dict[str,
     return kinds
 
 
-def _with_names(message: str, machine: Machine, signals: Iterable[str]) -> str:
+def with_names(message: str, machine: Machine, signals: Iterable[str]) -> str:
     """An unknown name's message with the names that are known."""
     if not message.startswith("unknown variable"):
         return message
@@ -262,4 +262,4 @@ def _why(spec: dict[str, Any], h: Happened) -> str | None:
 
 
 __all__ = ["CAR_READINGS", "KINDS", "Breakpoint", "BreakpointError", "Happened", "Watch", "active_set",
-           "expression_kinds", "expression_values", "hits", "make_breakpoint"]
+           "expression_kinds", "expression_values", "hits", "make_breakpoint", "with_names"]

@@ -17,7 +17,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
-from fsm.debug.breakpoints import CAR_READINGS, BreakpointError, expression_kinds
+from fsm.debug.breakpoints import CAR_READINGS, BreakpointError, expression_kinds, with_names
 from fsm.model.expr import (
     ANY,
     BOOL,
@@ -55,7 +55,7 @@ def compile_watch(text: Any, machine: Any, signals: Any = ()) -> WatchExpr:
         tree = parse(text)
         compiled = compile_tree(tree, text, kinds)
     except ExprError as exc:
-        raise BreakpointError(exc.message, exc.column) from None
+        raise BreakpointError(with_names(exc.message, machine, signals), exc.column) from None
     return WatchExpr(text, tree, kinds, compiled.fn)
 
 

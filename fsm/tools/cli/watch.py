@@ -1,5 +1,5 @@
-"""``fsmctl watch TRACE EXPR... [--from T] [--to T] [--csv]``: watch expressions' values after every tick of a run,
-from its trace, by re-simulation.
+"""``fsmctl watch TRACE EXPR... [--from TICK] [--to TICK] [--csv]``: watch expressions' values after every tick of a
+run, from its trace, by re-simulation.
 
 The run is built again from its trace's header and recorded inputs, as ``fsmctl explain`` does
 (:func:`fsm.tools.cli.explain.rebuild`), and run to the range's last tick; the expressions (the document's language:
@@ -30,9 +30,9 @@ def register(sub: Subcommands) -> None:
                                    "trace, as fsmctl explain and the live page's watch plot do. A table, or CSV.")
     p.add_argument("trace", metavar="TRACE.jsonl", help="the trace (fsmctl run --trace; '-' for standard input)")
     p.add_argument("exprs", nargs="+", metavar="EXPR", help="an expression, e.g. car_front or 'n * 2 > 3'")
-    p.add_argument("--from", dest="first", type=int, default=0, metavar="T", help="the first tick (default 0: the "
+    p.add_argument("--from", dest="first", type=int, default=0, metavar="TICK", help="the first tick (default 0: the "
                                                                                     "start)")
-    p.add_argument("--to", dest="last", type=int, default=None, metavar="T", help="the last tick (default: the "
+    p.add_argument("--to", dest="last", type=int, default=None, metavar="TICK", help="the last tick (default: the "
                                                                                    "trace's last)")
     p.add_argument("--csv", action="store_true",
                    help="print CSV (tick, time, one column per expression; numbers with every digit)")

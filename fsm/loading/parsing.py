@@ -207,7 +207,12 @@ class Parser:
         if not isinstance(raw, dict):
             return None  # the envelope reported it
         name = raw.get("type")
-        cls = self._tables[kind].get(name) if isinstance(name, str) else None
+        cls = None
+        if isinstance(name, str):
+            try:  # the table's C lookup; a name not imported yet is imported by its __missing__ (as its get does)
+                cls = self._tables[kind][name]
+            except KeyError:
+                cls = None
         if cls is None:
             cls, problems = check_type(kind, raw, self.registry, source, ptr)
             if cls is None:

@@ -18,10 +18,9 @@ from fsm.runtime.composite import Composite
 from fsm.runtime.condition import Condition
 from fsm.runtime.context import Context
 from fsm.runtime.machine import Machine
-from fsm.runtime.region import Region, StateWiring, TransitionWiring, Until, transition_wiring, wiring
+from fsm.runtime.region import Region, StateWiring, TransitionWiring, Until, new_state, new_transition, wiring
 from fsm.runtime.state import State
 from fsm.runtime.supervisor import Monitor, Supervisor, supervisor_of
-from fsm.runtime.transition import Transition
 from fsm.sequencer.checks import CALLER_BEHAVIORS
 
 
@@ -57,32 +56,33 @@ class _Builder:
         self.conditions: list[tuple[Condition[Any], State[Any]]] = []
 
     def region(self, plan: RegionPlan, owner: State[Any] | None) -> Region:
-        states = {sp.id: self.state(sp) for sp in plan.states}
+        states: dict[str, State[Any]] = {}
+        state = self.state
+        records = [state(sp, states) for sp in plan.states]
         region = Region(plan.name, plan.path, states, states[plan.initial])
         region.owner = owner
         self.regions.append(region)
         transition = self.transition
-        for sp in plan.states:
-            if not sp.regular and not sp.preempt:
-                continue
-            source = wiring(states[sp.id])
+        for sp, source in zip(plan.states, records, strict=True):
             regular = sp.regular
+            if not regular and not sp.preempt:
+                continue
             if len(regular) == 1 and not sp.preempt:
                 # one transition out of a state is the usual case: built without a comprehension's frame
                 only = transition(regular[0], states)
                 source.regular = (only,)
-                source.transitions = [only.transition]
+                source.transitions = (only.transition,)
                 continue
             source.regular = tuple([transition(tp, states) for tp in regular])
             source.preempt = tuple([transition(tp, states) for tp in sp.preempt])
-            source.transitions = [t.transition for t in sorted(source.preempt + source.regular, key=_position)]
+            source.transitions = tuple([t.transition for t in sorted(source.preempt + source.regular, key=_position)])
         return region
 
-    def state(self, plan: StatePlan) -> State[Any]:
-        obj: State[Any] = plan.cls(plan.id, plan.params)
-        obj.path = plan.path
-        record = wiring(obj)
-        self.states[plan.path] = obj
+    def state(self, plan: StatePlan, siblings: dict[str, State[Any]]) -> StateWiring:
+        """The state of ``plan`` (added to ``siblings`` by its id), as its record."""
+        record = new_state(plan.cls, plan.id, plan.params, plan.path)
+        obj = record.state
+        siblings[plan.id] = self.states[plan.path] = obj
         self.built.append(record)
         if plan.regions:
             regions = [self.region(rp, obj) for rp in plan.regions]
@@ -109,7 +109,7 @@ class _Builder:
             if sup.watches:
                 self.supervise(obj, plan)
                 self.supervised.append((obj, plan))
-        return obj
+        return record
 
     def supervise(self, obj: State[Any], plan: StatePlan) -> None:
         sup = plan.supervision
@@ -137,8 +137,7 @@ class _Builder:
 
     def transition(self, plan: TransitionPlan, states: dict[str, State[Any]]) -> TransitionWiring:
         source = states[plan.source]
-        made: Transition[Any] = plan.cls(plan.params, source, states[plan.target], plan.position)
-        t = transition_wiring(made)
+        t = new_transition(plan.cls, plan.params, source, states[plan.target], plan.position)
         guard = plan.guard
         if not plan.conditions and guard.expression is None and guard.condition is None and plan.assign is None:
             return t

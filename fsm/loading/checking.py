@@ -216,11 +216,12 @@ def signal_names(spec: MachineSpec | None) -> set[str]:
     and condition) types declare in ``signal_refs`` (``Signal.signal``, a Sequence's ``pause_signal``). ``fsmctl run
     --signal`` warns about a name outside this set; a plugin type that reads signals declares its parameter there."""
     names: set[str] = set()
-    for cls, params, *_rest in signal_readers(spec) if spec is not None else ():
+    for reader in signal_readers(spec) if spec is not None else ():
+        cls = reader[0]  # not ``cls, params, *rest``: that makes a list per element
         if not cls.signal_refs:
             continue
         for key in cls.signal_refs:
-            value = getattr(params, key, None)
+            value = getattr(reader[1], key, None)
             if isinstance(value, str):
                 names.add(value)
     return names

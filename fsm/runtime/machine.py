@@ -126,7 +126,7 @@ class Machine:
         for region in self.regions:
             region.listeners = self.listeners
         #: Top-level states without outgoing transitions: one that finishes ends the machine.
-        self._terminal = frozenset(s for s in root.states.values() if not wiring(s).transitions and not s.is_final)
+        self._terminal = frozenset(root.terminal_states())
 
     # -- running --------------------------------------------------------------------------------
     def start(self) -> None:

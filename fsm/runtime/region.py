@@ -33,6 +33,7 @@ _ALWAYS = GuardKind.ALWAYS
 _CALL = GuardKind.CALL
 _NO_ACTION = ActionKind.NONE
 _COUNTER = ActionKind.COUNTER
+_RUN = ActionKind.CALL
 _PROCEED = Verdict.PROCEED
 _HALTED = Verdict.HALTED
 #: What ``Region._before_tick`` returns when nothing more happens at this level in this tick.
@@ -81,7 +82,8 @@ def wiring(state: State[Any]) -> StateWiring:
     record = state._fsm
     if isinstance(record, StateWiring):
         return record
-    wired = state._fsm = StateWiring(state, record)
+    wired = state._fsm = StateWiring(state)
+    wired.carry(record)
     return wired
 
 
@@ -95,6 +97,22 @@ def transition_wiring(transition: Transition[Any]) -> TransitionWiring:
     return wired
 
 
+def new_state(cls: type[State[Any]], id: str, params: Any, path: str) -> StateWiring:
+    """A state of type ``cls`` at ``path``, made for a machine: its record (the builder's one call per state)."""
+    state = cls(id, params)
+    state.path = path
+    record = state._fsm
+    return record if isinstance(record, StateWiring) else wiring(state)
+
+
+def new_transition(cls: type[Transition[Any]], params: Any, source: State[Any], target: State[Any],
+                   index: int) -> TransitionWiring:
+    """A transition of type ``cls`` made for a machine: its record (the builder's one call per transition)."""
+    transition = cls(params, source, target, index)
+    record = transition._fsm
+    return record if isinstance(record, TransitionWiring) else transition_wiring(transition)
+
+
 class StateWiring(Life):
     """What the runtime keeps of a state in a machine: its level and sub-levels, its transitions (``preempt`` and
     ``regular`` as records, in the order they are checked; ``transitions`` as the transitions, in document order),
@@ -104,11 +122,20 @@ class StateWiring(Life):
                  "exit_action", "complete_action", "tick_hook", "enter_hook", "exit_hook", "arms", "watched",
                  "resets", "is_final")
 
-    def __init__(self, state: State[Any], before: Life | None = None) -> None:
-        Life.__init__(self, state, before)  # not super(): a state made is a record made (about 1,000 states a load)
+    def __init__(self, state: State[Any]) -> None:
+        # Made once per state of every load (1,000 for the ring): the clock's fields of ``Life`` are written here,
+        # not by ``Life.__init__`` (a frame less), and what ``seal`` fixes (the hooks, ``arms``, ``watched``,
+        # ``is_final``) is written by ``seal`` only; a state made into a machine is always sealed before it runs
+        self.state = state
+        self.entered_at = 0.0
+        self.paused = False
+        self.frozen_since: float | None = None
+        self.completed = False
+        self.completion_ran = False
         self.region: Region | None = None
         self.regions: tuple[Region, ...] = ()
-        self.transitions: list[Transition[Any]] = []
+        #: The transitions out of this state, in document order (shared empty tuple where there are none).
+        self.transitions: tuple[Transition[Any], ...] = ()
         self.preempt: tuple[TransitionWiring, ...] = ()
         self.regular: tuple[TransitionWiring, ...] = ()
         #: Monitors, timeout and precondition (:class:`fsm.runtime.supervisor.Supervisor`), or None.
@@ -121,17 +148,19 @@ class StateWiring(Life):
         #: The document's ``set.on_complete``, compiled, or None; run when the state is left after it finished
         #: by itself (``completed``: it called ``finish``), not when aborted, timed out, skipped or restarted.
         self.complete_action: Hook | None = None
-        # What the runtime calls, fixed when the machine is built (seal): None where the base does nothing.
-        self.tick_hook: Hook | None = None
-        self.enter_hook: Hook | None = None
-        self.exit_hook: Hook | None = None
-        #: The outgoing transitions' hooks run on each entry (their references, their conditions' resets).
-        self.arms: tuple[Hook, ...] = ()
-        #: Whether anything is checked before the tick: a supervisor or preemptive transitions (fixed by seal).
-        self.watched = False
         #: Condition objects of the state's predicates to reset on each entry.
         self.resets: tuple[Condition[Any], ...] = ()
-        self.is_final = type(state).is_final
+        # Fixed by seal, once the machine is built (declared here for the type checker):
+        if TYPE_CHECKING:
+            #: What the runtime calls: None where the base does nothing.
+            self.tick_hook: Hook | None
+            self.enter_hook: Hook | None
+            self.exit_hook: Hook | None
+            #: The outgoing transitions' hooks run on each entry (their references, their conditions' resets).
+            self.arms: tuple[Hook, ...]
+            #: Whether anything is checked before the tick: a supervisor or preemptive transitions.
+            self.watched: bool
+            self.is_final: bool
 
     @property
     def active(self) -> bool:
@@ -154,10 +183,15 @@ class StateWiring(Life):
         a plain state costs the tick loop one test per hook."""
         state = self.state
         cls = type(state)
-        if self.transitions:
-            links = self.regular if not self.preempt and len(self.regular) == 1 else \
-                sorted(self.preempt + self.regular, key=_index)  # in document order, as ``transitions``
-            self.arms = tuple(arm for t in links if (arm := t.arm) is not None)
+        self.is_final = cls.is_final
+        self.arms = ()
+        if self.preempt or len(self.regular) > 1:
+            links = sorted(self.preempt + self.regular, key=_index)  # in document order, as ``transitions``
+            self.arms = tuple([arm for t in links if (arm := t.arm) is not None])
+        elif self.regular:  # one transition: the usual case, without a comprehension
+            arm = self.regular[0].arm
+            if arm is not None:
+                self.arms = (arm,)
         supervised = self.supervisor is not None
         self.watched = supervised or bool(self.preempt)
         tick = state.tick_method() if cls._overrides_tick or self.regions else None
@@ -323,22 +357,23 @@ class TransitionWiring(Link):
     __slots__ = ("target", "kind", "compare", "test", "effect", "counter", "run", "assign", "arm")
 
     def __init__(self, transition: Transition[Any], index: int) -> None:
-        super().__init__(transition, index)
+        self.transition = transition  # Link's fields, written here: a call less per transition of a load
+        self.index = index
         target = transition.target._fsm
         self.target = target if isinstance(target, StateWiring) else wiring(transition.target)
         cls = type(transition)
         if cls.unconditional:
-            self.kind = GuardKind.ALWAYS
+            self.kind = _ALWAYS
             self.test: Callable[[Context], bool] | None = None
         else:
-            self.kind = GuardKind.CALL
+            self.kind = _CALL
             self.test = transition.holds
         self.compare: VarOp | None = None
         if cls._overrides_action:
-            self.effect = ActionKind.CALL
+            self.effect = _RUN
             self.run: Callable[[Context], None] | None = transition.action
         else:
-            self.effect = ActionKind.NONE
+            self.effect = _NO_ACTION
             self.run = None
         self.counter: tuple[str, VarOp] | None = None
         #: The document's ``set``, compiled (kept to combine it with further actions, see ``then``).
@@ -619,6 +654,17 @@ class Region:
             assert tr is not None
             raise StateRuntimeError.of(state.state, f"check of transition {tr.describe()}", ctx, exc) from exc
         return _USED_UP if halted else None
+
+    def terminal_states(self) -> list[State[Any]]:
+        """The states of this level without outgoing transitions that are not final (one that finishes ends a root
+        level), in one pass over the records (made by ``__init__``)."""
+        terminal = []
+        for state in self.states.values():
+            record = state._fsm
+            assert isinstance(record, StateWiring)  # given by __init__
+            if not record.transitions and not record.state.is_final:
+                terminal.append(state)
+        return terminal
 
     def leaf_paths(self) -> list[str]:
         """Paths of the active leaf states below this level (several under a parallel state)."""

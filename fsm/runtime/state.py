@@ -36,21 +36,22 @@ class Life:
 
     __slots__ = ("state", "entered_at", "paused", "frozen_since", "completed", "completion_ran")
 
-    def __init__(self, state: State[Any], before: Life | None = None) -> None:
+    def __init__(self, state: State[Any]) -> None:
         self.state = state
-        if before is None:
-            self.entered_at = 0.0
-            self.paused = False
-            #: Machine time since which this state's clock stands still (it or an ancestor is paused, or it is
-            #: suspended while a monitor's exception sequence runs), else None.
-            self.frozen_since: float | None = None
-            #: It called :meth:`State.finish` since its last entry (``set.on_complete`` runs then), and whether that
-            #: ran.
-            self.completed = False
-            self.completion_ran = False
-        else:
-            self.entered_at, self.paused, self.frozen_since = before.entered_at, before.paused, before.frozen_since
-            self.completed, self.completion_ran = before.completed, before.completion_ran
+        self.entered_at = 0.0
+        self.paused = False
+        #: Machine time since which this state's clock stands still (it or an ancestor is paused, or it is
+        #: suspended while a monitor's exception sequence runs), else None.
+        self.frozen_since: float | None = None
+        #: It called :meth:`State.finish` since its last entry (``set.on_complete`` runs then), and whether that ran.
+        self.completed = False
+        self.completion_ran = False
+
+    def carry(self, before: Life) -> None:
+        """Take over the clock of ``before``, the record this one replaces (a state made before the runtime's
+        region module was imported, given its full record)."""
+        self.entered_at, self.paused, self.frozen_since = before.entered_at, before.paused, before.frozen_since
+        self.completed, self.completion_ran = before.completed, before.completion_ran
 
     @property
     def active(self) -> bool:

@@ -499,7 +499,9 @@
     var palette = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e"];
     watchPlot = new uPlot({ title: "Watch expressions", width: Math.max(240, box.clientWidth - 4), height: 160,
       series: [{}].concat(chosen.map(function (p, i) { return { label: p[0].text, stroke: palette[i % palette.length], width: 1.2 }; })),
-      scales: { x: { time: false } }, axes: [{ label: "time (s)" }, {}], legend: { live: false },
+      scales: { x: { time: false } }, legend: { live: false },
+      // values in the expressions' own units (true/false drawn as 1/0), tick labels as close as the other plots'
+      axes: [{ label: "time (s)" }, { label: "value", size: 56, space: 18 }],
       // a drag chooses a range, whose every tick the server computes; a click puts the run's cursor there
       cursor: { drag: { x: true, y: false, setScale: false } },
       hooks: { setSelect: [function (u) {

@@ -196,6 +196,7 @@ def test_pause_step_rewind_and_a_state_breakpoint_on_the_lap(browser: Any, tmp_p
     assert hit["why"] == "entered lap1/bottom_turn/arc" and hit["breakpoint"] == 1
     shown = page.drawn_at(hit["tick"])
     assert shown["active"] == ["lap1/bottom_turn/arc"]
+    assert page.page.is_hidden("#notice")  # "Rewound to tick 400" went when the run was resumed
     assert page.page.text_content("#hit") == (
         f"Breakpoint 1 (entering lap1/bottom_turn/*): entered lap1/bottom_turn/arc at tick {hit['tick']} "
         f"({hit['time']:.3f} s)")

@@ -133,11 +133,13 @@
         if (m.reloads_dropped) said.push(m.reloads_dropped + " later hot reload" + (m.reloads_dropped === 1 ? "" : "s") +
           " undone: the run goes on with the machine it had at that tick (save the file again to reload it)");
         notice("Rewound to tick " + m.tick + (said.length ? "; " + said.join("; ") : "") + ".");
+        noticeTick = m.tick;  // said until the run is told to move on from there
       }
     };
   }
   function send(cmd, args, done) {
     if (!ws || ws.readyState !== 1) return;
+    if (noticeTick !== null && /^(step|step_transition|resume)$/.test(cmd)) notice("");
     var id = nextId++;
     if (done) pending[id] = done;
     var msg = {};
@@ -155,7 +157,8 @@
       ? "Reloaded " + m.file + " before tick " + m.tick + ": " + m.text + ". The statechart is being redrawn."
       : "The edited " + (m.file || "machine") + " was not loaded; the run goes on with the machine it has:\n" + m.errors.join("\n");
   }
-  function notice(text) { var n = $("notice"); n.hidden = !text; n.textContent = text || ""; }
+  var noticeTick = null;  // the tick a notice is about (a rewind's): it goes when the run is stepped or resumed
+  function notice(text) { var n = $("notice"); n.hidden = !text; n.textContent = text || ""; noticeTick = null; }
 
   // -- status ---------------------------------------------------------------------------------------------------------
   function showStatus() {

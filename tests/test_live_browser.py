@@ -199,7 +199,10 @@ def test_pause_step_rewind_and_a_state_breakpoint_on_the_lap(browser: Any, tmp_p
     assert page.page.is_hidden("#notice")  # "Rewound to tick 400" went when the run was resumed
     assert page.page.text_content("#hit") == (
         f"Breakpoint 1 (entering lap1/bottom_turn/*): entered lap1/bottom_turn/arc at tick {hit['tick']} "
-        f"({hit['time']:.3f} s)")
+        f"({hit['time']:.4f} s)")
+    # the toolbar, the status and the banner say the tick's time alike (0.0125 s ticks: four decimals)
+    assert page.page.text_content("#time") == f"{hit['time']:.4f} s · tick {hit['tick']}"
+    assert f"({hit['time']:.4f} s)" in (page.page.text_content("#run-tick") or "")
     page.page.screenshot(path=str(tmp_path / "breakpoint.png"))
     page.page.evaluate(f"window.tralReport.setTime({600 * DT})")
     at600 = page.page.evaluate(f"[window.tralReport.current(), {model}.columns['car.x'].slice(-3)]")

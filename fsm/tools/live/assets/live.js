@@ -168,12 +168,12 @@
     if (st.state === "ended") text += ": " + (st.ended === "finished" ? "finished, outcome " + st.outcome : st.ended) + (st.error ? " (" + st.error + ")" : "");
     el.textContent = text;
     var tick = $("run-tick");
-    tick.textContent = "tick " + st.tick + " (" + st.time.toFixed(3) + " s)" + (st.active.length ? "  " + st.active.join(", ") : "");
+    tick.textContent = "tick " + st.tick + " (" + R.timeText(st.time) + " s)" + (st.active.length ? "  " + st.active.join(", ") : "");
     tick.dataset.tick = st.tick; tick.dataset.state = st.state;
     var hit = $("hit");
     hit.hidden = !st.hit;
     if (st.hit) hit.textContent = (st.hit.breakpoint !== null ? "Breakpoint " + st.hit.breakpoint + " (" + st.hit.text + "): " : st.hit.text + ": ") +
-      st.hit.why + " at tick " + st.hit.tick + " (" + st.hit.time.toFixed(3) + " s)";
+      st.hit.why + " at tick " + st.hit.tick + " (" + R.timeText(st.hit.time) + " s)";
     var sp = $("run-speed"), want = st.speed === null ? "max" : String(st.speed);
     if (document.activeElement !== sp) {
       if (!Array.prototype.some.call(sp.options, function (o) { return o.value === want; })) {
@@ -351,7 +351,7 @@
     if (!m.ok) { info.textContent = m.error; info.className = "error"; return; }
     var w = m.why;
     info.className = "";
-    info.textContent = "Tick " + w.tick + " (" + w.time.toFixed(3) + " s) from " + (w.active.join(", ") || "nothing") +
+    info.textContent = "Tick " + w.tick + " (" + R.timeText(w.time) + " s) from " + (w.active.join(", ") || "nothing") +
       ": fired " + ((w.fired.concat(w.monitors)).join("; ") || "nothing") + (w.paused.length ? "; paused: " + w.paused.join(", ") : "");
     $("why-box").dataset.tick = w.tick;
     w.states.forEach(function (st) {

@@ -746,7 +746,7 @@
     cursor = Math.min(T, Math.max(0, t));
     var tick = Math.min(tickAt(cursor), M.ticks !== undefined ? M.ticks : Infinity), st = stateAt(tick);  // no tick past the run
     current = { time: cursor, tick: tick, active: st.active.map(function (i) { return S[i]; }), vars: st.vars };
-    var el = $("time"); el.textContent = (tick * dt).toFixed(3) + " s · tick " + tick; el.dataset.t = cursor; el.dataset.tick = tick;
+    var el = $("time"); el.textContent = timeText(tick * dt) + " s · tick " + tick; el.dataset.t = cursor; el.dataset.tick = tick;
     $("active").textContent = current.active.join(", ");
     highlight(st.active);
     showVars(st.vars, st.changed);
@@ -807,7 +807,13 @@
     if (selected >= 0 && selected < S.length) showVisits(selected);
     setTime(follow ? T : cursor);
   }
+  // a time in seconds with as many decimals as the tick needs (3 to 6: 0.0125 s ticks give 14.7625), rounded as
+  // a decimal, so that a tick's time reads the same wherever it is shown (the toolbar, the status, Why, explain)
+  function timeText(t) {
+    var places = Math.min(6, Math.max(3, (String(+dt.toFixed(9)).split(".")[1] || "").length));
+    return (Math.round(t * 1e6) / 1e6).toFixed(places);
+  }
   // for tests and the console: the state at the cursor, and moving it
   window.tralReport = { setTime: setTime, current: function () { return current; }, stateAt: stateAt, duration: T, dt: dt,
-    load: load, end: function () { return T; }, cursor: function () { return cursor; } };
+    timeText: timeText, load: load, end: function () { return T; }, cursor: function () { return cursor; } };
 })();

@@ -217,6 +217,8 @@ def test_pause_step_rewind_and_a_state_breakpoint_on_the_lap(browser: Any, tmp_p
     view.page.evaluate(f"window.tralReport.setTime({600 * DT})")
     assert view.page.evaluate(f"[window.tralReport.current(), {model}.columns['car.x'].slice(-3)]") == at600
     assert view.page.is_disabled("#run-step") and page.page.is_disabled("#run-step")
+    assert view.page.is_hidden("#run-step") and view.page.is_hidden("#run-speed")  # nothing to steer, not greyed
+    assert "nothing to steer" in (view.page.text_content("#run-state") or "")
 
 
 def test_an_injected_variable_makes_the_run_diverge_and_the_trace_replays_it(browser: Any, tmp_path: Path) -> None:

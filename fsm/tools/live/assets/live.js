@@ -102,7 +102,10 @@
         watchRows = []; hits = [];
         asking = null; plotAsking = false; forgetExact();  // requests of a dropped socket get no answer
         if (live) send("watched", {}, function (r) { if (r.ok) { watchRows = []; addWatched(r.rows); } });
-        if (!live) $("live-bar").classList.add("static");
+        if (!live) {  // a finished run's trace: no controls to show greyed out, only what the page is
+          $("live-bar").classList.add("static");
+          $("run-state").textContent = "a finished run's trace: nothing to steer (the report's controls replay it)";
+        }
       }
       else if (m.kind === "bye") bye = m.why || "the run has ended";
       else if (m.kind === "watched") addWatched(m.rows);

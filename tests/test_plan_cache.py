@@ -4,6 +4,7 @@ rewritten; two processes may write at once; the cached machine runs as the loade
 
 from __future__ import annotations
 
+import importlib
 import json
 import os
 import pickle
@@ -190,6 +191,12 @@ def test_a_changed_plugin_type_misses(folder: Path, tmp_path: Path, monkeypatch:
     plugin.write_text(plugin.read_text() + "\n    # the type's source changed\n")
     stat = plugin.stat()
     os.utime(plugin, ns=(stat.st_atime_ns, stat.st_mtime_ns + 1_000_000_000))
+    # this process still runs the code it imported (its stamp is taken once): what it cached still describes it
+    assert hit(path, registry)
+    # the changed source imported (as by a new process, or a reload): it misses
+    importlib.reload(cached_plugin_types)
+    registry = Registry.with_builtins()
+    registry.add_state(cached_plugin_types.Blink, "Blink")
     assert not hit(path, registry)
     loader.compile(path, registry=registry)
     assert hit(path, registry)

@@ -122,22 +122,43 @@ def file_of(name: str) -> Path:
 
 
 # -- the key -----------------------------------------------------------------------------------------------------
-def _source_stamp(module: str) -> list[Any] | None:
-    """``[module, file, mtime_ns, size]`` of a module's source, or None when it has no file to stamp."""
-    mod = sys.modules.get(module)
-    path = getattr(mod, "__file__", None) if mod is not None else None
-    if not path:
-        return None
+#: Stamps of imported modules' source files, taken once per process and module object: the code that runs is the
+#: code that was imported, so a stamp taken at the first key stands for it until the module is imported again (a new
+#: module object, or the same one reloaded: a new ``__spec__``), and a key never pays ``os.stat`` twice for the same
+#: code.
+_STAMPED: dict[str, tuple[Any, list[Any] | None]] = {}
+
+
+def _stamp_of(path: str) -> tuple[int, int] | None:
     try:
         st = os.stat(path)
     except OSError:
         return None
-    return [module, path, st.st_mtime_ns, st.st_size]
+    return st.st_mtime_ns, st.st_size
+
+
+def _source_stamp(module: str) -> list[Any] | None:
+    """``[module, file, mtime_ns, size]`` of a module's source, or None when it has no file to stamp."""
+    mod = sys.modules.get(module)
+    if mod is None:
+        return None
+    known = _STAMPED.get(module)
+    imported = getattr(mod, "__spec__", None) or mod
+    if known is not None and known[0] is imported:
+        return known[1]
+    path = getattr(mod, "__file__", None)
+    found = _stamp_of(path) if path else None
+    stamp = None if found is None else [module, path, *found]
+    _STAMPED[module] = (imported, stamp)
+    return stamp
 
 
 #: The packages of the built-in types: their files' stamps stand for every built-in name in the key, imported or
 #: not, so the key is the same before a load imports the types it uses and after (the registry is lazy).
 BUILTIN_PACKAGES = ("fsm.states", "fsm.transitions", "fsm.sequencer")
+_PACKAGE_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+#: Each built-in package's folder listing, with the folder's modification time it was taken at.
+_LISTINGS: dict[str, tuple[int, list[str]]] = {}
 
 
 def _tables(registry: Registry) -> tuple[tuple[str, Any], ...]:
@@ -154,18 +175,38 @@ def _is_builtin(cls: type) -> bool:
     return cls.__module__.rpartition(".")[0] in BUILTIN_PACKAGES
 
 
+def _listing(where: str) -> list[str]:
+    """The ``.py`` files of a folder, sorted; listed again only when the folder changed (a file added or removed)."""
+    stamp = _stamp_of(where)
+    known = _LISTINGS.get(where)
+    if stamp is not None and known is not None and known[0] == stamp[0]:
+        return known[1]
+    try:
+        names = sorted(e.name for e in os.scandir(where) if e.name.endswith(".py"))
+    except OSError:
+        names = []
+    if stamp is not None:
+        _LISTINGS[where] = (stamp[0], names)
+    return names
+
+
 def _builtin_stamps() -> list[Any]:
     """``[package, file, mtime_ns, size]`` of every source file of the built-in types' packages (found by their
-    folders, nothing imported)."""
-    root = Path(__file__).resolve().parent.parent
+    folders, nothing imported; a file whose module is imported stamped once, see :data:`_STAMPED`)."""
     stamps: list[Any] = []
     for package in BUILTIN_PACKAGES:
-        for path in sorted((root / package.split(".", 1)[1]).glob("*.py")):
-            try:
-                st = path.stat()
-            except OSError:
-                continue
-            stamps.append([package, path.name, st.st_mtime_ns, st.st_size])
+        where = os.path.join(_PACKAGE_ROOT, package.split(".", 1)[1])
+        for name in _listing(where):
+            path = os.path.join(where, name)
+            module = package if name == "__init__.py" else f"{package}.{name[:-3]}"
+            mod = sys.modules.get(module)
+            if mod is not None and getattr(mod, "__file__", None) == path:
+                stamp = _source_stamp(module)
+                found = None if stamp is None else stamp[2:]
+            else:
+                found = _stamp_of(path)
+            if found is not None:
+                stamps.append([package, name, *found])
     return stamps
 
 
@@ -175,11 +216,13 @@ def registry_key(registry: Registry) -> str | None:
 
     Built-in names count by name, whether imported yet or not, and their packages' files by their stamps; a plugin's
     type counts by its class and module once it is registered (installed plugins are loaded when a document needs
-    one; a cache file says whether its load had them, see :func:`lookup`). Nothing is imported to make the key."""
+    one; a cache file says whether its load had them, see :func:`lookup`). Nothing is imported to make the key.
+    What the key is made of is compared with the last key's: the same parts give the same key without hashing
+    them again (a miss asks before its load and again when it stores the result)."""
     entries: list[Any] = [LOADER_VERSION]
     modules = set(LOADER_MODULES)
     for kind, table in _tables(registry):
-        names: dict[str, list[str] | None] = {name: None for name in table.pending}
+        names: dict[str, list[str] | None] = dict.fromkeys(table.pending)
         for name, cls in dict.items(table):
             if _is_builtin(cls):
                 names[name] = None
@@ -196,7 +239,16 @@ def registry_key(registry: Registry) -> str | None:
             return None
         entries.append(stamp)
     entries.append(_builtin_stamps())
-    return hashlib.sha256(json.dumps(entries).encode("utf-8", "surrogatepass")).hexdigest()
+    last = _LAST_KEY.get("parts")
+    if last is not None and last[0] == entries:
+        return last[1]
+    key = hashlib.sha256(json.dumps(entries).encode("utf-8", "surrogatepass")).hexdigest()
+    _LAST_KEY["parts"] = (entries, key)
+    return key
+
+
+#: The parts of the last key made, and the key.
+_LAST_KEY: dict[str, tuple[list[Any], str]] = {}
 
 
 def _allowed(registry: Registry, key: str) -> dict[tuple[str, str], type]:

@@ -5,6 +5,7 @@ anything else."""
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import enum
 import io
@@ -110,6 +111,13 @@ def same_entry(path: Path) -> None:
     assert isinstance(again.plan, MachinePlan) and again.plan.spec is again.spec
     assert again.spec.states is not None and type(again.spec) is MachineSpec
     assert first.spec.states is not None  # (a hit too when the caller loaded it before: its contents made)
+    for copy_of in (copy.copy, copy.deepcopy, lambda x: pickle.loads(pickle.dumps(x))):  # the plain spec, made
+        cache._KEPT.clear()
+        shell = cache.lookup(str(path), registry, doc)
+        assert shell is not None and type(shell.spec) is not MachineSpec
+        copied = copy_of(shell.spec)
+        assert type(copied) is MachineSpec and type(shell.spec) is MachineSpec
+        assert [st.id for st in copied.states] == [st.id for st in shell.spec.states]
     compare = Same()
     compare((first.spec, first.analysis, first.problems, first.plan),
             (again.spec, again.analysis, again.problems, again.plan), path.name)

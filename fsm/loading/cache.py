@@ -700,6 +700,13 @@ class _LaterSpec(MachineSpec):
         later.fill(self)
         return getattr(self, name)
 
+    def __reduce_ex__(self, protocol: Any) -> Any:
+        """A copy (``copy``, ``deepcopy``, ``pickle``) is of the plain spec: its contents made first."""
+        later = self.__dict__.get(_LaterSpec.LATER)
+        if later is not None:
+            later.fill(self)
+        return object.__reduce_ex__(self, protocol)
+
 
 class _Later:
     """What of a cache file is made on first use: the plan (the types it names imported then), and the spec's

@@ -15,6 +15,12 @@ Rows:
                   keeps in memory, and with that cleared: the file read again); building apart
   a miss          a load whose cache file is gone: checked and compiled (the time to the result), and the file
                   written beside it in a thread (the time it goes on after the result, and instructions with it)
+  validate        ``fsm.loading.loader.check`` (what ``fsmctl validate`` asks: the problems; a hit makes neither the
+                  plan nor the spec's contents), fresh process and again in the same process, read from the file
+
+A hit reads the file's first part (problems, analysis) at once and makes the plan when it is first asked for, so
+"load" (``compile``, which returns the plan) pays for the plan and "validate" does not; the spec's states and
+transitions are made when first read, by neither.
 
     python benchmarks/bench_plan_cache.py [--rounds 5] [--no-instructions]
 """
@@ -46,26 +52,27 @@ from fsm.loading import loader
 from fsm.loading.building import build
 t1 = time.perf_counter()
 what, ring, n = sys.argv[1], sys.argv[2], int(sys.argv[3])
+load = loader.check if what == "check" else loader.compile
 out = {"import_ms": (t1 - t0) * 1000}
 if what != "import":
     from fsm.loading.registry import default_registry
     default_registry()  # the types' modules imported, plugins' entry points read (what the key names)
     t2 = time.perf_counter()
     out["registry_ms"] = (t2 - t1) * 1000
-    plan = loader.compile(ring)
+    plan = load(ring)
     out["first_ms"] = (time.perf_counter() - t2) * 1000
     from fsm.loading import cache
     cache.flush()  # a first load that missed: its file written
     out["first_write_ms"] = (time.perf_counter() - t2) * 1000 - out["first_ms"]
     times, builds, writes = [], [], []
     for _ in range(n):
-        if what in ("miss", "file"):
+        if what in ("miss", "file", "check"):
             cache._KEPT.clear()  # what the process keeps in memory: gone, so the file is read (or written)
         if what == "miss":
             os.unlink(cache.file_of(ring))
         loader._LAST.clear()  # no plan kept from the load before: the next one reads the cache (or the document)
         a = time.perf_counter()
-        plan = loader.compile(ring)
+        plan = load(ring)
         b = time.perf_counter()
         if what == "build":
             build(plan)
@@ -88,6 +95,7 @@ CASES = {  # name: (what, FSM_NO_CACHE)
     "file": ("file", False),
     "miss": ("miss", False),
     "build": ("build", False),
+    "check": ("check", False),
 }
 
 
@@ -129,14 +137,14 @@ def main(argv: list[str] | None = None) -> int:
         wall("hit", ring, cache, 0)  # fills the cache
         runs: dict[str, list[dict[str, Any]]] = {}
         for _ in range(args.rounds):
-            for case in ("import", "cold", "hit", "file", "miss", "build"):
+            for case in ("import", "cold", "hit", "file", "miss", "build", "check"):
                 runs.setdefault(case, []).append(wall(case, ring, cache, 5))
             wall("hit", ring, cache, 0)  # the miss case left a fresh file; keep it filled
         counts: dict[str, float] = {}
         if not args.no_instructions and shutil.which("valgrind"):
             wall("hit", ring, cache, 0)
             base = count("import", ring, cache, 0)
-            for case in ("cold", "hit", "file", "miss"):
+            for case in ("cold", "hit", "file", "miss", "check"):
                 if case not in ("file", "miss"):
                     counts[f"first {case}"] = count(case, ring, cache, 0) - base
                 wall("hit", ring, cache, 0)
@@ -166,6 +174,9 @@ def report(runs: dict[str, list[dict[str, Any]]], counts: dict[str, float]) -> N
     c, h, f = med(runs["cold"], "ms"), med(runs["hit"], "ms"), med(runs["file"], "ms")
     print(f"| one more load in the same process, kept in memory (ms, median) | {c:.2f} | {h:.2f} | {c / h:.1f}x |")
     print(f"| one more load in the same process, read from the file (ms, median) | {c:.2f} | {f:.2f} | {c / f:.1f}x |")
+    v, w = med(runs["check"], "first_ms"), med(runs["check"], "ms")
+    print(f"| validate (the problems only), first in a fresh process (ms, median) | | {v:.2f} | |")
+    print(f"| validate (the problems only), again in the same process, from the file (ms, median) | | {w:.2f} | |")
     m, w = med(runs["miss"], "ms"), med(runs["miss"], "write_ms")
     print(f"| a miss: checked and compiled, the file written beside it (ms, median) | {c:.2f} | {m:.2f} | "
           f"{m / c:.2f}x |")
@@ -180,6 +191,10 @@ def report(runs: dict[str, list[dict[str, Any]]], counts: dict[str, float]) -> N
             h = counts[f"again {case}"]
             print(f"| one more load in the same process, {what} (instructions) | {c / 1e6:.1f}M | {h / 1e6:.2f}M | "
                   f"{c / h:.0f}x |")
+        print(f"| validate (the problems only), fresh process (instructions, the import subtracted) | | "
+              f"{counts['first check'] / 1e6:.2f}M | |")
+        print(f"| validate (the problems only), again in the same process, from the file (instructions) | | "
+              f"{counts['again check'] / 1e6:.2f}M | |")
         m = counts["again miss"]
         print(f"| a miss, the write included (instructions, every thread) | {c / 1e6:.1f}M | {m / 1e6:.1f}M | "
               f"{m / c:.2f}x |")

@@ -4,6 +4,7 @@ rewritten; two processes may write at once; the cached machine runs as the loade
 
 from __future__ import annotations
 
+import importlib
 import json
 import os
 import pickle
@@ -190,6 +191,12 @@ def test_a_changed_plugin_type_misses(folder: Path, tmp_path: Path, monkeypatch:
     plugin.write_text(plugin.read_text() + "\n    # the type's source changed\n")
     stat = plugin.stat()
     os.utime(plugin, ns=(stat.st_atime_ns, stat.st_mtime_ns + 1_000_000_000))
+    # this process still runs the code it imported (its stamp is taken once): what it cached still describes it
+    assert hit(path, registry)
+    # the changed source imported (as by a new process, or a reload): it misses
+    importlib.reload(cached_plugin_types)
+    registry = Registry.with_builtins()
+    registry.add_state(cached_plugin_types.Blink, "Blink")
     assert not hit(path, registry)
     loader.compile(path, registry=registry)
     assert hit(path, registry)
@@ -454,3 +461,58 @@ def test_a_machine_of_an_installed_plugins_type_is_a_hit_in_a_process_that_has_n
     cache.flush()
     untouched = deferred_plugin_registry()
     assert hit(only_builtins, untouched) and untouched.plugins_due()  # no plugin loaded for built-in types
+
+
+FRESH_VALIDATE = """
+import json, sys
+from fsm.loading import cache, loader
+from fsm.tools.cli.app import main
+real_parse = loader.parse
+parsed = []
+loader.parse = lambda *a, **k: parsed.append(1) or real_parse(*a, **k)
+status = main(["validate", sys.argv[1]])
+cache.flush()
+entry = loader._LAST[0]
+print(json.dumps({"parsed": bool(parsed), "status": status, "plan_made": entry._plan is not None,
+                  "spec": type(entry.spec).__name__,
+                  "modules": sorted(m for m in sys.modules if m.startswith("fsm."))}))
+"""
+
+
+def test_validate_from_the_cache_makes_neither_the_plan_nor_the_spec(folder: Path, tmp_path: Path) -> None:
+    """`fsmctl validate` needs a document's problems only: a fresh process's hit reads them and makes nothing
+    else of the file (no plan, no spec contents), imports no type's module, and prints what the miss printed."""
+    path = machine_files(tmp_path)
+    env = {**os.environ, cache.CACHE_DIR_ENV: str(folder)}
+    env.pop(cache.NO_CACHE_ENV, None)
+    runs = [subprocess.run([sys.executable, "-c", FRESH_VALIDATE, str(path)], env=env, check=True,
+                           capture_output=True, text=True) for _ in range(2)]
+    first, second = (json.loads(run.stdout.splitlines()[-1]) for run in runs)
+    assert first["parsed"] and not second["parsed"]
+    assert first["status"] == second["status"] == 0
+    assert runs[0].stdout.splitlines()[:-1] == runs[1].stdout.splitlines()[:-1]  # "ok, 1 warning" and the warning
+    assert "1 warning" in runs[1].stdout and runs[0].stderr == runs[1].stderr
+    assert not second["plan_made"] and second["spec"] != "MachineSpec"
+    assert not [m for m in second["modules"] if m.startswith(("fsm.states.", "fsm.transitions."))]
+
+
+def test_a_part_that_cannot_be_made_later_is_a_located_problem_and_the_file_goes(
+        folder: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The plan part is made after the key and checksum passed: when it still cannot be made (a forged file, a
+    type's class gone), the load fails with one located message, the file is removed and the next load misses."""
+    path = machine_files(tmp_path)
+    loader.compile(path)
+    cache.flush()
+    loader._LAST.clear()
+    cache._KEPT.clear()
+    monkeypatch.setattr(cache, "_allowed", lambda registry, key: dict(cache._model_classes()))  # no type allowed
+    spec, problems = loader.check(path)  # the problems only: nothing of the plan is made, so nothing fails yet
+    assert spec is not None and [p.severity for p in problems] == ["warning"]
+    with pytest.raises(fsm.DiagramError) as err:
+        loader.compile(path)
+    (problem,) = err.value.problems
+    assert problem.file == str(path) and "plan cache" in problem.message and "--no-cache" in (problem.hint or "")
+    assert not cache.file_of(str(path)).exists()
+    monkeypatch.undo()
+    loader._LAST.clear()
+    assert loader.compile(path).root.initial == "a"  # a miss: checked and compiled again

@@ -5,8 +5,10 @@ anything else."""
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import enum
+import io
 import json
 import math
 import os
@@ -24,8 +26,8 @@ from fsm.loading import cache, flat, loader
 from fsm.loading.compiling import ACTIONS
 from fsm.loading.registry import default_registry
 from fsm.model import expr as E
-from fsm.model.document import Source
-from fsm.model.plan import NOTHING, SupervisionPlan
+from fsm.model.document import MachineSpec, Source
+from fsm.model.plan import NOTHING, MachinePlan, SupervisionPlan
 from helpers import CORPUS, needs_corpus
 
 REPO = Path(__file__).resolve().parents[1]
@@ -103,6 +105,19 @@ def same_entry(path: Path) -> None:
     assert doc is not None
     again = cache.lookup(str(path), registry, doc)
     assert again is not None, f"{path.name}: not read back from its cache file"
+    # nothing but the problems and the analysis is made until it is used: the plan, then the spec's contents
+    assert type(again.spec) is not MachineSpec and again._plan is None
+    assert again.spec.name == first.spec.name and type(again.spec) is not MachineSpec
+    assert isinstance(again.plan, MachinePlan) and again.plan.spec is again.spec
+    assert again.spec.states is not None and type(again.spec) is MachineSpec
+    assert first.spec.states is not None  # (a hit too when the caller loaded it before: its contents made)
+    for copy_of in (copy.copy, copy.deepcopy, lambda x: pickle.loads(pickle.dumps(x))):  # the plain spec, made
+        cache._KEPT.clear()
+        shell = cache.lookup(str(path), registry, doc)
+        assert shell is not None and type(shell.spec) is not MachineSpec
+        copied = copy_of(shell.spec)
+        assert type(copied) is MachineSpec and type(shell.spec) is MachineSpec
+        assert [st.id for st in copied.states] == [st.id for st in shell.spec.states]
     compare = Same()
     compare((first.spec, first.analysis, first.problems, first.plan),
             (again.spec, again.analysis, again.problems, again.plan), path.name)
@@ -142,12 +157,17 @@ def test_a_big_machine_is_stored_as_columns_not_objects(folder: Path, tmp_path: 
     data = entry.read_bytes()
     start = len(cache.MAGIC) + 4
     size = int.from_bytes(data[len(cache.MAGIC):start], "big")
-    version, batches, _root = flat._PlainOnly(__import__("io").BytesIO(data[start + size:])).load()
-    assert version == flat.VERSION
-    big = [b for b in batches if b[0] in ("record", "object", "model") and b[-2] == n]
-    assert len(big) == 6  # state and transition: spec, parameters, plan
-    assert len(batches) < 30  # one per kind of object and height, not one per object
-    for b in big:
+    stream = flat._PlainOnly(io.BytesIO(data[start + size:]))
+    assert stream.load() == [flat.VERSION, 3]
+    # three parts: the problems and analysis (what `fsmctl validate` reads); the plan with the parameters it
+    # shares with the spec (what a load reads); the rest of the spec (read when first used)
+    first, plan, spec = (stream.load()[0] for _ in range(3))
+    big = {part: [b for b in batches if b[0] in ("record", "object", "model") and b[-2] == n]
+           for part, batches in (("first", first), ("plan", plan), ("spec", spec))}
+    assert [len(big["first"]), len(big["plan"]), len(big["spec"])] == [0, 4, 2]  # plan and parameters; specs
+    batches = first + plan + spec
+    assert len(batches) < 36  # one per kind of object, height and part, not one per object
+    for b in big["plan"] + big["spec"]:
         assert all(column[0] in ("K", "C", "L", "R") for column in b[-1])
     same_entry(path)
 
@@ -162,9 +182,11 @@ def test_the_form_refuses_what_is_not_data() -> None:
         flat.flatten(Evil(), {}, {})
     with pytest.raises(flat.Unflattenable):
         flat.flatten([Source], {}, {})  # a class not allowed
-    forged = pickle.dumps([flat.VERSION, [["lit", [Evil()]]], 0])
+    forged = pickle.dumps([flat.VERSION, 1]) + pickle.dumps([[["lit", [Evil()]]], 0])
     with pytest.raises(pickle.UnpicklingError):
         flat.unflatten(forged, {}, {})
+    with pytest.raises(pickle.UnpicklingError):  # the stream's head itself
+        flat.unflatten(pickle.dumps([flat.VERSION, Evil()]), {}, {})
     plain = {"a": [1, 2.5, "x", None, True], "b": (frozenset({1}), {"k": ()})}
     assert flat.unflatten(flat.flatten(plain, {}, {}), {}, {}) == plain
 
@@ -172,13 +194,27 @@ def test_the_form_refuses_what_is_not_data() -> None:
 def test_a_forged_table_names_only_allowed_classes() -> None:
     """A batch whose class column is not an allowed class, or whose columns do not fit, is refused."""
     allowed = {(Source.__module__, "Source"): Source}
-    bad_class = [flat.VERSION, [["lit", []], ["class", [("os", "system")]]], 0]
+    bad_class = [[["lit", []], ["class", [("os", "system")]]], 0]
     with pytest.raises(pickle.UnpicklingError):
-        flat.unflatten(pickle.dumps(bad_class), allowed, {})
-    not_a_record = [flat.VERSION, [["lit", []], ["class", [(Source.__module__, "Source")]],
-                                   ["record", 1, [["C", 0], ["K", 1]]]], 1]
+        flat.unflatten(pickle.dumps([flat.VERSION, 1]) + pickle.dumps(bad_class), allowed, {})
+    not_a_record = [[["lit", []], ["class", [(Source.__module__, "Source")]], ["record", 1, [["C", 0], ["K", 1]]]], 1]
     with pytest.raises(ValueError):
-        flat.unflatten(pickle.dumps(not_a_record), allowed, {})
+        flat.unflatten(pickle.dumps([flat.VERSION, 1]) + pickle.dumps(not_a_record), allowed, {})
+
+
+def test_parts_are_made_in_order_and_refer_to_earlier_ones() -> None:
+    """A later part's objects refer to an earlier part's by index; a named object is the reader's own."""
+    allowed = {(SupervisionPlan.__module__, "SupervisionPlan"): SupervisionPlan}
+    shared, own = SupervisionPlan(timeout=1.5), SupervisionPlan(timeout=2.5)
+    marker = object()
+    data = flat.flatten_parts([[shared], [shared, own, marker]], allowed, {}, {id(marker): "_mine"})
+    mine = object()
+    reader = flat.Reader(data, {"_mine": lambda: mine})
+    assert len(reader) == 2
+    first = reader.part(0, allowed)
+    assert first == [shared] and len(reader.roots) == 1  # the second part not made yet
+    second = reader.part(1, allowed)
+    assert second[0] is first[0] and second[1] == own and second[2] is mine
 
 
 def test_a_miss_returns_before_the_file_is_written(folder: Path, tmp_path: Path,
@@ -186,13 +222,13 @@ def test_a_miss_returns_before_the_file_is_written(folder: Path, tmp_path: Path,
     """The writer runs beside the caller: the load is back while the file is still being made (none there yet,
     not even half of one), the process's next read of it waits for it, and so does a fork."""
     gate = threading.Event()
-    real = flat.flatten
+    real = flat.flatten_parts
 
     def slow(*args: Any) -> bytes:
         assert gate.wait(10)
         return real(*args)
 
-    monkeypatch.setattr(flat, "flatten", slow)
+    monkeypatch.setattr(flat, "flatten_parts", slow)
     path = tmp_path / "m.json"
     path.write_text(json.dumps({"initial": "a", "states": [{"id": "a", "type": "Idle"}]}))
     assert loader.compile(path).root.initial == "a"  # returned while the writer waits

@@ -52,6 +52,7 @@ import tempfile
 import threading
 import time
 import types
+import zlib
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -73,7 +74,7 @@ CACHE_DIR_ENV = "FSM_CACHE_DIR"
 #: ``1``: neither read nor write the cache.
 NO_CACHE_ENV = "FSM_NO_CACHE"
 #: The cache file's format; a new one misses every older file.
-FORMAT = 2
+FORMAT = 3
 MAGIC = b"tral-fsm plan cache\n"
 #: The loader's version as far as the cache is concerned (the package's, and the format).
 LOADER_VERSION = f"{VERSION}/{FORMAT}"
@@ -86,13 +87,35 @@ LOADER_MODULES = ("fsm.model.document", "fsm.model.params", "fsm.model.plan", "f
 MODEL_MODULES = ("fsm.model.document", "fsm.model.params", "fsm.model.plan", "fsm.model.errors")
 
 
-class Entry(NamedTuple):
-    """What a load of a document without errors found: its spec, analysis, problems (warnings) and plan."""
+class Entry:
+    """What a load of a document without errors found: its spec, analysis, problems (warnings) and plan.
 
-    spec: MachineSpec
-    analysis: Analysis
-    problems: list[Problem]
-    plan: MachinePlan
+    An entry read from a cache file makes its plan when it is first asked for, and its spec's states, transitions
+    and the rest of the spec's contents when one of them is first read (:class:`_Later`): ``fsmctl validate`` asks
+    for the problems only, and a load for the plan, not the spec."""
+
+    __slots__ = ("spec", "analysis", "problems", "_plan", "_later")
+
+    def __init__(self, spec: MachineSpec, analysis: Analysis, problems: list[Problem],
+                 plan: MachinePlan | None = None, later: _Later | None = None) -> None:
+        if plan is None and later is None:
+            raise TypeError("an entry needs its plan, or a cache file to make it from")
+        self.spec = spec
+        self.analysis = analysis
+        self.problems = problems
+        self._plan = plan
+        self._later = later
+
+    @property
+    def plan(self) -> MachinePlan:
+        if self._plan is None:
+            assert self._later is not None
+            self._plan = self._later.plan()
+        return self._plan
+
+    def with_problems(self, problems: list[Problem]) -> Entry:
+        """The same entry with other problems (copies: callers add to a problem's text), sharing what is made."""
+        return Entry(self.spec, self.analysis, problems, self._plan, self._later)
 
 
 class _NotCachable(Exception):
@@ -122,22 +145,43 @@ def file_of(name: str) -> Path:
 
 
 # -- the key -----------------------------------------------------------------------------------------------------
-def _source_stamp(module: str) -> list[Any] | None:
-    """``[module, file, mtime_ns, size]`` of a module's source, or None when it has no file to stamp."""
-    mod = sys.modules.get(module)
-    path = getattr(mod, "__file__", None) if mod is not None else None
-    if not path:
-        return None
+#: Stamps of imported modules' source files, taken once per process and module object: the code that runs is the
+#: code that was imported, so a stamp taken at the first key stands for it until the module is imported again (a new
+#: module object, or the same one reloaded: a new ``__spec__``), and a key never pays ``os.stat`` twice for the same
+#: code.
+_STAMPED: dict[str, tuple[Any, list[Any] | None]] = {}
+
+
+def _stamp_of(path: str) -> tuple[int, int] | None:
     try:
         st = os.stat(path)
     except OSError:
         return None
-    return [module, path, st.st_mtime_ns, st.st_size]
+    return st.st_mtime_ns, st.st_size
+
+
+def _source_stamp(module: str) -> list[Any] | None:
+    """``[module, file, mtime_ns, size]`` of a module's source, or None when it has no file to stamp."""
+    mod = sys.modules.get(module)
+    if mod is None:
+        return None
+    known = _STAMPED.get(module)
+    imported = getattr(mod, "__spec__", None) or mod
+    if known is not None and known[0] is imported:
+        return known[1]
+    path = getattr(mod, "__file__", None)
+    found = _stamp_of(path) if path else None
+    stamp = None if found is None else [module, path, *found]
+    _STAMPED[module] = (imported, stamp)
+    return stamp
 
 
 #: The packages of the built-in types: their files' stamps stand for every built-in name in the key, imported or
 #: not, so the key is the same before a load imports the types it uses and after (the registry is lazy).
 BUILTIN_PACKAGES = ("fsm.states", "fsm.transitions", "fsm.sequencer")
+_PACKAGE_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+#: Each built-in package's folder listing, with the folder's modification time it was taken at.
+_LISTINGS: dict[str, tuple[int, list[str]]] = {}
 
 
 def _tables(registry: Registry) -> tuple[tuple[str, Any], ...]:
@@ -154,18 +198,39 @@ def _is_builtin(cls: type) -> bool:
     return cls.__module__.rpartition(".")[0] in BUILTIN_PACKAGES
 
 
+def _listing(where: str) -> list[str]:
+    """The ``.py`` files of a folder, sorted; listed again only when the folder changed (a file added or removed)."""
+    stamp = _stamp_of(where)
+    known = _LISTINGS.get(where)
+    if stamp is not None and known is not None and known[0] == stamp[0]:
+        return known[1]
+    try:
+        names = sorted(e.name for e in os.scandir(where) if e.name.endswith(".py"))
+    except OSError:
+        names = []
+    if stamp is not None:
+        _LISTINGS[where] = (stamp[0], names)
+    return names
+
+
 def _builtin_stamps() -> list[Any]:
     """``[package, file, mtime_ns, size]`` of every source file of the built-in types' packages (found by their
-    folders, nothing imported)."""
-    root = Path(__file__).resolve().parent.parent
+    folders, nothing imported; a file whose module is imported stamped once, see :data:`_STAMPED`)."""
     stamps: list[Any] = []
     for package in BUILTIN_PACKAGES:
-        for path in sorted((root / package.split(".", 1)[1]).glob("*.py")):
-            try:
-                st = path.stat()
-            except OSError:
-                continue
-            stamps.append([package, path.name, st.st_mtime_ns, st.st_size])
+        where = os.path.join(_PACKAGE_ROOT, package.split(".", 1)[1])
+        for name in _listing(where):
+            path = os.path.join(where, name)
+            module = package if name == "__init__.py" else f"{package}.{name[:-3]}"
+            mod = sys.modules.get(module)
+            found: list[Any] | tuple[int, int] | None
+            if mod is not None and getattr(mod, "__file__", None) == path:
+                stamp = _source_stamp(module)
+                found = None if stamp is None else stamp[2:]
+            else:
+                found = _stamp_of(path)
+            if found is not None:
+                stamps.append([package, name, *found])
     return stamps
 
 
@@ -175,11 +240,13 @@ def registry_key(registry: Registry) -> str | None:
 
     Built-in names count by name, whether imported yet or not, and their packages' files by their stamps; a plugin's
     type counts by its class and module once it is registered (installed plugins are loaded when a document needs
-    one; a cache file says whether its load had them, see :func:`lookup`). Nothing is imported to make the key."""
+    one; a cache file says whether its load had them, see :func:`lookup`). Nothing is imported to make the key.
+    What the key is made of is compared with the last key's: the same parts give the same key without hashing
+    them again (a miss asks before its load and again when it stores the result)."""
     entries: list[Any] = [LOADER_VERSION]
     modules = set(LOADER_MODULES)
     for kind, table in _tables(registry):
-        names: dict[str, list[str] | None] = {name: None for name in table.pending}
+        names: dict[str, list[str] | None] = dict.fromkeys(table.pending)
         for name, cls in dict.items(table):
             if _is_builtin(cls):
                 names[name] = None
@@ -196,7 +263,29 @@ def registry_key(registry: Registry) -> str | None:
             return None
         entries.append(stamp)
     entries.append(_builtin_stamps())
-    return hashlib.sha256(json.dumps(entries).encode("utf-8", "surrogatepass")).hexdigest()
+    last = _LAST_KEY.get("parts")
+    if last is not None and last[0] == entries:
+        return last[1]
+    key = hashlib.sha256(json.dumps(entries).encode("utf-8", "surrogatepass")).hexdigest()
+    _LAST_KEY["parts"] = (entries, key)
+    return key
+
+
+#: The parts of the last key made, and the key.
+_LAST_KEY: dict[str, tuple[list[Any], str]] = {}
+
+
+def _model_classes() -> dict[tuple[str, str], type]:
+    """The document model's data classes (made once): all a cache file's first part may name."""
+    if not _MODEL:
+        for module in MODEL_MODULES:
+            for value in vars(sys.modules[module]).values():
+                if isinstance(value, type) and value.__module__ == module:
+                    _MODEL[(module, value.__qualname__)] = value
+    return _MODEL
+
+
+_MODEL: dict[tuple[str, str], type] = {}
 
 
 def _allowed(registry: Registry, key: str) -> dict[tuple[str, str], type]:
@@ -207,15 +296,13 @@ def _allowed(registry: Registry, key: str) -> dict[tuple[str, str], type]:
     if known is not None and known[0] == len(types_) and all(
             known[1].get((cls.__module__, cls.__qualname__)) is cls for _k, _n, cls in types_):
         return known[1]  # (a plugin file imported again makes new classes under the same names and sources)
-    allowed: dict[tuple[str, str], type] = {}
+    allowed = dict(_model_classes())
 
     def add_module(module: str, keep: Callable[[type], bool]) -> None:
         for value in vars(sys.modules[module]).values():
             if isinstance(value, type) and value.__module__ == module and keep(value):
                 allowed[(module, value.__qualname__)] = value
 
-    for module in MODEL_MODULES:
-        add_module(module, lambda cls: True)
     from enum import Enum
 
     from pydantic import BaseModel
@@ -369,7 +456,7 @@ def store(name: str, registry: Registry, entry: Entry, token: str, *, background
         return False
     files = [[name, _digest(texts[name]), token]] + [[n, _digest(t)] for n, t in texts.items() if n != name]
     # the problems copied: a caller adds to the ones it was given while the writer may still be reading these
-    entry = entry._replace(problems=[dataclasses.replace(p) for p in entry.problems])
+    entry = entry.with_problems([dataclasses.replace(p) for p in entry.problems])
     keep(name, key, files, entry)
     loaded = _loaded_types(registry)
     used = [[kind, name_] for kind, name_, _cls in loaded]  # what a read imports first
@@ -388,15 +475,18 @@ def store(name: str, registry: Registry, entry: Entry, token: str, *, background
 
 def _write(target: Path, key: str, files: list[list[str]], entry: Entry, texts: dict[str, str],
            allowed: dict[tuple[str, str], type], used: list[list[str]], plugins: bool) -> bool:
+    spec = entry.spec
     try:
-        payload = flat.flatten(
-            (entry.spec, (entry.analysis.expressions, entry.analysis.paths, entry.analysis.wants), entry.problems,
-             entry.plan), allowed, _Special(entry, texts).table())
+        payload = flat.flatten_parts(
+            [(entry.problems, (entry.analysis.expressions, entry.analysis.paths, entry.analysis.wants),
+              tuple(getattr(spec, f) for f in SHELL_FIELDS)),
+             entry.plan,
+             tuple(getattr(spec, f) for f in LATER_FIELDS)],
+            allowed, _Special(entry, texts).table(), {id(spec): "_spec"})
     except (_NotCachable, flat.Unflattenable, pickle.PicklingError, TypeError, AttributeError, RecursionError):
         return False
     header = json.dumps({"key": key, "files": files, "kinds": dict(entry.analysis.kinds),
-                         "types": used, "plugins": plugins,
-                         "payload": hashlib.sha256(payload).hexdigest()}).encode()
+                         "types": used, "plugins": plugins, "payload": zlib.crc32(payload)}).encode()
     written = write_atomic(target, MAGIC + len(header).to_bytes(4, "big") + header + payload)
     if written:
         prune(target.parent)
@@ -531,7 +621,7 @@ def lookup(name: str, registry: Registry, doc: Document) -> Entry | None:
     kept = _KEPT.get(name)
     if kept is not None and kept[0] == key and _texts(kept[1], name, doc) is not None:
         entry = kept[2]
-        return entry._replace(problems=[dataclasses.replace(p) for p in entry.problems])
+        return entry.with_problems([dataclasses.replace(p) for p in entry.problems])
     flush(name)  # this process's own write of it, if one is under way
     try:
         with open(file_of(name), "rb") as fh:
@@ -564,24 +654,128 @@ def _read(data: bytes, name: str, registry: Registry, doc: Document, key: str) -
         registry.load_due_plugins()  # the load that wrote it needed the installed plugins: so does this one
         if header.get("key") != registry_key(registry):
             return None
-    tables = dict(_tables(registry))
-    for kind, type_name in header["types"]:  # the types the load had imported, imported here (no others)
-        if tables[kind].get(type_name) is None:
-            return None
     key = header["key"]
     files = header["files"]
     texts = _texts(files, name, doc)
     payload = data[start + size:]
-    if texts is None or hashlib.sha256(payload).hexdigest() != header["payload"]:
+    if texts is None or zlib.crc32(payload) != header["payload"]:
         return None
     kinds = header["kinds"]
-    spec, (expressions, paths, wants), problems, plan = flat.unflatten(payload, _allowed(registry, key),
-                                                                      _makers(texts, kinds))
-    if not isinstance(spec, MachineSpec) or not isinstance(plan, MachinePlan) or not isinstance(problems, list):
+    shell = _LaterSpec.__new__(_LaterSpec)
+    makers = _makers(texts, kinds)
+    makers["_spec"] = lambda: shell
+    reader = flat.Reader(payload, makers)
+    if len(reader) != 3:
         return None
-    entry = Entry(spec, Analysis(kinds, expressions, paths, wants), problems, plan)
+    problems, (expressions, paths, wants), fields = reader.part(0, _model_classes())
+    if not isinstance(problems, list) or len(fields) != len(SHELL_FIELDS):
+        return None
+    later = _Later(reader, name, registry, key, header["types"])
+    shell.__dict__.update(zip(SHELL_FIELDS, fields, strict=True))
+    shell.__dict__[_LaterSpec.LATER] = later
+    entry = Entry(shell, Analysis(kinds, expressions, paths, wants), problems, later=later)
     keep(name, key, files, entry)
-    return entry._replace(problems=[dataclasses.replace(p) for p in problems])
+    return entry.with_problems([dataclasses.replace(p) for p in problems])
+
+
+#: The fields of a spec read from a cache file with its problems; the others (:data:`LATER_FIELDS`) when one of them
+#: is first read. A field with a default is a class attribute, read without asking the instance: it is read at once.
+LATER_FIELDS = tuple(f.name for f in dataclasses.fields(MachineSpec)
+                     if f.name in ("states", "transitions", "vars", "edges", "raw_states", "raw_transitions")
+                     and f.name not in vars(MachineSpec))
+SPEC_FIELDS = tuple(f.name for f in dataclasses.fields(MachineSpec))
+SHELL_FIELDS = tuple(f for f in SPEC_FIELDS if f not in LATER_FIELDS)
+
+
+class _LaterSpec(MachineSpec):
+    """A machine spec read from a cache file whose contents (:data:`LATER_FIELDS`) are made when first read: then it
+    becomes a plain :class:`MachineSpec` (its class changed in place, its fields in their order)."""
+
+    LATER = "_fsm_later"
+
+    def __getattr__(self, name: str) -> Any:  # only asked for what the instance and its class do not have
+        later = self.__dict__.get(_LaterSpec.LATER)
+        if later is None or name.startswith("__"):
+            raise AttributeError(name)
+        later.fill(self)
+        return getattr(self, name)
+
+    def __reduce_ex__(self, protocol: Any) -> Any:
+        """A copy (``copy``, ``deepcopy``, ``pickle``) is of the plain spec: its contents made first."""
+        later = self.__dict__.get(_LaterSpec.LATER)
+        if later is not None:
+            later.fill(self)
+        return object.__reduce_ex__(self, protocol)
+
+
+class _Later:
+    """What of a cache file is made on first use: the plan (the types it names imported then), and the spec's
+    contents (after the plan: they share its parameters). Made once, under a lock (a live run's reload may ask in
+    another thread). A file that passed the key and checksum checks but cannot be made (forged, or a type gone from
+    an installed plugin) is removed and reported as a problem of the document, with how to go on."""
+
+    def __init__(self, reader: flat.Reader, name: str, registry: Registry, key: str, used: list[list[str]]) -> None:
+        self.reader = reader
+        self.name = name
+        self.registry = registry
+        self.key = key
+        self.used = used
+        self.lock = threading.Lock()
+        self.made: MachinePlan | None = None
+        self.fields: tuple[Any, ...] | None = None
+
+    def plan(self) -> MachinePlan:
+        with self.lock:
+            if self.made is None:
+                self.made = self._made(self._plan)
+            return self.made
+
+    def _plan(self) -> MachinePlan:
+        tables = dict(_tables(self.registry))
+        for kind, type_name in self.used:  # the types the load had imported, imported here (no others)
+            if tables[kind].get(type_name) is None:
+                raise LookupError(f"{kind} type {type_name}")
+        plan = self.reader.part(1, _allowed(self.registry, self.key))
+        if not isinstance(plan, MachinePlan):
+            raise TypeError("not a plan")
+        return plan
+
+    def fill(self, spec: _LaterSpec) -> None:
+        """The spec's contents set (what was set on it meanwhile kept), and it made a plain MachineSpec."""
+        self.plan()
+        with self.lock:
+            if self.fields is None:
+                self.fields = self._made(self._fields)
+            values = dict(zip(LATER_FIELDS, self.fields, strict=True))
+            now = spec.__dict__
+            if _LaterSpec.LATER not in now:
+                return
+            spec.__dict__ = {f: now[f] if f in now else values[f] for f in SPEC_FIELDS}
+            spec.__class__ = MachineSpec  # type: ignore[assignment]
+
+    def _fields(self) -> tuple[Any, ...]:
+        fields = self.reader.part(2, _allowed(self.registry, self.key))
+        if type(fields) is not tuple or len(fields) != len(LATER_FIELDS):
+            raise TypeError("not a spec's fields")
+        return fields
+
+    def _made(self, make: Callable[[], Any]) -> Any:
+        try:
+            return make()
+        except Exception as exc:  # noqa: BLE001 - whatever the file holds, the user gets one message
+            _forget(self.name)
+            raise DiagramError([Problem(
+                f"the plan cache's file of this document could not be read back ({type(exc).__name__}); it is "
+                f"removed", file=self.name,
+                hint=f"run the command again (or with --no-cache); the file was {file_of(self.name)}")]) from None
+
+
+def _forget(name: str) -> None:
+    _KEPT.pop(name, None)
+    try:
+        os.unlink(file_of(name))
+    except OSError:
+        pass
 
 
 def _texts(files: list[list[str]], name: str, doc: Document) -> dict[str, str] | None:

@@ -15,10 +15,19 @@ its arguments and made by the reader's own functions (``makers``), never by anyt
 
     data = flatten(root, allowed, special)       # special[cls](obj) -> (maker name, args)
     root = unflatten(data, allowed, makers)
+
+A graph may also be stored in **parts**, read one at a time, in order, each when it is first needed: a part holds the
+objects its root reaches that no earlier part holds, and refers to those of earlier parts by their index (the reader
+keeps one list of every object made). Objects named in ``named`` (by identity) are stored as a call of the reader's
+maker of that name without arguments (an object the reader makes itself, such as a shell filled later).
+
+    data = flatten_parts([root0, root1], allowed, special, named)
+    reader = Reader(data, makers); root0 = reader.part(0, allowed); root1 = reader.part(1, allowed)
 """
 
 from __future__ import annotations
 
+import bisect
 import dataclasses
 import enum
 import io
@@ -34,7 +43,7 @@ from typing import Any
 from pydantic import BaseModel
 
 #: The stored form's own version (part of the cache's format).
-VERSION = 1
+VERSION = 2
 #: Scalars stored as they are.
 SCALARS = (type(None), bool, int, float, str)
 _CONTAINERS: dict[type, str] = {tuple: "tuple", list: "list", set: "set", frozenset: "frozenset"}
@@ -78,9 +87,10 @@ class _Batch:
     """Objects of one kind met together: their node numbers and, per kind, their columns (``("K", value)``,
     ``("L", values)``, ``("N", nodes)``, ``("C", node)``) or, for containers, their lengths and items' nodes."""
 
-    __slots__ = ("tag", "what", "nodes", "columns", "lengths", "items", "heights")
+    __slots__ = ("tag", "what", "nodes", "columns", "lengths", "items", "heights", "part")
 
-    def __init__(self, tag: str, what: Any, nodes: list[int]) -> None:
+    def __init__(self, tag: str, what: Any, nodes: list[int], part: int = 0) -> None:
+        self.part = part
         self.tag = tag
         self.what = what
         self.nodes = nodes
@@ -114,9 +124,13 @@ class _Batch:
 class _Flattener:
     """Walks the graph a batch at a time: the objects a batch's columns refer to form the next batches."""
 
-    def __init__(self, allowed: dict[tuple[str, str], type], special: Special) -> None:
+    def __init__(self, allowed: dict[tuple[str, str], type], special: Special,
+                 named: dict[int, str] | None = None) -> None:
         self.allowed = allowed
         self.special = special
+        self.named = named or {}
+        self.part = 0
+        self.bounds: list[int] = []  # the first node of each part after the first
         self.memo: dict[int, int] = {}
         self.kept: list[Any] = []  # every object met stays alive while flattening, so no id is reused
         self.count = 0
@@ -155,7 +169,9 @@ class _Flattener:
             return node
         kind = type(obj)
         key = self.kinds.get(kind)
-        if key is None:
+        if id(obj) in self.named:
+            key = ("named", self.named[id(obj)])
+        elif key is None:
             key = self.kinds[kind] = self.kind_of(kind)
         node = self.memo[id(obj)] = self.count
         self.count += 1
@@ -232,6 +248,9 @@ class _Flattener:
     def batch(self, key: Any, members: list[tuple[int, Any]]) -> None:
         tag = key[0]
         nodes = [n for n, _obj in members]
+        if tag == "named":  # made by the reader's maker of that name, from nothing
+            self.batches.append(_Batch("call", key[1], nodes, self.part))
+            return
         objs = [obj for _n, obj in members]
         if tag in ("record", "object", "model"):
             cls = key[1]
@@ -240,7 +259,7 @@ class _Flattener:
             else:
                 groups = _by_names(nodes, objs)
             for names, ns, os_ in groups:
-                b = _Batch(tag, names, ns)
+                b = _Batch(tag, names, ns, self.part)
                 b.columns.append(("C", self.ref(cls)))
                 if tag == "record":
                     rows: Iterable[tuple[Any, ...]] = zip(*os_, strict=True)
@@ -253,7 +272,7 @@ class _Flattener:
                     b.columns.append(self.column([o.__pydantic_private__ for o in os_]))
                 self.batches.append(b)
             return
-        b = _Batch(tag, None, nodes)
+        b = _Batch(tag, None, nodes, self.part)
         if tag == "class":
             b.items = [[]]
             b.what = [(c.__module__, c.__qualname__) for c in objs]
@@ -277,7 +296,7 @@ class _Flattener:
             for i, (name, args) in enumerate(calls):
                 by_name.setdefault((name, len(args)), []).append(i)
             for (name, width), rows_at in by_name.items():
-                c = _Batch("call", name, [nodes[i] for i in rows_at])
+                c = _Batch("call", name, [nodes[i] for i in rows_at], self.part)
                 c.columns = [self.column([calls[i][1][j] for i in rows_at]) for j in range(width)]
                 self.batches.append(c)
             return
@@ -302,19 +321,32 @@ class _Flattener:
                 return h
         raise Unflattenable("a graph too deep (or with a cycle) for the stored form")
 
-    def layout(self, root: int) -> list[Any]:
-        """The batches in the order they are made (literals first, then by height), with their columns."""
+    def layout(self, tops: list[int]) -> list[list[Any]]:
+        """Each part's batches in the order they are made (its literals first, then by height), with their columns,
+        and the index of its root; indices count on from one part to the next."""
         self.heights()
-        parts: list[tuple[int, int, _Batch]] = []
+        parts: list[tuple[int, int, int, _Batch]] = []
         for i, b in enumerate(self.batches):
-            parts.extend((hb, i, part) for hb, part in _split(b))
-        parts.sort(key=lambda p: (p[0], p[1]))
+            parts.extend((b.part, hb, i, part) for hb, part in _split(b))
+        parts.sort(key=lambda p: (p[0], p[1], p[2]))
+        lits: list[list[int]] = [[] for _ in tops]
+        values: list[list[Any]] = [[] for _ in tops]
+        for node, value in zip(self.lit_batch.nodes, self.lit_values, strict=True):
+            at = bisect.bisect_right(self.bounds, node)
+            lits[at].append(node)
+            values[at].append(value)
+        order: list[int] = []
+        for p in range(len(tops)):
+            order.extend(lits[p])
+            order.extend(n for q, _h, _i, part in parts if q == p for n in part.nodes)
         final = [0] * self.count
-        order = self.lit_batch.nodes + [n for _h, _i, part in parts for n in part.nodes]
         deque(map(final.__setitem__, order, range(len(order))), 0)
-        out: list[Any] = [["lit", self.lit_values]]
-        out.extend(_emitted(part, final) for _h, _i, part in parts)
-        return [VERSION, out, final[root]]
+        out: list[list[Any]] = []
+        for p, top in enumerate(tops):
+            batches: list[Any] = [["lit", values[p]]]
+            batches.extend(_emitted(part, final) for q, _h, _i, part in parts if q == p)
+            out.append([batches, final[top]])
+        return out
 
 
 _PLAIN_SET = _SCALAR_SET | {tuple, list, dict, set, frozenset}
@@ -348,7 +380,8 @@ def _split(b: _Batch) -> list[tuple[int, _Batch]]:
         starts.append(at)
         at += k
     for hi, idx in sorted(rows.items()):
-        part = _Batch(b.tag, b.what if b.tag != "class" else [b.what[i] for i in idx], [b.nodes[i] for i in idx])
+        part = _Batch(b.tag, b.what if b.tag != "class" else [b.what[i] for i in idx], [b.nodes[i] for i in idx],
+                      b.part)
         part.columns = [(tag, [value[i] for i in idx]) if tag in ("L", "N") else (tag, value)
                         for tag, value in b.columns]
         if b.lengths:
@@ -398,9 +431,28 @@ def flatten(root: Any, allowed: dict[tuple[str, str], type], special: Special) -
 
     ``allowed`` names every class the graph may hold; ``special`` says how to store an object that is not data, by
     its class (any other class with a ``__call__``, a function among them, is refused)."""
-    f = _Flattener(allowed, special)
-    top = f.run(root)
-    return pickle.dumps(f.layout(top), protocol=pickle.HIGHEST_PROTOCOL)
+    return flatten_parts([root], allowed, special)
+
+
+def flatten_parts(roots: list[Any], allowed: dict[tuple[str, str], type], special: Special,
+                  named: dict[int, str] | None = None) -> bytes:
+    """``roots`` as parts of one stored form, each read when it is first needed (:class:`Reader`): a part holds what
+    its root reaches and no earlier part holds. ``named``: objects (by ``id``) stored as the reader's maker of that
+    name, called without arguments."""
+    f = _Flattener(allowed, special, named)
+    tops = []
+    for i, root in enumerate(roots):
+        f.part = i
+        if i:
+            f.bounds.append(f.count)
+        tops.append(f.run(root))
+    parts = f.layout(tops)
+    buf = io.BytesIO()
+    pickler = pickle.Pickler(buf, protocol=pickle.HIGHEST_PROTOCOL)
+    pickler.dump([VERSION, len(parts)])
+    for part in parts:  # one pickle after the other, with one memo: plain values shared by two parts stay shared
+        pickler.dump(part)
+    return buf.getvalue()
 
 
 class _PlainOnly(pickle.Unpickler):
@@ -412,13 +464,38 @@ class _PlainOnly(pickle.Unpickler):
 
 def unflatten(data: bytes, allowed: dict[tuple[str, str], type], makers: dict[str, Callable[..., Any]]) -> Any:
     """The object graph of :func:`flatten`'s bytes. Raises (anything) on a file that is not such data."""
-    version, batches, root = _PlainOnly(io.BytesIO(data)).load()
-    if version != VERSION:
-        raise ValueError(f"stored form {version!r}")
-    objs: list[Any] = []
-    for batch in batches:
-        _BATCHES[batch[0]](objs, batch, allowed, makers)
-    return objs[root]
+    return Reader(data, makers).part(0, allowed)
+
+
+class Reader:
+    """The parts of :func:`flatten_parts`'s bytes, each made when asked for (after the parts before it): one list of
+    the objects made, so a part's references to earlier parts' objects are indices into it. Raises (anything) on a
+    file that is not such data."""
+
+    def __init__(self, data: bytes, makers: dict[str, Callable[..., Any]]) -> None:
+        self.unpickler = _PlainOnly(io.BytesIO(data))
+        version, parts = self.unpickler.load()
+        if version != VERSION or type(parts) is not int:
+            raise ValueError(f"stored form {version!r}")
+        self.parts = parts
+        self.makers = makers
+        self.objs: list[Any] = []
+        self.roots: list[Any] = []
+
+    def __len__(self) -> int:
+        return self.parts
+
+    def part(self, k: int, allowed: dict[tuple[str, str], type]) -> Any:
+        """The root of part ``k``, made with the parts before it if they are not made yet."""
+        while len(self.roots) <= k:
+            if len(self.roots) >= self.parts:
+                raise IndexError(f"no part {k}")
+            batches, root = self.unpickler.load()  # the next pickle of the stream, with the memo of those before
+            objs = self.objs
+            for batch in batches:
+                _BATCHES[batch[0]](objs, batch, allowed, self.makers)
+            self.roots.append(objs[root])
+        return self.roots[k]
 
 
 def _column(objs: list[Any], n: int, column: list[Any]) -> Iterable[Any]:
@@ -556,4 +633,4 @@ def make_enum(cls: Any, value: Any) -> Any:
     return cls(value)
 
 
-__all__ = ["Unflattenable", "VERSION", "flatten", "make_enum", "plain", "unflatten"]
+__all__ = ["Reader", "Unflattenable", "VERSION", "flatten", "flatten_parts", "make_enum", "plain", "unflatten"]

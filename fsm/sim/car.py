@@ -888,6 +888,8 @@ def _impulses_agree(joints: tuple[Any, ...], layout: tuple[tuple[int, int], ...]
 #: Where chipmunk keeps a body's angle, the x of its position and of its velocity, and its angular velocity (indices
 #: of doubles from the body's start), found once (see _body_layout); None when they cannot be found.
 _body: list[tuple[int, int, int, int] | None] = []
+#: The size of chipmunk 7's cpBody in 8-byte words (pymunk declares the struct opaque, so cffi cannot say).
+BODY_WORDS = 34
 
 
 def _body_layout() -> tuple[int, int, int, int] | None:
@@ -908,10 +910,14 @@ def _body_layout() -> tuple[int, int, int, int] | None:
         _lib.cpBodySetAngularVelocity(b, 0.577215)
         d = _ffi.cast("double *", b)
         pos = _lib.cpBodyGetPosition(b)
-        spots = [[i for i in range(2, 60) if d[i] == 0.123456789],
-                 [i for i in range(2, 60) if d[i] == pos.x and d[i + 1] == pos.y],
-                 [i for i in range(2, 60) if d[i] == 0.314159 and d[i + 1] == -0.271828],
-                 [i for i in range(2, 60) if d[i] == 0.577215]]
+        # only inside the struct: chipmunk 7's cpBody is 34 words (two function pointers, then mass, moment, centre
+        # of gravity, position, velocity, force, angle, angular velocity, torque, transform, ... sleeping); reading
+        # further would read whatever the allocator put after it
+        words = range(2, BODY_WORDS - 1)
+        spots = [[i for i in words if d[i] == 0.123456789],
+                 [i for i in words if d[i] == pos.x and d[i + 1] == pos.y],
+                 [i for i in words if d[i] == 0.314159 and d[i + 1] == -0.271828],
+                 [i for i in words if d[i] == 0.577215]]
         if all(len(spot) == 1 for spot in spots):
             found = (spots[0][0], spots[1][0], spots[2][0], spots[3][0])
     _body.append(found)

@@ -380,7 +380,7 @@ class LiveServer:
         current = self.source.buffer
         if current is not client.buffer:
             if client.buffer is not None:  # a rewind: the page starts again, and is told the status again after
-                client.buffer, client.seq = current, -1
+                client.seq = -1
                 await ws.send_str('{"kind":"reset"}')
             client.buffer, client.cursor = current, 0
         text, client.cursor = current.since(client.cursor)

@@ -42,25 +42,27 @@ class Documents:
                 self.problem(note.elem, f"machine note outside every machine frame, but the diagram holds "
                                         f"{len(machines)} machines",
                              hint="put the note inside the UMLFrame of the machine it describes")
-        stem = Path(scene.name).stem
-        for fallback, states, initials, frame in machines:
-            origins: dict[str, RawElement] = {}
-            notes = list(top.notes) if len(machines) == 1 else []
-            title = None
-            if frame is not None:
-                notes += scene.levels[id(frame)].notes
-                title = scene.state_of[id(frame)].id or None
-            meta = self.metadata(notes)
-            if meta is None:  # no note: the frame's title, the file's name or the first state's
-                name: Any = title or fallback
-            else:  # the note's name=, else the frame's title, else none
-                name = meta.pop("name", title)
-            level = scene.levels[id(frame)] if frame is not None else top
-            doc = self.machine_doc(level, states, initials, "", origins, meta=meta or {}, name=name,
-                                   note=notes[0] if notes else None, frame=frame, what="the diagram")
-            self.docs.append(doc)
-            self.names.append(self._unique_label(name if isinstance(name, str) and name else stem, doc))
-            self.origins.append(origins)
+        for machine in machines:
+            self.top_machine(*machine, notes=list(top.notes) if len(machines) == 1 else [])
+
+    def top_machine(self, fallback: str, states: list[StateBox], initials: list[Box], frame: Box | None,
+                    notes: list[Any]) -> None:
+        """One machine of the diagram: its document, its label among the diagram's machines and its origins."""
+        scene = self.scene
+        origins: dict[str, RawElement] = {}
+        level = scene.levels[id(frame)] if frame is not None else scene.levels[0]
+        title = None
+        if frame is not None:
+            notes += level.notes
+            title = scene.state_of[id(frame)].id or None
+        meta = self.metadata(notes)
+        # no note: the frame's title, the file's name or the first state's; a note: its name=, else the title
+        name: Any = title or fallback if meta is None else meta.pop("name", title)
+        doc = self.machine_doc(level, states, initials, "", origins, meta=meta or {}, name=name,
+                               note=notes[0] if notes else None, frame=frame, what="the diagram")
+        self.docs.append(doc)
+        self.names.append(self._unique_label(name if isinstance(name, str) and name else Path(scene.name).stem, doc))
+        self.origins.append(origins)
 
     def _unique_label(self, label: str, doc: dict[str, Any]) -> str:
         """``label``, numbered (``lap (2)``) when an earlier machine of the diagram has it; a document named so is
@@ -169,9 +171,9 @@ class Documents:
             return None  # the marker's target state has a text error, reported where it is
         if len(states) == 1:
             return states[0].id
-        elem = frame.elem if frame is not None else (level.owner.elem if level.owner is not None else None)
-        elem = elem or (states[0].box.elem if states else None)
-        self.problem(elem, f"{what} has no initial state: no initial pseudostate with an arrow to a state",
+        # said at the machine's frame, else its composite's box, else its first state
+        at = next((b.elem for b in (frame, level.owner, *[st.box for st in states[:1]]) if b is not None), None)
+        self.problem(at, f"{what} has no initial state: no initial pseudostate with an arrow to a state",
                      hint="draw a UMLSpecialState with type=initial and an arrow to the first state")
         return None
 

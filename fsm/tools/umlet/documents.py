@@ -445,8 +445,9 @@ class _StepChain:
         first = [sid for sid in alone if self.detached(sid)]
         exceptions = [sid for sid in alone if sid not in first and self.states[sid].get("type") == "Sequence"
                       and not self.outs.get(sid)]
+        placed = seen.union(first, exceptions)
         for sid in self.states:
-            if sid not in seen and sid not in first and sid not in exceptions:
+            if sid not in placed:
                 self.problem(self.elem(sid), f"step '{sid}' of sequence '{self.st.id}' is not on the chain of steps",
                              hint="connect it with an arrow from the step before it (only Sequence boxes may stand "
                                   "alone: they are exception sequences)")

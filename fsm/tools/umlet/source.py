@@ -178,6 +178,16 @@ class _XmlElements:
             elem = _xml_element(el, index, self.name, self.problems)
             self.elements.append(elem if elem is not None else RawElement(index, "", False, 0, 0, 0, 0, "", None))
 
+    def locate(self, raw: bytes) -> None:
+        """Each element's line and column in ``raw``, and its problems' (found by the element's number)."""
+        positions = _element_positions(raw, self.sourcelines)
+        for elem in self.elements:
+            elem.line, elem.column = positions[elem.index]
+        for p in self.problems:
+            if p.line is None and p.pointer.startswith("#"):
+                p.line, p.column = positions[int(p.pointer[1:])]
+                p.pointer = ""
+
 
 def _syntax_failure(exc: Any, name: str) -> DiagramError:
     """lxml's complaint about XML that is not well-formed, located."""
@@ -206,13 +216,7 @@ def parse_xml(raw: bytes, name: str) -> RawDiagram:
         raise fail(name, f"cannot parse XML: {exc}") from None
     if found.root_tag is None:
         raise fail(name, "not a UMLet diagram: no <diagram> root element", 1, 1)
-    positions = _element_positions(raw, found.sourcelines)
-    for elem in found.elements:
-        elem.line, elem.column = positions[elem.index]
-    for p in found.problems:
-        if p.line is None and p.pointer.startswith("#"):
-            p.line, p.column = positions[int(p.pointer[1:])]
-            p.pointer = ""
+    found.locate(raw)
     if found.problems:
         raise DiagramError(found.problems)
     elements = [e for e in found.elements if e.kind]
@@ -355,15 +359,17 @@ def _points(kind: str, extra: Any) -> list[float] | None:
     if kind != "Relation" or not extra or not extra.strip():
         return None
     parts = [p for p in extra.strip().split(";") if p.strip() != ""]
-    nums = [_number(p) for p in parts]
-    bad = next((p for p, n in zip(parts, nums, strict=True) if n is None), None)
-    if bad is not None:
-        raise T.TextError(f"relation point {bad.strip()[:30]!r} is not a number",
-                   "additional_attributes holds x;y;x;y;... numbers")
+    nums: list[float] = []
+    for p in parts:
+        n = _number(p)
+        if n is None:
+            raise T.TextError(f"relation point {p.strip()[:30]!r} is not a number",
+                              "additional_attributes holds x;y;x;y;... numbers")
+        nums.append(n)
     if len(nums) % 2:
         raise T.TextError(f"relation points come in x;y pairs, got {len(nums)} numbers: {extra.strip()[:60]!r}",
-                   "additional_attributes holds x;y;x;y;... numbers; draw the arrow again in UMLet")
-    return [n for n in nums if n is not None]
+                          "additional_attributes holds x;y;x;y;... numbers; draw the arrow again in UMLet")
+    return nums
 
 
 # -- xml2json ---------------------------------------------------------------------------------------------

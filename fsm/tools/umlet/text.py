@@ -131,9 +131,14 @@ def parse_state(text: str) -> StateText:
         if params is None and is_param_block(comp):
             params, kv_keys = parse_params(comp)
             continue
-        found = [ACTIVITY.match(ln) for ln in comp]
-        activities += [(m.group(1), m.group(2).strip()) for m in found if m]
-        block = _block([ln for ln, m in zip(comp, found, strict=True) if not m])
+        rest = []
+        for ln in comp:
+            m = ACTIVITY.match(ln)
+            if m:
+                activities.append((m.group(1), m.group(2).strip()))
+            else:
+                rest.append(ln)
+        block = _block(rest)
         if block.strip():
             free.append(block)
     description = "\n".join(free) if free else None

@@ -184,19 +184,9 @@ class Documents:
         seen: dict[str, StateBox] = {}
         out_states: list[dict[str, Any]] = []
         for st in states + finals:
-            if not st.id:
-                self.problem(st.box.elem, "state box has no name",
-                             hint="write the state's name on the first line of the box")
-                continue
-            if st.id in seen:
-                first = seen[st.id]
-                self.problem(st.box.elem, f"duplicate state name '{st.id}' in one machine (also at "
-                                          f"{where(first.box.elem)})",
-                             hint="names are ids: rename one of the boxes")
-                continue
-            if "/" in st.id:
-                self.problem(st.box.elem, f"state name '{st.id}' contains '/', which separates state paths",
-                             hint="rename the box")
+            wrong = _name_problem(st, seen)
+            if wrong is not None:
+                self.problem(st.box.elem, wrong[0], hint=wrong[1])
                 continue
             seen[st.id] = st
             ptr = f"{base}/states/{len(out_states)}"
@@ -452,6 +442,18 @@ class _StepChain:
                              hint="connect it with an arrow from the step before it (only Sequence boxes may stand "
                                   "alone: they are exception sequences)")
         return first, exceptions
+
+
+def _name_problem(st: StateBox, seen: dict[str, StateBox]) -> tuple[str, str] | None:
+    """What is wrong with a state box's name (none, one of ``seen`` already, a '/' in it) and how to fix it."""
+    if not st.id:
+        return "state box has no name", "write the state's name on the first line of the box"
+    if st.id in seen:
+        return (f"duplicate state name '{st.id}' in one machine (also at {where(seen[st.id].box.elem)})",
+                "names are ids: rename one of the boxes")
+    if "/" in st.id:
+        return f"state name '{st.id}' contains '/', which separates state paths", "rename the box"
+    return None
 
 
 def _union_find(pairs: Iterable[tuple[int, int]]) -> Callable[[int], int]:

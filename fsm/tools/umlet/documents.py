@@ -155,8 +155,7 @@ class Documents:
         """The machine's initial state: the target of its one initial marker (its arrow into ``layout``), or its
         only state; several markers, or none for several states, are said."""
         scene = self.scene
-        targets = [(m, scene.markers.get(id(m))) for m in initials]
-        markers = [(m, mk) for m, mk in targets if mk is not None and mk.target in states]
+        markers = [(m, mk) for m in initials if (mk := scene.markers.get(id(m))) is not None and mk.target in states]
         if len(markers) > 1:
             listing = ", ".join(f"at {where(m.elem)}" for m, _ in markers)
             self.problem(markers[1][0].elem, f"{len(markers)} initial pseudostates in one machine ({listing})",

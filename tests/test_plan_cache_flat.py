@@ -255,3 +255,65 @@ def test_equal_values_that_differ_stay_apart() -> None:
     assert [type(p.timeout) for p in back[0]] == [float, float, int, bool]
     assert math.copysign(1, back[1][0].timeout) == -1
     assert [math.copysign(1, v) for v in back[2][:2]] == [1, -1]
+
+
+class _Strict(BaseModel):
+    """A model with a ``__setattr__`` of its own and validated assignment."""
+
+    model_config = {"validate_assignment": True}
+    name: str
+    count: int = 0
+    tags: list[str] = []
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name == "count" and value < 0:
+            raise ValueError("count below zero")
+        super().__setattr__(name, value)
+
+
+@dataclasses.dataclass
+class _Record:
+    name: str
+    size: int = 1
+
+
+def test_models_and_dataclasses_read_back_behave_as_made() -> None:
+    """Models and dataclasses read back hold their fields, their set fields and private parts as made, and behave
+    as models do afterwards (assignment validated, copies, dumps); the reader sets the instance dict and the
+    model's slots directly, as ``object.__setattr__`` would."""
+    allowed = {(__name__, "_Strict"): _Strict, (__name__, "_Record"): _Record}
+    models = [_Strict(name="a"), _Strict(name="b", count=3, tags=["x"]), _Strict(name="c", count=2)]
+    records = [_Record("r"), _Record("s", 5)]
+    back = flat.unflatten(flat.flatten([models, records], allowed, {}), allowed, {})
+    assert back == [models, records]
+    for made, was in zip(back[0], models, strict=True):
+        assert type(made) is _Strict
+        assert made.model_fields_set == was.model_fields_set
+        assert made.__pydantic_extra__ == was.__pydantic_extra__
+        assert made.__pydantic_private__ == was.__pydantic_private__
+        assert made.model_dump() == was.model_dump()
+    assert back[0][0].model_fields_set is not back[0][2].model_fields_set  # each model its own set
+    with pytest.raises(ValueError):
+        back[0][1].count = -1
+    back[0][1].count = 4
+    assert back[0][1].count == 4 and back[0][1].model_copy(update={"name": "z"}).name == "z"
+    assert [type(r) for r in back[1]] == [_Record, _Record] and back[1][1].size == 5
+    back[1][0].size = 2
+    assert vars(back[1][0]) == {"name": "r", "size": 2}
+
+
+def test_containers_of_one_length_and_of_several_read_back() -> None:
+    """Containers of one kind are cut from one run of items: all of one length (cut by ``zip``) or of several;
+    each read back as its own object (two equal lists stay two lists)."""
+    shared = SupervisionPlan(timeout=1.0)
+    allowed = {(SupervisionPlan.__module__, "SupervisionPlan"): SupervisionPlan}
+    ones = [(shared,), (SupervisionPlan(timeout=2.0),), ("x",)] * 3
+    pairs = [[1, "a"], [1, "a"], [shared, 2]]
+    mixed = [(), (1,), (1, 2, 3), (shared, shared)]
+    sets = [frozenset({1}), frozenset({2}), {3, 4}, {5, 6}]
+    root = [ones, pairs, mixed, sets, [[], []]]
+    back = flat.unflatten(flat.flatten(root, allowed, {}), allowed, {})
+    assert back == root
+    assert [type(t) for t in back[0]] == [tuple] * 9 and back[0][0][0] is back[1][2][0] is back[2][3][1]
+    assert back[1][0] is not back[1][1] and back[4][0] is not back[4][1]
+    assert [type(s) for s in back[3]] == [frozenset, frozenset, set, set]

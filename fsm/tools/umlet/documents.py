@@ -42,25 +42,27 @@ class Documents:
                 self.problem(note.elem, f"machine note outside every machine frame, but the diagram holds "
                                         f"{len(machines)} machines",
                              hint="put the note inside the UMLFrame of the machine it describes")
-        stem = Path(scene.name).stem
-        for fallback, states, initials, frame in machines:
-            origins: dict[str, RawElement] = {}
-            notes = list(top.notes) if len(machines) == 1 else []
-            title = None
-            if frame is not None:
-                notes += scene.levels[id(frame)].notes
-                title = scene.state_of[id(frame)].id or None
-            meta = self.metadata(notes)
-            if meta is None:  # no note: the frame's title, the file's name or the first state's
-                name: Any = title or fallback
-            else:  # the note's name=, else the frame's title, else none
-                name = meta.pop("name", title)
-            level = scene.levels[id(frame)] if frame is not None else top
-            doc = self.machine_doc(level, states, initials, "", origins, meta=meta or {}, name=name,
-                                   note=notes[0] if notes else None, frame=frame, what="the diagram")
-            self.docs.append(doc)
-            self.names.append(self._unique_label(name if isinstance(name, str) and name else stem, doc))
-            self.origins.append(origins)
+        for machine in machines:
+            self.top_machine(*machine, notes=list(top.notes) if len(machines) == 1 else [])
+
+    def top_machine(self, fallback: str, states: list[StateBox], initials: list[Box], frame: Box | None,
+                    notes: list[Any]) -> None:
+        """One machine of the diagram: its document, its label among the diagram's machines and its origins."""
+        scene = self.scene
+        origins: dict[str, RawElement] = {}
+        level = scene.levels[id(frame)] if frame is not None else scene.levels[0]
+        title = None
+        if frame is not None:
+            notes += level.notes
+            title = scene.state_of[id(frame)].id or None
+        meta = self.metadata(notes)
+        # no note: the frame's title, the file's name or the first state's; a note: its name=, else the title
+        name: Any = title or fallback if meta is None else meta.pop("name", title)
+        doc = self.machine_doc(level, states, initials, "", origins, meta=meta or {}, name=name,
+                               note=notes[0] if notes else None, frame=frame, what="the diagram")
+        self.docs.append(doc)
+        self.names.append(self._unique_label(name if isinstance(name, str) and name else Path(scene.name).stem, doc))
+        self.origins.append(origins)
 
     def _unique_label(self, label: str, doc: dict[str, Any]) -> str:
         """``label``, numbered (``lap (2)``) when an earlier machine of the diagram has it; a document named so is
@@ -153,8 +155,7 @@ class Documents:
         """The machine's initial state: the target of its one initial marker (its arrow into ``layout``), or its
         only state; several markers, or none for several states, are said."""
         scene = self.scene
-        targets = [(m, scene.markers.get(id(m))) for m in initials]
-        markers = [(m, mk) for m, mk in targets if mk is not None and mk.target in states]
+        markers = [(m, mk) for m in initials if (mk := scene.markers.get(id(m))) is not None and mk.target in states]
         if len(markers) > 1:
             listing = ", ".join(f"at {where(m.elem)}" for m, _ in markers)
             self.problem(markers[1][0].elem, f"{len(markers)} initial pseudostates in one machine ({listing})",
@@ -169,9 +170,9 @@ class Documents:
             return None  # the marker's target state has a text error, reported where it is
         if len(states) == 1:
             return states[0].id
-        elem = frame.elem if frame is not None else (level.owner.elem if level.owner is not None else None)
-        elem = elem or (states[0].box.elem if states else None)
-        self.problem(elem, f"{what} has no initial state: no initial pseudostate with an arrow to a state",
+        # said at the machine's frame, else its composite's box, else its first state
+        at = next((b.elem for b in (frame, level.owner, *[st.box for st in states[:1]]) if b is not None), None)
+        self.problem(at, f"{what} has no initial state: no initial pseudostate with an arrow to a state",
                      hint="draw a UMLSpecialState with type=initial and an arrow to the first state")
         return None
 
@@ -182,19 +183,9 @@ class Documents:
         seen: dict[str, StateBox] = {}
         out_states: list[dict[str, Any]] = []
         for st in states + finals:
-            if not st.id:
-                self.problem(st.box.elem, "state box has no name",
-                             hint="write the state's name on the first line of the box")
-                continue
-            if st.id in seen:
-                first = seen[st.id]
-                self.problem(st.box.elem, f"duplicate state name '{st.id}' in one machine (also at "
-                                          f"{where(first.box.elem)})",
-                             hint="names are ids: rename one of the boxes")
-                continue
-            if "/" in st.id:
-                self.problem(st.box.elem, f"state name '{st.id}' contains '/', which separates state paths",
-                             hint="rename the box")
+            wrong = _name_problem(st, seen)
+            if wrong is not None:
+                self.problem(st.box.elem, wrong[0], hint=wrong[1])
                 continue
             seen[st.id] = st
             ptr = f"{base}/states/{len(out_states)}"
@@ -443,12 +434,25 @@ class _StepChain:
         first = [sid for sid in alone if self.detached(sid)]
         exceptions = [sid for sid in alone if sid not in first and self.states[sid].get("type") == "Sequence"
                       and not self.outs.get(sid)]
+        placed = seen.union(first, exceptions)
         for sid in self.states:
-            if sid not in seen and sid not in first and sid not in exceptions:
+            if sid not in placed:
                 self.problem(self.elem(sid), f"step '{sid}' of sequence '{self.st.id}' is not on the chain of steps",
                              hint="connect it with an arrow from the step before it (only Sequence boxes may stand "
                                   "alone: they are exception sequences)")
         return first, exceptions
+
+
+def _name_problem(st: StateBox, seen: dict[str, StateBox]) -> tuple[str, str] | None:
+    """What is wrong with a state box's name (none, one of ``seen`` already, a '/' in it) and how to fix it."""
+    if not st.id:
+        return "state box has no name", "write the state's name on the first line of the box"
+    if st.id in seen:
+        return (f"duplicate state name '{st.id}' in one machine (also at {where(seen[st.id].box.elem)})",
+                "names are ids: rename one of the boxes")
+    if "/" in st.id:
+        return f"state name '{st.id}' contains '/', which separates state paths", "rename the box"
+    return None
 
 
 def _union_find(pairs: Iterable[tuple[int, int]]) -> Callable[[int], int]:

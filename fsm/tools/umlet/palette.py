@@ -81,9 +81,7 @@ class _Template:
                 extra[info["name"]] = info.get("default")
             else:
                 self.lines.append(_param_line(info))
-            req = "required" if info["required"] else "optional"
-            desc = f": {info['description']}" if info.get("description") else ""
-            self.comments.append(f"// {info['name']} ({info['type']}, {req}){desc}")
+            self.comments.append(_param_comment(info))
         self.name = name
         self.head = param_lines(name, extra, reserved, type_as_json=kind == "state")
 
@@ -100,6 +98,13 @@ def _drawn_comment(param: str, sequence: bool, regions: bool) -> str | None:
         return ("// regions: one UMLFrame per region inside this box, titled with the region's name (or file=PATH "
                 "to include the region), holding its initial marker, states and arrows")
     return None
+
+
+def _param_comment(info: dict[str, Any]) -> str:
+    """``// name (type, required): description``."""
+    req = "required" if info["required"] else "optional"
+    desc = f": {info['description']}" if info.get("description") else ""
+    return f"// {info['name']} ({info['type']}, {req}){desc}"
 
 
 def _param_line(info: dict[str, Any]) -> str:
@@ -155,16 +160,21 @@ def palette_problems(raw: bytes, name: str, registry: Any) -> list[Problem] | No
     installed = sorted({dist for (kind, n), dist in getattr(registry, "installed_by", {}).items()
                         if kind in ("state", "transition") and (kind, n) not in found})
     if installed:
-        plugins = ", ".join(installed)
-        if text == palette(registry.without_installed()):
-            return [Problem(f"this UMLet palette holds every type but those of the installed plugin(s) {plugins}",
-                            name, line=1, column=1, severity="warning",
-                            hint=f"to draw with them too: fsmctl palette -o {name}; to check without installed "
-                                 f"plugins: FSM_NO_ENTRY_POINTS=1 fsmctl validate {name}")]
-        return [Problem("this is a UMLet palette (a template of every type), not a machine, and it differs from "
-                        "what `fsmctl palette` generates; it also lacks the types of the installed plugin(s) "
-                        + plugins, name, line=1, column=1,
-                        hint=f"regenerate it: fsmctl palette -o {name} (with the same --plugin options)")]
+        return [_without_plugins(text, name, registry, ", ".join(installed))]
     return [Problem("this is a UMLet palette (a template of every type), not a machine, and it differs from what "
                     "`fsmctl palette` generates", name, line=1, column=1,
                     hint=f"regenerate it: fsmctl palette -o {name} (with the same --plugin options)")]
+
+
+def _without_plugins(text: str, name: str, registry: Any, plugins: str) -> Problem:
+    """What is wrong with a palette that lacks the types of the installed ``plugins``: only that (a warning), or
+    that and more."""
+    if text == palette(registry.without_installed()):
+        return Problem(f"this UMLet palette holds every type but those of the installed plugin(s) {plugins}",
+                       name, line=1, column=1, severity="warning",
+                       hint=f"to draw with them too: fsmctl palette -o {name}; to check without installed "
+                            f"plugins: FSM_NO_ENTRY_POINTS=1 fsmctl validate {name}")
+    return Problem("this is a UMLet palette (a template of every type), not a machine, and it differs from "
+                   "what `fsmctl palette` generates; it also lacks the types of the installed plugin(s) "
+                   + plugins, name, line=1, column=1,
+                   hint=f"regenerate it: fsmctl palette -o {name} (with the same --plugin options)")

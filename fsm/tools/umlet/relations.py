@@ -166,24 +166,20 @@ class Relations:
 
     # -- relations ------------------------------------------------------------------------------------------
     def resolve(self, attached: list[Attached]) -> None:
-        scene = self.scene
-        touched: set[int] = set()
-        for _, _, a, b, _ in attached:
-            for box in (a, b):
-                if isinstance(box, Box):
-                    touched.add(id(box))
-        for box in scene.boxes:
-            if box.role == "frame" and box.parent is None and id(box) not in touched:
-                scene.machine_frames.add(id(box))
-        # initial markers first: entering a composite checks which state each level starts in
-        first = [r for r in attached if isinstance(r.src, Box) and r.src.role == "initial"]
-        rest = [r for r in attached if not (isinstance(r.src, Box) and r.src.role == "initial")]
-        for elem, rel, src, dst, points in first + rest:
+        self.mark_machine_frames(attached)
+        # initial markers first (a stable sort): entering a composite checks which state each level starts in
+        for elem, rel, src, dst, points in sorted(attached, key=lambda r: not _from_initial(r)):
             self.relation(elem, rel, src, dst, points)
-        for box in scene.boxes:
+        for box in self.scene.boxes:
             if box.role == "initial" and id(box) not in self._initial_used:
                 self.problem(box.elem, "initial pseudostate has no transition to a state",
                              hint="draw an arrow from it to the first state of its machine")
+
+    def mark_machine_frames(self, attached: list[Attached]) -> None:
+        """A top-level frame no arrow touches is a machine's frame, not a state."""
+        touched = {id(box) for r in attached for box in (r.src, r.dst) if isinstance(box, Box)}
+        self.scene.machine_frames.update(id(box) for box in self.scene.boxes
+                                         if box.role == "frame" and box.parent is None and id(box) not in touched)
 
     def relation(self, elem: RawElement, rel: T.RelationText, src: Any, dst: Any, points: list[Any]) -> None:
         """An arrow with its attached ends: a transition, an initial marker's arrow, or a problem said."""
@@ -312,22 +308,17 @@ class Relations:
             return
         # exit: an inner state leaves its composite(s): Final in each level, Finished one level up
         outcome = f"exit to {target.id}"
-        node = src
-        first = True
-        current = s
+        current, node = s, src
+        # the drawn arrow's transition leaves the innermost level; the levels above finish on its outcome
+        drawn: tuple[dict[str, Any] | None, T.Label, list[Any] | None, RawElement | None]
+        drawn = (params, label, points, elem)
         while node.parent is not common:
             owner = node.parent
             assert owner is not None
             lvl = scene.levels[id(owner)]
-            final = _exit_final(lvl, outcome, elem)
-            if first:
-                self.add_transition(lvl, current, final, params, label, points, elem)
-                first = False
-            else:
-                self.add_transition(lvl, current, final, {"type": "Finished", "outcome": outcome},
-                                    T.Label(None, ""), None, None)
-            current = scene.state_of[id(owner)]
-            node = owner
+            self.add_transition(lvl, current, _exit_final(lvl, outcome, elem), *drawn)
+            drawn = ({"type": "Finished", "outcome": outcome}, T.Label(None, ""), None, None)
+            current, node = scene.state_of[id(owner)], owner
         self.add_transition(scene.level_of(node), current, target, {"type": "Finished", "outcome": outcome},
                             T.Label(None, ""), None, None)
 
@@ -430,6 +421,10 @@ def _signal_transition(event: str, label: T.Label) -> dict[str, Any]:
                           hint=f"add the transition type above it, e.g. 'type=Finished' then '{event.strip()}' "
                                "(see `fsmctl types`)")
     return {"type": "Signal", "from": "", "to": "", "signal": event, "label": label.text}
+
+
+def _from_initial(r: Attached) -> bool:
+    return isinstance(r.src, Box) and r.src.role == "initial"
 
 
 def _exit_final(lvl: Level, outcome: str, elem: RawElement) -> StateBox:

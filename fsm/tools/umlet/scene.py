@@ -81,6 +81,13 @@ def _is_class(elem: RawElement) -> bool:
     return elem.kind in _CLASS_KINDS_NEW or (elem.old and elem.kind in _CLASS_KINDS_OLD)
 
 
+def _pseudostate(elem: RawElement) -> str | None:
+    """The pseudostate an element draws (initial, final, decision, ...); ``None`` for any other element."""
+    if elem.kind == "UMLSpecialState":
+        return T.special_kind(elem.text)[0]
+    return _SPECIAL_OLD.get(elem.kind) if elem.old else None
+
+
 class Scene:
     """The boxes of one diagram, their texts, nesting and levels; relations are kept for later."""
 
@@ -178,9 +185,7 @@ class Scene:
 
     def _sizeless(self, elem: RawElement) -> None:
         """A box of no size is ignored; one that would be part of the machine is said."""
-        kind = elem.kind
-        if _is_state(elem) or kind in _FRAME_KINDS or kind == "UMLSpecialState" or (
-                self.class_states and _is_class(elem)) or (elem.old and kind in _SPECIAL_OLD):
+        if self._drawn_state(elem) or elem.kind in _FRAME_KINDS or _pseudostate(elem) is not None:
             self.problem(elem, f"the box has no size (w={num(elem.w)}, h={num(elem.h)}), so it is ignored",
                          hint="give it a size in UMLet (drag its corner), or delete it")
         self.ignored.append((self.box(elem, "ignored"), "it has no size"))
@@ -188,18 +193,20 @@ class Scene:
     def _role(self, elem: RawElement) -> str | None:
         """state, frame, note, a pseudostate's kind (or unsupported), comment, relation; ``None``: ignored."""
         kind = elem.kind
-        if _is_state(elem) or (self.class_states and _is_class(elem)):
+        if self._drawn_state(elem):
             return "state"
         if kind in _FRAME_KINDS:
             return "frame"
         if kind in _NOTE_KINDS_NEW or (elem.old and kind in _NOTE_KINDS_OLD):
             return "note" if T.is_machine_note(elem.text) else "comment"
-        if kind == "UMLSpecialState" or (elem.old and kind in _SPECIAL_OLD):
-            special = T.special_kind(elem.text)[0] if kind == "UMLSpecialState" else _SPECIAL_OLD[kind]
+        special = _pseudostate(elem)
+        if special is not None:
             return special if special in _SUPPORTED_SPECIAL else "unsupported"
-        if kind == "Relation":
-            return "relation"
-        return None
+        return "relation" if kind == "Relation" else None
+
+    def _drawn_state(self, elem: RawElement) -> bool:
+        """A state box, or a class box in a diagram that has no state boxes."""
+        return _is_state(elem) or (self.class_states and _is_class(elem))
 
     @staticmethod
     def _ignored_reason(elem: RawElement) -> str:
@@ -212,8 +219,7 @@ class Scene:
         box.container = role in ("state", "frame")
         self.boxes.append(box)
         if role == "unsupported":
-            special = T.special_kind(elem.text)[0] if elem.kind == "UMLSpecialState" else _SPECIAL_OLD[elem.kind]
-            self.problem(elem, f"'{special}' pseudostates are not supported",
+            self.problem(elem, f"'{_pseudostate(elem)}' pseudostates are not supported",
                          hint="use states and transitions with guards (types) instead; "
                               "only type=initial and type=final are understood")
 
@@ -250,42 +256,52 @@ class Scene:
             self.problem(elem, str(exc), hint=exc.hint)
             return None
         st = StateBox(box, id=text.name, description=text.description)
-        if text.params is not None:
-            params = dict(text.params)
-            alias = params.pop("id", None)
-            if alias is not None:
-                st.alias = str(alias)
-                if not st.id:
-                    st.id = str(alias)
-            typ = params.pop("type", None)
-            if not isinstance(typ, str) or not typ:
-                self.problem(elem, f"'type' must be a type name, got {typ!r}",
-                             hint="see `fsmctl types` for the state types")
-                return None
-            st.type = typ
-            st.params = self.coerce_kv("state", typ, params, text.kv_keys)
+        if text.params is not None and not self._typed(st, text):
+            return None
         if text.activities:
-            sets: dict[str, dict[str, Any]] = {}
-            for when, action in text.activities:
-                hook = "on_enter" if when == "entry" else "on_exit"
-                try:
-                    assigned = T.parse_actions(action)
-                except T.TextError as exc:
-                    self.problem(elem, f"{when} / ...: {exc}",
-                                 hint="an internal activity is 'entry / name = expression; ...' (or exit)")
-                    return None
-                target = sets.setdefault(hook, {})
-                for name, value in assigned.items():
-                    if name in target:
-                        self.problem(elem, f"{when} / ...: '{name}' is assigned twice",
-                                     hint="assign each variable once per entry (or exit)")
-                        return None
-                    target[name] = value
+            sets = self._activities(elem, text.activities)
+            if sets is None:
+                return None
             if "set" in st.params:
                 self.problem(elem, "the state gives both set= and entry / exit lines", hint="keep one of the two")
                 return None
             st.params = {**st.params, "set": sets}
         return st
+
+    def _typed(self, st: StateBox, text: T.StateText) -> bool:
+        """A state's ``id`` alias, type and parameters from its parameter lines; ``False``: a problem said."""
+        params = dict(text.params or {})
+        alias = params.pop("id", None)
+        if alias is not None:
+            st.alias = str(alias)
+            st.id = st.id or str(alias)
+        typ = params.pop("type", None)
+        if not isinstance(typ, str) or not typ:
+            self.problem(st.box.elem, f"'type' must be a type name, got {typ!r}",
+                         hint="see `fsmctl types` for the state types")
+            return False
+        st.type = typ
+        st.params = self.coerce_kv("state", typ, params, text.kv_keys)
+        return True
+
+    def _activities(self, elem: RawElement, activities: list[tuple[str, str]]) -> dict[str, dict[str, Any]] | None:
+        """The ``set`` of a state's ``entry / ...`` and ``exit / ...`` lines; ``None``: a problem said."""
+        sets: dict[str, dict[str, Any]] = {}
+        for when, action in activities:
+            try:
+                assigned = T.parse_actions(action)
+            except T.TextError as exc:
+                self.problem(elem, f"{when} / ...: {exc}",
+                             hint="an internal activity is 'entry / name = expression; ...' (or exit)")
+                return None
+            target = sets.setdefault("on_enter" if when == "entry" else "on_exit", {})
+            twice = next((name for name in assigned if name in target), None)
+            if twice is not None:
+                self.problem(elem, f"{when} / ...: '{twice}' is assigned twice",
+                             hint="assign each variable once per entry (or exit)")
+                return None
+            target.update(assigned)
+        return sets
 
     def read_note(self, elem: RawElement) -> dict[str, Any] | None:
         """A machine note's keys, typed: texts for name, $schema and description, a JSON object for vars."""

@@ -73,6 +73,10 @@ def fail(name: str, message: str, line: int | None = None, column: int | None = 
     return DiagramError([Problem(message, name, line=line, column=column, hint=hint, element=element)])
 
 
+def _no_elements(name: str, line: int | None, column: int | None) -> DiagramError:
+    return fail(name, "the <diagram> has no elements: draw states and transitions in UMLet", line, column)
+
+
 # -- entry ------------------------------------------------------------------------------------------------
 def read_raw(path: Path) -> RawDiagram:
     """The elements of a ``.uxf`` file (XML) or of its ``xml2json`` JSON form, whichever ``path`` holds."""
@@ -174,6 +178,16 @@ class _XmlElements:
             elem = _xml_element(el, index, self.name, self.problems)
             self.elements.append(elem if elem is not None else RawElement(index, "", False, 0, 0, 0, 0, "", None))
 
+    def locate(self, raw: bytes) -> None:
+        """Each element's line and column in ``raw``, and its problems' (found by the element's number)."""
+        positions = _element_positions(raw, self.sourcelines)
+        for elem in self.elements:
+            elem.line, elem.column = positions[elem.index]
+        for p in self.problems:
+            if p.line is None and p.pointer.startswith("#"):
+                p.line, p.column = positions[int(p.pointer[1:])]
+                p.pointer = ""
+
 
 def _syntax_failure(exc: Any, name: str) -> DiagramError:
     """lxml's complaint about XML that is not well-formed, located."""
@@ -202,19 +216,13 @@ def parse_xml(raw: bytes, name: str) -> RawDiagram:
         raise fail(name, f"cannot parse XML: {exc}") from None
     if found.root_tag is None:
         raise fail(name, "not a UMLet diagram: no <diagram> root element", 1, 1)
-    positions = _element_positions(raw, found.sourcelines)
-    for elem in found.elements:
-        elem.line, elem.column = positions[elem.index]
-    for p in found.problems:
-        if p.line is None and p.pointer.startswith("#"):
-            p.line, p.column = positions[int(p.pointer[1:])]
-            p.pointer = ""
+    found.locate(raw)
     if found.problems:
         raise DiagramError(found.problems)
     elements = [e for e in found.elements if e.kind]
     zoom = _zoom(found.zoom_text, name, found.zoom_line)
     if not elements:
-        raise fail(name, "the <diagram> has no elements: draw states and transitions in UMLet", 1, 1)
+        raise _no_elements(name, 1, 1)
     text = None
     if len(raw) <= 8_000_000:
         text = raw.decode("utf-8", "replace")
@@ -311,18 +319,22 @@ def _make_element(index: int, kind: Any, old: bool, coords: Any, text: Any, extr
         points = _points(kind, extra)
     except T.TextError as bad:
         line, col = where()
-        if len(at) == 2:
-            element = describe(RawElement(index, str(kind), old, at[0], at[1], 0, 0,
-                                          text.replace("\r\n", "\n") if isinstance(text, str) else "", None))
-        else:
-            label = (text if isinstance(text, str) else "").strip().split("\n")[0][:40]
-            element = f"{kind or 'element'} #{index + 1}" + (f" '{label}'" if label else "")
         problems.append(Problem(str(bad), name, pointer=pointer if pointer is not None else f"#{index}", line=line,
-                                column=col, element=element, hint=bad.hint))
+                                column=col, element=_bad_element(index, kind, old, at, text), hint=bad.hint))
         return None
     text = (text or "").replace("\r\n", "\n").replace("\r", "\n")
     line, col = where() if pointer is not None else (None, None)
     return RawElement(index, kind, old, values[0], values[1], values[2], values[3], text, points, line, col, pointer)
+
+
+def _bad_element(index: int, kind: Any, old: bool, at: list[float], text: Any) -> str:
+    """How a message names an element that did not read: as everywhere else once its x and y are read, else by its
+    kind, number and first line."""
+    text = text if isinstance(text, str) else ""
+    if len(at) == 2:
+        return describe(RawElement(index, str(kind), old, at[0], at[1], 0, 0, text.replace("\r\n", "\n"), None))
+    label = text.strip().split("\n")[0][:40]
+    return f"{kind or 'element'} #{index + 1}" + (f" '{label}'" if label else "")
 
 
 def _coordinates(coords: Any) -> list[float]:
@@ -347,15 +359,17 @@ def _points(kind: str, extra: Any) -> list[float] | None:
     if kind != "Relation" or not extra or not extra.strip():
         return None
     parts = [p for p in extra.strip().split(";") if p.strip() != ""]
-    nums = [_number(p) for p in parts]
-    bad = next((p for p, n in zip(parts, nums, strict=True) if n is None), None)
-    if bad is not None:
-        raise T.TextError(f"relation point {bad.strip()[:30]!r} is not a number",
-                   "additional_attributes holds x;y;x;y;... numbers")
+    nums: list[float] = []
+    for p in parts:
+        n = _number(p)
+        if n is None:
+            raise T.TextError(f"relation point {p.strip()[:30]!r} is not a number",
+                              "additional_attributes holds x;y;x;y;... numbers")
+        nums.append(n)
     if len(nums) % 2:
         raise T.TextError(f"relation points come in x;y pairs, got {len(nums)} numbers: {extra.strip()[:60]!r}",
-                   "additional_attributes holds x;y;x;y;... numbers; draw the arrow again in UMLet")
-    return [n for n in nums if n is not None]
+                          "additional_attributes holds x;y;x;y;... numbers; draw the arrow again in UMLet")
+    return nums
 
 
 # -- xml2json ---------------------------------------------------------------------------------------------
@@ -371,22 +385,16 @@ def parse_xml2json(raw: bytes, name: str) -> RawDiagram:
         pos = locator({ptr}).get(ptr)
         return pos if pos else (None, None)
 
-    diagram = data.get("diagram") if isinstance(data, dict) else None
-    if not isinstance(diagram, dict):
-        if isinstance(data, dict) and ("states" in data or "initial" in data or "root" in data):
-            raise fail(name, "this is already a machine document, not a diagram", 1, 1,
-                       hint="validate or run it directly: fsmctl validate FILE")
-        raise fail(name, 'not a UMLet diagram in xml2json form: expected {"diagram": {"element": [...]}}', 1, 1)
+    diagram = _xml2json_diagram(data, name)
     zoom_ptr = "/diagram/zoom_level"
     zoom = _zoom(diagram.get("zoom_level"), name, at(zoom_ptr)[0] if "zoom_level" in diagram else None, zoom_ptr)
     raw_elements = diagram.get("element")
-    if isinstance(raw_elements, dict):
+    if isinstance(raw_elements, dict):  # xml2json makes one element an object, several a list
         items = [(raw_elements, "/diagram/element")]
     elif isinstance(raw_elements, list):
         items = [(e, f"/diagram/element/{i}") for i, e in enumerate(raw_elements)]
     else:
-        line, col = at("/diagram")
-        raise fail(name, "the <diagram> has no elements: draw states and transitions in UMLet", line, col)
+        raise _no_elements(name, *at("/diagram"))
     problems: list[Problem] = []
     elements: list[RawElement] = []
     for index, (item, ptr) in enumerate(items):
@@ -396,9 +404,19 @@ def parse_xml2json(raw: bytes, name: str) -> RawDiagram:
     if problems:
         raise DiagramError(problems)
     if not elements:
-        line, col = at("/diagram")
-        raise fail(name, "the <diagram> has no elements: draw states and transitions in UMLet", line, col)
+        raise _no_elements(name, *at("/diagram"))
     return RawDiagram(name, zoom, elements, text=text, locate_json=locator)
+
+
+def _xml2json_diagram(data: Any, name: str) -> dict[str, Any]:
+    """The ``diagram`` object of the xml2json form; a machine document or anything else is refused."""
+    diagram = data.get("diagram") if isinstance(data, dict) else None
+    if isinstance(diagram, dict):
+        return diagram
+    if isinstance(data, dict) and ("states" in data or "initial" in data or "root" in data):
+        raise fail(name, "this is already a machine document, not a diagram", 1, 1,
+                   hint="validate or run it directly: fsmctl validate FILE")
+    raise fail(name, 'not a UMLet diagram in xml2json form: expected {"diagram": {"element": [...]}}', 1, 1)
 
 
 def _xml2json_element(index: int, item: Any, ptr: str, name: str, problems: list[Problem],

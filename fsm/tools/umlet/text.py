@@ -130,19 +130,24 @@ def parse_state(text: str) -> StateText:
     for comp in compartments:
         if params is None and is_param_block(comp):
             params, kv_keys = parse_params(comp)
-        else:
-            rest = []
-            for ln in comp:
-                m = ACTIVITY.match(ln)
-                if m:
-                    activities.append((m.group(1), m.group(2).strip()))
-                else:
-                    rest.append(ln)
-            block = "\n".join(ln.rstrip() for ln in rest).strip("\n")
-            if block.strip():
-                free.append(block)
+            continue
+        rest = []
+        for ln in comp:
+            m = ACTIVITY.match(ln)
+            if m:
+                activities.append((m.group(1), m.group(2).strip()))
+            else:
+                rest.append(ln)
+        block = _block(rest)
+        if block.strip():
+            free.append(block)
     description = "\n".join(free) if free else None
     return StateText(name, params, description, kv_keys, activities)
+
+
+def _block(lines: list[str]) -> str:
+    """A compartment's lines as one text: each without trailing blanks, without blank lines around it."""
+    return "\n".join(ln.rstrip() for ln in lines).strip("\n")
 
 
 def _check_separator(lines: list[str]) -> None:
@@ -161,19 +166,31 @@ def _fragment_problem(body: str) -> TextError | None:
     without its colon, a parameter name without double quotes, a line without its comma."""
     lines = [ln.strip() for ln in body.strip().strip("{}").split("\n")]
     lines = [ln for ln in lines if ln]
+    return _missing_colon(lines) or _unquoted_name(lines) or _missing_comma(lines)
+
+
+def _missing_colon(lines: list[str]) -> TextError | None:
     for ln in lines:
         if ":" not in ln and "=" not in ln:
             m = re.fullmatch(r'"?([A-Za-z_][A-Za-z0-9_]*)"?\s+(.+?),?', ln)
             return TextError(f"parameter line {ln[:40]!r} has no colon",
                              hint=f'write it as "{m.group(1)}": {m.group(2)}, or as {m.group(1)}={m.group(2)}' if m
                              else 'write each parameter as "name": value')
+    return None
+
+
+def _unquoted_name(lines: list[str]) -> TextError | None:
     for ln in lines:
         m = re.fullmatch(r"([A-Za-z_][A-Za-z0-9_]*)\s*:\s*(.+?),?", ln)
         if m:
             return TextError(f"parameter name '{m.group(1)}' needs double quotes in the JSON parameters",
                              hint=f'write "{m.group(1)}": {m.group(2)}, or {m.group(1)}={m.group(2)}')
-    for k, ln in enumerate(lines[:-1]):
-        if not ln.endswith((",", "{", "[")) and lines[k + 1].startswith('"'):
+    return None
+
+
+def _missing_comma(lines: list[str]) -> TextError | None:
+    for ln, after in zip(lines, lines[1:], strict=False):
+        if not ln.endswith((",", "{", "[")) and after.startswith('"'):
             return TextError(f"parameter line {ln[:40]!r} needs a comma at its end (another parameter follows)",
                              hint=f"end it with a comma: {ln[:40]},")
     return None
@@ -491,7 +508,7 @@ def parse_machine_note(text: str) -> MachineNote:
         if lines and note_key_line(lines[0]):
             _add_key_values(lines, values)
         elif lines:
-            free.append("\n".join(ln.rstrip() for ln in comp).strip("\n"))
+            free.append(_block(comp))
     if free and "description" in values:
         raise TextError("the description is given twice: as description= and as free text")
     return MachineNote(values, "\n".join(free) if free else None)

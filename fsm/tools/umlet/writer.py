@@ -16,8 +16,10 @@ each machine's own keys (name, ``$schema``, description, vars) are in a ``machin
 
 from __future__ import annotations
 
+import functools
 import json
 import textwrap
+from collections.abc import Callable
 from typing import Any
 from xml.sax.saxutils import escape
 
@@ -61,6 +63,8 @@ def _f(v: float) -> str:
 
 # -- texts -----------------------------------------------------------------------------------------------------
 _COMMON_STATE = {"id", "type", "layout"}
+#: What a composite's box leaves out: it is drawn inside it.
+_COMPOSITE_STATE = _COMMON_STATE | {"machine", "regions", "steps", "exceptions"}
 _COMMON_TRANSITION = {"type", "from", "to", "layout"}
 
 
@@ -120,17 +124,10 @@ def action_text(assignments: Any) -> str | None:
     else None (then it is written as a parameter)."""
     if not isinstance(assignments, dict) or not assignments:
         return None
-    parts = []
-    for name, value in assignments.items():
-        if isinstance(value, str):
-            if value != value.strip() or "\n" in value or T.literal(value) != value:
-                return None
-            parts.append(f"{name} = {value}")
-        elif isinstance(value, (bool, int, float)):
-            parts.append(f"{name} = {json.dumps(value)}")
-        else:
-            return None
-    text = "; ".join(parts)
+    values = [_action_value(value) for value in assignments.values()]
+    if None in values:
+        return None
+    text = "; ".join(f"{name} = {value}" for name, value in zip(assignments, values, strict=True))
     try:
         back = T.parse_actions(text)
     except T.TextError:
@@ -138,6 +135,13 @@ def action_text(assignments: Any) -> str | None:
     if back != assignments or any(type(back[k]) is not type(v) for k, v in assignments.items()):
         return None
     return text
+
+
+def _action_value(value: Any) -> str | None:
+    """The right-hand side of one assignment: an expression as written, a number or a boolean as JSON."""
+    if isinstance(value, str):
+        return value if value == value.strip() and "\n" not in value and T.literal(value) == value else None
+    return json.dumps(value) if isinstance(value, (bool, int, float)) else None
 
 
 def activity_lines(sets: Any) -> list[str] | None:
@@ -174,22 +178,24 @@ def state_text(st: dict[str, Any], composite: bool) -> str:
     """The text of a state box; a composite's (``composite``) leaves out what is drawn inside it."""
     sid = str(st.get("id", ""))
     typ = str(st.get("type", "Idle"))
-    inside = ("machine", "regions", "steps", "exceptions") if composite else ()
-    params = {k: v for k, v in st.items() if k not in _COMMON_STATE and k not in inside}
-    desc = params.get("description")
-    free = None
-    if isinstance(desc, str) and _safe_free_text(desc):
-        free = params.pop("description")
+    params = {k: v for k, v in st.items() if k not in (_COMPOSITE_STATE if composite else _COMMON_STATE)}
+    free = _free_text(params, _safe_free_text)
     top = ["valign=top"] if composite else []
     if not _safe_name(sid):
         frag = json.dumps({"id": sid, "type": typ, **params}, ensure_ascii=False)[1:-1]
-        return "\n".join(_sections([frag], [free] if free else None) + top)
+        return "\n".join(_sections([frag], free) + top)
     activities = activity_lines(params.get("set"))
     if activities is not None:
         params.pop("set")
     implied = "FSMState" if composite and typ != "Sequence" else "Idle"
     shown = param_lines(typ, params, T.STATE_FACET_KEYS, type_as_json=True) if params or typ != implied else None
-    return "\n".join(_sections([sid], shown, activities, [free] if free else None) + top)
+    return "\n".join(_sections([sid], shown, activities, free) + top)
+
+
+def _free_text(params: dict[str, Any], safe: Callable[[str], bool]) -> list[str] | None:
+    """A description that can be a box's free text (``safe``), taken out of ``params``, as the box's lines."""
+    desc = params.get("description")
+    return [params.pop("description")] if isinstance(desc, str) and safe(desc) else None
 
 
 def _sections(head: list[str], *sections: list[str] | None) -> list[str]:
@@ -231,21 +237,15 @@ def note_text(machine: dict[str, Any], role: str) -> str | None:
 
     The diagram's own machine always has one (without it, the reader names the machine after the file).
     """
-    kv: list[str] = []
-    free = None
-    for key in T.MACHINE_KEYS:
-        if key not in machine:
-            continue
-        value = machine[key]
-        if key == "name" and role == "region" and region_title(machine):
-            continue  # the frame's title
-        if key == "description" and isinstance(value, str) and _safe_note_text(value):
-            free = value
-            continue
-        kv.append(f"{key}={json.dumps(value, ensure_ascii=False) if key in ('vars', 'inputs') else value_text(value)}")
+    params = {key: machine[key] for key in T.MACHINE_KEYS if key in machine}
+    if "name" in params and role == "region" and region_title(machine):
+        del params["name"]  # the frame's title
+    free = _free_text(params, _safe_note_text)
+    kv = [f"{key}={json.dumps(value, ensure_ascii=False) if key in ('vars', 'inputs') else value_text(value)}"
+          for key, value in params.items()]
     if not kv and free is None and role != "top":
         return None
-    return "\n".join(_sections([T.MACHINE_NOTE_TITLE], kv, None if free is None else [free]) + ["style=wordwrap"])
+    return "\n".join(_sections([T.MACHINE_NOTE_TITLE], kv, free) + ["style=wordwrap"])
 
 
 def _safe_note_text(text: str) -> bool:
@@ -345,62 +345,22 @@ def _implied_type(typ: str, source: dict[str, Any], registry: Any) -> bool:
 
 def final_special(st: dict[str, Any], level_names: set[str], used: set[str]) -> str | None:
     """The text of a ``type=final`` pseudostate that reads back as this Final state, or None."""
-    keys = set(st) - {"layout"}
     outcome = st.get("outcome")
-    if keys - {"id", "type", "outcome"}:
+    if set(st) - {"layout", "id", "type", "outcome"} or (outcome is not None and not _safe_name(outcome)):
         return None
     base = outcome if isinstance(outcome, str) else "final"
-    if outcome is not None and (not _safe_name(outcome) or outcome == "final" and False):
+    if st.get("id") != base or base in level_names | used:
         return None
-    if st.get("id") != base or base in level_names or base in used:
-        return None
-    if outcome is None:
-        return "type=final"
-    return f"type=final\n{outcome}"
+    return "\n".join(["type=final", *([] if outcome is None else [outcome])])
 
 
 # -- export ---------------------------------------------------------------------------------------------------
 def export(doc: dict[str, Any], registry: Any = None) -> str:
     """A ``.uxf`` diagram of ``doc`` (stored layout where present) that converts back to ``doc``."""
-    roles: dict[int, str] = {id(doc): "top"}
-
-    def composite(st: dict[str, Any]) -> bool:
-        return inline_machine(st) is not None or drawn_regions(st) is not None or drawn_steps(st) is not None
-
-    def lines_of(st: dict[str, Any]) -> list[str]:
-        return state_text(st, composite(st)).split("\n")
-
-    def expand(st: dict[str, Any]) -> Expansion | None:
-        head = head_height(state_text(st, True))
-        sub = inline_machine(st)
-        if sub is None:
-            sub = drawn_steps(st)
-        if sub is not None:
-            return Expansion([(None, sub, None)], head=head)
-        regions = drawn_regions(st)
-        if regions is None:
-            return None
-        parts: list[tuple[str | None, dict[str, Any], Any]] = []
-        widths: list[float] = []
-        for r in regions:
-            machine = r if "states" in r else {"states": []}
-            roles[id(machine)] = "region"
-            title = region_title(r)
-            parts.append((title, machine, None))
-            widths.append(len(title) * 8 + 60)
-        return Expansion(parts, head=head, inset=True, min_widths=widths)
-
-    def note_of(machine: dict[str, Any]) -> str | None:
-        role = roles.get(id(machine), "sub")
-        if role != "top" and not machine.get("states"):
-            return None  # an included region's empty frame
-        return note_text(machine, role)
-
-    def size_of_note(machine: dict[str, Any]) -> tuple[float, float] | None:
-        text = note_of(machine)
-        return note_size(text) if text is not None else None
-
-    level = lay_out(doc, lines_of, expand=expand, note_size=size_of_note)
+    roles: dict[int, str] = {id(doc): "top"}  # each machine's note role: top, region (found on expanding), sub
+    note_of = functools.partial(_note_of, roles)
+    level = lay_out(doc, _lines_of, expand=functools.partial(_expand, roles),
+                    note_size=functools.partial(_size_of_note, roles))
     x0, y0, x1, y1 = level.bbox(labels=False)
     stored = any(isinstance(st, dict) and isinstance(st.get("layout"), dict) for st in doc.get("states", []))
     dx, dy = (0.0, 0.0) if stored else (max(0.0, 20 - x0), max(0.0, 20 - y0))
@@ -409,13 +369,55 @@ def export(doc: dict[str, Any], registry: Any = None) -> str:
     out: list[str] = []
     frame = (doc.get("layout") or {}).get("frame") if isinstance(doc.get("layout"), dict) else None
     if isinstance(frame, dict) and all(isinstance(frame.get(k), (int, float)) for k in "xywh") and not (dx or dy):
-        fx, fy = min(frame["x"], x0 - 10), min(frame["y"], y0 - 10)  # the frame holds everything, the note too
-        fw, fh = max(frame["x"] + frame["w"], x1 + 10) - fx, max(frame["y"] + frame["h"], y1 + 10) - fy
-        title = frame.get("title")
-        title = title if isinstance(title, str) and _safe_name(title) else ""  # the note names the machine
-        out.append(element("UMLFrame", fx, fy, fw, fh, title))
+        out.append(_frame_element(frame, (x0, y0, x1, y1)))
     _emit(level, out, registry, note_of)
     return diagram(out)
+
+
+def _composite(st: dict[str, Any]) -> bool:
+    return inline_machine(st) is not None or drawn_regions(st) is not None or drawn_steps(st) is not None
+
+
+def _lines_of(st: dict[str, Any]) -> list[str]:
+    return state_text(st, _composite(st)).split("\n")
+
+
+def _expand(roles: dict[int, str], st: dict[str, Any]) -> Expansion | None:
+    """What a state's box holds: its machine or steps, or its regions' frames (their machines' roles noted)."""
+    head = head_height(state_text(st, True))
+    sub = inline_machine(st) or drawn_steps(st)
+    if sub is not None:
+        return Expansion([(None, sub, None)], head=head)
+    regions = drawn_regions(st)
+    if regions is None:
+        return None
+    titles = [region_title(r) for r in regions]
+    machines = [r if "states" in r else {"states": []} for r in regions]
+    roles.update((id(machine), "region") for machine in machines)
+    parts: list[tuple[str | None, dict[str, Any], Any]] = [(t, m, None) for t, m in zip(titles, machines, strict=True)]
+    return Expansion(parts, head=head, inset=True, min_widths=[len(title) * 8 + 60 for title in titles])
+
+
+def _note_of(roles: dict[int, str], machine: dict[str, Any]) -> str | None:
+    role = roles.get(id(machine), "sub")
+    if role != "top" and not machine.get("states"):
+        return None  # an included region's empty frame
+    return note_text(machine, role)
+
+
+def _size_of_note(roles: dict[int, str], machine: dict[str, Any]) -> tuple[float, float] | None:
+    text = _note_of(roles, machine)
+    return note_size(text) if text is not None else None
+
+
+def _frame_element(frame: dict[str, Any], bbox: tuple[float, float, float, float]) -> str:
+    """The machine's stored frame, grown to hold everything drawn (the note too)."""
+    x0, y0, x1, y1 = bbox
+    fx, fy = min(frame["x"], x0 - 10), min(frame["y"], y0 - 10)
+    fw, fh = max(frame["x"] + frame["w"], x1 + 10) - fx, max(frame["y"] + frame["h"], y1 + 10) - fy
+    title = frame.get("title")
+    title = title if isinstance(title, str) and _safe_name(title) else ""  # the note names the machine
+    return element("UMLFrame", fx, fy, fw, fh, title)
 
 
 def _node_element(n: Node, names: set[str], used: set[str]) -> tuple[str, str]:

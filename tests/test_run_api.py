@@ -156,3 +156,13 @@ def test_the_hint_of_a_registry_without_the_chain_link_works_as_written() -> Non
     assert calls == ["fsm.Registry.with_builtins()"], hint
     made = eval(calls[0], {"fsm": fsm})  # the hint, run as written
     assert fsm.run(doc, registry=made).outcome == "succeeded"
+
+
+def test_the_result_says_where_the_run_stood() -> None:
+    doc = {**DOC, "vars": {"laps": 2}}
+    done = fsm.run(doc)
+    assert (done.outcome, done.stopped, done.active) == ("succeeded", "finished", ("b",))
+    assert (done.ticks, done.time) == (40, pytest.approx(0.5))
+    assert done.variables == {"laps": 2}
+    cut = fsm.run(doc, max_ticks=3, variables={"laps": 5})
+    assert (cut.outcome, cut.stopped, cut.ticks, cut.active, cut.variables) == (None, "limit", 3, ("a",), {"laps": 5})

@@ -169,11 +169,23 @@ class StopRules:
 
 @dataclass
 class RunResult:
-    """How a run ended: the outcome (None if unfinished), why it stopped, the error of a state that failed."""
+    """How a run ended: the outcome (None if unfinished), why it stopped (``finished``, ``limit``, ``until``,
+    ``stopped``, ``error`` or a stop rule's reason), the error of a state that failed, and where the run stood:
+    its tick and machine time, the active leaf states' paths and the machine's variables (a copy)."""
 
     outcome: str | None
     stopped: str
     error: StateRuntimeError | None = None
+    ticks: int = 0
+    time: float = 0.0
+    active: tuple[str, ...] = ()
+    variables: dict[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, machine: Machine, stopped: str, error: StateRuntimeError | None = None) -> RunResult:
+        """Where ``machine`` stands, stopped for ``stopped``."""
+        return cls(machine.outcome, stopped, error, machine.ticks, machine.now, tuple(machine.active_paths),
+                   dict(machine.ctx.vars))
 
 
 # -- the session -----------------------------------------------------------------------------------------------
@@ -400,10 +412,10 @@ class Session:
                 if stop is not None and stop():
                     stopped = "stopped"
                     break
-            self.result = RunResult(machine.outcome, stopped)
+            self.result = RunResult.of(machine, stopped)
             return self.result
         except StateRuntimeError as exc:
-            self.result = RunResult(machine.outcome, "error", exc)
+            self.result = RunResult.of(machine, "error", exc)
             raise
         finally:
             self.wall_time += time.perf_counter() - t0

@@ -9,7 +9,7 @@ import json
 import math
 import os
 import time
-from collections.abc import Callable, Container
+from collections.abc import Container
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -44,7 +44,7 @@ from .model import (
     formulas_of,
     state_matches,
 )
-from .temporal import Formula, Tick, Watch, compile_formula, tree_names
+from .temporal import Count, Formula, Tick, Watch, bounds, compile_formula, tree_names, within
 from .timeline import expand, pause_changes
 
 if TYPE_CHECKING:
@@ -217,6 +217,8 @@ class Recording(Listener):
         self._moved = True
         self.monitors: list[MonitorFiring] = []
         self.pauses: list[PauseChange] = []
+        #: how many var changes, monitor firings and pauses were recorded (one count to see that one was)
+        self.recorded = 0
         #: (source path, transition index) of every transition fired (for coverage)
         self.fired: set[tuple[str, int]] = set()
         self.finishes: list[Finish] = []
@@ -227,9 +229,11 @@ class Recording(Listener):
 
     def on_monitor(self, ctx: Context, owner: State[Any], monitor: Any) -> None:
         self.monitors.append(MonitorFiring(ctx.tick, owner.path, monitor.label, monitor.kind, monitor.behavior))
+        self.recorded += 1
 
     def on_pause(self, ctx: Context, state: State[Any], paused: bool) -> None:
         self.pauses.append(PauseChange(ctx.tick, state.path, paused))
+        self.recorded += 1
 
     def on_skipped(self, ctx: Context, state: State[Any]) -> None:
         for k in range(len(self.entries) - 1, -1, -1):
@@ -249,11 +253,7 @@ class Recording(Listener):
             self.fired.add((source.path, getattr(transition, "index", -1)))
         if self._watched:
             if source is not None:  # what was left with the source: record how the watched states in it finished
-                for key, st in self._watched.items():
-                    if not self._recorded[key] and st.finished and (st is source or st.path.startswith(
-                            source.path + "/")):
-                        self._recorded[key] = True
-                        self.finishes.append(Finish(ctx.tick, st.path, st.outcome))
+                self._record_finishes(ctx.tick, source)
             if id(target) in self._watched:
                 self._recorded[id(target)] = False
 
@@ -265,16 +265,9 @@ class Recording(Listener):
             self.active.append(ActiveChange(tick, tuple(machine.active_paths)))
         current = machine.ctx.vars
         if current != self._vars or any(type(v) is not type(self._vars.get(k)) for k, v in current.items()):
-            for name in sorted(set(current) | set(self._vars)):
-                old, new = self._vars.get(name, _UNSET), current.get(name, _UNSET)
-                if old is not new and (old != new or type(old) is not type(new)):
-                    self.var_changes.append(VarChange(tick, name, old, new))
-            self._vars = dict(current)
+            self._record_vars(tick, current)
         if self._watched:
-            for key, st in self._watched.items():
-                if not self._recorded[key] and st.finished:
-                    self._recorded[key] = True
-                    self.finishes.append(Finish(tick, st.path, st.outcome))
+            self._record_finishes(tick)
         for inv in self.invariants:
             if inv.failed is None and inv.first <= tick <= inv.last:
                 inv.check(machine, tick)
@@ -282,6 +275,23 @@ class Recording(Listener):
             self.temporal.step(machine, self, tick, moved)
         if tick in self._want:
             self.snapshots[tick] = Snapshot(self.active[-1].paths, dict(current), *held_states(machine))
+
+    def _record_vars(self, tick: int, current: dict[str, Any]) -> None:
+        """The variables that changed (in value or type) since the last tick."""
+        for name in sorted(set(current) | set(self._vars)):
+            old, new = self._vars.get(name, _UNSET), current.get(name, _UNSET)
+            if old is not new and (old != new or type(old) is not type(new)):
+                self.var_changes.append(VarChange(tick, name, old, new))
+                self.recorded += 1
+        self._vars = dict(current)
+
+    def _record_finishes(self, tick: int, left: State[Any] | None = None) -> None:
+        """How the watched states that finished at this tick (or, with ``left``, in the state left) finished."""
+        for key, st in self._watched.items():
+            if not self._recorded[key] and st.finished and (left is None or st is left or
+                                                            st.path.startswith(left.path + "/")):
+                self._recorded[key] = True
+                self.finishes.append(Finish(tick, st.path, st.outcome))
 
     def final(self, machine: Machine) -> Snapshot:
         return Snapshot(tuple(machine.active_paths), dict(machine.ctx.vars), *held_states(machine))
@@ -337,14 +347,18 @@ class TemporalRun:
         self._monitors = 0
         self._pauses = 0
         self._var_changes = 0
+        #: the recording's count of var changes, monitor firings and pauses when last gathered
+        self._recorded = -1
         self._active: Any = None
         need: frozenset[str] = frozenset().union(*(w.deps for w in watches))
         self.need_entries = "@entries" in need
         self.need_active = "@active" in need
-        self.need_fired = "@fired" in need
-        self.every_tick = any(w.every_tick for w in watches) or bool(self.car)
         self.firsts = {w.first for w in watches}
-        self.forced = True
+        #: the next tick is looked at whatever happens: a watch was forced or steps every tick, a firing is to clear
+        self.awake = True
+        #: read before each tick's look, when a formula reads them: signal levels and the outcomes of states
+        self._reads = ([self._read_signals] if self.signals else []) + \
+            ([self._read_outcomes] if self.outcome_states else [])
 
     def at(self, tick: int) -> str:
         return f"tick {tick} (t={round(tick * self.dt, 9):g} s)"
@@ -354,85 +368,105 @@ class TemporalRun:
 
     def step(self, machine: Machine, rec: Recording, tick: int, moved: bool) -> None:
         """After each tick: read what the formulas use, and step the watches whose inputs changed."""
-        now = self.now
-        values = self.values
         changed: set[str] = set()
-        if self.signals:
-            signals = machine.ctx.signals
-            for name, signal in self.signals:
-                level = signals.get(signal, False)
-                if values.get(name) is not level:
-                    values[name] = level
-                    changed.add(name)
+        for read in self._reads:
+            read(machine.ctx, tick, changed)
+        if changed or moved or self.awake or rec.recorded != self._recorded or tick in self.firsts:
+            self.now.tick = tick
+            self._gather(machine.ctx, rec, changed)
+            self._step_watches(tick, changed)
+
+    def _read_signals(self, ctx: Context, tick: int, changed: set[str]) -> None:
+        values = self.values
+        signals = ctx.signals
+        for name, signal in self.signals:
+            level = signals.get(signal, False)
+            if values.get(name) is not level:
+                values[name] = level
+                changed.add(name)
+
+    def _read_outcomes(self, ctx: Context, tick: int, changed: set[str]) -> None:
+        """A state that finished since the last tick: its outcome, and the tick, into :attr:`now`."""
         for path, st in self.outcome_states:
             outcome = st.outcome
             if outcome is not None:
                 key = (wiring(st).entered_at, outcome)
                 if self._outcome_keys.get(path) != key:
                     self._outcome_keys[path] = key
-                    now.outcomes[path] = (tick, outcome)
+                    self.now.outcomes[path] = (tick, outcome)
                     changed.add("@outcome")
-        if not (changed or moved or self.forced or self.every_tick or len(rec.var_changes) != self._var_changes
-                or len(rec.monitors) != self._monitors or len(rec.pauses) != self._pauses or now.fired
-                or tick in self.firsts):
-            return
-        now.tick = tick
-        self._gather(machine.ctx, rec, moved, changed)
-        at = self.at
-        forced = every = False
-        for w in self.watches:  # each open watch whose inputs changed, or that steps every tick
-            if w.done:
-                continue
-            busy = w.after is None or bool(w.open)
-            dirty = bool(changed) and not (w.deps if busy else w.idle_deps).isdisjoint(changed)
-            if dirty or w.force or tick == w.first or (w.every_tick if busy else w.idle_every):
-                w.step(tick, now, values, at)
-                w.force = dirty and w.transient
-                forced = forced or w.force
-                every = every or (w.every_tick if w.after is None or w.open else w.idle_every)
-        self.forced = forced
-        self.every_tick = every or bool(self.car)
 
-    def _gather(self, ctx: Context, rec: Recording, moved: bool, changed: set[str]) -> None:
+    def _gather(self, ctx: Context, rec: Recording, changed: set[str]) -> None:
         """Variables, car readings, entries, monitor firings, pauses and active states into :attr:`now` and
         :attr:`values`; what changed is added to ``changed``."""
-        values = self.values
-        if len(rec.var_changes) != self._var_changes or not values:
-            changed.update(c.name for c in rec.var_changes[self._var_changes:])
-            self._var_changes = len(rec.var_changes)
-            values.update(ctx.vars)
+        if len(rec.var_changes) != self._var_changes or not self.values:
+            self._read_vars(ctx, rec, changed)
         if self.car and ctx.car is not None:
-            for name, reading in self.car:
-                value = getattr(ctx.car, reading, None)
-                if isinstance(value, (int, float)):
-                    values[name] = value
-        now = self.now
+            self._read_car(ctx.car)
         if self.need_entries:
-            entries = rec.entries
-            if len(entries) != self._entries:
-                new = range(self._entries, len(entries))
-                now.entered = frozenset(entries[k].path for k in new if k not in rec.skipped)
-                now.skipped = frozenset(entries[k].path for k in new if k in rec.skipped)
-                self._entries = len(entries)
-                changed.add("@entries")
-            elif now.entered or now.skipped:
-                now.entered = now.skipped = frozenset()
-                changed.add("@entries")
-        if len(rec.monitors) != self._monitors:
-            now.fired = frozenset(f.owner for f in rec.monitors[self._monitors:])
-            self._monitors = len(rec.monitors)
-            changed.add("@fired")
-        elif now.fired:
-            now.fired = frozenset()
-            changed.add("@fired")
+            self._read_entries(rec, changed)
+        if len(rec.monitors) != self._monitors or self.now.fired:
+            self._read_firings(rec, changed)
         if len(rec.pauses) != self._pauses:
             self._pauses = len(rec.pauses)
             changed.add("@paused")
-        if moved and self.need_active and rec.active[-1] is not self._active:
-            self._active = rec.active[-1]
-            self.now.active = frozenset("/".join(p.split("/")[:k]) for p in self._active.paths
-                                        for k in range(1, p.count("/") + 2))
-            changed.add("@active")
+        if self.need_active and rec.active[-1] is not self._active:
+            self._read_active(rec.active[-1], changed)
+        self._recorded = rec.recorded
+
+    def _read_vars(self, ctx: Context, rec: Recording, changed: set[str]) -> None:
+        changed.update(c.name for c in rec.var_changes[self._var_changes:])
+        self._var_changes = len(rec.var_changes)
+        self.values.update(ctx.vars)
+
+    def _read_car(self, car: Any) -> None:
+        """The car readings a formula names (numbers only)."""
+        for name, reading in self.car:
+            value = getattr(car, reading, None)
+            if isinstance(value, (int, float)):
+                self.values[name] = value
+
+    def _read_entries(self, rec: Recording, changed: set[str]) -> None:
+        """The states entered (and run) and skipped at this tick."""
+        now = self.now
+        entries = rec.entries
+        if len(entries) != self._entries:
+            new = range(self._entries, len(entries))
+            now.entered = frozenset(entries[k].path for k in new if k not in rec.skipped)
+            now.skipped = frozenset(entries[k].path for k in new if k in rec.skipped)
+            self._entries = len(entries)
+            changed.add("@entries")
+        elif now.entered or now.skipped:
+            now.entered = now.skipped = frozenset()
+            changed.add("@entries")
+
+    def _read_firings(self, rec: Recording, changed: set[str]) -> None:
+        """The owners of the monitors that fired at this tick (none: the last tick's are cleared)."""
+        self.now.fired = frozenset(f.owner for f in rec.monitors[self._monitors:])
+        self._monitors = len(rec.monitors)
+        changed.add("@fired")
+
+    def _read_active(self, active: ActiveChange, changed: set[str]) -> None:
+        """The active states: every prefix of an active leaf's path."""
+        self._active = active
+        self.now.active = frozenset("/".join(p.split("/")[:k]) for p in active.paths
+                                    for k in range(1, p.count("/") + 2))
+        changed.add("@active")
+
+    def _step_watches(self, tick: int, changed: set[str]) -> None:
+        """Step each open watch whose inputs changed, that was forced (it reads one tick's values and they changed
+        at the last look), whose window starts, or that steps every tick."""
+        now, values, at = self.now, self.values, self.at
+        awake = bool(self.car) or bool(now.fired)
+        for w in self.watches:
+            if w.done:
+                continue
+            dirty = not w.live_deps.isdisjoint(changed)
+            if dirty or w.force or tick == w.first or w.live_every:
+                w.step(tick, now, values, at)
+                w.force = dirty and w.transient
+                awake = awake or w.force or w.live_every
+        self.awake = awake
 
 
 def make_temporal(loaded: LoadedScenario, machine: Machine, signals: tuple[str, ...]) -> TemporalRun | None:
@@ -477,7 +511,7 @@ def _watches(loaded: LoadedScenario, i: int, exp: Any, formulas: dict[str, Formu
     mode = next(k for k in ("always", "never", "eventually") if k in formulas)
     span = exp.ticks if exp.ticks is not None else (tick_at(exp.seconds, dt) if exp.seconds is not None else None)
     return [Watch(i, mode, formulas[mode], first, last, until=formulas.get("until"), after=formulas.get("after"),
-                  span=span, nth=exp.nth, count=(exp.count, exp.min, exp.max),
+                  span=span, nth=exp.nth, count=Count(exp.count, exp.min, exp.max),
                   at=None if exp.at is None else [tick_at(t, dt) for t in exp.at])]
 
 
@@ -486,20 +520,8 @@ def count_verdict(n: int, c: Any) -> tuple[bool, str]:
     it wanted, in words."""
     if c.count is None and c.min is None and c.max is None:
         return n >= 1, "at least once"
-    return _within(n, c), _bounds(c, _times)
+    return within(n, c), bounds(c, _times)
 
-
-def _within(n: int, c: Any) -> bool:
-    """Whether ``n`` meets ``c``'s ``count``, ``min`` and ``max`` (each ``None``: no bound)."""
-    return (c.count is None or n == c.count) and (c.min is None or n >= c.min) and (c.max is None or n <= c.max)
-
-
-def _bounds(c: Any, words: Callable[[int], str]) -> str:
-    """``c``'s bounds in words: "exactly N", or "at least A and at most B" (a number in ``words``)."""
-    if c.count is not None:
-        return f"exactly {words(c.count)}"
-    return " and ".join(x for x in (f"at least {words(c.min)}" if c.min is not None else "",
-                                    f"at most {words(c.max)}" if c.max is not None else "") if x)
 
 def _times(n: int) -> str:
     return "once" if n == 1 else f"{n} times"
@@ -872,9 +894,9 @@ class Checker:
         """The number of transitions fired is within the bounds."""
         c = exp.transitions
         n = self.machine.transition_count
-        if _within(n, c):
+        if within(n, c):
             return None
-        want = _bounds(c, str)
+        want = bounds(c, str)
         fired = [e for e in self.rec.entries if e.kind != "initial"]
         limit = c.count if c.count is not None else c.max
         tick = fired[limit].tick if limit is not None and n > limit else self.last_tick

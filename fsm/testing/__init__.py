@@ -219,19 +219,30 @@ class MachineTest:
         """Check expectations written as in a scenario's ``expect``; ``active``, ``vars``, ``paused`` and
         ``suspended`` without ``at`` look at the machine now. Raises :class:`ScenarioError` with every failure."""
         __tracebackhide__ = True
+        now = round(self.machine.ticks * self.dt, 9)
+        sc = self._scenario(expectations, now)
+        self._refuse_unusable(sc, now)
+        self._fail([(e, i) for i, e in enumerate(sc.expect)])
+        return self
+
+    def _scenario(self, expectations: tuple[Mapping[str, Any], ...], now: float) -> Any:
+        """The expectations as a scenario's (without a time, what the machine is ``now``); ValueError with the
+        located problems of one that is not written as a scenario's."""
         from pydantic import ValidationError
 
-        from fsm.tools.scenario.model import Scenario, element_problems, name_problems, problems_from_errors
+        from fsm.tools.scenario.model import Scenario, problems_from_errors
 
-        now = round(self.machine.ticks * self.dt, 9)
-        # without a time, what the machine is now
         items = [{**e, "at": now} if _now_is_meant(e) else dict(e) for e in expectations]
         data = {"machine": self.file, "expect": items}
         try:
-            sc = Scenario.model_validate(data)
+            return Scenario.model_validate(data)
         except ValidationError as err:
             raise ValueError("\n".join(str(p) for p in problems_from_errors(err, data, "expect"))) from None
-        from fsm.tools.scenario.model import AtExpect, InvariantExpect, TemporalExpect
+
+    def _refuse_unusable(self, sc: Any, now: float) -> None:
+        """ValueError for expectations a test by hand cannot check: checked while a run goes on, naming what the
+        machine does not have, or looking after ``now``."""
+        from fsm.tools.scenario.model import AtExpect, InvariantExpect, TemporalExpect, element_problems, name_problems
 
         during = [i for i, e in enumerate(sc.expect) if isinstance(e, (InvariantExpect, TemporalExpect))
                   or getattr(e, "holds", None) is not None]
@@ -244,8 +255,6 @@ class MachineTest:
                 if isinstance(e, AtExpect) and e.at > now + 1e-9]
         if problems or late:
             raise ValueError("\n".join([str(p) for p in problems if p.severity == "error"] + late))
-        self._fail([(e, i) for i, e in enumerate(sc.expect)])
-        return self
 
     def _fail(self, checks: list[tuple[Any, int]]) -> None:
         __tracebackhide__ = True

@@ -951,11 +951,11 @@ class Checker:
     def _count_tick(self, c: Any, inside: list[tuple[int, str]]) -> int:
         """Where a count failed: at the event one too many, else at the end of the window (or of the run)."""
         limit: int | None = c.count if c.count is not None else c.max
-        if limit is not None and len(inside) > limit:
-            return inside[limit][0]
-        if c.within is not None:
-            return min(_last_tick(c.within[1], self.dt), self.last_tick)
-        return self.last_tick
+        return inside[limit][0] if limit is not None and len(inside) > limit else self._window_end(c.within)
+
+    def _window_end(self, within: list[float] | None) -> int:
+        """The last tick of a window (or of the run) that the run reached."""
+        return self.last_tick if within is None else min(_last_tick(within[1], self.dt), self.last_tick)
 
     def state_outcome(self, i: int, exp: OutcomeExpect) -> Failure | None:
         assert exp.state is not None
@@ -965,8 +965,8 @@ class Checker:
         win = self.window(exp.within)
         seen = "; ".join(f"{f.path} finished with '{f.outcome}' at {self.at(f.tick)}" for f in fins[:4]) or \
             "it never finished"
-        tick = next((f.tick for f in fins if self.inside(f.tick, exp.within)), fins[0].tick if fins else
-                    min(_last_tick(exp.within[1], self.dt), self.last_tick) if exp.within else self.last_tick)
+        tick = next((f.tick for f in fins if self.inside(f.tick, exp.within)),
+                    fins[0].tick if fins else self._window_end(exp.within))
         return self.failure(i, "outcome", f"expected '{exp.state}' to finish with '{exp.outcome}'"
                                           f"{' ' + win if win else ''}: {seen}", tick)
 
@@ -989,20 +989,20 @@ class Checker:
         return self.failure(i, watch.label, verdict.message, min(verdict.tick, self.last_tick))
 
     def monitor_check(self, i: int, c: Any) -> Failure | None:
-        fired = [f for f in self.rec.monitors if state_matches(c.owner, f.owner)
-                 and (c.behavior is None or f.behavior == c.behavior) and (c.kind is None or f.kind == c.kind)
-                 and self.inside(f.tick, c.within)]
-        n = len(fired)
-        ok, want = count_verdict(n, c)
+        fired = [f for f in self.rec.monitors if self._is_firing_of(c, f)]
+        ok, want = count_verdict(len(fired), c)
         if ok:
             return None if c.at is None else self._monitor_times(i, c, fired)
         what = ("" if c.behavior is None else f" with {c.behavior}") + ("" if c.within is None else
                                                                          f" {self.window(c.within)}")
-        limit = c.count if c.count is not None else c.max
-        tick = fired[limit].tick if limit is not None and n > limit else \
-            min(_last_tick(c.within[1], self.dt), self.last_tick) if c.within is not None else self.last_tick
+        tick = self._count_tick(c, [(f.tick, f.owner) for f in fired])
         return self.failure(i, "monitors", f"expected a monitor of '{c.owner}'{what} to fire {want}, it fired "
-                                           f"{_times(n)}", tick)
+                                           f"{_times(len(fired))}", tick)
+
+    def _is_firing_of(self, c: Any, f: MonitorFiring) -> bool:
+        """A firing of a monitor of ``c``'s owner (with its behavior and kind, when given) in its window."""
+        return state_matches(c.owner, f.owner) and (c.behavior is None or f.behavior == c.behavior) and \
+            (c.kind is None or f.kind == c.kind) and self.inside(f.tick, c.within)
 
     def _monitor_times(self, i: int, c: Any, fired: list[MonitorFiring]) -> Failure | None:
         """A monitor's firings at exactly the ticks of ``c.at``, or a failure at the first that differs."""
@@ -1026,24 +1026,27 @@ class Checker:
         for k, name in enumerate(wanted):
             found = next((j for j in range(pos, len(entries)) if state_matches(name, entries[j].path)), None)
             if found is None:
-                earlier = next((e for e in entries[:pos] if state_matches(name, e.path)), None)
-                # the next state entered, not counting the initial sub-states entered together with the last match
-                nxt = next((e for e in entries[pos:] if last is None or e.tick != last.tick
-                            or not e.path.startswith(last.path + "/")), None)
                 after = f"after '{wanted[k - 1]}' ({last.path} at {self.at(last.tick)})" if last else "at all"
-                msg = f"expected '{name}' to be entered {after}, but it never was"
-                if earlier is not None:
-                    msg += f" (only before, at {self.at(earlier.tick)})"
-                if nxt is not None:
-                    msg += f"; next entered: {nxt.path} at {self.at(nxt.tick)}"
-                    tick = nxt.tick
-                else:
-                    msg += f"; nothing was entered after that until the run ended at {self.at(self.last_tick)}"
-                    tick = self.last_tick
-                return self.failure(i, "visits", msg, tick)
+                return self._not_visited(i, name, after, pos, last)
             last = entries[found]
             pos = found + 1
         return None
+
+    def _not_visited(self, i: int, name: str, after: str, pos: int, last: Entry | None) -> Failure:
+        """``visits``: ``name`` was not entered after the entry ``pos - 1`` (``last``); when it was before, and
+        what was entered next."""
+        entries = self.rec.entries
+        earlier = next((e for e in entries[:pos] if state_matches(name, e.path)), None)
+        # the next state entered, not counting the initial sub-states entered together with the last match
+        nxt = next((e for e in entries[pos:] if last is None or e.tick != last.tick
+                    or not e.path.startswith(last.path + "/")), None)
+        msg = f"expected '{name}' to be entered {after}, but it never was"
+        if earlier is not None:
+            msg += f" (only before, at {self.at(earlier.tick)})"
+        if nxt is None:
+            return self.failure(i, "visits", msg + "; nothing was entered after that until the run ended at "
+                                f"{self.at(self.last_tick)}", self.last_tick)
+        return self.failure(i, "visits", msg + f"; next entered: {nxt.path} at {self.at(nxt.tick)}", nxt.tick)
 
     def at_check(self, i: int, exp: AtExpect) -> Failure | None:
         tick = tick_at(exp.at, self.dt)

@@ -9,7 +9,7 @@ import json
 import math
 import os
 import time
-from collections.abc import Container
+from collections.abc import Callable, Container
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -833,30 +833,13 @@ class Checker:
     # -- the expectations ---------------------------------------------------------------------------------
     def expectation(self, i: int, exp: Any) -> Failure | None:
         """The failure of expectation ``i`` (``exp``) in this run, or ``None`` when it holds."""
-        if isinstance(exp, OutcomeExpect):
-            return self.state_outcome(i, exp) if exp.state is not None else self.outcome(i, exp)
-        if isinstance(exp, FinishedExpect):
-            return self.finished(i, exp)
-        if isinstance(exp, VisitsExpect):
-            return self.visits(i, exp.visits)
-        if isinstance(exp, NeverExpect):
-            return self.never(i, exp)
-        if isinstance(exp, AtExpect):
-            return self.at_check(i, exp)
-        if isinstance(exp, TemporalExpect):
-            return self.formula(i)
-        if isinstance(exp, TransitionsExpect):
-            return self.transitions(i, exp)
-        if isinstance(exp, MonitorsExpect):
-            return self.monitor_check(i, exp.monitors)
-        if isinstance(exp, (EnteredExpect, SkippedExpect, ExitedExpect)):
-            return self.occurrences(i, exp)
-        if isinstance(exp, InvariantExpect):
-            return self.invariant(i, exp)
-        return None  # pragma: no cover - the model admits nothing else
+        check: Callable[[Checker, int, Any], Failure | None] = _CHECKS[type(exp)]
+        return check(self, i, exp)
 
     def outcome(self, i: int, exp: OutcomeExpect) -> Failure | None:
-        """The machine finishes with this outcome (within the window, if given)."""
+        """The machine (or the state named) finishes with this outcome (within the window, if given)."""
+        if exp.state is not None:
+            return self.state_outcome(i, exp)
         m = self.machine
         fin = end = self.last_tick  # the run stops in the tick the machine finishes
         if m.outcome == exp.outcome and exp.within is not None and not self.inside(fin, exp.within):
@@ -981,14 +964,15 @@ class Checker:
         return self.failure(i, "invariant", f"'{exp.invariant}' {why} at {self.at(inv.failed)}"
                                             f"{' (' + values + ')' if values else ''}", inv.failed)
 
-    def formula(self, i: int) -> Failure | None:
+    def formula(self, i: int, exp: Any = None) -> Failure | None:
         """A formula's verdict (an invariant, a temporal expectation, an ``at``'s ``holds``)."""
         watch, verdict = self.verdicts[i]
         if verdict is None:
             return None
         return self.failure(i, watch.label, verdict.message, min(verdict.tick, self.last_tick))
 
-    def monitor_check(self, i: int, c: Any) -> Failure | None:
+    def monitor_check(self, i: int, exp: MonitorsExpect) -> Failure | None:
+        c = exp.monitors
         fired = [f for f in self.rec.monitors if self._is_firing_of(c, f)]
         ok, want = count_verdict(len(fired), c)
         if ok:
@@ -1019,7 +1003,8 @@ class Checker:
                                            f"{', '.join(f'{t:g}' for t in times) or 'no time'} s",
                             min(tick, self.last_tick))
 
-    def visits(self, i: int, wanted: list[str]) -> Failure | None:
+    def visits(self, i: int, exp: VisitsExpect) -> Failure | None:
+        wanted = exp.visits
         entries = self.rec.entries
         pos = 0
         last: Entry | None = None
@@ -1079,3 +1064,12 @@ class Checker:
             since = f" (since {self.at(changed[-1].tick)})" if changed else ""
             problems.append(f"expected {name} = {expected}, got {_shown(got)}{since}")
         return problems
+
+
+#: The check of each kind of expectation.
+_CHECKS: dict[type, Callable[[Checker, int, Any], Failure | None]] = {
+    OutcomeExpect: Checker.outcome, FinishedExpect: Checker.finished, VisitsExpect: Checker.visits,
+    NeverExpect: Checker.never, AtExpect: Checker.at_check, TemporalExpect: Checker.formula,
+    TransitionsExpect: Checker.transitions, MonitorsExpect: Checker.monitor_check, EnteredExpect: Checker.occurrences,
+    SkippedExpect: Checker.occurrences, ExitedExpect: Checker.occurrences, InvariantExpect: Checker.invariant,
+}

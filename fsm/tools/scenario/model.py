@@ -129,12 +129,20 @@ class PauseInput(ScenarioModel):
     pause: str = Field(min_length=1, description="The state's path from the top ('run/work'); it must be active "
                                                  "then (a state that is not active is left alone).")
 
+    def held(self) -> tuple[str, bool]:
+        """(the state's path, paused)."""
+        return self.pause.strip("/"), True
+
 
 class ResumeInput(ScenarioModel):
     """Resume a paused state (as ``Machine.resume``), before the tick at or after ``at``."""
 
     at: float = Field(ge=0, description="Simulated time in seconds.")
     resume: str = Field(min_length=1, description="The paused state's path from the top.")
+
+    def held(self) -> tuple[str, bool]:
+        """(the state's path, paused)."""
+        return self.resume.strip("/"), False
 
 
 def _input_kind(value: Any) -> str | None:
@@ -1498,10 +1506,11 @@ def name_problems(scenario: Scenario, paths: list[str], name: str) -> list[Probl
                 problems.append(Problem(unknown[0], name, pointer("expect", i) + state.pointer,
                                         element=f"expectation {i}", hint=unknown[1]))
     for i, inp in enumerate(scenario.inputs):
-        key = "pause" if isinstance(inp, PauseInput) else "resume"
-        target = inp.pause if isinstance(inp, PauseInput) else inp.resume if isinstance(inp, ResumeInput) else None
-        if target is not None and target.strip("/") not in paths:
-            target = target.strip("/")
+        if not isinstance(inp, (PauseInput, ResumeInput)):
+            continue
+        target, paused = inp.held()
+        if target not in paths:
+            key = "pause" if paused else "resume"
             suffix = [p for p in paths if state_matches(target, p)]
             hint = f"a path from the top: {suffix[0]!r}" if len(suffix) == 1 else \
                 did_you_mean(target, paths, n=3) or known.listed()

@@ -124,11 +124,7 @@ class MachineTest:
             return
         path = state.strip("/")
         if path not in self.paths:
-            close = [p for p in self.paths if p.endswith("/" + path)] or \
-                difflib.get_close_matches(path, self.paths, n=3)
-            raise ValueError(f"the machine has no state at the path {state!r}" + (
-                f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else
-                f"; states: {', '.join(self.paths[:12])}"))
+            raise ValueError(self._no_state(state, path))
         parts = path.split("/")
         # the state and each of its owners start their regions, for this start only
         found = (self.machine.states_by_path.get("/".join(parts[:k])) for k in range(1, len(parts) + 1))
@@ -141,6 +137,13 @@ class MachineTest:
         finally:
             for region, initial, _st in reversed(saved):
                 region.initial = initial
+
+    def _no_state(self, state: str, path: str) -> str:
+        """No state at ``path``: the paths that end with it or are spelt alike, or the first states."""
+        close = [p for p in self.paths if p.endswith("/" + path)] or difflib.get_close_matches(path, self.paths, n=3)
+        return f"the machine has no state at the path {state!r}" + (
+            f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else
+            f"; states: {', '.join(self.paths[:12])}")
 
     # -- inputs, applied before the next tick ---------------------------------------------------------------------
     def set(self, **values: Any) -> MachineTest:

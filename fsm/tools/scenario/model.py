@@ -75,6 +75,10 @@ class ScenarioModel(ParamsBase):
         """The states this element names, each with its JSON pointer inside the element."""
         return []
 
+    def formulas(self) -> list[tuple[str, str]]:
+        """The formulas of an expectation (of the temporal language): (key, text), the body first."""
+        return []
+
 
 class StateName(NamedTuple):
     """A state an expectation or input names: its id or path, where (a JSON pointer inside the element), and
@@ -231,6 +235,9 @@ class InvariantExpect(ScenarioModel):
                                                      "signal_NAME (true/false) and, with a world, car_NAME readings.")
     within: Window | None = Field(default=None, description="Only the ticks in this window are checked.")
 
+    def formulas(self) -> list[tuple[str, str]]:
+        return [("invariant", self.invariant)]
+
 
 class FinishedExpect(ScenarioModel):
     """The machine has (``true``) or has not (``false``) finished when the run ends."""
@@ -286,6 +293,9 @@ class AtExpect(ScenarioModel):
         return names + [StateName(name, pointer(key, name)) for key in ("paused", "suspended")
                         for name in getattr(self, key) or {}]
 
+    def formulas(self) -> list[tuple[str, str]]:
+        return [("holds", self.holds)] if self.holds is not None else []
+
 
 class TemporalExpect(ScenarioModel):
     """An expectation over time: a formula that holds at every tick (``always``), at none (``never``) or at some
@@ -310,6 +320,9 @@ class TemporalExpect(ScenarioModel):
     max: Int | None = Field(default=None, ge=0, description="With eventually: at most at this many ticks.")
     at: list[Annotated[float, Field(ge=0)]] | None = Field(
         default=None, description="With eventually: the simulated times (s) of exactly the ticks it holds at.")
+
+    def formulas(self) -> list[tuple[str, str]]:
+        return [(k, v) for k in ("always", "never", "eventually", "until", "after") if (v := getattr(self, k))]
 
 
 class TransitionCount(ScenarioModel):
@@ -1164,24 +1177,13 @@ def invariant_kinds(spec: Any, signals: set[str], car: bool, scenario: Scenario)
     return kinds
 
 
-def formulas_of(exp: Any) -> list[tuple[str, str]]:
-    """The formulas of an expectation: (key, text), the body first."""
-    if isinstance(exp, InvariantExpect):
-        return [("invariant", exp.invariant)]
-    if isinstance(exp, AtExpect):
-        return [("holds", exp.holds)] if exp.holds is not None else []
-    if isinstance(exp, TemporalExpect):
-        return [(k, v) for k in ("always", "never", "eventually", "until", "after") if (v := getattr(exp, k))]
-    return []
-
-
 def formula_kinds(loaded_spec: Any, signals: set[str], car: bool, scenario: Scenario) -> dict[str, str]:
     """The names formulas may read: those of :func:`invariant_kinds`, and with plants any other name (a variable a
     plant writes; read when the run starts)."""
     kinds = invariant_kinds(loaded_spec, signals, car, scenario)
     if scenario.plants:
         for exp in scenario.expect:
-            for _key, text in formulas_of(exp):
+            for _key, text in exp.formulas():
                 try:
                     names = formula_names(text)
                 except ExprError:
@@ -1197,7 +1199,7 @@ def _invariant_problems(scenario: Scenario, spec: Any, signals: set[str], car: b
     problems: list[Problem] = []
     kinds: dict[str, str] | None = None
     for i, exp in enumerate(scenario.expect):
-        for key, text in formulas_of(exp):
+        for key, text in exp.formulas():
             kinds = kinds if kinds is not None else formula_kinds(spec, signals, car, scenario)
             try:
                 formula = compile_formula(text, kinds, paths)

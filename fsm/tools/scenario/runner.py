@@ -41,7 +41,6 @@ from .model import (
     VisitsExpect,
     active_matches,
     formula_kinds,
-    formulas_of,
     state_matches,
 )
 from .temporal import Count, Formula, Tick, Watch, bounds, compile_formula, tree_names, within
@@ -474,7 +473,7 @@ def make_temporal(loaded: LoadedScenario, machine: Machine, signals: tuple[str, 
     the scenario was loaded), or None when it has none."""
     sc = loaded.scenario
     kinds: dict[str, str] = {}
-    if any((i, k) not in loaded.formulas for i, exp in enumerate(sc.expect) for k, _t in formulas_of(exp)):
+    if any((i, k) not in loaded.formulas for i, exp in enumerate(sc.expect) for k, _t in exp.formulas()):
         kinds = formula_kinds(loaded.spec, set(signals), loaded.world_path is not None, sc)
     by_path = machine.states_by_path
     watches: list[Watch] = []
@@ -482,7 +481,7 @@ def make_temporal(loaded: LoadedScenario, machine: Machine, signals: tuple[str, 
     outcome_paths: set[str] = set()
     for i, exp in enumerate(sc.expect):
         formulas = {k: loaded.formulas[i, k].fresh() if (i, k) in loaded.formulas else
-                    compile_formula(v, kinds, loaded.state_paths) for k, v in formulas_of(exp)}
+                    compile_formula(v, kinds, loaded.state_paths) for k, v in exp.formulas()}
         for f in formulas.values():
             outcome_paths |= f.state_paths()
             outside |= {n for n in f.deps if n.startswith(("signal_", "car_"))}

@@ -79,18 +79,7 @@ class MachineTest:
         self.dt = dt if dt is not None else DEFAULT_DT
         plan = compile_spec(spec)
         self.paths = [sp.path for sp in plan.states()]
-        stop = StopRules(max_ticks=NEVER - 1)
-        if world is not None:  # the car in a world, as a scenario's "world" and `fsmctl run --world`
-            from fsm.sim import simulate
-
-            self.session = simulate(plan, world=world, seed=seed, noise=noise, dt=self.dt, stop=stop)
-        else:
-            from fsm.loading.loader import uses_car
-
-            if uses_car(spec):
-                raise ValueError("this machine drives the car: give the world to drive it in, "
-                                 "fsm_machine(..., world=\"worlds/hallway.json\")")
-            self.session = Session.open(plan, dt=self.dt, stop=stop, record=False)
+        self.session = self._open(plan, spec, world, seed, noise)
         self.machine = self.session.machine
         finished = Scenario.model_validate({"machine": self.file, "expect": [{"finished": True}]})
         self._loaded = LoadedScenario(file=self.file, scenario=finished, spec=spec, registry=registry, dt=self.dt,
@@ -99,16 +88,34 @@ class MachineTest:
         # every tick's snapshot and every state's outcome: a test may look back at any of them
         self.record = self.machine.add_listener(Recording(_Every(), list(self.machine.states_by_path.values())))
         for raw in plants or ():
-            kind = raw.get("type")
-            cls = registry.plants.get(kind) if isinstance(kind, str) else None
-            if cls is None:
-                raise ValueError(f"unknown plant type {kind!r}; plant types: "
-                                 + (", ".join(sorted(registry.plants)) or "none (load the plugin that registers it)"))
-            cls(cls.Params.model_validate(dict(raw))).attach(self.machine)
+            self._attach_plant(raw, registry.plants)
         if vars:
             self.machine.ctx.vars.update(vars)
         self._start(state)
         self.record.on_tick(self.machine)
+
+    def _open(self, plan: Any, spec: Any, world: str | os.PathLike[str] | None, seed: int, noise: bool) -> Session:
+        """The session: the car in a world (as a scenario's "world" and `fsmctl run --world`), or no car."""
+        stop = StopRules(max_ticks=NEVER - 1)
+        if world is not None:
+            from fsm.sim import simulate
+
+            return simulate(plan, world=world, seed=seed, noise=noise, dt=self.dt, stop=stop)
+        from fsm.loading.loader import uses_car
+
+        if uses_car(spec):
+            raise ValueError("this machine drives the car: give the world to drive it in, "
+                             "fsm_machine(..., world=\"worlds/hallway.json\")")
+        return Session.open(plan, dt=self.dt, stop=stop, record=False)
+
+    def _attach_plant(self, raw: Mapping[str, Any], plants: Mapping[str, Any]) -> None:
+        """A simulated part, as a scenario's ``plants`` entry, attached to the machine."""
+        kind = raw.get("type")
+        cls = plants.get(kind) if isinstance(kind, str) else None
+        if cls is None:
+            raise ValueError(f"unknown plant type {kind!r}; plant types: "
+                             + (", ".join(sorted(plants)) or "none (load the plugin that registers it)"))
+        cls(cls.Params.model_validate(dict(raw))).attach(self.machine)
 
     # -- starting ------------------------------------------------------------------------------------------------
     def _start(self, state: str | None) -> None:
@@ -117,25 +124,26 @@ class MachineTest:
             return
         path = state.strip("/")
         if path not in self.paths:
-            close = [p for p in self.paths if p.endswith("/" + path)] or \
-                difflib.get_close_matches(path, self.paths, n=3)
-            raise ValueError(f"the machine has no state at the path {state!r}" + (
-                f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else
-                f"; states: {', '.join(self.paths[:12])}"))
+            raise ValueError(self._no_state(state, path))
         parts = path.split("/")
-        saved = []
-        for k in range(1, len(parts) + 1):
-            prefix = "/".join(parts[:k])
-            st = self.machine.states_by_path.get(prefix)
-            region = wiring(st).region if st is not None else None
-            if st is not None and region is not None:
-                saved.append((region, region.initial))
-                region.initial = st
+        # the state and each of its owners start their regions, for this start only
+        found = (self.machine.states_by_path.get("/".join(parts[:k])) for k in range(1, len(parts) + 1))
+        saved = [(region, region.initial, st) for st in found
+                 if st is not None and (region := wiring(st).region) is not None]
+        for region, _initial, st in saved:
+            region.initial = st
         try:
             self.session.start()
         finally:
-            for region, initial in reversed(saved):
+            for region, initial, _st in reversed(saved):
                 region.initial = initial
+
+    def _no_state(self, state: str, path: str) -> str:
+        """No state at ``path``: the paths that end with it or are spelt alike, or the first states."""
+        close = [p for p in self.paths if p.endswith("/" + path)] or difflib.get_close_matches(path, self.paths, n=3)
+        return f"the machine has no state at the path {state!r}" + (
+            f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else
+            f"; states: {', '.join(self.paths[:12])}")
 
     # -- inputs, applied before the next tick ---------------------------------------------------------------------
     def set(self, **values: Any) -> MachineTest:
@@ -214,21 +222,30 @@ class MachineTest:
         """Check expectations written as in a scenario's ``expect``; ``active``, ``vars``, ``paused`` and
         ``suspended`` without ``at`` look at the machine now. Raises :class:`ScenarioError` with every failure."""
         __tracebackhide__ = True
+        now = round(self.machine.ticks * self.dt, 9)
+        sc = self._scenario(expectations, now)
+        self._refuse_unusable(sc, now)
+        self._fail([(e, i) for i, e in enumerate(sc.expect)])
+        return self
+
+    def _scenario(self, expectations: tuple[Mapping[str, Any], ...], now: float) -> Any:
+        """The expectations as a scenario's (without a time, what the machine is ``now``); ValueError with the
+        located problems of one that is not written as a scenario's."""
         from pydantic import ValidationError
 
-        from fsm.tools.scenario.model import Scenario, element_problems, name_problems, problems_from_errors
+        from fsm.tools.scenario.model import Scenario, problems_from_errors
 
-        now = round(self.machine.ticks * self.dt, 9)
-        items = [dict(e) for e in expectations]
-        for e in items:
-            if "at" not in e and {"active", "vars", "paused", "suspended"} & e.keys() and "monitors" not in e:
-                e["at"] = now
+        items = [{**e, "at": now} if _now_is_meant(e) else dict(e) for e in expectations]
         data = {"machine": self.file, "expect": items}
         try:
-            sc = Scenario.model_validate(data)
+            return Scenario.model_validate(data)
         except ValidationError as err:
             raise ValueError("\n".join(str(p) for p in problems_from_errors(err, data, "expect"))) from None
-        from fsm.tools.scenario.model import AtExpect, InvariantExpect, TemporalExpect
+
+    def _refuse_unusable(self, sc: Any, now: float) -> None:
+        """ValueError for expectations a test by hand cannot check: checked while a run goes on, naming what the
+        machine does not have, or looking after ``now``."""
+        from fsm.tools.scenario.model import AtExpect, InvariantExpect, TemporalExpect, element_problems, name_problems
 
         during = [i for i, e in enumerate(sc.expect) if isinstance(e, (InvariantExpect, TemporalExpect))
                   or getattr(e, "holds", None) is not None]
@@ -241,8 +258,6 @@ class MachineTest:
                 if isinstance(e, AtExpect) and e.at > now + 1e-9]
         if problems or late:
             raise ValueError("\n".join([str(p) for p in problems if p.severity == "error"] + late))
-        self._fail([(e, i) for i, e in enumerate(sc.expect)])
-        return self
 
     def _fail(self, checks: list[tuple[Any, int]]) -> None:
         __tracebackhide__ = True
@@ -269,6 +284,12 @@ class MachineTest:
     @property
     def outcome(self) -> str | None:
         return self.machine.outcome
+
+
+def _now_is_meant(expectation: Mapping[str, Any]) -> bool:
+    """``active``, ``vars``, ``paused`` and ``suspended`` without ``at`` (and not of ``monitors``) look at now."""
+    keys = expectation.keys()
+    return "at" not in keys and "monitors" not in keys and bool({"active", "vars", "paused", "suspended"} & keys)
 
 
 def scenario_lines(path: str | Path, coverage: Any = None, case: str | None = None, max_runs: int | None = None,

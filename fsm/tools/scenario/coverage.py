@@ -121,8 +121,7 @@ class Coverage:
         lines = []
         for cov in self.machines.values():
             c = cov.counts()
-            lines.append(f"coverage of {cov.name} ({cov.scenarios} run(s)): " + ", ".join(
-                f"{kind} {hit}/{total}" for kind, (hit, total) in c.items()))
+            lines.append(f"coverage of {cov.name} ({cov.scenarios} run(s)): " + _counts_text(c))
             never = [p for p, v in cov.states.items() if v == "never"]
             only = [p for p, v in cov.states.items() if v == "skipped"]
             for title, items in (("never entered", never), ("only skipped", only),
@@ -130,8 +129,7 @@ class Coverage:
                                  ("monitors never fired", [m for m, v in cov.monitors.items() if not v])):
                 if items:
                     lines.append(f"  {title}: " + ", ".join(items))
-        lines.append(f"coverage: {self.percent():.1f}% (" + ", ".join(
-            f"{kind} {hit}/{total}" for kind, (hit, total) in self.totals().items()) + ")")
+        lines.append(f"coverage: {self.percent():.1f}% (" + _counts_text(self.totals()) + ")")
         return lines
 
     def to_json(self) -> dict[str, Any]:
@@ -145,3 +143,8 @@ class Coverage:
                 "monitors": [{"monitor": m, "fired": v} for m, v in cov.monitors.items()],
             } for cov in self.machines.values()],
         }
+
+
+def _counts_text(counts: dict[str, tuple[int, int]]) -> str:
+    """``states 3/4, transitions 2/5, ...``"""
+    return ", ".join(f"{kind} {hit}/{total}" for kind, (hit, total) in counts.items())

@@ -24,17 +24,16 @@ class Invalid:
 
 def junit_xml(results: list[ScenarioResult | Invalid], suite: str = "fsmctl test") -> str:
     """The report as text (UTF-8 XML declaration included)."""
-    failures = sum(1 for r in results if isinstance(r, ScenarioResult) and not r.passed)
-    errors = sum(1 for r in results if isinstance(r, Invalid))
-    skipped = sum(1 for r in results if isinstance(r, ScenarioResult) and r.status in ("skipped", "xfailed"))
-    total_time = sum(r.wall_time for r in results if isinstance(r, ScenarioResult))
-    root = ET.Element("testsuites", tests=str(len(results)), failures=str(failures), errors=str(errors),
-                      time=f"{total_time:.3f}")
-    ts = ET.SubElement(root, "testsuite", name=suite, tests=str(len(results)), failures=str(failures),
-                       errors=str(errors), skipped=str(skipped), time=f"{total_time:.3f}")
+    runs = [r for r in results if isinstance(r, ScenarioResult)]
+    counts = {"tests": str(len(results)), "failures": str(sum(not r.passed for r in runs)),
+              "errors": str(len(results) - len(runs))}
+    skipped = sum(r.status in ("skipped", "xfailed") for r in runs)
+    total_time = f"{sum(r.wall_time for r in runs):.3f}"
+    root = ET.Element("testsuites", {**counts, "time": total_time})
+    ts = ET.SubElement(root, "testsuite", {"name": suite, **counts, "skipped": str(skipped), "time": total_time})
     for r in results:
         case = ET.SubElement(ts, "testcase", name=r.name, classname=_classname(r.file), file=r.file,
-                             time=f"{r.wall_time:.3f}" if isinstance(r, ScenarioResult) else "0")
+                             time="0" if isinstance(r, Invalid) else f"{r.wall_time:.3f}")
         if isinstance(r, Invalid):
             _invalid(case, r)
         else:

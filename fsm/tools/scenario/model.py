@@ -75,6 +75,10 @@ class ScenarioModel(ParamsBase):
         """The states this element names, each with its JSON pointer inside the element."""
         return []
 
+    def formulas(self) -> list[tuple[str, str]]:
+        """The formulas of an expectation (of the temporal language): (key, text), the body first."""
+        return []
+
 
 class StateName(NamedTuple):
     """A state an expectation or input names: its id or path, where (a JSON pointer inside the element), and
@@ -129,12 +133,20 @@ class PauseInput(ScenarioModel):
     pause: str = Field(min_length=1, description="The state's path from the top ('run/work'); it must be active "
                                                  "then (a state that is not active is left alone).")
 
+    def held(self) -> tuple[str, bool]:
+        """(the state's path, paused)."""
+        return self.pause.strip("/"), True
+
 
 class ResumeInput(ScenarioModel):
     """Resume a paused state (as ``Machine.resume``), before the tick at or after ``at``."""
 
     at: float = Field(ge=0, description="Simulated time in seconds.")
     resume: str = Field(min_length=1, description="The paused state's path from the top.")
+
+    def held(self) -> tuple[str, bool]:
+        """(the state's path, paused)."""
+        return self.resume.strip("/"), False
 
 
 def _input_kind(value: Any) -> str | None:
@@ -223,6 +235,9 @@ class InvariantExpect(ScenarioModel):
                                                      "signal_NAME (true/false) and, with a world, car_NAME readings.")
     within: Window | None = Field(default=None, description="Only the ticks in this window are checked.")
 
+    def formulas(self) -> list[tuple[str, str]]:
+        return [("invariant", self.invariant)]
+
 
 class FinishedExpect(ScenarioModel):
     """The machine has (``true``) or has not (``false``) finished when the run ends."""
@@ -278,6 +293,9 @@ class AtExpect(ScenarioModel):
         return names + [StateName(name, pointer(key, name)) for key in ("paused", "suspended")
                         for name in getattr(self, key) or {}]
 
+    def formulas(self) -> list[tuple[str, str]]:
+        return [("holds", self.holds)] if self.holds is not None else []
+
 
 class TemporalExpect(ScenarioModel):
     """An expectation over time: a formula that holds at every tick (``always``), at none (``never``) or at some
@@ -302,6 +320,9 @@ class TemporalExpect(ScenarioModel):
     max: Int | None = Field(default=None, ge=0, description="With eventually: at most at this many ticks.")
     at: list[Annotated[float, Field(ge=0)]] | None = Field(
         default=None, description="With eventually: the simulated times (s) of exactly the ticks it holds at.")
+
+    def formulas(self) -> list[tuple[str, str]]:
+        return [(k, v) for k in ("always", "never", "eventually", "until", "after") if (v := getattr(self, k))]
 
 
 class TransitionCount(ScenarioModel):
@@ -1156,24 +1177,13 @@ def invariant_kinds(spec: Any, signals: set[str], car: bool, scenario: Scenario)
     return kinds
 
 
-def formulas_of(exp: Any) -> list[tuple[str, str]]:
-    """The formulas of an expectation: (key, text), the body first."""
-    if isinstance(exp, InvariantExpect):
-        return [("invariant", exp.invariant)]
-    if isinstance(exp, AtExpect):
-        return [("holds", exp.holds)] if exp.holds is not None else []
-    if isinstance(exp, TemporalExpect):
-        return [(k, v) for k in ("always", "never", "eventually", "until", "after") if (v := getattr(exp, k))]
-    return []
-
-
 def formula_kinds(loaded_spec: Any, signals: set[str], car: bool, scenario: Scenario) -> dict[str, str]:
     """The names formulas may read: those of :func:`invariant_kinds`, and with plants any other name (a variable a
     plant writes; read when the run starts)."""
     kinds = invariant_kinds(loaded_spec, signals, car, scenario)
     if scenario.plants:
         for exp in scenario.expect:
-            for _key, text in formulas_of(exp):
+            for _key, text in exp.formulas():
                 try:
                     names = formula_names(text)
                 except ExprError:
@@ -1189,7 +1199,7 @@ def _invariant_problems(scenario: Scenario, spec: Any, signals: set[str], car: b
     problems: list[Problem] = []
     kinds: dict[str, str] | None = None
     for i, exp in enumerate(scenario.expect):
-        for key, text in formulas_of(exp):
+        for key, text in exp.formulas():
             kinds = kinds if kinds is not None else formula_kinds(spec, signals, car, scenario)
             try:
                 formula = compile_formula(text, kinds, paths)
@@ -1498,10 +1508,11 @@ def name_problems(scenario: Scenario, paths: list[str], name: str) -> list[Probl
                 problems.append(Problem(unknown[0], name, pointer("expect", i) + state.pointer,
                                         element=f"expectation {i}", hint=unknown[1]))
     for i, inp in enumerate(scenario.inputs):
-        key = "pause" if isinstance(inp, PauseInput) else "resume"
-        target = inp.pause if isinstance(inp, PauseInput) else inp.resume if isinstance(inp, ResumeInput) else None
-        if target is not None and target.strip("/") not in paths:
-            target = target.strip("/")
+        if not isinstance(inp, (PauseInput, ResumeInput)):
+            continue
+        target, paused = inp.held()
+        if target not in paths:
+            key = "pause" if paused else "resume"
             suffix = [p for p in paths if state_matches(target, p)]
             hint = f"a path from the top: {suffix[0]!r}" if len(suffix) == 1 else \
                 did_you_mean(target, paths, n=3) or known.listed()

@@ -41,10 +41,9 @@ from .model import (
     VisitsExpect,
     active_matches,
     formula_kinds,
-    formulas_of,
     state_matches,
 )
-from .temporal import Formula, Tick, Watch, compile_formula, tree_names
+from .temporal import Count, Formula, Tick, Watch, bounds, compile_formula, tree_names, within
 from .timeline import expand, pause_changes
 
 if TYPE_CHECKING:
@@ -217,6 +216,8 @@ class Recording(Listener):
         self._moved = True
         self.monitors: list[MonitorFiring] = []
         self.pauses: list[PauseChange] = []
+        #: how many var changes, monitor firings and pauses were recorded (one count to see that one was)
+        self.recorded = 0
         #: (source path, transition index) of every transition fired (for coverage)
         self.fired: set[tuple[str, int]] = set()
         self.finishes: list[Finish] = []
@@ -227,9 +228,11 @@ class Recording(Listener):
 
     def on_monitor(self, ctx: Context, owner: State[Any], monitor: Any) -> None:
         self.monitors.append(MonitorFiring(ctx.tick, owner.path, monitor.label, monitor.kind, monitor.behavior))
+        self.recorded += 1
 
     def on_pause(self, ctx: Context, state: State[Any], paused: bool) -> None:
         self.pauses.append(PauseChange(ctx.tick, state.path, paused))
+        self.recorded += 1
 
     def on_skipped(self, ctx: Context, state: State[Any]) -> None:
         for k in range(len(self.entries) - 1, -1, -1):
@@ -249,11 +252,7 @@ class Recording(Listener):
             self.fired.add((source.path, getattr(transition, "index", -1)))
         if self._watched:
             if source is not None:  # what was left with the source: record how the watched states in it finished
-                for key, st in self._watched.items():
-                    if not self._recorded[key] and st.finished and (st is source or st.path.startswith(
-                            source.path + "/")):
-                        self._recorded[key] = True
-                        self.finishes.append(Finish(ctx.tick, st.path, st.outcome))
+                self._record_finishes(ctx.tick, source)
             if id(target) in self._watched:
                 self._recorded[id(target)] = False
 
@@ -265,16 +264,9 @@ class Recording(Listener):
             self.active.append(ActiveChange(tick, tuple(machine.active_paths)))
         current = machine.ctx.vars
         if current != self._vars or any(type(v) is not type(self._vars.get(k)) for k, v in current.items()):
-            for name in sorted(set(current) | set(self._vars)):
-                old, new = self._vars.get(name, _UNSET), current.get(name, _UNSET)
-                if old is not new and (old != new or type(old) is not type(new)):
-                    self.var_changes.append(VarChange(tick, name, old, new))
-            self._vars = dict(current)
+            self._record_vars(tick, current)
         if self._watched:
-            for key, st in self._watched.items():
-                if not self._recorded[key] and st.finished:
-                    self._recorded[key] = True
-                    self.finishes.append(Finish(tick, st.path, st.outcome))
+            self._record_finishes(tick)
         for inv in self.invariants:
             if inv.failed is None and inv.first <= tick <= inv.last:
                 inv.check(machine, tick)
@@ -282,6 +274,23 @@ class Recording(Listener):
             self.temporal.step(machine, self, tick, moved)
         if tick in self._want:
             self.snapshots[tick] = Snapshot(self.active[-1].paths, dict(current), *held_states(machine))
+
+    def _record_vars(self, tick: int, current: dict[str, Any]) -> None:
+        """The variables that changed (in value or type) since the last tick."""
+        for name in sorted(set(current) | set(self._vars)):
+            old, new = self._vars.get(name, _UNSET), current.get(name, _UNSET)
+            if old is not new and (old != new or type(old) is not type(new)):
+                self.var_changes.append(VarChange(tick, name, old, new))
+                self.recorded += 1
+        self._vars = dict(current)
+
+    def _record_finishes(self, tick: int, left: State[Any] | None = None) -> None:
+        """How the watched states that finished at this tick (or, with ``left``, in the state left) finished."""
+        for key, st in self._watched.items():
+            if not self._recorded[key] and st.finished and (left is None or st is left or
+                                                            st.path.startswith(left.path + "/")):
+                self._recorded[key] = True
+                self.finishes.append(Finish(tick, st.path, st.outcome))
 
     def final(self, machine: Machine) -> Snapshot:
         return Snapshot(tuple(machine.active_paths), dict(machine.ctx.vars), *held_states(machine))
@@ -337,14 +346,18 @@ class TemporalRun:
         self._monitors = 0
         self._pauses = 0
         self._var_changes = 0
+        #: the recording's count of var changes, monitor firings and pauses when last gathered
+        self._recorded = -1
         self._active: Any = None
         need: frozenset[str] = frozenset().union(*(w.deps for w in watches))
         self.need_entries = "@entries" in need
         self.need_active = "@active" in need
-        self.need_fired = "@fired" in need
-        self.every_tick = any(w.every_tick for w in watches) or bool(self.car)
         self.firsts = {w.first for w in watches}
-        self.forced = True
+        #: the next tick is looked at whatever happens: a watch was forced or steps every tick, a firing is to clear
+        self.awake = True
+        #: read before each tick's look, when a formula reads them: signal levels and the outcomes of states
+        self._reads = ([self._read_signals] if self.signals else []) + \
+            ([self._read_outcomes] if self.outcome_states else [])
 
     def at(self, tick: int) -> str:
         return f"tick {tick} (t={round(tick * self.dt, 9):g} s)"
@@ -354,85 +367,105 @@ class TemporalRun:
 
     def step(self, machine: Machine, rec: Recording, tick: int, moved: bool) -> None:
         """After each tick: read what the formulas use, and step the watches whose inputs changed."""
-        now = self.now
-        values = self.values
         changed: set[str] = set()
-        if self.signals:
-            signals = machine.ctx.signals
-            for name, signal in self.signals:
-                level = signals.get(signal, False)
-                if values.get(name) is not level:
-                    values[name] = level
-                    changed.add(name)
+        for read in self._reads:
+            read(machine.ctx, tick, changed)
+        if changed or moved or self.awake or rec.recorded != self._recorded or tick in self.firsts:
+            self.now.tick = tick
+            self._gather(machine.ctx, rec, changed)
+            self._step_watches(tick, changed)
+
+    def _read_signals(self, ctx: Context, tick: int, changed: set[str]) -> None:
+        values = self.values
+        signals = ctx.signals
+        for name, signal in self.signals:
+            level = signals.get(signal, False)
+            if values.get(name) is not level:
+                values[name] = level
+                changed.add(name)
+
+    def _read_outcomes(self, ctx: Context, tick: int, changed: set[str]) -> None:
+        """A state that finished since the last tick: its outcome, and the tick, into :attr:`now`."""
         for path, st in self.outcome_states:
             outcome = st.outcome
             if outcome is not None:
                 key = (wiring(st).entered_at, outcome)
                 if self._outcome_keys.get(path) != key:
                     self._outcome_keys[path] = key
-                    now.outcomes[path] = (tick, outcome)
+                    self.now.outcomes[path] = (tick, outcome)
                     changed.add("@outcome")
-        if not (changed or moved or self.forced or self.every_tick or len(rec.var_changes) != self._var_changes
-                or len(rec.monitors) != self._monitors or len(rec.pauses) != self._pauses or now.fired
-                or tick in self.firsts):
-            return
-        now.tick = tick
-        self._gather(machine.ctx, rec, moved, changed)
-        at = self.at
-        forced = every = False
-        for w in self.watches:  # each open watch whose inputs changed, or that steps every tick
-            if w.done:
-                continue
-            busy = w.after is None or bool(w.open)
-            dirty = bool(changed) and not (w.deps if busy else w.idle_deps).isdisjoint(changed)
-            if dirty or w.force or tick == w.first or (w.every_tick if busy else w.idle_every):
-                w.step(tick, now, values, at)
-                w.force = dirty and w.transient
-                forced = forced or w.force
-                every = every or (w.every_tick if w.after is None or w.open else w.idle_every)
-        self.forced = forced
-        self.every_tick = every or bool(self.car)
 
-    def _gather(self, ctx: Context, rec: Recording, moved: bool, changed: set[str]) -> None:
+    def _gather(self, ctx: Context, rec: Recording, changed: set[str]) -> None:
         """Variables, car readings, entries, monitor firings, pauses and active states into :attr:`now` and
         :attr:`values`; what changed is added to ``changed``."""
-        values = self.values
-        if len(rec.var_changes) != self._var_changes or not values:
-            changed.update(c.name for c in rec.var_changes[self._var_changes:])
-            self._var_changes = len(rec.var_changes)
-            values.update(ctx.vars)
+        if len(rec.var_changes) != self._var_changes or not self.values:
+            self._read_vars(ctx, rec, changed)
         if self.car and ctx.car is not None:
-            for name, reading in self.car:
-                value = getattr(ctx.car, reading, None)
-                if isinstance(value, (int, float)):
-                    values[name] = value
-        now = self.now
+            self._read_car(ctx.car)
         if self.need_entries:
-            entries = rec.entries
-            if len(entries) != self._entries:
-                new = range(self._entries, len(entries))
-                now.entered = frozenset(entries[k].path for k in new if k not in rec.skipped)
-                now.skipped = frozenset(entries[k].path for k in new if k in rec.skipped)
-                self._entries = len(entries)
-                changed.add("@entries")
-            elif now.entered or now.skipped:
-                now.entered = now.skipped = frozenset()
-                changed.add("@entries")
-        if len(rec.monitors) != self._monitors:
-            now.fired = frozenset(f.owner for f in rec.monitors[self._monitors:])
-            self._monitors = len(rec.monitors)
-            changed.add("@fired")
-        elif now.fired:
-            now.fired = frozenset()
-            changed.add("@fired")
+            self._read_entries(rec, changed)
+        if len(rec.monitors) != self._monitors or self.now.fired:
+            self._read_firings(rec, changed)
         if len(rec.pauses) != self._pauses:
             self._pauses = len(rec.pauses)
             changed.add("@paused")
-        if moved and self.need_active and rec.active[-1] is not self._active:
-            self._active = rec.active[-1]
-            self.now.active = frozenset("/".join(p.split("/")[:k]) for p in self._active.paths
-                                        for k in range(1, p.count("/") + 2))
-            changed.add("@active")
+        if self.need_active and rec.active[-1] is not self._active:
+            self._read_active(rec.active[-1], changed)
+        self._recorded = rec.recorded
+
+    def _read_vars(self, ctx: Context, rec: Recording, changed: set[str]) -> None:
+        changed.update(c.name for c in rec.var_changes[self._var_changes:])
+        self._var_changes = len(rec.var_changes)
+        self.values.update(ctx.vars)
+
+    def _read_car(self, car: Any) -> None:
+        """The car readings a formula names (numbers only)."""
+        for name, reading in self.car:
+            value = getattr(car, reading, None)
+            if isinstance(value, (int, float)):
+                self.values[name] = value
+
+    def _read_entries(self, rec: Recording, changed: set[str]) -> None:
+        """The states entered (and run) and skipped at this tick."""
+        now = self.now
+        entries = rec.entries
+        if len(entries) != self._entries:
+            new = range(self._entries, len(entries))
+            now.entered = frozenset(entries[k].path for k in new if k not in rec.skipped)
+            now.skipped = frozenset(entries[k].path for k in new if k in rec.skipped)
+            self._entries = len(entries)
+            changed.add("@entries")
+        elif now.entered or now.skipped:
+            now.entered = now.skipped = frozenset()
+            changed.add("@entries")
+
+    def _read_firings(self, rec: Recording, changed: set[str]) -> None:
+        """The owners of the monitors that fired at this tick (none: the last tick's are cleared)."""
+        self.now.fired = frozenset(f.owner for f in rec.monitors[self._monitors:])
+        self._monitors = len(rec.monitors)
+        changed.add("@fired")
+
+    def _read_active(self, active: ActiveChange, changed: set[str]) -> None:
+        """The active states: every prefix of an active leaf's path."""
+        self._active = active
+        self.now.active = frozenset("/".join(p.split("/")[:k]) for p in active.paths
+                                    for k in range(1, p.count("/") + 2))
+        changed.add("@active")
+
+    def _step_watches(self, tick: int, changed: set[str]) -> None:
+        """Step each open watch whose inputs changed, that was forced (it reads one tick's values and they changed
+        at the last look), whose window starts, or that steps every tick."""
+        now, values, at = self.now, self.values, self.at
+        awake = bool(self.car) or bool(now.fired)
+        for w in self.watches:
+            if w.done:
+                continue
+            dirty = not w.live_deps.isdisjoint(changed)
+            if dirty or w.force or tick == w.first or w.live_every:
+                w.step(tick, now, values, at)
+                w.force = dirty and w.transient
+                awake = awake or w.force or w.live_every
+        self.awake = awake
 
 
 def make_temporal(loaded: LoadedScenario, machine: Machine, signals: tuple[str, ...]) -> TemporalRun | None:
@@ -440,7 +473,7 @@ def make_temporal(loaded: LoadedScenario, machine: Machine, signals: tuple[str, 
     the scenario was loaded), or None when it has none."""
     sc = loaded.scenario
     kinds: dict[str, str] = {}
-    if any((i, k) not in loaded.formulas for i, exp in enumerate(sc.expect) for k, _t in formulas_of(exp)):
+    if any((i, k) not in loaded.formulas for i, exp in enumerate(sc.expect) for k, _t in exp.formulas()):
         kinds = formula_kinds(loaded.spec, set(signals), loaded.world_path is not None, sc)
     by_path = machine.states_by_path
     watches: list[Watch] = []
@@ -448,7 +481,7 @@ def make_temporal(loaded: LoadedScenario, machine: Machine, signals: tuple[str, 
     outcome_paths: set[str] = set()
     for i, exp in enumerate(sc.expect):
         formulas = {k: loaded.formulas[i, k].fresh() if (i, k) in loaded.formulas else
-                    compile_formula(v, kinds, loaded.state_paths) for k, v in formulas_of(exp)}
+                    compile_formula(v, kinds, loaded.state_paths) for k, v in exp.formulas()}
         for f in formulas.values():
             outcome_paths |= f.state_paths()
             outside |= {n for n in f.deps if n.startswith(("signal_", "car_"))}
@@ -477,7 +510,7 @@ def _watches(loaded: LoadedScenario, i: int, exp: Any, formulas: dict[str, Formu
     mode = next(k for k in ("always", "never", "eventually") if k in formulas)
     span = exp.ticks if exp.ticks is not None else (tick_at(exp.seconds, dt) if exp.seconds is not None else None)
     return [Watch(i, mode, formulas[mode], first, last, until=formulas.get("until"), after=formulas.get("after"),
-                  span=span, nth=exp.nth, count=(exp.count, exp.min, exp.max),
+                  span=span, nth=exp.nth, count=Count(exp.count, exp.min, exp.max),
                   at=None if exp.at is None else [tick_at(t, dt) for t in exp.at])]
 
 
@@ -486,20 +519,8 @@ def count_verdict(n: int, c: Any) -> tuple[bool, str]:
     it wanted, in words."""
     if c.count is None and c.min is None and c.max is None:
         return n >= 1, "at least once"
-    return _within(n, c), _bounds(c, _times)
+    return within(n, c), bounds(c, _times)
 
-
-def _within(n: int, c: Any) -> bool:
-    """Whether ``n`` meets ``c``'s ``count``, ``min`` and ``max`` (each ``None``: no bound)."""
-    return (c.count is None or n == c.count) and (c.min is None or n >= c.min) and (c.max is None or n <= c.max)
-
-
-def _bounds(c: Any, words: Callable[[int], str]) -> str:
-    """``c``'s bounds in words: "exactly N", or "at least A and at most B" (a number in ``words``)."""
-    if c.count is not None:
-        return f"exactly {words(c.count)}"
-    return " and ".join(x for x in (f"at least {words(c.min)}" if c.min is not None else "",
-                                    f"at most {words(c.max)}" if c.max is not None else "") if x)
 
 def _times(n: int) -> str:
     return "once" if n == 1 else f"{n} times"
@@ -811,30 +832,13 @@ class Checker:
     # -- the expectations ---------------------------------------------------------------------------------
     def expectation(self, i: int, exp: Any) -> Failure | None:
         """The failure of expectation ``i`` (``exp``) in this run, or ``None`` when it holds."""
-        if isinstance(exp, OutcomeExpect):
-            return self.state_outcome(i, exp) if exp.state is not None else self.outcome(i, exp)
-        if isinstance(exp, FinishedExpect):
-            return self.finished(i, exp)
-        if isinstance(exp, VisitsExpect):
-            return self.visits(i, exp.visits)
-        if isinstance(exp, NeverExpect):
-            return self.never(i, exp)
-        if isinstance(exp, AtExpect):
-            return self.at_check(i, exp)
-        if isinstance(exp, TemporalExpect):
-            return self.formula(i)
-        if isinstance(exp, TransitionsExpect):
-            return self.transitions(i, exp)
-        if isinstance(exp, MonitorsExpect):
-            return self.monitor_check(i, exp.monitors)
-        if isinstance(exp, (EnteredExpect, SkippedExpect, ExitedExpect)):
-            return self.occurrences(i, exp)
-        if isinstance(exp, InvariantExpect):
-            return self.invariant(i, exp)
-        return None  # pragma: no cover - the model admits nothing else
+        check: Callable[[Checker, int, Any], Failure | None] = _CHECKS[type(exp)]
+        return check(self, i, exp)
 
     def outcome(self, i: int, exp: OutcomeExpect) -> Failure | None:
-        """The machine finishes with this outcome (within the window, if given)."""
+        """The machine (or the state named) finishes with this outcome (within the window, if given)."""
+        if exp.state is not None:
+            return self.state_outcome(i, exp)
         m = self.machine
         fin = end = self.last_tick  # the run stops in the tick the machine finishes
         if m.outcome == exp.outcome and exp.within is not None and not self.inside(fin, exp.within):
@@ -872,9 +876,9 @@ class Checker:
         """The number of transitions fired is within the bounds."""
         c = exp.transitions
         n = self.machine.transition_count
-        if _within(n, c):
+        if within(n, c):
             return None
-        want = _bounds(c, str)
+        want = bounds(c, str)
         fired = [e for e in self.rec.entries if e.kind != "initial"]
         limit = c.count if c.count is not None else c.max
         tick = fired[limit].tick if limit is not None and n > limit else self.last_tick
@@ -929,11 +933,11 @@ class Checker:
     def _count_tick(self, c: Any, inside: list[tuple[int, str]]) -> int:
         """Where a count failed: at the event one too many, else at the end of the window (or of the run)."""
         limit: int | None = c.count if c.count is not None else c.max
-        if limit is not None and len(inside) > limit:
-            return inside[limit][0]
-        if c.within is not None:
-            return min(_last_tick(c.within[1], self.dt), self.last_tick)
-        return self.last_tick
+        return inside[limit][0] if limit is not None and len(inside) > limit else self._window_end(c.within)
+
+    def _window_end(self, within: list[float] | None) -> int:
+        """The last tick of a window (or of the run) that the run reached."""
+        return self.last_tick if within is None else min(_last_tick(within[1], self.dt), self.last_tick)
 
     def state_outcome(self, i: int, exp: OutcomeExpect) -> Failure | None:
         assert exp.state is not None
@@ -943,8 +947,8 @@ class Checker:
         win = self.window(exp.within)
         seen = "; ".join(f"{f.path} finished with '{f.outcome}' at {self.at(f.tick)}" for f in fins[:4]) or \
             "it never finished"
-        tick = next((f.tick for f in fins if self.inside(f.tick, exp.within)), fins[0].tick if fins else
-                    min(_last_tick(exp.within[1], self.dt), self.last_tick) if exp.within else self.last_tick)
+        tick = next((f.tick for f in fins if self.inside(f.tick, exp.within)),
+                    fins[0].tick if fins else self._window_end(exp.within))
         return self.failure(i, "outcome", f"expected '{exp.state}' to finish with '{exp.outcome}'"
                                           f"{' ' + win if win else ''}: {seen}", tick)
 
@@ -959,28 +963,29 @@ class Checker:
         return self.failure(i, "invariant", f"'{exp.invariant}' {why} at {self.at(inv.failed)}"
                                             f"{' (' + values + ')' if values else ''}", inv.failed)
 
-    def formula(self, i: int) -> Failure | None:
+    def formula(self, i: int, exp: Any = None) -> Failure | None:
         """A formula's verdict (an invariant, a temporal expectation, an ``at``'s ``holds``)."""
         watch, verdict = self.verdicts[i]
         if verdict is None:
             return None
         return self.failure(i, watch.label, verdict.message, min(verdict.tick, self.last_tick))
 
-    def monitor_check(self, i: int, c: Any) -> Failure | None:
-        fired = [f for f in self.rec.monitors if state_matches(c.owner, f.owner)
-                 and (c.behavior is None or f.behavior == c.behavior) and (c.kind is None or f.kind == c.kind)
-                 and self.inside(f.tick, c.within)]
-        n = len(fired)
-        ok, want = count_verdict(n, c)
+    def monitor_check(self, i: int, exp: MonitorsExpect) -> Failure | None:
+        c = exp.monitors
+        fired = [f for f in self.rec.monitors if self._is_firing_of(c, f)]
+        ok, want = count_verdict(len(fired), c)
         if ok:
             return None if c.at is None else self._monitor_times(i, c, fired)
         what = ("" if c.behavior is None else f" with {c.behavior}") + ("" if c.within is None else
                                                                          f" {self.window(c.within)}")
-        limit = c.count if c.count is not None else c.max
-        tick = fired[limit].tick if limit is not None and n > limit else \
-            min(_last_tick(c.within[1], self.dt), self.last_tick) if c.within is not None else self.last_tick
+        tick = self._count_tick(c, [(f.tick, f.owner) for f in fired])
         return self.failure(i, "monitors", f"expected a monitor of '{c.owner}'{what} to fire {want}, it fired "
-                                           f"{_times(n)}", tick)
+                                           f"{_times(len(fired))}", tick)
+
+    def _is_firing_of(self, c: Any, f: MonitorFiring) -> bool:
+        """A firing of a monitor of ``c``'s owner (with its behavior and kind, when given) in its window."""
+        return state_matches(c.owner, f.owner) and (c.behavior is None or f.behavior == c.behavior) and \
+            (c.kind is None or f.kind == c.kind) and self.inside(f.tick, c.within)
 
     def _monitor_times(self, i: int, c: Any, fired: list[MonitorFiring]) -> Failure | None:
         """A monitor's firings at exactly the ticks of ``c.at``, or a failure at the first that differs."""
@@ -997,31 +1002,35 @@ class Checker:
                                            f"{', '.join(f'{t:g}' for t in times) or 'no time'} s",
                             min(tick, self.last_tick))
 
-    def visits(self, i: int, wanted: list[str]) -> Failure | None:
+    def visits(self, i: int, exp: VisitsExpect) -> Failure | None:
+        wanted = exp.visits
         entries = self.rec.entries
         pos = 0
         last: Entry | None = None
         for k, name in enumerate(wanted):
             found = next((j for j in range(pos, len(entries)) if state_matches(name, entries[j].path)), None)
             if found is None:
-                earlier = next((e for e in entries[:pos] if state_matches(name, e.path)), None)
-                # the next state entered, not counting the initial sub-states entered together with the last match
-                nxt = next((e for e in entries[pos:] if last is None or e.tick != last.tick
-                            or not e.path.startswith(last.path + "/")), None)
                 after = f"after '{wanted[k - 1]}' ({last.path} at {self.at(last.tick)})" if last else "at all"
-                msg = f"expected '{name}' to be entered {after}, but it never was"
-                if earlier is not None:
-                    msg += f" (only before, at {self.at(earlier.tick)})"
-                if nxt is not None:
-                    msg += f"; next entered: {nxt.path} at {self.at(nxt.tick)}"
-                    tick = nxt.tick
-                else:
-                    msg += f"; nothing was entered after that until the run ended at {self.at(self.last_tick)}"
-                    tick = self.last_tick
-                return self.failure(i, "visits", msg, tick)
+                return self._not_visited(i, name, after, pos, last)
             last = entries[found]
             pos = found + 1
         return None
+
+    def _not_visited(self, i: int, name: str, after: str, pos: int, last: Entry | None) -> Failure:
+        """``visits``: ``name`` was not entered after the entry ``pos - 1`` (``last``); when it was before, and
+        what was entered next."""
+        entries = self.rec.entries
+        earlier = next((e for e in entries[:pos] if state_matches(name, e.path)), None)
+        # the next state entered, not counting the initial sub-states entered together with the last match
+        nxt = next((e for e in entries[pos:] if last is None or e.tick != last.tick
+                    or not e.path.startswith(last.path + "/")), None)
+        msg = f"expected '{name}' to be entered {after}, but it never was"
+        if earlier is not None:
+            msg += f" (only before, at {self.at(earlier.tick)})"
+        if nxt is None:
+            return self.failure(i, "visits", msg + "; nothing was entered after that until the run ended at "
+                                f"{self.at(self.last_tick)}", self.last_tick)
+        return self.failure(i, "visits", msg + f"; next entered: {nxt.path} at {self.at(nxt.tick)}", nxt.tick)
 
     def at_check(self, i: int, exp: AtExpect) -> Failure | None:
         tick = tick_at(exp.at, self.dt)
@@ -1054,3 +1063,12 @@ class Checker:
             since = f" (since {self.at(changed[-1].tick)})" if changed else ""
             problems.append(f"expected {name} = {expected}, got {_shown(got)}{since}")
         return problems
+
+
+#: The check of each kind of expectation.
+_CHECKS: dict[type, Callable[[Checker, int, Any], Failure | None]] = {
+    OutcomeExpect: Checker.outcome, FinishedExpect: Checker.finished, VisitsExpect: Checker.visits,
+    NeverExpect: Checker.never, AtExpect: Checker.at_check, TemporalExpect: Checker.formula,
+    TransitionsExpect: Checker.transitions, MonitorsExpect: Checker.monitor_check, EnteredExpect: Checker.occurrences,
+    SkippedExpect: Checker.occurrences, ExitedExpect: Checker.occurrences, InvariantExpect: Checker.invariant,
+}

@@ -79,9 +79,11 @@ class Tick:
 
 
 class Term:
-    """One temporal call of a formula, replaced by the name ``name``; ``update`` computes its value at a tick."""
+    """One temporal call of a formula, replaced by the name ``name``; ``update`` (chosen for its ``op`` when the term
+    is made) computes its value at a tick."""
 
-    __slots__ = ("name", "text", "op", "paths", "fn", "last", "begun", "start_value", "kind", "states")
+    __slots__ = ("name", "text", "op", "paths", "fn", "last", "begun", "start_value", "kind", "states", "update",
+                 "edge")
 
     def __init__(self, name: str, text: str, op: str, kind: str, paths: frozenset[str] = frozenset(),
                  fn: Callable[[dict[str, Any]], Any] | None = None) -> None:
@@ -96,46 +98,58 @@ class Term:
         self.start_value: Any = None
         #: paused, suspended: the states it names (bound to the run's machine by :meth:`Formula.bind`)
         self.states: list[Any] = []
+        #: prev, rose, fell, changed: the term's value from the value now and the value at the tick before
+        self.edge = _EDGES.get(op)
+        self.update: Callable[[Tick, dict[str, Any]], None] = getattr(self, _UPDATES.get(op, "_event"))
 
-    def update(self, now: Tick, values: dict[str, Any]) -> None:
-        op = self.op
-        if self.fn is None:  # a state term
-            paths = self.paths
-            if op == "paused" or op == "suspended":
-                values[self.name] = any(_held(st, op == "paused") for st in self.states if st.path in now.active)
-                return
-            if op == "outcome":
-                best: tuple[int, str] | None = None
-                for p in paths:
-                    got = now.outcomes.get(p)
-                    if got is not None and (best is None or got[0] >= best[0]):
-                        best = got
-                values[self.name] = best[1] if best is not None else ""
-            else:
-                values[self.name] = not paths.isdisjoint(getattr(now, op))
-            return
+    def _event(self, now: Tick, values: dict[str, Any]) -> None:
+        """active, entered, skipped, fired: one of the paths is in the tick's set of that name."""
+        values[self.name] = not self.paths.isdisjoint(getattr(now, self.op))
+
+    def _hold(self, now: Tick, values: dict[str, Any]) -> None:
+        """paused, suspended: an active state it names is held so."""
+        paused = self.op == "paused"
+        values[self.name] = any(_held(st, paused) for st in self.states if st.path in now.active)
+
+    def _outcome(self, now: Tick, values: dict[str, Any]) -> None:
+        """outcome: the outcome its states last finished with ('' before one finished)."""
+        got = [now.outcomes[p] for p in self.paths if p in now.outcomes]
+        # the latest finish; of two at one tick, the last looked at
+        values[self.name] = max(reversed(got), key=lambda o: o[0])[1] if got else ""
+
+    def _start(self, now: Tick, values: dict[str, Any]) -> None:
+        """start: the value at the first tick (or the tick :meth:`anchor` set)."""
+        assert self.fn is not None
         current = self.fn(values)
-        if op == "start":
-            if not self.begun:
-                self.begun, self.start_value = True, current
-            values[self.name] = self.start_value
-            return
+        if not self.begun:
+            self.begun, self.start_value = True, current
+        values[self.name] = self.start_value
+
+    def _over_time(self, now: Tick, values: dict[str, Any]) -> None:
+        """prev, rose, fell, changed: from the value now and the one at the tick before (at the first, its own)."""
+        assert self.fn is not None and self.edge is not None
+        current = self.fn(values)
         previous = self.last if self.begun else current
         self.last, self.begun = current, True
-        if op == "prev":
-            values[self.name] = previous
-        elif op == "rose":
-            values[self.name] = current is True and previous is not True
-        elif op == "fell":
-            values[self.name] = current is False and previous is not False
-        else:
-            values[self.name] = current != previous or type(current) is not type(previous)
+        values[self.name] = self.edge(current, previous)
 
     def anchor(self, values: dict[str, Any]) -> None:
         """``start(e)``: from this tick on, e's value at this tick (called after the terms of the tick)."""
         if self.op == "start" and self.fn is not None:
             self.start_value = self.fn(values)
             values[self.name] = self.start_value
+
+
+#: The method of :class:`Term` that updates each kind of term (the others: ``_event``).
+_UPDATES = {"paused": "_hold", "suspended": "_hold", "outcome": "_outcome", "start": "_start", "prev": "_over_time",
+            "rose": "_over_time", "fell": "_over_time", "changed": "_over_time"}
+#: A term over time from (the value now, the value at the tick before).
+_EDGES: dict[str, Callable[[Any, Any], Any]] = {
+    "prev": lambda current, previous: previous,
+    "rose": lambda current, previous: current is True and previous is not True,
+    "fell": lambda current, previous: current is False and previous is not False,
+    "changed": lambda current, previous: current != previous or type(current) is not type(previous),
+}
 
 
 def _held(state: Any, paused: bool) -> bool:
@@ -344,7 +358,7 @@ class Watch:
 
     def __init__(self, index: int, mode: str, body: Formula, first: int, last: int, *,
                  until: Formula | None = None, after: Formula | None = None, span: int | None = None,
-                 nth: int | None = None, count: tuple[int | None, int | None, int | None] = (None, None, None),
+                 nth: int | None = None, count: Count | None = None,
                  at: list[int] | None = None, label: str | None = None) -> None:
         self.index = index
         self.mode = mode
@@ -355,7 +369,7 @@ class Watch:
         self.after = after
         self.span = span
         self.nth = nth
-        self.count = count
+        self.count = count or Count()
         self.at = at
         self.label = label or mode
         self.verdict: Verdict | None = None
@@ -368,7 +382,7 @@ class Watch:
         self.triggers = 0
         #: open obligations of an ``after``: (trigger tick, last tick)
         self.open: list[tuple[int, int]] = []
-        self.anchored = False
+        #: the window began: the body was looked at (and its start() anchored)
         self.checked = False
         #: mode "at": (tick, held, values shown) at the last tick looked at up to ``first``
         self.seen: tuple[int, bool, str] | None = None
@@ -380,6 +394,14 @@ class Watch:
         self.force = True
         self.every_tick = any(f.every_tick for f in self.formulas)
         self.idle_every = self.every_tick if after is None or body.transient else after.every_tick
+        #: the first tick looked at: ``at`` looks at every tick up to its own, to know the machine as it ended
+        self.begin = 0 if mode == "at" else first
+        #: the check of each tick of the window, for the mode
+        self._check: Callable[[int, Any, Any, Any, dict[str, Any], Callable[[int], str]], None] = getattr(
+            self, "_step_after" if after is not None else "_step_until" if until is not None else f"_step_{mode}")
+        #: what it is stepped for now: with an ``after`` and nothing open, the idle ones
+        self.live_deps = self.idle_deps
+        self.live_every = self.idle_every
         self.transient = any(f.transient for f in self.formulas)
         #: the last values shown for a failure found later (an ``after`` whose span ran out between two ticks)
         self._shown = ""
@@ -396,84 +418,96 @@ class Watch:
             g = self.until.step(now, values) if self.until is not None else None
             trig = self.after.step(now, values) if self.after is not None else None
         except (ExprRuntimeError, TypeError, ValueError, ArithmeticError, KeyError) as exc:
-            if tick <= self.last and (tick >= self.first or self.mode == "at"):
+            if self.begin <= tick <= self.last:
                 self.fail(f"'{self.body.text}' could not be evaluated at {at(tick)}: {exc}", tick)
             return
-        mode = self.mode
-        if mode == "at":  # one tick; if the run ends before it, the machine as it ended
-            if tick <= self.first:
-                self.seen = (tick, f is True, "" if f is True else self.body.shown(values))
-            return
-        if tick < self.first or tick > self.last:
-            return
-        self.checked = True
-        if not self.anchored:
-            self.anchored = True
-            self.body.anchor(values)
-            f = self.body.fn(values)
-        if self.after is None:
-            self._step_alone(tick, f, g, values, at)
-        else:
-            self._step_after(tick, f, trig, values, at)
+        if self.begin <= tick <= self.last:
+            if not self.checked:  # the window's first tick: start() reads its values
+                self.checked = True
+                self.body.anchor(values)
+                f = self.body.fn(values)
+            self._check(tick, f, g, trig, values, at)
 
-    def _step_alone(self, tick: int, f: Any, g: Any, values: dict[str, Any], at: Callable[[int], str]) -> None:
-        """A step without a trigger: ``always`` (maybe ``until``), ``never``, or ``eventually`` (its runs kept)."""
-        text = self.body.text
-        mode = self.mode
-        if self.until is not None:
-            if g is True:
-                self.done = True
-            elif f is not True:
-                self.fail(f"'{text}' is false at {at(tick)}, before '{self.until.text}' held", tick, values)
-        elif mode == "always":
-            if f is not True:
-                self.fail(f"'{text}' is false at {at(tick)}", tick, values)
-        elif mode == "never":
-            if f is True:
-                self.fail(f"'{text}' holds at {at(tick)}", tick, values)
-        elif f is True:
+    def _step_at(self, tick: int, f: Any, g: Any, trig: Any, values: dict[str, Any],
+                 at: Callable[[int], str]) -> None:
+        """``at``: the formula at its tick; if the run ends before it, the machine as it ended."""
+        self.seen = (tick, f is True, "" if f is True else self.body.shown(values))
+
+    def _step_until(self, tick: int, f: Any, g: Any, trig: Any, values: dict[str, Any],
+                    at: Callable[[int], str]) -> None:
+        """``always`` ... ``until``: done when ``until`` holds, failed when the body is false before."""
+        if g is True:
+            self.done = True
+        elif f is not True:
+            assert self.until is not None
+            self.fail(f"'{self.body.text}' is false at {at(tick)}, before '{self.until.text}' held", tick, values)
+
+    def _step_always(self, tick: int, f: Any, g: Any, trig: Any, values: dict[str, Any],
+                     at: Callable[[int], str]) -> None:
+        if f is not True:
+            self.fail(f"'{self.body.text}' is false at {at(tick)}", tick, values)
+
+    def _step_never(self, tick: int, f: Any, g: Any, trig: Any, values: dict[str, Any],
+                    at: Callable[[int], str]) -> None:
+        if f is True:
+            self.fail(f"'{self.body.text}' holds at {at(tick)}", tick, values)
+
+    def _step_eventually(self, tick: int, f: Any, g: Any, trig: Any, values: dict[str, Any],
+                         at: Callable[[int], str]) -> None:
+        """``eventually``: the runs of ticks it holds at."""
+        if f is True:
             if self.holding < 0:
                 self.holding = tick
         elif self.holding >= 0:
             self.runs.append((self.holding, tick - 1))  # it held up to the tick before this one
             self.holding = -1
 
-    def _step_after(self, tick: int, f: Any, trig: Any, values: dict[str, Any], at: Callable[[int], str]) -> None:
+    def _step_after(self, tick: int, f: Any, g: Any, trig: Any, values: dict[str, Any],
+                    at: Callable[[int], str]) -> None:
         """A step with a trigger (``after``): open a span where it holds, check the body in the open spans."""
-        text = self.body.text
-        mode = self.mode
-        trigger = self.after
-        assert trigger is not None
-        if self.open and mode == "eventually" and self.open[0][1] < tick:  # its span ran out since the last look
-            since, end = self.open[0]
-            self.fail(f"'{text}' did not hold within {self.span} tick(s) after '{trigger.text}' held at "
-                      f"{at(since)}; at {at(end)}", end)
+        if self.open and self.mode == "eventually" and self.open[0][1] < tick:  # its span ran out since the last look
+            self.fail(self._ran_out(self.open[0], at), self.open[0][1])
             return
         self.open = [o for o in self.open if o[1] >= tick]
         if trig is True:
-            self.triggers += 1
-            if self.nth is None or self.triggers == self.nth:
-                self.body.anchor(values)
-                f = self.body.fn(values)
-                self.open.append((tick, self.last if self.span is None else tick + self.span))
-        if not self.open:
-            return
+            f = self._triggered(tick, f, values)
+        if self.open:
+            self._check_span(tick, f, values, at)
+        self.live_deps, self.live_every = (self.deps, self.every_tick) if self.open else \
+            (self.idle_deps, self.idle_every)
+
+    def _triggered(self, tick: int, f: Any, values: dict[str, Any]) -> Any:
+        """The trigger held: counted, and (each time, or its ``nth`` time) a span opens at this tick, with the
+        body's ``start()`` anchored at it; the body's value."""
+        self.triggers += 1
+        if self.nth is not None and self.triggers != self.nth:
+            return f
+        self.body.anchor(values)
+        self.open.append((tick, self.last if self.span is None else tick + self.span))
+        return self.body.fn(values)
+
+    def _check_span(self, tick: int, f: Any, values: dict[str, Any], at: Callable[[int], str]) -> None:
+        """The body at a tick of the open span that began first."""
+        assert self.after is not None
         since = self.open[0][0]
-        if mode == "always" and f is not True:
-            self.fail(f"'{text}' is false at {at(tick)}, {tick - since} tick(s) after '{trigger.text}' held at "
-                      f"{at(since)}", tick, values)
-        elif mode == "never" and f is True:
-            self.fail(f"'{text}' holds at {at(tick)}, {tick - since} tick(s) after '{trigger.text}' held at "
-                      f"{at(since)}", tick, values)
-        elif mode == "eventually":
+        mode = self.mode
+        if mode == "eventually":
             if f is True:
                 self.hits.append(tick)
                 self.open = []
             elif self.open[0][1] == tick:
-                self.fail(f"'{text}' did not hold within {self.span} tick(s) after '{trigger.text}' held at "
-                          f"{at(since)}; at {at(tick)}", tick, values)
+                self.fail(self._ran_out((since, tick), at), tick, values)
             else:
                 self._shown = self.body.shown(values)
+        elif (f is True) is (mode == "never"):  # always: false breaks it; never: true does
+            self.fail(f"'{self.body.text}' {'holds' if f is True else 'is false'} at {at(tick)}, {tick - since} "
+                      f"tick(s) after '{self.after.text}' held at {at(since)}", tick, values)
+
+    def _ran_out(self, span: tuple[int, int], at: Callable[[int], str]) -> str:
+        """An ``eventually`` whose span ended with the body never true."""
+        assert self.after is not None
+        return (f"'{self.body.text}' did not hold within {self.span} tick(s) after '{self.after.text}' held at "
+                f"{at(span[0])}; at {at(span[1])}")
 
     def _after_verdict(self, end: int, last: int, at: Callable[[int], str]) -> Verdict | None:
         """The verdict of a triggered expectation: its trigger never held (enough), or its last span ran out."""
@@ -485,9 +519,7 @@ class Watch:
         if self.mode == "eventually" and self.open:
             since, until = self.open[0]
             if until <= last:
-                return Verdict(f"'{text}' did not hold within {self.span} tick(s) after '{self.after.text}' "
-                               f"held at {at(since)}; at {at(until)}" + (f" ({self._shown})" if self._shown
-                                                                         else ""), until)
+                return Verdict(self._ran_out(self.open[0], at) + (f" ({self._shown})" if self._shown else ""), until)
             return Verdict(f"'{text}' did not hold after '{self.after.text}' held at {at(since)}; the run "
                            f"ended at {at(end)}", last)
         return None
@@ -527,19 +559,20 @@ class Watch:
         n = sum(b - a + 1 for a, b in runs)
         hits = [t for a, b in runs for t in range(a, min(b, a + 100) + 1)][:100]
         shown = ", ".join(times(t) for t in hits[:6]) + (", ..." if n > 6 else "")
-        text = self.body.text
         if self.at is not None:
             return None if hits == self.at else self._exact_ticks_verdict(hits, shown, last, times)
-        if self.count == (None, None, None):
-            return None if n else Verdict(f"'{text}' never held (up to {at(last)})", last)
-        want = _outside(n, *self.count)
-        if want is None:
-            return None
-        limit = self.count[0] if self.count[0] is not None else self.count[2]
-        tick = hits[limit] if limit is not None and n > limit and limit < len(hits) else last
-        return Verdict(f"expected '{text}' to hold at {want}, it held at {_ticks(n)}"
-                       + (f" (at {shown} s)" if n else ""), tick)
+        if self.count == Count():
+            return None if n else Verdict(f"'{self.body.text}' never held (up to {at(last)})", last)
+        return None if within(n, self.count) else self._count_verdict(n, hits, shown, last)
 
+    def _count_verdict(self, n: int, hits: list[int], shown: str, last: int) -> Verdict:
+        """``eventually`` held at ``n`` ticks, not as many as its count wants; the verdict at the tick one too many
+        (or at the end)."""
+        c = self.count
+        limit = c.count if c.count is not None else c.max
+        tick = hits[limit] if limit is not None and n > limit and limit < len(hits) else last
+        return Verdict(f"expected '{self.body.text}' to hold at {bounds(c, _ticks)}, it held at {_ticks(n)}"
+                       + (f" (at {shown} s)" if n else ""), tick)
 
     def _exact_ticks_verdict(self, hits: list[int], shown: str, last: int, times: Callable[[int], str]) -> Verdict:
         """``eventually`` with ``at``: it held at other ticks than those listed; the verdict at the first that
@@ -550,20 +583,33 @@ class Watch:
         return Verdict(f"expected '{self.body.text}' to hold at {', '.join(times(t) for t in self.at)} s, it "
                        f"held at {shown or 'no tick'}" + (" s" if hits else ""), min(differs, last))
 
-def _outside(n: int, count: int | None, low: int | None, high: int | None) -> str | None:
-    """What was wanted, when ``n`` ticks are not exactly ``count`` or not within ``low`` and ``high``; else ``None``."""
-    if (count is None or n == count) and (low is None or n >= low) and (high is None or n <= high):
-        return None
-    if count is not None:
-        return f"exactly {_ticks(count)}"
-    bounds = [f"at least {_ticks(low)}" if low is not None else "",
-              f"at most {_ticks(high)}" if high is not None else ""]
-    return " and ".join(b for b in bounds if b)
+@dataclass(frozen=True)
+class Count:
+    """How often something is expected: exactly ``count`` times, at least ``min``, at most ``max`` (``None``: no
+    bound)."""
+
+    count: int | None = None
+    min: int | None = None
+    max: int | None = None
+
+
+def within(n: int, c: Any) -> bool:
+    """Whether ``n`` meets ``c``'s ``count``, ``min`` and ``max`` (each ``None``: no bound)."""
+    return (c.count is None or n == c.count) and (c.min is None or n >= c.min) and (c.max is None or n <= c.max)
+
+
+def bounds(c: Any, words: Callable[[int], str]) -> str:
+    """``c``'s bounds in words: "exactly N", or "at least A and at most B" (a number in ``words``)."""
+    if c.count is not None:
+        return f"exactly {words(c.count)}"
+    return " and ".join(x for x in (f"at least {words(c.min)}" if c.min is not None else "",
+                                    f"at most {words(c.max)}" if c.max is not None else "") if x)
 
 
 def _ticks(n: int) -> str:
     return "1 tick" if n == 1 else f"{n} ticks"
 
 
-__all__ = ["STATE_TERMS", "TEMPORAL_FUNCTIONS", "TIME_TERMS", "Formula", "FormulaError", "Term", "Tick", "Verdict",
-           "Watch", "compile_formula", "formula_names", "matching_paths", "state_argument"]
+__all__ = ["STATE_TERMS", "TEMPORAL_FUNCTIONS", "TIME_TERMS", "Count", "Formula", "FormulaError", "Term", "Tick",
+           "Verdict", "Watch", "bounds", "compile_formula", "formula_names", "matching_paths", "state_argument",
+           "within"]

@@ -105,11 +105,7 @@ class PauseChange:
 
 def pause_changes(scenario: Scenario, dt: float) -> list[PauseChange]:
     """The scenario's ``pause`` and ``resume`` inputs, in time order (ties: scenario order)."""
-    out = []
-    for i, item in enumerate(scenario.inputs):
-        if isinstance(item, PauseInput):
-            out.append(PauseChange(item.at, tick_at(item.at, dt), item.pause.strip("/"), True, i))
-        elif isinstance(item, ResumeInput):
-            out.append(PauseChange(item.at, tick_at(item.at, dt), item.resume.strip("/"), False, i))
+    out = [PauseChange(item.at, tick_at(item.at, dt), *item.held(), i) for i, item in enumerate(scenario.inputs)
+           if isinstance(item, (PauseInput, ResumeInput))]
     out.sort(key=lambda c: (c.time, c.index))
     return out

@@ -99,18 +99,16 @@ class _Expander:
             return None, None, f"{file}: include cycle", True
         if len(self.stack) >= MAX_INCLUDE_DEPTH:
             return None, None, f"{file}: nested too deep", True
-        seen = self.seen
-        if path not in seen:
-            seen[path] = (read_include(path), here)
-            got = seen[path][0]
-            if isinstance(got, str):
-                return None, None, f"{file}: {got}", True
-            data, folder = got
-            return data, expander(folder, here, self.stack + (path,), seen), file, False
-        got, first = seen[path]
+        fresh = path not in self.seen
+        if fresh:
+            self.seen[path] = (read_include(path), here)
+        got, first = self.seen[path]
         if isinstance(got, str):
             return None, None, f"{file}: {got}", True
-        return None, None, f"{file}, drawn in {first}", False
+        if not fresh:
+            return None, None, f"{file}, drawn in {first}", False
+        data, folder = got
+        return data, expander(folder, here, self.stack + (path,), self.seen), file, False
 
 
 def read_include(path: Path) -> tuple[dict[str, Any], Path] | str:

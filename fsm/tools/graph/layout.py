@@ -219,20 +219,23 @@ def sequence_machine(st: dict[str, Any], start: str = "start") -> dict[str, Any]
     arrows, an arrow (typed ``start``) to each non-blocking sequence from the step it follows, its exception
     sequences beside, unconnected. The UMLet writer types the start arrows ``Finished`` too (what a diagram can
     say); the reader rebuilds the steps from the arrows."""
-    steps = [s for s in st["steps"] if isinstance(s, dict) and isinstance(s.get("id"), str)]
+    steps = _named(st["steps"])
     blocking = [s for s in steps if not (s.get("type") == "Sequence" and s.get("blocking") is False)]
     transitions: list[dict[str, Any]] = []
     last: str | None = None
     for s in steps:
+        if last is not None:
+            transitions.append({"type": "Finished" if s in blocking else start, "from": last, "to": s["id"]})
         if s in blocking:
-            if last is not None:
-                transitions.append({"type": "Finished", "from": last, "to": s["id"]})
             last = s["id"]
-        elif last is not None:
-            transitions.append({"type": start, "from": last, "to": s["id"]})
-    exceptions = [e for e in st.get("exceptions") or () if isinstance(e, dict) and isinstance(e.get("id"), str)]
+    exceptions = _named(st.get("exceptions") or ())
     initial = blocking[0]["id"] if blocking else (steps[0]["id"] if steps else "")
     return {"initial": initial, "states": steps + exceptions, "transitions": transitions}
+
+
+def _named(items: Any) -> list[dict[str, Any]]:
+    """The steps (or exception sequences) of a Sequence that are dictionaries with a string ``id``."""
+    return [s for s in items if isinstance(s, dict) and isinstance(s.get("id"), str)]
 
 
 def inline_only(state: dict[str, Any]) -> Expansion | None:
@@ -997,13 +1000,7 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
     off = (k % 3 - 1) * SPACING
     start = (s[0] + s[2] / 2 + _within(off, s[2]), s[1] + s[3] / 2 + _within(off, s[3]))
     goal = (t[0] + t[2] / 2 + _within(off, t[2]), t[1] + t[3] / 2 + _within(off, t[3]))
-    # two lanes beside every side, SPACING apart, so that a second arrow along a box need not run on (or right
-    # beside) the first
-    far = c + SPACING
-    xs = sorted({v for x, _, w, _ in boxes for v in (x - c, x - far, x + w + c, x + w + far)}
-                | {start[0], goal[0]})
-    ys = sorted({v for _, y, _, h in boxes for v in (y - c, y - far, y + h + c, y + h + far)}
-                | {start[1], goal[1]})
+    xs, ys = _grid_lines(boxes, start, goal)
 
     def free(a: tuple[float, float], b: tuple[float, float], key: Seg) -> bool:
         """No box in the way; the ends' own boxes only left (entered) straight from (to) their middle."""
@@ -1020,44 +1017,69 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
                 return False
         return True
 
+    def step_cost(a: tuple[float, float], b: tuple[float, float], turned: bool) -> float | None:
+        """What the grid run from ``a`` to ``b`` costs (None: it is not free)."""
+        key = (min(a[0], b[0]), min(a[1], b[1]), max(a[0], b[0]), max(a[1], b[1]))
+        if not free(a, b, key):
+            return None
+        length = abs(b[0] - a[0]) + abs(b[1] - a[1])
+        crossed = _crossed(key, kept, crossings, across_h, across_v)
+        return length + CROSS * _shared(used, a, b) + (BEND if turned else 0) + CROSS * crossed
+
     xi, yi = {v: i for i, v in enumerate(xs)}, {v: i for i, v in enumerate(ys)}
+    end = _cheapest(xs, ys, (xi[start[0]], yi[start[1]]), (xi[goal[0]], yi[goal[1]]), step_cost)
+    if end is None:
+        return None
+    return _cut(_corners(*end, xs, ys), s, t)
+
+
+def _grid_lines(boxes: list[tuple[float, float, float, float]], start: Point, goal: Point,
+                ) -> tuple[list[float], list[float]]:
+    """The grid's vertical and horizontal lines: two lanes beside every side of every box, ``SPACING`` apart (so
+    that a second arrow along a box need not run on, or right beside, the first), and through the two ends."""
+    c = CLEARANCE
+    far = c + SPACING
+    xs = sorted({v for x, _, w, _ in boxes for v in (x - c, x - far, x + w + c, x + w + far)}
+                | {start[0], goal[0]})
+    ys = sorted({v for _, y, _, h in boxes for v in (y - c, y - far, y + h + c, y + h + far)}
+                | {start[1], goal[1]})
+    return xs, ys
+
+
+def _cheapest(xs: list[float], ys: list[float], origin: tuple[int, int], target: tuple[int, int],
+              step_cost: Callable[[Point, Point, bool], float | None],
+              ) -> tuple[tuple[int, int], dict[tuple[int, int], tuple[int, int] | None]] | None:
+    """A* over the grid points from ``origin`` to ``target`` (indices into ``xs`` and ``ys``), each run costing
+    ``step_cost(a, b, turned)``, with the Manhattan distance to the target: the target and the way each point
+    was reached, or None when it cannot be reached."""
     steps = ((1, 0), (-1, 0), (0, 1), (0, -1))
-    origin = (xi[start[0]], yi[start[1]])
-    target = (xi[goal[0]], yi[goal[1]])
     # one state per grid point (the direction it is reached in rides along): a bend is charged against the
     # cheapest way in, which is not always the cheapest path with bends counted, but four times less to search
     best: dict[tuple[int, int], float] = {origin: 0.0}
     came: dict[tuple[int, int], tuple[int, int] | None] = {origin: None}
     heap: list[tuple[float, float, int, int, int]] = [(0.0, 0.0, origin[0], origin[1], -1)]
-    gx, gy = goal
-    end: tuple[int, int] | None = None
+    gx, gy = xs[target[0]], ys[target[1]]
     while heap:
         _, cost, i, j, d = heapq.heappop(heap)
         if cost > best.get((i, j), math.inf):
             continue
         if (i, j) == target:
-            end = (i, j)
-            break
+            return (i, j), came
         a = (xs[i], ys[j])
         for nd, (di, dj) in enumerate(steps):
             ni, nj = i + di, j + dj
             if not (0 <= ni < len(xs) and 0 <= nj < len(ys)):
                 continue
             b = (xs[ni], ys[nj])
-            key = (min(a[0], b[0]), min(a[1], b[1]), max(a[0], b[0]), max(a[1], b[1]))
-            if not free(a, b, key):
+            step = step_cost(a, b, nd != d and d >= 0)
+            if step is None:
                 continue
-            length = abs(b[0] - a[0]) + abs(b[1] - a[1])
-            crossed = _crossed(key, kept, crossings, across_h, across_v)
-            step = length + CROSS * _shared(used, a, b) + (BEND if nd != d and d >= 0 else 0) + CROSS * crossed
             new = cost + step
             if new < best.get((ni, nj), math.inf):
                 best[(ni, nj)] = new
                 came[(ni, nj)] = (i, j)
                 heapq.heappush(heap, (new + abs(b[0] - gx) + abs(b[1] - gy), new, ni, nj, nd))
-    if end is None:
-        return None
-    return _cut(_corners(end, came, xs, ys), s, t)
+    return None
 
 
 def _crossed(key: Seg, kept: list[Seg], crossings: dict[Seg, int], across_h: list[tuple[float, float, float]],

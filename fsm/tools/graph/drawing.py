@@ -254,23 +254,13 @@ def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
     """
     placed = _Placed()
     out: list[tuple[Edge, Rect, list[str]]] = []
-    def arrow_length(item: tuple[Edge, Rect | None, tuple[int, ...]]) -> float:
-        return sum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in pairwise(item[0].points))
-
-    for e, container, ancestors in sorted(scene.edges, key=arrow_length):
+    for e, container, ancestors in sorted(scene.edges, key=lambda item: _length(item[0].points)):
         text = short_edge_label(e.doc)
         if not text or len(e.points) < 2:
             continue
         shapes = _label_shapes(text)
         near = _Near(scene, placed, container, ancestors, id(e))
-        length = sum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in pairwise(e.points))
-        anchors = []
-        for t in _ALONG:
-            px, py, dx, dy = _point_at(e.points, t * length)
-            nx, ny = dy, -dx  # right of a downward arrow, above a rightward one
-            if nx < 0 or (nx == 0 and ny > 0):
-                nx, ny = -nx, -ny
-            anchors.append((px, py, nx, ny))
+        anchors = _anchors(e.points)
         own = [(a[0], a[1], b[0], b[1]) for a, b in pairwise(e.points)]
         best: list[Any] = [math.inf, -1, None, []]  # cost, candidate number, place, lines
 
@@ -288,6 +278,25 @@ def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
     return out
 
 
+def _length(pts: list[list[float]]) -> float:
+    """An arrow's length along its points."""
+    return sum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in pairwise(pts))
+
+
+def _anchors(pts: list[list[float]]) -> list[tuple[float, float, float, float]]:
+    """The points of an arrow a label may stand at (``_ALONG`` its length), each with the unit normal pointing
+    right of a downward arrow and above a rightward one."""
+    length = _length(pts)
+    anchors = []
+    for t in _ALONG:
+        px, py, dx, dy = _point_at(pts, t * length)
+        nx, ny = dy, -dx
+        if nx < 0 or (nx == 0 and ny > 0):
+            nx, ny = -nx, -ny
+        anchors.append((px, py, nx, ny))
+    return anchors
+
+
 def _search(shapes: list[tuple[list[str], float, float, float]], groups: tuple[tuple[Candidate, ...], ...],
             best: list[Any], near: _Near, anchors: list[tuple[float, float, float, float]],
             own: list[tuple[float, float, float, float]]) -> None:
@@ -298,16 +307,9 @@ def _search(shapes: list[tuple[list[str], float, float, float]], groups: tuple[t
             best_cost, best_idx = best[0], best[1]
             if base > best_cost or base == best_cost and idx > best_idx:
                 break  # this place and all after it cost at least as much as the best one
-            px, py, nx, ny = anchors[ti]
+            px, py, _, _ = anchors[ti]
             lines, w, h, _ = shapes[si]
-            if ring >= COMPASS:  # round the point: past the label's own half size, then a step a ring
-                sx, sy = _DIRECTIONS[side]
-                d = 4 + abs(sx) * w / 2 + abs(sy) * h / 2 + (ring - COMPASS) * (LINE_H + 2)
-            else:
-                sx, sy = nx * side, ny * side
-                d = 0.0 if ring < 0 else 4 + abs(sx) * w / 2 + abs(sy) * h / 2 + ring * (LINE_H + 2) * 0.75
-            cx, cy = px + sx * d, py + sy * d
-            r = (round(cx - w / 2, 1), round(cy - h / 2, 1), w, h)
+            r = _candidate_rect(anchors[ti], w, h, ring, side)
             if ring < 0:  # on its own arrow, which costs CROSSED more: no better than the best one?
                 low = base + CROSSED
                 if (low > best_cost or low == best_cost and idx > best_idx) and \
@@ -321,6 +323,20 @@ def _search(shapes: list[tuple[list[str], float, float, float]], groups: tuple[t
                 best[:] = [cost, idx, r, lines]
         if best[0] < CROSSED:
             break
+
+
+def _candidate_rect(anchor: tuple[float, float, float, float], w: float, h: float, ring: int, side: int) -> Rect:
+    """Where a ``w`` x ``h`` label stands for a candidate: on its arrow's point (ring -1), beside it on ``side``
+    of the arrow, a step further out each ring, or (from ``COMPASS`` on) round the point in direction ``side``."""
+    px, py, nx, ny = anchor
+    if ring >= COMPASS:  # round the point: past the label's own half size, then a step a ring
+        sx, sy = _DIRECTIONS[side]
+        d = 4 + abs(sx) * w / 2 + abs(sy) * h / 2 + (ring - COMPASS) * (LINE_H + 2)
+    else:
+        sx, sy = nx * side, ny * side
+        d = 0.0 if ring < 0 else 4 + abs(sx) * w / 2 + abs(sy) * h / 2 + ring * (LINE_H + 2) * 0.75
+    cx, cy = px + sx * d, py + sy * d
+    return round(cx - w / 2, 1), round(cy - h / 2, 1), w, h
 
 
 class _Placed:

@@ -418,17 +418,17 @@ def _stored_frames(n: Node) -> list[tuple[float, float, float, float]] | None:
     frames = []
     for p, fr in zip(n.parts, stored, strict=True):
         box = _rect(fr)
-        if box is None:
+        if box is None or not _holds((n.x, n.y, n.w, n.h), box[0], box[1], box[0] + box[2], box[1] + box[3]):
             return None
-        x, y, w, h = box
-        if x < n.x or y < n.y or x + w > n.x + n.w or y + h > n.y + n.h:
+        if (p.level.nodes or p.level.note is not None) and not _holds(box, *_node_bbox(p.level)):
             return None
-        if p.level.nodes or p.level.note is not None:
-            x0, y0, x1, y1 = _node_bbox(p.level)
-            if x0 < x or y0 < y or x1 > x + w or y1 > y + h:
-                return None
-        frames.append((x, y, w, h))
+        frames.append(box)
     return frames
+
+
+def _holds(box: tuple[float, float, float, float], x0: float, y0: float, x1: float, y1: float) -> bool:
+    """Whether ``box`` (x, y, w, h) holds the rectangle from (``x0``, ``y0``) to (``x1``, ``y1``)."""
+    return not (x0 < box[0] or y0 < box[1] or x1 > box[0] + box[2] or y1 > box[1] + box[3])
 
 
 def _place(level: LevelLayout, by_id: dict[str, Node], label_width: Callable[[dict[str, Any]], float] | None = None,
@@ -507,9 +507,7 @@ def _place_marker(level: LevelLayout, initial: Node, stored: bool) -> None:
         level.marker = (float(ini["x"]), float(ini["y"]))
         if _num(ini.get("w")) and _num(ini.get("h")):
             level.marker_size = (float(ini["w"]), float(ini["h"]))
-        pts = ini.get("points")
-        if isinstance(pts, list) and len(pts) >= 2 and all(_is_point(p) for p in pts):
-            level.marker_points = [[float(p[0]), float(p[1])] for p in pts]
+        level.marker_points = _points(ini) or []
     else:
         level.marker = (initial.x + initial.w / 2 - MARKER / 2, initial.y - MARKER - 40)
     if not level.marker_points:
@@ -536,20 +534,26 @@ def _fit_composites(level: LevelLayout, drawing: bool) -> None:
             if w > n.w or h > n.h:
                 _grow(level, n, max(n.w, w), max(n.h, h), drawing)
             _arrange(n)
-            continue
-        sub, p = n.parts[0].level, n.parts[0]
-        p.x, p.y, p.w, p.h = n.x, n.y, n.w, n.h
-        if not sub.nodes:
-            continue
+        else:
+            _fit_own(level, n, drawing)
+
+
+def _fit_own(level: LevelLayout, n: Node, drawing: bool) -> None:
+    """A plain composite's content in this diagram's coordinates: moved in when it sticks out left or above, the
+    box grown when it sticks out right or below."""
+    sub, p = n.parts[0].level, n.parts[0]
+    p.x, p.y, p.w, p.h = n.x, n.y, n.w, n.h
+    if not sub.nodes:
+        return
+    x0, y0, x1, y1 = _node_bbox(sub)
+    if x0 < n.x or y0 < n.y:
+        sub.shift(max(0, n.x + PAD - x0), max(0, n.y + PAD_TOP - y0))
         x0, y0, x1, y1 = _node_bbox(sub)
-        if x0 < n.x or y0 < n.y:
-            sub.shift(max(0, n.x + PAD - x0), max(0, n.y + PAD_TOP - y0))
-            x0, y0, x1, y1 = _node_bbox(sub)
-        w = _snap(x1 - n.x + PAD) if x1 > n.x + n.w else n.w
-        h = _snap(y1 - n.y + PAD) if y1 > n.y + n.h else n.h
-        if w != n.w or h != n.h:
-            _grow(level, n, w, h, drawing)
-        p.x, p.y, p.w, p.h = n.x, n.y, n.w, n.h
+    w = _snap(x1 - n.x + PAD) if x1 > n.x + n.w else n.w
+    h = _snap(y1 - n.y + PAD) if y1 > n.y + n.h else n.h
+    if w != n.w or h != n.h:
+        _grow(level, n, w, h, drawing)
+    p.x, p.y, p.w, p.h = n.x, n.y, n.w, n.h
 
 
 def _grow(level: LevelLayout, n: Node, w: float, h: float, drawing: bool) -> None:
@@ -657,6 +661,14 @@ def _rect(v: Any) -> tuple[float, float, float, float] | None:
     if not all(_num(lay.get(k)) for k in "xywh"):
         return None
     return float(lay["x"]), float(lay["y"]), float(lay["w"]), float(lay["h"])
+
+
+def _points(lay: dict[str, Any]) -> list[list[float]] | None:
+    """The stored ``points`` of an arrow (at least two ``[x, y]`` of finite numbers), else None."""
+    pts = lay.get("points")
+    if not (isinstance(pts, list) and len(pts) >= 2 and all(_is_point(p) for p in pts)):
+        return None
+    return [[float(p[0]), float(p[1])] for p in pts]
 
 
 def _is_point(p: Any) -> bool:
@@ -818,12 +830,11 @@ def _pair(e: Edge) -> tuple[int, int]:
 def _keep_stored_points(level: LevelLayout, e: Edge) -> bool:
     """Give ``e`` its stored points when it has them and its two boxes kept theirs (or moved together); when the
     boxes moved, its ends stay on them and its bends follow the inserted space. Whether it had them."""
-    pts = _dict(e.doc.get("layout")).get("points")
-    if not (e.src.placed and e.dst.placed and isinstance(pts, list) and len(pts) >= 2
-            and all(_is_point(p) for p in pts) and _stored(e.src) and _stored(e.dst)
+    pts = _points(_dict(e.doc.get("layout")))
+    if not (e.src.placed and e.dst.placed and pts is not None and _stored(e.src) and _stored(e.dst)
             and e.src.reflowed == e.dst.reflowed):
         return False
-    e.points = [[float(p[0]), float(p[1])] for p in pts]
+    e.points = pts
     if level.inserted or e.src.reflowed != (0.0, 0.0):  # boxes moved: the ends stay on their boxes
         dx, dy = e.src.reflowed
         middle = [] if e.src.detached or e.dst.detached else \

@@ -476,19 +476,16 @@ def _place_rows(level: LevelLayout, rows: dict[int, list[Node]], by_id: dict[str
     placed = [n for n in level.nodes if n.placed]
     y = max(max((n.y + n.h for n in placed), default=-GAP_Y) + GAP_Y, MARKER + 40)
     left = min((n.x for n in placed), default=0.0)
-    into: dict[str, list[dict[str, Any]]] = {}  # the arrows into each state, for the room their labels need
+    into: dict[str, list[float]] = {}  # the widths of the labels of the arrows into each state
     if label_width is not None:
         for tr in _dicts(level.machine, "transitions"):
             if str(tr.get("from")) in by_id:
-                into.setdefault(str(tr.get("to")), []).append(tr)
+                into.setdefault(str(tr.get("to")), []).append(label_width(tr))
     for i, r in enumerate(sorted(rows)):
-        gap_x: float = GAP_X
-        if label_width is not None:
-            ids = dict.fromkeys(n.id for n in rows[r])
-            widths = [label_width(tr) for sid in ids for tr in into.get(sid, [])]
-            gap_x = max(GAP_X, _snap(max(widths, default=0) + 20))
-            if i:
-                y += max(0, len(widths) - 1) * 16
+        widths = [w for sid in dict.fromkeys(n.id for n in rows[r]) for w in into.get(sid, [])]
+        gap_x = max(GAP_X, _snap(max(widths, default=0) + 20))
+        if i:
+            y += max(0, len(widths) - 1) * 16
         x = left
         for n in rows[r]:
             n.x, n.y = x, y

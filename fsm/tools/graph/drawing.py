@@ -30,7 +30,7 @@ from .labels import (
     state_label,
     text_width,
 )
-from .layout import REGION_HEAD, Edge, LevelLayout, Node, lay_out
+from .layout import REGION_HEAD, Edge, LevelLayout, Node, lay_out, region_name
 
 
 def _box_size(node: Node) -> tuple[float, float]:
@@ -463,8 +463,7 @@ def _region_prefix(n: Node, path: str, i: int) -> str:
     them: a ``Parallel`` region adds its machine's name (else ``region<i+1>``), other composites nothing."""
     if n.doc.get("type") != "Parallel":
         return path
-    name = n.parts[i].level.machine.get("name")
-    return f"{path}/{name if isinstance(name, str) and name else f'region{i + 1}'}"
+    return f"{path}/{region_name(n.parts[i].level.machine, i)}"
 
 
 def _draw(level: LevelLayout, body: list[str], prefix: str = "", where: dict[int, str] | None = None) -> None:

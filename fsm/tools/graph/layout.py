@@ -238,6 +238,13 @@ def _named(items: Any) -> list[dict[str, Any]]:
     return [s for s in items if isinstance(s, dict) and isinstance(s.get("id"), str)]
 
 
+def region_name(machine: Any, i: int) -> str:
+    """The name of region ``i`` of a Parallel state as the loader names it: its machine's ``name`` (a
+    non-empty string), else ``region<i+1>``."""
+    name = machine.get("name") if isinstance(machine, dict) else None
+    return name if isinstance(name, str) and name else f"region{i + 1}"
+
+
 def inline_only(state: dict[str, Any]) -> Expansion | None:
     """The default expansion: an inline ``FSMState`` machine, in this diagram's coordinates."""
     m = inline_machine(state)
@@ -882,24 +889,30 @@ def _spread_pairs(level: LevelLayout) -> None:
     for pair in straight.values():
         for i, e in enumerate(pair):
             for f in pair[i + 1:]:
-                (a0, a1), (a2, a3) = e.points
-                (b0, b1), (b2, b3) = f.points
-                a, b = (a0, a1, a2, a3), (b0, b1, b2, b3)
-                if segments_cross(a, b):  # the two cross: each takes the other's end on one of the boxes
-                    j = 0 if f.src is e.src else 1
-                    e.points[0], f.points[j] = f.points[j], e.points[0]
-                    continue
-                gap = parallel_gap(a, b, 0.0)
-                if not 0.5 < gap < SPACING:
-                    continue
-                dx, dy = a[2] - a[0], a[3] - a[1]
-                length = math.hypot(dx, dy)
-                nx, ny = -dy / length, dx / length
-                if (b[0] - a[0]) * nx + (b[1] - a[1]) * ny < 0:  # the normal points from e towards f
-                    nx, ny = -nx, -ny
-                half = (SPACING - gap) / 2 + 1  # whole units: the SVG rounds the points
-                _shift_straight(e, -nx * half, -ny * half)
-                _shift_straight(f, nx * half, ny * half)
+                _part_two(e, f)
+
+
+def _part_two(e: Edge, f: Edge) -> None:
+    """Two straight arrows between the same boxes: swap an end when they cross, else move them apart to
+    ``SPACING`` when they run side by side closer than that."""
+    (a0, a1), (a2, a3) = e.points
+    (b0, b1), (b2, b3) = f.points
+    a, b = (a0, a1, a2, a3), (b0, b1, b2, b3)
+    if segments_cross(a, b):  # the two cross: each takes the other's end on one of the boxes
+        j = 0 if f.src is e.src else 1
+        e.points[0], f.points[j] = f.points[j], e.points[0]
+        return
+    gap = parallel_gap(a, b, 0.0)
+    if not 0.5 < gap < SPACING:
+        return
+    dx, dy = a[2] - a[0], a[3] - a[1]
+    length = math.hypot(dx, dy)
+    nx, ny = -dy / length, dx / length
+    if (b[0] - a[0]) * nx + (b[1] - a[1]) * ny < 0:  # the normal points from e towards f
+        nx, ny = -nx, -ny
+    half = (SPACING - gap) / 2 + 1  # whole units: the SVG rounds the points
+    _shift_straight(e, -nx * half, -ny * half)
+    _shift_straight(f, nx * half, ny * half)
 
 
 def _shift_straight(e: Edge, sx: float, sy: float) -> None:

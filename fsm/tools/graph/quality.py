@@ -166,17 +166,21 @@ def _box_of(g: ElementTree.Element, cls: list[str]) -> _Box | None:
     return _Box(g.get("data-path") or g.get("data-id") or "", r, band)
 
 
+def _classes(el: ElementTree.Element) -> list[str]:
+    return (el.get("class") or "").split()
+
+
 def _read(root: ElementTree.Element) -> _Drawing:
     d = _Drawing([], [], [])
     for g in root.iter(NS + "g"):
-        cls = (g.get("class") or "").split()
+        cls = _classes(g)
         if "node" in cls or "pseudo" in cls:
             box = _box_of(g, cls)
             if box is not None:
                 d.boxes.append(box)
         elif "level" in cls:
             d.edges += [(g.get("data-in") or "", _points(pl)) for pl in g.iter(NS + "polyline")
-                        if "edge" in (pl.get("class") or "").split()]
+                        if "edge" in _classes(pl)]
         elif "label" in cls and (r := _rect(g.find(NS + "rect"))) is not None:
             d.labels.append((g.get("data-in") or "", r))
     return d

@@ -81,17 +81,8 @@ def svg(doc: dict[str, Any], base: str | Path | None = None) -> str:
     body: list[str] = []
     where: dict[int, str] = {}
     _draw(level, body, "", where)
-    for e, (rx, ry, rw, rh), lines in labels:
-        body.append(f'<g class="label" data-in={quoteattr(where.get(id(e), ""))}{_ends(e, where.get(id(e), ""))}>')
-        full = edge_label(e.doc)
-        if lines != [full]:  # shortened or wrapped: the whole label on hover
-            body.append(f"<title>{escape(full)}</title>")
-        body.append(f'<rect class="label" x="{rx:.1f}" y="{ry:.1f}" width="{rw:.1f}" height="{rh:.1f}" fill="white" '
-                    'fill-opacity="0.85"/>')
-        for i, line in enumerate(lines):
-            body.append(f'<text class="label" x="{rx + 2:.1f}" y="{ry + 11 + i * LINE_H:.1f}" font-size="{LABEL_FONT}" '
-                        f'fill="#1a4d80">{escape(line)}</text>')
-        body.append("</g>")
+    for e, r, lines in labels:
+        _draw_label(e, r, lines, where.get(id(e), ""), body)
     title = escape(str(doc.get("name") or "machine"))
     return (f'<svg xmlns="http://www.w3.org/2000/svg" width="{width:.0f}" height="{height:.0f}" '
             f'viewBox="{x0 - m:.0f} {y0 - m:.0f} {width:.0f} {height:.0f}" font-family="Helvetica, Arial, sans-serif" '
@@ -485,6 +476,22 @@ def _draw(level: LevelLayout, body: list[str], prefix: str = "", where: dict[int
     _draw_arrows(level, body, prefix, where)
 
 
+def _draw_label(e: Edge, r: Rect, lines: list[str], prefix: str, body: list[str]) -> None:
+    """An arrow's label in its rectangle, in a group naming where its arrow is drawn and its ends; the whole
+    label on hover when it is shortened or wrapped."""
+    rx, ry, rw, rh = r
+    body.append(f'<g class="label" data-in={quoteattr(prefix)}{_ends(e, prefix)}>')
+    full = edge_label(e.doc)
+    if lines != [full]:
+        body.append(f"<title>{escape(full)}</title>")
+    body.append(f'<rect class="label" x="{rx:.1f}" y="{ry:.1f}" width="{rw:.1f}" height="{rh:.1f}" fill="white" '
+                'fill-opacity="0.85"/>')
+    for i, line in enumerate(lines):
+        body.append(f'<text class="label" x="{rx + 2:.1f}" y="{ry + 11 + i * LINE_H:.1f}" font-size="{LABEL_FONT}" '
+                    f'fill="#1a4d80">{escape(line)}</text>')
+    body.append("</g>")
+
+
 def _draw_composite(n: Node, attrs: str, body: list[str]) -> None:
     """A composite's box: its title (and note) in a band, its parts' compartments."""
     st = n.doc
@@ -514,16 +521,11 @@ def _draw_composite(n: Node, attrs: str, body: list[str]) -> None:
 
 def _draw_final(n: Node, attrs: str, body: list[str]) -> None:
     """A final state: a UMLet final pseudostate (a small circle, its id beside it), or a box with the icon."""
-    st = n.doc
-    cx, cy = n.x + n.w / 2, n.y + n.h / 2
     if _small_final(n):
-        r = n.w / 2
-        body.append(f'<g class="pseudo"{attrs}>')
-        body.append(f'<circle cx="{cx:.0f}" cy="{cy:.0f}" r="{r:.1f}" fill="white" stroke="#333"/>')
-        body.append(f'<circle cx="{cx:.0f}" cy="{cy:.0f}" r="{max(r - 4, 2):.1f}" fill="#333"/>')
-        body.append(f'<text x="{cx + r + 4:.0f}" y="{cy + 4:.0f}" fill="#555">{escape(str(st.get("id")))}</text>')
-        body.append("</g>")
+        _draw_pseudo_final(n, attrs, body)
         return
+    st = n.doc
+    cy = n.y + n.h / 2
     body.append(f'<g class="node final"{attrs}>')
     body.append(f'<rect x="{n.x:.0f}" y="{n.y:.0f}" width="{n.w:.0f}" height="{n.h:.0f}" rx="10" '
                 'fill="#eef6ee" stroke="#333" stroke-width="3"/>')
@@ -541,6 +543,17 @@ def _draw_final(n: Node, attrs: str, body: list[str]) -> None:
     else:
         t, size = fit(text, right - left, FONT)
         body.append(_text((left + right) / 2, cy + size / 3, t, size))
+    body.append("</g>")
+
+
+def _draw_pseudo_final(n: Node, attrs: str, body: list[str]) -> None:
+    """A UMLet final pseudostate: a bull's eye, its id beside it."""
+    cx, cy = n.x + n.w / 2, n.y + n.h / 2
+    r = n.w / 2
+    body.append(f'<g class="pseudo"{attrs}>')
+    body.append(f'<circle cx="{cx:.0f}" cy="{cy:.0f}" r="{r:.1f}" fill="white" stroke="#333"/>')
+    body.append(f'<circle cx="{cx:.0f}" cy="{cy:.0f}" r="{max(r - 4, 2):.1f}" fill="#333"/>')
+    body.append(f'<text x="{cx + r + 4:.0f}" y="{cy + 4:.0f}" fill="#555">{escape(str(n.doc.get("id")))}</text>')
     body.append("</g>")
 
 

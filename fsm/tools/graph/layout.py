@@ -483,11 +483,7 @@ def _place_rows(level: LevelLayout, rows: dict[int, list[Node]], by_id: dict[str
     placed = [n for n in level.nodes if n.placed]
     y = max(max((n.y + n.h for n in placed), default=-GAP_Y) + GAP_Y, MARKER + 40)
     left = min((n.x for n in placed), default=0.0)
-    into: dict[str, list[float]] = {}  # the widths of the labels of the arrows into each state
-    if label_width is not None:
-        for tr in _dicts(level.machine, "transitions"):
-            if str(tr.get("from")) in by_id:
-                into.setdefault(str(tr.get("to")), []).append(label_width(tr))
+    into = _label_widths_into(level, by_id, label_width)
     for i, r in enumerate(sorted(rows)):
         widths = [w for sid in dict.fromkeys(n.id for n in rows[r]) for w in into.get(sid, [])]
         gap_x = max(GAP_X, _snap(max(widths, default=0) + 20))
@@ -500,6 +496,17 @@ def _place_rows(level: LevelLayout, rows: dict[int, list[Node]], by_id: dict[str
             n.placed = True
             x += n.w + gap_x
         y += max(n.h for n in rows[r]) + GAP_Y
+
+
+def _label_widths_into(level: LevelLayout, by_id: dict[str, Node],
+                       label_width: Callable[[dict[str, Any]], float] | None) -> dict[str, list[float]]:
+    """The widths of the labels of the level's arrows into each state (none without ``label_width``)."""
+    into: dict[str, list[float]] = {}
+    if label_width is not None:
+        for tr in _dicts(level.machine, "transitions"):
+            if str(tr.get("from")) in by_id:
+                into.setdefault(str(tr.get("to")), []).append(label_width(tr))
+    return into
 
 
 def _place_marker(level: LevelLayout, initial: Node, stored: bool) -> None:
@@ -967,9 +974,7 @@ Point = tuple[float, float]
 def _routes(boxes: tuple[Seg, ...], arrows: tuple[tuple[int, int, tuple[Point, ...]], ...],
             marker: tuple[Point, ...]) -> tuple[tuple[Point, ...] | None, ...]:
     """For each arrow ``(source, target, points)`` among ``boxes``, its new path, or None to keep its own."""
-    bad = [k for k, (si, ti, pts) in enumerate(arrows) if si != ti and len(pts) >= 2 and any(
-        i not in (si, ti) and segment_hits_box(a[0], a[1], b[0], b[1], boxes[i], -GRAZE)
-        for a, b in pairwise(pts) for i in range(len(boxes)))]
+    bad = _through_boxes(boxes, arrows)
     kept = [(a[0], a[1], b[0], b[1]) for k, (_, _, pts) in enumerate(arrows) if k not in bad
             for a, b in pairwise(pts)]
     kept += [(a[0], a[1], b[0], b[1]) for a, b in pairwise(marker)]
@@ -983,6 +988,13 @@ def _routes(boxes: tuple[Seg, ...], arrows: tuple[tuple[int, int, tuple[Point, .
             if found is not None:
                 paths[k] = found
     return tuple(tuple((p[0], p[1]) for p in paths[k]) if k in paths else None for k in range(len(arrows)))
+
+
+def _through_boxes(boxes: tuple[Seg, ...], arrows: tuple[tuple[int, int, tuple[Point, ...]], ...]) -> list[int]:
+    """The arrows (not loops) that run through, or closer than ``GRAZE`` along, a box other than their ends."""
+    return [k for k, (si, ti, pts) in enumerate(arrows) if si != ti and len(pts) >= 2 and any(
+        i not in (si, ti) and segment_hits_box(a[0], a[1], b[0], b[1], boxes[i], -GRAZE)
+        for a, b in pairwise(pts) for i in range(len(boxes)))]
 
 
 def _others(paths: dict[int, list[list[float]]], k: int,

@@ -842,8 +842,8 @@ def _keep_stored_points(level: LevelLayout, e: Edge) -> bool:
     """Give ``e`` its stored points when it has them and its two boxes kept theirs (or moved together); when the
     boxes moved, its ends stay on them and its bends follow the inserted space. Whether it had them."""
     pts = _points(_dict(e.doc.get("layout")))
-    if not (e.src.placed and e.dst.placed and pts is not None and _stored(e.src) and _stored(e.dst)
-            and e.src.reflowed == e.dst.reflowed):
+    # a stored box (``stored``) is placed where it was stored
+    if pts is None or e.src.stored is None or e.dst.stored is None or e.src.reflowed != e.dst.reflowed:
         return False
     e.points = pts
     if level.inserted or e.src.reflowed != (0.0, 0.0):  # boxes moved: the ends stay on their boxes
@@ -1178,10 +1178,6 @@ def _within(off: float, size: float) -> float:
 
 def _inside_box(p: tuple[float, float], r: tuple[float, float, float, float]) -> bool:
     return r[0] < p[0] < r[0] + r[2] and r[1] < p[1] < r[1] + r[3]
-
-
-def _stored(n: Node) -> bool:
-    return _rect(n.doc.get("layout")) is not None
 
 
 def _bowed(a: tuple[float, float, float, float], b: tuple[float, float, float, float], k: int, total: int,

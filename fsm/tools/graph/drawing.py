@@ -296,19 +296,21 @@ def _search(shapes: list[tuple[list[str], float, float, float]], groups: tuple[t
     for group in groups:
         for base, idx, ring, ti, si, side in group:
             best_cost, best_idx = best[0], best[1]
-            if (base, idx) > (best_cost, best_idx):
+            if base > best_cost or base == best_cost and idx > best_idx:
                 break  # this place and all after it cost at least as much as the best one
             px, py, _, _ = anchors[ti]
             lines, w, h, _ = shapes[si]
             r = _candidate_rect(anchors[ti], w, h, ring, side)
             if ring < 0:  # on its own arrow, which costs CROSSED more: no better than the best one?
-                if (base + CROSSED, idx) > (best_cost, best_idx) and any(segment_hits_box(*sg, r) for sg in own):
+                low = base + CROSSED
+                if (low > best_cost or low == best_cost and idx > best_idx) and \
+                        any(segment_hits_box(*sg, r) for sg in own):
                     continue
             limit = best_cost - base
             if idx < best_idx:  # as good as the best one would do: it comes first
                 limit = math.nextafter(limit, math.inf)
             cost = base + near.cost(r, (px, py), limit)
-            if (cost, idx) < (best_cost, best_idx):
+            if cost < best_cost or cost == best_cost and idx < best_idx:
                 best[:] = [cost, idx, r, lines]
         if best[0] < CROSSED:
             break

@@ -363,7 +363,8 @@ class _Near:
         ax, ay = anchor
         x0, y0, x1, y1 = air
         # one look into the grid for the boxes (near the place) and the segments (between the place and its arrow)
-        found = self.scene.grid.near(min(x0, ax), min(y0, ay), max(x1, ax), max(y1, ay))
+        found = self.scene.grid.near(x0 if x0 < ax else ax, y0 if y0 < ay else ay, x1 if x1 > ax else ax,
+                                     y1 if y1 > ay else ay)
         k, on_boxes = self._on_boxes(found, air)
         cost += on_boxes
         if self.inner is not None:
@@ -426,9 +427,11 @@ class _Near:
         rx, ry, rw, rh = r
         rx1, ry1 = rx + rw, ry + rh
         ax, ay = anchor
-        cx, cy = min(max(ax, rx), rx1), min(max(ay, ry), ry1)  # the label's point nearest to its arrow
+        cx = rx if ax < rx else rx1 if ax > rx1 else ax  # the label's point nearest to its arrow
+        cy = ry if ay < ry else ry1 if ay > ry1 else ay
         leader = (ax, ay, cx, cy)
-        lx0, lx1, ly0, ly1 = min(ax, cx), max(ax, cx), min(ay, cy), max(ay, cy)
+        lx0, lx1 = (ax, cx) if ax <= cx else (cx, ax)
+        ly0, ly1 = (ay, cy) if ay <= cy else (cy, ay)
         segments = scene.segments
         n_obstacles = len(scene.boxes) + len(scene.composites)
         owner = self.owner

@@ -59,8 +59,8 @@ class Buckets:
             else:  # where the segment is while it crosses this column
                 ya = y0 + (max(x0, i * c) - x0) * slope
                 yb = y0 + (min(x1, (i + 1) * c) - x0) * slope
-            lo, hi = (ya, yb) if ya <= yb else (yb, ya)
-            for j in range(math.floor((lo - 1) / c), math.floor((hi + 1) / c) + 1):  # 1 unit of slack for rounding
+            # 1 unit of slack for rounding
+            for j in range(math.floor((min(ya, yb) - 1) / c), math.floor((max(ya, yb) + 1) / c) + 1):
                 cells.setdefault((i, j), []).append(k)
         return k
 
@@ -77,18 +77,7 @@ class Buckets:
         answer = self.answers.get(key)
         if answer is not None:
             return answer
-        lists = []
-        for i in range(i0, i1 + 1):
-            for j in range(j0, j1 + 1):
-                got = cells.get((i, j))
-                if got:
-                    lists.append(got)
-        if len(lists) <= 1:
-            answer = lists[0] if lists else []
-        else:
-            found: set[int] = set()
-            for got in lists:
-                found.update(got)
-            answer = sorted(found)
+        lists = [got for i in range(i0, i1 + 1) for j in range(j0, j1 + 1) if (got := cells.get((i, j)))]
+        answer = sorted(set().union(*lists)) if len(lists) > 1 else lists[0] if lists else []
         self.answers[key] = answer
         return answer

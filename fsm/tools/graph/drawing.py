@@ -30,7 +30,7 @@ from .labels import (
     state_label,
     text_width,
 )
-from .layout import REGION_HEAD, Edge, LevelLayout, Node, lay_out
+from .layout import REGION_HEAD, Edge, LevelLayout, Node, lay_out, region_name
 
 
 def _box_size(node: Node) -> tuple[float, float]:
@@ -81,17 +81,8 @@ def svg(doc: dict[str, Any], base: str | Path | None = None) -> str:
     body: list[str] = []
     where: dict[int, str] = {}
     _draw(level, body, "", where)
-    for e, (rx, ry, rw, rh), lines in labels:
-        body.append(f'<g class="label" data-in={quoteattr(where.get(id(e), ""))}{_ends(e, where.get(id(e), ""))}>')
-        full = edge_label(e.doc)
-        if lines != [full]:  # shortened or wrapped: the whole label on hover
-            body.append(f"<title>{escape(full)}</title>")
-        body.append(f'<rect class="label" x="{rx:.1f}" y="{ry:.1f}" width="{rw:.1f}" height="{rh:.1f}" fill="white" '
-                    'fill-opacity="0.85"/>')
-        for i, line in enumerate(lines):
-            body.append(f'<text class="label" x="{rx + 2:.1f}" y="{ry + 11 + i * LINE_H:.1f}" font-size="{LABEL_FONT}" '
-                        f'fill="#1a4d80">{escape(line)}</text>')
-        body.append("</g>")
+    for e, r, lines in labels:
+        _draw_label(e, r, lines, where.get(id(e), ""), body)
     title = escape(str(doc.get("name") or "machine"))
     return (f'<svg xmlns="http://www.w3.org/2000/svg" width="{width:.0f}" height="{height:.0f}" '
             f'viewBox="{x0 - m:.0f} {y0 - m:.0f} {width:.0f} {height:.0f}" font-family="Helvetica, Arial, sans-serif" '
@@ -254,23 +245,13 @@ def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
     """
     placed = _Placed()
     out: list[tuple[Edge, Rect, list[str]]] = []
-    def arrow_length(item: tuple[Edge, Rect | None, tuple[int, ...]]) -> float:
-        return sum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in pairwise(item[0].points))
-
-    for e, container, ancestors in sorted(scene.edges, key=arrow_length):
+    for e, container, ancestors in sorted(scene.edges, key=lambda item: _length(item[0].points)):
         text = short_edge_label(e.doc)
         if not text or len(e.points) < 2:
             continue
         shapes = _label_shapes(text)
         near = _Near(scene, placed, container, ancestors, id(e))
-        length = sum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in pairwise(e.points))
-        anchors = []
-        for t in _ALONG:
-            px, py, dx, dy = _point_at(e.points, t * length)
-            nx, ny = dy, -dx  # right of a downward arrow, above a rightward one
-            if nx < 0 or (nx == 0 and ny > 0):
-                nx, ny = -nx, -ny
-            anchors.append((px, py, nx, ny))
+        anchors = _anchors(e.points)
         own = [(a[0], a[1], b[0], b[1]) for a, b in pairwise(e.points)]
         best: list[Any] = [math.inf, -1, None, []]  # cost, candidate number, place, lines
 
@@ -288,6 +269,25 @@ def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
     return out
 
 
+def _length(pts: list[list[float]]) -> float:
+    """An arrow's length along its points."""
+    return sum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in pairwise(pts))
+
+
+def _anchors(pts: list[list[float]]) -> list[tuple[float, float, float, float]]:
+    """The points of an arrow a label may stand at (``_ALONG`` its length), each with the unit normal pointing
+    right of a downward arrow and above a rightward one."""
+    length = _length(pts)
+    anchors = []
+    for t in _ALONG:
+        px, py, dx, dy = _point_at(pts, t * length)
+        nx, ny = dy, -dx
+        if nx < 0 or (nx == 0 and ny > 0):
+            nx, ny = -nx, -ny
+        anchors.append((px, py, nx, ny))
+    return anchors
+
+
 def _search(shapes: list[tuple[list[str], float, float, float]], groups: tuple[tuple[Candidate, ...], ...],
             best: list[Any], near: _Near, anchors: list[tuple[float, float, float, float]],
             own: list[tuple[float, float, float, float]]) -> None:
@@ -298,16 +298,9 @@ def _search(shapes: list[tuple[list[str], float, float, float]], groups: tuple[t
             best_cost, best_idx = best[0], best[1]
             if base > best_cost or base == best_cost and idx > best_idx:
                 break  # this place and all after it cost at least as much as the best one
-            px, py, nx, ny = anchors[ti]
+            px, py, _, _ = anchors[ti]
             lines, w, h, _ = shapes[si]
-            if ring >= COMPASS:  # round the point: past the label's own half size, then a step a ring
-                sx, sy = _DIRECTIONS[side]
-                d = 4 + abs(sx) * w / 2 + abs(sy) * h / 2 + (ring - COMPASS) * (LINE_H + 2)
-            else:
-                sx, sy = nx * side, ny * side
-                d = 0.0 if ring < 0 else 4 + abs(sx) * w / 2 + abs(sy) * h / 2 + ring * (LINE_H + 2) * 0.75
-            cx, cy = px + sx * d, py + sy * d
-            r = (round(cx - w / 2, 1), round(cy - h / 2, 1), w, h)
+            r = _candidate_rect(anchors[ti], w, h, ring, side)
             if ring < 0:  # on its own arrow, which costs CROSSED more: no better than the best one?
                 low = base + CROSSED
                 if (low > best_cost or low == best_cost and idx > best_idx) and \
@@ -321,6 +314,20 @@ def _search(shapes: list[tuple[list[str], float, float, float]], groups: tuple[t
                 best[:] = [cost, idx, r, lines]
         if best[0] < CROSSED:
             break
+
+
+def _candidate_rect(anchor: tuple[float, float, float, float], w: float, h: float, ring: int, side: int) -> Rect:
+    """Where a ``w`` x ``h`` label stands for a candidate: on its arrow's point (ring -1), beside it on ``side``
+    of the arrow, a step further out each ring, or (from ``COMPASS`` on) round the point in direction ``side``."""
+    px, py, nx, ny = anchor
+    if ring >= COMPASS:  # round the point: past the label's own half size, then a step a ring
+        sx, sy = _DIRECTIONS[side]
+        d = 4 + abs(sx) * w / 2 + abs(sy) * h / 2 + (ring - COMPASS) * (LINE_H + 2)
+    else:
+        sx, sy = nx * side, ny * side
+        d = 0.0 if ring < 0 else 4 + abs(sx) * w / 2 + abs(sy) * h / 2 + ring * (LINE_H + 2) * 0.75
+    cx, cy = px + sx * d, py + sy * d
+    return round(cx - w / 2, 1), round(cy - h / 2, 1), w, h
 
 
 class _Placed:
@@ -450,8 +457,7 @@ def _region_prefix(n: Node, path: str, i: int) -> str:
     them: a ``Parallel`` region adds its machine's name (else ``region<i+1>``), other composites nothing."""
     if n.doc.get("type") != "Parallel":
         return path
-    name = n.parts[i].level.machine.get("name")
-    return f"{path}/{name if isinstance(name, str) and name else f'region{i + 1}'}"
+    return f"{path}/{region_name(n.parts[i].level.machine, i)}"
 
 
 def _draw(level: LevelLayout, body: list[str], prefix: str = "", where: dict[int, str] | None = None) -> None:
@@ -471,6 +477,22 @@ def _draw(level: LevelLayout, body: list[str], prefix: str = "", where: dict[int
         else:
             _draw_state(n, attrs, body)
     _draw_arrows(level, body, prefix, where)
+
+
+def _draw_label(e: Edge, r: Rect, lines: list[str], prefix: str, body: list[str]) -> None:
+    """An arrow's label in its rectangle, in a group naming where its arrow is drawn and its ends; the whole
+    label on hover when it is shortened or wrapped."""
+    rx, ry, rw, rh = r
+    body.append(f'<g class="label" data-in={quoteattr(prefix)}{_ends(e, prefix)}>')
+    full = edge_label(e.doc)
+    if lines != [full]:
+        body.append(f"<title>{escape(full)}</title>")
+    body.append(f'<rect class="label" x="{rx:.1f}" y="{ry:.1f}" width="{rw:.1f}" height="{rh:.1f}" fill="white" '
+                'fill-opacity="0.85"/>')
+    for i, line in enumerate(lines):
+        body.append(f'<text class="label" x="{rx + 2:.1f}" y="{ry + 11 + i * LINE_H:.1f}" font-size="{LABEL_FONT}" '
+                    f'fill="#1a4d80">{escape(line)}</text>')
+    body.append("</g>")
 
 
 def _draw_composite(n: Node, attrs: str, body: list[str]) -> None:
@@ -502,16 +524,11 @@ def _draw_composite(n: Node, attrs: str, body: list[str]) -> None:
 
 def _draw_final(n: Node, attrs: str, body: list[str]) -> None:
     """A final state: a UMLet final pseudostate (a small circle, its id beside it), or a box with the icon."""
-    st = n.doc
-    cx, cy = n.x + n.w / 2, n.y + n.h / 2
     if _small_final(n):
-        r = n.w / 2
-        body.append(f'<g class="pseudo"{attrs}>')
-        body.append(f'<circle cx="{cx:.0f}" cy="{cy:.0f}" r="{r:.1f}" fill="white" stroke="#333"/>')
-        body.append(f'<circle cx="{cx:.0f}" cy="{cy:.0f}" r="{max(r - 4, 2):.1f}" fill="#333"/>')
-        body.append(f'<text x="{cx + r + 4:.0f}" y="{cy + 4:.0f}" fill="#555">{escape(str(st.get("id")))}</text>')
-        body.append("</g>")
+        _draw_pseudo_final(n, attrs, body)
         return
+    st = n.doc
+    cy = n.y + n.h / 2
     body.append(f'<g class="node final"{attrs}>')
     body.append(f'<rect x="{n.x:.0f}" y="{n.y:.0f}" width="{n.w:.0f}" height="{n.h:.0f}" rx="10" '
                 'fill="#eef6ee" stroke="#333" stroke-width="3"/>')
@@ -529,6 +546,17 @@ def _draw_final(n: Node, attrs: str, body: list[str]) -> None:
     else:
         t, size = fit(text, right - left, FONT)
         body.append(_text((left + right) / 2, cy + size / 3, t, size))
+    body.append("</g>")
+
+
+def _draw_pseudo_final(n: Node, attrs: str, body: list[str]) -> None:
+    """A UMLet final pseudostate: a bull's eye, its id beside it."""
+    cx, cy = n.x + n.w / 2, n.y + n.h / 2
+    r = n.w / 2
+    body.append(f'<g class="pseudo"{attrs}>')
+    body.append(f'<circle cx="{cx:.0f}" cy="{cy:.0f}" r="{r:.1f}" fill="white" stroke="#333"/>')
+    body.append(f'<circle cx="{cx:.0f}" cy="{cy:.0f}" r="{max(r - 4, 2):.1f}" fill="#333"/>')
+    body.append(f'<text x="{cx + r + 4:.0f}" y="{cy + 4:.0f}" fill="#555">{escape(str(n.doc.get("id")))}</text>')
     body.append("</g>")
 
 

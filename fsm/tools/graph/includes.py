@@ -15,7 +15,7 @@ from fsm.model.document import normalize_legacy
 from fsm.model.errors import DiagramError
 
 from .labels import BOX_MARGIN, LABEL_FONT, text_width
-from .layout import Expansion, sequence_machine
+from .layout import Expansion, region_name, sequence_machine
 
 MAX_INCLUDE_DEPTH = 16
 def parallel_note(st: dict[str, Any]) -> str:
@@ -72,10 +72,8 @@ class _Expander:
         """A ``Parallel`` state's regions, one compartment each, named by their machine (and what went wrong)."""
         parts: list[tuple[str | None, dict[str, Any], Any]] = []
         for i, ref in enumerate(st["regions"]):
-            inline = ref.get("name") if isinstance(ref, dict) and isinstance(ref.get("name"), str) else None
-            machine, hook, note, error = self.part(ref, f"{here}/{inline or f'region{i + 1}'}")
-            name = machine.get("name") if machine is not None else None
-            name = name if isinstance(name, str) and name else f"region{i + 1}"
+            machine, hook, note, error = self.part(ref, f"{here}/{region_name(ref, i)}")
+            name = region_name(machine, i)
             if note:
                 name += f" — {note}" if error else f" ({note})"
             parts.append((name, machine if machine is not None else {"states": []}, hook))
@@ -99,18 +97,16 @@ class _Expander:
             return None, None, f"{file}: include cycle", True
         if len(self.stack) >= MAX_INCLUDE_DEPTH:
             return None, None, f"{file}: nested too deep", True
-        seen = self.seen
-        if path not in seen:
-            seen[path] = (read_include(path), here)
-            got = seen[path][0]
-            if isinstance(got, str):
-                return None, None, f"{file}: {got}", True
-            data, folder = got
-            return data, expander(folder, here, self.stack + (path,), seen), file, False
-        got, first = seen[path]
+        fresh = path not in self.seen
+        if fresh:
+            self.seen[path] = (read_include(path), here)
+        got, first = self.seen[path]
         if isinstance(got, str):
             return None, None, f"{file}: {got}", True
-        return None, None, f"{file}, drawn in {first}", False
+        if not fresh:
+            return None, None, f"{file}, drawn in {first}", False
+        data, folder = got
+        return data, expander(folder, here, self.stack + (path,), self.seen), file, False
 
 
 def read_include(path: Path) -> tuple[dict[str, Any], Path] | str:

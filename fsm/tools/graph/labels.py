@@ -16,9 +16,15 @@ def edge_label(tr: dict[str, Any]) -> str:
     label = tr.get("label")
     if isinstance(label, str) and label:
         return label
-    params = [f"{k}={v if isinstance(v, str) else json.dumps(v)}" for k, v in tr.items() if k not in _SKIP]
+    params = _params(tr, plain=False)
     typ = str(tr.get("type", ""))
     return typ + (" " + ", ".join(params) if params else "")
+
+
+def _params(tr: dict[str, Any], plain: bool) -> list[str]:
+    """A transition's parameters as ``key=value`` (JSON but for strings); with ``plain``, no list or object."""
+    return [f"{k}={v if isinstance(v, str) else json.dumps(v)}" for k, v in tr.items()
+            if k not in _SKIP and not (plain and isinstance(v, (dict, list)))]
 
 
 #: The widest an arrow's label is drawn (at ``LABEL_FONT``); a longer one is shortened (:func:`short_edge_label`).
@@ -34,26 +40,31 @@ def short_edge_label(tr: dict[str, Any], max_w: float = LABEL_MAX_W) -> str:
     if text_width(full, LABEL_FONT) <= max_w:
         return full
     if not (isinstance(tr.get("label"), str) and tr["label"]):
-        typ = str(tr.get("type", ""))
-        plain = [f"{k}={v if isinstance(v, str) else json.dumps(v)}" for k, v in tr.items()
-                 if k not in _SKIP and not isinstance(v, (dict, list))]
-        text = typ
-        for i in range(len(plain)):
-            longer = f"{typ} " + ", ".join(plain[:i + 1])
-            if text_width(longer + ", …", LABEL_FONT) > max_w:
-                break
-            text = longer
-        text += ", …" if text != typ else " …"
+        text = _typed_short(tr, max_w)
         if text_width(text, LABEL_FONT) <= max_w:
             return text
-    return _cut(full, max_w)
+    return full[:_kept(full, max_w, LABEL_FONT)].rstrip() + "…"
 
 
-def _cut(text: str, max_w: float) -> str:
+def _typed_short(tr: dict[str, Any], max_w: float) -> str:
+    """The event type with as many of its plain parameters as fit ``max_w`` (with the ellipsis), and an ellipsis."""
+    typ = str(tr.get("type", ""))
+    plain = _params(tr, plain=True)
+    text = typ
+    for i in range(len(plain)):
+        longer = f"{typ} " + ", ".join(plain[:i + 1])
+        if text_width(longer + ", …", LABEL_FONT) > max_w:
+            break
+        text = longer
+    return text + (", …" if text != typ else " …")
+
+
+def _kept(text: str, avail: float, size: float, bold: bool = False) -> int:
+    """How many of ``text``'s characters fit ``avail`` with an ellipsis after them."""
     k = len(text)
-    while k > 0 and text_width(text[:k] + "…", LABEL_FONT) > max_w:
+    while k > 0 and text_width(text[:k] + "…", size, bold) > avail:
         k -= 1
-    return text[:k].rstrip() + "…"
+    return k
 
 
 def state_label(st: dict[str, Any]) -> str:
@@ -115,7 +126,5 @@ def fit(text: str, avail: float, size: float, bold: bool = False) -> tuple[str, 
         s -= 0.5
     if text_width(text, s, bold) <= avail:
         return text, s
-    k = len(text)
-    while k > 0 and text_width(text[:k] + "…", s, bold) > avail:
-        k -= 1
+    k = _kept(text, avail, s, bold)
     return (text[:k] + "…" if k else ""), s

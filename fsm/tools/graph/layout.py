@@ -20,9 +20,9 @@ from __future__ import annotations
 import functools
 import heapq
 import math
-from collections import deque
+from collections import Counter, deque
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from itertools import pairwise
 from typing import Any
 
@@ -219,20 +219,30 @@ def sequence_machine(st: dict[str, Any], start: str = "start") -> dict[str, Any]
     arrows, an arrow (typed ``start``) to each non-blocking sequence from the step it follows, its exception
     sequences beside, unconnected. The UMLet writer types the start arrows ``Finished`` too (what a diagram can
     say); the reader rebuilds the steps from the arrows."""
-    steps = [s for s in st["steps"] if isinstance(s, dict) and isinstance(s.get("id"), str)]
+    steps = _named(st["steps"])
     blocking = [s for s in steps if not (s.get("type") == "Sequence" and s.get("blocking") is False)]
     transitions: list[dict[str, Any]] = []
     last: str | None = None
     for s in steps:
+        if last is not None:
+            transitions.append({"type": "Finished" if s in blocking else start, "from": last, "to": s["id"]})
         if s in blocking:
-            if last is not None:
-                transitions.append({"type": "Finished", "from": last, "to": s["id"]})
             last = s["id"]
-        elif last is not None:
-            transitions.append({"type": start, "from": last, "to": s["id"]})
-    exceptions = [e for e in st.get("exceptions") or () if isinstance(e, dict) and isinstance(e.get("id"), str)]
+    exceptions = _named(st.get("exceptions") or ())
     initial = blocking[0]["id"] if blocking else (steps[0]["id"] if steps else "")
     return {"initial": initial, "states": steps + exceptions, "transitions": transitions}
+
+
+def _named(items: Any) -> list[dict[str, Any]]:
+    """The steps (or exception sequences) of a Sequence that are dictionaries with a string ``id``."""
+    return [s for s in items if isinstance(s, dict) and isinstance(s.get("id"), str)]
+
+
+def region_name(machine: Any, i: int) -> str:
+    """The name of region ``i`` of a Parallel state as the loader names it: its machine's ``name`` (a
+    non-empty string), else ``region<i+1>``."""
+    name = machine.get("name") if isinstance(machine, dict) else None
+    return name if isinstance(name, str) and name else f"region{i + 1}"
 
 
 def inline_only(state: dict[str, Any]) -> Expansion | None:
@@ -252,61 +262,85 @@ def lay_out(machine: dict[str, Any], label_lines: Any, *, expand: Callable[..., 
     ``label_width(transition)``, how wide an arrow's label is drawn: the layered layout leaves room for it;
     ``note_size(machine)``, the size of the note box a machine level gets (None: no note).
     """
-    expand = expand or inline_only
-    nodes = []
+    opts = _Options(label_lines, expand or inline_only, size, label_width, drawing, note_size)
+    return _lay_out(machine, opts)
+
+
+@dataclass(frozen=True)
+class _Options:
+    """The hooks of :func:`lay_out`, handed down to every sub-machine (with its own ``expand``)."""
+    label_lines: Any
+    expand: Callable[..., Expansion | None]
+    size: Callable[[Node], tuple[float, float]] | None
+    label_width: Callable[[dict[str, Any]], float] | None
+    drawing: bool
+    note_size: Callable[[dict[str, Any]], tuple[float, float] | None] | None
+
+
+def _lay_out(machine: dict[str, Any], opts: _Options) -> LevelLayout:
+    nodes = [_node(st, opts) for st in _dicts(machine, "states")]
     by_id: dict[str, Node] = {}
-    for st in _items(machine, "states"):
-        if not isinstance(st, dict):
-            continue
-        node = Node(st)
-        exp = expand(st)
-        if exp is not None:
-            node.note, node.note_error, node.foreign = exp.note, exp.error, exp.foreign
-            node.inset, node.head_override = exp.inset, exp.head
-            for i, (name, sub, hook) in enumerate(exp.parts):
-                node.parts.append(Part(lay_out(sub, label_lines, expand=hook or expand, size=size,
-                                               label_width=label_width, drawing=drawing, note_size=note_size), name,
-                                       exp.min_widths[i] if i < len(exp.min_widths) else 0))
-        lay = _dict(st.get("layout"))
-        if all(_num(lay.get(k)) for k in "xywh"):
-            node.x, node.y, node.w, node.h = float(lay["x"]), float(lay["y"]), float(lay["w"]), float(lay["h"])
-            node.placed = True
-            node.stored = (node.x, node.y, node.w, node.h)
-        else:
-            node.w, node.h = size(node) if size is not None else text_size(label_lines(st))
+    for node in nodes:
         by_id.setdefault(node.id, node)
-        nodes.append(node)
     level = LevelLayout(machine, nodes, [])
     level.initial = by_id.get(str(machine.get("initial")))
-    _place(level, by_id, label_width)
+    _place(level, by_id, opts.label_width)
     marker = level.marker
-    _fit_composites(level, drawing)
-    if level.inserted and level.marker_points and marker is not None and level.marker is not None \
-            and level.initial is not None:
-        pts = level.marker_points
-        first = [pts[0][0] + level.marker[0] - marker[0], pts[0][1] + level.marker[1] - marker[1]]
-        last = _attach(pts[-1], level.initial) if level.initial.stored is not None else pts[-1]
-        middle = [] if level.initial.detached else [_spread(p, level.inserted) for p in pts[1:-1]]
-        level.marker_points = [first] + middle + [last]
-    if drawing:
-        _reflow(level, label_width)
-    for tr in _items(machine, "transitions"):
-        if not isinstance(tr, dict):
-            continue
+    _fit_composites(level, opts.drawing)
+    _move_marker_points(level, marker)
+    if opts.drawing:
+        _reflow(level, opts.label_width)
+    for tr in _dicts(machine, "transitions"):
         src, dst = by_id.get(str(tr.get("from"))), by_id.get(str(tr.get("to")))
-        if src is None or dst is None:
-            continue
-        level.edges.append(Edge(tr, src, dst))
-    _route(level, drawing)
-    if note_size is not None:
-        _place_note(level, note_size(machine))
-    if label_width is not None:
-        for e in level.edges:
-            if len(e.points) >= 2:
-                i = (len(e.points) - 1) // 2
-                (ax, ay), (bx, by) = e.points[i], e.points[i + 1]
-                level.label_room.append([(ax + bx) / 2 + 4, (ay + by) / 2 - 8, label_width(e.doc), 16])
+        if src is not None and dst is not None:
+            level.edges.append(Edge(tr, src, dst))
+    _route(level, opts.drawing)
+    if opts.note_size is not None:
+        _place_note(level, opts.note_size(machine))
+    if opts.label_width is not None:
+        _keep_label_room(level, opts.label_width)
     return level
+
+
+def _node(st: dict[str, Any], opts: _Options) -> Node:
+    """The box of state ``st``: its parts laid out, where its stored layout puts it or sized from its text."""
+    node = Node(st)
+    exp = opts.expand(st)
+    if exp is not None:
+        node.note, node.note_error, node.foreign = exp.note, exp.error, exp.foreign
+        node.inset, node.head_override = exp.inset, exp.head
+        widths = exp.min_widths + [0.0] * (len(exp.parts) - len(exp.min_widths))
+        for (name, sub, hook), min_w in zip(exp.parts, widths, strict=False):
+            node.parts.append(Part(_lay_out(sub, replace(opts, expand=hook or opts.expand)), name, min_w))
+    box = _rect(st.get("layout"))
+    if box is not None:
+        node.x, node.y, node.w, node.h = box
+        node.placed = True
+        node.stored = box
+    else:
+        node.w, node.h = opts.size(node) if opts.size is not None else text_size(opts.label_lines(st))
+    return node
+
+
+def _move_marker_points(level: LevelLayout, marker: tuple[float, float] | None) -> None:
+    """The stored initial arrow follows its marker and its state when room was made for grown composites."""
+    if not (level.inserted and level.marker_points) or marker is None or level.marker is None \
+            or level.initial is None:
+        return
+    pts = level.marker_points
+    first = [pts[0][0] + level.marker[0] - marker[0], pts[0][1] + level.marker[1] - marker[1]]
+    last = _attach(pts[-1], level.initial) if level.initial.stored is not None else pts[-1]
+    middle = [] if level.initial.detached else [_spread(p, level.inserted) for p in pts[1:-1]]
+    level.marker_points = [first] + middle + [last]
+
+
+def _keep_label_room(level: LevelLayout, label_width: Callable[[dict[str, Any]], float]) -> None:
+    """Room for each arrow's label beside the middle of its middle segment."""
+    for e in level.edges:
+        if len(e.points) >= 2:
+            i = (len(e.points) - 1) // 2
+            (ax, ay), (bx, by) = e.points[i], e.points[i + 1]
+            level.label_room.append([(ax + bx) / 2 + 4, (ay + by) / 2 - 8, label_width(e.doc), 16])
 
 
 def _place_note(level: LevelLayout, size: tuple[float, float] | None) -> None:
@@ -315,11 +349,9 @@ def _place_note(level: LevelLayout, size: tuple[float, float] | None) -> None:
     if size is None:
         return
     w, h = size
-    lay = _dict(level.machine.get("layout"))
-    note = _dict(lay.get("note"))
-    if all(_num(note.get(k)) for k in "xywh") and all(n.stored is not None for n in level.nodes) \
-            and not level.inserted:
-        level.note = [float(note["x"]), float(note["y"]), float(note["w"]), float(note["h"])]
+    note = _rect(_dict(level.machine.get("layout")).get("note"))
+    if note is not None and all(n.stored is not None for n in level.nodes) and not level.inserted:
+        level.note = list(note)
         return
     if not level.nodes:
         level.note = [0.0, 0.0, w, h]
@@ -392,17 +424,18 @@ def _stored_frames(n: Node) -> list[tuple[float, float, float, float]] | None:
         return None
     frames = []
     for p, fr in zip(n.parts, stored, strict=True):
-        if not isinstance(fr, dict) or not all(_num(fr.get(k)) for k in "xywh"):
+        box = _rect(fr)
+        if box is None or not _holds((n.x, n.y, n.w, n.h), box[0], box[1], box[0] + box[2], box[1] + box[3]):
             return None
-        x, y, w, h = (float(fr[k]) for k in "xywh")
-        if x < n.x or y < n.y or x + w > n.x + n.w or y + h > n.y + n.h:
+        if (p.level.nodes or p.level.note is not None) and not _holds(box, *_node_bbox(p.level)):
             return None
-        if p.level.nodes or p.level.note is not None:
-            x0, y0, x1, y1 = _node_bbox(p.level)
-            if x0 < x or y0 < y or x1 > x + w or y1 > y + h:
-                return None
-        frames.append((x, y, w, h))
+        frames.append(box)
     return frames
+
+
+def _holds(box: tuple[float, float, float, float], x0: float, y0: float, x1: float, y1: float) -> bool:
+    """Whether ``box`` (x, y, w, h) holds the rectangle from (``x0``, ``y0``) to (``x1``, ``y1``)."""
+    return not (x0 < box[0] or y0 < box[1] or x1 > box[0] + box[2] or y1 > box[1] + box[3])
 
 
 def _place(level: LevelLayout, by_id: dict[str, Node], label_width: Callable[[dict[str, Any]], float] | None = None,
@@ -429,9 +462,8 @@ def _rows(level: LevelLayout, by_id: dict[str, Node], todo: list[Node]) -> dict[
         depth[level.initial.id] = 0
         queue = deque([level.initial.id])
         edges: dict[str, list[str]] = {}
-        for tr in _items(level.machine, "transitions"):
-            if isinstance(tr, dict):
-                edges.setdefault(str(tr.get("from")), []).append(str(tr.get("to")))
+        for tr in _dicts(level.machine, "transitions"):
+            edges.setdefault(str(tr.get("from")), []).append(str(tr.get("to")))
         while queue:
             cur = queue.popleft()
             for nxt in edges.get(cur, []):
@@ -451,19 +483,12 @@ def _place_rows(level: LevelLayout, rows: dict[int, list[Node]], by_id: dict[str
     placed = [n for n in level.nodes if n.placed]
     y = max(max((n.y + n.h for n in placed), default=-GAP_Y) + GAP_Y, MARKER + 40)
     left = min((n.x for n in placed), default=0.0)
-    into: dict[str, list[dict[str, Any]]] = {}  # the arrows into each state, for the room their labels need
-    if label_width is not None:
-        for tr in _items(level.machine, "transitions"):
-            if isinstance(tr, dict) and str(tr.get("from")) in by_id:
-                into.setdefault(str(tr.get("to")), []).append(tr)
+    into = _label_widths_into(level, by_id, label_width)
     for i, r in enumerate(sorted(rows)):
-        gap_x: float = GAP_X
-        if label_width is not None:
-            ids = dict.fromkeys(n.id for n in rows[r])
-            widths = [label_width(tr) for sid in ids for tr in into.get(sid, [])]
-            gap_x = max(GAP_X, _snap(max(widths, default=0) + 20))
-            if i:
-                y += max(0, len(widths) - 1) * 16
+        widths = [w for sid in dict.fromkeys(n.id for n in rows[r]) for w in into.get(sid, [])]
+        gap_x = max(GAP_X, _snap(max(widths, default=0) + 20))
+        if i:
+            y += max(0, len(widths) - 1) * 16
         x = left
         for n in rows[r]:
             n.x, n.y = x, y
@@ -471,6 +496,17 @@ def _place_rows(level: LevelLayout, rows: dict[int, list[Node]], by_id: dict[str
             n.placed = True
             x += n.w + gap_x
         y += max(n.h for n in rows[r]) + GAP_Y
+
+
+def _label_widths_into(level: LevelLayout, by_id: dict[str, Node],
+                       label_width: Callable[[dict[str, Any]], float] | None) -> dict[str, list[float]]:
+    """The widths of the labels of the level's arrows into each state (none without ``label_width``)."""
+    into: dict[str, list[float]] = {}
+    if label_width is not None:
+        for tr in _dicts(level.machine, "transitions"):
+            if str(tr.get("from")) in by_id:
+                into.setdefault(str(tr.get("to")), []).append(label_width(tr))
+    return into
 
 
 def _place_marker(level: LevelLayout, initial: Node, stored: bool) -> None:
@@ -482,9 +518,7 @@ def _place_marker(level: LevelLayout, initial: Node, stored: bool) -> None:
         level.marker = (float(ini["x"]), float(ini["y"]))
         if _num(ini.get("w")) and _num(ini.get("h")):
             level.marker_size = (float(ini["w"]), float(ini["h"]))
-        pts = ini.get("points")
-        if isinstance(pts, list) and len(pts) >= 2 and all(_is_point(p) for p in pts):
-            level.marker_points = [[float(p[0]), float(p[1])] for p in pts]
+        level.marker_points = _points(ini) or []
     else:
         level.marker = (initial.x + initial.w / 2 - MARKER / 2, initial.y - MARKER - 40)
     if not level.marker_points:
@@ -511,20 +545,26 @@ def _fit_composites(level: LevelLayout, drawing: bool) -> None:
             if w > n.w or h > n.h:
                 _grow(level, n, max(n.w, w), max(n.h, h), drawing)
             _arrange(n)
-            continue
-        sub, p = n.parts[0].level, n.parts[0]
-        p.x, p.y, p.w, p.h = n.x, n.y, n.w, n.h
-        if not sub.nodes:
-            continue
+        else:
+            _fit_own(level, n, drawing)
+
+
+def _fit_own(level: LevelLayout, n: Node, drawing: bool) -> None:
+    """A plain composite's content in this diagram's coordinates: moved in when it sticks out left or above, the
+    box grown when it sticks out right or below."""
+    sub, p = n.parts[0].level, n.parts[0]
+    p.x, p.y, p.w, p.h = n.x, n.y, n.w, n.h
+    if not sub.nodes:
+        return
+    x0, y0, x1, y1 = _node_bbox(sub)
+    if x0 < n.x or y0 < n.y:
+        sub.shift(max(0, n.x + PAD - x0), max(0, n.y + PAD_TOP - y0))
         x0, y0, x1, y1 = _node_bbox(sub)
-        if x0 < n.x or y0 < n.y:
-            sub.shift(max(0, n.x + PAD - x0), max(0, n.y + PAD_TOP - y0))
-            x0, y0, x1, y1 = _node_bbox(sub)
-        w = _snap(x1 - n.x + PAD) if x1 > n.x + n.w else n.w
-        h = _snap(y1 - n.y + PAD) if y1 > n.y + n.h else n.h
-        if w != n.w or h != n.h:
-            _grow(level, n, w, h, drawing)
-        p.x, p.y, p.w, p.h = n.x, n.y, n.w, n.h
+    w = _snap(x1 - n.x + PAD) if x1 > n.x + n.w else n.w
+    h = _snap(y1 - n.y + PAD) if y1 > n.y + n.h else n.h
+    if w != n.w or h != n.h:
+        _grow(level, n, w, h, drawing)
+    p.x, p.y, p.w, p.h = n.x, n.y, n.w, n.h
 
 
 def _grow(level: LevelLayout, n: Node, w: float, h: float, drawing: bool) -> None:
@@ -545,32 +585,39 @@ def _insert_space(level: LevelLayout, n: Node, dw: float, dh: float) -> None:
     for m in level.nodes:
         if m is not n:
             moves[id(m)] = (dw if m.x >= right - 0.5 else 0, dh if m.y >= bottom - 0.5 else 0)
-    clear = GAP_X / 2
     for m in level.nodes:
-        if m is n or moves[id(m)] == (0, 0):
-            continue
-        mx, my = moves[id(m)]
-        options = sorted({(0.0, 0.0), (mx, 0.0), (0.0, my)} - {(mx, my)}, key=lambda o: (abs(o[0]) + abs(o[1]), o))
-        for ox, oy in options:
-            box = (m.x + ox, m.y + oy, m.w, m.h)
-            if _apart(box, grown, clear) and all(
-                    o is m or o is n or _apart(box, (o.x + moves[id(o)][0], o.y + moves[id(o)][1], o.w, o.h), clear)
-                    for o in level.nodes):
-                moves[id(m)] = (ox, oy)
-                m.detached = True
-                break
+        if m is not n and moves[id(m)] != (0, 0):
+            _move_less(level, n, m, grown, moves)
     for m in level.nodes:
         if m is not n:
             m.move(*moves[id(m)])
     op = (right, dw, bottom, dh)
     level.inserted.append(op)
-    if level.marker is not None:
-        if level.initial is not None and level.initial is not n:
-            dx, dy = moves[id(level.initial)]
-            level.marker = (level.marker[0] + dx, level.marker[1] + dy)
-        else:
-            mx, my = _spread(list(level.marker), [op])
-            level.marker = (mx, my)
+    if level.marker is None:
+        return
+    if level.initial is not None and level.initial is not n:
+        dx, dy = moves[id(level.initial)]
+        level.marker = (level.marker[0] + dx, level.marker[1] + dy)
+    else:
+        mx, my = _spread(list(level.marker), [op])
+        level.marker = (mx, my)
+
+
+def _move_less(level: LevelLayout, n: Node, m: Node, grown: tuple[float, float, float, float],
+               moves: dict[int, tuple[float, float]]) -> None:
+    """The least of ``m``'s moves (none, only right, only down) that keeps it clear of the grown box ``n`` and of
+    every other node where it is going, if one does: then ``m`` is ``detached``."""
+    clear = GAP_X / 2
+    mx, my = moves[id(m)]
+    options = sorted({(0.0, 0.0), (mx, 0.0), (0.0, my)} - {(mx, my)}, key=lambda o: (abs(o[0]) + abs(o[1]), o))
+    for ox, oy in options:
+        box = (m.x + ox, m.y + oy, m.w, m.h)
+        if _apart(box, grown, clear) and all(
+                o is m or o is n or _apart(box, (o.x + moves[id(o)][0], o.y + moves[id(o)][1], o.w, o.h), clear)
+                for o in level.nodes):
+            moves[id(m)] = (ox, oy)
+            m.detached = True
+            return
 
 
 def _apart(a: tuple[float, float, float, float], b: tuple[float, float, float, float], gap: float) -> bool:
@@ -613,9 +660,26 @@ def _num(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
-def _items(machine: dict[str, Any], key: str) -> list[Any]:
+def _dicts(machine: dict[str, Any], key: str) -> list[dict[str, Any]]:
+    """The dictionaries in the list ``machine[key]`` (its states or transitions); the rest is skipped."""
     items = machine.get(key)
-    return items if isinstance(items, list) else []
+    return [v for v in items if isinstance(v, dict)] if isinstance(items, list) else []
+
+
+def _rect(v: Any) -> tuple[float, float, float, float] | None:
+    """``(x, y, w, h)`` of a stored box (a ``layout`` block) when all four are finite numbers, else None."""
+    lay = _dict(v)
+    if not all(_num(lay.get(k)) for k in "xywh"):
+        return None
+    return float(lay["x"]), float(lay["y"]), float(lay["w"]), float(lay["h"])
+
+
+def _points(lay: dict[str, Any]) -> list[list[float]] | None:
+    """The stored ``points`` of an arrow (at least two ``[x, y]`` of finite numbers), else None."""
+    pts = lay.get("points")
+    if not (isinstance(pts, list) and len(pts) >= 2 and all(_is_point(p) for p in pts)):
+        return None
+    return [[float(p[0]), float(p[1])] for p in pts]
 
 
 def _is_point(p: Any) -> bool:
@@ -689,18 +753,13 @@ def _reflow(level: LevelLayout, label_width: Callable[[dict[str, Any]], float] |
     horizontal bands and the bands set into columns side by side, in order, so that the drawing reads in a
     page rather than as a strip. Each band keeps its own arrangement; every node remembers how far it moved
     (``reflowed``), so arrows within a band keep their stored bends and arrows between bands are drawn anew."""
-    if len(level.nodes) < 4 or level.note is not None:
+    bands = _tall_bands(level)
+    if bands is None:
         return
-    x0, y0, x1, y1 = _node_bbox(level)
-    if y1 - y0 <= max(REFLOW_MIN_H, COLUMN_ASPECT * (x1 - x0)):
-        return
-    bands = _bands(level)
-    single = sum(1 for band in bands if sum(1 for b in band if b[4] is not None) == 1)
-    if len(bands) < 3 or (y1 - y0 <= REFLOW_ASPECT * (x1 - x0) and 3 * single < 2 * len(bands)):
-        return
+    x0, y0, _, _ = _node_bbox(level)
     boxes = [(min(b[0] for b in band), min(b[1] for b in band), max(b[0] + b[2] for b in band),
               max(b[1] + b[3] for b in band)) for band in bands]
-    widths = [label_width(tr) for tr in _items(level.machine, "transitions") if isinstance(tr, dict)] \
+    widths = [label_width(tr) for tr in _dicts(level.machine, "transitions")] \
         if label_width is not None else []
     gap_x = GAP_X + min(max(widths, default=0.0), 240.0)
     sizes = [(bx1 - x0, by1 - by0) for _, by0, bx1, by1 in boxes]
@@ -712,50 +771,57 @@ def _reflow(level: LevelLayout, label_width: Callable[[dict[str, Any]], float] |
         top = y0
         for i in col:
             dy = _snap(top - boxes[i][1])
-            dx = left - x0
-            for *_, n in bands[i]:
-                if n is None:
-                    assert level.marker is not None
-                    level.marker = (level.marker[0] + dx, level.marker[1] + dy)
-                    level.marker_points = [[px + dx, py + dy] for px, py in level.marker_points]
-                else:
-                    n.move(dx, dy)
-                    n.reflowed = (dx, dy)
+            _move_band(level, bands[i], left - x0, dy)
             top = boxes[i][1] + dy + sizes[i][1] + GAP_Y
         left += _snap(max(sizes[i][0] for i in col) + gap_x)
 
 
+def _tall_bands(level: LevelLayout) -> list[list[tuple[float, float, float, float, Node | None]]] | None:
+    """The level's bands when it is to be reflowed into columns: at least four states and three bands, no note,
+    taller than ``REFLOW_MIN_H`` and than ``COLUMN_ASPECT`` times its width, and either taller than
+    ``REFLOW_ASPECT`` times its width or one column of states (two bands in three hold one state); else None."""
+    if len(level.nodes) < 4 or level.note is not None:
+        return None
+    x0, y0, x1, y1 = _node_bbox(level)
+    if y1 - y0 <= max(REFLOW_MIN_H, COLUMN_ASPECT * (x1 - x0)):
+        return None
+    bands = _bands(level)
+    single = sum(1 for band in bands if sum(1 for b in band if b[4] is not None) == 1)
+    if len(bands) < 3 or (y1 - y0 <= REFLOW_ASPECT * (x1 - x0) and 3 * single < 2 * len(bands)):
+        return None
+    return bands
+
+
+def _move_band(level: LevelLayout, band: list[tuple[float, float, float, float, Node | None]], dx: float,
+               dy: float) -> None:
+    """Move a band's states (each remembering it, ``reflowed``) and the initial marker with its arrow."""
+    for *_, n in band:
+        if n is None:
+            assert level.marker is not None
+            level.marker = (level.marker[0] + dx, level.marker[1] + dy)
+            level.marker_points = [[px + dx, py + dy] for px, py in level.marker_points]
+        else:
+            n.move(dx, dy)
+            n.reflowed = (dx, dy)
+
+
 # -- arrows ----------------------------------------------------------------------------------------------------
 def _route(level: LevelLayout, drawing: bool = False) -> None:
+    """Each arrow's points: its stored ones (following its boxes when they moved) where it has them, else a
+    loop, a bowed arrow of several between two boxes (drawing), or a straight one. When ``drawing``, arrows
+    are then set apart and routed around the boxes in their way."""
     pair_count: dict[tuple[int, int], int] = {}
-    pair_total: dict[tuple[int, int], int] = {}
+    pair_total = Counter(_pair(e) for e in level.edges)
     index = {id(n): i for i, n in enumerate(level.nodes)}
     for e in level.edges:
-        key = (min(id(e.src), id(e.dst)), max(id(e.src), id(e.dst)))
-        pair_total[key] = pair_total.get(key, 0) + 1
-    for e in level.edges:
-        lay = _dict(e.doc.get("layout"))
-        pts = lay.get("points")
-        if (e.src.placed and e.dst.placed and isinstance(pts, list) and len(pts) >= 2
-                and all(_is_point(p) for p in pts) and _stored(e.src) and _stored(e.dst)
-                and e.src.reflowed == e.dst.reflowed):
-            e.points = [[float(p[0]), float(p[1])] for p in pts]
-            if level.inserted or e.src.reflowed != (0.0, 0.0):  # boxes moved: the ends stay on their boxes
-                dx, dy = e.src.reflowed
-                middle = [] if e.src.detached or e.dst.detached else \
-                    [[x + dx, y + dy] for x, y in (_spread(p, level.inserted) for p in e.points[1:-1])]
-                e.points = [_attach(e.points[0], e.src)] + middle + [_attach(e.points[-1], e.dst)]
+        if _keep_stored_points(level, e):
             continue
-        key = (min(id(e.src), id(e.dst)), max(id(e.src), id(e.dst)))
+        key = _pair(e)
         k = pair_count.get(key, 0)
         pair_count[key] = k + 1
         a = (e.src.x, e.src.y, e.src.w, e.src.h)
         if e.src is e.dst:
-            x, y, w, h = a
-            off = 12 * k
-            cy = y + h / 2
-            e.points = [[x + w, cy - 8 - off / 2], [x + w + 40 + off, cy - 8 - off / 2],
-                        [x + w + 40 + off, cy + 8 + off / 2], [x + w, cy + 8 + off / 2]]
+            e.points = _loop(a, k)
         elif drawing and pair_total[key] > 1:
             e.points = _bowed(a, (e.dst.x, e.dst.y, e.dst.w, e.dst.h), k, pair_total[key],
                              index[id(e.src)] < index[id(e.dst)])
@@ -765,6 +831,36 @@ def _route(level: LevelLayout, drawing: bool = False) -> None:
         _separate_duplicates(level)
         _reroute(level)
         _spread_pairs(level)
+
+
+def _pair(e: Edge) -> tuple[int, int]:
+    """The two boxes an arrow joins, in either direction."""
+    return min(id(e.src), id(e.dst)), max(id(e.src), id(e.dst))
+
+
+def _keep_stored_points(level: LevelLayout, e: Edge) -> bool:
+    """Give ``e`` its stored points when it has them and its two boxes kept theirs (or moved together); when the
+    boxes moved, its ends stay on them and its bends follow the inserted space. Whether it had them."""
+    pts = _points(_dict(e.doc.get("layout")))
+    # a stored box (``stored``) is placed where it was stored
+    if pts is None or e.src.stored is None or e.dst.stored is None or e.src.reflowed != e.dst.reflowed:
+        return False
+    e.points = pts
+    if level.inserted or e.src.reflowed != (0.0, 0.0):  # boxes moved: the ends stay on their boxes
+        dx, dy = e.src.reflowed
+        middle = [] if e.src.detached or e.dst.detached else \
+            [[x + dx, y + dy] for x, y in (_spread(p, level.inserted) for p in e.points[1:-1])]
+        e.points = [_attach(e.points[0], e.src)] + middle + [_attach(e.points[-1], e.dst)]
+    return True
+
+
+def _loop(box: tuple[float, float, float, float], k: int) -> list[list[float]]:
+    """The ``k``-th arrow from a box to itself: a loop out of its right side, wider for each further one."""
+    x, y, w, h = box
+    off = 12 * k
+    cy = y + h / 2
+    return [[x + w, cy - 8 - off / 2], [x + w + 40 + off, cy - 8 - off / 2],
+            [x + w + 40 + off, cy + 8 + off / 2], [x + w, cy + 8 + off / 2]]
 
 
 def _separate_duplicates(level: LevelLayout) -> None:
@@ -796,28 +892,34 @@ def _spread_pairs(level: LevelLayout) -> None:
     straight: dict[tuple[int, int], list[Edge]] = {}
     for e in level.edges:
         if e.src is not e.dst and len(e.points) == 2:
-            straight.setdefault((min(id(e.src), id(e.dst)), max(id(e.src), id(e.dst))), []).append(e)
+            straight.setdefault(_pair(e), []).append(e)
     for pair in straight.values():
         for i, e in enumerate(pair):
             for f in pair[i + 1:]:
-                (a0, a1), (a2, a3) = e.points
-                (b0, b1), (b2, b3) = f.points
-                a, b = (a0, a1, a2, a3), (b0, b1, b2, b3)
-                if segments_cross(a, b):  # the two cross: each takes the other's end on one of the boxes
-                    j = 0 if f.src is e.src else 1
-                    e.points[0], f.points[j] = f.points[j], e.points[0]
-                    continue
-                gap = parallel_gap(a, b, 0.0)
-                if not 0.5 < gap < SPACING:
-                    continue
-                dx, dy = a[2] - a[0], a[3] - a[1]
-                length = math.hypot(dx, dy)
-                nx, ny = -dy / length, dx / length
-                if (b[0] - a[0]) * nx + (b[1] - a[1]) * ny < 0:  # the normal points from e towards f
-                    nx, ny = -nx, -ny
-                half = (SPACING - gap) / 2 + 1  # whole units: the SVG rounds the points
-                _shift_straight(e, -nx * half, -ny * half)
-                _shift_straight(f, nx * half, ny * half)
+                _part_two(e, f)
+
+
+def _part_two(e: Edge, f: Edge) -> None:
+    """Two straight arrows between the same boxes: swap an end when they cross, else move them apart to
+    ``SPACING`` when they run side by side closer than that."""
+    (a0, a1), (a2, a3) = e.points
+    (b0, b1), (b2, b3) = f.points
+    a, b = (a0, a1, a2, a3), (b0, b1, b2, b3)
+    if segments_cross(a, b):  # the two cross: each takes the other's end on one of the boxes
+        j = 0 if f.src is e.src else 1
+        e.points[0], f.points[j] = f.points[j], e.points[0]
+        return
+    gap = parallel_gap(a, b, 0.0)
+    if not 0.5 < gap < SPACING:
+        return
+    dx, dy = a[2] - a[0], a[3] - a[1]
+    length = math.hypot(dx, dy)
+    nx, ny = -dy / length, dx / length
+    if (b[0] - a[0]) * nx + (b[1] - a[1]) * ny < 0:  # the normal points from e towards f
+        nx, ny = -nx, -ny
+    half = (SPACING - gap) / 2 + 1  # whole units: the SVG rounds the points
+    _shift_straight(e, -nx * half, -ny * half)
+    _shift_straight(f, nx * half, ny * half)
 
 
 def _shift_straight(e: Edge, sx: float, sy: float) -> None:
@@ -872,13 +974,7 @@ Point = tuple[float, float]
 def _routes(boxes: tuple[Seg, ...], arrows: tuple[tuple[int, int, tuple[Point, ...]], ...],
             marker: tuple[Point, ...]) -> tuple[tuple[Point, ...] | None, ...]:
     """For each arrow ``(source, target, points)`` among ``boxes``, its new path, or None to keep its own."""
-    bad = []
-    for k, (si, ti, pts) in enumerate(arrows):
-        if si == ti or len(pts) < 2:
-            continue
-        if any(i not in (si, ti) and segment_hits_box(a[0], a[1], b[0], b[1], boxes[i], -GRAZE)
-               for a, b in pairwise(pts) for i in range(len(boxes))):
-            bad.append(k)
+    bad = _through_boxes(boxes, arrows)
     kept = [(a[0], a[1], b[0], b[1]) for k, (_, _, pts) in enumerate(arrows) if k not in bad
             for a, b in pairwise(pts)]
     kept += [(a[0], a[1], b[0], b[1]) for a, b in pairwise(marker)]
@@ -887,21 +983,36 @@ def _routes(boxes: tuple[Seg, ...], arrows: tuple[tuple[int, int, tuple[Point, .
     paths: dict[int, list[list[float]]] = {}
     for _ in range(ROUTE_PASSES):  # the first pass sees the arrows routed before; the next ones all the others
         for n, k in enumerate(bad):
-            used: dict[tuple[int, float], list[tuple[float, float]]] = {}  # runs of the others: (0, y)|(1, x) -> spans
-            routed: list[Seg] = []
-            for o, path in paths.items():
-                if o == k:
-                    continue
-                for a, b in pairwise(path):
-                    if a[1] == b[1]:
-                        used.setdefault((0, a[1]), []).append((min(a[0], b[0]), max(a[0], b[0])))
-                    elif a[0] == b[0]:
-                        used.setdefault((1, a[0]), []).append((min(a[1], b[1]), max(a[1], b[1])))
-                    routed.append((a[0], a[1], b[0], b[1]))
+            used, routed = _others(paths, k)
             found = _grid_path(list(boxes), arrows[k][0], arrows[k][1], used, n, (kept, routed, crossings, hits))
             if found is not None:
                 paths[k] = found
     return tuple(tuple((p[0], p[1]) for p in paths[k]) if k in paths else None for k in range(len(arrows)))
+
+
+def _through_boxes(boxes: tuple[Seg, ...], arrows: tuple[tuple[int, int, tuple[Point, ...]], ...]) -> list[int]:
+    """The arrows (not loops) that run through, or closer than ``GRAZE`` along, a box other than their ends."""
+    return [k for k, (si, ti, pts) in enumerate(arrows) if si != ti and len(pts) >= 2 and any(
+        i not in (si, ti) and segment_hits_box(a[0], a[1], b[0], b[1], boxes[i], -GRAZE)
+        for a, b in pairwise(pts) for i in range(len(boxes)))]
+
+
+def _others(paths: dict[int, list[list[float]]], k: int,
+            ) -> tuple[dict[tuple[int, float], list[tuple[float, float]]], list[Seg]]:
+    """The paths routed so far but arrow ``k``'s: their horizontal and vertical runs (``(0, y)`` or ``(1, x)``
+    to their spans), and all their segments."""
+    used: dict[tuple[int, float], list[tuple[float, float]]] = {}
+    routed: list[Seg] = []
+    for o, path in paths.items():
+        if o == k:
+            continue
+        for a, b in pairwise(path):
+            if a[1] == b[1]:
+                used.setdefault((0, a[1]), []).append((min(a[0], b[0]), max(a[0], b[0])))
+            elif a[0] == b[0]:
+                used.setdefault((1, a[0]), []).append((min(a[1], b[1]), max(a[1], b[1])))
+            routed.append((a[0], a[1], b[0], b[1]))
+    return used, routed
 
 
 def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
@@ -922,13 +1033,7 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
     off = (k % 3 - 1) * SPACING
     start = (s[0] + s[2] / 2 + _within(off, s[2]), s[1] + s[3] / 2 + _within(off, s[3]))
     goal = (t[0] + t[2] / 2 + _within(off, t[2]), t[1] + t[3] / 2 + _within(off, t[3]))
-    # two lanes beside every side, SPACING apart, so that a second arrow along a box need not run on (or right
-    # beside) the first
-    far = c + SPACING
-    xs = sorted({v for x, _, w, _ in boxes for v in (x - c, x - far, x + w + c, x + w + far)}
-                | {start[0], goal[0]})
-    ys = sorted({v for _, y, _, h in boxes for v in (y - c, y - far, y + h + c, y + h + far)}
-                | {start[1], goal[1]})
+    xs, ys = _grid_lines(boxes, start, goal)
 
     def free(a: tuple[float, float], b: tuple[float, float], key: Seg) -> bool:
         """No box in the way; the ends' own boxes only left (entered) straight from (to) their middle."""
@@ -945,44 +1050,69 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
                 return False
         return True
 
+    def step_cost(a: tuple[float, float], b: tuple[float, float], turned: bool) -> float | None:
+        """What the grid run from ``a`` to ``b`` costs (None: it is not free)."""
+        key = (min(a[0], b[0]), min(a[1], b[1]), max(a[0], b[0]), max(a[1], b[1]))
+        if not free(a, b, key):
+            return None
+        length = abs(b[0] - a[0]) + abs(b[1] - a[1])
+        crossed = _crossed(key, kept, crossings, across_h, across_v)
+        return length + CROSS * _shared(used, a, b) + (BEND if turned else 0) + CROSS * crossed
+
     xi, yi = {v: i for i, v in enumerate(xs)}, {v: i for i, v in enumerate(ys)}
+    end = _cheapest(xs, ys, (xi[start[0]], yi[start[1]]), (xi[goal[0]], yi[goal[1]]), step_cost)
+    if end is None:
+        return None
+    return _cut(_corners(*end, xs, ys), s, t)
+
+
+def _grid_lines(boxes: list[tuple[float, float, float, float]], start: Point, goal: Point,
+                ) -> tuple[list[float], list[float]]:
+    """The grid's vertical and horizontal lines: two lanes beside every side of every box, ``SPACING`` apart (so
+    that a second arrow along a box need not run on, or right beside, the first), and through the two ends."""
+    c = CLEARANCE
+    far = c + SPACING
+    xs = sorted({v for x, _, w, _ in boxes for v in (x - c, x - far, x + w + c, x + w + far)}
+                | {start[0], goal[0]})
+    ys = sorted({v for _, y, _, h in boxes for v in (y - c, y - far, y + h + c, y + h + far)}
+                | {start[1], goal[1]})
+    return xs, ys
+
+
+def _cheapest(xs: list[float], ys: list[float], origin: tuple[int, int], target: tuple[int, int],
+              step_cost: Callable[[Point, Point, bool], float | None],
+              ) -> tuple[tuple[int, int], dict[tuple[int, int], tuple[int, int] | None]] | None:
+    """A* over the grid points from ``origin`` to ``target`` (indices into ``xs`` and ``ys``), each run costing
+    ``step_cost(a, b, turned)``, with the Manhattan distance to the target: the target and the way each point
+    was reached, or None when it cannot be reached."""
     steps = ((1, 0), (-1, 0), (0, 1), (0, -1))
-    origin = (xi[start[0]], yi[start[1]])
-    target = (xi[goal[0]], yi[goal[1]])
     # one state per grid point (the direction it is reached in rides along): a bend is charged against the
     # cheapest way in, which is not always the cheapest path with bends counted, but four times less to search
     best: dict[tuple[int, int], float] = {origin: 0.0}
     came: dict[tuple[int, int], tuple[int, int] | None] = {origin: None}
     heap: list[tuple[float, float, int, int, int]] = [(0.0, 0.0, origin[0], origin[1], -1)]
-    gx, gy = goal
-    end: tuple[int, int] | None = None
+    gx, gy = xs[target[0]], ys[target[1]]
     while heap:
         _, cost, i, j, d = heapq.heappop(heap)
         if cost > best.get((i, j), math.inf):
             continue
         if (i, j) == target:
-            end = (i, j)
-            break
+            return (i, j), came
         a = (xs[i], ys[j])
         for nd, (di, dj) in enumerate(steps):
             ni, nj = i + di, j + dj
             if not (0 <= ni < len(xs) and 0 <= nj < len(ys)):
                 continue
             b = (xs[ni], ys[nj])
-            key = (min(a[0], b[0]), min(a[1], b[1]), max(a[0], b[0]), max(a[1], b[1]))
-            if not free(a, b, key):
+            step = step_cost(a, b, nd != d and d >= 0)
+            if step is None:
                 continue
-            length = abs(b[0] - a[0]) + abs(b[1] - a[1])
-            crossed = _crossed(key, kept, crossings, across_h, across_v)
-            step = length + CROSS * _shared(used, a, b) + (BEND if nd != d and d >= 0 else 0) + CROSS * crossed
             new = cost + step
             if new < best.get((ni, nj), math.inf):
                 best[(ni, nj)] = new
                 came[(ni, nj)] = (i, j)
                 heapq.heappush(heap, (new + abs(b[0] - gx) + abs(b[1] - gy), new, ni, nj, nd))
-    if end is None:
-        return None
-    return _cut(_corners(end, came, xs, ys), s, t)
+    return None
 
 
 def _crossed(key: Seg, kept: list[Seg], crossings: dict[Seg, int], across_h: list[tuple[float, float, float]],
@@ -1048,11 +1178,6 @@ def _within(off: float, size: float) -> float:
 
 def _inside_box(p: tuple[float, float], r: tuple[float, float, float, float]) -> bool:
     return r[0] < p[0] < r[0] + r[2] and r[1] < p[1] < r[1] + r[3]
-
-
-def _stored(n: Node) -> bool:
-    lay = n.doc.get("layout")
-    return isinstance(lay, dict) and all(_num(lay.get(k)) for k in "xywh")
 
 
 def _bowed(a: tuple[float, float, float, float], b: tuple[float, float, float, float], k: int, total: int,

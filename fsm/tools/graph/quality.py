@@ -76,6 +76,13 @@ def _f(el: ElementTree.Element, name: str) -> float:
     return float(el.get(name, "0"))
 
 
+def _rect(el: ElementTree.Element | None) -> Rect | None:
+    """The box of an SVG ``rect`` element (None: there is none)."""
+    if el is None:
+        return None
+    return _f(el, "x"), _f(el, "y"), _f(el, "width"), _f(el, "height")
+
+
 def _points(el: ElementTree.Element) -> list[tuple[float, float]]:
     out = []
     for pt in (el.get("points") or "").split():
@@ -145,10 +152,8 @@ def measure(svg_text: str) -> Quality:
 
 def _box_of(g: ElementTree.Element, cls: list[str]) -> _Box | None:
     """A state's box (a rectangle, or the circle of a pseudostate), with a composite's title band."""
-    rect = g.find(NS + "rect")
-    if rect is not None:
-        r = (_f(rect, "x"), _f(rect, "y"), _f(rect, "width"), _f(rect, "height"))
-    else:
+    r = _rect(g.find(NS + "rect"))
+    if r is None:
         c = g.find(NS + "circle")
         if c is None:
             return None
@@ -161,22 +166,23 @@ def _box_of(g: ElementTree.Element, cls: list[str]) -> _Box | None:
     return _Box(g.get("data-path") or g.get("data-id") or "", r, band)
 
 
+def _classes(el: ElementTree.Element) -> list[str]:
+    return (el.get("class") or "").split()
+
+
 def _read(root: ElementTree.Element) -> _Drawing:
     d = _Drawing([], [], [])
     for g in root.iter(NS + "g"):
-        cls = (g.get("class") or "").split()
+        cls = _classes(g)
         if "node" in cls or "pseudo" in cls:
             box = _box_of(g, cls)
             if box is not None:
                 d.boxes.append(box)
         elif "level" in cls:
             d.edges += [(g.get("data-in") or "", _points(pl)) for pl in g.iter(NS + "polyline")
-                        if "edge" in (pl.get("class") or "").split()]
-        elif "label" in cls:
-            rect = g.find(NS + "rect")
-            if rect is not None:
-                d.labels.append((g.get("data-in") or "", (_f(rect, "x"), _f(rect, "y"), _f(rect, "width"),
-                                                           _f(rect, "height"))))
+                        if "edge" in _classes(pl)]
+        elif "label" in cls and (r := _rect(g.find(NS + "rect"))) is not None:
+            d.labels.append((g.get("data-in") or "", r))
     return d
 
 
@@ -205,18 +211,25 @@ def _edges_against_boxes(d: _Drawing, grid: Buckets, q: Quality) -> tuple[Bucket
             seg = (u[0], u[1], v[0], v[1])
             all_segs.append((k, seg))
             segs.add_segment(*seg)
-            for j in grid.near(min(u[0], v[0]) - GRAZE, min(u[1], v[1]) - GRAZE, max(u[0], v[0]) + GRAZE,
-                               max(u[1], v[1]) + GRAZE):
-                b = d.boxes[j]
-                if j in hit or b.path in ends or (within and _inside(within, b.path)):
-                    continue
-                if segment_hits_box(*seg, b.rect, TOLERANCE):
-                    hit.add(j)
-                elif segment_hits_box(*seg, b.rect, -GRAZE):
-                    grazed.add(j)
+            _segment_against_boxes(d.boxes, grid, seg, ends, within, hit, grazed)
         q.edge_through_box += len(hit)
         q.edge_grazes_box += len(grazed - hit)
     return segs, all_segs
+
+
+def _segment_against_boxes(boxes: list[_Box], grid: Buckets, seg: Seg, ends: list[str], within: str,
+                           hit: set[int], grazed: set[int]) -> None:
+    """Add the boxes the arrow segment ``seg`` runs through to ``hit``, those it runs along to ``grazed``; not the
+    arrow's own: its ``ends`` (the paths of the boxes its ends lie on), nor the composite it is drawn in."""
+    for j in grid.near(min(seg[0], seg[2]) - GRAZE, min(seg[1], seg[3]) - GRAZE, max(seg[0], seg[2]) + GRAZE,
+                       max(seg[1], seg[3]) + GRAZE):
+        b = boxes[j]
+        if j in hit or b.path in ends or (within and _inside(within, b.path)):
+            continue
+        if segment_hits_box(*seg, b.rect, TOLERANCE):
+            hit.add(j)
+        elif segment_hits_box(*seg, b.rect, -GRAZE):
+            grazed.add(j)
 
 
 def _crossings(segs: Buckets, all_segs: list[tuple[int, Seg]]) -> tuple[int, int, int]:

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple, TextIO
 from fsm.model.errors import Problem, UsageError, printable
 
 from .. import did_you_mean
+from ..runs.args import raise_on_errors
 from .common import EXIT_FAIL, EXIT_OK, Subcommands, registry_from
 
 if TYPE_CHECKING:
@@ -350,12 +351,9 @@ def _explore_target(args: argparse.Namespace) -> _Target:
                                                      ("plants", sc.plants)) if v}
         return _Target(loaded.spec, loaded.plants, base, str(Path(target).parent / sc.machine), loaded.dt)
     from fsm.loading.loader import check, uses_car
-    from fsm.model.errors import DiagramError
 
     spec, problems = check(target, registry=registry_from(args))
-    errors = [p for p in problems if p.severity == "error"]
-    if spec is None or errors:
-        raise DiagramError(errors or problems)
+    raise_on_errors(problems, spec)
     if uses_car(spec):
         raise UsageError(f"--explore {target}: the machine drives the car; --explore runs machines without a "
                          "world")

@@ -7,9 +7,17 @@ import argparse
 import sys
 from typing import Any
 
-from fsm.model.errors import UsageError
+from fsm.model.errors import DiagramError, UsageError
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+
+
+def raise_on_errors(problems: list[Any], *results: Any) -> None:
+    """The check's verdict: a located :class:`DiagramError` with its errors (or, when there are none but one of
+    ``results`` is missing, with all its problems)."""
+    errors = [p for p in problems if p.severity == "error"]
+    if errors or any(r is None for r in results):
+        raise DiagramError(errors or problems)
 
 
 def registry_from(args: argparse.Namespace) -> Any:

@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parent.parent
 #: The issue's target for the mean.
 BUDGET = 4.5
 #: The mean reached, with room for the other branches of the same round; it may only come down.
-CEILING = 5.25
+CEILING = 4.85
 
 
 def blocks() -> list[tuple[str, str, int]]:

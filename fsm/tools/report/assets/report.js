@@ -86,7 +86,9 @@
   // The drawing is seen through its viewBox: the wheel zooms about the pointer, a drag pans, "fit" shows what fits;
   // following the active state moves the view to it (at a readable scale when the whole drawing is not).
   var full = null, vb = null, box = $("chart");
-  function applyView() { if (svg && vb) svg.setAttribute("viewBox", vb.x + " " + vb.y + " " + vb.w + " " + vb.h); }
+  function applyView() {  // a panel not laid out yet (no width or height) gives no view: the last one stays
+    if (svg && vb && vb.w > 0 && vb.h > 0) svg.setAttribute("viewBox", vb.x + " " + vb.y + " " + vb.w + " " + vb.h);
+  }
   function boxAspect() { return (box.clientHeight || 400) / (box.clientWidth || 600); }
   // "fit": the largest of the whole drawing, the composites around the active state (outermost first), the active
   // state with the states its arrows join and their labels, or the state alone, that shows its smallest text at
@@ -173,6 +175,7 @@
   function frame(t) {  // the drawing-space box ``t`` shown whole in the panel, MARGIN px clear of its sides
     var W = box.clientWidth || 600, H = box.clientHeight || 400;
     var k = Math.min((W - 2 * MARGIN) / t.w, (H - 2 * MARGIN) / t.h, MAX_FIT);
+    if (!(k > 0)) return;  // a panel narrower or lower than its margins (while the page lays itself out)
     var w = W / k, h = H / k, m = MARGIN / k;
     vb = { x: placed(t.x, t.w, w, m, full.x, full.w), y: placed(t.y, t.h, h, m, full.y, full.h), w: w, h: h };
     applyView();

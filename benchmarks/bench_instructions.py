@@ -30,6 +30,8 @@ import shutil
 import subprocess
 import sys
 import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from bench_baseline import REPO, base_tree
@@ -114,6 +116,21 @@ def per_repetition(workload: str, tree: Path | None) -> float:
     return (instructions(workload, n, tree) - instructions(workload, 0, tree)) / n
 
 
+@contextmanager
+def base_checkout(base: str | None) -> Iterator[Path | None]:
+    """A worktree of commit ``base`` for the block (``None``: no base, this checkout only), removed after it."""
+    if base is None:
+        yield None
+        return
+    where = Path(tempfile.mkdtemp(prefix="tral-base-"))
+    try:
+        yield base_tree(base, where)
+    finally:
+        subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(where / "base")],
+                       capture_output=True)
+        shutil.rmtree(where, ignore_errors=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--base", default="2a4832e", help="the commit to compare with (default 2a4832e)")
@@ -129,21 +146,14 @@ def main(argv: list[str] | None = None) -> int:
     if shutil.which("valgrind") is None:
         print("valgrind is not installed (apt install valgrind)", file=sys.stderr)
         return 2
-    where = Path(tempfile.mkdtemp(prefix="tral-base-"))
     counts: dict[str, dict[str, float]] = {}
-    try:
-        tree = None if args.no_base else base_tree(args.base, where)
+    with base_checkout(None if args.no_base else args.base) as tree:
         for workload in chosen:
             row = counts.setdefault(workload, {})
             row["main"] = per_repetition(workload, None)
             if tree is not None and workload not in MAIN_ONLY:
                 row["base"] = per_repetition(workload, tree)
             print(f"{workload}: {json.dumps(row)}", file=sys.stderr, flush=True)
-    finally:
-        if not args.no_base:
-            subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(where / "base")],
-                           capture_output=True)
-        shutil.rmtree(where, ignore_errors=True)
     unit = {"load": "per load", "lap": "per simulated second"}
     print(f"| workload | {args.base} | this checkout | ratio |")
     print("|---|---:|---:|---:|")

@@ -17,13 +17,11 @@ from __future__ import annotations
 import argparse
 import os
 import shutil
-import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
-from bench_baseline import REPO, base_tree
-from bench_instructions import callgrind
+from bench_baseline import REPO
+from bench_instructions import base_checkout, callgrind
 
 #: the two runs' simulated seconds, and the tick period
 SHORT, LONG, DT = 2, 42, 0.0125
@@ -86,19 +84,12 @@ def main(argv: list[str] | None = None) -> int:
     if shutil.which("valgrind") is None:
         print("valgrind is not installed (apt install valgrind)", file=sys.stderr)
         return 2
-    where = Path(tempfile.mkdtemp(prefix="tral-base-"))
     rows: dict[str, dict[str, float]] = {}
-    try:
-        tree = None if args.no_base else base_tree(args.base, where)
+    with base_checkout(None if args.no_base else args.base) as tree:
         for variant in ("checked", "bare"):
             rows[variant] = {"main": per_tick(variant, None)}
             if tree is not None:
                 rows[variant]["base"] = per_tick(variant, tree)
-    finally:
-        if not args.no_base:
-            subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(where / "base")],
-                           capture_output=True)
-        shutil.rmtree(where, ignore_errors=True)
     rows["checked - bare"] = {k: rows["checked"][k] - rows["bare"][k] for k in rows["checked"]}
     print(f"| instructions per tick | {args.base} | this checkout | ratio |")
     print("|---|---:|---:|---:|")

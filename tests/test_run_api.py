@@ -166,3 +166,24 @@ def test_the_result_says_where_the_run_stood() -> None:
     assert done.variables == {"laps": 2}
     cut = fsm.run(doc, max_ticks=3, variables={"laps": 5})
     assert (cut.outcome, cut.stopped, cut.ticks, cut.active, cut.variables) == (None, "limit", 3, ("a",), {"laps": 5})
+
+
+class Fails(fsm.State):
+    """A state whose entry raises: the run stops with the error."""
+
+    def on_enter(self, ctx: fsm.Context) -> None:
+        raise RuntimeError("broken sensor")
+
+
+def test_a_state_that_fails_still_ends_the_trace_with_its_error() -> None:
+    registry = fsm.Registry.with_builtins()
+    registry.add_state(Fails, "Fails")
+    doc = {"initial": "a", "states": [{"id": "a", "type": "Idle"}, {"id": "b", "type": "Fails"}],
+           "transitions": [{"type": "Timeout", "from": "a", "to": "b", "seconds": 0.1}]}
+    out = io.StringIO()
+    with pytest.raises(fsm.StateRuntimeError, match="broken sensor"):
+        fsm.run(doc, registry=registry, outputs=[Recorder(out)])
+    lines = [json.loads(line) for line in out.getvalue().splitlines()]
+    assert any(line["type"] == "event" for line in lines)  # the transition into b
+    end = lines[-1]
+    assert end["type"] == "end" and end["error"]["state"] == "b" and "broken sensor" in end["error"]["message"]

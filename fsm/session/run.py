@@ -25,7 +25,7 @@ from fsm.loading.building import build
 from fsm.loading.loader import compile as compile_plan
 from fsm.loading.reading import preloaded
 from fsm.model.document import MachineSpec
-from fsm.model.errors import UsageError
+from fsm.model.errors import StateRuntimeError, UsageError
 from fsm.model.plan import MachinePlan
 from fsm.runtime.clock import DEFAULT_DT, SimulatedClock
 from fsm.runtime.context import shown_value
@@ -69,11 +69,13 @@ def run(source: RunSource, *, world: str | os.PathLike[str] | None = None, car: 
             session.record(output)
         else:
             session.add_listener(output)
-    result = session.run(until=until)
-    error = result.error
-    session.finish(**({} if error is None else {"error": {
-        "state": error.path, "phase": error.phase, "tick": error.tick, "time": error.time,
-        "message": f"{type(error.cause).__name__}: {error.cause}"}}))
+    try:
+        result = session.run(until=until)
+    except StateRuntimeError as error:  # the trace still ends, with the error, as `fsmctl run --trace` ends it
+        session.finish(error={"state": error.path, "phase": error.phase, "tick": error.tick, "time": error.time,
+                              "message": f"{type(error.cause).__name__}: {error.cause}"})
+        raise
+    session.finish()
     return result
 
 

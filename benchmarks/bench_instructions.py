@@ -84,16 +84,21 @@ else:
 '''
 
 
+def on_tree(code: str, tree: Path | None) -> tuple[dict[str, str], str]:
+    """The environment (string hashes fixed, the plan cache off) and the code of a probe of ``tree``'s fsm (``None``:
+    this checkout's): on a base tree its fsm must win over this checkout's editable install."""
+    env = dict(os.environ, PYTHONHASHSEED="0", FSM_NO_CACHE="1")
+    if tree is None:
+        env.pop("PYTHONPATH", None)
+        return env, code
+    env["PYTHONPATH"] = str(tree)
+    return env, ("import sys\nsys.meta_path[:] = [f for f in sys.meta_path if 'editable' not in "
+                 "type(f).__module__.lower()]\n" + code)
+
+
 def instructions(workload: str, n: int, tree: Path | None) -> int:
     # string hashes decide dict probing: the same on every run; the plan cache off: the cold load, as on the base
-    env = dict(os.environ, PYTHONHASHSEED="0", FSM_NO_CACHE="1")
-    code = f"BENCH = {str(BENCH)!r}\nBASE = {tree is not None}\n" + PROBE
-    if tree is not None:  # the base's fsm must win over this checkout's editable install
-        env["PYTHONPATH"] = str(tree)
-        code = ("import sys\nsys.meta_path[:] = [f for f in sys.meta_path if 'editable' not in "
-                "type(f).__module__.lower()]\n" + code)
-    else:
-        env.pop("PYTHONPATH", None)
+    env, code = on_tree(f"BENCH = {str(BENCH)!r}\nBASE = {tree is not None}\n" + PROBE, tree)
     return callgrind(["-c", code, workload, str(n)], env, tree or REPO,
                      f"{workload} on {'base' if tree else 'this checkout'}")
 

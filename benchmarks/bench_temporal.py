@@ -15,13 +15,12 @@ what the temporal expectations cost per tick.
 from __future__ import annotations
 
 import argparse
-import os
 import shutil
 import sys
 from pathlib import Path
 
 from bench_baseline import REPO
-from bench_instructions import base_checkout, callgrind
+from bench_instructions import base_checkout, callgrind, on_tree
 
 #: the two runs' simulated seconds, and the tick period
 SHORT, LONG, DT = 2, 42, 0.0125
@@ -60,14 +59,7 @@ assert not failures, [f.message for f in failures]
 
 def count(seconds: int, variant: str, tree: Path | None) -> int:
     """The instructions of one probe run (on ``tree``, or on this checkout)."""
-    env = dict(os.environ, PYTHONHASHSEED="0", FSM_NO_CACHE="1")
-    code = PROBE
-    if tree is not None:  # the base's fsm must win over this checkout's editable install
-        env["PYTHONPATH"] = str(tree)
-        code = ("import sys\nsys.meta_path[:] = [f for f in sys.meta_path if 'editable' not in "
-                "type(f).__module__.lower()]\n" + code)
-    else:
-        env.pop("PYTHONPATH", None)
+    env, code = on_tree(PROBE, tree)
     return callgrind(["-c", code, str(seconds), variant], env, tree or REPO,
                      f"{variant} on {'base' if tree else 'this checkout'}")
 

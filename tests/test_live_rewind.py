@@ -249,6 +249,17 @@ def test_a_rewind_beyond_the_horizon_says_how_far_back_it_can_go() -> None:
         assert controller.session.ticks == earliest + 10
 
 
+def test_the_horizon_holds_however_dear_a_snapshot_is() -> None:
+    """Snapshots are paced by their processor time; a share this small would hold off every snapshot after the
+    first (a slow first one on a loaded machine does the same). The horizon is a promise all the same: a snapshot
+    at least every third of it, so the start and every input since are let go once they are beyond it."""
+    with running(lap_session, snapshot_share=1e-12, horizon=10.0) as controller:
+        step_to(controller, 4000)  # 50 s: the first 40 s are beyond a 10 s horizon
+        earliest = controller.earliest
+        assert 4000 - 800 - 2 * CHUNK <= earliest <= 4000 - 800
+        assert controller.snapshot["rewind_from"] == earliest == controller.snapshots[0].tick
+
+
 @pytest.mark.parametrize("horizon", [0.0])
 def test_no_horizon_keeps_no_history(horizon: float) -> None:
     with running(lap_session, horizon=horizon) as controller:

@@ -86,7 +86,8 @@ MAX_WATCHES, MAX_WATCH_TICKS = 20, 100_000
 IDLE = 0.1
 #: Snapshots for rewind: at most one every this many simulated seconds, and no more often than keeps their cost
 #: under this share of the run's own time (at full speed on the hallway lap: one every 60-100 s of the run, so a
-#: rewind re-simulates about a tenth of a second at most; see docs/performance.md).
+#: rewind re-simulates about a tenth of a second at most; see docs/performance.md); whatever they cost, at least one
+#: every third of the rewind horizon, so that what lies beyond the horizon is let go.
 SNAPSHOT_PERIOD = 30.0
 SNAPSHOT_SHARE = 0.02
 #: How far back (simulated seconds) a live run can be rewound by default: its rewind history is kept for this long.
@@ -830,9 +831,13 @@ class Controller:
         if period is None or self.ended is not None or not session.machine.started:
             return
         last = self.snapshots[-1].tick if self.snapshots else 0
-        if (session.ticks - last) * session.dt < period - 1e-9:
+        age = (session.ticks - last) * session.dt
+        if age < period - 1e-9:
             return
-        if time.thread_time() - self._snap_wall < self._snap_cost / self.snapshot_share:
+        # paced by what a snapshot costs, but never held off past a third of the horizon: else one slow snapshot on
+        # a loaded machine keeps the start (and every input since) for the rest of the run, beyond the horizon
+        overdue = age >= self.horizon / 3 - 1e-9
+        if not overdue and time.thread_time() - self._snap_wall < self._snap_cost / self.snapshot_share:
             return
         recorder = session.recorder
         out: Any = recorder.out if recorder is not None else None

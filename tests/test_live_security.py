@@ -139,3 +139,22 @@ def test_what_json_cannot_say_reaches_a_page_as_text() -> None:
 
     assert dumps({"kind": "watched", "rows": [[3, [float("inf"), 1.5, float("nan")]]]}) == \
         '{"kind": "watched", "rows": [[3, ["inf", 1.5, "nan"]]]}'
+
+
+def test_a_page_other_machines_reach_needs_its_token(capsys: pytest.CaptureFixture[str], counter: Path) -> None:
+    from helpers import cli
+
+    code, out, err = cli(capsys, "run", str(counter), "--live", "--host", "0.0.0.0", "--no-token")
+    assert code == 2 and out == ""
+    assert "--no-token with --host 0.0.0.0: a page other machines can reach needs its token" in err
+
+
+def test_live_without_its_extra_says_what_to_install(capsys: pytest.CaptureFixture[str], counter: Path,
+                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    """A missing extra is not a mistake in the command line: exit status 1, as ``--backend ray`` and the ROS
+    commands give without theirs, and the pip line that installs it."""
+    from helpers import cli
+
+    monkeypatch.setitem(__import__("sys").modules, "aiohttp", None)  # what an install without the extra finds
+    code, out, err = cli(capsys, "run", str(counter), "--live")
+    assert code == 1 and out == "" and "--live needs aiohttp: pip install 'tral-fsm[live]'" in err

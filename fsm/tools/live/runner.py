@@ -104,14 +104,14 @@ def check_usage(args: argparse.Namespace) -> None:
 
 def check_page_options(args: argparse.Namespace) -> None:
     """What any ``--live`` page needs (``fsmctl run --live`` and ``fsmctl sweep --live``): a token where other
-    machines can reach it, and aiohttp (usage errors)."""
+    machines can reach it (a usage error), and aiohttp (a missing extra: exit status 1, as the other extras')."""
     if args.no_token and not is_loopback(args.host or "127.0.0.1"):
         raise UsageError(f"--no-token with --host {args.host}: a page other machines can reach needs its token; "
                          "drop --no-token (the URL printed carries it)")
     try:
         import aiohttp  # noqa: F401
     except ImportError:
-        raise UsageError("--live needs aiohttp: pip install 'tral-fsm[live]'") from None
+        raise FsmError("--live needs aiohttp: pip install 'tral-fsm[live]'") from None
 
 
 def announce(host: str, port: int, token: str | None, out: Any) -> None:

@@ -27,6 +27,7 @@ from ..runs.args import (
     EXIT_OK,
     Interrupts,
     apply_overrides,
+    checked,
     input_name,
     read_inputs,
     registry_from,
@@ -215,7 +216,6 @@ def signal_warnings(signals: list[tuple[str, bool, float]], spec: Any, file: str
 def cmd_run(args: argparse.Namespace) -> int:
     from fsm.loading.loader import analyse, compile_checked, machine_files, uses_car
     from fsm.loading.reading import preloaded
-    from fsm.model.errors import DiagramError
     from fsm.runtime.clock import DEFAULT_DT
 
     _check_usage(args)
@@ -230,14 +230,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     file = input_name(args.file)
     registry = registry_from(args)
     with preloaded(pre):
-        spec, analysis, problems = analyse(file, registry=registry)
-    errors = [p for p in problems if p.severity == "error"]
-    if spec is None or analysis is None or errors:
-        raise DiagramError(errors or problems)
-    checked = spec
-    spec = apply_overrides(spec, args.overrides, file)
+        found, analysis, problems = analyse(file, registry=registry)
+    found, analysis = checked(problems, found), checked(problems, analysis)
+    spec = apply_overrides(found, args.overrides, file)
     #: the plan, compiled from the one check (a --set override changes the spec: it is checked again then)
-    args.plan = compile_checked(spec, analysis) if spec is checked else None
+    args.plan = compile_checked(spec, analysis) if spec is found else None
     args.initial_vars = parse_vars(args.variables)
     for warning in signal_warnings(args.signal, spec, file, duration, max_ticks, dt):
         print(printable(f"fsmctl run: warning: {warning}"), file=sys.stderr)

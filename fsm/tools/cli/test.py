@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple, TextIO
 from fsm.model.errors import Problem, UsageError, printable
 
 from .. import did_you_mean
-from ..runs.args import raise_on_errors
+from ..runs.args import checked
 from .common import EXIT_FAIL, EXIT_OK, Subcommands, registry_from
 
 if TYPE_CHECKING:
@@ -353,7 +353,7 @@ def _explore_target(args: argparse.Namespace) -> _Target:
     from fsm.loading.loader import check, uses_car
 
     spec, problems = check(target, registry=registry_from(args))
-    raise_on_errors(problems, spec)
+    spec = checked(problems, spec)
     if uses_car(spec):
         raise UsageError(f"--explore {target}: the machine drives the car; --explore runs machines without a "
                          "world")

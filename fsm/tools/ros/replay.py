@@ -12,7 +12,7 @@ if TYPE_CHECKING:
 
 from fsm.model.errors import UsageError, printable
 
-from ..runs.args import EXIT_FAIL, EXIT_OK, input_name, raise_on_errors, read_inputs, registry_from
+from ..runs.args import EXIT_FAIL, EXIT_OK, checked, input_name, read_inputs, registry_from
 from .common import car_recorder, load, require_extra
 
 
@@ -72,8 +72,7 @@ def _checked_spec(args: argparse.Namespace, pre: dict[str, bytes], file: str) ->
 
     with preloaded(pre):
         spec, problems = check(file, registry=registry_from(args))
-    raise_on_errors(problems, spec)
-    return apply_overrides(spec, args.overrides, file)
+    return apply_overrides(checked(problems, spec), args.overrides, file)
 
 
 def _summary(args: argparse.Namespace, session: Any, driver: Any, drive: Any) -> dict[str, Any]:

@@ -21,7 +21,7 @@ def run_replay(args: argparse.Namespace) -> int:
     from fsm.loading.loader import machine_files
     from fsm.ros.replay import ReplayDriver, load_drive, replay_session
 
-    from ..runs.ending import Tee, write_report
+    from ..runs.ending import trace_stream, write_report
     from ..runs.outputs import run_outputs
 
     outs = run_outputs(args)
@@ -40,12 +40,9 @@ def run_replay(args: argparse.Namespace) -> int:
         session = replay_session(drive, compile_spec(spec), profile)
         driver = session.driver
         assert isinstance(driver, ReplayDriver)
-        stream: SupportsWrite[str] | None = trace_out.stream() if trace_out is not None else None
-        if report_out is not None:
-            stream = Tee(stream)
         header = {"replay_of": args.bag, "overrides": args.overrides}
-        recorder = session.record(car_recorder(stream, file, driver.car, profile, preloaded=pre,
-                                               sample_rate=args.sample_rate, extra_header=header))
+        recorder = session.record(car_recorder(trace_stream(trace_out, report_out), file, driver.car, profile,
+                                               preloaded=pre, sample_rate=args.sample_rate, extra_header=header))
         driver.prime()
         session.run()
         result = _summary(args, session, driver, drive)

@@ -67,6 +67,24 @@ def test_fsmctls_own_option_after_the_command_is_named_as_such(capsys: pytest.Ca
             in err)
 
 
+def test_fsmctls_own_option_before_the_file_keeps_its_own_value(capsys: pytest.CaptureFixture[str]) -> None:
+    """``run --plugin P FILE``: argparse alone takes P for the file and FILE for the plugin; the hint moves P."""
+    hint = ("--plugin is an option of fsmctl itself: put it before the command (fsmctl --plugin my_types.py "
+            "run ...)")
+    for argv, said in ((["run", "--plugin", "my_types.py", "missing.json"], "--plugin my_types.py"),
+                       (["run", "--plugin=my_types.py", "missing.json"], "--plugin=my_types.py"),
+                       (["run", "missing.json", "--plugin", "my_types.py"], "--plugin my_types.py")):
+        err = usage_error(capsys, *argv)
+        assert err.startswith("usage: fsmctl run "), argv
+        assert f"fsmctl run: error: unrecognized arguments: {said}; {hint}" in err, (argv, err)
+    err = usage_error(capsys, "run", "--traceback", "--plugin", "my_types.py", CORNER, "--wrold", "w.json")
+    assert ("unrecognized arguments: --traceback --plugin my_types.py --wrold w.json; --traceback is an option of "
+            "fsmctl itself: put it before the command (fsmctl --traceback run ...); " + hint
+            + "; --wrold: did you mean --world?") in err
+    err = usage_error(capsys, "run", CORNER, "--", "--plugin")  # after --, a file name: one too many
+    assert "unrecognized arguments: --plugin" in err
+
+
 def test_a_commands_option_before_the_command_is_named_as_such(capsys: pytest.CaptureFixture[str]) -> None:
     err = usage_error(capsys, "--summary", "s.json", "run", CORNER)
     assert err.startswith("usage: fsmctl run ")

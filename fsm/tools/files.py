@@ -253,28 +253,39 @@ class Output:
         fh = self._fh.raw if self._fh is not None else None
         self._fh = None
         if fh is not None:
-            fh.flush()
-            if self.kind == "file":
-                os.fsync(fh.fileno())
-            if fh is not self._std_stream():
-                fh.close()
-        if self._tmp is None:
-            return
+            self._finish_stream(fh)
         tmp, self._tmp = self._tmp, None
+        if tmp is not None and self.kind == "file":
+            self._replace_target(tmp, synced=fh is not None)
+        elif tmp is not None:
+            self._copy_out(tmp)
+
+    def _finish_stream(self, fh: Any) -> None:
+        """The stream written through: flushed (to the disk, for a file) and closed (standard output stays open)."""
+        fh.flush()
         if self.kind == "file":
-            if self.owner is not None and os.geteuid() == 0:
-                try:
-                    os.chown(tmp, *self.owner)
-                except OSError:
-                    pass
-            if fh is None:  # an encoder wrote it
-                with open(tmp, "rb") as f:
-                    os.fsync(f.fileno())
-            os.replace(tmp, self.target)
-            _TEMPORARY.discard(tmp)
-            _fsync_folder(os.path.dirname(self.target) or ".")
-            return
-        try:  # a binary output to standard output or a device: written from the scratch file
+            os.fsync(fh.fileno())
+        if fh is not self._std_stream():
+            fh.close()
+
+    def _replace_target(self, tmp: str, synced: bool) -> None:
+        """The finished temporary file put in the target's place (with the target's owner when root writes it),
+        then the folder synced."""
+        if self.owner is not None and os.geteuid() == 0:
+            try:
+                os.chown(tmp, *self.owner)
+            except OSError:
+                pass
+        if not synced:  # an encoder wrote it
+            with open(tmp, "rb") as f:
+                os.fsync(f.fileno())
+        os.replace(tmp, self.target)
+        _TEMPORARY.discard(tmp)
+        _fsync_folder(os.path.dirname(self.target) or ".")
+
+    def _copy_out(self, tmp: str) -> None:
+        """A binary output to standard output or a device: written from the scratch file, which then goes."""
+        try:
             with open(tmp, "rb") as src:
                 if self.kind == "fd":
                     std = self._std_stream()
@@ -383,15 +394,20 @@ class Outputs:
 
     def open(self, inputs: Iterable[str | os.PathLike[str]] = ()) -> None:
         """Check every output (raising :class:`UsageError`), then prepare them; nothing is left behind on error."""
-        for out in self.items:
-            out.classify()
-        check_distinct(self.items, inputs)
+        self.check(inputs)
         try:
             for out in self.items:
                 out.open()
         except BaseException:
             self.discard()
             raise
+
+    def check(self, inputs: Iterable[str | os.PathLike[str]] = ()) -> None:
+        """What each output is (a folder, a missing folder: a :class:`UsageError`), and none the same file as
+        another or as one of ``inputs``; nothing is opened yet."""
+        for out in self.items:
+            out.classify()
+        check_distinct(self.items, inputs)
 
     @property
     def to_stdout(self) -> bool:

@@ -11,8 +11,9 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from typing import Any, cast
 
 from fsm.model.errors import DiagramError, FsmError, RegistrationError, UsageError, printable
 
@@ -70,35 +71,49 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    argv = list(sys.argv[1:] if argv is None else argv)
     try:
-        _check_placement(parser, argv)
-        args, extra = parser.parse_known_args(argv)
-        if "--no-cache" in extra:  # fsmctl's own, but at home after any command that loads a machine too
-            extra = [token for token in extra if token != "--no-cache"]
-            args.no_cache = True
-        if extra:
-            _unrecognized(parser, args.command, extra)
+        args = _parse(parser, list(sys.argv[1:] if argv is None else argv))
     except KeyboardInterrupt:
         return _interrupted()
     if args.command is None:
         parser.print_help(sys.stderr)
         return EXIT_USAGE
+    with _environment(args):
+        try:
+            return int(args.func(args) or 0)
+        except BaseException as exc:
+            return _failed(exc)
+
+
+def _parse(parser: argparse.ArgumentParser, argv: list[str]) -> argparse.Namespace:
+    """The command line, or a usage error that says what to type (exit 2)."""
+    misplaced, rest = _misplaced(parser, argv, _check_placement(parser, argv))
+    args, extra = parser.parse_known_args(rest)
+    if "--no-cache" in extra:  # fsmctl's own, but at home after any command that loads a machine too
+        extra = [token for token in extra if token != "--no-cache"]
+        args.no_cache = True
+    if misplaced or extra:
+        _unrecognized(parser, args.command, misplaced + extra)
+    return args
+
+
+@contextmanager
+def _environment(args: argparse.Namespace) -> Iterator[None]:
+    """--traceback and --no-cache said to every path that prints a failure or loads a machine, and to worker
+    processes (a sweep's); FSM_NO_CACHE as it was afterwards (main may be called in a process that goes on)."""
     import os
 
     if args.traceback:
         from fsm.model.errors import TRACEBACK_ENV
 
-        os.environ[TRACEBACK_ENV] = "1"  # for every path that prints a failure, and for worker processes
+        os.environ[TRACEBACK_ENV] = "1"
     before = os.environ.get("FSM_NO_CACHE")
-    if args.no_cache:  # for every load of the command, and for its worker processes (a sweep's)
+    if args.no_cache:
         os.environ["FSM_NO_CACHE"] = "1"
     try:
-        return int(args.func(args) or 0)
-    except BaseException as exc:
-        return _failed(exc)
+        yield
     finally:
-        if args.no_cache and before is None:  # main may be called in a process that goes on
+        if args.no_cache and before is None:
             del os.environ["FSM_NO_CACHE"]
         elif args.no_cache and before is not None:
             os.environ["FSM_NO_CACHE"] = before
@@ -110,38 +125,55 @@ def _failed(exc: BaseException) -> int:
 
     if traceback_wanted() and not isinstance(exc, (KeyboardInterrupt, BrokenPipeError, SystemExit)):
         print_traceback(exc)
-    try:
+    said = next((say for kind, say in _SAID if isinstance(exc, kind)), None)
+    if said is None:
         raise exc
-    except UsageError:
-        print(f"fsmctl: error: {_one_line(exc)}", file=sys.stderr)
-        return EXIT_USAGE
-    except DiagramError as err:
-        for problem in err.problems:
-            print(problem, file=sys.stderr)
-        return EXIT_USAGE if getattr(err, "usage", False) else EXIT_FAIL  # a sweep's flag is a usage error
-    except RegistrationError:
-        from fsm.loading.registry import PluginError
+    return said(exc)
 
-        print(printable(exc.located()) if isinstance(exc, PluginError) else f"fsmctl: plugin error: {_one_line(exc)}",
-              file=sys.stderr)
-        return EXIT_FAIL
-    except FsmError:
-        print(f"fsmctl: error: {_one_line(exc)}", file=sys.stderr)
-        return EXIT_FAIL
-    except BrokenPipeError:
-        _quiet_stdout()
-        return EXIT_OK
-    except KeyboardInterrupt:
-        return _interrupted()
-    except OSError as err:  # the system refused something the checks could not foresee (a disk that filled up)
-        from ..files import os_reason
 
-        where = f" {err.filename}" if getattr(err, "filename", None) else ""
-        print(printable(f"fsmctl: error:{where} {os_reason(err)}"), file=sys.stderr)
-        return EXIT_FAIL
-    except MemoryError:
-        print("fsmctl: error: out of memory", file=sys.stderr)
-        return EXIT_FAIL
+def _problems(exc: BaseException) -> int:
+    for problem in getattr(exc, "problems", ()):
+        print(problem, file=sys.stderr)
+    return EXIT_USAGE if getattr(exc, "usage", False) else EXIT_FAIL  # a sweep's flag is a usage error
+
+
+def _plugin_error(exc: BaseException) -> int:
+    from fsm.loading.registry import PluginError
+
+    print(printable(exc.located()) if isinstance(exc, PluginError) else f"fsmctl: plugin error: {_one_line(exc)}",
+          file=sys.stderr)
+    return EXIT_FAIL
+
+
+def _error(exc: BaseException, status: int = EXIT_FAIL) -> int:
+    print(f"fsmctl: error: {_one_line(exc)}", file=sys.stderr)
+    return status
+
+
+def _closed_pipe(exc: BaseException) -> int:
+    _quiet_stdout()
+    return EXIT_OK
+
+
+def _refused(exc: BaseException) -> int:
+    """The system refused something the checks could not foresee (a disk that filled up)."""
+    from ..files import os_reason
+
+    name = getattr(exc, "filename", None)
+    print(printable(f"fsmctl: error:{f' {name}' if name else ''} {os_reason(cast(OSError, exc))}"), file=sys.stderr)
+    return EXIT_FAIL
+
+
+def _out_of_memory(exc: BaseException) -> int:
+    print("fsmctl: error: out of memory", file=sys.stderr)
+    return EXIT_FAIL
+
+
+#: How each kind of failure is said, the first that matches (anything else is a bug: its traceback is printed).
+_SAID: tuple[tuple[type[BaseException], Callable[[BaseException], int]], ...] = (
+    (UsageError, lambda exc: _error(exc, EXIT_USAGE)), (DiagramError, _problems), (RegistrationError, _plugin_error),
+    (FsmError, _error), (BrokenPipeError, _closed_pipe), (KeyboardInterrupt, lambda exc: _interrupted()),
+    (OSError, _refused), (MemoryError, _out_of_memory))
 
 
 # -- usage errors that say what to type ------------------------------------------------------------------------------
@@ -165,15 +197,15 @@ def _close(word: str, candidates: list[str]) -> str | None:
     return found[0] if found else None
 
 
-def _check_placement(parser: argparse.ArgumentParser, argv: list[str]) -> None:
-    """A command's option given before the command: name it as such (argparse would take its value for the
-    command's name)."""
+def _check_placement(parser: argparse.ArgumentParser, argv: list[str]) -> int | None:
+    """Where the command is in ``argv`` (``None`` without one); a command's option given before the command is
+    named as such (argparse would take its value for the command's name)."""
     commands = _subparsers(parser)
     i = 0
     while i < len(argv):
         token = argv[i]
         if token == "--" or not token.startswith("-"):
-            return  # the command (or what argparse will call an invalid one)
+            return i if token in commands else None  # the command (or what argparse will call an invalid one)
         name = token.split("=", 1)[0]
         if name in TOP_OPTIONS:
             i += 2 if TOP_OPTIONS[name] and "=" not in token else 1
@@ -185,7 +217,27 @@ def _check_placement(parser: argparse.ArgumentParser, argv: list[str]) -> None:
         close = _close(name, list(TOP_OPTIONS) + (_options(commands[command]) if command else []))
         parser.error(f"unrecognized option {name}" + (f"; did you mean {close}?" if close else
                                                       f"; fsmctl's own options are {', '.join(TOP_OPTIONS)}"))
-        return
+    return None
+
+
+def _misplaced(parser: argparse.ArgumentParser, argv: list[str], at: int | None) -> tuple[list[str], list[str]]:
+    """fsmctl's own options given after the command at ``argv[at]`` (which does not take them), each with its
+    value, and the rest of ``argv``. Left in, argparse would read ``run --plugin P FILE`` as the file P and the
+    option ``--plugin FILE``."""
+    own = set(TOP_OPTIONS) - {"--no-cache"}  # also at home after the command (see _parse)
+    if at is None or not own & {token.split("=", 1)[0] for token in argv[at + 1:]}:
+        return [], argv
+    own -= set(_options(_subparsers(parser)[argv[at]]))
+    misplaced, rest = [], argv[:at + 1]
+    tokens = iter(argv[at + 1:])
+    for token in tokens:
+        name = token.split("=", 1)[0]
+        if token == "--" or name not in own:
+            rest += [token, *tokens] if token == "--" else [token]
+            continue
+        value = next(tokens, None) if TOP_OPTIONS[name] and "=" not in token else None
+        misplaced += [token] + ([value] if value is not None else [])
+    return misplaced, rest
 
 
 def _unrecognized(parser: argparse.ArgumentParser, command: str | None, extra: list[str]) -> None:
@@ -193,23 +245,23 @@ def _unrecognized(parser: argparse.ArgumentParser, command: str | None, extra: l
     option of fsmctl's own goes)."""
     target = _subparsers(parser).get(command or "", parser)
     options = _options(target)
-    hints = []
-    flags = [token for token in extra if token.startswith("-")]
-    for k, token in enumerate(extra):
-        name, eq, value = token.partition("=")
-        if not name.startswith("-"):
-            continue
-        if name in TOP_OPTIONS and name not in options:
-            if TOP_OPTIONS[name] and not eq:
-                value = extra[k + 1] if k + 1 < len(extra) else "VALUE"
-            shown = f"{name} {value}" if TOP_OPTIONS[name] else name
-            hints.append(f"{name} is an option of fsmctl itself: put it before the command "
-                         f"(fsmctl {shown} {command} ...)")
-            continue
-        close = _close(name, options)
-        if close is not None:
-            hints.append(f"did you mean {close}?" if len(flags) == 1 else f"{name}: did you mean {close}?")
+    alone = sum(token.startswith("-") for token in extra) == 1
+    hints = [hint for k, token in enumerate(extra) if token.startswith("-")
+             if (hint := _hint(token, extra[k + 1:k + 2], options, command, alone))]
     target.error(f"unrecognized arguments: {' '.join(extra)}" + "".join(f"; {h}" for h in hints))
+
+
+def _hint(token: str, after: list[str], options: list[str], command: str | None, alone: bool) -> str | None:
+    """What to type instead of the option ``token`` (followed by ``after``): the option of the command meant, or
+    the place of an option of fsmctl's own (with its value)."""
+    name, eq, value = token.partition("=")
+    if name in TOP_OPTIONS and name not in options:
+        shown = f"{name} {value if eq else (after or ['VALUE'])[0]}" if TOP_OPTIONS[name] else name
+        return f"{name} is an option of fsmctl itself: put it before the command (fsmctl {shown} {command} ...)"
+    close = _close(name, options)
+    if close is None:
+        return None
+    return f"did you mean {close}?" if alone else f"{name}: did you mean {close}?"
 
 
 def _did_you_mean_choice(message: str) -> str:

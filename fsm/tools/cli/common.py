@@ -15,6 +15,7 @@ from ..runs.args import EXIT_INTERRUPTED as EXIT_INTERRUPTED
 from ..runs.args import EXIT_OK as EXIT_OK
 from ..runs.args import EXIT_USAGE as EXIT_USAGE
 from ..runs.args import Interrupts as Interrupts
+from ..runs.args import checked
 from ..runs.args import input_name as input_name
 from ..runs.args import read_inputs as read_inputs
 from ..runs.args import registry_from as registry_from
@@ -106,10 +107,7 @@ def read_checked(src: Path, registry: Any) -> tuple[dict[str, Any], list[str]]:
         document = None  # the check below reports why, with the loader's own words
     with preloaded({str(src): document} if document is not None else {}):
         spec, problems = check(str(src), registry=registry)
-    errors = [p for p in problems if p.severity == "error"]
-    if errors or document is None:
-        raise DiagramError(errors or problems)
-    return document[0], machine_files(spec) + [str(src)]
+    return checked(problems, document)[0], machine_files(spec) + [str(src)]
 
 
 def emit_generated(text: str, *, output: str | None, check: str | None, command: str, registry: Any = None) -> int:

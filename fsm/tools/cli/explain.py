@@ -89,20 +89,30 @@ def explain_trace(trace: Any, tick: int) -> Any:
     if session.ticks != tick - 1:
         raise FsmError(f"{trace.name}: the re-simulated run ended at tick {session.ticks}, before tick {tick}: it "
                        "is not the run the trace recorded (a type's code or tral-fsm changed since?)")
-    active = session.machine.active_paths
-    recorded = trace.at(tick - 1)[0]
-    if sorted(active) != sorted(recorded):
-        raise FsmError(f"{trace.name}: at tick {tick - 1} the re-simulated run is in {', '.join(active)}, the trace "
-                       f"says {', '.join(recorded)}: it is not the run the trace recorded (a type's code or "
-                       "tral-fsm changed since?)")
-    signals = {str(i["input"].get("name")) for i in trace.inputs if i.get("input", {}).get("kind") == "signal"}
-    explanation = explain_next(session, sorted(signals | set(session.machine.ctx.signals)))
+    check_active(trace, session, tick - 1, "a type's code or tral-fsm changed since?")
+    explanation = explain_next(session, signal_names(trace, session))
     fired = sorted(f"{t['from']} -> {t['to']}" for e in trace.events if e["tick"] == tick
                    for t in e.get("transitions", ()) if t.get("from"))
     if sorted(explanation.fired) != fired:
         raise FsmError(f"{trace.name}: at tick {tick} the re-simulated run fired {explanation.fired or 'nothing'}, "
                        f"the trace says {fired or 'nothing'}: it is not the run the trace recorded")
     return explanation
+
+
+def check_active(trace: Any, session: Any, tick: int, why: str) -> None:
+    """The re-simulated run must be in the states the trace recorded at ``tick``; an error naming both (and
+    ``why`` they may part) otherwise."""
+    active = session.machine.active_paths
+    recorded = trace.at(tick)[0]
+    if sorted(active) != sorted(recorded):
+        raise FsmError(f"{trace.name}: at tick {tick} the re-simulated run is in {', '.join(active)}, the trace says "
+                       f"{', '.join(recorded)}: it is not the run the trace recorded ({why})")
+
+
+def signal_names(trace: Any, session: Any) -> list[str]:
+    """The signals an expression over the re-simulated run may read: the machine's and those the trace set."""
+    signals = {str(i["input"].get("name")) for i in trace.inputs if i.get("input", {}).get("kind") == "signal"}
+    return sorted(signals | set(session.machine.ctx.signals))
 
 
 def cmd_explain(args: argparse.Namespace) -> int:

@@ -27,11 +27,12 @@ from ..runs.args import (
     EXIT_OK,
     Interrupts,
     apply_overrides,
+    checked,
     input_name,
     read_inputs,
     registry_from,
 )
-from ..runs.ending import Tee, end_run
+from ..runs.ending import end_run, run_guarded, trace_stream
 from ..runs.outputs import RunOutputs, run_outputs
 from .common import Subcommands, bounded_float, positive_float, signal_arg, whole_number
 
@@ -166,23 +167,20 @@ def _tick_limit(args: argparse.Namespace, dt: float) -> tuple[float | None, int 
     """The run's ``duration`` and ``max_ticks``; a usage error when a simulated run would take more than MAX_TICKS
     ticks without --max-ticks saying so. Runs on the wall clock (``--ros``, ``--live`` at a pace) take any duration:
     their car is stopped by hand, and their bookkeeping stays within bounds (docs/car.md)."""
-    duration = args.duration
-    if duration is not None and args.max_ticks is None and (
-            getattr(args, "ros", False) or (getattr(args, "live", False) and getattr(args, "speed", None) is not None)):
-        return duration, None
-    if duration is None and args.max_ticks is None:
-        duration = DEFAULT_MAX_DURATION
-    if duration is None:
+    if args.max_ticks is not None:  # with --duration too, the tighter of the two
+        if args.duration is not None and args.duration / dt <= args.max_ticks:
+            return args.duration, args.max_ticks
         return None, args.max_ticks
+    if args.duration is not None and (
+            getattr(args, "ros", False) or (getattr(args, "live", False) and getattr(args, "speed", None) is not None)):
+        return args.duration, None
+    duration = args.duration if args.duration is not None else DEFAULT_MAX_DURATION
     ticks = duration / dt  # may be inf for a denormal dt
-    if args.max_ticks is not None and not ticks <= args.max_ticks:
-        return None, args.max_ticks  # --max-ticks is the tighter limit
-    if args.max_ticks is None and not ticks <= MAX_TICKS:
+    if not ticks <= MAX_TICKS:
         shown = f"{ticks:.3g}" if ticks != float("inf") else "infinitely many"
         raise UsageError(f"--dt {dt:g} with a run of {duration:g} s makes {shown} ticks, more than {MAX_TICKS:,}; "
                          "give --max-ticks N to allow a run that long, or a larger --dt / shorter --duration")
-    return duration, args.max_ticks
-
+    return duration, None
 
 
 def _seconds(wall: float) -> str:
@@ -213,63 +211,68 @@ def signal_warnings(signals: list[tuple[str, bool, float]], spec: Any, file: str
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from fsm.loading.loader import analyse, compile_checked, machine_files, uses_car
-    from fsm.loading.reading import preloaded
-    from fsm.model.errors import DiagramError
     from fsm.runtime.clock import DEFAULT_DT
 
-    _check_usage(args)
     from ..live.runner import check_usage as check_live_usage
 
+    _check_usage(args)
     check_live_usage(args)
     dt = args.dt or DEFAULT_DT
     duration, max_ticks = _tick_limit(args, dt)
     outs = run_outputs(args, video_suffixes=VIDEO_SUFFIXES)  # a folder, a missing folder: before anything is read
-    outputs = outs.all
-    pre = read_inputs([args.file])
+    args.pre = read_inputs([args.file])
     file = input_name(args.file)
-    registry = registry_from(args)
-    with preloaded(pre):
-        spec, analysis, problems = analyse(file, registry=registry)
-    errors = [p for p in problems if p.severity == "error"]
-    if spec is None or analysis is None or errors:
-        raise DiagramError(errors or problems)
-    checked = spec
-    spec = apply_overrides(spec, args.overrides, file)
-    #: the plan, compiled from the one check (a --set override changes the spec: it is checked again then)
-    args.plan = compile_checked(spec, analysis) if spec is checked else None
+    spec = _checked_spec(args, file)
     args.initial_vars = parse_vars(args.variables)
     for warning in signal_warnings(args.signal, spec, file, duration, max_ticks, dt):
         print(printable(f"fsmctl run: warning: {warning}"), file=sys.stderr)
-
-    if args.ros:
-        from ..ros.run import run_ros
-
-        args.pre = pre
-        try:
-            return run_ros(args, spec, file, outputs, outs.trace, outs.summary, outs.report, duration, max_ticks)
-        finally:
-            outputs.discard()
-
-    from fsm.sim.world import default_world
-
-    drive = args.world is not None or args.car is not None or uses_car(spec)
-    inputs = machine_files(spec)
-    world_path = None
-    if drive:
-        world_path = Path(args.world) if args.world else default_world(file if file != "<stdin>" else ".")
-        inputs += [str(world_path)] + ([args.car] if args.car else [])
-    elif args.video or args.plot or args.frames:
-        raise UsageError("--video, --plot and --frames need a car: this machine uses no car states; pass --world "
-                         "to drive")
-    outputs.open(inputs)  # same-as-input, unwritable folders: refused here, before the run
     try:
-        args.pre = pre
+        if args.ros:
+            from ..ros.run import run_ros
+
+            return run_ros(args, spec, file, outs.all, outs.trace, outs.summary, outs.report, duration, max_ticks)
+        drive, world_path = _car_world(args, spec, file)
+        outs.all.open(_inputs(args, spec, world_path))  # same-as-input, unwritable folders: refused before the run
         if args.live:
             return _run_live(args, spec, file, drive, world_path, duration, max_ticks, outs)
         return _run(args, spec, file, drive, world_path, duration, max_ticks, outs)
     finally:
-        outputs.discard()
+        outs.all.discard()
+
+
+def _checked_spec(args: argparse.Namespace, file: str) -> Any:
+    """The machine, checked once (a located error otherwise), with its ``--set`` overrides; ``args.plan`` is its
+    plan compiled from that check (``None`` when an override changed it: it is checked again when compiled)."""
+    from fsm.loading.loader import analyse, compile_checked
+    from fsm.loading.reading import preloaded
+
+    with preloaded(args.pre):
+        found, analysis, problems = analyse(file, registry=registry_from(args))
+    found, analysis = checked(problems, found), checked(problems, analysis)
+    spec = apply_overrides(found, args.overrides, file)
+    args.plan = compile_checked(spec, analysis) if spec is found else None
+    return spec
+
+
+def _car_world(args: argparse.Namespace, spec: Any, file: str) -> tuple[bool, Path | None]:
+    """Whether the run drives the simulated car (car states or transitions, --world or --car), and its world file;
+    a usage error for the car's outputs without a car."""
+    from fsm.loading.loader import uses_car
+    from fsm.sim.world import default_world
+
+    if args.world is None and args.car is None and not uses_car(spec):
+        if args.video or args.plot or args.frames:
+            raise UsageError("--video, --plot and --frames need a car: this machine uses no car states; pass "
+                             "--world to drive")
+        return False, None
+    return True, Path(args.world) if args.world else default_world(file if file != "<stdin>" else ".")
+
+
+def _inputs(args: argparse.Namespace, spec: Any, world_path: Path | None) -> list[str]:
+    """The files the run reads (the machine's, the world's and the car's), which no output may overwrite."""
+    from fsm.loading.loader import machine_files
+
+    return machine_files(spec) + ([str(world_path)] + ([args.car] if args.car else []) if world_path else [])
 
 
 def _session(args: argparse.Namespace, spec: Any, drive: bool, world_path: Path | None, duration: float | None,
@@ -381,23 +384,18 @@ def _progress(args: argparse.Namespace, session: Any, duration: float | None, ma
 
 def _run_until_stopped(session: Any, interrupts: Interrupts, progress: Any) -> StateRuntimeError | None:
     """Run until a stop rule, the machine's end or Ctrl-C; a state's exception is returned (the trace flushed)."""
-    recorder = session.recorder
-    try:
+
+    def run() -> None:
         if not interrupts.stop():
             session.run(stop=interrupts.stop)
         else:
             session.start()
-    except StateRuntimeError as exc:
-        recorder.flush(session.machine)
-        return exc
-    except KeyboardInterrupt:  # a second Ctrl-C while a state did not return
-        interrupts.received = interrupts.received or 2
-        recorder.flush(session.machine)
+
+    try:
+        return run_guarded(session, session.recorder, interrupts, run)
     finally:
-        interrupts.writing = True
         if progress is not None:
             progress.done()
-    return None
 
 
 def _write_outputs(args: argparse.Namespace, session: Any, result: dict[str, Any], video: Any, plot_out: Any,
@@ -448,25 +446,37 @@ def _print_end(file: str, session: Any, interrupted: bool, report: Any, started:
 
 def _verdict(args: argparse.Namespace, session: Any) -> int:
     """The exit status of a run that ended: ``--expect``'s outcome and the collisions ``--max-collisions`` allows."""
-    machine, car = session.machine, session.car
-    failed = False
-    if args.expect is not None and machine.outcome != args.expect:
-        got = (f"got {machine.outcome!r}" if machine.outcome is not None else
-               f"not finished after {machine.now:g} s (--duration sets how long it may run)")
-        print(printable(f"fsmctl run: expected outcome {args.expect!r}, {got}"), file=sys.stderr)
-        failed = True
+    missed = _missed_outcome(args.expect, session.machine)
+    collided, too_many = _collisions(args, session.car)
+    for line in (missed, collided):
+        if line is not None:
+            print(line, file=sys.stderr)
+    return EXIT_FAIL if missed is not None or too_many else EXIT_OK
+
+
+def _missed_outcome(expect: str | None, machine: Any) -> str | None:
+    """What ``--expect OUTCOME`` says of a machine that did not end with it (``None`` when it did)."""
+    if expect is None or machine.outcome == expect:
+        return None
+    got = (f"got {machine.outcome!r}" if machine.outcome is not None else
+           f"not finished after {machine.now:g} s (--duration sets how long it may run)")
+    return printable(f"fsmctl run: expected outcome {expect!r}, {got}")
+
+
+def _collisions(args: argparse.Namespace, car: Any) -> tuple[str | None, bool]:
+    """What to say of the car's collisions, and whether they fail the run: more than ``--max-collisions`` (0 with
+    ``--expect``) do; without either, a run's status is its machine's (a sweep or CI says how many it allows), but
+    collisions are never silent."""
     limit = args.max_collisions if args.max_collisions is not None else (0 if args.expect is not None else None)
-    if limit is not None and car is not None and car.collisions > limit:
+    count = car.collisions if car is not None else 0
+    times = f"{count} time{'s' * (count != 1)}"
+    if limit is not None and count > limit:
         why = "--max-collisions" if args.max_collisions is not None else "with --expect, unless --max-collisions says"
-        print(f"fsmctl run: the car collided {car.collisions} time{'s' * (car.collisions != 1)}, more than the "
-              f"{limit} allowed ({why})", file=sys.stderr)
-        failed = True
-    elif limit is None and car is not None and car.collisions and not args.quiet:
-        # A run's status is its machine's; collisions fail it only when asked (a sweep or CI says how many it allows),
-        # but never silently.
-        print(f"fsmctl run: warning: the car collided {car.collisions} time{'s' * (car.collisions != 1)}; the exit "
-              "status does not count collisions unless --max-collisions N (or --expect) is given", file=sys.stderr)
-    return EXIT_FAIL if failed else EXIT_OK
+        return f"fsmctl run: the car collided {times}, more than the {limit} allowed ({why})", True
+    if limit is None and count and not args.quiet:
+        return (f"fsmctl run: warning: the car collided {times}; the exit status does not count collisions unless "
+                "--max-collisions N (or --expect) is given"), False
+    return None, False
 
 
 def _run_live(args: argparse.Namespace, spec: Any, file: str, drive: bool, world_path: Path | None,
@@ -515,11 +525,8 @@ def _recorder(args: argparse.Namespace, file: str, car: Any, world_path: Path | 
     """The trace recorder (to the --trace file, and kept in memory for --report)."""
     from ..recording import run_recorder
 
-    stream = trace_out.stream() if trace_out is not None else None
-    if report_out is not None:
-        stream = Tee(stream)
-    return run_recorder(stream, file, car, world_file=_shown_world(world_path), seed=args.seed,
-                        noise=not args.no_noise, preloaded=args.pre, overrides=args.overrides,
+    return run_recorder(trace_stream(trace_out, report_out), file, car, world_file=_shown_world(world_path),
+                        seed=args.seed, noise=not args.no_noise, preloaded=args.pre, overrides=args.overrides,
                         initial_vars=args.initial_vars, sample_rate=args.sample_rate)
 
 

@@ -11,7 +11,6 @@ after writing what finished.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 from pathlib import Path
@@ -110,8 +109,7 @@ def _check_sweep_usage(args: argparse.Namespace) -> None:
 
 
 def _sweep(args: argparse.Namespace, interrupts: Interrupts) -> int:
-    from ..sweep.backends import BackendError
-    from ..sweep.runner import execute
+    from ..sweep.runner import usable_cpus
 
     _check_sweep_usage(args)
     spec, base, where, name, flags = _spec(args)
@@ -119,7 +117,7 @@ def _sweep(args: argparse.Namespace, interrupts: Interrupts) -> int:
     if out_dir.exists() and not out_dir.is_dir():
         raise UsageError(f"-o {args.out}: not a folder")
     flag_plugins = _flag_plugins(args)
-    jobs = args.jobs or (len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
+    jobs = args.jobs or usable_cpus()
     try:
         planned = _plan(args, interrupts, (spec, base, name, where), flags, flag_plugins, out_dir, jobs)
     except KeyboardInterrupt:
@@ -131,13 +129,27 @@ def _sweep(args: argparse.Namespace, interrupts: Interrupts) -> int:
             print(warning, file=sys.stderr)
         print(f"{len(p.jobs)} run{'s' * (len(p.jobs) != 1)}: {len(todo)} to run ({jobs} at a time), "
               f"{len(resume.records)} finished before", flush=True)
+    result = _execute(args, planned, where, jobs, interrupts)
+    if live is None:
+        return _report(args, p, result, out_dir)
+    return _report_live(args, p, result, out_dir, live, interrupts)
+
+
+def _execute(args: argparse.Namespace, planned: tuple[Any, Any, Any, list[dict[str, Any]], Any, Any], where: str,
+             jobs: int, interrupts: Interrupts) -> Any:
+    """The sweep's runs, on the pool started while planning (and shown on the live page, which closes on an
+    error); a Ray head that cannot be reached is a located error."""
+    from ..sweep.backends import BackendError
+    from ..sweep.runner import execute
+
+    p, folder, resume, todo, pool, live = planned
     show = args.progress if args.progress is not None else sys.stderr.isatty()
     try:
         if live is not None:
             live.board.start()
-        result = execute(p, folder, todo, resume, interrupts, backend=args.backend, jobs=jobs, address=args.address,
-                         progress=show and not args.quiet, pool=pool,
-                         on_record=live.board.record if live is not None else None)
+        return execute(p, folder, todo, resume, interrupts, backend=args.backend, jobs=jobs, address=args.address,
+                       progress=show and not args.quiet, pool=pool,
+                       on_record=live.board.record if live is not None else None)
     except BackendError as exc:
         raise DiagramError([Problem(str(exc), where, hint="check --address (host:port of the Ray head) or leave "
                                                           "it out to start Ray here")]) from None
@@ -145,9 +157,6 @@ def _sweep(args: argparse.Namespace, interrupts: Interrupts) -> int:
         if live is not None:
             live.close()
         raise
-    if live is None:
-        return _report(args, p, result, out_dir)
-    return _report_live(args, p, result, out_dir, live, interrupts)
 
 
 def _plan(args: argparse.Namespace, interrupts: Interrupts, sweep: tuple[Any, Path, str, str], flags: set[str],

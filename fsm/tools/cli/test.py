@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple, TextIO
 from fsm.model.errors import Problem, UsageError, printable
 
 from .. import did_you_mean
-from ..runs.args import raise_on_errors
+from ..runs.args import checked
 from .common import EXIT_FAIL, EXIT_OK, Subcommands, registry_from
 
 if TYPE_CHECKING:
@@ -80,7 +80,7 @@ def cmd_test(args: argparse.Namespace) -> int:
         return cmd_explore(args)
     if not args.scenarios:
         raise UsageError("give scenario files (*.scenario.json), or --explore MACHINE")
-    from ..files import Outputs, check_distinct
+    from ..files import Outputs
 
     outputs = Outputs()
     junit = outputs.add(args.junit, "--junit")
@@ -88,9 +88,7 @@ def cmd_test(args: argparse.Namespace) -> int:
     if args.junit == "-" and args.coverage_json == "-":
         raise UsageError("--junit and --coverage-json cannot both write to standard output")
     coverage = _coverage(args)
-    for out in outputs.items:  # a directory, a missing folder, a scenario: said before any plugin is imported
-        out.classify()
-    check_distinct(outputs.items, args.scenarios)
+    outputs.check(args.scenarios)  # a directory, a missing folder, a scenario: said before any plugin is imported
     registry_from(args)  # a --plugin that fails is a usage error, said once and not of a scenario
     loads = [_load(file, tuple(args.plugin), args.max_runs) for file in args.scenarios]
     # every file the inputs name (machines, includes, worlds, plugins): refused as --junit before any run
@@ -353,7 +351,7 @@ def _explore_target(args: argparse.Namespace) -> _Target:
     from fsm.loading.loader import check, uses_car
 
     spec, problems = check(target, registry=registry_from(args))
-    raise_on_errors(problems, spec)
+    spec = checked(problems, spec)
     if uses_car(spec):
         raise UsageError(f"--explore {target}: the machine drives the car; --explore runs machines without a "
                          "world")

@@ -46,7 +46,7 @@ def watch_trace(trace: Any, texts: list[str], first: int, last: int | None) -> t
     from fsm.debug.resim import Rows, rows_between
     from fsm.debug.watch import compile_watch, row_function
 
-    from .explain import rebuild
+    from .explain import check_active, rebuild, signal_names
 
     end = trace.last_tick
     last = end if last is None else last
@@ -57,23 +57,18 @@ def watch_trace(trace: Any, texts: list[str], first: int, last: int | None) -> t
         raise FsmError(f"--from {first} is after --to {last}")
     session = rebuild(trace)
     session.start()
-    signals = {str(i["input"].get("name")) for i in trace.inputs if i.get("input", {}).get("kind") == "signal"}
+    signals = signal_names(trace, session)
     watches = []
     for k, text in enumerate(texts, 1):
         try:
-            watches.append(compile_watch(text, session.machine, sorted(signals | set(session.machine.ctx.signals))))
+            watches.append(compile_watch(text, session.machine, signals))
         except BreakpointError as exc:
             raise FsmError(f"expression {k} {text!r}, column {exc.column}: {exc.message}") from None
     rows = rows_between(session, row_function(watches), first, last, Rows(first, last))
     if rows.stopped is not None:
         raise FsmError(f"{trace.name}: the re-simulated run stopped short of tick {last}: {rows.stopped}; it is not "
                        "the run the trace recorded (a world or machine file changed since?)")
-    recorded = trace.at(last)[0]
-    active = session.machine.active_paths
-    if sorted(active) != sorted(recorded):
-        raise FsmError(f"{trace.name}: at tick {last} the re-simulated run is in {', '.join(active)}, the trace says "
-                       f"{', '.join(recorded)}: it is not the run the trace recorded (a world or machine file changed "
-                       "since?)")
+    check_active(trace, session, last, "a world or machine file changed since?")
     return session.dt, rows
 
 

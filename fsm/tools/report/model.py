@@ -304,23 +304,23 @@ def _samples(trace: Trace) -> tuple[dict[str, list[Any]] | None, list[dict[str, 
     """The samples as columns (``t`` and one per numeric field, e.g. ``car.x``), and which plots to draw."""
     if not trace.samples:
         return None, []
-    rows = []
-    for s in trace.samples:
-        flat: dict[str, float | None] = {}
-        for k, v in s.items():
-            if k not in ("type", "tick", "time"):
-                _flatten(k, v, flat)
-        rows.append((float(s["time"]), flat))
+    rows = [(float(s["time"]), _flat_sample(s)) for s in trace.samples]
     names = list(dict.fromkeys(k for _, flat in rows for k in flat))
     columns: dict[str, list[Any]] = {"t": [round(t, 4) for t, _ in rows]}
     for name in names:
         columns[name] = [None if (v := flat.get(name)) is None else round(v, DIGITS) for _, flat in rows]
-    plots = []
-    for title, unit, series in PLOTS:
-        got = [{"field": f, "label": label} for f, label in series if f in columns]
-        if got:
-            plots.append({"title": title, "unit": unit, "series": got})
+    plots = [{"title": title, "unit": unit, "series": got} for title, unit, series in PLOTS
+             if (got := [{"field": f, "label": label} for f, label in series if f in columns])]
     return columns, plots
+
+
+def _flat_sample(sample: dict[str, Any]) -> dict[str, float | None]:
+    """A sample line's numbers by field (``car.x``, ``car.odometry[0]``; ``None`` for one that is not finite)."""
+    flat: dict[str, float | None] = {}
+    for k, v in sample.items():
+        if k not in ("type", "tick", "time"):
+            _flatten(k, v, flat)
+    return flat
 
 
 def _frame(f: dict[str, Any]) -> dict[str, Any]:

@@ -27,13 +27,10 @@ def state_parameters(args: argparse.Namespace, spec: Any, via: str) -> list[Any]
 def start_recording(args: argparse.Namespace, session: Any, profile: Any, file: str, trace_out: Any,
                     report_out: Any) -> Any:
     """The session's recorder: the trace's stream (and the report's copy of it)."""
-    from ..runs.ending import Tee
+    from ..runs.ending import trace_stream
 
-    stream = trace_out.stream() if trace_out is not None else None
-    if report_out is not None:
-        stream = Tee(stream)
-    return session.record(car_recorder(stream, file, session.driver.car, profile, preloaded=args.pre,
-                                       sample_rate=args.sample_rate))
+    return session.record(car_recorder(trace_stream(trace_out, report_out), file, session.driver.car, profile,
+                                       preloaded=args.pre, sample_rate=args.sample_rate))
 
 
 def finish_run(args: argparse.Namespace, session: Any, file: str, outputs: Any, summary_out: Any, report_out: Any,

@@ -32,14 +32,11 @@ def load_plan(args: argparse.Namespace, file: str) -> tuple[Any, Any]:
     :class:`~fsm.model.errors.DiagramError` otherwise."""
     from fsm.loading.loader import analyse, compile_checked
     from fsm.loading.loader import compile as compile_spec
-    from fsm.model.errors import DiagramError
 
-    from ..runs.args import apply_overrides, registry_from
+    from ..runs.args import apply_overrides, checked, registry_from
 
     spec, analysis, problems = analyse(file, registry=registry_from(args))
-    errors = [p for p in problems if p.severity == "error"]
-    if spec is None or analysis is None or errors:
-        raise DiagramError(errors or problems)
+    spec, analysis = checked(problems, spec), checked(problems, analysis)
     changed = apply_overrides(spec, args.overrides, file)
     return changed, compile_checked(spec, analysis) if changed is spec else compile_spec(changed)
 

@@ -31,21 +31,25 @@ def tunables(spec: Any, writable: list[str], overridden: list[str]) -> list[Tuna
         given = st.params.model_dump(mode="json", by_alias=True, exclude_unset=True)
         every = st.params.model_dump(mode="json", by_alias=True)
         for param in sorted(set(given) | {p for q, p in wanted if q == path}):
-            if param in FIXED or param in ("id", "type") or every.get(param) is None:
-                continue
             name = ".".join(["states", *path.split("/"), param])
-            if not all(NAME_PART.fullmatch(part) for part in name.split(".")):
+            if (param in FIXED or param in ("id", "type") or every.get(param) is None
+                    or not all(NAME_PART.fullmatch(part) for part in name.split("."))):
                 continue
-            value = every[param]
-            kind = "set with --set" if f"{path}.{param}" in changed else "from the document"
-            writable_here = (path, param) in wanted
-            note = ("writable (--tunable): the state takes a valid value between two ticks, from its next entry"
-                    if writable_here else "read-only (name it with --tunable to set it from outside)")
-            out.append(Tunable(name, path, param, value if isinstance(value, (bool, int, float, str))
-                               else json.dumps(value, separators=(",", ":")),
-                               f"parameter {param} of state {path} ({st.params.type}), {kind}; {note}",
-                               writable_here, _validator(st, param, value)))
+            out.append(_tunable(name, path, st, param, every[param], (path, param) in wanted,
+                                f"{path}.{param}" in changed))
     return out
+
+
+def _tunable(name: str, path: str, st: Any, param: str, value: Any, writable: bool, overridden: bool) -> Tunable:
+    """One parameter of the state ``st`` at ``path`` as a ROS 2 parameter ``name``, its description saying where
+    its value is from and whether a client may set it."""
+    kind = "set with --set" if overridden else "from the document"
+    note = ("writable (--tunable): the state takes a valid value between two ticks, from its next entry"
+            if writable else "read-only (name it with --tunable to set it from outside)")
+    return Tunable(name, path, param, value if isinstance(value, (bool, int, float, str))
+                   else json.dumps(value, separators=(",", ":")),
+                   f"parameter {param} of state {path} ({st.params.type}), {kind}; {note}",
+                   writable, _validator(st, param, value))
 
 
 def _checked(spec: Any, by_path: dict[str, Any], text: str) -> tuple[str, str]:

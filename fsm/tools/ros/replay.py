@@ -12,7 +12,7 @@ if TYPE_CHECKING:
 
 from fsm.model.errors import UsageError, printable
 
-from ..runs.args import EXIT_FAIL, EXIT_OK, input_name, raise_on_errors, read_inputs, registry_from
+from ..runs.args import EXIT_FAIL, EXIT_OK, checked, input_name, read_inputs, registry_from
 from .common import car_recorder, load, require_extra
 
 
@@ -21,7 +21,7 @@ def run_replay(args: argparse.Namespace) -> int:
     from fsm.loading.loader import machine_files
     from fsm.ros.replay import ReplayDriver, load_drive, replay_session
 
-    from ..runs.ending import Tee, write_report
+    from ..runs.ending import trace_stream, write_report
     from ..runs.outputs import run_outputs
 
     outs = run_outputs(args)
@@ -40,12 +40,9 @@ def run_replay(args: argparse.Namespace) -> int:
         session = replay_session(drive, compile_spec(spec), profile)
         driver = session.driver
         assert isinstance(driver, ReplayDriver)
-        stream: SupportsWrite[str] | None = trace_out.stream() if trace_out is not None else None
-        if report_out is not None:
-            stream = Tee(stream)
         header = {"replay_of": args.bag, "overrides": args.overrides}
-        recorder = session.record(car_recorder(stream, file, driver.car, profile, preloaded=pre,
-                                               sample_rate=args.sample_rate, extra_header=header))
+        recorder = session.record(car_recorder(trace_stream(trace_out, report_out), file, driver.car, profile,
+                                               preloaded=pre, sample_rate=args.sample_rate, extra_header=header))
         driver.prime()
         session.run()
         result = _summary(args, session, driver, drive)
@@ -72,8 +69,7 @@ def _checked_spec(args: argparse.Namespace, pre: dict[str, bytes], file: str) ->
 
     with preloaded(pre):
         spec, problems = check(file, registry=registry_from(args))
-    raise_on_errors(problems, spec)
-    return apply_overrides(spec, args.overrides, file)
+    return apply_overrides(checked(problems, spec), args.overrides, file)
 
 
 def _summary(args: argparse.Namespace, session: Any, driver: Any, drive: Any) -> dict[str, Any]:

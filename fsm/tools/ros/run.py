@@ -11,11 +11,13 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
 from typing import Any
 
-from fsm.model.errors import FsmError, StateRuntimeError, UsageError, printable
+from fsm.model.errors import FsmError, UsageError, printable
 
 from ..runs.args import Interrupts
+from ..runs.ending import run_guarded
 from .common import check_bag_folder, check_endpoints, choose_transport, load
 from .ends import finish_run, start_recording, state_parameters
 
@@ -47,33 +49,22 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
             report_out: Any, duration: float | None, max_ticks: int | None) -> int:
     from fsm.loading.loader import compile as compile_spec
     from fsm.loading.loader import machine_files
-    from fsm.ros.bag import BagRecorder
-    from fsm.ros.driver import ros_session
-    from fsm.ros.transport import free_endpoint, open_bus
-    from fsm.session.session import SetSignal, StopRules
+    from fsm.ros.transport import open_bus
+    from fsm.session.session import StopRules
 
     profile = load(args.ros, args.remap)
     via = choose_transport(profile, args, args.ros, "--ros")
-    if getattr(args, "lifecycle", False):
-        from .lifecycle import check_usage as check_lifecycle
-
-        check_lifecycle(args, via)
-    if getattr(args, "tunable", None) and via != "rclpy":
-        raise UsageError("--tunable makes state parameters ROS 2 parameters, which rclpy provides: add --via rclpy")
+    _check_node_options(args, via)
     tunables = state_parameters(args, spec, via)  # a --tunable naming nothing: said before anything starts
     inputs = machine_files(spec) + [args.ros]
     outputs.open(inputs)
     check_bag_folder(args.bag, inputs, outputs.items)  # the input itself, another output's name: refused now
     plan = compile_spec(spec)
-    connect, listen = args.connect, args.listen
-    t = profile.transport
-    if via == "zenoh" and not (connect or listen or t.connect or t.listen or t.multicast):
-        listen = [free_endpoint(profile=profile)]  # nowhere to connect to: the robot connects here (printed below)
-    link = open_bus(profile, connect=connect, listen=listen, via=args.via, sim_time=args.lockstep)
+    listen = _listen(args, profile, via)
+    link = open_bus(profile, connect=args.connect, listen=listen, via=args.via, sim_time=args.lockstep)
+    files = {"trace": trace_out, "summary": summary_out, "report": report_out}
     if getattr(args, "lifecycle", False):
-        return _managed(args, file, profile, link, outputs, {"trace": trace_out, "summary": summary_out,
-                                                             "report": report_out}, StopRules(duration, max_ticks))
-    bag = None
+        return _managed(args, file, profile, link, outputs, files, StopRules(duration, max_ticks))
     # from here on Ctrl-C asks the run to stop (connecting takes a while): the outputs are written, exit 130
     interrupts = Interrupts()
     with interrupts:
@@ -81,22 +72,57 @@ def run_ros(args: argparse.Namespace, spec: Any, file: str, outputs: Any, trace_
             link.open()
             if listen and not args.quiet:
                 print(printable(f"fsmctl run: {link.describe()}; waiting for the robot"), file=sys.stderr, flush=True)
-            bag = BagRecorder(args.bag, profile) if args.bag else None
-            session = ros_session(plan, profile, link, lockstep=args.lockstep, bag=bag,
-                                  variables=args.initial_vars, stop=StopRules(duration, max_ticks),
-                                  signals=list(getattr(spec, "inputs", None) or []),
-                                  tunables=tunables)
-            for name, value, at in args.signal:
-                session.schedule(at, SetSignal(name, value))
-            code = _drive(args, session, profile, file, outputs, trace_out, summary_out, report_out, interrupts)
-            if bag is not None:
-                bag.commit()
-                bag = None
-            return code
+            return _recorded(args, spec, plan, profile, link, StopRules(duration, max_ticks), tunables,
+                             lambda session: _drive(args, session, profile, file, outputs, trace_out, summary_out,
+                                                    report_out, interrupts))
         finally:
-            if bag is not None:
-                bag.discard()
             link.close()
+
+
+def _check_node_options(args: argparse.Namespace, via: str) -> None:
+    """--lifecycle and --tunable make the machine a ROS 2 node's: they need the transport that has nodes."""
+    if getattr(args, "lifecycle", False):
+        from .lifecycle import check_usage as check_lifecycle
+
+        check_lifecycle(args, via)
+    if getattr(args, "tunable", None) and via != "rclpy":
+        raise UsageError("--tunable makes state parameters ROS 2 parameters, which rclpy provides: add --via rclpy")
+
+
+def _listen(args: argparse.Namespace, profile: Any, via: str) -> list[str] | None:
+    """Where the machine's side listens: --listen, or (over Zenoh, with nowhere to connect to) a free port the
+    robot connects to (printed when the link opens)."""
+    from fsm.ros.transport import free_endpoint
+
+    t = profile.transport
+    if via == "zenoh" and not (args.connect or args.listen or t.connect or t.listen or t.multicast):
+        return [free_endpoint(profile=profile)]
+    listen: list[str] | None = args.listen
+    return listen
+
+
+def _recorded(args: argparse.Namespace, spec: Any, plan: Any, profile: Any, link: Any, stop: Any, tunables: Any,
+              drive: Callable[[Any], int]) -> int:
+    """The session on the open link, driven by ``drive``, with the run recorded as a bag (--bag: kept only when
+    the run's outputs were written)."""
+    from fsm.ros.bag import BagRecorder
+    from fsm.ros.driver import ros_session
+    from fsm.session.session import SetSignal
+
+    bag = BagRecorder(args.bag, profile) if args.bag else None
+    try:
+        session = ros_session(plan, profile, link, lockstep=args.lockstep, bag=bag, variables=args.initial_vars,
+                              stop=stop, signals=list(getattr(spec, "inputs", None) or []), tunables=tunables)
+        for name, value, at in args.signal:
+            session.schedule(at, SetSignal(name, value))
+        code = drive(session)
+        if bag is not None:
+            bag.commit()
+            bag = None
+        return code
+    finally:
+        if bag is not None:
+            bag.discard()
 
 
 def _managed(args: argparse.Namespace, file: str, profile: Any, link: Any, outputs: Any, files: dict[str, Any],
@@ -119,29 +145,17 @@ def _managed(args: argparse.Namespace, file: str, profile: Any, link: Any, outpu
 def _drive(args: argparse.Namespace, session: Any, profile: Any, file: str, outputs: Any, trace_out: Any,
            summary_out: Any, report_out: Any, interrupts: Interrupts) -> int:
     driver = session.driver
-    machine = session.machine
     recorder = start_recording(args, session, profile, file, trace_out, report_out)
-    error: StateRuntimeError | None = None
-    try:
+
+    def run() -> None:
         primed = driver.prime(stop=interrupts.stop)
         if primed and not args.quiet:
             print(printable(f"fsmctl run: {driver.profile.name} answered ({driver.link.describe()}); driving"),
                   file=sys.stderr, flush=True)
         if not interrupts.stop():
             session.run(stop=interrupts.stop)
-    except StateRuntimeError as exc:
-        error = exc
-        driver.stop()
-        recorder.flush(machine)
-    except KeyboardInterrupt:  # a second Ctrl-C while a state did not return
-        driver.stop()
-        interrupts.received = interrupts.received or 2
-        recorder.flush(machine)
-    except BaseException:
-        driver.stop()  # before anything else: the car must not drive on
-        raise
-    finally:
-        interrupts.writing = True
+
+    error = run_guarded(session, recorder, interrupts, run, halt=driver.stop)
     return finish_run(args, session, file, outputs, summary_out, report_out, recorder, error, interrupts.interrupted)
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from typing import Any
 
 from fsm.model.errors import printable
 
@@ -15,7 +16,7 @@ from .common import check_endpoints, choose_transport, load
 
 def run_sim(args: argparse.Namespace) -> int:
     from fsm.ros.robot import SimRobot
-    from fsm.ros.transport import free_endpoint, open_bus
+    from fsm.ros.transport import open_bus
     from fsm.sim.world import default_world, load_world
 
     from ..files import Outputs
@@ -23,21 +24,14 @@ def run_sim(args: argparse.Namespace) -> int:
     check_endpoints(args)
     outputs = Outputs()
     summary_out = outputs.add(args.summary, "--summary")
-    for out in outputs.items:
-        out.classify()
+    outputs.check()
     profile = load(args.ros, args.remap)
     world = args.world or str(default_world("."))
     load_world(world)  # located errors before anything connects
     zenoh = choose_transport(profile, args, args.ros, "fsmctl sim --ros") == "zenoh"
     outputs.open([args.ros, world])
-    listen = args.listen
-    connect = args.connect
-    if zenoh and listen is None and connect is None:
-        # the robot's side of the profile: listen where the machine connects; else on a free port, printed below
-        listen = list(profile.transport.listen or profile.transport.connect) or [free_endpoint(profile=profile)]
-        connect = []
-    link = open_bus(profile, connect=connect or [], listen=listen or [], via=args.via, node="fsmctl_sim",
-                    sim_time=args.lockstep)
+    connect, listen = _endpoints(args, profile, zenoh)
+    link = open_bus(profile, connect=connect, listen=listen, via=args.via, node="fsmctl_sim", sim_time=args.lockstep)
 
     def say(text: str) -> None:
         if not args.quiet:
@@ -50,13 +44,7 @@ def run_sim(args: argparse.Namespace) -> int:
         interrupts = Interrupts()
         with interrupts:
             say(f"{profile.name} in {world}, {link.describe()}; waiting for the machine")
-            robot.wait_for_controller(args.wait, stop=interrupts.stop)
-            if interrupts.stop():
-                why = "stopped"
-            elif args.lockstep:
-                why = robot.run_lockstep(args.duration, args.wait, stop=interrupts.stop)
-            else:
-                why = robot.run_realtime(args.duration, stop=interrupts.stop)
+            why = _serve(args, robot, interrupts)
             robot.car.emergency_stop()
             interrupts.writing = True
             result = robot.summary() | {"stopped": why}
@@ -69,3 +57,25 @@ def run_sim(args: argparse.Namespace) -> int:
     finally:
         outputs.discard()
         link.close()
+
+
+def _endpoints(args: argparse.Namespace, profile: Any, zenoh: bool) -> tuple[list[str], list[str]]:
+    """(connect, listen): the options', or over Zenoh without them the robot's side of the profile: listen where
+    the machine connects, else on a free port (printed when the link opens)."""
+    from fsm.ros.transport import free_endpoint
+
+    if zenoh and args.listen is None and args.connect is None:
+        return [], list(profile.transport.listen or profile.transport.connect) or [free_endpoint(profile=profile)]
+    return args.connect or [], args.listen or []
+
+
+def _serve(args: argparse.Namespace, robot: Any, interrupts: Interrupts) -> str:
+    """Wait for the machine, then serve it until the run ends: why it ended."""
+    robot.wait_for_controller(args.wait, stop=interrupts.stop)
+    if interrupts.stop():
+        return "stopped"
+    if args.lockstep:
+        why: str = robot.run_lockstep(args.duration, args.wait, stop=interrupts.stop)
+        return why
+    why = robot.run_realtime(args.duration, stop=interrupts.stop)
+    return why

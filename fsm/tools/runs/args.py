@@ -5,19 +5,21 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import Any
+from typing import Any, TypeVar
 
 from fsm.model.errors import DiagramError, UsageError
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+T = TypeVar("T")
 
 
-def raise_on_errors(problems: list[Any], *results: Any) -> None:
-    """The check's verdict: a located :class:`DiagramError` with its errors (or, when there are none but one of
-    ``results`` is missing, with all its problems)."""
+def checked(problems: list[Any], result: T | None) -> T:
+    """``result`` of a check, narrowed: a located :class:`DiagramError` with the check's errors instead (or, when
+    there are none but ``result`` is missing, with all its problems)."""
     errors = [p for p in problems if p.severity == "error"]
-    if errors or any(r is None for r in results):
+    if errors or result is None:
         raise DiagramError(errors or problems)
+    return result
 
 
 def registry_from(args: argparse.Namespace) -> Any:

@@ -4,6 +4,7 @@ the run's error and interruption, the trace's ``end`` line, and the HTML report 
 from __future__ import annotations
 
 import io
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from fsm.model.errors import StateRuntimeError
@@ -12,8 +13,33 @@ if TYPE_CHECKING:
     from _typeshed import SupportsWrite
 
     from fsm.session.session import Session
+    from fsm.trace.recorder import Recorder
 
     from ..files import Output
+    from .args import Interrupts
+
+
+def run_guarded(session: Session, recorder: Recorder, interrupts: Interrupts, run: Callable[[], None],
+                halt: Callable[[], None] = lambda: None) -> StateRuntimeError | None:
+    """``run()`` the session until a stop rule, the machine's end or Ctrl-C: a state's exception is returned (the
+    trace flushed by ``recorder``); a second Ctrl-C while a state did not return ends the run as interrupted.
+    ``halt()`` runs first on any exception (the car must not drive on); signals then only wait for the outputs."""
+    try:
+        run()
+    except StateRuntimeError as exc:
+        halt()
+        recorder.flush(session.machine)
+        return exc
+    except KeyboardInterrupt:
+        halt()
+        interrupts.received = interrupts.received or 2
+        recorder.flush(session.machine)
+    except BaseException:
+        halt()
+        raise
+    finally:
+        interrupts.writing = True
+    return None
 
 
 class Tee:
@@ -26,6 +52,13 @@ class Tee:
     def write(self, text: str) -> None:
         for st in self.streams:
             st.write(text)
+
+
+def trace_stream(trace_out: Output | None, report_out: Output | None) -> SupportsWrite[str] | None:
+    """Where a run's recorder writes: the --trace file, and with --report a :class:`Tee` that keeps the trace in
+    memory for it too."""
+    stream = trace_out.stream() if trace_out is not None else None
+    return Tee(stream) if report_out is not None else stream
 
 
 def error_fields(error: StateRuntimeError) -> dict[str, Any]:

@@ -28,7 +28,7 @@ def run_outputs(args: argparse.Namespace, *, video_suffixes: tuple[str, ...] = (
     """``--trace``, ``--report`` and ``--summary`` (with ``video_suffixes``, also ``--video``, its container by
     suffix, and ``--plot``), each classified (a folder, a missing folder: a usage error before anything is read) and
     told apart from the others."""
-    from ..files import Outputs, check_distinct  # start-up: every command line is parsed without the writer
+    from ..files import Outputs  # start-up: every command line is parsed without the writer
 
     outputs = Outputs()
     trace = outputs.add(args.trace, "--trace")
@@ -40,7 +40,5 @@ def run_outputs(args: argparse.Namespace, *, video_suffixes: tuple[str, ...] = (
         video = outputs.add(args.video, "--video", binary=True,
                             suffix=suffix if suffix in video_suffixes else video_suffixes[0])
         plot = outputs.add(args.plot, "--plot", binary=True, suffix=".png")
-    for out in outputs.items:
-        out.classify()
-    check_distinct(outputs.items, [])
+    outputs.check()
     return RunOutputs(outputs, trace, report, summary, video, plot)

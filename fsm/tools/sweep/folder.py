@@ -213,24 +213,26 @@ def jsonl_text(path: Path, records: list[dict[str, Any]]) -> bytes | None:
     has none). ``None`` when nothing changes."""
     by_key = {r["key"]: r for r in records}
     done: set[str] = set()
-    out: list[bytes] = []
-    changed = False
-    for raw in _read_all(path).split(b"\n"):
-        if not raw:
-            continue
-        rec = _line_record(raw)
-        if rec is not None and rec["key"] in by_key and rec["key"] not in done:
-            key = rec["key"]
-            done.add(key)
-            if (by_key[key].get("flags") or []) != (rec.get("flags") or []):
-                raw = json.dumps(by_key[key], separators=(",", ":")).encode("utf-8")
-                changed = True
-        out.append(raw)
+    lines = [raw for raw in _read_all(path).split(b"\n") if raw]
+    out = [_flagged(raw, by_key, done) for raw in lines]
     extra = [json.dumps(r, separators=(",", ":")).encode("utf-8") for r in records
              if r["key"] not in done and r.get("flags")]
-    if not changed and not extra:
+    if out == lines and not extra:
         return None
     return b"".join(line + b"\n" for line in out + extra)
+
+
+def _flagged(raw: bytes, by_key: dict[str, dict[str, Any]], done: set[str]) -> bytes:
+    """A line of sweep.jsonl, or (for the first line of a key in ``by_key`` only, noted in ``done``) that key's
+    record when their ``flags`` differ."""
+    rec = _line_record(raw)
+    if rec is None or rec["key"] not in by_key or rec["key"] in done:
+        return raw
+    done.add(rec["key"])
+    new = by_key[rec["key"]]
+    if (new.get("flags") or []) == (rec.get("flags") or []):
+        return raw
+    return json.dumps(new, separators=(",", ":")).encode("utf-8")
 
 
 def _read_all(path: Path) -> bytes:

@@ -15,7 +15,8 @@ import os
 import shlex
 import sys
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -301,38 +302,47 @@ def execute(p: Plan, folder: Folder, todo: list[dict[str, Any]], resume: Resume,
     t0 = time.perf_counter()
     bar = Progress(len(todo), enabled=progress)
     interrupts.writing = True  # a Ctrl-C stops the loop below at once; only a fourth one raises KeyboardInterrupt
+    try:
+        with _pool_for(todo, pool, backend, jobs, address) as pool:
+            if todo or resume.cut_at is not None:
+                folder.mkdir(folder.out)
+                with RecordLog(folder.out / "sweep.jsonl", resume.cut_at) as log:
+                    if todo:
+                        _collect(pool, todo, folder, log, results, bar, interrupts, on_record)
+            if pool is not None and interrupts.stop():
+                pool.terminate()
+            elif pool is not None:
+                pool.close()  # the workers exit while the reports are written
+            records = [results[job["key"]] for job in p.jobs if job["key"] in results]
+            folder.mkdir(folder.out)
+            write_reports(p, folder.out, records)
+    finally:
+        bar.done()
+    ran = len(records) - len(resume.records)
+    return Outcome(records, ran, len(resume.records), interrupts.stop(), time.perf_counter() - t0)
+
+
+@contextmanager
+def _pool_for(todo: list[dict[str, Any]], pool: Any, backend: str, jobs: int, address: str | None) -> Iterator[Any]:
+    """The pool that runs ``todo`` (``pool`` when one is given, else a new one; none when there is nothing to
+    run); terminated on any exception, joined at the end (and Ray shut down)."""
     if not todo and pool is not None:
         pool.terminate()
         pool.join()
         pool = None
+    if todo and pool is None:  # may refuse (Ray): nothing is written yet
+        pool = ray_pool(jobs, address) if backend == "ray" else local_pool(jobs)
     try:
-        if todo and pool is None:  # may refuse (Ray): nothing is written yet
-            pool = ray_pool(jobs, address) if backend == "ray" else local_pool(jobs)
-        if todo or resume.cut_at is not None:
-            folder.mkdir(folder.out)
-            with RecordLog(folder.out / "sweep.jsonl", resume.cut_at) as log:
-                if todo:
-                    _collect(pool, todo, folder, log, results, bar, interrupts, on_record)
-        if pool is not None:
-            if interrupts.stop():
-                pool.terminate()
-            else:
-                pool.close()  # the workers exit while the reports are written
-        records = [results[job["key"]] for job in p.jobs if job["key"] in results]
-        folder.mkdir(folder.out)
-        write_reports(p, folder.out, records)
+        yield pool
     except BaseException:
         if pool is not None:
             pool.terminate()
         raise
     finally:
-        bar.done()
         if pool is not None:
             pool.join()
             if backend == "ray":
                 shutdown_ray()
-    ran = len(records) - len(resume.records)
-    return Outcome(records, ran, len(resume.records), interrupts.stop(), time.perf_counter() - t0)
 
 
 def _collect(pool: Any, todo: list[dict[str, Any]], folder: Folder, log: RecordLog, results: dict[str, Any],
@@ -417,5 +427,6 @@ class Progress:
             sys.stderr.flush()
 
 
-def _env_cpus() -> int:
+def usable_cpus() -> int:
+    """How many processors this process may run on: a sweep's default -j."""
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)

@@ -157,21 +157,10 @@ class LevelLayout:
     note: list[float] | None = None
 
     def bbox(self, labels: bool = True) -> tuple[float, float, float, float]:
-        xs0, ys0, xs1, ys1 = _box_edges(self)
-        for e in self.edges:
-            for px, py in e.points:
-                xs0.append(px - 10)
-                xs1.append(px + 10)
-                ys0.append(py)
-                ys1.append(py)
-        for x, y, w, h in self.label_room if labels else []:
-            xs0.append(x)
-            xs1.append(x + w)
-            ys0.append(y)
-            ys1.append(y + h)
-        if not xs0:
-            return 0, 0, 0, 0
-        return min(xs0), min(ys0), max(xs1), max(ys1)
+        spans = _spans(self) + [(px - 10, py, px + 10, py) for e in self.edges for px, py in e.points]
+        if labels:
+            spans += [(x, y, x + w, y + h) for x, y, w, h in self.label_room]
+        return _extent(spans) if spans else (0, 0, 0, 0)
 
     def shift(self, dx: float, dy: float) -> None:
         for n in self.nodes:
@@ -186,15 +175,24 @@ class LevelLayout:
             self.note = [self.note[0] + dx, self.note[1] + dy, self.note[2], self.note[3]]
 
 
-def _box_edges(level: LevelLayout) -> tuple[list[float], list[float], list[float], list[float]]:
-    """Left, top, right and bottom edges of the level's boxes: states, initial marker, note."""
-    boxes = [(n.x, n.y, n.w, n.h) for n in level.nodes]
+Span = tuple[float, float, float, float]
+
+
+def _spans(level: LevelLayout) -> list[Span]:
+    """Left, top, right and bottom of each of the level's boxes: states, initial marker, note."""
+    spans = [(n.x, n.y, n.x + n.w, n.y + n.h) for n in level.nodes]
     if level.marker:
-        boxes.append((level.marker[0], level.marker[1], MARKER, MARKER))
+        mx, my = level.marker
+        spans.append((mx, my, mx + MARKER, my + MARKER))
     if level.note is not None:
-        boxes.append((level.note[0], level.note[1], level.note[2], level.note[3]))
-    return ([b[0] for b in boxes], [b[1] for b in boxes], [b[0] + b[2] for b in boxes],
-            [b[1] + b[3] for b in boxes])
+        x, y, w, h = level.note
+        spans.append((x, y, x + w, y + h))
+    return spans
+
+
+def _extent(spans: list[Span]) -> Span:
+    """Left, top, right and bottom of the box round ``spans``."""
+    return min(s[0] for s in spans), min(s[1] for s in spans), max(s[2] for s in spans), max(s[3] for s in spans)
 
 
 def _snap(v: float) -> float:
@@ -513,14 +511,13 @@ def _place_marker(level: LevelLayout, initial: Node, stored: bool) -> None:
     """The initial marker and its arrow: where ``layout.initial`` keeps them when every box kept its stored
     place, else above the initial state."""
     ini = _dict(_dict(level.machine.get("layout")).get("initial"))
-    if _num(ini.get("x")) and _num(ini.get("y")) and initial.placed and all(n.placed for n in level.nodes) \
-            and stored:
-        level.marker = (float(ini["x"]), float(ini["y"]))
-        if _num(ini.get("w")) and _num(ini.get("h")):
-            level.marker_size = (float(ini["w"]), float(ini["h"]))
-        level.marker_points = _points(ini) or []
-    else:
+    at = _xy(ini, "x", "y") if stored else None
+    if at is None:
         level.marker = (initial.x + initial.w / 2 - MARKER / 2, initial.y - MARKER - 40)
+    else:
+        level.marker = at
+        level.marker_size = _xy(ini, "w", "h") or level.marker_size
+        level.marker_points = _points(ini) or []
     if not level.marker_points:
         mx, my = level.marker
         level.marker_points = _connect((mx, my, MARKER, MARKER), (initial.x, initial.y, initial.w, initial.h), 0)
@@ -580,26 +577,26 @@ def _insert_space(level: LevelLayout, n: Node, dw: float, dh: float) -> None:
     grown box and of every other node there, so that growing a composite does not push what stands beside it
     far away. A node that moved so is ``detached``: its arrows lose their stored bends."""
     right, bottom = n.x + n.w, n.y + n.h
-    grown = (n.x, n.y, n.w + dw, n.h + dh)
-    moves: dict[int, tuple[float, float]] = {}
-    for m in level.nodes:
-        if m is not n:
-            moves[id(m)] = (dw if m.x >= right - 0.5 else 0, dh if m.y >= bottom - 0.5 else 0)
-    for m in level.nodes:
-        if m is not n and moves[id(m)] != (0, 0):
-            _move_less(level, n, m, grown, moves)
-    for m in level.nodes:
-        if m is not n:
-            m.move(*moves[id(m)])
-    op = (right, dw, bottom, dh)
-    level.inserted.append(op)
+    others = [m for m in level.nodes if m is not n]
+    moves = {id(m): (dw if m.x >= right - 0.5 else 0, dh if m.y >= bottom - 0.5 else 0) for m in others}
+    for m in others:
+        if moves[id(m)] != (0, 0):
+            _move_less(level, n, m, (n.x, n.y, n.w + dw, n.h + dh), moves)
+    for m in others:
+        m.move(*moves[id(m)])
+    level.inserted.append((right, dw, bottom, dh))
+    _move_marker(level, n, moves)
+
+
+def _move_marker(level: LevelLayout, n: Node, moves: dict[int, tuple[float, float]]) -> None:
+    """The initial marker moves with its state; when that is the grown node ``n``, as the space inserted last."""
     if level.marker is None:
         return
     if level.initial is not None and level.initial is not n:
         dx, dy = moves[id(level.initial)]
         level.marker = (level.marker[0] + dx, level.marker[1] + dy)
     else:
-        mx, my = _spread(list(level.marker), [op])
+        mx, my = _spread(list(level.marker), level.inserted[-1:])
         level.marker = (mx, my)
 
 
@@ -646,9 +643,8 @@ def _attach(p: list[float], n: Node) -> list[float]:
     return [axis(p[0], ox, ow, n.x, n.w), axis(p[1], oy, oh, n.y, n.h)]
 
 
-def _node_bbox(level: LevelLayout) -> tuple[float, float, float, float]:
-    xs, ys, xe, ye = _box_edges(level)
-    return min(xs), min(ys), max(xe), max(ye)
+def _node_bbox(level: LevelLayout) -> Span:
+    return _extent(_spans(level))
 
 
 def _dict(v: Any) -> dict[str, Any]:
@@ -664,6 +660,13 @@ def _dicts(machine: dict[str, Any], key: str) -> list[dict[str, Any]]:
     """The dictionaries in the list ``machine[key]`` (its states or transitions); the rest is skipped."""
     items = machine.get(key)
     return [v for v in items if isinstance(v, dict)] if isinstance(items, list) else []
+
+
+def _xy(lay: dict[str, Any], x: str, y: str) -> tuple[float, float] | None:
+    """The stored numbers ``lay[x]`` and ``lay[y]`` (a position or a size) when both are finite, else None."""
+    if _num(lay.get(x)) and _num(lay.get(y)):
+        return float(lay[x]), float(lay[y])
+    return None
 
 
 def _rect(v: Any) -> tuple[float, float, float, float] | None:
@@ -757,8 +760,7 @@ def _reflow(level: LevelLayout, label_width: Callable[[dict[str, Any]], float] |
     if bands is None:
         return
     x0, y0, _, _ = _node_bbox(level)
-    boxes = [(min(b[0] for b in band), min(b[1] for b in band), max(b[0] + b[2] for b in band),
-              max(b[1] + b[3] for b in band)) for band in bands]
+    boxes = [_extent([(x, y, x + w, y + h) for x, y, w, h, _ in band]) for band in bands]
     widths = [label_width(tr) for tr in _dicts(level.machine, "transitions")] \
         if label_width is not None else []
     gap_x = GAP_X + min(max(widths, default=0.0), 240.0)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import functools
 import math
+from dataclasses import dataclass, field
 from itertools import pairwise
 from pathlib import Path
 from typing import Any
@@ -239,9 +240,8 @@ def _candidates(worse: tuple[float, ...]) -> tuple[tuple[Candidate, ...], ...]:
 def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
     """A rectangle for every arrow's label, beside its arrow, clear of boxes and other labels where possible.
 
-    Greedy, in document order: each label takes the cheapest of a set of candidate places along its arrow, on
-    either side of it and on it, in one line or two (further out only when the near places are all taken); of
-    equally cheap places, the first in the order ring, point along the arrow, shape, side.
+    Greedy, shortest arrow first: each label takes the cheapest of a set of candidate places along its arrow (see
+    :func:`_best_place`), the labels placed before among what it keeps clear of.
     """
     placed = _Placed()
     out: list[tuple[Edge, Rect, list[str]]] = []
@@ -249,24 +249,43 @@ def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
         text = short_edge_label(e.doc)
         if not text or len(e.points) < 2:
             continue
-        shapes = _label_shapes(text)
-        near = _Near(scene, placed, container, ancestors, id(e))
-        anchors = _anchors(e.points)
-        own = [(a[0], a[1], b[0], b[1]) for a, b in pairwise(e.points)]
-        best: list[Any] = [math.inf, -1, None, []]  # cost, candidate number, place, lines
-
-        _search(shapes[:2], _candidates(tuple(worse for *_, worse in shapes[:2])), best, near, anchors, own)
-        if best[0] >= CROSSED and len(shapes) > 2:  # nowhere free: the short form, near its arrow
-            short: list[Any] = [best[0], -1, None, []]
-            _search(shapes[2:], _candidates((shapes[2][3],)), short, near, anchors, own)
-            if short[2] is not None and short[0] < best[0]:
-                best = short
-        best_r: Rect | None = best[2]
-        best_lines: list[str] = best[3]
-        assert best_r is not None
-        placed.add(best_r)
-        out.append((e, best_r, best_lines))
+        best = _best_place(_label_shapes(text), _Near(scene, placed, container, ancestors, id(e)), e.points)
+        placed.add(best.rect)
+        out.append((e, best.rect, best.lines))
     return out
+
+
+@dataclass(slots=True)
+class _Best:
+    """The cheapest place found so far for one label: its cost, its candidate number (-1: none yet), its rectangle
+    and the label's lines there."""
+    cost: float = math.inf
+    idx: int = -1
+    rect: Rect = (0.0, 0.0, 0.0, 0.0)
+    lines: list[str] = field(default_factory=list)
+
+
+def _beats(cost: float, idx: int, best: _Best) -> bool:
+    """Whether a place that costs ``cost``, candidate number ``idx``, comes before ``best``: it is cheaper, or as
+    cheap and listed first."""
+    return cost < best.cost or cost == best.cost and idx < best.idx
+
+
+def _best_place(shapes: list[tuple[list[str], float, float, float]], near: _Near, pts: list[list[float]]) -> _Best:
+    """The cheapest of the candidate places along the arrow ``pts``, on either side of it and on it, in one line or
+    two (further out only when the near places are all taken); of equally cheap places, the first in the order
+    ring, point along the arrow, shape, side. When every place lies across something, the short form, where that
+    is cheaper."""
+    anchors = _anchors(pts)
+    own = [(a[0], a[1], b[0], b[1]) for a, b in pairwise(pts)]
+    best = _Best()
+    _search(shapes[:2], _candidates(tuple(worse for *_, worse in shapes[:2])), best, near, anchors, own)
+    if best.cost >= CROSSED and len(shapes) > 2:  # nowhere free: the short form, near its arrow
+        short = _Best(best.cost)
+        _search(shapes[2:], _candidates((shapes[2][3],)), short, near, anchors, own)
+        if short.idx >= 0:  # found a place cheaper than the best of the long forms
+            return short
+    return best
 
 
 def _length(pts: list[list[float]]) -> float:
@@ -289,31 +308,35 @@ def _anchors(pts: list[list[float]]) -> list[tuple[float, float, float, float]]:
 
 
 def _search(shapes: list[tuple[list[str], float, float, float]], groups: tuple[tuple[Candidate, ...], ...],
-            best: list[Any], near: _Near, anchors: list[tuple[float, float, float, float]],
+            best: _Best, near: _Near, anchors: list[tuple[float, float, float, float]],
             own: list[tuple[float, float, float, float]]) -> None:
-    """The cheapest of the candidate places into ``best`` (cost, number, place, lines), searched group by group
-    (a group further out only while every place so far lies across something)."""
+    """The cheapest of the candidate places into ``best``, searched group by group (a group further out only while
+    every place so far lies across something)."""
     for group in groups:
-        for base, idx, ring, ti, si, side in group:
-            best_cost, best_idx = best[0], best[1]
-            if base > best_cost or base == best_cost and idx > best_idx:
+        for cand in group:
+            if not _beats(cand[0], cand[1], best):
                 break  # this place and all after it cost at least as much as the best one
-            px, py, _, _ = anchors[ti]
-            lines, w, h, _ = shapes[si]
-            r = _candidate_rect(anchors[ti], w, h, ring, side)
-            if ring < 0:  # on its own arrow, which costs CROSSED more: no better than the best one?
-                low = base + CROSSED
-                if (low > best_cost or low == best_cost and idx > best_idx) and \
-                        any(segment_hits_box(*sg, r) for sg in own):
-                    continue
-            limit = best_cost - base
-            if idx < best_idx:  # as good as the best one would do: it comes first
-                limit = math.nextafter(limit, math.inf)
-            cost = base + near.cost(r, (px, py), limit)
-            if cost < best_cost or cost == best_cost and idx < best_idx:
-                best[:] = [cost, idx, r, lines]
-        if best[0] < CROSSED:
+            _consider(cand, shapes, best, near, anchors, own)
+        if best.cost < CROSSED:
             break
+
+
+def _consider(cand: Candidate, shapes: list[tuple[list[str], float, float, float]], best: _Best, near: _Near,
+              anchors: list[tuple[float, float, float, float]], own: list[tuple[float, float, float, float]]) -> None:
+    """Candidate ``cand`` into ``best`` when it comes before it. A place on its own arrow (ring -1) is not measured
+    when what that alone costs (``CROSSED``) already makes it no better; the measure stops where it would be."""
+    base, idx, ring, ti, si, side = cand
+    lines, w, h, _ = shapes[si]
+    anchor = anchors[ti]
+    r = _candidate_rect(anchor, w, h, ring, side)
+    if ring < 0 and not _beats(base + CROSSED, idx, best) and any(segment_hits_box(*sg, r) for sg in own):
+        return
+    limit = best.cost - base
+    if idx < best.idx:  # as good as the best one would do: it comes first
+        limit = math.nextafter(limit, math.inf)
+    cost = base + near.cost(r, (anchor[0], anchor[1]), limit)
+    if _beats(cost, idx, best):
+        best.cost, best.idx, best.rect, best.lines = cost, idx, r, lines
 
 
 def _candidate_rect(anchor: tuple[float, float, float, float], w: float, h: float, ring: int, side: int) -> Rect:
@@ -426,12 +449,7 @@ class _Near:
         scene = self.scene
         rx, ry, rw, rh = r
         rx1, ry1 = rx + rw, ry + rh
-        ax, ay = anchor
-        cx = rx if ax < rx else rx1 if ax > rx1 else ax  # the label's point nearest to its arrow
-        cy = ry if ay < ry else ry1 if ay > ry1 else ay
-        leader = (ax, ay, cx, cy)
-        lx0, lx1 = (ax, cx) if ax <= cx else (cx, ax)
-        ly0, ly1 = (ay, cy) if ay <= cy else (cy, ay)
+        leader, lx0, ly0, lx1, ly1 = _leader(anchor, rx, ry, rx1, ry1)
         segments = scene.segments
         n_obstacles = len(scene.boxes) + len(scene.composites)
         owner = self.owner
@@ -444,6 +462,18 @@ class _Near:
             if cost >= limit:
                 break
         return cost
+
+
+def _leader(anchor: tuple[float, float], rx: float, ry: float, rx1: float, ry1: float,
+            ) -> tuple[tuple[float, float, float, float], float, float, float, float]:
+    """The line from a label's point on its arrow to the nearest point of its rectangle (``rx``..``rx1``,
+    ``ry``..``ry1``), and that line's left, top, right and bottom."""
+    ax, ay = anchor
+    cx = rx if ax < rx else rx1 if ax > rx1 else ax
+    cy = ry if ay < ry else ry1 if ay > ry1 else ay
+    lx0, lx1 = (ax, cx) if ax <= cx else (cx, ax)
+    ly0, ly1 = (ay, cy) if ay <= cy else (cy, ay)
+    return (ax, ay, cx, cy), lx0, ly0, lx1, ly1
 
 
 # -- drawing ---------------------------------------------------------------------------------------------------

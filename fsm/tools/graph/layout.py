@@ -328,7 +328,7 @@ def _move_marker_points(level: LevelLayout, marker: tuple[float, float] | None) 
     pts = level.marker_points
     first = [pts[0][0] + level.marker[0] - marker[0], pts[0][1] + level.marker[1] - marker[1]]
     last = _attach(pts[-1], level.initial) if level.initial.stored is not None else pts[-1]
-    middle = [] if level.initial.detached else [_spread(p, level.inserted) for p in pts[1:-1]]
+    middle = _bends(pts, level.inserted, level.initial.detached)
     level.marker_points = [first] + middle + [last]
 
 
@@ -487,13 +487,18 @@ def _place_rows(level: LevelLayout, rows: dict[int, list[Node]], by_id: dict[str
         gap_x = max(GAP_X, _snap(max(widths, default=0) + 20))
         if i:
             y += max(0, len(widths) - 1) * 16
-        x = left
-        for n in rows[r]:
-            n.x, n.y = x, y
-            _arrange(n)
-            n.placed = True
-            x += n.w + gap_x
-        y += max(n.h for n in rows[r]) + GAP_Y
+        y += _place_row(rows[r], left, y, gap_x) + GAP_Y
+
+
+def _place_row(row: list[Node], x: float, y: float, gap_x: float) -> float:
+    """The boxes of a row side by side from (``x``, ``y``), ``gap_x`` apart, their parts arranged; the height of the
+    tallest."""
+    for n in row:
+        n.x, n.y = x, y
+        _arrange(n)
+        n.placed = True
+        x += n.w + gap_x
+    return max(n.h for n in row)
 
 
 def _label_widths_into(level: LevelLayout, by_id: dict[str, Node],
@@ -631,6 +636,16 @@ def _spread(p: list[float], ops: list[tuple[float, float, float, float]]) -> lis
     return [x, y]
 
 
+def _bends(pts: list[list[float]], inserted: list[tuple[float, float, float, float]], detached: bool,
+           shift: tuple[float, float] = (0.0, 0.0)) -> list[list[float]]:
+    """A stored arrow's bends (all its points but its ends) where the space ``inserted`` for grown composites, and
+    then a reflow's ``shift``, took them; none when an end of the arrow is ``detached``."""
+    if detached:
+        return []
+    dx, dy = shift
+    return [[x + dx, y + dy] for x, y in (_spread(p, inserted) for p in pts[1:-1])]
+
+
 def _attach(p: list[float], n: Node) -> list[float]:
     """Where a stored arrow end ``p`` on the border of ``n`` is once ``n`` has moved and grown: it keeps its
     distance from the box's left (top) side, or from its right (bottom) side when it was on that one."""
@@ -723,19 +738,32 @@ def _columns(sizes: list[tuple[float, float]], gap_x: float) -> list[list[int]]:
     column height that holds them all in that many (cut greedily); of those, the split whose height over width is
     nearest ``REFLOW_TARGET`` (of two alike, the one with fewer columns)."""
     best: tuple[float, list[list[int]]] = (math.inf, [list(range(len(sizes)))])
-    total = sum(h for _, h in sizes) + GAP_Y * (len(sizes) - 1)
     for k in range(2, min(len(sizes), max(MAX_COLUMNS, math.isqrt(len(sizes)) + 1)) + 1):
-        limit = max(max(h for _, h in sizes), total / k)
-        cols = _cut_columns(sizes, limit)
-        while len(cols) > k:  # a band did not fit where the even share ended: a little more height a column
-            limit *= 1.05
-            cols = _cut_columns(sizes, limit)
-        width = sum(max(sizes[i][0] for i in c) for c in cols) + gap_x * (len(cols) - 1)
-        tall = max(sum(sizes[i][1] for i in c) + GAP_Y * (len(c) - 1) for c in cols)
-        score = abs(math.log(tall / width / REFLOW_TARGET)) + 0.05 * len(cols)
+        cols = _split_in(sizes, k)
+        score = _score(sizes, cols, gap_x)
         if score < best[0]:
             best = (score, cols)
     return best[1]
+
+
+def _split_in(sizes: list[tuple[float, float]], k: int) -> list[list[int]]:
+    """The bands cut into at most ``k`` columns, as low as that takes: from an even share of the height, a little
+    more a time."""
+    total = sum(h for _, h in sizes) + GAP_Y * (len(sizes) - 1)
+    limit = max(max(h for _, h in sizes), total / k)
+    cols = _cut_columns(sizes, limit)
+    while len(cols) > k:  # a band did not fit where the even share ended: a little more height a column
+        limit *= 1.05
+        cols = _cut_columns(sizes, limit)
+    return cols
+
+
+def _score(sizes: list[tuple[float, float]], cols: list[list[int]], gap_x: float) -> float:
+    """How far the columns' height over width is from ``REFLOW_TARGET`` (by its logarithm), and a little for each
+    column."""
+    width = sum(max(sizes[i][0] for i in c) for c in cols) + gap_x * (len(cols) - 1)
+    tall = max(sum(sizes[i][1] for i in c) + GAP_Y * (len(c) - 1) for c in cols)
+    return abs(math.log(tall / width / REFLOW_TARGET)) + 0.05 * len(cols)
 
 
 def _cut_columns(sizes: list[tuple[float, float]], limit: float) -> list[list[int]]:
@@ -761,21 +789,29 @@ def _reflow(level: LevelLayout, label_width: Callable[[dict[str, Any]], float] |
         return
     x0, y0, _, _ = _node_bbox(level)
     boxes = [_extent([(x, y, x + w, y + h) for x, y, w, h, _ in band]) for band in bands]
-    widths = [label_width(tr) for tr in _dicts(level.machine, "transitions")] \
-        if label_width is not None else []
+    widths = [label_width(tr) for tr in _dicts(level.machine, "transitions")] if label_width is not None else []
     gap_x = GAP_X + min(max(widths, default=0.0), 240.0)
     sizes = [(bx1 - x0, by1 - by0) for _, by0, bx1, by1 in boxes]
     columns = _columns(sizes, gap_x)
-    if len(columns) < 2:
-        return
+    if len(columns) >= 2:
+        _set_columns(level, [(bands[i], boxes[i][1], sizes[i]) for i in range(len(bands))], columns, gap_x)
+
+
+def _set_columns(level: LevelLayout, bands: list[tuple[list[tuple[float, float, float, float, Node | None]], float,
+                                                        tuple[float, float]]],
+                 columns: list[list[int]], gap_x: float) -> None:
+    """Move the bands (each with its top and its size from the level's left) into ``columns`` side by side, from
+    the level's top left corner, each column ``gap_x`` right of the one before."""
+    x0, y0, _, _ = _node_bbox(level)
     left = x0
     for col in columns:
         top = y0
         for i in col:
-            dy = _snap(top - boxes[i][1])
-            _move_band(level, bands[i], left - x0, dy)
-            top = boxes[i][1] + dy + sizes[i][1] + GAP_Y
-        left += _snap(max(sizes[i][0] for i in col) + gap_x)
+            band, band_top, (_, height) = bands[i]
+            dy = _snap(top - band_top)
+            _move_band(level, band, left - x0, dy)
+            top = band_top + dy + height + GAP_Y
+        left += _snap(max(bands[i][2][0] for i in col) + gap_x)
 
 
 def _tall_bands(level: LevelLayout) -> list[list[tuple[float, float, float, float, Node | None]]] | None:
@@ -788,10 +824,14 @@ def _tall_bands(level: LevelLayout) -> list[list[tuple[float, float, float, floa
     if y1 - y0 <= max(REFLOW_MIN_H, COLUMN_ASPECT * (x1 - x0)):
         return None
     bands = _bands(level)
-    single = sum(1 for band in bands if sum(1 for b in band if b[4] is not None) == 1)
-    if len(bands) < 3 or (y1 - y0 <= REFLOW_ASPECT * (x1 - x0) and 3 * single < 2 * len(bands)):
+    if len(bands) < 3 or (y1 - y0 <= REFLOW_ASPECT * (x1 - x0) and 3 * _singles(bands) < 2 * len(bands)):
         return None
     return bands
+
+
+def _singles(bands: list[list[tuple[float, float, float, float, Node | None]]]) -> int:
+    """How many of the bands hold one state."""
+    return sum(1 for band in bands if sum(1 for b in band if b[4] is not None) == 1)
 
 
 def _move_band(level: LevelLayout, band: list[tuple[float, float, float, float, Node | None]], dx: float,
@@ -849,9 +889,7 @@ def _keep_stored_points(level: LevelLayout, e: Edge) -> bool:
         return False
     e.points = pts
     if level.inserted or e.src.reflowed != (0.0, 0.0):  # boxes moved: the ends stay on their boxes
-        dx, dy = e.src.reflowed
-        middle = [] if e.src.detached or e.dst.detached else \
-            [[x + dx, y + dy] for x, y in (_spread(p, level.inserted) for p in e.points[1:-1])]
+        middle = _bends(e.points, level.inserted, e.src.detached or e.dst.detached, e.src.reflowed)
         e.points = [_attach(e.points[0], e.src)] + middle + [_attach(e.points[-1], e.dst)]
     return True
 

@@ -9,8 +9,10 @@ from __future__ import annotations
 
 import functools
 import math
+from bisect import bisect_left
+from collections.abc import Iterable
 from dataclasses import dataclass, field
-from itertools import pairwise
+from itertools import islice, pairwise, product
 from pathlib import Path
 from typing import Any
 from xml.sax.saxutils import escape, quoteattr
@@ -74,9 +76,7 @@ def svg(doc: dict[str, Any], base: str | Path | None = None) -> str:
     scene.collect(level, None, ())
     scene.index()
     labels = _place_labels(scene)
-    x0, y0, x1, y1 = level.bbox(labels=False)
-    for rx, ry, rw, rh in [r for _, r, _ in labels] + scene.outside:
-        x0, y0, x1, y1 = min(x0, rx), min(y0, ry), max(x1, rx + rw), max(y1, ry + rh)
+    x0, y0, x1, y1 = _picture(level, [r for _, r, _ in labels] + scene.outside)
     m = 20
     width, height = x1 - x0 + 2 * m, y1 - y0 + 2 * m
     body: list[str] = []
@@ -92,6 +92,15 @@ def svg(doc: dict[str, Any], base: str | Path | None = None) -> str:
             'orient="auto-start-reverse"><path d="M 0 0 L 10 5 L 0 10 z" fill="#333"/></marker></defs>\n'
             f'<rect x="{x0 - m:.0f}" y="{y0 - m:.0f}" width="{width:.0f}" height="{height:.0f}" fill="white"/>\n'
             + "\n".join(body) + "\n</svg>\n")
+
+
+def _picture(level: LevelLayout, texts: list[Rect]) -> tuple[float, float, float, float]:
+    """Left, top, right and bottom of what is drawn: the level's boxes and arrows, and the ``texts`` beside them
+    (arrow labels, the names of small final states)."""
+    x0, y0, x1, y1 = level.bbox(labels=False)
+    for rx, ry, rw, rh in texts:
+        x0, y0, x1, y1 = min(x0, rx), min(y0, ry), max(x1, rx + rw), max(y1, ry + rh)
+    return x0, y0, x1, y1
 
 
 # -- edge labels -----------------------------------------------------------------------------------------------
@@ -226,15 +235,21 @@ def _candidates(worse: tuple[float, ...]) -> tuple[tuple[Candidate, ...], ...]:
     idx = 0
     for rings in _RINGS:
         group = []
-        for ring in rings:
-            for ti, t in enumerate(_ALONG):
-                for si, bad in enumerate(worse):
-                    for side in ((1,) if ring < 0 else range(8) if ring >= COMPASS else (1, -1)):
-                        group.append((abs(t - 0.5) * 120 + max(ring, 0) * 250 + (0 if side == 1 else 15) + bad, idx,
-                                      ring, ti, si, side))
-                        idx += 1
+        for ring, (ti, t), (si, bad) in product(rings, enumerate(_ALONG), enumerate(worse)):
+            for side in _sides(ring):
+                group.append((abs(t - 0.5) * 120 + max(ring, 0) * 250 + (0 if side == 1 else 15) + bad, idx,
+                              ring, ti, si, side))
+                idx += 1
         groups.append(tuple(sorted(group)))
     return tuple(groups)
+
+
+def _sides(ring: int) -> Iterable[int]:
+    """The sides of a ring's places: on the arrow (ring -1) one, beside it either side of it, round its point (from
+    ``COMPASS`` on) eight directions."""
+    if ring < 0:
+        return (1,)
+    return range(8) if ring >= COMPASS else (1, -1)
 
 
 def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
@@ -390,13 +405,17 @@ class _Near:
                                      y1 if y1 > ay else ay)
         k, on_boxes = self._on_boxes(found, air)
         cost += on_boxes
-        if self.inner is not None:
-            outside = rw * rh - _area(r, self.inner)
-            if outside > 0.01:
-                cost += 1e5 + outside * 10
+        cost += self._outside(r)
         if cost >= limit:
             return cost
         return self._on_arrows(found, k, r, anchor, cost, limit)
+
+    def _outside(self, r: Rect) -> float:
+        """What the part of place ``r`` outside the composite the label is drawn in costs (none outside any)."""
+        if self.inner is None:
+            return 0.0
+        outside = r[2] * r[3] - _area(r, self.inner)
+        return 1e5 + outside * 10 if outside > 0.01 else 0.0
 
     def _on_labels(self, air: Rect) -> float:
         """Over a label placed before; or closer to one than ``LABEL_GAP`` (``air`` is 2 px larger than the label),
@@ -423,13 +442,9 @@ class _Near:
         scene = self.scene
         boxes, composites = scene.boxes, scene.composites
         n_boxes = len(boxes)
-        n_obstacles = n_boxes + len(composites)
-        k = 0
+        k = bisect_left(found, n_boxes + len(composites))
         cost = 0.0
-        for i in found:
-            if i >= n_obstacles:
-                break
-            k += 1
+        for i in islice(found, k):
             if i < n_boxes:
                 ox, oy, ow, oh = boxes[i]
             else:
@@ -539,6 +554,13 @@ def _draw_composite(n: Node, attrs: str, body: list[str]) -> None:
         note, nsize = fit(n.note, avail, SMALL_FONT)
         colour = "#a33" if n.note_error else "#666"
         body.append(_text(n.x + n.w / 2, top + 32, note, nsize, extra=f' font-style="italic" fill="{colour}"'))
+    _draw_parts(n, body)
+    body.append("</g>")
+
+
+def _draw_parts(n: Node, body: list[str]) -> None:
+    """A composite's compartments: a line under its title band, a dashed line between two regions, each region's
+    name."""
     if n.parts:
         body.append(f'<line x1="{n.x:.0f}" y1="{n.y + n.head:.0f}" x2="{n.x + n.w:.0f}" '
                     f'y2="{n.y + n.head:.0f}" stroke="#4a6d94"/>')
@@ -549,7 +571,6 @@ def _draw_composite(n: Node, attrs: str, body: list[str]) -> None:
         if p.name is not None:
             name, psize = fit(p.name, p.w - 2 * BOX_MARGIN, LABEL_FONT)
             body.append(_text(p.x + p.w / 2, p.y + 16, name, psize, extra=' font-style="italic" fill="#4a6d94"'))
-    body.append("</g>")
 
 
 def _draw_final(n: Node, attrs: str, body: list[str]) -> None:

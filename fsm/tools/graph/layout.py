@@ -219,6 +219,14 @@ def sequence_machine(st: dict[str, Any], start: str = "start") -> dict[str, Any]
     say); the reader rebuilds the steps from the arrows."""
     steps = _named(st["steps"])
     blocking = [s for s in steps if not (s.get("type") == "Sequence" and s.get("blocking") is False)]
+    exceptions = _named(st.get("exceptions") or ())
+    initial = blocking[0]["id"] if blocking else (steps[0]["id"] if steps else "")
+    return {"initial": initial, "states": steps + exceptions, "transitions": _chain(steps, blocking, start)}
+
+
+def _chain(steps: list[dict[str, Any]], blocking: list[dict[str, Any]], start: str) -> list[dict[str, Any]]:
+    """The arrows between a Sequence's steps: into each step from the last blocking step before it, typed
+    ``Finished`` into a blocking step and ``start`` into a non-blocking one."""
     transitions: list[dict[str, Any]] = []
     last: str | None = None
     for s in steps:
@@ -226,9 +234,7 @@ def sequence_machine(st: dict[str, Any], start: str = "start") -> dict[str, Any]
             transitions.append({"type": "Finished" if s in blocking else start, "from": last, "to": s["id"]})
         if s in blocking:
             last = s["id"]
-    exceptions = _named(st.get("exceptions") or ())
-    initial = blocking[0]["id"] if blocking else (steps[0]["id"] if steps else "")
-    return {"initial": initial, "states": steps + exceptions, "transitions": transitions}
+    return transitions
 
 
 def _named(items: Any) -> list[dict[str, Any]]:
@@ -425,7 +431,8 @@ def _stored_frames(n: Node) -> list[tuple[float, float, float, float]] | None:
         box = _rect(fr)
         if box is None or not _holds((n.x, n.y, n.w, n.h), box[0], box[1], box[0] + box[2], box[1] + box[3]):
             return None
-        if (p.level.nodes or p.level.note is not None) and not _holds(box, *_node_bbox(p.level)):
+        inner = _spans(p.level)
+        if inner and not _holds(box, *_extent(inner)):
             return None
         frames.append(box)
     return frames
@@ -478,9 +485,7 @@ def _rows(level: LevelLayout, by_id: dict[str, Node], todo: list[Node]) -> dict[
 def _place_rows(level: LevelLayout, rows: dict[int, list[Node]], by_id: dict[str, Node],
                 label_width: Callable[[dict[str, Any]], float] | None) -> None:
     """The rows one below the other, below what has a stored place, each row's boxes side by side."""
-    placed = [n for n in level.nodes if n.placed]
-    y = max(max((n.y + n.h for n in placed), default=-GAP_Y) + GAP_Y, MARKER + 40)
-    left = min((n.x for n in placed), default=0.0)
+    left, y = _below_placed(level)
     into = _label_widths_into(level, by_id, label_width)
     for i, r in enumerate(sorted(rows)):
         widths = [w for sid in dict.fromkeys(n.id for n in rows[r]) for w in into.get(sid, [])]
@@ -488,6 +493,14 @@ def _place_rows(level: LevelLayout, rows: dict[int, list[Node]], by_id: dict[str
         if i:
             y += max(0, len(widths) - 1) * 16
         y += _place_row(rows[r], left, y, gap_x) + GAP_Y
+
+
+def _below_placed(level: LevelLayout) -> tuple[float, float]:
+    """Where the first row starts: left-aligned with, and ``GAP_Y`` below, the boxes that have a stored place (below
+    the initial marker's room when none has)."""
+    placed = [n for n in level.nodes if n.placed]
+    y = max(max((n.y + n.h for n in placed), default=-GAP_Y) + GAP_Y, MARKER + 40)
+    return min((n.x for n in placed), default=0.0), y
 
 
 def _place_row(row: list[Node], x: float, y: float, gap_x: float) -> float:
@@ -535,20 +548,32 @@ def _fit_composites(level: LevelLayout, drawing: bool) -> None:
     grows pushes what lies right of and below it away by as much (see :func:`_insert_space`).
     """
     for n in level.nodes:
-        if not n.parts:
-            continue
-        frames = _stored_frames(n) if n.regions else None
-        if frames is not None:
-            for p, (x, y, w, h) in zip(n.parts, frames, strict=True):
-                p.x, p.y, p.w, p.h = x, y, w, h
+        if not n.parts or _keep_frames(n):
             continue
         if n.foreign or n.regions:
-            w, h = _natural_size(n)
-            if w > n.w or h > n.h:
-                _grow(level, n, max(n.w, w), max(n.h, h), drawing)
-            _arrange(n)
+            _fit_foreign(level, n, drawing)
         else:
             _fit_own(level, n, drawing)
+
+
+def _keep_frames(n: Node) -> bool:
+    """Whether the regions of ``n`` keep the frames the diagram has for them (see :func:`_stored_frames`): then they
+    are put there."""
+    frames = _stored_frames(n) if n.regions else None
+    if frames is None:
+        return False
+    for p, (x, y, w, h) in zip(n.parts, frames, strict=True):
+        p.x, p.y, p.w, p.h = x, y, w, h
+    return True
+
+
+def _fit_foreign(level: LevelLayout, n: Node, drawing: bool) -> None:
+    """Content in foreign coordinates (an include, regions): the box grown to the parts' natural size where it is
+    smaller, the parts moved into it."""
+    w, h = _natural_size(n)
+    if w > n.w or h > n.h:
+        _grow(level, n, max(n.w, w), max(n.h, h), drawing)
+    _arrange(n)
 
 
 def _fit_own(level: LevelLayout, n: Node, drawing: bool) -> None:
@@ -1015,9 +1040,7 @@ def _routes(boxes: tuple[Seg, ...], arrows: tuple[tuple[int, int, tuple[Point, .
             marker: tuple[Point, ...]) -> tuple[tuple[Point, ...] | None, ...]:
     """For each arrow ``(source, target, points)`` among ``boxes``, its new path, or None to keep its own."""
     bad = _through_boxes(boxes, arrows)
-    kept = [(a[0], a[1], b[0], b[1]) for k, (_, _, pts) in enumerate(arrows) if k not in bad
-            for a, b in pairwise(pts)]
-    kept += [(a[0], a[1], b[0], b[1]) for a, b in pairwise(marker)]
+    kept = _kept_segments(arrows, bad, marker)
     crossings: dict[Seg, int] = {}
     hits: dict[Seg, tuple[int, ...]] = {}
     paths: dict[int, list[list[float]]] = {}
@@ -1028,6 +1051,14 @@ def _routes(boxes: tuple[Seg, ...], arrows: tuple[tuple[int, int, tuple[Point, .
             if found is not None:
                 paths[k] = found
     return tuple(tuple((p[0], p[1]) for p in paths[k]) if k in paths else None for k in range(len(arrows)))
+
+
+def _kept_segments(arrows: tuple[tuple[int, int, tuple[Point, ...]], ...], bad: list[int],
+                   marker: tuple[Point, ...]) -> list[Seg]:
+    """The segments of the arrows that keep their path (all but ``bad``) and of the initial marker's arrow."""
+    kept = [(a[0], a[1], b[0], b[1]) for k, (_, _, pts) in enumerate(arrows) if k not in bad
+            for a, b in pairwise(pts)]
+    return kept + [(a[0], a[1], b[0], b[1]) for a, b in pairwise(marker)]
 
 
 def _through_boxes(boxes: tuple[Seg, ...], arrows: tuple[tuple[int, int, tuple[Point, ...]], ...]) -> list[int]:
@@ -1066,8 +1097,7 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
     stretch along an arrow routed before (``used``) costs ``CROSS``; the ends are set off by ``k`` (mod 3) so
     that arrows sharing a box do not share their last run. A* with the Manhattan distance to the goal."""
     kept, routed, crossings, hits = seen
-    across_h = [(a[1], min(a[0], a[2]), max(a[0], a[2])) for a in routed if a[1] == a[3] and a[0] != a[2]]
-    across_v = [(a[0], min(a[1], a[3]), max(a[1], a[3])) for a in routed if a[0] == a[2] and a[1] != a[3]]
+    across_h, across_v = _runs(routed)
     c = CLEARANCE
     s, t = boxes[si], boxes[ti]
     off = (k % 3 - 1) * SPACING
@@ -1104,6 +1134,14 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
     if end is None:
         return None
     return _cut(_corners(*end, xs, ys), s, t)
+
+
+def _runs(routed: list[Seg]) -> tuple[list[tuple[float, float, float]], list[tuple[float, float, float]]]:
+    """The horizontal runs of the arrows routed before as ``(y, x0, x1)``, and their vertical runs as
+    ``(x, y0, y1)``."""
+    across_h = [(a[1], min(a[0], a[2]), max(a[0], a[2])) for a in routed if a[1] == a[3] and a[0] != a[2]]
+    across_v = [(a[0], min(a[1], a[3]), max(a[1], a[3])) for a in routed if a[0] == a[2] and a[1] != a[3]]
+    return across_h, across_v
 
 
 def _grid_lines(boxes: list[tuple[float, float, float, float]], start: Point, goal: Point,

@@ -294,16 +294,23 @@ def _lay_out(machine: dict[str, Any], opts: _Options) -> LevelLayout:
     _move_marker_points(level, marker)
     if opts.drawing:
         _reflow(level, opts.label_width)
-    for tr in _dicts(machine, "transitions"):
-        src, dst = by_id.get(str(tr.get("from"))), by_id.get(str(tr.get("to")))
-        if src is not None and dst is not None:
-            level.edges.append(Edge(tr, src, dst))
+    level.edges = _edges(machine, by_id)
     _route(level, opts.drawing)
     if opts.note_size is not None:
         _place_note(level, opts.note_size(machine))
     if opts.label_width is not None:
         _keep_label_room(level, opts.label_width)
     return level
+
+
+def _edges(machine: dict[str, Any], by_id: dict[str, Node]) -> list[Edge]:
+    """The machine's transitions between two of its states (by id), as arrows without points yet."""
+    edges = []
+    for tr in _dicts(machine, "transitions"):
+        src, dst = by_id.get(str(tr.get("from"))), by_id.get(str(tr.get("to")))
+        if src is not None and dst is not None:
+            edges.append(Edge(tr, src, dst))
+    return edges
 
 
 def _node(st: dict[str, Any], opts: _Options) -> Node:
@@ -399,13 +406,19 @@ def _arrange(n: Node) -> None:
     sizes = _part_sizes(n)
     if not sizes:
         return
-    if not n.regions:
-        p = n.parts[0]
-        p.x, p.y, p.w, p.h = n.x, n.y, n.w, n.h
-        if p.level.nodes:
-            x0, y0, _, _ = p.level.bbox()
-            p.level.shift(n.x + PAD - x0, n.y + _content_top(n) - y0)
+    if n.regions:
+        _arrange_regions(n, sizes)
         return
+    p = n.parts[0]
+    p.x, p.y, p.w, p.h = n.x, n.y, n.w, n.h
+    if p.level.nodes:
+        x0, y0, _, _ = p.level.bbox()
+        p.level.shift(n.x + PAD - x0, n.y + _content_top(n) - y0)
+
+
+def _arrange_regions(n: Node, sizes: list[tuple[float, float]]) -> None:
+    """The regions of ``n`` side by side below its title band, each at least its natural width (``sizes``) and the
+    room left shared out, the last one up to the box's right side; each region's content centred at its top."""
     gap = REGION_GAP if n.inset else 0
     extra = max(0.0, n.w - sum(w for w, _ in sizes) - gap * (len(sizes) + 1)) / len(sizes)
     x = n.x + gap
@@ -886,18 +899,22 @@ def _route(level: LevelLayout, drawing: bool = False) -> None:
         key = _pair(e)
         k = pair_count.get(key, 0)
         pair_count[key] = k + 1
-        a = (e.src.x, e.src.y, e.src.w, e.src.h)
-        if e.src is e.dst:
-            e.points = _loop(a, k)
-        elif drawing and pair_total[key] > 1:
-            e.points = _bowed(a, (e.dst.x, e.dst.y, e.dst.w, e.dst.h), k, pair_total[key],
-                             index[id(e.src)] < index[id(e.dst)])
-        else:
-            e.points = _connect(a, (e.dst.x, e.dst.y, e.dst.w, e.dst.h), k)
+        e.points = _drawn_anew(e, k, pair_total[key] if drawing else 1, index[id(e.src)] < index[id(e.dst)])
     if drawing:
         _separate_duplicates(level)
         _reroute(level)
         _spread_pairs(level)
+
+
+def _drawn_anew(e: Edge, k: int, total: int, forward: bool) -> list[list[float]]:
+    """The points of the ``k``-th of ``total`` arrows between the same two boxes, drawn anew: a loop, one of several
+    bowed apart (``forward``: from the earlier box of the level to the later), or a straight one."""
+    a, b = (e.src.x, e.src.y, e.src.w, e.src.h), (e.dst.x, e.dst.y, e.dst.w, e.dst.h)
+    if e.src is e.dst:
+        return _loop(a, k)
+    if total > 1:
+        return _bowed(a, b, k, total, forward)
+    return _connect(a, b, k)
 
 
 def _pair(e: Edge) -> tuple[int, int]:
@@ -938,16 +955,21 @@ def _separate_duplicates(level: LevelLayout) -> None:
         canon = min(key, key[::-1])
         k = groups.get(canon, 0)
         groups[canon] = k + 1
-        if k == 0:
-            continue
-        (ax, ay), (bx, by) = canon[0], canon[-1]
-        length = math.hypot(bx - ax, by - ay) or 1.0
-        nx, ny = -(by - ay) / length, (bx - ax) / length
-        off = 18 * ((k + 1) // 2) * (1 if k % 2 else -1)
-        i = (len(e.points) - 1) // 2
-        p, q = e.points[i], e.points[i + 1]
-        bend = [float(round((p[0] + q[0]) / 2 + nx * off)), float(round((p[1] + q[1]) / 2 + ny * off))]
-        e.points = e.points[:i + 1] + [bend] + e.points[i + 1:]
+        if k:
+            _bend_apart(e, canon, k)
+
+
+def _bend_apart(e: Edge, canon: tuple[tuple[int, int], ...], k: int) -> None:
+    """The ``k``-th arrow on the line ``canon`` (its rounded points) gets a bend in its middle segment, on
+    alternate sides of the line, further out for each further pair."""
+    (ax, ay), (bx, by) = canon[0], canon[-1]
+    length = math.hypot(bx - ax, by - ay) or 1.0
+    nx, ny = -(by - ay) / length, (bx - ax) / length
+    off = 18 * ((k + 1) // 2) * (1 if k % 2 else -1)
+    i = (len(e.points) - 1) // 2
+    p, q = e.points[i], e.points[i + 1]
+    bend = [float(round((p[0] + q[0]) / 2 + nx * off)), float(round((p[1] + q[1]) / 2 + ny * off))]
+    e.points = e.points[:i + 1] + [bend] + e.points[i + 1:]
 
 
 def _spread_pairs(level: LevelLayout) -> None:
@@ -1024,15 +1046,19 @@ def _reroute(level: LevelLayout) -> None:
     if len(level.nodes) > ROUTE_MAX:
         return
     index = {id(n): i for i, n in enumerate(level.nodes)}
-    arrows = tuple((index[id(e.src)], index[id(e.dst)], tuple((p[0], p[1]) for p in e.points)) for e in level.edges)
+    arrows = tuple((index[id(e.src)], index[id(e.dst)], _frozen(e.points)) for e in level.edges)
     boxes = tuple((n.x, n.y, n.w, n.h) for n in level.nodes)
-    marker = tuple((p[0], p[1]) for p in level.marker_points)
-    for e, path in zip(level.edges, _routes(boxes, arrows, marker), strict=True):
+    for e, path in zip(level.edges, _routes(boxes, arrows, _frozen(level.marker_points)), strict=True):
         if path is not None:
             e.points = [list(p) for p in path]
 
 
 Point = tuple[float, float]
+
+
+def _frozen(pts: list[list[float]]) -> tuple[Point, ...]:
+    """Points as tuples: a key of :func:`_routes`' memory."""
+    return tuple((p[0], p[1]) for p in pts)
 
 
 @functools.lru_cache(maxsize=64)

@@ -174,15 +174,15 @@ def _read(root: ElementTree.Element) -> _Drawing:
     d = _Drawing([], [], [])
     for g in root.iter(NS + "g"):
         cls = _classes(g)
+        within = g.get("data-in") or ""  # the path of the composite an arrow or label is drawn in
         if "node" in cls or "pseudo" in cls:
             box = _box_of(g, cls)
             if box is not None:
                 d.boxes.append(box)
         elif "level" in cls:
-            d.edges += [(g.get("data-in") or "", _points(pl)) for pl in g.iter(NS + "polyline")
-                        if "edge" in _classes(pl)]
+            d.edges += [(within, _points(pl)) for pl in g.iter(NS + "polyline") if "edge" in _classes(pl)]
         elif "label" in cls and (r := _rect(g.find(NS + "rect"))) is not None:
-            d.labels.append((g.get("data-in") or "", r))
+            d.labels.append((within, r))
     return d
 
 

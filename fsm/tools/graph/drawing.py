@@ -47,7 +47,7 @@ def _box_size(node: Node) -> tuple[float, float]:
     if st.get("type") == "Final":
         return max(120.0, _snap(FINAL_ICON + text_width(final_text(st), FONT) + BOX_MARGIN + 4)), 50.0
     name, sub = _state_lines(st)
-    w = max(text_width(name, FONT), text_width(sub, SMALL_FONT) if sub else 0)
+    w = max(text_width(name, FONT), text_width(sub, SMALL_FONT))
     return max(120.0, _snap(w + 2 * BOX_MARGIN + 4)), 50.0 if sub else 40.0
 
 
@@ -505,7 +505,7 @@ def _region_prefix(n: Node, path: str, i: int) -> str:
     return f"{path}/{region_name(n.parts[i].level.machine, i)}"
 
 
-def _draw(level: LevelLayout, body: list[str], prefix: str = "", where: dict[int, str] | None = None) -> None:
+def _draw(level: LevelLayout, body: list[str], prefix: str, where: dict[int, str]) -> None:
     """The SVG of ``level``; each state's group carries ``data-path``, its state path in a running machine, and
     the level's initial marker and arrows are in a group whose ``data-in`` is the path of the composite they are
     drawn in (for a viewer that folds composites); ``where`` gets that path for each arrow (for its label)."""
@@ -639,7 +639,7 @@ def _ends(e: Edge, prefix: str) -> str:
     return f" data-from={quoteattr(path(e.src))} data-to={quoteattr(path(e.dst))}"
 
 
-def _draw_arrows(level: LevelLayout, body: list[str], prefix: str, where: dict[int, str] | None) -> None:
+def _draw_arrows(level: LevelLayout, body: list[str], prefix: str, where: dict[int, str]) -> None:
     """The level's initial marker and arrows, in one group that names the composite they are drawn in."""
     body.append(f'<g class="level" data-in={quoteattr(prefix)}>')
     if level.marker is not None:
@@ -653,6 +653,5 @@ def _draw_arrows(level: LevelLayout, body: list[str], prefix: str, where: dict[i
         dash = ' stroke-dasharray="5,3"' if e.doc.get("preempt") else ""
         body.append(f'<polyline class="edge"{_ends(e, prefix)} points="{pts}" fill="none" stroke="#333"{dash} '
                     'stroke-linejoin="round" marker-end="url(#arrow)"/>')
-        if where is not None:
-            where[id(e)] = prefix
+        where[id(e)] = prefix
     body.append("</g>")

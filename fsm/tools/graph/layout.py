@@ -166,16 +166,21 @@ class LevelLayout:
         for n in self.nodes:
             n.move(dx, dy)
         for e in self.edges:
-            e.points = [[px + dx, py + dy] for px, py in e.points]
+            e.points = _moved(e.points, dx, dy)
         if self.marker:
             self.marker = (self.marker[0] + dx, self.marker[1] + dy)
-        self.marker_points = [[px + dx, py + dy] for px, py in self.marker_points]
+        self.marker_points = _moved(self.marker_points, dx, dy)
         self.label_room = [[x + dx, y + dy, w, h] for x, y, w, h in self.label_room]
         if self.note is not None:
             self.note = [self.note[0] + dx, self.note[1] + dy, self.note[2], self.note[3]]
 
 
 Span = tuple[float, float, float, float]
+
+
+def _moved(pts: list[list[float]], dx: float, dy: float) -> list[list[float]]:
+    """The points moved by (``dx``, ``dy``)."""
+    return [[px + dx, py + dy] for px, py in pts]
 
 
 def _spans(level: LevelLayout) -> list[Span]:
@@ -335,8 +340,8 @@ def _node(st: dict[str, Any], opts: _Options) -> Node:
 
 def _move_marker_points(level: LevelLayout, marker: tuple[float, float] | None) -> None:
     """The stored initial arrow follows its marker and its state when room was made for grown composites."""
-    if not (level.inserted and level.marker_points) or marker is None or level.marker is None \
-            or level.initial is None:
+    # (a placed marker always has its arrow: _place_marker draws one when none is stored)
+    if not level.inserted or marker is None or level.marker is None or level.initial is None:
         return
     pts = level.marker_points
     first = [pts[0][0] + level.marker[0] - marker[0], pts[0][1] + level.marker[1] - marker[1]]
@@ -681,7 +686,7 @@ def _bends(pts: list[list[float]], inserted: list[tuple[float, float, float, flo
     if detached:
         return []
     dx, dy = shift
-    return [[x + dx, y + dy] for x, y in (_spread(p, inserted) for p in pts[1:-1])]
+    return _moved([_spread(p, inserted) for p in pts[1:-1]], dx, dy)
 
 
 def _attach(p: list[float], n: Node) -> list[float]:
@@ -879,7 +884,7 @@ def _move_band(level: LevelLayout, band: list[tuple[float, float, float, float, 
         if n is None:
             assert level.marker is not None
             level.marker = (level.marker[0] + dx, level.marker[1] + dy)
-            level.marker_points = [[px + dx, py + dy] for px, py in level.marker_points]
+            level.marker_points = _moved(level.marker_points, dx, dy)
         else:
             n.move(dx, dy)
             n.reflowed = (dx, dy)

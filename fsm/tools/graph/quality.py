@@ -256,10 +256,8 @@ def _label_on_box(boxes: list[_Box], grid: Buckets, within: str, r: Rect) -> boo
     """Whether a label lies over a state box, a composite's title band, or a composite it is not drawn in."""
     for j in grid.near(r[0], r[1], r[0] + r[2], r[1] + r[3]):
         b = boxes[j]
-        if b.band is not None and within and _inside(within, b.path):
-            if _overlap(r, b.band):
-                return True
-        elif _overlap(r, b.rect):
+        # in the composite it is drawn in, only the composite's title band is in a label's way
+        if _overlap(r, b.band if b.band is not None and within and _inside(within, b.path) else b.rect):
             return True
     return False
 

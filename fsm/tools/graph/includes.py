@@ -87,9 +87,11 @@ class _Expander:
 
     def part(self, ref: Any, here: str) -> Part:
         """(machine, expand hook for its states, note, whether the note is an error) of a region or sub-machine."""
-        if isinstance(ref, dict) and "file" in ref:
+        if not isinstance(ref, dict):
+            return None, None, None, False
+        if "file" in ref:
             return self.resolve(ref, here)
-        if isinstance(ref, dict) and isinstance(ref.get("states"), list):
+        if isinstance(ref.get("states"), list):
             return ref, expander(self.directory, here, self.stack, self.seen), None, False
         return None, None, None, False
 

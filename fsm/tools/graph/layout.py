@@ -968,8 +968,7 @@ def _bend_apart(e: Edge, canon: tuple[tuple[int, int], ...], k: int) -> None:
     """The ``k``-th arrow on the line ``canon`` (its rounded points) gets a bend in its middle segment, on
     alternate sides of the line, further out for each further pair."""
     (ax, ay), (bx, by) = canon[0], canon[-1]
-    length = math.hypot(bx - ax, by - ay) or 1.0
-    nx, ny = -(by - ay) / length, (bx - ax) / length
+    nx, ny = _normal(ax, ay, bx, by)
     off = 18 * ((k + 1) // 2) * (1 if k % 2 else -1)
     i = (len(e.points) - 1) // 2
     p, q = e.points[i], e.points[i + 1]
@@ -1295,9 +1294,7 @@ def _bowed(a: tuple[float, float, float, float], b: tuple[float, float, float, f
     middle bent away from the others, so none is drawn over another."""
     ax, ay = a[0] + a[2] / 2, a[1] + a[3] / 2
     bx, by = b[0] + b[2] / 2, b[1] + b[3] / 2
-    dx, dy = bx - ax, by - ay
-    length = math.hypot(dx, dy) or 1.0
-    nx, ny = -dy / length, dx / length
+    nx, ny = _normal(ax, ay, bx, by)
     if not forward:  # the same side for both directions: offsets measured from one of the two boxes
         nx, ny = -nx, -ny
     slot = k - (total - 1) / 2
@@ -1315,14 +1312,20 @@ def _bowed(a: tuple[float, float, float, float], b: tuple[float, float, float, f
     return [[round(p[0]), round(p[1])], [round(mx), round(my)], [round(q[0]), round(q[1])]]
 
 
+def _normal(ax: float, ay: float, bx: float, by: float) -> tuple[float, float]:
+    """The unit normal of the line from (``ax``, ``ay``) to (``bx``, ``by``), left of it in drawing coordinates
+    (an arbitrary one when the two points are one)."""
+    dx, dy = bx - ax, by - ay
+    length = math.hypot(dx, dy) or 1.0
+    return -dy / length, dx / length
+
+
 def _connect(a: tuple[float, float, float, float], b: tuple[float, float, float, float],
              k: int) -> list[list[float]]:
     """A straight arrow from box ``a``'s border to box ``b``'s border; the ``k``-th parallel one is offset."""
     ax, ay = a[0] + a[2] / 2, a[1] + a[3] / 2
     bx, by = b[0] + b[2] / 2, b[1] + b[3] / 2
-    dx, dy = bx - ax, by - ay
-    length = math.hypot(dx, dy) or 1.0
-    nx, ny = -dy / length, dx / length
+    nx, ny = _normal(ax, ay, bx, by)
     off: float = (k + 1) // 2 * 14 * (1 if k % 2 else -1) if k else 0
     lim = min(a[2], a[3], b[2], b[3]) / 2 - 4
     off = max(-lim, min(lim, off))

@@ -23,7 +23,7 @@ import math
 from collections import Counter, deque
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from itertools import pairwise
+from itertools import combinations, pairwise
 from typing import Any
 
 from .geometry import SPACING, parallel_gap, segment_hits_box, segments_cross
@@ -985,9 +985,8 @@ def _spread_pairs(level: LevelLayout) -> None:
         if e.src is not e.dst and len(e.points) == 2:
             straight.setdefault(_pair(e), []).append(e)
     for pair in straight.values():
-        for i, e in enumerate(pair):
-            for f in pair[i + 1:]:
-                _part_two(e, f)
+        for e, f in combinations(pair, 2):
+            _part_two(e, f)
 
 
 def _part_two(e: Edge, f: Edge) -> None:

@@ -9,10 +9,9 @@ from __future__ import annotations
 
 import functools
 import math
-from bisect import bisect_left
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from itertools import islice, pairwise, product
+from itertools import pairwise, product
 from pathlib import Path
 from typing import Any
 from xml.sax.saxutils import escape, quoteattr
@@ -442,9 +441,13 @@ class _Near:
         scene = self.scene
         boxes, composites = scene.boxes, scene.composites
         n_boxes = len(boxes)
-        k = bisect_left(found, n_boxes + len(composites))
+        n_obstacles = n_boxes + len(composites)
+        k = 0
         cost = 0.0
-        for i in islice(found, k):
+        for i in found:
+            if i >= n_obstacles:
+                break
+            k += 1
             if i < n_boxes:
                 ox, oy, ow, oh = boxes[i]
             else:

@@ -781,19 +781,19 @@ def _columns(sizes: list[tuple[float, float]], gap_x: float) -> list[list[int]]:
     column height that holds them all in that many (cut greedily); of those, the split whose height over width is
     nearest ``REFLOW_TARGET`` (of two alike, the one with fewer columns)."""
     best: tuple[float, list[list[int]]] = (math.inf, [list(range(len(sizes)))])
+    total = sum(h for _, h in sizes) + GAP_Y * (len(sizes) - 1)
+    tallest = max(h for _, h in sizes)
     for k in range(2, min(len(sizes), max(MAX_COLUMNS, math.isqrt(len(sizes)) + 1)) + 1):
-        cols = _split_in(sizes, k)
+        cols = _split_in(sizes, k, max(tallest, total / k))
         score = _score(sizes, cols, gap_x)
         if score < best[0]:
             best = (score, cols)
     return best[1]
 
 
-def _split_in(sizes: list[tuple[float, float]], k: int) -> list[list[int]]:
-    """The bands cut into at most ``k`` columns, as low as that takes: from an even share of the height, a little
-    more a time."""
-    total = sum(h for _, h in sizes) + GAP_Y * (len(sizes) - 1)
-    limit = max(max(h for _, h in sizes), total / k)
+def _split_in(sizes: list[tuple[float, float]], k: int, limit: float) -> list[list[int]]:
+    """The bands cut into at most ``k`` columns, as low as that takes: from ``limit`` (an even share of the height,
+    at least the tallest band), a little more a time."""
     cols = _cut_columns(sizes, limit)
     while len(cols) > k:  # a band did not fit where the even share ended: a little more height a column
         limit *= 1.05

@@ -6,9 +6,12 @@ state to a random state, and 100-state rings nested in composites; each without 
 boxes (a grid, as a drawn diagram has them). Prints a table (states, seconds, ms per state) and the ratio.
 
 Run: ``.venv/bin/python benchmarks/bench_graph.py`` (``--quick``: up to 2,000 states; ``--cli``: also time
-``fsmctl graph FILE --format svg`` and ``fsmctl export`` in a fresh process). Uniformly random transitions
-between far-apart states fill the drawing with crossing lines; their labels get costlier as the machine grows
-(about n^1.5), which is why that kind stops at 2,000 states by default (``--random-max``).
+``fsmctl graph FILE --format svg`` and ``fsmctl export`` in a fresh process). Wall clocks on a shared machine are
+noisy: ``--instructions random:500`` counts the instructions of ``svg()`` for one machine under callgrind instead
+(the label-heavy case: random transitions), with ``--base COMMIT`` also on that commit, and prints the ratio.
+Uniformly random transitions between far-apart states fill the drawing with crossing lines; their labels get
+costlier as the machine grows (about n^1.5), which is why that kind stops at 2,000 states by default
+(``--random-max``).
 """
 
 from __future__ import annotations
@@ -23,6 +26,8 @@ import tempfile
 import time
 from pathlib import Path
 from typing import Any
+
+from bench_instructions import REPO, base_checkout, callgrind, on_tree
 
 SIZES = (500, 1_000, 2_000, 5_000, 10_000)
 TARGET_S = 5.0
@@ -83,6 +88,43 @@ def _grid(doc: dict[str, Any]) -> dict[str, Any]:
 
 KINDS = {"ring": ring, "random": random_graph, "nested": nested}
 
+#: A process that builds one machine and draws it (``1``) or not (``0``): the difference is ``svg()``'s.
+PROBE = r'''
+import sys
+sys.path.insert(0, BENCH)
+from bench_graph import KINDS
+kind, n, draw = sys.argv[1], int(sys.argv[2]), sys.argv[3] == "1"
+doc = KINDS[kind](n)
+from fsm.tools.graph import drawing, svg
+if draw:
+    svg(doc)
+'''
+
+
+def instructions(kind: str, n: int, tree: Path | None) -> int:
+    """The instructions ``svg()`` takes for the machine ``kind`` of ``n`` states on ``tree`` (None: this checkout),
+    counted by callgrind: a run that draws it minus one that only builds it."""
+    env, code = on_tree(f"BENCH = {str(Path(__file__).resolve().parent)!r}\n" + PROBE, tree)
+    cwd = tree or REPO
+    drawn, built = (callgrind(["-c", code, kind, str(n), draw], env, cwd, f"svg of {kind} {n} ({draw})")
+                    for draw in ("1", "0"))
+    return drawn - built
+
+
+def count(spec: str, base: str | None) -> int:
+    """``--instructions KIND:N``: a table of svg()'s instructions on this checkout (and on ``base``)."""
+    kind, _, size = spec.partition(":")
+    if kind not in KINDS or not size.isdigit():
+        print(f"--instructions wants KIND:N with KIND one of {', '.join(KINDS)}, e.g. random:500", file=sys.stderr)
+        return 2
+    with base_checkout(base) as tree:
+        here = instructions(kind, int(size), None)
+        there = instructions(kind, int(size), tree) if tree is not None else None
+    print(f"| svg() of {spec} | instructions |\n|---|---:|\n| this checkout | {here:,} |")
+    if there is not None:
+        print(f"| {base} | {there:,} |\n| ratio | {here / there:.3f} |")
+    return 0
+
 
 def time_svg(doc: dict[str, Any], repeat: int) -> float:
     from fsm.tools.graph import svg
@@ -110,7 +152,11 @@ def main() -> int:
     parser.add_argument("--repeat", type=int, default=1, help="timed runs per row (the best counts)")
     parser.add_argument("--random-max", type=int, default=2_000, help="largest machine of the random kind")
     parser.add_argument("--only", help="comma-separated kinds: ring, random, nested")
+    parser.add_argument("--instructions", metavar="KIND:N", help="count svg()'s instructions for one machine")
+    parser.add_argument("--base", metavar="COMMIT", help="with --instructions: also on this commit")
     args = parser.parse_args()
+    if args.instructions:
+        return count(args.instructions, args.base)
     sizes = [n for n in SIZES if not args.quick or n <= 2_000]
     kinds = args.only.split(",") if args.only else list(KINDS)
     print(f"{'machine':<18} {'states':>7} {'svg s':>8} {'ms/state':>9}"

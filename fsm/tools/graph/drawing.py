@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import functools
 import math
-from itertools import pairwise
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from itertools import pairwise, product
 from pathlib import Path
 from typing import Any
 from xml.sax.saxutils import escape, quoteattr
@@ -44,7 +46,7 @@ def _box_size(node: Node) -> tuple[float, float]:
     if st.get("type") == "Final":
         return max(120.0, _snap(FINAL_ICON + text_width(final_text(st), FONT) + BOX_MARGIN + 4)), 50.0
     name, sub = _state_lines(st)
-    w = max(text_width(name, FONT), text_width(sub, SMALL_FONT) if sub else 0)
+    w = max(text_width(name, FONT), text_width(sub, SMALL_FONT))
     return max(120.0, _snap(w + 2 * BOX_MARGIN + 4)), 50.0 if sub else 40.0
 
 
@@ -73,9 +75,7 @@ def svg(doc: dict[str, Any], base: str | Path | None = None) -> str:
     scene.collect(level, None, ())
     scene.index()
     labels = _place_labels(scene)
-    x0, y0, x1, y1 = level.bbox(labels=False)
-    for rx, ry, rw, rh in [r for _, r, _ in labels] + scene.outside:
-        x0, y0, x1, y1 = min(x0, rx), min(y0, ry), max(x1, rx + rw), max(y1, ry + rh)
+    x0, y0, x1, y1 = _picture(level, [r for _, r, _ in labels] + scene.outside)
     m = 20
     width, height = x1 - x0 + 2 * m, y1 - y0 + 2 * m
     body: list[str] = []
@@ -91,6 +91,15 @@ def svg(doc: dict[str, Any], base: str | Path | None = None) -> str:
             'orient="auto-start-reverse"><path d="M 0 0 L 10 5 L 0 10 z" fill="#333"/></marker></defs>\n'
             f'<rect x="{x0 - m:.0f}" y="{y0 - m:.0f}" width="{width:.0f}" height="{height:.0f}" fill="white"/>\n'
             + "\n".join(body) + "\n</svg>\n")
+
+
+def _picture(level: LevelLayout, texts: list[Rect]) -> tuple[float, float, float, float]:
+    """Left, top, right and bottom of what is drawn: the level's boxes and arrows, and the ``texts`` beside them
+    (arrow labels, the names of small final states)."""
+    x0, y0, x1, y1 = level.bbox(labels=False)
+    for rx, ry, rw, rh in texts:
+        x0, y0, x1, y1 = min(x0, rx), min(y0, ry), max(x1, rx + rw), max(y1, ry + rh)
+    return x0, y0, x1, y1
 
 
 # -- edge labels -----------------------------------------------------------------------------------------------
@@ -225,23 +234,28 @@ def _candidates(worse: tuple[float, ...]) -> tuple[tuple[Candidate, ...], ...]:
     idx = 0
     for rings in _RINGS:
         group = []
-        for ring in rings:
-            for ti, t in enumerate(_ALONG):
-                for si, bad in enumerate(worse):
-                    for side in ((1,) if ring < 0 else range(8) if ring >= COMPASS else (1, -1)):
-                        group.append((abs(t - 0.5) * 120 + max(ring, 0) * 250 + (0 if side == 1 else 15) + bad, idx,
-                                      ring, ti, si, side))
-                        idx += 1
+        for ring, (ti, t), (si, bad) in product(rings, enumerate(_ALONG), enumerate(worse)):
+            for side in _sides(ring):
+                group.append((abs(t - 0.5) * 120 + max(ring, 0) * 250 + (0 if side == 1 else 15) + bad, idx,
+                              ring, ti, si, side))
+                idx += 1
         groups.append(tuple(sorted(group)))
     return tuple(groups)
+
+
+def _sides(ring: int) -> Iterable[int]:
+    """The sides of a ring's places: on the arrow (ring -1) one, beside it either side of it, round its point (from
+    ``COMPASS`` on) eight directions."""
+    if ring < 0:
+        return (1,)
+    return range(8) if ring >= COMPASS else (1, -1)
 
 
 def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
     """A rectangle for every arrow's label, beside its arrow, clear of boxes and other labels where possible.
 
-    Greedy, in document order: each label takes the cheapest of a set of candidate places along its arrow, on
-    either side of it and on it, in one line or two (further out only when the near places are all taken); of
-    equally cheap places, the first in the order ring, point along the arrow, shape, side.
+    Greedy, shortest arrow first: each label takes the cheapest of a set of candidate places along its arrow (see
+    :func:`_best_place`), the labels placed before among what it keeps clear of.
     """
     placed = _Placed()
     out: list[tuple[Edge, Rect, list[str]]] = []
@@ -249,24 +263,43 @@ def _place_labels(scene: _Scene) -> list[tuple[Edge, Rect, list[str]]]:
         text = short_edge_label(e.doc)
         if not text or len(e.points) < 2:
             continue
-        shapes = _label_shapes(text)
-        near = _Near(scene, placed, container, ancestors, id(e))
-        anchors = _anchors(e.points)
-        own = [(a[0], a[1], b[0], b[1]) for a, b in pairwise(e.points)]
-        best: list[Any] = [math.inf, -1, None, []]  # cost, candidate number, place, lines
-
-        _search(shapes[:2], _candidates(tuple(worse for *_, worse in shapes[:2])), best, near, anchors, own)
-        if best[0] >= CROSSED and len(shapes) > 2:  # nowhere free: the short form, near its arrow
-            short: list[Any] = [best[0], -1, None, []]
-            _search(shapes[2:], _candidates((shapes[2][3],)), short, near, anchors, own)
-            if short[2] is not None and short[0] < best[0]:
-                best = short
-        best_r: Rect | None = best[2]
-        best_lines: list[str] = best[3]
-        assert best_r is not None
-        placed.add(best_r)
-        out.append((e, best_r, best_lines))
+        best = _best_place(_label_shapes(text), _Near(scene, placed, container, ancestors, id(e)), e.points)
+        placed.add(best.rect)
+        out.append((e, best.rect, best.lines))
     return out
+
+
+@dataclass(slots=True)
+class _Best:
+    """The cheapest place found so far for one label: its cost, its candidate number (-1: none yet), its rectangle
+    and the label's lines there."""
+    cost: float = math.inf
+    idx: int = -1
+    rect: Rect = (0.0, 0.0, 0.0, 0.0)
+    lines: list[str] = field(default_factory=list)
+
+
+def _beats(cost: float, idx: int, best: _Best) -> bool:
+    """Whether a place that costs ``cost``, candidate number ``idx``, comes before ``best``: it is cheaper, or as
+    cheap and listed first."""
+    return cost < best.cost or cost == best.cost and idx < best.idx
+
+
+def _best_place(shapes: list[tuple[list[str], float, float, float]], near: _Near, pts: list[list[float]]) -> _Best:
+    """The cheapest of the candidate places along the arrow ``pts``, on either side of it and on it, in one line or
+    two (further out only when the near places are all taken); of equally cheap places, the first in the order
+    ring, point along the arrow, shape, side. When every place lies across something, the short form, where that
+    is cheaper."""
+    anchors = _anchors(pts)
+    own = [(a[0], a[1], b[0], b[1]) for a, b in pairwise(pts)]
+    best = _Best()
+    _search(shapes[:2], _candidates(tuple(worse for *_, worse in shapes[:2])), best, near, anchors, own)
+    if best.cost >= CROSSED and len(shapes) > 2:  # nowhere free: the short form, near its arrow
+        short = _Best(best.cost)
+        _search(shapes[2:], _candidates((shapes[2][3],)), short, near, anchors, own)
+        if short.idx >= 0:  # found a place cheaper than the best of the long forms
+            return short
+    return best
 
 
 def _length(pts: list[list[float]]) -> float:
@@ -289,31 +322,35 @@ def _anchors(pts: list[list[float]]) -> list[tuple[float, float, float, float]]:
 
 
 def _search(shapes: list[tuple[list[str], float, float, float]], groups: tuple[tuple[Candidate, ...], ...],
-            best: list[Any], near: _Near, anchors: list[tuple[float, float, float, float]],
+            best: _Best, near: _Near, anchors: list[tuple[float, float, float, float]],
             own: list[tuple[float, float, float, float]]) -> None:
-    """The cheapest of the candidate places into ``best`` (cost, number, place, lines), searched group by group
-    (a group further out only while every place so far lies across something)."""
+    """The cheapest of the candidate places into ``best``, searched group by group (a group further out only while
+    every place so far lies across something)."""
     for group in groups:
-        for base, idx, ring, ti, si, side in group:
-            best_cost, best_idx = best[0], best[1]
-            if base > best_cost or base == best_cost and idx > best_idx:
+        for cand in group:
+            if not _beats(cand[0], cand[1], best):
                 break  # this place and all after it cost at least as much as the best one
-            px, py, _, _ = anchors[ti]
-            lines, w, h, _ = shapes[si]
-            r = _candidate_rect(anchors[ti], w, h, ring, side)
-            if ring < 0:  # on its own arrow, which costs CROSSED more: no better than the best one?
-                low = base + CROSSED
-                if (low > best_cost or low == best_cost and idx > best_idx) and \
-                        any(segment_hits_box(*sg, r) for sg in own):
-                    continue
-            limit = best_cost - base
-            if idx < best_idx:  # as good as the best one would do: it comes first
-                limit = math.nextafter(limit, math.inf)
-            cost = base + near.cost(r, (px, py), limit)
-            if cost < best_cost or cost == best_cost and idx < best_idx:
-                best[:] = [cost, idx, r, lines]
-        if best[0] < CROSSED:
+            _consider(cand, shapes, best, near, anchors, own)
+        if best.cost < CROSSED:
             break
+
+
+def _consider(cand: Candidate, shapes: list[tuple[list[str], float, float, float]], best: _Best, near: _Near,
+              anchors: list[tuple[float, float, float, float]], own: list[tuple[float, float, float, float]]) -> None:
+    """Candidate ``cand`` into ``best`` when it comes before it. A place on its own arrow (ring -1) is not measured
+    when what that alone costs (``CROSSED``) already makes it no better; the measure stops where it would be."""
+    base, idx, ring, ti, si, side = cand
+    lines, w, h, _ = shapes[si]
+    anchor = anchors[ti]
+    r = _candidate_rect(anchor, w, h, ring, side)
+    if ring < 0 and not _beats(base + CROSSED, idx, best) and any(segment_hits_box(*sg, r) for sg in own):
+        return
+    limit = best.cost - base
+    if idx < best.idx:  # as good as the best one would do: it comes first
+        limit = math.nextafter(limit, math.inf)
+    cost = base + near.cost(r, (anchor[0], anchor[1]), limit)
+    if _beats(cost, idx, best):
+        best.cost, best.idx, best.rect, best.lines = cost, idx, r, lines
 
 
 def _candidate_rect(anchor: tuple[float, float, float, float], w: float, h: float, ring: int, side: int) -> Rect:
@@ -367,13 +404,17 @@ class _Near:
                                      y1 if y1 > ay else ay)
         k, on_boxes = self._on_boxes(found, air)
         cost += on_boxes
-        if self.inner is not None:
-            outside = rw * rh - _area(r, self.inner)
-            if outside > 0.01:
-                cost += 1e5 + outside * 10
+        cost += self._outside(r)
         if cost >= limit:
             return cost
         return self._on_arrows(found, k, r, anchor, cost, limit)
+
+    def _outside(self, r: Rect) -> float:
+        """What the part of place ``r`` outside the composite the label is drawn in costs (none outside any)."""
+        if self.inner is None:
+            return 0.0
+        outside = r[2] * r[3] - _area(r, self.inner)
+        return 1e5 + outside * 10 if outside > 0.01 else 0.0
 
     def _on_labels(self, air: Rect) -> float:
         """Over a label placed before; or closer to one than ``LABEL_GAP`` (``air`` is 2 px larger than the label),
@@ -426,12 +467,7 @@ class _Near:
         scene = self.scene
         rx, ry, rw, rh = r
         rx1, ry1 = rx + rw, ry + rh
-        ax, ay = anchor
-        cx = rx if ax < rx else rx1 if ax > rx1 else ax  # the label's point nearest to its arrow
-        cy = ry if ay < ry else ry1 if ay > ry1 else ay
-        leader = (ax, ay, cx, cy)
-        lx0, lx1 = (ax, cx) if ax <= cx else (cx, ax)
-        ly0, ly1 = (ay, cy) if ay <= cy else (cy, ay)
+        leader, lx0, ly0, lx1, ly1 = _leader(anchor, rx, ry, rx1, ry1)
         segments = scene.segments
         n_obstacles = len(scene.boxes) + len(scene.composites)
         owner = self.owner
@@ -444,6 +480,18 @@ class _Near:
             if cost >= limit:
                 break
         return cost
+
+
+def _leader(anchor: tuple[float, float], rx: float, ry: float, rx1: float, ry1: float,
+            ) -> tuple[tuple[float, float, float, float], float, float, float, float]:
+    """The line from a label's point on its arrow to the nearest point of its rectangle (``rx``..``rx1``,
+    ``ry``..``ry1``), and that line's left, top, right and bottom."""
+    ax, ay = anchor
+    cx = rx if ax < rx else rx1 if ax > rx1 else ax
+    cy = ry if ay < ry else ry1 if ay > ry1 else ay
+    lx0, lx1 = (ax, cx) if ax <= cx else (cx, ax)
+    ly0, ly1 = (ay, cy) if ay <= cy else (cy, ay)
+    return (ax, ay, cx, cy), lx0, ly0, lx1, ly1
 
 
 # -- drawing ---------------------------------------------------------------------------------------------------
@@ -460,7 +508,7 @@ def _region_prefix(n: Node, path: str, i: int) -> str:
     return f"{path}/{region_name(n.parts[i].level.machine, i)}"
 
 
-def _draw(level: LevelLayout, body: list[str], prefix: str = "", where: dict[int, str] | None = None) -> None:
+def _draw(level: LevelLayout, body: list[str], prefix: str, where: dict[int, str]) -> None:
     """The SVG of ``level``; each state's group carries ``data-path``, its state path in a running machine, and
     the level's initial marker and arrows are in a group whose ``data-in`` is the path of the composite they are
     drawn in (for a viewer that folds composites); ``where`` gets that path for each arrow (for its label)."""
@@ -509,6 +557,13 @@ def _draw_composite(n: Node, attrs: str, body: list[str]) -> None:
         note, nsize = fit(n.note, avail, SMALL_FONT)
         colour = "#a33" if n.note_error else "#666"
         body.append(_text(n.x + n.w / 2, top + 32, note, nsize, extra=f' font-style="italic" fill="{colour}"'))
+    _draw_parts(n, body)
+    body.append("</g>")
+
+
+def _draw_parts(n: Node, body: list[str]) -> None:
+    """A composite's compartments: a line under its title band, a dashed line between two regions, each region's
+    name."""
     if n.parts:
         body.append(f'<line x1="{n.x:.0f}" y1="{n.y + n.head:.0f}" x2="{n.x + n.w:.0f}" '
                     f'y2="{n.y + n.head:.0f}" stroke="#4a6d94"/>')
@@ -519,7 +574,6 @@ def _draw_composite(n: Node, attrs: str, body: list[str]) -> None:
         if p.name is not None:
             name, psize = fit(p.name, p.w - 2 * BOX_MARGIN, LABEL_FONT)
             body.append(_text(p.x + p.w / 2, p.y + 16, name, psize, extra=' font-style="italic" fill="#4a6d94"'))
-    body.append("</g>")
 
 
 def _draw_final(n: Node, attrs: str, body: list[str]) -> None:
@@ -588,7 +642,7 @@ def _ends(e: Edge, prefix: str) -> str:
     return f" data-from={quoteattr(path(e.src))} data-to={quoteattr(path(e.dst))}"
 
 
-def _draw_arrows(level: LevelLayout, body: list[str], prefix: str, where: dict[int, str] | None) -> None:
+def _draw_arrows(level: LevelLayout, body: list[str], prefix: str, where: dict[int, str]) -> None:
     """The level's initial marker and arrows, in one group that names the composite they are drawn in."""
     body.append(f'<g class="level" data-in={quoteattr(prefix)}>')
     if level.marker is not None:
@@ -602,6 +656,5 @@ def _draw_arrows(level: LevelLayout, body: list[str], prefix: str, where: dict[i
         dash = ' stroke-dasharray="5,3"' if e.doc.get("preempt") else ""
         body.append(f'<polyline class="edge"{_ends(e, prefix)} points="{pts}" fill="none" stroke="#333"{dash} '
                     'stroke-linejoin="round" marker-end="url(#arrow)"/>')
-        if where is not None:
-            where[id(e)] = prefix
+        where[id(e)] = prefix
     body.append("</g>")

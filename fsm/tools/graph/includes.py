@@ -24,7 +24,9 @@ def parallel_note(st: dict[str, Any]) -> str:
 
 
 def sequence_note(st: dict[str, Any]) -> str:
-    keys = [f"repeat={st['repeat']}" for _ in [0] if isinstance(st.get("repeat"), int) and st["repeat"] != 1]
+    keys = []
+    if isinstance(st.get("repeat"), int) and st["repeat"] != 1:
+        keys.append(f"repeat={st['repeat']}")
     if st.get("blocking") is False:
         keys.append("non-blocking")
     if st.get("pause_signal"):
@@ -54,37 +56,42 @@ class _Expander:
         self.directory, self.where, self.stack, self.seen = directory, where, stack, seen
 
     def expand(self, st: dict[str, Any]) -> Expansion | None:
-        here = f"{self.where}/{st.get('id')}" if self.where else str(st.get("id"))
-        if st.get("type") == "Parallel" and isinstance(st.get("regions"), list):
-            return self.regions(st, here)
-        if st.get("type") == "Sequence" and isinstance(st.get("steps"), list):
-            seq = sequence_machine(st)
-            return Expansion([(None, seq, expander(self.directory, here, self.stack, self.seen))], sequence_note(st))
-        m = st.get("machine")
-        if st.get("type") != "FSMState" or not isinstance(m, dict):
+        """What state ``st`` shows: by its type, when the key that type opens holds what it must (see ``_OPENS``)."""
+        opens = _OPENS.get(st.get("type"))
+        if opens is None or not isinstance(st.get(opens[0]), opens[1]):
             return None
-        machine, hook, note, error = self.part(m, here)
-        if "file" not in m:
+        return opens[2](self, st, f"{self.where}/{st.get('id')}" if self.where else str(st.get("id")))
+
+    def sequence(self, st: dict[str, Any], here: str) -> Expansion:
+        """A ``Sequence`` as the machine its steps make, its keys in the note."""
+        return Expansion([(None, sequence_machine(st), expander(self.directory, here, self.stack, self.seen))],
+                         sequence_note(st))
+
+    def machine(self, st: dict[str, Any], here: str) -> Expansion | None:
+        """An ``FSMState``'s inline machine, or its included file (named in the note, or what is wrong with it)."""
+        machine, hook, note, error = self.part(st["machine"], here)
+        if "file" not in st["machine"]:
             return Expansion([(None, machine, hook)]) if machine is not None else None
         return Expansion([(None, machine, hook)] if machine is not None else [], note, foreign=True, error=error)
 
     def regions(self, st: dict[str, Any], here: str) -> Expansion | None:
         """A ``Parallel`` state's regions, one compartment each, named by their machine (and what went wrong)."""
+        names: list[str] = []
         parts: list[tuple[str | None, dict[str, Any], Any]] = []
         for i, ref in enumerate(st["regions"]):
             machine, hook, note, error = self.part(ref, f"{here}/{region_name(ref, i)}")
-            name = region_name(machine, i)
-            if note:
-                name += f" — {note}" if error else f" ({note})"
-            parts.append((name, machine if machine is not None else {"states": []}, hook))
-        widths = [text_width(name or "", LABEL_FONT) + 2 * BOX_MARGIN + 4 for name, _, _ in parts]
+            names.append(region_name(machine, i) + ("" if not note else f" — {note}" if error else f" ({note})"))
+            parts.append((names[-1], machine if machine is not None else {"states": []}, hook))
+        widths = [text_width(name, LABEL_FONT) + 2 * BOX_MARGIN + 4 for name in names]
         return Expansion(parts, parallel_note(st), foreign=True, min_widths=widths) if parts else None
 
     def part(self, ref: Any, here: str) -> Part:
         """(machine, expand hook for its states, note, whether the note is an error) of a region or sub-machine."""
-        if isinstance(ref, dict) and "file" in ref:
+        if not isinstance(ref, dict):
+            return None, None, None, False
+        if "file" in ref:
             return self.resolve(ref, here)
-        if isinstance(ref, dict) and isinstance(ref.get("states"), list):
+        if isinstance(ref.get("states"), list):
             return ref, expander(self.directory, here, self.stack, self.seen), None, False
         return None, None, None, False
 
@@ -107,6 +114,14 @@ class _Expander:
             return None, None, f"{file}, drawn in {first}", False
         data, folder = got
         return data, expander(folder, here, self.stack + (path,), self.seen), file, False
+
+
+#: What each composite type opens: the key it needs, of which type, and the ``_Expander`` method that opens it.
+_OPENS: dict[Any, tuple[str, type, Callable[[_Expander, dict[str, Any], str], Expansion | None]]] = {
+    "Parallel": ("regions", list, _Expander.regions),
+    "Sequence": ("steps", list, _Expander.sequence),
+    "FSMState": ("machine", dict, _Expander.machine),
+}
 
 
 def read_include(path: Path) -> tuple[dict[str, Any], Path] | str:

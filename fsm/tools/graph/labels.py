@@ -69,7 +69,7 @@ def _kept(text: str, avail: float, size: float, bold: bool = False) -> int:
 
 def state_label(st: dict[str, Any]) -> str:
     typ = st.get("type")
-    if typ in (None, "Idle", "FSMState") and inline_machine(st) is not None or typ == "Idle":
+    if typ == "Idle" or inline_machine(st) is not None:  # (an inline machine is an FSMState's)
         return str(st.get("id"))
     return f"{st.get('id')} ({typ})"
 

@@ -23,7 +23,7 @@ import math
 from collections import Counter, deque
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from itertools import pairwise
+from itertools import combinations, pairwise
 from typing import Any
 
 from .geometry import SPACING, parallel_gap, segment_hits_box, segments_cross
@@ -157,44 +157,47 @@ class LevelLayout:
     note: list[float] | None = None
 
     def bbox(self, labels: bool = True) -> tuple[float, float, float, float]:
-        xs0, ys0, xs1, ys1 = _box_edges(self)
-        for e in self.edges:
-            for px, py in e.points:
-                xs0.append(px - 10)
-                xs1.append(px + 10)
-                ys0.append(py)
-                ys1.append(py)
-        for x, y, w, h in self.label_room if labels else []:
-            xs0.append(x)
-            xs1.append(x + w)
-            ys0.append(y)
-            ys1.append(y + h)
-        if not xs0:
-            return 0, 0, 0, 0
-        return min(xs0), min(ys0), max(xs1), max(ys1)
+        spans = _spans(self) + [(px - 10, py, px + 10, py) for e in self.edges for px, py in e.points]
+        if labels:
+            spans += [(x, y, x + w, y + h) for x, y, w, h in self.label_room]
+        return _extent(spans) if spans else (0, 0, 0, 0)
 
     def shift(self, dx: float, dy: float) -> None:
         for n in self.nodes:
             n.move(dx, dy)
         for e in self.edges:
-            e.points = [[px + dx, py + dy] for px, py in e.points]
+            e.points = _moved(e.points, dx, dy)
         if self.marker:
             self.marker = (self.marker[0] + dx, self.marker[1] + dy)
-        self.marker_points = [[px + dx, py + dy] for px, py in self.marker_points]
+        self.marker_points = _moved(self.marker_points, dx, dy)
         self.label_room = [[x + dx, y + dy, w, h] for x, y, w, h in self.label_room]
         if self.note is not None:
             self.note = [self.note[0] + dx, self.note[1] + dy, self.note[2], self.note[3]]
 
 
-def _box_edges(level: LevelLayout) -> tuple[list[float], list[float], list[float], list[float]]:
-    """Left, top, right and bottom edges of the level's boxes: states, initial marker, note."""
-    boxes = [(n.x, n.y, n.w, n.h) for n in level.nodes]
+Span = tuple[float, float, float, float]
+
+
+def _moved(pts: list[list[float]], dx: float, dy: float) -> list[list[float]]:
+    """The points moved by (``dx``, ``dy``)."""
+    return [[px + dx, py + dy] for px, py in pts]
+
+
+def _spans(level: LevelLayout) -> list[Span]:
+    """Left, top, right and bottom of each of the level's boxes: states, initial marker, note."""
+    spans = [(n.x, n.y, n.x + n.w, n.y + n.h) for n in level.nodes]
     if level.marker:
-        boxes.append((level.marker[0], level.marker[1], MARKER, MARKER))
+        mx, my = level.marker
+        spans.append((mx, my, mx + MARKER, my + MARKER))
     if level.note is not None:
-        boxes.append((level.note[0], level.note[1], level.note[2], level.note[3]))
-    return ([b[0] for b in boxes], [b[1] for b in boxes], [b[0] + b[2] for b in boxes],
-            [b[1] + b[3] for b in boxes])
+        x, y, w, h = level.note
+        spans.append((x, y, x + w, y + h))
+    return spans
+
+
+def _extent(spans: list[Span]) -> Span:
+    """Left, top, right and bottom of the box round ``spans``."""
+    return min(s[0] for s in spans), min(s[1] for s in spans), max(s[2] for s in spans), max(s[3] for s in spans)
 
 
 def _snap(v: float) -> float:
@@ -221,6 +224,14 @@ def sequence_machine(st: dict[str, Any], start: str = "start") -> dict[str, Any]
     say); the reader rebuilds the steps from the arrows."""
     steps = _named(st["steps"])
     blocking = [s for s in steps if not (s.get("type") == "Sequence" and s.get("blocking") is False)]
+    exceptions = _named(st.get("exceptions") or ())
+    initial = blocking[0]["id"] if blocking else (steps[0]["id"] if steps else "")
+    return {"initial": initial, "states": steps + exceptions, "transitions": _chain(steps, blocking, start)}
+
+
+def _chain(steps: list[dict[str, Any]], blocking: list[dict[str, Any]], start: str) -> list[dict[str, Any]]:
+    """The arrows between a Sequence's steps: into each step from the last blocking step before it, typed
+    ``Finished`` into a blocking step and ``start`` into a non-blocking one."""
     transitions: list[dict[str, Any]] = []
     last: str | None = None
     for s in steps:
@@ -228,9 +239,7 @@ def sequence_machine(st: dict[str, Any], start: str = "start") -> dict[str, Any]
             transitions.append({"type": "Finished" if s in blocking else start, "from": last, "to": s["id"]})
         if s in blocking:
             last = s["id"]
-    exceptions = _named(st.get("exceptions") or ())
-    initial = blocking[0]["id"] if blocking else (steps[0]["id"] if steps else "")
-    return {"initial": initial, "states": steps + exceptions, "transitions": transitions}
+    return transitions
 
 
 def _named(items: Any) -> list[dict[str, Any]]:
@@ -290,16 +299,23 @@ def _lay_out(machine: dict[str, Any], opts: _Options) -> LevelLayout:
     _move_marker_points(level, marker)
     if opts.drawing:
         _reflow(level, opts.label_width)
-    for tr in _dicts(machine, "transitions"):
-        src, dst = by_id.get(str(tr.get("from"))), by_id.get(str(tr.get("to")))
-        if src is not None and dst is not None:
-            level.edges.append(Edge(tr, src, dst))
+    level.edges = _edges(machine, by_id)
     _route(level, opts.drawing)
     if opts.note_size is not None:
         _place_note(level, opts.note_size(machine))
     if opts.label_width is not None:
         _keep_label_room(level, opts.label_width)
     return level
+
+
+def _edges(machine: dict[str, Any], by_id: dict[str, Node]) -> list[Edge]:
+    """The machine's transitions between two of its states (by id), as arrows without points yet."""
+    edges = []
+    for tr in _dicts(machine, "transitions"):
+        src, dst = by_id.get(str(tr.get("from"))), by_id.get(str(tr.get("to")))
+        if src is not None and dst is not None:
+            edges.append(Edge(tr, src, dst))
+    return edges
 
 
 def _node(st: dict[str, Any], opts: _Options) -> Node:
@@ -324,13 +340,13 @@ def _node(st: dict[str, Any], opts: _Options) -> Node:
 
 def _move_marker_points(level: LevelLayout, marker: tuple[float, float] | None) -> None:
     """The stored initial arrow follows its marker and its state when room was made for grown composites."""
-    if not (level.inserted and level.marker_points) or marker is None or level.marker is None \
-            or level.initial is None:
+    # (a placed marker always has its arrow: _place_marker draws one when none is stored)
+    if not level.inserted or marker is None or level.marker is None or level.initial is None:
         return
     pts = level.marker_points
     first = [pts[0][0] + level.marker[0] - marker[0], pts[0][1] + level.marker[1] - marker[1]]
     last = _attach(pts[-1], level.initial) if level.initial.stored is not None else pts[-1]
-    middle = [] if level.initial.detached else [_spread(p, level.inserted) for p in pts[1:-1]]
+    middle = _bends(pts, level.inserted, level.initial.detached)
     level.marker_points = [first] + middle + [last]
 
 
@@ -395,13 +411,19 @@ def _arrange(n: Node) -> None:
     sizes = _part_sizes(n)
     if not sizes:
         return
-    if not n.regions:
-        p = n.parts[0]
-        p.x, p.y, p.w, p.h = n.x, n.y, n.w, n.h
-        if p.level.nodes:
-            x0, y0, _, _ = p.level.bbox()
-            p.level.shift(n.x + PAD - x0, n.y + _content_top(n) - y0)
+    if n.regions:
+        _arrange_regions(n, sizes)
         return
+    p = n.parts[0]
+    p.x, p.y, p.w, p.h = n.x, n.y, n.w, n.h
+    if p.level.nodes:
+        x0, y0, _, _ = p.level.bbox()
+        p.level.shift(n.x + PAD - x0, n.y + _content_top(n) - y0)
+
+
+def _arrange_regions(n: Node, sizes: list[tuple[float, float]]) -> None:
+    """The regions of ``n`` side by side below its title band, each at least its natural width (``sizes``) and the
+    room left shared out, the last one up to the box's right side; each region's content centred at its top."""
     gap = REGION_GAP if n.inset else 0
     extra = max(0.0, n.w - sum(w for w, _ in sizes) - gap * (len(sizes) + 1)) / len(sizes)
     x = n.x + gap
@@ -427,7 +449,8 @@ def _stored_frames(n: Node) -> list[tuple[float, float, float, float]] | None:
         box = _rect(fr)
         if box is None or not _holds((n.x, n.y, n.w, n.h), box[0], box[1], box[0] + box[2], box[1] + box[3]):
             return None
-        if (p.level.nodes or p.level.note is not None) and not _holds(box, *_node_bbox(p.level)):
+        inner = _spans(p.level)
+        if inner and not _holds(box, *_extent(inner)):
             return None
         frames.append(box)
     return frames
@@ -480,22 +503,33 @@ def _rows(level: LevelLayout, by_id: dict[str, Node], todo: list[Node]) -> dict[
 def _place_rows(level: LevelLayout, rows: dict[int, list[Node]], by_id: dict[str, Node],
                 label_width: Callable[[dict[str, Any]], float] | None) -> None:
     """The rows one below the other, below what has a stored place, each row's boxes side by side."""
-    placed = [n for n in level.nodes if n.placed]
-    y = max(max((n.y + n.h for n in placed), default=-GAP_Y) + GAP_Y, MARKER + 40)
-    left = min((n.x for n in placed), default=0.0)
+    left, y = _below_placed(level)
     into = _label_widths_into(level, by_id, label_width)
     for i, r in enumerate(sorted(rows)):
         widths = [w for sid in dict.fromkeys(n.id for n in rows[r]) for w in into.get(sid, [])]
         gap_x = max(GAP_X, _snap(max(widths, default=0) + 20))
         if i:
             y += max(0, len(widths) - 1) * 16
-        x = left
-        for n in rows[r]:
-            n.x, n.y = x, y
-            _arrange(n)
-            n.placed = True
-            x += n.w + gap_x
-        y += max(n.h for n in rows[r]) + GAP_Y
+        y += _place_row(rows[r], left, y, gap_x) + GAP_Y
+
+
+def _below_placed(level: LevelLayout) -> tuple[float, float]:
+    """Where the first row starts: left-aligned with, and ``GAP_Y`` below, the boxes that have a stored place (below
+    the initial marker's room when none has)."""
+    placed = [n for n in level.nodes if n.placed]
+    y = max(max((n.y + n.h for n in placed), default=-GAP_Y) + GAP_Y, MARKER + 40)
+    return min((n.x for n in placed), default=0.0), y
+
+
+def _place_row(row: list[Node], x: float, y: float, gap_x: float) -> float:
+    """The boxes of a row side by side from (``x``, ``y``), ``gap_x`` apart, their parts arranged; the height of the
+    tallest."""
+    for n in row:
+        n.x, n.y = x, y
+        _arrange(n)
+        n.placed = True
+        x += n.w + gap_x
+    return max(n.h for n in row)
 
 
 def _label_widths_into(level: LevelLayout, by_id: dict[str, Node],
@@ -513,14 +547,13 @@ def _place_marker(level: LevelLayout, initial: Node, stored: bool) -> None:
     """The initial marker and its arrow: where ``layout.initial`` keeps them when every box kept its stored
     place, else above the initial state."""
     ini = _dict(_dict(level.machine.get("layout")).get("initial"))
-    if _num(ini.get("x")) and _num(ini.get("y")) and initial.placed and all(n.placed for n in level.nodes) \
-            and stored:
-        level.marker = (float(ini["x"]), float(ini["y"]))
-        if _num(ini.get("w")) and _num(ini.get("h")):
-            level.marker_size = (float(ini["w"]), float(ini["h"]))
-        level.marker_points = _points(ini) or []
-    else:
+    at = _xy(ini, "x", "y") if stored else None
+    if at is None:
         level.marker = (initial.x + initial.w / 2 - MARKER / 2, initial.y - MARKER - 40)
+    else:
+        level.marker = at
+        level.marker_size = _xy(ini, "w", "h") or level.marker_size
+        level.marker_points = _points(ini) or []
     if not level.marker_points:
         mx, my = level.marker
         level.marker_points = _connect((mx, my, MARKER, MARKER), (initial.x, initial.y, initial.w, initial.h), 0)
@@ -533,20 +566,32 @@ def _fit_composites(level: LevelLayout, drawing: bool) -> None:
     grows pushes what lies right of and below it away by as much (see :func:`_insert_space`).
     """
     for n in level.nodes:
-        if not n.parts:
-            continue
-        frames = _stored_frames(n) if n.regions else None
-        if frames is not None:
-            for p, (x, y, w, h) in zip(n.parts, frames, strict=True):
-                p.x, p.y, p.w, p.h = x, y, w, h
+        if not n.parts or _keep_frames(n):
             continue
         if n.foreign or n.regions:
-            w, h = _natural_size(n)
-            if w > n.w or h > n.h:
-                _grow(level, n, max(n.w, w), max(n.h, h), drawing)
-            _arrange(n)
+            _fit_foreign(level, n, drawing)
         else:
             _fit_own(level, n, drawing)
+
+
+def _keep_frames(n: Node) -> bool:
+    """Whether the regions of ``n`` keep the frames the diagram has for them (see :func:`_stored_frames`): then they
+    are put there."""
+    frames = _stored_frames(n) if n.regions else None
+    if frames is None:
+        return False
+    for p, (x, y, w, h) in zip(n.parts, frames, strict=True):
+        p.x, p.y, p.w, p.h = x, y, w, h
+    return True
+
+
+def _fit_foreign(level: LevelLayout, n: Node, drawing: bool) -> None:
+    """Content in foreign coordinates (an include, regions): the box grown to the parts' natural size where it is
+    smaller, the parts moved into it."""
+    w, h = _natural_size(n)
+    if w > n.w or h > n.h:
+        _grow(level, n, max(n.w, w), max(n.h, h), drawing)
+    _arrange(n)
 
 
 def _fit_own(level: LevelLayout, n: Node, drawing: bool) -> None:
@@ -580,26 +625,26 @@ def _insert_space(level: LevelLayout, n: Node, dw: float, dh: float) -> None:
     grown box and of every other node there, so that growing a composite does not push what stands beside it
     far away. A node that moved so is ``detached``: its arrows lose their stored bends."""
     right, bottom = n.x + n.w, n.y + n.h
-    grown = (n.x, n.y, n.w + dw, n.h + dh)
-    moves: dict[int, tuple[float, float]] = {}
-    for m in level.nodes:
-        if m is not n:
-            moves[id(m)] = (dw if m.x >= right - 0.5 else 0, dh if m.y >= bottom - 0.5 else 0)
-    for m in level.nodes:
-        if m is not n and moves[id(m)] != (0, 0):
-            _move_less(level, n, m, grown, moves)
-    for m in level.nodes:
-        if m is not n:
-            m.move(*moves[id(m)])
-    op = (right, dw, bottom, dh)
-    level.inserted.append(op)
+    others = [m for m in level.nodes if m is not n]
+    moves = {id(m): (dw if m.x >= right - 0.5 else 0, dh if m.y >= bottom - 0.5 else 0) for m in others}
+    for m in others:
+        if moves[id(m)] != (0, 0):
+            _move_less(level, n, m, (n.x, n.y, n.w + dw, n.h + dh), moves)
+    for m in others:
+        m.move(*moves[id(m)])
+    level.inserted.append((right, dw, bottom, dh))
+    _move_marker(level, n, moves)
+
+
+def _move_marker(level: LevelLayout, n: Node, moves: dict[int, tuple[float, float]]) -> None:
+    """The initial marker moves with its state; when that is the grown node ``n``, as the space inserted last."""
     if level.marker is None:
         return
     if level.initial is not None and level.initial is not n:
         dx, dy = moves[id(level.initial)]
         level.marker = (level.marker[0] + dx, level.marker[1] + dy)
     else:
-        mx, my = _spread(list(level.marker), [op])
+        mx, my = _spread(list(level.marker), level.inserted[-1:])
         level.marker = (mx, my)
 
 
@@ -634,6 +679,16 @@ def _spread(p: list[float], ops: list[tuple[float, float, float, float]]) -> lis
     return [x, y]
 
 
+def _bends(pts: list[list[float]], inserted: list[tuple[float, float, float, float]], detached: bool,
+           shift: tuple[float, float] = (0.0, 0.0)) -> list[list[float]]:
+    """A stored arrow's bends (all its points but its ends) where the space ``inserted`` for grown composites, and
+    then a reflow's ``shift``, took them; none when an end of the arrow is ``detached``."""
+    if detached:
+        return []
+    dx, dy = shift
+    return _moved([_spread(p, inserted) for p in pts[1:-1]], dx, dy)
+
+
 def _attach(p: list[float], n: Node) -> list[float]:
     """Where a stored arrow end ``p`` on the border of ``n`` is once ``n`` has moved and grown: it keeps its
     distance from the box's left (top) side, or from its right (bottom) side when it was on that one."""
@@ -646,9 +701,8 @@ def _attach(p: list[float], n: Node) -> list[float]:
     return [axis(p[0], ox, ow, n.x, n.w), axis(p[1], oy, oh, n.y, n.h)]
 
 
-def _node_bbox(level: LevelLayout) -> tuple[float, float, float, float]:
-    xs, ys, xe, ye = _box_edges(level)
-    return min(xs), min(ys), max(xe), max(ye)
+def _node_bbox(level: LevelLayout) -> Span:
+    return _extent(_spans(level))
 
 
 def _dict(v: Any) -> dict[str, Any]:
@@ -664,6 +718,13 @@ def _dicts(machine: dict[str, Any], key: str) -> list[dict[str, Any]]:
     """The dictionaries in the list ``machine[key]`` (its states or transitions); the rest is skipped."""
     items = machine.get(key)
     return [v for v in items if isinstance(v, dict)] if isinstance(items, list) else []
+
+
+def _xy(lay: dict[str, Any], x: str, y: str) -> tuple[float, float] | None:
+    """The stored numbers ``lay[x]`` and ``lay[y]`` (a position or a size) when both are finite, else None."""
+    if _num(lay.get(x)) and _num(lay.get(y)):
+        return float(lay[x]), float(lay[y])
+    return None
 
 
 def _rect(v: Any) -> tuple[float, float, float, float] | None:
@@ -721,18 +782,31 @@ def _columns(sizes: list[tuple[float, float]], gap_x: float) -> list[list[int]]:
     nearest ``REFLOW_TARGET`` (of two alike, the one with fewer columns)."""
     best: tuple[float, list[list[int]]] = (math.inf, [list(range(len(sizes)))])
     total = sum(h for _, h in sizes) + GAP_Y * (len(sizes) - 1)
+    tallest = max(h for _, h in sizes)
     for k in range(2, min(len(sizes), max(MAX_COLUMNS, math.isqrt(len(sizes)) + 1)) + 1):
-        limit = max(max(h for _, h in sizes), total / k)
-        cols = _cut_columns(sizes, limit)
-        while len(cols) > k:  # a band did not fit where the even share ended: a little more height a column
-            limit *= 1.05
-            cols = _cut_columns(sizes, limit)
-        width = sum(max(sizes[i][0] for i in c) for c in cols) + gap_x * (len(cols) - 1)
-        tall = max(sum(sizes[i][1] for i in c) + GAP_Y * (len(c) - 1) for c in cols)
-        score = abs(math.log(tall / width / REFLOW_TARGET)) + 0.05 * len(cols)
+        cols = _split_in(sizes, k, max(tallest, total / k))
+        score = _score(sizes, cols, gap_x)
         if score < best[0]:
             best = (score, cols)
     return best[1]
+
+
+def _split_in(sizes: list[tuple[float, float]], k: int, limit: float) -> list[list[int]]:
+    """The bands cut into at most ``k`` columns, as low as that takes: from ``limit`` (an even share of the height,
+    at least the tallest band), a little more a time."""
+    cols = _cut_columns(sizes, limit)
+    while len(cols) > k:  # a band did not fit where the even share ended: a little more height a column
+        limit *= 1.05
+        cols = _cut_columns(sizes, limit)
+    return cols
+
+
+def _score(sizes: list[tuple[float, float]], cols: list[list[int]], gap_x: float) -> float:
+    """How far the columns' height over width is from ``REFLOW_TARGET`` (by its logarithm), and a little for each
+    column."""
+    width = sum(max(sizes[i][0] for i in c) for c in cols) + gap_x * (len(cols) - 1)
+    tall = max(sum(sizes[i][1] for i in c) + GAP_Y * (len(c) - 1) for c in cols)
+    return abs(math.log(tall / width / REFLOW_TARGET)) + 0.05 * len(cols)
 
 
 def _cut_columns(sizes: list[tuple[float, float]], limit: float) -> list[list[int]]:
@@ -757,23 +831,30 @@ def _reflow(level: LevelLayout, label_width: Callable[[dict[str, Any]], float] |
     if bands is None:
         return
     x0, y0, _, _ = _node_bbox(level)
-    boxes = [(min(b[0] for b in band), min(b[1] for b in band), max(b[0] + b[2] for b in band),
-              max(b[1] + b[3] for b in band)) for band in bands]
-    widths = [label_width(tr) for tr in _dicts(level.machine, "transitions")] \
-        if label_width is not None else []
+    boxes = [_extent([(x, y, x + w, y + h) for x, y, w, h, _ in band]) for band in bands]
+    widths = [label_width(tr) for tr in _dicts(level.machine, "transitions")] if label_width is not None else []
     gap_x = GAP_X + min(max(widths, default=0.0), 240.0)
     sizes = [(bx1 - x0, by1 - by0) for _, by0, bx1, by1 in boxes]
     columns = _columns(sizes, gap_x)
-    if len(columns) < 2:
-        return
+    if len(columns) >= 2:
+        _set_columns(level, [(bands[i], boxes[i][1], sizes[i]) for i in range(len(bands))], columns, gap_x)
+
+
+def _set_columns(level: LevelLayout, bands: list[tuple[list[tuple[float, float, float, float, Node | None]], float,
+                                                        tuple[float, float]]],
+                 columns: list[list[int]], gap_x: float) -> None:
+    """Move the bands (each with its top and its size from the level's left) into ``columns`` side by side, from
+    the level's top left corner, each column ``gap_x`` right of the one before."""
+    x0, y0, _, _ = _node_bbox(level)
     left = x0
     for col in columns:
         top = y0
         for i in col:
-            dy = _snap(top - boxes[i][1])
-            _move_band(level, bands[i], left - x0, dy)
-            top = boxes[i][1] + dy + sizes[i][1] + GAP_Y
-        left += _snap(max(sizes[i][0] for i in col) + gap_x)
+            band, band_top, (_, height) = bands[i]
+            dy = _snap(top - band_top)
+            _move_band(level, band, left - x0, dy)
+            top = band_top + dy + height + GAP_Y
+        left += _snap(max(bands[i][2][0] for i in col) + gap_x)
 
 
 def _tall_bands(level: LevelLayout) -> list[list[tuple[float, float, float, float, Node | None]]] | None:
@@ -786,10 +867,14 @@ def _tall_bands(level: LevelLayout) -> list[list[tuple[float, float, float, floa
     if y1 - y0 <= max(REFLOW_MIN_H, COLUMN_ASPECT * (x1 - x0)):
         return None
     bands = _bands(level)
-    single = sum(1 for band in bands if sum(1 for b in band if b[4] is not None) == 1)
-    if len(bands) < 3 or (y1 - y0 <= REFLOW_ASPECT * (x1 - x0) and 3 * single < 2 * len(bands)):
+    if len(bands) < 3 or (y1 - y0 <= REFLOW_ASPECT * (x1 - x0) and 3 * _singles(bands) < 2 * len(bands)):
         return None
     return bands
+
+
+def _singles(bands: list[list[tuple[float, float, float, float, Node | None]]]) -> int:
+    """How many of the bands hold one state."""
+    return sum(1 for band in bands if sum(1 for b in band if b[4] is not None) == 1)
 
 
 def _move_band(level: LevelLayout, band: list[tuple[float, float, float, float, Node | None]], dx: float,
@@ -799,7 +884,7 @@ def _move_band(level: LevelLayout, band: list[tuple[float, float, float, float, 
         if n is None:
             assert level.marker is not None
             level.marker = (level.marker[0] + dx, level.marker[1] + dy)
-            level.marker_points = [[px + dx, py + dy] for px, py in level.marker_points]
+            level.marker_points = _moved(level.marker_points, dx, dy)
         else:
             n.move(dx, dy)
             n.reflowed = (dx, dy)
@@ -819,18 +904,22 @@ def _route(level: LevelLayout, drawing: bool = False) -> None:
         key = _pair(e)
         k = pair_count.get(key, 0)
         pair_count[key] = k + 1
-        a = (e.src.x, e.src.y, e.src.w, e.src.h)
-        if e.src is e.dst:
-            e.points = _loop(a, k)
-        elif drawing and pair_total[key] > 1:
-            e.points = _bowed(a, (e.dst.x, e.dst.y, e.dst.w, e.dst.h), k, pair_total[key],
-                             index[id(e.src)] < index[id(e.dst)])
-        else:
-            e.points = _connect(a, (e.dst.x, e.dst.y, e.dst.w, e.dst.h), k)
+        e.points = _drawn_anew(e, k, pair_total[key] if drawing else 1, index[id(e.src)] < index[id(e.dst)])
     if drawing:
         _separate_duplicates(level)
         _reroute(level)
         _spread_pairs(level)
+
+
+def _drawn_anew(e: Edge, k: int, total: int, forward: bool) -> list[list[float]]:
+    """The points of the ``k``-th of ``total`` arrows between the same two boxes, drawn anew: a loop, one of several
+    bowed apart (``forward``: from the earlier box of the level to the later), or a straight one."""
+    a, b = (e.src.x, e.src.y, e.src.w, e.src.h), (e.dst.x, e.dst.y, e.dst.w, e.dst.h)
+    if e.src is e.dst:
+        return _loop(a, k)
+    if total > 1:
+        return _bowed(a, b, k, total, forward)
+    return _connect(a, b, k)
 
 
 def _pair(e: Edge) -> tuple[int, int]:
@@ -847,9 +936,7 @@ def _keep_stored_points(level: LevelLayout, e: Edge) -> bool:
         return False
     e.points = pts
     if level.inserted or e.src.reflowed != (0.0, 0.0):  # boxes moved: the ends stay on their boxes
-        dx, dy = e.src.reflowed
-        middle = [] if e.src.detached or e.dst.detached else \
-            [[x + dx, y + dy] for x, y in (_spread(p, level.inserted) for p in e.points[1:-1])]
+        middle = _bends(e.points, level.inserted, e.src.detached or e.dst.detached, e.src.reflowed)
         e.points = [_attach(e.points[0], e.src)] + middle + [_attach(e.points[-1], e.dst)]
     return True
 
@@ -873,16 +960,20 @@ def _separate_duplicates(level: LevelLayout) -> None:
         canon = min(key, key[::-1])
         k = groups.get(canon, 0)
         groups[canon] = k + 1
-        if k == 0:
-            continue
-        (ax, ay), (bx, by) = canon[0], canon[-1]
-        length = math.hypot(bx - ax, by - ay) or 1.0
-        nx, ny = -(by - ay) / length, (bx - ax) / length
-        off = 18 * ((k + 1) // 2) * (1 if k % 2 else -1)
-        i = (len(e.points) - 1) // 2
-        p, q = e.points[i], e.points[i + 1]
-        bend = [float(round((p[0] + q[0]) / 2 + nx * off)), float(round((p[1] + q[1]) / 2 + ny * off))]
-        e.points = e.points[:i + 1] + [bend] + e.points[i + 1:]
+        if k:
+            _bend_apart(e, canon, k)
+
+
+def _bend_apart(e: Edge, canon: tuple[tuple[int, int], ...], k: int) -> None:
+    """The ``k``-th arrow on the line ``canon`` (its rounded points) gets a bend in its middle segment, on
+    alternate sides of the line, further out for each further pair."""
+    (ax, ay), (bx, by) = canon[0], canon[-1]
+    nx, ny = _normal(ax, ay, bx, by)
+    off = 18 * ((k + 1) // 2) * (1 if k % 2 else -1)
+    i = (len(e.points) - 1) // 2
+    p, q = e.points[i], e.points[i + 1]
+    bend = [float(round((p[0] + q[0]) / 2 + nx * off)), float(round((p[1] + q[1]) / 2 + ny * off))]
+    e.points = e.points[:i + 1] + [bend] + e.points[i + 1:]
 
 
 def _spread_pairs(level: LevelLayout) -> None:
@@ -894,9 +985,8 @@ def _spread_pairs(level: LevelLayout) -> None:
         if e.src is not e.dst and len(e.points) == 2:
             straight.setdefault(_pair(e), []).append(e)
     for pair in straight.values():
-        for i, e in enumerate(pair):
-            for f in pair[i + 1:]:
-                _part_two(e, f)
+        for e, f in combinations(pair, 2):
+            _part_two(e, f)
 
 
 def _part_two(e: Edge, f: Edge) -> None:
@@ -959,10 +1049,9 @@ def _reroute(level: LevelLayout) -> None:
     if len(level.nodes) > ROUTE_MAX:
         return
     index = {id(n): i for i, n in enumerate(level.nodes)}
-    arrows = tuple((index[id(e.src)], index[id(e.dst)], tuple((p[0], p[1]) for p in e.points)) for e in level.edges)
+    arrows = tuple((index[id(e.src)], index[id(e.dst)], _frozen(e.points)) for e in level.edges)
     boxes = tuple((n.x, n.y, n.w, n.h) for n in level.nodes)
-    marker = tuple((p[0], p[1]) for p in level.marker_points)
-    for e, path in zip(level.edges, _routes(boxes, arrows, marker), strict=True):
+    for e, path in zip(level.edges, _routes(boxes, arrows, _frozen(level.marker_points)), strict=True):
         if path is not None:
             e.points = [list(p) for p in path]
 
@@ -970,14 +1059,17 @@ def _reroute(level: LevelLayout) -> None:
 Point = tuple[float, float]
 
 
+def _frozen(pts: list[list[float]]) -> tuple[Point, ...]:
+    """Points as tuples: a key of :func:`_routes`' memory."""
+    return tuple((p[0], p[1]) for p in pts)
+
+
 @functools.lru_cache(maxsize=64)
 def _routes(boxes: tuple[Seg, ...], arrows: tuple[tuple[int, int, tuple[Point, ...]], ...],
             marker: tuple[Point, ...]) -> tuple[tuple[Point, ...] | None, ...]:
     """For each arrow ``(source, target, points)`` among ``boxes``, its new path, or None to keep its own."""
     bad = _through_boxes(boxes, arrows)
-    kept = [(a[0], a[1], b[0], b[1]) for k, (_, _, pts) in enumerate(arrows) if k not in bad
-            for a, b in pairwise(pts)]
-    kept += [(a[0], a[1], b[0], b[1]) for a, b in pairwise(marker)]
+    kept = _kept_segments(arrows, bad, marker)
     crossings: dict[Seg, int] = {}
     hits: dict[Seg, tuple[int, ...]] = {}
     paths: dict[int, list[list[float]]] = {}
@@ -988,6 +1080,14 @@ def _routes(boxes: tuple[Seg, ...], arrows: tuple[tuple[int, int, tuple[Point, .
             if found is not None:
                 paths[k] = found
     return tuple(tuple((p[0], p[1]) for p in paths[k]) if k in paths else None for k in range(len(arrows)))
+
+
+def _kept_segments(arrows: tuple[tuple[int, int, tuple[Point, ...]], ...], bad: list[int],
+                   marker: tuple[Point, ...]) -> list[Seg]:
+    """The segments of the arrows that keep their path (all but ``bad``) and of the initial marker's arrow."""
+    kept = [(a[0], a[1], b[0], b[1]) for k, (_, _, pts) in enumerate(arrows) if k not in bad
+            for a, b in pairwise(pts)]
+    return kept + [(a[0], a[1], b[0], b[1]) for a, b in pairwise(marker)]
 
 
 def _through_boxes(boxes: tuple[Seg, ...], arrows: tuple[tuple[int, int, tuple[Point, ...]], ...]) -> list[int]:
@@ -1026,8 +1126,7 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
     stretch along an arrow routed before (``used``) costs ``CROSS``; the ends are set off by ``k`` (mod 3) so
     that arrows sharing a box do not share their last run. A* with the Manhattan distance to the goal."""
     kept, routed, crossings, hits = seen
-    across_h = [(a[1], min(a[0], a[2]), max(a[0], a[2])) for a in routed if a[1] == a[3] and a[0] != a[2]]
-    across_v = [(a[0], min(a[1], a[3]), max(a[1], a[3])) for a in routed if a[0] == a[2] and a[1] != a[3]]
+    across_h, across_v = _runs(routed)
     c = CLEARANCE
     s, t = boxes[si], boxes[ti]
     off = (k % 3 - 1) * SPACING
@@ -1064,6 +1163,14 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
     if end is None:
         return None
     return _cut(_corners(*end, xs, ys), s, t)
+
+
+def _runs(routed: list[Seg]) -> tuple[list[tuple[float, float, float]], list[tuple[float, float, float]]]:
+    """The horizontal runs of the arrows routed before as ``(y, x0, x1)``, and their vertical runs as
+    ``(x, y0, y1)``."""
+    across_h = [(a[1], min(a[0], a[2]), max(a[0], a[2])) for a in routed if a[1] == a[3] and a[0] != a[2]]
+    across_v = [(a[0], min(a[1], a[3]), max(a[1], a[3])) for a in routed if a[0] == a[2] and a[1] != a[3]]
+    return across_h, across_v
 
 
 def _grid_lines(boxes: list[tuple[float, float, float, float]], start: Point, goal: Point,
@@ -1186,9 +1293,7 @@ def _bowed(a: tuple[float, float, float, float], b: tuple[float, float, float, f
     middle bent away from the others, so none is drawn over another."""
     ax, ay = a[0] + a[2] / 2, a[1] + a[3] / 2
     bx, by = b[0] + b[2] / 2, b[1] + b[3] / 2
-    dx, dy = bx - ax, by - ay
-    length = math.hypot(dx, dy) or 1.0
-    nx, ny = -dy / length, dx / length
+    nx, ny = _normal(ax, ay, bx, by)
     if not forward:  # the same side for both directions: offsets measured from one of the two boxes
         nx, ny = -nx, -ny
     slot = k - (total - 1) / 2
@@ -1206,14 +1311,20 @@ def _bowed(a: tuple[float, float, float, float], b: tuple[float, float, float, f
     return [[round(p[0]), round(p[1])], [round(mx), round(my)], [round(q[0]), round(q[1])]]
 
 
+def _normal(ax: float, ay: float, bx: float, by: float) -> tuple[float, float]:
+    """The unit normal of the line from (``ax``, ``ay``) to (``bx``, ``by``), left of it in drawing coordinates
+    (an arbitrary one when the two points are one)."""
+    dx, dy = bx - ax, by - ay
+    length = math.hypot(dx, dy) or 1.0
+    return -dy / length, dx / length
+
+
 def _connect(a: tuple[float, float, float, float], b: tuple[float, float, float, float],
              k: int) -> list[list[float]]:
     """A straight arrow from box ``a``'s border to box ``b``'s border; the ``k``-th parallel one is offset."""
     ax, ay = a[0] + a[2] / 2, a[1] + a[3] / 2
     bx, by = b[0] + b[2] / 2, b[1] + b[3] / 2
-    dx, dy = bx - ax, by - ay
-    length = math.hypot(dx, dy) or 1.0
-    nx, ny = -dy / length, dx / length
+    nx, ny = _normal(ax, ay, bx, by)
     off: float = (k + 1) // 2 * 14 * (1 if k % 2 else -1) if k else 0
     lim = min(a[2], a[3], b[2], b[3]) / 2 - 4
     off = max(-lim, min(lim, off))

@@ -174,15 +174,15 @@ def _read(root: ElementTree.Element) -> _Drawing:
     d = _Drawing([], [], [])
     for g in root.iter(NS + "g"):
         cls = _classes(g)
+        within = g.get("data-in") or ""  # the path of the composite an arrow or label is drawn in
         if "node" in cls or "pseudo" in cls:
             box = _box_of(g, cls)
             if box is not None:
                 d.boxes.append(box)
         elif "level" in cls:
-            d.edges += [(g.get("data-in") or "", _points(pl)) for pl in g.iter(NS + "polyline")
-                        if "edge" in _classes(pl)]
+            d.edges += [(within, _points(pl)) for pl in g.iter(NS + "polyline") if "edge" in _classes(pl)]
         elif "label" in cls and (r := _rect(g.find(NS + "rect"))) is not None:
-            d.labels.append((g.get("data-in") or "", r))
+            d.labels.append((within, r))
     return d
 
 
@@ -256,10 +256,8 @@ def _label_on_box(boxes: list[_Box], grid: Buckets, within: str, r: Rect) -> boo
     """Whether a label lies over a state box, a composite's title band, or a composite it is not drawn in."""
     for j in grid.near(r[0], r[1], r[0] + r[2], r[1] + r[3]):
         b = boxes[j]
-        if b.band is not None and within and _inside(within, b.path):
-            if _overlap(r, b.band):
-                return True
-        elif _overlap(r, b.rect):
+        # in the composite it is drawn in, only the composite's title band is in a label's way
+        if _overlap(r, b.band if b.band is not None and within and _inside(within, b.path) else b.rect):
             return True
     return False
 

@@ -1103,7 +1103,7 @@ def _signal_warnings(scenario: Scenario, known: set[str], name: str) -> list[Pro
     """A warning for each input of a signal the machine does not read."""
     problems: list[Problem] = []
     for i, item in enumerate(scenario.inputs):
-        sig = item.signal if isinstance(item, SignalInput) else item.press if isinstance(item, PressInput) else None
+        sig = _signal_of(item)
         if sig is not None and sig not in known:
             problems.append(Problem(f"the machine reads no signal '{sig}'", name, pointer("inputs", i),
                                     element=f"input {i}", severity="warning",
@@ -1147,9 +1147,13 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
 
 def _driven_signals(scenario: Scenario, plants: list[tuple[type, Any]]) -> set[str]:
     """The signals the scenario drives: by its inputs (levels, pulses, presses) and by its plants."""
-    given = {item.signal if isinstance(item, SignalInput) else item.press for item in scenario.inputs
-             if isinstance(item, (SignalInput, PressInput))}
+    given = {sig for item in scenario.inputs if (sig := _signal_of(item)) is not None}
     return given | {sig for cls, params in plants for sig in cls(params).signals()}
+
+
+def _signal_of(item: Any) -> str | None:
+    """The signal an input drives (a level, a pulse or a press), or ``None``."""
+    return item.signal if isinstance(item, SignalInput) else item.press if isinstance(item, PressInput) else None
 
 
 def _checked_machine(scenario: Scenario, base: Path, name: str, registry: Any

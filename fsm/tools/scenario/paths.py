@@ -19,9 +19,9 @@ def active_matches(prefix: str, path: str) -> bool:
     return path == prefix or path.startswith(prefix + "/")
 
 
-def prefixes(paths: Iterable[str]) -> set[str]:
+def prefixes(paths: Iterable[str]) -> frozenset[str]:
     """Every state path on the way to these paths, themselves included (the active states of active leaves)."""
-    return {"/".join(p.split("/")[:k]) for p in paths for k in range(1, p.count("/") + 2)}
+    return frozenset("/".join(p.split("/")[:k]) for p in paths for k in range(1, p.count("/") + 2))
 
 
 def first_few(items: list[str], shown: int) -> str:

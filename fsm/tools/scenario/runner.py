@@ -330,7 +330,7 @@ class Recording(Listener):
                 continue
             now = prefixes(leaves)
             out += [(tick, p) for p in sorted((was | set(entered)) - now) if p in states]
-            was = now & states
+            was = states & now
         return out
 
 
@@ -447,7 +447,7 @@ class TemporalRun:
     def _read_active(self, active: ActiveChange, changed: set[str]) -> None:
         """The active states: every prefix of an active leaf's path."""
         self._active = active
-        self.now.active = frozenset(prefixes(active.paths))
+        self.now.active = prefixes(active.paths)
         changed.add("@active")
 
     def _step_watches(self, tick: int, changed: set[str]) -> None:
@@ -883,18 +883,23 @@ class Checker:
         tick = fired[limit].tick if limit is not None and n > limit else self.last_tick
         return self.failure(i, "transitions", f"expected {want} transitions, {n} fired", tick)
 
-    def occurrences(self, i: int, exp: EnteredExpect | SkippedExpect | ExitedExpect) -> Failure | None:
-        """A state is entered (and runs), skipped by its precondition, or left: as often as counted."""
+    def entered(self, i: int, exp: EnteredExpect) -> Failure | None:
+        """A state is entered and runs, as often as counted."""
         rec = self.rec
-        if isinstance(exp, EnteredExpect):
-            ran = [(e.tick, e.path) for k, e in enumerate(rec.entries)
-                   if k not in rec.skipped and state_matches(exp.entered, e.path)]
-            return self.counted(i, "entered", exp, ran, f"'{exp.entered}' to be entered (and run)")
-        if isinstance(exp, SkippedExpect):
-            skipped = [(rec.entries[k].tick, rec.entries[k].path) for k in sorted(rec.skipped)
-                       if state_matches(exp.skipped, rec.entries[k].path)]
-            return self.counted(i, "skipped", exp, skipped, f"'{exp.skipped}' to be skipped by its precondition")
-        left = [(t, p) for t, p in rec.exits() if state_matches(exp.exited, p)]
+        ran = [(e.tick, e.path) for k, e in enumerate(rec.entries)
+               if k not in rec.skipped and state_matches(exp.entered, e.path)]
+        return self.counted(i, "entered", exp, ran, f"'{exp.entered}' to be entered (and run)")
+
+    def skipped(self, i: int, exp: SkippedExpect) -> Failure | None:
+        """A state is skipped by its precondition, as often as counted."""
+        rec = self.rec
+        skipped = [(rec.entries[k].tick, rec.entries[k].path) for k in sorted(rec.skipped)
+                   if state_matches(exp.skipped, rec.entries[k].path)]
+        return self.counted(i, "skipped", exp, skipped, f"'{exp.skipped}' to be skipped by its precondition")
+
+    def exited(self, i: int, exp: ExitedExpect) -> Failure | None:
+        """A state is left, as often as counted."""
+        left = [(t, p) for t, p in self.rec.exits() if state_matches(exp.exited, p)]
         return self.counted(i, "exited", exp, left, f"'{exp.exited}' to be left")
 
     # -- windows and counts -------------------------------------------------------------------------------
@@ -1060,6 +1065,6 @@ class Checker:
 _CHECKS: dict[type, Callable[[Checker, int, Any], Failure | None]] = {
     OutcomeExpect: Checker.outcome, FinishedExpect: Checker.finished, VisitsExpect: Checker.visits,
     NeverExpect: Checker.never, AtExpect: Checker.at_check, TemporalExpect: Checker.formula,
-    TransitionsExpect: Checker.transitions, MonitorsExpect: Checker.monitor_check, EnteredExpect: Checker.occurrences,
-    SkippedExpect: Checker.occurrences, ExitedExpect: Checker.occurrences, InvariantExpect: Checker.invariant,
+    TransitionsExpect: Checker.transitions, MonitorsExpect: Checker.monitor_check, EnteredExpect: Checker.entered,
+    SkippedExpect: Checker.skipped, ExitedExpect: Checker.exited, InvariantExpect: Checker.invariant,
 }

@@ -232,10 +232,9 @@ def state_argument(node: Node) -> str | None:
         return str(node.args[0])
     if node.op == "const" and isinstance(node.args[0], str):
         return node.args[0]
-    if node.op == "/":
-        left, right = (state_argument(a) for a in node.args)
-        if left is not None and right is not None and node.args[1].op == "var":
-            return f"{left}/{right}"
+    if node.op == "/" and node.args[1].op == "var":
+        left = state_argument(node.args[0])
+        return None if left is None else f"{left}/{node.args[1].args[0]}"
     return None
 
 

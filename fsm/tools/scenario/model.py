@@ -549,10 +549,15 @@ def base_name(file: str | Path, name: str | None = None) -> str:
     if name:
         return name
     base = Path(file).name
+    return scenario_stem(base) or base
+
+
+def scenario_stem(text: str) -> str:
+    """``text`` without the ``.scenario.json`` (or ``.json``) it ends with."""
     for suffix in (".scenario.json", ".json"):
-        if base.endswith(suffix):
-            return base[: -len(suffix)] or base
-    return base
+        if text.endswith(suffix):
+            return text[: -len(suffix)]
+    return text
 
 
 def case_count(matrix: Matrix | None) -> int:

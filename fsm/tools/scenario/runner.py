@@ -447,7 +447,8 @@ class TemporalRun:
     def _read_active(self, active: ActiveChange, changed: set[str]) -> None:
         """The active states: every prefix of an active leaf's path."""
         self._active = active
-        self.now.active = prefixes(active.paths)
+        self.now.active = frozenset("/".join(p.split("/")[:k]) for p in active.paths  # as paths.prefixes, inline:
+                                    for k in range(1, p.count("/") + 2))  # it runs on the checked tick
         changed.add("@active")
 
     def _step_watches(self, tick: int, changed: set[str]) -> None:

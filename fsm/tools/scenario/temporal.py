@@ -522,7 +522,7 @@ class Watch:
         """The verdict of a triggered expectation: its trigger never held (enough), or its last span ran out."""
         assert self.after is not None
         text = self.body.text
-        if self.triggers == 0 or (self.nth is not None and self.triggers < self.nth):
+        if self.triggers < (self.nth or 1):  # fewer times than the nth (or than once)
             need = "at all" if self.nth is None else f"{self.nth} times (it held {self.triggers} times)"
             return Verdict(f"'{self.after.text}' never held {need}, so '{text}' was never checked after it", last)
         if self.mode == "eventually" and self.open:
@@ -567,7 +567,7 @@ class Watch:
         runs = self.runs + ([(self.holding, last)] if self.holding >= 0 else [])
         n = sum(b - a + 1 for a, b in runs)
         hits = [t for a, b in runs for t in range(a, min(b, a + 100) + 1)][:100]
-        shown = first_few([times(t) for t in hits], 6)
+        shown = first_few([times(t) for t in hits[:7]], 6)  # the seventh only says there are more
         if self.at is not None:
             return None if hits == self.at else self._exact_ticks_verdict(hits, shown, last, times)
         if self.count == Count():

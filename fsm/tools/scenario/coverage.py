@@ -52,6 +52,14 @@ class MachineCoverage:
                 "monitors": (sum(self.monitors.values()), len(self.monitors))}
 
 
+    def missed(self) -> list[tuple[str, list[str]]]:
+        """What the runs did not reach, by kind: (title, items), in the report's order."""
+        return [("never entered", [p for p, v in self.states.items() if v == "never"]),
+                ("only skipped", [p for p, v in self.states.items() if v == "skipped"]),
+                ("never fired", [t for t, v in self.transitions.items() if not v]),
+                ("monitors never fired", [m for m, v in self.monitors.items() if not v])]
+
+
 #: How much of a state a run reached, least first.
 _RANK = {"never": 0, "skipped": 1, "ran": 2}
 
@@ -120,15 +128,8 @@ class Coverage:
         """The report: per machine, the counts and what was never entered or never fired."""
         lines = []
         for cov in self.machines.values():
-            c = cov.counts()
-            lines.append(f"coverage of {cov.name} ({cov.scenarios} run(s)): " + _counts_text(c))
-            never = [p for p, v in cov.states.items() if v == "never"]
-            only = [p for p, v in cov.states.items() if v == "skipped"]
-            for title, items in (("never entered", never), ("only skipped", only),
-                                 ("never fired", [t for t, v in cov.transitions.items() if not v]),
-                                 ("monitors never fired", [m for m, v in cov.monitors.items() if not v])):
-                if items:
-                    lines.append(f"  {title}: " + ", ".join(items))
+            lines.append(f"coverage of {cov.name} ({cov.scenarios} run(s)): " + _counts_text(cov.counts()))
+            lines += [f"  {title}: " + ", ".join(items) for title, items in cov.missed() if items]
         lines.append(f"coverage: {self.percent():.1f}% (" + _counts_text(self.totals()) + ")")
         return lines
 

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 from fsm.model.errors import Problem, escape_char
 
+from .model import scenario_stem
 from .runner import ScenarioResult
 
 
@@ -75,9 +76,4 @@ def xml_safe(text: str) -> str:
 
 def _classname(file: str) -> str:
     """``diagrams/examples/mission.scenario.json`` -> ``diagrams.examples.mission``."""
-    name = file.replace("\\", "/")
-    for suffix in (".scenario.json", ".json"):
-        if name.endswith(suffix):
-            name = name[: -len(suffix)]
-            break
-    return name.strip("./").replace("/", ".") or "scenario"
+    return scenario_stem(file.replace("\\", "/")).strip("./").replace("/", ".") or "scenario"

@@ -47,8 +47,9 @@ from fsm.states.plants import plant_problems, written_vars
 
 from .. import did_you_mean
 from .paths import active_matches as active_matches
+from .paths import first_few, prefixes
 from .paths import state_matches as state_matches
-from .temporal import TEMPORAL_FUNCTIONS, FormulaError, compile_formula, formula_names
+from .temporal import TEMPORAL_FUNCTIONS, FormulaError, compile_formula, formula_names, unbounded
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterator
@@ -548,10 +549,15 @@ def base_name(file: str | Path, name: str | None = None) -> str:
     if name:
         return name
     base = Path(file).name
+    return scenario_stem(base) or base
+
+
+def scenario_stem(text: str) -> str:
+    """``text`` without the ``.scenario.json`` (or ``.json``) it ends with."""
     for suffix in (".scenario.json", ".json"):
-        if base.endswith(suffix):
-            return base[: -len(suffix)] or base
-    return base
+        if text.endswith(suffix):
+            return text[: -len(suffix)]
+    return text
 
 
 def case_count(matrix: Matrix | None) -> int:
@@ -616,7 +622,12 @@ def matrix_problems(scenario: Scenario, spec: Any, name: str, max_runs: int | No
         where = [(pointer("matrix", "cases", k, "vars"), c.vars) for k, c in enumerate(m.cases)]
     else:
         where = [(pointer("matrix", "vars", v), {v: x}) for v, values in (m.vars or {}).items() for x in values]
-    problems += _matrix_var_problems(where, getattr(spec, "vars", {}) or {}, name)
+    return _said_once(problems + _matrix_var_problems(where, getattr(spec, "vars", {}) or {}, name))
+
+
+def _said_once(problems: list[Problem]) -> list[Problem]:
+    """The problems without repeats: the first of those with the same place and words (the cases of a matrix share
+    their variables)."""
     unique: dict[str, Problem] = {}
     for p in problems:
         unique.setdefault(f"{p.pointer}:{p.message}", p)
@@ -852,25 +863,25 @@ def _partial_problems(data: dict[str, Any], path: Path, name: str) -> list[Probl
     machine = data.get("machine")
     if isinstance(machine, str) and machine and not (path.parent / machine).is_file():
         problems.append(_missing_machine(path.parent / machine, name))
-    parts: dict[str, list[Any]] = {"inputs": [], "expect": []}
-    adapters: dict[str, TypeAdapter[Any]] = {"inputs": TypeAdapter(Input), "expect": TypeAdapter(Expectation)}
-    for key, adapter in adapters.items():
-        items = data.get(key)
-        if not isinstance(items, list):
-            continue
-        for item in items:
-            try:
-                parts[key].append(adapter.validate_python(item))
-            except ValidationError:
-                parts[key].append(None)
-    limits_of = {k: data.get(k) for k in ("dt", "duration", "max_ticks")}
+    inputs = _shaped(data.get("inputs"), TypeAdapter(Input))
+    expect = _shaped(data.get("expect"), TypeAdapter(Expectation))
     try:
         lim = Scenario.model_validate({"machine": "-", "expect": [{"outcome": "-"}],
-                                       **{k: v for k, v in limits_of.items() if k in data}})
+                                       **{k: data[k] for k in ("dt", "duration", "max_ticks") if k in data}})
     except ValidationError:
         lim = None
-    problems += element_problems(parts["inputs"], parts["expect"], lim, name)
-    return problems
+    return problems + element_problems(inputs, expect, lim, name)
+
+
+def _shaped(items: Any, adapter: TypeAdapter[Any]) -> list[Any]:
+    """Each of ``items`` (when it is a list) as ``adapter`` validates it, ``None`` for one whose shape is wrong."""
+    out: list[Any] = []
+    for item in items if isinstance(items, list) else ():
+        try:
+            out.append(adapter.validate_python(item))
+        except ValidationError:
+            out.append(None)
+    return out
 
 
 class Limits(NamedTuple):
@@ -988,8 +999,7 @@ def _invariant_parse_problems(exp: InvariantExpect, name: str, ptr: str, label: 
 def _at_problems(exp: AtExpect, name: str, ptr: str, label: str, end_time: float) -> list[Problem]:
     """An 'at' expectation that checks nothing, or looks after the end of the run."""
     problems: list[Problem] = []
-    if exp.active is None and exp.vars is None and exp.paused is None and exp.suspended is None and \
-            exp.holds is None:
+    if all(getattr(exp, key) is None for key in ("active", "vars", "paused", "suspended", "holds")):
         problems.append(Problem("an 'at' expectation needs 'active', 'vars', 'paused', 'suspended' or "
                                 "'holds'", name, ptr, element=label, hint='{"at": 2.0, "active": "run/work"}'))
     if exp.at > end_time + EPS:
@@ -1000,17 +1010,11 @@ def _at_problems(exp: AtExpect, name: str, ptr: str, label: str, end_time: float
 
 def _transitions_problems(exp: TransitionsExpect, name: str, ptr: str, label: str, end_time: float
                           ) -> list[Problem]:
-    """The bounds on the number of transitions: at least one, 'count' alone, 'min' <= 'max'."""
+    """The bounds on the number of transitions: at least one, then as every count (:func:`_count_problems`)."""
     c = exp.transitions
-    if c.count is None and c.min is None and c.max is None:
+    if unbounded(c):
         return [Problem("give 'count', 'min' or 'max'", name, ptr + "/transitions", element=label)]
-    if c.count is not None and (c.min is not None or c.max is not None):
-        return [Problem("'count' is exact; give it alone, or 'min' and/or 'max'", name, ptr + "/transitions",
-                        element=label)]
-    if c.min is not None and c.max is not None and c.min > c.max:
-        return [Problem(f"'min' {c.min} is greater than 'max' {c.max}", name, ptr + "/transitions",
-                        element=label)]
-    return []
+    return _count_problems(c, name, ptr + "/transitions", label)
 
 
 def _temporal_shape(exp: TemporalExpect, name: str, ptr: str, label: str, end_time: float) -> list[Problem]:
@@ -1020,27 +1024,34 @@ def _temporal_shape(exp: TemporalExpect, name: str, ptr: str, label: str, end_ti
         return [Problem(f"give one of 'always', 'never' and 'eventually', not {' and '.join(repr(m) for m in modes)}",
                         name, ptr, element=label, hint='{"always": "x >= 0"}; two expectations for two formulas')]
     problems = [Problem(message, name, ptr + (f"/{key}" if key else ""), element=label, hint=hint)
-                for message, key, hint in _temporal_conflicts(exp, modes[0])]
+                for message, key, hint in [*_trigger_conflicts(exp, modes[0]), *_count_conflicts(exp, modes[0])]]
     problems += _count_problems(exp, name, ptr, label)
     return problems + [Problem(f"at {at:g} s is after the end of the run ({end_time:g} s)", name, f"{ptr}/at/{k}",
                                element=label, hint="raise 'duration' (or 'max_ticks')")
                        for k, at in enumerate(exp.at or ()) if at > end_time + EPS]
 
 
-def _temporal_conflicts(exp: TemporalExpect, mode: str) -> Iterator[tuple[str, str, str | None]]:
-    """The keys of a temporal expectation that do not go with its mode or with each other: (message, key, hint)."""
-    if exp.until is not None and mode != "always":
-        yield (f"'until' goes with 'always' ('{mode}' cannot take it)", "until",
-               '{"always": "not active(drive)", "until": "signal_start"}')
-    if exp.until is not None and exp.after is not None:
-        yield "'until' and 'after' do not go together: give 'after' with 'ticks' for a span after a trigger", \
-            "until", None
+def _trigger_conflicts(exp: TemporalExpect, mode: str) -> Iterator[tuple[str, str, str | None]]:
+    """The keys of a temporal expectation's end (``until``) and trigger (``after`` and its span) that do not go with
+    its mode or with each other: (message, key, hint)."""
+    if exp.until is not None:
+        if mode != "always":
+            yield (f"'until' goes with 'always' ('{mode}' cannot take it)", "until",
+                   '{"always": "not active(drive)", "until": "signal_start"}')
+        if exp.after is not None:
+            yield "'until' and 'after' do not go together: give 'after' with 'ticks' for a span after a trigger", \
+                "until", None
     for key in ("ticks", "seconds", "nth"):
         if getattr(exp, key) is not None and exp.after is None:
             yield (f"'{key}' counts from a trigger: give 'after' too", key,
                    '{"eventually": "entered(B)", "after": "entered(A)", "ticks": 8}')
     if exp.ticks is not None and exp.seconds is not None:
         yield "give 'ticks' or 'seconds', not both", "seconds", None
+
+
+def _count_conflicts(exp: TemporalExpect, mode: str) -> Iterator[tuple[str, str, str | None]]:
+    """The counts of a temporal expectation (``count``, ``min``, ``max``, ``at``) where they do not go: (message,
+    key, hint)."""
     counted = [k for k in ("count", "min", "max", "at") if getattr(exp, k) is not None]
     if counted and (mode != "eventually" or exp.after is not None):
         yield (f"'{counted[0]}' counts the ticks an 'eventually' (without 'after') holds at", counted[0],
@@ -1097,7 +1108,7 @@ def _signal_warnings(scenario: Scenario, known: set[str], name: str) -> list[Pro
     """A warning for each input of a signal the machine does not read."""
     problems: list[Problem] = []
     for i, item in enumerate(scenario.inputs):
-        sig = item.signal if isinstance(item, SignalInput) else item.press if isinstance(item, PressInput) else None
+        sig = _signal_of(item)
         if sig is not None and sig not in known:
             problems.append(Problem(f"the machine reads no signal '{sig}'", name, pointer("inputs", i),
                                     element=f"input {i}", severity="warning",
@@ -1129,9 +1140,7 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
     plants, more = _plants(scenario, registry, name)
     problems += more + _plant_expression_problems(scenario, spec, plants, name)
     known = signal_names(spec)
-    given = {item.signal if isinstance(item, SignalInput) else item.press for item in scenario.inputs
-             if isinstance(item, (SignalInput, PressInput))}
-    given |= {sig for cls, params in plants for sig in cls(params).signals()}
+    given = _driven_signals(scenario, plants)
     problems += _pause_warnings(spec, given, name)
     formulas: dict[tuple[int, str], Any] = {}
     problems += _invariant_problems(scenario, spec, known | given, world_path is not None, name, paths, formulas)
@@ -1139,6 +1148,17 @@ def _load_machine(scenario: Scenario, path: Path, name: str,
     return LoadedScenario(file=name, scenario=scenario, spec=spec, registry=registry, dt=dt, end_tick=end_tick,
                           world_path=world_path, machine_files=files, plugin_files=plugin_files,
                           state_paths=paths, plants=plants, formulas=formulas), problems
+
+
+def _driven_signals(scenario: Scenario, plants: list[tuple[type, Any]]) -> set[str]:
+    """The signals the scenario drives: by its inputs (levels, pulses, presses) and by its plants."""
+    given = {sig for item in scenario.inputs if (sig := _signal_of(item)) is not None}
+    return given | {sig for cls, params in plants for sig in cls(params).signals()}
+
+
+def _signal_of(item: Any) -> str | None:
+    """The signal an input drives (a level, a pulse or a press), or ``None``."""
+    return item.signal if isinstance(item, SignalInput) else item.press if isinstance(item, PressInput) else None
 
 
 def _checked_machine(scenario: Scenario, base: Path, name: str, registry: Any
@@ -1163,6 +1183,11 @@ def _checked_machine(scenario: Scenario, base: Path, name: str, registry: Any
     return (None if problems else spec), world_path, problems
 
 
+def set_names(scenario: Scenario) -> list[str]:
+    """The variables the scenario's ``set`` inputs set, in the order they are written (a name may repeat)."""
+    return [k for item in scenario.inputs if isinstance(item, SetInput) for k in item.set]
+
+
 def invariant_kinds(spec: Any, signals: set[str], car: bool, scenario: Scenario) -> dict[str, str]:
     """The names an invariant may use and their kinds: the machine's variables (and those the scenario sets),
     ``signal_NAME`` for every signal the machine reads or declares (``inputs``) or the scenario drives,
@@ -1170,9 +1195,7 @@ def invariant_kinds(spec: Any, signals: set[str], car: bool, scenario: Scenario)
     kinds = {f"signal_{s}": BOOL for s in (*signals, *(getattr(spec, "inputs", None) or ()))}
     if car:
         kinds.update({f"car_{n}": NUMBER for n in CAR_READINGS})
-    for item in scenario.inputs:
-        if isinstance(item, SetInput):
-            kinds.update({k: ANY for k in item.set})
+    kinds.update(dict.fromkeys(set_names(scenario), ANY))
     kinds.update({k: kind_of(v) for k, v in getattr(spec, "vars", {}).items()})
     return kinds
 
@@ -1193,30 +1216,35 @@ def formula_kinds(loaded_spec: Any, signals: set[str], car: bool, scenario: Scen
 
 
 def _invariant_problems(scenario: Scenario, spec: Any, signals: set[str], car: bool, name: str,
-                        paths: list[str], compiled: dict[tuple[int, str], Any] | None = None) -> list[Problem]:
+                        paths: list[str], compiled: dict[tuple[int, str], Any]) -> list[Problem]:
     """Every formula of the expectations compiled against the machine (kept in ``compiled`` for the runs): located
     errors with suggestions."""
     problems: list[Problem] = []
-    kinds: dict[str, str] | None = None
+    kinds = formula_kinds(spec, signals, car, scenario)
     for i, exp in enumerate(scenario.expect):
         for key, text in exp.formulas():
-            kinds = kinds if kinds is not None else formula_kinds(spec, signals, car, scenario)
             try:
-                formula = compile_formula(text, kinds, paths)
-                if compiled is not None:
-                    compiled[i, key] = formula
-            except FormulaError as exc:
+                compiled[i, key] = compile_formula(text, kinds, paths)
+            except ExprError as exc:  # a FormulaError has its own hint (did you mean ...)
+                hint = exc.hint if isinstance(exc, FormulaError) else "e.g. \"x >= 0 and not active(stopped)\""
                 problems.append(Problem(f"{key}: {exc}", name, pointer("expect", i, key), element=f"expectation {i}",
-                                        hint=exc.hint, expr_column=exc.column))
-            except ExprError as exc:
-                problems.append(Problem(f"{key}: {exc}", name, pointer("expect", i, key), element=f"expectation {i}",
-                                        hint="e.g. \"x >= 0 and not active(stopped)\"", expr_column=exc.column))
+                                        hint=hint, expr_column=exc.column))
     return problems
 
 
 # -- substitution ------------------------------------------------------------------------------------------
 _STEP_KEYS: tuple[str, ...] = ("id", "description", "set", "layout", "precondition", "until", "monitors", "timeout",
                                "timeout_behavior", "timeout_exception", "endless")
+
+
+def _child_states(node: dict[str, Any]) -> Iterator[tuple[str, int, dict[str, Any]]]:
+    """The objects in ``node``'s lists of states (``states``, ``steps``, ``exceptions``, ``sequences``, in that
+    order): (key, index, element)."""
+    for key in ("states", "steps", "exceptions", "sequences"):
+        items = node.get(key)
+        for i, el in enumerate(items if isinstance(items, list) else ()):
+            if isinstance(el, dict):
+                yield key, i, el
 
 
 def _elements(node: Any, prefix: str, ptr: str) -> Any:
@@ -1226,13 +1254,11 @@ def _elements(node: Any, prefix: str, ptr: str) -> Any:
         return
     if isinstance(node.get("transitions"), list):
         yield None, ptr + "/transitions", node["transitions"]
-    for key in ("states", "steps", "exceptions", "sequences"):
-        items = node.get(key)
-        for i, el in enumerate(items if isinstance(items, list) else ()):
-            if isinstance(el, dict) and isinstance(el.get("id"), str):
-                path = prefix + el["id"]
-                yield path, f"{ptr}/{key}/{i}", el
-                yield from _elements(el, path + "/", f"{ptr}/{key}/{i}")
+    for key, i, el in _child_states(node):
+        if isinstance(el.get("id"), str):
+            path = prefix + el["id"]
+            yield path, f"{ptr}/{key}/{i}", el
+            yield from _elements(el, path + "/", f"{ptr}/{key}/{i}")
     regions = node.get("regions")
     for i, r in enumerate(regions if isinstance(regions, list) else ()):
         if isinstance(r, dict):
@@ -1331,20 +1357,25 @@ def _no_match(sub: Substitution, ptr: str, name: str) -> Problem:
 def _said_of_substitutions(found: list[Problem], touched: list[tuple[str, int]], name: str) -> list[Problem]:
     """The substituted machine's problems, each at the substitution that made it (under ``/with``); one problem per
     place in the scenario: a substitution that matched five states says a misspelt key once."""
+    out = []
+    for (at, message, hint), elements in _by_substitution(found, touched).items():
+        named = sorted({e.removeprefix("state ") for e in elements if e})
+        more = f" (in {len(elements)} states: {first_few(named, 6)})" if len(elements) > 1 and named else ""
+        out.append(Problem(f"with this substitution the machine is invalid: {message}{more}", name, at, hint=hint))
+    return out
+
+
+def _by_substitution(found: list[Problem], touched: list[tuple[str, int]]) -> dict[tuple[str, str, str | None],
+                                                                                list[str]]:
+    """The problems grouped by where they are in the scenario (the substitution that replaced the element they are
+    in, and their pointer inside it) and what they say: (pointer, message, hint) -> the elements said of."""
     grouped: dict[tuple[str, str, str | None], list[str]] = {}
     for p in found:
-        where = next(((at, k) for at, k in touched
-                      if p.pointer and (p.pointer == at or p.pointer.startswith(at + "/"))), None)
+        where = next(((at, k) for at, k in touched if f"{p.pointer}/".startswith(at + "/")), None)
         at = pointer("substitute", where[1]) + "/with" + p.pointer[len(where[0]):] if where else \
             pointer("substitute", 0)
         grouped.setdefault((at, p.message, p.hint), []).append(p.element or "")
-    out = []
-    for (at, message, hint), elements in grouped.items():
-        named = sorted({e.removeprefix("state ") for e in elements if e})
-        more = f" (in {len(elements)} states: {', '.join(named[:6])}{', ...' if len(named) > 6 else ''})" \
-            if len(elements) > 1 and named else ""
-        out.append(Problem(f"with this substitution the machine is invalid: {message}{more}", name, at, hint=hint))
-    return out
+    return grouped
 
 
 def _inline_includes(node: Any, base: Path, stack: list[str]) -> None:
@@ -1354,11 +1385,9 @@ def _inline_includes(node: Any, base: Path, stack: list[str]) -> None:
     if not isinstance(node, dict):
         return
     subs: list[tuple[Any, Any]] = []
-    for el in [*(node.get("states") or []), *(node.get("steps") or []), *(node.get("exceptions") or []),
-               *(node.get("sequences") or [])]:
-        if isinstance(el, dict):
-            subs += _machine_slots(el)
-            _inline_includes(el, base, stack)
+    for _key, _i, el in _child_states(node):
+        subs += _machine_slots(el)
+        _inline_includes(el, base, stack)
     for holder, key in subs:
         sub = holder[key]
         if isinstance(sub, dict) and isinstance(sub.get("file"), str) and len(sub) == 1 and len(stack) < 32:
@@ -1396,30 +1425,34 @@ def _load_plugins(scenario: Scenario, base: Path, name: str, registry: Any) -> t
     files: list[str] = []
     problems: list[Problem] = []
     for i, plugin in enumerate(scenario.plugins):
-        ptr = pointer("plugins", i)
         target = str(base / plugin) if plugin.endswith(".py") else plugin
-        if plugin.endswith(".py") and not Path(target).is_file():
-            problems.append(Problem(f"plugin file not found: {target}", name, ptr,
-                                    hint="plugin files are relative to the scenario file"))
-            continue
-        try:
-            registry.load_module(target)
-        except UsageError as exc:  # its words name a --plugin flag: say it of the scenario's entry instead
-            reason = str(exc)
-            for prefix in (f"--plugin {target}: ", f"--plugin {target!r}: "):
-                reason = reason.removeprefix(prefix)
-            problems.append(Problem(f"plugin '{plugin}' cannot be loaded: {reason}", name, ptr))
-            continue
-        except RegistrationError as exc:
-            if traceback_wanted():  # fsmctl --traceback: the plugin's own frames, before the located line
-                print_traceback(exc)
-            where = [getattr(exc, "file", None), getattr(exc, "line", None)]
-            problems.append(Problem(f"plugin error: {' '.join(str(exc).split())}", name, ptr,
-                                    hint=f"it failed at {where[0]}:{where[1]}" if all(where) else None))
+        problem = _plugin_problem(plugin, target, registry, pointer("plugins", i), name)
+        if problem is not None:
+            problems.append(problem)
             continue
         module = sys.modules.get(plugin) if not plugin.endswith(".py") else None
         files.append(target if module is None else str(getattr(module, "__file__", None) or target))
     return files, problems
+
+
+def _plugin_problem(plugin: str, target: str, registry: Any, ptr: str, name: str) -> Problem | None:
+    """Import one plugin (``target``: a module, or the path of the ``.py`` file ``plugin`` names) into
+    ``registry``; the problem when it is missing or fails."""
+    if plugin.endswith(".py") and not Path(target).is_file():
+        return Problem(f"plugin file not found: {target}", name, ptr,
+                       hint="plugin files are relative to the scenario file")
+    try:
+        registry.load_module(target)
+    except UsageError as exc:  # its words name a --plugin flag: say it of the scenario's entry instead
+        reason = str(exc).removeprefix(f"--plugin {target}: ").removeprefix(f"--plugin {target!r}: ")
+        return Problem(f"plugin '{plugin}' cannot be loaded: {reason}", name, ptr)
+    except RegistrationError as exc:
+        if traceback_wanted():  # fsmctl --traceback: the plugin's own frames, before the located line
+            print_traceback(exc)
+        where = [getattr(exc, "file", None), getattr(exc, "line", None)]
+        return Problem(f"plugin error: {' '.join(str(exc).split())}", name, ptr,
+                       hint=f"it failed at {where[0]}:{where[1]}" if all(where) else None)
+    return None
 
 
 def named_files(file: str | Path) -> list[str]:
@@ -1427,24 +1460,30 @@ def named_files(file: str | Path) -> list[str]:
     the machine's includes, its world and its plugin files. For the output checks of a scenario whose loading
     stopped at a problem; never raises."""
     path = Path(file)
-    files = [str(file)]
     try:
         data, _source = parse_json_bytes(read_file_bytes(path, "scenario"), str(file), path.parent)
     except (FsmError, RecursionError, MemoryError):
-        return files
+        data = None
     if not isinstance(data, dict):
-        return files
+        return [str(file)]
     plugins = data.get("plugins")
     named = [data.get("machine"), data.get("world")] + (plugins if isinstance(plugins, list) else [])
-    files += [str(path.parent / n) for n in named if isinstance(n, str) and n and "\0" not in n]
-    machine = path.parent / data["machine"] if isinstance(data.get("machine"), str) else None
+    return ([str(file)] + [str(path.parent / n) for n in named if isinstance(n, str) and n and "\0" not in n]
+            + _machine_files(path.parent, data.get("machine")))
+
+
+def _machine_files(base: Path, machine: Any) -> list[str]:
+    """The files of a scenario's ``machine`` entry: its file and includes, and the files its problems are in, as far
+    as it loads; never raises."""
+    if not isinstance(machine, str):
+        return []
     try:
-        if machine is not None and machine.is_file():
-            spec, problems = check(str(machine), registry=default_registry())
-            files += machine_files(spec) + [p.file for p in problems if p.file]
+        if (base / machine).is_file():
+            spec, problems = check(str(base / machine), registry=default_registry())
+            return machine_files(spec) + [p.file for p in problems if p.file]
     except (FsmError, RecursionError, OSError, ValueError):
         pass
-    return files
+    return []
 
 
 def _plants(scenario: Scenario, registry: Any, name: str) -> tuple[list[tuple[type, Any]], list[Problem]]:
@@ -1483,9 +1522,7 @@ def _plant_expression_problems(scenario: Scenario, spec: Any, plants: list[tuple
     """The expressions of the library's plants (``rate``, ``take``, ``press_when``, ``when``) over the machine's
     variables, those the scenario sets and those the plants write."""
     kinds = {k: kind_of(v) for k, v in (getattr(spec, "vars", {}) or {}).items()}
-    for item in scenario.inputs:
-        if isinstance(item, SetInput):
-            kinds.update({k: "any" for k in item.set})
+    kinds.update(dict.fromkeys(set_names(scenario), ANY))
     for cls, params in plants:
         kinds.update({v: "any" for v in written_vars(cls, params)})
     problems = []
@@ -1508,16 +1545,11 @@ def name_problems(scenario: Scenario, paths: list[str], name: str) -> list[Probl
                 problems.append(Problem(unknown[0], name, pointer("expect", i) + state.pointer,
                                         element=f"expectation {i}", hint=unknown[1]))
     for i, inp in enumerate(scenario.inputs):
-        if not isinstance(inp, (PauseInput, ResumeInput)):
-            continue
-        target, paused = inp.held()
-        if target not in paths:
-            key = "pause" if paused else "resume"
-            suffix = [p for p in paths if state_matches(target, p)]
-            hint = f"a path from the top: {suffix[0]!r}" if len(suffix) == 1 else \
-                did_you_mean(target, paths, n=3) or known.listed()
+        if isinstance(inp, (PauseInput, ResumeInput)) and inp.held()[0] not in paths:
+            target, paused = inp.held()
             problems.append(Problem(f"the machine has no state at the path '{target}'", name,
-                                    pointer("inputs", i, key), element=f"input {i}", hint=hint))
+                                    pointer("inputs", i, "pause" if paused else "resume"), element=f"input {i}",
+                                    hint=known.path_hint(target)))
     return problems
 
 
@@ -1527,7 +1559,7 @@ class _KnownStates:
     def __init__(self, paths: list[str]) -> None:
         self.paths = paths
         self.ids = sorted({p.rsplit("/", 1)[-1] for p in paths} | set(paths))
-        self.prefixes = {"/".join(p.split("/")[:k]) for p in paths for k in range(1, p.count("/") + 2)}
+        self.prefixes = prefixes(paths)
 
     def unknown(self, state: StateName) -> tuple[str, str] | None:
         """(message, hint) when ``state`` names no state (no path starting with it, for a prefix), else ``None``."""
@@ -1539,8 +1571,15 @@ class _KnownStates:
         close = did_you_mean(state.name, sorted(self.prefixes) if state.prefix else self.ids, n=3)
         return f"{what} '{state.name}'", close or self.listed()
 
+    def path_hint(self, target: str) -> str:
+        """What to write for ``target``, no state's path from the top: the one path it is the end of, paths spelt
+        alike, or the first states."""
+        suffix = [p for p in self.paths if state_matches(target, p)]
+        return f"a path from the top: {suffix[0]!r}" if len(suffix) == 1 else \
+            did_you_mean(target, self.paths, n=3) or self.listed()
+
     def listed(self) -> str:
-        return "states: " + ", ".join(self.paths[:12]) + (", ..." if len(self.paths) > 12 else "")
+        return "states: " + first_few(self.paths, 12)
 
 
 def _world_hint(machine: Path, base: Path) -> str:

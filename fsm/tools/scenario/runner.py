@@ -14,7 +14,6 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 from fsm.loading.loader import compile as compile_spec
-from fsm.loading.loader import signal_names
 from fsm.model.errors import StateRuntimeError, print_traceback, traceback_wanted
 from fsm.model.expr import ExprRuntimeError, parse
 from fsm.model.jsonpos import pointer
@@ -40,11 +39,12 @@ from .model import (
     TransitionsExpect,
     VisitsExpect,
     active_matches,
-    formula_kinds,
     state_matches,
 )
-from .temporal import Count, Formula, Tick, Watch, bounds, compile_formula, tree_names, within
-from .timeline import expand, pause_changes
+from .paths import first_few, prefixes
+from .temporal import Count, Formula, Tick, Watch, bounds, tree_names, unbounded, within
+from .timeline import PauseChange as PauseInputChange
+from .timeline import SignalChange, VarSet, expand, pause_changes
 
 if TYPE_CHECKING:
     from fsm.runtime.context import Context
@@ -166,10 +166,8 @@ class InvariantWatch:
         self.values: dict[str, Any] = {}
         self.error: str | None = None
         self._errors = (ExprRuntimeError, TypeError, ValueError, ArithmeticError, KeyError)
-        #: (name, signal, car reading) for the names read from outside the variables
-        self._outside = [(n, n[len("signal_"):] if n.startswith("signal_") else None,
-                          n[len("car_"):] if n.startswith("car_") else None) for n in names
-                         if n.startswith(("signal_", "car_"))]
+        #: (name, signal) and (name, car reading) for the names read from outside the variables
+        self._signals, self._car = outside_names(names)
 
     def _values(self, machine: Machine) -> dict[str, Any]:
         """What the expression reads: the variables, and only the signals and car readings it names."""
@@ -177,14 +175,9 @@ class InvariantWatch:
         if self.vars_only:
             return ctx.vars
         values = dict(ctx.vars)
-        signals = ctx.signals
-        for name, signal, reading in self._outside:
-            if signal is not None:
-                values[name] = signals.get(signal, False)
-            elif reading is not None and ctx.car is not None:
-                value = getattr(ctx.car, reading, None)
-                if isinstance(value, (int, float)):
-                    values[name] = value
+        values.update((name, ctx.signals.get(signal, False)) for name, signal in self._signals)
+        if ctx.car is not None:
+            read_car(ctx.car, self._car, values)
         return values
 
     def check(self, machine: Machine, tick: int) -> None:
@@ -196,6 +189,20 @@ class InvariantWatch:
             self.error = str(exc)
         self.failed = tick
         self.values = {n: values.get(n, _UNSET) for n in self.names}
+
+
+def outside_names(names: list[str]) -> tuple[list[tuple[str, str]], list[tuple[str, str]]]:
+    """The names of signals and car readings among ``names``: (``signal_X``, X) and (``car_Y``, Y)."""
+    return ([(n, n[len("signal_"):]) for n in names if n.startswith("signal_")],
+            [(n, n[len("car_"):]) for n in names if n.startswith("car_")])
+
+
+def read_car(car: Any, readings: list[tuple[str, str]], values: dict[str, Any]) -> None:
+    """The car readings named (``car_Y``, Y) into ``values`` (numbers only)."""
+    for name, reading in readings:
+        value = getattr(car, reading, None)
+        if isinstance(value, (int, float)):
+            values[name] = value
 
 
 class Recording(Listener):
@@ -321,9 +328,9 @@ class Recording(Listener):
             leaves = changes.get(tick)
             if leaves is None:
                 continue
-            now = {"/".join(p.split("/")[:k]) for p in leaves for k in range(1, p.count("/") + 2)}
+            now = prefixes(leaves)
             out += [(tick, p) for p in sorted((was | set(entered)) - now) if p in states]
-            was = now & states
+            was = states & now
         return out
 
 
@@ -336,8 +343,7 @@ class TemporalRun:
     def __init__(self, watches: list[Any], outside: list[str], outcome_states: list[State[Any]], dt: float) -> None:
         self.watches = watches
         self.dt = dt
-        self.signals = [(n, n[len("signal_"):]) for n in outside if n.startswith("signal_")]
-        self.car = [(n, n[len("car_"):]) for n in outside if n.startswith("car_")]
+        self.signals, self.car = outside_names(outside)
         self.outcome_states = [(st.path, st) for st in outcome_states]
         self._outcome_keys: dict[str, Any] = {}
         self.now = Tick()
@@ -401,7 +407,7 @@ class TemporalRun:
         if len(rec.var_changes) != self._var_changes or not self.values:
             self._read_vars(ctx, rec, changed)
         if self.car and ctx.car is not None:
-            self._read_car(ctx.car)
+            read_car(ctx.car, self.car, self.values)
         if self.need_entries:
             self._read_entries(rec, changed)
         if len(rec.monitors) != self._monitors or self.now.fired:
@@ -417,13 +423,6 @@ class TemporalRun:
         changed.update(c.name for c in rec.var_changes[self._var_changes:])
         self._var_changes = len(rec.var_changes)
         self.values.update(ctx.vars)
-
-    def _read_car(self, car: Any) -> None:
-        """The car readings a formula names (numbers only)."""
-        for name, reading in self.car:
-            value = getattr(car, reading, None)
-            if isinstance(value, (int, float)):
-                self.values[name] = value
 
     def _read_entries(self, rec: Recording, changed: set[str]) -> None:
         """The states entered (and run) and skipped at this tick."""
@@ -448,8 +447,8 @@ class TemporalRun:
     def _read_active(self, active: ActiveChange, changed: set[str]) -> None:
         """The active states: every prefix of an active leaf's path."""
         self._active = active
-        self.now.active = frozenset("/".join(p.split("/")[:k]) for p in active.paths
-                                    for k in range(1, p.count("/") + 2))
+        self.now.active = frozenset("/".join(p.split("/")[:k]) for p in active.paths  # as paths.prefixes, inline:
+                                    for k in range(1, p.count("/") + 2))  # it runs on the checked tick
         changed.add("@active")
 
     def _step_watches(self, tick: int, changed: set[str]) -> None:
@@ -468,20 +467,15 @@ class TemporalRun:
         self.awake = awake
 
 
-def make_temporal(loaded: LoadedScenario, machine: Machine, signals: tuple[str, ...]) -> TemporalRun | None:
-    """The watches of the scenario's invariants, temporal expectations and ``at`` ... ``holds`` (all checked when
-    the scenario was loaded), or None when it has none."""
-    sc = loaded.scenario
-    kinds: dict[str, str] = {}
-    if any((i, k) not in loaded.formulas for i, exp in enumerate(sc.expect) for k, _t in exp.formulas()):
-        kinds = formula_kinds(loaded.spec, set(signals), loaded.world_path is not None, sc)
+def make_temporal(loaded: LoadedScenario, machine: Machine) -> TemporalRun | None:
+    """The watches of the scenario's invariants, temporal expectations and ``at`` ... ``holds`` (all compiled when
+    the scenario was loaded: :attr:`LoadedScenario.formulas`), or None when it has none."""
     by_path = machine.states_by_path
     watches: list[Watch] = []
     outside: set[str] = set()
     outcome_paths: set[str] = set()
-    for i, exp in enumerate(sc.expect):
-        formulas = {k: loaded.formulas[i, k].fresh() if (i, k) in loaded.formulas else
-                    compile_formula(v, kinds, loaded.state_paths) for k, v in exp.formulas()}
+    for i, exp in enumerate(loaded.scenario.expect):
+        formulas = {k: loaded.formulas[i, k].fresh() for k, _text in exp.formulas()}
         for f in formulas.values():
             outcome_paths |= f.state_paths()
             outside |= {n for n in f.deps if n.startswith(("signal_", "car_"))}
@@ -499,7 +493,7 @@ def _watches(loaded: LoadedScenario, i: int, exp: Any, formulas: dict[str, Formu
     temporal expectation (over its window, with its trigger, span and counts)."""
     dt = loaded.dt
     within = getattr(exp, "within", None)
-    first, last = (0, loaded.end_tick) if within is None else (_first_tick(within[0], dt), _last_tick(within[1], dt))
+    first, last = (0, loaded.end_tick) if within is None else (tick_at(within[0], dt), _last_tick(within[1], dt))
     if isinstance(exp, InvariantExpect):
         return [Watch(i, "always", formulas["invariant"], first, last, label="invariant")]
     if isinstance(exp, AtExpect):
@@ -517,7 +511,7 @@ def _watches(loaded: LoadedScenario, i: int, exp: Any, formulas: dict[str, Formu
 def count_verdict(n: int, c: Any) -> tuple[bool, str]:
     """Whether ``n`` occurrences meet an expectation's ``count`` (or ``min``..``max``, or at least one), and what
     it wanted, in words."""
-    if c.count is None and c.min is None and c.max is None:
+    if unbounded(c):
         return n >= 1, "at least once"
     return within(n, c), bounds(c, _times)
 
@@ -605,10 +599,6 @@ def expression_names(text: str) -> list[str]:
     return tree_names(parse(text))
 
 
-def _first_tick(t: float, dt: float) -> int:
-    return tick_at(t, dt)
-
-
 def _last_tick(t: float, dt: float) -> int:
     """The last tick whose time is at most ``t``."""
     n = math.floor(t / dt + EPS) if math.isfinite(t / dt) else 2**62
@@ -629,18 +619,11 @@ def run_scenario(loaded: LoadedScenario, coverage: Any = None) -> ScenarioResult
     session = _open(loaded)
     machine = session.machine
     machine.ctx.vars.update(loaded.initial_vars)  # a matrix case's initial values: set before the start
-    plant_signals = _attach_plants(loaded, machine)
-    for change in signals:
-        session.schedule(change.time, SetSignal(change.name, change.level))
-    for s in sets:
-        session.schedule(s.time, SetVars(s.values))
-    for pc in pauses:
-        session.schedule(pc.time, PauseState(pc.path, pc.paused))
-    read = signal_names(loaded.spec) | set(getattr(loaded.spec, "inputs", None) or ())
-    names = tuple(sorted({c.name for c in signals} | set(plant_signals) | read))
+    _attach_plants(loaded, machine)
+    _schedule(session, signals, sets, pauses)
     at_ticks = {min(tick_at(e.at, dt), loaded.end_tick) for e in sc.expect if isinstance(e, AtExpect)}
     rec = machine.add_listener(Recording(at_ticks, _watched(sc, machine),
-                                         temporal=make_temporal(loaded, machine, names)))
+                                         temporal=make_temporal(loaded, machine)))
     t0 = time.perf_counter()
     error = _run(session, rec)
     result.wall_time = time.perf_counter() - t0
@@ -669,20 +652,31 @@ def _open(loaded: LoadedScenario) -> Session:
     return simulate(plan, world=loaded.world_path, seed=sc.seed, noise=sc.noise, dt=loaded.dt, stop=stop)
 
 
-def _attach_plants(loaded: LoadedScenario, machine: Machine) -> list[str]:
-    """Attach the scenario's plants to the machine; the signals they write."""
-    signals: list[str] = []
+def _attach_plants(loaded: LoadedScenario, machine: Machine) -> None:
+    """Attach the scenario's plants to the machine."""
     for cls, params in loaded.plants:
-        plant = cls(params)
-        plant.attach(machine)
-        signals += list(plant.signals())
-    return signals
+        cls(params).attach(machine)
+
+
+def _schedule(session: Session, signals: list[SignalChange], sets: list[VarSet],
+              pauses: list[PauseInputChange]) -> None:
+    """The scenario's inputs given to the session, each before the first tick at or after its time."""
+    for change in signals:
+        session.schedule(change.time, SetSignal(change.name, change.level))
+    for s in sets:
+        session.schedule(s.time, SetVars(s.values))
+    for pc in pauses:
+        session.schedule(pc.time, PauseState(pc.path, pc.paused))
 
 
 def _watched(sc: Scenario, machine: Machine) -> list[Any]:
     """The states whose outcomes an expectation names (``{"outcome": ..., "state": ...}``)."""
-    names = [e.state for e in sc.expect if isinstance(e, OutcomeExpect) and e.state is not None]
-    return [st for path, st in machine.states_by_path.items() if any(state_matches(n, path) for n in names)]
+    return [st for path, st in machine.states_by_path.items() if _outcome_named(sc, path)]
+
+
+def _outcome_named(sc: Scenario, path: str) -> bool:
+    """An ``outcome`` expectation names the state at ``path`` (``{"outcome": ..., "state": ...}``)."""
+    return any(state_matches(e.state, path) for e in sc.expect if isinstance(e, OutcomeExpect) and e.state is not None)
 
 
 def _run(session: Session, rec: Recording) -> StateRuntimeError | None:
@@ -709,12 +703,20 @@ def _shown(value: Any) -> str:
 
 def _same(expected: Any, got: Any) -> bool:
     """JSON equality: kinds must agree (true is not 1), numbers compare by value (3 == 3.0)."""
-    if isinstance(expected, bool) or isinstance(got, bool):
-        return isinstance(expected, bool) and isinstance(got, bool) and expected == got
-    if isinstance(expected, (int, float)) and isinstance(got, (int, float)):
+    if bool not in (type(expected), type(got)) and isinstance(expected, (int, float)) and \
+            isinstance(got, (int, float)):
         return expected == got or (isinstance(expected, float) and isinstance(got, float)
                                    and math.isclose(expected, got, rel_tol=1e-12, abs_tol=0.0))
     return type(expected) is type(got) and expected == got
+
+
+def _unmet(want: Any, got: Any) -> str | None:
+    """``want`` as a failure says it, when ``got`` is not it (nor within its tolerance); else ``None``."""
+    if isinstance(want, Approx):
+        close = isinstance(got, (int, float)) and not isinstance(got, bool) and \
+            abs(got - want.value) <= want.tolerance * (1 + 1e-12) + 1e-12
+        return None if close else f"{want.value:g} ± {want.tolerance:g}"
+    return None if _same(want, got) else _shown(want)
 
 
 def _inactive(exp: AtExpect, active: tuple[str, ...]) -> list[str]:
@@ -786,9 +788,8 @@ class Checker:
         for k in sorted(rec.skipped):
             e = rec.entries[k]
             out.append(Event(e.tick, 1, f"skip {e.path} (precondition false)"))
-        named = [e.state for e in self.loaded.scenario.expect if isinstance(e, OutcomeExpect) and e.state]
         out += [Event(fin.tick, 1, f"finished {fin.path}: {fin.outcome}") for fin in rec.finishes
-                if any(state_matches(n, fin.path) for n in named)]
+                if _outcome_named(self.loaded.scenario, fin.path)]
         out += [Event(tick, 2, f"var {name}: {_shown(old)} -> {_shown(new)}")
                 for tick, name, old, new in rec.var_changes]
         out += [Event(tick, 1, f"{kind} of {owner} fired ({label}): {behavior}")
@@ -841,11 +842,10 @@ class Checker:
             return self.state_outcome(i, exp)
         m = self.machine
         fin = end = self.last_tick  # the run stops in the tick the machine finishes
-        if m.outcome == exp.outcome and exp.within is not None and not self.inside(fin, exp.within):
-            return self.failure(i, "outcome", f"expected outcome '{exp.outcome}' {self.window(exp.within)}, "
-                                              f"the machine finished with it at {self.at(fin)}", fin)
         if m.outcome == exp.outcome:
-            return None
+            return None if self.inside(fin, exp.within) else self.failure(
+                i, "outcome", f"expected outcome '{exp.outcome}'{self.window(exp.within)}, the machine finished "
+                              f"with it at {self.at(fin)}", fin)
         if m.outcome is None:
             return self.failure(i, "outcome", f"expected outcome '{exp.outcome}', but the machine had not "
                                               f"finished when the run ended at {self.at(end)}", end)
@@ -884,18 +884,23 @@ class Checker:
         tick = fired[limit].tick if limit is not None and n > limit else self.last_tick
         return self.failure(i, "transitions", f"expected {want} transitions, {n} fired", tick)
 
-    def occurrences(self, i: int, exp: EnteredExpect | SkippedExpect | ExitedExpect) -> Failure | None:
-        """A state is entered (and runs), skipped by its precondition, or left: as often as counted."""
+    def entered(self, i: int, exp: EnteredExpect) -> Failure | None:
+        """A state is entered and runs, as often as counted."""
         rec = self.rec
-        if isinstance(exp, EnteredExpect):
-            ran = [(e.tick, e.path) for k, e in enumerate(rec.entries)
-                   if k not in rec.skipped and state_matches(exp.entered, e.path)]
-            return self.counted(i, "entered", exp, ran, f"'{exp.entered}' to be entered (and run)")
-        if isinstance(exp, SkippedExpect):
-            skipped = [(rec.entries[k].tick, rec.entries[k].path) for k in sorted(rec.skipped)
-                       if state_matches(exp.skipped, rec.entries[k].path)]
-            return self.counted(i, "skipped", exp, skipped, f"'{exp.skipped}' to be skipped by its precondition")
-        left = [(t, p) for t, p in rec.exits() if state_matches(exp.exited, p)]
+        ran = [(e.tick, e.path) for k, e in enumerate(rec.entries)
+               if k not in rec.skipped and state_matches(exp.entered, e.path)]
+        return self.counted(i, "entered", exp, ran, f"'{exp.entered}' to be entered (and run)")
+
+    def skipped(self, i: int, exp: SkippedExpect) -> Failure | None:
+        """A state is skipped by its precondition, as often as counted."""
+        rec = self.rec
+        skipped = [(rec.entries[k].tick, rec.entries[k].path) for k in sorted(rec.skipped)
+                   if state_matches(exp.skipped, rec.entries[k].path)]
+        return self.counted(i, "skipped", exp, skipped, f"'{exp.skipped}' to be skipped by its precondition")
+
+    def exited(self, i: int, exp: ExitedExpect) -> Failure | None:
+        """A state is left, as often as counted."""
+        left = [(t, p) for t, p in self.rec.exits() if state_matches(exp.exited, p)]
         return self.counted(i, "exited", exp, left, f"'{exp.exited}' to be left")
 
     # -- windows and counts -------------------------------------------------------------------------------
@@ -907,7 +912,8 @@ class Checker:
 
     @staticmethod
     def window(within: list[float] | None) -> str:
-        return "" if within is None else f"between {within[0]:g} s and {within[1]:g} s"
+        """`` between A s and B s`` (with its leading space), or nothing without a window."""
+        return "" if within is None else f" between {within[0]:g} s and {within[1]:g} s"
 
     def counted(self, i: int, kind: str, c: Any, events: list[tuple[int, str]], what: str) -> Failure | None:
         """An event that must happen ``count`` (or ``min``..``max``, or at least one) times within a window."""
@@ -916,8 +922,7 @@ class Checker:
         ok, want = count_verdict(n, c)
         if ok:
             return None
-        win = self.window(c.within)
-        msg = f"expected {what} {want}{' ' + win if win else ''}, it happened {_times(n)}"
+        msg = f"expected {what} {want}{self.window(c.within)}, it happened {_times(n)}"
         if n:
             msg += f" (at {self._times_of(inside, 6)} s)"
         outside = [e for e in events if not self.inside(e[0], c.within)]
@@ -928,7 +933,7 @@ class Checker:
 
     def _times_of(self, events: list[tuple[int, str]], shown: int) -> str:
         """The times of the first ``shown`` events in seconds, "..." after them when there are more."""
-        return ", ".join(f"{self.t(t):g}" for t, _p in events[:shown]) + (", ..." if len(events) > shown else "")
+        return first_few([f"{self.t(t):g}" for t, _p in events], shown)
 
     def _count_tick(self, c: Any, inside: list[tuple[int, str]]) -> int:
         """Where a count failed: at the event one too many, else at the end of the window (or of the run)."""
@@ -944,13 +949,12 @@ class Checker:
         fins = [f for f in self.rec.finishes if state_matches(exp.state, f.path)]
         if any(f.outcome == exp.outcome and self.inside(f.tick, exp.within) for f in fins):
             return None
-        win = self.window(exp.within)
         seen = "; ".join(f"{f.path} finished with '{f.outcome}' at {self.at(f.tick)}" for f in fins[:4]) or \
             "it never finished"
         tick = next((f.tick for f in fins if self.inside(f.tick, exp.within)),
                     fins[0].tick if fins else self._window_end(exp.within))
         return self.failure(i, "outcome", f"expected '{exp.state}' to finish with '{exp.outcome}'"
-                                          f"{' ' + win if win else ''}: {seen}", tick)
+                                          f"{self.window(exp.within)}: {seen}", tick)
 
     def invariant(self, i: int, exp: InvariantExpect) -> Failure | None:
         if i in self.verdicts:
@@ -976,8 +980,7 @@ class Checker:
         ok, want = count_verdict(len(fired), c)
         if ok:
             return None if c.at is None else self._monitor_times(i, c, fired)
-        what = ("" if c.behavior is None else f" with {c.behavior}") + ("" if c.within is None else
-                                                                         f" {self.window(c.within)}")
+        what = ("" if c.behavior is None else f" with {c.behavior}") + self.window(c.within)
         tick = self._count_tick(c, [(f.tick, f.owner) for f in fired])
         return self.failure(i, "monitors", f"expected a monitor of '{c.owner}'{what} to fire {want}, it fired "
                                            f"{_times(len(fired))}", tick)
@@ -1050,15 +1053,9 @@ class Checker:
         problems = []
         for name, want in (exp.vars or {}).items():
             got = values.get(name, _UNSET)
-            if isinstance(want, Approx):
-                if isinstance(got, (int, float)) and not isinstance(got, bool) \
-                        and abs(got - want.value) <= want.tolerance * (1 + 1e-12) + 1e-12:
-                    continue
-                expected = f"{want.value:g} ± {want.tolerance:g}"
-            elif _same(want, got):
+            expected = _unmet(want, got)
+            if expected is None:
                 continue
-            else:
-                expected = _shown(want)
             changed = [c for c in self.rec.var_changes if c.name == name and c.tick <= tick]
             since = f" (since {self.at(changed[-1].tick)})" if changed else ""
             problems.append(f"expected {name} = {expected}, got {_shown(got)}{since}")
@@ -1069,6 +1066,6 @@ class Checker:
 _CHECKS: dict[type, Callable[[Checker, int, Any], Failure | None]] = {
     OutcomeExpect: Checker.outcome, FinishedExpect: Checker.finished, VisitsExpect: Checker.visits,
     NeverExpect: Checker.never, AtExpect: Checker.at_check, TemporalExpect: Checker.formula,
-    TransitionsExpect: Checker.transitions, MonitorsExpect: Checker.monitor_check, EnteredExpect: Checker.occurrences,
-    SkippedExpect: Checker.occurrences, ExitedExpect: Checker.occurrences, InvariantExpect: Checker.invariant,
+    TransitionsExpect: Checker.transitions, MonitorsExpect: Checker.monitor_check, EnteredExpect: Checker.entered,
+    SkippedExpect: Checker.skipped, ExitedExpect: Checker.exited, InvariantExpect: Checker.invariant,
 }

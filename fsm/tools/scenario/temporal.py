@@ -39,7 +39,7 @@ from fsm.model.expr import (
 from fsm.runtime.region import wiring
 
 from .. import did_you_mean
-from .paths import state_matches
+from .paths import first_few, state_matches
 
 #: State predicates (true/false) and the text term ``outcome``.
 STATE_TERMS = ("active", "paused", "suspended", "entered", "skipped", "fired", "outcome")
@@ -232,10 +232,9 @@ def state_argument(node: Node) -> str | None:
         return str(node.args[0])
     if node.op == "const" and isinstance(node.args[0], str):
         return node.args[0]
-    if node.op == "/":
-        left, right = (state_argument(a) for a in node.args)
-        if left is not None and right is not None and node.args[1].op == "var":
-            return f"{left}/{right}"
+    if node.op == "/" and node.args[1].op == "var":
+        left = state_argument(node.args[0])
+        return None if left is None else f"{left}/{node.args[1].args[0]}"
     return None
 
 
@@ -267,8 +266,7 @@ def compile_formula(text: str, kinds: dict[str, str], paths: list[str], want: st
                                        f"('cycle/*' for any state below cycle)", arg.column)
                 found = matching_paths(state.strip(), paths)
                 if not found:
-                    hint = did_you_mean(state, ids, n=3) or \
-                        "states: " + ", ".join(paths[:12]) + (", ..." if len(paths) > 12 else "")
+                    hint = did_you_mean(state, ids, n=3) or "states: " + first_few(paths, 12)
                     raise FormulaError(f"the machine has no state '{state}'", arg.column, hint)
                 kind = TEXT if fname == "outcome" else BOOL
                 terms.append(Term(name, shown, fname, kind, frozenset(found)))
@@ -291,17 +289,28 @@ def compile_formula(text: str, kinds: dict[str, str], paths: list[str], want: st
         compiled = compile_tree(rewritten, text, {**kinds, **extra}, want)
     except ExprError as exc:
         if exc.message.startswith("unknown variable"):
-            unknown = exc.message.split("'")[1]
-            known = sorted(kinds) + list(TEMPORAL_FUNCTIONS)
-            hint = did_you_mean(unknown, known, n=3) or "names: " + (", ".join(sorted(kinds)[:12]) or "none")
-            if unknown in ids:
-                hint = f"'{unknown}' is a state: write active({unknown}) or entered({unknown})"
-            raise FormulaError(exc.message, exc.column, hint) from None
+            raise FormulaError(exc.message, exc.column, _unknown_name_hint(exc.message.split("'")[1], kinds, ids)) \
+                from None
         raise
+    return Formula(text, terms, compiled.fn, _names_written(rewritten, terms))
+
+
+def _unknown_name_hint(unknown: str, kinds: dict[str, str], ids: list[str]) -> str:
+    """What to write instead of a name a formula reads that is no variable: a state's term, a name spelt alike, or
+    the names there are."""
+    if unknown in ids:
+        return f"'{unknown}' is a state: write active({unknown}) or entered({unknown})"
+    known = sorted(kinds) + list(TEMPORAL_FUNCTIONS)
+    return did_you_mean(unknown, known, n=3) or "names: " + (", ".join(sorted(kinds)[:12]) or "none")
+
+
+def _names_written(tree: Node, terms: list[Term]) -> list[tuple[str, str]]:
+    """What a rewritten formula reads, in the order it is written (depth first, left to right): (shown name, value
+    name), a term shown by its text."""
     by_name = {t.name: t.text for t in terms}
     names: list[tuple[str, str]] = []
-    todo = [rewritten]
-    while todo:  # depth first, left to right: the order they are written in
+    todo = [tree]
+    while todo:
         node = todo.pop()
         if node.op == "var":
             key = node.args[0]
@@ -309,7 +318,7 @@ def compile_formula(text: str, kinds: dict[str, str], paths: list[str], want: st
             if (shown, key) not in names:
                 names.append((shown, key))
         todo += [a for a in reversed(node.args) if isinstance(a, Node)]
-    return Formula(text, terms, compiled.fn, names)
+    return names
 
 
 def tree_names(tree: Node, skip: tuple[str, ...] = ()) -> list[str]:
@@ -388,12 +397,12 @@ class Watch:
         self.seen: tuple[int, bool, str] | None = None
         self.formulas = [f for f in (body, until, after) if f is not None]
         self.deps = frozenset().union(*(f.deps for f in self.formulas))
-        #: with ``after`` and nothing open, the body is not looked at: only the trigger (and a body that reads one
-        #: tick's values, which needs every tick it changes)
-        self.idle_deps = self.deps if after is None or body.transient else after.deps | (until.deps if until else set())
         self.force = True
         self.every_tick = any(f.every_tick for f in self.formulas)
-        self.idle_every = self.every_tick if after is None or body.transient else after.every_tick
+        #: with ``after`` and nothing open, the body is not looked at: only the trigger (and a body that reads one
+        #: tick's values, which needs every tick it changes); ``until`` never comes with ``after``
+        idle: Watch | Formula = self if after is None or body.transient else after
+        self.idle_deps, self.idle_every = idle.deps, idle.every_tick
         #: the first tick looked at: ``at`` looks at every tick up to its own, to know the machine as it ended
         self.begin = 0 if mode == "at" else first
         #: the check of each tick of the window, for the mode
@@ -513,7 +522,7 @@ class Watch:
         """The verdict of a triggered expectation: its trigger never held (enough), or its last span ran out."""
         assert self.after is not None
         text = self.body.text
-        if self.triggers == 0 or (self.nth is not None and self.triggers < self.nth):
+        if self.triggers < (self.nth or 1):  # fewer times than the nth (or than once)
             need = "at all" if self.nth is None else f"{self.nth} times (it held {self.triggers} times)"
             return Verdict(f"'{self.after.text}' never held {need}, so '{text}' was never checked after it", last)
         if self.mode == "eventually" and self.open:
@@ -558,7 +567,7 @@ class Watch:
         runs = self.runs + ([(self.holding, last)] if self.holding >= 0 else [])
         n = sum(b - a + 1 for a, b in runs)
         hits = [t for a, b in runs for t in range(a, min(b, a + 100) + 1)][:100]
-        shown = ", ".join(times(t) for t in hits[:6]) + (", ..." if n > 6 else "")
+        shown = first_few([times(t) for t in hits[:7]], 6)  # the seventh only says there are more
         if self.at is not None:
             return None if hits == self.at else self._exact_ticks_verdict(hits, shown, last, times)
         if self.count == Count():
@@ -593,6 +602,11 @@ class Count:
     max: int | None = None
 
 
+def unbounded(c: Any) -> bool:
+    """``c`` gives none of ``count``, ``min`` and ``max`` (an event expected at least once)."""
+    return (c.count, c.min, c.max) == (None, None, None)
+
+
 def within(n: int, c: Any) -> bool:
     """Whether ``n`` meets ``c``'s ``count``, ``min`` and ``max`` (each ``None``: no bound)."""
     return (c.count is None or n == c.count) and (c.min is None or n >= c.min) and (c.max is None or n <= c.max)
@@ -612,4 +626,4 @@ def _ticks(n: int) -> str:
 
 __all__ = ["STATE_TERMS", "TEMPORAL_FUNCTIONS", "TIME_TERMS", "Count", "Formula", "FormulaError", "Term", "Tick",
            "Verdict", "Watch", "bounds", "compile_formula", "formula_names", "matching_paths", "state_argument",
-           "within"]
+           "unbounded", "within"]

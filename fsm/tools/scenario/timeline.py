@@ -59,22 +59,25 @@ def expand(scenario: Scenario, dt: float) -> tuple[list[SignalChange], list[VarS
     signals: list[SignalChange] = []
     sets: list[VarSet] = []
     for i, item in enumerate(scenario.inputs):
-        if isinstance(item, SignalInput):
-            if item.value is not None:
-                changes = [(item.at, item.value)]
-            else:
-                width = item.width if item.width is not None else dt
-                changes = [(item.at, True), (item.at + width, False)]
-            signals += [SignalChange(t, tick_at(t, dt), item.signal, level, i) for t, level in changes]
-        elif isinstance(item, PressInput):
-            signals += [SignalChange(t, tick_at(t, dt), item.press, level, i)
-                        for t, level in press_changes(item.at, item.duration, item.bounce)]
+        if isinstance(item, (SignalInput, PressInput)):
+            signals += [SignalChange(t, tick_at(t, dt), name, level, i) for name, t, level in _levels(item, dt)]
         elif isinstance(item, SetInput):
             sets.append(VarSet(item.at, tick_at(item.at, dt), dict(item.set), i))
     signals = [c for c in signals if math.isfinite(c.time)]  # a release at 1e308 s + 1e308 s never comes
     signals.sort(key=lambda c: (c.time, c.index))
     sets.sort(key=lambda s: (s.time, s.index))
     return signals, sets
+
+
+def _levels(item: SignalInput | PressInput, dt: float) -> list[tuple[str, float, bool]]:
+    """The level changes of a signal input (a level, or a pulse ``width`` long, one tick by default) or of a press:
+    ``(signal, time, level)`` in time order."""
+    if isinstance(item, PressInput):
+        return [(item.press, t, level) for t, level in press_changes(item.at, item.duration, item.bounce)]
+    if item.value is not None:
+        return [(item.signal, item.at, item.value)]
+    width = item.width if item.width is not None else dt
+    return [(item.signal, item.at, True), (item.signal, item.at + width, False)]
 
 
 def seen_levels(changes: list[tuple[float, bool]], dt: float, ticks: int, initial: bool = False) -> list[bool]:

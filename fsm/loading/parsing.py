@@ -122,8 +122,11 @@ class Parser:
         states = self._states(states_raw, source, base, depth)
         transitions = self._transitions(trans_raw, source, base)
         initial = data.get("initial") if isinstance(data.get("initial"), str) else ""
-        edges = [(t["from"], t["to"]) for t in trans_raw
-                 if isinstance(t, dict) and isinstance(t.get("from"), str) and isinstance(t.get("to"), str)]
+        if len(transitions) == len(trans_raw):  # every element parsed: its ends are its parameters' (strings)
+            edges = list(map(_ENDS, map(_PARAMS, transitions)))
+        else:
+            edges = [(t["from"], t["to"]) for t in trans_raw
+                     if isinstance(t, dict) and isinstance(t.get("from"), str) and isinstance(t.get("to"), str)]
         name = data.get("name") if isinstance(data.get("name"), str) else None
         return MachineSpec(
             source=source,
@@ -358,6 +361,8 @@ def validated_together(table: Mapping[str, type[Any]], raws: list[Any]) -> list[
 
 
 _TYPE_OF = operator.itemgetter("type")
+_PARAMS = operator.attrgetter("params")
+_ENDS = operator.attrgetter("from_", "to")
 #: The validators of :func:`_list_validator` by their types (``None``: a set of types validated one by one).
 _LIST_VALIDATORS: dict[tuple[tuple[str, type[Any]], ...], SchemaValidator | None] = {}
 

@@ -9,8 +9,6 @@ without one.
 
 from __future__ import annotations
 
-import operator
-from itertools import chain
 from typing import Any
 
 from fsm.model import expr as E
@@ -23,7 +21,6 @@ from fsm.runtime.machine import Machine
 from fsm.runtime.region import Region, StateWiring, TransitionWiring, Until, new_state, new_transition, wiring
 from fsm.runtime.state import State
 from fsm.runtime.supervisor import Monitor, Supervisor, supervisor_of
-from fsm.runtime.transition import Transition
 from fsm.sequencer.checks import CALLER_BEHAVIORS
 
 
@@ -171,29 +168,15 @@ class _Builder:
                         _supervise_caller(obj, machine)
         for condition, owner in self.conditions:
             condition.bind(machine, owner)
-        if self._binding():
-            for record in self.built:
-                for t in record.transitions:
-                    if t.binds_references:
-                        t.bind(machine)
-                state = record.state
-                if state.binds_references:
-                    state.bind(machine)
+        for record in self.built:
+            for t in record.transitions:
+                if t.binds_references:
+                    t.bind(machine)
+            state = record.state
+            if state.binds_references:
+                state.bind(machine)
         for record in self.built:
             record.seal()
-
-
-    def _binding(self) -> bool:
-        """Whether a type of the machine's states or transitions resolves references when built: asked of the set of
-        its classes (a few), not of each of its elements."""
-        built = self.built
-        states: set[type[State[Any]]] = set(map(type, map(_STATE, built)))
-        transitions: set[type[Transition[Any]]] = set(map(type, chain.from_iterable(map(_TRANSITIONS, built))))
-        return any(cls.binds_references for cls in states) or any(cls.binds_references for cls in transitions)
-
-
-_STATE = operator.attrgetter("state")
-_TRANSITIONS = operator.attrgetter("transitions")
 
 
 def _position(t: TransitionWiring) -> int:

@@ -391,8 +391,8 @@ def _list_validator(types: tuple[tuple[str, type[Any]], ...]) -> SchemaValidator
 def _model_schema(model: type[Any]) -> Any:
     """The core schema of a parameters model (built now if it was deferred), or ``None`` when pydantic validates
     the model through plugins (then only the model's own validator calls them)."""
-    if not model.__pydantic_complete__:
-        model.model_rebuild()
+    if not model.__pydantic_complete__ and not model.model_rebuild(raise_errors=False):
+        return None  # a model that cannot be built: its own validator says why, element by element
     if type(model.__pydantic_validator__) is not SchemaValidator:
         return None
     return model.__pydantic_core_schema__

@@ -12,8 +12,10 @@ from __future__ import annotations
 
 import difflib
 import json
+import operator
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
+from itertools import chain
 from typing import Any
 
 from fsm.loading.outcomes import can_finish, reachable, state_outcomes
@@ -103,27 +105,45 @@ def check_level(spec: MachineSpec, problems: Problems) -> None:
     its other errors reported in the same run.
     """
     first_at = _check_ids(spec, problems)
-    by_id: dict[str, StateSpec] = {}
-    for st in spec.states:
-        by_id.setdefault(st.id, st)
+    states = spec.states
+    by_id: dict[str, StateSpec]
+    if len(first_at) == len(states) == len(spec.raw_states):  # every element parsed, no id twice: in order
+        by_id = dict(zip(first_at, states, strict=True))
+    else:
+        by_id = {}
+        for st in states:
+            by_id.setdefault(st.id, st)
     if spec.envelope_ok and spec.initial not in first_at:
         problems.add(f"initial state '{spec.initial}' is not a state of this machine", spec.source,
                      spec.initial_pointer, hint=_choices(spec.initial, first_at))
     _check_endpoints(spec, first_at, problems)
-    for tr in spec.transitions:
-        source = by_id.get(tr.params.from_)
-        if source is not None and (source.cls.is_final or tr.cls.needs_finishing_source):
-            _check_source(tr, source, problems)
+    # the transitions against their sources only where a type asks for it: set operations over the level's classes
+    # first, not a loop over its transitions (a plain level has no final state with a way out and no Finished)
+    if any(cls.is_final for cls in set(map(_CLS, states))) or \
+            any(cls.needs_finishing_source for cls in set(map(_CLS, spec.transitions))):
+        for tr in spec.transitions:
+            source = by_id.get(tr.params.from_)
+            if source is not None and (source.cls.is_final or tr.cls.needs_finishing_source):
+                _check_source(tr, source, problems)
     if spec.initial in by_id:
         reached = reachable(spec)
-        for st in spec.states:
-            if st.id not in reached and by_id.get(st.id) is st:
-                problems.add(f"unreachable from the initial state '{spec.initial}'", spec.source, st.pointer,
-                             element=st.label, severity="warning", hint="add a transition into it or remove it")
+        if not reached.issuperset(by_id):
+            for st in states:
+                if st.id not in reached and by_id.get(st.id) is st:
+                    problems.add(f"unreachable from the initial state '{spec.initial}'", spec.source, st.pointer,
+                                 element=st.label, severity="warning", hint="add a transition into it or remove it")
+
+
+_CLS = operator.attrgetter("cls")
 
 
 def _check_ids(spec: MachineSpec, problems: Problems) -> dict[str, int]:
     """Duplicate ids among the state elements as written; each id with the index of its first element."""
+    if len(spec.states) == len(spec.raw_states):  # every element parsed: each id is a string, its state's
+        ids = [st.id for st in spec.states]
+        unique = dict(zip(ids, range(len(ids)), strict=True))
+        if len(unique) == len(ids):
+            return unique
     base = spec.pointer
     first_at: dict[str, int] = {}
     for i, raw in enumerate(spec.raw_states):
@@ -141,6 +161,8 @@ def _check_ids(spec: MachineSpec, problems: Problems) -> dict[str, int]:
 
 def _check_endpoints(spec: MachineSpec, first_at: dict[str, int], problems: Problems) -> None:
     """Each transition element's ``from`` and ``to`` name a state of the level."""
+    if len(spec.edges) == len(spec.raw_transitions) and first_at.keys() >= set(chain.from_iterable(spec.edges)):
+        return  # every element has both ends, each a known state (one set operation for the level)
     for i, raw in enumerate(spec.raw_transitions):
         if not isinstance(raw, dict):
             continue

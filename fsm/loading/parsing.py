@@ -11,13 +11,15 @@ with the rest of the file.
 from __future__ import annotations
 
 import errno
+import operator
 import os
 import stat
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
-from pydantic import ValidationError
+from pydantic import PydanticUserError, ValidationError
+from pydantic_core import SchemaError, SchemaValidator, core_schema
 
 from fsm.loading.reading import parse_json_bytes, read_file_bytes, read_json, reader_for
 from fsm.loading.registry import Registry
@@ -117,13 +119,14 @@ class Parser:
             envelope = None
         states_raw = data.get("states") if isinstance(data.get("states"), list) else []
         trans_raw = data.get("transitions") if isinstance(data.get("transitions"), list) else []
-        states = [st for i, raw in enumerate(states_raw)
-                  if (st := self.state(raw, source, f"{base}/states/{i}", depth)) is not None]
-        transitions = [tr for i, raw in enumerate(trans_raw)
-                       if (tr := self.transition(raw, source, f"{base}/transitions/{i}")) is not None]
+        states = self._states(states_raw, source, base, depth)
+        transitions = self._transitions(trans_raw, source, base)
         initial = data.get("initial") if isinstance(data.get("initial"), str) else ""
-        edges = [(t["from"], t["to"]) for t in trans_raw
-                 if isinstance(t, dict) and isinstance(t.get("from"), str) and isinstance(t.get("to"), str)]
+        if len(transitions) == len(trans_raw):  # every element parsed: its ends are its parameters' (strings)
+            edges = list(map(_ENDS, map(_PARAMS, transitions)))
+        else:
+            edges = [(t["from"], t["to"]) for t in trans_raw
+                     if isinstance(t, dict) and isinstance(t.get("from"), str) and isinstance(t.get("to"), str)]
         name = data.get("name") if isinstance(data.get("name"), str) else None
         return MachineSpec(
             source=source,
@@ -202,6 +205,26 @@ class Parser:
         return spec
 
     # -- elements -------------------------------------------------------------------------------
+    def _states(self, raws: list[Any], source: Source, base: str, depth: int) -> list[StateSpec]:
+        """A level's state elements: validated in one call when they all are (:func:`validated_together`), else one
+        by one, each problem at its element."""
+        together = validated_together(self._tables["state"], raws)
+        if together is None:
+            return [st for i, raw in enumerate(raws)
+                    if (st := self.state(raw, source, f"{base}/states/{i}", depth)) is not None]
+        head = f"{base}/states/"
+        return [self.state_of(cls, params, source, f"{head}{i}", depth)
+                for i, (cls, params) in enumerate(together)]
+
+    def _transitions(self, raws: list[Any], source: Source, base: str) -> list[TransitionSpec]:
+        """A level's transition elements, as :meth:`_states`."""
+        together = validated_together(self._tables["transition"], raws)
+        if together is None:
+            return [tr for i, raw in enumerate(raws)
+                    if (tr := self.transition(raw, source, f"{base}/transitions/{i}")) is not None]
+        head = f"{base}/transitions/"
+        return [self.transition_of(cls, params, source, f"{head}{i}") for i, (cls, params) in enumerate(together)]
+
     def element(self, kind: str, raw: Any, source: Source, ptr: str) -> tuple[type[Any], Any] | None:
         """The class an element's ``type`` names and its validated parameters, or ``None`` (problems added)."""
         if not isinstance(raw, dict):
@@ -234,7 +257,10 @@ class Parser:
         parsed = self.element("state", raw, source, ptr)
         if parsed is None:
             return None
-        cls, params = parsed
+        return self.state_of(*parsed, source, ptr, depth)
+
+    def state_of(self, cls: type[Any], params: Any, source: Source, ptr: str, depth: int) -> StateSpec:
+        """The spec of a state element whose parameters are valid: its condition objects and regions parsed."""
         spec = StateSpec(params.id, cls, params, ptr, source)
         if params.precondition is not None or params.until is not None or params.monitors is not None \
                 or cls.condition_fields:
@@ -267,10 +293,13 @@ class Parser:
         parsed = self.element("transition", raw, source, ptr)
         if parsed is None:
             return None
-        cls, params = parsed
+        return self.transition_of(*parsed, source, ptr)
+
+    def transition_of(self, cls: type[Any], params: Any, source: Source, ptr: str) -> TransitionSpec:
+        """The spec of a transition element whose parameters are valid, its condition objects parsed."""
         spec = TransitionSpec(cls, params, ptr, source)
-        fields = spec.cls.condition_fields
-        if fields or type(spec.params.guard) is dict:
+        fields = cls.condition_fields
+        if fields or type(params.guard) is dict:
             conditions = {}
             for key in ("guard", *fields):
                 value = getattr(spec.params, key, None)
@@ -306,9 +335,81 @@ class Parser:
         return spec if ok else None
 
 
+def validated_together(table: Mapping[str, type[Any]], raws: list[Any]) -> list[tuple[type[Any], Any]] | None:
+    """Each element of ``raws`` with its class and its validated parameters, all in one pydantic-core call; ``None``
+    when one of them is not an object naming a type of ``table`` or does not validate: the caller then takes them
+    one by one, so that each problem is found at its element in its own words.
+
+    Validating element by element cost a Python frame and a call into pydantic-core per element, half of the parse
+    stage's validation. The list's validator (:func:`_list_validator`) is built from the types' own model schemas,
+    once per set of types."""
+    if len(raws) < 2 or set(map(type, raws)) != {dict}:
+        return None
+    try:
+        names = list(map(_TYPE_OF, raws))
+        classes = {name: table[name] for name in set(names)}  # a name not imported yet: the table imports it
+    except (KeyError, TypeError):  # no type, an unhashable one, or one the table does not know
+        return None
+    validator = _list_validator(tuple(sorted((name, cls.Params) for name, cls in classes.items())))
+    if validator is None:
+        return None
+    try:
+        params = validator.validate_python(raws)
+    except ValidationError:
+        return None
+    return list(zip(map(classes.__getitem__, names), params, strict=True))
+
+
+_TYPE_OF = operator.itemgetter("type")
+_PARAMS = operator.attrgetter("params")
+_ENDS = operator.attrgetter("from_", "to")
+#: The validators of :func:`_list_validator` by their types (``None``: a set of types validated one by one).
+_LIST_VALIDATORS: dict[tuple[tuple[str, type[Any]], ...], SchemaValidator | None] = {}
+
+
+def _list_validator(types: tuple[tuple[str, type[Any]], ...]) -> SchemaValidator | None:
+    """A validator of a list of elements of these ``(name, Params)`` types, chosen by each element's ``type``: the
+    types' own model schemas in a list (one type) or a union tagged by ``type``. ``None`` when the models' own
+    validators are needed: a model that cannot be built, or pydantic plugins watching the models' validations."""
+    if types in _LIST_VALIDATORS:
+        return _LIST_VALIDATORS[types]
+    if len(_LIST_VALIDATORS) >= 256:  # a process loading documents of ever new type mixes: keep it bounded
+        _LIST_VALIDATORS.clear()
+    validator: SchemaValidator | None = None
+    try:
+        schemas = {name: _model_schema(model) for name, model in types}
+        item = next(iter(schemas.values())) if len(schemas) == 1 else \
+            core_schema.tagged_union_schema(schemas, discriminator="type")
+        if all(schema is not None for schema in schemas.values()):
+            validator = SchemaValidator(core_schema.list_schema(item))
+    except (PydanticUserError, SchemaError):
+        validator = None
+    _LIST_VALIDATORS[types] = validator
+    return validator
+
+
+def _model_schema(model: type[Any]) -> Any:
+    """The core schema of a parameters model (built now if it was deferred), or ``None`` when pydantic validates
+    the model through plugins (then only the model's own validator calls them)."""
+    if not model.__pydantic_complete__ and not model.model_rebuild(raise_errors=False):
+        return None  # a model that cannot be built: its own validator says why, element by element
+    if type(model.__pydantic_validator__) is not SchemaValidator:
+        return None
+    return model.__pydantic_core_schema__
+
+
+#: Whether pydantic's plugins were looked up in this process (a list: set once, no ``global``).
+_PLUGINS_LOOKED_UP: list[bool] = []
+
+
 def parse(src: Any, registry: Registry, problems: Problems,
           base_dir: str | os.PathLike[str] | None = None) -> MachineSpec | None:
     """The spec of ``src`` (a path or a document dict); every problem found goes to ``problems``."""
+    if not _PLUGINS_LOOKED_UP:  # before the first parameter model is built (fsm.loading.pydantic_plugins says why)
+        from fsm.loading.pydantic_plugins import spare_pydantic_plugin_scan
+
+        spare_pydantic_plugin_scan()
+        _PLUGINS_LOOKED_UP.append(True)
     parser = Parser(registry, problems, base_dir)
     try:
         return parser.document(src)

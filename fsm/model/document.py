@@ -49,6 +49,14 @@ class Include(ParamsBase):
     file: str = Field(min_length=1, description="Path of the machine file, relative to this file.")
 
 
+def _no_transitions() -> list[dict[str, Any]]:
+    return []
+
+
+def _no_vars() -> dict[str, Any]:
+    return {}
+
+
 class MachineEnvelope(ParamsBase):
     """The top level of a machine document (elements are checked one by one against their types)."""
 
@@ -57,8 +65,13 @@ class MachineEnvelope(ParamsBase):
     description: str | None = Field(default=None, description="Free text for people.")
     initial: str = Field(min_length=1, pattern=ID_PATTERN, description="Id of the initial state.")
     states: list[dict[str, Any]] = Field(min_length=1, description="The states of this level.")
-    transitions: list[dict[str, Any]] = Field(default_factory=list, description="The transitions of this level.")
-    vars: dict[str, Any] = Field(default_factory=dict, description="Initial blackboard variables (top level only).")
+    # the factories are functions of ours, not ``list`` and ``dict``: pydantic reads a factory's signature, and a
+    # built-in's is parsed from its text by the tokenizer, whose patterns compiled on first use cost the first load
+    # of a process about 5 ms
+    transitions: list[dict[str, Any]] = Field(default_factory=_no_transitions,
+                                              description="The transitions of this level.")
+    vars: dict[str, Any] = Field(default_factory=_no_vars,
+                                 description="Initial blackboard variables (top level only).")
     inputs: list[Annotated[str, Field(min_length=1)]] | None = Field(
         default=None, description="The input signals the machine's environment provides (buttons, switches). When "
                                   "given, every signal the machine reads (transitions, conditions, pause buttons) "

@@ -23,8 +23,7 @@ from typing import TYPE_CHECKING, Union
 
 from fsm.loading.building import build
 from fsm.loading.loader import compile as compile_plan
-from fsm.loading.reading import preloaded
-from fsm.model.document import MachineSpec
+from fsm.loading.sources import Source, checked_source
 from fsm.model.errors import StateRuntimeError, UsageError
 from fsm.model.plan import MachinePlan
 from fsm.runtime.clock import DEFAULT_DT, SimulatedClock
@@ -36,10 +35,9 @@ from fsm.trace.recorder import Recorder
 if TYPE_CHECKING:
     from fsm.loading.registry import Registry
 
-#: What :func:`run` and :func:`open_session` start from: a path, JSON text, a document dict, a spec, a plan, a machine.
-RunSource = Union[str, "os.PathLike[str]", Mapping[str, object], MachineSpec, MachinePlan, Machine]
-#: The name JSON text given as the source goes by in problems (``<text>.json:3:12: error: ...``).
-TEXT_NAME = "<text>.json"
+#: What :func:`run` and :func:`open_session` start from: what ``fsm.load`` loads (a path, JSON text, a document dict,
+#: a spec, a plan: :mod:`fsm.loading.sources`), or a machine already built.
+RunSource = Union[Source, Machine]
 #: The entry-point group that names the simulator (``sim = "fsm.sim:simulate"``).
 SIMULATORS = "fsm.simulators"
 
@@ -100,17 +98,10 @@ def open_session(source: RunSource, *, world: str | os.PathLike[str] | None = No
     return Session(machine, stop=stop, record=record)
 
 
-def plan_of(source: str | os.PathLike[str] | Mapping[str, object] | MachineSpec | MachinePlan, *,
-            registry: Registry | None = None, plugins: tuple[str, ...] = ()) -> MachinePlan:
-    """The compiled plan of ``source`` (loaded once: read, parsed, checked, compiled)."""
-    if isinstance(source, MachinePlan):
-        return source
-    if isinstance(source, str) and source.lstrip().startswith("{"):
-        with preloaded({TEXT_NAME: source.encode("utf-8")}):  # read as a file is: problems get line:column
-            return compile_plan(TEXT_NAME, registry=registry, plugins=plugins)
-    if not isinstance(source, (str, os.PathLike, Mapping, MachineSpec)):
-        raise TypeError(f"source must be a path, JSON text, a document dict, a spec, a plan or a machine; "
-                        f"got {shown_value(source)}")
+def plan_of(source: Source, *, registry: Registry | None = None, plugins: tuple[str, ...] = ()) -> MachinePlan:
+    """The compiled plan of ``source`` (loaded once: read, parsed, checked, compiled), by the rule ``fsm.load``
+    follows (:mod:`fsm.loading.sources`)."""
+    checked_source(source, kinds="a path, JSON text, a document dict, a spec, a plan or a machine")
     return compile_plan(source, registry=registry, plugins=plugins)
 
 

@@ -24,10 +24,10 @@ from fsm.loading.checking import check as check_spec
 from fsm.loading.compiling import compile_machine
 from fsm.loading.parsing import parse
 from fsm.loading.reading import preloaded, read_json, register_reader
-from fsm.loading.registry import Registry, default_registry
+from fsm.loading.registry import PLUGINS_FROM_PYTHON, Registry, default_registry
 from fsm.loading.sources import DocumentSource, Source, checked_source, document_read
 from fsm.model.document import MachineSpec
-from fsm.model.errors import DiagramError, Problem
+from fsm.model.errors import DiagramError, Problem, UsageError
 from fsm.model.jsonpos import pointer
 from fsm.model.plan import MachinePlan
 from fsm.model.problems import Problems
@@ -46,7 +46,7 @@ def analyse(src: DocumentSource, *, registry: Registry | None = None, plugins: t
         raise TypeError(f"registry must be an fsm.Registry or None, got {type(registry).__name__}")
     with document_read(src) as src:
         if isinstance(src, (str, os.PathLike)) and cache.enabled():
-            return _analyse_file(str(Path(src)), registry or default_registry(_plugins(plugins)))
+            return _analyse_file(str(Path(src)), registry or registry_of(plugins))
         return _analyse(src, registry, plugins, base_dir)
 
 
@@ -56,7 +56,7 @@ def _analyse(src: DocumentSource, registry: Registry | None, plugins: tuple[str,
     if isinstance(src, MachineSpec):
         spec: MachineSpec | None = src
     else:
-        spec = parse(src, registry or default_registry(_plugins(plugins)), problems, base_dir)
+        spec = parse(src, registry or registry_of(plugins), problems, base_dir)
     analysis = None
     if spec is not None:
         try:
@@ -175,6 +175,18 @@ def compile_checked(spec: MachineSpec, analysis: Analysis) -> MachinePlan:
     second time (``fsmctl run`` checks once, then compiles)."""
     with collection_paused():
         return _plan_of(spec, analysis)
+
+
+def registry_of(plugins: Any) -> Registry:
+    """The process registry with ``plugins`` (the Python API's argument) loaded: a plugin that cannot be found is a
+    ``ValueError`` naming ``plugins=[...]``, not the command line's ``--plugin``."""
+    token = PLUGINS_FROM_PYTHON.set(True)
+    try:
+        return default_registry(_plugins(plugins))
+    except UsageError as exc:
+        raise ValueError(str(exc)) from None
+    finally:
+        PLUGINS_FROM_PYTHON.reset(token)
 
 
 def _plugins(plugins: Any) -> tuple[str, ...]:

@@ -351,7 +351,9 @@ PRIVATE_READS = {"fsm/runtime/machine.py": {"_now", "_tick", "_dt", "_pending"},
                  "fsm/runtime/region.py": {"_now", "_fsm"},
                  "fsm/trace/recorder.py": {"_tick"}, "fsm/transitions/generic.py": {"_now"},
                  "fsm/transitions/conditions.py": {"_now"},
-                 "fsm/sim/car.py": {"_space", "_body", "_constraint"}, "fsm/sim/loop.py": {"_now", "_tick"}}
+                 "fsm/sim/car.py": {"_space", "_body", "_constraint"}, "fsm/sim/loop.py": {"_now", "_tick"},
+                 # the frame a deprecated read names, to show its warning (CPython's public, if underscored, call)
+                 "fsm/runtime/deprecation.py": {"_getframe"}}
 #: The public API of named tuples, underscored so as not to clash with field names.
 NAMEDTUPLE_API = {"_replace", "_asdict", "_fields", "_make"}
 

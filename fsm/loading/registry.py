@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any, Generic, TypeVar
 from fsm.model.errors import RegistrationError, UsageError
 from fsm.model.params import ConditionParams, StateParams, TransitionParams
 from fsm.runtime.condition import Condition
+from fsm.runtime.namespace import check_namespace
 from fsm.runtime.state import State
 from fsm.runtime.transition import Transition
 
@@ -266,6 +267,7 @@ class Registry:
         if not (isinstance(cls, type) and issubclass(cls, base)):
             raise RegistrationError(f"{cls!r} is not a subclass of fsm.{base.__name__}")
         self._check_params(cls, name, params_base)
+        check_namespace(cls, name)  # a hook, setting or base name shadowed: refused here, not at tick 1
         pending = table.pending.get(name) if isinstance(table, TypeTable) else None
         if pending is not None:  # a built-in of that name: its class first, then the check below sees a clash
             self._import_builtin(pending)

@@ -162,3 +162,14 @@ def test_deprecated_reads_in_a_plugin_are_shown_on_the_authors_line(tmp_path: Pa
         assert proc.stdout == "succeeded\n", proc.stderr
         assert (f"{path}:8: DeprecationWarning" in proc.stderr) is shown, proc.stderr
         assert proc.stderr.count("Mine.region is deprecated") == int(shown)  # once per line, not per tick
+
+
+def test_fsmctl_types_says_when_a_type_has_no_description(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from fsm.tools.cli import main
+
+    path = plugin(tmp_path, "undocumented", "from fsm import State, register_state\n\n\n@register_state\n"
+                                            "class Undocumented(State):\n    pass\n")
+    assert main(["--plugin", path, "types", "Undocumented", "Idle"]) == 0
+    out = capsys.readouterr().out
+    assert "  Undocumented: (no description: add a docstring)\n" in out
+    assert "  Idle: (no description" not in out  # a documented type shows its own line

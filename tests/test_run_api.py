@@ -246,3 +246,27 @@ def test_a_state_that_fails_still_ends_the_trace_with_its_error() -> None:
     assert any(line["type"] == "event" for line in lines)  # the transition into b
     end = lines[-1]
     assert end["type"] == "end" and end["error"]["state"] == "b" and "broken sensor" in end["error"]["message"]
+
+
+def test_session_open_and_simulation_run_are_the_same_rule(tmp_path: Path) -> None:
+    """``Session.open`` checks its arguments as fsm.run does and takes its sources; ``Simulation.run`` answers a
+    RunResult as fsm.run does, with its stop arguments checked alike."""
+    from fsm.session.run import open_session
+    from fsm.sim.loop import Simulation
+
+    assert fsm.Session.open(json.dumps(DOC)).run().outcome == "succeeded"
+    assert fsm.Session.open(compile_plan(DOC)).run().outcome == "succeeded"
+    for kwargs, error, words in [({"variables": [1]}, TypeError, "^variables must be a mapping"),
+                                 ({"car": object()}, TypeError, "^car must have the car interface")]:
+        with pytest.raises(error, match=words):
+            fsm.Session.open(DOC, **kwargs)
+    with pytest.raises(TypeError, match="^source must be a path, JSON text"):
+        fsm.Session.open(42)  # type: ignore[arg-type]  # the wrong type is what this test is about
+    simulation = open_session(DRIVES).driver
+    assert isinstance(simulation, Simulation)
+    with pytest.raises(ValueError, match="duration"):
+        simulation.run(duration=-1.0)
+    result = simulation.run(duration=0.2)
+    assert isinstance(result, fsm.RunResult) and (result.stopped, result.ticks) == ("limit", 16)
+    assert simulation.run(until=lambda s: s.ticks >= 20).stopped == "until"
+    assert simulation.run().outcome == "succeeded"

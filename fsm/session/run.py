@@ -7,8 +7,8 @@ world is given or when the machine drives a car and no ``car`` is given (the def
 else on ``car`` or on the machine's clock alone::
 
     import fsm
-    result = fsm.run("diagrams/examples/traffic_light.json", duration=30)
-    print(result.outcome, result.stopped)
+    result = fsm.run("diagrams/examples/sorter.json", duration=30)
+    print(result.outcome, result.stopped, result.ticks)    # succeeded finished 609
 
 The simulator is found through the ``fsm.simulators`` entry-point group (``fsm.sim:simulate``), so that the core
 never imports the simulator itself.
@@ -16,21 +16,20 @@ never imports the simulator itself.
 
 from __future__ import annotations
 
-import math
 import numbers
 import os
 from collections.abc import Callable, Iterable, Mapping
 from typing import TYPE_CHECKING, Union
 
-from fsm.loading.building import build
 from fsm.loading.installed import entry_points
 from fsm.loading.loader import compile as compile_plan
 from fsm.loading.sources import Source, checked_source
 from fsm.model.errors import StateRuntimeError, UsageError
 from fsm.model.plan import MachinePlan
-from fsm.runtime.clock import DEFAULT_DT, SimulatedClock
+from fsm.runtime.clock import DEFAULT_DT
 from fsm.runtime.context import shown_value
 from fsm.runtime.machine import MAX_RUN_TICKS, Listener, Machine, seconds_argument
+from fsm.session.arguments import car_argument, variables_argument
 from fsm.session.session import RunResult, Session, StopRules
 from fsm.trace.recorder import Recorder
 
@@ -42,15 +41,13 @@ if TYPE_CHECKING:
 RunSource = Union[Source, Machine]
 #: The entry-point group that names the simulator (``sim = "fsm.sim:simulate"``).
 SIMULATORS = "fsm.simulators"
-#: The entry-point group that names the car interface (``car = "fsm.sim.io:CarIO"``) a ``car=`` must have.
-INTERFACES = "fsm.interfaces"
 
 
 def run(source: RunSource, *, world: str | os.PathLike[str] | None = None, car: object | None = None,
         stop: StopRules | None = None, duration: float | None = None, max_ticks: int | None = None,
         until: Callable[[Session], bool] | None = None, outputs: Iterable[Listener] = (),
         registry: Registry | None = None, plugins: tuple[str, ...] = (), variables: Mapping[str, object] | None = None,
-        dt: float | None = None, seed: int = 0) -> RunResult:
+        dt: float | None = None, seed: int = 0, base_dir: str | os.PathLike[str] | None = None) -> RunResult:
     """Run the machine in ``source`` to its end and say how it ended (:class:`~fsm.session.session.RunResult`).
 
     It stops when the machine finishes, ``until(session)`` is true, or at the first of ``duration`` seconds of
@@ -58,14 +55,15 @@ def run(source: RunSource, *, world: str | os.PathLike[str] | None = None, car: 
     without any, after 600 s of machine time, as ``fsmctl run``. ``outputs`` are listeners that see the run (a
     :class:`~fsm.trace.recorder.Recorder` writes its trace, ended by its ``end`` line). ``world`` (a world file)
     runs it on the simulated car, with sensor noise from ``seed``; ``car`` on a car of your own (anything with the
-    car interface, ``fsm.sim.io.CarIO``). Raises :class:`~fsm.model.errors.DiagramError` for a document with
+    car interface, ``fsm.sim.io.CarIO``). ``base_dir`` is where the includes of JSON text or a dict are found (else
+    the working directory). Raises :class:`~fsm.model.errors.DiagramError` for a document with
     errors, ``TypeError`` or ``ValueError`` for a wrong argument, naming it.
     """
     if until is not None and not callable(until):
         raise TypeError(f"until must be a function of the session returning a bool, or None; got {shown_value(until)}")
     rules = stop_rules(stop, duration, max_ticks, source.dt if isinstance(source, Machine) else dt)
-    session = open_session(source, world=world, car=car, stop=rules,
-                           registry=registry, plugins=plugins, variables=variables, dt=dt, seed=seed)
+    session = open_session(source, world=world, car=car, stop=rules, registry=registry, plugins=plugins,
+                           variables=variables, dt=dt, seed=seed, base_dir=base_dir)
     for output in outputs:
         if isinstance(output, Recorder):
             session.record(output)
@@ -84,8 +82,9 @@ def run(source: RunSource, *, world: str | os.PathLike[str] | None = None, car: 
 def open_session(source: RunSource, *, world: str | os.PathLike[str] | None = None, car: object | None = None,
                  stop: StopRules | None = None, registry: Registry | None = None, plugins: tuple[str, ...] = (),
                  variables: Mapping[str, object] | None = None, dt: float | None = None, seed: int = 0,
-                 record: bool = False) -> Session:
-    """The session :func:`run` runs, for a caller that steps it, submits inputs or reads its summary."""
+                 record: bool = False, base_dir: str | os.PathLike[str] | None = None) -> Session:
+    """The session :func:`run` runs, for a caller that steps it, submits inputs or reads its summary: on the
+    simulator (:func:`simulator`) or, without one, :meth:`Session.open <fsm.session.session.Session.open>`."""
     variables = variables_argument(variables)
     car_argument(car)
     if isinstance(source, Machine):
@@ -95,20 +94,18 @@ def open_session(source: RunSource, *, world: str | os.PathLike[str] | None = No
         if variables:
             source.ctx.vars.update(variables)
         return Session(source, stop=stop, record=record)
-    plan = plan_of(source, registry=registry, plugins=plugins)
+    plan = plan_of(source, registry=registry, plugins=plugins, base_dir=base_dir)
     if world is not None or (car is None and plan.needs_car):
         return simulator()(plan, world=world, seed=seed, variables=variables, dt=dt, stop=stop)
-    machine = build(plan, clock=SimulatedClock(dt) if dt is not None else None, car=car)
-    if variables:
-        machine.ctx.vars.update(variables)
-    return Session(machine, stop=stop, record=record)
+    return Session.open(plan, car=car, variables=variables, dt=dt, stop=stop, record=record)
 
 
-def plan_of(source: Source, *, registry: Registry | None = None, plugins: tuple[str, ...] = ()) -> MachinePlan:
+def plan_of(source: Source, *, registry: Registry | None = None, plugins: tuple[str, ...] = (),
+            base_dir: str | os.PathLike[str] | None = None) -> MachinePlan:
     """The compiled plan of ``source`` (loaded once: read, parsed, checked, compiled), by the rule ``fsm.load``
     follows (:mod:`fsm.loading.sources`)."""
     checked_source(source, kinds="a path, JSON text, a document dict, a spec, a plan or a machine")
-    return compile_plan(source, registry=registry, plugins=plugins)
+    return compile_plan(source, registry=registry, plugins=plugins, base_dir=base_dir)
 
 
 def stop_rules(stop: StopRules | None, duration: object = None, max_ticks: object = None,
@@ -136,66 +133,6 @@ def stop_rules(stop: StopRules | None, duration: object = None, max_ticks: objec
     return StopRules(seconds, ticks)
 
 
-def variables_argument(variables: object) -> dict[str, object] | None:
-    """``variables`` checked: a mapping of names (strings) to JSON values (None, bool, int, a finite float, str, and
-    lists and string-keyed dicts of them), as a document's ``vars`` holds; else a ``TypeError`` or ``ValueError``
-    naming the argument and the entry."""
-    if variables is None:
-        return None
-    if not isinstance(variables, Mapping):
-        raise TypeError(f"variables must be a mapping of names to JSON values (a dict) or None, got "
-                        f"{shown_value(variables)}")
-    for name, value in variables.items():
-        if not isinstance(name, str):
-            raise TypeError(f"variables: each name must be a string, got {shown_value(name)}")
-        _json_value(f"variables[{name!r}]", value)
-    return dict(variables)
-
-
-def _json_value(where: str, value: object, depth: int = 0) -> None:
-    if value is None or isinstance(value, (bool, int, str)):
-        return
-    if isinstance(value, float):
-        if not math.isfinite(value):
-            raise ValueError(f"{where} must be a finite number, got {value!r}")
-        return
-    if depth > 100:
-        raise ValueError(f"{where} is nested too deeply (more than 100 levels)")
-    if isinstance(value, (list, tuple)):
-        for k, item in enumerate(value):
-            _json_value(f"{where}[{k}]", item, depth + 1)
-        return
-    if isinstance(value, Mapping):
-        for key, item in value.items():
-            if not isinstance(key, str):
-                raise TypeError(f"{where}: each key must be a string, got {shown_value(key)}")
-            _json_value(f"{where}[{key!r}]", item, depth + 1)
-        return
-    raise TypeError(f"{where} must be a JSON value (None, bool, int, float, str, or a list or dict of them), got "
-                    f"{shown_value(value)}")
-
-
-def car_argument(car: object) -> None:
-    """A ``car=`` must have the car interface (``fsm.sim.io.CarIO``, found by its ``fsm.interfaces`` entry point, so
-    that the core imports no simulator): else a ``TypeError`` naming what it lacks. A car may keep a value as a
-    plain attribute, a property or a slot, or answer every name (``__getattr__``: a proxy or a mock)."""
-    if car is None:
-        return
-    for point in entry_points(group=INTERFACES, name="car"):
-        interface: type = point.load()
-        cls = type(car)
-        if hasattr(cls, "__getattr__"):
-            return
-        own = getattr(car, "__dict__", {})
-        members = sorted({name for name in vars(interface) if not name.startswith("_")}
-                         | set(getattr(interface, "__annotations__", {})))
-        missing = [name for name in members if not hasattr(cls, name) and name not in own]
-        if missing:
-            raise TypeError(f"car must have the car interface ({interface.__module__}.{interface.__qualname__}): "
-                            f"{shown_value(car)} lacks {', '.join(missing)}")
-        return
-
-
 def simulator() -> Callable[..., Session]:
     """The simulator's session maker (``fsm.sim.simulate``), found by its entry point (the installed
     distributions are read only when a machine needs the simulator)."""
@@ -206,5 +143,4 @@ def simulator() -> Callable[..., Session]:
                      "pass car=... to fsm.run, or reinstall tral-fsm")
 
 
-__all__ = ["INTERFACES", "SIMULATORS", "RunSource", "car_argument", "open_session", "plan_of", "run", "simulator",
-           "stop_rules", "variables_argument"]
+__all__ = ["SIMULATORS", "RunSource", "open_session", "plan_of", "run", "simulator", "stop_rules"]

@@ -53,3 +53,13 @@ def test_another_kind_of_source_is_a_type_error_naming_the_argument(call: Any) -
     with pytest.raises(TypeError, match=r"^source must be a path, JSON text, a document dict, a spec, a plan or a "
                                         r"machine; got \[1\]"):
         fsm.run([1])  # type: ignore[arg-type]  # the wrong type is what this test is about
+
+
+def test_the_includes_of_text_are_found_from_base_dir() -> None:
+    """mission.json includes grip.json beside it: given as text, its includes are found from ``base_dir``."""
+    folder = Path(__file__).resolve().parents[1] / "diagrams" / "examples"
+    text = (folder / "mission.json").read_text(encoding="utf-8")
+    with pytest.raises(fsm.DiagramError, match="include file 'grip.json' not found"):
+        fsm.run(text, max_ticks=1, base_dir=folder / "no")
+    assert fsm.run(text, max_ticks=1, base_dir=folder).ticks == 1
+    assert fsm.check(text, base_dir=folder)[1] == []

@@ -117,17 +117,31 @@ def test_registering_by_hand_is_checked_too() -> None:
         fsm.Registry().add_state(Sneaky)
 
 
-def test_the_wiring_names_moved_still_read_with_a_warning() -> None:
+@pytest.mark.parametrize(("element", "old", "called"), [
+    ("transition", "index", False), ("transition", "binds_references", False),
+    ("transition", "checks_document", False), ("transition", "tests_variables", False),
+    ("state", "tick_method", True), ("state", "binds_references", False), ("state", "region", False),
+    ("state", "transitions", False), ("state", "checks", False),
+])
+def test_the_wiring_names_moved_still_read_with_a_warning_whose_hint_works(element: str, old: str,
+                                                                           called: bool) -> None:
+    """Each deprecated read works, warns, and the call its warning names gives what the old name gave."""
+    import fsm.runtime.region
+    import fsm.runtime.state
+    import fsm.runtime.transition
+
     machine = fsm.load({"initial": "a", "states": [{"id": "a", "type": "Idle"}, {"id": "b", "type": "Final"}],
                         "transitions": [{"type": "Timeout", "from": "a", "to": "b", "seconds": 1}]})
     state = machine.state("a")
     transition = wiring(state).transitions[0]
-    with pytest.warns(DeprecationWarning, match=r"index is deprecated .*\.transition_wiring\(transition\)\.index"):
-        assert transition.index == transition_wiring(transition).index == 0
-    with pytest.warns(DeprecationWarning, match="tick_method is deprecated"):
-        assert state.tick_method() is None
-    with pytest.warns(DeprecationWarning, match="binds_references is deprecated"):
-        assert type(transition).binds_references is False
+    subject = state if element == "state" else transition
+    words = rf"\.{old} is deprecated \(removed in the next release\): read "
+    with pytest.warns(DeprecationWarning, match=words) as seen:
+        value = getattr(subject, old)
+    hint = str(seen[0].message).rsplit(": read ", 1)[1].split(" for ")[0]
+    namespace = {"fsm": fsm, "state": state, "transition": transition, "Idle": type(state), "Timeout": type(transition)}
+    assert eval(hint, namespace) == (value() if called else value), hint  # the hint, run as written
+    assert transition_wiring(transition).index == 0
 
 
 def test_deprecated_reads_in_a_plugin_are_shown_on_the_authors_line(tmp_path: Path) -> None:

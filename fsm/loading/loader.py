@@ -44,7 +44,7 @@ def analyse(src: DocumentSource, *, registry: Registry | None = None, plugins: t
     every problem, located and sorted."""
     if registry is not None and not isinstance(registry, Registry):
         raise TypeError(f"registry must be an fsm.Registry or None, got {type(registry).__name__}")
-    with document_read(src) as src:
+    with document_read(src, base_dir) as src:
         if isinstance(src, (str, os.PathLike)) and cache.enabled():
             return _analyse_file(str(Path(src)), registry or registry_of(plugins))
         return _analyse(src, registry, plugins, base_dir)

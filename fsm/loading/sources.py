@@ -44,13 +44,15 @@ def checked_source(source: object, name: str = "source", kinds: str = KINDS) -> 
 
 
 @contextmanager
-def document_read(source: DocumentSource) -> Iterator[DocumentSource]:
+def document_read(source: DocumentSource, base_dir: str | os.PathLike[str] | None = None
+                  ) -> Iterator[DocumentSource]:
     """``source`` as the stages read it: JSON text becomes the file ``<text>.json`` (its text preloaded, read as a
-    file is, so that problems get line:column), any other document stays what it is. Include paths of a text or a
-    dict are relative to the ``base_dir`` the caller gives, else to the working directory."""
+    file is, so that problems get line:column), in ``base_dir`` when given (its includes are found there, as a
+    dict's are; else in the working directory); any other document stays what it is."""
     if isinstance(source, str) and is_text(source):
-        with preloaded({TEXT_NAME: source.encode("utf-8", "surrogatepass")}):
-            yield TEXT_NAME
+        name = TEXT_NAME if base_dir is None else os.path.join(os.fspath(base_dir), TEXT_NAME)
+        with preloaded({name: source.encode("utf-8", "surrogatepass")}):
+            yield name
         return
     yield source
 

@@ -35,18 +35,19 @@ class Renamed:
     own use owns it, and the runtime never reads it."""
 
     def __init__(self, old: str, new: str, *, record: Callable[[Any], Any] | None = None, default: Any = None,
-                 on_class: bool = False,
-                 where: str | None = None, until: str = "the next release") -> None:
+                 on_class: bool = False, where: str | None = None, read: str | None = None,
+                 until: str = "the next release") -> None:
         self.old, self.new, self.record, self.default, self.on_class = old, new, record, default, on_class
-        self.where, self.until = where, until
+        #: what the warning says to read instead: ``read``, else ``where.new`` (``where``: the class by default)
+        self.where, self.read, self.until = where, read, until
 
     def __get__(self, obj: Any, owner: type | None = None) -> Any:
         if obj is None and not self.on_class:
             return self
         cls = owner if obj is None else type(obj)
-        where = self.where or (cls.__qualname__ if cls is not None else "")
+        instead = self.read or f"{self.where or getattr(cls, '__qualname__', '')}.{self.new}"
         warn_deprecated(f"{getattr(cls, '__qualname__', '')}.{self.old} is deprecated (removed in {self.until}): "
-                        f"read {where}.{self.new}")
+                        f"read {instead}")
         if self.record is not None:
             return getattr(self.record(obj), self.new, self.default)
         return getattr(obj if obj is not None else owner, self.new)

@@ -139,14 +139,16 @@ class State(Generic[P]):
     if not TYPE_CHECKING:  # hidden from type checkers: a plugin's own attribute of one of these names type-checks
         #: Deprecated names, read for one release with a ``DeprecationWarning``: ``checks`` is ``predicates``; the
         #: links are in the wiring record (:func:`fsm.runtime.region.wiring`).
-        checks = Renamed("checks", "predicates")
+        checks = Renamed("checks", "predicates", where="state")
         region = Renamed("region", "region", record=_record_of, where=_WIRING)
         regions = Renamed("regions", "regions", record=_record_of, default=(), where=_WIRING)
         transitions = Renamed("transitions", "transitions", record=_record_of, default=[], where=_WIRING)
         supervisor = Renamed("supervisor", "supervisor", record=_record_of, where=_WIRING)
         #: The runtime's, not the author's: behind one underscore now.
-        tick_method = Renamed("tick_method", "_tick_method")
-        binds_references = Renamed("binds_references", "_binds_references", on_class=True)
+        tick_method = Renamed("tick_method", "_tick_method",
+                              read="fsm.runtime.state.tick_hook(state) for tick_method()")
+        binds_references = Renamed("binds_references", "_binds_references", on_class=True,
+                                   read="fsm.runtime.state.state_binds_references(state)")
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)

@@ -114,9 +114,12 @@ class Transition(Generic[P]):
     if not TYPE_CHECKING:  # hidden from type checkers: a plugin's own attribute of one of these names type-checks
         #: Deprecated names, read for one release with a ``DeprecationWarning``: the runtime's, not the author's.
         index = Renamed("index", "index", record=_link_of, where="fsm.runtime.region.transition_wiring(transition)")
-        binds_references = Renamed("binds_references", "_binds_references", on_class=True)
-        checks_document = Renamed("checks_document", "_checks_document", on_class=True)
-        tests_variables = Renamed("tests_variables", "_tests_variables", on_class=True)
+        binds_references = Renamed("binds_references", "_binds_references", on_class=True,
+                                   read="fsm.runtime.transition.transition_binds_references(transition)")
+        checks_document = Renamed("checks_document", "_checks_document", on_class=True,
+                                  read="fsm.runtime.transition.checks_document(type(transition))")
+        tests_variables = Renamed("tests_variables", "_tests_variables", on_class=True,
+                                  read="fsm.runtime.transition.tests_variables(type(transition))")
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)

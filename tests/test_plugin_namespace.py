@@ -187,3 +187,15 @@ def test_fsmctl_types_says_when_a_type_has_no_description(tmp_path: Path, capsys
     out = capsys.readouterr().out
     assert "  Undocumented: (no description: add a docstring)\n" in out
     assert "  Idle: (no description" not in out  # a documented type shows its own line
+
+
+def test_every_shadowed_name_of_a_class_is_named_at_once(tmp_path: Path) -> None:
+    path = plugin(tmp_path, "two_clashes", "from fsm import Context, State, register_state\n\n\n@register_state\n"
+                                           "class Clash(State):\n    finish = None\n\n"
+                                           "    def on_enter(self, ctx: Context) -> None:\n"
+                                           "        self.type_name = 'mine'\n        self.active = True\n")
+    with pytest.raises(fsm.RegistrationError) as caught:
+        fsm.check(DOC, plugins=(path,))
+    message = str(caught.value)
+    assert message.index("Clash.finish shadows") < message.index(f"self.type_name = ... ({path}:9)") \
+        < message.index(f"self.active = ... ({path}:10)"), message

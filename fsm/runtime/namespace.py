@@ -88,28 +88,30 @@ def check_namespace(cls: type, name: str, *, read_source: bool | None = None) ->
         return
     base, taken = found
     assignable = frozenset(getattr(base, "__slots__", ()))
+    problems: list[str] = []
     for klass in cls.__mro__:
         if klass is base:
             break
         module = getattr(klass, "__module__", "") or ""
         if read_source is None and (module == "fsm" or module.startswith("fsm.")):
             break  # tral-fsm's own classes (the built-in types) are checked by its tests
-        problem = _in_class_body(klass, taken)
-        if problem is None and read_source is not False:
-            problem = _in_code(klass, taken, assignable)
-        if problem is not None:
-            raise RegistrationError(f"{cls.__module__}.{cls.__qualname__} (type {name!r}): {problem}")
+        problems += _in_class_body(klass, taken)
+        if read_source is not False:
+            problems += _in_code(klass, taken, assignable)
+    if problems:  # every one at once, as a document's problems are
+        raise RegistrationError(f"{cls.__module__}.{cls.__qualname__} (type {name!r}): " + "; and ".join(problems))
 
 
-def _in_class_body(klass: type, taken: Taken) -> str | None:
+def _in_class_body(klass: type, taken: Taken) -> list[str]:
+    found = []
     for attr, value in vars(klass).items():
         if attr in taken.own:
-            return (f"{klass.__name__}.{attr} shadows the base's {attr!r}, which the runtime reads or keeps; "
-                    f"choose another name")
-        if attr in taken.hooks and not _is_method(value):
-            return (f"{klass.__name__}.{attr} = {_shown(value)} shadows the hook {attr}() with a plain "
-                    f"attribute; define it as a method, or choose another name")
-    return None
+            found.append(f"{klass.__name__}.{attr} shadows the base's {attr!r}, which the runtime reads or keeps; "
+                         f"choose another name")
+        elif attr in taken.hooks and not _is_method(value):
+            found.append(f"{klass.__name__}.{attr} = {_shown(value)} shadows the hook {attr}() with a plain "
+                         f"attribute; define it as a method, or choose another name")
+    return found
 
 
 def _is_method(value: object) -> bool:
@@ -121,12 +123,13 @@ def _shown(value: object) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
-def _in_code(klass: type, taken: Taken, assignable: frozenset[str]) -> str | None:
+def _in_code(klass: type, taken: Taken, assignable: frozenset[str]) -> list[str]:
     """``self.NAME = ...`` (or ``+=``, or annotated) of a taken name in the class's own methods, with its line; the
     base's slots (``params``, ``finished``, ``outcome``, ...) may be assigned."""
     node, file = _class_node(klass)
     if node is None:
-        return None
+        return []
+    found: set[tuple[int, str]] = set()
     forbidden = taken.hooks | taken.settings | (taken.own - assignable)
     for item in ast.walk(node):
         targets: list[ast.expr] = []
@@ -141,8 +144,9 @@ def _in_code(klass: type, taken: Taken, assignable: frozenset[str]) -> str | Non
                     kind = ("the hook" if sub.attr in taken.hooks else "the setting" if sub.attr in taken.settings
                             else "the base's")
                     fix = ("set it in the class body" if sub.attr in taken.settings else "choose another name")
-                    return (f"self.{sub.attr} = ... ({file}:{sub.lineno}) shadows {kind} {sub.attr!r}; {fix}")
-    return None
+                    found.add((sub.lineno, f"self.{sub.attr} = ... ({file}:{sub.lineno}) shadows {kind} "
+                                           f"{sub.attr!r}; {fix}"))
+    return [text for _line, text in sorted(found)]  # in the order of the file
 
 
 def _class_node(klass: type) -> tuple[ast.ClassDef | None, str]:

@@ -199,3 +199,18 @@ def test_every_shadowed_name_of_a_class_is_named_at_once(tmp_path: Path) -> None
     message = str(caught.value)
     assert message.index("Clash.finish shadows") < message.index(f"self.type_name = ... ({path}:9)") \
         < message.index(f"self.active = ... ({path}:10)"), message
+
+
+def test_a_warning_filter_the_user_chose_is_kept() -> None:
+    """Only Python's default hiding is overridden: a filter of the user's (pytest's ``filterwarnings = error``, a
+    ``simplefilter``) decides as it would without tral-fsm."""
+    state = fsm.load({"initial": "a", "states": [{"id": "a", "type": "Idle"}]}).state("a")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
+        with pytest.raises(DeprecationWarning, match="Idle.region is deprecated"):
+            _ = state.region
+        assert warnings.filters[0][0] == "error"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        assert state.region is wiring(state).region
+        assert warnings.filters[0][0] == "ignore"

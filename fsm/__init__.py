@@ -4,7 +4,9 @@ Run a machine document (JSON, or a UMLet diagram) from Python in one call::
 
     import fsm
     result = fsm.run("diagrams/examples/blinker.json", duration=30.0)
-    print(result.outcome, result.stopped)
+    print(result.outcome, result.stopped)    # None limit
+
+(a blinker never finishes: it stops at the limit of 30 s of machine time, with no outcome).
 
 ``fsm.load`` builds a machine to tick yourself, ``fsm.check`` validates a document; ``State``, ``Transition`` and
 ``Condition`` with their ``Params`` bases and ``register_*`` decorators are the plugin contract. The names in

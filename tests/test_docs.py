@@ -5,6 +5,7 @@ pages run and print what the pages say, and the README's links lead to files tha
 from __future__ import annotations
 
 import argparse
+import importlib
 import importlib.util
 import os
 import re
@@ -142,11 +143,41 @@ def test_extending_page_examples_run_and_print_what_the_page_says(tmp_path: Path
     assert printed and f"`{printed}`" in page.read_text(encoding="utf-8")
 
 
-def test_getting_started_python_example_runs() -> None:
-    code = python_blocks(DOCS / "getting-started.md")
-    proc = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120)
+def in_a_folder_with_the_diagrams(tmp_path: Path, code: str) -> subprocess.CompletedProcess[str]:
+    """``code`` run as a user would, in a folder of theirs where ``diagrams/`` is the repository's."""
+    (tmp_path / "diagrams").symlink_to(ROOT / "diagrams")
+    return subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+
+
+def test_getting_started_python_example_runs(tmp_path: Path) -> None:
+    """The page's examples print what its comments say, and the trace they write ends as the run did."""
+    import json
+
+    page = DOCS / "getting-started.md"
+    proc = in_a_folder_with_the_diagrams(tmp_path, python_blocks(page))
     assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.split()[0] == "succeeded"
+    first = proc.stdout.splitlines()[0]
+    assert first.split()[0] == "succeeded" and f"# {first}\n" in page.read_text(encoding="utf-8")
+    lines = [json.loads(line) for line in (tmp_path / "sorter.jsonl").read_text(encoding="utf-8").splitlines()]
+    assert lines[0]["type"] == "header" and lines[-1]["type"] == "end"
+    assert (lines[-1]["outcome"], lines[-1]["tick"]) == ("succeeded", int(first.split()[2]))
+
+
+def docstring_example(module: str) -> str:
+    """The example (the indented block after ``::``) of ``module``'s docstring."""
+    doc = importlib.import_module(module).__doc__ or ""
+    block = re.search(r"::\n\n((?:    .*\n|\n)+)", doc)
+    assert block, module
+    return "\n".join(line[4:] for line in block.group(1).splitlines())
+
+
+@pytest.mark.parametrize("module", ["fsm.session.run", "fsm"])
+def test_the_python_apis_docstring_example_runs_as_written(tmp_path: Path, module: str) -> None:
+    code = docstring_example(module)
+    proc = in_a_folder_with_the_diagrams(tmp_path, code)
+    assert proc.returncode == 0, proc.stderr
+    said = re.search(r"# (.+)$", code, flags=re.M)
+    assert proc.stdout.strip() == (said.group(1) if said else proc.stdout.strip()) and proc.stdout.strip()
 
 
 def test_readme_links_lead_to_existing_files() -> None:

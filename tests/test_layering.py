@@ -353,7 +353,9 @@ PRIVATE_READS = {"fsm/runtime/machine.py": {"_now", "_tick", "_dt", "_pending"},
                  "fsm/transitions/conditions.py": {"_now"},
                  "fsm/sim/car.py": {"_space", "_body", "_constraint"}, "fsm/sim/loop.py": {"_now", "_tick"},
                  # pydantic's cache of its plugins, set to none when no distribution declares one (the module says why)
-                 "fsm/loading/pydantic_plugins.py": {"_plugins"}}
+                 "fsm/loading/pydantic_plugins.py": {"_plugins"},
+                 # the frame a deprecated read names, to show its warning (CPython's public, if underscored, call)
+                 "fsm/runtime/deprecation.py": {"_getframe"}}
 #: The public API of named tuples, underscored so as not to clash with field names.
 NAMEDTUPLE_API = {"_replace", "_asdict", "_fields", "_make"}
 

@@ -199,3 +199,20 @@ def test_the_type_names_carry_the_package_name() -> None:
     assert "class RobotArmRamp(State[RampParams])" in files["src/robot_arm/states.py"]
     assert "class RobotArmAbove(Transition[AboveParams])" in files["src/robot_arm/transitions.py"]
     assert '"type": "RobotArmRamp"' in files["machines/robot_arm.json"]
+
+
+def test_an_installed_plugin_that_shadows_a_base_name_is_refused_when_registered(package: tuple[Path, Path]) -> None:
+    """A module of the installed package (imported by name, as an entry point is) whose state assigns a name the
+    base takes: ``fsmctl`` refuses it as the plugin registers, naming the class, the name and the line."""
+    folder, _ = package
+    module = folder / "src" / NAME / "clash.py"
+    module.write_text("from fsm import Context, State, register_state\n\n\n@register_state\n"
+                      "class LabClash(State):\n    def on_enter(self, ctx: Context) -> None:\n"
+                      "        self.active = True\n", encoding="utf-8")
+    try:
+        proc = _run(package, "-m", "fsm.tools.cli", "--plugin", f"{NAME}.clash", "types")
+    finally:
+        module.unlink()
+    assert proc.returncode == 1, proc.stdout + proc.stderr
+    assert (f"{NAME}.clash.LabClash (type 'LabClash'): self.active = ... ({module}:7) shadows the base's 'active'"
+            in proc.stderr), proc.stderr

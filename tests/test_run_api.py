@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import io
 import json
+import math
 import re
 import shlex
 from pathlib import Path
@@ -98,6 +99,64 @@ def test_a_machine_that_drives_runs_on_a_car_of_your_own() -> None:
     assert car.speed_command > 0  # the wall follower drove it
 
 
+class HandMadeCar:
+    """A car written here, not ours: its values as plain attributes, its commands as methods (fsm.sim.io.CarIO)."""
+
+    def __init__(self) -> None:
+        self.left = self.right = self.front = 1.0
+        self.sample = self.hall = 0
+        self.distance = self.speed = self.steering = self.speed_command = 0.0
+        self.wheelbase, self.max_steering_angle = 0.26, 0.4
+        self.pose = (0.0, 0.0, 0.0)
+        self.camera = None
+
+    def set_steering(self, value: float) -> None:
+        self.steering = value
+
+    def set_speed(self, value: float) -> None:
+        self.speed_command = value
+
+    def emergency_stop(self) -> None:
+        self.speed_command = 0.0
+
+
+def test_a_car_of_your_own_is_checked_against_the_car_interface() -> None:
+    car = HandMadeCar()
+    assert fsm.run(DRIVES, car=car).outcome == "succeeded" and car.speed_command > 0
+    with pytest.raises(TypeError, match=r"^car must have the car interface \(fsm\.sim\.io\.CarIO\): .*\(object\) "
+                                        r"lacks camera, distance, emergency_stop, front, .*, wheelbase$"):
+        fsm.run(DRIVES, car=object())
+    del car.camera
+    with pytest.raises(TypeError, match=r"\(HandMadeCar\) lacks camera$"):
+        fsm.run(DRIVES, car=car)
+
+
+@pytest.mark.parametrize(("variables", "error", "words"), [
+    ([1, 2], TypeError, r"^variables must be a mapping of names to JSON values \(a dict\) or None, got \[1, 2\]"),
+    ({1: 2}, TypeError, r"^variables: each name must be a string, got 1 \(int\)"),
+    ({"a": object()}, TypeError, r"^variables\['a'\] must be a JSON value"),
+    ({"a": {"b": [1, math.nan]}}, ValueError, r"^variables\['a'\]\['b'\]\[1\] must be a finite number"),
+    ({"a": {2: 1}}, TypeError, r"^variables\['a'\]: each key must be a string"),
+])
+def test_variables_must_be_names_to_json_values(variables: Any, error: type[Exception], words: str) -> None:
+    with pytest.raises(error, match=words):
+        fsm.run(DOC, variables=variables)
+    assert fsm.run(DOC, variables={"a": [1, {"b": None}], "c": 0.5}).variables == {"a": [1, {"b": None}], "c": 0.5}
+
+
+def test_a_plugin_that_cannot_be_found_is_named_as_the_python_argument(tmp_path: Path,
+                                                                       capsys: pytest.CaptureFixture[str]) -> None:
+    missing = str(tmp_path / "none.py")
+    for plugin, words in [("no_such_plugin_xyz", "plugins=['no_such_plugin_xyz']: no module named"),
+                          ("a-b", "plugins=['a-b']: not a module name or a .py file"),
+                          (missing, f"plugins=[{missing!r}]: no such file")]:
+        for call in (fsm.run, fsm.load, fsm.check):
+            with pytest.raises(ValueError, match=re.escape(words)):
+                call(DOC, plugins=(plugin,))
+    assert main(["--plugin", "a-b", "validate", str(write(tmp_path, DOC))]) == 2  # the command line keeps its words
+    assert "--plugin 'a-b': not a module name" in capsys.readouterr().err
+
+
 def test_every_hint_that_names_a_call_works_as_written(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """The "no car was given" error of a machine that drives, loaded without a car: each call its hint names
     (in Python and on the command line) runs the machine, with FILE and WORLD as the user would fill them in."""
@@ -187,3 +246,27 @@ def test_a_state_that_fails_still_ends_the_trace_with_its_error() -> None:
     assert any(line["type"] == "event" for line in lines)  # the transition into b
     end = lines[-1]
     assert end["type"] == "end" and end["error"]["state"] == "b" and "broken sensor" in end["error"]["message"]
+
+
+def test_session_open_and_simulation_run_are_the_same_rule(tmp_path: Path) -> None:
+    """``Session.open`` checks its arguments as fsm.run does and takes its sources; ``Simulation.run`` answers a
+    RunResult as fsm.run does, with its stop arguments checked alike."""
+    from fsm.session.run import open_session
+    from fsm.sim.loop import Simulation
+
+    assert fsm.Session.open(json.dumps(DOC)).run().outcome == "succeeded"
+    assert fsm.Session.open(compile_plan(DOC)).run().outcome == "succeeded"
+    for kwargs, error, words in [({"variables": [1]}, TypeError, "^variables must be a mapping"),
+                                 ({"car": object()}, TypeError, "^car must have the car interface")]:
+        with pytest.raises(error, match=words):
+            fsm.Session.open(DOC, **kwargs)
+    with pytest.raises(TypeError, match="^source must be a path, JSON text"):
+        fsm.Session.open(42)  # type: ignore[arg-type]  # the wrong type is what this test is about
+    simulation = open_session(DRIVES).driver
+    assert isinstance(simulation, Simulation)
+    with pytest.raises(ValueError, match="duration"):
+        simulation.run(duration=-1.0)
+    result = simulation.run(duration=0.2)
+    assert isinstance(result, fsm.RunResult) and (result.stopped, result.ticks) == ("limit", 16)
+    assert simulation.run(until=lambda s: s.ticks >= 20).stopped == "until"
+    assert simulation.run().outcome == "succeeded"

@@ -161,7 +161,7 @@ def test_hall_counts_up_when_driving_backwards_and_a_backwards_motor_finishes() 
                                          {"id": "end", "type": "Final"}],
            "transitions": [{"type": "Finished", "from": "back", "to": "end"}]}
     sim = Simulation(fsm.load(doc, car=car), car)
-    assert sim.run(duration=10) == "succeeded"
+    assert sim.run(duration=10).outcome == "succeeded"
     assert car.true_pose()[0] < 2.0 - 0.95  # it really went backwards
     assert 1.0 <= car.distance < 1.02 and car.hall == int(car.distance * 1500 / 1.60 + 1e-6)
     assert car.hall >= 1500 / 1.60  # unsigned: 937.5 units per metre, forwards or backwards

@@ -19,8 +19,9 @@ from fsm.runtime.condition import Condition
 from fsm.runtime.context import Context
 from fsm.runtime.machine import Machine
 from fsm.runtime.region import Region, StateWiring, TransitionWiring, Until, new_state, new_transition, wiring
-from fsm.runtime.state import State
+from fsm.runtime.state import State, state_binds_references
 from fsm.runtime.supervisor import Monitor, Supervisor, supervisor_of
+from fsm.runtime.transition import transition_binds_references
 from fsm.sequencer.checks import CALLER_BEHAVIORS
 
 
@@ -170,10 +171,10 @@ class _Builder:
             condition.bind(machine, owner)
         for record in self.built:
             for t in record.transitions:
-                if t.binds_references:
+                if transition_binds_references(t):
                     t.bind(machine)
             state = record.state
-            if state.binds_references:
+            if state_binds_references(state):
                 state.bind(machine)
         for record in self.built:
             record.seal()

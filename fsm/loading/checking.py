@@ -24,6 +24,7 @@ from fsm.model.document import ConditionSpec, MachineSpec, Source, StateSpec, Tr
 from fsm.model.jsonpos import escape
 from fsm.model.paths import resolve_path
 from fsm.model.problems import Problems
+from fsm.runtime.transition import checks_document, tests_variables
 from fsm.sequencer.checks import check_sequences
 
 
@@ -73,13 +74,13 @@ def check(root: MachineSpec, problems: Problems) -> Analysis:
     kinds, expressions = exprs.check()
     if root.inputs is not None:
         check_inputs(root, problems)
-    for tr in [tr for tr, _scope in transitions if tr.cls.checks_document]:
+    for tr in [tr for tr, _scope in transitions if checks_document(tr.cls)]:
         found = tr.cls.check_document(tr.params, variables)
         if found is not None:
             suffix, message = found
             problems.add(message, tr.source, tr.pointer + suffix, element=tr.label,
                          hint="change the value or the variable's initial value in 'vars'")
-    check_variable_kinds([tr for tr, _scope in transitions if tr.cls.tests_variables], variables, problems)
+    check_variable_kinds([tr for tr, _scope in transitions if tests_variables(tr.cls)], variables, problems)
     for tr, scope in transitions:
         for key in tr.cls.state_refs:
             value = getattr(tr.params, key)

@@ -12,10 +12,10 @@ from __future__ import annotations
 import gc
 import os
 import threading
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Union
+from typing import Any
 
 from fsm.loading import cache
 from fsm.loading.building import build
@@ -24,9 +24,10 @@ from fsm.loading.checking import check as check_spec
 from fsm.loading.compiling import compile_machine
 from fsm.loading.parsing import parse
 from fsm.loading.reading import preloaded, read_json, register_reader
-from fsm.loading.registry import Registry, default_registry
+from fsm.loading.registry import PLUGINS_FROM_PYTHON, Registry, default_registry
+from fsm.loading.sources import DocumentSource, Source, checked_source, document_read
 from fsm.model.document import MachineSpec
-from fsm.model.errors import DiagramError, Problem
+from fsm.model.errors import DiagramError, Problem, UsageError
 from fsm.model.jsonpos import pointer
 from fsm.model.plan import MachinePlan
 from fsm.model.problems import Problems
@@ -34,21 +35,19 @@ from fsm.runtime.clock import Clock, SimulatedClock
 from fsm.runtime.context import Context
 from fsm.runtime.machine import Machine
 
-#: What a document is loaded from: a path (``.json``, or ``.uxf`` with the UMLet reader), the document as a dict, or
-#: a spec parsed before.
-DocumentSource = Union[str, "os.PathLike[str]", Mapping[str, object], MachineSpec]
-
 
 def analyse(src: DocumentSource, *, registry: Registry | None = None, plugins: tuple[str, ...] = (),
             base_dir: str | os.PathLike[str] | None = None
             ) -> tuple[MachineSpec | None, Analysis | None, list[Problem]]:
-    """Parse and check ``src`` (a path, a document dict, or an already parsed spec): the spec (``None`` if
-    unusable), what checking found out (``None`` then too) and every problem, located and sorted."""
+    """Parse and check ``src`` (a path, JSON text, a document dict, or an already parsed spec: the one rule of
+    :mod:`fsm.loading.sources`): the spec (``None`` if unusable), what checking found out (``None`` then too) and
+    every problem, located and sorted."""
     if registry is not None and not isinstance(registry, Registry):
         raise TypeError(f"registry must be an fsm.Registry or None, got {type(registry).__name__}")
-    if isinstance(src, (str, os.PathLike)) and cache.enabled():
-        return _analyse_file(str(Path(src)), registry or default_registry(_plugins(plugins)))
-    return _analyse(src, registry, plugins, base_dir)
+    with document_read(src, base_dir) as src:
+        if isinstance(src, (str, os.PathLike)) and cache.enabled():
+            return _analyse_file(str(Path(src)), registry or registry_of(plugins))
+        return _analyse(src, registry, plugins, base_dir)
 
 
 def _analyse(src: DocumentSource, registry: Registry | None, plugins: tuple[str, ...],
@@ -57,7 +56,7 @@ def _analyse(src: DocumentSource, registry: Registry | None, plugins: tuple[str,
     if isinstance(src, MachineSpec):
         spec: MachineSpec | None = src
     else:
-        spec = parse(src, registry or default_registry(_plugins(plugins)), problems, base_dir)
+        spec = parse(src, registry or registry_of(plugins), problems, base_dir)
     analysis = None
     if spec is not None:
         try:
@@ -100,17 +99,24 @@ def _plan_of(spec: MachineSpec, analysis: Analysis) -> MachinePlan:
     return compile_machine(spec, analysis)
 
 
-def check(src: DocumentSource, *, registry: Registry | None = None, plugins: tuple[str, ...] = (),
+def check(src: Source, *, registry: Registry | None = None, plugins: tuple[str, ...] = (),
           base_dir: str | os.PathLike[str] | None = None) -> tuple[MachineSpec | None, list[Problem]]:
-    """Validate ``src`` without building: the checked spec (``None`` if unusable) and every problem found."""
+    """Validate ``src`` (see :mod:`fsm.loading.sources`) without building: the checked spec (``None`` if unusable)
+    and every problem found (a plan was checked when it was compiled: its spec, and no problem)."""
+    src = checked_source(src, "src")
+    if isinstance(src, MachinePlan):
+        return src.spec, []
     spec, _analysis, problems = analyse(src, registry=registry, plugins=plugins, base_dir=base_dir)
     return spec, problems
 
 
-def compile(src: DocumentSource, *, registry: Registry | None = None, plugins: tuple[str, ...] = (),  # noqa: A001
+def compile(src: Source, *, registry: Registry | None = None, plugins: tuple[str, ...] = (),  # noqa: A001
             base_dir: str | os.PathLike[str] | None = None) -> MachinePlan:
-    """The plan of ``src`` (a path, a document dict or a parsed spec); raises :class:`DiagramError` with every
-    error found. A plan builds any number of machines (:func:`fsm.loading.building.build`)."""
+    """The plan of ``src`` (see :mod:`fsm.loading.sources`; a plan is its own); raises :class:`DiagramError` with
+    every error found. A plan builds any number of machines (:func:`fsm.loading.building.build`)."""
+    src = checked_source(src, "src")
+    if isinstance(src, MachinePlan):
+        return src
     with collection_paused():
         spec, analysis, problems = analyse(src, registry=registry, plugins=plugins, base_dir=base_dir)
         errors = [p for p in problems if p.severity == "error"]
@@ -119,10 +125,11 @@ def compile(src: DocumentSource, *, registry: Registry | None = None, plugins: t
         return _plan_of(spec, analysis)
 
 
-def load(src: DocumentSource, *, registry: Registry | None = None, plugins: tuple[str, ...] = (),
+def load(src: Source, *, registry: Registry | None = None, plugins: tuple[str, ...] = (),
          clock: Clock | None = None, car: object | None = None, context: Context | None = None, dt: float | None = None,
          base_dir: str | os.PathLike[str] | None = None) -> Machine:
-    """Load a machine from a file path (``.json``, or ``.uxf`` with the UMLet reader) or a document dict.
+    """Load a machine from a file path (``.json``, or ``.uxf`` with the UMLet reader), JSON text, a document dict,
+    a spec or a plan (the one rule of :mod:`fsm.loading.sources`).
 
     Raises :class:`DiagramError` with every error found; warnings (unreachable states) do not stop the load.
     A wrong argument raises ``TypeError`` or ``ValueError`` naming it.
@@ -168,6 +175,18 @@ def compile_checked(spec: MachineSpec, analysis: Analysis) -> MachinePlan:
     second time (``fsmctl run`` checks once, then compiles)."""
     with collection_paused():
         return _plan_of(spec, analysis)
+
+
+def registry_of(plugins: Any) -> Registry:
+    """The process registry with ``plugins`` (the Python API's argument) loaded: a plugin that cannot be found is a
+    ``ValueError`` naming ``plugins=[...]``, not the command line's ``--plugin``."""
+    token = PLUGINS_FROM_PYTHON.set(True)
+    try:
+        return default_registry(_plugins(plugins))
+    except UsageError as exc:
+        raise ValueError(str(exc)) from None
+    finally:
+        PLUGINS_FROM_PYTHON.reset(token)
 
 
 def _plugins(plugins: Any) -> tuple[str, ...]:

@@ -14,11 +14,13 @@ import os
 import sys
 import traceback
 from collections.abc import Callable, Iterator
+from contextvars import ContextVar
 from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
 from fsm.model.errors import RegistrationError, UsageError
 from fsm.model.params import ConditionParams, StateParams, TransitionParams
 from fsm.runtime.condition import Condition
+from fsm.runtime.namespace import check_namespace
 from fsm.runtime.state import State
 from fsm.runtime.transition import Transition
 
@@ -265,6 +267,7 @@ class Registry:
         if not (isinstance(cls, type) and issubclass(cls, base)):
             raise RegistrationError(f"{cls!r} is not a subclass of fsm.{base.__name__}")
         self._check_params(cls, name, params_base)
+        check_namespace(cls, name)  # a hook, setting or base name shadowed: refused here, not at tick 1
         pending = table.pending.get(name) if isinstance(table, TypeTable) else None
         if pending is not None:  # a built-in of that name: its class first, then the check below sees a clash
             self._import_builtin(pending)
@@ -476,12 +479,23 @@ def _plugin_error(plugin: str, exc: BaseException, origin: str | None) -> Plugin
                        chosen.filename if chosen else origin, chosen.lineno if chosen else None)
 
 
+#: True while the Python API (``plugins=`` of ``fsm.load``, ``fsm.check``, ``fsm.run``) loads plugins: the messages
+#: of a plugin that cannot be found then name it ``plugins=['X']``, not the command line's ``--plugin X``.
+PLUGINS_FROM_PYTHON: ContextVar[bool] = ContextVar("PLUGINS_FROM_PYTHON", default=False)
+
+
+def _named(plugin: str, quoted: bool = False) -> str:
+    if PLUGINS_FROM_PYTHON.get():
+        return f"plugins=[{plugin!r}]"
+    return f"--plugin {plugin!r}" if quoted else f"--plugin {plugin}"
+
+
 def _import_plugin(plugin: str) -> None:
     """Import a ``--plugin`` module name or ``.py`` file (see :meth:`Registry.load_module`)."""
     if plugin.endswith(".py") or os.sep in plugin or "/" in plugin:
         path = os.path.abspath(plugin)
         if not os.path.isfile(path):
-            raise UsageError(f"--plugin {plugin}: no such file" + (" (a folder)" if os.path.isdir(path) else "")
+            raise UsageError(f"{_named(plugin)}: no such file" + (" (a folder)" if os.path.isdir(path) else "")
                              + "; give a .py file or a module name")
         stem = "".join(c if c.isalnum() or c == "_" else "_" for c in os.path.splitext(os.path.basename(path))[0])
         name = f"fsm_plugin_{stem}"
@@ -490,9 +504,9 @@ def _import_plugin(plugin: str) -> None:
         try:
             spec = importlib.util.spec_from_file_location(name, path)
         except (ValueError, OSError) as exc:
-            raise UsageError(f"--plugin {plugin}: cannot load it: {exc}") from None
+            raise UsageError(f"{_named(plugin)}: cannot load it: {exc}") from None
         if spec is None or spec.loader is None:
-            raise UsageError(f"--plugin {plugin}: not a Python file")
+            raise UsageError(f"{_named(plugin)}: not a Python file")
         module = importlib.util.module_from_spec(spec)
         sys.modules[name] = module
         try:
@@ -502,7 +516,7 @@ def _import_plugin(plugin: str) -> None:
             raise _plugin_error(plugin, exc, path) from None
         return
     if not all(part.isidentifier() for part in plugin.split(".")):
-        raise UsageError(f"--plugin {plugin!r}: not a module name or a .py file")
+        raise UsageError(f"{_named(plugin, quoted=True)}: not a module name or a .py file")
     cwd = os.getcwd()
     if cwd not in sys.path and "" not in sys.path:
         sys.path.append(cwd)  # as `python -m` does; after the installed packages, so it shadows none
@@ -514,7 +528,7 @@ def _import_plugin(plugin: str) -> None:
     except Exception as exc:  # a parent package that fails to import
         raise _plugin_error(plugin, exc, None) from None
     if found is None:
-        raise UsageError(f"--plugin {plugin}: no module named {plugin!r} (looked in the current folder and the "
+        raise UsageError(f"{_named(plugin)}: no module named {plugin!r} (looked in the current folder and the "
                          "installed packages); give a module name or the path of a .py file")
     origin = os.path.abspath(found.origin) if found.origin and os.path.exists(found.origin) else None
     try:

@@ -80,11 +80,11 @@ class Composite(State[P]):
         if not self.finished:
             self._join(regions)
 
-    def tick_method(self) -> Hook | None:
+    def _tick_method(self) -> Hook | None:
         """A composite that keeps the base's tick ticks its regions, bound once (an ``FSMState``, of one region,
         finishes with its Final state's outcome without the general join); others tick as their class says."""
         if type(self).tick is not Composite.tick:
-            return super().tick_method()
+            return super()._tick_method()
         regions = wiring(self).regions
         if len(regions) != 1:
             def tick_all(ctx: Context) -> None:

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple, Protocol, overload
 from fsm.model.errors import StateRuntimeError
 from fsm.model.expr import VarOp
 from fsm.model.plan import ActionKind, GuardKind
-from fsm.runtime.state import Hook, Life, use_record
+from fsm.runtime.state import Hook, Life, tick_hook, use_record
 from fsm.runtime.transition import Link, use_link
 from fsm.runtime.verdict import Verdict
 
@@ -194,7 +194,7 @@ class StateWiring(Life):
                 self.arms = (arm,)
         supervised = self.supervisor is not None
         self.watched = supervised or bool(self.preempt)
-        tick = state.tick_method() if cls._overrides_tick or self.regions else None
+        tick = tick_hook(state) if cls._overrides_tick or self.regions else None
         self.tick_hook = tick if self.until is None else self._until_tick(tick, self.until.holds)
         if self.complete_action is not None:
             self.tick_hook = self._completing_tick(self.tick_hook, self.complete_action)

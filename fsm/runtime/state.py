@@ -11,11 +11,11 @@ state is linked to: the record's type lives above it, with the region.
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar, cast
 
 from fsm.model.params import StateParams, adopt_generic_params
+from fsm.runtime.deprecation import Renamed
 
 if TYPE_CHECKING:
     from fsm.runtime.context import Context
@@ -23,6 +23,8 @@ if TYPE_CHECKING:
 P = TypeVar("P", bound=StateParams)
 #: The predicates of a state whose type has no condition parameters (shared; the builder gives others their own).
 _NO_PREDICATES: dict[str, Any] = {}
+#: Where the deprecated links of a state are read now.
+_WIRING = "fsm.runtime.region.wiring(state)"
 
 #: A hook the runtime calls with the context (``None`` where there is nothing to do).
 Hook = Callable[["Context"], None]
@@ -59,6 +61,20 @@ class Life:
         return True
 
 
+def _record_of(state: State[Any]) -> Life:
+    return state._fsm
+
+
+def tick_hook(state: State[Any]) -> Hook | None:
+    """What ticking ``state`` calls (fixed when the machine is built; see ``State._tick_method``)."""
+    return state._tick_method()
+
+
+def state_binds_references(state: State[Any]) -> bool:
+    """Whether the class of ``state`` overrides ``bind`` (the builder calls it only then)."""
+    return type(state)._binds_references
+
+
 #: The class of the record a state is made with (see :class:`Life`).
 _record: type[Life] = Life
 
@@ -68,26 +84,6 @@ def use_record(record: type[Life]) -> None:
     that a state built into a machine is made wired rather than wired afterwards (a record made once)."""
     global _record
     _record = record
-
-
-class Renamed:
-    """A deprecated name of an attribute: reading it warns (``DeprecationWarning``) and reads ``new`` of the object
-    (or with ``record``, of its wiring record; ``default`` before it is built). A non-data descriptor: a subclass
-    or an instance that assigns the old name for its own use owns it, and the runtime never reads it."""
-
-    def __init__(self, old: str, new: str, *, record: bool = False, default: Any = None,
-                 until: str = "the next release") -> None:
-        self.old, self.new, self.record, self.default, self.until = old, new, record, default, until
-
-    def __get__(self, obj: Any, owner: type | None = None) -> Any:
-        if obj is None:
-            return self
-        where = "fsm.runtime.region.wiring(state)" if self.record else type(obj).__qualname__
-        warnings.warn(f"{type(obj).__qualname__}.{self.old} is deprecated (removed in {self.until}): read "
-                      f"{where}.{self.new}", DeprecationWarning, stacklevel=2)
-        if self.record:
-            return getattr(obj._fsm, self.new, self.default)
-        return getattr(obj, self.new)
 
 
 class State(Generic[P]):
@@ -103,7 +99,9 @@ class State(Generic[P]):
     well must agree with it (be it or a subclass), else registering the class is a ``RegistrationError``.
 
     What an instance holds of the base: ``id``, ``path``, ``params``, ``finished``, ``outcome``, ``predicates``,
-    and one slot of runtime wiring (``_fsm``, see :func:`fsm.runtime.region.wiring`); every other name is yours.
+    and one slot of runtime wiring (``_fsm``, see :func:`fsm.runtime.region.wiring`). The names the base takes (its
+    hooks, settings and own names) are listed in :data:`fsm.runtime.namespace.TAKEN`; a class that shadows one is
+    refused when it is registered. Every other name is yours.
     """
 
     __slots__ = ("id", "params", "path", "finished", "outcome", "predicates", "_fsm")
@@ -135,16 +133,22 @@ class State(Generic[P]):
     _overrides_enter: ClassVar[bool] = False
     _overrides_exit: ClassVar[bool] = False
     _overrides_tick: ClassVar[bool] = False
-    binds_references: ClassVar[bool] = False
+    #: Whether the class overrides ``bind`` (the builder calls it only then).
+    _binds_references: ClassVar[bool] = False
 
     if not TYPE_CHECKING:  # hidden from type checkers: a plugin's own attribute of one of these names type-checks
         #: Deprecated names, read for one release with a ``DeprecationWarning``: ``checks`` is ``predicates``; the
         #: links are in the wiring record (:func:`fsm.runtime.region.wiring`).
-        checks = Renamed("checks", "predicates")
-        region = Renamed("region", "region", record=True)
-        regions = Renamed("regions", "regions", record=True, default=())
-        transitions = Renamed("transitions", "transitions", record=True, default=[])
-        supervisor = Renamed("supervisor", "supervisor", record=True)
+        checks = Renamed("checks", "predicates", where="state")
+        region = Renamed("region", "region", record=_record_of, where=_WIRING)
+        regions = Renamed("regions", "regions", record=_record_of, default=(), where=_WIRING)
+        transitions = Renamed("transitions", "transitions", record=_record_of, default=[], where=_WIRING)
+        supervisor = Renamed("supervisor", "supervisor", record=_record_of, where=_WIRING)
+        #: The runtime's, not the author's: behind one underscore now.
+        tick_method = Renamed("tick_method", "_tick_method",
+                              read="fsm.runtime.state.tick_hook(state) for tick_method()")
+        binds_references = Renamed("binds_references", "_binds_references", on_class=True,
+                                   read="fsm.runtime.state.state_binds_references(state)")
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -152,7 +156,7 @@ class State(Generic[P]):
         cls._overrides_enter = cls.on_enter is not State.on_enter
         cls._overrides_exit = cls.on_exit is not State.on_exit
         cls._overrides_tick = cls.tick is not State.tick
-        cls.binds_references = cls.bind is not State.bind
+        cls._binds_references = cls.bind is not State.bind
 
     def __init__(self, id: str, params: P | None = None) -> None:
         self.id = id
@@ -199,7 +203,7 @@ class State(Generic[P]):
         the :class:`fsm.Machine` being built; an override annotates it ``Machine``, or ``MachineView``
         (:mod:`fsm.runtime.context`, what the runtime's own types use of it): both type-check."""
 
-    def tick_method(self) -> Hook | None:
+    def _tick_method(self) -> Hook | None:
         """What ticking this state calls (fixed when the machine is built), or None when its class keeps the base's
         empty tick; a composite ticks its regions."""
         return self.tick if type(self)._overrides_tick else None

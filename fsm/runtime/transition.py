@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-import warnings
 from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
 
 from fsm.model.params import TransitionParams, adopt_generic_params
+from fsm.runtime.deprecation import Renamed, warn_deprecated
 
 if TYPE_CHECKING:
     from fsm.runtime.condition import Condition
@@ -33,6 +33,31 @@ class Link:
 _link: type[Link] = Link
 
 
+def _link_of(transition: Transition[Any]) -> Link:
+    return transition._fsm
+
+
+def fired_index(fired: object) -> int:
+    """The place among its source's transitions of what a listener saw fire (``Listener.on_transition``): a
+    transition's (the trace's ``#index``), -1 for anything else (a monitor's restart)."""
+    return fired._fsm.index if isinstance(fired, Transition) else -1
+
+
+def transition_binds_references(transition: Transition[Any]) -> bool:
+    """Whether the class of ``transition`` overrides ``bind`` (the builder calls it only then)."""
+    return type(transition)._binds_references
+
+
+def checks_document(cls: type[Transition[Any]]) -> bool:
+    """Whether the transition type has a load-time check of its own (``check_document``)."""
+    return cls._checks_document
+
+
+def tests_variables(cls: type[Transition[Any]]) -> bool:
+    """Whether the transition type compares a variable with a literal (``variable_test``)."""
+    return cls._tests_variables
+
+
 def use_link(link: type[Link]) -> None:
     """Make transitions with ``link`` from now on (the runtime's region module gives its full record when imported)."""
     global _link
@@ -51,7 +76,9 @@ class Transition(Generic[P]):
     and a ``set`` (assignments run after ``action``); the build stage applies them to the transition's wiring
     record (:class:`fsm.runtime.region.TransitionWiring`), which says how the region decides and fires it.
     What an instance holds of the base: ``params``, ``source``, ``target``, ``conditions`` and that record
-    (``_fsm``); every other name is the subclass's.
+    (``_fsm``: its place, ``transition_wiring(t).index``, is there). The names the base takes are listed in
+    :data:`fsm.runtime.namespace.TAKEN`; a class that shadows one is refused when registered. Every other name is the
+    subclass's.
     """
 
     __slots__ = ("params", "source", "target", "conditions", "_fsm")
@@ -75,13 +102,24 @@ class Transition(Generic[P]):
     # Which hooks a class overrides, found once per class (``__init_subclass__``) rather than per transition built.
     _overrides_action: ClassVar[bool] = False
     _overrides_source_enter: ClassVar[bool] = False
-    binds_references: ClassVar[bool] = False
+    #: Whether the class overrides ``bind`` (the builder calls it only then).
+    _binds_references: ClassVar[bool] = False
     #: Whether the type has its own load-time checks (``check_document``, ``variable_test``): the checks call them
     #: only where it does.
-    checks_document: ClassVar[bool] = False
-    tests_variables: ClassVar[bool] = False
+    _checks_document: ClassVar[bool] = False
+    _tests_variables: ClassVar[bool] = False
     #: Whether the class's ``holds`` is a ``check`` written under the old name (see :meth:`check`).
     _holds_is_check: ClassVar[bool] = False
+
+    if not TYPE_CHECKING:  # hidden from type checkers: a plugin's own attribute of one of these names type-checks
+        #: Deprecated names, read for one release with a ``DeprecationWarning``: the runtime's, not the author's.
+        index = Renamed("index", "index", record=_link_of, where="fsm.runtime.region.transition_wiring(transition)")
+        binds_references = Renamed("binds_references", "_binds_references", on_class=True,
+                                   read="fsm.runtime.transition.transition_binds_references(transition)")
+        checks_document = Renamed("checks_document", "_checks_document", on_class=True,
+                                  read="fsm.runtime.transition.checks_document(type(transition))")
+        tests_variables = Renamed("tests_variables", "_tests_variables", on_class=True,
+                                  read="fsm.runtime.transition.tests_variables(type(transition))")
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -89,9 +127,9 @@ class Transition(Generic[P]):
         adopt_generic_params(cls, TransitionParams)
         cls._overrides_action = cls.action is not Transition.action
         cls._overrides_source_enter = cls.on_source_enter is not Transition.on_source_enter
-        cls.binds_references = cls.bind is not Transition.bind
-        cls.checks_document = cls.check_document.__func__ is not Transition.check_document.__func__  # type: ignore[attr-defined]
-        cls.tests_variables = cls.variable_test.__func__ is not Transition.variable_test.__func__  # type: ignore[attr-defined]
+        cls._binds_references = cls.bind is not Transition.bind
+        cls._checks_document = cls.check_document.__func__ is not Transition.check_document.__func__  # type: ignore[attr-defined]
+        cls._tests_variables = cls.variable_test.__func__ is not Transition.variable_test.__func__  # type: ignore[attr-defined]
 
     def __init__(self, params: P, source: State[Any], target: State[Any], index: int = 0) -> None:
         self.params = params
@@ -107,11 +145,6 @@ class Transition(Generic[P]):
     def type_name(self) -> str:
         """The registered type name this transition was built as (its document's ``type``)."""
         return self.params.type
-
-    @property
-    def index(self) -> int:
-        """Its place among its source's transitions (document order; the trace's ``#index``)."""
-        return self._fsm.index
 
     # -- hooks for subclasses ---------------------------------------------------------------------------
     @classmethod
@@ -133,8 +166,7 @@ class Transition(Generic[P]):
         """Deprecated: the old name of :meth:`holds` (``check`` now means only the document check), removed in the
         next release. A class that still defines ``check`` works: it is its ``holds``, with a ``DeprecationWarning``
         when the class is defined, before it is registered (docs/extending.md)."""
-        warnings.warn(f"{type(self).__qualname__}.check(ctx) is deprecated: call holds(ctx)", DeprecationWarning,
-                      stacklevel=2)
+        warn_deprecated(f"{type(self).__qualname__}.check(ctx) is deprecated: call holds(ctx)")
         if type(self)._holds_is_check:  # reached by super().check(ctx) from an old-style check: the base's answer
             return False
         return self.holds(ctx)
@@ -164,8 +196,7 @@ def _adopt_old_check(cls: type[Transition[Any]]) -> None:
     if old is None or "holds" in cls.__dict__:
         cls._holds_is_check = cls._holds_is_check and "holds" not in cls.__dict__
         return
-    warnings.warn(f"{cls.__module__}.{cls.__qualname__}: Transition.check(ctx) is renamed holds(ctx); rename the "
-                  "method (check is the old name, accepted until the next release)", DeprecationWarning,
-                  stacklevel=3)
+    warn_deprecated(f"{cls.__module__}.{cls.__qualname__}: Transition.check(ctx) is renamed holds(ctx); rename the "
+                    "method (check is the old name, accepted until the next release)", stacklevel=3)
     type.__setattr__(cls, "holds", old)  # the old name serves as the new (mypy refuses assigning a method)
     cls._holds_is_check = True

@@ -7,8 +7,8 @@ world is given or when the machine drives a car and no ``car`` is given (the def
 else on ``car`` or on the machine's clock alone::
 
     import fsm
-    result = fsm.run("diagrams/examples/traffic_light.json", duration=30)
-    print(result.outcome, result.stopped)
+    result = fsm.run("diagrams/examples/sorter.json", duration=30)
+    print(result.outcome, result.stopped, result.ticks)    # succeeded finished 609
 
 The simulator is found through the ``fsm.simulators`` entry-point group (``fsm.sim:simulate``), so that the core
 never imports the simulator itself.
@@ -21,25 +21,24 @@ import os
 from collections.abc import Callable, Iterable, Mapping
 from typing import TYPE_CHECKING, Union
 
-from fsm.loading.building import build
+from fsm.loading.installed import entry_points
 from fsm.loading.loader import compile as compile_plan
-from fsm.loading.reading import preloaded
-from fsm.model.document import MachineSpec
+from fsm.loading.sources import Source, checked_source
 from fsm.model.errors import StateRuntimeError, UsageError
 from fsm.model.plan import MachinePlan
-from fsm.runtime.clock import DEFAULT_DT, SimulatedClock
+from fsm.runtime.clock import DEFAULT_DT
 from fsm.runtime.context import shown_value
 from fsm.runtime.machine import MAX_RUN_TICKS, Listener, Machine, seconds_argument
+from fsm.session.arguments import car_argument, variables_argument
 from fsm.session.session import RunResult, Session, StopRules
 from fsm.trace.recorder import Recorder
 
 if TYPE_CHECKING:
     from fsm.loading.registry import Registry
 
-#: What :func:`run` and :func:`open_session` start from: a path, JSON text, a document dict, a spec, a plan, a machine.
-RunSource = Union[str, "os.PathLike[str]", Mapping[str, object], MachineSpec, MachinePlan, Machine]
-#: The name JSON text given as the source goes by in problems (``<text>.json:3:12: error: ...``).
-TEXT_NAME = "<text>.json"
+#: What :func:`run` and :func:`open_session` start from: what ``fsm.load`` loads (a path, JSON text, a document dict,
+#: a spec, a plan: :mod:`fsm.loading.sources`), or a machine already built.
+RunSource = Union[Source, Machine]
 #: The entry-point group that names the simulator (``sim = "fsm.sim:simulate"``).
 SIMULATORS = "fsm.simulators"
 
@@ -48,7 +47,7 @@ def run(source: RunSource, *, world: str | os.PathLike[str] | None = None, car: 
         stop: StopRules | None = None, duration: float | None = None, max_ticks: int | None = None,
         until: Callable[[Session], bool] | None = None, outputs: Iterable[Listener] = (),
         registry: Registry | None = None, plugins: tuple[str, ...] = (), variables: Mapping[str, object] | None = None,
-        dt: float | None = None, seed: int = 0) -> RunResult:
+        dt: float | None = None, seed: int = 0, base_dir: str | os.PathLike[str] | None = None) -> RunResult:
     """Run the machine in ``source`` to its end and say how it ended (:class:`~fsm.session.session.RunResult`).
 
     It stops when the machine finishes, ``until(session)`` is true, or at the first of ``duration`` seconds of
@@ -56,14 +55,15 @@ def run(source: RunSource, *, world: str | os.PathLike[str] | None = None, car: 
     without any, after 600 s of machine time, as ``fsmctl run``. ``outputs`` are listeners that see the run (a
     :class:`~fsm.trace.recorder.Recorder` writes its trace, ended by its ``end`` line). ``world`` (a world file)
     runs it on the simulated car, with sensor noise from ``seed``; ``car`` on a car of your own (anything with the
-    car interface, ``fsm.sim.io.CarIO``). Raises :class:`~fsm.model.errors.DiagramError` for a document with
+    car interface, ``fsm.sim.io.CarIO``). ``base_dir`` is where the includes of JSON text or a dict are found (else
+    the working directory). Raises :class:`~fsm.model.errors.DiagramError` for a document with
     errors, ``TypeError`` or ``ValueError`` for a wrong argument, naming it.
     """
     if until is not None and not callable(until):
         raise TypeError(f"until must be a function of the session returning a bool, or None; got {shown_value(until)}")
     rules = stop_rules(stop, duration, max_ticks, source.dt if isinstance(source, Machine) else dt)
-    session = open_session(source, world=world, car=car, stop=rules,
-                           registry=registry, plugins=plugins, variables=variables, dt=dt, seed=seed)
+    session = open_session(source, world=world, car=car, stop=rules, registry=registry, plugins=plugins,
+                           variables=variables, dt=dt, seed=seed, base_dir=base_dir)
     for output in outputs:
         if isinstance(output, Recorder):
             session.record(output)
@@ -82,8 +82,11 @@ def run(source: RunSource, *, world: str | os.PathLike[str] | None = None, car: 
 def open_session(source: RunSource, *, world: str | os.PathLike[str] | None = None, car: object | None = None,
                  stop: StopRules | None = None, registry: Registry | None = None, plugins: tuple[str, ...] = (),
                  variables: Mapping[str, object] | None = None, dt: float | None = None, seed: int = 0,
-                 record: bool = False) -> Session:
-    """The session :func:`run` runs, for a caller that steps it, submits inputs or reads its summary."""
+                 record: bool = False, base_dir: str | os.PathLike[str] | None = None) -> Session:
+    """The session :func:`run` runs, for a caller that steps it, submits inputs or reads its summary: on the
+    simulator (:func:`simulator`) or, without one, :meth:`Session.open <fsm.session.session.Session.open>`."""
+    variables = variables_argument(variables)
+    car_argument(car)
     if isinstance(source, Machine):
         if world is not None or car is not None or dt is not None:
             raise TypeError("a machine already built has its car and clock: give world, car and dt to fsm.load, "
@@ -91,27 +94,18 @@ def open_session(source: RunSource, *, world: str | os.PathLike[str] | None = No
         if variables:
             source.ctx.vars.update(variables)
         return Session(source, stop=stop, record=record)
-    plan = plan_of(source, registry=registry, plugins=plugins)
+    plan = plan_of(source, registry=registry, plugins=plugins, base_dir=base_dir)
     if world is not None or (car is None and plan.needs_car):
         return simulator()(plan, world=world, seed=seed, variables=variables, dt=dt, stop=stop)
-    machine = build(plan, clock=SimulatedClock(dt) if dt is not None else None, car=car)
-    if variables:
-        machine.ctx.vars.update(variables)
-    return Session(machine, stop=stop, record=record)
+    return Session.open(plan, car=car, variables=variables, dt=dt, stop=stop, record=record)
 
 
-def plan_of(source: str | os.PathLike[str] | Mapping[str, object] | MachineSpec | MachinePlan, *,
-            registry: Registry | None = None, plugins: tuple[str, ...] = ()) -> MachinePlan:
-    """The compiled plan of ``source`` (loaded once: read, parsed, checked, compiled)."""
-    if isinstance(source, MachinePlan):
-        return source
-    if isinstance(source, str) and source.lstrip().startswith("{"):
-        with preloaded({TEXT_NAME: source.encode("utf-8")}):  # read as a file is: problems get line:column
-            return compile_plan(TEXT_NAME, registry=registry, plugins=plugins)
-    if not isinstance(source, (str, os.PathLike, Mapping, MachineSpec)):
-        raise TypeError(f"source must be a path, JSON text, a document dict, a spec, a plan or a machine; "
-                        f"got {shown_value(source)}")
-    return compile_plan(source, registry=registry, plugins=plugins)
+def plan_of(source: Source, *, registry: Registry | None = None, plugins: tuple[str, ...] = (),
+            base_dir: str | os.PathLike[str] | None = None) -> MachinePlan:
+    """The compiled plan of ``source`` (loaded once: read, parsed, checked, compiled), by the rule ``fsm.load``
+    follows (:mod:`fsm.loading.sources`)."""
+    checked_source(source, kinds="a path, JSON text, a document dict, a spec, a plan or a machine")
+    return compile_plan(source, registry=registry, plugins=plugins, base_dir=base_dir)
 
 
 def stop_rules(stop: StopRules | None, duration: object = None, max_ticks: object = None,
@@ -142,8 +136,6 @@ def stop_rules(stop: StopRules | None, duration: object = None, max_ticks: objec
 def simulator() -> Callable[..., Session]:
     """The simulator's session maker (``fsm.sim.simulate``), found by its entry point (the installed
     distributions are read only when a machine needs the simulator)."""
-    from fsm.loading.installed import entry_points
-
     for point in entry_points(group=SIMULATORS):
         maker: Callable[..., Session] = point.load()
         return maker

@@ -33,6 +33,7 @@ from fsm.trace.recorder import Recorder, jsonable, summary
 
 if TYPE_CHECKING:
     from fsm.loading.registry import Registry
+    from fsm.loading.sources import Source
     from fsm.runtime.machine import L, Machine
 
 #: Slack when comparing machine times (80 ticks of 0.0125 s are 1 s, however the floats round).
@@ -218,23 +219,27 @@ class Session:
 
     # -- building one -----------------------------------------------------------------------------------------
     @classmethod
-    def open(cls, source: Any, *, car: Any = None, driver: Driver | None = None,
+    def open(cls, source: Source, *, car: object | None = None, driver: Driver | None = None,
              registry: Registry | None = None, plugins: tuple[str, ...] = (),
-             variables: Mapping[str, Any] | None = None, dt: float | None = None, stop: StopRules | None = None,
+             variables: Mapping[str, object] | None = None, dt: float | None = None, stop: StopRules | None = None,
              base_dir: str | os.PathLike[str] | None = None, record: bool = True) -> Session:
-        """A session for the machine in ``source`` (a file, a document dict, a parsed spec or a compiled plan).
+        """A session for the machine in ``source`` (what ``fsm.load`` loads: :mod:`fsm.loading.sources`) on ``car``
+        and ``driver`` or its clock alone, its arguments checked as :func:`fsm.run` checks them; ``fsm.run`` opens
+        its sessions so when it needs no simulator (:func:`fsm.session.run.open_session`).
 
         ``car``: anything that implements the car interface (``fsm.sim.io.CarIO``, an adapter the core does not
         import, as :class:`~fsm.runtime.context.Context` does not); a machine that drives needs
-        one. For the simulated car, use :func:`fsm.sim.simulate`, which builds car, world and driver.
+        one. For the simulated car, use :func:`fsm.run` with a ``world``, or :func:`fsm.sim.simulate`.
         """
         from fsm.loading.building import build
         from fsm.loading.loader import compile as compile_plan
-        from fsm.model.plan import MachinePlan
+        from fsm.loading.sources import checked_source
         from fsm.runtime.clock import SimulatedClock
+        from fsm.session.arguments import car_argument, variables_argument
 
-        plan = source if isinstance(source, MachinePlan) else compile_plan(
-            source, registry=registry, plugins=plugins, base_dir=base_dir)
+        variables = variables_argument(variables)
+        car_argument(car)
+        plan = compile_plan(checked_source(source), registry=registry, plugins=plugins, base_dir=base_dir)
         machine = build(plan, clock=SimulatedClock(dt) if dt is not None else None, car=car)
         if variables:
             machine.ctx.vars.update(variables)

@@ -22,7 +22,8 @@ from collections.abc import Callable, Iterable, Iterator
 from typing import TYPE_CHECKING, Any, Protocol, cast
 
 from fsm.runtime.machine import Listener
-from fsm.session.session import Session, StopRules
+from fsm.session.run import stop_rules
+from fsm.session.session import RunResult, Session, StopRules
 from fsm.sim.car import PHYSICS_DT, SimCar
 from fsm.sim.world import Gate, World
 from fsm.trace.recorder import Recorder, summary
@@ -483,13 +484,17 @@ class Simulation:
 
     def run(self, duration: float | None = None, max_ticks: int | None = None,
             progress: Callable[[Simulation], None] | None = None, progress_every: float = 0.5,
-            stop: Callable[[], bool] | None = None) -> str | None:
-        """Run the session until the machine finishes, a limit (600 s of machine time without one), or ``stop()``
-        is true (checked after every tick: how ``fsmctl`` ends a run on Ctrl-C between two ticks); returns the
-        outcome (``None`` if unfinished). A state that fails raises after the car was stopped."""
+            stop: Callable[[], bool] | None = None, *, until: Callable[[Session], bool] | None = None) -> RunResult:
+        """Run the session as :func:`fsm.run` runs one (:meth:`Session.run <fsm.session.session.Session.run>`, its
+        arguments checked by the same rule) and say how it ended (a :class:`~fsm.session.session.RunResult`): until
+        the machine finishes, ``duration`` seconds of machine time or ``max_ticks`` ticks (600 s without either),
+        ``until(session)`` or ``stop()`` is true (checked after every tick: how ``fsmctl`` ends a run on Ctrl-C
+        between two ticks). ``progress(self)`` is called every ``progress_every`` seconds of machine time. A state
+        that fails raises after the car was stopped."""
+        rules = stop_rules(None, duration, max_ticks, self.machine.dt)
         if progress is not None:
             self.session.every(progress_every, lambda _session: progress(self))
-        return self.session.run(stop=stop, stop_rules=StopRules(duration, max_ticks)).outcome
+        return self.session.run(until=until, stop=stop, stop_rules=rules or StopRules())
 
     def _measure(self, leaf: WallFollowing, pose: tuple[float, float, float]) -> None:
         """One sample of the wall-distance error and the steering on a straight (``leaf`` measures straights)."""

@@ -69,7 +69,7 @@ def _suggest(registry: Any, name: str) -> list[str]:
 def _print_type(r: dict[str, Any]) -> None:
     """A type and its parameters as text: each with its type, default (or required) and description."""
     finish = " [finishes]" if r.get("can_finish") else ""
-    print(printable(f"  {r['name']}{finish}: {r['doc']}"))
+    print(printable(f"  {r['name']}{finish}: {r['doc'] or '(no description: add a docstring)'}"))
     for prm in r["params"]:
         default = "required" if prm["required"] else f"default {json.dumps(prm.get('default'))}"
         desc = f"  {prm['description']}" if prm["description"] else ""

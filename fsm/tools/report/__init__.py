@@ -17,7 +17,7 @@ from typing import Any
 import fsm
 from fsm import __version__
 from fsm.loading.loader import uses_car
-from fsm.runtime.region import wiring
+from fsm.runtime.region import transition_wiring, wiring
 from fsm.trace.replay import Trace
 
 from ..graph import svg
@@ -92,7 +92,8 @@ def _fired(machine: Any, tr: dict[str, Any]) -> list[tuple[str, int]]:
     """(source path, index) of the machine's transitions a trace line's transition ``tr`` can be."""
     src = tr.get("from")
     state = machine.states_by_path.get(src) if isinstance(src, str) else None
-    return [(t.source.path, t.index) for t in (wiring(state).transitions if state is not None else ())
+    out = wiring(state).transitions if state is not None else ()
+    return [(t.source.path, transition_wiring(t).index) for t in out
             if t.target.path == tr.get("to") and t.type_name == tr.get("type")]
 
 

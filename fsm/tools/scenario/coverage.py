@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from fsm.runtime.region import wiring
+from fsm.runtime.region import transition_wiring, wiring
 from fsm.runtime.supervisor import supervisor_of
 
 if TYPE_CHECKING:
@@ -65,7 +65,7 @@ _RANK = {"never": 0, "skipped": 1, "ran": 2}
 
 
 def _transition_label(tr: Any) -> str:
-    return f"{tr.source.path} -> {tr.target.path} ({tr.type_name} #{tr.index})"
+    return f"{tr.source.path} -> {tr.target.path} ({tr.type_name} #{transition_wiring(tr).index})"
 
 
 class Coverage:
@@ -89,7 +89,8 @@ class Coverage:
         for path, state in machine.states_by_path.items():
             cov.reached(path, "ran" if path in ran else "skipped" if path in skipped else "never")
             supervisor = supervisor_of(state)
-            cov.fired({_transition_label(tr): (path, tr.index) in fired for tr in wiring(state).transitions},
+            out = wiring(state).transitions
+            cov.fired({_transition_label(tr): (path, transition_wiring(tr).index) in fired for tr in out},
                       {f"{path}: {m.kind} {m.label} ({m.behavior})": (path, m.label, m.kind) in fired_monitors
                        for m in (supervisor.monitors if supervisor is not None else ())})
 

@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 from fsm.runtime.machine import Listener
 from fsm.runtime.region import transition_wiring, wiring
 from fsm.runtime.supervisor import supervisor_of
+from fsm.runtime.transition import fired_index
 from fsm.session.session import Session, SetSignal, SetVars, StopRules, ticks_for
 
 from .paths import first_few
@@ -83,7 +84,7 @@ class _Reach(Listener):
     def on_transition(self, ctx: Context, source: State[Any] | None, target: State[Any], transition: Any) -> None:
         self.entered.append(target.path)
         if source is not None and transition is not None:
-            self.fired.add((source.path, getattr(transition, "index", -1)))
+            self.fired.add((source.path, fired_index(transition)))
 
     def on_skipped(self, ctx: Context, state: State[Any]) -> None:
         self.skipped.add(state.path)

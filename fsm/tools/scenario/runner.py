@@ -19,6 +19,7 @@ from fsm.model.expr import ExprRuntimeError, parse
 from fsm.model.jsonpos import pointer
 from fsm.runtime.machine import Listener
 from fsm.runtime.region import wiring
+from fsm.runtime.transition import fired_index
 from fsm.session.session import PauseState, Session, SetSignal, SetVars, StopRules, tick_at
 
 from .model import (
@@ -256,7 +257,7 @@ class Recording(Listener):
                                   transition.type_name if transition is not None else "initial"))
         self._moved = True
         if source is not None and transition is not None:
-            self.fired.add((source.path, getattr(transition, "index", -1)))
+            self.fired.add((source.path, fired_index(transition)))
         if self._watched:
             if source is not None:  # what was left with the source: record how the watched states in it finished
                 self._record_finishes(ctx.tick, source)

@@ -42,6 +42,7 @@ BENCH = Path(__file__).resolve().parent
 REPO = BENCH.parent
 sys.path.insert(0, str(BENCH))
 
+from bench_baseline import compiled  # noqa: E402
 from bench_instructions import callgrind  # noqa: E402
 
 #: ``sys.argv``: what to run, the ring's path, repetitions.
@@ -128,6 +129,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-instructions", action="store_true", help="wall clocks only (no valgrind)")
     args = ap.parse_args(argv)
     where = Path(tempfile.mkdtemp(prefix="tral-plan-cache-"))
+    compiled(REPO)  # as installed: with PYTHONDONTWRITEBYTECODE set, each fresh process would compile its imports
     try:
         from peers.tral_fsm import ring_doc
 

@@ -122,7 +122,14 @@ def test_the_base_documents_are_valid_and_run() -> None:
 
 # -- the property -----------------------------------------------------------------------------------------
 def _exercise(src: Any) -> None:
-    """``check`` and ``load`` of ``src`` raise nothing but DiagramError; a loaded machine ticks 50 times."""
+    """``check`` and ``load`` of ``src`` raise nothing but DiagramError; a loaded machine ticks 50 times. A value
+    that is no kind of source (a list, a number: not a path, JSON text or a document dict) is a TypeError naming
+    the argument, as a wrong argument of any Python call is."""
+    if not isinstance(src, (str, Path, dict)):
+        for call in (fsm.check, fsm.load):
+            with pytest.raises(TypeError, match=r"^src must be a path, JSON text, a document dict"):
+                call(src)
+        return
     _spec, problems = fsm.check(src)
     assert isinstance(problems, list) and all(isinstance(p, Problem) for p in problems)
     for p in problems:

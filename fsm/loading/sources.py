@@ -10,6 +10,7 @@ Anything else is a ``TypeError`` saying what a source may be.
 from __future__ import annotations
 
 import os
+import reprlib
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from typing import Union
@@ -38,8 +39,7 @@ def checked_source(source: object, name: str = "source", kinds: str = KINDS) -> 
     """``source`` if it is of a kind a machine is loaded from, else a ``TypeError`` naming ``name`` and the kinds."""
     if isinstance(source, (str, os.PathLike, Mapping, MachineSpec, MachinePlan)):
         return source
-    shown = repr(source)
-    shown = shown if len(shown) <= 60 else shown[:57] + "..."
+    shown = reprlib.repr(source)  # bounded in length and depth: a list nested 100,000 deep is shown as [[[...]]]
     raise TypeError(f"{name} must be {kinds}; got {shown} ({type(source).__name__})")
 
 

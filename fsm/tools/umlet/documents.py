@@ -37,7 +37,7 @@ class Documents:
         scene = self.scene
         top = scene.levels[0]
         machines = self.split_top(top)
-        if top.notes and len(machines) > 1:
+        if len(machines) > 1:
             for note in top.notes:
                 self.problem(note.elem, f"machine note outside every machine frame, but the diagram holds "
                                         f"{len(machines)} machines",
@@ -201,14 +201,17 @@ class Documents:
         for tr, elem in zip(level.transitions, level.trans_origin, strict=True):
             if id(tr["_from"]) not in ids:
                 continue
-            tdoc = {k: v for k, v in tr.items() if not k.startswith("_")}
-            tdoc["from"], tdoc["to"] = tr["_from"].id, tr["_to"].id
-            if tdoc["type"] == "_completion":
-                tdoc["type"] = "Finished" if self.can_finish(tr["_from"]) else "Always"
+            typ = tr["type"]
+            if typ == "_completion":
+                typ = "Finished" if self.can_finish(tr["_from"]) else "Always"
+            tdoc = {"type": typ, "from": tr["_from"].id, "to": tr["_to"].id}
+            tdoc.update((k, v) for k, v in tr.items() if k not in tdoc and k != "layout" and not k.startswith("_"))
+            if "layout" in tr:
+                tdoc["layout"] = tr["layout"]
             ptr = f"{base}/transitions/{len(out_trans)}"
             if elem is not None:
                 origins[ptr] = elem
-            out_trans.append(_ordered(tdoc, ("type", "from", "to")))
+            out_trans.append(tdoc)
         return out_trans
 
     def sequence_steps(self, st: StateBox, sub: dict[str, Any]) -> tuple[list[Any], list[Any]]:
@@ -217,16 +220,15 @@ class Documents:
         start after it. Unconnected non-blocking sequences start first; unconnected Sequences are exception
         sequences. A fork (two arrows to blocking steps), a cycle or an unconnected step is a located problem."""
         chain = _StepChain(self, st, sub)
-        order = chain.walk(sub.get("initial") or None)
+        order = chain.walk(sub["initial"])
         first, exceptions = chain.unchained(set(order))
         return ([chain.states[sid] for sid in sorted(first, key=chain.y) + order],
                 [chain.states[sid] for sid in exceptions])
 
     def can_finish(self, st: StateBox) -> bool:
         if st.composite and st.type in (None, "FSMState"):
-            lvl = self.scene.levels.get(id(st.box))
-            return bool(lvl and (any(s.box.role == "final" or s.type == "Final" for s in lvl.states)
-                                 or lvl.finals_by_outcome))
+            lvl = self.scene.levels[id(st.box)]
+            return any(s.type == "Final" for s in lvl.states) or bool(lvl.finals_by_outcome)
         cls = self.scene.registry().states.get(st.type or "Idle")
         return bool(cls is not None and cls.can_finish)
 
@@ -247,7 +249,7 @@ class Documents:
             doc.update(self.composite_doc(st, ptr, origins))
         if st.description and "description" not in doc:
             doc["description"] = st.description
-        if st.box.elem is not None and st.box.w > 0:
+        if st.box.w > 0:
             doc["layout"] = _state_layout(st.box, frames)
         return doc
 
@@ -348,15 +350,6 @@ def box_layout(box: Box) -> dict[str, Any]:
     return {"x": num(box.x), "y": num(box.y), "w": num(box.w), "h": num(box.h)}
 
 
-def _ordered(doc: dict[str, Any], first: tuple[str, ...]) -> dict[str, Any]:
-    out = {k: doc[k] for k in first if k in doc}
-    out.update((k, v) for k, v in doc.items() if k not in out and k != "layout")
-    if "layout" in doc:
-        out["layout"] = doc["layout"]
-    return out
-
-
-
 def _state_layout(box: Box, frames: list[Box]) -> dict[str, Any]:
     """A state's ``layout``: its box, its shape when it is a final state or a frame, and its regions' frames."""
     lay = box_layout(box)
@@ -375,8 +368,7 @@ class _StepChain:
     def __init__(self, docs: Documents, st: StateBox, sub: dict[str, Any]) -> None:
         self.problem = docs.problem
         self.st = st
-        self.states = {x["id"]: x for x in sub.get("states", [])
-                       if isinstance(x, dict) and isinstance(x.get("id"), str)}
+        self.states = {x["id"]: x for x in sub["states"]}
         self.boxes = {b.id: b for b in docs.scene.levels[id(st.box)].states}
         self.outs: dict[str, list[str]] = {}
         self.into: dict[str, int] = {}
@@ -396,16 +388,13 @@ class _StepChain:
     def elem(self, sid: str) -> Any:
         return self.boxes[sid].box.elem if sid in self.boxes else self.st.box.elem
 
-    def walk(self, cur: str | None) -> list[str]:
-        """The chain from ``cur``: each step, then the non-blocking sequences its arrows start; a cycle or a fork
-        is a problem (the walk stops at a cycle, and follows the first arrow of a fork)."""
+    def walk(self, cur: str) -> list[str]:
+        """The chain from ``cur``: each step, then the non-blocking sequences its arrows start; a cycle (an arrow
+        back to a step before) or a fork is a problem (the walk does not follow the arrow back, and follows the
+        first arrow of a fork)."""
         order: list[str] = []
         seen: set[str] = set()
-        while cur is not None and cur in self.states:
-            if cur in seen:
-                self.problem(self.elem(cur), f"the steps of sequence '{self.st.id}' form a cycle at '{cur}'",
-                             hint=_CYCLE_HINT)
-                break
+        while cur in self.states:  # never one seen: the next step is the target of an arrow to a step not seen
             seen.add(cur)
             order.append(cur)
             back = [t for t in self.outs.get(cur, []) if t in seen]
@@ -419,13 +408,13 @@ class _StepChain:
             cur = self.next_step(cur, [t for t in nxt if not self.detached(t)])
         return order
 
-    def next_step(self, cur: str, blocking: list[str]) -> str | None:
+    def next_step(self, cur: str, blocking: list[str]) -> str:
         if len(blocking) > 1:
             self.problem(self.elem(cur), f"step '{cur}' of sequence '{self.st.id}' has arrows to several steps: "
                                          + ", ".join(f"'{b}'" for b in blocking),
                          hint="steps run one after the other: one arrow to the next step (parallel work is a "
                               "non-blocking Sequence, blocking=false)")
-        return blocking[0] if blocking else None
+        return blocking[0] if blocking else ""  # no step is named ""
 
     def unchained(self, seen: set[str]) -> tuple[list[str], list[str]]:
         """The steps off the chain: non-blocking sequences nothing points to (they start first) and unconnected

@@ -70,7 +70,7 @@ _COMMON_TRANSITION = {"type", "from", "to", "layout"}
 
 def value_text(v: Any) -> str:
     if isinstance(v, str):
-        if v and v == v.strip() and "\n" not in v and T.parse_value(v) == v:
+        if _one_line(v) and T.parse_value(v) == v:
             return v
         return json.dumps(v, ensure_ascii=False)
     return json.dumps(v, ensure_ascii=False, separators=(", ", ": "))
@@ -93,30 +93,32 @@ def param_lines(typ: str, params: dict[str, Any], reserved: set[str], type_as_js
     return [f"type={typ}"] + lines
 
 
+def _one_line(text: str) -> bool:
+    """Whether ``text`` is one line, not empty, without blanks around it."""
+    return bool(text) and text == text.strip() and "\n" not in text
+
+
 def _facet_line(line: str) -> bool:
     """Whether UMLet (in a state or a note) or the reader would take ``line`` for a facet, not text."""
-    m = T.KEY_VALUE.match(line)
-    return T.is_style(line, T.BOX_STYLE_KEYS) or bool(m and m.group(1) in T.STATE_FACET_KEYS)
+    return T.is_style(line, T.STATE_FACET_KEYS)
 
 
 def _relation_facet_line(line: str) -> bool:
     """Whether UMLet or the reader would take ``line`` of a relation's text for a facet, not label text."""
-    m = T.KEY_VALUE.match(line)
-    return line.lstrip().startswith("//") or bool(m and m.group(1) in T.RELATION_FACET_KEYS)
+    return T.is_style(line, T.RELATION_FACET_KEYS)
 
 
 def _safe_name(name: str) -> bool:
-    if not name or name != name.strip() or "\n" in name or "  " in name:
-        return False
-    return not (_facet_line(name) or T.SEPARATOR.match(name) or T.JSON_TYPE.search(name))
+    return _one_line(name) and "  " not in name and not (
+        _facet_line(name) or T.SEPARATOR.match(name) or T.JSON_TYPE.search(name))
 
 
 def _safe_free_text(text: str) -> bool:
+    """Whether ``text`` reads back as a box's free text: no blank line, no line with trailing blanks, none that
+    would be read as a facet, a separator or an activity, and no parameters."""
     lines = text.split("\n")
-    return (text == text.strip("\n") and all(ln == ln.rstrip() for ln in lines) and bool(text.strip())
-            and not any(_facet_line(ln) or T.SEPARATOR.match(ln) or not ln.strip() or T.ACTIVITY.match(ln)
-                        for ln in lines)
-            and not T.is_param_block(lines))
+    return not any(not ln.strip() or ln != ln.rstrip() or _facet_line(ln) or T.SEPARATOR.match(ln)
+                   or T.ACTIVITY.match(ln) for ln in lines) and not T.is_param_block(lines)
 
 
 def action_text(assignments: Any) -> str | None:
@@ -140,7 +142,7 @@ def action_text(assignments: Any) -> str | None:
 def _action_value(value: Any) -> str | None:
     """The right-hand side of one assignment: an expression as written, a number or a boolean as JSON."""
     if isinstance(value, str):
-        return value if value == value.strip() and "\n" not in value and T.literal(value) == value else None
+        return value if _one_line(value) and T.literal(value) == value else None
     return json.dumps(value) if isinstance(value, (bool, int, float)) else None
 
 
@@ -163,7 +165,7 @@ def guard_action_text(guard: Any, assignments: Any) -> str | None:
     cannot be written so (a condition object guard, a guard holding ']')."""
     parts = []
     if guard is not None:
-        if not isinstance(guard, str) or guard != guard.strip() or "]" in guard or "\n" in guard or not guard:
+        if not isinstance(guard, str) or not _one_line(guard) or "]" in guard:
             return None
         parts.append(f"[{guard}]")
     if assignments is not None:
@@ -258,15 +260,13 @@ NOTE_W, NOTE_CHAR_W, NOTE_LINE_H = 360, 7.5, 18
 
 def note_size(text: str) -> tuple[float, float]:
     per_line = int((NOTE_W - 20) / NOTE_CHAR_W)
-    shown = [ln for ln in text.split("\n") if not T.is_style(ln, T.BOX_STYLE_KEYS)]
-    lines = sum(max(1, len(textwrap.wrap(ln, per_line))) for ln in shown)
+    lines = sum(max(1, len(textwrap.wrap(ln, per_line))) for ln in T.shown_lines(text))
     return float(NOTE_W), float(-(-(lines * NOTE_LINE_H + 20) // 10) * 10)
 
 
 def head_height(text: str) -> float:
     """The height of a composite box's own text above its content."""
-    shown = [ln for ln in text.split("\n") if not T.is_style(ln, T.BOX_STYLE_KEYS)]
-    return HEAD + 18 * max(0, len(shown) - 1)
+    return HEAD + 18 * max(0, len(T.shown_lines(text)) - 1)
 
 
 def drawn_steps(st: dict[str, Any]) -> dict[str, Any] | None:
@@ -439,7 +439,7 @@ def _node_element(n: Node, names: set[str], used: set[str]) -> tuple[str, str]:
 def _emit(level: LevelLayout, out: list[str], registry: Any, note_of: Any) -> None:
     names = {str(n.doc.get("id")) for n in level.nodes if n.doc.get("type") != "Final"}
     used: set[str] = set()
-    if level.marker is not None and level.initial is not None:
+    if level.marker is not None:  # placed for the initial state
         mx, my = level.marker
         out.append(element("UMLSpecialState", mx, my, *level.marker_size, "type=initial"))
         out.append(relation(level.marker_points, "lt=->"))

@@ -8,7 +8,9 @@ element's kind, label, file line:column and diagram coordinates, never raised on
 
 from __future__ import annotations
 
+import functools
 import json
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -31,7 +33,7 @@ _SPECIAL_OLD = {"InitialState": "initial", "FinalState": "final", "Decision": "d
                 "HistoryState": "history", "RegionEndState": "flow_final", "SyncBarHorizontal": "sync",
                 "SyncBarVertical": "sync"}
 _SUPPORTED_SPECIAL = {"initial", "final"}
-#: Machine note keys whose values are texts (the others: ``vars``, a JSON object).
+#: Machine note keys whose values are texts (the others: :data:`_NOTE_JSON_KEYS`).
 _NOTE_TEXT_KEYS = {"name", "$schema", "description"}
 
 
@@ -154,8 +156,8 @@ class Scene:
         return chain
 
     def is_parallel(self, box: Box | None) -> bool:
-        st = self.state_of.get(id(box)) if box is not None else None
-        return box is not None and st is not None and st.type == "Parallel" and box.role == "state"
+        st = self.state_of.get(id(box))  # None: no state's box
+        return st is not None and st.type == "Parallel" and st.box.role == "state"
 
     # -- building -------------------------------------------------------------------------------------------
     def build(self) -> None:
@@ -304,32 +306,13 @@ class Scene:
         return sets
 
     def read_note(self, elem: RawElement) -> dict[str, Any] | None:
-        """A machine note's keys, typed: texts for name, $schema and description, a JSON object for vars."""
+        """A machine note's keys, typed (see :func:`_note_value`); ``None``: a problem said."""
         try:
             note = T.parse_machine_note(elem.text)
+            meta = {key: _note_value(key, raw) for key, raw in note.values.items()}
         except T.TextError as exc:
-            self.problem(elem, f"machine note: {exc}")
+            self.problem(elem, f"machine note: {exc}", hint=exc.hint)
             return None
-        meta: dict[str, Any] = {}
-        for key, raw in note.values.items():
-            try:
-                value = T.parse_value(raw, strict=True)
-            except T.TextError as exc:
-                self.problem(elem, f"machine note: {exc}")
-                return None
-            if key in _NOTE_TEXT_KEYS:
-                if not isinstance(value, str) and value is not None:
-                    value = raw  # 42, true, [..]: the text as written
-            elif key == "inputs":
-                if not (isinstance(value, list) and all(isinstance(v, str) for v in value)):
-                    self.problem(elem, f"machine note: 'inputs' must be a JSON list of signal names, got {raw[:40]!r}",
-                                 hint='write it as inputs=["start", "pause"]')
-                    return None
-            elif not isinstance(value, dict):
-                self.problem(elem, f"machine note: '{key}' must be a JSON object, got {raw[:40]!r}",
-                             hint='write it as vars={"name": value, ...}')
-                return None
-            meta[key] = value
         if note.description is not None:
             meta["description"] = note.description
         return meta
@@ -343,20 +326,16 @@ class Scene:
         cls = (reg.states if kind == "state" else reg.transitions).get(typ)
         if cls is None:
             return params
-        text_fields = _text_fields(cls.Params)
-        out = {}
-        for k, v in params.items():
-            if k in kv_keys and k in text_fields and not isinstance(v, str) and not isinstance(v, (dict, list)):
-                v = json.dumps(v)
-            out[k] = v
-        return out
+        texts = kv_keys & _text_fields(cls.Params)
+        return {k: json.dumps(v) if k in texts and not isinstance(v, (str, dict, list)) else v
+                for k, v in params.items()}
 
     def make_levels(self) -> None:
         """A level (a machine) at the top and in each box that holds more than notes; each note, initial marker
         and state put in the level it is drawn in; final states named."""
         self.levels[0] = Level(None)
         for box in self.boxes:
-            if box.container and any(c.role != "note" for c in box.children):
+            if any(c.role != "note" for c in box.children):  # only containers have children
                 self.levels[id(box)] = Level(box)
         for box in self.boxes:
             if box.role == "note":
@@ -366,7 +345,7 @@ class Scene:
             elif box.role in ("state", "frame", "final") and id(box) in self.state_of:
                 st = self.state_of[id(box)]
                 self.level_of(box).states.append(st)
-                st.composite = st.composite or id(box) in self.levels
+                st.composite = id(box) in self.levels
         for level in self.levels.values():
             _name_finals(level)
 
@@ -383,13 +362,35 @@ class Scene:
             level.notes.append(box)
 
 
+def _note_value(key: str, raw: str) -> Any:
+    """A machine note's value: a text for name, $schema and description (42, true, [..]: the text as written), a
+    JSON list of names for inputs, a JSON object for vars; a :class:`TextError` says what is wrong."""
+    value = T.parse_value(raw, strict=True)
+    if key in _NOTE_TEXT_KEYS:
+        return value if isinstance(value, str) or value is None else raw
+    fits, form, hint = _NOTE_JSON_KEYS[key]
+    if not fits(value):
+        raise T.TextError(f"'{key}' must be {form}, got {raw[:40]!r}", hint=hint)
+    return value
+
+
+def _names(value: Any) -> bool:
+    return isinstance(value, list) and all(isinstance(v, str) for v in value)
+
+
+#: Machine note keys whose values are JSON: whether a value has the form, the form, and how to write it.
+_NOTE_JSON_KEYS: dict[str, tuple[Callable[[Any], bool], str, str]] = {
+    "inputs": (_names, "a JSON list of signal names", 'write it as inputs=["start", "pause"]'),
+    "vars": (lambda value: isinstance(value, dict), "a JSON object", 'write it as vars={"name": value, ...}')}
+
+
 def _frame_state(box: Box) -> StateBox:
     """A frame's state, named by the title lines above its first separator."""
     title = []
-    for ln in box.elem.text.split("\n"):
+    for ln in T.shown_lines(box.elem.text):
         if T.SEPARATOR.match(ln):
             break
-        if not T.is_style(ln, T.BOX_STYLE_KEYS) and ln.strip():
+        if ln.strip():
             title.append(ln.strip())
     return StateBox(box, id=" ".join(title))
 
@@ -401,8 +402,7 @@ def _final_state(box: Box) -> StateBox:
     if elem.kind == "UMLSpecialState":
         _, label = T.special_kind(elem.text)
     else:
-        label = " ".join(ln.strip() for ln in elem.text.split("\n")
-                         if ln.strip() and not T.is_style(ln, T.BOX_STYLE_KEYS))
+        label = " ".join(ln.strip() for ln in T.shown_lines(elem.text) if ln.strip())
     if label:
         st.params = {"outcome": label}
     return st
@@ -417,20 +417,14 @@ def _name_finals(level: Level) -> None:
             taken.add(st.id)
 
 
+@functools.cache
 def _text_fields(model: Any) -> set[str]:
-    cache = _TEXT_FIELDS.get(model)
-    if cache is None:
-        cache = set()
-        schema = model.model_json_schema()
-        for name, prop in schema.get("properties", {}).items():
-            types = {prop.get("type")} if "type" in prop else {p.get("type") for p in prop.get("anyOf", [])}
-            if "enum" in prop and all(isinstance(v, str) for v in prop["enum"]):
-                types = {"string"}
-            types.discard("null")
-            if types == {"string"}:
-                cache.add(name)
-        _TEXT_FIELDS[model] = cache
-    return cache
-
-
-_TEXT_FIELDS: dict[Any, set[str]] = {}
+    """The fields of a Params model whose values are texts (a string, or an enum of strings; null aside)."""
+    out = set()
+    for name, prop in model.model_json_schema().get("properties", {}).items():
+        types = {prop.get("type")} if "type" in prop else {p.get("type") for p in prop.get("anyOf", [])}
+        if "enum" in prop and all(isinstance(v, str) for v in prop["enum"]):
+            types = {"string"}
+        if types - {"null"} == {"string"}:
+            out.add(name)
+    return out

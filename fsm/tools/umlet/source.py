@@ -106,16 +106,11 @@ _ELEMENT_TAG = re.compile(rb"<element[\s>/]")
 def _refuse_doctype(raw: bytes, name: str) -> None:
     """A DOCTYPE (and with it every entity declaration) is refused outright, before any parsing."""
     pos = 0
-    while True:
-        m = _PROLOG_ITEM.match(raw, pos)
-        if not m or m.end() == pos:
-            break
+    while m := _PROLOG_ITEM.match(raw, pos):  # each match is not empty
         pos = m.end()
-    while pos < len(raw) and raw[pos:pos + 1].isspace():
+    while raw[pos:pos + 1].isspace():  # b"" at the end is no space
         pos += 1
-    doctype = raw.startswith(b"<!DOCTYPE", pos) or raw.startswith(b"<!doctype", pos)
-    entity = not doctype and b"<!ENTITY" in raw[:pos + 4096]
-    if doctype or entity:
+    if raw.startswith((b"<!DOCTYPE", b"<!doctype"), pos) or b"<!ENTITY" in raw[:pos + 4096]:
         line = raw.count(b"\n", 0, pos) + 1
         col = pos - (raw.rfind(b"\n", 0, pos) + 1) + 1
         raise fail(name, "DOCTYPE declarations are not allowed in a UMLet diagram (entities are never expanded, "
@@ -191,12 +186,11 @@ class _XmlElements:
 
 def _syntax_failure(exc: Any, name: str) -> DiagramError:
     """lxml's complaint about XML that is not well-formed, located."""
-    line, col = (exc.position if exc.position else (None, None))
-    msg = str(exc.msg or exc)
-    msg = re.sub(r",? line \d+, column \d+$", "", msg)
+    line, col = exc.position or (None, None)
+    msg = re.sub(r",? line \d+, column \d+$", "", str(exc.msg or exc))
     if "huge" in msg.lower():
         msg += " (text nodes are limited to 10 MB)"
-    return fail(name, f"not well-formed XML: {msg}", line, (col or 0) + 1 if col is not None else None,
+    return fail(name, f"not well-formed XML: {msg}", line, col + 1 if col is not None else None,
                 hint="is this a UMLet .uxf file?")
 
 
@@ -288,16 +282,13 @@ def _zoom(text: Any, name: str, line: int | None, pointer: str | None = None) ->
 
 
 def _number(value: Any) -> float | None:
-    if isinstance(value, bool):
+    """A coordinate: a number, or a text of one (blanks around it allowed), finite and at most
+    :data:`MAX_COORDINATE` in size; else None."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
         return None
-    if isinstance(value, (int, float)):
+    try:
         v = float(value)
-    elif isinstance(value, str):
-        try:
-            v = float(value.strip())
-        except ValueError:
-            return None
-    else:
+    except ValueError:
         return None
     return v if math.isfinite(v) and abs(v) <= MAX_COORDINATE else None
 

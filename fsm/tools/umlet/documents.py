@@ -50,16 +50,17 @@ class Documents:
         """One machine of the diagram: its document, its label among the diagram's machines and its origins."""
         scene = self.scene
         origins: dict[str, RawElement] = {}
-        level = scene.levels[id(frame)] if frame is not None else scene.levels[0]
-        title = None
+        level, title = scene.levels[0], None
         if frame is not None:
+            level = scene.levels[id(frame)]
             notes += level.notes
             title = scene.state_of[id(frame)].id or None
         meta = self.metadata(notes)
-        # no note: the frame's title, the file's name or the first state's; a note: its name=, else the title
-        name: Any = title or fallback if meta is None else meta.pop("name", title)
-        doc = self.machine_doc(level, states, initials, "", origins, meta=meta or {}, name=name,
-                               note=notes[0] if notes else None, frame=frame, what="the diagram")
+        # no note: the frame's title (the fallback then), the file's name or the first state's; a note: its name=,
+        # else the title
+        name: Any = meta.pop("name", title) if notes else fallback
+        doc = self.machine_doc(level, states, initials, "", origins, meta=meta, name=name, notes=notes, frame=frame,
+                               what="the diagram")
         self.docs.append(doc)
         self.names.append(self._unique_label(name if isinstance(name, str) and name else Path(scene.name).stem, doc))
         self.origins.append(origins)
@@ -115,30 +116,29 @@ class Documents:
         return out
 
     # -- machine keys ---------------------------------------------------------------------------------------
-    def metadata(self, notes: list[Box]) -> dict[str, Any] | None:
-        """The keys the machine note among ``notes`` gives (a copy), or None without a note."""
+    def metadata(self, notes: list[Box]) -> dict[str, Any]:
+        """The keys the machine note among ``notes`` gives (a copy; none without a note)."""
         if not notes:
-            return None
-        if len(notes) > 1:
-            for extra in notes[1:]:
-                self.problem(extra.elem, f"a second machine note for one machine (the first is at "
-                                         f"{where(notes[0].elem)})",
-                             hint="keep one machine note per machine: merge them")
+            return {}
+        for extra in notes[1:]:
+            self.problem(extra.elem, f"a second machine note for one machine (the first is at "
+                                     f"{where(notes[0].elem)})",
+                         hint="keep one machine note per machine: merge them")
         return dict(self.scene.note_of[id(notes[0])])
 
     # -- machines -------------------------------------------------------------------------------------------
     def machine_doc(self, level: Level, states: list[StateBox], initials: list[Box], base: str,
                     origins: dict[str, RawElement], *, meta: dict[str, Any], name: Any = None,
-                    note: Box | None = None, frame: Box | None = None, what: str) -> dict[str, Any]:
-        """The document of one machine level: ``meta`` holds the keys of its machine ``note``; ``name`` is
-        the name it has unless the note gives one (None: no name)."""
+                    notes: list[Box], frame: Box | None = None, what: str) -> dict[str, Any]:
+        """The document of one machine level: ``meta`` holds the keys of its machine note (the first of
+        ``notes``); ``name`` is the name it has unless the note gives one (None: no name)."""
         scene = self.scene
         layout: dict[str, Any] = {}
         initial_id = self.initial_of(level, states, initials, base, origins, layout, frame, what)
         if frame is not None:
             layout["frame"] = {**box_layout(frame), "title": scene.state_of[id(frame)].id}
-        if note is not None:
-            layout["note"] = box_layout(note)
+        if notes:
+            layout["note"] = box_layout(notes[0])
         finals = list(level.finals_by_outcome.values())
         out_states = self.state_docs(states, finals, base, origins)
         out_trans = self.transition_docs(level, {id(st) for st in states + finals}, base, origins)
@@ -240,8 +240,9 @@ class Documents:
             doc["type"] = st.type or "Idle"
             doc.update(st.params)
         elif st.type == "Parallel":
-            doc["type"] = "Parallel"
-            doc.update({k: v for k, v in st.params.items() if k != "regions"})
+            doc.update(self.own_params(st, "Parallel", ("regions",),
+                                       f"Parallel '{st.id}' both holds region frames and gives 'regions'",
+                                       "draw the regions as frames inside the box, or give regions=, not both"))
             doc["regions"], frames = self.regions(st, ptr, origins)
         elif st.type == "Sequence":
             doc.update(self.sequence_doc(st, ptr, origins))
@@ -255,15 +256,12 @@ class Documents:
 
     def sequence_doc(self, st: StateBox, ptr: str, origins: dict[str, RawElement]) -> dict[str, Any]:
         """A Sequence box with step boxes inside: its steps and exception sequences."""
-        doc: dict[str, Any] = {"type": "Sequence"}
-        doc.update({k: v for k, v in st.params.items() if k not in ("steps", "exceptions")})
-        if "steps" in st.params or "exceptions" in st.params:
-            self.problem(st.box.elem, f"Sequence '{st.id}' both contains step boxes and gives 'steps' or "
-                                      "'exceptions' as text", hint="draw the steps inside the box, or write them "
-                                                                  "as text, not both")
+        doc = self.own_params(st, "Sequence", ("steps", "exceptions"),
+                              f"Sequence '{st.id}' both contains step boxes and gives 'steps' or 'exceptions' as "
+                              "text", "draw the steps inside the box, or write them as text, not both")
         lvl = self.scene.levels[id(st.box)]
         sub = self.machine_doc(lvl, lvl.states, lvl.initials, ptr + "/steps", origins, meta={},
-                               note=None, what=f"sequence '{st.id}'")
+                               notes=[], what=f"sequence '{st.id}'")
         steps, exceptions = self.sequence_steps(st, sub)
         doc["steps"] = steps
         if exceptions:
@@ -276,26 +274,26 @@ class Documents:
             self.problem(st.box.elem, f"a {st.type} state cannot contain other boxes",
                          hint="boxes drawn inside a state form an FSMState's sub-machine (or, in a Parallel "
                               "state, its region frames); remove the type or move the boxes out")
-        if "machine" in st.params:
-            self.problem(st.box.elem, "the state both contains boxes and names a 'machine'",
-                         hint="draw the sub-machine inside the box or include it with machine=, not both")
+        doc = self.own_params(st, "FSMState", ("machine",), "the state both contains boxes and names a 'machine'",
+                              "draw the sub-machine inside the box or include it with machine=, not both")
         lvl = self.scene.levels[id(st.box)]
-        meta = self.metadata(lvl.notes) or {}
-        sub = self.machine_doc(lvl, lvl.states, lvl.initials, ptr + "/machine", origins, meta=meta,
-                               note=lvl.notes[0] if lvl.notes else None, what=f"composite '{st.id}'")
-        doc: dict[str, Any] = {"type": "FSMState"}
-        doc.update({k: v for k, v in st.params.items() if k != "machine"})
-        doc["machine"] = sub
+        doc["machine"] = self.machine_doc(lvl, lvl.states, lvl.initials, ptr + "/machine", origins,
+                                          meta=self.metadata(lvl.notes), notes=lvl.notes,
+                                          what=f"composite '{st.id}'")
         return doc
+
+    def own_params(self, st: StateBox, typ: str, drawn: tuple[str, ...], both: str, hint: str) -> dict[str, Any]:
+        """The type and the parameters of a composite's box but those ``drawn`` inside it; a box that gives one
+        of them as text too is said (``both``, ``hint``)."""
+        if any(key in st.params for key in drawn):
+            self.problem(st.box.elem, both, hint=hint)
+        return {"type": typ, **{k: v for k, v in st.params.items() if k not in drawn}}
 
     def regions(self, st: StateBox, ptr: str, origins: dict[str, RawElement]) -> tuple[list[Any], list[Box]]:
         """The regions of a Parallel box, one per frame drawn in it, left to right (then top to bottom), and
         their frames."""
         scene = self.scene
         lvl = scene.levels[id(st.box)]
-        if "regions" in st.params:
-            self.problem(st.box.elem, f"Parallel '{st.id}' both holds region frames and gives 'regions'",
-                         hint="draw the regions as frames inside the box, or give regions=, not both")
         frames = sorted((s for s in lvl.states if id(s.box) in scene.region_frames),
                         key=lambda s: (s.box.x, s.box.y))
         hint = ("draw each region as a UMLFrame inside the Parallel state, titled with the region's name, "
@@ -336,14 +334,14 @@ class Documents:
                          hint="draw the region's initial pseudostate and states inside it, or title it file=PATH "
                               "to include the region from a file")
             return None
-        meta = self.metadata(lvl.notes) or {}
+        meta = self.metadata(lvl.notes)
         if fr.id and "name" in meta and meta["name"] != fr.id:
             self.problem(lvl.notes[0].elem, f"the machine note names the region '{meta['name']}' but its frame "
                                             f"is titled '{fr.id}'",
                          hint="the frame's title is the region's name: remove name= from the note")
         what = f"region '{fr.id}' of Parallel '{parallel.id}'" if fr.id else f"a region of Parallel '{parallel.id}'"
         return self.machine_doc(lvl, lvl.states, lvl.initials, ptr, origins, meta=meta, name=fr.id or None,
-                                note=lvl.notes[0] if lvl.notes else None, what=what)
+                                notes=lvl.notes, what=what)
 
 
 def box_layout(box: Box) -> dict[str, Any]:

@@ -21,14 +21,12 @@ from . import text as T
 from .geometry import Box, nest
 from .source import RawDiagram, RawElement, describe, num, where
 
-_STATE_KINDS_NEW = {"UMLState"}
-_STATE_KINDS_OLD = {"State", "StateSubDiagram", "SendSignal", "ReceiveSignal"}
-#: Class boxes: states in a diagram that has no state box at all (students draw state machines with them).
-_CLASS_KINDS_NEW = {"UMLClass"}
-_CLASS_KINDS_OLD = {"Class"}
-_FRAME_KINDS = {"UMLFrame"}
-_NOTE_KINDS_NEW = {"UMLNote"}
-_NOTE_KINDS_OLD = {"Note"}
+#: What the elements of each kind draw. Class boxes are states in a diagram that has no state box at all
+#: (students draw state machines with them).
+_DRAWS = {"UMLState": "state", "UMLClass": "class", "UMLFrame": "frame", "UMLNote": "note"}
+#: The same for old elements (``<type>``), which may have either kind.
+_DRAWS_OLD = {"State": "state", "StateSubDiagram": "state", "SendSignal": "state", "ReceiveSignal": "state",
+              "Class": "class", "Note": "note"}
 _SPECIAL_OLD = {"InitialState": "initial", "FinalState": "final", "Decision": "decision",
                 "HistoryState": "history", "RegionEndState": "flow_final", "SyncBarHorizontal": "sync",
                 "SyncBarVertical": "sync"}
@@ -75,12 +73,9 @@ class Level:
     finals_by_outcome: dict[str, StateBox] = field(default_factory=dict)
 
 
-def _is_state(elem: RawElement) -> bool:
-    return elem.kind in _STATE_KINDS_NEW or (elem.old and elem.kind in _STATE_KINDS_OLD)
-
-
-def _is_class(elem: RawElement) -> bool:
-    return elem.kind in _CLASS_KINDS_NEW or (elem.old and elem.kind in _CLASS_KINDS_OLD)
+def _draws(elem: RawElement) -> str | None:
+    """What an element draws: a state, class, frame or note box (None: none of them)."""
+    return _DRAWS.get(elem.kind) or (_DRAWS_OLD.get(elem.kind) if elem.old else None)
 
 
 def _pseudostate(elem: RawElement) -> str | None:
@@ -169,8 +164,8 @@ class Scene:
     def classify(self) -> None:
         """Sort the elements: state boxes, frames, notes and pseudostates become boxes, relations are kept for
         later, and what is not part of a state machine is ignored (with the reason an arrow ending on it gives)."""
-        self.class_states = not any(_is_state(e) for e in self.raw.elements) and any(
-            _is_class(e) for e in self.raw.elements)
+        self.class_states = not any(_draws(e) == "state" for e in self.raw.elements) and any(
+            _draws(e) == "class" for e in self.raw.elements)
         for elem in self.raw.elements:
             if elem.kind != "Relation" and (elem.w <= 0 or elem.h <= 0):
                 self._sizeless(elem)
@@ -187,32 +182,31 @@ class Scene:
 
     def _sizeless(self, elem: RawElement) -> None:
         """A box of no size is ignored; one that would be part of the machine is said."""
-        if self._drawn_state(elem) or elem.kind in _FRAME_KINDS or _pseudostate(elem) is not None:
+        if self._drawn(elem) in ("state", "frame") or _pseudostate(elem) is not None:
             self.problem(elem, f"the box has no size (w={num(elem.w)}, h={num(elem.h)}), so it is ignored",
                          hint="give it a size in UMLet (drag its corner), or delete it")
         self.ignored.append((self.box(elem, "ignored"), "it has no size"))
 
     def _role(self, elem: RawElement) -> str | None:
         """state, frame, note, a pseudostate's kind (or unsupported), comment, relation; ``None``: ignored."""
-        kind = elem.kind
-        if self._drawn_state(elem):
-            return "state"
-        if kind in _FRAME_KINDS:
-            return "frame"
-        if kind in _NOTE_KINDS_NEW or (elem.old and kind in _NOTE_KINDS_OLD):
+        drawn = self._drawn(elem)
+        if drawn in ("state", "frame"):
+            return drawn
+        if drawn == "note":
             return "note" if T.is_machine_note(elem.text) else "comment"
         special = _pseudostate(elem)
         if special is not None:
             return special if special in _SUPPORTED_SPECIAL else "unsupported"
-        return "relation" if kind == "Relation" else None
+        return "relation" if elem.kind == "Relation" else None
 
-    def _drawn_state(self, elem: RawElement) -> bool:
-        """A state box, or a class box in a diagram that has no state boxes."""
-        return _is_state(elem) or (self.class_states and _is_class(elem))
+    def _drawn(self, elem: RawElement) -> str | None:
+        """What an element draws (:func:`_draws`), a class box being a state in a diagram that has no state box."""
+        drawn = _draws(elem)
+        return "state" if drawn == "class" and self.class_states else drawn
 
     @staticmethod
     def _ignored_reason(elem: RawElement) -> str:
-        if _is_class(elem):
+        if _draws(elem) == "class":
             return "class boxes are states only in a diagram without UMLState boxes, and this one has UMLState boxes"
         return f"a {elem.kind} is not part of a state machine"
 

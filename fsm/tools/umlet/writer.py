@@ -211,15 +211,17 @@ def _sections(head: list[str], *sections: list[str] | None) -> list[str]:
 
 def drawn_regions(st: dict[str, Any]) -> list[dict[str, Any]] | None:
     """The regions of a Parallel state when each can be drawn as a frame (an inline machine or an include)."""
-    regions = st.get("regions")
-    if st.get("type") != "Parallel" or not isinstance(regions, list) or not regions:
+    regions = _drawn_list(st, "Parallel", "regions")
+    if regions is None or not all(isinstance(r, dict) and (isinstance(r.get("states"), list) or (
+            set(r) == {"file"} and isinstance(r["file"], str))) for r in regions):
         return None
-    for r in regions:
-        if not isinstance(r, dict):
-            return None
-        if not (isinstance(r.get("states"), list) or (set(r) == {"file"} and isinstance(r["file"], str))):
-            return None
     return regions
+
+
+def _drawn_list(st: dict[str, Any], typ: str, key: str) -> list[Any] | None:
+    """``st[key]`` of a ``typ`` state when it is a list that holds something (its regions or steps), else None."""
+    items = st.get(key)
+    return items if st.get("type") == typ and isinstance(items, list) and items else None
 
 
 def region_title(region: dict[str, Any]) -> str:
@@ -271,10 +273,9 @@ def head_height(text: str) -> float:
 
 def drawn_steps(st: dict[str, Any]) -> dict[str, Any] | None:
     """A Sequence's steps (and exception sequences) as the machine drawn inside its box, or None."""
-    steps = st.get("steps")
-    if st.get("type") != "Sequence" or not isinstance(steps, list) or not steps:
-        return None
-    if not all(isinstance(x, dict) and isinstance(x.get("id"), str) for x in steps + list(st.get("exceptions") or [])):
+    steps = _drawn_list(st, "Sequence", "steps")
+    if steps is None or not all(isinstance(x, dict) and isinstance(x.get("id"), str)
+                                for x in steps + list(st.get("exceptions") or [])):
         return None
     return sequence_machine(st, start="Finished")
 
@@ -361,17 +362,22 @@ def export(doc: dict[str, Any], registry: Any = None) -> str:
     note_of = functools.partial(_note_of, roles)
     level = lay_out(doc, _lines_of, expand=functools.partial(_expand, roles),
                     note_size=functools.partial(_size_of_note, roles))
-    x0, y0, x1, y1 = level.bbox(labels=False)
+    bbox = level.bbox(labels=False)
     stored = any(isinstance(st, dict) and isinstance(st.get("layout"), dict) for st in doc.get("states", []))
-    dx, dy = (0.0, 0.0) if stored else (max(0.0, 20 - x0), max(0.0, 20 - y0))
-    if dx or dy:
-        level.shift(dx, dy)
+    shift = (0.0, 0.0) if stored else (max(0.0, 20 - bbox[0]), max(0.0, 20 - bbox[1]))
     out: list[str] = []
-    frame = (doc.get("layout") or {}).get("frame") if isinstance(doc.get("layout"), dict) else None
-    if isinstance(frame, dict) and all(isinstance(frame.get(k), (int, float)) for k in "xywh") and not (dx or dy):
-        out.append(_frame_element(frame, (x0, y0, x1, y1)))
+    if shift != (0.0, 0.0):  # drawn anew into view: a stored frame no longer fits
+        level.shift(*shift)
+    else:
+        out += _frame_elements(_mapping(doc, "layout").get("frame"), bbox)
     _emit(level, out, registry, note_of)
     return diagram(out)
+
+
+def _mapping(doc: dict[str, Any], key: str) -> dict[str, Any]:
+    """``doc[key]`` when it is an object, else an empty one."""
+    value = doc.get(key)
+    return value if isinstance(value, dict) else {}
 
 
 def _composite(st: dict[str, Any]) -> bool:
@@ -410,14 +416,16 @@ def _size_of_note(roles: dict[int, str], machine: dict[str, Any]) -> tuple[float
     return note_size(text) if text is not None else None
 
 
-def _frame_element(frame: dict[str, Any], bbox: tuple[float, float, float, float]) -> str:
-    """The machine's stored frame, grown to hold everything drawn (the note too)."""
+def _frame_elements(frame: Any, bbox: tuple[float, float, float, float]) -> list[str]:
+    """The machine's stored frame (if it has one), grown to hold everything drawn (the note too)."""
+    if not isinstance(frame, dict) or not all(isinstance(frame.get(k), (int, float)) for k in "xywh"):
+        return []
     x0, y0, x1, y1 = bbox
     fx, fy = min(frame["x"], x0 - 10), min(frame["y"], y0 - 10)
     fw, fh = max(frame["x"] + frame["w"], x1 + 10) - fx, max(frame["y"] + frame["h"], y1 + 10) - fy
     title = frame.get("title")
     title = title if isinstance(title, str) and _safe_name(title) else ""  # the note names the machine
-    return element("UMLFrame", fx, fy, fw, fh, title)
+    return [element("UMLFrame", fx, fy, fw, fh, title)]
 
 
 def _node_element(n: Node, names: set[str], used: set[str]) -> tuple[str, str]:
@@ -430,8 +438,7 @@ def _node_element(n: Node, names: set[str], used: set[str]) -> tuple[str, str]:
             used.add(str(st.get("id")))
             return "UMLSpecialState", text
     text = state_text(st, n.sub is not None or n.regions)
-    shape = (st.get("layout") or {}).get("shape") if isinstance(st.get("layout"), dict) else None
-    if shape == "frame" and n.sub is not None and text == f"{st.get('id')}\nvalign=top":
+    if _mapping(st, "layout").get("shape") == "frame" and n.sub is not None and text == f"{st.get('id')}\nvalign=top":
         return "UMLFrame", str(st.get("id"))
     return "UMLState", text
 

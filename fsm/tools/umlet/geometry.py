@@ -95,10 +95,7 @@ class Grid:
 
 def nest(boxes: list[Box]) -> None:
     """Parent of each box: the smallest container box that contains it (UMLet stores no hierarchy)."""
-    containers = [b for b in boxes if b.container]
-    if not containers:
-        return
-    grid = Grid(containers, 0.0)
+    grid = Grid([b for b in boxes if b.container], 0.0)
     for b in boxes:
         b.parent = _smallest_container(b, grid)
     for b in boxes:

@@ -56,11 +56,10 @@ class Relations:
         out = []
         for elem in self.scene.relations:
             rel = T.parse_relation(elem.text)
-            if not (rel.start_head or rel.end_head):
-                continue  # plain lines and note anchors (lt=.) are not transitions
-            if rel.start_head and rel.end_head:
-                self.problem(elem, f"arrowheads at both ends (lt={rel.lt}): which way does the transition go?",
-                             hint="use lt=-> or lt=<-")
+            if rel.start_head == rel.end_head:  # no arrowhead (plain lines, note anchors lt=.), or two
+                if rel.start_head:
+                    self.problem(elem, f"arrowheads at both ends (lt={rel.lt}): which way does the transition go?",
+                                 hint="use lt=-> or lt=<-")
                 continue
             found = self._points(elem, rel)
             if found is None:
@@ -104,7 +103,7 @@ class Relations:
             if a.box is not None or a.rule == "ambiguous":
                 continue
             found = self.notes.attach(probe[0], probe[1], elem.old)
-            note = found.box or (found.others[0] if found.others else None)
+            note = found.box or next(iter(found.others), None)
             if note is None:
                 continue
             if not rel.dashed:

@@ -86,12 +86,11 @@ def read_raw(path: Path) -> RawDiagram:
 
 
 def parse_raw(raw: bytes, name: str) -> RawDiagram:
-    if raw.startswith(b"\xef\xbb\xbf"):
-        raw = raw[3:]
+    raw = raw.removeprefix(b"\xef\xbb\xbf")
     head = raw[:64].lstrip()
     if not head:
         raise fail(name, "file is empty; a UMLet diagram is an XML document <diagram>...</diagram>", 1, 1)
-    if raw.startswith((b"\xff\xfe", b"\xfe\xff")) or (len(raw) > 1 and raw[1:2] == b"\x00"):
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")) or raw[1:2] == b"\x00":
         raise fail(name, "not UTF-8 (looks like UTF-16)", 1, 1, hint="save the diagram as UTF-8, as UMLet does")
     if head[:1] in (b"{", b"["):
         return parse_xml2json(raw, name)
@@ -202,8 +201,6 @@ def parse_xml(raw: bytes, name: str) -> RawDiagram:
     found = _XmlElements(name)
     try:
         found.read(etree.iterparse(io.BytesIO(raw), events=("start", "end"), **_parser_kwargs()))
-    except DiagramError:
-        raise
     except etree.XMLSyntaxError as exc:
         raise _syntax_failure(exc, name) from None
     except (ValueError, MemoryError) as exc:  # lxml raises ValueError for some invalid input
@@ -211,16 +208,13 @@ def parse_xml(raw: bytes, name: str) -> RawDiagram:
     if found.root_tag is None:
         raise fail(name, "not a UMLet diagram: no <diagram> root element", 1, 1)
     found.locate(raw)
-    if found.problems:
+    if found.problems:  # else every element read
         raise DiagramError(found.problems)
-    elements = [e for e in found.elements if e.kind]
     zoom = _zoom(found.zoom_text, name, found.zoom_line)
-    if not elements:
+    if not found.elements:
         raise _no_elements(name, 1, 1)
-    text = None
-    if len(raw) <= 8_000_000:
-        text = raw.decode("utf-8", "replace")
-    return RawDiagram(name, zoom, elements, text=text, zoom_line=found.zoom_line)
+    text = raw.decode("utf-8", "replace") if len(raw) <= 8_000_000 else None
+    return RawDiagram(name, zoom, found.elements, text=text, zoom_line=found.zoom_line)
 
 
 def _element_positions(raw: bytes, sourcelines: list[int | None]) -> list[tuple[int | None, int | None]]:
@@ -314,7 +308,7 @@ def _make_element(index: int, kind: Any, old: bool, coords: Any, text: Any, extr
                                 column=col, element=_bad_element(index, kind, old, at, text), hint=bad.hint))
         return None
     text = (text or "").replace("\r\n", "\n").replace("\r", "\n")
-    line, col = where() if pointer is not None else (None, None)
+    line, col = where()
     return RawElement(index, kind, old, values[0], values[1], values[2], values[3], text, points, line, col, pointer)
 
 
@@ -404,7 +398,7 @@ def _xml2json_diagram(data: Any, name: str) -> dict[str, Any]:
     diagram = data.get("diagram") if isinstance(data, dict) else None
     if isinstance(diagram, dict):
         return diagram
-    if isinstance(data, dict) and ("states" in data or "initial" in data or "root" in data):
+    if isinstance(data, dict) and {"states", "initial", "root"} & data.keys():
         raise fail(name, "this is already a machine document, not a diagram", 1, 1,
                    hint="validate or run it directly: fsmctl validate FILE")
     raise fail(name, 'not a UMLet diagram in xml2json form: expected {"diagram": {"element": [...]}}', 1, 1)

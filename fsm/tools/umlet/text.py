@@ -161,10 +161,10 @@ def _block(lines: list[str]) -> str:
 
 def _check_separator(lines: list[str]) -> None:
     """A box of parameters whose first line is a name (neither JSON nor ``key=value``): its ``--`` line is missing."""
-    first = next(ln.strip() for ln in lines if ln.strip())  # a type is given: there is a first line
+    first, *rest = [stripped for ln in lines if (stripped := ln.strip())]  # a type is given: there are lines
     if first.startswith(('"', "{")) or KEY_VALUE.match(first):
         return
-    params = [ln.strip() for ln in lines if ln.strip() and ln.strip() != first]
+    params = [p for p in rest if p != first]
     shown = " | ".join([first[:40], "--", *(p[:40] for p in params[:3])])
     raise TextError(f"the name {first[:40]!r} and the parameters need a line -- between them",
                     hint=f"write the lines {shown}; " + STATE_BOX_FORM)

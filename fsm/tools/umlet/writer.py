@@ -304,7 +304,7 @@ def _reads_back(label: str, signal: str, guard: Any, assignments: Any) -> bool:
         actions is None or all(type(actions[k]) is type(v) for k, v in assignments.items()))
 
 
-def transition_text(tr: dict[str, Any], source: dict[str, Any] | None, registry: Any) -> str:
+def transition_text(tr: dict[str, Any], source: dict[str, Any], registry: Any) -> str:
     """The text of a transition's arrow: a UML label that reads back as this Signal transition, else its type (left
     out where the source implies it: Finished from a state that finishes, Always from one that does not) and
     parameters, with its guard and ``set`` as a ``[guard] / action`` line where they read back so."""
@@ -314,7 +314,7 @@ def transition_text(tr: dict[str, Any], source: dict[str, Any] | None, registry:
     if label is not None:
         return "lt=->\n" + label
     tail = _guard_action_line(params)
-    implied = not params and source is not None and _implied_type(typ, source, registry)
+    implied = not params and _implied_type(typ, source, registry)
     shown = [] if implied else param_lines(typ, params, T.RELATION_FACET_KEYS, type_as_json=False)
     return "\n".join(["lt=->", *shown, *([tail] if tail else [])])
 
@@ -340,8 +340,7 @@ def _guard_action_line(params: dict[str, Any]) -> str | None:
 
 def _implied_type(typ: str, source: dict[str, Any], registry: Any) -> bool:
     """Whether an arrow without text from ``source`` means ``typ``: Finished when it can finish, else Always."""
-    can = _can_finish(source, registry)
-    return (typ == "Finished" and can) or (typ == "Always" and not can)
+    return typ == ("Finished" if _can_finish(source, registry) else "Always")
 
 
 def final_special(st: dict[str, Any], level_names: set[str], used: set[str]) -> str | None:
@@ -398,9 +397,9 @@ def _expand(roles: dict[int, str], st: dict[str, Any]) -> Expansion | None:
     if regions is None:
         return None
     titles = [region_title(r) for r in regions]
-    machines = [r if "states" in r else {"states": []} for r in regions]
-    roles.update((id(machine), "region") for machine in machines)
-    parts: list[tuple[str | None, dict[str, Any], Any]] = [(t, m, None) for t, m in zip(titles, machines, strict=True)]
+    parts: list[tuple[str | None, dict[str, Any], Any]] = [
+        (title, r if "states" in r else {"states": []}, None) for title, r in zip(titles, regions, strict=True)]
+    roles.update((id(machine), "region") for _, machine, _ in parts)
     return Expansion(parts, head=head, inset=True, min_widths=[len(title) * 8 + 60 for title in titles])
 
 

@@ -143,38 +143,38 @@ class Documents:
         out_states = self.state_docs(states, finals, base, origins)
         out_trans = self.transition_docs(level, {id(st) for st in states + finals}, base, origins)
         doc: dict[str, Any] = dict(meta)
-        if name is not None or "name" in meta:
-            doc["name"] = meta.get("name", name)
-        doc.update({"initial": initial_id or "", "states": out_states, "transitions": out_trans})
+        if name is not None:
+            doc.setdefault("name", name)
+        doc.update({"initial": initial_id, "states": out_states, "transitions": out_trans})
         if layout:
             doc["layout"] = layout
         return {k: doc[k] for k in _MACHINE_ORDER if k in doc}
 
     def initial_of(self, level: Level, states: list[StateBox], initials: list[Box], base: str,
-                   origins: dict[str, RawElement], layout: dict[str, Any], frame: Box | None, what: str) -> str | None:
+                   origins: dict[str, RawElement], layout: dict[str, Any], frame: Box | None, what: str) -> str:
         """The machine's initial state: the target of its one initial marker (its arrow into ``layout``), or its
-        only state; several markers, or none for several states, are said."""
+        only state; several markers, or none for several states, are said ("": none)."""
         scene = self.scene
         markers = [(m, mk) for m in initials if (mk := scene.markers.get(id(m))) is not None and mk.target in states]
         if len(markers) > 1:
             listing = ", ".join(f"at {where(m.elem)}" for m, _ in markers)
             self.problem(markers[1][0].elem, f"{len(markers)} initial pseudostates in one machine ({listing})",
                          hint="keep one initial pseudostate per machine level")
-            return None
+            return ""
         if markers:
             box, mk = markers[0]
             layout["initial"] = {**box_layout(box), "points": mk.points}
             origins[base + "/initial"] = mk.relation
             return mk.target.id
         if any(id(m) in scene.broken_markers for m in initials):
-            return None  # the marker's target state has a text error, reported where it is
+            return ""  # the marker's target state has a text error, reported where it is
         if len(states) == 1:
             return states[0].id
         # said at the machine's frame, else its composite's box, else its first state
         at = next((b.elem for b in (frame, level.owner, *[st.box for st in states[:1]]) if b is not None), None)
         self.problem(at, f"{what} has no initial state: no initial pseudostate with an arrow to a state",
                      hint="draw a UMLSpecialState with type=initial and an arrow to the first state")
-        return None
+        return ""
 
     def state_docs(self, states: list[StateBox], finals: list[StateBox], base: str,
                    origins: dict[str, RawElement]) -> list[dict[str, Any]]:
@@ -205,9 +205,9 @@ class Documents:
             if typ == "_completion":
                 typ = "Finished" if self.can_finish(tr["_from"]) else "Always"
             tdoc = {"type": typ, "from": tr["_from"].id, "to": tr["_to"].id}
-            tdoc.update((k, v) for k, v in tr.items() if k not in tdoc and k != "layout" and not k.startswith("_"))
-            if "layout" in tr:
-                tdoc["layout"] = tr["layout"]
+            tdoc.update((k, v) for k, v in tr.items() if k not in tdoc and not k.startswith("_"))
+            if "layout" in tdoc:  # last
+                tdoc["layout"] = tdoc.pop("layout")
             ptr = f"{base}/transitions/{len(out_trans)}"
             if elem is not None:
                 origins[ptr] = elem
@@ -335,7 +335,7 @@ class Documents:
                               "to include the region from a file")
             return None
         meta = self.metadata(lvl.notes)
-        if fr.id and "name" in meta and meta["name"] != fr.id:
+        if fr.id and meta.get("name", fr.id) != fr.id:
             self.problem(lvl.notes[0].elem, f"the machine note names the region '{meta['name']}' but its frame "
                                             f"is titled '{fr.id}'",
                          hint="the frame's title is the region's name: remove name= from the note")

@@ -143,22 +143,18 @@ class Relations:
                          hint=hint)
             return
         hint = "move the arrow's end onto a state's border (UMLet sticks ends closer than 9 px at 100% zoom)"
-        if len([p for p in self.scene.problems if "attached to nothing" in p.message]) < 50:
+        if sum("attached to nothing" in p.message for p in self.scene.problems) < 50:
             near, d = self.attacher.nearest(point[0], point[1])
             if near is not None:
                 hint = f"nearest is {self.scene.box_name(near)}, {num(round(d, 1))} px away at zoom 10; " + hint
         self.problem(elem, f"{role} end at {stored} is attached to nothing", hint=hint)
 
     def ignored_at(self, point: list[Any]) -> tuple[Box, str] | None:
-        """The ignored box (class box, zero-size box, ...) an arrow's end lies on or next to, innermost first."""
-        best: tuple[float, Box, str] | None = None
-        for box, reason in self.scene.ignored:
-            d, inside = box.border_distance(point[0], point[1])
-            if inside or d <= LENIENT:
-                key = box.w * box.h
-                if best is None or key < best[0]:
-                    best = (key, box, reason)
-        return None if best is None else (best[1], best[2])
+        """The ignored box (class box, zero-size box, ...) an arrow's end lies on or next to, the smallest (the
+        innermost) first, with the reason it is ignored."""
+        hits = [(box, reason) for box, reason in self.scene.ignored
+                if (at := box.border_distance(point[0], point[1]))[1] or at[0] <= LENIENT]
+        return min(hits, key=lambda hit: hit[0].w * hit[0].h, default=None)
 
     # -- relations ------------------------------------------------------------------------------------------
     def resolve(self, attached: list[Attached]) -> None:
@@ -173,7 +169,7 @@ class Relations:
 
     def mark_machine_frames(self, attached: list[Attached]) -> None:
         """A top-level frame no arrow touches is a machine's frame, not a state."""
-        touched = {id(box) for r in attached for box in (r.src, r.dst) if isinstance(box, Box)}
+        touched = {id(box) for r in attached for box in (r.src, r.dst)}  # None, False: no box's id
         self.scene.machine_frames.update(id(box) for box in self.scene.boxes
                                          if box.role == "frame" and box.parent is None and id(box) not in touched)
 

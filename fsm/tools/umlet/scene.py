@@ -336,7 +336,7 @@ class Scene:
                 self._place_note(box)
             elif box.role == "initial":
                 self.level_of(box).initials.append(box)
-            elif box.role in ("state", "frame", "final") and id(box) in self.state_of:
+            elif id(box) in self.state_of:  # a frame, state or final box whose text read
                 st = self.state_of[id(box)]
                 self.level_of(box).states.append(st)
                 st.composite = id(box) in self.levels

@@ -83,8 +83,9 @@ def _template(kind: str, name: str, cls: Any) -> _Template:
     drawn = composite and any(info["name"] == "regions" for info in infos)
     reserved = T.STATE_FACET_KEYS if kind == "state" else T.RELATION_FACET_KEYS
     extra: dict[str, Any] = {}  # parameters UMLet would take for facets: in the JSON line
+    drawn_comments = {**(_SEQUENCE_COMMENTS if is_sequence(cls) else {}), **(_REGIONS_COMMENTS if drawn else {})}
     for info in infos:
-        drawn_comment = _drawn_comment(info["name"], is_sequence(cls), drawn)
+        drawn_comment = drawn_comments.get(info["name"])
         if drawn_comment is not None:
             comments.append(drawn_comment)
             continue
@@ -97,18 +98,15 @@ def _template(kind: str, name: str, cls: Any) -> _Template:
                      composite, drawn)
 
 
-def _drawn_comment(param: str, sequence: bool, regions: bool) -> str | None:
-    """The comment of a parameter that is drawn rather than written (a Sequence's steps and exceptions, a
-    composite's regions), or ``None``."""
-    if sequence and param == "steps":
-        return ("// steps: boxes drawn inside this box, chained by arrows from an initial marker; a non-blocking "
-                "Sequence hangs off the step it follows")
-    if sequence and param == "exceptions":
-        return "// exceptions: Sequence boxes drawn inside this box with no arrow to or from them"
-    if regions and param == "regions":
-        return ("// regions: one UMLFrame per region inside this box, titled with the region's name (or file=PATH "
-                "to include the region), holding its initial marker, states and arrows")
-    return None
+#: The comments of the parameters drawn rather than written: a Sequence's steps and exceptions, ...
+_SEQUENCE_COMMENTS = {
+    "steps": ("// steps: boxes drawn inside this box, chained by arrows from an initial marker; a non-blocking "
+              "Sequence hangs off the step it follows"),
+    "exceptions": "// exceptions: Sequence boxes drawn inside this box with no arrow to or from them"}
+#: ... and a composite's regions.
+_REGIONS_COMMENTS = {
+    "regions": ("// regions: one UMLFrame per region inside this box, titled with the region's name (or file=PATH "
+                "to include the region), holding its initial marker, states and arrows")}
 
 
 def _param_comment(info: dict[str, Any]) -> str:

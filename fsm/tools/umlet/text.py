@@ -291,7 +291,7 @@ def parse_fragment(text: str) -> dict[str, Any]:
     if not body.startswith("{"):
         body = "{" + body.rstrip().rstrip(",") + "}"
     try:
-        data = json.loads(body, object_pairs_hook=_unique_keys)
+        data: dict[str, Any] = json.loads(body, object_pairs_hook=_unique_keys)
     except _RepeatedKey as exc:
         raise TextError(f"parameter '{exc.args[0]}' is given twice in the JSON parameters") from None
     except json.JSONDecodeError as exc:
@@ -300,9 +300,7 @@ def parse_fragment(text: str) -> dict[str, Any]:
             hint='parameters are "name": value lines, separated by commas') from None
     except RecursionError:
         raise TextError("JSON parameters nested too deeply") from None
-    if not isinstance(data, dict):
-        raise TextError("JSON parameters must be an object")
-    return data
+    return data  # an object: the text starts with "{"
 
 
 # -- special states -----------------------------------------------------------------------------------------

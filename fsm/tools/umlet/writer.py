@@ -134,9 +134,12 @@ def action_text(assignments: Any) -> str | None:
         back = T.parse_actions(text)
     except T.TextError:
         return None
-    if back != assignments or any(type(back[k]) is not type(v) for k, v in assignments.items()):
-        return None
-    return text
+    return text if _same_values(back, assignments) else None
+
+
+def _same_values(read: dict[str, Any] | None, written: Any) -> bool:
+    """Whether what was read back is what was written, each value of the same type (1 is not 1.0 or true)."""
+    return read == written and (read is None or all(type(read[k]) is type(v) for k, v in written.items()))
 
 
 def _action_value(value: Any) -> str | None:
@@ -294,14 +297,13 @@ def _reads_back(label: str, signal: str, guard: Any, assignments: Any) -> bool:
     """Whether a UML label converts back to exactly this signal, guard and ``set``."""
     try:
         parsed = T.parse_label(label.split("\n"))
-        if parsed.params is not None or parsed.text != label or _relation_facet_line(label):
+        if parsed.text != label or _relation_facet_line(label):  # typed parameters have no text
             return False
         event, g, action = T.split_uml(label)
         actions = T.parse_actions(action) if action is not None else None
     except T.TextError:
         return False
-    return event == signal and g == guard and actions == assignments and (
-        actions is None or all(type(actions[k]) is type(v) for k, v in assignments.items()))
+    return event == signal and g == guard and _same_values(actions, assignments)
 
 
 def transition_text(tr: dict[str, Any], source: dict[str, Any], registry: Any) -> str:

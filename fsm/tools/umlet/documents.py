@@ -170,11 +170,15 @@ class Documents:
             return ""  # the marker's target state has a text error, reported where it is
         if len(states) == 1:
             return states[0].id
-        # said at the machine's frame, else its composite's box, else its first state
+        self.no_initial(level, states, frame, what)
+        return ""
+
+    def no_initial(self, level: Level, states: list[StateBox], frame: Box | None, what: str) -> None:
+        """Says that a machine of several states has no initial state: at its frame, else its composite's box,
+        else its first state."""
         at = next((b.elem for b in (frame, level.owner, *[st.box for st in states[:1]]) if b is not None), None)
         self.problem(at, f"{what} has no initial state: no initial pseudostate with an arrow to a state",
                      hint="draw a UMLSpecialState with type=initial and an arrow to the first state")
-        return ""
 
     def state_docs(self, states: list[StateBox], finals: list[StateBox], base: str,
                    origins: dict[str, RawElement]) -> list[dict[str, Any]]:

@@ -140,18 +140,24 @@ def parse_state(text: str) -> StateText:
         if params is None and is_param_block(comp):
             params, kv_keys = parse_params(comp)
             continue
-        rest = []
-        for ln in comp:
-            m = ACTIVITY.match(ln)
-            if m:
-                activities.append((m.group(1), m.group(2).strip()))
-            else:
-                rest.append(ln)
-        block = _block(rest)
+        block = _block(_take_activities(comp, activities))
         if block.strip():
             free.append(block)
     description = "\n".join(free) if free else None
     return StateText(name, params, description, kv_keys, activities)
+
+
+def _take_activities(lines: list[str], activities: list[tuple[str, str]]) -> list[str]:
+    """The lines of a free text compartment that are no ``entry / ...`` or ``exit / ...`` activity; those are added
+    to ``activities``."""
+    rest = []
+    for ln in lines:
+        m = ACTIVITY.match(ln)
+        if m:
+            activities.append((m.group(1), m.group(2).strip()))
+        else:
+            rest.append(ln)
+    return rest
 
 
 def _block(lines: list[str]) -> str:

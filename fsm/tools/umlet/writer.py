@@ -444,7 +444,19 @@ def _node_element(n: Node, names: set[str], used: set[str]) -> tuple[str, str]:
     return "UMLState", text
 
 
+def _emit_inside(n: Node, out: list[str], registry: Any, note_of: Any) -> None:
+    """What a state's box holds: its machine, or its regions' frames with their machines."""
+    if n.sub is not None:
+        _emit(n.sub, out, registry, note_of)
+    elif n.regions:
+        for p in n.parts:
+            out.append(element("UMLFrame", p.x, p.y, p.w, p.h, p.name or ""))
+            _emit(p.level, out, registry, note_of)
+
+
 def _emit(level: LevelLayout, out: list[str], registry: Any, note_of: Any) -> None:
+    """The elements of a laid out machine level: its initial marker, states (and what they hold), arrows and
+    note."""
     names = {str(n.doc.get("id")) for n in level.nodes if n.doc.get("type") != "Final"}
     used: set[str] = set()
     if level.marker is not None:  # placed for the initial state
@@ -454,12 +466,7 @@ def _emit(level: LevelLayout, out: list[str], registry: Any, note_of: Any) -> No
     for n in level.nodes:
         kind, text = _node_element(n, names, used)
         out.append(element(kind, n.x, n.y, n.w, n.h, text))
-        if n.sub is not None:
-            _emit(n.sub, out, registry, note_of)
-        elif n.regions:
-            for p in n.parts:
-                out.append(element("UMLFrame", p.x, p.y, p.w, p.h, p.name or ""))
-                _emit(p.level, out, registry, note_of)
+        _emit_inside(n, out, registry, note_of)
     for e in level.edges:
         out.append(relation(e.points, transition_text(e.doc, e.src.doc, registry)))
     if level.note is not None:

@@ -77,11 +77,10 @@ class Documents:
         """Top-level machines: a frame that nothing attaches to holds one; else connected parts with an initial."""
         scene = self.scene
         stem = Path(scene.name).stem
-        frames = [st for st in top.states if id(st.box) in scene.machine_frames]
         plain = [st for st in top.states if id(st.box) not in scene.machine_frames]
         out: list[tuple[str, list[StateBox], list[Box], Box | None]] = [
-            (fr.id or stem, lvl.states, lvl.initials, fr.box) for fr in frames
-            if (lvl := scene.levels.get(id(fr.box))) is not None]
+            (fr.id or stem, lvl.states, lvl.initials, fr.box) for fr in top.states
+            if id(fr.box) in scene.machine_frames and (lvl := scene.levels.get(id(fr.box))) is not None]
         if not plain and not top.initials:
             return out
         if len(top.initials) <= 1:

@@ -130,13 +130,12 @@ class Scene:
     # -- queries --------------------------------------------------------------------------------------------
     def box_name(self, box: Box) -> str:
         st = self.state_of.get(id(box))
+        name = st.id if st is not None else ""
         if box.role == "initial":
             return f"the initial pseudostate at {where(box.elem)}"
-        if id(box) in self.region_frames and st is not None:
-            return f"region frame '{st.id}'" if st.id else f"the region frame at {where(box.elem)}"
-        if st is not None and st.id:
-            return f"'{st.id}'"
-        return f"{box.elem.kind} at {where(box.elem)}"
+        if id(box) in self.region_frames:
+            return f"region frame '{name}'" if name else f"the region frame at {where(box.elem)}"
+        return f"'{name}'" if name else f"{box.elem.kind} at {where(box.elem)}"
 
     def level_of(self, box: Box) -> Level:
         return self.levels[id(box.parent)] if box.parent is not None else self.levels[0]

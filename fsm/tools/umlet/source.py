@@ -339,7 +339,7 @@ def _coordinates(coords: Any) -> list[float]:
 
 def _points(kind: str, extra: Any) -> list[float] | None:
     """A relation's points from ``<additional_attributes>`` (``x;y;x;y;...``); ``None`` for other elements."""
-    if extra is not None and not isinstance(extra, str):
+    if not isinstance(extra, (str, type(None))):
         raise T.TextError("additional_attributes must be text")
     if kind != "Relation" or not extra or not extra.strip():
         return None

@@ -245,8 +245,8 @@ def note_text(machine: dict[str, Any], role: str) -> str | None:
     The diagram's own machine always has one (without it, the reader names the machine after the file).
     """
     params = {key: machine[key] for key in T.MACHINE_KEYS if key in machine}
-    if "name" in params and role == "region" and region_title(machine):
-        del params["name"]  # the frame's title
+    if role == "region" and region_title(machine):
+        del params["name"]  # the frame's title is the region's name
     free = _free_text(params, _safe_note_text)
     kv = [f"{key}={json.dumps(value, ensure_ascii=False) if key in ('vars', 'inputs') else value_text(value)}"
           for key, value in params.items()]

@@ -398,16 +398,21 @@ class _StepChain:
         while cur in self.states:  # never one seen: the next step is the target of an arrow to a step not seen
             seen.add(cur)
             order.append(cur)
-            back = [t for t in self.outs.get(cur, []) if t in seen]
-            if back:
-                self.problem(self.elem(cur), f"the steps of sequence '{self.st.id}' form a cycle: '{cur}' -> "
-                                             f"'{back[0]}'", hint=_CYCLE_HINT)
-            nxt = sorted((t for t in self.outs.get(cur, []) if t not in seen), key=self.y)
+            nxt = self.targets(cur, seen)
             detached = [t for t in nxt if self.detached(t)]
             order += detached
             seen.update(detached)
             cur = self.next_step(cur, [t for t in nxt if not self.detached(t)])
         return order
+
+    def targets(self, cur: str, seen: set[str]) -> list[str]:
+        """The steps the arrows from ``cur`` lead to that are not ``seen`` yet, top to bottom; an arrow back to a
+        step seen (a cycle) is said."""
+        back = [t for t in self.outs.get(cur, []) if t in seen]
+        if back:
+            self.problem(self.elem(cur), f"the steps of sequence '{self.st.id}' form a cycle: '{cur}' -> "
+                                         f"'{back[0]}'", hint=_CYCLE_HINT)
+        return sorted((t for t in self.outs.get(cur, []) if t not in seen), key=self.y)
 
     def next_step(self, cur: str, blocking: list[str]) -> str:
         if len(blocking) > 1:

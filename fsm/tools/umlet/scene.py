@@ -163,8 +163,8 @@ class Scene:
     def classify(self) -> None:
         """Sort the elements: state boxes, frames, notes and pseudostates become boxes, relations are kept for
         later, and what is not part of a state machine is ignored (with the reason an arrow ending on it gives)."""
-        self.class_states = not any(_draws(e) == "state" for e in self.raw.elements) and any(
-            _draws(e) == "class" for e in self.raw.elements)
+        drawn = {_draws(e) for e in self.raw.elements}
+        self.class_states = "class" in drawn and "state" not in drawn
         for elem in self.raw.elements:
             if elem.kind != "Relation" and (elem.w <= 0 or elem.h <= 0):
                 self._sizeless(elem)

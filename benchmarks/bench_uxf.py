@@ -38,7 +38,7 @@ def big_diagram(n_states: int = 1000, cols: int = 40) -> bytes:
         k = (i + cols) % n_states
         kx, ky = pos[k]
         if ky > y:
-            els.append(relation([[x + 20, y + 40], [kx + 20, ky]], "lt=->\ntick [ok] / go"))
+            els.append(relation([[x + 20, y + 40], [kx + 20, ky]], "lt=->\ntick [ok] / go = 1"))
         else:
             els.append(relation([[x + 80, y], [x + 80, y - 10], [kx + 80, ky - 10], [kx + 80, ky]], "lt=<-\nback"))
         rel += 1

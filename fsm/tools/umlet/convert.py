@@ -38,7 +38,7 @@ def convert_checked(path: Path, machine: str | None = None, registry: Any = None
     finally:
         reader.PRESELECTED.reset(token)
     for p in problems:
-        if p.file == str(path) and p.pointer:
+        if p.file == str(path):
             coords = conv.coordinates(index, p.pointer)
             if coords:
                 p.element = f"{p.element} ({coords})" if p.element else f"element at {coords}"

@@ -37,7 +37,7 @@ class Documents:
         scene = self.scene
         top = scene.levels[0]
         machines = self.split_top(top)
-        if top.notes and len(machines) > 1:
+        if len(machines) > 1:
             for note in top.notes:
                 self.problem(note.elem, f"machine note outside every machine frame, but the diagram holds "
                                         f"{len(machines)} machines",
@@ -50,16 +50,17 @@ class Documents:
         """One machine of the diagram: its document, its label among the diagram's machines and its origins."""
         scene = self.scene
         origins: dict[str, RawElement] = {}
-        level = scene.levels[id(frame)] if frame is not None else scene.levels[0]
-        title = None
+        level, title = scene.levels[0], None
         if frame is not None:
+            level = scene.levels[id(frame)]
             notes += level.notes
             title = scene.state_of[id(frame)].id or None
         meta = self.metadata(notes)
-        # no note: the frame's title, the file's name or the first state's; a note: its name=, else the title
-        name: Any = title or fallback if meta is None else meta.pop("name", title)
-        doc = self.machine_doc(level, states, initials, "", origins, meta=meta or {}, name=name,
-                               note=notes[0] if notes else None, frame=frame, what="the diagram")
+        # no note: the frame's title (the fallback then), the file's name or the first state's; a note: its name=,
+        # else the title
+        name: Any = meta.pop("name", title) if notes else fallback
+        doc = self.machine_doc(level, states, initials, "", origins, meta=meta, name=name, notes=notes, frame=frame,
+                               what="the diagram")
         self.docs.append(doc)
         self.names.append(self._unique_label(name if isinstance(name, str) and name else Path(scene.name).stem, doc))
         self.origins.append(origins)
@@ -76,11 +77,10 @@ class Documents:
         """Top-level machines: a frame that nothing attaches to holds one; else connected parts with an initial."""
         scene = self.scene
         stem = Path(scene.name).stem
-        frames = [st for st in top.states if id(st.box) in scene.machine_frames]
         plain = [st for st in top.states if id(st.box) not in scene.machine_frames]
         out: list[tuple[str, list[StateBox], list[Box], Box | None]] = [
-            (fr.id or stem, lvl.states, lvl.initials, fr.box) for fr in frames
-            if (lvl := scene.levels.get(id(fr.box))) is not None]
+            (fr.id or stem, lvl.states, lvl.initials, fr.box) for fr in top.states
+            if id(fr.box) in scene.machine_frames and (lvl := scene.levels.get(id(fr.box))) is not None]
         if not plain and not top.initials:
             return out
         if len(top.initials) <= 1:
@@ -115,66 +115,69 @@ class Documents:
         return out
 
     # -- machine keys ---------------------------------------------------------------------------------------
-    def metadata(self, notes: list[Box]) -> dict[str, Any] | None:
-        """The keys the machine note among ``notes`` gives (a copy), or None without a note."""
+    def metadata(self, notes: list[Box]) -> dict[str, Any]:
+        """The keys the machine note among ``notes`` gives (a copy; none without a note)."""
         if not notes:
-            return None
-        if len(notes) > 1:
-            for extra in notes[1:]:
-                self.problem(extra.elem, f"a second machine note for one machine (the first is at "
-                                         f"{where(notes[0].elem)})",
-                             hint="keep one machine note per machine: merge them")
+            return {}
+        for extra in notes[1:]:
+            self.problem(extra.elem, f"a second machine note for one machine (the first is at "
+                                     f"{where(notes[0].elem)})",
+                         hint="keep one machine note per machine: merge them")
         return dict(self.scene.note_of[id(notes[0])])
 
     # -- machines -------------------------------------------------------------------------------------------
     def machine_doc(self, level: Level, states: list[StateBox], initials: list[Box], base: str,
                     origins: dict[str, RawElement], *, meta: dict[str, Any], name: Any = None,
-                    note: Box | None = None, frame: Box | None = None, what: str) -> dict[str, Any]:
-        """The document of one machine level: ``meta`` holds the keys of its machine ``note``; ``name`` is
-        the name it has unless the note gives one (None: no name)."""
+                    notes: list[Box], frame: Box | None = None, what: str) -> dict[str, Any]:
+        """The document of one machine level: ``meta`` holds the keys of its machine note (the first of
+        ``notes``); ``name`` is the name it has unless the note gives one (None: no name)."""
         scene = self.scene
         layout: dict[str, Any] = {}
         initial_id = self.initial_of(level, states, initials, base, origins, layout, frame, what)
         if frame is not None:
             layout["frame"] = {**box_layout(frame), "title": scene.state_of[id(frame)].id}
-        if note is not None:
-            layout["note"] = box_layout(note)
+        if notes:
+            layout["note"] = box_layout(notes[0])
         finals = list(level.finals_by_outcome.values())
         out_states = self.state_docs(states, finals, base, origins)
         out_trans = self.transition_docs(level, {id(st) for st in states + finals}, base, origins)
         doc: dict[str, Any] = dict(meta)
-        if name is not None or "name" in meta:
-            doc["name"] = meta.get("name", name)
-        doc.update({"initial": initial_id or "", "states": out_states, "transitions": out_trans})
+        if name is not None:
+            doc.setdefault("name", name)
+        doc.update({"initial": initial_id, "states": out_states, "transitions": out_trans})
         if layout:
             doc["layout"] = layout
         return {k: doc[k] for k in _MACHINE_ORDER if k in doc}
 
     def initial_of(self, level: Level, states: list[StateBox], initials: list[Box], base: str,
-                   origins: dict[str, RawElement], layout: dict[str, Any], frame: Box | None, what: str) -> str | None:
+                   origins: dict[str, RawElement], layout: dict[str, Any], frame: Box | None, what: str) -> str:
         """The machine's initial state: the target of its one initial marker (its arrow into ``layout``), or its
-        only state; several markers, or none for several states, are said."""
+        only state; several markers, or none for several states, are said ("": none)."""
         scene = self.scene
         markers = [(m, mk) for m in initials if (mk := scene.markers.get(id(m))) is not None and mk.target in states]
         if len(markers) > 1:
             listing = ", ".join(f"at {where(m.elem)}" for m, _ in markers)
             self.problem(markers[1][0].elem, f"{len(markers)} initial pseudostates in one machine ({listing})",
                          hint="keep one initial pseudostate per machine level")
-            return None
+            return ""
         if markers:
             box, mk = markers[0]
             layout["initial"] = {**box_layout(box), "points": mk.points}
             origins[base + "/initial"] = mk.relation
             return mk.target.id
         if any(id(m) in scene.broken_markers for m in initials):
-            return None  # the marker's target state has a text error, reported where it is
+            return ""  # the marker's target state has a text error, reported where it is
         if len(states) == 1:
             return states[0].id
-        # said at the machine's frame, else its composite's box, else its first state
+        self.no_initial(level, states, frame, what)
+        return ""
+
+    def no_initial(self, level: Level, states: list[StateBox], frame: Box | None, what: str) -> None:
+        """Says that a machine of several states has no initial state: at its frame, else its composite's box,
+        else its first state."""
         at = next((b.elem for b in (frame, level.owner, *[st.box for st in states[:1]]) if b is not None), None)
         self.problem(at, f"{what} has no initial state: no initial pseudostate with an arrow to a state",
                      hint="draw a UMLSpecialState with type=initial and an arrow to the first state")
-        return None
 
     def state_docs(self, states: list[StateBox], finals: list[StateBox], base: str,
                    origins: dict[str, RawElement]) -> list[dict[str, Any]]:
@@ -201,14 +204,17 @@ class Documents:
         for tr, elem in zip(level.transitions, level.trans_origin, strict=True):
             if id(tr["_from"]) not in ids:
                 continue
-            tdoc = {k: v for k, v in tr.items() if not k.startswith("_")}
-            tdoc["from"], tdoc["to"] = tr["_from"].id, tr["_to"].id
-            if tdoc["type"] == "_completion":
-                tdoc["type"] = "Finished" if self.can_finish(tr["_from"]) else "Always"
+            typ = tr["type"]
+            if typ == "_completion":
+                typ = "Finished" if self.can_finish(tr["_from"]) else "Always"
+            tdoc = {"type": typ, "from": tr["_from"].id, "to": tr["_to"].id}
+            tdoc.update((k, v) for k, v in tr.items() if k not in tdoc and not k.startswith("_"))
+            if "layout" in tdoc:  # last
+                tdoc["layout"] = tdoc.pop("layout")
             ptr = f"{base}/transitions/{len(out_trans)}"
             if elem is not None:
                 origins[ptr] = elem
-            out_trans.append(_ordered(tdoc, ("type", "from", "to")))
+            out_trans.append(tdoc)
         return out_trans
 
     def sequence_steps(self, st: StateBox, sub: dict[str, Any]) -> tuple[list[Any], list[Any]]:
@@ -217,16 +223,15 @@ class Documents:
         start after it. Unconnected non-blocking sequences start first; unconnected Sequences are exception
         sequences. A fork (two arrows to blocking steps), a cycle or an unconnected step is a located problem."""
         chain = _StepChain(self, st, sub)
-        order = chain.walk(sub.get("initial") or None)
+        order = chain.walk(sub["initial"])
         first, exceptions = chain.unchained(set(order))
         return ([chain.states[sid] for sid in sorted(first, key=chain.y) + order],
                 [chain.states[sid] for sid in exceptions])
 
     def can_finish(self, st: StateBox) -> bool:
         if st.composite and st.type in (None, "FSMState"):
-            lvl = self.scene.levels.get(id(st.box))
-            return bool(lvl and (any(s.box.role == "final" or s.type == "Final" for s in lvl.states)
-                                 or lvl.finals_by_outcome))
+            lvl = self.scene.levels[id(st.box)]
+            return any(s.type == "Final" for s in lvl.states) or bool(lvl.finals_by_outcome)
         cls = self.scene.registry().states.get(st.type or "Idle")
         return bool(cls is not None and cls.can_finish)
 
@@ -238,8 +243,9 @@ class Documents:
             doc["type"] = st.type or "Idle"
             doc.update(st.params)
         elif st.type == "Parallel":
-            doc["type"] = "Parallel"
-            doc.update({k: v for k, v in st.params.items() if k != "regions"})
+            doc.update(self.own_params(st, "Parallel", ("regions",),
+                                       f"Parallel '{st.id}' both holds region frames and gives 'regions'",
+                                       "draw the regions as frames inside the box, or give regions=, not both"))
             doc["regions"], frames = self.regions(st, ptr, origins)
         elif st.type == "Sequence":
             doc.update(self.sequence_doc(st, ptr, origins))
@@ -247,21 +253,18 @@ class Documents:
             doc.update(self.composite_doc(st, ptr, origins))
         if st.description and "description" not in doc:
             doc["description"] = st.description
-        if st.box.elem is not None and st.box.w > 0:
+        if st.box.w > 0:
             doc["layout"] = _state_layout(st.box, frames)
         return doc
 
     def sequence_doc(self, st: StateBox, ptr: str, origins: dict[str, RawElement]) -> dict[str, Any]:
         """A Sequence box with step boxes inside: its steps and exception sequences."""
-        doc: dict[str, Any] = {"type": "Sequence"}
-        doc.update({k: v for k, v in st.params.items() if k not in ("steps", "exceptions")})
-        if "steps" in st.params or "exceptions" in st.params:
-            self.problem(st.box.elem, f"Sequence '{st.id}' both contains step boxes and gives 'steps' or "
-                                      "'exceptions' as text", hint="draw the steps inside the box, or write them "
-                                                                  "as text, not both")
+        doc = self.own_params(st, "Sequence", ("steps", "exceptions"),
+                              f"Sequence '{st.id}' both contains step boxes and gives 'steps' or 'exceptions' as "
+                              "text", "draw the steps inside the box, or write them as text, not both")
         lvl = self.scene.levels[id(st.box)]
         sub = self.machine_doc(lvl, lvl.states, lvl.initials, ptr + "/steps", origins, meta={},
-                               note=None, what=f"sequence '{st.id}'")
+                               notes=[], what=f"sequence '{st.id}'")
         steps, exceptions = self.sequence_steps(st, sub)
         doc["steps"] = steps
         if exceptions:
@@ -274,26 +277,26 @@ class Documents:
             self.problem(st.box.elem, f"a {st.type} state cannot contain other boxes",
                          hint="boxes drawn inside a state form an FSMState's sub-machine (or, in a Parallel "
                               "state, its region frames); remove the type or move the boxes out")
-        if "machine" in st.params:
-            self.problem(st.box.elem, "the state both contains boxes and names a 'machine'",
-                         hint="draw the sub-machine inside the box or include it with machine=, not both")
+        doc = self.own_params(st, "FSMState", ("machine",), "the state both contains boxes and names a 'machine'",
+                              "draw the sub-machine inside the box or include it with machine=, not both")
         lvl = self.scene.levels[id(st.box)]
-        meta = self.metadata(lvl.notes) or {}
-        sub = self.machine_doc(lvl, lvl.states, lvl.initials, ptr + "/machine", origins, meta=meta,
-                               note=lvl.notes[0] if lvl.notes else None, what=f"composite '{st.id}'")
-        doc: dict[str, Any] = {"type": "FSMState"}
-        doc.update({k: v for k, v in st.params.items() if k != "machine"})
-        doc["machine"] = sub
+        doc["machine"] = self.machine_doc(lvl, lvl.states, lvl.initials, ptr + "/machine", origins,
+                                          meta=self.metadata(lvl.notes), notes=lvl.notes,
+                                          what=f"composite '{st.id}'")
         return doc
+
+    def own_params(self, st: StateBox, typ: str, drawn: tuple[str, ...], both: str, hint: str) -> dict[str, Any]:
+        """The type and the parameters of a composite's box but those ``drawn`` inside it; a box that gives one
+        of them as text too is said (``both``, ``hint``)."""
+        if any(key in st.params for key in drawn):
+            self.problem(st.box.elem, both, hint=hint)
+        return {"type": typ, **{k: v for k, v in st.params.items() if k not in drawn}}
 
     def regions(self, st: StateBox, ptr: str, origins: dict[str, RawElement]) -> tuple[list[Any], list[Box]]:
         """The regions of a Parallel box, one per frame drawn in it, left to right (then top to bottom), and
         their frames."""
         scene = self.scene
         lvl = scene.levels[id(st.box)]
-        if "regions" in st.params:
-            self.problem(st.box.elem, f"Parallel '{st.id}' both holds region frames and gives 'regions'",
-                         hint="draw the regions as frames inside the box, or give regions=, not both")
         frames = sorted((s for s in lvl.states if id(s.box) in scene.region_frames),
                         key=lambda s: (s.box.x, s.box.y))
         hint = ("draw each region as a UMLFrame inside the Parallel state, titled with the region's name, "
@@ -334,27 +337,18 @@ class Documents:
                          hint="draw the region's initial pseudostate and states inside it, or title it file=PATH "
                               "to include the region from a file")
             return None
-        meta = self.metadata(lvl.notes) or {}
-        if fr.id and "name" in meta and meta["name"] != fr.id:
+        meta = self.metadata(lvl.notes)
+        if fr.id and meta.get("name", fr.id) != fr.id:
             self.problem(lvl.notes[0].elem, f"the machine note names the region '{meta['name']}' but its frame "
                                             f"is titled '{fr.id}'",
                          hint="the frame's title is the region's name: remove name= from the note")
         what = f"region '{fr.id}' of Parallel '{parallel.id}'" if fr.id else f"a region of Parallel '{parallel.id}'"
         return self.machine_doc(lvl, lvl.states, lvl.initials, ptr, origins, meta=meta, name=fr.id or None,
-                                note=lvl.notes[0] if lvl.notes else None, what=what)
+                                notes=lvl.notes, what=what)
 
 
 def box_layout(box: Box) -> dict[str, Any]:
     return {"x": num(box.x), "y": num(box.y), "w": num(box.w), "h": num(box.h)}
-
-
-def _ordered(doc: dict[str, Any], first: tuple[str, ...]) -> dict[str, Any]:
-    out = {k: doc[k] for k in first if k in doc}
-    out.update((k, v) for k, v in doc.items() if k not in out and k != "layout")
-    if "layout" in doc:
-        out["layout"] = doc["layout"]
-    return out
-
 
 
 def _state_layout(box: Box, frames: list[Box]) -> dict[str, Any]:
@@ -375,8 +369,7 @@ class _StepChain:
     def __init__(self, docs: Documents, st: StateBox, sub: dict[str, Any]) -> None:
         self.problem = docs.problem
         self.st = st
-        self.states = {x["id"]: x for x in sub.get("states", [])
-                       if isinstance(x, dict) and isinstance(x.get("id"), str)}
+        self.states = {x["id"]: x for x in sub["states"]}
         self.boxes = {b.id: b for b in docs.scene.levels[id(st.box)].states}
         self.outs: dict[str, list[str]] = {}
         self.into: dict[str, int] = {}
@@ -396,36 +389,38 @@ class _StepChain:
     def elem(self, sid: str) -> Any:
         return self.boxes[sid].box.elem if sid in self.boxes else self.st.box.elem
 
-    def walk(self, cur: str | None) -> list[str]:
-        """The chain from ``cur``: each step, then the non-blocking sequences its arrows start; a cycle or a fork
-        is a problem (the walk stops at a cycle, and follows the first arrow of a fork)."""
+    def walk(self, cur: str) -> list[str]:
+        """The chain from ``cur``: each step, then the non-blocking sequences its arrows start; a cycle (an arrow
+        back to a step before) or a fork is a problem (the walk does not follow the arrow back, and follows the
+        first arrow of a fork)."""
         order: list[str] = []
         seen: set[str] = set()
-        while cur is not None and cur in self.states:
-            if cur in seen:
-                self.problem(self.elem(cur), f"the steps of sequence '{self.st.id}' form a cycle at '{cur}'",
-                             hint=_CYCLE_HINT)
-                break
+        while cur in self.states:  # never one seen: the next step is the target of an arrow to a step not seen
             seen.add(cur)
             order.append(cur)
-            back = [t for t in self.outs.get(cur, []) if t in seen]
-            if back:
-                self.problem(self.elem(cur), f"the steps of sequence '{self.st.id}' form a cycle: '{cur}' -> "
-                                             f"'{back[0]}'", hint=_CYCLE_HINT)
-            nxt = sorted((t for t in self.outs.get(cur, []) if t not in seen), key=self.y)
+            nxt = self.targets(cur, seen)
             detached = [t for t in nxt if self.detached(t)]
             order += detached
             seen.update(detached)
             cur = self.next_step(cur, [t for t in nxt if not self.detached(t)])
         return order
 
-    def next_step(self, cur: str, blocking: list[str]) -> str | None:
+    def targets(self, cur: str, seen: set[str]) -> list[str]:
+        """The steps the arrows from ``cur`` lead to that are not ``seen`` yet, top to bottom; an arrow back to a
+        step seen (a cycle) is said."""
+        back = [t for t in self.outs.get(cur, []) if t in seen]
+        if back:
+            self.problem(self.elem(cur), f"the steps of sequence '{self.st.id}' form a cycle: '{cur}' -> "
+                                         f"'{back[0]}'", hint=_CYCLE_HINT)
+        return sorted((t for t in self.outs.get(cur, []) if t not in seen), key=self.y)
+
+    def next_step(self, cur: str, blocking: list[str]) -> str:
         if len(blocking) > 1:
             self.problem(self.elem(cur), f"step '{cur}' of sequence '{self.st.id}' has arrows to several steps: "
                                          + ", ".join(f"'{b}'" for b in blocking),
                          hint="steps run one after the other: one arrow to the next step (parallel work is a "
                               "non-blocking Sequence, blocking=false)")
-        return blocking[0] if blocking else None
+        return blocking[0] if blocking else ""  # no step is named ""
 
     def unchained(self, seen: set[str]) -> tuple[list[str], list[str]]:
         """The steps off the chain: non-blocking sequences nothing points to (they start first) and unconnected

@@ -95,10 +95,7 @@ class Grid:
 
 def nest(boxes: list[Box]) -> None:
     """Parent of each box: the smallest container box that contains it (UMLet stores no hierarchy)."""
-    containers = [b for b in boxes if b.container]
-    if not containers:
-        return
-    grid = Grid(containers, 0.0)
+    grid = Grid([b for b in boxes if b.container], 0.0)
     for b in boxes:
         b.parent = _smallest_container(b, grid)
     for b in boxes:
@@ -121,11 +118,11 @@ def _set_depth(b: Box) -> None:
     """The nesting depth of ``b`` and of its containers that have none yet, iteratively (no recursion limit on
     deep nesting)."""
     chain = []
-    node: Box | None = b
-    while node is not None and node.depth == 0 and node.parent is not None:
+    node = b
+    while node.depth == 0 and (parent := node.parent) is not None:
         chain.append(node)
-        node = node.parent
-    base = node.depth if node is not None else -1
+        node = parent
+    base = node.depth
     for n in reversed(chain):
         base += 1
         n.depth = base

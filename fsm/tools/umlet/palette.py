@@ -7,6 +7,7 @@ syntax :mod:`fsm.tools.umlet.reader` reads (see :mod:`fsm.tools.umlet.writer` fo
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass
 from typing import Any
 
 from fsm.model.document import param_info
@@ -42,11 +43,11 @@ def palette(registry: Any) -> str:
     ys, yt = y, y
     for kind, name, cls in registry:
         if kind == "state":
-            elements, h = _state_template(_Template(kind, name, cls), x_state, ys)
+            elements, h = _state_template(_template(kind, name, cls), x_state, ys)
             out += elements
             ys += h + 20
         elif kind == "transition":
-            template = _Template(kind, name, cls)
+            template = _template(kind, name, cls)
             text = "\n".join(["lt=->"] + template.head + template.lines + template.comments)
             h = 40 + 20 * len(template.lines)
             out.append(relation([[x_trans + 10, yt + 10], [x_trans + 10, yt + h]], text))
@@ -58,46 +59,54 @@ def palette(registry: Any) -> str:
     return diagram(out)
 
 
+@dataclass
 class _Template:
     """The text of one type's template: its type line and the parameters UMLet cannot show as facets (``head``),
     a ``name=default`` line per parameter, and a ``//`` comment for the type and each parameter."""
 
-    def __init__(self, kind: str, name: str, cls: Any) -> None:
-        infos = param_info(cls.Params)
-        doc = (cls.__doc__ or "").strip().split("\n")[0]
-        self.comments = [f"// {doc}"] if doc else []
-        self.lines: list[str] = []
-        self.composite = kind == "state" and bool(getattr(cls, "is_composite", False))
-        #: a composite with regions: they are drawn as frames, not written
-        self.drawn = self.composite and any(info["name"] == "regions" for info in infos)
-        reserved = T.STATE_FACET_KEYS if kind == "state" else T.RELATION_FACET_KEYS
-        extra: dict[str, Any] = {}  # parameters UMLet would take for facets: in the JSON line
-        for info in infos:
-            drawn = _drawn_comment(info["name"], is_sequence(cls), self.drawn)
-            if drawn is not None:
-                self.comments.append(drawn)
-                continue
-            if in_json(info["name"], reserved):
-                extra[info["name"]] = info.get("default")
-            else:
-                self.lines.append(_param_line(info))
-            self.comments.append(_param_comment(info))
-        self.name = name
-        self.head = param_lines(name, extra, reserved, type_as_json=kind == "state")
+    name: str
+    head: list[str]
+    lines: list[str]
+    comments: list[str]
+    composite: bool
+    #: a composite with regions: they are drawn as frames, not written
+    drawn: bool
 
 
-def _drawn_comment(param: str, sequence: bool, regions: bool) -> str | None:
-    """The comment of a parameter that is drawn rather than written (a Sequence's steps and exceptions, a
-    composite's regions), or ``None``."""
-    if sequence and param == "steps":
-        return ("// steps: boxes drawn inside this box, chained by arrows from an initial marker; a non-blocking "
-                "Sequence hangs off the step it follows")
-    if sequence and param == "exceptions":
-        return "// exceptions: Sequence boxes drawn inside this box with no arrow to or from them"
-    if regions and param == "regions":
-        return ("// regions: one UMLFrame per region inside this box, titled with the region's name (or file=PATH "
-                "to include the region), holding its initial marker, states and arrows")
-    return None
+def _template(kind: str, name: str, cls: Any) -> _Template:
+    """The template of the registered type ``name`` (``kind``: state or transition)."""
+    infos = param_info(cls.Params)
+    doc = (cls.__doc__ or "").strip().split("\n")[0]
+    comments = [f"// {doc}"] if doc else []
+    lines: list[str] = []
+    composite = kind == "state" and bool(getattr(cls, "is_composite", False))
+    drawn = composite and any(info["name"] == "regions" for info in infos)
+    reserved = T.STATE_FACET_KEYS if kind == "state" else T.RELATION_FACET_KEYS
+    extra: dict[str, Any] = {}  # parameters UMLet would take for facets: in the JSON line
+    drawn_comments = {**(_SEQUENCE_COMMENTS if is_sequence(cls) else {}), **(_REGIONS_COMMENTS if drawn else {})}
+    for info in infos:
+        drawn_comment = drawn_comments.get(info["name"])
+        if drawn_comment is not None:
+            comments.append(drawn_comment)
+            continue
+        if in_json(info["name"], reserved):
+            extra[info["name"]] = info.get("default")
+        else:
+            lines.append(_param_line(info))
+        comments.append(_param_comment(info))
+    return _Template(name, param_lines(name, extra, reserved, type_as_json=kind == "state"), lines, comments,
+                     composite, drawn)
+
+
+#: The comments of the parameters drawn rather than written: a Sequence's steps and exceptions, ...
+_SEQUENCE_COMMENTS = {
+    "steps": ("// steps: boxes drawn inside this box, chained by arrows from an initial marker; a non-blocking "
+              "Sequence hangs off the step it follows"),
+    "exceptions": "// exceptions: Sequence boxes drawn inside this box with no arrow to or from them"}
+#: ... and a composite's regions.
+_REGIONS_COMMENTS = {
+    "regions": ("// regions: one UMLFrame per region inside this box, titled with the region's name (or file=PATH "
+                "to include the region), holding its initial marker, states and arrows")}
 
 
 def _param_comment(info: dict[str, Any]) -> str:

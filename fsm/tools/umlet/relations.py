@@ -9,7 +9,6 @@ not cross the frame of a ``Parallel`` state's region: a region is left through a
 
 from __future__ import annotations
 
-import math
 from typing import Any, NamedTuple
 
 from . import text as T
@@ -57,11 +56,10 @@ class Relations:
         out = []
         for elem in self.scene.relations:
             rel = T.parse_relation(elem.text)
-            if not (rel.start_head or rel.end_head):
-                continue  # plain lines and note anchors (lt=.) are not transitions
-            if rel.start_head and rel.end_head:
-                self.problem(elem, f"arrowheads at both ends (lt={rel.lt}): which way does the transition go?",
-                             hint="use lt=-> or lt=<-")
+            if rel.start_head == rel.end_head:  # no arrowhead (plain lines, note anchors lt=.), or two
+                if rel.start_head:
+                    self.problem(elem, f"arrowheads at both ends (lt={rel.lt}): which way does the transition go?",
+                                 hint="use lt=-> or lt=<-")
                 continue
             found = self._points(elem, rel)
             if found is None:
@@ -80,9 +78,9 @@ class Relations:
     def _points(self, elem: RawElement, rel: T.RelationText) -> tuple[list[list[Any]], list[tuple[Any, ...]]] | None:
         """An arrow's points in the scene, source first, and where UMLet probes for the box each point sticks to;
         ``None`` (said) for an arrow of fewer than two points."""
-        pts, s = elem.points, self.scene.scale
-        if not pts or len(pts) < 4:
-            self.problem(elem, f"a relation needs at least two points, this one has {len(pts or ()) // 2}",
+        pts, s = elem.points or [], self.scene.scale
+        if len(pts) < 4:
+            self.problem(elem, f"a relation needs at least two points, this one has {len(pts) // 2}",
                          hint="draw the arrow again in UMLet")
             return None
         if elem.old:  # integers at the stored zoom, relative to the origin
@@ -101,13 +99,11 @@ class Relations:
     def at_note(self, elem: RawElement, rel: T.RelationText, ends: list[Any], probes: Any) -> bool:
         """Whether an end that attaches to no state attaches to a note: a dashed arrow is then the note's anchor
         (ignored); a solid one is an error."""
-        if not self.notes.boxes:
-            return False
         for (a, point), probe, role in zip(ends, probes, ("source", "target"), strict=True):
             if a.box is not None or a.rule == "ambiguous":
                 continue
             found = self.notes.attach(probe[0], probe[1], elem.old)
-            note = found.box or (found.others[0] if found.others else None)
+            note = found.box or next(iter(found.others), None)
             if note is None:
                 continue
             if not rel.dashed:
@@ -141,28 +137,24 @@ class Relations:
         ignored = self.ignored_at(point)
         if ignored is not None:
             box, reason = ignored
-            hint = ("draw the state as a UMLState box (from the palette)" if box.elem.kind != "Relation" and
-                    box.w > 0 and box.h > 0 else "give the box a size in UMLet (drag its corner), or delete it")
+            hint = ("draw the state as a UMLState box (from the palette)" if box.w > 0 and box.h > 0
+                    else "give the box a size in UMLet (drag its corner), or delete it")
             self.problem(elem, f"{role} end at {stored} ends at {describe(box.elem)}, which is ignored: {reason}",
                          hint=hint)
             return
         hint = "move the arrow's end onto a state's border (UMLet sticks ends closer than 9 px at 100% zoom)"
-        if len([p for p in self.scene.problems if "attached to nothing" in p.message]) < 50:
-            near, d = self.attacher.nearest(point[0], point[1]) if self.attacher.boxes else (None, math.inf)
+        if sum("attached to nothing" in p.message for p in self.scene.problems) < 50:
+            near, d = self.attacher.nearest(point[0], point[1])
             if near is not None:
                 hint = f"nearest is {self.scene.box_name(near)}, {num(round(d, 1))} px away at zoom 10; " + hint
         self.problem(elem, f"{role} end at {stored} is attached to nothing", hint=hint)
 
     def ignored_at(self, point: list[Any]) -> tuple[Box, str] | None:
-        """The ignored box (class box, zero-size box, ...) an arrow's end lies on or next to, innermost first."""
-        best: tuple[float, Box, str] | None = None
-        for box, reason in self.scene.ignored:
-            d, inside = box.border_distance(point[0], point[1])
-            if inside or d <= LENIENT:
-                key = box.w * box.h
-                if best is None or key < best[0]:
-                    best = (key, box, reason)
-        return None if best is None else (best[1], best[2])
+        """The ignored box (class box, zero-size box, ...) an arrow's end lies on or next to, the smallest (the
+        innermost) first, with the reason it is ignored."""
+        hits = [(box, reason) for box, reason in self.scene.ignored
+                if (at := box.border_distance(point[0], point[1]))[1] or at[0] <= LENIENT]
+        return min(hits, key=lambda hit: hit[0].w * hit[0].h, default=None)
 
     # -- relations ------------------------------------------------------------------------------------------
     def resolve(self, attached: list[Attached]) -> None:
@@ -177,7 +169,7 @@ class Relations:
 
     def mark_machine_frames(self, attached: list[Attached]) -> None:
         """A top-level frame no arrow touches is a machine's frame, not a state."""
-        touched = {id(box) for r in attached for box in (r.src, r.dst) if isinstance(box, Box)}
+        touched = {id(box) for r in attached for box in (r.src, r.dst)}  # None, False: no box's id
         self.scene.machine_frames.update(id(box) for box in self.scene.boxes
                                          if box.role == "frame" and box.parent is None and id(box) not in touched)
 
@@ -293,43 +285,36 @@ class Relations:
     def transition(self, elem: RawElement, s: StateBox, d: StateBox, params: dict[str, Any] | None,
                    label: T.Label, points: list[Any]) -> None:
         scene = self.scene
-        src, dst = s.box, d.box
-        s_chain = scene.container_chain(src)
-        d_chain = scene.container_chain(dst)
-        d_set = {id(c) for c in d_chain}
-        common = next(c for c in s_chain if id(c) in d_set)
-        if self.crosses_region(elem, s_chain, d_chain, common):
+        # the composites each end is drawn in, innermost first, up to the level both are drawn in
+        s_chain = scene.container_chain(s.box)
+        d_chain = scene.container_chain(d.box)
+        common = next(c for c in s_chain if c in d_chain)
+        s_chain, d_chain = s_chain[:s_chain.index(common)], d_chain[:d_chain.index(common)]
+        if self.crosses_region(elem, s_chain, d_chain):
             return
-        target = self.entry_target(elem, d, common)
+        target = self.entry_target(elem, d, d_chain)
         if target is None:
             return
-        if src.parent is common:
-            self.add_transition(scene.level_of(src), s, target, params, label, points, elem)
-            return
-        # exit: an inner state leaves its composite(s): Final in each level, Finished one level up
+        # an inner state leaves its composite(s): the drawn arrow's transition to a Final state of the innermost
+        # level, then a Finished transition on its outcome in each level above, up to the common one
         outcome = f"exit to {target.id}"
-        current, node = s, src
-        # the drawn arrow's transition leaves the innermost level; the levels above finish on its outcome
+        current = s
         drawn: tuple[dict[str, Any] | None, T.Label, list[Any] | None, RawElement | None]
         drawn = (params, label, points, elem)
-        while node.parent is not common:
-            owner = node.parent
-            assert owner is not None
+        for owner in s_chain:
             lvl = scene.levels[id(owner)]
             self.add_transition(lvl, current, _exit_final(lvl, outcome, elem), *drawn)
             drawn = ({"type": "Finished", "outcome": outcome}, T.Label(None, ""), None, None)
-            current, node = scene.state_of[id(owner)], owner
-        self.add_transition(scene.level_of(node), current, target, {"type": "Finished", "outcome": outcome},
-                            T.Label(None, ""), None, None)
+            current = scene.state_of[id(owner)]
+        self.add_transition(scene.level_of(current.box), current, target, *drawn)
 
-    def crosses_region(self, elem: RawElement, s_chain: list[Any], d_chain: list[Any], common: Any) -> bool:
-        """Whether the arrow leaves or enters a region frame of a Parallel state (said as a problem)."""
+    def crosses_region(self, elem: RawElement, s_chain: list[Any], d_chain: list[Any]) -> bool:
+        """Whether the arrow leaves or enters a region frame of a Parallel state (said as a problem): ``s_chain``
+        and ``d_chain`` are the boxes it leaves and enters."""
         scene = self.scene
         for chain, way in ((s_chain, "leaves"), (d_chain, "enters")):
             for c in chain:
-                if c is common:
-                    break
-                if c is not None and id(c) in scene.region_frames:
+                if id(c) in scene.region_frames:
                     self.problem(elem, f"the arrow {way} {scene.box_name(c)} of Parallel "
                                        f"'{scene.state_of[id(c.parent)].id}'",
                                  hint="a region starts at its own initial pseudostate and ends in a Final state; "
@@ -338,20 +323,16 @@ class Relations:
                     return True
         return False
 
-    def entry_target(self, elem: RawElement, d: StateBox, common: Any) -> StateBox | None:
-        """The state an arrow to ``d`` enters at the common level: ``d`` must be reached through initial states
-        from there, else the arrow waits (``None``) to be said when nothing resolves it."""
+    def entry_target(self, elem: RawElement, d: StateBox, d_chain: list[Box | None]) -> StateBox | None:
+        """The state an arrow to ``d`` enters at the common level, the composites it enters being ``d_chain``:
+        ``d`` must be reached through initial states from there, else the arrow waits (``None``) to be said when
+        nothing resolves it."""
         scene = self.scene
         target = d
-        node = d.box
-        while node.parent is not common:
-            owner = node.parent
-            assert owner is not None
-            lvl = scene.levels[id(owner)]
-            if lvl.initial_target is None or lvl.initial_target.box is not node:
-                self._pending_enter.setdefault(id(elem), (elem, node, owner))
+        for owner in d_chain:
+            if scene.levels[id(owner)].initial_target is not target:
+                self._pending_enter.setdefault(id(elem), (elem, target.box, owner))
                 return None
-            node = owner
             target = scene.state_of[id(owner)]
         return target
 
@@ -373,7 +354,7 @@ class Relations:
         event, else a completion; with the label's guard and actions. A TextError says what is wrong."""
         uml = label.uml or label.text
         try:
-            event, guard, action = T.split_uml(uml) if uml else ("", None, None)
+            event, guard, action = T.split_uml(uml)
             if guard is not None:
                 T.check_guard(guard)
             actions = T.parse_actions(action) if action is not None else None
@@ -397,7 +378,7 @@ class Relations:
                          ) -> dict[str, Any]:
         """A transition whose text gives its type and parameters; ``drawn``: the guard and actions of the
         '[guard] / action' line, which the parameters may not give again."""
-        typ = params.pop("type", None) if "type" in params else None
+        typ = params.pop("type", None)
         if not isinstance(typ, str) or not typ:
             raise T.TextError(f"'type' must be a transition type name, got {typ!r}",
                               hint="see `fsmctl types` for the transition types")
@@ -433,12 +414,8 @@ def _exit_final(lvl: Level, outcome: str, elem: RawElement) -> StateBox:
     final = lvl.finals_by_outcome.get(outcome)
     if final is None:
         taken = {st.id for st in lvl.states} | {f.id for f in lvl.finals_by_outcome.values()}
-        fid = outcome
-        n = 2
-        while fid in taken:
-            fid = f"{outcome} ({n})"
-            n += 1
-        final = StateBox(Box(elem, "final", 0, 0, 0, 0), id=fid, type="Final", params={"outcome": outcome})
+        final = StateBox(Box(elem, "final", 0, 0, 0, 0), id=T.numbered(outcome, taken), type="Final",
+                         params={"outcome": outcome})
         lvl.finals_by_outcome[outcome] = final
     return final
 

@@ -8,7 +8,9 @@ element's kind, label, file line:column and diagram coordinates, never raised on
 
 from __future__ import annotations
 
+import functools
 import json
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -19,19 +21,17 @@ from . import text as T
 from .geometry import Box, nest
 from .source import RawDiagram, RawElement, describe, num, where
 
-_STATE_KINDS_NEW = {"UMLState"}
-_STATE_KINDS_OLD = {"State", "StateSubDiagram", "SendSignal", "ReceiveSignal"}
-#: Class boxes: states in a diagram that has no state box at all (students draw state machines with them).
-_CLASS_KINDS_NEW = {"UMLClass"}
-_CLASS_KINDS_OLD = {"Class"}
-_FRAME_KINDS = {"UMLFrame"}
-_NOTE_KINDS_NEW = {"UMLNote"}
-_NOTE_KINDS_OLD = {"Note"}
+#: What the elements of each kind draw. Class boxes are states in a diagram that has no state box at all
+#: (students draw state machines with them).
+_DRAWS = {"UMLState": "state", "UMLClass": "class", "UMLFrame": "frame", "UMLNote": "note"}
+#: The same for old elements (``<type>``), which may have either kind.
+_DRAWS_OLD = {"State": "state", "StateSubDiagram": "state", "SendSignal": "state", "ReceiveSignal": "state",
+              "Class": "class", "Note": "note"}
 _SPECIAL_OLD = {"InitialState": "initial", "FinalState": "final", "Decision": "decision",
                 "HistoryState": "history", "RegionEndState": "flow_final", "SyncBarHorizontal": "sync",
                 "SyncBarVertical": "sync"}
 _SUPPORTED_SPECIAL = {"initial", "final"}
-#: Machine note keys whose values are texts (the others: ``vars``, a JSON object).
+#: Machine note keys whose values are texts (the others: :data:`_NOTE_JSON_KEYS`).
 _NOTE_TEXT_KEYS = {"name", "$schema", "description"}
 
 
@@ -73,12 +73,9 @@ class Level:
     finals_by_outcome: dict[str, StateBox] = field(default_factory=dict)
 
 
-def _is_state(elem: RawElement) -> bool:
-    return elem.kind in _STATE_KINDS_NEW or (elem.old and elem.kind in _STATE_KINDS_OLD)
-
-
-def _is_class(elem: RawElement) -> bool:
-    return elem.kind in _CLASS_KINDS_NEW or (elem.old and elem.kind in _CLASS_KINDS_OLD)
+def _draws(elem: RawElement) -> str | None:
+    """What an element draws: a state, class, frame or note box (None: none of them)."""
+    return _DRAWS.get(elem.kind) or (_DRAWS_OLD.get(elem.kind) if elem.old else None)
 
 
 def _pseudostate(elem: RawElement) -> str | None:
@@ -133,13 +130,12 @@ class Scene:
     # -- queries --------------------------------------------------------------------------------------------
     def box_name(self, box: Box) -> str:
         st = self.state_of.get(id(box))
+        name = st.id if st is not None else ""
         if box.role == "initial":
             return f"the initial pseudostate at {where(box.elem)}"
-        if id(box) in self.region_frames and st is not None:
-            return f"region frame '{st.id}'" if st.id else f"the region frame at {where(box.elem)}"
-        if st is not None and st.id:
-            return f"'{st.id}'"
-        return f"{box.elem.kind} at {where(box.elem)}"
+        if id(box) in self.region_frames:
+            return f"region frame '{name}'" if name else f"the region frame at {where(box.elem)}"
+        return f"'{name}'" if name else f"{box.elem.kind} at {where(box.elem)}"
 
     def level_of(self, box: Box) -> Level:
         return self.levels[id(box.parent)] if box.parent is not None else self.levels[0]
@@ -154,8 +150,8 @@ class Scene:
         return chain
 
     def is_parallel(self, box: Box | None) -> bool:
-        st = self.state_of.get(id(box)) if box is not None else None
-        return box is not None and st is not None and st.type == "Parallel" and box.role == "state"
+        st = self.state_of.get(id(box))  # None: no state's box
+        return st is not None and st.type == "Parallel" and st.box.role == "state"
 
     # -- building -------------------------------------------------------------------------------------------
     def build(self) -> None:
@@ -167,8 +163,8 @@ class Scene:
     def classify(self) -> None:
         """Sort the elements: state boxes, frames, notes and pseudostates become boxes, relations are kept for
         later, and what is not part of a state machine is ignored (with the reason an arrow ending on it gives)."""
-        self.class_states = not any(_is_state(e) for e in self.raw.elements) and any(
-            _is_class(e) for e in self.raw.elements)
+        drawn = {_draws(e) for e in self.raw.elements}
+        self.class_states = "class" in drawn and "state" not in drawn
         for elem in self.raw.elements:
             if elem.kind != "Relation" and (elem.w <= 0 or elem.h <= 0):
                 self._sizeless(elem)
@@ -185,32 +181,31 @@ class Scene:
 
     def _sizeless(self, elem: RawElement) -> None:
         """A box of no size is ignored; one that would be part of the machine is said."""
-        if self._drawn_state(elem) or elem.kind in _FRAME_KINDS or _pseudostate(elem) is not None:
+        if self._drawn(elem) in ("state", "frame") or _pseudostate(elem) is not None:
             self.problem(elem, f"the box has no size (w={num(elem.w)}, h={num(elem.h)}), so it is ignored",
                          hint="give it a size in UMLet (drag its corner), or delete it")
         self.ignored.append((self.box(elem, "ignored"), "it has no size"))
 
     def _role(self, elem: RawElement) -> str | None:
         """state, frame, note, a pseudostate's kind (or unsupported), comment, relation; ``None``: ignored."""
-        kind = elem.kind
-        if self._drawn_state(elem):
-            return "state"
-        if kind in _FRAME_KINDS:
-            return "frame"
-        if kind in _NOTE_KINDS_NEW or (elem.old and kind in _NOTE_KINDS_OLD):
+        drawn = self._drawn(elem)
+        if drawn in ("state", "frame"):
+            return drawn
+        if drawn == "note":
             return "note" if T.is_machine_note(elem.text) else "comment"
         special = _pseudostate(elem)
         if special is not None:
             return special if special in _SUPPORTED_SPECIAL else "unsupported"
-        return "relation" if kind == "Relation" else None
+        return "relation" if elem.kind == "Relation" else None
 
-    def _drawn_state(self, elem: RawElement) -> bool:
-        """A state box, or a class box in a diagram that has no state boxes."""
-        return _is_state(elem) or (self.class_states and _is_class(elem))
+    def _drawn(self, elem: RawElement) -> str | None:
+        """What an element draws (:func:`_draws`), a class box being a state in a diagram that has no state box."""
+        drawn = _draws(elem)
+        return "state" if drawn == "class" and self.class_states else drawn
 
     @staticmethod
     def _ignored_reason(elem: RawElement) -> str:
-        if _is_class(elem):
+        if _draws(elem) == "class":
             return "class boxes are states only in a diagram without UMLState boxes, and this one has UMLState boxes"
         return f"a {elem.kind} is not part of a state machine"
 
@@ -304,32 +299,13 @@ class Scene:
         return sets
 
     def read_note(self, elem: RawElement) -> dict[str, Any] | None:
-        """A machine note's keys, typed: texts for name, $schema and description, a JSON object for vars."""
+        """A machine note's keys, typed (see :func:`_note_value`); ``None``: a problem said."""
         try:
             note = T.parse_machine_note(elem.text)
+            meta = {key: _note_value(key, raw) for key, raw in note.values.items()}
         except T.TextError as exc:
-            self.problem(elem, f"machine note: {exc}")
+            self.problem(elem, f"machine note: {exc}", hint=exc.hint)
             return None
-        meta: dict[str, Any] = {}
-        for key, raw in note.values.items():
-            try:
-                value = T.parse_value(raw, strict=True)
-            except T.TextError as exc:
-                self.problem(elem, f"machine note: {exc}")
-                return None
-            if key in _NOTE_TEXT_KEYS:
-                if not isinstance(value, str) and value is not None:
-                    value = raw  # 42, true, [..]: the text as written
-            elif key == "inputs":
-                if not (isinstance(value, list) and all(isinstance(v, str) for v in value)):
-                    self.problem(elem, f"machine note: 'inputs' must be a JSON list of signal names, got {raw[:40]!r}",
-                                 hint='write it as inputs=["start", "pause"]')
-                    return None
-            elif not isinstance(value, dict):
-                self.problem(elem, f"machine note: '{key}' must be a JSON object, got {raw[:40]!r}",
-                             hint='write it as vars={"name": value, ...}')
-                return None
-            meta[key] = value
         if note.description is not None:
             meta["description"] = note.description
         return meta
@@ -343,30 +319,26 @@ class Scene:
         cls = (reg.states if kind == "state" else reg.transitions).get(typ)
         if cls is None:
             return params
-        text_fields = _text_fields(cls.Params)
-        out = {}
-        for k, v in params.items():
-            if k in kv_keys and k in text_fields and not isinstance(v, str) and not isinstance(v, (dict, list)):
-                v = json.dumps(v)
-            out[k] = v
-        return out
+        texts = kv_keys & _text_fields(cls.Params)
+        return {k: json.dumps(v) if k in texts and not isinstance(v, (str, dict, list)) else v
+                for k, v in params.items()}
 
     def make_levels(self) -> None:
         """A level (a machine) at the top and in each box that holds more than notes; each note, initial marker
         and state put in the level it is drawn in; final states named."""
         self.levels[0] = Level(None)
         for box in self.boxes:
-            if box.container and any(c.role != "note" for c in box.children):
+            if any(c.role != "note" for c in box.children):  # only containers have children
                 self.levels[id(box)] = Level(box)
         for box in self.boxes:
             if box.role == "note":
                 self._place_note(box)
             elif box.role == "initial":
                 self.level_of(box).initials.append(box)
-            elif box.role in ("state", "frame", "final") and id(box) in self.state_of:
+            elif id(box) in self.state_of:  # a frame, state or final box whose text read
                 st = self.state_of[id(box)]
                 self.level_of(box).states.append(st)
-                st.composite = st.composite or id(box) in self.levels
+                st.composite = id(box) in self.levels
         for level in self.levels.values():
             _name_finals(level)
 
@@ -383,13 +355,35 @@ class Scene:
             level.notes.append(box)
 
 
+def _note_value(key: str, raw: str) -> Any:
+    """A machine note's value: a text for name, $schema and description (42, true, [..]: the text as written), a
+    JSON list of names for inputs, a JSON object for vars; a :class:`TextError` says what is wrong."""
+    value = T.parse_value(raw, strict=True)
+    if key in _NOTE_TEXT_KEYS:
+        return value if isinstance(value, str) or value is None else raw
+    fits, form, hint = _NOTE_JSON_KEYS[key]
+    if not fits(value):
+        raise T.TextError(f"'{key}' must be {form}, got {raw[:40]!r}", hint=hint)
+    return value
+
+
+def _names(value: Any) -> bool:
+    return isinstance(value, list) and all(isinstance(v, str) for v in value)
+
+
+#: Machine note keys whose values are JSON: whether a value has the form, the form, and how to write it.
+_NOTE_JSON_KEYS: dict[str, tuple[Callable[[Any], bool], str, str]] = {
+    "inputs": (_names, "a JSON list of signal names", 'write it as inputs=["start", "pause"]'),
+    "vars": (lambda value: isinstance(value, dict), "a JSON object", 'write it as vars={"name": value, ...}')}
+
+
 def _frame_state(box: Box) -> StateBox:
     """A frame's state, named by the title lines above its first separator."""
     title = []
-    for ln in box.elem.text.split("\n"):
+    for ln in T.shown_lines(box.elem.text):
         if T.SEPARATOR.match(ln):
             break
-        if not T.is_style(ln, T.BOX_STYLE_KEYS) and ln.strip():
+        if ln.strip():
             title.append(ln.strip())
     return StateBox(box, id=" ".join(title))
 
@@ -401,8 +395,7 @@ def _final_state(box: Box) -> StateBox:
     if elem.kind == "UMLSpecialState":
         _, label = T.special_kind(elem.text)
     else:
-        label = " ".join(ln.strip() for ln in elem.text.split("\n")
-                         if ln.strip() and not T.is_style(ln, T.BOX_STYLE_KEYS))
+        label = " ".join(ln.strip() for ln in T.shown_lines(elem.text) if ln.strip())
     if label:
         st.params = {"outcome": label}
     return st
@@ -417,20 +410,14 @@ def _name_finals(level: Level) -> None:
             taken.add(st.id)
 
 
+@functools.cache
 def _text_fields(model: Any) -> set[str]:
-    cache = _TEXT_FIELDS.get(model)
-    if cache is None:
-        cache = set()
-        schema = model.model_json_schema()
-        for name, prop in schema.get("properties", {}).items():
-            types = {prop.get("type")} if "type" in prop else {p.get("type") for p in prop.get("anyOf", [])}
-            if "enum" in prop and all(isinstance(v, str) for v in prop["enum"]):
-                types = {"string"}
-            types.discard("null")
-            if types == {"string"}:
-                cache.add(name)
-        _TEXT_FIELDS[model] = cache
-    return cache
-
-
-_TEXT_FIELDS: dict[Any, set[str]] = {}
+    """The fields of a Params model whose values are texts (a string, or an enum of strings; null aside)."""
+    out = set()
+    for name, prop in model.model_json_schema().get("properties", {}).items():
+        types = {prop.get("type")} if "type" in prop else {p.get("type") for p in prop.get("anyOf", [])}
+        if "enum" in prop and all(isinstance(v, str) for v in prop["enum"]):
+            types = {"string"}
+        if types - {"null"} == {"string"}:
+            out.add(name)
+    return out

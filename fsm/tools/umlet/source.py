@@ -86,12 +86,11 @@ def read_raw(path: Path) -> RawDiagram:
 
 
 def parse_raw(raw: bytes, name: str) -> RawDiagram:
-    if raw.startswith(b"\xef\xbb\xbf"):
-        raw = raw[3:]
+    raw = raw.removeprefix(b"\xef\xbb\xbf")
     head = raw[:64].lstrip()
     if not head:
         raise fail(name, "file is empty; a UMLet diagram is an XML document <diagram>...</diagram>", 1, 1)
-    if raw.startswith((b"\xff\xfe", b"\xfe\xff")) or (len(raw) > 1 and raw[1:2] == b"\x00"):
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")) or raw[1:2] == b"\x00":
         raise fail(name, "not UTF-8 (looks like UTF-16)", 1, 1, hint="save the diagram as UTF-8, as UMLet does")
     if head[:1] in (b"{", b"["):
         return parse_xml2json(raw, name)
@@ -106,16 +105,11 @@ _ELEMENT_TAG = re.compile(rb"<element[\s>/]")
 def _refuse_doctype(raw: bytes, name: str) -> None:
     """A DOCTYPE (and with it every entity declaration) is refused outright, before any parsing."""
     pos = 0
-    while True:
-        m = _PROLOG_ITEM.match(raw, pos)
-        if not m or m.end() == pos:
-            break
+    while m := _PROLOG_ITEM.match(raw, pos):  # each match is not empty
         pos = m.end()
-    while pos < len(raw) and raw[pos:pos + 1].isspace():
+    while raw[pos:pos + 1].isspace():  # b"" at the end is no space
         pos += 1
-    doctype = raw.startswith(b"<!DOCTYPE", pos) or raw.startswith(b"<!doctype", pos)
-    entity = not doctype and b"<!ENTITY" in raw[:pos + 4096]
-    if doctype or entity:
+    if raw.startswith((b"<!DOCTYPE", b"<!doctype"), pos) or b"<!ENTITY" in raw[:pos + 4096]:
         line = raw.count(b"\n", 0, pos) + 1
         col = pos - (raw.rfind(b"\n", 0, pos) + 1) + 1
         raise fail(name, "DOCTYPE declarations are not allowed in a UMLet diagram (entities are never expanded, "
@@ -191,12 +185,11 @@ class _XmlElements:
 
 def _syntax_failure(exc: Any, name: str) -> DiagramError:
     """lxml's complaint about XML that is not well-formed, located."""
-    line, col = (exc.position if exc.position else (None, None))
-    msg = str(exc.msg or exc)
-    msg = re.sub(r",? line \d+, column \d+$", "", msg)
+    line, col = exc.position or (None, None)
+    msg = re.sub(r",? line \d+, column \d+$", "", str(exc.msg or exc))
     if "huge" in msg.lower():
         msg += " (text nodes are limited to 10 MB)"
-    return fail(name, f"not well-formed XML: {msg}", line, (col or 0) + 1 if col is not None else None,
+    return fail(name, f"not well-formed XML: {msg}", line, col + 1 if col is not None else None,
                 hint="is this a UMLet .uxf file?")
 
 
@@ -208,8 +201,6 @@ def parse_xml(raw: bytes, name: str) -> RawDiagram:
     found = _XmlElements(name)
     try:
         found.read(etree.iterparse(io.BytesIO(raw), events=("start", "end"), **_parser_kwargs()))
-    except DiagramError:
-        raise
     except etree.XMLSyntaxError as exc:
         raise _syntax_failure(exc, name) from None
     except (ValueError, MemoryError) as exc:  # lxml raises ValueError for some invalid input
@@ -217,16 +208,13 @@ def parse_xml(raw: bytes, name: str) -> RawDiagram:
     if found.root_tag is None:
         raise fail(name, "not a UMLet diagram: no <diagram> root element", 1, 1)
     found.locate(raw)
-    if found.problems:
+    if found.problems:  # else every element read
         raise DiagramError(found.problems)
-    elements = [e for e in found.elements if e.kind]
     zoom = _zoom(found.zoom_text, name, found.zoom_line)
-    if not elements:
+    if not found.elements:
         raise _no_elements(name, 1, 1)
-    text = None
-    if len(raw) <= 8_000_000:
-        text = raw.decode("utf-8", "replace")
-    return RawDiagram(name, zoom, elements, text=text, zoom_line=found.zoom_line)
+    text = raw.decode("utf-8", "replace") if len(raw) <= 8_000_000 else None
+    return RawDiagram(name, zoom, found.elements, text=text, zoom_line=found.zoom_line)
 
 
 def _element_positions(raw: bytes, sourcelines: list[int | None]) -> list[tuple[int | None, int | None]]:
@@ -288,16 +276,13 @@ def _zoom(text: Any, name: str, line: int | None, pointer: str | None = None) ->
 
 
 def _number(value: Any) -> float | None:
-    if isinstance(value, bool):
+    """A coordinate: a number, or a text of one (blanks around it allowed), finite and at most
+    :data:`MAX_COORDINATE` in size; else None."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
         return None
-    if isinstance(value, (int, float)):
+    try:
         v = float(value)
-    elif isinstance(value, str):
-        try:
-            v = float(value.strip())
-        except ValueError:
-            return None
-    else:
+    except ValueError:
         return None
     return v if math.isfinite(v) and abs(v) <= MAX_COORDINATE else None
 
@@ -323,7 +308,7 @@ def _make_element(index: int, kind: Any, old: bool, coords: Any, text: Any, extr
                                 column=col, element=_bad_element(index, kind, old, at, text), hint=bad.hint))
         return None
     text = (text or "").replace("\r\n", "\n").replace("\r", "\n")
-    line, col = where() if pointer is not None else (None, None)
+    line, col = where()
     return RawElement(index, kind, old, values[0], values[1], values[2], values[3], text, points, line, col, pointer)
 
 
@@ -354,7 +339,7 @@ def _coordinates(coords: Any) -> list[float]:
 
 def _points(kind: str, extra: Any) -> list[float] | None:
     """A relation's points from ``<additional_attributes>`` (``x;y;x;y;...``); ``None`` for other elements."""
-    if extra is not None and not isinstance(extra, str):
+    if not isinstance(extra, (str, type(None))):
         raise T.TextError("additional_attributes must be text")
     if kind != "Relation" or not extra or not extra.strip():
         return None
@@ -413,7 +398,7 @@ def _xml2json_diagram(data: Any, name: str) -> dict[str, Any]:
     diagram = data.get("diagram") if isinstance(data, dict) else None
     if isinstance(diagram, dict):
         return diagram
-    if isinstance(data, dict) and ("states" in data or "initial" in data or "root" in data):
+    if isinstance(data, dict) and {"states", "initial", "root"} & data.keys():
         raise fail(name, "this is already a machine document, not a diagram", 1, 1,
                    hint="validate or run it directly: fsmctl validate FILE")
     raise fail(name, 'not a UMLet diagram in xml2json form: expected {"diagram": {"element": [...]}}', 1, 1)

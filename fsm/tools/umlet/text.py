@@ -72,11 +72,24 @@ def numbered(name: str, taken: set[str] | list[str]) -> str:
 
 
 def is_style(line: str, keys: set[str] = _STYLE_KEYS) -> bool:
-    stripped = line.strip()
-    if stripped.startswith("//"):
-        return True
-    m = KEY_VALUE.match(stripped)
-    return bool(m and m.group(1) in keys)
+    return line.lstrip().startswith("//") or key_of(line) in keys
+
+
+def key_of(line: str) -> str | None:
+    """The key of a ``key=value`` line, None for any other line."""
+    m = KEY_VALUE.match(line)
+    return m.group(1) if m else None
+
+
+def value_of(line: str, key: str) -> str | None:
+    """The value (stripped) of a ``key=value`` line whose key is ``key``, None for any other line."""
+    m = KEY_VALUE.match(line)
+    return m.group(2).strip() if m and m.group(1) == key else None
+
+
+def shown_lines(text: str) -> list[str]:
+    """The lines of a box's text that UMLet draws: its style facets and ``//`` comments left out."""
+    return [ln for ln in text.split("\n") if not is_style(ln, BOX_STYLE_KEYS)]
 
 
 @dataclass
@@ -98,19 +111,15 @@ ACTIVITY = re.compile(r"^\s*(entry|exit)\s*/(.*)$")
 
 def split_state(text: str) -> tuple[list[str], list[list[str]]]:
     """Name lines and compartments (lists of lines) of a UMLState text, style facets removed."""
-    lines = [ln for ln in text.split("\n") if not is_style(ln, BOX_STYLE_KEYS)]
     name_lines: list[str] = []
     compartments: list[list[str]] = []
     current = name_lines
-    for ln in lines:
+    for ln in shown_lines(text):
         if SEPARATOR.match(ln):
             current = []
             compartments.append(current)
-            continue
-        m = KEY_VALUE.match(ln)
-        if m and m.group(1) == "type" and m.group(2).strip().lower() in _UMLET_STATE_SHAPES:
-            continue
-        current.append(ln)
+        elif (value_of(ln, "type") or "").lower() not in _UMLET_STATE_SHAPES:
+            current.append(ln)
     return name_lines, compartments
 
 
@@ -131,18 +140,24 @@ def parse_state(text: str) -> StateText:
         if params is None and is_param_block(comp):
             params, kv_keys = parse_params(comp)
             continue
-        rest = []
-        for ln in comp:
-            m = ACTIVITY.match(ln)
-            if m:
-                activities.append((m.group(1), m.group(2).strip()))
-            else:
-                rest.append(ln)
-        block = _block(rest)
+        block = _block(_take_activities(comp, activities))
         if block.strip():
             free.append(block)
     description = "\n".join(free) if free else None
     return StateText(name, params, description, kv_keys, activities)
+
+
+def _take_activities(lines: list[str], activities: list[tuple[str, str]]) -> list[str]:
+    """The lines of a free text compartment that are no ``entry / ...`` or ``exit / ...`` activity; those are added
+    to ``activities``."""
+    rest = []
+    for ln in lines:
+        m = ACTIVITY.match(ln)
+        if m:
+            activities.append((m.group(1), m.group(2).strip()))
+        else:
+            rest.append(ln)
+    return rest
 
 
 def _block(lines: list[str]) -> str:
@@ -152,10 +167,10 @@ def _block(lines: list[str]) -> str:
 
 def _check_separator(lines: list[str]) -> None:
     """A box of parameters whose first line is a name (neither JSON nor ``key=value``): its ``--`` line is missing."""
-    first = next((ln.strip() for ln in lines if ln.strip()), "")
-    if not first or first.startswith(('"', "{")) or KEY_VALUE.match(first):
+    first, *rest = [stripped for ln in lines if (stripped := ln.strip())]  # a type is given: there are lines
+    if first.startswith(('"', "{")) or KEY_VALUE.match(first):
         return
-    params = [ln.strip() for ln in lines if ln.strip() and ln.strip() != first]
+    params = [p for p in rest if p != first]
     shown = " | ".join([first[:40], "--", *(p[:40] for p in params[:3])])
     raise TextError(f"the name {first[:40]!r} and the parameters need a line -- between them",
                     hint=f"write the lines {shown}; " + STATE_BOX_FORM)
@@ -164,8 +179,7 @@ def _check_separator(lines: list[str]) -> None:
 def _fragment_problem(body: str) -> TextError | None:
     """What is wrong with a JSON fragment that does not parse, said for the usual hand edits: a parameter line
     without its colon, a parameter name without double quotes, a line without its comma."""
-    lines = [ln.strip() for ln in body.strip().strip("{}").split("\n")]
-    lines = [ln for ln in lines if ln]
+    lines = [stripped for ln in body.strip().strip("{}").split("\n") if (stripped := ln.strip())]
     return _missing_colon(lines) or _unquoted_name(lines) or _missing_comma(lines)
 
 
@@ -197,11 +211,7 @@ def _missing_comma(lines: list[str]) -> TextError | None:
 
 
 def _has_kv_type(lines: list[str]) -> bool:
-    for ln in lines:
-        m = KEY_VALUE.match(ln)
-        if m and m.group(1) == "type":
-            return True
-    return False
+    return any(key_of(ln) == "type" for ln in lines)
 
 
 def is_param_block(lines: list[str]) -> bool:
@@ -216,19 +226,14 @@ def parse_params(lines: list[str]) -> tuple[dict[str, Any], set[str]]:
     with ``key=`` is never JSON, so where the JSON part ends is unambiguous; after it, every line is
     ``key=value``.
     """
-    json_lines: list[str] = []
-    kv_lines: list[str] = []
-    for ln in lines:
-        if kv_lines or KEY_VALUE.match(ln):
-            kv_lines.append(ln)
-        else:
-            json_lines.append(ln)
+    cut = next((i for i, ln in enumerate(lines) if KEY_VALUE.match(ln)), len(lines))
+    json_lines, kv_lines = lines[:cut], lines[cut:]
+    shown = [ln for ln in json_lines if ln.strip()]
     out: dict[str, Any] = {}
-    if any(ln.strip() for ln in json_lines):
+    if shown:
         fragment = "\n".join(json_lines)
         if not JSON_TYPE.search(fragment) and _has_kv_type(kv_lines):
-            first = next(ln for ln in json_lines if ln.strip())
-            raise TextError(f"line {first.strip()[:40]!r} is not key=value (a text with type=... holds only "
+            raise TextError(f"line {shown[0].strip()[:40]!r} is not key=value (a text with type=... holds only "
                             "key=value lines, after JSON lines if any)")
         out = parse_fragment(fragment)
     kv = parse_key_values(kv_lines)
@@ -259,9 +264,7 @@ def parse_key_values(lines: list[str]) -> dict[str, Any]:
 def parse_value(value: str, strict: bool = False) -> Any:
     """A ``key=value`` value: JSON when it parses as JSON, else the text. ``strict``: a JSON object that repeats
     a key is a :class:`TextError` (else it stays text)."""
-    if value == "":
-        return ""
-    if value[0] in '[{"-0123456789' or value in ("true", "false", "null"):
+    if value[:1] in '[{"-0123456789' or value in ("true", "false", "null"):  # "" too: it is no JSON
         try:
             return json.loads(value, object_pairs_hook=_unique_keys)
         except _RepeatedKey as exc:
@@ -294,7 +297,7 @@ def parse_fragment(text: str) -> dict[str, Any]:
     if not body.startswith("{"):
         body = "{" + body.rstrip().rstrip(",") + "}"
     try:
-        data = json.loads(body, object_pairs_hook=_unique_keys)
+        data: dict[str, Any] = json.loads(body, object_pairs_hook=_unique_keys)
     except _RepeatedKey as exc:
         raise TextError(f"parameter '{exc.args[0]}' is given twice in the JSON parameters") from None
     except json.JSONDecodeError as exc:
@@ -303,9 +306,7 @@ def parse_fragment(text: str) -> dict[str, Any]:
             hint='parameters are "name": value lines, separated by commas') from None
     except RecursionError:
         raise TextError("JSON parameters nested too deeply") from None
-    if not isinstance(data, dict):
-        raise TextError("JSON parameters must be an object")
-    return data
+    return data  # an object: the text starts with "{"
 
 
 # -- special states -----------------------------------------------------------------------------------------
@@ -313,19 +314,18 @@ def special_kind(text: str) -> tuple[str, str]:
     """``(kind, label)`` of a UMLSpecialState: kind from ``type=`` (default decision, as UMLet draws it)."""
     kind = "decision"
     label: list[str] = []
-    for ln in text.split("\n"):
-        if is_style(ln, BOX_STYLE_KEYS):
-            continue
-        m = KEY_VALUE.match(ln)
-        if m and m.group(1) == "type":  # SpecialStateTypeFacet: valueOf(value.toUpperCase(ENGLISH))
-            kind = m.group(2).strip().lower()
-            continue
-        if ln.strip():
+    for ln in shown_lines(text):
+        value = value_of(ln, "type")
+        if value is not None:  # SpecialStateTypeFacet: valueOf(value.toUpperCase(ENGLISH))
+            kind = value.lower()
+        elif ln.strip():
             label.append(ln.strip())
     return kind, " ".join(label)
 
 
 # -- relations ------------------------------------------------------------------------------------------------
+#: A relation's facets other than its line type (which :func:`parse_relation` reads).
+_RELATION_STYLE_KEYS = (_STYLE_KEYS | _RELATION_KEYS) - {"lt"}
 _LT = re.compile(r"^((?:[<>xo|()+*#^]|\[[^\]]*\])*?)(-|\.\.|\.)((?:[<>xo|()+*#^]|\[[^\]]*\])*)$")
 
 
@@ -344,19 +344,14 @@ def parse_relation(text: str) -> RelationText:
     lt = "-"
     label: list[str] = []
     for ln in text.split("\n"):
-        if is_style(ln) or is_style(ln, _RELATION_KEYS - {"lt"}):
-            continue
-        m = KEY_VALUE.match(ln)
-        if m and m.group(1) == "lt":
-            lt = m.group(2).strip()
-            continue
-        label.append(ln)
-    while label and not label[-1].strip():
-        label.pop()
-    while label and not label[0].strip():
-        label.pop(0)
+        value = value_of(ln, "lt")
+        if value is not None:
+            lt = value
+        elif not is_style(ln, _RELATION_STYLE_KEYS):
+            label.append(ln)
+    shown = [i for i, ln in enumerate(label) if ln.strip()]  # without blank lines around the label
     start, end, dashed = arrowheads(lt)
-    return RelationText(lt, start, end, dashed, label)
+    return RelationText(lt, start, end, dashed, label[shown[0]:shown[-1] + 1] if shown else [])
 
 
 def arrowheads(lt: str) -> tuple[bool, bool, bool]:
@@ -395,14 +390,18 @@ def parse_label(lines: list[str]) -> Label:
     tail: list[str] = []
     while body and _is_uml_line(body[-1]):
         tail.insert(0, body.pop())
-    if tail and body and is_param_block(body):
+    if tail and is_param_block(body):
         params, kv_keys = parse_params(body)
-        return Label(params, "", kv_keys, " ".join(" ".join(ln.split()) for ln in tail))
+        return Label(params, "", kv_keys, _one_line(tail))
     if is_param_block(lines):
         params, kv_keys = parse_params(lines)
         return Label(params, "", kv_keys)
-    text = " ".join(" ".join(ln.split()) for ln in lines if ln.strip())
-    return Label(None, text)
+    return Label(None, _one_line(lines))
+
+
+def _one_line(lines: list[str]) -> str:
+    """Lines as one line of text: their words, one blank apart."""
+    return " ".join(" ".join(lines).split())
 
 
 _UML_LABEL = re.compile(r"^(?P<event>[^\[/]*)(?:\[(?P<guard>[^\]]*)\])?\s*(?:/(?P<action>.*))?$", re.S)
@@ -420,14 +419,6 @@ def split_uml(label: str) -> tuple[str, str | None, str | None]:
     action = m.group("action")
     return (" ".join(m.group("event").split()), guard.strip() if guard is not None else None,
             action.strip() if action is not None else None)
-
-
-def event_name(label: str) -> str:
-    """The event of a UML label ``event [guard] / action`` ("" when there is none)."""
-    try:
-        return split_uml(label)[0]
-    except TextError:
-        return label.strip()
 
 
 def literal(text: str) -> Any:
@@ -478,11 +469,7 @@ _INCLUDE = re.compile(r"^\s*file\s*=(.*)$")
 
 def is_machine_note(text: str) -> bool:
     """Whether a note's first line (style lines aside) is ``machine``."""
-    for ln in text.split("\n"):
-        if is_style(ln, BOX_STYLE_KEYS) or not ln.strip():
-            continue
-        return ln.strip() == MACHINE_NOTE_TITLE
-    return False
+    return next((ln.strip() for ln in shown_lines(text) if ln.strip()), "") == MACHINE_NOTE_TITLE
 
 
 @dataclass
@@ -497,17 +484,16 @@ def parse_machine_note(text: str) -> MachineNote:
     """The compartments after the ``machine`` line: one starting with a machine key holds only ``key=value``
     lines (keys from :data:`MACHINE_KEYS`); any other is free text, the machine's description."""
     name_lines, compartments = split_state(text)
-    rest = list(name_lines)
-    while rest and not rest[0].strip():
-        rest.pop(0)
-    rest = rest[1:]  # the "machine" line
+    title = next(i for i, ln in enumerate(name_lines) if ln.strip())  # the "machine" line
     values: dict[str, str] = {}
     free: list[str] = []
-    for comp in [rest] + compartments:
+    for comp in [name_lines[title + 1:]] + compartments:
         lines = [ln for ln in comp if ln.strip()]
-        if lines and note_key_line(lines[0]):
+        if not lines:
+            continue
+        if note_key_line(lines[0]):
             _add_key_values(lines, values)
-        elif lines:
+        else:
             free.append(_block(comp))
     if free and "description" in values:
         raise TextError("the description is given twice: as description= and as free text")

@@ -70,7 +70,7 @@ _COMMON_TRANSITION = {"type", "from", "to", "layout"}
 
 def value_text(v: Any) -> str:
     if isinstance(v, str):
-        if v and v == v.strip() and "\n" not in v and T.parse_value(v) == v:
+        if _one_line(v) and T.parse_value(v) == v:
             return v
         return json.dumps(v, ensure_ascii=False)
     return json.dumps(v, ensure_ascii=False, separators=(", ", ": "))
@@ -93,30 +93,32 @@ def param_lines(typ: str, params: dict[str, Any], reserved: set[str], type_as_js
     return [f"type={typ}"] + lines
 
 
+def _one_line(text: str) -> bool:
+    """Whether ``text`` is one line, not empty, without blanks around it."""
+    return bool(text) and text == text.strip() and "\n" not in text
+
+
 def _facet_line(line: str) -> bool:
     """Whether UMLet (in a state or a note) or the reader would take ``line`` for a facet, not text."""
-    m = T.KEY_VALUE.match(line)
-    return T.is_style(line, T.BOX_STYLE_KEYS) or bool(m and m.group(1) in T.STATE_FACET_KEYS)
+    return T.is_style(line, T.STATE_FACET_KEYS)
 
 
 def _relation_facet_line(line: str) -> bool:
     """Whether UMLet or the reader would take ``line`` of a relation's text for a facet, not label text."""
-    m = T.KEY_VALUE.match(line)
-    return line.lstrip().startswith("//") or bool(m and m.group(1) in T.RELATION_FACET_KEYS)
+    return T.is_style(line, T.RELATION_FACET_KEYS)
 
 
 def _safe_name(name: str) -> bool:
-    if not name or name != name.strip() or "\n" in name or "  " in name:
-        return False
-    return not (_facet_line(name) or T.SEPARATOR.match(name) or T.JSON_TYPE.search(name))
+    return _one_line(name) and "  " not in name and not (
+        _facet_line(name) or T.SEPARATOR.match(name) or T.JSON_TYPE.search(name))
 
 
 def _safe_free_text(text: str) -> bool:
+    """Whether ``text`` reads back as a box's free text: no blank line, no line with trailing blanks, none that
+    would be read as a facet, a separator or an activity, and no parameters."""
     lines = text.split("\n")
-    return (text == text.strip("\n") and all(ln == ln.rstrip() for ln in lines) and bool(text.strip())
-            and not any(_facet_line(ln) or T.SEPARATOR.match(ln) or not ln.strip() or T.ACTIVITY.match(ln)
-                        for ln in lines)
-            and not T.is_param_block(lines))
+    return not any(not ln.strip() or ln != ln.rstrip() or _facet_line(ln) or T.SEPARATOR.match(ln)
+                   or T.ACTIVITY.match(ln) for ln in lines) and not T.is_param_block(lines)
 
 
 def action_text(assignments: Any) -> str | None:
@@ -132,15 +134,18 @@ def action_text(assignments: Any) -> str | None:
         back = T.parse_actions(text)
     except T.TextError:
         return None
-    if back != assignments or any(type(back[k]) is not type(v) for k, v in assignments.items()):
-        return None
-    return text
+    return text if _same_values(back, assignments) else None
+
+
+def _same_values(read: dict[str, Any] | None, written: Any) -> bool:
+    """Whether what was read back is what was written, each value of the same type (1 is not 1.0 or true)."""
+    return read == written and (read is None or all(type(read[k]) is type(v) for k, v in written.items()))
 
 
 def _action_value(value: Any) -> str | None:
     """The right-hand side of one assignment: an expression as written, a number or a boolean as JSON."""
     if isinstance(value, str):
-        return value if value == value.strip() and "\n" not in value and T.literal(value) == value else None
+        return value if _one_line(value) and T.literal(value) == value else None
     return json.dumps(value) if isinstance(value, (bool, int, float)) else None
 
 
@@ -163,7 +168,7 @@ def guard_action_text(guard: Any, assignments: Any) -> str | None:
     cannot be written so (a condition object guard, a guard holding ']')."""
     parts = []
     if guard is not None:
-        if not isinstance(guard, str) or guard != guard.strip() or "]" in guard or "\n" in guard or not guard:
+        if not isinstance(guard, str) or not _one_line(guard) or "]" in guard:
             return None
         parts.append(f"[{guard}]")
     if assignments is not None:
@@ -209,15 +214,17 @@ def _sections(head: list[str], *sections: list[str] | None) -> list[str]:
 
 def drawn_regions(st: dict[str, Any]) -> list[dict[str, Any]] | None:
     """The regions of a Parallel state when each can be drawn as a frame (an inline machine or an include)."""
-    regions = st.get("regions")
-    if st.get("type") != "Parallel" or not isinstance(regions, list) or not regions:
+    regions = _drawn_list(st, "Parallel", "regions")
+    if regions is None or not all(isinstance(r, dict) and (isinstance(r.get("states"), list) or (
+            set(r) == {"file"} and isinstance(r["file"], str))) for r in regions):
         return None
-    for r in regions:
-        if not isinstance(r, dict):
-            return None
-        if not (isinstance(r.get("states"), list) or (set(r) == {"file"} and isinstance(r["file"], str))):
-            return None
     return regions
+
+
+def _drawn_list(st: dict[str, Any], typ: str, key: str) -> list[Any] | None:
+    """``st[key]`` of a ``typ`` state when it is a list that holds something (its regions or steps), else None."""
+    items = st.get(key)
+    return items if st.get("type") == typ and isinstance(items, list) and items else None
 
 
 def region_title(region: dict[str, Any]) -> str:
@@ -238,8 +245,8 @@ def note_text(machine: dict[str, Any], role: str) -> str | None:
     The diagram's own machine always has one (without it, the reader names the machine after the file).
     """
     params = {key: machine[key] for key in T.MACHINE_KEYS if key in machine}
-    if "name" in params and role == "region" and region_title(machine):
-        del params["name"]  # the frame's title
+    if role == "region" and region_title(machine):
+        del params["name"]  # the frame's title is the region's name
     free = _free_text(params, _safe_note_text)
     kv = [f"{key}={json.dumps(value, ensure_ascii=False) if key in ('vars', 'inputs') else value_text(value)}"
           for key, value in params.items()]
@@ -258,23 +265,20 @@ NOTE_W, NOTE_CHAR_W, NOTE_LINE_H = 360, 7.5, 18
 
 def note_size(text: str) -> tuple[float, float]:
     per_line = int((NOTE_W - 20) / NOTE_CHAR_W)
-    shown = [ln for ln in text.split("\n") if not T.is_style(ln, T.BOX_STYLE_KEYS)]
-    lines = sum(max(1, len(textwrap.wrap(ln, per_line))) for ln in shown)
+    lines = sum(max(1, len(textwrap.wrap(ln, per_line))) for ln in T.shown_lines(text))
     return float(NOTE_W), float(-(-(lines * NOTE_LINE_H + 20) // 10) * 10)
 
 
 def head_height(text: str) -> float:
     """The height of a composite box's own text above its content."""
-    shown = [ln for ln in text.split("\n") if not T.is_style(ln, T.BOX_STYLE_KEYS)]
-    return HEAD + 18 * max(0, len(shown) - 1)
+    return HEAD + 18 * max(0, len(T.shown_lines(text)) - 1)
 
 
 def drawn_steps(st: dict[str, Any]) -> dict[str, Any] | None:
     """A Sequence's steps (and exception sequences) as the machine drawn inside its box, or None."""
-    steps = st.get("steps")
-    if st.get("type") != "Sequence" or not isinstance(steps, list) or not steps:
-        return None
-    if not all(isinstance(x, dict) and isinstance(x.get("id"), str) for x in steps + list(st.get("exceptions") or [])):
+    steps = _drawn_list(st, "Sequence", "steps")
+    if steps is None or not all(isinstance(x, dict) and isinstance(x.get("id"), str)
+                                for x in steps + list(st.get("exceptions") or [])):
         return None
     return sequence_machine(st, start="Finished")
 
@@ -293,17 +297,16 @@ def _reads_back(label: str, signal: str, guard: Any, assignments: Any) -> bool:
     """Whether a UML label converts back to exactly this signal, guard and ``set``."""
     try:
         parsed = T.parse_label(label.split("\n"))
-        if parsed.params is not None or parsed.text != label or _relation_facet_line(label):
+        if parsed.text != label or _relation_facet_line(label):  # typed parameters have no text
             return False
         event, g, action = T.split_uml(label)
         actions = T.parse_actions(action) if action is not None else None
     except T.TextError:
         return False
-    return event == signal and g == guard and actions == assignments and (
-        actions is None or all(type(actions[k]) is type(v) for k, v in assignments.items()))
+    return event == signal and g == guard and _same_values(actions, assignments)
 
 
-def transition_text(tr: dict[str, Any], source: dict[str, Any] | None, registry: Any) -> str:
+def transition_text(tr: dict[str, Any], source: dict[str, Any], registry: Any) -> str:
     """The text of a transition's arrow: a UML label that reads back as this Signal transition, else its type (left
     out where the source implies it: Finished from a state that finishes, Always from one that does not) and
     parameters, with its guard and ``set`` as a ``[guard] / action`` line where they read back so."""
@@ -313,7 +316,7 @@ def transition_text(tr: dict[str, Any], source: dict[str, Any] | None, registry:
     if label is not None:
         return "lt=->\n" + label
     tail = _guard_action_line(params)
-    implied = not params and source is not None and _implied_type(typ, source, registry)
+    implied = not params and _implied_type(typ, source, registry)
     shown = [] if implied else param_lines(typ, params, T.RELATION_FACET_KEYS, type_as_json=False)
     return "\n".join(["lt=->", *shown, *([tail] if tail else [])])
 
@@ -339,8 +342,7 @@ def _guard_action_line(params: dict[str, Any]) -> str | None:
 
 def _implied_type(typ: str, source: dict[str, Any], registry: Any) -> bool:
     """Whether an arrow without text from ``source`` means ``typ``: Finished when it can finish, else Always."""
-    can = _can_finish(source, registry)
-    return (typ == "Finished" and can) or (typ == "Always" and not can)
+    return typ == ("Finished" if _can_finish(source, registry) else "Always")
 
 
 def final_special(st: dict[str, Any], level_names: set[str], used: set[str]) -> str | None:
@@ -361,17 +363,22 @@ def export(doc: dict[str, Any], registry: Any = None) -> str:
     note_of = functools.partial(_note_of, roles)
     level = lay_out(doc, _lines_of, expand=functools.partial(_expand, roles),
                     note_size=functools.partial(_size_of_note, roles))
-    x0, y0, x1, y1 = level.bbox(labels=False)
+    bbox = level.bbox(labels=False)
     stored = any(isinstance(st, dict) and isinstance(st.get("layout"), dict) for st in doc.get("states", []))
-    dx, dy = (0.0, 0.0) if stored else (max(0.0, 20 - x0), max(0.0, 20 - y0))
-    if dx or dy:
-        level.shift(dx, dy)
+    shift = (0.0, 0.0) if stored else (max(0.0, 20 - bbox[0]), max(0.0, 20 - bbox[1]))
     out: list[str] = []
-    frame = (doc.get("layout") or {}).get("frame") if isinstance(doc.get("layout"), dict) else None
-    if isinstance(frame, dict) and all(isinstance(frame.get(k), (int, float)) for k in "xywh") and not (dx or dy):
-        out.append(_frame_element(frame, (x0, y0, x1, y1)))
+    if shift != (0.0, 0.0):  # drawn anew into view: a stored frame no longer fits
+        level.shift(*shift)
+    else:
+        out += _frame_elements(_mapping(doc, "layout").get("frame"), bbox)
     _emit(level, out, registry, note_of)
     return diagram(out)
+
+
+def _mapping(doc: dict[str, Any], key: str) -> dict[str, Any]:
+    """``doc[key]`` when it is an object, else an empty one."""
+    value = doc.get(key)
+    return value if isinstance(value, dict) else {}
 
 
 def _composite(st: dict[str, Any]) -> bool:
@@ -392,9 +399,9 @@ def _expand(roles: dict[int, str], st: dict[str, Any]) -> Expansion | None:
     if regions is None:
         return None
     titles = [region_title(r) for r in regions]
-    machines = [r if "states" in r else {"states": []} for r in regions]
-    roles.update((id(machine), "region") for machine in machines)
-    parts: list[tuple[str | None, dict[str, Any], Any]] = [(t, m, None) for t, m in zip(titles, machines, strict=True)]
+    parts: list[tuple[str | None, dict[str, Any], Any]] = [
+        (title, r if "states" in r else {"states": []}, None) for title, r in zip(titles, regions, strict=True)]
+    roles.update((id(machine), "region") for _, machine, _ in parts)
     return Expansion(parts, head=head, inset=True, min_widths=[len(title) * 8 + 60 for title in titles])
 
 
@@ -410,14 +417,16 @@ def _size_of_note(roles: dict[int, str], machine: dict[str, Any]) -> tuple[float
     return note_size(text) if text is not None else None
 
 
-def _frame_element(frame: dict[str, Any], bbox: tuple[float, float, float, float]) -> str:
-    """The machine's stored frame, grown to hold everything drawn (the note too)."""
+def _frame_elements(frame: Any, bbox: tuple[float, float, float, float]) -> list[str]:
+    """The machine's stored frame (if it has one), grown to hold everything drawn (the note too)."""
+    if not isinstance(frame, dict) or not all(isinstance(frame.get(k), (int, float)) for k in "xywh"):
+        return []
     x0, y0, x1, y1 = bbox
     fx, fy = min(frame["x"], x0 - 10), min(frame["y"], y0 - 10)
     fw, fh = max(frame["x"] + frame["w"], x1 + 10) - fx, max(frame["y"] + frame["h"], y1 + 10) - fy
     title = frame.get("title")
     title = title if isinstance(title, str) and _safe_name(title) else ""  # the note names the machine
-    return element("UMLFrame", fx, fy, fw, fh, title)
+    return [element("UMLFrame", fx, fy, fw, fh, title)]
 
 
 def _node_element(n: Node, names: set[str], used: set[str]) -> tuple[str, str]:
@@ -430,28 +439,34 @@ def _node_element(n: Node, names: set[str], used: set[str]) -> tuple[str, str]:
             used.add(str(st.get("id")))
             return "UMLSpecialState", text
     text = state_text(st, n.sub is not None or n.regions)
-    shape = (st.get("layout") or {}).get("shape") if isinstance(st.get("layout"), dict) else None
-    if shape == "frame" and n.sub is not None and text == f"{st.get('id')}\nvalign=top":
+    if _mapping(st, "layout").get("shape") == "frame" and n.sub is not None and text == f"{st.get('id')}\nvalign=top":
         return "UMLFrame", str(st.get("id"))
     return "UMLState", text
 
 
+def _emit_inside(n: Node, out: list[str], registry: Any, note_of: Any) -> None:
+    """What a state's box holds: its machine, or its regions' frames with their machines."""
+    if n.sub is not None:
+        _emit(n.sub, out, registry, note_of)
+    elif n.regions:
+        for p in n.parts:
+            out.append(element("UMLFrame", p.x, p.y, p.w, p.h, p.name or ""))
+            _emit(p.level, out, registry, note_of)
+
+
 def _emit(level: LevelLayout, out: list[str], registry: Any, note_of: Any) -> None:
+    """The elements of a laid out machine level: its initial marker, states (and what they hold), arrows and
+    note."""
     names = {str(n.doc.get("id")) for n in level.nodes if n.doc.get("type") != "Final"}
     used: set[str] = set()
-    if level.marker is not None and level.initial is not None:
+    if level.marker is not None:  # placed for the initial state
         mx, my = level.marker
         out.append(element("UMLSpecialState", mx, my, *level.marker_size, "type=initial"))
         out.append(relation(level.marker_points, "lt=->"))
     for n in level.nodes:
         kind, text = _node_element(n, names, used)
         out.append(element(kind, n.x, n.y, n.w, n.h, text))
-        if n.sub is not None:
-            _emit(n.sub, out, registry, note_of)
-        elif n.regions:
-            for p in n.parts:
-                out.append(element("UMLFrame", p.x, p.y, p.w, p.h, p.name or ""))
-                _emit(p.level, out, registry, note_of)
+        _emit_inside(n, out, registry, note_of)
     for e in level.edges:
         out.append(relation(e.points, transition_text(e.doc, e.src.doc, registry)))
     if level.note is not None:

@@ -1,9 +1,8 @@
 """tools/ in small functions (issue 31): the mean cyclomatic complexity of ``fsm/tools`` by radon, the figure
-``radon cc -a fsm/tools`` prints (every class, function and method a block), may not grow.
+``radon cc -a fsm/tools`` prints (every class, function and method a block), stays within the issue's budget.
 
-The issue's budget is 4.5 (sismic, py_trees and python-statemachine are at 2.6-3.0). It is not reached yet, so the
-test holds the figure reached (docs/performance.md, "tools/ in small functions") as a ceiling that may only come
-down: lower :data:`CEILING` when a change lowers the mean, until it meets :data:`BUDGET`."""
+The budget is 4.5 (sismic, py_trees and python-statemachine are at 2.6-3.0); the mean reached is 4.33
+(docs/performance.md, "tools/ in small functions")."""
 
 from __future__ import annotations
 
@@ -14,8 +13,8 @@ from radon.complexity import cc_visit, sorted_results
 ROOT = Path(__file__).resolve().parent.parent
 #: The issue's target for the mean.
 BUDGET = 4.5
-#: The mean reached, with room for the other branches of the same round; it may only come down.
-CEILING = 4.85
+#: The most the mean may be: the budget, met.
+CEILING = BUDGET
 
 
 def blocks() -> list[tuple[str, str, int]]:

@@ -10,6 +10,7 @@ import pytest
 
 import fsm
 from fsm.model.errors import DiagramError, StateRuntimeError
+from fsm.runtime.region import wiring
 
 
 def doc(*states: dict[str, Any], transitions: list[dict[str, Any]] | None = None, **variables: Any) -> dict[str, Any]:
@@ -205,7 +206,7 @@ def test_the_same_sequence_is_called_twice_in_one_chain() -> None:
     assert fsm.run(m, duration=2.0).outcome == "succeeded"
     assert m.ctx.vars["grips"] == 2
     assert "main/g1/close" in seen and "main/g2/hold" in seen
-    assert m.state("main/g2").supervisor is not None, "the Call's own keys (a timeout) apply to its instance"
+    assert wiring(m.state("main/g2")).supervisor is not None, "the Call's own keys (a timeout) apply to its instance"
 
 
 def test_a_call_of_an_undeclared_sequence_a_call_outside_a_sequence_and_a_recursive_call() -> None:

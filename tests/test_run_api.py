@@ -270,3 +270,13 @@ def test_session_open_and_simulation_run_are_the_same_rule(tmp_path: Path) -> No
     assert isinstance(result, fsm.RunResult) and (result.stopped, result.ticks) == ("limit", 16)
     assert simulation.run(until=lambda s: s.ticks >= 20).stopped == "until"
     assert simulation.run().outcome == "succeeded"
+
+
+def test_a_wrong_argument_nested_deeper_than_repr_goes_is_still_named() -> None:
+    """The one rule errors show a value by (``shown_value``) bounds its depth: ``repr`` of a list nested 100,000
+    deep raises RecursionError, and that must not replace the TypeError naming the argument."""
+    deep: Any = []
+    for _ in range(100_000):
+        deep = [deep]
+    with pytest.raises(TypeError, match=r"^stop must be an fsm\.StopRules or None, got \[\[\[.*\(list\)$"):
+        fsm.run('{"initial": "a", "states": [{"id": "a", "type": "Idle"}]}', stop=deep)

@@ -10,7 +10,6 @@ Anything else is a ``TypeError`` saying what a source may be.
 from __future__ import annotations
 
 import os
-import reprlib
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from typing import Union
@@ -18,6 +17,7 @@ from typing import Union
 from fsm.loading.reading import preloaded
 from fsm.model.document import MachineSpec
 from fsm.model.plan import MachinePlan
+from fsm.runtime.context import shown_value
 
 #: A document to read, parse and check: a path, JSON text, the document as a dict, or a spec parsed before.
 DocumentSource = Union[str, "os.PathLike[str]", Mapping[str, object], MachineSpec]
@@ -39,8 +39,7 @@ def checked_source(source: object, name: str = "source", kinds: str = KINDS) -> 
     """``source`` if it is of a kind a machine is loaded from, else a ``TypeError`` naming ``name`` and the kinds."""
     if isinstance(source, (str, os.PathLike, Mapping, MachineSpec, MachinePlan)):
         return source
-    shown = reprlib.repr(source)  # bounded in length and depth: a list nested 100,000 deep is shown as [[[...]]]
-    raise TypeError(f"{name} must be {kinds}; got {shown} ({type(source).__name__})")
+    raise TypeError(f"{name} must be {kinds}; got {shown_value(source)}")
 
 
 @contextmanager

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numbers
+import reprlib
 from collections.abc import Sequence
 from typing import Any, Protocol
 
@@ -221,7 +222,10 @@ def _read_only(name: str) -> None:
 # -- argument checks (Context.set_signal and Machine.schedule_signal) ---------------------------------
 def shown_value(value: Any) -> str:
     """A value as error messages show it: its repr (cut at 60 characters) and its type."""
-    text = repr(value)
+    try:
+        text = repr(value)
+    except RecursionError:  # nested deeper than repr goes (a list in a list 100,000 deep): shown to a bounded depth
+        text = reprlib.repr(value)
     text = text if len(text) <= 60 else text[:57] + "..."
     return f"{text} ({type(value).__name__})"
 

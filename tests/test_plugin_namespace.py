@@ -84,7 +84,7 @@ def test_the_authors_own_names_work_at_run_time(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize(("code", "words"), [
     ("class Bad(State):\n    tick = 5\n",
-     r"Bad \(type 'Bad'\): Bad.tick = 5 shadows the hook tick\(\) with a plain attribute"),
+     r"Bad \(type 'Bad'\): Bad.tick = 5 \(int\) shadows the hook tick\(\) with a plain attribute"),
     ("class Bad(State):\n    active = True\n", r"Bad.active shadows the base's 'active'"),
     ("class Bad(State):\n    def on_enter(self, ctx: Context) -> None:\n        self.active = True\n",
      r"self.active = \.\.\. \(.*bad_\w+\.py:8\) shadows the base's 'active'; choose another name"),
@@ -214,3 +214,19 @@ def test_a_warning_filter_the_user_chose_is_kept() -> None:
         warnings.simplefilter("ignore", DeprecationWarning)
         assert state.region is wiring(state).region
         assert warnings.filters[0][0] == "ignore"
+
+
+def test_a_plugin_file_edited_again_and_again_is_checked_as_it_is_now(tmp_path: Path) -> None:
+    """The parsed source is kept per file (the classes of one file are checked one after the other): an edited
+    file is parsed again, its new line is named, and its old trees are not kept (one entry per file)."""
+    from fsm.runtime import namespace
+
+    head = "from fsm import Context, State, register_state\n\n\n@register_state\nclass Edited(State):\n"
+    path = ""
+    for version in range(3):
+        blank = "\n" * version  # the shadowing line moves down by one per edit
+        path = plugin(tmp_path, "edited", f"{head}    def on_enter(self, ctx: Context) -> None:\n{blank}"
+                                         f"        self.active = {version}\n")
+        with pytest.raises(fsm.RegistrationError, match=re.escape(f"self.active = ... ({path}:{7 + version})")):
+            fsm.check(DOC, plugins=(path,))
+    assert [f for f in namespace._TREES if f == path] == [path]

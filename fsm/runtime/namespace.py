@@ -21,10 +21,11 @@ from __future__ import annotations
 import ast
 import inspect
 import linecache
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 from fsm.model.errors import RegistrationError
 from fsm.runtime.condition import Condition
+from fsm.runtime.context import shown_value
 from fsm.runtime.state import State
 from fsm.runtime.transition import Transition
 
@@ -109,18 +110,13 @@ def _in_class_body(klass: type, taken: Taken) -> list[str]:
             found.append(f"{klass.__name__}.{attr} shadows the base's {attr!r}, which the runtime reads or keeps; "
                          f"choose another name")
         elif attr in taken.hooks and not _is_method(value):
-            found.append(f"{klass.__name__}.{attr} = {_shown(value)} shadows the hook {attr}() with a plain "
+            found.append(f"{klass.__name__}.{attr} = {shown_value(value)} shadows the hook {attr}() with a plain "
                          f"attribute; define it as a method, or choose another name")
     return found
 
 
 def _is_method(value: object) -> bool:
     return callable(value) or isinstance(value, (classmethod, staticmethod, property))
-
-
-def _shown(value: object) -> str:
-    text = repr(value)
-    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def _in_code(klass: type, taken: Taken, assignable: frozenset[str]) -> list[str]:
@@ -158,6 +154,7 @@ def _class_node(klass: type) -> tuple[ast.ClassDef | None, str]:
         return None, ""
     if not file:
         return None, ""
+    linecache.checkcache(file)  # a plugin edited since it was first read (a live run's reload): its text now
     lines = linecache.getlines(file)
     if not lines:
         return None, file
@@ -171,17 +168,21 @@ def _class_node(klass: type) -> tuple[ast.ClassDef | None, str]:
     return (named[0] if len(named) == 1 else None), file
 
 
-_TREES: dict[tuple[str, int], Any] = {}
+#: Per source file, the hash of the text last parsed and its tree (None: it does not parse): a file's classes are
+#: checked one after the other, and a hot-reloaded plugin replaces its file's entry instead of adding one.
+_TREES: dict[str, tuple[int, ast.Module | None]] = {}
 
 
 def _parsed(file: str, text: str) -> ast.Module | None:
-    key = (file, hash(text))
-    if key not in _TREES:
-        try:
-            _TREES[key] = ast.parse(text, file)
-        except (SyntaxError, ValueError):
-            _TREES[key] = None
-    tree: ast.Module | None = _TREES[key]
+    digest = hash(text)
+    kept = _TREES.get(file)
+    if kept is not None and kept[0] == digest:
+        return kept[1]
+    try:
+        tree: ast.Module | None = ast.parse(text, file)
+    except (SyntaxError, ValueError):
+        tree = None
+    _TREES[file] = (digest, tree)
     return tree
 
 

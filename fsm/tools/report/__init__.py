@@ -97,18 +97,18 @@ def _fired(machine: Any, tr: dict[str, Any]) -> list[tuple[str, int]]:
             if t.target.path == tr.get("to") and t.type_name == tr.get("type")]
 
 
+#: The coverage summary's titles (``MachineCoverage.missed``) as the report words them, where it says more.
+_COVERAGE_TITLES = {"only skipped": "only skipped (precondition false)", "never fired": "transitions never fired"}
+
+
 def coverage_section(cov: Any) -> str:
     """The report's coverage section (HTML; every name escaped), or ``""``."""
     if cov is None or not cov.machines:
         return ""
     (m,) = cov.machines.values()
     counts = ", ".join(f"{kind} {hit}/{total}" for kind, (hit, total) in m.counts().items())
-    rows = [("never entered", [p for p, v in m.states.items() if v == "never"]),
-            ("only skipped (precondition false)", [p for p, v in m.states.items() if v == "skipped"]),
-            ("transitions never fired", [t for t, v in m.transitions.items() if not v]),
-            ("monitors never fired", [t for t, v in m.monitors.items() if not v])]
-    body = "".join(f"<tr><th>{escape(title)}</th><td>{escape(', '.join(items)) or 'none'}</td></tr>"
-                   for title, items in rows)
+    body = "".join(f"<tr><th>{escape(_COVERAGE_TITLES.get(title, title))}</th>"
+                   f"<td>{escape(', '.join(items)) or 'none'}</td></tr>" for title, items in m.missed())
     return (f'<section id="coverage-box"><h2>Coverage of this run</h2><p id="coverage-sum">{escape(counts)} '
             f"({cov.percent():.1f}&#8201;%)</p><table id=\"coverage\"><tbody>{body}</tbody></table></section>")
 

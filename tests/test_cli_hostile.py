@@ -195,6 +195,21 @@ def test_usage_mistakes_exit_2(args: list[str], words: str, blink: Path, tmp_pat
     assert "outcome" not in out and sorted(os.listdir(tmp_path)) == before
 
 
+@pytest.mark.parametrize("args", [["export", "{doc}", "-o", ""], ["export", "{doc}", "-o", "bad.json", "-o", ""],
+                                  ["report", "{doc}", "-o", ""], ["schema", "-o", ""], ["palette", "-o", ""],
+                                  ["schema", "--check", ""], ["palette", "--check", "-o", ""]])
+def test_an_empty_output_name_is_a_usage_error_not_the_default(args: list[str], blink: Path, tmp_path: Path,
+                                                                capsys: pytest.CaptureFixture[str],
+                                                                monkeypatch: pytest.MonkeyPatch) -> None:
+    """``-o ''`` names no file: refused, not taken as "no -o given" (export wrote FILE.uxf beside the document,
+    schema and palette printed to standard output). Found by tests/test_cli_fuzz.py."""
+    monkeypatch.chdir(tmp_path)
+    before = sorted(os.listdir(tmp_path))
+    code, out, err = cli(capsys, *(a.replace("{doc}", str(blink)) for a in args))
+    assert code == 2 and "empty file name" in err, (code, err)
+    assert out == "" and sorted(os.listdir(tmp_path)) == before
+
+
 @pytest.mark.parametrize("args", [["--dt", "1e-9", "--max-ticks", "20"], ["--dt", "1e300"],
                                   ["--max-ticks", "99999999999999999999", "--duration", "0.1"],
                                   ["--dt", "5e-324", "--max-ticks", "3"]])

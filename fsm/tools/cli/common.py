@@ -119,7 +119,9 @@ def emit_generated(text: str, *, output: str | None, check: str | None, command:
            "leaves them out)") if installed else ""
     if check == "-":
         raise UsageError("--check compares with a file; name it (standard output cannot be compared)")
-    if check:
+    if check == "":
+        raise UsageError("--check: empty file name")
+    if check is not None:
         from fsm.loading.reading import read_file_bytes
         from fsm.model.errors import DiagramError
 
@@ -135,7 +137,7 @@ def emit_generated(text: str, *, output: str | None, check: str | None, command:
         return EXIT_OK
     from ..files import write_output
 
-    write_output(output or "-", text, "-o")
+    write_output("-" if output is None else output, text, "-o")
     return EXIT_OK
 
 

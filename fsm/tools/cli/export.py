@@ -32,7 +32,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     if args.mcap is not None:
         return _export_mcap(args)
     src = Path(args.file)
-    out = args.output or default_output(src, ".uxf")
+    out = default_output(src, ".uxf") if args.output is None else args.output
     if args.output is None and src.suffix.lower() == ".uxf":
         raise UsageError(f"export {src}: the default output is {src} itself, the diagram being read; "
                          "give -o OUT.uxf")

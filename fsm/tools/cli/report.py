@@ -63,5 +63,5 @@ def cmd_report(args: argparse.Namespace) -> int:
             raise UsageError("-o writes the offline report; --live serves the trace instead: choose one")
         return serve_trace(args.trace, args)
 
-    out = args.output or default_output(Path(args.trace), ".html")
+    out = default_output(Path(args.trace), ".html") if args.output is None else args.output
     return write_from_trace(args.trace, out, "-o", ".html", "report", report_html)

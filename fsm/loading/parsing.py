@@ -15,6 +15,7 @@ import operator
 import os
 import stat
 from collections.abc import Callable, Mapping
+from itertools import chain
 from pathlib import Path
 from typing import Any
 
@@ -111,7 +112,7 @@ class Parser:
         data, legacy = normalize_legacy(data)
         envelope: MachineEnvelope | None
         try:
-            envelope = MachineEnvelope.model_validate(data)
+            envelope = envelope_of(data)
         except ValidationError as err:
             self.problems.extend(problems_from_validation(
                 err, source=source, base=base, element=None, model=MachineEnvelope, kind="key",
@@ -213,8 +214,14 @@ class Parser:
             return [st for i, raw in enumerate(raws)
                     if (st := self.state(raw, source, f"{base}/states/{i}", depth)) is not None]
         head = f"{base}/states/"
-        return [self.state_of(cls, params, source, f"{head}{i}", depth)
-                for i, (cls, params) in enumerate(together)]
+        specs = [StateSpec(params.id, cls, params, f"{head}{i}", source) for i, (cls, params) in enumerate(together)]
+        # the conditions and regions of the elements that have them, in document order (a plain level has none: one
+        # set of the level's classes and one of its step keys tell, without a Python step per element)
+        if any(cls.condition_fields or cls.is_composite for cls in set(map(_FIRST, together))) or \
+                list(map(_STEP_KEYS, map(_SECOND, together))).count(_NO_STEP_KEYS) != len(together):
+            for spec in specs:
+                self._state_parts(spec, depth)
+        return specs
 
     def _transitions(self, raws: list[Any], source: Source, base: str) -> list[TransitionSpec]:
         """A level's transition elements, as :meth:`_states`."""
@@ -223,7 +230,12 @@ class Parser:
             return [tr for i, raw in enumerate(raws)
                     if (tr := self.transition(raw, source, f"{base}/transitions/{i}")) is not None]
         head = f"{base}/transitions/"
-        return [self.transition_of(cls, params, source, f"{head}{i}") for i, (cls, params) in enumerate(together)]
+        specs = [TransitionSpec(cls, params, f"{head}{i}", source) for i, (cls, params) in enumerate(together)]
+        if any(cls.condition_fields for cls in set(map(_FIRST, together))) or \
+                dict in set(map(type, map(_GUARD, map(_SECOND, together)))):
+            for spec in specs:
+                self._transition_parts(spec)
+        return specs
 
     def element(self, kind: str, raw: Any, source: Source, ptr: str) -> tuple[type[Any], Any] | None:
         """The class an element's ``type`` names and its validated parameters, or ``None`` (problems added)."""
@@ -262,12 +274,17 @@ class Parser:
     def state_of(self, cls: type[Any], params: Any, source: Source, ptr: str, depth: int) -> StateSpec:
         """The spec of a state element whose parameters are valid: its condition objects and regions parsed."""
         spec = StateSpec(params.id, cls, params, ptr, source)
+        self._state_parts(spec, depth)
+        return spec
+
+    def _state_parts(self, spec: StateSpec, depth: int) -> None:
+        """A state's condition objects and (a composite's) regions, parsed into its spec."""
+        cls, params = spec.cls, spec.params
         if params.precondition is not None or params.until is not None or params.monitors is not None \
                 or cls.condition_fields:
             self._step_conditions(spec)
         if cls.is_composite:
             region_layout(cls)(self, spec, depth)
-        return spec
 
     def _step_conditions(self, spec: StateSpec) -> None:
         """The condition objects of a state's precondition, until, monitors and its type's condition parameters
@@ -298,18 +315,22 @@ class Parser:
     def transition_of(self, cls: type[Any], params: Any, source: Source, ptr: str) -> TransitionSpec:
         """The spec of a transition element whose parameters are valid, its condition objects parsed."""
         spec = TransitionSpec(cls, params, ptr, source)
-        fields = cls.condition_fields
-        if fields or type(params.guard) is dict:
+        self._transition_parts(spec)
+        return spec
+
+    def _transition_parts(self, spec: TransitionSpec) -> None:
+        """A transition's condition objects (a condition guard, its type's condition parameters), into its spec."""
+        fields = spec.cls.condition_fields
+        if fields or type(spec.params.guard) is dict:
             conditions = {}
             for key in ("guard", *fields):
                 value = getattr(spec.params, key, None)
                 if isinstance(value, dict):
-                    cs = self.condition(value, source, f"{ptr}/{key}", spec.label)
+                    cs = self.condition(value, spec.source, f"{spec.pointer}/{key}", spec.label)
                     if cs is not None:
                         conditions[key] = cs
             if conditions:
                 spec.conditions = conditions
-        return spec
 
     def condition(self, raw: Any, source: Source, ptr: str, element: str, depth: int = 0) -> ConditionSpec | None:
         """A condition object and the conditions nested in it; ``None`` when it or a nested one does not parse."""
@@ -333,6 +354,37 @@ class Parser:
                 else:
                     spec.children.append(child)
         return spec if ok else None
+
+
+def envelope_of(data: dict[str, Any]) -> MachineEnvelope:
+    """``MachineEnvelope.model_validate(data)``, without pydantic copying each state and transition element: a level
+    whose elements are all objects with text keys (any JSON document's) is validated with one empty object standing
+    in for them, which validates alike. Raises the ``ValidationError`` of ``data`` itself."""
+    stand_in = dict(data)
+    for key in ("states", "transitions"):
+        elements = data.get(key)
+        if key in data and not _plain_elements(elements):
+            return MachineEnvelope.model_validate(data)
+        if elements:
+            stand_in[key] = _ONE_ELEMENT
+    try:
+        return MachineEnvelope.model_validate(stand_in)
+    except ValidationError:
+        return MachineEnvelope.model_validate(data)  # its own errors, in its own words
+
+
+#: What stands in for a list of element objects in :func:`envelope_of` (pydantic copies it, never changes it).
+_ONE_ELEMENT: list[dict[str, Any]] = [{}]
+
+
+def _plain_elements(elements: Any) -> bool:
+    """Whether ``elements`` is a list of objects whose keys are all text (two C-speed passes)."""
+    return type(elements) is list and set(map(type, elements)) <= _DICT_TYPE and \
+        set(map(type, chain.from_iterable(elements))) <= _STR_TYPE
+
+
+_DICT_TYPE = frozenset({dict})
+_STR_TYPE = frozenset({str})
 
 
 def validated_together(table: Mapping[str, type[Any]], raws: list[Any]) -> list[tuple[type[Any], Any]] | None:
@@ -361,6 +413,11 @@ def validated_together(table: Mapping[str, type[Any]], raws: list[Any]) -> list[
 
 
 _TYPE_OF = operator.itemgetter("type")
+_FIRST = operator.itemgetter(0)
+_SECOND = operator.itemgetter(1)
+_STEP_KEYS = operator.attrgetter("precondition", "until", "monitors")
+_GUARD = operator.attrgetter("guard")
+_NO_STEP_KEYS = (None, None, None)
 _PARAMS = operator.attrgetter("params")
 _ENDS = operator.attrgetter("from_", "to")
 #: The validators of :func:`_list_validator` by their types (``None``: a set of types validated one by one).

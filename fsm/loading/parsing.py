@@ -15,7 +15,7 @@ import operator
 import os
 import stat
 from collections.abc import Callable, Mapping
-from itertools import chain
+from itertools import chain, repeat
 from pathlib import Path
 from typing import Any
 
@@ -213,12 +213,13 @@ class Parser:
         if together is None:
             return [st for i, raw in enumerate(raws)
                     if (st := self.state(raw, source, f"{base}/states/{i}", depth)) is not None]
-        head = f"{base}/states/"
-        specs = [StateSpec(params.id, cls, params, f"{head}{i}", source) for i, (cls, params) in enumerate(together)]
+        classes, params = together
+        specs = list(map(StateSpec, map(_ID, params), classes, params, _pointers(f"{base}/states/", len(raws)),
+                         repeat(source)))
         # the conditions and regions of the elements that have them, in document order (a plain level has none: one
         # set of the level's classes and one of its step keys tell, without a Python step per element)
-        if any(cls.condition_fields or cls.is_composite for cls in set(map(_FIRST, together))) or \
-                list(map(_STEP_KEYS, map(_SECOND, together))).count(_NO_STEP_KEYS) != len(together):
+        if any(cls.condition_fields or cls.is_composite for cls in set(classes)) or \
+                list(map(_STEP_KEYS, params)).count(_NO_STEP_KEYS) != len(params):
             for spec in specs:
                 self._state_parts(spec, depth)
         return specs
@@ -229,10 +230,10 @@ class Parser:
         if together is None:
             return [tr for i, raw in enumerate(raws)
                     if (tr := self.transition(raw, source, f"{base}/transitions/{i}")) is not None]
-        head = f"{base}/transitions/"
-        specs = [TransitionSpec(cls, params, f"{head}{i}", source) for i, (cls, params) in enumerate(together)]
-        if any(cls.condition_fields for cls in set(map(_FIRST, together))) or \
-                dict in set(map(type, map(_GUARD, map(_SECOND, together)))):
+        classes, params = together
+        specs = list(map(TransitionSpec, classes, params, _pointers(f"{base}/transitions/", len(raws)),
+                         repeat(source)))
+        if any(cls.condition_fields for cls in set(classes)) or dict in set(map(type, map(_GUARD, params))):
             for spec in specs:
                 self._transition_parts(spec)
         return specs
@@ -360,6 +361,8 @@ def envelope_of(data: dict[str, Any]) -> MachineEnvelope:
     """``MachineEnvelope.model_validate(data)``, without pydantic copying each state and transition element: a level
     whose elements are all objects with text keys (any JSON document's) is validated with one empty object standing
     in for them, which validates alike. Raises the ``ValidationError`` of ``data`` itself."""
+    if sum(len(x) for x in (data.get("states"), data.get("transitions")) if type(x) is list) < _FEW:
+        return MachineEnvelope.model_validate(data)  # a few elements: the stand-in's passes cost more than copies
     stand_in = dict(data)
     for key in ("states", "transitions"):
         elements = data.get(key)
@@ -373,6 +376,8 @@ def envelope_of(data: dict[str, Any]) -> MachineEnvelope:
         return MachineEnvelope.model_validate(data)  # its own errors, in its own words
 
 
+#: Below this many elements a level's envelope is validated as written (pydantic's copies cost less than the checks).
+_FEW = 32
 #: What stands in for a list of element objects in :func:`envelope_of` (pydantic copies it, never changes it).
 _ONE_ELEMENT: list[dict[str, Any]] = [{}]
 
@@ -387,8 +392,8 @@ _DICT_TYPE = frozenset({dict})
 _STR_TYPE = frozenset({str})
 
 
-def validated_together(table: Mapping[str, type[Any]], raws: list[Any]) -> list[tuple[type[Any], Any]] | None:
-    """Each element of ``raws`` with its class and its validated parameters, all in one pydantic-core call; ``None``
+def validated_together(table: Mapping[str, type[Any]], raws: list[Any]) -> tuple[list[type[Any]], list[Any]] | None:
+    """The class and the validated parameters of each element of ``raws``, all in one pydantic-core call; ``None``
     when one of them is not an object naming a type of ``table`` or does not validate: the caller then takes them
     one by one, so that each problem is found at its element in its own words.
 
@@ -409,12 +414,16 @@ def validated_together(table: Mapping[str, type[Any]], raws: list[Any]) -> list[
         params = validator.validate_python(raws)
     except ValidationError:
         return None
-    return list(zip(map(classes.__getitem__, names), params, strict=True))
+    return list(map(classes.__getitem__, names)), params
+
+
+def _pointers(head: str, n: int) -> list[str]:
+    """``head + "0"``, ``head + "1"``, ... the pointers of a level's ``n`` elements (C-speed steps)."""
+    return list(map(head.__add__, map(str, range(n))))
 
 
 _TYPE_OF = operator.itemgetter("type")
-_FIRST = operator.itemgetter(0)
-_SECOND = operator.itemgetter(1)
+_ID = operator.attrgetter("id")
 _STEP_KEYS = operator.attrgetter("precondition", "until", "monitors")
 _GUARD = operator.attrgetter("guard")
 _NO_STEP_KEYS = (None, None, None)

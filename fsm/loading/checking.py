@@ -177,7 +177,7 @@ _CLS = operator.attrgetter("cls")
 def _check_ids(spec: MachineSpec, problems: Problems) -> dict[str, int]:
     """Duplicate ids among the state elements as written; each id with the index of its first element."""
     if len(spec.states) == len(spec.raw_states):  # every element parsed: each id is a string, its state's
-        ids = [st.id for st in spec.states]
+        ids = list(map(_ID, spec.states))
         unique = dict(zip(ids, range(len(ids)), strict=True))
         if len(unique) == len(ids):
             return unique

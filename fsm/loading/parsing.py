@@ -59,6 +59,8 @@ class Parser:
         self.base_dir = Path(base_dir) if base_dir is not None else None
         self._cache: dict[Path, MachineSpec | None] = {}
         self._stack: list[Path] = []
+        #: The sources read as JSON text in this parse (their objects' keys are all text), by id.
+        self._json_sources: set[int] = set()
         #: Scoped bookkeeping of the types that parse their own children (a Sequence's declared sequences), by name.
         self.scopes: dict[str, Any] = {}
         self._tables: dict[str, dict[str, type[Any]]] = {"state": registry.states, "transition": registry.transitions,
@@ -92,6 +94,7 @@ class Parser:
         repeated: list[Any] = []
         data, source = parse_json_bytes(read_file_bytes(path), str(path), path.parent, duplicates=repeated)
         self.problems.extend(repeated)
+        self._json_sources.add(id(source))
         return data, source
 
     def machine(self, data: Any, source: Source, base: str, depth: int) -> MachineSpec | None:
@@ -112,7 +115,7 @@ class Parser:
         data, legacy = normalize_legacy(data)
         envelope: MachineEnvelope | None
         try:
-            envelope = envelope_of(data)
+            envelope = envelope_of(data, text_keys=id(source) in self._json_sources)
         except ValidationError as err:
             self.problems.extend(problems_from_validation(
                 err, source=source, base=base, element=None, model=MachineEnvelope, kind="key",
@@ -357,16 +360,17 @@ class Parser:
         return spec if ok else None
 
 
-def envelope_of(data: dict[str, Any]) -> MachineEnvelope:
+def envelope_of(data: dict[str, Any], text_keys: bool = False) -> MachineEnvelope:
     """``MachineEnvelope.model_validate(data)``, without pydantic copying each state and transition element: a level
-    whose elements are all objects with text keys (any JSON document's) is validated with one empty object standing
-    in for them, which validates alike. Raises the ``ValidationError`` of ``data`` itself."""
+    whose elements are all objects with text keys (any JSON document's: ``text_keys`` says ``data`` is one, whose
+    keys need no look) is validated with one empty object standing in for them, which validates alike. Raises the
+    ``ValidationError`` of ``data`` itself."""
     if sum(len(x) for x in (data.get("states"), data.get("transitions")) if type(x) is list) < _FEW:
         return MachineEnvelope.model_validate(data)  # a few elements: the stand-in's passes cost more than copies
     stand_in = dict(data)
     for key in ("states", "transitions"):
         elements = data.get(key)
-        if key in data and not _plain_elements(elements):
+        if key in data and not _plain_elements(elements, text_keys):
             return MachineEnvelope.model_validate(data)
         if elements:
             stand_in[key] = _ONE_ELEMENT
@@ -382,10 +386,10 @@ _FEW = 32
 _ONE_ELEMENT: list[dict[str, Any]] = [{}]
 
 
-def _plain_elements(elements: Any) -> bool:
-    """Whether ``elements`` is a list of objects whose keys are all text (two C-speed passes)."""
+def _plain_elements(elements: Any, text_keys: bool) -> bool:
+    """Whether ``elements`` is a list of objects whose keys are all text (``text_keys``: known to be, when objects)."""
     return type(elements) is list and set(map(type, elements)) <= _DICT_TYPE and \
-        set(map(type, chain.from_iterable(elements))) <= _STR_TYPE
+        (text_keys or set(map(type, chain.from_iterable(elements))) <= _STR_TYPE)
 
 
 _DICT_TYPE = frozenset({dict})

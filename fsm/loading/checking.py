@@ -350,20 +350,23 @@ class _Expressions:
         self.compiled: dict[tuple[str | None, str], E.Compiled] = {}
         self.wants: dict[tuple[str | None, str], str | None] = {}
         self.kinds: dict[str, str] = {}
+        #: the states' and transitions' specs without their scopes (for the passes over all of them)
+        self.state_specs: list[StateSpec] = list(map(_FIRST, states))
+        self.transition_specs: list[TransitionSpec] = list(map(_FIRST, transitions))
 
     def check(self) -> tuple[dict[str, str], dict[tuple[str | None, str], E.Compiled]]:
         assignments = list(self.assignments())
         self.kinds = self.infer_kinds(assignments)
         for a in assignments:
             self.assignment(a)
-        for st, scope in self.states if _any_step_expressions(self.states) else ():
+        for st, scope in self.states if _any_step_expressions(self.state_specs) else ():
             p = st.params
             if p.precondition is not None or p.until is not None or p.monitors is not None \
                     or st.cls.condition_fields:
                 self.step_conditions(st, scope)
             if isinstance(p.timeout, str):
                 self.compile(p.timeout, st.source, st.pointer + "/timeout", st.label, E.NUMBER)
-        for tr, scope in self.transitions if _any_guards(self.transitions) else ():
+        for tr, scope in self.transitions if _any_guards(self.transition_specs) else ():
             guard = tr.params.guard
             if guard is None and not tr.conditions:
                 continue
@@ -379,7 +382,7 @@ class _Expressions:
 
     def assignments(self) -> Iterator[Assignment]:
         """Every assignment of the tree: states' ``set``, assignment parameters (SetVar), transitions' ``set``."""
-        states = [st for st, _scope in self.states]
+        states = self.state_specs
         params = list(map(_PARAMS, states))
         for st in states if list(map(_SET, params)).count(None) != len(params) else ():
             sets = st.params.set
@@ -392,7 +395,7 @@ class _Expressions:
             for key in st.cls.assignment_fields:
                 for name, value in getattr(st.params, key).items():
                     yield Assignment(name, value, st.source, f"{st.pointer}/{key}/{escape(name)}", st.label)
-        transitions = [tr for tr, _scope in self.transitions]
+        transitions = self.transition_specs
         for tr in transitions if list(map(_SET, map(_PARAMS, transitions))).count(None) != len(transitions) else ():
             if tr.params.set is None:
                 continue
@@ -486,17 +489,15 @@ _SET = operator.attrgetter("set")
 _STEP_EXPRESSIONS = operator.attrgetter("precondition", "until", "monitors", "timeout")
 
 
-def _any_step_expressions(states: list[tuple[StateSpec, str]]) -> bool:
+def _any_step_expressions(elements: list[StateSpec]) -> bool:
     """Whether a state has a precondition, until, monitors, a timeout or a type's condition parameters (one C-speed
     pass over them all: most have none)."""
-    elements = list(map(_FIRST, states))
     return any(cls.condition_fields for cls in set(map(_CLS, elements))) or \
         list(map(_STEP_EXPRESSIONS, map(_PARAMS, elements))).count((None, None, None, None)) != len(elements)
 
 
-def _any_guards(transitions: list[tuple[TransitionSpec, str]]) -> bool:
+def _any_guards(elements: list[TransitionSpec]) -> bool:
     """Whether a transition has a guard or condition objects (as :func:`_any_step_expressions`)."""
-    elements = list(map(_FIRST, transitions))
     return list(map(_GUARD, elements)).count(None) != len(elements) or any(map(_CONDITIONS, elements))
 
 

@@ -12,6 +12,10 @@ otherwise). The earlier commit is checked out into a temporary git worktree (as 
   plain       one tick of the sequencer benchmark's ring without guards (the reference of the next two)
   guard       the same ring with a guard ``n >= 0`` on every transition; ``guard+set`` adds ``n = n + 1``
   load        one load + validate + build of the 1000-state ring from disk
+  stages      the load's stages apart, each repeated on inputs prepared by the stages before it (the collector
+              off, as during a load): parse (read + parse of the ring's file), check, compile, build; ``nested``
+              after a stage's name (``parse/nested``, or ``nested-stages`` for all four) takes the 10 x 10 x 10
+              nested document instead of the ring
   lap         one simulated second of the hallway lap without camera (car, sensors, machine, loop; seed 0)
 
 Rate losses follow from the counts: a guard costing ``g`` instructions per tick against ``p`` plain loses
@@ -37,12 +41,15 @@ from pathlib import Path
 from bench_baseline import REPO, base_tree
 
 BENCH = Path(__file__).resolve().parent
-WORKLOADS = ("flat", "nested", "plain", "guard", "guard+set", "load", "lap")
+STAGES = ("parse", "check", "compile", "build")
+WORKLOADS = ("flat", "nested", "plain", "guard", "guard+set", "load", "lap", *STAGES, *(f"{s}/nested" for s in STAGES))
+#: names standing for several workloads
+GROUPS = {"stages": STAGES, "nested-stages": tuple(f"{s}/nested" for s in STAGES)}
 #: repetitions of the measured run (the other runs 0); for the lap, simulated seconds. Six loads, not three: a load
 #: leaves a 1000-state machine of cyclic garbage, freed by the collector's full passes, and whether one of those
 #: (about 50M instructions) falls inside three loads or not moved the count per load by up to 17M (163M or 180M for
 #: the same tree); four and six loads agree within 0.2 %.
-REPEAT = {"load": 6, "lap": 60}
+REPEAT = {"load": 6, "lap": 60, **{w: 6 for group in GROUPS.values() for w in group}}
 TICKS = 10000
 #: workloads only this checkout runs (the guard budget is against this checkout's plain ring)
 MAIN_ONLY = ("plain", "guard", "guard+set")
@@ -65,6 +72,29 @@ if workload == "lap":
     sim = Simulation(fsm.load(root / "diagrams" / "hallway_lap.json", car=car), car)
     if n:
         sim.run(duration=n)
+elif workload.split("/")[0] in ("parse", "check", "compile", "build"):  # one stage, on what the stages before made
+    import gc
+    from fsm.loading.building import build
+    from fsm.loading.checking import check
+    from fsm.loading.compiling import compile_machine
+    from fsm.loading.loader import registry_of
+    from fsm.loading.parsing import parse
+    from fsm.model.problems import Problems
+    stage, _, which = workload.partition("/")
+    path = Path(tempfile.mkdtemp()) / "doc.json"
+    path.write_text(json.dumps(nested_doc() if which == "nested" else ring_doc(1000), indent=1))
+    registry = registry_of(())
+    fsm.load(path)  # the first load builds what is built on first use (models, validators)
+    gc.collect()
+    gc.disable()  # as during a load (fsm.loading.loader.collection_paused)
+    spec = parse(path, registry, Problems())
+    analysis = check(spec, Problems())
+    plan = compile_machine(spec, analysis)
+    build(plan)
+    run = {"parse": lambda: parse(path, registry, Problems()), "check": lambda: check(spec, Problems()),
+           "compile": lambda: compile_machine(spec, analysis), "build": lambda: build(plan)}[stage]
+    for _ in range(n):
+        run()
 elif workload == "load":
     path = Path(tempfile.mkdtemp()) / "ring1000.json"
     path.write_text(json.dumps(ring_doc(1000), indent=1))
@@ -140,10 +170,11 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--base", default="2a4832e", help="the commit to compare with (default 2a4832e)")
     ap.add_argument("--no-base", action="store_true", help="count this checkout only")
-    ap.add_argument("--only", default=",".join(WORKLOADS), help="comma-separated workloads: " + ", ".join(WORKLOADS))
+    ap.add_argument("--only", default=",".join(WORKLOADS), help="comma-separated workloads: " + ", ".join(WORKLOADS)
+                    + "; " + ", ".join(GROUPS) + " for the stages")
     ap.add_argument("--json", metavar="FILE", help="also write the counts as JSON")
     args = ap.parse_args(argv)
-    chosen = [w for w in args.only.split(",") if w]
+    chosen = [x for w in args.only.split(",") if w for x in GROUPS.get(w, (w,))]
     unknown = [w for w in chosen if w not in WORKLOADS]
     if unknown:
         print(f"unknown workload(s): {', '.join(unknown)}", file=sys.stderr)
@@ -159,7 +190,7 @@ def main(argv: list[str] | None = None) -> int:
             if tree is not None and workload not in MAIN_ONLY:
                 row["base"] = per_repetition(workload, tree)
             print(f"{workload}: {json.dumps(row)}", file=sys.stderr, flush=True)
-    unit = {"load": "per load", "lap": "per simulated second"}
+    unit = {"load": "per load", "lap": "per simulated second", **{w: "per stage" for g in GROUPS.values() for w in g}}
     print(f"| workload | {args.base} | this checkout | ratio |")
     print("|---|---:|---:|---:|")
     for workload, row in counts.items():

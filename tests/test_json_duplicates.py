@@ -185,6 +185,38 @@ def test_random_documents_with_a_repeated_key_are_refused_with_both_places(case:
     assert duplicate_keys(text)
 
 
+def _repeats_by_hook(text: str) -> bool:
+    repeated = []
+
+    def pairs(items: list[tuple[str, object]]) -> dict[str, object]:
+        obj = dict(items)
+        repeated.extend([True] if len(obj) != len(items) else [])
+        return obj
+
+    json.loads(text, object_pairs_hook=pairs)
+    return bool(repeated)
+
+
+_tricky = st.text(alphabet=':"\\{}[]ab ', max_size=5)  # what could fool a count of colons, quotes or brackets
+_tricky_values = st.recursive(st.one_of(_scalars, _tricky), lambda inner: st.one_of(
+    st.lists(inner, max_size=3), st.dictionaries(st.one_of(_keys, _tricky), inner, max_size=3)), max_leaves=10)
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.one_of(documents_with_a_repeat().map(lambda case: case[0]),
+                 st.builds(json.dumps, _tricky_values, ensure_ascii=st.booleans(), indent=st.sampled_from([None, 1]))))
+def test_repeats_found_by_counting_are_the_parsers_own(text: str) -> None:
+    """The reader finds a repeated key by counting (keys against colons, strings against quotes, fsm.loading.reading
+    .json_count) instead of a hook per object: it says what a hook would, or that it cannot tell (then the hook
+    decides), for texts with colons, quotes, brackets and backslashes inside their strings."""
+    from fsm.loading.reading import _repeats_key, parse_json_bytes
+
+    found = _repeats_key(text, json.loads(text))
+    assert found in (None, _repeats_by_hook(text))
+    if not _repeats_by_hook(text):
+        assert parse_json_bytes(text.encode(), "doc.json")[0] == json.loads(text)
+
+
 # -- includes that cannot be read ---------------------------------------------------------------------------
 def _including(tmp_path: Path, target: str) -> tuple[Path, str]:
     text = json.dumps({"initial": "a", "states": [

@@ -51,9 +51,10 @@ def test_a_level_validated_together_equals_its_elements_validated_one_by_one(kin
     raws = STATES if kind == "states" else TRANSITIONS
     together = validated_together(table, raws)
     assert together is not None
+    classes, params = together
     expected = one_by_one(table, raws)
-    assert [cls for cls, _ in together] == [cls for cls, _ in expected]
-    for (_, got), (_, want) in zip(together, expected, strict=True):
+    assert classes == [cls for cls, _ in expected]
+    for got, (_, want) in zip(params, expected, strict=True):
         assert type(got) is type(want)
         assert got == want and got.model_fields_set == want.model_fields_set
 

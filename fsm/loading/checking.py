@@ -15,7 +15,7 @@ import json
 import operator
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
-from itertools import chain
+from itertools import chain, repeat
 from typing import Any
 
 from fsm.loading.outcomes import can_finish, reachable, state_outcomes
@@ -62,9 +62,7 @@ def check(root: MachineSpec, problems: Problems) -> Analysis:
     for level in levels:
         if level.written:
             check_level(level, problems)
-    states = list(root.walk())
-    transitions = list(root.scoped_transitions())
-    paths = frozenset([f"{prefix}/{st.id}" if prefix else st.id for st, prefix in states])
+    states, transitions, paths = scoped(root)
     variables: dict[str, Any] = {}
     for level in levels:
         for key, value in level.vars.items():
@@ -74,20 +72,58 @@ def check(root: MachineSpec, problems: Problems) -> Analysis:
     kinds, expressions = exprs.check()
     if root.inputs is not None:
         check_inputs(root, problems)
-    for tr in [tr for tr, _scope in transitions if checks_document(tr.cls)]:
+    classes = set(map(_CLS, map(_FIRST, transitions)))
+    for tr in _of_classes(transitions, {cls for cls in classes if checks_document(cls)}):
         found = tr.cls.check_document(tr.params, variables)
         if found is not None:
             suffix, message = found
             problems.add(message, tr.source, tr.pointer + suffix, element=tr.label,
                          hint="change the value or the variable's initial value in 'vars'")
-    check_variable_kinds([tr for tr, _scope in transitions if tests_variables(tr.cls)], variables, problems)
-    for tr, scope in transitions:
+    check_variable_kinds(_of_classes(transitions, {cls for cls in classes if tests_variables(cls)}), variables,
+                         problems)
+    referring = {cls for cls in classes if cls.state_refs}
+    for tr, scope in transitions if referring else ():
         for key in tr.cls.state_refs:
             value = getattr(tr.params, key)
             if resolve_path(value, scope, paths) is None:
                 problems.add(f"'{key}' names no state: '{value}'", tr.source, f"{tr.pointer}/{key}",
                              element=tr.label, hint=PATH_HINT)
     return Analysis(kinds, expressions, paths, exprs.wants)
+
+
+def scoped(root: MachineSpec) -> tuple[list[tuple[StateSpec, str]], list[tuple[TransitionSpec, str]], frozenset[str]]:
+    """``list(root.walk())``, ``list(root.scoped_transitions())`` and every state path, made level by level: a level
+    without regions in C-speed steps, not a generator step per element."""
+    states: list[tuple[StateSpec, str]] = []
+    transitions: list[tuple[TransitionSpec, str]] = []
+    paths: list[str] = []
+
+    def level(spec: MachineSpec, prefix: str) -> None:
+        transitions.extend(zip(spec.transitions, repeat(prefix)))
+        ids = list(map(_ID, spec.states))
+        paths.extend(map(f"{prefix}/".__add__, ids) if prefix else ids)
+        if not any(map(_SUBS, spec.states)):
+            states.extend(zip(spec.states, repeat(prefix)))
+            return
+        for st in spec.states:
+            states.append((st, prefix))
+            path = f"{prefix}/{st.id}" if prefix else st.id
+            for sub in st.subs:
+                if sub.machine is not None:
+                    level(sub.machine, f"{path}/{sub.name}" if sub.name else path)
+
+    level(root, "")
+    return states, transitions, frozenset(paths)
+
+
+def _of_classes(scoped: list[tuple[TransitionSpec, str]], classes: set[type[Any]]) -> list[TransitionSpec]:
+    """The transitions of ``scoped`` whose class is one of ``classes``, in order (none looked at when it is empty)."""
+    return [tr for tr, _scope in scoped if tr.cls in classes] if classes else []
+
+
+_FIRST = operator.itemgetter(0)
+_ID = operator.attrgetter("id")
+_SUBS = operator.attrgetter("subs")
 
 
 PATH_HINT = ("a path of ids joined by '/', relative to this machine or an enclosing one, or absolute with a "
@@ -141,7 +177,7 @@ _CLS = operator.attrgetter("cls")
 def _check_ids(spec: MachineSpec, problems: Problems) -> dict[str, int]:
     """Duplicate ids among the state elements as written; each id with the index of its first element."""
     if len(spec.states) == len(spec.raw_states):  # every element parsed: each id is a string, its state's
-        ids = [st.id for st in spec.states]
+        ids = list(map(_ID, spec.states))
         unique = dict(zip(ids, range(len(ids)), strict=True))
         if len(unique) == len(ids):
             return unique
@@ -314,20 +350,23 @@ class _Expressions:
         self.compiled: dict[tuple[str | None, str], E.Compiled] = {}
         self.wants: dict[tuple[str | None, str], str | None] = {}
         self.kinds: dict[str, str] = {}
+        #: the states' and transitions' specs without their scopes (for the passes over all of them)
+        self.state_specs: list[StateSpec] = list(map(_FIRST, states))
+        self.transition_specs: list[TransitionSpec] = list(map(_FIRST, transitions))
 
     def check(self) -> tuple[dict[str, str], dict[tuple[str | None, str], E.Compiled]]:
         assignments = list(self.assignments())
         self.kinds = self.infer_kinds(assignments)
         for a in assignments:
             self.assignment(a)
-        for st, scope in self.states:
+        for st, scope in self.states if _any_step_expressions(self.state_specs) else ():
             p = st.params
             if p.precondition is not None or p.until is not None or p.monitors is not None \
                     or st.cls.condition_fields:
                 self.step_conditions(st, scope)
             if isinstance(p.timeout, str):
                 self.compile(p.timeout, st.source, st.pointer + "/timeout", st.label, E.NUMBER)
-        for tr, scope in self.transitions:
+        for tr, scope in self.transitions if _any_guards(self.transition_specs) else ():
             guard = tr.params.guard
             if guard is None and not tr.conditions:
                 continue
@@ -343,18 +382,21 @@ class _Expressions:
 
     def assignments(self) -> Iterator[Assignment]:
         """Every assignment of the tree: states' ``set``, assignment parameters (SetVar), transitions' ``set``."""
-        for st, _ in self.states:
+        states = self.state_specs
+        params = list(map(_PARAMS, states))
+        for st in states if list(map(_SET, params)).count(None) != len(params) else ():
             sets = st.params.set
             if sets is None:
                 continue
             for hook in ("on_enter", "on_exit", "on_complete"):
                 for name, value in (getattr(sets, hook) or {}).items():
                     yield Assignment(name, value, st.source, f"{st.pointer}/set/{hook}/{escape(name)}", st.label)
-        for st, _ in self.states:
+        for st in states if any(cls.assignment_fields for cls in set(map(_CLS, states))) else ():
             for key in st.cls.assignment_fields:
                 for name, value in getattr(st.params, key).items():
                     yield Assignment(name, value, st.source, f"{st.pointer}/{key}/{escape(name)}", st.label)
-        for tr, _ in self.transitions:
+        transitions = self.transition_specs
+        for tr in transitions if list(map(_SET, map(_PARAMS, transitions))).count(None) != len(transitions) else ():
             if tr.params.set is None:
                 continue
             for name, value in tr.params.set.items():
@@ -440,6 +482,27 @@ class _Expressions:
         self.compiled[(source.name, ptr)] = c
         self.wants[(source.name, ptr)] = want
         return c
+
+
+_PARAMS = operator.attrgetter("params")
+_SET = operator.attrgetter("set")
+_STEP_EXPRESSIONS = operator.attrgetter("precondition", "until", "monitors", "timeout")
+
+
+def _any_step_expressions(elements: list[StateSpec]) -> bool:
+    """Whether a state has a precondition, until, monitors, a timeout or a type's condition parameters (one C-speed
+    pass over them all: most have none)."""
+    return any(cls.condition_fields for cls in set(map(_CLS, elements))) or \
+        list(map(_STEP_EXPRESSIONS, map(_PARAMS, elements))).count((None, None, None, None)) != len(elements)
+
+
+def _any_guards(elements: list[TransitionSpec]) -> bool:
+    """Whether a transition has a guard or condition objects (as :func:`_any_step_expressions`)."""
+    return list(map(_GUARD, elements)).count(None) != len(elements) or any(map(_CONDITIONS, elements))
+
+
+_GUARD = operator.attrgetter("params.guard")
+_CONDITIONS = operator.attrgetter("conditions")
 
 
 def _kind_of_value(value: Any, kinds: dict[str, str]) -> str:

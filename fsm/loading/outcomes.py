@@ -46,6 +46,14 @@ def machine_outcomes(spec: MachineSpec) -> set[str] | None:
 
 def reachable(spec: MachineSpec) -> set[str]:
     """The ids reachable from the initial state along the transitions as drawn."""
+    single = dict(spec.edges)
+    if len(single) == len(spec.edges):  # at most one transition out of each state: its chain, followed
+        seen = {spec.initial}
+        node = single.get(spec.initial)
+        while node is not None and node not in seen:
+            seen.add(node)
+            node = single.get(node)
+        return seen
     edges: dict[str, list[str]] = {}
     for src, dst in spec.edges:
         edges.setdefault(src, []).append(dst)

@@ -15,6 +15,7 @@ import operator
 import os
 import stat
 from collections.abc import Callable, Mapping
+from itertools import chain, repeat
 from pathlib import Path
 from typing import Any
 
@@ -58,6 +59,8 @@ class Parser:
         self.base_dir = Path(base_dir) if base_dir is not None else None
         self._cache: dict[Path, MachineSpec | None] = {}
         self._stack: list[Path] = []
+        #: The sources read as JSON text in this parse (their objects' keys are all text), by id.
+        self._json_sources: set[int] = set()
         #: Scoped bookkeeping of the types that parse their own children (a Sequence's declared sequences), by name.
         self.scopes: dict[str, Any] = {}
         self._tables: dict[str, dict[str, type[Any]]] = {"state": registry.states, "transition": registry.transitions,
@@ -91,6 +94,7 @@ class Parser:
         repeated: list[Any] = []
         data, source = parse_json_bytes(read_file_bytes(path), str(path), path.parent, duplicates=repeated)
         self.problems.extend(repeated)
+        self._json_sources.add(id(source))
         return data, source
 
     def machine(self, data: Any, source: Source, base: str, depth: int) -> MachineSpec | None:
@@ -111,7 +115,7 @@ class Parser:
         data, legacy = normalize_legacy(data)
         envelope: MachineEnvelope | None
         try:
-            envelope = MachineEnvelope.model_validate(data)
+            envelope = envelope_of(data, text_keys=id(source) in self._json_sources)
         except ValidationError as err:
             self.problems.extend(problems_from_validation(
                 err, source=source, base=base, element=None, model=MachineEnvelope, kind="key",
@@ -212,9 +216,16 @@ class Parser:
         if together is None:
             return [st for i, raw in enumerate(raws)
                     if (st := self.state(raw, source, f"{base}/states/{i}", depth)) is not None]
-        head = f"{base}/states/"
-        return [self.state_of(cls, params, source, f"{head}{i}", depth)
-                for i, (cls, params) in enumerate(together)]
+        classes, params = together
+        specs = list(map(StateSpec, map(_ID, params), classes, params, _pointers(f"{base}/states/", len(raws)),
+                         repeat(source)))
+        # the conditions and regions of the elements that have them, in document order (a plain level has none: one
+        # set of the level's classes and one of its step keys tell, without a Python step per element)
+        if any(cls.condition_fields or cls.is_composite for cls in set(classes)) or \
+                list(map(_STEP_KEYS, params)).count(_NO_STEP_KEYS) != len(params):
+            for spec in specs:
+                self._state_parts(spec, depth)
+        return specs
 
     def _transitions(self, raws: list[Any], source: Source, base: str) -> list[TransitionSpec]:
         """A level's transition elements, as :meth:`_states`."""
@@ -222,8 +233,13 @@ class Parser:
         if together is None:
             return [tr for i, raw in enumerate(raws)
                     if (tr := self.transition(raw, source, f"{base}/transitions/{i}")) is not None]
-        head = f"{base}/transitions/"
-        return [self.transition_of(cls, params, source, f"{head}{i}") for i, (cls, params) in enumerate(together)]
+        classes, params = together
+        specs = list(map(TransitionSpec, classes, params, _pointers(f"{base}/transitions/", len(raws)),
+                         repeat(source)))
+        if any(cls.condition_fields for cls in set(classes)) or dict in set(map(type, map(_GUARD, params))):
+            for spec in specs:
+                self._transition_parts(spec)
+        return specs
 
     def element(self, kind: str, raw: Any, source: Source, ptr: str) -> tuple[type[Any], Any] | None:
         """The class an element's ``type`` names and its validated parameters, or ``None`` (problems added)."""
@@ -262,12 +278,17 @@ class Parser:
     def state_of(self, cls: type[Any], params: Any, source: Source, ptr: str, depth: int) -> StateSpec:
         """The spec of a state element whose parameters are valid: its condition objects and regions parsed."""
         spec = StateSpec(params.id, cls, params, ptr, source)
+        self._state_parts(spec, depth)
+        return spec
+
+    def _state_parts(self, spec: StateSpec, depth: int) -> None:
+        """A state's condition objects and (a composite's) regions, parsed into its spec."""
+        cls, params = spec.cls, spec.params
         if params.precondition is not None or params.until is not None or params.monitors is not None \
                 or cls.condition_fields:
             self._step_conditions(spec)
         if cls.is_composite:
             region_layout(cls)(self, spec, depth)
-        return spec
 
     def _step_conditions(self, spec: StateSpec) -> None:
         """The condition objects of a state's precondition, until, monitors and its type's condition parameters
@@ -298,18 +319,22 @@ class Parser:
     def transition_of(self, cls: type[Any], params: Any, source: Source, ptr: str) -> TransitionSpec:
         """The spec of a transition element whose parameters are valid, its condition objects parsed."""
         spec = TransitionSpec(cls, params, ptr, source)
-        fields = cls.condition_fields
-        if fields or type(params.guard) is dict:
+        self._transition_parts(spec)
+        return spec
+
+    def _transition_parts(self, spec: TransitionSpec) -> None:
+        """A transition's condition objects (a condition guard, its type's condition parameters), into its spec."""
+        fields = spec.cls.condition_fields
+        if fields or type(spec.params.guard) is dict:
             conditions = {}
             for key in ("guard", *fields):
                 value = getattr(spec.params, key, None)
                 if isinstance(value, dict):
-                    cs = self.condition(value, source, f"{ptr}/{key}", spec.label)
+                    cs = self.condition(value, spec.source, f"{spec.pointer}/{key}", spec.label)
                     if cs is not None:
                         conditions[key] = cs
             if conditions:
                 spec.conditions = conditions
-        return spec
 
     def condition(self, raw: Any, source: Source, ptr: str, element: str, depth: int = 0) -> ConditionSpec | None:
         """A condition object and the conditions nested in it; ``None`` when it or a nested one does not parse."""
@@ -335,8 +360,44 @@ class Parser:
         return spec if ok else None
 
 
-def validated_together(table: Mapping[str, type[Any]], raws: list[Any]) -> list[tuple[type[Any], Any]] | None:
-    """Each element of ``raws`` with its class and its validated parameters, all in one pydantic-core call; ``None``
+def envelope_of(data: dict[str, Any], text_keys: bool = False) -> MachineEnvelope:
+    """``MachineEnvelope.model_validate(data)``, without pydantic copying each state and transition element: a level
+    whose elements are all objects with text keys (any JSON document's: ``text_keys`` says ``data`` is one, whose
+    keys need no look) is validated with one empty object standing in for them, which validates alike. Raises the
+    ``ValidationError`` of ``data`` itself."""
+    if sum(len(x) for x in (data.get("states"), data.get("transitions")) if type(x) is list) < _FEW:
+        return MachineEnvelope.model_validate(data)  # a few elements: the stand-in's passes cost more than copies
+    stand_in = dict(data)
+    for key in ("states", "transitions"):
+        elements = data.get(key)
+        if key in data and not _plain_elements(elements, text_keys):
+            return MachineEnvelope.model_validate(data)
+        if elements:
+            stand_in[key] = _ONE_ELEMENT
+    try:
+        return MachineEnvelope.model_validate(stand_in)
+    except ValidationError:
+        return MachineEnvelope.model_validate(data)  # its own errors, in its own words
+
+
+#: Below this many elements a level's envelope is validated as written (pydantic's copies cost less than the checks).
+_FEW = 32
+#: What stands in for a list of element objects in :func:`envelope_of` (pydantic copies it, never changes it).
+_ONE_ELEMENT: list[dict[str, Any]] = [{}]
+
+
+def _plain_elements(elements: Any, text_keys: bool) -> bool:
+    """Whether ``elements`` is a list of objects whose keys are all text (``text_keys``: known to be, when objects)."""
+    return type(elements) is list and set(map(type, elements)) <= _DICT_TYPE and \
+        (text_keys or set(map(type, chain.from_iterable(elements))) <= _STR_TYPE)
+
+
+_DICT_TYPE = frozenset({dict})
+_STR_TYPE = frozenset({str})
+
+
+def validated_together(table: Mapping[str, type[Any]], raws: list[Any]) -> tuple[list[type[Any]], list[Any]] | None:
+    """The class and the validated parameters of each element of ``raws``, all in one pydantic-core call; ``None``
     when one of them is not an object naming a type of ``table`` or does not validate: the caller then takes them
     one by one, so that each problem is found at its element in its own words.
 
@@ -357,10 +418,19 @@ def validated_together(table: Mapping[str, type[Any]], raws: list[Any]) -> list[
         params = validator.validate_python(raws)
     except ValidationError:
         return None
-    return list(zip(map(classes.__getitem__, names), params, strict=True))
+    return list(map(classes.__getitem__, names)), params
+
+
+def _pointers(head: str, n: int) -> list[str]:
+    """``head + "0"``, ``head + "1"``, ... the pointers of a level's ``n`` elements (C-speed steps)."""
+    return list(map(head.__add__, map(str, range(n))))
 
 
 _TYPE_OF = operator.itemgetter("type")
+_ID = operator.attrgetter("id")
+_STEP_KEYS = operator.attrgetter("precondition", "until", "monitors")
+_GUARD = operator.attrgetter("guard")
+_NO_STEP_KEYS = (None, None, None)
 _PARAMS = operator.attrgetter("params")
 _ENDS = operator.attrgetter("from_", "to")
 #: The validators of :func:`_list_validator` by their types (``None``: a set of types validated one by one).

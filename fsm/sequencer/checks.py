@@ -5,8 +5,11 @@ references, blocking steps that can never finish). Each finding is a located pro
 from __future__ import annotations
 
 import difflib
-from collections.abc import Callable
+import itertools
+import operator
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from itertools import repeat
 from typing import cast
 
 from fsm.model.document import MachineSpec, SequenceLayout, StateSpec
@@ -38,7 +41,7 @@ def check_sequences(root: MachineSpec, problems: Problems, can_finish: Callable[
 
     def walk(level: MachineSpec, prefix: str, caller: StateSpec | None, seqs: tuple[Enclosing, ...],
              using: tuple[str, ...]) -> None:
-        for st in level.states:
+        for st in _to_walk(level.states):
             if issubclass(st.cls, Call):
                 problems.add("a Call is a step of a Sequence: it runs a sequence declared in 'sequences'", st.source,
                              st.pointer, element=st.label, hint="put it in the steps of a Sequence")
@@ -62,6 +65,24 @@ def check_sequences(root: MachineSpec, problems: Problems, can_finish: Callable[
                 walk(sub.machine, path, st, inner, now_using)
 
     walk(root, "", None, (), ())
+
+
+_CLS = operator.attrgetter("cls")
+_SUBS = operator.attrgetter("subs")
+_PARAMS = operator.attrgetter("params")
+_TIMED = operator.attrgetter("monitors", "timeout", "timeout_exception")
+_FIELDS_SET = operator.attrgetter("__pydantic_fields_set__")
+
+
+def _to_walk(states: list[StateSpec]) -> Iterable[StateSpec]:
+    """The states of a level the walk must look at: all of them where one is a Call or has a monitor or a timeout
+    key, else only those with regions (a plain level's states are passed over in C-speed steps)."""
+    params = list(map(_PARAMS, states))
+    if any(issubclass(cls, Call) for cls in set(map(_CLS, states))) or \
+            list(map(_TIMED, params)).count((None, None, None)) != len(params) or \
+            any(map(operator.contains, map(_FIELDS_SET, params), repeat("timeout_behavior"))):
+        return states
+    return itertools.compress(states, map(_SUBS, states))
 
 
 def _check_state(problems: Problems, st: StateSpec, caller: StateSpec | None, seqs: tuple[Enclosing, ...],

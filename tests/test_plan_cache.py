@@ -172,6 +172,42 @@ def test_a_changed_document_or_include_misses(folder: Path, tmp_path: Path, chan
         assert plan.root.states[2].regions[0].states[0].on_enter is None
 
 
+def test_a_document_and_include_with_a_byte_order_mark_hit_and_miss_by_their_bytes(folder: Path,
+                                                                                   tmp_path: Path) -> None:
+    """A hit hashes the bytes it read (a byte-order mark set aside): the same key as the text the miss hashed, and
+    one byte changed in the document or its include misses."""
+    bom = b"\xef\xbb\xbf"
+    path = machine_files(tmp_path)
+    sub = tmp_path / "sub.json"
+    for file in (path, sub):
+        file.write_bytes(bom + file.read_bytes())
+    loader.compile(path)
+    cache.flush()
+    assert hit(path)
+    for file in (path, sub):
+        original = file.read_bytes()
+        file.write_bytes(original.replace(b'"Idle"', b'"Idle" ', 1))  # the same machine, another text
+        assert not hit(path)
+        file.write_bytes(original)
+        assert hit(path)
+
+
+def test_a_read_marks_the_cache_file_used_only_when_it_was_not_recently(folder: Path, tmp_path: Path) -> None:
+    """Pruning keeps the most recently used files: a read sets the file's time when it is older than a minute,
+    not on every hit (a write per read)."""
+    path = machine_files(tmp_path)
+    loader.compile(path)
+    cache.flush()
+    target = cache.file_of(str(path))
+    recent = target.stat().st_mtime_ns - 10_000_000_000
+    os.utime(target, ns=(recent, recent))
+    assert hit(path)
+    assert target.stat().st_mtime_ns == recent  # ten seconds ago: as recent as any
+    os.utime(target, (1_000_000, 1_000_000))
+    assert hit(path)
+    assert target.stat().st_mtime > 1_000_000 + 3600  # long ago: now
+
+
 def test_a_changed_plugin_type_misses(folder: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     plugin = tmp_path / "cached_plugin_types.py"
     plugin.write_text(textwrap.dedent("""

@@ -364,8 +364,15 @@ def document(name: str) -> Document | None:
     return Document(found[0], found[1], token) if found is not None else None
 
 
-def _digest(text: str) -> str:
-    return hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()
+def _digest(text: str, raw: bytes | None = None) -> str:
+    """The SHA-256 of a text's UTF-8; of ``raw``, the bytes it was decoded from, when given (the same bytes without
+    a byte-order mark: a strict decode encodes back to exactly them), which saves encoding it again."""
+    if raw is None:
+        return hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()
+    return hashlib.sha256(memoryview(raw)[3:] if raw.startswith(_BOM) else raw).hexdigest()
+
+
+_BOM = b"\xef\xbb\xbf"
 
 
 class _Locator:
@@ -625,21 +632,32 @@ def lookup(name: str, registry: Registry, doc: Document) -> Entry | None:
     flush(name)  # this process's own write of it, if one is under way
     try:
         with open(file_of(name), "rb") as fh:
-            if os.fstat(fh.fileno()).st_uid != os.geteuid():
+            st = os.fstat(fh.fileno())
+            if st.st_uid != os.geteuid():
                 return None
             data = fh.read()
+            try:
+                found = _read(data, name, registry, doc, key)
+            except Exception:  # noqa: BLE001 - a corrupt or foreign file is ignored, whatever it holds
+                return None
+            if found is not None and time.time() - st.st_mtime > TOUCHED_WITHIN:
+                _touch(fh.fileno() if os.utime in os.supports_fd else file_of(name))
     except OSError:
         return None
-    try:
-        found = _read(data, name, registry, doc, key)
-    except Exception:  # noqa: BLE001 - a corrupt or foreign file is ignored, whatever it holds
-        return None
-    if found is not None:
-        try:
-            os.utime(file_of(name))  # recently used: the last to be pruned
-        except OSError:
-            pass
     return found
+
+
+def _touch(where: int | Path) -> None:
+    """The cache file (open: its descriptor) marked as recently used (the last to be pruned), if it can be."""
+    try:
+        os.utime(where)
+    except OSError:
+        pass
+
+
+#: A file read is marked as recently used (its modification time set to now) unless it was within this many seconds
+#: already: pruning keeps the most recently used files, and a minute is as recent as any.
+TOUCHED_WITHIN = 60.0
 
 
 def _read(data: bytes, name: str, registry: Registry, doc: Document, key: str) -> Entry | None:
@@ -781,12 +799,12 @@ def _forget(name: str) -> None:
 def _texts(files: list[list[str]], name: str, doc: Document) -> dict[str, str] | None:
     """The text of each file of a cache entry (``[name, digest, token]`` first, then ``[include, digest]``) if
     every one is still what it was, else None."""
-    if files[0] != [name, _digest(doc.text), doc.token]:
+    if files[0] != [name, _digest(doc.text, doc.raw), doc.token]:
         return None
     texts = {name: doc.text}
     for other, digest in files[1:]:
         found = text_of(other)
-        if found is None or _digest(found[0]) != digest:
+        if found is None or _digest(*found) != digest:
             return None
         texts[other] = found[0]
     return texts

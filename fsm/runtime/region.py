@@ -347,6 +347,35 @@ class StateWiring(Life):
         return f"<wiring of {self.state!r}>"
 
 
+def seal_all(records: Sequence[StateWiring]) -> None:
+    """:meth:`StateWiring.seal` each of ``records``, once the machine is built. A plain state's record (its class
+    overrides no hook and cannot finish; no regions, supervisor, exit condition, ``set`` actions, resets or
+    preemptive transitions; at most one transition, with nothing to arm) is sealed in this loop, as ``seal`` would:
+    no hook, nothing watched (the ring's 1,000 states are sealed without a call each)."""
+    final_of: dict[type[Any], Any] = {}  # a plain class's ``is_final``, else _NOT_PLAIN
+    for record in records:
+        cls = type(record.state)
+        final = final_of.get(cls, _NOT_PLAIN)
+        if final is _NOT_PLAIN and cls not in final_of:
+            plain = not (cls._overrides_enter or cls._overrides_exit or cls._overrides_tick or cls.can_finish)
+            final = final_of[cls] = cls.is_final if plain else _NOT_PLAIN
+        regular = record.regular
+        if final is _NOT_PLAIN or record.preempt or record.regions or record.supervisor is not None \
+                or record.until is not None or record.resets or record.entry_action is not None \
+                or record.exit_action is not None or record.complete_action is not None \
+                or (regular and (len(regular) > 1 or regular[0].arm is not None)):
+            record.seal()
+            continue
+        record.is_final = final
+        record.arms = ()
+        record.watched = False
+        record.tick_hook = record.enter_hook = record.exit_hook = None
+
+
+#: What ``seal_all`` notes of a class whose states always need ``seal``.
+_NOT_PLAIN: Any = object()
+
+
 class TransitionWiring(Link):
     """What the runtime keeps of a transition in a machine: how the region decides whether it fires (``kind``:
     ALWAYS, COMPARE runs ``compare`` inline, CALL calls ``test(ctx)``) and what firing runs (``effect``: NONE,

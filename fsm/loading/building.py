@@ -64,6 +64,9 @@ class _Builder:
         self.supervised: list[tuple[State[Any], StatePlan]] = []
         #: each condition object with the state it belongs to
         self.conditions: list[tuple[Condition[Any], State[Any]]] = []
+        #: whether each state and transition class built overrides ``bind`` (noted on its first element: the bind
+        #: pass runs only if one does)
+        self.binds: dict[type[Any], bool] = {}
 
     def region(self, plan: RegionPlan, owner: State[Any] | None) -> Region:
         # One loop per level, the plan records unpacked rather than read field by field (a NamedTuple's field is a
@@ -72,11 +75,14 @@ class _Builder:
         states: dict[str, State[Any]] = {}
         by_path = self.states
         built = self.built
+        binds = self.binds
         leaving = []  # (record, preemptive, regular) of each state with transitions
         for sp in plan.states:
             cls, params, sid, path, on_enter, on_exit, sup, regions, _seq, preempt, regular, on_complete, checks = sp
             record = new_state(cls, sid, params, path)
             states[sid] = by_path[path] = record.state
+            if cls not in binds:
+                binds[cls] = state_binds_references(record.state)
             built.append(record)
             if preempt or regular:
                 leaving.append((record, preempt, regular))
@@ -156,6 +162,8 @@ class _Builder:
         cls, params, source_id, target_id, position, guard, assign, counter, conditions = plan
         source = states[source_id]
         t = new_transition(cls, params, source, states[target_id], position)
+        if cls not in self.binds:
+            self.binds[cls] = transition_binds_references(t.transition)
         expression, condition = guard
         if not conditions and expression is None and condition is None and assign is None:
             return t
@@ -186,20 +194,14 @@ class _Builder:
                         _supervise_caller(obj, machine)
         for condition, owner in self.conditions:
             condition.bind(machine, owner)
-        binds: dict[type[Any], bool] = {}  # whether a class overrides ``bind``, asked once per class
-        for record in self.built:
-            for t in record.transitions:
-                does = binds.get(type(t))
-                if does is None:
-                    does = binds[type(t)] = transition_binds_references(t)
-                if does:
-                    t.bind(machine)
-            state = record.state
-            does = binds.get(type(state))
-            if does is None:
-                does = binds[type(state)] = state_binds_references(state)
-            if does:
-                state.bind(machine)
+        if any(self.binds.values()):
+            for record in self.built:
+                for t in record.transitions:
+                    if transition_binds_references(t):
+                        t.bind(machine)
+                state = record.state
+                if state_binds_references(state):
+                    state.bind(machine)
         seal_all(self.built)
 
 

@@ -102,7 +102,7 @@ def new_state(cls: type[State[Any]], id: str, params: Any, path: str) -> StateWi
     state = cls(id, params)
     state.path = path
     record = state._fsm
-    return record if isinstance(record, StateWiring) else wiring(state)
+    return record if type(record) is StateWiring else wiring(state)
 
 
 def new_transition(cls: type[Transition[Any]], params: Any, source: State[Any], target: State[Any],
@@ -110,7 +110,7 @@ def new_transition(cls: type[Transition[Any]], params: Any, source: State[Any], 
     """A transition of type ``cls`` made for a machine: its record (the builder's one call per transition)."""
     transition = cls(params, source, target, index)
     record = transition._fsm
-    return record if isinstance(record, TransitionWiring) else transition_wiring(transition)
+    return record if type(record) is TransitionWiring else transition_wiring(transition)
 
 
 class StateWiring(Life):
@@ -389,7 +389,7 @@ class TransitionWiring(Link):
         self.transition = transition  # Link's fields, written here: a call less per transition of a load
         self.index = index
         target = transition.target._fsm
-        self.target = target if isinstance(target, StateWiring) else wiring(transition.target)
+        self.target = target if type(target) is StateWiring else wiring(transition.target)
         cls = type(transition)
         if cls.unconditional:
             self.kind = _ALWAYS
@@ -538,7 +538,7 @@ class Region:
         self.listeners: Sequence[EntryListener] = ()
         for state in states.values():
             record = state._fsm  # made by the state (use_record below): wiring() only for one made before
-            (record if isinstance(record, StateWiring) else wiring(state)).region = self
+            (record if type(record) is StateWiring else wiring(state)).region = self
 
     #: The state a start enters.
     initial = RecordOf("first")
@@ -690,7 +690,7 @@ class Region:
         terminal = []
         for state in self.states.values():
             record = state._fsm
-            assert isinstance(record, StateWiring)  # given by __init__
+            assert type(record) is StateWiring  # given by __init__
             if not record.transitions and not record.state.is_final:
                 terminal.append(state)
         return terminal

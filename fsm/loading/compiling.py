@@ -65,15 +65,17 @@ class _Compiler:
         ordered = False
         for index, tr in enumerate(spec.transitions):
             p = tr.params
-            if p.guard is None and p.set is None and not tr.conditions and not tr.cls.needs_car:
-                plan = _tuple(TransitionPlan, (tr.cls, p, p.from_, p.to, index, _NO_GUARD, None, None, NOTHING))
+            # the parameters' fields read from their dict: a pydantic model's attribute read is not specialised by
+            # the interpreter (the model class defines __getattr__), a dict's item is
+            f = p.__dict__
+            if f["guard"] is None and f["set"] is None and not tr.conditions and not tr.cls.needs_car:
+                plan = _tuple(TransitionPlan, (tr.cls, p, f["from_"], f["to"], index, _NO_GUARD, None, None, NOTHING))
             else:
                 plan = self.transition(tr, index, prefix)
-            out = preempt if p.preempt else regular
-            source = plan[2]
-            before = out.get(source)
-            out[source] = (plan,) if before is None else before + (plan,)
-            if p.priority != 0:
+            out = preempt if f["preempt"] else regular
+            before = out.get(f["from_"])
+            out[f["from_"]] = (plan,) if before is None else before + (plan,)
+            if f["priority"] != 0:
                 ordered = True
         if ordered:  # by priority, higher first; stable: declaration order within a priority
             regular = {key: tuple(sorted(plans, key=_priority)) for key, plans in regular.items()}
@@ -85,8 +87,9 @@ class _Compiler:
             is_plain = plain.get(cls)
             if is_plain is None:
                 is_plain = plain[cls] = _plain_class(cls)
-            if is_plain and not st.conditions and not st.subs and params.set is None and params.timeout is None \
-                    and params.precondition is None and params.until is None and params.monitors is None:
+            f = params.__dict__  # as for transitions
+            if is_plain and not st.conditions and not st.subs and f["set"] is None and f["timeout"] is None \
+                    and f["precondition"] is None and f["until"] is None and f["monitors"] is None:
                 states.append(_tuple(StatePlan, (cls, params, sid, f"{prefix}/{sid}" if prefix else sid, None, None,
                                                  None, (), st.sequence, preempt.get(sid, ()), regular.get(sid, ()),
                                                  None, NOTHING)))

@@ -115,37 +115,58 @@ def sealed(record: StateWiring) -> tuple[Any, ...]:
 
 
 @pytest.mark.parametrize("doc", [MIXED, ring(5)], ids=["mixed", "ring"])
-def test_seal_all_fixes_what_seal_fixes(doc: dict[str, Any]) -> None:
+def test_every_record_holds_what_seal_fixes_and_only_plain_ones_are_made_sealed(
+        doc: dict[str, Any], monkeypatch: pytest.MonkeyPatch) -> None:
+    calls: list[str] = []
+    original = StateWiring.seal
+
+    def spy(record: StateWiring) -> None:
+        calls.append(record.state.path)
+        original(record)
+
+    monkeypatch.setattr(StateWiring, "seal", spy)
     machine = build(plan_of(doc))
     records = [wiring(state) for state in machine.states_by_path.values()]
-    by_loop = [sealed(record) for record in records]
+    as_built = [sealed(record) for record in records]
     for record in records:
-        record.seal()
-    assert [sealed(record) for record in records] == by_loop
-    plain = [r for r in records if r.enter_hook is None and r.tick_hook is None and r.exit_hook is None]
-    assert plain, "the shortcut was not taken"
+        original(record)
+    assert [sealed(record) for record in records] == as_built
+    # MIXED has an InState transition (it binds): every record sealed; the ring's states are all made sealed
+    assert sorted(calls) == (sorted(machine.states_by_path) if doc is MIXED else [])
 
 
-def test_a_state_class_with_a_hook_is_sealed_by_its_record() -> None:
+def test_without_binding_elements_only_the_records_of_plain_states_go_unsealed(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    doc = {k: v for k, v in MIXED.items()}
+    doc["states"] = [dict(st) for st in MIXED["states"] if st["id"] != "p"] + [{"id": "p", "type": "Idle"}]
+    doc["transitions"] = [tr for tr in MIXED["transitions"] if tr["from"] != "p" or tr.get("preempt")]
+    calls: list[str] = []
+    original = StateWiring.seal
+
+    def spy(record: StateWiring) -> None:
+        calls.append(record.state.path)
+        original(record)
+
+    monkeypatch.setattr(StateWiring, "seal", spy)
+    build(plan_of(doc))
+    # b: a set; c: Wait ticks and finishes; d: two transitions and p a preemptive one; e: two transitions
+    assert sorted(calls) == ["b", "c", "d", "e", "p"]
+
+
+def test_a_state_class_with_a_hook_is_not_made_sealed() -> None:
     class Ticking(State[Any]):
         def tick(self, ctx: Any) -> None:
             pass
 
-    calls: list[StateWiring] = []
-    plain_state = State("a")
-    ticking = Ticking("b")
-    records = [wiring(plain_state), wiring(ticking)]
-    original = StateWiring.seal
+    class Binding(State[Any]):
+        def bind(self, machine: Any) -> None:
+            pass
 
-    def spy(record: StateWiring) -> None:
-        calls.append(record)
-        original(record)
+    class Ending(State[Any]):
+        is_final = True
 
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(StateWiring, "seal", spy)
-        region_module.seal_all(records)
-    assert calls == [records[1]]
-    assert records[0].tick_hook is None and records[1].tick_hook == ticking.tick
+    assert region_module.sealed_as_made(State)
+    assert not any(region_module.sealed_as_made(cls) for cls in (Ticking, Binding, Ending))
 
 
 def trace(doc: dict[str, Any]) -> list[Any]:
@@ -163,7 +184,8 @@ def trace(doc: dict[str, Any]) -> list[Any]:
 def test_the_mixed_machine_runs_the_same_trace_either_way(monkeypatch: pytest.MonkeyPatch) -> None:
     short = trace(MIXED)
     monkeypatch.setattr(compiling, "_plain_class", lambda cls: False)
-    monkeypatch.setattr(building, "seal_all", lambda records: [record.seal() for record in records])
+    monkeypatch.setattr(region_module, "sealed_as_made", lambda cls: False)  # every record sealed
+    monkeypatch.setattr(building, "sealed_as_made", lambda cls: False)
     assert trace(MIXED) == short
     paths = {p for active, _vars, _count in short for p in active}
     assert {"a", "b", "c", "d", "e", "p/left/l1", "p/right/r0"} <= paths, paths  # every kind of element was run

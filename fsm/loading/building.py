@@ -25,7 +25,7 @@ from fsm.runtime.region import (
     Until,
     new_state,
     new_transition,
-    seal_all,
+    sealed_as_made,
     wiring,
 )
 from fsm.runtime.state import State, state_binds_references
@@ -67,6 +67,10 @@ class _Builder:
         #: whether each state and transition class built overrides ``bind`` (noted on its first element: the bind
         #: pass runs only if one does)
         self.binds: dict[type[Any], bool] = {}
+        #: whether each state class built is sealed as its record is made (``sealed_as_made``)
+        self.sealed: dict[type[Any], bool] = {}
+        #: the records to seal: all but those of plain states, made sealed (see ``sealed_as_made``)
+        self.sealing: list[StateWiring] = []
 
     def region(self, plan: RegionPlan, owner: State[Any] | None) -> Region:
         # One loop per level, the plan records unpacked rather than read field by field (a NamedTuple's field is a
@@ -76,29 +80,39 @@ class _Builder:
         by_path = self.states
         built = self.built
         binds = self.binds
-        leaving = []  # (record, preemptive, regular) of each state with transitions
+        sealed = self.sealed
+        sealing = self.sealing
+        leaving = []  # (record, preemptive, regular, queued for sealing) of each state with transitions
         for sp in plan.states:
             cls, params, sid, path, on_enter, on_exit, sup, regions, _seq, preempt, regular, on_complete, checks = sp
             record = new_state(cls, sid, params, path)
             states[sid] = by_path[path] = record.state
+            built.append(record)
             if cls not in binds:
                 binds[cls] = state_binds_references(record.state)
-            built.append(record)
-            if preempt or regular:
-                leaving.append((record, preempt, regular))
+                sealed[cls] = sealed_as_made(cls)
+            queued = True  # for sealing
             if regions or checks or sup is not None or on_enter is not None or on_exit is not None \
                     or on_complete is not None:
                 self.state(record, sp)
+            elif sealed[cls] and not preempt and len(regular) <= 1:
+                queued = False
+            if queued:
+                sealing.append(record)
+            if preempt or regular:
+                leaving.append((record, preempt, regular, queued))
         region = Region(plan.name, plan.path, states, states[plan.initial])
         region.owner = owner
         self.regions.append(region)
         transition = self.transition
-        for source, preempt, regular in leaving:
+        for source, preempt, regular, queued in leaving:
             if len(regular) == 1 and not preempt:
                 # one transition out of a state is the usual case: built without a comprehension's frame
                 only = transition(regular[0], states)
                 source.regular = (only,)
                 source.transitions = (only.transition,)
+                if only.arm is not None and not queued:
+                    sealing.append(source)
                 continue
             source.regular = tuple([transition(tp, states) for tp in regular])
             source.preempt = tuple([transition(tp, states) for tp in preempt])
@@ -194,6 +208,7 @@ class _Builder:
                         _supervise_caller(obj, machine)
         for condition, owner in self.conditions:
             condition.bind(machine, owner)
+        sealing = self.sealing
         if any(self.binds.values()):
             for record in self.built:
                 for t in record.transitions:
@@ -202,7 +217,9 @@ class _Builder:
                 state = record.state
                 if state_binds_references(state):
                     state.bind(machine)
-        seal_all(self.built)
+            sealing = self.built  # what a binding element changed is not known: every record sealed
+        for record in sealing:
+            record.seal()
 
 
 def _position(t: TransitionWiring) -> int:

@@ -124,8 +124,7 @@ class StateWiring(Life):
 
     def __init__(self, state: State[Any]) -> None:
         # Made once per state of every load (1,000 for the ring): the clock's fields of ``Life`` are written here,
-        # not by ``Life.__init__`` (a frame less), and what ``seal`` fixes (the hooks, ``arms``, ``watched``,
-        # ``is_final``) is written by ``seal`` only; a state made into a machine is always sealed before it runs
+        # not by ``Life.__init__`` (a frame less)
         self.state = state
         self.entered_at = 0.0
         self.paused = False
@@ -150,17 +149,17 @@ class StateWiring(Life):
         self.complete_action: Hook | None = None
         #: Condition objects of the state's predicates to reset on each entry.
         self.resets: tuple[Condition[Any], ...] = ()
-        # Fixed by seal, once the machine is built (declared here for the type checker):
-        if TYPE_CHECKING:
-            #: What the runtime calls: None where the base does nothing.
-            self.tick_hook: Hook | None
-            self.enter_hook: Hook | None
-            self.exit_hook: Hook | None
-            #: The outgoing transitions' hooks run on each entry (their references, their conditions' resets).
-            self.arms: tuple[Hook, ...]
-            #: Whether anything is checked before the tick: a supervisor or preemptive transitions.
-            self.watched: bool
-            self.is_final: bool
+        # Fixed by ``seal`` once the machine is built; made as ``seal`` fixes them for a plain state (see
+        # :func:`sealed_as_made`), whose record the builder then need not seal:
+        #: What the runtime calls: None where the base does nothing.
+        self.tick_hook: Hook | None = None
+        self.enter_hook: Hook | None = None
+        self.exit_hook: Hook | None = None
+        #: The outgoing transitions' hooks run on each entry (their references, their conditions' resets).
+        self.arms: tuple[Hook, ...] = ()
+        #: Whether anything is checked before the tick: a supervisor or preemptive transitions.
+        self.watched = False
+        self.is_final = False
 
     @property
     def active(self) -> bool:
@@ -347,33 +346,13 @@ class StateWiring(Life):
         return f"<wiring of {self.state!r}>"
 
 
-def seal_all(records: Sequence[StateWiring]) -> None:
-    """:meth:`StateWiring.seal` each of ``records``, once the machine is built. A plain state's record (its class
-    overrides no hook and cannot finish; no regions, supervisor, exit condition, ``set`` actions, resets or
-    preemptive transitions; at most one transition, with nothing to arm) is sealed in this loop, as ``seal`` would:
-    no hook, nothing watched (the ring's 1,000 states are sealed without a call each)."""
-    final_of: dict[type[Any], Any] = {}  # a plain class's ``is_final``, else _NOT_PLAIN
-    for record in records:
-        cls = type(record.state)
-        final = final_of.get(cls, _NOT_PLAIN)
-        if final is _NOT_PLAIN and cls not in final_of:
-            plain = not (cls._overrides_enter or cls._overrides_exit or cls._overrides_tick or cls.can_finish)
-            final = final_of[cls] = cls.is_final if plain else _NOT_PLAIN
-        regular = record.regular
-        if final is _NOT_PLAIN or record.preempt or record.regions or record.supervisor is not None \
-                or record.until is not None or record.resets or record.entry_action is not None \
-                or record.exit_action is not None or record.complete_action is not None \
-                or (regular and (len(regular) > 1 or regular[0].arm is not None)):
-            record.seal()
-            continue
-        record.is_final = final
-        record.arms = ()
-        record.watched = False
-        record.tick_hook = record.enter_hook = record.exit_hook = None
-
-
-#: What ``seal_all`` notes of a class whose states always need ``seal``.
-_NOT_PLAIN: Any = object()
+def sealed_as_made(cls: type[State[Any]]) -> bool:
+    """Whether the record of a state of class ``cls`` is made sealed (``seal`` would fix what it is made with) when
+    the state has nothing more: no regions, supervisor, exit condition, ``set`` actions or resets, no preemptive
+    transition and at most one regular one with nothing to arm. The class overrides no hook and no ``bind``, cannot
+    finish and is not final. The builder seals only the other records (the ring's 1,000 states need no call)."""
+    return not (cls._overrides_enter or cls._overrides_exit or cls._overrides_tick or cls.can_finish or cls.is_final
+                or cls._binds_references)
 
 
 class TransitionWiring(Link):

@@ -114,9 +114,9 @@ def sealed(record: StateWiring) -> tuple[Any, ...]:
                  else getattr(record, name).__qualname__ for name in SEALED)
 
 
-@pytest.mark.parametrize("doc", [MIXED, ring(5)], ids=["mixed", "ring"])
-def test_every_record_holds_what_seal_fixes_and_only_plain_ones_are_made_sealed(
-        doc: dict[str, Any], monkeypatch: pytest.MonkeyPatch) -> None:
+@pytest.fixture
+def seal_calls(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """The path of each record ``StateWiring.seal`` is called on."""
     calls: list[str] = []
     original = StateWiring.seal
 
@@ -125,30 +125,30 @@ def test_every_record_holds_what_seal_fixes_and_only_plain_ones_are_made_sealed(
         original(record)
 
     monkeypatch.setattr(StateWiring, "seal", spy)
+    return calls
+
+
+@pytest.mark.parametrize("doc", [MIXED, ring(5)], ids=["mixed", "ring"])
+def test_every_record_holds_what_seal_fixes_and_only_plain_ones_are_made_sealed(
+        doc: dict[str, Any], seal_calls: list[str]) -> None:
+    calls = seal_calls
     machine = build(plan_of(doc))
     records = [wiring(state) for state in machine.states_by_path.values()]
     as_built = [sealed(record) for record in records]
+    made = sorted(calls)
     for record in records:
-        original(record)
+        record.seal()
     assert [sealed(record) for record in records] == as_built
     # MIXED has an InState transition (it binds): every record sealed; the ring's states are all made sealed
-    assert sorted(calls) == (sorted(machine.states_by_path) if doc is MIXED else [])
+    assert made == (sorted(machine.states_by_path) if doc is MIXED else [])
 
 
-def test_without_binding_elements_only_the_records_of_plain_states_go_unsealed(
-        monkeypatch: pytest.MonkeyPatch) -> None:
+def test_without_binding_elements_only_the_records_of_plain_states_go_unsealed(seal_calls: list[str]) -> None:
     doc = {k: v for k, v in MIXED.items()}
     doc["states"] = [dict(st) for st in MIXED["states"] if st["id"] != "p"] + [{"id": "p", "type": "Idle"}]
     doc["transitions"] = [tr for tr in MIXED["transitions"] if tr["from"] != "p" or tr.get("preempt")]
-    calls: list[str] = []
-    original = StateWiring.seal
-
-    def spy(record: StateWiring) -> None:
-        calls.append(record.state.path)
-        original(record)
-
-    monkeypatch.setattr(StateWiring, "seal", spy)
     build(plan_of(doc))
+    calls = seal_calls
     # b: a set; c: Wait ticks and finishes; d: two transitions and p a preemptive one; e: two transitions
     assert sorted(calls) == ["b", "c", "d", "e", "p"]
 

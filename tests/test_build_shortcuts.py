@@ -6,6 +6,8 @@ runs the same trace either way."""
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -189,3 +191,13 @@ def test_the_mixed_machine_runs_the_same_trace_either_way(monkeypatch: pytest.Mo
     assert trace(MIXED) == short
     paths = {p for active, _vars, _count in short for p in active}
     assert {"a", "b", "c", "d", "e", "p/left/l1", "p/right/r0"} <= paths, paths  # every kind of element was run
+
+
+@pytest.mark.parametrize("doc", [ring(3), MIXED], ids=["flat", "nested"])
+def test_the_files_of_a_plan_are_every_level_s_file(doc: dict[str, Any], tmp_path: Path) -> None:
+    path = tmp_path / "machine.json"
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    spec, analysis, _problems = analyse(path)
+    assert spec is not None and analysis is not None
+    files = compile_machine(spec, analysis).files
+    assert files == compiling._files(spec) and len(files) == 1 and Path(files[0]).name == "machine.json"

@@ -41,7 +41,7 @@ def compile_machine(spec: MachineSpec, analysis: Analysis) -> MachinePlan:
         variables=compiler.variables,
         spec=spec,
         car_users=tuple(compiler.car_users),
-        files=tuple(dict.fromkeys(level.source.name for level in spec.levels() if level.source.name)),
+        files=_files(spec) if compiler.nested else (spec.source.name,) if spec.source.name else (),
         signals=frozenset(signal_names(spec)),
     )
 
@@ -51,6 +51,8 @@ class _Compiler:
         self.analysis = analysis
         self.variables: dict[str, Any] = {}
         self.car_users: list[str] = []
+        #: whether any state has sub-machines (else the document's one level is its only file)
+        self.nested = False
         #: whether a state class is plain (``_plain_class``), by class
         self.plain: dict[type[Any], bool] = {}
 
@@ -107,6 +109,8 @@ class _Compiler:
             self._car_conditions(conditions_of(st.conditions), f"'{path}'")
         regions = tuple([self.region(sub.machine, sub.name or st.id, f"{path}/{sub.name}" if sub.name else path)
                          for sub in st.subs if sub.machine is not None]) if st.subs else ()
+        if regions:
+            self.nested = True
         on_enter = on_exit = on_complete = None
         if params.set is not None or cls.assignment_fields:
             on_enter = self.assigner(st.source, self.entry_assignments(st))
@@ -218,6 +222,11 @@ ACTIONS: weakref.WeakKeyDictionary[Action, tuple[tuple[str, E.Compiled], ...]] =
 _NO_GUARD = GuardPlan()
 #: A plan record made from its fields in order, without the NamedTuple's ``__new__`` (a Python call).
 _tuple = tuple.__new__
+
+
+def _files(spec: MachineSpec) -> tuple[str, ...]:
+    """Every file the machine was read from, each once: its own and its includes."""
+    return tuple(dict.fromkeys(level.source.name for level in spec.levels() if level.source.name))
 
 
 def _plain_class(cls: type[Any]) -> bool:

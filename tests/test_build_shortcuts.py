@@ -14,6 +14,7 @@ import pytest
 
 from fsm.loading import building, compiling
 from fsm.loading.building import build
+from fsm.loading.checking import signal_names
 from fsm.loading.compiling import compile_machine
 from fsm.loading.loader import analyse
 from fsm.model.plan import NOTHING, GuardPlan, MachinePlan, StatePlan, TransitionPlan
@@ -56,7 +57,7 @@ MIXED: dict[str, Any] = {
 
 
 def ring(n: int) -> dict[str, Any]:
-    return {"name": "ring", "initial": "s0", "states": [{"id": f"s{i}", "type": "Idle"} for i in range(n)],
+    return {"name": "plain", "initial": "s0", "states": [{"id": f"s{i}", "type": "Idle"} for i in range(n)],
             "transitions": [{"type": "Always", "from": f"s{i}", "to": f"s{(i + 1) % n}"} for i in range(n)]}
 
 
@@ -201,3 +202,14 @@ def test_the_files_of_a_plan_are_every_level_s_file(doc: dict[str, Any], tmp_pat
     assert spec is not None and analysis is not None
     files = compile_machine(spec, analysis).files
     assert files == compiling._files(spec) and len(files) == 1 and Path(files[0]).name == "machine.json"
+
+
+@pytest.mark.parametrize("doc", [ring(3), MIXED, {**ring(2), "name": "seq", "states": [
+    {"id": "s0", "type": "Idle"}, {"id": "s1", "type": "Sequence", "pause_signal": "hold", "steps": [
+        {"id": "w", "type": "Wait", "seconds": 1}]}]}], ids=["plain", "signal-transition", "sequence"])
+def test_the_signals_of_a_plan_are_those_its_elements_read(doc: dict[str, Any]) -> None:
+    spec, analysis, _problems = analyse(doc)
+    assert spec is not None and analysis is not None
+    signals = compile_machine(spec, analysis).signals
+    assert signals == frozenset(signal_names(spec))
+    assert signals == {"plain": frozenset(), "mixed": {"stop"}}.get(str(doc["name"]), {"hold"})

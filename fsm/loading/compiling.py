@@ -42,7 +42,7 @@ def compile_machine(spec: MachineSpec, analysis: Analysis) -> MachinePlan:
         spec=spec,
         car_users=tuple(compiler.car_users),
         files=_files(spec) if compiler.nested else (spec.source.name,) if spec.source.name else (),
-        signals=frozenset(signal_names(spec)),
+        signals=frozenset(signal_names(spec)) if compiler.mixed else frozenset(),
     )
 
 
@@ -53,27 +53,36 @@ class _Compiler:
         self.car_users: list[str] = []
         #: whether any state has sub-machines (else the document's one level is its only file)
         self.nested = False
-        #: whether a state class is plain (``_plain_class``), by class
+        #: whether a state or transition class is plain (``_plain_class``; a transition class: no car, no signal
+        #: parameters), by class
         self.plain: dict[type[Any], bool] = {}
+        #: whether any element took the long way: only then can the machine read a signal
+        self.mixed = False
 
     def region(self, spec: MachineSpec, name: str, prefix: str) -> RegionPlan:
         for key, value in spec.vars.items():
             self.variables.setdefault(key, value)
         # The 1000-state ring is 2,000 elements of one kind each: a plain transition (no guard, set, conditions or
-        # car) and a plain state (see ``_plain_state``) are made here, in the level's loop, as tuples (a
+        # car or signal) and a plain state (see ``_plain_class``) are made here, in the level's loop, as tuples (a
         # NamedTuple's ``__new__`` is a Python call per element); anything else by ``transition`` and ``state``.
         regular: dict[str, tuple[TransitionPlan, ...]] = {}
         preempt: dict[str, tuple[TransitionPlan, ...]] = {}
         ordered = False
+        plain = self.plain
         for index, tr in enumerate(spec.transitions):
             p = tr.params
             # the parameters' fields read from their dict: a pydantic model's attribute read is not specialised by
             # the interpreter (the model class defines __getattr__), a dict's item is
             f = p.__dict__
-            if f["guard"] is None and f["set"] is None and not tr.conditions and not tr.cls.needs_car:
-                plan = _tuple(TransitionPlan, (tr.cls, p, f["from_"], f["to"], index, _NO_GUARD, None, None, NOTHING))
+            cls = tr.cls
+            is_plain = plain.get(cls)
+            if is_plain is None:
+                is_plain = plain[cls] = not (cls.needs_car or cls.signal_refs)
+            if is_plain and f["guard"] is None and f["set"] is None and not tr.conditions:
+                plan = _tuple(TransitionPlan, (cls, p, f["from_"], f["to"], index, _NO_GUARD, None, None, NOTHING))
             else:
                 plan = self.transition(tr, index, prefix)
+                self.mixed = True
             out = preempt if f["preempt"] else regular
             before = out.get(f["from_"])
             out[f["from_"]] = (plan,) if before is None else before + (plan,)
@@ -82,7 +91,6 @@ class _Compiler:
         if ordered:  # by priority, higher first; stable: declaration order within a priority
             regular = {key: tuple(sorted(plans, key=_priority)) for key, plans in regular.items()}
             preempt = {key: tuple(sorted(plans, key=_priority)) for key, plans in preempt.items()}
-        plain = self.plain
         states = []
         for st in spec.states:
             sid, cls, params = st.id, st.cls, st.params
@@ -97,6 +105,7 @@ class _Compiler:
                                                  None, NOTHING)))
             else:
                 states.append(self.state(st, prefix, regular.get(sid, ()), preempt.get(sid, ())))
+                self.mixed = True
         return RegionPlan(name, prefix, tuple(states), spec.initial)
 
     def state(self, st: StateSpec, prefix: str, regular: tuple[TransitionPlan, ...],
@@ -231,8 +240,8 @@ def _files(spec: MachineSpec) -> tuple[str, ...]:
 
 def _plain_class(cls: type[Any]) -> bool:
     """Whether a state of class ``cls`` without subs, conditions, ``set`` or step keys compiles to a plain plan: no
-    car, no assignment or condition parameters."""
-    return not (cls.needs_car or cls.assignment_fields or cls.condition_fields)
+    car, no signal, assignment or condition parameters."""
+    return not (cls.needs_car or cls.signal_refs or cls.assignment_fields or cls.condition_fields)
 
 
 def _priority(t: TransitionPlan) -> int:

@@ -18,7 +18,16 @@ from fsm.runtime.composite import Composite
 from fsm.runtime.condition import Condition
 from fsm.runtime.context import Context
 from fsm.runtime.machine import Machine
-from fsm.runtime.region import Region, StateWiring, TransitionWiring, Until, new_state, new_transition, wiring
+from fsm.runtime.region import (
+    Region,
+    StateWiring,
+    TransitionWiring,
+    Until,
+    new_state,
+    new_transition,
+    sealed_as_made,
+    wiring,
+)
 from fsm.runtime.state import State, state_binds_references
 from fsm.runtime.supervisor import Monitor, Supervisor, supervisor_of
 from fsm.runtime.transition import transition_binds_references
@@ -55,36 +64,64 @@ class _Builder:
         self.supervised: list[tuple[State[Any], StatePlan]] = []
         #: each condition object with the state it belongs to
         self.conditions: list[tuple[Condition[Any], State[Any]]] = []
+        #: whether each state and transition class built overrides ``bind`` (noted on its first element: the bind
+        #: pass runs only if one does)
+        self.binds: dict[type[Any], bool] = {}
+        #: whether each state class built is sealed as its record is made (``sealed_as_made``)
+        self.sealed: dict[type[Any], bool] = {}
+        #: the records to seal: all but those of plain states, made sealed (see ``sealed_as_made``)
+        self.sealing: list[StateWiring] = []
 
     def region(self, plan: RegionPlan, owner: State[Any] | None) -> Region:
+        # One loop per level, the plan records unpacked rather than read field by field (a NamedTuple's field is a
+        # descriptor call): a plain state (no regions, hooks, checks or supervision) costs its two objects and no
+        # further call; anything else is dressed by ``state``.
         states: dict[str, State[Any]] = {}
-        state = self.state
-        records = [state(sp, states) for sp in plan.states]
+        by_path = self.states
+        built = self.built
+        binds = self.binds
+        sealed = self.sealed
+        sealing = self.sealing
+        leaving = []  # (record, preemptive, regular, queued for sealing) of each state with transitions
+        for sp in plan.states:
+            cls, params, sid, path, on_enter, on_exit, sup, regions, _seq, preempt, regular, on_complete, checks = sp
+            record = new_state(cls, sid, params, path)
+            states[sid] = by_path[path] = record.state
+            built.append(record)
+            if cls not in binds:
+                binds[cls] = state_binds_references(record.state)
+                sealed[cls] = sealed_as_made(cls)
+            queued = True  # for sealing
+            if regions or checks or sup is not None or on_enter is not None or on_exit is not None \
+                    or on_complete is not None:
+                self.state(record, sp)
+            elif sealed[cls] and not preempt and len(regular) <= 1:
+                queued = False
+            if queued:
+                sealing.append(record)
+            if preempt or regular:
+                leaving.append((record, preempt, regular, queued))
         region = Region(plan.name, plan.path, states, states[plan.initial])
         region.owner = owner
         self.regions.append(region)
         transition = self.transition
-        for sp, source in zip(plan.states, records, strict=True):
-            regular = sp.regular
-            if not regular and not sp.preempt:
-                continue
-            if len(regular) == 1 and not sp.preempt:
+        for source, preempt, regular, queued in leaving:
+            if len(regular) == 1 and not preempt:
                 # one transition out of a state is the usual case: built without a comprehension's frame
                 only = transition(regular[0], states)
                 source.regular = (only,)
                 source.transitions = (only.transition,)
+                if only.arm is not None and not queued:
+                    sealing.append(source)
                 continue
             source.regular = tuple([transition(tp, states) for tp in regular])
-            source.preempt = tuple([transition(tp, states) for tp in sp.preempt])
+            source.preempt = tuple([transition(tp, states) for tp in preempt])
             source.transitions = tuple([t.transition for t in sorted(source.preempt + source.regular, key=_position)])
         return region
 
-    def state(self, plan: StatePlan, siblings: dict[str, State[Any]]) -> StateWiring:
-        """The state of ``plan`` (added to ``siblings`` by its id), as its record."""
-        record = new_state(plan.cls, plan.id, plan.params, plan.path)
+    def state(self, record: StateWiring, plan: StatePlan) -> None:
+        """What a state has beyond its object and record: its regions, ``set`` actions, checks and supervision."""
         obj = record.state
-        siblings[plan.id] = self.states[plan.path] = obj
-        self.built.append(record)
         if plan.regions:
             regions = [self.region(rp, obj) for rp in plan.regions]
             assert isinstance(obj, Composite)  # only composites have regions
@@ -110,7 +147,6 @@ class _Builder:
             if sup.watches:
                 self.supervise(obj, plan)
                 self.supervised.append((obj, plan))
-        return record
 
     def supervise(self, obj: State[Any], plan: StatePlan) -> None:
         sup = plan.supervision
@@ -137,22 +173,25 @@ class _Builder:
         return E.on_context(check), ()
 
     def transition(self, plan: TransitionPlan, states: dict[str, State[Any]]) -> TransitionWiring:
-        source = states[plan.source]
-        t = new_transition(plan.cls, plan.params, source, states[plan.target], plan.position)
-        guard = plan.guard
-        if not plan.conditions and guard.expression is None and guard.condition is None and plan.assign is None:
+        cls, params, source_id, target_id, position, guard, assign, counter, conditions = plan
+        source = states[source_id]
+        t = new_transition(cls, params, source, states[target_id], position)
+        if cls not in self.binds:
+            self.binds[cls] = transition_binds_references(t.transition)
+        expression, condition = guard
+        if not conditions and expression is None and condition is None and assign is None:
             return t
-        conditions = {key: cp.build() for key, cp in plan.conditions.items()}
-        if guard.condition is not None:
-            conditions["guard"] = guard.condition.build()
-            t.apply_guard(conditions["guard"].holds)
-        elif guard.expression is not None:
-            t.apply_guard(E.on_context(guard.expression), guard.expression.comparison())
-        if conditions:
-            t.apply_conditions(conditions)
-            self.conditions.extend((c, source) for c in conditions.values())
-        if plan.assign is not None:
-            t.apply_set(plan.assign, plan.counter)
+        built = {key: cp.build() for key, cp in conditions.items()}
+        if condition is not None:
+            built["guard"] = condition.build()
+            t.apply_guard(built["guard"].holds)
+        elif expression is not None:
+            t.apply_guard(E.on_context(expression), expression.comparison())
+        if built:
+            t.apply_conditions(built)
+            self.conditions.extend((c, source) for c in built.values())
+        if assign is not None:
+            t.apply_set(assign, counter)
         return t
 
     def bind(self, machine: Machine) -> None:
@@ -169,14 +208,17 @@ class _Builder:
                         _supervise_caller(obj, machine)
         for condition, owner in self.conditions:
             condition.bind(machine, owner)
-        for record in self.built:
-            for t in record.transitions:
-                if transition_binds_references(t):
-                    t.bind(machine)
-            state = record.state
-            if state_binds_references(state):
-                state.bind(machine)
-        for record in self.built:
+        sealing = self.sealing
+        if any(self.binds.values()):
+            for record in self.built:
+                for t in record.transitions:
+                    if transition_binds_references(t):
+                        t.bind(machine)
+                state = record.state
+                if state_binds_references(state):
+                    state.bind(machine)
+            sealing = self.built  # what a binding element changed is not known: every record sealed
+        for record in sealing:
             record.seal()
 
 

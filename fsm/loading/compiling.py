@@ -41,8 +41,8 @@ def compile_machine(spec: MachineSpec, analysis: Analysis) -> MachinePlan:
         variables=compiler.variables,
         spec=spec,
         car_users=tuple(compiler.car_users),
-        files=tuple(dict.fromkeys(level.source.name for level in spec.levels() if level.source.name)),
-        signals=frozenset(signal_names(spec)),
+        files=_files(spec) if compiler.nested else (spec.source.name,) if spec.source.name else (),
+        signals=frozenset(signal_names(spec)) if compiler.mixed else frozenset(),
     )
 
 
@@ -51,24 +51,65 @@ class _Compiler:
         self.analysis = analysis
         self.variables: dict[str, Any] = {}
         self.car_users: list[str] = []
+        #: whether any state has sub-machines (else the document's one level is its only file)
+        self.nested = False
+        #: whether a state or transition class is plain (``_plain_class``; a transition class: no car, no signal
+        #: parameters), by class
+        self.plain: dict[type[Any], bool] = {}
+        #: whether any element took the long way: only then can the machine read a signal
+        self.mixed = False
 
     def region(self, spec: MachineSpec, name: str, prefix: str) -> RegionPlan:
         for key, value in spec.vars.items():
             self.variables.setdefault(key, value)
-        regular: dict[str, list[TransitionPlan]] = {}
-        preempt: dict[str, list[TransitionPlan]] = {}
+        # The 1000-state ring is 2,000 elements of one kind each: a plain transition (no guard, set, conditions or
+        # car or signal) and a plain state (see ``_plain_class``) are made here, in the level's loop, as tuples (a
+        # NamedTuple's ``__new__`` is a Python call per element); anything else by ``transition`` and ``state``.
+        regular: dict[str, tuple[TransitionPlan, ...]] = {}
+        preempt: dict[str, tuple[TransitionPlan, ...]] = {}
         ordered = False
+        plain = self.plain
         for index, tr in enumerate(spec.transitions):
-            plan = self.transition(tr, index, prefix)
-            p = plan.params
-            (preempt if p.preempt else regular).setdefault(plan.source, []).append(plan)
-            ordered = ordered or p.priority != 0
-        states = tuple([self.state(st, prefix, regular.get(st.id, _NONE), preempt.get(st.id, _NONE), ordered)
-                        for st in spec.states])
-        return RegionPlan(name, prefix, states, spec.initial)
+            p = tr.params
+            # the parameters' fields read from their dict: a pydantic model's attribute read is not specialised by
+            # the interpreter (the model class defines __getattr__), a dict's item is
+            f = p.__dict__
+            cls = tr.cls
+            is_plain = plain.get(cls)
+            if is_plain is None:
+                is_plain = plain[cls] = not (cls.needs_car or cls.signal_refs)
+            if is_plain and f["guard"] is None and f["set"] is None and not tr.conditions:
+                plan = _tuple(TransitionPlan, (cls, p, f["from_"], f["to"], index, _NO_GUARD, None, None, NOTHING))
+            else:
+                plan = self.transition(tr, index, prefix)
+                self.mixed = True
+            out = preempt if f["preempt"] else regular
+            before = out.get(f["from_"])
+            out[f["from_"]] = (plan,) if before is None else before + (plan,)
+            if f["priority"] != 0:
+                ordered = True
+        if ordered:  # by priority, higher first; stable: declaration order within a priority
+            regular = {key: tuple(sorted(plans, key=_priority)) for key, plans in regular.items()}
+            preempt = {key: tuple(sorted(plans, key=_priority)) for key, plans in preempt.items()}
+        states = []
+        for st in spec.states:
+            sid, cls, params = st.id, st.cls, st.params
+            is_plain = plain.get(cls)
+            if is_plain is None:
+                is_plain = plain[cls] = _plain_class(cls)
+            f = params.__dict__  # as for transitions
+            if is_plain and not st.conditions and not st.subs and f["set"] is None and f["timeout"] is None \
+                    and f["precondition"] is None and f["until"] is None and f["monitors"] is None:
+                states.append(_tuple(StatePlan, (cls, params, sid, f"{prefix}/{sid}" if prefix else sid, None, None,
+                                                 None, (), st.sequence, preempt.get(sid, ()), regular.get(sid, ()),
+                                                 None, NOTHING)))
+            else:
+                states.append(self.state(st, prefix, regular.get(sid, ()), preempt.get(sid, ())))
+                self.mixed = True
+        return RegionPlan(name, prefix, tuple(states), spec.initial)
 
-    def state(self, st: StateSpec, prefix: str, regular: list[TransitionPlan], preempt: list[TransitionPlan],
-              ordered: bool) -> StatePlan:
+    def state(self, st: StateSpec, prefix: str, regular: tuple[TransitionPlan, ...],
+              preempt: tuple[TransitionPlan, ...]) -> StatePlan:
         path = f"{prefix}/{st.id}" if prefix else st.id
         cls, params = st.cls, st.params
         if cls.needs_car:
@@ -77,9 +118,8 @@ class _Compiler:
             self._car_conditions(conditions_of(st.conditions), f"'{path}'")
         regions = tuple([self.region(sub.machine, sub.name or st.id, f"{path}/{sub.name}" if sub.name else path)
                          for sub in st.subs if sub.machine is not None]) if st.subs else ()
-        if ordered:  # by priority, higher first; stable: declaration order within a priority
-            regular = sorted(regular, key=_priority)
-            preempt = sorted(preempt, key=_priority)
+        if regions:
+            self.nested = True
         on_enter = on_exit = on_complete = None
         if params.set is not None or cls.assignment_fields:
             on_enter = self.assigner(st.source, self.entry_assignments(st))
@@ -92,7 +132,7 @@ class _Compiler:
                 or params.timeout is not None:
             supervision = self.supervision(st)
         return StatePlan(cls, params, st.id, path, on_enter, on_exit, supervision, regions, st.sequence,
-                         tuple(preempt), tuple(regular), on_complete, checks)
+                         preempt, regular, on_complete, checks)
 
     def set_assignments(self, st: StateSpec, hook: str) -> list[tuple[str, str]]:
         """``(variable, pointer)`` of the state's ``set.<hook>``."""
@@ -189,7 +229,19 @@ class _Compiler:
 #: action as data (``E.assigner`` of the pairs makes it again), never as code.
 ACTIONS: weakref.WeakKeyDictionary[Action, tuple[tuple[str, E.Compiled], ...]] = weakref.WeakKeyDictionary()
 _NO_GUARD = GuardPlan()
-_NONE: list[TransitionPlan] = []
+#: A plan record made from its fields in order, without the NamedTuple's ``__new__`` (a Python call).
+_tuple = tuple.__new__
+
+
+def _files(spec: MachineSpec) -> tuple[str, ...]:
+    """Every file the machine was read from, each once: its own and its includes."""
+    return tuple(dict.fromkeys(level.source.name for level in spec.levels() if level.source.name))
+
+
+def _plain_class(cls: type[Any]) -> bool:
+    """Whether a state of class ``cls`` without subs, conditions, ``set`` or step keys compiles to a plain plan: no
+    car, no signal, assignment or condition parameters."""
+    return not (cls.needs_car or cls.signal_refs or cls.assignment_fields or cls.condition_fields)
 
 
 def _priority(t: TransitionPlan) -> int:

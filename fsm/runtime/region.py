@@ -102,7 +102,7 @@ def new_state(cls: type[State[Any]], id: str, params: Any, path: str) -> StateWi
     state = cls(id, params)
     state.path = path
     record = state._fsm
-    return record if isinstance(record, StateWiring) else wiring(state)
+    return record if type(record) is StateWiring else wiring(state)
 
 
 def new_transition(cls: type[Transition[Any]], params: Any, source: State[Any], target: State[Any],
@@ -110,7 +110,7 @@ def new_transition(cls: type[Transition[Any]], params: Any, source: State[Any], 
     """A transition of type ``cls`` made for a machine: its record (the builder's one call per transition)."""
     transition = cls(params, source, target, index)
     record = transition._fsm
-    return record if isinstance(record, TransitionWiring) else transition_wiring(transition)
+    return record if type(record) is TransitionWiring else transition_wiring(transition)
 
 
 class StateWiring(Life):
@@ -124,8 +124,7 @@ class StateWiring(Life):
 
     def __init__(self, state: State[Any]) -> None:
         # Made once per state of every load (1,000 for the ring): the clock's fields of ``Life`` are written here,
-        # not by ``Life.__init__`` (a frame less), and what ``seal`` fixes (the hooks, ``arms``, ``watched``,
-        # ``is_final``) is written by ``seal`` only; a state made into a machine is always sealed before it runs
+        # not by ``Life.__init__`` (a frame less)
         self.state = state
         self.entered_at = 0.0
         self.paused = False
@@ -150,17 +149,17 @@ class StateWiring(Life):
         self.complete_action: Hook | None = None
         #: Condition objects of the state's predicates to reset on each entry.
         self.resets: tuple[Condition[Any], ...] = ()
-        # Fixed by seal, once the machine is built (declared here for the type checker):
-        if TYPE_CHECKING:
-            #: What the runtime calls: None where the base does nothing.
-            self.tick_hook: Hook | None
-            self.enter_hook: Hook | None
-            self.exit_hook: Hook | None
-            #: The outgoing transitions' hooks run on each entry (their references, their conditions' resets).
-            self.arms: tuple[Hook, ...]
-            #: Whether anything is checked before the tick: a supervisor or preemptive transitions.
-            self.watched: bool
-            self.is_final: bool
+        # Fixed by ``seal`` once the machine is built; made as ``seal`` fixes them for a plain state (see
+        # :func:`sealed_as_made`), whose record the builder then need not seal:
+        #: What the runtime calls: None where the base does nothing.
+        self.tick_hook: Hook | None = None
+        self.enter_hook: Hook | None = None
+        self.exit_hook: Hook | None = None
+        #: The outgoing transitions' hooks run on each entry (their references, their conditions' resets).
+        self.arms: tuple[Hook, ...] = ()
+        #: Whether anything is checked before the tick: a supervisor or preemptive transitions.
+        self.watched = False
+        self.is_final = False
 
     @property
     def active(self) -> bool:
@@ -347,6 +346,15 @@ class StateWiring(Life):
         return f"<wiring of {self.state!r}>"
 
 
+def sealed_as_made(cls: type[State[Any]]) -> bool:
+    """Whether the record of a state of class ``cls`` is made sealed (``seal`` would fix what it is made with) when
+    the state has nothing more: no regions, supervisor, exit condition, ``set`` actions or resets, no preemptive
+    transition and at most one regular one with nothing to arm. The class overrides no hook and no ``bind``, cannot
+    finish and is not final. The builder seals only the other records (the ring's 1,000 states need no call)."""
+    return not (cls._overrides_enter or cls._overrides_exit or cls._overrides_tick or cls.can_finish or cls.is_final
+                or cls._binds_references)
+
+
 class TransitionWiring(Link):
     """What the runtime keeps of a transition in a machine: how the region decides whether it fires (``kind``:
     ALWAYS, COMPARE runs ``compare`` inline, CALL calls ``test(ctx)``) and what firing runs (``effect``: NONE,
@@ -360,7 +368,7 @@ class TransitionWiring(Link):
         self.transition = transition  # Link's fields, written here: a call less per transition of a load
         self.index = index
         target = transition.target._fsm
-        self.target = target if isinstance(target, StateWiring) else wiring(transition.target)
+        self.target = target if type(target) is StateWiring else wiring(transition.target)
         cls = type(transition)
         if cls.unconditional:
             self.kind = _ALWAYS
@@ -509,7 +517,7 @@ class Region:
         self.listeners: Sequence[EntryListener] = ()
         for state in states.values():
             record = state._fsm  # made by the state (use_record below): wiring() only for one made before
-            (record if isinstance(record, StateWiring) else wiring(state)).region = self
+            (record if type(record) is StateWiring else wiring(state)).region = self
 
     #: The state a start enters.
     initial = RecordOf("first")
@@ -661,7 +669,7 @@ class Region:
         terminal = []
         for state in self.states.values():
             record = state._fsm
-            assert isinstance(record, StateWiring)  # given by __init__
+            assert type(record) is StateWiring  # given by __init__
             if not record.transitions and not record.state.is_final:
                 terminal.append(state)
         return terminal

@@ -97,23 +97,27 @@ def scoped(root: MachineSpec) -> tuple[list[tuple[StateSpec, str]], list[tuple[T
     states: list[tuple[StateSpec, str]] = []
     transitions: list[tuple[TransitionSpec, str]] = []
     paths: list[str] = []
-
-    def level(spec: MachineSpec, prefix: str) -> None:
-        transitions.extend(zip(spec.transitions, repeat(prefix)))
-        ids = list(map(_ID, spec.states))
-        paths.extend(map(f"{prefix}/".__add__, ids) if prefix else ids)
-        if not any(map(_SUBS, spec.states)):
-            states.extend(zip(spec.states, repeat(prefix)))
-            return
-        for st in spec.states:
-            states.append((st, prefix))
-            path = f"{prefix}/{st.id}" if prefix else st.id
-            for sub in st.subs:
-                if sub.machine is not None:
-                    level(sub.machine, f"{path}/{sub.name}" if sub.name else path)
-
-    level(root, "")
+    _scoped_level(root, "", states, transitions, paths)
     return states, transitions, frozenset(paths)
+
+
+def _scoped_level(spec: MachineSpec, prefix: str, states: list[tuple[StateSpec, str]],
+                  transitions: list[tuple[TransitionSpec, str]], paths: list[str]) -> None:
+    """One level of :func:`scoped`, then the levels below it. (A module function, not a closure that calls itself:
+    that closure and its cell are a reference cycle holding the lists, 2,000 pairs for the 1000-state ring, until
+    the collector's next pass finds them.)"""
+    transitions.extend(zip(spec.transitions, repeat(prefix)))
+    ids = list(map(_ID, spec.states))
+    paths.extend(map(f"{prefix}/".__add__, ids) if prefix else ids)
+    if not any(map(_SUBS, spec.states)):
+        states.extend(zip(spec.states, repeat(prefix)))
+        return
+    for st in spec.states:
+        states.append((st, prefix))
+        path = f"{prefix}/{st.id}" if prefix else st.id
+        for sub in st.subs:
+            if sub.machine is not None:
+                _scoped_level(sub.machine, f"{path}/{sub.name}" if sub.name else path, states, transitions, paths)
 
 
 def _of_classes(scoped: list[tuple[TransitionSpec, str]], classes: set[type[Any]]) -> list[TransitionSpec]:

@@ -38,33 +38,35 @@ class Enclosing:
 def check_sequences(root: MachineSpec, problems: Problems, can_finish: Callable[[StateSpec], bool]) -> None:
     """Check every state against the sequences that enclose it; ``can_finish`` tells whether a parsed state can
     ever finish (the check stage's, :func:`fsm.loading.outcomes.can_finish`)."""
+    _walk(root, "", None, (), (), problems, can_finish)
 
-    def walk(level: MachineSpec, prefix: str, caller: StateSpec | None, seqs: tuple[Enclosing, ...],
-             using: tuple[str, ...]) -> None:
-        for st in _to_walk(level.states):
-            if issubclass(st.cls, Call):
-                problems.add("a Call is a step of a Sequence: it runs a sequence declared in 'sequences'", st.source,
-                             st.pointer, element=st.label, hint="put it in the steps of a Sequence")
-            p = st.params
-            if p.monitors is not None or p.timeout is not None or p.timeout_exception is not None \
-                    or "timeout_behavior" in p.model_fields_set:
-                _check_state(problems, st, caller, seqs, using)
-            if not st.subs:
+
+def _walk(level: MachineSpec, prefix: str, caller: StateSpec | None, seqs: tuple[Enclosing, ...],
+          using: tuple[str, ...], problems: Problems, can_finish: Callable[[StateSpec], bool]) -> None:
+    """The states of ``level`` and the levels below it, checked against the sequences that enclose them. (A module
+    function: a closure that calls itself is a reference cycle, left to the collector after every load.)"""
+    for st in _to_walk(level.states):
+        if issubclass(st.cls, Call):
+            problems.add("a Call is a step of a Sequence: it runs a sequence declared in 'sequences'", st.source,
+                         st.pointer, element=st.label, hint="put it in the steps of a Sequence")
+        p = st.params
+        if p.monitors is not None or p.timeout is not None or p.timeout_exception is not None \
+                or "timeout_behavior" in p.model_fields_set:
+            _check_state(problems, st, caller, seqs, using)
+        if not st.subs:
+            continue
+        path = f"{prefix}/{st.id}" if prefix else st.id
+        inner = seqs + (Enclosing(st, path),) if st.sequence is not None else seqs
+        if st.sequence is not None:
+            _check_steps(problems, st, seqs, can_finish)
+        for i, sub in enumerate(st.subs):
+            if sub.machine is None:
                 continue
-            path = f"{prefix}/{st.id}" if prefix else st.id
-            inner = seqs + (Enclosing(st, path),) if st.sequence is not None else seqs
-            if st.sequence is not None:
-                _check_steps(problems, st, seqs, can_finish)
-            for i, sub in enumerate(st.subs):
-                if sub.machine is None:
-                    continue
-                now_using = using
-                layout: SequenceLayout | None = st.sequence
-                if layout is not None and i > len(layout.detached_after):
-                    now_using = using + (layout.exception_ids[i - 1 - len(layout.detached_after)],)
-                walk(sub.machine, path, st, inner, now_using)
-
-    walk(root, "", None, (), ())
+            now_using = using
+            layout: SequenceLayout | None = st.sequence
+            if layout is not None and i > len(layout.detached_after):
+                now_using = using + (layout.exception_ids[i - 1 - len(layout.detached_after)],)
+            _walk(sub.machine, path, st, inner, now_using, problems, can_finish)
 
 
 _CLS = operator.attrgetter("cls")

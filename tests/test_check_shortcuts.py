@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -15,7 +16,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from pydantic import ValidationError
 
-from fsm.loading.checking import scoped
 from fsm.loading.loader import analyse
 from fsm.loading.outcomes import reachable
 from fsm.loading.parsing import envelope_of
@@ -53,14 +53,34 @@ def _documents() -> list[Any]:
     return [ring_doc(20), nested_doc(), *files]
 
 
+def _walk(level: MachineSpec, prefix: str = "") -> Iterator[tuple[Any, str]]:
+    """Every state with the path of its level, depth first in document order: the plain recursive way."""
+    for state in level.states:
+        yield state, prefix
+        path = f"{prefix}/{state.id}" if prefix else state.id
+        for sub in state.subs:
+            if sub.machine is not None:
+                yield from _walk(sub.machine, f"{path}/{sub.name}" if sub.name else path)
+
+
+def _walk_transitions(level: MachineSpec, prefix: str = "") -> Iterator[tuple[Any, str]]:
+    """Every transition with the path of its level, this level's first: the plain recursive way."""
+    yield from ((tr, prefix) for tr in level.transitions)
+    for state in level.states:
+        path = f"{prefix}/{state.id}" if prefix else state.id
+        for sub in state.subs:
+            if sub.machine is not None:
+                yield from _walk_transitions(sub.machine, f"{path}/{sub.name}" if sub.name else path)
+
+
 @pytest.mark.parametrize("doc", _documents(), ids=lambda d: d.name if isinstance(d, Path) else str(d.get("name")))
 def test_the_tree_gathered_level_by_level_is_the_walk(doc: Any) -> None:
     spec, _analysis, _problems = analyse(doc)
     assert spec is not None
-    states, transitions, paths = scoped(spec)
-    assert states == list(spec.walk())
-    assert transitions == list(spec.scoped_transitions())
-    assert paths == frozenset(f"{prefix}/{s.id}" if prefix else s.id for s, prefix in spec.walk())
+    states, transitions, paths = spec.scoped()
+    assert states == list(_walk(spec))
+    assert transitions == list(_walk_transitions(spec))
+    assert paths == frozenset(f"{prefix}/{s.id}" if prefix else s.id for s, prefix in _walk(spec))
 
 
 def _outcome(data: dict[str, Any], text_keys: bool = False) -> tuple[str, Any]:

@@ -15,7 +15,7 @@ import json
 import operator
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
-from itertools import chain, repeat
+from itertools import chain
 from typing import Any
 
 from fsm.loading.outcomes import can_finish, reachable, state_outcomes
@@ -62,7 +62,7 @@ def check(root: MachineSpec, problems: Problems) -> Analysis:
     for level in levels:
         if level.written:
             check_level(level, problems)
-    states, transitions, paths = scoped(root)
+    states, transitions, paths = root.scoped()
     variables: dict[str, Any] = {}
     for level in levels:
         for key, value in level.vars.items():
@@ -91,35 +91,6 @@ def check(root: MachineSpec, problems: Problems) -> Analysis:
     return Analysis(kinds, expressions, paths, exprs.wants)
 
 
-def scoped(root: MachineSpec) -> tuple[list[tuple[StateSpec, str]], list[tuple[TransitionSpec, str]], frozenset[str]]:
-    """``list(root.walk())``, ``list(root.scoped_transitions())`` and every state path, made level by level: a level
-    without regions in C-speed steps, not a generator step per element."""
-    states: list[tuple[StateSpec, str]] = []
-    transitions: list[tuple[TransitionSpec, str]] = []
-    paths: list[str] = []
-    _scoped_level(root, "", states, transitions, paths)
-    return states, transitions, frozenset(paths)
-
-
-def _scoped_level(spec: MachineSpec, prefix: str, states: list[tuple[StateSpec, str]],
-                  transitions: list[tuple[TransitionSpec, str]], paths: list[str]) -> None:
-    """One level of :func:`scoped`, then the levels below it. (A module function, not a closure that calls itself:
-    that closure and its cell are a reference cycle holding the lists, 2,000 pairs for the 1000-state ring, until
-    the collector's next pass finds them.)"""
-    transitions.extend(zip(spec.transitions, repeat(prefix)))
-    ids = list(map(_ID, spec.states))
-    paths.extend(map(f"{prefix}/".__add__, ids) if prefix else ids)
-    if not any(map(_SUBS, spec.states)):
-        states.extend(zip(spec.states, repeat(prefix)))
-        return
-    for st in spec.states:
-        states.append((st, prefix))
-        path = f"{prefix}/{st.id}" if prefix else st.id
-        for sub in st.subs:
-            if sub.machine is not None:
-                _scoped_level(sub.machine, f"{path}/{sub.name}" if sub.name else path, states, transitions, paths)
-
-
 def _of_classes(scoped: list[tuple[TransitionSpec, str]], classes: set[type[Any]]) -> list[TransitionSpec]:
     """The transitions of ``scoped`` whose class is one of ``classes``, in order (none looked at when it is empty)."""
     return [tr for tr, _scope in scoped if tr.cls in classes] if classes else []
@@ -127,7 +98,6 @@ def _of_classes(scoped: list[tuple[TransitionSpec, str]], classes: set[type[Any]
 
 _FIRST = operator.itemgetter(0)
 _ID = operator.attrgetter("id")
-_SUBS = operator.attrgetter("subs")
 
 
 PATH_HINT = ("a path of ids joined by '/', relative to this machine or an enclosing one, or absolute with a "

@@ -8,8 +8,10 @@ from __future__ import annotations
 
 import difflib
 import math
+import operator
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
+from itertools import repeat
 from typing import TYPE_CHECKING, Annotated, Any, NamedTuple, Protocol
 
 from pydantic import BaseModel, Field, ValidationError, WithJsonSchema, field_validator
@@ -249,24 +251,38 @@ class MachineSpec:
             yield level
             todo.extend(sub.machine for st in level.states for sub in st.subs if sub.machine is not None)
 
-    def walk(self, prefix: str = "") -> Iterator[tuple[StateSpec, str]]:
+    def scoped(self) -> tuple[list[tuple[StateSpec, str]], list[tuple[TransitionSpec, str]], frozenset[str]]:
         """Every state below this level with the path of the level it is in (``""`` at the top), depth first in
-        document order."""
-        for st in self.states:
-            yield st, prefix
-            path = f"{prefix}/{st.id}" if prefix else st.id
-            for sub in st.subs:
-                if sub.machine is not None:
-                    yield from sub.machine.walk(f"{path}/{sub.name}" if sub.name else path)
+        document order; every transition with the path of its level; and every state's path. Gathered level by
+        level: a level without regions in C-speed steps, not a Python step per element."""
+        states: list[tuple[StateSpec, str]] = []
+        transitions: list[tuple[TransitionSpec, str]] = []
+        paths: list[str] = []
+        _scoped_level(self, "", states, transitions, paths)
+        return states, transitions, frozenset(paths)
 
-    def scoped_transitions(self, prefix: str = "") -> Iterator[tuple[TransitionSpec, str]]:
-        """Every transition below this level with the path of its level."""
-        yield from ((tr, prefix) for tr in self.transitions)
-        for st in self.states:
-            path = f"{prefix}/{st.id}" if prefix else st.id
-            for sub in st.subs:
-                if sub.machine is not None:
-                    yield from sub.machine.scoped_transitions(f"{path}/{sub.name}" if sub.name else path)
+
+def _scoped_level(spec: MachineSpec, prefix: str, states: list[tuple[StateSpec, str]],
+                  transitions: list[tuple[TransitionSpec, str]], paths: list[str]) -> None:
+    """One level of :meth:`MachineSpec.scoped`, then the levels below it. (A module function, not a closure that
+    calls itself: that closure and its cell are a reference cycle holding the lists, 2,000 pairs for the
+    1000-state ring, until the collector's next pass finds them.)"""
+    transitions.extend(zip(spec.transitions, repeat(prefix)))
+    ids = list(map(_ID, spec.states))
+    paths.extend(map(f"{prefix}/".__add__, ids) if prefix else ids)
+    if not any(map(_SUBS, spec.states)):
+        states.extend(zip(spec.states, repeat(prefix)))
+        return
+    for st in spec.states:
+        states.append((st, prefix))
+        path = f"{prefix}/{st.id}" if prefix else st.id
+        for sub in st.subs:
+            if sub.machine is not None:
+                _scoped_level(sub.machine, f"{path}/{sub.name}" if sub.name else path, states, transitions, paths)
+
+
+_ID = operator.attrgetter("id")
+_SUBS = operator.attrgetter("subs")
 
 
 # -- shape validation -------------------------------------------------------------------------------

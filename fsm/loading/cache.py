@@ -322,6 +322,10 @@ _ALLOWED: dict[str, tuple[int, dict[tuple[str, str], type]]] = {}
 
 
 # -- the texts read ----------------------------------------------------------------------------------------------
+#: The UTF-8 byte-order mark, which the loader reads past (and the digests leave out).
+_BOM = b"\xef\xbb\xbf"
+
+
 def text_of(name: str) -> tuple[str, bytes | None] | None:
     """The text of a document file as the loader reads it (the caller's preloaded copy if there is one), with the
     bytes when they were read here; None when it cannot be read or decoded (the load itself says why)."""
@@ -334,7 +338,7 @@ def text_of(name: str) -> tuple[str, bytes | None] | None:
     except DiagramError:
         return None
     try:
-        text = (raw[3:] if raw.startswith(b"\xef\xbb\xbf") else raw).decode("utf-8")
+        text = raw.removeprefix(_BOM).decode("utf-8")
     except UnicodeDecodeError:
         return None
     return text, (None if isinstance(item, bytes) else raw)
@@ -371,8 +375,6 @@ def _digest(text: str, raw: bytes | None = None) -> str:
         return hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()
     return hashlib.sha256(memoryview(raw)[3:] if raw.startswith(_BOM) else raw).hexdigest()
 
-
-_BOM = b"\xef\xbb\xbf"
 
 
 class _Locator:

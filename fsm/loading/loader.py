@@ -139,7 +139,9 @@ def load(src: Source, *, registry: Registry | None = None, plugins: tuple[str, .
         clock = SimulatedClock(dt)
     with collection_paused():
         plan = compile(src, registry=registry, plugins=plugins, base_dir=base_dir)
-        return build(plan, clock=clock, car=car, context=context)
+        machine = build(plan, clock=clock, car=car, context=context)
+        del plan
+    return machine
 
 
 #: Loads in progress (in any thread) and whether the collector was on before the first of them.

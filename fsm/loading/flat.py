@@ -42,6 +42,8 @@ from typing import Any
 
 from pydantic import BaseModel
 
+from fsm.loading.plain_params import slot_setter
+
 #: The stored form's own version (part of the cache's format).
 VERSION = 2
 #: Scalars stored as they are.
@@ -603,25 +605,11 @@ def _instances(objs: list[Any], batch: list[Any], model: bool) -> None:
     dicts = list(map(dict.copy, repeat(template, n)))
     for name, values in varying:
         deque(map(dict.__setitem__, dicts, repeat(name), values), 0)
-    deque(map(_setter(cls, "__dict__"), made, dicts), 0)
+    deque(map(slot_setter(cls, "__dict__"), made, dicts), 0)
     if model:
         for slot, column in zip(_MODEL_SLOTS, columns[fields:], strict=True):
-            deque(map(_setter(cls, slot), made, _column(objs, n, column)), 0)
+            deque(map(slot_setter(cls, slot), made, _column(objs, n, column)), 0)
     objs.extend(made)
-
-
-def _setter(cls: type, name: str) -> Callable[[Any, Any], None]:
-    """What ``object.__setattr__(obj, name, value)`` does for an instance of ``cls``, as a function of ``(obj,
-    value)``: the data descriptor it finds (the instance dict's, a slot's) set directly, which skips the lookup per
-    object (a third of making a batch of parameter models)."""
-    for klass in cls.__mro__:
-        found = vars(klass).get(name)
-        if found is not None:
-            setter = getattr(found, "__set__", None)
-            if setter is not None:
-                return setter  # type: ignore[no-any-return]
-            break
-    return lambda obj, value: object.__setattr__(obj, name, value)
 
 
 def _objects(objs: list[Any], batch: list[Any], _allowed: Any, _makers: Any) -> None:

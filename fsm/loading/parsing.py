@@ -22,6 +22,7 @@ from typing import Any
 from pydantic import PydanticUserError, ValidationError
 from pydantic_core import SchemaError, SchemaValidator, core_schema
 
+from fsm.loading import plain_params
 from fsm.loading.reading import parse_json_bytes, read_file_bytes, read_json, reader_for
 from fsm.loading.registry import Registry
 from fsm.model.document import (
@@ -414,11 +415,14 @@ def validated_together(table: Mapping[str, type[Any]], raws: list[Any]) -> tuple
     validator = _list_validator(tuple(sorted((name, cls.Params) for name, cls in classes.items())))
     if validator is None:
         return None
-    try:
-        params = validator.validate_python(raws)
-    except ValidationError:
-        return None
-    return list(map(classes.__getitem__, names)), params
+    types = list(map(classes.__getitem__, names))
+    params = plain_params.made(types, raws)  # plain elements without pydantic-core, where the schema allows
+    if params is None:
+        try:
+            params = validator.validate_python(raws)
+        except ValidationError:
+            return None
+    return types, params
 
 
 def _pointers(head: str, n: int) -> list[str]:

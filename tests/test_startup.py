@@ -113,6 +113,27 @@ def test_validate_imports_no_library_beyond_pydantic() -> None:
     assert len(names) <= 300, len(names)
 
 
+def test_a_command_named_plainly_builds_its_own_parser_only() -> None:
+    """``fsmctl validate FILE`` imports the validate command's module, not the other commands' (a run's options
+    import the live page's, the robot's and the simulator's modules); an unknown word still gets every command's
+    name in its message."""
+    # the modules at exit (importlib.import_module's imports are not in -X importtime's lines)
+    code = ("import atexit, sys; atexit.register(lambda: print(' '.join(sorted(sys.modules)), file=sys.stderr)); "
+            "from fsm.tools.cli import main; sys.exit(main(sys.argv[1:]))")
+    done = subprocess.run([sys.executable, "-c", code, "--no-cache", "validate",
+                           str(ROOT / "diagrams" / "hallway_lap.json")], capture_output=True, text=True, timeout=120,
+                          check=False)
+    assert done.returncode == 0 and done.stdout.endswith(": ok\n"), done.stderr
+    names = done.stderr.split()
+    commands = {n for n in names if n.startswith("fsm.tools.cli.") and n.count(".") == 3}
+    assert commands == {"fsm.tools.cli.app", "fsm.tools.cli.common", "fsm.tools.cli.validate"}, sorted(commands)
+    assert not {n for n in names if n.startswith(("fsm.tools.live", "fsm.tools.ros", "fsm.sim"))}, names
+    done = subprocess.run([sys.executable, "-c", "import sys; from fsm.tools.cli import main; "
+                           "sys.exit(main(sys.argv[1:]))", "validat", "x.json"], capture_output=True, text=True,
+                          timeout=120, check=False)
+    assert done.returncode == 2 and "validate" in done.stderr and "sweep" in done.stderr, done.stderr
+
+
 def test_lazy_names_match_the_imports_type_checkers_read() -> None:
     """fsm/__init__.py names each export twice, in the table ``__getattr__`` imports from and in the imports under
     ``TYPE_CHECKING`` (mypy, editors): both say the same, and every name resolves to that module's object."""

@@ -50,7 +50,11 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_USAGE, f"{self.prog}: error: {_did_you_mean_choice(message)}\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """fsmctl's parser with every command; given the command line ``argv`` that names a command plainly (after
+    fsmctl's own options only), with that command alone: each command's module imports what its options need (a
+    run's, the live page's and the robot's modules), which a ``validate`` should not wait for. Anything else (no
+    command, an unknown word, an option fsmctl does not know before it) gets every command, for its messages."""
     parser = _Parser(prog="fsmctl", description="Validate, run and inspect tral-fsm machine documents.",
                      epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--plugin", action="append", default=[], metavar="MODULE|FILE.py",
@@ -63,16 +67,33 @@ def build_parser() -> argparse.ArgumentParser:
                              "FSM_NO_CACHE=1 does); also accepted after the command")
     parser.add_argument("--version", action="version", version="%(prog)s " + version())
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
-    for name in COMMANDS:
+    named = _command_named(argv)
+    for name in COMMANDS if named is None else (named,):
         importlib.import_module(f"{__package__}.{name}").register(sub)
     parser.commands = dict(sub.choices)
     return parser
 
 
+def _command_named(argv: Sequence[str] | None) -> str | None:
+    """The command ``argv`` names after fsmctl's own options (and nothing else before it), or None."""
+    tokens = iter(argv if argv is not None else ())
+    for token in tokens:
+        name = token.split("=", 1)[0]
+        if name in ("-h", "--help", "--version"):
+            return None
+        if name in TOP_OPTIONS:
+            if TOP_OPTIONS[name] and "=" not in token:
+                next(tokens, None)
+            continue
+        return token if token in COMMANDS else None
+    return None
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser(argv)
     try:
-        args = _parse(parser, list(sys.argv[1:] if argv is None else argv))
+        args = _parse(parser, argv)
     except KeyboardInterrupt:
         return _interrupted()
     if args.command is None:

@@ -15,7 +15,7 @@ from helpers import cli, finish
 pytest.importorskip("rosbags")
 pytest.importorskip("rclpy")
 
-from test_ros_rclpy import PlainRobot, answer, fsmctl, ros_environment, stop_both, twist_profile  # noqa: E402
+from test_ros_rclpy import PlainRobot, ask, fsmctl, ros_environment, stop_both, twist_profile  # noqa: E402
 
 __all__ = ["ros_environment"]  # the module's ROS domain (autouse)
 
@@ -49,26 +49,26 @@ def test_state_parameters_are_typed_read_only_unless_tunable_and_set_between_tic
         assert client.wait_for_services(timeout_sec=30)
         # the node answers as soon as it exists; the machine's parameters come with the session, a moment later
         end = time.monotonic() + 20
-        while len(answer(client.list_parameters(prefixes=["states"])).result.names) < 2:
+        while len(ask(lambda: client.list_parameters(prefixes=["states"])).result.names) < 2:
             assert time.monotonic() < end, "the states' parameters were never declared"
             time.sleep(0.05)
-        names = answer(client.list_parameters(prefixes=["states"])).result.names
+        names = ask(lambda: client.list_parameters(prefixes=["states"])).result.names
         assert {"states.drive.speed", "states.drive.distance"} <= set(names)
         both = ["states.drive.speed", "states.drive.distance"]
-        speed, distance = answer(client.describe_parameters(both)).descriptors
+        speed, distance = ask(lambda: client.describe_parameters(both)).descriptors
         assert speed.type == distance.type == ParameterType.PARAMETER_DOUBLE
         assert speed.read_only is False and "writable" in speed.description and "Motor" in speed.description
         assert distance.read_only is True and "set with --set" in distance.description
-        values = answer(client.get_parameters(both)).values
+        values = ask(lambda: client.get_parameters(both)).values
         assert [values[0].double_value, values[1].double_value] == [0.5, 1.5]
 
-        (refused,) = answer(client.set_parameters([Parameter("states.drive.distance", value=2.0)])).results
+        (refused,) = ask(lambda: client.set_parameters([Parameter("states.drive.distance", value=2.0)])).results
         assert refused.successful is False and "read-only" in refused.reason
-        (invalid,) = answer(client.set_parameters([Parameter("states.drive.speed", value=5.0)])).results
+        (invalid,) = ask(lambda: client.set_parameters([Parameter("states.drive.speed", value=5.0)])).results
         assert invalid.successful is False and "not valid for state drive (Motor)" in invalid.reason, invalid.reason
-        (accepted,) = answer(client.set_parameters([Parameter("states.drive.speed", value=0.8)])).results
+        (accepted,) = ask(lambda: client.set_parameters([Parameter("states.drive.speed", value=0.8)])).results
         assert accepted.successful, accepted.reason
-        (go,) = answer(client.set_parameters([Parameter("signals.go", value=True)])).results
+        (go,) = ask(lambda: client.set_parameters([Parameter("signals.go", value=True)])).results
         assert go.successful, go.reason
         code, _out, err = finish(run)
     finally:

@@ -13,7 +13,7 @@ from typing import Any
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import AliasChoices, BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 import fsm
 from fsm.loading import loader, parsing, plain_params
@@ -169,7 +169,10 @@ def test_declined_where_it_cannot_decide(registry: Any) -> None:
     class Plain(BaseModel):
         id: str
 
-    for model in (Checked, Hooked, Private, Loose, Listed, Plain):
+    class Chosen(StateParams):
+        label: str = Field(default="", validation_alias=AliasChoices("label", "name"))
+
+    for model in (Checked, Hooked, Private, Loose, Listed, Plain, Chosen):
         assert plain_params.shape(model) is None, model.__name__
 
 

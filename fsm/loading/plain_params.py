@@ -91,8 +91,9 @@ def _shape(model: type[Any]) -> Shape | None:
     required = set()
     for name, info in model.model_fields.items():
         kind = _kind(name, info)
-        if info.default_factory is not None or info.validate_default:
-            return None
+        if info.default_factory is not None or info.validate_default or \
+                info.validation_alias not in (None, info.alias):
+            return None  # a default made or checked per instance, or input keys of its own (AliasChoices, paths)
         if info.default is PydanticUndefined:
             if kind is None:
                 return None

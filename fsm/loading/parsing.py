@@ -23,7 +23,7 @@ from pydantic import PydanticUserError, ValidationError
 from pydantic_core import SchemaError, SchemaValidator, core_schema
 
 from fsm.loading import plain_params
-from fsm.loading.reading import parse_json_bytes, read_file_bytes, read_json, reader_for
+from fsm.loading.reading import ONLY_DICT, ONLY_STR, parse_json_bytes, read_file_bytes, read_json, reader_for
 from fsm.loading.registry import Registry
 from fsm.model.document import (
     ConditionSpec,
@@ -389,12 +389,8 @@ _ONE_ELEMENT: list[dict[str, Any]] = [{}]
 
 def _plain_elements(elements: Any, text_keys: bool) -> bool:
     """Whether ``elements`` is a list of objects whose keys are all text (``text_keys``: known to be, when objects)."""
-    return type(elements) is list and set(map(type, elements)) <= _DICT_TYPE and \
-        (text_keys or set(map(type, chain.from_iterable(elements))) <= _STR_TYPE)
-
-
-_DICT_TYPE = frozenset({dict})
-_STR_TYPE = frozenset({str})
+    return type(elements) is list and set(map(type, elements)) <= ONLY_DICT and \
+        (text_keys or set(map(type, chain.from_iterable(elements))) <= ONLY_STR)
 
 
 def validated_together(table: Mapping[str, type[Any]], raws: list[Any]) -> tuple[list[type[Any]], list[Any]] | None:

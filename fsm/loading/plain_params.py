@@ -31,6 +31,7 @@ from typing import Any, NamedTuple
 from annotated_types import MinLen
 from pydantic_core import PydanticUndefined, SchemaValidator
 
+from fsm.loading.reading import ONLY_DICT, ONLY_STR
 from fsm.model.params import ID_PATTERN, ParamsBase
 
 #: How a given field's values are checked: any text, non-empty text, an id (non-empty, no ``/``), a layout.
@@ -39,8 +40,6 @@ TEXT, NONEMPTY, ID, LAYOUT = "text", "nonempty", "id", "layout"
 _ATOMS = (type(None), bool, int, float, str)
 #: The kinds of a layout's numbers (the fast path takes lists of them too, :data:`_NESTED`).
 _NUMBERS = frozenset({int, float, bool})
-_STR = frozenset({str})
-_DICT = frozenset({dict})
 
 
 class Shape(NamedTuple):
@@ -177,7 +176,7 @@ def _group(cls: type[Any], keys: list[str], raws: list[dict[str, Any]]) -> list[
                 return None
             texts.append(chain.from_iterable(values))  # its keys: text, checked for lone surrogates too
             values = list(map(dict, values))  # pydantic copies the dict
-        elif set(map(type, values)) != _STR or (kind != TEXT and not all(values)) or \
+        elif set(map(type, values)) != ONLY_STR or (kind != TEXT and not all(values)) or \
                 (kind == ID and "/" in "".join(values)):
             return None
         else:
@@ -207,7 +206,7 @@ def _group(cls: type[Any], keys: list[str], raws: list[dict[str, Any]]) -> list[
 def _layouts(values: list[Any]) -> bool:
     """Every value a dict of text keys whose values are finite numbers or lists of them, to a depth of three (a
     state's ``x, y, w, h``, a transition's ``points``): what ``_finite_layout`` passes, checked level by level."""
-    if set(map(type, values)) != _DICT or not set(map(type, chain.from_iterable(values))) <= _STR:
+    if set(map(type, values)) != ONLY_DICT or not set(map(type, chain.from_iterable(values))) <= ONLY_STR:
         return False
     items = list(chain.from_iterable(map(dict.values, values)))
     try:

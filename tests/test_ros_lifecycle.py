@@ -17,7 +17,7 @@ pytest.importorskip("rosbags")
 pytest.importorskip("rclpy")
 pytest.importorskip("lifecycle_msgs")
 
-from test_ros_rclpy import CORNER, PlainRobot, answer, fsmctl, ros_environment, stop_both, twist_profile  # noqa: E402
+from test_ros_rclpy import CORNER, PlainRobot, answer, ask, fsmctl, ros_environment, stop_both, twist_profile  # noqa: E402,E501
 
 __all__ = ["ros_environment"]  # the module's ROS domain (autouse)
 
@@ -37,7 +37,7 @@ class LifecycleClient:
     def state(self) -> str:
         from lifecycle_msgs.srv import GetState
 
-        return str(answer(self.get.call_async(GetState.Request())).current_state.label)
+        return str(ask(lambda: self.get.call_async(GetState.Request())).current_state.label)  # sent again if lost
 
     def set(self, label: str) -> bool:
         from lifecycle_msgs.msg import Transition

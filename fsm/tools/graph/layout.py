@@ -1149,14 +1149,22 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
                 return False
         return True
 
+    # A run's cost but for the bend is the same both ways and each time the search reaches it: worked out once per
+    # run (as ``(length and shared runs, crossings)``, None when it is not free) and summed in the same order.
+    runs: dict[Seg, tuple[float, float] | None] = {}
+
     def step_cost(a: tuple[float, float], b: tuple[float, float], turned: bool) -> float | None:
         """What the grid run from ``a`` to ``b`` costs (None: it is not free)."""
         key = (min(a[0], b[0]), min(a[1], b[1]), max(a[0], b[0]), max(a[1], b[1]))
-        if not free(a, b, key):
+        if key in runs:
+            parts = runs[key]
+        else:
+            parts = runs[key] = None if not free(a, b, key) else (
+                abs(b[0] - a[0]) + abs(b[1] - a[1]) + CROSS * _shared(used, a, b),
+                CROSS * _crossed(key, kept, crossings, across_h, across_v))
+        if parts is None:
             return None
-        length = abs(b[0] - a[0]) + abs(b[1] - a[1])
-        crossed = _crossed(key, kept, crossings, across_h, across_v)
-        return length + CROSS * _shared(used, a, b) + (BEND if turned else 0) + CROSS * crossed
+        return parts[0] + (BEND if turned else 0) + parts[1]
 
     xi, yi = {v: i for i, v in enumerate(xs)}, {v: i for i, v in enumerate(ys)}
     end = _cheapest(xs, ys, (xi[start[0]], yi[start[1]]), (xi[goal[0]], yi[goal[1]]), step_cost)

@@ -1155,7 +1155,7 @@ def _grid_path(boxes: list[tuple[float, float, float, float]], si: int, ti: int,
 
     def step_cost(a: tuple[float, float], b: tuple[float, float], turned: bool) -> float | None:
         """What the grid run from ``a`` to ``b`` costs (None: it is not free)."""
-        key = (min(a[0], b[0]), min(a[1], b[1]), max(a[0], b[0]), max(a[1], b[1]))
+        key = a + b if a <= b else b + a  # (grid neighbours differ in one coordinate: its lower end first)
         if key in runs:
             parts = runs[key]
         else:

@@ -263,6 +263,8 @@ def test_types_lists_every_registered_type_with_parameters_and_defaults(capsys: 
     assert re.search(r"^\s+edge: .*\(default \"rising\"\)", out, re.M)
     assert re.search(r"^\s+join: .*\(default \"all\"\)", out, re.M)
     assert "Final [finishes]" in out and "Idle [finishes]" not in out
+    # a parameter without a default is left out, never written as null: it says so, not "default null"
+    assert re.search(r"^\s+snap: number > 0, <= 180 \(optional\)", out, re.M) and "default null" not in out
 
 
 def test_types_json_has_every_parameter_of_every_model(capsys: pytest.CaptureFixture[str]) -> None:

@@ -71,6 +71,8 @@ def _print_type(r: dict[str, Any]) -> None:
     finish = " [finishes]" if r.get("can_finish") else ""
     print(printable(f"  {r['name']}{finish}: {r['doc'] or '(no description: add a docstring)'}"))
     for prm in r["params"]:
-        default = "required" if prm["required"] else f"default {json.dumps(prm.get('default'))}"
+        # no default ("null" in the JSON listing) is an optional parameter: left out, never written as null
+        default = "required" if prm["required"] else "optional" if prm.get("default") is None else \
+            f"default {json.dumps(prm.get('default'))}"
         desc = f"  {prm['description']}" if prm["description"] else ""
         print(printable(f"      {prm['name']}: {prm['type']} ({default}){desc}"))

@@ -117,7 +117,8 @@ def _param_comment(info: dict[str, Any]) -> str:
 
 
 def _param_line(info: dict[str, Any]) -> str:
-    """``name=default`` (``null`` written out), or ``name=`` for a required parameter."""
+    """``name=default``, ``name=null`` for a parameter without a default (the converter reads it as left out), or
+    ``name=`` for a required parameter."""
     if "default" not in info:
         return f"{info['name']}="
     return f"{info['name']}={value_text(info['default']) if info['default'] is not None else 'null'}"

@@ -312,9 +312,11 @@ class Scene:
 
     def coerce_kv(self, kind: str, typ: str, params: dict[str, Any], kv_keys: set[str]) -> dict[str, Any]:
         """``key=value`` texts (the ``kv_keys``): a value that looks like a number stays text where the parameter
-        is text. Values from JSON are typed already."""
+        is text, and ``key=null`` is the parameter left out (the palette's line for a parameter without a default,
+        ready to be given a value; a document never holds null). Values from JSON are typed already."""
         if not kv_keys:
             return params
+        params = {k: v for k, v in params.items() if v is not None or k not in kv_keys}
         reg = self.registry()
         cls = (reg.states if kind == "state" else reg.transitions).get(typ)
         if cls is None:

@@ -362,6 +362,24 @@ def test_unreachable_state_is_a_warning_not_an_error(tmp_path: Path, capsys: pyt
     assert fsmctl(["validate", "--strict", str(path)]) == 1
 
 
+@pytest.mark.parametrize("broken", [{"to": ""}, {"to": "s7x"}, {"to": 7}])
+def test_a_broken_arrow_is_one_error_not_a_cascade_of_unreachable_states(tmp_path: Path, broken: dict) -> None:
+    """A ring whose one transition has an empty, unknown or non-text end: its error alone. The states behind it
+    would each be "unreachable" only because of that arrow (96 warnings in a 100-state ring before)."""
+    n = 30
+    transitions = [{"type": "Always", "from": f"s{i}", "to": f"s{(i + 1) % n}"} for i in range(n)]
+    transitions[6].update(broken)
+    path = tmp_path / "ring.json"
+    path.write_text(doc([{"id": f"s{i}", "type": "Idle"} for i in range(n)], transitions, initial="s0"))
+    assert only_problem(check_file(path)).pointer.startswith("/transitions/6")
+    # a transition missing altogether is no broken arrow: the states behind it are unreachable, as drawn
+    del transitions[6]
+    path.write_text(doc([{"id": f"s{i}", "type": "Idle"} for i in range(n)], transitions, initial="s0"))
+    problems = check_file(path)
+    assert [p.element for p in problems] == [f"state 's{i}'" for i in range(7, n)]
+    assert {p.severity for p in problems} == {"warning"}
+
+
 def test_all_errors_of_a_file_are_reported_at_once(tmp_path: Path) -> None:
     """Five different mistakes give exactly five problems, each at its own place."""
     text = doc(

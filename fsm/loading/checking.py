@@ -127,7 +127,9 @@ def check_level(spec: MachineSpec, problems: Problems) -> None:
     if spec.envelope_ok and spec.initial not in first_at:
         problems.add(f"initial state '{spec.initial}' is not a state of this machine", spec.source,
                      spec.initial_pointer, hint=_choices(spec.initial, first_at))
-    _check_endpoints(spec, first_at, problems)
+    whole = _whole(spec, first_at)
+    if not whole:
+        _check_endpoints(spec, first_at, problems)
     # the transitions against their sources only where a type asks for it: set operations over the level's classes
     # first, not a loop over its transitions (a plain level has no final state with a way out and no Finished)
     if any(cls.is_final for cls in set(map(_CLS, states))) or \
@@ -136,7 +138,10 @@ def check_level(spec: MachineSpec, problems: Problems) -> None:
             source = by_id.get(tr.params.from_)
             if source is not None and (source.cls.is_final or tr.cls.needs_finishing_source):
                 _check_source(tr, source, problems)
-    if spec.initial in by_id:
+    # reachability along transitions as drawn; not where an arrow is broken (an end that names no state, or a
+    # transition without two text ends): its error is the one to fix, and the states behind it would each be
+    # reported unreachable as a consequence (a ring with one bad "to" gave 96 warnings after its one error)
+    if spec.initial in by_id and whole:
         reached = reachable(spec)
         if not reached.issuperset(by_id):
             for st in states:
@@ -146,6 +151,11 @@ def check_level(spec: MachineSpec, problems: Problems) -> None:
 
 
 _CLS = operator.attrgetter("cls")
+
+
+def _whole(spec: MachineSpec, first_at: dict[str, int]) -> bool:
+    """Every transition element of the level has two text ends, each a state of the level."""
+    return len(spec.edges) == len(spec.raw_transitions) and first_at.keys() >= set(chain.from_iterable(spec.edges))
 
 
 def _check_ids(spec: MachineSpec, problems: Problems) -> dict[str, int]:
@@ -171,9 +181,8 @@ def _check_ids(spec: MachineSpec, problems: Problems) -> dict[str, int]:
 
 
 def _check_endpoints(spec: MachineSpec, first_at: dict[str, int], problems: Problems) -> None:
-    """Each transition element's ``from`` and ``to`` name a state of the level."""
-    if len(spec.edges) == len(spec.raw_transitions) and first_at.keys() >= set(chain.from_iterable(spec.edges)):
-        return  # every element has both ends, each a known state (one set operation for the level)
+    """Each transition element's ``from`` and ``to`` name a state of the level (called when :func:`_whole`, one
+    set operation for the level, says that one may not)."""
     for i, raw in enumerate(spec.raw_transitions):
         if not isinstance(raw, dict):
             continue

@@ -291,3 +291,19 @@ def test_video_and_plot_to_devices(tmp_path: Path, capsys: pytest.CaptureFixture
     assert code == 0, err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["crash.json"]
     shutil.rmtree(tmp_path / "nothing", ignore_errors=True)
+
+
+def test_export_of_a_trace_without_mcap_says_how(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    """``fsmctl export TRACE.jsonl -o OUT.mcap`` (or without -o) read the trace as a machine document: "invalid JSON:
+    Extra data" at its second line. It is a usage error that names --mcap, and writes nothing; --mcap works."""
+    monkeypatch.chdir(tmp_path)
+    doc = tmp_path / "m.json"
+    doc.write_text(json.dumps({"initial": "a", "states": [{"id": "a", "type": "Idle"}]}), encoding="utf-8")
+    assert cli(capsys, "run", str(doc), "--max-ticks", "5", "--trace", "t.jsonl", "-q")[0] == 0
+    for argv in (["export", "t.jsonl", "-o", "t.mcap"], ["export", "t.jsonl"], ["export", str(doc), "-o", "x.mcap"]):
+        code, _out, err = cli(capsys, *argv)
+        assert code == 2 and "--mcap" in err and "invalid JSON" not in err, (argv, err)
+        assert err.count("\n") == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.json", "t.jsonl"]
+    assert cli(capsys, "export", "t.jsonl", "--mcap", "t.mcap")[0] == 0 and (tmp_path / "t.mcap").stat().st_size

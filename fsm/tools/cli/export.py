@@ -32,6 +32,15 @@ def cmd_export(args: argparse.Namespace) -> int:
     if args.mcap is not None:
         return _export_mcap(args)
     src = Path(args.file)
+    # a trace without --mcap, or MCAP asked for with -o: read as a document, a trace fails with "invalid JSON:
+    # Extra data" on its second line
+    if str(args.output or "").lower().endswith(".mcap"):
+        trace = src if src.suffix.lower() == ".jsonl" else "TRACE.jsonl"
+        raise UsageError(f"export {src} -o {args.output}: -o writes a UMLet diagram; MCAP is written from a run's "
+                         f"trace with --mcap (fsmctl export {trace} --mcap {args.output})")
+    if src.suffix.lower() == ".jsonl":
+        raise UsageError(f"export {src}: a run's trace is written as MCAP, named with --mcap (fsmctl export {src} "
+                         f"--mcap {src.with_suffix('.mcap').name}); without it, export reads a machine document")
     out = default_output(src, ".uxf") if args.output is None else args.output
     if args.output is None and src.suffix.lower() == ".uxf":
         raise UsageError(f"export {src}: the default output is {src} itself, the diagram being read; "

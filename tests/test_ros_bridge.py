@@ -162,7 +162,10 @@ def test_publisher_killed_mid_run_silence_monitor_stop_and_trace_kept(tmp_path: 
     assert "silent longer than the profile allows" in err and "stopped:" in err
     summary = json.loads((tmp_path / "s.json").read_text())
     assert summary["stopped"] == "silence" and summary["ros"]["monitors_fired"] == 1
-    assert summary["ros"]["silences"] == 1 and summary["ros"]["zero_speed_commands"] > 0
+    # one silence, the kill's; on a loaded machine (CI beside other suites) the simulator may also stall past the
+    # 0.6 s once before it, which the run logs as an episode that ended ("every input is back") and counts too
+    assert summary["ros"]["silences"] == 1 + err.count("every input is back"), err
+    assert summary["ros"]["zero_speed_commands"] > 0
     lines = (tmp_path / "t.jsonl").read_text().splitlines()
     assert json.loads(lines[-1])["type"] == "end"
     assert any("halt" in line for line in lines)  # the exception sequence ran

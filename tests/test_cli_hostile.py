@@ -307,3 +307,19 @@ def test_export_of_a_trace_without_mcap_says_how(tmp_path: Path, capsys: pytest.
         assert err.count("\n") == 1
     assert sorted(p.name for p in tmp_path.iterdir()) == ["m.json", "t.jsonl"]
     assert cli(capsys, "export", "t.jsonl", "--mcap", "t.mcap")[0] == 0 and (tmp_path / "t.mcap").stat().st_size
+
+
+@pytest.mark.parametrize("command", ["validate", "run", "graph"])
+def test_a_trace_given_as_a_document_is_named_a_trace(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                      monkeypatch: pytest.MonkeyPatch, command: str) -> None:
+    """A trace where a document belongs said "invalid JSON: Extra data" at its second line; it is named for what it
+    is, with the commands that read traces. Other JSON Lines keep the JSON reader's own words."""
+    monkeypatch.chdir(tmp_path)
+    doc = tmp_path / "m.json"
+    doc.write_text(json.dumps({"initial": "a", "states": [{"id": "a", "type": "Idle"}]}), encoding="utf-8")
+    assert cli(capsys, "run", str(doc), "--max-ticks", "5", "--trace", "t.jsonl", "-q")[0] == 0
+    code, _out, err = cli(capsys, command, "t.jsonl")
+    assert code == 1 and "t.jsonl:1:1: error: this is a run's trace" in err and "fsmctl report" in err, err
+    (tmp_path / "lines.json").write_text('{"a": 1}\n{"b": 2}\n', encoding="utf-8")
+    code, _out, err = cli(capsys, command, "lines.json")
+    assert code == 1 and "lines.json:2:1: error: invalid JSON: Extra data" in err, err

@@ -250,6 +250,11 @@ def parse_json_bytes(raw: bytes, name: str | None, directory: Any = None,
         elif found:
             repeated.append(True)
     except json.JSONDecodeError as exc:
+        if exc.msg == "Extra data" and _is_trace(text):
+            raise DiagramError([Problem(
+                "this is a run's trace (fsmctl run --trace: JSON Lines, a record per line), not a JSON document",
+                name, line=1, column=1, hint="traces are read by fsmctl report, explain, watch and export --mcap")]) \
+                from None
         raise DiagramError([Problem(f"invalid JSON: {exc.msg}", name, line=exc.lineno, column=exc.colno)]) from None
     except ValueError:  # an integer of more digits than Python converts (sys.get_int_max_str_digits)
         limit = sys.get_int_max_str_digits()
@@ -268,6 +273,15 @@ def parse_json_bytes(raw: bytes, name: str | None, directory: Any = None,
         duplicates.extend(duplicate_key_problems(text, name))
     source = Source(name=name, directory=directory, text=text, locator=lambda ptrs: locate(text, ptrs))
     return data, source
+
+
+def _is_trace(text: str) -> bool:
+    """Whether ``text`` starts with a trace's header line (``{"type": "header", "format": "tral-fsm-trace", ...}``)."""
+    try:
+        head = json.loads(text.partition("\n")[0])
+    except ValueError:
+        return False
+    return isinstance(head, dict) and head.get("format") == "tral-fsm-trace"
 
 
 #: The set of the kinds of a list of JSON objects, of texts, of arrays: ``set(map(type, values)) <= ONLY_STR`` checks

@@ -376,7 +376,6 @@ def _digest(text: str, raw: bytes | None = None) -> str:
     return hashlib.sha256(memoryview(raw)[3:] if raw.startswith(_BOM) else raw).hexdigest()
 
 
-
 class _Locator:
     """A file's locator made again from its text on first use (a cache file holds no function)."""
 
